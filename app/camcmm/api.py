@@ -1,0 +1,32 @@
+"""The public plugin API: everything a plugin — built-in or a lab's — may import.
+
+Built-in plugins import from ``camcmm.api`` only, never from other camcmm modules or
+from each other; a test checks this. Importing it loads neither trame, VTK nor Open3D.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
+from .host import RunContext, RunResult, default_host
+from .io import read, write
+from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
+from .params import Param
+from .units import to_mm_factor
+
+
+def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
+    """An installed plugin as a callable ``f(**inputs_and_params) -> dict``.
+
+    Inside a running plugin prefer ``ctx.algorithm(plugin_id)``, which also passes
+    warnings on to the caller's result.
+    """
+    return default_host().algorithm(plugin_id)
+
+
+__all__ = [
+    "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
+    "Param", "ParameterError", "PluginError", "PointCloud", "RunContext", "RunResult", "TriangleMesh",
+    "get_algorithm", "read", "to_mm_factor", "write",
+]

@@ -1,0 +1,299 @@
+"""The plugin host: discovers plugins, reports their status, runs them.
+
+Discovery reads each package's manifest (see :mod:`camcmm.manifest`) through the
+entry-point group ``camcmm.plugins`` without importing the plugin code. A plugin's code
+is imported when it is first used or checked; a failure is recorded as its status and
+never stops the host. Built-in plugins are found exactly like a lab's.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.metadata as md
+import importlib.resources
+import threading
+import traceback
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import CamcmmError, PluginError
+from .hashing import file_hash, object_hash
+from .manifest import CommandSpec, PluginSpec, parse_manifest
+from .params import validate
+
+GROUP = "camcmm.plugins"
+
+ProgressCallback = Callable[[float, str], None]
+
+
+class Cancelled(CamcmmError):
+    """The run was cancelled by the operator."""
+
+
+class RunContext:
+    """What a running plugin gets from the host.
+
+    ``progress(fraction, message)`` reports 0..1 progress; ``warn(text)`` records a
+    warning in the result; ``algorithm(id)`` gives another plugin as a callable (so a
+    standard asks for "fit.sphere" and a lab can substitute its own); ``cancelled`` is
+    true once the operator asked to stop (long loops should check it).
+    """
+
+    def __init__(self, host: "PluginHost", plugin_id: str, progress: ProgressCallback | None = None,
+                 cancel: threading.Event | None = None):
+        self.host = host
+        self.plugin_id = plugin_id
+        self.warnings: list[str] = []
+        self._progress = progress
+        self._cancel = cancel or threading.Event()
+
+    def progress(self, fraction: float, message: str = "") -> None:
+        if self._cancel.is_set():
+            raise Cancelled(f"{self.plugin_id}: cancelled")
+        if self._progress is not None:
+            self._progress(min(max(float(fraction), 0.0), 1.0), message)
+
+    def warn(self, text: str) -> None:
+        self.warnings.append(" ".join(str(text).split()))
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancel.is_set()
+
+    def algorithm(self, plugin_id: str) -> Callable[..., dict[str, Any]]:
+        return self.host.algorithm(plugin_id, parent=self)
+
+
+@dataclass
+class RunResult:
+    """A plugin run with its provenance: plugin id and version, the validated
+    parameters, the hashes of the inputs and the times (UTC, ISO 8601)."""
+
+    plugin_id: str
+    plugin_version: str
+    params: dict[str, Any]
+    input_hashes: dict[str, str]
+    outputs: dict[str, Any]
+    started: str
+    finished: str
+    warnings: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "plugin": self.plugin_id,
+            "version": self.plugin_version,
+            "params": self.params,
+            "input_hashes": self.input_hashes,
+            "outputs": to_jsonable(self.outputs),
+            "started": self.started,
+            "finished": self.finished,
+            "warnings": self.warnings,
+        }
+
+
+def to_jsonable(x: Any) -> Any:
+    """Numpy scalars and arrays to Python; clouds and meshes to a short summary."""
+    if isinstance(x, dict):
+        return {str(k): to_jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [to_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None  # JSON has no NaN; None says "not defined"
+    if hasattr(x, "n_points"):
+        return {"kind": "pointcloud", "name": x.name, "n_points": x.n_points}
+    if hasattr(x, "n_faces"):
+        return {"kind": "mesh", "name": x.name, "n_vertices": x.n_vertices, "n_faces": x.n_faces}
+    return x
+
+
+def _utcnow() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+
+
+def _import_entry(entry: str) -> Any:
+    module, _, attr = entry.partition(":")
+    obj = importlib.import_module(module)
+    for part in attr.split(".") if attr else []:
+        obj = getattr(obj, part)
+    return obj
+
+
+class PluginHost:
+    """Finds and runs plugins. ``entry_points`` may be given for tests; by default
+    the installed distributions' ``camcmm.plugins`` entry points are read."""
+
+    def __init__(self, entry_points: list[md.EntryPoint] | None = None):
+        self.plugins: dict[str, PluginSpec] = {}
+        self.commands: dict[str, CommandSpec] = {}
+        self.errors: list[PluginSpec] = []
+        self._loaded: dict[str, Any] = {}
+        self._lock = threading.Lock()
+        eps = md.entry_points(group=GROUP) if entry_points is None else entry_points
+        for ep in sorted(eps, key=lambda e: e.name):
+            self._read(ep)
+
+    # -- discovery -----------------------------------------------------------------
+    def _read(self, ep: md.EntryPoint) -> None:
+        dist = ep.dist.name if getattr(ep, "dist", None) is not None else ep.name
+        version = ep.dist.version if getattr(ep, "dist", None) is not None else "0"
+        where = f"plugin package {ep.name!r} ({ep.value})"
+        try:
+            package, _, resource = ep.value.partition(":")
+            text = importlib.resources.files(package).joinpath(resource or "plugin.yaml").read_text("utf-8")
+            plugins, commands, errors = parse_manifest(text, version, dist, where)
+        except Exception as exc:  # a broken package must not stop the host
+            reason = str(exc) if isinstance(exc, CamcmmError) else f"{where}: {type(exc).__name__}: {exc}"
+            self.errors.append(PluginSpec(ep.name, "unknown", ep.name, version, "", ep.value,
+                                          distribution=dist, status=" ".join(reason.split())))
+            return
+        for spec in plugins:
+            if spec.id in self.plugins:
+                other = self.plugins[spec.id].distribution
+                spec.status = f"duplicate id {spec.id!r}: already provided by {other}"
+                self.errors.append(spec)
+            else:
+                self.plugins[spec.id] = spec
+        for pid, reason in errors:
+            self.errors.append(PluginSpec(pid, "unknown", pid, version, "", "", distribution=dist, status=reason))
+        for cmd in commands:
+            self.commands.setdefault(cmd.name, cmd)
+
+    def all(self) -> list[PluginSpec]:
+        """Every plugin, usable or not, sorted by kind then id."""
+        return sorted([*self.plugins.values(), *self.errors], key=lambda s: (s.kind, s.id))
+
+    def get(self, plugin_id: str) -> PluginSpec:
+        try:
+            return self.plugins[plugin_id]
+        except KeyError:
+            close = [p for p in self.plugins if plugin_id.split(".")[-1] in p]
+            hint = f"; did you mean {', '.join(close[:3])}?" if close else "; `camcmm plugins` lists them"
+            raise PluginError(f"no plugin with id {plugin_id!r}{hint}") from None
+
+    def load(self, plugin_id: str) -> Any:
+        """Import a plugin's entry object; on failure set its status and raise."""
+        spec = self.get(plugin_id)
+        with self._lock:
+            if plugin_id in self._loaded:
+                return self._loaded[plugin_id]
+            try:
+                obj = _import_entry(spec.entry)
+            except Exception as exc:
+                spec.status = f"import of {spec.entry} failed: {type(exc).__name__}: {exc}".splitlines()[0]
+                raise PluginError(f"plugin {plugin_id!r}: {spec.status}") from exc
+            self._loaded[plugin_id] = obj
+            spec.status = "ok"
+            return obj
+
+    def check(self) -> list[PluginSpec]:
+        """Import every plugin once so that its status is known; returns :meth:`all`."""
+        for pid in list(self.plugins):
+            try:
+                self.load(pid)
+            except PluginError:
+                pass
+        return self.all()
+
+    # -- running ---------------------------------------------------------------------
+    def run(self, plugin_id: str, inputs: dict[str, Any] | None = None, params: dict[str, Any] | None = None,
+            progress: ProgressCallback | None = None, cancel: threading.Event | None = None,
+            context: RunContext | None = None) -> RunResult:
+        """Run an algorithm (or standard) plugin with validated parameters.
+
+        ``inputs`` map declared input names to objects (PointCloud, TriangleMesh, ...)
+        or to file paths, which are read here with :func:`camcmm.io.read`.
+        """
+        spec = self.get(plugin_id)
+        if spec.kind == "device":
+            raise PluginError(f"plugin {plugin_id!r} is a device; devices are connected, not run")
+        values = validate(spec.parameters, params or {}, owner=f"plugin {plugin_id!r}")
+        loaded, hashes = self._inputs(spec, inputs or {})
+        fn = self.load(plugin_id)
+        ctx = context or RunContext(self, plugin_id, progress, cancel)
+        started = _utcnow()
+        try:
+            outputs = fn(ctx, **loaded, **values)
+        except CamcmmError:
+            raise
+        except Exception as exc:
+            # A plugin bug must reach the operator as one line naming the plugin; the
+            # traceback goes to the log for the plugin's author.
+            last = traceback.extract_tb(exc.__traceback__)[-1]
+            raise PluginError(f"plugin {plugin_id!r} failed: {type(exc).__name__}: {exc} "
+                              f"({Path(last.filename).name}:{last.lineno})") from exc
+        if not isinstance(outputs, dict):
+            raise PluginError(f"plugin {plugin_id!r} returned {type(outputs).__name__}, expected a dict of outputs")
+        if context is None:
+            ctx.progress(1.0, "done")
+        return RunResult(plugin_id, spec.version, values, hashes, outputs, started, _utcnow(), ctx.warnings)
+
+    def algorithm(self, plugin_id: str, parent: RunContext | None = None) -> Callable[..., dict[str, Any]]:
+        """Another plugin as a plain callable ``f(**inputs_and_params) -> outputs``."""
+        spec = self.get(plugin_id)
+        input_names = {p.name for p in spec.inputs}
+
+        def call(**kwargs: Any) -> dict[str, Any]:
+            inputs = {k: v for k, v in kwargs.items() if k in input_names}
+            params = {k: v for k, v in kwargs.items() if k not in input_names}
+            ctx = RunContext(self, plugin_id)
+            result = self.run(plugin_id, inputs, params, context=ctx)
+            if parent is not None:
+                parent.warnings.extend(f"{plugin_id}: {w}" for w in result.warnings)
+            return result.outputs
+
+        call.__name__ = plugin_id
+        call.__doc__ = spec.summary
+        return call
+
+    def _inputs(self, spec: PluginSpec, given: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
+        declared = {p.name: p for p in spec.inputs}
+        unknown = sorted(set(given) - set(declared))
+        if unknown:
+            raise PluginError(f"plugin {spec.id!r} has no input {unknown[0]!r}; inputs: {', '.join(declared) or 'none'}")
+        loaded, hashes = {}, {}
+        for name, port in declared.items():
+            if name not in given or given[name] is None:
+                if not port.optional:
+                    raise PluginError(f"plugin {spec.id!r} needs input {name!r} ({port.type})")
+                continue
+            value = given[name]
+            if isinstance(value, (str, Path)) and port.type not in ("file", "json"):
+                hashes[name] = file_hash(value)
+                value = read(value)
+            elif isinstance(value, (list, tuple)) and port.type in ("images", "files") and value and \
+                    isinstance(value[0], (str, Path)):
+                hashes[name] = object_hash([file_hash(v) for v in value])
+                value = [read(v) for v in value] if port.type == "images" else [Path(v) for v in value]
+            elif isinstance(value, (str, Path)):
+                path = Path(value)
+                hashes[name] = file_hash(path) if path.is_file() else object_hash(str(path))
+                value = path
+            else:
+                hashes[name] = object_hash(value)
+            loaded[name] = value
+        return loaded, hashes
+
+
+def read(path: str | Path) -> Any:
+    from .io import read as read_file  # lazy: the file formats pull in Open3D
+
+    return read_file(path)
+
+
+_default: PluginHost | None = None
+
+
+def default_host() -> PluginHost:
+    """The process-wide host over the installed plugins (created on first use)."""
+    global _default
+    if _default is None:
+        _default = PluginHost()
+    return _default

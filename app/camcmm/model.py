@@ -1,0 +1,311 @@
+"""The data model: point clouds, meshes, images, cameras, artefacts.
+
+Numpy arrays are the common currency. Lengths are in millimetres (mm) everywhere in the
+model; readers convert files known to be in other units and record the original unit
+in ``source_unit``. Conversions to pyvista and Open3D import those libraries lazily, so
+this module stays importable without them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+
+def _finite_xyz(array: Any, what: str, name: str) -> np.ndarray:
+    """Return ``array`` as a C-contiguous (N, 3) float64 array or raise InputError."""
+    a = np.ascontiguousarray(array, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InputError(f"{name}: {what} must have shape (N, 3), got {a.shape}")
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise InputError(
+            f"{name}: {int(bad.sum())} {what} have NaN or Inf coordinates (first at index {first})"
+        )
+    return a
+
+
+def _per_item(array: Any, n: int, what: str, name: str, dtype=None) -> np.ndarray:
+    a = np.asarray(array) if dtype is None else np.asarray(array, dtype=dtype)
+    if a.shape[0] != n:
+        raise InputError(f"{name}: {what} has {a.shape[0]} rows for {n} items")
+    return a
+
+
+@dataclass(eq=False)
+class PointCloud:
+    """A measured point cloud.
+
+    Attributes
+    ----------
+    points : (N, 3) float64, mm
+    colors : (N, 3) uint8 or None
+    normals : (N, 3) float64 unit vectors or None
+    fields : dict name -> (N,) array, per-point scalar fields (e.g. ``deviation``)
+    field_units : dict name -> unit string (e.g. ``{"deviation": "mm"}``)
+    name : a human-readable name, usually the file name
+    source_unit : the length unit of the file it was read from (``"mm"`` if created here)
+    """
+
+    points: np.ndarray
+    colors: np.ndarray | None = None
+    normals: np.ndarray | None = None
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+    field_units: dict[str, str] = field(default_factory=dict)
+    name: str = "cloud"
+    source_unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        self.points = _finite_xyz(self.points, "points", self.name)
+        n = len(self.points)
+        if self.colors is not None:
+            c = np.asarray(self.colors)
+            if c.dtype.kind == "f":  # 0..1 floats, as Open3D keeps them
+                c = np.clip(np.round(c * 255.0), 0, 255)
+            self.colors = _per_item(c, n, "colors", self.name, np.uint8)
+        if self.normals is not None:
+            self.normals = _per_item(self.normals, n, "normals", self.name, np.float64)
+        self.fields = {k: _per_item(v, n, f"field {k!r}", self.name) for k, v in self.fields.items()}
+
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(2, 3) array: minimum and maximum corner in mm."""
+        if self.n_points == 0:
+            return np.zeros((2, 3))
+        return np.vstack([self.points.min(axis=0), self.points.max(axis=0)])
+
+    def subset(self, index: np.ndarray) -> "PointCloud":
+        """A new cloud with the points selected by a boolean mask or index array."""
+        return PointCloud(
+            self.points[index],
+            None if self.colors is None else self.colors[index],
+            None if self.normals is None else self.normals[index],
+            {k: v[index] for k, v in self.fields.items()},
+            dict(self.field_units),
+            self.name,
+            self.source_unit,
+        )
+
+    def to_open3d(self):
+        import open3d as o3d
+
+        pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(self.points))
+        if self.colors is not None:
+            pc.colors = o3d.utility.Vector3dVector(self.colors / 255.0)
+        if self.normals is not None:
+            pc.normals = o3d.utility.Vector3dVector(self.normals)
+        return pc
+
+    @classmethod
+    def from_open3d(cls, pc, name: str = "cloud") -> "PointCloud":
+        return cls(
+            np.asarray(pc.points),
+            np.asarray(pc.colors) if pc.has_colors() else None,
+            np.asarray(pc.normals) if pc.has_normals() else None,
+            name=name,
+        )
+
+    def to_pyvista(self):
+        import pyvista as pv
+
+        poly = pv.PolyData(self.points)
+        if self.colors is not None:
+            poly.point_data["RGB"] = self.colors
+        if self.normals is not None:
+            poly.point_data["Normals"] = self.normals
+        for k, v in self.fields.items():
+            poly.point_data[k] = v
+        return poly
+
+
+@dataclass(eq=False)
+class TriangleMesh:
+    """A triangle mesh (CAD nominal or reconstructed surface).
+
+    vertices : (V, 3) float64, mm; faces : (F, 3) int64 vertex indices;
+    fields : per-vertex scalar fields with ``field_units``.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    vertex_normals: np.ndarray | None = None
+    fields: dict[str, np.ndarray] = field(default_factory=dict)
+    field_units: dict[str, str] = field(default_factory=dict)
+    name: str = "mesh"
+    source_unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        self.vertices = _finite_xyz(self.vertices, "vertices", self.name)
+        f = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if f.size == 0:
+            raise InputError(f"{self.name}: mesh has no faces")
+        if f.ndim != 2 or f.shape[1] != 3:
+            raise InputError(f"{self.name}: faces must be triangles with shape (F, 3), got {f.shape}")
+        if f.min() < 0 or f.max() >= len(self.vertices):
+            raise InputError(
+                f"{self.name}: face indices run {f.min()}..{f.max()} but there are {len(self.vertices)} vertices"
+            )
+        self.faces = f
+        n = len(self.vertices)
+        if self.vertex_normals is not None:
+            self.vertex_normals = _per_item(self.vertex_normals, n, "normals", self.name, np.float64)
+        self.fields = {k: _per_item(v, n, f"field {k!r}", self.name) for k, v in self.fields.items()}
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.vertices)
+
+    @property
+    def n_faces(self) -> int:
+        return len(self.faces)
+
+    @property
+    def bounds(self) -> np.ndarray:
+        return np.vstack([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    def area(self) -> float:
+        """Total surface area in mm²."""
+        v = self.vertices[self.faces]
+        return float(0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum())
+
+    def to_open3d(self):
+        import open3d as o3d
+
+        m = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(self.vertices), o3d.utility.Vector3iVector(self.faces.astype(np.int32))
+        )
+        if self.vertex_normals is not None:
+            m.vertex_normals = o3d.utility.Vector3dVector(self.vertex_normals)
+        return m
+
+    @classmethod
+    def from_open3d(cls, m, name: str = "mesh") -> "TriangleMesh":
+        return cls(
+            np.asarray(m.vertices),
+            np.asarray(m.triangles),
+            np.asarray(m.vertex_normals) if m.has_vertex_normals() else None,
+            name=name,
+        )
+
+    def to_pyvista(self):
+        import pyvista as pv
+
+        cells = np.hstack([np.full((self.n_faces, 1), 3, dtype=np.int64), self.faces]).ravel()
+        poly = pv.PolyData(self.vertices, cells)
+        for k, v in self.fields.items():
+            poly.point_data[k] = v
+        return poly
+
+
+@dataclass(eq=False)
+class Image:
+    """A camera image: ``data`` is (H, W) or (H, W, C), any dtype; metadata is free-form
+    (exposure in ms, time stamp, temperature in °C, camera id ...)."""
+
+    data: np.ndarray
+    name: str = "image"
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) in pixels, as OpenCV orders it."""
+        return int(self.data.shape[1]), int(self.data.shape[0])
+
+
+@dataclass(eq=False)
+class CameraModel:
+    """A pinhole camera with lens distortion (thesis ch. 2.3, eqs. 2.1-2.6).
+
+    camera_matrix : (3, 3) K in pixels; dist_coeffs : OpenCV order
+    (k1, k2, p1, p2, k3[, k4, k5, k6, s1, s2, s3, s4]); rotation (3, 3) and translation
+    (3,) in mm map world to camera coordinates, x_cam = R x_world + t;
+    image_size : (width, height) px; pixel_pitch in mm when known.
+    """
+
+    camera_matrix: np.ndarray
+    dist_coeffs: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    translation: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    image_size: tuple[int, int] = (0, 0)
+    pixel_pitch: float | None = None
+    name: str = "camera"
+
+    def __post_init__(self) -> None:
+        self.camera_matrix = np.asarray(self.camera_matrix, dtype=np.float64).reshape(3, 3)
+        self.dist_coeffs = np.asarray(self.dist_coeffs, dtype=np.float64).ravel()
+        self.rotation = np.asarray(self.rotation, dtype=np.float64).reshape(3, 3)
+        self.translation = np.asarray(self.translation, dtype=np.float64).reshape(3)
+        self.image_size = (int(self.image_size[0]), int(self.image_size[1]))
+
+    @property
+    def projection_matrix(self) -> np.ndarray:
+        """(3, 4) P = K [R | t] (thesis eq. 2.1), distortion not included."""
+        return self.camera_matrix @ np.hstack([self.rotation, self.translation[:, None]])
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """A calibrated value: ``value`` ± ``expanded_uncertainty`` (coverage factor ``k``)."""
+
+    value: float
+    expanded_uncertainty: float
+    k: float = 2.0
+    unit: str = "mm"
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.value):
+            raise InputError(f"certificate value {self.value!r} is not a finite number")
+        if not (self.expanded_uncertainty >= 0):
+            raise InputError(f"certificate uncertainty {self.expanded_uncertainty!r} must be >= 0")
+        if not (self.k > 0):
+            raise InputError(f"certificate coverage factor k={self.k!r} must be > 0")
+
+    @property
+    def standard_uncertainty(self) -> float:
+        return self.expanded_uncertainty / self.k
+
+
+@dataclass
+class Artefact:
+    """A calibrated artefact: sphere, ball bar, ball plate, flat, gauge block ...
+
+    ``nominal`` holds the design dimensions in mm (e.g. ``{"diameter": 20.0}``);
+    ``certificates`` the calibrated ones (e.g. ``{"diameter": Certificate(...)}``).
+    """
+
+    id: str
+    kind: str
+    name: str = ""
+    nominal: dict[str, Any] = field(default_factory=dict)
+    certificates: dict[str, Certificate] = field(default_factory=dict)
+    notes: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "name": self.name,
+            "nominal": self.nominal,
+            "certificates": {
+                k: {"value": c.value, "uncertainty": c.expanded_uncertainty, "k": c.k, "unit": c.unit}
+                for k, c in self.certificates.items()
+            },
+            "notes": self.notes,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Artefact":
+        certs = {
+            k: Certificate(float(c["value"]), float(c.get("uncertainty", 0.0)), float(c.get("k", 2.0)), c.get("unit", "mm"))
+            for k, c in (d.get("certificates") or {}).items()
+        }
+        return cls(d["id"], d["kind"], d.get("name", ""), dict(d.get("nominal") or {}), certs, d.get("notes", ""))
