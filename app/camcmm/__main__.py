@@ -1,0 +1,3 @@
+from camcmm.cli.main import main
+
+raise SystemExit(main())

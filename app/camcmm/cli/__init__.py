@@ -1,0 +1,1 @@
+"""The ``camcmm`` command line (see :mod:`camcmm.cli.main`)."""

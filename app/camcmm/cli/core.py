@@ -1,0 +1,158 @@
+"""The core subcommands: serve, plugins, info, run, demo.
+
+Each command is (summary, configure(parser), run(args) -> dict | None, text(result) -> str).
+They are thin: the work happens in the host, the formats, the project store and the GUI.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from ..errors import CamcmmError, PluginError
+from ..host import default_host
+from ..params import add_cli_options, cli_values
+
+
+def _json_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+
+
+# -- serve ---------------------------------------------------------------------------
+def _serve_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--project", default="camcmm-project", help="project folder (created if missing)")
+    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8080, help="port (0 picks a free one)")
+
+
+def _serve(args: argparse.Namespace) -> None:
+    from ..gui import serve  # lazy: trame and VTK are heavy
+
+    serve(args.project, host=args.host, port=args.port)
+
+
+# -- plugins -------------------------------------------------------------------------
+def _plugins_args(p: argparse.ArgumentParser) -> None:
+    _json_flag(p)
+
+
+def _plugins(args: argparse.Namespace) -> dict[str, Any]:
+    host = default_host()
+    return {
+        "plugins": [
+            {k: s.to_dict()[k] for k in ("id", "kind", "name", "version", "status", "distribution", "summary")}
+            for s in host.check()
+        ],
+        "commands": [{"name": c.name, "summary": c.summary, "distribution": c.distribution}
+                     for c in sorted(host.commands.values(), key=lambda c: c.name)],
+    }
+
+
+def _plugins_text(result: dict[str, Any]) -> str:
+    rows = [f"{'ID':24} {'KIND':10} {'VERSION':9} STATUS"]
+    for p in result["plugins"]:
+        rows.append(f"{p['id']:24} {p['kind']:10} {p['version']:9} {p['status']}")
+    return "\n".join(rows)
+
+
+# -- info ----------------------------------------------------------------------------
+def _info_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", help="point cloud, mesh or image file")
+    p.add_argument("--unit", help="length unit of the file when it does not say (default mm)")
+    _json_flag(p)
+
+
+def _info(args: argparse.Namespace) -> dict[str, Any]:
+    from ..io import info
+
+    return info(args.file, unit=args.unit)
+
+
+def _info_text(d: dict[str, Any]) -> str:
+    lines = [f"{d['file']}: {d['kind']} ({d['format']})"]
+    for key in ("n_points", "n_vertices", "n_faces", "width", "height", "channels"):
+        if key in d:
+            lines.append(f"  {key.replace('n_', '').replace('_', ' ')}: {d[key]}")
+    if "bbox" in d:
+        lo, hi = d["bbox"]["min"], d["bbox"]["max"]
+        fmt = lambda v: "(" + ", ".join(f"{x:.4f}" for x in v) + ")"  # noqa: E731
+        lines.append(f"  bounding box [mm]: {fmt(lo)} .. {fmt(hi)}")
+        if d.get("source_unit", "mm") != "mm":
+            lines.append(f"  converted from {d['source_unit']} to mm")
+    if d.get("fields"):
+        lines.append(f"  scalar fields: {', '.join(d['fields'])}")
+    return "\n".join(lines)
+
+
+# -- run -----------------------------------------------------------------------------
+def _run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("plugin", help="plugin id (see `camcmm plugins`)")
+    p.add_argument("rest", nargs=argparse.REMAINDER, help="inputs (files, in declared order) and --PARAM VALUE options")
+
+
+def _plugin_parser(spec) -> argparse.ArgumentParser:
+    from .main import _Parser
+
+    p = _Parser(prog=f"camcmm run {spec.id}", description=spec.summary)
+    for port in spec.inputs:
+        nargs = "+" if port.type in ("images", "files") else ("?" if port.optional else None)
+        p.add_argument(port.name, nargs=nargs, help=f"{port.type} {port.help}".strip())
+    add_cli_options(p, spec.parameters)
+    p.add_argument("--project", help="record the result in this project folder")
+    p.add_argument("--out", help="write the first cloud/mesh output to this file")
+    _json_flag(p)
+    return p
+
+
+def _run(args: argparse.Namespace) -> dict[str, Any]:
+    host = default_host()
+    spec = host.get(args.plugin)
+    if spec.kind == "device":
+        raise PluginError(f"plugin {spec.id!r} is a device; use it from the devices panel or a sequence")
+    pa = _plugin_parser(spec).parse_args(args.rest)
+    args.json = pa.json
+    inputs = {port.name: getattr(pa, port.name) for port in spec.inputs if getattr(pa, port.name) is not None}
+    result = host.run(spec.id, inputs, cli_values(pa))
+    doc = result.to_json()
+    geometry = [(k, v) for k, v in result.outputs.items() if hasattr(v, "n_points") or hasattr(v, "n_faces")]
+    if pa.out:
+        if not geometry:
+            raise CamcmmError(f"plugin {spec.id!r} produced no cloud or mesh to write to {pa.out}")
+        from ..io import write
+
+        write(geometry[0][1], pa.out)
+        doc["written"] = {geometry[0][0]: str(Path(pa.out))}
+    if pa.project:
+        from ..project import Project
+
+        with Project.open_or_create(pa.project) as project:
+            files = {k: project.add_object(v, f"{spec.id}-{k}") for k, v in geometry}
+            doc["result_id"] = project.add_result(result, files=files)
+    return doc
+
+
+# -- demo ----------------------------------------------------------------------------
+def _demo_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("dir", nargs="?", default="camcmm-demo", help="folder for the demo project (default camcmm-demo)")
+    _json_flag(p)
+
+
+def _demo(args: argparse.Namespace) -> dict[str, Any]:
+    from ..demo import create_demo
+
+    return create_demo(args.dir)
+
+
+def _demo_text(d: dict[str, Any]) -> str:
+    return f"demo project at {d['project']} with {len(d['measurements'])} measurements; " \
+           f"open it with: camcmm serve --project {d['project']}"
+
+
+COMMANDS = {
+    "serve": ("Start the web GUI (prints its URL).", _serve_args, _serve, None),
+    "plugins": ("List the plugins with kind, version and status.", _plugins_args, _plugins, _plugins_text),
+    "info": ("Say what a file holds: kind, counts, bounding box, unit.", _info_args, _info, _info_text),
+    "run": ("Run an algorithm plugin with its declared parameters.", _run_args, _run, None),
+    "demo": ("Create the demo project.", _demo_args, _demo, _demo_text),
+}

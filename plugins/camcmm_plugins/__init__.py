@@ -1,0 +1,1 @@
+"""Built-in camcmm plugins, each registered through the camcmm.plugins entry point."""
