@@ -1,0 +1,75 @@
+"""The command line as a user calls it: one JSON document with --json, one-line errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from camcmm import __version__
+from camcmm.io import write
+from camcmm.model import PointCloud
+
+
+def camcmm(*args, ok=True):
+    proc = subprocess.run([sys.executable, "-m", "camcmm", *map(str, args)], capture_output=True, text=True,
+                          timeout=120)
+    if ok:
+        assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+@pytest.fixture
+def cloud_file(tmp_path):
+    rng = np.random.default_rng(0)
+    path = tmp_path / "cloud.ply"
+    write(PointCloud(rng.uniform(0, 10, (2000, 3)), name="cloud"), path)
+    return path
+
+
+def test_version():
+    assert camcmm("--version").stdout.strip() == f"camcmm {__version__}"
+
+
+def test_plugins_json_lists_builtins_with_kind_version_status():
+    doc = json.loads(camcmm("plugins", "--json").stdout)
+    by_id = {p["id"]: p for p in doc["plugins"]}
+    for pid in ("cloud.downsample", "cloud.denoise", "cloud.normals"):
+        assert by_id[pid]["kind"] == "algorithm" and by_id[pid]["status"] == "ok"
+        assert by_id[pid]["version"] == "1.0.0"
+
+
+def test_run_a_plugin_with_declared_parameters(cloud_file, tmp_path):
+    out = tmp_path / "down.ply"
+    proc = camcmm("run", "cloud.downsample", cloud_file, "--voxel-size", "2.5", "--out", out,
+                  "--project", tmp_path / "proj", "--json")
+    doc = json.loads(proc.stdout)
+    assert doc["plugin"] == "cloud.downsample" and doc["params"] == {"voxel_size": 2.5}
+    assert 0 < doc["outputs"]["n_points"] < 2000 and doc["result_id"] >= 1
+    assert out.exists()
+    info = json.loads(camcmm("info", out, "--json").stdout)
+    assert info["n_points"] == doc["outputs"]["n_points"]
+
+
+def test_errors_are_one_line_on_stderr_with_nonzero_exit(cloud_file, tmp_path):
+    cases = [
+        (["run", "cloud.downsample", cloud_file, "--voxel-size", "-1"], "voxel_size"),
+        (["run", "cloud.nope", cloud_file], "no plugin with id 'cloud.nope'"),
+        (["info", tmp_path / "missing.ply"], "missing.ply"),
+        (["run", "cloud.downsample", cloud_file, "--voxl", "1"], "unrecognized arguments"),
+    ]
+    for args, text in cases:
+        proc = camcmm(*args, ok=False)
+        assert proc.returncode != 0 and proc.stdout == ""
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and text in lines[0], proc.stderr
+
+
+def test_demo_creates_a_project(tmp_path):
+    doc = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
+    assert len(doc["measurements"]) >= 4
+    again = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
+    assert again["measurements"] == doc["measurements"]  # re-opening does not duplicate
