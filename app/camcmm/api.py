@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from .conformity import combine, guarded_verdict, simple_verdict
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import RunContext, RunResult, default_host
 from .io import read, write
@@ -28,5 +29,5 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
 __all__ = [
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
     "Param", "ParameterError", "PluginError", "PointCloud", "RunContext", "RunResult", "TriangleMesh",
-    "get_algorithm", "read", "to_mm_factor", "write",
+    "combine", "get_algorithm", "guarded_verdict", "read", "simple_verdict", "to_mm_factor", "write",
 ]
