@@ -1,0 +1,389 @@
+"""Page layout: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session`.
+
+Toolbar: project name and the import button. Drawer: the project's items, the
+plugins with kind/version/status, and the selected plugin's form (built from its
+manifest by :func:`camcmm.params.form_schema`) with Run and a progress bar. Main
+area: the 3D view (server-side rendering, :class:`trame_pyvista.widgets.PyVistaRemoteView`)
+with a colour-field selector, and the result panel. Errors appear in an alert and a
+snackbar. Key widgets carry ``data-testid`` attributes for the browser test.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from . import setup_offscreen
+
+# Client-side check of a number field against its declared limits (Vuetify rule).
+_NUMBER_RULE = (
+    "[v => (v === '' || v === null || v === undefined) || !isNaN(Number(v)) || 'not a number',"
+    " v => (v === '' || v === null || v === undefined || field.min == null || Number(v) >= field.min)"
+    " || ('at least ' + field.min + ' ' + (field.unit || '')),"
+    " v => (v === '' || v === null || v === undefined || field.max == null || Number(v) <= field.max)"
+    " || ('at most ' + field.max + ' ' + (field.unit || ''))]"
+)
+
+
+def _tid(name: str) -> list[str]:
+    return [f'data-testid="{name}"']
+
+
+def open_project(project_dir: str | Path) -> Any:
+    from ..project import Project
+
+    return Project.open_or_create(Path(project_dir))
+
+
+def build(server_name: str, project_dir: str | Path, project: Any = None, host: Any = None,
+          display_limit: int | None = None) -> tuple[Any, Any]:
+    """Build the trame server and the session on a project folder (created if new).
+
+    Returns ``(server, session)``; nothing listens until :func:`start`.
+    """
+    setup_offscreen()
+    from trame.app import get_server
+    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+    from trame_pyvista.widgets import PyVistaRemoteView
+
+    from .session import Session
+    from .view import DISPLAY_LIMIT, SceneView
+
+    server = get_server(server_name, client_type="vue3")
+    state, ctrl = server.state, server.controller
+    if project is None:
+        project = open_project(project_dir)
+    view = SceneView(display_limit or DISPLAY_LIMIT)
+    session = Session(server, project, host=host, view=view)
+    state.trame__title = f"camcmm — {state.project_name}"
+
+    # -- handlers (thin: all logic is in the session) ---------------------------------
+    async def on_upload(upload=None, **_):
+        if not upload:
+            return
+        files = session.import_upload(upload)
+        for f in files:
+            await session.import_file_async(f["content"], f["name"])
+        state.upload = None
+        session._flush()
+
+    @state.change("upload")
+    def _upload_changed(upload=None, **_):
+        if upload:
+            return on_upload(upload)  # a coroutine: trame schedules it
+        return None
+
+    @state.change("color_field")
+    def _field_changed(color_field=None, **_):
+        session.set_color_field(color_field)
+
+    def on_select_item(key):
+        session.select_item(key)
+
+    def on_select_plugin(pid):
+        session.select_plugin(pid)
+
+    async def on_run(pid, form_values, input_values):
+        if not pid:
+            session.error("choose a plugin first")
+            return
+        await session.run_plugin_async(pid, form_values or {}, input_values or {})
+
+    def on_cancel():
+        session.cancel_run()
+
+    def on_server_ready(**_):
+        try:
+            session.bind_loop(asyncio.get_event_loop())
+        except RuntimeError:
+            pass
+
+    ctrl.on_server_ready.add(on_server_ready)
+
+    # -- layout ---------------------------------------------------------------------------
+    with SinglePageWithDrawerLayout(server, width=400, theme=("theme", "light")) as layout:
+        layout.title.set_text("camcmm")
+        with layout.toolbar:
+            layout.toolbar.density = "compact"
+            html.Span("{{ project_name }}", classes="text-subtitle-1 ml-2",
+                      raw_attrs=_tid("project-name"), title=("project_path",))
+            v.VSpacer()
+            v.VFileInput(
+                v_model=("upload", None),
+                label="Import cloud / mesh / image",
+                accept=".ply,.pcd,.xyz,.xyzn,.xyzrgb,.pts,.txt,.csv,.asc,.e57,.stl,.obj,.off,.gltf,.glb,.png,.tif,.tiff,.jpg,.jpeg,.bmp",
+                prepend_icon="mdi-file-import",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                show_size=True,
+                loading=("importing",),
+                disabled=("importing",),
+                style="max-width: 380px;",
+                classes="mr-4",
+                raw_attrs=_tid("import-file"),
+            )
+
+        with layout.drawer as drawer:
+            drawer.raw_attrs = _tid("drawer")
+            v.VAlert(
+                v_if="error_message",
+                text=("error_message",),
+                type="error",
+                density="compact",
+                closable=True,
+                classes="ma-2",
+                click_close="error_message = ''",
+                raw_attrs=_tid("error-alert"),
+            )
+            # items
+            v.VListSubheader("Items in the project ({{ items.length }})")
+            with v.VList(density="compact", nav=True, raw_attrs=_tid("items")):
+                v.VListItem(
+                    v_for="item in items",
+                    key="item.id",
+                    title=("item.name",),
+                    subtitle=("item.subtitle",),
+                    active=("item.id === selected_item",),
+                    color="primary",
+                    prepend_icon=("item.kind === 'mesh' ? 'mdi-vector-triangle' : "
+                                  "(item.kind === 'image' ? 'mdi-image' : 'mdi-dots-hexagon')",),
+                    click=(on_select_item, "[item.id]"),
+                    classes="item-row",
+                    raw_attrs=_tid("item"),
+                )
+                v.VListItem(v_if="!items.length", subtitle="No items yet: import a file above.")
+            v.VDivider()
+            # plugins
+            v.VListSubheader("Plugins ({{ plugins.length }})")
+            with v.VList(density="compact", nav=True, raw_attrs=_tid("plugins")):
+                with v.VListItem(
+                    v_for="p in plugins",
+                    key="p.id",
+                    active=("p.id === selected_plugin",),
+                    color="primary",
+                    disabled=("!p.runnable && p.ok",),
+                    click=(on_select_plugin, "[p.id]"),
+                    classes="plugin-row",
+                    raw_attrs=_tid("plugin") + [':data-plugin-id="p.id"'],
+                ):
+                    v.VListItemTitle("{{ p.name }}")
+                    v.VListItemSubtitle("{{ p.id }} · v{{ p.version }}")
+                    with html.Div(classes="d-flex ga-1 mt-1"):
+                        v.VChip("{{ p.kind }}", size="x-small", variant="tonal", color="secondary")
+                        v.VChip("{{ p.ok ? 'ok' : 'failed' }}", size="x-small", variant="flat",
+                                color=("p.ok ? 'success' : 'error'",))
+                    html.Div("{{ p.status }}", v_if="!p.ok", classes="text-caption text-error",
+                             raw_attrs=_tid("plugin-error"))
+                v.VListItem(v_if="!plugins.length", subtitle="No plugins installed.")
+            v.VDivider()
+            # the form
+            with html.Div(v_if="selected_plugin", classes="pa-3", raw_attrs=_tid("plugin-form")):
+                html.Div("{{ plugin_title }}", classes="text-subtitle-2")
+                html.Div("{{ plugin_summary }}", classes="text-caption mb-2")
+                with html.Template(v_for="inp in form_inputs", key="inp.name"):
+                    v.VSelect(
+                        v_if="inp.supported",
+                        v_model="input_values[inp.name]",
+                        items=("inp.options",),
+                        label=("inp.label",),
+                        hint=("inp.help",),
+                        density="compact",
+                        variant="outlined",
+                        classes="mb-1",
+                        raw_attrs=[':data-testid="\'input-\' + inp.name"'],
+                    )
+                    v.VTextField(
+                        v_else=True,
+                        v_model="input_values[inp.name]",
+                        label=("inp.label + ' — path on the server'",),
+                        density="compact",
+                        variant="outlined",
+                        raw_attrs=[':data-testid="\'input-\' + inp.name"'],
+                    )
+                with html.Template(v_for="field in form_fields", key="field.name"):
+                    v.VTextField(
+                        v_if="field.widget === 'number'",
+                        v_model="form_values[field.name]",
+                        type="number",
+                        label=("field.label",),
+                        suffix=("field.unit",),
+                        hint=("field.help",),
+                        min=("field.min",),
+                        max=("field.max",),
+                        step="any",
+                        rules=(_NUMBER_RULE,),
+                        density="compact",
+                        variant="outlined",
+                        classes="mb-1",
+                        raw_attrs=[':data-testid="\'param-\' + field.name"'],
+                    )
+                    v.VSwitch(
+                        v_else_if="field.widget === 'switch'",
+                        v_model="form_values[field.name]",
+                        label=("field.label",),
+                        hint=("field.help",),
+                        color="primary",
+                        density="compact",
+                        hide_details="auto",
+                        raw_attrs=[':data-testid="\'param-\' + field.name"'],
+                    )
+                    v.VSelect(
+                        v_else_if="field.widget === 'select'",
+                        v_model="form_values[field.name]",
+                        items=("field.choices",),
+                        label=("field.label",),
+                        hint=("field.help",),
+                        density="compact",
+                        variant="outlined",
+                        classes="mb-1",
+                        raw_attrs=[':data-testid="\'param-\' + field.name"'],
+                    )
+                    v.VTextField(
+                        v_else=True,
+                        v_model="form_values[field.name]",
+                        label=("field.label",),
+                        suffix=("field.unit",),
+                        hint=("field.help",),
+                        density="compact",
+                        variant="outlined",
+                        classes="mb-1",
+                        raw_attrs=[':data-testid="\'param-\' + field.name"'],
+                    )
+                with html.Div(classes="d-flex ga-2 mt-1"):
+                    v.VBtn("Run", color="primary", prepend_icon="mdi-play",
+                           click=(on_run, "[selected_plugin, form_values, input_values]"),
+                           disabled=("running",), loading=("running",), raw_attrs=_tid("run-button"))
+                    v.VBtn("Cancel", v_if="running", variant="text", click=on_cancel,
+                           raw_attrs=_tid("cancel-button"))
+                with v.VProgressLinear(
+                    v_show="running || progress > 0",
+                    model_value=("progress",),
+                    height=18,
+                    color=("running ? 'primary' : 'success'",),
+                    classes="mt-2",
+                    rounded=True,
+                    raw_attrs=_tid("progress"),
+                ):
+                    html.Span("{{ progress_message }} {{ Math.round(progress) }} %", classes="text-caption")
+            html.Div("Choose an algorithm or standard plugin above to see its form.", v_else=True,
+                     classes="pa-3 text-caption")
+
+        with layout.content:
+            with html.Div(classes="d-flex flex-column", style="height: calc(100vh - 48px - 24px);"):
+                with html.Div(classes="d-flex align-center ga-3 px-3 py-1", style="min-height: 52px;"):
+                    v.VSelect(
+                        v_model=("color_field", None),
+                        items=("color_fields", []),
+                        item_title="title",
+                        item_value="value",
+                        label="Colour by",
+                        density="compact",
+                        variant="outlined",
+                        hide_details=True,
+                        disabled=("!color_fields.length",),
+                        style="max-width: 300px;",
+                        raw_attrs=_tid("color-field"),
+                    )
+                    v.VChip("legend: {{ legend_title }}", v_if="legend_title", size="small",
+                            prepend_icon="mdi-palette", raw_attrs=_tid("legend-title"))
+                    html.Span("{{ display_note }}", classes="text-caption", raw_attrs=_tid("display-note"))
+                with html.Div(style="flex: 1 1 auto; min-height: 300px; position: relative;",
+                              raw_attrs=_tid("view")):
+                    rview = PyVistaRemoteView(view.plotter, interactive_ratio=0.5, interactive_quality=60,
+                                              still_ratio=1)
+                    ctrl.view_update = rview.update
+                    ctrl.view_reset_camera = rview.reset_camera
+                with v.VCard(v_if="result || result_warnings.length", classes="ma-2", variant="outlined",
+                             style="max-height: 34vh; overflow: auto;", raw_attrs=_tid("result-panel")):
+                    v.VCardTitle("{{ result_title }}", classes="text-subtitle-1")
+                    with v.VCardText():
+                        v.VAlert(v_for="(w, i) in result_warnings", key="i", text=("w",), type="warning",
+                                 density="compact", classes="mb-1", raw_attrs=_tid("result-warning"))
+                        with v.VTable(density="compact", raw_attrs=_tid("result-table")):
+                            with html.Tbody():
+                                with html.Tr(v_for="r in result_rows", key="r.name"):
+                                    html.Td("{{ r.name }}", classes="font-weight-medium")
+                                    html.Td("{{ r.value }}", classes="text-right",
+                                            raw_attrs=[':data-testid="\'result-\' + r.name"'])
+                                    html.Td("{{ r.unit }}")
+                        with v.VExpansionPanels(classes="mt-2"):
+                            with v.VExpansionPanel(title="Result JSON (as stored)"):
+                                with v.VExpansionPanelText():
+                                    html.Pre("{{ JSON.stringify(result, null, 2) }}",
+                                             style="font-size: 11px; white-space: pre-wrap;")
+
+        v.VSnackbar(
+            v_model=("error_visible", False),
+            text=("error_message",),
+            color="error",
+            timeout=8000,
+            location="bottom",
+            raw_attrs=_tid("error-snackbar"),
+        )
+        v.VSnackbar(
+            v_model=("info_visible", False),
+            text=("info_message",),
+            color="success",
+            timeout=3000,
+            location="bottom right",
+            raw_attrs=_tid("info-snackbar"),
+        )
+
+    def view_changed(reset_camera: bool) -> None:
+        if reset_camera:
+            view.plotter.reset_camera()
+        ctrl.view_update()
+
+    view.on_update = view_changed
+    server.session = session  # for scripts and tests
+    return server, session
+
+
+@contextmanager
+def _bare_argv():
+    """trame parses ``sys.argv``; keep the CLI's own arguments away from it."""
+    saved = sys.argv
+    sys.argv = saved[:1]
+    try:
+        yield
+    finally:
+        sys.argv = saved
+
+
+def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False) -> None:
+    """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/`` once listening."""
+    def announce(**_):
+        print(f"camcmm GUI: http://{host}:{server.port}/", flush=True)
+        if open_browser:
+            import webbrowser
+
+            webbrowser.open(f"http://{host}:{server.port}/")
+
+    server.controller.on_server_ready.add(announce)
+    with _bare_argv():
+        server.start(host=host, port=int(port), open_browser=False, timeout=0, show_connection_info=False)
+    session = getattr(server, "session", None)
+    if session is not None:
+        session.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m camcmm.gui", description="Serve the camcmm GUI on a project folder.")
+    ap.add_argument("project", help="project folder (created if missing)")
+    ap.add_argument("--host", default="127.0.0.1")
+    ap.add_argument("--port", type=int, default=0, help="0 picks a free port")
+    ap.add_argument("--open", action="store_true", help="open the system browser")
+    args = ap.parse_args(argv)
+    os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
+    server, _ = build("camcmm", args.project)
+    start(server, host=args.host, port=args.port, open_browser=args.open)
+    return 0

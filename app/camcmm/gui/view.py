@@ -1,0 +1,209 @@
+"""The 3D scene: one off-screen pyvista plotter rendered server-side.
+
+Clouds larger than ``display_limit`` points are shown as a fixed random subset (the
+full data stay in the model for every computation); the scene says so in
+:attr:`SceneView.note`. The colour legend is a scalar bar titled ``"name [unit]"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import setup_offscreen
+
+DISPLAY_LIMIT = 500_000
+
+#: Pseudo-fields offered for every cloud and mesh besides its own scalar fields.
+SOLID = "solid colour"
+RGB = "RGB (measured colour)"
+COORDS = {"x": 0, "y": 1, "z": 2}
+
+# Names that usually hold signed deviations: shown with a diverging map centred on 0.
+_SIGNED = ("deviation", "residual", "distance", "error", "diff")
+
+
+def fmt_count(n: int) -> str:
+    """``2000000`` -> ``"2 000 000"`` (thin grouping, as metrology reports write it)."""
+    return f"{int(n):,}".replace(",", " ")
+
+
+def color_fields(obj: Any) -> list[dict[str, str]]:
+    """The colourings offered for a cloud or mesh: its scalar fields, x/y/z, RGB, solid.
+
+    Each entry is ``{"value": name, "title": "name [unit]", "unit": unit}``.
+    """
+    out: list[dict[str, str]] = []
+    units = getattr(obj, "field_units", {}) or {}
+    for name, values in (getattr(obj, "fields", {}) or {}).items():
+        if np.asarray(values).ndim == 1:
+            unit = units.get(name, "")
+            out.append({"value": name, "title": legend_title(name, unit), "unit": unit})
+    for name in COORDS:
+        out.append({"value": name, "title": legend_title(name, "mm"), "unit": "mm"})
+    if getattr(obj, "colors", None) is not None:
+        out.append({"value": RGB, "title": RGB, "unit": ""})
+    out.append({"value": SOLID, "title": SOLID, "unit": ""})
+    return out
+
+
+def default_field(obj: Any) -> str:
+    """The first own scalar field, else measured colour, else z."""
+    fields = [f for f in (getattr(obj, "fields", {}) or {}) if np.asarray(obj.fields[f]).ndim == 1]
+    if fields:
+        return fields[0]
+    if getattr(obj, "colors", None) is not None:
+        return RGB
+    return "z"
+
+
+def legend_title(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+def display_index(n: int, limit: int, seed: int = 0) -> np.ndarray | None:
+    """Sorted indices of a reproducible random subset of ``limit`` of ``n`` points, or
+    None when all ``n`` are shown."""
+    if n <= limit:
+        return None
+    rng = np.random.default_rng(seed)
+    return np.sort(rng.choice(n, size=limit, replace=False))
+
+
+@dataclass
+class Shown:
+    """What the view shows for one item."""
+
+    key: str
+    poly: Any  # pyvista.PolyData of the displayed (possibly decimated) geometry
+    kind: str  # "pointcloud" | "mesh"
+    n_total: int
+    n_shown: int
+    units: dict[str, str] = field(default_factory=dict)
+
+
+class SceneView:
+    """Owns the plotter. All methods must be called from one thread (the server loop)."""
+
+    def __init__(self, display_limit: int = DISPLAY_LIMIT, window_size: tuple[int, int] = (900, 650)):
+        setup_offscreen()
+        import pyvista as pv
+
+        self.display_limit = int(display_limit)
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background("#f4f5f7", top="#ffffff")
+        self.plotter.show_axes()
+        self.shown: Shown | None = None
+        self.field: str = SOLID
+        self.actor = None
+        self.scalar_bar_title: str = ""
+        self.note: str = ""
+        self._cache: dict[str, Shown] = {}
+        self.on_update = None  # callable(reset_camera: bool) set by the app
+
+    # -- geometry --------------------------------------------------------------------
+    def _prepare(self, key: str, obj: Any) -> Shown:
+        if key in self._cache:
+            return self._cache[key]
+        units = dict(getattr(obj, "field_units", {}) or {})
+        if hasattr(obj, "faces"):  # TriangleMesh: shown whole (remote rendering copes)
+            poly = obj.to_pyvista()
+            shown = Shown(key, poly, "mesh", obj.n_vertices, obj.n_vertices, units)
+        elif hasattr(obj, "points"):
+            n = obj.n_points
+            idx = display_index(n, self.display_limit)
+            sub = obj if idx is None else obj.subset(idx)
+            poly = sub.to_pyvista()
+            shown = Shown(key, poly, "pointcloud", n, sub.n_points, units)
+        else:
+            raise TypeError(f"cannot show a {type(obj).__name__} in the 3D view")
+        pts = np.asarray(poly.points)
+        for name, axis in COORDS.items():
+            if name not in poly.point_data:
+                poly.point_data[name] = pts[:, axis] if len(pts) else np.zeros(0)
+        self._cache[key] = shown
+        return shown
+
+    def forget(self, key: str) -> None:
+        self._cache.pop(key, None)
+
+    def show(self, key: str, obj: Any, field_name: str | None = None) -> None:
+        """Show ``obj`` (replacing what was shown) coloured by ``field_name``."""
+        shown = self._prepare(key, obj)
+        self.shown = shown
+        self.field = field_name or default_field(obj)
+        if shown.n_shown < shown.n_total:
+            self.note = (f"showing {fmt_count(shown.n_shown)} of {fmt_count(shown.n_total)} points "
+                         "(random subset for display; computations use all points)")
+        else:
+            what = "points" if shown.kind == "pointcloud" else "vertices"
+            self.note = f"showing all {fmt_count(shown.n_total)} {what}"
+        self._draw()
+        self.plotter.reset_camera()
+        self._changed(reset_camera=True)
+
+    def set_field(self, field_name: str) -> None:
+        self.field = field_name
+        if self.shown is not None:
+            self._draw()
+            self._changed(reset_camera=False)
+
+    def clear(self) -> None:
+        self.plotter.clear_actors()
+        self._remove_bars()
+        self.shown, self.actor, self.scalar_bar_title, self.note = None, None, "", ""
+        self._changed(reset_camera=False)
+
+    # -- drawing ---------------------------------------------------------------------
+    def _remove_bars(self) -> None:
+        for title in list(self.plotter.scalar_bars.keys()):
+            self.plotter.remove_scalar_bar(title)
+
+    def _draw(self) -> None:
+        shown = self.shown
+        assert shown is not None
+        self.plotter.clear_actors()
+        self._remove_bars()
+        poly = shown.poly
+        style: dict[str, Any] = {}
+        if shown.kind == "pointcloud":
+            style = {"style": "points", "point_size": 3 if shown.n_shown > 100_000 else 5,
+                     "render_points_as_spheres": False}
+        else:
+            style = {"smooth_shading": True, "show_edges": False}
+        name = self.field
+        self.scalar_bar_title = ""
+        if name == RGB and "RGB" in poly.point_data:
+            self.actor = self.plotter.add_mesh(poly, scalars="RGB", rgb=True, reset_camera=False, **style)
+        elif name in poly.point_data and name not in (SOLID, RGB):
+            values = np.asarray(poly.point_data[name], dtype=float)
+            unit = "mm" if name in COORDS else shown.units.get(name, "")
+            self.scalar_bar_title = legend_title(name, unit)
+            finite = values[np.isfinite(values)]
+            lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+            cmap = "viridis"
+            if any(s in name.lower() for s in _SIGNED) and lo < 0 < hi:
+                m = max(-lo, hi)
+                lo, hi, cmap = -m, m, "coolwarm"
+            if hi <= lo:
+                hi = lo + 1.0
+            self.actor = self.plotter.add_mesh(
+                poly, scalars=name, cmap=cmap, clim=[lo, hi], reset_camera=False, nan_color="#888888",
+                scalar_bar_args={"title": self.scalar_bar_title, "color": "black", "vertical": True,
+                                 "position_x": 0.86, "position_y": 0.12, "height": 0.75, "width": 0.08,
+                                 "fmt": "%.4g", "title_font_size": 16, "label_font_size": 13},
+                **style,
+            )
+        else:
+            self.field = SOLID
+            self.actor = self.plotter.add_mesh(poly, color="#3b6ea5", reset_camera=False, **style)
+
+    def _changed(self, reset_camera: bool) -> None:
+        if self.on_update is not None:
+            self.on_update(reset_camera)
+
+    def screenshot(self, path: str | None = None) -> np.ndarray:
+        """Render now; return the image (H, W, 3) and save it when ``path`` is given."""
+        return self.plotter.screenshot(path, return_img=True)
