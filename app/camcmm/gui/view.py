@@ -59,6 +59,33 @@ def default_field(obj: Any) -> str:
     return "z"
 
 
+def _font_file() -> str | None:
+    """A TrueType font with real square brackets and µ (VTK's built-in "arial" draws
+    "[" like "(" , which would misprint "deviation [mm]")."""
+    import os
+
+    candidates = ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"]
+    try:
+        import matplotlib
+
+        candidates.append(os.path.join(matplotlib.get_data_path(), "fonts", "ttf", "DejaVuSans.ttf"))
+    except Exception:
+        pass
+    return next((c for c in candidates if os.path.isfile(c)), None)
+
+
+def _use_font(*props: Any) -> None:
+    path = _font_file()
+    for tp in props:
+        if tp is None:
+            continue
+        if path:
+            tp.SetFontFamily(4)  # VTK_FONT_FILE
+            tp.SetFontFile(path)
+        else:
+            tp.SetFontFamilyAsString("Times")
+
+
 def legend_title(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
@@ -196,6 +223,10 @@ class SceneView:
                                  "fmt": "%.4g", "title_font_size": 16, "label_font_size": 13},
                 **style,
             )
+            bars = self.plotter.scalar_bars
+            if self.scalar_bar_title in bars:
+                bar = bars[self.scalar_bar_title]
+                _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
         else:
             self.field = SOLID
             self.actor = self.plotter.add_mesh(poly, color="#3b6ea5", reset_camera=False, **style)

@@ -1,0 +1,270 @@
+"""GUI logic without a browser: the session behind the page, on a real project.
+
+Each test builds the app on its own trame server (``get_server(name)``) and calls
+``state.ready()`` so that state changes flush (and run ``@state.change`` handlers) as
+they do with a client connected.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import importlib.metadata as md
+import itertools
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+cio = pytest.importorskip("camcmm.io")
+if not hasattr(cio, "read"):
+    pytest.skip("camcmm.io.read is not there yet", allow_module_level=True)
+pytest.importorskip("trame")
+pytest.importorskip("pyvista")
+
+from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui.view import DISPLAY_LIMIT, SOLID  # noqa: E402
+from camcmm.host import PluginHost  # noqa: E402
+from camcmm.model import PointCloud  # noqa: E402
+
+_names = itertools.count()
+
+
+def sphere_cloud(n: int = 4000, radius: float = 10.0, seed: int = 0) -> PointCloud:
+    """Points on a sphere with a signed ``deviation`` field in mm."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    dev = 0.01 * rng.normal(size=n)
+    pts = d * (radius + dev)[:, None] + [1.0, 2.0, 3.0]
+    return PointCloud(pts, fields={"deviation": dev}, field_units={"deviation": "mm"}, name="sphere")
+
+
+@pytest.fixture
+def app(tmp_path):
+    def make(project_dir=None, **kw):
+        server, session = build(f"test-gui-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj", **kw)
+        server.state.ready()
+        made.append(session)
+        return server, session
+
+    made = []
+    yield make
+    for s in made:
+        s.close()
+
+
+@pytest.fixture
+def cloud_file(tmp_path):
+    path = tmp_path / "sphere.ply"
+    cio.write(sphere_cloud(), path)
+    return path
+
+
+def snapshot(project):
+    return ([(m["id"], m["name"], m["hash"]) for m in project.measurements()],
+            [r["id"] for r in project.results()])
+
+
+def test_import_cloud_shows_it_coloured_with_legend(app, cloud_file):
+    server, s = app()
+    state = server.state
+    assert state.items == [] and state.plugins, "fresh project: no items, plugins listed"
+    key = s.import_file(cloud_file)
+    assert key is not None, state.error_message
+    assert [it["name"] for it in state.items] == ["sphere.ply"]
+    assert state.selected_item == key
+    assert "4 000 points" in state.items[0]["subtitle"]
+    assert s.view.actor is not None and s.view.shown.n_shown == 4000
+    values = [f["value"] for f in state.color_fields]
+    assert {"x", "y", "z", SOLID} <= set(values)
+    if "deviation" in values:  # the reader kept the field and its unit
+        assert state.color_field == "deviation"
+        assert state.legend_title == "deviation [mm]"
+    assert state.legend_title in s.view.plotter.scalar_bars
+    assert state.display_note == "showing all 4 000 points"
+    img = s.view.screenshot()
+    assert img.std() > 5 and len(np.unique(img.reshape(-1, 3), axis=0)) > 50, "view looks blank"
+    # the project keeps the file
+    (m,) = s.project.measurements()
+    assert m["name"] == "sphere.ply" and m["kind"] == "pointcloud"
+
+
+def test_colour_field_selector_through_state(app, cloud_file):
+    server, s = app()
+    s.import_file(cloud_file)
+    server.state.color_field = "z"
+    server.state.flush()  # as a client change would: runs the @state.change handler
+    assert s.view.field == "z"
+    assert server.state.legend_title == "z [mm]"
+    assert list(s.view.plotter.scalar_bars.keys()) == ["z [mm]"]
+    s.set_color_field(SOLID)
+    assert server.state.legend_title == "" and len(s.view.plotter.scalar_bars.keys()) == 0
+
+
+def test_import_uploaded_bytes_keeps_the_original_name(app, cloud_file):
+    server, s = app()
+    files = s.import_upload([{"name": "scan 1.ply", "size": 1, "content": [cloud_file.read_bytes()]}])
+    key = s.import_file(files[0]["content"], files[0]["name"])
+    assert key is not None, server.state.error_message
+    assert server.state.items[0]["name"] == "scan 1.ply"
+
+
+def _bad_files(tmp_path: Path) -> dict[str, bytes]:
+    good = tmp_path / "good.ply"
+    cio.write(sphere_cloud(500), good)
+    whole = good.read_bytes()
+    head_end = whole.index(b"end_header") + len(b"end_header\n")
+    return {
+        "empty.xyz": b"",
+        "nan.xyz": b"1 2 3\n4 nan 6\n7 8 9\n",
+        "inf.xyz": b"1 2 3\n4 5 inf\n",
+        "truncated.ply": whole[: head_end + (len(whole) - head_end) // 3],
+        "garbage.ply": b"\x00\x01\x02 this is not a point cloud",
+    }
+
+
+def test_bad_files_give_a_named_error_and_lose_nothing(app, cloud_file, tmp_path):
+    server, s = app()
+    state = server.state
+    assert s.import_file(cloud_file) is not None
+    s.select_plugin("cloud.downsample")
+    assert s.run_plugin("cloud.downsample", {"voxel_size": 2.0}) is not None
+    before = snapshot(s.project)
+    items_before = [dict(it) for it in state.items]
+    for name, data in _bad_files(tmp_path).items():
+        path = tmp_path / name
+        path.write_bytes(data)
+        for source, label in ((path, name), (data, name)):  # a server path and an upload
+            state.error_message = ""
+            assert s.import_file(source, label if isinstance(source, bytes) else None) is None, name
+            msg = state.error_message
+            assert name in msg, f"error does not name the file: {msg!r}"
+            assert "\n" not in msg and len(msg) < 400
+            assert "camcmm-gui-" not in msg, f"error shows the temp path: {msg!r}"
+            assert state.error_visible
+    assert s.import_file(tmp_path / "missing.ply") is None
+    assert "missing.ply" in state.error_message
+    assert snapshot(s.project) == before, "a bad file changed the project"
+    assert state.items == items_before
+    # and the app still works
+    assert s.import_file(cloud_file, "again.ply") is not None
+    assert len(state.items) == len(items_before) + 1
+
+
+def test_plugin_form_and_run(app, cloud_file):
+    server, s = app()
+    state = server.state
+    s.import_file(cloud_file)
+    rows = {p["id"]: p for p in state.plugins}
+    assert rows["cloud.downsample"]["ok"] and rows["cloud.downsample"]["kind"] == "algorithm"
+    s.select_plugin("cloud.downsample")
+    (field,) = [f for f in state.form_fields if f["name"] == "voxel_size"]
+    assert field["widget"] == "number" and field["unit"] == "mm" and field["label"] == "voxel size [mm]"
+    assert field["min"] is not None and state.form_values["voxel_size"] == field["default"]
+    assert state.input_values == {"cloud": state.selected_item}
+    seen = []
+    orig = s._set_progress
+    s._set_progress = lambda f, m: (seen.append(f), orig(f, m))
+    n_items = len(state.items)
+    # values as the browser sends them: numbers as text
+    res = s.run_plugin("cloud.downsample", {"voxel_size": "2.5"}, state.input_values)
+    assert res is not None, state.error_message
+    assert seen and seen[-1] == 1.0
+    assert state.progress == 100.0 and not state.running
+    assert state.result["plugin"] == "cloud.downsample" and state.result["params"] == {"voxel_size": 2.5}
+    by_name = {r["name"]: r for r in state.result_rows}
+    assert int(by_name["n_points"]["value"]) == res.outputs["n_points"] < 4000
+    stored = s.project.results()
+    assert [r["plugin"] for r in stored] == ["cloud.downsample"]
+    assert stored[0]["params"] == {"voxel_size": 2.5}
+    assert len(state.results) == 1
+    # the output cloud became a new item and is shown
+    assert len(state.items) == n_items + 1
+    assert state.selected_item == state.items[-1]["id"]
+    assert s.view.shown.n_total == res.outputs["n_points"]
+
+
+def test_bad_parameter_is_reported_and_nothing_stored(app, cloud_file):
+    server, s = app()
+    s.import_file(cloud_file)
+    s.select_plugin("cloud.downsample")
+    assert s.run_plugin("cloud.downsample", {"voxel_size": "-1"}) is None
+    assert "voxel_size" in server.state.error_message
+    assert s.run_plugin("cloud.downsample", {"voxel_size": "abc"}) is None
+    assert "voxel_size" in server.state.error_message
+    assert s.project.results() == []
+    assert not server.state.running
+
+
+def test_run_without_input_says_what_is_missing(app):
+    server, s = app()
+    s.select_plugin("cloud.downsample")
+    assert s.run_plugin("cloud.downsample", {}) is None
+    assert "cloud" in server.state.error_message and "cloud.downsample" in server.state.error_message
+
+
+def test_async_run_reports_progress_from_the_worker_thread(app, cloud_file):
+    server, s = app()
+    s.import_file(cloud_file)
+    s.select_plugin("cloud.downsample")
+
+    async def go():
+        return await s.run_plugin_async("cloud.downsample", {"voxel_size": 3.0})
+
+    res = asyncio.run(go())
+    assert res is not None, server.state.error_message
+    assert server.state.progress == 100.0
+    assert len(s.project.results()) == 1
+
+
+def test_async_import(app, cloud_file):
+    server, s = app()
+
+    async def go():
+        s.bind_loop()
+        return await s.import_file_async(cloud_file.read_bytes(), "up.ply")
+
+    assert asyncio.run(go()) is not None
+    assert server.state.items[0]["name"] == "up.ply" and not server.state.importing
+
+
+def test_failed_plugins_are_listed_with_their_reason(app):
+    broken = md.EntryPoint(name="brokenlab", value="no_such_lab_package:plugin.yaml", group="camcmm.plugins")
+    host = PluginHost(entry_points=[*md.entry_points(group="camcmm.plugins"), broken])
+    server, s = app(host=host)
+    rows = {p["id"]: p for p in server.state.plugins}
+    assert not rows["brokenlab"]["ok"]
+    assert "no_such_lab_package" in rows["brokenlab"]["status"]
+    s.select_plugin("brokenlab")
+    assert "brokenlab" in server.state.error_message
+
+
+def test_reopening_the_project_lists_and_shows_its_items(app, cloud_file, tmp_path):
+    _, s = app()
+    s.import_file(cloud_file)
+    s.project.close()
+    server, s2 = app(tmp_path / "proj")
+    assert [it["name"] for it in server.state.items] == ["sphere.ply"]
+    s2.select_item(server.state.items[0]["id"])
+    assert s2.view.shown is not None and s2.view.shown.n_total == 4000
+
+
+@pytest.mark.slow
+def test_two_million_points_are_decimated_for_display(app, tmp_path):
+    n = 2_000_000
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-50, 50, size=(n, 3))
+    path = tmp_path / "big.ply"
+    cio.write(PointCloud(pts, fields={"deviation": pts[:, 2] * 1e-3}, field_units={"deviation": "mm"}), path)
+    server, s = app()
+    key = s.import_file(path)
+    assert key is not None, server.state.error_message
+    assert s.view.shown.n_total == n
+    assert s.view.shown.n_shown <= DISPLAY_LIMIT
+    assert server.state.display_note.startswith("showing 500 000 of 2 000 000 points")
+    assert s._objects[key].n_points == n  # the full data stay for computations
+    s.set_color_field("x")
+    assert s.view.shown.n_shown <= DISPLAY_LIMIT
