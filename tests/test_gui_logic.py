@@ -181,6 +181,9 @@ def test_plugin_form_and_run(app, cloud_file):
     assert [r["plugin"] for r in stored] == ["cloud.downsample"]
     assert stored[0]["params"] == {"voxel_size": 2.5}
     assert len(state.results) == 1
+    # a stored result can be shown again from the project
+    s.show_result(stored[0]["id"])
+    assert {r["name"]: r["value"] for r in state.result_rows}["n_points"] == by_name["n_points"]["value"]
     # the output cloud became a new item and is shown
     assert len(state.items) == n_items + 1
     assert state.selected_item == state.items[-1]["id"]

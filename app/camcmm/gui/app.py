@@ -95,6 +95,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             return
         await session.run_plugin_async(pid, form_values or {}, input_values or {})
 
+    def on_show_result(rid):
+        session.show_result(rid)
+
     def on_cancel():
         session.cancel_run()
 
@@ -111,7 +114,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         layout.title.set_text("camcmm")
         with layout.toolbar:
             layout.toolbar.density = "compact"
-            html.Span("{{ project_name }}", classes="text-subtitle-1 ml-2",
+            v.VIcon("mdi-folder-outline", size="small", classes="ml-4 mr-1")
+            html.Span("{{ project_name }}", classes="text-subtitle-1",
                       raw_attrs=_tid("project-name"), title=("project_path",))
             v.VSpacer()
             v.VFileInput(
@@ -143,8 +147,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                 raw_attrs=_tid("error-alert"),
             )
             # items
-            v.VListSubheader("Items in the project ({{ items.length }})")
             with v.VList(density="compact", nav=True, raw_attrs=_tid("items")):
+                v.VListSubheader("Items in the project ({{ items.length }})")
                 v.VListItem(
                     v_for="item in items",
                     key="item.id",
@@ -161,8 +165,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                 v.VListItem(v_if="!items.length", subtitle="No items yet: import a file above.")
             v.VDivider()
             # plugins
-            v.VListSubheader("Plugins ({{ plugins.length }})")
             with v.VList(density="compact", nav=True, raw_attrs=_tid("plugins")):
+                v.VListSubheader("Plugins ({{ plugins.length }})")
                 with v.VListItem(
                     v_for="p in plugins",
                     key="p.id",
@@ -274,6 +278,18 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                     html.Span("{{ progress_message }} {{ Math.round(progress) }} %", classes="text-caption")
             html.Div("Choose an algorithm or standard plugin above to see its form.", v_else=True,
                      classes="pa-3 text-caption")
+            v.VDivider()
+            with v.VList(density="compact", nav=True, raw_attrs=_tid("results")):
+                v.VListSubheader("Results in the project ({{ results.length }})")
+                v.VListItem(
+                    v_for="r in results",
+                    key="r.id",
+                    title=("'#' + r.id + ' ' + r.plugin",),
+                    subtitle=("r.time",),
+                    click=(on_show_result, "[r.id]"),
+                    classes="result-row",
+                    raw_attrs=_tid("result-row"),
+                )
 
         with layout.content:
             with html.Div(classes="d-flex flex-column", style="height: calc(100vh - 48px - 24px);"):

@@ -108,6 +108,28 @@ def summarize_json(x: Any, limit: int = _MAX_LIST) -> Any:
     return to_jsonable(x)
 
 
+def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str, str]]:
+    """Rows ``{name, value, unit}`` for the result table. Units come from the plugin's
+    declared outputs, or from a ``units`` mapping (or ``unit`` text) inside the outputs;
+    one level of nested dicts is shown with dotted names."""
+    extra = outputs.get("units") if isinstance(outputs.get("units"), dict) else {}
+    rows = []
+    for name, value in outputs.items():
+        if name == "units":
+            continue
+        unit = str(units.get(name) or extra.get(name, "") or "")
+        if isinstance(value, dict):
+            sub_units = value.get("units") if isinstance(value.get("units"), dict) else {}
+            for k, v in value.items():
+                if k in ("units", "unit"):
+                    continue
+                u = sub_units.get(k) or (value.get("unit") if isinstance(value.get("unit"), str) else "") or unit
+                rows.append({"name": f"{name}.{k}", "value": fmt_value(v), "unit": str(u or "")})
+        else:
+            rows.append({"name": name, "value": fmt_value(value), "unit": unit})
+    return rows
+
+
 class Session:
     """Everything the page does, as plain methods on plain state."""
 
@@ -615,22 +637,7 @@ class Session:
         except Exception as exc:
             self.error(f"result of {spec.id} could not be stored in the project: {self._reason(exc, '')}")
         new_keys = self._store_outputs(spec, result, objs, warnings)
-        units = {p.name: p.unit for p in spec.outputs}
-        out_units = result.outputs.get("units") if isinstance(result.outputs.get("units"), dict) else {}
-        rows = []
-        for name, value in result.outputs.items():
-            if name == "units":
-                continue
-            unit = units.get(name) or str(out_units.get(name, "") or "")
-            if isinstance(value, dict) and not hasattr(value, "n_points"):
-                sub_units = value.get("units") if isinstance(value.get("units"), dict) else {}
-                for k, v in value.items():
-                    if k == "units":
-                        continue
-                    rows.append({"name": f"{name}.{k}", "value": fmt_value(v),
-                                 "unit": str(sub_units.get(k, "") or (value.get("unit", "") if k != "unit" else ""))})
-            else:
-                rows.append({"name": name, "value": fmt_value(value), "unit": unit})
+        rows = result_rows(result.outputs, {p.name: p.unit for p in spec.outputs})
         s.result = summarize_json(result.to_json())
         s.result_title = f"{spec.name} — {spec.id} {result.plugin_version}"
         s.result_rows = rows
@@ -699,6 +706,25 @@ class Session:
             out.append({"id": str(d.get("id", "")), "plugin": str(d.get("plugin", d.get("plugin_id", ""))),
                         "time": str(d.get("finished", d.get("created", "")))})
         self.state.results = list(reversed(out))
+
+    def show_result(self, rid: Any) -> None:
+        """Show a stored result (from the project) in the result panel."""
+        try:
+            d = self.project.result(int(rid))
+        except Exception as exc:
+            self.error(f"result {rid}: {self._reason(exc, '')}")
+            return
+        plugin = str(d.get("plugin", ""))
+        units: dict[str, str] = {}
+        try:
+            units = {p.name: p.unit for p in self.host.get(plugin).outputs}
+        except CamcmmError:
+            pass
+        outputs = d.get("outputs") or {}
+        self.state.result = summarize_json(d)
+        self.state.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
+        self.state.result_rows = result_rows(outputs, units)
+        self.state.result_warnings = list(d.get("warnings") or [])
 
     # -- shutdown -----------------------------------------------------------------------
     def close(self) -> None:

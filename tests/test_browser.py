@@ -1,0 +1,161 @@
+"""End to end in a real headless Chromium, driven by Playwright.
+
+The GUI server runs in a subprocess (``python -m camcmm.gui PROJECT --port 0``); the
+test imports a cloud through the file input, checks that it is listed and that the
+3D view really shows it (pixels, not just a DOM node), runs a plugin form and sees
+the result, then uploads a bad file and sees the error while the items stay.
+Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default: the system temp folder).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import queue
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+cio = pytest.importorskip("camcmm.io")
+if not hasattr(cio, "read"):
+    pytest.skip("camcmm.io.read is not there yet", allow_module_level=True)
+
+from camcmm.model import PointCloud  # noqa: E402
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", tempfile.gettempdir()))
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+@pytest.fixture
+def gui_server(tmp_path):
+    """Start the GUI on a fresh project; yield its URL."""
+    env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(tmp_path / "proj"), "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    lines: queue.Queue[str] = queue.Queue()
+    log: list[str] = []
+
+    def pump():
+        for line in proc.stdout:
+            log.append(line)
+            lines.put(line)
+
+    threading.Thread(target=pump, daemon=True).start()
+    url, deadline = None, time.monotonic() + 60
+    while url is None and time.monotonic() < deadline:
+        try:
+            line = lines.get(timeout=0.5)
+        except queue.Empty:
+            if proc.poll() is not None:
+                break
+            continue
+        m = re.search(r"camcmm GUI: (http://\S+)", line)
+        if m:
+            url = m.group(1)
+    if url is None:
+        proc.kill()
+        pytest.fail("GUI server did not print its URL:\n" + "".join(log[-40:]))
+    yield url, log
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def coloured_pixels(png: bytes) -> int:
+    """Pixels whose colour is clearly not grey: the colour-mapped points and legend."""
+    from PIL import Image
+
+    a = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    return int(((a.max(axis=2) - a.min(axis=2)) > 60).sum())
+
+
+def make_cloud(path: Path) -> None:
+    rng = np.random.default_rng(7)
+    u, v = rng.uniform(0, 2 * np.pi, 20000), rng.uniform(-1, 1, 20000)
+    r = 12.0 + 0.05 * rng.normal(size=u.size)
+    pts = np.column_stack([r * np.sqrt(1 - v**2) * np.cos(u), r * np.sqrt(1 - v**2) * np.sin(u), r * v])
+    cio.write(PointCloud(pts, fields={"deviation": r - 12.0}, field_units={"deviation": "mm"}), path)
+
+
+def test_import_view_and_run_a_plugin(gui_server, tmp_path):
+    url, log = gui_server
+    cloud = tmp_path / "ball.ply"
+    make_cloud(cloud)
+    bad = tmp_path / "broken.xyz"
+    bad.write_text("1 2 3\n4 nan 6\n")
+    t0 = time.monotonic()
+    with sync_api.sync_playwright() as p:
+        ctx = p.chromium.launch_persistent_context(
+            str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
+            viewport={"width": 1400, "height": 900})
+        try:
+            page = ctx.new_page()
+            page.set_default_timeout(30_000)
+            page.goto(url)
+            page.wait_for_selector('[data-testid="project-name"]:has-text("proj")')
+            page.wait_for_selector('[data-plugin-id="cloud.downsample"]')
+            view = page.locator('[data-testid="view"]')
+            time.sleep(1.0)
+            empty = coloured_pixels(view.screenshot())
+            page.screenshot(path=str(SHOTS / "camcmm-browser-0-empty.png"))
+
+            # import a cloud through the file input
+            page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(cloud))
+            page.wait_for_selector('[data-testid="item"]:has-text("ball.ply")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("20 000 points")')
+            legend = page.locator('[data-testid="legend-title"]')
+            legend.wait_for()
+            assert re.search(r"\[mm\]", legend.inner_text()), legend.inner_text()
+            shot, deadline = None, time.monotonic() + 20
+            while time.monotonic() < deadline:  # the first streamed image may take a moment
+                shot = view.screenshot()
+                if coloured_pixels(shot) > empty + 2000:
+                    break
+                time.sleep(0.5)
+            (SHOTS / "camcmm-browser-1-view.png").write_bytes(shot)
+            page.screenshot(path=str(SHOTS / "camcmm-browser-1-imported.png"))
+            assert coloured_pixels(shot) > empty + 2000, "the 3D view does not show the coloured cloud"
+
+            # a plugin form built from the manifest: fill it, run, see the result
+            page.locator('[data-plugin-id="cloud.downsample"]').click()
+            field = page.locator('[data-testid="param-voxel_size"] input')
+            field.wait_for()
+            assert "mm" in page.locator('[data-testid="param-voxel_size"]').inner_text()
+            field.fill("2")
+            page.locator('[data-testid="run-button"]').click()
+            page.wait_for_selector('[data-testid="result-panel"]:has-text("n_points")')
+            n = int(page.locator('[data-testid="result-n_points"]').inner_text().strip())
+            assert 0 < n < 20000
+            page.wait_for_selector('[data-testid="progress"]:has-text("100")')
+            assert page.locator('[data-testid="item"]').count() == 2
+            time.sleep(0.5)
+            page.screenshot(path=str(SHOTS / "camcmm-browser-2-result.png"))
+
+            # a bad file: a one-line error naming it; the items stay
+            page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(bad))
+            alert = page.locator('[data-testid="error-alert"]')
+            alert.wait_for()
+            assert "broken.xyz" in alert.inner_text()
+            assert page.locator('[data-testid="item"]').count() == 2
+            page.screenshot(path=str(SHOTS / "camcmm-browser-3-error.png"))
+        finally:
+            ctx.close()
+    assert time.monotonic() - t0 < 90
