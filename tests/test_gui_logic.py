@@ -92,6 +92,30 @@ def test_import_cloud_shows_it_coloured_with_legend(app, cloud_file):
     assert m["name"] == "sphere.ply" and m["kind"] == "pointcloud"
 
 
+def test_mesh_and_image_items(app, tmp_path):
+    import pyvista as pv
+
+    from camcmm.model import Image, TriangleMesh
+
+    sphere = pv.Sphere(radius=5.0, theta_resolution=30, phi_resolution=30).triangulate()
+    mesh = TriangleMesh(np.asarray(sphere.points, float), np.asarray(sphere.faces).reshape(-1, 4)[:, 1:])
+    cio.write(mesh, tmp_path / "ball.stl")
+    img = (np.arange(64 * 48) % 251).astype(np.uint8).reshape(48, 64)
+    cio.write(Image(img), tmp_path / "cam0.png")
+    server, s = app()
+    key = s.import_file(tmp_path / "ball.stl")
+    assert key is not None, server.state.error_message
+    assert server.state.items[0]["kind"] == "mesh" and s.view.shown.kind == "mesh"
+    assert "vertices" in server.state.display_note
+    assert s.view.screenshot().std() > 5
+    key2 = s.import_file(tmp_path / "cam0.png")
+    assert key2 is not None, server.state.error_message
+    assert server.state.items[1]["kind"] == "image"
+    assert "not shown in the 3D view" in server.state.display_note and s.view.shown is None
+    s.select_item(key)  # back to the mesh
+    assert s.view.shown.kind == "mesh"
+
+
 def test_colour_field_selector_through_state(app, cloud_file):
     server, s = app()
     s.import_file(cloud_file)

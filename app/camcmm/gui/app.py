@@ -33,6 +33,16 @@ def _tid(name: str) -> list[str]:
     return [f'data-testid="{name}"']
 
 
+def _accept() -> str:
+    """The file input's ``accept`` list: every extension camcmm.io reads."""
+    try:
+        from ..io import FORMATS
+
+        return ",".join(sorted(ext for ext, f in FORMATS.items() if f.get("readable", True)))
+    except Exception:  # an older io without FORMATS: let the reader judge
+        return ""
+
+
 def open_project(project_dir: str | Path) -> Any:
     from ..project import Project
 
@@ -121,7 +131,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             v.VFileInput(
                 v_model=("upload", None),
                 label="Import cloud / mesh / image",
-                accept=".ply,.pcd,.xyz,.xyzn,.xyzrgb,.pts,.txt,.csv,.asc,.e57,.stl,.obj,.off,.gltf,.glb,.png,.tif,.tiff,.jpg,.jpeg,.bmp",
+                accept=_accept(),
                 prepend_icon="mdi-file-import",
                 density="compact",
                 variant="outlined",
