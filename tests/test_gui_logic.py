@@ -295,3 +295,118 @@ def test_two_million_points_are_decimated_for_display(app, tmp_path):
     assert s._objects[key].n_points == n  # the full data stay for computations
     s.set_color_field("x")
     assert s.view.shown.n_shown <= DISPLAY_LIMIT
+
+
+# -- a lab plugin with every parameter type, progress and cancellation ----------------
+LAB_YAML = """
+name: gui-lab
+plugins:
+  - id: lab.slowstats
+    kind: algorithm
+    name: Slow statistics
+    version: 2.1.0
+    summary: Mean distance from a point, reported in steps.
+    entry: {pkg}.run:stats
+    inputs: [{{name: cloud, type: pointcloud}}]
+    parameters:
+      - {{name: origin, type: vector, length: 3, unit: mm, default: [0, 0, 0]}}
+      - {{name: steps, type: int, default: 4, min: 1, max: 100}}
+      - {{name: scale, type: float, unit: um, default: 1000.0, min: 0}}
+      - {{name: squared, type: bool, default: false}}
+      - {{name: method, type: choice, choices: [mean, median], default: mean}}
+      - {{name: note, type: str, default: ""}}
+    outputs:
+      - {{name: distance, type: float, unit: mm}}
+      - {{name: per_point, type: array, unit: mm}}
+  - id: lab.device
+    kind: device
+    name: Lab camera
+    entry: {pkg}.run:stats
+"""
+
+LAB_PY = """
+import time
+import numpy as np
+
+def stats(ctx, cloud, origin, steps, scale, squared, method, note):
+    d = np.linalg.norm(cloud.points - np.asarray(origin), axis=1)
+    for i in range(steps):
+        ctx.progress(i / steps, f"step {i + 1} of {steps}")
+        time.sleep(0.12)
+    if squared:
+        ctx.warn("squared distances are not lengths")
+    value = float(np.mean(d) if method == "mean" else np.median(d))
+    return {"distance": value * scale / 1000.0, "per_point": d, "stats": {"n": len(d), "unit": "mm"}}
+"""
+
+
+@pytest.fixture
+def lab_host(tmp_path, monkeypatch):
+    pkg = f"gui_lab_{next(_names)}"
+    root = tmp_path / "labsrc" / pkg
+    root.mkdir(parents=True)
+    (root / "__init__.py").write_text("")
+    (root / "plugin.yaml").write_text(LAB_YAML.format(pkg=pkg))
+    (root / "run.py").write_text(LAB_PY)
+    monkeypatch.syspath_prepend(str(tmp_path / "labsrc"))
+    ep = md.EntryPoint(name="gui-lab", value=f"{pkg}:plugin.yaml", group="camcmm.plugins")
+    return PluginHost(entry_points=[ep])
+
+
+def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
+    server, s = app(host=lab_host)
+    state = server.state
+    rows = {p["id"]: p for p in state.plugins}
+    assert rows["lab.slowstats"]["runnable"] and not rows["lab.device"]["runnable"]
+    s.select_plugin("lab.device")
+    assert "device" in state.error_message and state.selected_plugin is None
+    s.import_file(cloud_file)
+    s.select_plugin("lab.slowstats")
+    widgets = {f["name"]: (f["widget"], f["label"]) for f in state.form_fields}
+    assert widgets == {"origin": ("text", "origin [mm]"), "steps": ("number", "steps"),
+                       "scale": ("number", "scale [um]"), "squared": ("switch", "squared"),
+                       "method": ("select", "method"), "note": ("text", "note")}
+    assert state.form_values == {"origin": "0, 0, 0", "steps": 4, "scale": 1000.0, "squared": False,
+                                 "method": "mean", "note": ""}
+    assert [f["choices"] for f in state.form_fields if f["name"] == "method"] == [["mean", "median"]]
+    seen = []
+    orig = s._set_progress
+    s._set_progress = lambda f, m: (seen.append((f, m)), orig(f, m))
+    values = dict(state.form_values, origin="1, 2, 3", squared=True, method="median", steps="3")
+    res = s.run_plugin("lab.slowstats", values)
+    assert res is not None, state.error_message
+    assert [m for _, m in seen][:3] == ["step 1 of 3", "step 2 of 3", "step 3 of 3"]
+    assert seen[-1][0] == 1.0
+    table = {r["name"]: (r["value"], r["unit"]) for r in state.result_rows}
+    assert table["distance"][1] == "mm" and abs(float(table["distance"][0]) - 10.0) < 0.1
+    assert table["per_point"][0].startswith("array (4000,)")
+    assert table["stats.n"] == ("4000", "mm")
+    assert state.result_warnings == ["squared distances are not lengths"]
+    assert state.result["outputs"]["per_point"]["array_shape"] == [4000], "long arrays are summarised"
+    # the per-point output became a colour field on a copy of the cloud
+    assert state.items[-1]["name"].startswith("lab.slowstats fields")
+    assert state.color_field in [f["value"] for f in state.color_fields]
+    s.set_color_field("per_point")
+    assert state.legend_title == "per_point [mm]"
+    # bad vector
+    assert s.run_plugin("lab.slowstats", dict(values, origin="1, 2")) is None
+    assert "origin" in state.error_message
+
+
+def test_cancel_a_running_plugin(app, lab_host, cloud_file):
+    server, s = app(host=lab_host)
+    s.import_file(cloud_file)
+    s.select_plugin("lab.slowstats")
+
+    async def go():
+        task = asyncio.ensure_future(s.run_plugin_async("lab.slowstats", {"steps": 50}))
+        while not server.state.running:
+            await asyncio.sleep(0.01)
+        await asyncio.sleep(0.3)
+        s.cancel_run()
+        return await task
+
+    assert asyncio.run(go()) is None
+    assert "cancelled" in server.state.error_message
+    assert not server.state.running
+    assert s.project.results() == []
