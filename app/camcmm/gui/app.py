@@ -93,6 +93,11 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     def _field_changed(color_field=None, **_):
         session.set_color_field(color_field)
 
+    async def on_import_path(path):
+        state.path_dialog = False
+        if path and str(path).strip():
+            await session.import_file_async(os.path.expanduser(str(path).strip().strip('"')))
+
     def on_select_item(key):
         session.select_item(key)
 
@@ -143,6 +148,22 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                 classes="mr-4",
                 raw_attrs=_tid("import-file"),
             )
+
+            with v.VDialog(v_model=("path_dialog", False), max_width=640):
+                with v.VCard(title="Import a file on the server", raw_attrs=_tid("path-dialog")):
+                    with v.VCardText():
+                        html.Div("For files too large to upload through the browser: give their path on the "
+                                 "machine that runs camcmm.", classes="text-caption mb-2")
+                        v.VTextField(v_model=("server_path", ""), label="Path", density="compact",
+                                     variant="outlined", autofocus=True, raw_attrs=_tid("server-path"))
+                    with v.VCardActions():
+                        v.VSpacer()
+                        v.VBtn("Cancel", variant="text", click="path_dialog = false")
+                        v.VBtn("Import", color="primary", click=(on_import_path, "[server_path]"),
+                               raw_attrs=_tid("server-path-import"))
+            with v.VBtn(icon=True, click="path_dialog = true", title="Import a file on the server",
+                        raw_attrs=_tid("open-path-dialog")):
+                v.VIcon("mdi-folder-open-outline")
 
         with layout.drawer as drawer:
             drawer.raw_attrs = _tid("drawer")
@@ -279,6 +300,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                 with v.VProgressLinear(
                     v_show="running || progress > 0",
                     model_value=("progress",),
+                    indeterminate=("running && progress <= 0",),
                     height=18,
                     color=("running ? 'primary' : 'success'",),
                     classes="mt-2",
