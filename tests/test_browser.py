@@ -134,6 +134,11 @@ def test_import_view_and_run_a_plugin(gui_server, tmp_path):
             page.screenshot(path=str(SHOTS / "camcmm-browser-1-imported.png"))
             assert coloured_pixels(shot) > empty + 2000, "the 3D view does not show the coloured cloud"
 
+            # colour by another field: the legend follows, with its unit
+            page.locator('[data-testid="color-field"]').click()
+            page.locator('.v-overlay .v-list-item:has-text("y [mm]")').click()
+            page.wait_for_selector('[data-testid="legend-title"]:has-text("y [mm]")')
+
             # a plugin form built from the manifest: fill it, run, see the result
             page.locator('[data-plugin-id="cloud.downsample"]').click()
             field = page.locator('[data-testid="param-voxel_size"] input')

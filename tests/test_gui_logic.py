@@ -271,12 +271,23 @@ def test_failed_plugins_are_listed_with_their_reason(app):
 
 def test_reopening_the_project_lists_and_shows_its_items(app, cloud_file, tmp_path):
     _, s = app()
-    s.import_file(cloud_file)
+    k1 = s.import_file(cloud_file)
+    s.import_file(cloud_file.read_bytes(), "second.ply")
+    s.select_item(k1)
+    s.set_color_field("y")
+    assert not list(s._tmp.glob("upload-*")), "temp copies of uploads are removed"
     s.project.close()
     server, s2 = app(tmp_path / "proj")
-    assert [it["name"] for it in server.state.items] == ["sphere.ply"]
-    s2.select_item(server.state.items[0]["id"])
+    assert [it["name"] for it in server.state.items] == ["sphere.ply", "second.ply"]
+    # what was shown is shown again
+    assert server.state.selected_item == k1 and server.state.color_field == "y"
     assert s2.view.shown is not None and s2.view.shown.n_total == 4000
+    # a data file lost behind the project's back: a named error, the app goes on
+    second = server.state.items[1]
+    Path(s2.project.measurements()[1]["path"]).unlink()
+    s2.select_item(second["id"])
+    assert "second.ply" in server.state.error_message
+    assert server.state.selected_item == k1
 
 
 @pytest.mark.slow

@@ -157,6 +157,7 @@ class Session:
         self.refresh_items()
         self.refresh_plugins()
         self.refresh_results()
+        self.restore()
 
     # -- state -------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -330,6 +331,7 @@ class Session:
         None after showing the reason it could not be imported."""
         label = name or (Path(source).name if isinstance(source, (str, Path)) else "upload")
         self.state.importing = True
+        path = None
         try:
             path, obj, label = self.read_file(source, name)
             return self._register(path, obj, label)
@@ -338,6 +340,7 @@ class Session:
             return None
         finally:
             self.state.importing = False
+            self._drop_upload(source)
 
     async def import_file_async(self, source: str | Path | bytes, name: str | None = None) -> str | None:
         """As :meth:`import_file`, reading in a worker thread so the page stays live."""
@@ -357,7 +360,14 @@ class Session:
             return None
         finally:
             self.state.importing = False
+            self._drop_upload(source)
             self._flush()
+
+    def _drop_upload(self, source: Any) -> None:
+        """Delete the temp copies of uploads (the project keeps its own copy)."""
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            for folder in self._tmp.glob("upload-*"):
+                shutil.rmtree(folder, ignore_errors=True)
 
     def import_upload(self, upload: Any) -> list[dict[str, Any]]:
         """Normalise a trame file-input value (a dict or a list of dicts with ``name``
@@ -385,6 +395,7 @@ class Session:
             self.error(self._reason(exc, str(name)))
             return
         self.state.selected_item = key
+        self._remember("gui.selected_item", key)
         k = kind_of(obj)
         if k not in ("pointcloud", "mesh"):
             self.view.clear()
@@ -417,6 +428,26 @@ class Session:
             return
         self.state.color_field = self.view.field
         self.state.legend_title = self.view.scalar_bar_title
+        self._remember("gui.color_field", self.view.field)
+
+    def _remember(self, key: str, value: Any) -> None:
+        """Keep a view setting in the project so that reopening it shows the same."""
+        try:
+            self.project.set_state(key, value)
+        except Exception:  # a read-only or older store: the setting is a convenience
+            log.debug("could not remember %s", key, exc_info=True)
+
+    def restore(self) -> None:
+        """Show what was shown when the project was last open."""
+        try:
+            key = self.project.get_state("gui.selected_item")
+            field_name = self.project.get_state("gui.color_field")
+        except Exception:
+            return
+        if key is not None and str(key) in self._measurements:
+            if field_name:
+                self.state.color_field = field_name
+            self.select_item(str(key))
 
     # -- plugins -----------------------------------------------------------------------
     def refresh_plugins(self) -> None:
