@@ -70,23 +70,36 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
+def _numeric_array(v: Any) -> np.ndarray | None:
+    """``v`` as a numeric array if it is an array or a (nested) list of numbers."""
+    if isinstance(v, np.ndarray):
+        return v
+    if isinstance(v, (list, tuple)) and v:
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            return None
+        return a
+    return None
+
+
 def fmt_value(v: Any) -> str:
-    """A result value as text: 6 significant digits, short arrays inline."""
+    """A result value as text: 6 significant digits, short arrays inline, long ones
+    as shape and range."""
     if isinstance(v, bool) or v is None:
         return str(v)
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
         return f"{float(v):.6g}" if np.isfinite(v) else "not defined"
-    if isinstance(v, np.ndarray) or (isinstance(v, (list, tuple)) and v and
-                                      all(isinstance(x, (int, float, np.number)) for x in np.ravel(np.asarray(v, dtype=object)))):
-        a = np.asarray(v)
-        if a.size <= _MAX_LIST and a.dtype.kind in "iuf":
-            return "[" + ", ".join(fmt_value(x) for x in a.ravel()) + "]" if a.ndim <= 1 else \
-                "[" + "; ".join(", ".join(fmt_value(x) for x in row) for row in a.reshape(a.shape[0], -1)) + "]"
-        if a.dtype.kind in "iuf" and a.size:
-            return f"array {tuple(a.shape)}, {fmt_value(np.nanmin(a))} … {fmt_value(np.nanmax(a))}"
-        return f"array {tuple(a.shape)}"
+    a = _numeric_array(v)
+    if a is not None:
+        if a.dtype.kind not in "iufb" or a.size == 0:
+            return f"array {tuple(a.shape)}"
+        if a.size <= _MAX_LIST:
+            rows = a.reshape(1, -1) if a.ndim <= 1 else a.reshape(a.shape[0], -1)
+            return "[" + "; ".join(", ".join(fmt_value(x.item()) for x in row) for row in rows) + "]"
+        return f"array {tuple(a.shape)}, {fmt_value(float(np.nanmin(a)))} … {fmt_value(float(np.nanmax(a)))}"
     if hasattr(v, "n_points"):
         return f"point cloud '{v.name}', {fmt_count(v.n_points)} points"
     if hasattr(v, "n_faces"):
