@@ -30,6 +30,7 @@ pytestmark = [
 ]
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 cio = pytest.importorskip("camcmm.io")
 if not hasattr(cio, "read"):
     pytest.skip("camcmm.io.read is not there yet", allow_module_level=True)
