@@ -14,10 +14,12 @@ def run(pid, cloud, **params):
 
 def test_downsample_gives_each_voxels_centroid():
     rng = np.random.default_rng(1)
-    # Clusters well inside distinct 1 mm voxels: the centroid of each voxel is known exactly.
-    centres = np.array([[0.5, 0.5, 0.5], [3.5, 0.5, 0.5], [0.5, 7.5, 2.5]])
+    # Open3D anchors its grid half a voxel below the cloud's minimum corner; clusters of
+    # +-0.3 mm on a 30 mm lattice then sit in the middle of distinct 10 mm voxels, so the
+    # centroid of each voxel is known exactly.
+    centres = np.array([[0.0, 0.0, 0.0], [30.0, 0.0, 0.0], [0.0, 60.0, 30.0]])
     pts = np.vstack([c + rng.uniform(-0.3, 0.3, (50, 3)) for c in centres])
-    out = run("cloud.downsample", PointCloud(pts), voxel_size=1.0)
+    out = run("cloud.downsample", PointCloud(pts), voxel_size=10.0)
     got = out["cloud"].points[np.lexsort(out["cloud"].points.T[::-1])]
     want = np.array([pts[i * 50:(i + 1) * 50].mean(axis=0) for i in range(3)])
     want = want[np.lexsort(want.T[::-1])]
