@@ -1,0 +1,304 @@
+"""Shared numerics for the fits: input checks, centring and scaling, the damped
+Gauss-Newton (Levenberg-Marquardt) driver, covariances and form figures.
+
+Every fit works on *normalised* coordinates ``Y = (X - origin) / scale`` where
+``origin`` is the centroid of the input and ``scale`` the RMS distance of the points
+from it (:class:`Frame`). Lengths in ``Y`` are therefore O(1) whatever the position of
+the part: a sphere 10 000 mm from the origin is fitted exactly like one at the origin.
+Results are converted back to mm at the very end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+import scipy.linalg as sla
+
+from camcmm.api import GeometryError, InputError
+
+EPS = np.finfo(float).eps
+
+#: Minimum numbers of points per element (and the number of free parameters).
+N_MIN = {"line": 2, "plane": 3, "circle": 3, "sphere": 4, "cylinder": 5}
+
+
+def as_points(points: Any, element: str, dims: tuple[int, ...] = (3,)) -> np.ndarray:
+    """``points`` as a C-contiguous (N, d) float64 array, d in ``dims``.
+
+    Accepts a numpy array, a nested list or anything with a ``points`` attribute (a
+    camcmm PointCloud). Raises InputError for a wrong shape or NaN/Inf coordinates and
+    GeometryError for fewer points than the element needs.
+    """
+    if hasattr(points, "points"):
+        points = points.points
+    try:
+        x = np.ascontiguousarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{element} fit: points are not numeric ({exc})") from None
+    if x.ndim != 2 or x.shape[1] not in dims:
+        want = " or ".join(f"(N, {d})" for d in dims)
+        raise InputError(f"{element} fit: points must have shape {want}, got {x.shape}")
+    bad = ~np.isfinite(x).all(axis=1)
+    if bad.any():
+        raise InputError(f"{element} fit: {int(bad.sum())} points have NaN or Inf coordinates "
+                         f"(first at index {int(np.flatnonzero(bad)[0])})")
+    need = N_MIN[element]
+    if len(x) < need:
+        raise GeometryError(f"{element} fit needs at least {need} points, got {len(x)}")
+    return x
+
+
+@dataclass(frozen=True)
+class Frame:
+    """Normalisation ``Y = (X - origin) / scale``; ``scale`` is in mm.
+
+    Internally the fits keep normalised points *as columns*, an array (d, N): each
+    coordinate is then contiguous in memory and a pass over a million points costs a
+    quarter of what the row layout (N, d) costs.
+    """
+
+    origin: np.ndarray
+    scale: float
+
+    @classmethod
+    def normalise(cls, x: np.ndarray, element: str) -> tuple["Frame", np.ndarray]:
+        """The frame of points x (N, d) mm and the normalised points (d, N)."""
+        yt = np.ascontiguousarray(x.T)
+        o = yt.mean(axis=1)
+        yt -= o[:, None]
+        # Second pass: removes the rounding of the first mean, which matters when the
+        # coordinates are 1e4 times the size of the part.
+        corr = yt.mean(axis=1)
+        yt -= corr[:, None]
+        o = o + corr
+        scale = float(np.sqrt(np.einsum("ij,ij->", yt, yt) / yt.shape[1]))
+        if not scale > 0:
+            raise GeometryError(f"{element} fit: all {len(x)} points coincide")
+        if scale < 1e3 * EPS * max(1.0, float(np.abs(o).max())):
+            raise GeometryError(f"{element} fit: the points spread {scale:.3g} mm, too little to be "
+                                f"resolved at their distance from the origin")
+        yt /= scale
+        return cls(o, scale), yt
+
+    def to_mm(self, y: np.ndarray) -> np.ndarray:
+        """A normalised point (d,) to mm."""
+        return np.asarray(y) * self.scale + self.origin
+
+
+def principal_axes(yt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centroid, singular values and principal directions (rows, largest first) of
+    points given as columns (d, N).
+
+    The singular values come from the R factor of a QR decomposition of the centred
+    points, so they are accurate to machine precision relative to the largest one
+    (the scatter matrix would square the condition number).
+    """
+    d, n = yt.shape
+    m = yt.mean(axis=1)
+    yc = yt - m[:, None]
+    m = m + yc.mean(axis=1)
+    yc = yt - m[:, None]
+    r = sla.qr(yc.T, mode="r", check_finite=False)[0][:d] if n > d else yc.T
+    _, s, vt = np.linalg.svd(r, full_matrices=True)
+    if len(s) < d:  # fewer points than dimensions
+        s = np.concatenate([s, np.zeros(d - len(s))])
+    return m, s, vt
+
+
+#: Relative singular value below which points count as lying in a lower dimension.
+FLAT = 1e-9
+
+
+def orient(v: np.ndarray) -> np.ndarray:
+    """Unit vector ``v`` with the sign that makes its largest-magnitude component positive
+    (so a normal near +z points to +z); the sign of a direction is otherwise arbitrary."""
+    v = np.asarray(v, dtype=float)
+    v = v / np.linalg.norm(v)
+    return -v if v[int(np.argmax(np.abs(v)))] < 0 else v
+
+
+def complement(n: np.ndarray) -> np.ndarray:
+    """(2, 3) two orthonormal rows perpendicular to the unit vector ``n`` (right-handed
+    with ``n``: rows b1, b2 with b1 × b2 = n)."""
+    n = np.asarray(n, dtype=float)
+    a = np.zeros(3)
+    a[int(np.argmin(np.abs(n)))] = 1.0
+    b1 = np.cross(n, a)
+    b1 /= np.linalg.norm(b1)
+    b2 = np.cross(n, b1)
+    return np.vstack([b1, b2])
+
+
+def rotation_to(n: np.ndarray) -> np.ndarray:
+    """(3, 3) orthonormal matrix whose third column is ``n`` (columns b1, b2, n)."""
+    b = complement(n)
+    return np.column_stack([b[0], b[1], n])
+
+
+# -- linear algebra of a Gauss-Newton step ------------------------------------------
+
+#: Condition number of the column-scaled JᵀJ above which the step is solved by QR.
+#: Below it, forming JᵀJ costs at most 8 of the 16 digits of the *step*; the fitted
+#: parameters are not affected, since the iteration converges to the point where the
+#: gradient Jᵀr (always evaluated directly) vanishes.
+COND_NORMAL = 1e8
+
+
+def _scaled(jt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    g = jt @ jt.T
+    d = np.sqrt(np.diag(g).copy())
+    d[d == 0] = 1.0
+    return g / np.outer(d, d), d
+
+
+def gn_step(jt: np.ndarray, r: np.ndarray, lam: float = 0.0, what: str = "fit") -> np.ndarray:
+    """Minimise ``|J δ + r|² + lam |D δ|²`` (D = column norms of J) for δ; the
+    Jacobian is given transposed, ``jt`` (k, N).
+
+    JᵀJ of the column-scaled Jacobian is used when its condition number is below
+    :data:`COND_NORMAL` (the data are centred and scaled first, so this is the usual
+    case, and it is several times faster than a QR of a million rows); otherwise the
+    step comes from a least-squares solve (SVD-based LAPACK gelsd) of the scaled
+    Jacobian itself, which never squares the condition number. Raises GeometryError
+    when the Jacobian is rank-deficient: the points do not determine the element.
+    """
+    gs, d = _scaled(jt)
+    w = np.linalg.eigvalsh(gs)
+    k = len(d)
+    if w[0] > w[-1] / COND_NORMAL:
+        rhs = -(jt @ r) / d
+        ds = sla.solve(gs + lam * np.eye(k), rhs, assume_a="pos", check_finite=False)
+        return ds / d
+    js = jt.T / d
+    if lam > 0:
+        js = np.vstack([js, np.sqrt(lam) * np.eye(k)])
+        rr = np.concatenate([r, np.zeros(k)])
+    else:
+        rr = r
+    ds, _, rank, sv = sla.lstsq(js, -rr, check_finite=False)
+    if sv[-1] <= 1e-13 * sv[0]:
+        raise GeometryError(f"{what}: the points do not determine the element "
+                            f"(rank-deficient Jacobian, condition {sv[0] / max(sv[-1], 1e-300):.1e})")
+    return ds / d
+
+
+def covariance(jt: np.ndarray, ssr: float) -> np.ndarray:
+    """Covariance ``s² (JᵀJ)⁻¹`` of the parameters, ``s² = ssr / (n - p)``, from the
+    transposed Jacobian ``jt`` (p, n).
+
+    NaN when there are no degrees of freedom. Computed from the R factor of J (not from
+    an inverse of JᵀJ) when JᵀJ is badly conditioned.
+    """
+    k, n = jt.shape
+    dof = n - k
+    if dof <= 0:
+        return np.full((k, k), np.nan)
+    s2 = ssr / dof
+    gs, d = _scaled(jt)
+    w = np.linalg.eigvalsh(gs)
+    if w[0] > w[-1] / COND_NORMAL:
+        inv = sla.inv(gs, check_finite=False)
+    else:
+        rfac = sla.qr(jt.T / d, mode="r", check_finite=False)[0][:k]
+        if abs(rfac.diagonal()).min() <= 1e-13 * abs(rfac.diagonal()).max():
+            return np.full((k, k), np.nan)
+        rinv = sla.solve_triangular(rfac, np.eye(k), check_finite=False)
+        inv = rinv @ rinv.T
+    return s2 * inv / np.outer(d, d)
+
+
+def propagate(cov: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """Standard uncertainties ``sqrt(diag(D C Dᵀ))`` of derived quantities."""
+    c = jac @ cov @ jac.T
+    return np.sqrt(np.clip(np.diag(c), 0.0, None))
+
+
+@dataclass
+class LMResult:
+    """A converged fit: ``state`` (element-specific, normalised units), the residuals
+    ``r`` of the fitted points, the transposed Jacobian ``jt`` (p, n) at the solution
+    and the number of iterations."""
+
+    state: Any
+    r: np.ndarray
+    jt: np.ndarray
+    iterations: int
+    #: the last state at which residuals and Jacobian were evaluated (``jt`` belongs
+    #: to it) and the residuals there; the converged ``state`` is one tiny step further.
+    eval_state: Any = None
+    eval_r: np.ndarray | None = None
+
+
+def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]], state: Any,
+                        update: Callable[[Any, np.ndarray], Any], *, max_iter: int = 100,
+                        xtol: float = 1e-13, what: str = "fit",
+                        check: Callable[[Any], None] | None = None) -> LMResult:
+    """Damped Gauss-Newton on orthogonal residuals.
+
+    ``evaluate(state) -> (r, Jᵀ)`` gives the residuals and their (transposed, (p, n))
+    Jacobian with respect to a *local* parameter vector that is zero at ``state``; ``update(state, δ)``
+    applies a step (for re-centred parametrisations such as a cylinder's axis, the
+    frame moves with the solution). ``check(state)`` may raise GeometryError for a
+    diverging solution. Pure Gauss-Newton steps are taken while they decrease the sum
+    of squares; otherwise the Marquardt damping grows until they do.
+
+    Convergence: a step whose length (normalised coordinates) times the observed
+    contraction rate predicts a remaining error below ``xtol``. That last step is
+    applied with the linearised residuals ``r + J δ`` (error O(|δ|²) < 1e-16), which
+    saves one pass over the data. Raises GeometryError after ``max_iter`` steps.
+    """
+    r, jt = evaluate(state)
+    ssr = float(r @ r)
+    lam = 0.0
+    prev = None
+    step = np.inf
+    for it in range(1, max_iter + 1):
+        delta = gn_step(jt, r, lam, what)
+        step = float(np.linalg.norm(delta))
+        if not np.isfinite(step):
+            raise GeometryError(f"{what}: the iteration produced a non-finite step")
+        rate = min(step / prev, 0.5) if prev else 0.5
+        if step <= 1e-7 and step * rate / (1.0 - rate) <= xtol:
+            new = update(state, delta)
+            if check is not None:
+                check(new)
+            return LMResult(new, r + delta @ jt, jt, it, state, r)
+        new = update(state, delta)
+        if check is not None:
+            check(new)
+        r2, jt2 = evaluate(new)
+        ssr2 = float(r2 @ r2)
+        if ssr2 <= ssr * (1.0 + 64 * EPS) or step <= 1e-9:
+            state, r, jt, ssr = new, r2, jt2, ssr2
+            prev = step if lam == 0.0 else None
+            lam = 0.0 if lam < 1e-6 else lam / 10.0
+        else:
+            lam = 1e-4 if lam == 0.0 else lam * 10.0
+            prev = None
+            if lam > 1e12:
+                raise GeometryError(f"{what}: no step decreases the sum of squares (the iteration stalled)")
+    raise GeometryError(f"{what} did not converge in {max_iter} iterations (last step {step:.2g} "
+                        f"in units of the point spread)")
+
+
+def form_figures(residuals: np.ndarray) -> dict[str, float]:
+    """Form figures of the residuals in mm: ``range`` = max − min, ``max``, ``min``,
+    ``std`` (sample standard deviation, n − 1) and ``rms`` (root mean square)."""
+    r = np.asarray(residuals, dtype=float)
+    if len(r) == 0:
+        return {k: float("nan") for k in ("range", "max", "min", "std", "rms")}
+    return {
+        "range": float(r.max() - r.min()),
+        "max": float(r.max()),
+        "min": float(r.min()),
+        "std": float(r.std(ddof=1)) if len(r) > 1 else float("nan"),
+        "rms": float(np.sqrt(np.mean(r * r))),
+    }
+
+
+def subsample(yt: np.ndarray, limit: int) -> np.ndarray:
+    """A deterministic, evenly strided subset of about ``limit`` of the points (d, N)."""
+    step = max(1, yt.shape[1] // limit)
+    return yt[:, ::step] if step > 1 else yt

@@ -1,0 +1,105 @@
+"""Plugin entry points: thin wrappers of :mod:`camcmm_plugins.fitting.api` for the host.
+
+Each ``fit_*`` returns the JSON document of ``camcmm fit`` (lengths in mm; numpy
+arrays are converted by the host) plus ``deviations``: the input cloud with the
+per-point fields ``deviation`` (signed residual, mm) and ``outlier`` (1 for points the
+outlier rule removed), for a deviation colour map.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import PointCloud
+
+from . import api
+
+
+def _points(cloud: Any) -> np.ndarray:
+    return cloud.points if hasattr(cloud, "points") else np.asarray(cloud, dtype=float)
+
+
+def _deviations(cloud: Any, res: api.FitResult) -> PointCloud | None:
+    if not isinstance(cloud, PointCloud) or cloud.points.shape[1] != 3:
+        return None
+    fields = dict(cloud.fields)
+    fields["deviation"] = res.residuals
+    fields["outlier"] = (~res.used).astype(np.uint8)
+    units = dict(cloud.field_units)
+    units["deviation"] = "mm"
+    return PointCloud(cloud.points, cloud.colors, cloud.normals, fields, units,
+                      f"{cloud.name} deviations", cloud.source_unit)
+
+
+def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nominal_radius: float | None = None,
+         **kw: Any) -> dict[str, Any]:
+    ctx.progress(0.05, f"{element} fit")
+    res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
+    out = res.to_dict()
+    out["removed_indices"] = res.removed
+    dev = _deviations(cloud, res)
+    if dev is not None:
+        out["deviations"] = dev
+    return out
+
+
+def fit_line(ctx, cloud, outliers: str = "none") -> dict[str, Any]:
+    return _fit(ctx, "line", cloud, outliers)
+
+
+def fit_plane(ctx, cloud, outliers: str = "none", method: str = "ls") -> dict[str, Any]:
+    return _fit(ctx, "plane", cloud, outliers, method)
+
+
+def fit_circle(ctx, cloud, outliers: str = "none", nominal_radius: float | None = None) -> dict[str, Any]:
+    return _fit(ctx, "circle", cloud, outliers, nominal_radius=nominal_radius)
+
+
+def fit_sphere(ctx, cloud, outliers: str = "none", method: str = "ls", nominal_radius: float | None = None,
+               extract: bool = False) -> dict[str, Any]:
+    if extract:
+        ctx.progress(0.02, "extracting the sphere")
+        seg = api.extract_sphere(_points(cloud), nominal_radius)
+        sub = cloud.subset(seg.indices) if isinstance(cloud, PointCloud) else _points(cloud)[seg.indices]
+        out = _fit(ctx, "sphere", sub, outliers, method, nominal_radius)
+        out["n_points_raw"] = len(_points(cloud))
+        out["extracted_indices"] = seg.indices
+        return out
+    return _fit(ctx, "sphere", cloud, outliers, method, nominal_radius)
+
+
+def fit_cylinder(ctx, cloud, outliers: str = "none", nominal_radius: float | None = None) -> dict[str, Any]:
+    return _fit(ctx, "cylinder", cloud, outliers, nominal_radius=nominal_radius)
+
+
+def segment_spheres(ctx, cloud, nominal_radius: float, n_spheres: int | None = None,
+                    tolerance: float | None = None, min_points: int = 30) -> dict[str, Any]:
+    """Split a ball-bar or ball-plate cloud into its spheres."""
+    ctx.progress(0.05, "detecting spheres")
+    seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
+                              min_points=min_points)
+    for note in seg.notes:
+        ctx.warn(note)
+    out: dict[str, Any] = {
+        "n_spheres": len(seg.spheres),
+        "spheres": [s.to_dict() for s in seg.spheres],
+        "labels": seg.labels,
+    }
+    if isinstance(cloud, PointCloud):
+        out["clouds"] = [cloud.subset(s.indices) for s in seg.spheres]
+    return out
+
+
+def segment_sphere(ctx, cloud, nominal_radius: float | None = None, tolerance: float | None = None,
+                   viewpoint: list[float] | None = None, cone_half_angle: float | None = None) -> dict[str, Any]:
+    """Extract the sphere from a raw scan holding its mount and background."""
+    ctx.progress(0.05, "extracting the sphere")
+    seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
+                             cone_half_angle=cone_half_angle)
+    out = seg.to_dict()
+    out["n_points_raw"] = len(_points(cloud))
+    if isinstance(cloud, PointCloud):
+        out["cloud"] = cloud.subset(seg.indices)
+    return out
