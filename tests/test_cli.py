@@ -73,3 +73,26 @@ def test_demo_creates_a_project(tmp_path):
     assert len(doc["measurements"]) >= 4
     again = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
     assert again["measurements"] == doc["measurements"]  # re-opening does not duplicate
+
+
+@pytest.mark.parametrize("ext", [".ply", ".pcd", ".xyz", ".txt", ".csv", ".e57", ".stl", ".obj"])
+def test_info_json_reads_every_format(tmp_path, ext):
+    from camcmm.model import TriangleMesh
+
+    rng = np.random.default_rng(5)
+    if ext in (".stl", ".obj"):
+        obj = TriangleMesh(rng.uniform(-5, 5, (4, 3)), [[0, 1, 2], [0, 2, 3]])
+    else:
+        obj = PointCloud(rng.uniform(-5, 5, (300, 3)))
+    path = tmp_path / f"thing{ext}"
+    write(obj, path)
+    doc = json.loads(camcmm("info", path, "--json").stdout)
+    assert doc["unit"] == "mm"
+    if ext in (".stl", ".obj"):
+        assert doc["kind"] == "mesh" and doc["n_faces"] == 2
+        lo = obj.vertices.min(axis=0)
+    else:
+        assert doc["kind"] == "pointcloud" and doc["n_points"] == 300
+        lo = obj.points.min(axis=0)
+    # float32 formats (binary STL, PCD) keep ~7 significant digits
+    assert doc["bbox"]["min"] == pytest.approx(lo.tolist(), abs=1e-5)

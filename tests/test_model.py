@@ -12,7 +12,7 @@ def test_nan_and_inf_coordinates_are_refused_with_the_name():
     pts = np.zeros((10, 3))
     pts[4, 1] = np.nan
     pts[7, 2] = np.inf
-    with pytest.raises(InputError, match=r"scan.ply: 2 points have NaN or Inf coordinates \(first at index 4\)"):
+    with pytest.raises(InputError, match=r"scan.ply: 2 of 10 points have NaN or Inf coordinates \(first at index 4\)"):
         PointCloud(pts, name="scan.ply")
 
 

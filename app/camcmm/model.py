@@ -25,7 +25,7 @@ def _finite_xyz(array: Any, what: str, name: str) -> np.ndarray:
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
         raise InputError(
-            f"{name}: {int(bad.sum())} {what} have NaN or Inf coordinates (first at index {first})"
+            f"{name}: {int(bad.sum())} of {len(a)} {what} have NaN or Inf coordinates (first at index {first})"
         )
     return a
 
