@@ -81,6 +81,10 @@ def _active_lp(a_all, b_all, bounds, what):
         lo = np.flatnonzero(e < -t - tol)
         if len(hi) == 0 and len(lo) == 0:
             return sol
+        hi = hi[~np.isin(hi, act)]
+        lo = lo[~np.isin(lo, act)]
+        if len(hi) == 0 and len(lo) == 0:
+            return sol   # only rows of the active set, off by the LP's own tolerance
         add = []
         if len(hi):
             add.append(hi[np.argsort(-e[hi])[:_GROW]])
@@ -92,8 +96,19 @@ def _active_lp(a_all, b_all, bounds, what):
 
 def plane(yt: np.ndarray, state: np.ndarray, max_iter: int = 50) -> tuple[np.ndarray, float]:
     """Minimum-zone plane of normalised points (3, n) from the least-squares ``state``
-    ``[p, n]``. Returns (state of the mid-plane, zone width), normalised units."""
+    ``[p, n]``. Returns (state of the mid-plane, zone width), normalised units.
+
+    The orthogonal width never grows from one iteration to the next (the LP's vertical
+    width at the new tilt is at most that at zero tilt, and the orthogonal width is
+    the vertical one divided by sqrt(1 + α² + β²)); the iteration stops when the tilt
+    vanishes or the width no longer decreases.
+    """
+    def width(m, n):
+        r = n @ yt - n @ m
+        return float(r.max() - r.min())
+
     m, n = state[:3].copy(), state[3:].copy()
+    w = width(m, n)
     for _ in range(max_iter):
         b = complement(n)
         yc = yt - m[:, None]
@@ -101,9 +116,13 @@ def plane(yt: np.ndarray, state: np.ndarray, max_iter: int = 50) -> tuple[np.nda
         a = np.column_stack([np.ones(yt.shape[1]), (b @ yc).T])
         sol = _active_lp(a, h, [(None, None), (-1.0, 1.0), (-1.0, 1.0)], "minimum-zone plane")
         c, al, be = sol[:3]
-        m = m + c * n
         nn = n - al * b[0] - be * b[1]
-        n = nn / np.linalg.norm(nn)
+        nn /= np.linalg.norm(nn)
+        mm = m + c * n
+        w_new = width(mm, nn)
+        if w_new > w * (1 - 1e-15) and abs(al) + abs(be) > 1e-15:
+            break          # no further decrease: a stationary tilt (or a degenerate zone)
+        m, n, w = mm, nn, min(w, w_new)
         if abs(al) + abs(be) <= 1e-15:
             break
     else:

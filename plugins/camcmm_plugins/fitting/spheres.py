@@ -106,9 +106,18 @@ class HypersphereModel:
         return self._lm(yt, np.asarray(start, dtype=float), max_iter, xtol)
 
     def _lm(self, yt, p0, max_iter, xtol) -> LMResult:
-        res = levenberg_marquardt(lambda p: self.evaluate(p, yt), p0, lambda p, dp: p + dp,
-                                  max_iter=max_iter, xtol=xtol, what=f"{self.element} fit",
-                                  check=self._check_radius)
+        try:
+            res = levenberg_marquardt(lambda p: self.evaluate(p, yt), p0, lambda p, dp: p + dp,
+                                      max_iter=max_iter, xtol=xtol, what=f"{self.element} fit",
+                                      check=self._check_radius)
+        except GeometryError as exc:
+            s = principal_axes(subsample(yt, SUBSET))[1]
+            if s[-1] < 0.02 * s[0] and "diverges" not in str(exc):
+                flat = "a plane" if self.dim == 3 else "a line"
+                raise GeometryError(f"{self.element} fit: the points lie nearly on {flat} (thickness "
+                                    f"{s[-1] / s[0]:.1e} of their spread), which determines no {self.element}: "
+                                    f"{exc}") from None
+            raise
         if res.state[self.dim] < 0:
             raise GeometryError(f"{self.element} fit converged to a negative radius")
         return res
