@@ -451,12 +451,15 @@ class Session:
             log.debug("could not remember %s", key, exc_info=True)
 
     def restore(self) -> None:
-        """Show what was shown when the project was last open."""
+        """Show what was shown when the project was last open; a project opened for the
+        first time shows its first item, so the operator never faces an empty view."""
         try:
             key = self.project.get_state("gui.selected_item")
             field_name = self.project.get_state("gui.color_field")
         except Exception:
             return
+        if (key is None or str(key) not in self._measurements) and self._measurements:
+            key, field_name = next(iter(self._measurements)), None
         if key is not None and str(key) in self._measurements:
             if field_name:
                 self.state.color_field = field_name
