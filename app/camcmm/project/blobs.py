@@ -40,15 +40,6 @@ def check_hash(h: str) -> str:
     return h
 
 
-def sha256_file(path: str | os.PathLike) -> str:
-    """SHA-256 of a file, hex (the same as :func:`camcmm.hashing.file_hash`)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(CHUNK), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def fsync_dir(path: Path) -> None:
     """Make a rename or a new entry in ``path`` durable. Not possible on Windows,
     where NTFS journals metadata anyway, hence the quiet fallback."""

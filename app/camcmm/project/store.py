@@ -39,7 +39,8 @@ from typing import Any, Iterable, Iterator
 
 from ..errors import CamcmmError, InputError, ProjectError
 from . import schema
-from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext, sha256_file
+from ..hashing import file_hash
+from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext
 from .jsonutil import dumps, loads
 
 DB_NAME = "project.sqlite"
@@ -630,7 +631,7 @@ class Project:
                 problems.append(f"missing data file {path}")
             elif path.stat().st_size != r["size"]:
                 problems.append(f"data file {path} has {path.stat().st_size} bytes, expected {r['size']}")
-            elif hashes and sha256_file(path) != r["hash"]:
+            elif hashes and file_hash(path) != r["hash"]:
                 problems.append(f"data file {path} does not match its hash")
         return problems
 
