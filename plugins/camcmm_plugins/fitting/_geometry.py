@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 import scipy.linalg as sla
+from scipy.linalg.lapack import dgeqrf
 
 from camcmm.api import GeometryError, InputError
 
@@ -87,6 +88,17 @@ class Frame:
         return np.asarray(y) * self.scale + self.origin
 
 
+def qr_r(a: np.ndarray) -> np.ndarray:
+    """The (k, k) R factor of a tall matrix a (n, k) by LAPACK's Householder QR
+    (dgeqrf; only R is formed, which scipy.linalg.qr's mode 'r' does not manage for
+    tall matrices without a full-size triangular copy)."""
+    qr, _, _, info = dgeqrf(a)
+    if info != 0:
+        raise GeometryError(f"QR decomposition failed (LAPACK info {info})")
+    k = a.shape[1]
+    return np.triu(qr[:k])
+
+
 def principal_axes(yt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Centroid, singular values and principal directions (rows, largest first) of
     points given as columns (d, N).
@@ -98,9 +110,10 @@ def principal_axes(yt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     d, n = yt.shape
     m = yt.mean(axis=1)
     yc = yt - m[:, None]
-    m = m + yc.mean(axis=1)
-    yc = yt - m[:, None]
-    r = sla.qr(yc.T, mode="r", check_finite=False)[0][:d] if n > d else yc.T
+    corr = yc.mean(axis=1)
+    yc -= corr[:, None]
+    m = m + corr
+    r = qr_r(yc.T) if n > d else yc.T
     _, s, vt = np.linalg.svd(r, full_matrices=True)
     if len(s) < d:  # fewer points than dimensions
         s = np.concatenate([s, np.zeros(d - len(s))])
@@ -184,6 +197,23 @@ def gn_step(jt: np.ndarray, r: np.ndarray, lam: float = 0.0, what: str = "fit") 
     return ds / d
 
 
+def fit_covariance(res: "LMResult") -> np.ndarray:
+    """Covariance of a fit's local parameters (normalised units), from its Jacobian or,
+    for the closed-form fits, from its JᵀJ."""
+    ssr = float(res.r @ res.r)
+    if res.gram is None:
+        return covariance(res.jt, ssr)
+    g, n = res.gram
+    k = len(g)
+    if n - k <= 0:
+        return np.full((k, k), np.nan)
+    d = np.sqrt(np.diag(g))
+    w = np.linalg.eigvalsh(g / np.outer(d, d)) if d.all() else np.zeros(k)
+    if not w[0] > 1e-14 * w[-1]:
+        return np.full((k, k), np.nan)
+    return ssr / (n - k) * np.linalg.inv(g)
+
+
 def covariance(jt: np.ndarray, ssr: float) -> np.ndarray:
     """Covariance ``s² (JᵀJ)⁻¹`` of the parameters, ``s² = ssr / (n - p)``, from the
     transposed Jacobian ``jt`` (p, n).
@@ -201,7 +231,7 @@ def covariance(jt: np.ndarray, ssr: float) -> np.ndarray:
     if w[0] > w[-1] / COND_NORMAL:
         inv = sla.inv(gs, check_finite=False)
     else:
-        rfac = sla.qr(jt.T / d, mode="r", check_finite=False)[0][:k]
+        rfac = qr_r(jt.T / d)
         if abs(rfac.diagonal()).min() <= 1e-13 * abs(rfac.diagonal()).max():
             return np.full((k, k), np.nan)
         rinv = sla.solve_triangular(rfac, np.eye(k), check_finite=False)
@@ -229,6 +259,9 @@ class LMResult:
     #: to it) and the residuals there; the converged ``state`` is one tiny step further.
     eval_state: Any = None
     eval_r: np.ndarray | None = None
+    #: for closed-form fits (line, plane): JᵀJ and the number of residual components,
+    #: computed from moments instead of an (n, p) Jacobian (``jt`` is then None)
+    gram: tuple[np.ndarray, int] | None = None
 
 
 def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]], state: Any,

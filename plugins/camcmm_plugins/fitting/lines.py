@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._geometry import Frame, LMResult, complement, covariance, orient, principal_axes, propagate
+from ._geometry import Frame, LMResult, complement, fit_covariance, orient, principal_axes, propagate
 
 
 def _perp(a: np.ndarray) -> np.ndarray:
@@ -44,7 +44,7 @@ class LineModel:
 
     def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
             xtol: float = 0.0) -> LMResult:
-        m, _, vt = principal_axes(yt)
+        m, sv, vt = principal_axes(yt)
         a = vt[0]
         d = self.dim
         if start is not None and a @ start[d:] < 0:
@@ -52,26 +52,12 @@ class LineModel:
         elif start is None:
             a = orient(a)
         state = np.concatenate([m, a])
-        r, jt = self._components(state, yt)
-        return LMResult(state, r, jt, 0)
-
-    def _components(self, state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Stacked perpendicular residual components (k n,) and their transposed
-        Jacobian (2k, k n) w.r.t. the shifts of the line along the perpendicular
-        directions and its tilts towards them (k = d − 1)."""
-        d = self.dim
-        m, a = state[:d], state[d:]
-        b = _perp(a)
-        yc = yt - m[:, None]
-        z = a @ yc
-        comp = b @ yc                        # (k, n)
-        k = d - 1
-        n = yt.shape[1]
-        jt = np.zeros((2 * k, n * k))
-        for i in range(k):                   # k <= 2: a loop over components, not points
-            jt[i, i * n:(i + 1) * n] = -1.0
-            jt[k + i, i * n:(i + 1) * n] = -z
-        return comp.ravel(), jt
+        # The residual components across the line have Jacobian rows [−1, −z] per
+        # component (shift, tilt), z the position along the line from the centroid:
+        # JᵀJ = diag(N, …, Σz², …) with Σz² the largest squared singular value.
+        k, n = d - 1, yt.shape[1]
+        gram = np.diag([float(n)] * k + [float(sv[0] ** 2)] * k)
+        return LMResult(state, self.residuals(state, yt), None, 0, gram=(gram, k * n))
 
     def residuals(self, state: np.ndarray, yt: np.ndarray) -> np.ndarray:
         d = self.dim
@@ -82,7 +68,7 @@ class LineModel:
         d, s = self.dim, frame.scale
         m, a = res.state[:d], res.state[d:]
         k = d - 1
-        cov = covariance(res.jt, float(res.r @ res.r))
+        cov = fit_covariance(res)
         cov[:k, :] *= s
         cov[:, :k] *= s
         b = _perp(a)

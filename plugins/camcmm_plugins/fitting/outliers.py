@@ -26,6 +26,7 @@ minimum-zone element is fitted to the points the rule kept.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -155,16 +156,16 @@ def _downdater(model, y_used: np.ndarray, res: LMResult, cand: np.ndarray):
         return MomentsDowndater(key, y_used, res.state, cand)
     if kind == "sphere" or (kind == "circle" and model.dim == 2):
         d = model.dim
-        if res.eval_state is not None and res.jt.shape[1] == y_used.shape[1]:
+        if res.eval_state is not None and res.jt is not None and res.jt.shape[1] == y_used.shape[1]:
             # reuse the last Gauss-Newton evaluation: u = −Jᵀ rows, ρ = r + r_eval
             rho = res.eval_r + res.eval_state[d]
-            return HypersphereDowndater(y_used, res.eval_state, cand, pre=(-res.jt[:d], rho))
+            return HypersphereDowndater(y_used, res.eval_state, cand, pre=(res.jt[:d], rho))
         return HypersphereDowndater(y_used, res.state, cand)
     return None
 
 
 #: Candidates kept per outstanding removal, and the refresh period of their ordering.
-_CAND_FACTOR, _CAND_EXTRA, _REFRESH = 2, 64, 32
+_CAND_FACTOR, _CAND_EXTRA, _REFRESH = 2, 64, 256
 
 
 def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
@@ -212,57 +213,103 @@ def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
         try:
             _fast_steps(eng, idx, cand, absr[cand], tau_out, left, used, removed)
         except (_Undecided, ZeroDivisionError):
-            # Refit the current set exactly, take one naive step, and start afresh.
+            # Refit the current set exactly and take one naive step; the next engine is
+            # anchored at that fit (an anchor need not be the optimum of its set).
             res = model.fit(y[:, used], start=eng.state(), max_iter=max_iter)
             idx = np.flatnonzero(used)
             i = int(np.argmax(_abs_residuals(model, res, y[:, idx])))
             used[idx[i]] = False
             removed.append(int(idx[i]))
-            res = model.fit(y[:, used], start=res.state, max_iter=max_iter)
+            res = dataclasses.replace(res, r=np.delete(res.r, i) if len(res.r) == len(idx) else res.r,
+                                      jt=None, eval_state=None, eval_r=None)
+            if len(removed) == m:
+                res = model.fit(y[:, used], start=res.state, max_iter=max_iter)
             continue
         res = model.fit(y[:, used], start=eng.state(), max_iter=max_iter)
     return used, np.array(removed, dtype=np.int64), res
 
 
 def _fast_steps(eng, idx, cand, ref_abs, tau_out, steps, used, removed) -> None:
-    """Up to ``steps`` removals with the downdater ``eng``; raises _Undecided."""
-    alive = np.arange(len(cand))          # positions into cand, by decreasing reference |r|
-    ref = ref_abs.astype(float).copy()    # reference |r| by candidate position
-    since = 0
-    for _ in range(steps):
-        if len(alive) == 0:
-            raise _Undecided
-        if since >= _REFRESH:             # re-sort the candidates at the current solution
-            cur = np.abs(eng.residuals(alive))
-            order = np.lexsort((cand[alive], -cur))
-            alive = alive[order]
-            ref[alive] = cur[order]
-            eng.set_reference()
-            since = 0
-        eb = eng.error_bound()
-        drift = eng.drift()
-        outside = tau_out + eng.drift_anchor()
-        w = 16
+    """Up to ``steps`` removals with the downdater ``eng``; raises _Undecided.
+
+    ``queue`` holds the window's candidates sorted by |r| at the engine's state when it
+    was evaluated. A removal is made when the best candidate beats the next one and
+    the bound for everything else (``limit``) by more than the margins: ``eb`` (the
+    error of the engine's state: model error, and for a predicting engine the error
+    of its first-order update of the optimum) and ``pending`` (how far residuals may
+    have moved since the queue was evaluated). When a decision is not certain the
+    queue is re-evaluated, then the engine re-solved; only if it is still not certain
+    at a solved state does _Undecided send the driver to an exact refit.
+    """
+    alive = list(range(len(cand)))       # candidate positions, by decreasing reference |r|
+    ref = ref_abs.tolist()               # reference |r| by candidate position
+    order_key = cand.tolist()            # ties are broken by the lower index
+    gidx = idx[cand].tolist()            # global index of each candidate
+    inf = float("inf")
+    queue: list = []
+    limit = eb = pending = 0.0
+    since = done = 0
+
+    def refill(solve: bool):
+        nonlocal queue, limit, eb, pending, since, alive, ref
         while True:
-            win = alive[:w]
-            vals = np.abs(eng.residuals(win))
-            b = int(vals.argmax())
-            best = vals[b]
-            limit = outside if w >= len(alive) else max(ref[alive[w]] + drift, outside)
-            if best - eb > limit + eb:
-                break
-            if w >= len(alive):
+            if solve or eng.must_solve():
+                eng.solve()
+            exact = eng.lazy == 0
+            if since >= _REFRESH:         # re-sort the candidates at the current state
+                arr = np.array(alive)
+                cur = eng.absres(arr)
+                order = np.lexsort((cand[arr], -cur))
+                alive = arr[order].tolist()
+                ref_np = np.asarray(ref)
+                ref_np[arr] = cur
+                ref = ref_np.tolist()
+                eng.set_reference()
+                since = 0
+            eb, drift, drift0 = eng.bounds()
+            outside = tau_out + drift0
+            pending = 0.0
+            w = 16
+            while True:
+                win = alive[:w]
+                vals = eng.absres(win).tolist()
+                queue = sorted(zip(vals, win), key=lambda vp: (-vp[0], order_key[vp[1]]))
+                limit = max(ref[alive[w]] + drift, outside) if w < len(alive) else outside
+                if queue[0][0] - eb > limit + eb:
+                    if len(queue) == 1:
+                        queue.append((-inf, -1))
+                    return exact
+                if w >= len(alive):
+                    break
+                w *= 4
+            if exact:
                 raise _Undecided          # a point outside the candidates may be next
-            w *= 4
-        if np.count_nonzero(vals >= best - 2 * eb) > 1:
-            raise _Undecided              # two candidates too close to call: refit exactly
-        p = int(win[b])
-        eng.remove(p)
-        gi = int(idx[cand[p]])
+            solve = True
+
+    exact = False
+    while done < steps:
+        if len(queue) < 2:
+            if not alive:
+                raise _Undecided
+            exact = refill(False)
+        v1, p = queue[0]
+        margin = pending + eb
+        if v1 - margin <= max(queue[1][0], limit) + margin:
+            if exact:
+                raise _Undecided          # too close to call even at a solved state
+            exact = refill(not (eng.predictive and pending > 0))
+            continue
+        queue.pop(0)
+        pending += eng.remove(p, v1)
+        exact = False
+        alive.remove(p)
+        gi = gidx[p]
         used[gi] = False
         removed.append(gi)
-        alive = np.concatenate((alive[:b], alive[b + 1:]))
         since += 1
+        done += 1
+    if eng.lazy:
+        eng.solve()
 
 
 def _top(absr: np.ndarray, k: int) -> tuple[np.ndarray, float]:

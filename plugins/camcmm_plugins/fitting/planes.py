@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._geometry import FLAT, Frame, GeometryError, LMResult, complement, covariance, orient, principal_axes, propagate
+from ._geometry import FLAT, Frame, GeometryError, LMResult, complement, fit_covariance, orient, principal_axes, propagate
 
 
 @dataclass
@@ -34,24 +34,22 @@ class PlaneModel:
 
     def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
             xtol: float = 0.0) -> LMResult:
-        m, _, vt = principal_axes(yt)
+        m, sv, vt = principal_axes(yt)
         n = vt[2]
         if start is not None and n @ start[3:] < 0:
             n = -n
         elif start is None:
             n = orient(n)
         state = np.concatenate([m, n])
-        return LMResult(state, self.residuals(state, yt), self.jacobian(state, yt), 0)
-
-    @staticmethod
-    def jacobian(state: np.ndarray, yt: np.ndarray) -> np.ndarray:
-        """Transposed derivatives (3, n) of the residuals w.r.t. the offset along n and
-        the tilts about the point towards b1 and b2."""
-        b = complement(state[3:])
-        jt = np.empty((3, yt.shape[1]))
-        jt[0] = -1.0
-        jt[1:] = b @ yt - (b @ state[:3])[:, None]
-        return jt
+        # JᵀJ for (offset along n, tilts about the centroid towards b1, b2): the Jacobian
+        # rows are [−1, ξ, η] with in-plane coordinates of zero mean, so JᵀJ is
+        # diag(N, B S Bᵀ) with S the scatter matrix (from the singular values).
+        b = complement(n)
+        scatter = (vt.T * sv ** 2) @ vt
+        gram = np.zeros((3, 3))
+        gram[0, 0] = yt.shape[1]
+        gram[1:, 1:] = b @ scatter @ b.T
+        return LMResult(state, self.residuals(state, yt), None, 0, gram=(gram, yt.shape[1]))
 
     def residuals(self, state: np.ndarray, yt: np.ndarray) -> np.ndarray:
         return state[3:] @ yt - state[3:] @ state[:3]
@@ -59,7 +57,7 @@ class PlaneModel:
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale
         m, n = res.state[:3], res.state[3:]
-        cov = covariance(res.jt, float(res.r @ res.r))
+        cov = fit_covariance(res)
         cov[0, :] *= s
         cov[:, 0] *= s
         b = complement(n)
