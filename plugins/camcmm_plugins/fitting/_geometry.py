@@ -262,12 +262,15 @@ class LMResult:
     #: for closed-form fits (line, plane): JᵀJ and the number of residual components,
     #: computed from moments instead of an (n, p) Jacobian (``jt`` is then None)
     gram: tuple[np.ndarray, int] | None = None
+    #: the contraction rate observed in the last iterations (None if not seen)
+    rate: float | None = None
 
 
 def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]], state: Any,
                         update: Callable[[Any, np.ndarray], Any], *, max_iter: int = 100,
                         xtol: float = 1e-13, what: str = "fit",
-                        check: Callable[[Any], None] | None = None) -> LMResult:
+                        check: Callable[[Any], None] | None = None,
+                        rate_hint: float | None = None) -> LMResult:
     """Damped Gauss-Newton on orthogonal residuals.
 
     ``evaluate(state) -> (r, Jᵀ)`` gives the residuals and their (transposed, (p, n))
@@ -280,24 +283,27 @@ def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]]
     Convergence: a step whose length (normalised coordinates) times the observed
     contraction rate predicts a remaining error below ``xtol``. That last step is
     applied with the linearised residuals ``r + J δ`` (error O(|δ|²) < 1e-16), which
-    saves one pass over the data. Raises GeometryError after ``max_iter`` steps.
+    saves one pass over the data. Before two steps have been seen the contraction rate
+    is taken as 0.5, or as ``rate_hint`` (the rate observed when fitting nearly the same
+    points, for warm starts). Raises GeometryError after ``max_iter`` steps.
     """
     r, jt = evaluate(state)
     ssr = float(r @ r)
     lam = 0.0
     prev = None
     step = np.inf
+    first_rate = 0.5 if rate_hint is None else min(max(rate_hint, 1e-6), 0.5)
     for it in range(1, max_iter + 1):
         delta = gn_step(jt, r, lam, what)
         step = float(np.linalg.norm(delta))
         if not np.isfinite(step):
             raise GeometryError(f"{what}: the iteration produced a non-finite step")
-        rate = min(step / prev, 0.5) if prev else 0.5
+        rate = min(step / prev, 0.5) if prev else (first_rate if it == 1 else 0.5)
         if step <= 1e-7 and step * rate / (1.0 - rate) <= xtol:
             new = update(state, delta)
             if check is not None:
                 check(new)
-            return LMResult(new, r + delta @ jt, jt, it, state, r)
+            return LMResult(new, r + delta @ jt, jt, it, state, r, rate=rate if prev else None)
         new = update(state, delta)
         if check is not None:
             check(new)

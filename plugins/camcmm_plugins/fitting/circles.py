@@ -78,6 +78,9 @@ class Circle3DModel:
         n = n + dp[3] * b[0] + dp[4] * b[1]
         return np.concatenate([c, n / np.linalg.norm(n), [r + dp[5]]])
 
+    def advance(self, state: np.ndarray, dp: np.ndarray) -> np.ndarray:
+        return self.update(state, dp)
+
     def residuals(self, state: np.ndarray, yt: np.ndarray) -> np.ndarray:
         h, _, rho = self._parts(state, yt)
         e = rho - state[6]
@@ -97,17 +100,18 @@ class Circle3DModel:
             raise GeometryError("circle fit: the radius diverges; the points lie nearly on a line")
 
     def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13) -> LMResult:
+            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
         if start is None:
             sub = subsample(yt, SUBSET)
             start = self.start(sub)
             if sub is not yt:
                 start = self._lm(sub, start, max_iter, 1e-10).state
-        return self._lm(yt, start, max_iter, xtol)
+        return self._lm(yt, start, max_iter, xtol, rate_hint)
 
-    def _lm(self, yt, state, max_iter, xtol) -> LMResult:
+    def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
         return levenberg_marquardt(lambda s: self.evaluate(s, yt), np.asarray(state, float), self.update,
-                                   max_iter=max_iter, xtol=xtol, what="circle fit", check=self._check)
+                                   max_iter=max_iter, xtol=xtol, what="circle fit", check=self._check,
+                                   rate_hint=rate_hint)
 
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale

@@ -98,6 +98,9 @@ class CylinderModel:
         p = p + ((centroid - p) @ a) * a
         return np.concatenate([p, a, [r + dp[4]]])
 
+    def advance(self, state: np.ndarray, dp: np.ndarray) -> np.ndarray:
+        return self.update(state, dp, state[:3])
+
     def residuals(self, state: np.ndarray, yt: np.ndarray) -> np.ndarray:
         return self._parts(state, yt)[2] - state[6]
 
@@ -105,11 +108,12 @@ class CylinderModel:
         if not abs(state[6]) < DIVERGED:
             raise GeometryError("cylinder fit: the radius diverges; the points lie nearly on a plane")
 
-    def _lm(self, yt, state, max_iter, xtol) -> LMResult:
+    def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
         centroid = yt.mean(axis=1)
         return levenberg_marquardt(lambda s: self.evaluate(s, yt), np.asarray(state, float),
                                    lambda s, dp: self.update(s, dp, centroid), max_iter=max_iter,
-                                   xtol=xtol, what="cylinder fit", check=self._check)
+                                   xtol=xtol, what="cylinder fit", check=self._check,
+                                   rate_hint=rate_hint)
 
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (see the module docstring) on up to SCREEN points."""
@@ -136,13 +140,13 @@ class CylinderModel:
         return best
 
     def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13) -> LMResult:
+            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
         if start is None:
             start = self.start(yt)
             sub = subsample(yt, SUBSET)
             if sub is not yt:
                 start = self._lm(sub, start, max_iter, 1e-10).state
-        return self._lm(yt, start, max_iter, xtol)
+        return self._lm(yt, start, max_iter, xtol, rate_hint)
 
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale

@@ -96,20 +96,20 @@ class HypersphereModel:
             raise GeometryError(f"{self.element} fit: the radius diverges; the points lie nearly on {flat}")
 
     def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13) -> LMResult:
+            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
         """Least-squares fit to normalised points (d, n); ``start`` a previous state."""
         if start is None:
             sub = subsample(yt, SUBSET)
             start = algebraic(sub)
             if sub is not yt:
                 start = self._lm(sub, start, max_iter, 1e-10).state
-        return self._lm(yt, np.asarray(start, dtype=float), max_iter, xtol)
+        return self._lm(yt, np.asarray(start, dtype=float), max_iter, xtol, rate_hint)
 
-    def _lm(self, yt, p0, max_iter, xtol) -> LMResult:
+    def _lm(self, yt, p0, max_iter, xtol, rate_hint=None) -> LMResult:
         try:
             res = levenberg_marquardt(lambda p: self.evaluate(p, yt), p0, lambda p, dp: p + dp,
                                       max_iter=max_iter, xtol=xtol, what=f"{self.element} fit",
-                                      check=self._check_radius)
+                                      check=self._check_radius, rate_hint=rate_hint)
         except GeometryError as exc:
             s = principal_axes(subsample(yt, SUBSET))[1]
             if s[-1] < 0.02 * s[0] and "diverges" not in str(exc):
