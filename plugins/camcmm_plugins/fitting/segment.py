@@ -86,15 +86,21 @@ def _detect(x: np.ndarray, radius: float, n_max: int | None, min_votes: int) -> 
     alive = np.ones(len(votes), dtype=bool)
     tree = cKDTree(votes)
     centres: list[np.ndarray] = []
+    cells = np.floor((votes - votes.min(axis=0)) / cell).astype(np.int64)
+    dims = cells.max(axis=0) + 1
+    keys_all = (cells[:, 0] * dims[1] + cells[:, 1]) * dims[2] + cells[:, 2]   # one integer per cell
+    origin = votes.min(axis=0)
     while n_max is None or len(centres) < n_max:
-        v = votes[alive]
-        if len(v) < min_votes:
+        keys = keys_all[alive]
+        if len(keys) < min_votes:
             break
-        keys, counts = np.unique(np.floor(v / cell).astype(np.int64), axis=0, return_counts=True)
+        uniq, counts = np.unique(keys, return_counts=True)
         best = int(np.argmax(counts))
         if counts[best] < min_votes:
             break
-        c = (keys[best] + 0.5) * cell
+        k = int(uniq[best])
+        ijk = np.array([k // (dims[1] * dims[2]), (k // dims[2]) % dims[1], k % dims[2]])
+        c = origin + (ijk + 0.5) * cell
         for _ in range(10):  # mean shift on the live votes within one cell of c
             near = np.array(tree.query_ball_point(c, cell), dtype=np.int64)
             near = near[alive[near]] if len(near) else near
@@ -151,10 +157,22 @@ def _ransac(x: np.ndarray, trials: int = 4000, seed: int = 0) -> np.ndarray:
 
 
 def _refine(x: np.ndarray, center: np.ndarray, radius: float, tolerance: float | None,
-            fixed_band: float | None = None, rounds: int = 8):
-    """Least-squares sphere of the points near (center, radius); returns (mask, fit)."""
+            rounds: int = 8):
+    """Least-squares sphere of the points near (center, radius); returns (indices, fit).
+
+    Only the points in a box of half-width 1.5 R about the detected centre are looked
+    at (one pass over the cloud), which keeps the rounds cheap on big clouds."""
     from .api import fit_sphere
 
+    box = np.flatnonzero((np.abs(x - center) <= 1.5 * radius).all(axis=1))
+    if len(box) < 4:
+        raise GeometryError(f"sphere near {np.round(center, 3).tolist()} mm: only {len(box)} points near it")
+    xb = x[box]
+    mask, res = _refine_rounds(xb, center, radius, tolerance, rounds, fit_sphere)
+    return box[mask], res
+
+
+def _refine_rounds(x, center, radius, tolerance, rounds, fit_sphere):
     band = tolerance if tolerance is not None else 0.15 * radius
     c, r = np.asarray(center, float), float(radius)
     mask = None
@@ -205,36 +223,40 @@ def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None
     notes = []
     for c in centres:
         try:
-            mask, res = _refine(x, c, nominal_radius, tolerance)
+            idx, res = _refine(x, c, nominal_radius, tolerance)
         except GeometryError as exc:
             notes.append(str(exc))
             continue
         r = res.params["radius"]
-        if abs(r - nominal_radius) > radius_tolerance * nominal_radius or mask.sum() < min_points:
+        if abs(r - nominal_radius) > radius_tolerance * nominal_radius or len(idx) < min_points:
             notes.append(f"candidate at {np.round(res.params['center'], 3).tolist()} mm dropped "
-                         f"(radius {r:.4g} mm, {int(mask.sum())} points)")
+                         f"(radius {r:.4g} mm, {len(idx)} points)")
             continue
         if any(np.linalg.norm(res.params["center"] - f.params["center"]) < nominal_radius for _, f in found):
             continue  # the same sphere found twice
-        found.append((mask, res))
+        found.append((idx, res))
     if not found:
         raise GeometryError(f"no sphere of radius {nominal_radius:g} mm found in {len(x)} points")
-    found.sort(key=lambda mf: tuple(mf[1].params["center"]))
+    # order: by x, then y, then z, on a grid of the nominal radius (so that spheres in a
+    # row of a ball plate come out in order, whatever the noise in their coordinates)
+    found.sort(key=lambda f: tuple(np.round(f[1].params["center"] / nominal_radius)) + tuple(f[1].params["center"]))
     # each point to the sphere it is closest to (in |distance − radius|), within its band
-    dev = np.full((len(found), len(x)), np.inf)
-    for k, (mask, res) in enumerate(found):
-        d = np.abs(np.linalg.norm(x - res.params["center"], axis=1) - res.params["radius"])
-        dev[k, mask] = d[mask]
-    labels = np.where(np.isfinite(dev).any(axis=0), np.argmin(dev, axis=0), -1)
+    labels = np.full(len(x), -1, dtype=np.int64)
+    best = np.full(len(x), np.inf)
+    for k, (idx, res) in enumerate(found):
+        d = np.abs(np.linalg.norm(x[idx] - res.params["center"], axis=1) - res.params["radius"])
+        better = d < best[idx]
+        labels[idx[better]] = k
+        best[idx[better]] = d[better]
     from .api import fit_sphere
 
     spheres = []
-    for k, (mask, res) in enumerate(found):
-        idx = np.flatnonzero(labels == k)
-        if len(idx) != int(mask.sum()):
-            res = fit_sphere(x[idx])
-        spheres.append(SphereSegment(idx, res))
-    return Segmentation(spheres, labels.astype(np.int64), notes)
+    for k, (idx, res) in enumerate(found):
+        own = np.flatnonzero(labels == k)
+        if len(own) != len(idx):
+            res = fit_sphere(x[own])
+        spheres.append(SphereSegment(own, res))
+    return Segmentation(spheres, labels, notes)
 
 
 def extract_sphere(points: Any, nominal_radius: float | None = None, *, tolerance: float | None = None,
@@ -258,17 +280,18 @@ def extract_sphere(points: Any, nominal_radius: float | None = None, *, toleranc
     else:
         cr = _ransac(x)
         c, r = cr[:3], float(cr[3])
-    mask, res = _refine(x, c, r, tolerance)
+    idx, res = _refine(x, c, r, tolerance)
     if cone_half_angle is not None:
         vp = np.zeros(3) if viewpoint is None else np.asarray(viewpoint, float)
-        keep = mask & _cone(x, res.params["center"], vp, cone_half_angle)
+        xi = x[idx]
+        keep = _cone(xi, res.params["center"], vp, cone_half_angle)
         from .api import fit_sphere
 
         for _ in range(5):
-            res = fit_sphere(x[keep])
-            new = mask & _cone(x, res.params["center"], vp, cone_half_angle)
+            res = fit_sphere(xi[keep])
+            new = _cone(xi, res.params["center"], vp, cone_half_angle)
             if np.array_equal(new, keep):
                 break
             keep = new
-        mask = keep
-    return SphereSegment(np.flatnonzero(mask), res)
+        idx = idx[keep]
+    return SphereSegment(idx, res)
