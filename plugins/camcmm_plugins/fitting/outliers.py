@@ -191,7 +191,9 @@ def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
     while len(removed) < m:
         idx = np.flatnonzero(used)
         yu = y[:, idx] if len(idx) < n else y
-        if len(res.r) == len(idx):           # residuals of the fit, at its solution
+        if res.eval_r is not None and res.jt is not None and len(res.eval_r) == len(idx):
+            absr = np.abs(res.eval_r)        # at the last evaluated state: the engine's anchor
+        elif len(res.r) == len(idx):         # residuals of the fit, at its solution
             absr = np.abs(res.r)
         else:
             absr = _abs_residuals(model, res, yu)
