@@ -14,6 +14,7 @@ from .host import RunContext, RunResult, default_host
 from .io import read, write
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
+from .report import Report, charts
 from .units import to_mm_factor
 
 
@@ -28,6 +29,6 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
 
 __all__ = [
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
-    "Param", "ParameterError", "PluginError", "PointCloud", "RunContext", "RunResult", "TriangleMesh",
-    "combine", "get_algorithm", "guarded_verdict", "read", "simple_verdict", "to_mm_factor", "write",
+    "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
+    "charts", "combine", "get_algorithm", "guarded_verdict", "read", "simple_verdict", "to_mm_factor", "write",
 ]
