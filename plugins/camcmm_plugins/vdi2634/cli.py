@@ -1,0 +1,67 @@
+"""``camcmm verify PLAN.yaml [--json] [--report DIR] [--workers N]``.
+
+The plan names its standard (``standard: vdi2634-2``); the command runs that standard
+plugin through the host (so the run carries plugin id, version and input hashes) and,
+with ``--report``, writes the HTML/PDF/JSON report. The core adds ``--json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from camcmm.api import InputError, PluginError, default_host
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("plan", help="test plan (YAML); measurement paths are relative to it")
+    parser.add_argument("--report", metavar="DIR", help="write the report (HTML, PDF, JSON) into this folder")
+    parser.add_argument("--workers", type=int, help="measurements evaluated at the same time (default: up to 4)")
+
+
+def _standard_of(path: Path) -> str:
+    if not path.is_file():
+        raise InputError(f"{path}: plan file not found")
+    try:
+        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        raise InputError(f"{path.name}: not a valid YAML plan ({' '.join(str(exc).split())})") from None
+    std = doc.get("standard") if isinstance(doc, dict) else None
+    if not isinstance(std, str) or not std:
+        raise InputError(f"{path.name}: standard is missing; say which standard the plan is for (e.g. vdi2634-2)")
+    return std
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    path = Path(args.plan)
+    std = _standard_of(path)
+    host = default_host()
+    spec = host.get(std)
+    if spec.kind != "standard":
+        raise PluginError(f"{path.name}: standard {std!r} is a {spec.kind} plugin, not a standard")
+    params = {"workers": args.workers} if args.workers else {}
+    res = host.run(std, {"plan": path}, params)
+    result = res.outputs
+    result["run"] = {"plugin": res.plugin_id, "version": res.plugin_version, "input_hashes": res.input_hashes,
+                     "started": res.started, "finished": res.finished}
+    if args.report:
+        result["report"] = {k: str(v) for k, v in host.load(std).write_report(result, args.report, path).items()}
+    return result
+
+
+def text(result: dict[str, Any]) -> str:
+    lines = [f"{result.get('standard_name', result['standard'])}: {result['verdict'].upper()} "
+             f"(guarded acceptance: {result.get('verdict_guarded', '-')})"]
+    lines.append(f"{'':3}{'parameter':34}{'value/mm':>10}{'MPE/mm':>9}{'U/mm':>9}  verdict / guarded")
+    for key, p in result["parameters"].items():
+        v = "-" if p["value"] is None else f"{p['value']:+.4f}"
+        lines.append(f"{'':3}{p.get('name', key):34}{v:>10}{p['mpe']:>9.4f}{p.get('U', 0):>9.4f}  "
+                     f"{p['verdict']} / {p.get('verdict_guarded', '-')}")
+    for w in result.get("warnings", []):
+        lines.append(f"warning: {w}")
+    if result.get("report"):
+        lines.append("report: " + ", ".join(result["report"].values()))
+    return "\n".join(lines)

@@ -1,0 +1,231 @@
+"""The traceable report of an acceptance test, built with the core report module
+(``camcmm.report``: one document rendered as HTML, PDF and JSON).
+
+Contents: the verdict of every quality parameter under both decision rules (simple
+acceptance per VDI/VDE 2634, guarded acceptance per ISO 14253-1), the system, the
+artefacts with their certificates, the artefact-rule checks, a table and a chart per
+test with every position, the deviation colour map of each sphere and flat, part-3
+lengths with their ISO 15530-3 uncertainties, the test uncertainty behind the guarded
+rule, warnings, and the provenance: software version, plugin versions (this standard
+and the fits it used), and the SHA-256 of every input file. The JSON file carries the
+full result of ``camcmm verify --json`` as its ``data``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+from .standard import plain
+
+TEST_TITLES = {"sphere": "Probing errors P_F and P_S (sphere)", "ball_bar": "Sphere-spacing error SD (ball bar)",
+               "flat": "Flatness measurement error F (flat)", "ball_plate": "Sphere-spacing error SD (ball plate)"}
+SYMBOLS = {"PF": "P_F", "PS": "P_S", "SD": "SD", "F": "F"}
+CERT_NAMES = {"diameter": "diameter", "form": "form deviation", "length": "length", "flatness": "flatness",
+              "sphere_diameter": "sphere diameter", "length_1": "L1 = |c1 c2|", "length_2": "L2 = |c2 c3|",
+              "length_3": "L3 = |c3 c1|"}
+
+
+def report_api():
+    """(Report, charts) of the core report module.
+
+    Plugins import ``camcmm.api`` only. The report API is not re-exported there yet, so
+    it is looked up at run time here; once ``camcmm.api`` exports ``Report`` and
+    ``charts`` this takes them from there."""
+    api = importlib.import_module("camcmm.api")
+    if hasattr(api, "Report") and hasattr(api, "charts"):
+        return api.Report, api.charts
+    mod = importlib.import_module("camcmm.report")
+    return mod.Report, mod.charts
+
+
+def _mm(v: Any, signed: bool = False) -> str:
+    if v is None:
+        return "-"
+    return f"{v:+.4f} mm" if signed else f"{v:.4f} mm"
+
+
+def _label(ev: dict[str, Any]) -> str:
+    pos = ev.get("position") or ev.get("file") or "?"
+    return pos + (f" #{ev['repeat']}" if (ev.get("repeat") or 1) > 1 or ev.get("_repeats") else "")
+
+
+def _result_section(r, result: dict[str, Any]) -> None:
+    s = r.section("Result")
+    s.paragraph(f"Verdict: {result['verdict'].upper()} (simple acceptance); "
+                f"{result['verdict_guarded'].upper()} under guarded acceptance (ISO 14253-1).")
+    for key, p in result["parameters"].items():
+        signed = key in ("PS", "SD")
+        note = "; ".join(p.get("incomplete_reasons") or [])
+        s.verdict(SYMBOLS.get(key, key), simple=p["verdict"], guarded=p["verdict_guarded"],
+                  value=_mm(p["value"], signed), limit=_mm(p["mpe"]), uncertainty=_mm(p["U"]), note=note)
+    for rule, text in result.get("decision_rules", {}).items():
+        s.paragraph(f"{rule}: {text}.")
+    s.paragraph("A parameter is incomplete when one of its measurements failed or fewer measurements than the "
+                "standard requires were evaluated; an incomplete test never passes.")
+
+
+def _system_section(r, result: dict[str, Any]) -> None:
+    sysd = result["system"]
+    s = r.section("System and test")
+    kv = {"System": sysd.get("name") or "-",
+          "Measuring volume": " x ".join(f"{v:g}" for v in sysd["measuring_volume"]) + " mm",
+          "Longest diagonal L0": f"{sysd['diagonal']:.2f} mm", "Standard": result.get("standard_name", ""),
+          "Outlier rules": ", ".join(f"{t}: {rule}" for t, rule in result.get("outliers", {}).items())}
+    if result.get("scaling"):
+        kv["Scaling"] = ", ".join(f"{t}: {m}" for t, m in result["scaling"].items())
+    if result.get("repeats"):
+        kv["Repeats per position"] = result["repeats"]
+    s.keyvalues(kv)
+    rows = []
+    for test, art in result["artefacts"].items():
+        for name, c in art["certificates"].items():
+            rows.append([test.replace("_", " "), CERT_NAMES.get(name, name), c["value"], c["uncertainty"], c["k"]])
+        for name, v in art["nominal"].items():
+            if name not in art["certificates"] and isinstance(v, (int, float)):
+                rows.append([test.replace("_", " "), f"{CERT_NAMES.get(name, name)} (nominal)", v, None, None])
+    s.table(["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows, caption="Artefacts and calibration certificates")
+    checks = result.get("artefact_checks") or []
+    if checks:
+        s.table(["Artefact", "Rule", "Value [mm]", "Limit", "Met"],
+                [[c["artefact"], c["rule"], c["value"], c["limit"], "yes" if c["ok"] else "NO"] for c in checks],
+                caption="Artefact rules (VDI/VDE 2634 part 2) against the measuring volume")
+        for c in checks:
+            if not c["ok"]:
+                s.warning(c["text"])
+
+
+def _test_rows(test: str, evs: list[dict[str, Any]]) -> tuple[list[str], list[list[Any]]]:
+    if test == "sphere":
+        cols = ["Position", "File", "Points", "Removed", "D_a [mm]", "P_F [mm]", "P_S [mm]", "Scale"]
+        get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("diameter"), e["values"]["PF"],  # noqa: E731
+                         e["values"]["PS"], e.get("scale")]
+    elif test == "ball_bar":
+        cols = ["Position", "File", "Points", "D1 [mm]", "D2 [mm]", "L_a [mm]", "SD [mm]"]
+        get = lambda e: [e.get("n_points"), e["spheres"][0]["diameter"], e["spheres"][1]["diameter"],  # noqa: E731
+                         e["length"], e["values"]["SD"]]
+    elif test == "flat":
+        cols = ["Position", "File", "Points", "Removed", "Covered [mm]", "F [mm]"]
+        get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("covered_length"), e["values"]["F"]]  # noqa: E731
+    else:
+        cols = ["Position", "File", "Scale", "L1 [mm]", "L2 [mm]", "L3 [mm]", "SD1 [mm]", "SD2 [mm]", "SD3 [mm]"]
+        get = lambda e: [e.get("scale"), *e["lengths"], *e["values"]["SD"]]  # noqa: E731
+    if test == "sphere" and all((e.get("scale") or 1.0) == 1.0 for e in evs):
+        cols, full = cols[:-1], get
+        get = lambda e: full(e)[:-1]  # noqa: E731  (no scale column for metric systems)
+    rows = []
+    for e in evs:
+        if e.get("error"):
+            rows.append([_label(e), e.get("file"), *([None] * (len(cols) - 2)), f"ERROR: {e['error']}"])
+        else:
+            rows.append([_label(e), e.get("file"), *(_round(v) for v in get(e))])
+    return cols, rows
+
+
+def _round(v: Any) -> Any:
+    """Table cells to 0.1 um (the JSON data keeps full precision)."""
+    return round(v, 4) if isinstance(v, float) else v
+
+
+def _map(charts, e: dict[str, Any], test: str):
+    dev = e.get("deviations")
+    if dev is None or not hasattr(dev, "points") or "deviation" not in getattr(dev, "fields", {}):
+        return None
+    if test == "sphere":
+        return charts.deviation_map(dev.points, dev.fields["deviation"], kind="sphere", center=e["center"],
+                                    title=_label(e))
+    return charts.deviation_map(dev.points, dev.fields["deviation"], kind="plane", normal=e["normal"],
+                                title=_label(e))
+
+
+def _test_section(r, charts, test: str, evs: list[dict[str, Any]], result: dict[str, Any]) -> None:
+    s = r.section(TEST_TITLES[test])
+    reps = any((e.get("repeat") or 1) > 1 for e in evs)
+    for e in evs:
+        e["_repeats"] = reps
+    cols, rows = _test_rows(test, evs)
+    if any(len(row) > len(cols) for row in rows):
+        cols = cols + ["Note"]
+        rows = [row + [""] * (len(cols) - len(row)) for row in rows]
+    s.table(cols, rows, caption=f"Every {test.replace('_', ' ')} measurement")
+    ok = [e for e in evs if not e.get("error")]
+    for key in ("PF", "PS", "SD", "F"):
+        p = result["parameters"].get(key)
+        if p is None or not any(row.get("test") == test for row in p["per_measurement"]):
+            continue
+        rws = [row for row in p["per_measurement"] if row.get("test") == test]
+        labels = [f"{_label(row)}{' ' + row['item'] if row.get('item') else ''}" for row in rws]
+        s.figure(charts.bar_chart(labels, [row["value"] for row in rws], limit=p["mpe"], unit="mm",
+                                  title=f"{p['name']} per measurement, MPE {p['mpe']:g} mm"),
+                 caption=f"{p['name']}: bars per measurement, dashed lines at the MPE")
+    if test in ("sphere", "flat"):
+        for e in ok:
+            try:
+                png = _map(charts, e, test)
+            except Exception as exc:  # a map that cannot be drawn must not lose the report
+                s.warning(f"{_label(e)}: no deviation map ({exc})")
+                continue
+            if png is not None:
+                s.figure(png, caption=f"{_label(e)} ({e.get('file')}): deviations from the least-squares "
+                                      f"{'sphere' if test == 'sphere' else 'plane'}", width_mm=80)
+    for e in evs:
+        e.pop("_repeats", None)
+
+
+def _part3_sections(r, result: dict[str, Any]) -> None:
+    if result.get("lengths"):
+        s = r.section("Ball-plate lengths (thesis table 4.2, ISO 15530-3)")
+        s.table(["Length", "Calibrated [mm]", "Mean [mm]", "Mean - cal. [mm]", "Std [mm]", "n", "U (k=2) [mm]"],
+                [[x["name"], x.get("calibrated"), x.get("mean"), x.get("mean_deviation"), x.get("std"), x["n"],
+                  x.get("U_iso15530_3")] for x in result["lengths"]],
+                caption="U = k sqrt(u_cal² + u_p²) (thesis eq. 4.1, u_b = u_w = 0)")
+    iso = result.get("iso15530_3")
+    if iso:
+        s = r.section("Sphere size and form (thesis table 4.1, ISO 15530-3)")
+        s.keyvalues({"Mean diameter": _mm(iso["size"].get("mean")), "Std of diameters": _mm(iso["size"].get("std")),
+                     "U size (k=2)": _mm(iso["size"].get("U_iso15530_3")),
+                     "Mean std of radial deviations": _mm(iso["form"].get("mean_std")),
+                     "U form (k=2)": _mm(iso["form"].get("U_iso15530_3"))})
+
+
+def _uncertainty_section(r, result: dict[str, Any]) -> None:
+    s = r.section("Uncertainty of the test (for guarded acceptance)")
+    s.table(["Parameter", "U (k=2) [mm]", "Basis"],
+            [[p["name"], p["U"], p["uncertainty"]["basis"]] for p in result["parameters"].values()])
+    s.paragraph("Only the artefacts' calibration enters U: ISO 14253-1 asks for the uncertainty of the test. "
+                "Form and flatness certificates are counted in full (a known bound on the artefact's share).")
+
+
+def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
+    """Render the report of ``result`` (from a standard's __call__/summarize) into
+    ``directory``; returns {"html", "pdf", "json"} paths."""
+    Report, charts = report_api()
+    prov = result.get("provenance", {})
+    r = Report(f"{result.get('standard_name', result['standard'])} acceptance test",
+               subtitle=result["system"].get("name") or "",
+               meta={"Standard": result["standard"], "Plan": prov.get("plan"),
+                     "Verdict": result["verdict"], "Verdict (guarded)": result["verdict_guarded"]})
+    _result_section(r, result)
+    _system_section(r, result)
+    for test, evs in result["measurements"].items():
+        _test_section(r, charts, test, evs, result)
+    _part3_sections(r, result)
+    _uncertainty_section(r, result)
+    if result.get("warnings"):
+        s = r.section("Warnings")
+        for w in result["warnings"]:
+            s.warning(w)
+    inputs = [i for i in prov.get("inputs", []) if i.get("sha256")]
+    r.provenance(software=f"camcmm {prov.get('software', {}).get('camcmm', '?')}",
+                 plugins=prov.get("plugins", []), inputs=inputs,
+                 extra={"plan": prov.get("plan"), "missing inputs": ", ".join(
+                     str(i.get("file")) for i in prov.get("inputs", []) if not i.get("sha256")) or "none"})
+    r.data = _data(result)
+    return r.write(Path(directory))
+
+
+def _data(result: dict[str, Any]) -> Any:
+    """The result as JSON data: clouds left out (their summary stays)."""
+    return plain(result)
+

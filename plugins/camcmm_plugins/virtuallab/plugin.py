@@ -1,0 +1,64 @@
+"""Entry points of the virtual lab (see plugin.yaml for the parameters)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import ParameterError, PointCloud
+
+from . import artefacts, sensor as sensors
+from .distortion import VolumeDistortion
+from .simulate import simulate
+
+
+def build_scene(artefact: str, center, direction, normal, diameter: float, length: float, width: float,
+                lengths, scale_diameter: float, rotation: float, tilt: float):
+    """(scene, truth) for one artefact; lengths in mm."""
+    if artefact == "sphere":
+        return artefacts.sphere(center, diameter)
+    if artefact == "ball_bar":
+        return artefacts.ball_bar(center, direction, length, diameter)
+    if artefact == "flat":
+        axis, n = artefacts.axes_from(direction, normal)
+        return artefacts.flat(center, axis, n, length, width)
+    if artefact == "ball_plate":
+        return artefacts.ball_plate(center, lengths, diameter, rotation, tilt)
+    if artefact == "sphere_with_scale":
+        return artefacts.sphere_with_scale(center, diameter, scale_diameter)
+    raise ParameterError(f"unknown artefact {artefact!r}")
+
+
+def make_sensor(kind: str, camera_azimuth: float = 0.0) -> sensors.Sensor:
+    if kind == "turntable":
+        return sensors.turntable(start_azimuth=camera_azimuth)
+    if kind == "full":
+        return sensors.full()
+    return sensors.stereo_fringe()
+
+
+def artefact_cloud(ctx, artefact: str = "sphere", center=(0, 0, 0), direction=(1, 0, 0), normal=None,
+                   diameter: float = 20.0, length: float = 50.0, width: float = 60.0,
+                   lengths=(5.942, 7.956, 9.957), scale_diameter: float = 5.0, rotation: float = 0.0,
+                   tilt: float = 0.0, sensor: str = "stereo_fringe", camera_azimuth: float = 0.0,
+                   n_points: int = 20000, noise: float = 0.01, noise_model: str = "normal",
+                   scale_error: float = 0.0, axis_scale=(0, 0, 0), quadratic: float = 0.0, amplitude: float = 0.0,
+                   wavelength: float = 40.0, measuring_volume=(100, 100, 100), reconstruction_scale: float = 1.0,
+                   unit: str = "mm", seed: int = 0) -> dict[str, Any]:
+    """Simulate one measurement; returns ``cloud`` and ``truth``."""
+    ctx.progress(0.05, "building the scene")
+    try:
+        scene, truth = build_scene(artefact, center, direction, normal, diameter, length, width, lengths,
+                                   scale_diameter, rotation, tilt)
+    except ValueError as exc:
+        raise ParameterError(f"virtuallab.artefact-cloud: {exc}") from None
+    dist = VolumeDistortion(scale_error, np.asarray(axis_scale, float), quadratic, amplitude, wavelength,
+                            reference_radius=float(np.linalg.norm(measuring_volume)) / 2)
+    ctx.progress(0.2, "sampling what the sensor sees")
+    pts, lab, truth = simulate(scene, truth, make_sensor(sensor, camera_azimuth), n_points, noise, noise_model,
+                               dist, reconstruction_scale, unit, seed)
+    if len(pts) < n_points:
+        ctx.warn(f"the sensor sees only {len(pts)} of the {n_points} points asked for")
+    cloud = PointCloud(pts, fields={"primitive": lab.astype(np.float64)}, name=f"simulated {artefact}")
+    return {"cloud": cloud, "truth": truth}
