@@ -12,10 +12,11 @@ In one run, on the same data (a sphere of radius 10 mm, 10 000 mm from the origi
 * for information: the least-squares and minimum-zone plane of a million points, the
   vdi2634 plane, and a cylinder of 200 000 points.
 
-    .venv/bin/python benchmarks/bench_fit.py [-n 1000000] [--repeat 3]
+    .venv/bin/python benchmarks/bench_fit.py [-n 1000000] [--repeat 5]
 
-Each figure is the best of ``--repeat`` runs (the machine is shared; the best run is
-the least disturbed one). A warm-up on a small cloud comes first.
+Each figure is the best of ``--repeat`` runs, the compared functions taking turns
+(the machine is shared; the best run is the least disturbed one). A warm-up on a
+small cloud comes first.
 """
 
 from __future__ import annotations
@@ -38,6 +39,19 @@ def best(fn, repeat):
         out = fn()
         times.append(time.perf_counter() - t0)
     return min(times), out
+
+
+def interleaved(fns, repeat):
+    """Best time of each function, the functions run in turn ``repeat`` times so that a
+    disturbance of the (shared) machine hits them alike; also their last results."""
+    times = [[] for _ in fns]
+    outs = [None] * len(fns)
+    for _ in range(repeat):
+        for k, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            outs[k] = fn()
+            times[k].append(time.perf_counter() - t0)
+    return [min(t) for t in times], outs
 
 
 def sphere_cloud(n, rng):
@@ -65,7 +79,7 @@ def scipy_sphere(x):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("-n", type=int, default=1_000_000)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     rng = np.random.default_rng(0)
     n = args.n
@@ -73,9 +87,8 @@ def main() -> None:
     fit_sphere(sphere_cloud(20_000, rng), "vdi2634")          # warm-up: imports, caches
     x = sphere_cloud(n, rng)
     print(f"sphere, {n} points, radius 10 mm, 10 000 mm from the origin, noise 0.01 mm")
-    t_fit, res = best(lambda: fit_sphere(x), args.repeat)
-    t_scipy, p = best(lambda: scipy_sphere(x), args.repeat)
-    t_vdi, vdi = best(lambda: fit_sphere(x, "vdi2634"), args.repeat)
+    (t_fit, t_scipy, t_vdi), (res, p, vdi) = interleaved(
+        [lambda: fit_sphere(x), lambda: scipy_sphere(x), lambda: fit_sphere(x, "vdi2634")], args.repeat)
     agree = max(np.abs(res.center - p[:3]).max(), abs(res.radius - p[3]))
     print(f"  camcmm fit_sphere (least squares)   {t_fit:8.3f} s   radius {res.radius:.9f} mm")
     print(f"  scipy.optimize.least_squares        {t_scipy:8.3f} s   radius {p[3]:.9f} mm")
@@ -85,9 +98,9 @@ def main() -> None:
 
     u = rng.uniform(-100, 100, (n, 2))
     plane = FAR + np.column_stack([u, rng.normal(scale=0.005, size=n)])
-    t_pl, _ = best(lambda: fit_plane(plane), args.repeat)
-    t_plv, pv = best(lambda: fit_plane(plane, "vdi2634"), args.repeat)
-    t_mz, mz = best(lambda: fit_plane(plane, method="minzone"), args.repeat)
+    (t_pl, t_plv, t_mz), (_, pv, mz) = interleaved(
+        [lambda: fit_plane(plane), lambda: fit_plane(plane, "vdi2634"), lambda: fit_plane(plane, method="minzone")],
+        args.repeat)
     print(f"plane, {n} points")
     print(f"  least squares {t_pl:.3f} s; vdi2634 ({pv.n_removed} removals) {t_plv:.3f} s "
           f"(ratio {t_plv / t_pl:.2f}); minimum zone {t_mz:.3f} s (flatness {mz.form['range']:.6f} mm)")
