@@ -18,6 +18,24 @@ segment_spheres(points, nominal_radius, ...), extract_sphere(points, ...)
     Split a ball-bar or ball-plate cloud into its spheres; extract one sphere from a
     raw scan (see :mod:`.segment`).
 
+Conventions
+-----------
+* Least squares is in the orthogonal (geometric) sense: the sum of squared distances
+  of the points from the element. A circle in space uses the full 3D distance from
+  the circle, ``sqrt(h² + (ρ − r)²)``. Start values are algebraic or closed-form, then
+  damped Gauss-Newton on normalised (centred, scaled) coordinates.
+* Residuals are signed: positive outside a sphere, circle or cylinder, on the
+  normal's side of a plane, left of a 2D line; in 3D a line's residual is the
+  distance. ``form`` = range (max − min), max, min, std (n − 1), rms of the residuals
+  of the points used.
+* ``std_uncertainty`` comes from the covariance ``s² (JᵀJ)⁻¹``, ``s² = Σr²/(n − p)``;
+  NaN (JSON null) with no degrees of freedom and for minimum-zone fits.
+* Outlier rules always work on least-squares residuals; with ``method="minzone"``
+  the minimum-zone element is fitted to the points the rule kept.
+* ``vdi2634`` costs O(N + m²) for lines, planes, spheres and planar circles (a few
+  times one fit for a million points) and O(N m) — one Gauss-Newton step per removal
+  — for circles in space and cylinders.
+
 Errors: :class:`camcmm.api.InputError` for bad input (NaN, wrong shape),
 :class:`camcmm.api.GeometryError` for degenerate geometry or a fit that does not
 converge, :class:`camcmm.api.ParameterError` for an unknown rule or method — each with
