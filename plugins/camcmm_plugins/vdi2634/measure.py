@@ -69,11 +69,13 @@ def check_extent(cloud: PointCloud, expected: float, name: str, what: str) -> No
                          f"it looks like metres; convert it or give its unit (unit: m in the plan)")
 
 
-def _fit(ctx, plugin: str, name: str, **kw) -> dict[str, Any]:
+def _fit(ctx, plugin: str, name: str, expect: str = "", **kw) -> dict[str, Any]:
+    """Run a fit by id; its GeometryError becomes one line naming the file (and what
+    was expected there, e.g. "no sphere of diameter 20.001 mm: ...")."""
     try:
         return ctx.algorithm(plugin)(**kw)
     except GeometryError as exc:
-        raise GeometryError(f"{name}: {exc}") from None
+        raise GeometryError(f"{name}: {expect + ': ' if expect else ''}{exc}") from None
 
 
 def _plain(d: dict[str, Any]) -> dict[str, Any]:
@@ -119,7 +121,7 @@ def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None)
         return _sphere_scaled(ctx, cloud, plan, name, rule)
     check_extent(cloud, d_ref, name, "sphere")
     kw = {"extract": True, "nominal_radius": d_ref / 2} if plan.options.get("extract_sphere") else {}
-    fit = _fit(ctx, "fit.sphere", name, cloud=cloud, outliers=rule, **kw)
+    fit = _fit(ctx, "fit.sphere", name, f"no sphere of diameter {d_ref:g} mm", cloud=cloud, outliers=rule, **kw)
     _size_check(2 * fit["radius"], d_ref, name, "sphere")
     if fit["n_points"] < 334 and rule == "vdi2634":
         warnings.append(f"{name}: {fit['n_points']} points; below 334 the 3 per 1000 rule removes nothing")
