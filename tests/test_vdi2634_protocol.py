@@ -64,3 +64,21 @@ def test_summarize_accepts_stored_json_evaluations(plan_path):
     again = host.load("vdi2634-2").summarize(None, plan_path, stored)
     assert {k: p["value"] for k, p in again["parameters"].items()} == \
            {k: p["value"] for k, p in res["parameters"].items()}
+
+
+def test_a_cancelled_run_stops(plan_path):
+    import threading
+
+    from camcmm.host import Cancelled
+
+    stop = threading.Event()
+    seen = []
+
+    def progress(fraction, message):
+        seen.append(message)
+        if len(seen) == 2:
+            stop.set()
+
+    with pytest.raises(Cancelled):
+        default_host().run("vdi2634-2", {"plan": plan_path}, {"workers": 1}, progress=progress, cancel=stop)
+    assert len(seen) == 2

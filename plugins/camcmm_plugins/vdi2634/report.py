@@ -46,9 +46,16 @@ def _mm(v: Any, signed: bool = False) -> str:
     return f"{v:+.4f} mm" if signed else f"{v:.4f} mm"
 
 
-def _label(ev: dict[str, Any]) -> str:
+def _label(ev: dict[str, Any], repeats: bool = False) -> str:
+    """"sphere-03", or "sphere-03 #2" where positions are repeated."""
     pos = ev.get("position") or ev.get("file") or "?"
-    return pos + (f" #{ev['repeat']}" if (ev.get("repeat") or 1) > 1 or ev.get("_repeats") else "")
+    return pos + (f" #{ev.get('repeat') or 1}" if repeats else "")
+
+
+def _short(ev: dict[str, Any], repeats: bool) -> str:
+    """A chart label: the position's number (and repeat), e.g. "03" or "03#2"."""
+    pos = str(ev.get("position") or ev.get("file") or "?").rsplit("-", 1)[-1]
+    return pos + (f"#{ev.get('repeat') or 1}" if repeats else "")
 
 
 def _result_section(r, result: dict[str, Any]) -> None:
@@ -96,7 +103,7 @@ def _system_section(r, result: dict[str, Any]) -> None:
                 s.warning(c["text"])
 
 
-def _test_rows(test: str, evs: list[dict[str, Any]]) -> tuple[list[str], list[list[Any]]]:
+def _test_rows(test: str, evs: list[dict[str, Any]], reps: bool) -> tuple[list[str], list[list[Any]]]:
     if test == "sphere":
         cols = ["Position", "File", "Points", "Removed", "D_a [mm]", "P_F [mm]", "P_S [mm]", "Scale"]
         get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("diameter"), e["values"]["PF"],  # noqa: E731
@@ -117,68 +124,66 @@ def _test_rows(test: str, evs: list[dict[str, Any]]) -> tuple[list[str], list[li
     rows = []
     for e in evs:
         if e.get("error"):
-            rows.append([_label(e), e.get("file"), *([None] * (len(cols) - 2)), f"ERROR: {e['error']}"])
+            rows.append([_label(e, reps), e.get("file"), *([None] * (len(cols) - 2)), f"ERROR: {e['error']}"])
         else:
-            rows.append([_label(e), e.get("file"), *(_round(v) for v in get(e))])
+            rows.append([_label(e, reps), e.get("file"), *(_round(v) for v in get(e))])
     return cols, rows
 
 
-def _round(v: Any) -> Any:
+def _round(v: Any, digits: int = 4) -> Any:
     """Table cells to 0.1 um (the JSON data keeps full precision)."""
-    return round(v, 4) if isinstance(v, float) else v
+    return round(v, digits) + 0.0 if isinstance(v, float) else v  # + 0.0: no "-0.0"
 
 
-def _map(charts, e: dict[str, Any], test: str):
+def _map(charts, e: dict[str, Any], test: str, reps: bool):
     dev = e.get("deviations")
     if dev is None or not hasattr(dev, "points") or "deviation" not in getattr(dev, "fields", {}):
         return None
     if test == "sphere":
         return charts.deviation_map(dev.points, dev.fields["deviation"], kind="sphere", center=e["center"],
-                                    title=_label(e))
+                                    title=_label(e, reps))
     return charts.deviation_map(dev.points, dev.fields["deviation"], kind="plane", normal=e["normal"],
-                                title=_label(e))
+                                title=_label(e, reps))
 
 
 def _test_section(r, charts, test: str, evs: list[dict[str, Any]], result: dict[str, Any]) -> None:
     s = r.section(TEST_TITLES[test])
     reps = any((e.get("repeat") or 1) > 1 for e in evs)
-    for e in evs:
-        e["_repeats"] = reps
-    cols, rows = _test_rows(test, evs)
+    cols, rows = _test_rows(test, evs, reps)
     if any(len(row) > len(cols) for row in rows):
         cols = cols + ["Note"]
         rows = [row + [""] * (len(cols) - len(row)) for row in rows]
     s.table(cols, rows, caption=f"Every {test.replace('_', ' ')} measurement")
-    ok = [e for e in evs if not e.get("error")]
     for key in ("PF", "PS", "SD", "F"):
         p = result["parameters"].get(key)
-        if p is None or not any(row.get("test") == test for row in p["per_measurement"]):
-            continue
-        rws = [row for row in p["per_measurement"] if row.get("test") == test]
-        labels = [f"{_label(row)}{' ' + row['item'] if row.get('item') else ''}" for row in rws]
-        s.figure(charts.bar_chart(labels, [row["value"] for row in rws], limit=p["mpe"], unit="mm",
-                                  title=f"{p['name']} per measurement, MPE {p['mpe']:g} mm"),
-                 caption=f"{p['name']}: bars per measurement, dashed lines at the MPE")
+        rws = [] if p is None else [row for row in p["per_measurement"] if row.get("test") == test]
+        items = sorted({row.get("item") for row in rws}, key=str)
+        for item in items:  # one chart per ball-plate length, else one per parameter
+            sel = [row for row in rws if row.get("item") == item]
+            what = p["name"] + (f", {item}" if item else "")
+            s.figure(charts.bar_chart([_short(row, reps) for row in sel], [row["value"] for row in sel],
+                                      limit=p["mpe"], unit="mm", title=f"{what} per measurement, MPE {p['mpe']:g} mm"),
+                     caption=f"{what}: bars per position{' and repeat' if reps else ''}, dashed lines at the MPE")
     if test in ("sphere", "flat"):
-        for e in ok:
+        for e in evs:
+            if e.get("error"):
+                continue
             try:
-                png = _map(charts, e, test)
+                png = _map(charts, e, test, reps)
             except Exception as exc:  # a map that cannot be drawn must not lose the report
-                s.warning(f"{_label(e)}: no deviation map ({exc})")
+                s.warning(f"{_label(e, reps)}: no deviation map ({exc})")
                 continue
             if png is not None:
-                s.figure(png, caption=f"{_label(e)} ({e.get('file')}): deviations from the least-squares "
+                s.figure(png, caption=f"{_label(e, reps)} ({e.get('file')}): deviations from the least-squares "
                                       f"{'sphere' if test == 'sphere' else 'plane'}", width_mm=80)
-    for e in evs:
-        e.pop("_repeats", None)
 
 
 def _part3_sections(r, result: dict[str, Any]) -> None:
     if result.get("lengths"):
         s = r.section("Ball-plate lengths (thesis table 4.2, ISO 15530-3)")
         s.table(["Length", "Calibrated [mm]", "Mean [mm]", "Mean - cal. [mm]", "Std [mm]", "n", "U (k=2) [mm]"],
-                [[x["name"], x.get("calibrated"), x.get("mean"), x.get("mean_deviation"), x.get("std"), x["n"],
-                  x.get("U_iso15530_3")] for x in result["lengths"]],
+                [[x["name"], x.get("calibrated"), *(_round(x.get(k), 5) for k in ("mean", "mean_deviation", "std")),
+                  x["n"], _round(x.get("U_iso15530_3"), 5)] for x in result["lengths"]],
                 caption="U = k sqrt(u_cal² + u_p²) (thesis eq. 4.1, u_b = u_w = 0)")
     iso = result.get("iso15530_3")
     if iso:
@@ -192,7 +197,7 @@ def _part3_sections(r, result: dict[str, Any]) -> None:
 def _uncertainty_section(r, result: dict[str, Any]) -> None:
     s = r.section("Uncertainty of the test (for guarded acceptance)")
     s.table(["Parameter", "U (k=2) [mm]", "Basis"],
-            [[p["name"], p["U"], p["uncertainty"]["basis"]] for p in result["parameters"].values()])
+            [[p["name"], _round(p["U"], 5), p["uncertainty"]["basis"]] for p in result["parameters"].values()])
     s.paragraph("Only the artefacts' calibration enters U: ISO 14253-1 asks for the uncertainty of the test. "
                 "Form and flatness certificates are counted in full (a known bound on the artefact's share).")
 

@@ -189,11 +189,14 @@ class Standard:
         workers = workers or min(4, os.cpu_count() or 1)
         per: dict[str, list[dict[str, Any]]] = {s.test: [] for s in self.tests(p)}
         # Threads: the fits are numpy-bound and release the GIL for most of their time.
-        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        pool = ThreadPoolExecutor(max_workers=max(1, workers))
+        try:
             futures = [pool.submit(self._evaluate_item, ctx, m, p) for m in items]
             for i, (m, f) in enumerate(zip(items, futures)):
                 per[m.test].append(f.result())
-                ctx.progress((i + 1) / max(len(items), 1), f"{m.name} evaluated")
+                ctx.progress((i + 1) / max(len(items), 1), f"{m.name} evaluated")  # raises when cancelled
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)  # on cancel: drop what has not started
         return self.summarize(ctx, p, per)
 
     # -- summary -------------------------------------------------------------------------
