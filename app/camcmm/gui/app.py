@@ -71,6 +71,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         project = open_project(project_dir)
     view = SceneView(display_limit or DISPLAY_LIMIT)
     session = Session(server, project, host=host, view=view)
+    from . import wizard, wizard_layout  # [wizard] the "Acceptance test" page
+
+    wizard_page = wizard.mount(server, session)  # [wizard]
     state.trame__title = f"camcmm — {state.project_name}"
 
     # -- handlers (thin: all logic is in the session) ---------------------------------
@@ -132,6 +135,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             v.VIcon("mdi-folder-outline", size="small", classes="ml-4 mr-1")
             html.Span("{{ project_name }}", classes="text-subtitle-1",
                       raw_attrs=_tid("project-name"), title=("project_path",))
+            wizard_layout.page_switch(v)  # [wizard] Inspect | Acceptance test
             v.VSpacer()
             v.VFileInput(
                 v_model=("upload", None),
@@ -324,7 +328,10 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                 )
 
         with layout.content:
-            with html.Div(classes="d-flex flex-column", style="height: calc(100vh - 48px - 24px);"):
+            layout.content.classes = "d-flex"  # [wizard] the wizard's panel beside the 3D view
+            wizard_layout.build_panel(wizard_page, _accept())  # [wizard]
+            with html.Div(classes="d-flex flex-column",
+                          style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
                 with html.Div(classes="d-flex align-center ga-3 px-3 py-1", style="min-height: 52px;"):
                     v.VSelect(
                         v_model=("color_field", None),
@@ -391,6 +398,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
 
     view.on_update = view_changed
     server.session = session  # for scripts and tests
+    server.wizard = wizard_page  # [wizard]
     return server, session
 
 
@@ -420,6 +428,8 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
     session = getattr(server, "session", None)
     if session is not None:
         session.close()
+    if getattr(server, "wizard", None) is not None:  # [wizard]
+        server.wizard.close()
 
 
 def main(argv: list[str] | None = None) -> int:
