@@ -145,3 +145,39 @@ def test_scaling_uncertainty_enters_U(part3):
     ps = res["parameters"]["PS"]["uncertainty"]
     assert ps["U"] == pytest.approx(2 * math.hypot(0.0004, 10.0 * 0.0004 / 5.0))
     assert np.isfinite(res["parameters"]["PS"]["U"])
+
+
+def test_ball_bar_scaled_by_its_calibrated_spheres(ctx):
+    sim = default_host().algorithm("virtuallab.artefact-cloud")
+    plan = copy.deepcopy(PLAN)
+    plan["artefacts"]["ball_bar"] = {"length": 20.0, "uncertainty": 0.0005, "sphere_diameter": 5.0,
+                                     "sphere_diameter_uncertainty": 0.0008}
+    plan["scaling"]["ball_bar"] = "radii"
+    cloud = sim(artefact="ball_bar", sensor="turntable", noise=0.0, reconstruction_scale=0.37, n_points=4000,
+                diameter=5.0, length=20.0, direction=[1, 1, 0])["cloud"]
+    ev = default_host().load("vdi2634-3").evaluate_measurement(ctx, "ball_bar", cloud, plan)
+    assert ev["length"] == pytest.approx(20.0, abs=1e-9) and ev["scale"] == pytest.approx(1 / 0.37)
+
+
+def test_part3_plan_errors():
+    from camcmm.api import InputError
+
+    std = default_host().load("vdi2634-3")
+    plan = copy.deepcopy(PLAN)
+    plan["artefacts"].pop("ball_plate")
+    with pytest.raises(InputError, match="artefacts.ball_plate is missing; VDI/VDE 2634 part 3 needs it"):
+        std.requirements(plan)
+    plan = copy.deepcopy(PLAN)
+    plan["scaling"]["ball_bar"] = "lengths"
+    with pytest.raises(InputError, match="scaling.ball_bar cannot be lengths"):
+        std.requirements(plan)
+    plan = copy.deepcopy(PLAN)
+    plan["repeats"] = 0
+    with pytest.raises(InputError, match="repeats must be a whole number"):
+        std.requirements(plan)
+    plan2 = {**copy.deepcopy(PLAN), "standard": "vdi2634-2"}
+    with pytest.raises(InputError, match="scaling.sphere is 'radii'; part 2 systems measure in mm"):
+        default_host().load("vdi2634-2").requirements({**plan2, "mpe": {"PF": 1, "PS": 1, "SD": 1, "F": 1},
+                                                       "artefacts": {**plan2["artefacts"], "ball_bar": {
+                                                           "length": 50, "uncertainty": 0, "sphere_diameter": 20},
+                                                           "flat": {"length": 100, "width": 50}}})

@@ -11,6 +11,8 @@ All fits least squares with at most 3 of every 1000 points removed (outlier rule
 
 from __future__ import annotations
 
+from camcmm.api import InputError
+
 from .standard import Standard, TestSpec
 
 
@@ -23,6 +25,14 @@ class Part2(Standard):
         TestSpec("ball_bar", "Ball bar orientations", ("SD",), 7),
         TestSpec("flat", "Flat orientations", ("F",), 6),
     )
+
+    def check_plan(self, plan) -> None:
+        super().check_plan(plan)
+        scaled = {t: m for t, m in plan.scaling.items() if m != "none"}
+        if scaled:  # an area-scanning system measures in mm; scaling is part 3's adaptation
+            test = next(iter(scaled))
+            raise InputError(f"{plan.source}: scaling.{test} is {scaled[test]!r}; part 2 systems measure in mm "
+                             "(scaling is for vdi2634-3)")
 
 
 #: The manifest entry: ``camcmm_plugins.vdi2634.part2:PART2``.

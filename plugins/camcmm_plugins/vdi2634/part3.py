@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from camcmm.api import InputError
+
 from . import plan as plans
 from .standard import Standard, TestSpec
 
@@ -55,6 +57,15 @@ class Part3(Standard):
         TestSpec("ball_bar", "Ball bar orientations", ("SD",), 7, required=False),
         TestSpec("flat", "Flat orientations", ("F",), 6, required=False),
     )
+
+    def check_plan(self, plan: plans.Plan) -> None:
+        super().check_plan(plan)
+        if plan.scaling.get("sphere") == "radii" and "ball_plate" not in plan.artefacts:
+            raise InputError(f"{plan.source}: scaling.sphere is radii but artefacts.ball_plate (the scale spheres) "
+                             "is missing")
+        if plan.scaling.get("ball_bar") == "lengths":
+            raise InputError(f"{plan.source}: scaling.ball_bar cannot be lengths (a ball bar has one length); "
+                             "use radii or none")
 
     def repeats(self, plan: plans.Plan | None) -> int:
         return DEFAULT_REPEATS if plan is None or plan.repeats is None else plan.repeats

@@ -174,13 +174,16 @@ def _artefact(w: _Where, test: str, d: Any) -> Artefact:
     elif test == "ball_bar":
         cert("length", "length", "uncertainty")
         nominal["sphere_diameter"] = _number(w, d, "sphere_diameter", p)
-        cert("sphere_diameter", "sphere_diameter", "sphere_diameter_uncertainty")
+        if "sphere_diameter_uncertainty" in d:  # calibrated spheres (needed only to scale by radii)
+            cert("sphere_diameter", "sphere_diameter", "sphere_diameter_uncertainty")
     elif test == "flat":
         nominal["length"] = _number(w, d, "length", p)
         nominal["width"] = _number(w, d, "width", p)
         cert("flatness", "flatness", "flatness_uncertainty", required=False)
     elif test == "ball_plate":
-        cert("sphere_diameter", "sphere_diameter", "sphere_diameter_uncertainty")
+        nominal["sphere_diameter"] = _number(w, d, "sphere_diameter", p)
+        if "sphere_diameter_uncertainty" in d:  # calibrated spheres: a scale reference (scaling: radii)
+            cert("sphere_diameter", "sphere_diameter", "sphere_diameter_uncertainty")
         lengths = d.get("lengths")
         if not isinstance(lengths, list) or len(lengths) != 3:
             raise w.fail(f"{p}.lengths", f"must list the three calibrated lengths L1 = |c1c2|, L2 = |c2c3|, "

@@ -187,6 +187,9 @@ class Standard:
         p = self.load_plan(plan)
         items = [m for spec in self.tests(p) for m in p.measurements.get(spec.test, [])]
         workers = workers or min(4, os.cpu_count() or 1)
+        for pid in ALGORITHMS:  # import the fits once, before threads would queue on the import lock
+            if pid in ctx.host.plugins:
+                ctx.host.load(pid)
         per: dict[str, list[dict[str, Any]]] = {s.test: [] for s in self.tests(p)}
         # Threads: the fits are numpy-bound and release the GIL for most of their time.
         pool = ThreadPoolExecutor(max_workers=max(1, workers))

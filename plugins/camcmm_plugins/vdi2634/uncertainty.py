@@ -76,7 +76,8 @@ def _plate_length(plan: Plan, i: int) -> dict[str, float]:
             c[f"scale by L_c{j}"] = w * li * _u(cert[j]) / cert[j].value
     elif mode == "radii":
         ref = plan.certificate("ball_plate", "sphere_diameter")
-        c["scale (calibrated radii)"] = li * _u(ref) / ref.value
+        if ref is not None:
+            c["scale (calibrated radii)"] = li * _u(ref) / ref.value
     return c
 
 
