@@ -163,16 +163,20 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
     sid = project.add_system(plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"],
                                                       "simulated_by": SIMULATOR})
     per: dict[str, list[dict[str, Any]]] = {}
-    state: dict[str, Any] = {"standard": STANDARD, "plan": plan, "measurements": {}, "evaluations": {}}
+    state: dict[str, Any] = {"standard": STANDARD, "plan": plan, "measurements": {}, "evaluations": {},
+                             "positions": {}, "tests": list(plan["measurements"]), "system_id": sid,
+                             "artefact_ids": {}, "errors": {}, "superseded": []}
     for test, files in plan["measurements"].items():
         art = reqs[test]["artefact"]
         aid = project.add_artefact({**art, "id": f"{STANDARD}:{art['id']}"})
+        state["artefact_ids"][test] = aid
         positions = reqs[test]["positions"]
         for i, name in enumerate(files):
             pos = positions[i]["id"] if i < len(positions) else f"{test}-{i + 1:02d}"
             h = project.add_file(folder / name)
             mid = project.add_measurement(f"{pos} ({name})", h, kind="pointcloud", system_id=sid, artefact_id=aid,
-                                          meta={"standard": STANDARD, "test": test, "position": pos, "file": name})
+                                          meta={"standard": STANDARD, "test": test, "position": pos, "repeat": 1,
+                                                "file": name})
             started = utcnow()
             try:
                 ev = std.evaluate_measurement(ctx, test, project.load_measurement(mid), plan, file=name, position=pos)
@@ -189,6 +193,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
             per.setdefault(test, []).append(ev)
             state["measurements"].setdefault(test, []).append(mid)
             state["evaluations"][str(mid)] = rid
+            state["positions"].setdefault(test, {})[pos] = [mid]
     started = utcnow()
     summary = std.summarize(ctx, plan, per)
     paths = std.write_report(summary, report_dir, plan)
