@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from camcmm.api import (CamcmmError, InputError, PointCloud, RunContext, combine, default_host, guarded_verdict,
-                        read, simple_verdict)
+                        simple_verdict)
 
 from . import measure, plan as plans, positions, rules, uncertainty
 
@@ -312,8 +312,3 @@ class Standard:
         from . import report
 
         return report.write(result, Path(directory), self.load_plan(plan) if plan is not None else None)
-
-    # -- reading clouds for callers that hold paths ----------------------------------------
-    @staticmethod
-    def read_cloud(path: str | Path, unit: str | None = None) -> PointCloud:
-        return read(path, unit=unit)
