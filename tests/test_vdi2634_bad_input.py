@@ -119,3 +119,18 @@ def test_a_plan_that_is_no_plan(tmp_path):
     (tmp_path / "list.yaml").write_text("- 1\n- 2\n")
     with pytest.raises(InputError, match="must be a YAML mapping"):
         std(None, tmp_path / "list.yaml")
+
+
+def test_a_ball_bar_sphere_seen_as_a_small_cap_is_flagged():
+    """Nearly upright, the upper sphere hides most of the lower one from the sensor: the
+    length is still evaluated, with a warning that it is uncertain and why."""
+    host = default_host()
+    cloud = host.algorithm("virtuallab.artefact-cloud")(artefact="ball_bar", direction=[0.15, 0, 1], length=49.944,
+                                                         diameter=20.0, noise=0.03, n_points=20000, seed=1)["cloud"]
+    plan = {"standard": "vdi2634-2", "system": {"measuring_volume": [100, 100, 100]},
+            "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
+            "artefacts": {"sphere": {"diameter": 20.001}, "flat": {"length": 150, "width": 60},
+                          "ball_bar": {"length": 49.944, "uncertainty": 0.0008, "sphere_diameter": 20.0}}}
+    ev = host.load("vdi2634-2").evaluate_measurement(None, "ball_bar", cloud, plan)
+    assert ev["u_length"] > 0.0096
+    assert "sphere 1 is seen on" in ev["warnings"][0] and "turn the bar towards the sensor" in ev["warnings"][0]

@@ -28,8 +28,9 @@ from camcmm.api import CamcmmError, GeometryError, InputError, PointCloud, read
 from . import scaling
 from .plan import Plan, PlannedMeasurement
 
-#: Points used to *detect* the spheres of a ball bar or plate; the fits use all points.
-DETECT_POINTS = 10_000
+#: Points used to *detect* the spheres of a ball bar or plate (normal votes need a few
+#: thousand per sphere); the fits use all points.
+DETECT_POINTS = 6_000
 #: A fitted diameter this far from the calibrated one means "no such sphere here".
 SIZE_TOLERANCE = 0.25
 
@@ -210,10 +211,22 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
     if mode == "none":
         for f in fits:
             _size_check(2 * f["radius"], d_nom, name, "ball-bar sphere")
-    l_a = s * float(np.linalg.norm(np.asarray(fits[1]["center"]) - np.asarray(fits[0]["center"])))
+    axis = np.asarray(fits[1]["center"]) - np.asarray(fits[0]["center"])
+    l_a = s * float(np.linalg.norm(axis))
+    # the fits' own standard uncertainty of the length (centres along the bar's axis):
+    # large when a sphere is seen only as a small cap, which the operator should know
+    axis /= np.linalg.norm(axis)
+    u_len = s * float(np.sqrt(sum(np.sum((np.asarray(f["std_uncertainty"]["center"]) * axis) ** 2) for f in fits)))
+    warnings = []
+    mpe = plan.mpe.get("SD")
+    if mpe and np.isfinite(u_len) and u_len > 0.1 * mpe:
+        worst = min(range(2), key=lambda k: fits[k]["n_points"])
+        warnings.append(f"{name}: the length is uncertain by {u_len:.4f} mm (more than 1/10 of MPE SD): sphere "
+                        f"{worst + 1} is seen on {fits[worst]['n_points']} points only; turn the bar towards the sensor")
     return {"test": "ball_bar", "outliers": rule, "scale": s, "scaling": mode, "n_points": cloud.n_points,
             "n_assigned": int(sum(len(p) for p in parts)), "spheres": [_sphere_summary(f, s) for f in fits],
-            "length": l_a, "length_calibrated": l_ref, "values": {"SD": l_a - l_ref}, "warnings": [],
+            "length": l_a, "length_calibrated": l_ref, "u_length": u_len, "values": {"SD": l_a - l_ref},
+            "warnings": warnings,
             "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s)}
 
 
@@ -226,9 +239,11 @@ def evaluate_flat(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -
     check_extent(cloud, float(np.hypot(length, width)), name, "flat")
     fit = _fit(ctx, "fit.plane", name, cloud=cloud, outliers=rule)
     normal = np.asarray(fit["normal"])
-    x = cloud.points - np.asarray(fit["point"])
+    # the covered length along the flat's long axis; a subsample sees the same extent
+    # to within its point spacing, at a fraction of the cost
+    x = cloud.points[:: max(1, cloud.n_points // 50_000)] - np.asarray(fit["point"])
     inplane = x - np.outer(x @ normal, normal)
-    axis = np.linalg.svd(inplane[:: max(1, len(x) // 20000)], full_matrices=False)[2][0]
+    axis = np.linalg.svd(inplane[:: max(1, len(x) // 5000)], full_matrices=False)[2][0]
     covered = float(np.ptp(inplane @ axis))
     warnings = []
     if covered < 0.5 * plan.diagonal:
