@@ -598,3 +598,45 @@ def test_demo_project_opens_with_a_finished_test(tmp_path):
         assert set(w.report_paths()) == {"html", "pdf", "json"}
         cloud = w.deviations("sphere", "sphere-01")
         assert "deviation" in cloud.fields and cloud.n_points > 0
+
+
+def test_part3_repeats_and_plan_options(tmp_path):
+    """vdi2634-3 through the same wizard: positions × repeats, plan options (scaling,
+    outliers, repeats) from the setup's advanced field, partial positions."""
+    host = default_host()
+    if not _real_available() or "vdi2634-3" not in host.plugins or "virtuallab.acceptance-set" not in host.plugins:
+        pytest.skip("needs the vdi2634-3 and virtual-lab plugins")
+    gen = host.run("virtuallab.acceptance-set", {}, {"directory": str(tmp_path / "set"), "standard": "vdi2634-3",
+                                                       "n_sphere": 2000, "n_ball_plate": 2000, "random_scale": True})
+    plan = gen.outputs["plan_dict"]
+    options = "scaling: {sphere: radii, ball_plate: lengths}\noutliers: {sphere: 'percent:5', ball_plate: 'percent:5'}"
+    with Project.create(tmp_path / "proj") as project:
+        w = Wizard(project, host)
+        with pytest.raises(InputError, match="'mpe' is set by the form"):
+            w.setup("vdi2634-3", "Turntable", plan["system"]["measuring_volume"], plan["mpe"], plan["artefacts"],
+                    options="mpe: {PF: 1}")
+        w.setup("vdi2634-3", "Turntable", plan["system"]["measuring_volume"], plan["mpe"], plan["artefacts"],
+                options=options)
+        assert w.plan["scaling"] == {"sphere": "radii", "ball_plate": "lengths"}
+        assert [p["text"] for p in w.progress()] == [
+            "0 of 15 measurements of sphere positions (5 × 3 repeats)",
+            "0 of 21 measurements of ball plate orientations (7 × 3 repeats)"]
+        folder = tmp_path / "set"
+        for r, name in enumerate(plan["measurements"]["sphere"][0]):
+            card = w.import_measurement("sphere", "sphere-01", folder / name)
+            assert card["status"] == ("done" if r == 2 else "partial"), card
+            assert card["repeats"][r]["status"] == "done"
+        assert card["verdict"] == "pass"
+        card = w.import_measurement("ball_plate", "ball-plate-01", folder / plan["measurements"]["ball_plate"][0][0])
+        assert card["status"] == "partial" and card["next_repeat"] == 2
+        assert [v["param"] for v in card["repeats"][0]["values"]] == ["SD"]
+        # a redo of a full position replaces its last repeat
+        mids = list(w.state["positions"]["sphere"]["sphere-01"])
+        w.redo("sphere", "sphere-01", folder / plan["measurements"]["sphere"][0][0])
+        assert w.state["positions"]["sphere"]["sphere-01"][:2] == mids[:2]
+        assert w.state["positions"]["sphere"]["sphere-01"][2] != mids[2]
+        assert w.progress()[0]["done"] == 3
+        assert w.summarize()["verdict"] == "incomplete"
+    with Project.open(tmp_path / "proj") as project:
+        w = Wizard(project, host)
+        assert w.progress()[0]["done"] == 3 and w.progress()[1]["done"] == 1

@@ -191,6 +191,29 @@ def _vector(value: Any, what: str, n: int = 3) -> list[float]:
     return [_number(p, f"{what}[{i}]") for i, p in enumerate(parts)]
 
 
+#: Plan keys the setup form owns; the advanced options may not replace them.
+_FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
+
+
+def parse_options(options: Any) -> dict[str, Any]:
+    """More plan keys from the setup's advanced field: a dict or YAML text."""
+    import yaml
+
+    if options is None or (isinstance(options, str) and not options.strip()):
+        return {}
+    if isinstance(options, str):
+        try:
+            options = yaml.safe_load(options)
+        except yaml.YAMLError as exc:
+            raise InputError(f"plan options: not valid YAML ({' '.join(str(exc).split())})") from None
+    if not isinstance(options, dict):
+        raise InputError(f"plan options: give keys and values (e.g. 'outliers: vdi2634'), got {options!r}")
+    taken = [k for k in options if k in _FORM_KEYS]
+    if taken:
+        raise InputError(f"plan options: {taken[0]!r} is set by the form above, not here")
+    return dict(options)
+
+
 def fmt_mm(v: Any, signed: bool = False) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "–"
@@ -311,9 +334,10 @@ class Wizard:
 
     # -- setup ---------------------------------------------------------------------------
     def build_plan(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
-                   artefacts: dict[str, dict[str, Any]]) -> dict[str, Any]:
+                   artefacts: dict[str, dict[str, Any]], options: Any = None) -> dict[str, Any]:
         """The plan dict from the setup form; values are checked here (one line naming
-        the field) and by the standard (``requirements(plan)``)."""
+        the field) and by the standard (``requirements(plan)``). ``options``: more plan
+        keys (a dict or YAML text: outliers, scaling, repeats, unit, options ...)."""
         name = str(system_name or "").strip()
         if not name:
             raise InputError("measuring system: give it a name")
@@ -347,12 +371,15 @@ class Wizard:
                     entry[meta] = str(fields_[f"_{meta}"])
             arts[test] = entry
         plan = {"standard": standard, "system": {"name": name, "measuring_volume": vol}, "mpe": mpes,
-                "artefacts": arts, "measurements": {}}
+                "artefacts": arts, "measurements": {},
+                "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)"}
+        plan.update(parse_options(options))
         self.standard(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
         return plan
 
     def setup(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
-              artefacts: dict[str, dict[str, Any]], tests: list[str] | None = None) -> dict[str, Any]:
+              artefacts: dict[str, dict[str, Any]], tests: list[str] | None = None, options: Any = None
+              ) -> dict[str, Any]:
         """Start a new test (the running one, if any, goes to the history: its results
         stay in the project). Returns the new state."""
         from ..project.store import utcnow
@@ -367,7 +394,7 @@ class Wizard:
                     raise InputError(f"MPE {SYMBOLS.get(param, param)} is empty; enter it from the measuring "
                                      "system's specification")
         plan = self.build_plan(standard, system_name, measuring_volume, mpe,
-                               {t: a for t, a in (artefacts or {}).items() if t in chosen})
+                               {t: a for t, a in (artefacts or {}).items() if t in chosen}, options)
         missing = [t for t in chosen if t not in plan["artefacts"]]
         if missing:
             raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
@@ -542,7 +569,9 @@ class Wizard:
             total = len(r["positions"]) * r["repeats"]
             required = r["min_count"] * r["repeats"]
             label = r["label"][:1].lower() + r["label"][1:]
-            text = f"{done} of {total} {label}" + (" (× {} repeats)".format(r["repeats"]) if r["repeats"] > 1 else "")
+            text = f"{done} of {total} {label}"
+            if r["repeats"] > 1:
+                text = f"{done} of {total} measurements of {label} ({len(r['positions'])} × {r['repeats']} repeats)"
             out.append({"test": r["test"], "label": r["label"], "done": done, "total": total, "required": required,
                         "text": text, "complete": done >= required})
         return out
@@ -958,39 +987,45 @@ def fit_text(ev: dict[str, Any]) -> str:
 
 def fit_rows(ev: dict[str, Any]) -> list[dict[str, str]]:
     """Rows ``{name, value}`` describing an evaluation's fit for the detail panel."""
-    rows = []
+    rows: list[dict[str, str]] = []
 
-    def add(name: str, value: Any) -> None:
-        rows.append({"name": name, "value": value if isinstance(value, str) else _fmt(value)})
+    def add(name: str, value: str) -> None:
+        rows.append({"name": name, "value": value})
+
+    def xyz(v: Any, digits: int = 3) -> str:
+        return "(" + ", ".join(f"{float(x):.{digits}f}" for x in v) + ") mm"
 
     for param, v in (ev.get("values") or {}).items():
         add(SYMBOLS.get(param, param), ", ".join(fmt_mm(x, param in SIGNED) for x in v) if isinstance(v, list)
             else fmt_mm(v, param in SIGNED))
     if ev.get("center") is not None:
-        add("centre", "(" + ", ".join(f"{x:.4f}" for x in ev["center"]) + ") mm")
-    for key, label in (("diameter", "diameter"), ("diameter_calibrated", "diameter calibrated"),
-                       ("length", "length"), ("length_calibrated", "length calibrated")):
-        if ev.get(key) is not None:
-            add(label, fmt_mm(ev[key]))
-    for i, s in enumerate(ev.get("spheres") or []):
-        if isinstance(s, dict) and s.get("center") is not None:
-            add(f"sphere {i + 1}", "(" + ", ".join(f"{x:.3f}" for x in s["center"]) + f") mm, Ø {s.get('diameter', 0):.4f} mm")
+        add("centre", xyz(ev["center"]))
+    if ev.get("diameter") is not None:
+        cal = ev.get("diameter_calibrated")
+        add("Ø", fmt_mm(ev["diameter"]) + (f" (calibrated {float(cal):.4f})" if cal is not None else ""))
+    if ev.get("length") is not None:
+        cal = ev.get("length_calibrated")
+        add("length", fmt_mm(ev["length"]) + (f" (calibrated {float(cal):.4f})" if cal is not None else ""))
+    for i, sph in enumerate(ev.get("spheres") or []):
+        if isinstance(sph, dict) and sph.get("center") is not None:
+            add(f"sphere {i + 1}", xyz(sph["center"]) + (f", Ø {float(sph['diameter']):.4f} mm"
+                                                          if sph.get("diameter") is not None else ""))
     if ev.get("normal") is not None:
-        add("plane normal", "(" + ", ".join(f"{x:.4f}" for x in ev["normal"]) + ")")
+        add("normal", "(" + ", ".join(f"{float(x):.4f}" for x in ev["normal"]) + ")")
     form = ev.get("form") if isinstance(ev.get("form"), dict) else {}
-    for k in ("range", "std", "min", "max"):
-        if form.get(k) is not None:
-            add(f"form {k}", fmt_mm(form[k]))
-    for key in ("n_points", "n_used", "n_removed", "outliers", "scale"):
-        if ev.get(key) is not None:
-            add(key.replace("_", " "), ev[key])
+    if form.get("std") is not None:
+        add("form σ", f"{1000 * float(form['std']):.1f} µm")
+    n, used, removed = ev.get("n_points"), ev.get("n_used"), ev.get("n_removed")
+    if n is not None:
+        text = f"{used} of {n} used" if used is not None else f"{n}"
+        if removed:
+            text += f", {removed} removed"
+        if ev.get("outliers"):
+            text += f" (rule {ev['outliers']})"
+        add("points", text)
+    if isinstance(ev.get("scale"), (int, float)) and ev["scale"] != 1:
+        add("scale", f"{float(ev['scale']):.6g}")
     return rows
-
-
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    return str(v)
 
 
 # -- the page -----------------------------------------------------------------------------------
@@ -1089,7 +1124,8 @@ class WizardPage:
             form = {"standard": standard, "system_name": plan["system"].get("name", ""),
                     "volume": [float(x) for x in plan["system"]["measuring_volume"]],
                     "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
-                    "artefacts": {}, "include": list(w.state.get("tests") or [])}
+                    "artefacts": {}, "include": list(w.state.get("tests") or []),
+                    "options": _options_text(plan)}
             for test, a in (plan.get("artefacts") or {}).items():
                 aid = (w.state.get("artefact_ids") or {}).get(test) or ""
                 form["artefacts"][test] = {"_choice": aid, **{k: (", ".join(map(str, v)) if isinstance(v, list) else v)
@@ -1098,7 +1134,8 @@ class WizardPage:
             standard = standard or (keep or {}).get("standard") or (ids[0] if ids else None)
             form = {"standard": standard, "system_name": (keep or {}).get("system_name", ""),
                     "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
-                    "mpe": dict((keep or {}).get("mpe") or {}), "artefacts": {}, "include": []}
+                    "mpe": dict((keep or {}).get("mpe") or {}), "artefacts": {}, "include": [],
+                    "options": (keep or {}).get("options", "")}
         tests = []
         catalogue: dict[str, list[dict[str, Any]]] = {}
         if standard:
@@ -1234,7 +1271,7 @@ class WizardPage:
                         a["_id"], a["_name"] = entry["id"], entry.get("name", entry["id"])
                 arts[test] = a
             self.wizard.setup(form.get("standard"), form.get("system_name"), form.get("volume"), form.get("mpe") or {},
-                              arts, tests=form.get("include") or [])
+                              arts, tests=form.get("include") or [], options=form.get("options"))
         except Exception as exc:
             s.wz_setup_error = _one_line(exc)
             return False
@@ -1433,6 +1470,13 @@ class WizardPage:
     def close(self) -> None:
         self._executor.shutdown(wait=False, cancel_futures=True)
         shutil.rmtree(self.downloads, ignore_errors=True)
+
+
+def _options_text(plan: dict[str, Any]) -> str:
+    import yaml
+
+    extra = {k: v for k, v in plan.items() if k not in _FORM_KEYS and k != "name"}
+    return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
 
 
 def mount(server: Any, session: Any) -> WizardPage:

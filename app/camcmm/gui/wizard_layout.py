@@ -264,6 +264,22 @@ def _verdict_color(expr: str) -> tuple[str]:
     return (f"({VERDICT_COLORS})[{expr}] || 'grey'",)
 
 
+def _set_form(path: str) -> str:
+    """A JS statement that replaces ``wz_form`` by a copy with ``$event`` at ``path``.
+
+    trame's template state hands out plain objects: writing into a nested property
+    (``v-model="wz_form.x"``) would neither re-render nor reach the server, and a field
+    would fall back to the old value on blur. Assigning a new top-level object does
+    both. ``path`` items are JS expressions for the keys (``"'mpe'"``, ``"f.key"``)."""
+    def build(obj: str, keys: list[str]) -> str:
+        if not keys:
+            return "$event"
+        k = keys[0]
+        return f"Object.assign({{}}, {obj}, {{[{k}]: {build(f'({obj} || {{}})[{k}]', keys[1:])}}})"
+
+    return "wz_form = " + build("wz_form", [p.strip() for p in path.split("|")])
+
+
 def build_panel(page: Any, accept: str = "") -> None:
     """The wizard's panel inside the current layout context (shown on the page
     ``page === 'acceptance'``); wires the widgets to ``page`` (a WizardPage)."""
@@ -315,27 +331,33 @@ def build_panel(page: Any, accept: str = "") -> None:
                      classes="mb-2", raw_attrs=_tid("wz-setup-error"))
             with v.VRow(dense=True):
                 with v.VCol(cols=12, md=7):
-                    v.VSelect(v_model="wz_form.standard", items=("wz_standards",), label="Standard",
+                    v.VSelect(model_value=("wz_form.standard",), items=("wz_standards",), label="Standard",
                               density="compact", variant="outlined", disabled=("wz_locked",), hide_details=True,
                               update_modelValue=(on_standard, "[$event, wz_form]"), raw_attrs=_tid("wz-standard"))
                 with v.VCol(cols=12, md=5):
-                    v.VTextField(v_model="wz_form.system_name", label="Measuring system", density="compact",
+                    v.VTextField(model_value=("wz_form.system_name",), update_modelValue=_set_form("'system_name'"),
+                                 label="Measuring system", density="compact",
                                  variant="outlined", disabled=("wz_locked",), hide_details=True,
                                  raw_attrs=_tid("wz-system-name"))
-            html.Div("Measuring volume", classes="text-caption mt-2")
+            html.Div("Measuring volume", classes="text-caption mt-3 mb-2")
             with v.VRow(dense=True):
                 for i, axis in enumerate("xyz"):
                     with v.VCol(cols=4):
-                        v.VTextField(v_model=f"wz_form.volume[{i}]", label=axis, suffix="mm", type="number",
+                        v.VTextField(model_value=(f"wz_form.volume[{i}]",),
+                                     update_modelValue=_set_form(f"'volume' | {i}").replace(
+                                         "Object.assign({}, (wz_form || {})['volume']",
+                                         "Object.assign([], (wz_form || {})['volume']"),
+                                     label=axis, suffix="mm",
                                      density="compact", variant="outlined", disabled=("wz_locked",),
                                      hide_details=True, raw_attrs=_tid(f"wz-volume-{axis}"))
-            html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-2")
+            html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
             with v.VRow(dense=True):
                 with v.VCol(v_for="f in wz_mpe_fields", key="f.key", cols=6, md=3):
-                    v.VTextField(v_model="wz_form.mpe[f.key]", label=("f.label",), suffix="mm", type="number",
+                    v.VTextField(model_value=("wz_form.mpe[f.key]",), update_modelValue=_set_form("'mpe' | f.key"),
+                                 label=("f.label",), suffix="mm",
                                  density="compact", variant="outlined", disabled=("wz_locked",), hide_details=True,
                                  raw_attrs=_dyn_tid("'wz-mpe-' + f.key"))
-            html.Div("Artefacts", classes="text-caption mt-2")
+            html.Div("Artefacts", classes="text-caption mt-3 mb-2")
             with v.VCard(v_for="t in wz_form_tests", key="t.test", variant="outlined", classes="mb-2",
                          raw_attrs=_dyn_tid("'wz-artefact-' + t.test")):
                 with v.VCardText(classes="pb-1"):
@@ -343,21 +365,32 @@ def build_panel(page: Any, accept: str = "") -> None:
                         html.Span("{{ t.label }}", classes="text-subtitle-2")
                         v.VChip("{{ t.min_count }} positions{{ t.repeats > 1 ? ' × ' + t.repeats + ' repeats' : '' }}",
                                 size="x-small", variant="tonal")
-                        v.VCheckbox(v_if="!t.required", v_model="wz_form.include", value=("t.test",),
+                        v.VCheckbox(v_if="!t.required", model_value=("wz_form.include",),
+                                    update_modelValue=_set_form("'include'"), value=("t.test",), multiple=True,
                                     label="include (optional)", density="compact", hide_details=True,
                                     disabled=("wz_locked",))
                     with html.Div(v_if="t.required || (wz_form.include || []).includes(t.test)"):
-                        v.VSelect(v_model="wz_form.artefacts[t.test]._choice", items=("t.options",),
+                        v.VSelect(model_value=("(wz_form.artefacts[t.test] || {})._choice",), items=("t.options",),
                                   label="From the catalogue", density="compact", variant="outlined",
                                   disabled=("wz_locked",), hide_details=True, classes="mb-2",
                                   update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
                                   raw_attrs=_dyn_tid("'wz-catalogue-' + t.test"))
                         with v.VRow(dense=True):
                             with v.VCol(v_for="f in t.fields", key="f.key", cols=6, md=3):
-                                v.VTextField(v_model="wz_form.artefacts[t.test][f.key]", label=("f.label",),
+                                v.VTextField(model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
+                                             update_modelValue=_set_form("'artefacts' | t.test | f.key"),
+                                             label=("f.label",),
                                              suffix=("f.unit",), density="compact", variant="outlined",
                                              disabled=("wz_locked",), hide_details=True,
                                              raw_attrs=_dyn_tid("'wz-field-' + t.test + '-' + f.key"))
+            with v.VExpansionPanels(classes="mb-2", raw_attrs=_tid("wz-advanced")):
+                with v.VExpansionPanel(title="More plan options (YAML, docs/standards.md)"):
+                    with v.VExpansionPanelText():
+                        v.VTextarea(model_value=("wz_form.options",), update_modelValue=_set_form("'options'"),
+                                    rows=3, auto_grow=True, density="compact", variant="outlined",
+                                    disabled=("wz_locked",), hide_details=True,
+                                    placeholder="outliers: vdi2634\nscaling: {sphere: radii, ball_plate: lengths}\n"
+                                                "repeats: 3\nunit: mm", raw_attrs=_tid("wz-options"))
             with html.Div(classes="d-flex ga-2 mt-2"):
                 v.VBtn("Start the test", color="primary", prepend_icon="mdi-play", disabled=("wz_locked",),
                        click=(on_start, "[wz_form]"), raw_attrs=_tid("wz-start"))

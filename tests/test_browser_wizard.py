@@ -1,0 +1,254 @@
+"""The acceptance-test wizard end to end in headless Chromium, driven by Playwright.
+
+A full VDI/VDE 2634 part-2 test: setup (system, MPEs, artefacts from the catalogue),
+then every required position imported through its card's file input, counters and
+verdict chips checked; halfway (after 5 sphere positions) the server is KILLED
+(SIGKILL), started again on the same project, the page reloaded: the wizard resumes
+with the positions already done. The remaining positions, the final verdict, the
+Report button and the report's links. Screenshots go to ``$CAMCMM_SCREENSHOTS``
+(default ``/tmp/wizard``).
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+cio = pytest.importorskip("camcmm.io")
+
+from camcmm.host import default_host  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_wizard import MPE, write_measurements  # noqa: E402
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "wizard"))
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+STANDARD = "vdi2634-2"
+
+
+def _standard():
+    try:
+        host = default_host()
+        if STANDARD not in host.plugins:
+            return None
+        return host.load(STANDARD)
+    except Exception:
+        return None
+
+
+class Server:
+    """``python -m camcmm.gui PROJECT --port 0`` in a subprocess."""
+
+    def __init__(self, project: Path):
+        env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+        self.log: list[str] = []
+        lines: queue.Queue[str] = queue.Queue()
+
+        def pump():
+            for line in self.proc.stdout:
+                self.log.append(line)
+                lines.put(line)
+
+        threading.Thread(target=pump, daemon=True).start()
+        self.url, deadline = None, time.monotonic() + 60
+        while self.url is None and time.monotonic() < deadline:
+            try:
+                line = lines.get(timeout=0.5)
+            except queue.Empty:
+                if self.proc.poll() is not None:
+                    break
+                continue
+            m = re.search(r"camcmm GUI: (http://\S+)", line)
+            if m:
+                self.url = m.group(1)
+        if self.url is None:
+            self.proc.kill()
+            pytest.fail("GUI server did not print its URL:\n" + "".join(self.log[-40:]))
+
+    def kill(self) -> None:
+        """SIGKILL: no shutdown handler runs, as in a crash or a pulled plug."""
+        self.proc.kill()
+        self.proc.wait(timeout=10)
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def _card(page, pos: str):
+    return page.locator(f'[data-testid="card-{pos}"]')
+
+
+def _import(page, test: str, pos: str, path: Path, expect: str = "done") -> None:
+    page.locator(f'[data-testid="card-{pos}"] [data-testid="card-file"] input[type="file"]').set_input_files(str(path))
+    page.wait_for_selector(f'[data-testid="card-{pos}"][data-status="{expect}"]')
+
+
+def _counter(page, test: str) -> str:
+    return page.locator(f'[data-testid="wz-counter-{test}"]').inner_text().strip()
+
+
+def _open_wizard(page, url: str) -> None:
+    page.goto(url)
+    page.wait_for_selector('[data-testid="page-acceptance"]')
+    page.locator('[data-testid="page-acceptance"]').click()
+    page.wait_for_selector('[data-testid="wizard"]')
+
+
+def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
+    std = _standard()
+    if std is None:
+        pytest.skip(f"the {STANDARD} standard plugin is not installed (yet)")
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    files = write_measurements(tmp_path / "meas", std.requirements(None), n=2500)
+    bad = tmp_path / "broken.xyz"
+    bad.write_text("1 2 3\n4 nan 6\n")
+    project = tmp_path / "proj"
+    t0 = time.monotonic()
+    server = Server(project)
+    try:
+        with sync_api.sync_playwright() as p:
+            ctx = p.chromium.launch_persistent_context(
+                str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
+                viewport={"width": 1400, "height": 900}, accept_downloads=True)
+            try:
+                page = ctx.new_page()
+                page.set_default_timeout(30_000)
+                _open_wizard(page, server.url)
+
+                # -- 1 setup: standard preselected, catalogue artefacts preselected --------------------
+                page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
+                assert "vdi2634-2" in page.locator('[data-testid="wz-standard"]').inner_text()
+                page.locator('[data-testid="wz-system-name"] input').fill("Stereo fringe projection, lab 3")
+                for key, value in MPE.items():
+                    page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
+                diameter = page.locator('[data-testid="wz-field-sphere-diameter"] input').input_value()
+                assert float(diameter) == pytest.approx(20.001)
+                page.locator('[data-testid="wz-field-sphere-uncertainty"] input').fill("0.0012")  # own value
+                # every field still shows what was typed (a field falling back to its old value on blur
+                # would be sent as typed but shown empty)
+                assert page.locator('[data-testid="wz-system-name"] input').input_value().startswith("Stereo")
+                assert page.locator('[data-testid="wz-mpe-PF"] input').input_value() == str(MPE["PF"])
+                page.screenshot(path=str(SHOTS / "wizard-1-setup.png"))
+                page.locator('[data-testid="wz-start"]').click()
+
+                # -- 2 positions -------------------------------------------------------------------
+                page.wait_for_selector('[data-testid="wz-positions"]')
+                assert _counter(page, "sphere") == "0 of 10 sphere positions"
+                assert page.locator('[data-testid^="card-sphere-"]').count() == 10
+                assert page.locator('[data-testid^="card-ball-bar-"]').count() == 7
+                assert page.locator('[data-testid^="card-flat-"]').count() == 6
+                assert _card(page, "sphere-01").locator("svg").count() == 1  # the pictogram
+                page.screenshot(path=str(SHOTS / "wizard-2-positions.png"))
+
+                for i, (pos, path) in enumerate(files["sphere"][:5]):
+                    _import(page, "sphere", pos, path)
+                    page.wait_for_selector(f'[data-testid="wz-counter-sphere"]:has-text("{i + 1} of 10")')
+                    chip = _card(page, pos).locator('[data-testid="card-verdict"]')
+                    assert chip.inner_text().strip().lower() == "pass"
+                page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation [mm]")')
+                assert "P_F" in _card(page, "sphere-01").inner_text()
+                # a bad file: that card says why, the others stay
+                _import(page, "sphere", "sphere-06", bad, expect="error")
+                assert "broken.xyz" in _card(page, "sphere-06").locator('[data-testid="card-error"]').inner_text()
+                assert _counter(page, "sphere") == "5 of 10 sphere positions"
+                time.sleep(0.5)
+                page.screenshot(path=str(SHOTS / "wizard-3-five-spheres.png"))
+            finally:
+                ctx.close()
+
+        # -- the crash: kill the server halfway, start it again on the same project -------------------
+        server.kill()
+        server = Server(project)
+        with sync_api.sync_playwright() as p:
+            ctx = p.chromium.launch_persistent_context(
+                str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
+                viewport={"width": 1400, "height": 900}, accept_downloads=True)
+            try:
+                page = ctx.new_page()
+                page.set_default_timeout(30_000)
+                _open_wizard(page, server.url)
+                page.wait_for_selector('[data-testid="wz-positions"]')  # resumed on the positions
+                assert _counter(page, "sphere") == "5 of 10 sphere positions"
+                assert _counter(page, "ball_bar") == "0 of 7 ball bar orientations"
+                done = [page.locator(f'[data-testid="card-sphere-{i:02d}"]').get_attribute("data-status")
+                        for i in range(1, 11)]
+                assert done == ["done"] * 5 + ["error"] + ["pending"] * 4
+                assert "broken.xyz" in _card(page, "sphere-06").inner_text()  # the reason survived too
+                page.screenshot(path=str(SHOTS / "wizard-4-resumed.png"))
+
+                for pos, path in files["sphere"][5:]:
+                    _import(page, "sphere", pos, path)
+                page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("10 of 10")')
+                # redo a position: Redo offers the file input again, the new file replaces the old
+                _card(page, "sphere-02").locator('[data-testid="card-redo"]').click()
+                redo_file = tmp_path / "sphere-02-again.ply"
+                redo_file.write_bytes(files["sphere"][1][1].read_bytes())
+                page.locator('[data-testid="card-sphere-02"] [data-testid="card-file"] input[type="file"]') \
+                    .set_input_files(str(redo_file))
+                page.wait_for_selector('[data-testid="wz-detail"]:has-text("sphere-02-again.ply")')
+                assert _card(page, "sphere-02").get_attribute("data-status") == "done"
+                assert _counter(page, "sphere") == "10 of 10 sphere positions"
+                for test in ("ball_bar", "flat"):
+                    for pos, path in files[test]:
+                        _import(page, test, pos, path)
+                assert _counter(page, "ball_bar") == "7 of 7 ball bar orientations"
+                assert _counter(page, "flat") == "6 of 6 flat orientations"
+                page.locator('[data-testid="wz-block-ball_bar"]').scroll_into_view_if_needed()
+                time.sleep(0.5)
+                page.screenshot(path=str(SHOTS / "wizard-5-ball-bars.png"))
+                page.locator('[data-testid="wz-block-flat"]').scroll_into_view_if_needed()
+                time.sleep(0.3)
+                page.screenshot(path=str(SHOTS / "wizard-6-flats.png"))
+
+                # -- 3 result and the report -------------------------------------------------------------
+                page.locator('[data-testid="wz-goto-result"]').click()
+                verdict = page.locator('[data-testid="wz-verdict"]')
+                verdict.wait_for()
+                assert verdict.inner_text().strip() == "PASS"
+                assert page.locator('[data-testid^="wz-param-"]').count() == 4
+                page.locator('[data-testid="wz-report"]').click()
+                link = page.locator('[data-testid="wz-report-html"]')
+                link.wait_for(timeout=60_000)
+                href = link.get_attribute("href")
+                resp = page.request.get(server.url.rstrip("/") + "/" + href.lstrip("/"))
+                assert resp.ok and "VDI/VDE 2634" in resp.text()
+                with page.expect_download() as dl:
+                    page.locator('[data-testid="wz-report-pdf"]').click()
+                pdf = Path(dl.value.path())
+                assert dl.value.suggested_filename.endswith(".pdf") and pdf.read_bytes()[:5] == b"%PDF-"
+                with page.expect_popup() as popup:
+                    link.click()
+                popup.value.wait_for_load_state()
+                assert "VDI/VDE 2634" in popup.value.content()
+                popup.value.screenshot(path=str(SHOTS / "wizard-8-report.png"))
+                page.screenshot(path=str(SHOTS / "wizard-7-result.png"))
+            finally:
+                ctx.close()
+    finally:
+        server.stop()
+    assert time.monotonic() - t0 < 120
