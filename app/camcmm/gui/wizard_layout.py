@@ -327,6 +327,8 @@ def build_panel(page: Any, accept: str = "") -> None:
                 html.Span("A test is running in this project: {{ wz_progress_text }}. ")
                 v.VBtn("Set up a new test", size="small", variant="text", color="primary", click="wz_locked = false",
                        raw_attrs=_tid("wz-unlock"))
+            v.VAlert(v_if="!wz_standards.length", type="warning", density="compact", classes="mb-2",
+                     text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.")
             v.VAlert(v_if="wz_setup_error", text=("wz_setup_error",), type="error", density="compact",
                      classes="mb-2", raw_attrs=_tid("wz-setup-error"))
             with v.VRow(dense=True):
@@ -448,10 +450,12 @@ def build_panel(page: Any, accept: str = "") -> None:
                             html.Th(h)
                 with html.Tbody():
                     with html.Tr(v_for="p in wz_parameters", key="p.key", raw_attrs=_dyn_tid("'wz-param-' + p.key")):
-                        html.Td("{{ p.name }}", title=("p.note",))
-                        html.Td("{{ p.value }}", classes="text-right")
-                        html.Td("{{ p.mpe }}", classes="text-right")
-                        html.Td("{{ p.U }}", classes="text-right")
+                        with html.Td(title=("p.note",)):
+                            html.Div("{{ p.name }}")
+                            html.Div("{{ p.note }}", v_if="p.note", classes="text-caption text-medium-emphasis")
+                        html.Td("{{ p.value }}", classes="text-right text-no-wrap")
+                        html.Td("{{ p.mpe }}", classes="text-right text-no-wrap")
+                        html.Td("{{ p.U }}", classes="text-right text-no-wrap")
                         with html.Td():
                             v.VChip("{{ p.verdict }}", size="x-small", variant="flat", color=_verdict_color("p.verdict"))
                         with html.Td():
