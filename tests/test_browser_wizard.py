@@ -252,3 +252,41 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
     finally:
         server.stop()
     assert time.monotonic() - t0 < 120
+
+
+def test_demo_project_opens_with_a_finished_test(tmp_path):
+    host = default_host()
+    if _standard() is None or "virtuallab.acceptance-set" not in host.plugins:
+        pytest.skip("the demo's acceptance test needs the vdi2634-2 and virtual-lab plugins")
+    from camcmm.demo import create_demo
+
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    summary = create_demo(tmp_path / "demo")
+    verdict = summary["acceptance"]["verdict"]
+    server = Server(tmp_path / "demo")
+    try:
+        with sync_api.sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            try:
+                page = browser.new_page(viewport={"width": 1400, "height": 900})
+                page.set_default_timeout(30_000)
+                _open_wizard(page, server.url)
+                chip = page.locator('[data-testid="wz-verdict"]')  # opens on the result
+                chip.wait_for()
+                assert chip.inner_text().strip() == verdict.upper()
+                assert page.locator('[data-testid="wz-report-html"]').count() == 1
+                page.screenshot(path=str(SHOTS / "wizard-demo-result.png"))
+                page.locator('[data-testid="wz-tab-positions"]').click()
+                page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("10 of 10 sphere positions")')
+                assert _counter(page, "ball_bar") == "7 of 7 ball bar orientations"
+                assert _counter(page, "flat") == "6 of 6 flat orientations"
+                assert page.locator('[data-status="done"]').count() == 23
+                _card(page, "flat-03").locator('[data-testid="card-show"]').click()
+                page.wait_for_selector('[data-testid="wz-detail"]:has-text("flat-03")')
+                page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation [mm]")')
+                time.sleep(1.0)
+                page.screenshot(path=str(SHOTS / "wizard-demo-positions.png"))
+            finally:
+                browser.close()
+    finally:
+        server.stop()

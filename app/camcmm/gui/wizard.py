@@ -1028,6 +1028,42 @@ def fit_rows(ev: dict[str, Any]) -> list[dict[str, str]]:
     return rows
 
 
+def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
+    """(direction from the object to the camera, view-up) that shows an evaluation's
+    colour map well: a flat face-on (along its normal, from the sensor's side); a ball
+    bar or plate across its length, from above; a sphere from the front and above, as
+    the sensor saw it. None when the evaluation says nothing about its geometry."""
+    z = np.array([0.0, 0.0, 1.0])
+    if ev.get("normal") is not None:
+        n = np.asarray(ev["normal"], float)
+        n = n / (np.linalg.norm(n) or 1.0)
+        if n @ z < 0:
+            n = -n
+        up = np.array([0.0, 1.0, 0.0]) if abs(n @ z) > 0.9 else z
+        return n.tolist(), up.tolist()
+    centres = [s.get("center") for s in ev.get("spheres") or [] if isinstance(s, dict) and s.get("center")]
+    if len(centres) >= 2:
+        c = np.asarray(centres, float)
+        d = c[1] - c[0]
+        d = d / (np.linalg.norm(d) or 1.0)
+        if len(c) >= 3:  # a plate: face-on
+            n = np.cross(c[1] - c[0], c[2] - c[0])
+            n = n / (np.linalg.norm(n) or 1.0)
+            v = n if n @ z >= 0 else -n
+        else:
+            v = z - (z @ d) * d
+            if np.linalg.norm(v) < 0.2:  # a (nearly) vertical bar: from the front
+                v = np.array([0.0, -1.0, 0.0]) - d * d[1] * -1.0
+            v = v / (np.linalg.norm(v) or 1.0)
+            side = np.cross(d, v)
+            v = v + 0.4 * side
+        up = z if abs((v / np.linalg.norm(v)) @ z) < 0.9 else np.array([0.0, 1.0, 0.0])
+        return (v / np.linalg.norm(v)).tolist(), up.tolist()
+    if ev.get("center") is not None:
+        return [0.3, -0.6, 1.0], [0.0, 0.0, 1.0]
+    return None
+
+
 # -- the page -----------------------------------------------------------------------------------
 class WizardPage:
     """Publishes a :class:`Wizard` through the session's trame state (``wz_*`` keys)
@@ -1367,7 +1403,7 @@ class WizardPage:
         self._detail(job.test, job.position, job.repeat, job.evaluation or {})
         dev = job.extra.get("deviations")
         if dev is not None:
-            self.show_cloud(f"wizard:{job.extra.get('result')}", dev)
+            self.show_cloud(f"wizard:{job.extra.get('result')}", dev, job.evaluation)
         verdict = (rep or {}).get("verdict") or ""
         values = ", ".join(f"{v['symbol']} {v['text']}" for v in (rep or {}).get("values", []))
         prog = next((p["text"] for p in self.state.wz_progress if p["test"] == job.test), "")
@@ -1402,17 +1438,24 @@ class WizardPage:
         filled = [(i + 1, mid) for i, mid in enumerate(slots) if mid is not None]
         rep, mid = (repeat, dict(filled).get(repeat)) if repeat else filled[-1]
         self._detail(test, position, rep, self.wizard.evaluation(mid) or {})
-        self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud)
+        self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud,
+                        self.wizard.evaluation(mid))
 
-    def show_cloud(self, key: str, cloud: Any) -> None:
+    def show_cloud(self, key: str, cloud: Any, evaluation: dict[str, Any] | None = None) -> None:
         """Show a deviations cloud coloured by ``deviation`` (legend in mm) in the
-        session's 3D view; the Inspect page's colour selector follows."""
+        session's 3D view, looking at it as :func:`view_direction` suggests; the Inspect
+        page's colour selector follows."""
         from .view import color_fields
 
         sess = self.session
         field_name = "deviation" if "deviation" in (getattr(cloud, "fields", {}) or {}) else None
         try:
             sess.view.show(key, cloud, field_name)
+            look = view_direction(evaluation or {})
+            if look is not None:
+                sess.view.plotter.view_vector(look[0], viewup=look[1])
+                sess.view.plotter.reset_camera()
+                sess.view._changed(reset_camera=True)
         except Exception as exc:
             sess.error(f"cannot show {getattr(cloud, 'name', key)}: {_one_line(exc)}")
             return
