@@ -45,11 +45,15 @@ def dataset(regenerate: bool) -> Path:
     return plan
 
 
+CPU: list[float] = []  # process CPU seconds per evaluation: a figure other processes on the machine disturb less
+
+
 def evaluate(plan: Path, workers: int | None) -> tuple[float, dict]:
     host = default_host()
     std = host.load("vdi2634-2")
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     result = std(RunContext(host, "vdi2634-2"), plan, workers=workers)
+    CPU.append(time.process_time() - c)
     return time.perf_counter() - t, result
 
 
@@ -106,6 +110,8 @@ def main() -> None:
     print(f"full part-2 evaluation (read + hash + segment + fit with 3/1000 rule + summary): "
           f"best {best:.2f} s, median {statistics.median(times):.2f} s over {args.repeat} runs "
           f"({'under' if best < 5 else 'OVER'} the 5 s target)")
+    print(f"CPU time of this process per evaluation (all threads): best {min(CPU[1:]):.2f} s; "
+          f"load average while running: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     print(f"first (cold) run in this process, plugin imports included: {cold:.2f} s")
     print(f"reference: bare least-squares fits, no outlier rule, data in memory: {ref:.2f} s "
           f"-> ratio evaluation / bare fits = {best / ref:.2f}")
