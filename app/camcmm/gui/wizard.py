@@ -214,6 +214,19 @@ def parse_options(options: Any) -> dict[str, Any]:
     return dict(options)
 
 
+def _same_value(a: Any, b: Any) -> bool:
+    """Equal as numbers when both read as numbers (the browser sends 20.0 back as 20)."""
+    def nums(x: Any) -> list[float]:
+        if isinstance(x, (list, tuple)):
+            return [float(v) for v in x]
+        return [float(p) for p in str(x).replace(",", " ").replace(";", " ").split()]
+
+    try:
+        return nums(a) == nums(b)
+    except (TypeError, ValueError):
+        return str(a).strip() == str(b).strip()
+
+
 def fmt_mm(v: Any, signed: bool = False) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "–"
@@ -1300,7 +1313,7 @@ class WizardPage:
                 entry = next((x for x in self.wizard.catalogue() if x["id"] == choice), None) if choice else None
                 if entry is not None:
                     same = self._artefact_values(entry)
-                    edited = any(str(same.get(k)) != str(v) for k, v in a.items() if not k.startswith("_"))
+                    edited = any(not _same_value(same.get(k), v) for k, v in a.items() if not k.startswith("_"))
                     if edited:
                         a["_id"], a["_name"] = f"{choice}-own", f"{entry.get('name', choice)} (own values)"
                     else:
