@@ -50,11 +50,11 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from ..errors import CamcmmError, InputError, ProjectError
+from ..errors import CamcmmError, InputError
 from ..host import RunContext, default_host, to_jsonable
 
 log = logging.getLogger("camcmm.gui.wizard")
