@@ -293,6 +293,14 @@ class MeshDistance:
             near[ok] |= thin[self.nbr[ok, k]]
         self.sliver = near
         info.n_slivers = int(thin.sum())
+        # boundary features: a closest point there lies on the rim of the nominal, where
+        # ICP must not take it as a correspondence (the nominal may simply end there)
+        self.edge_boundary = boundary
+        vb = np.zeros(len(V), dtype=bool)
+        if boundary.any():
+            vb[np.roll(F, -1, axis=1)[boundary[e_und]]] = True
+            vb[F[boundary[e_und]]] = True
+        self.vertex_boundary = vb
         ang = self._corner_angles(Vc[F])
         self.vn = np.column_stack([np.bincount(F.ravel(), weights=(ang * fn[:, [k]]).ravel(), minlength=len(V))
                                    for k in range(3)])
@@ -364,6 +372,23 @@ class MeshDistance:
         barycentric coordinates (N, 3) and the triangles' unit normals."""
         q, fid, b = self._closest(np.asarray(points, dtype=float) - self.center)
         return q + self.center, fid, b, self.fn[fid]
+
+    def on_boundary(self, fid: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """True where the closest point (triangle ``fid``, barycentrics ``b``) lies on an
+        edge or vertex of the mesh's boundary (a hole's rim or the edge of an open patch)."""
+        out = np.zeros(len(fid), dtype=bool)
+        if not self.edge_boundary.any():
+            return out
+        z = b < BARY_EPS
+        nz = z.sum(axis=1)
+        e = np.flatnonzero(nz == 1)
+        if e.size:
+            side = (np.argmax(z[e], axis=1) + 1) % 3
+            out[e] = self.edge_boundary[self.edge_id[fid[e], side]]
+        v = np.flatnonzero(nz >= 2)
+        if v.size:
+            out[v] = self.vertex_boundary[self.F[fid[v], np.argmin(z[v], axis=1)]]
+        return out
 
     def _closest(self, pc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Closest points (centred frame), triangle ids and barycentric coordinates.
