@@ -219,7 +219,7 @@ class SceneView:
             self.actor = self.plotter.add_mesh(
                 poly, scalars=name, cmap=cmap, clim=[lo, hi], reset_camera=False, nan_color="#888888",
                 scalar_bar_args={"title": self.scalar_bar_title, "color": "black", "vertical": True,
-                                 "position_x": 0.86, "position_y": 0.12, "height": 0.75, "width": 0.08,
+                                 "position_x": 0.80, "position_y": 0.12, "height": 0.75, "width": 0.08,
                                  "fmt": "%.4g", "title_font_size": 16, "label_font_size": 13},
                 **style,
             )
