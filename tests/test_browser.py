@@ -152,6 +152,9 @@ def test_import_view_and_run_a_plugin(gui_server, tmp_path):
             assert 0 < n < 20000
             page.wait_for_selector('[data-testid="progress"]:has-text("100")')
             assert page.locator('[data-testid="item"]').count() == 2
+            # the value typed in the form is the one the plugin ran with
+            page.wait_for_selector('[data-testid="item"]:has-text("voxel 2 mm")')
+            assert field.input_value() == "2"
             time.sleep(0.5)
             page.screenshot(path=str(SHOTS / "camcmm-browser-2-result.png"))
 
