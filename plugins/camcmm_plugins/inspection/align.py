@@ -350,16 +350,27 @@ _DOF_NAMES = ("rotation about x", "rotation about y", "rotation about z",
               "translation along x", "translation along y", "translation along z", "scale")
 
 
-def _gn_step(x: np.ndarray, q: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float,
-             cond: float = 1e-7) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """One weighted Gauss-Newton step: (ω, τ, σ), the centroid c, weak directions."""
+def _jacobian(x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float) -> tuple[np.ndarray, np.ndarray]:
     c = (w @ x) / w.sum()
     xc = x - c
-    r = np.einsum("ij,ij->i", n, x - q)
     cols = [np.cross(xc, n) / L, n]
     if scale:
         cols.append(np.einsum("ij,ij->i", n, xc)[:, None] / L)
-    J = np.hstack(cols)
+    return np.hstack(cols), c
+
+
+def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = 1e-7) -> int:
+    """Directions the weighted normal matrix leaves (numerically) undetermined."""
+    H = J.T @ (J * (w / w.sum())[:, None])
+    lam = np.linalg.eigvalsh(H)
+    return int(np.sum(lam <= cond * lam.max()))
+
+
+def _gn_step(x: np.ndarray, q: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float,
+             cond: float = 1e-7) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """One weighted Gauss-Newton step: (ω, τ, σ), the centroid c, weak directions."""
+    J, c = _jacobian(x, n, w, scale, L)
+    r = np.einsum("ij,ij->i", n, x - q)
     sw = w / w.sum()
     H = J.T @ (J * sw[:, None])
     g = J.T @ (r * sw)
@@ -456,8 +467,19 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
                 k = float(kernel_k)
             else:
                 sig = 1.4826 * np.median(np.abs(r))  # about zero: an offset is a residual too
-                k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-9 * nom.diag)
+                k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-6 * nom.diag)  # float32 floor
             w = _weights(r, kernel, k)
+            if kernel != "none" and not kernel_k:
+                # the kernel must not leave a direction undetermined that the data fix: with
+                # exact data where a face really deviates, the adaptive scale can shrink
+                # below that deviation and reject every face that holds, say, z
+                Jg, _ = _jacobian(xg, ng, np.ones(len(xg)), scale, L)
+                geo = _n_weak(Jg, np.ones(len(xg)))
+                for _ in range(40):
+                    if (w > 0).sum() >= need and _n_weak(Jg, w) <= geo:
+                        break
+                    k *= 2.0
+                    w = _weights(r, kernel, k)
             if (w > 0).sum() < need:
                 fail = "the robust kernel rejected all but a few correspondences"
                 break
