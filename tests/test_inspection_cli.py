@@ -1,0 +1,192 @@
+"""``camcmm inspect`` and the inspection plugins through the host: the JSON contract,
+the outputs a GUI builds on, the coloured cloud, the report, failures and bad input.
+
+The data are exact by construction: points on the faces of an L-shaped block (STL), a
+patch of its top raised by 30 µm, moved by a known transform.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from camcmm.api import PointCloud, TriangleMesh, read, write
+from camcmm.host import PluginHost
+from camcmm_plugins.inspection.align import apply, similarity
+from camcmm_plugins.inspection.coverage import sample_surface
+from camcmm_plugins.inspection.report import build_report
+from test_inspection_shapes import Polycube, l_block, rotation
+
+RAISE = 0.03
+STATS = {"mean", "std", "rms", "min", "max", "p2_5", "p97_5"}
+MR = {"Sk", "Spk", "Svk", "Smr1", "Smr2"}
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("inspect")
+    pc = Polycube(l_block(), 10.0, 4)
+    write(TriangleMesh(pc.vertices, pc.faces, name="block"), d / "block.stl")
+    pts, tid = sample_surface(pc.vertices, pc.faces, 60000, seed=5)
+    tri = pc.vertices[pc.faces]
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    fn /= np.linalg.norm(fn, axis=1)[:, None]
+    # a patch of the top of the wall is raised (small enough that the rest fixes the pose)
+    up = (fn[tid, 2] > 0.99) & (pts[:, 2] > 19.99) & (pts[:, 0] > 12.0)
+    truth = np.where(up, RAISE, 0.0)
+    pts = pts + truth[:, None] * fn[tid]
+    c = pts.mean(axis=0)
+    R = rotation([1.0, -2.0, 1.5])
+    T = similarity(1.0, R, c - R @ c + np.array([0.6, -0.4, 0.3]))
+    write(PointCloud(apply(np.linalg.inv(T), pts), name="scan"), d / "scan.ply")
+    S = similarity(1 / 0.4, rotation([30.0, 100.0, -60.0]), np.array([20.0, 5.0, -7.0]))
+    write(PointCloud(apply(np.linalg.inv(S), pts), name="photo"), d / "photo.ply")
+    write(PointCloud(pts + 2000.0, name="far"), d / "far.ply")
+    picks = [0, 20000, 40000]
+    (d / "pairs.json").write_text(json.dumps({"measured": apply(np.linalg.inv(S), pts[picks]).tolist(),
+                                              "nominal": pts[picks].tolist()}))
+    return {"dir": d, "T": T, "S": S, "truth": truth, "up": up, "pts": pts}
+
+
+def camcmm(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "camcmm", *args], capture_output=True, text=True, timeout=600)
+
+
+def test_cli_json_out_and_report(files):
+    d = files["dir"]
+    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--tolerance", "0.05", "--json",
+                 "--out", str(d / "col.ply"), "--report", str(d / "rep"))
+    assert out.returncode == 0, out.stderr
+    r = json.loads(out.stdout)
+    assert r["converged"] is True and r["reason"] == ""
+    T = np.array(r["transform"])
+    assert T.shape == (4, 4) and np.abs(T - files["T"]).max() < 1e-3
+    assert r["scale"] == pytest.approx(1.0, abs=1e-12)
+    assert STATS <= set(r["stats"]) and MR <= set(r["material_ratio"])
+    assert 0 < r["coverage"] <= 1 and r["rms"] < 0.03 and r["overlap"] > 0.99
+    # the deviations are the construction: +30 µm on the top faces, 0 elsewhere
+    col = read(d / "col.ply")
+    assert col.field_units.get("deviation") == "mm" and col.colors is not None
+    dev = col.fields["deviation"]
+    assert np.abs(dev - files["truth"]).max() < 1e-4  # file order is kept
+    st = r["stats"]
+    assert st["max"] == pytest.approx(RAISE, abs=1e-4) and st["min"] > -1e-4
+    for ext in ("html", "pdf", "json"):
+        assert Path(r["report"][ext]).is_file()
+    rep = json.loads(Path(r["report"]["json"]).read_text())
+    assert MR <= set(rep["data"]["material_ratio"]) and rep["data"]["converged"] is True
+    figs = [b for s in rep["sections"] for b in s["blocks"] if b["type"] == "figure"]
+    assert len(figs) >= 4
+    assert "Material-ratio curve" in Path(r["report"]["html"]).read_text()
+
+
+def test_cli_text_and_similarity(files):
+    d = files["dir"]
+    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "global+similarity")
+    assert out.returncode == 0, out.stderr
+    assert "converged" in out.stdout and "Sk" in out.stdout
+    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "global+similarity",
+                 "--json")
+    r = json.loads(out.stdout)
+    assert r["converged"]
+    assert r["scale"] == pytest.approx(1 / 0.4, rel=1e-4)  # the factor applied to the measured cloud
+    assert np.abs(np.array(r["transform"]) - files["S"]).max() < 1e-2
+
+
+def test_cli_pairs(files):
+    d = files["dir"]
+    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs+similarity",
+                 "--pairs", str(d / "pairs.json"), "--json")
+    assert out.returncode == 0, out.stderr
+    r = json.loads(out.stdout)
+    assert r["converged"] and r["scale"] == pytest.approx(1 / 0.4, rel=1e-4)
+    assert r["alignment"]["stages"][0]["stage"] == "pairs"
+
+
+def test_cli_no_overlap_reports_failure(files):
+    d = files["dir"]
+    out = camcmm("inspect", str(d / "far.ply"), "--nominal", str(d / "block.stl"), "--json")
+    assert out.returncode == 0, out.stderr
+    r = json.loads(out.stdout)
+    assert r["converged"] is False and "no overlap" in r["reason"]
+    assert any("did not converge" in w for w in r["warnings"])
+    out = camcmm("inspect", str(d / "far.ply"), "--nominal", str(d / "block.stl"))
+    assert "NOT CONVERGED" in out.stdout
+
+
+def test_cli_bad_input(files, tmp_path):
+    d = files["dir"]
+    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs")
+    assert out.returncode == 2 and "--pairs" in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(tmp_path / "missing.stl"))
+    assert out.returncode == 2 and "missing.stl" in out.stderr and len(out.stderr.strip().splitlines()) == 1
+    out = camcmm("inspect", str(d / "block.stl"), "--nominal", str(d / "block.stl"))
+    assert out.returncode == 2 and "point cloud" in out.stderr
+    bad = tmp_path / "pairs.json"
+    bad.write_text("{not json")
+    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs+icp",
+                 "--pairs", str(bad))
+    assert out.returncode == 2 and "JSON" in out.stderr
+
+
+def test_plugins_through_the_host(files):
+    """What a GUI gets: inspect.align, then inspect.deviations with its transform; the
+    coloured cloud, histogram, coverage samples and the material-ratio curve arrays."""
+    d = files["dir"]
+    host = PluginHost()
+    a = host.run("inspect.align", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl")}, {})
+    n = read(d / "scan.ply").n_points
+    assert a.outputs["converged"] and a.outputs["aligned"].n_points == n
+    res = host.run("inspect.deviations", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl"),
+                                          "transform": a.outputs["transform"].tolist()}, {"tolerance": 0.05})
+    o = res.outputs
+    cloud = o["deviations"]
+    assert cloud.field_units["deviation"] == "mm" and cloud.colors.shape == (n, 3)
+    assert np.allclose(cloud.points, a.outputs["aligned"].points)
+    h = o["histogram"]
+    assert len(h["edges"]) == len(h["counts"]) + 1 and h["counts"].sum() == n
+    curve = o["material_ratio"]["curve"]
+    assert len(curve["mr_percent"]) == len(curve["height"]) == 1001
+    cov = o["coverage_cloud"]
+    assert cov.fields["covered"].mean() == pytest.approx(o["coverage"])
+    assert o["colour_limit"] == 0.05 and o["stats"]["within_tolerance"] == 1.0
+    doc = res.to_json()  # JSON-able, with clouds summarised
+    assert doc["outputs"]["deviations"]["kind"] == "pointcloud"
+    json.dumps(doc)
+    # the material ratio of the deviations, from the coloured cloud
+    m = host.run("inspect.material-ratio", {"source": cloud}, {})
+    assert m.outputs["Sk"] == pytest.approx(o["material_ratio"]["Sk"])
+
+
+def test_compare_against_a_reference_cloud(files):
+    d = files["dir"]
+    pc = Polycube(l_block(), 10.0, 4)
+    ref, _ = sample_surface(pc.vertices, pc.faces, 150000, seed=9)
+    res = PluginHost().run("inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": PointCloud(ref)},
+                           {"distance": "plane"})
+    o = res.outputs
+    assert o["converged"], o["reason"]
+    assert np.abs(o["transform"] - files["T"]).max() < 5e-3
+    dev = o["deviations"].fields["deviation"]
+    # sign from the reference normals (oriented outward): the raised patch reads positive
+    assert np.median(dev[files["up"]]) == pytest.approx(RAISE, abs=2e-3)
+    assert np.median(np.abs(dev[~files["up"]])) < 2e-3
+
+
+def test_report_renders(files, tmp_path):
+    d = files["dir"]
+    res = PluginHost().run("inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl")},
+                           {"tolerance": 0.05})
+    rep = build_report(res.outputs, cloud_file=str(d / "scan.ply"), nominal_file=str(d / "block.stl"), run=res,
+                       tolerance=0.05)
+    paths = rep.write(tmp_path)
+    assert Path(paths["pdf"]).read_bytes()[:4] == b"%PDF"
+    data = json.loads(Path(paths["json"]).read_text())
+    names = [s["title"] for s in data["sections"]]
+    assert names[:5] == ["Summary", "Alignment", "Deviations", "Material ratio (ISO 13565-2 / ISO 25178-2)", "Coverage"]
+    assert {i["file"] for i in data["provenance"]["inputs"]} == {str(d / "scan.ply"), str(d / "block.stl")}
