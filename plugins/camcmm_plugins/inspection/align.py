@@ -469,7 +469,8 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
                 sig = 1.4826 * np.median(np.abs(r))  # about zero: an offset is a residual too
                 k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-6 * nom.diag)  # float32 floor
             w = _weights(r, kernel, k)
-            if kernel != "none" and not kernel_k:
+            delta, c, weak = _gn_step(xg, qg, ng, w, scale, L) if (w > 0).sum() >= need else (None, None, ["all"])
+            if weak and kernel != "none" and not kernel_k:
                 # the kernel must not leave a direction undetermined that the data fix: with
                 # exact data where a face really deviates, the adaptive scale can shrink
                 # below that deviation and reject every face that holds, say, z
@@ -480,10 +481,11 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
                         break
                     k *= 2.0
                     w = _weights(r, kernel, k)
+                if (w > 0).sum() >= need:
+                    delta, c, weak = _gn_step(xg, qg, ng, w, scale, L)
             if (w > 0).sum() < need:
                 fail = "the robust kernel rejected all but a few correspondences"
                 break
-            delta, c, weak = _gn_step(xg, qg, ng, w, scale, L)
             T = _compose(T, delta, c, scale)
             it_total += 1
             last = {"e": e, "n_region": len(xi), "k": k}
