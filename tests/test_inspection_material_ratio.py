@@ -237,8 +237,11 @@ def test_plugin_on_a_height_map(tmp_path):
     f = tmp_path / "map.npy"
     z = _fixture_heights()[:200, :300]
     np.save(f, z)
-    res = PluginHost().run("inspect.material-ratio", {"source": str(f)}, {"unit": "um"})
+    res = PluginHost().run("inspect.material-ratio", {"source": str(f)},
+                           {"unit": "um", "smc_at": [2.5, 97.5], "smr_at": [0.0105]})
     ref = mr.parameters(z)
+    assert res.outputs["Smc"]["2.5"] == pytest.approx(np.percentile(z, 97.5, method="hazen") * 1e-3, rel=1e-12)
+    assert res.outputs["Smr"]["0.0105"] == pytest.approx(100 * np.mean(z > 10.5), abs=1e-3)
     assert res.outputs["Sk"] == pytest.approx(ref["Sk"] * 1e-3, rel=1e-12)
     assert res.outputs["Smr1"] == pytest.approx(ref["Smr1"], rel=1e-12)
     assert len(res.outputs["material_ratio"]["curve"]["height"]) == 1001

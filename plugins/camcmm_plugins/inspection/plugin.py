@@ -241,7 +241,8 @@ def load_heightmap(path: Any, unit: str = "mm", level: bool = False) -> np.ndarr
     return mrmod.level(z) if level else z
 
 
-def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", level: bool = False) -> dict[str, Any]:
+def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", level: bool = False,
+                   smc_at: list[float] | None = None, smr_at: list[float] | None = None) -> dict[str, Any]:
     """inspect.material-ratio of a height map (.npy) or of a cloud's field (results in mm, Smr in %)."""
     if isinstance(source, (str, Path)) and Path(source).suffix.lower() == ".npy":
         h = load_heightmap(source, unit, level)
@@ -262,6 +263,15 @@ def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", leve
             raise InputError(f"{cloud.name}: no field {field!r} (fields: {known}; or 'z')")
         name = f"{cloud.name} field {field}"
     ctx.progress(0.3, "material-ratio curve")
+    curve = mrmod.material_ratio_curve(h)
     mr = mrmod.parameters(h)
     mr["source"] = name
-    return {k: mr[k] for k in ("Sk", "Spk", "Svk", "Smr1", "Smr2")} | {"material_ratio": mr}
+    out = {k: mr[k] for k in ("Sk", "Spk", "Svk", "Smr1", "Smr2")} | {"material_ratio": mr}
+    if smc_at:
+        bad = [m for m in smc_at if not 0 <= m <= 100]
+        if bad:
+            raise ParameterError(f"smc_at: material ratios must lie in 0..100 %, got {bad[0]}")
+        out["Smc"] = {f"{m:g}": float(curve.smc(m / 100.0)) for m in smc_at}
+    if smr_at:
+        out["Smr"] = {f"{c:g}": 100.0 * float(curve.smr(c)) for c in smr_at}
+    return out
