@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -28,6 +29,10 @@ def test_builtin_plugins_use_only_the_public_api():
                 offenders.append(f"{path.relative_to(ROOT)} imports {name}")
             if name.startswith("camcmm_plugins.") and name.split(".")[1] != package:
                 offenders.append(f"{path.relative_to(ROOT)} imports another plugin: {name}")
+        # an import by name at run time is an import all the same
+        for m in re.finditer(r"import_module\(\s*[\"'](camcmm[\w.]*)", path.read_text()):
+            if m.group(1) != "camcmm.api":
+                offenders.append(f"{path.relative_to(ROOT)} imports {m.group(1)} at run time")
     assert not offenders, "\n".join(offenders)
 
 

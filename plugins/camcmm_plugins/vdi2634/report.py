@@ -13,9 +13,10 @@ full result of ``camcmm verify --json`` as its ``data``.
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Any
+
+from camcmm.api import Report, charts
 
 from .standard import plain
 
@@ -25,19 +26,6 @@ SYMBOLS = {"PF": "P_F", "PS": "P_S", "SD": "SD", "F": "F"}
 CERT_NAMES = {"diameter": "diameter", "form": "form deviation", "length": "length", "flatness": "flatness",
               "sphere_diameter": "sphere diameter", "length_1": "L1 = |c1 c2|", "length_2": "L2 = |c2 c3|",
               "length_3": "L3 = |c3 c1|"}
-
-
-def report_api():
-    """(Report, charts) of the core report module.
-
-    Plugins import ``camcmm.api`` only. The report API is not re-exported there yet, so
-    it is looked up at run time here; once ``camcmm.api`` exports ``Report`` and
-    ``charts`` this takes them from there."""
-    api = importlib.import_module("camcmm.api")
-    if hasattr(api, "Report") and hasattr(api, "charts"):
-        return api.Report, api.charts
-    mod = importlib.import_module("camcmm.report")
-    return mod.Report, mod.charts
 
 
 def _mm(v: Any, signed: bool = False) -> str:
@@ -205,7 +193,6 @@ def _uncertainty_section(r, result: dict[str, Any]) -> None:
 def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
     """Render the report of ``result`` (from a standard's __call__/summarize) into
     ``directory``; returns {"html", "pdf", "json"} paths."""
-    Report, charts = report_api()
     prov = result.get("provenance", {})
     r = Report(f"{result.get('standard_name', result['standard'])} acceptance test",
                subtitle=result["system"].get("name") or "",
