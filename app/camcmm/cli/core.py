@@ -145,8 +145,14 @@ def _demo(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _demo_text(d: dict[str, Any]) -> str:
-    return f"demo project at {d['project']} with {len(d['measurements'])} measurements; " \
-           f"open it with: camcmm serve --project {d['project']}"
+    lines = [f"demo project at {d['project']} with {len(d['measurements'])} measurements"]
+    test = d.get("acceptance")
+    if test:
+        lines.append(f"finished {test['standard']} acceptance test: {test['verdict']}"
+                     f" (guarded acceptance: {test.get('verdict_guarded', '-')})")
+    lines += [f"note: {n}" for n in d.get("notes", [])]
+    lines.append(f"open it with: camcmm serve --project {d['project']}")
+    return "\n".join(lines)
 
 
 COMMANDS = {
