@@ -1,0 +1,197 @@
+"""GUM uncertainty budgets (JCGM 100:2008; thesis ch. 2.6 and table 3.2).
+
+A budget is a list of uncorrelated contributions, each with a standard uncertainty
+``u`` of an input quantity, a sensitivity coefficient ``c`` (the contribution to the
+measurand is ``|c|·u``), degrees of freedom ``dof`` (``inf`` for a type B evaluation
+known exactly) and the distribution it was evaluated with. :func:`evaluate` gives
+
+* the combined standard uncertainty ``u_c = sqrt(sum (c_i u_i)^2)`` (GUM eq. 10),
+* the Welch–Satterthwaite effective degrees of freedom
+  ``nu_eff = u_c^4 / sum((c_i u_i)^4 / nu_i)`` (GUM eq. G.2b),
+* the coverage factor ``k = t_p(nu_eff)`` from Student's t for the coverage probability
+  ``p`` (two-sided; GUM G.3), with ``nu_eff`` truncated to the next lower integer as
+  GUM G.4.1 allows (``dof_rounding="none"`` uses the fractional value),
+* the expanded uncertainty ``U = k·u_c`` and each contribution's share of ``u_c^2``.
+
+A contribution may give a half-width ``a`` instead of ``u``; ``u`` is then ``a``
+divided by the distribution's divisor (rectangular √3, triangular √6, U-shaped √2,
+normal: ``a`` is taken as an expanded uncertainty with ``k_a``, default 2).
+
+Numbers only; no camcmm imports besides the error types.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from camcmm.api import InputError
+
+DISTRIBUTIONS = ("normal", "rectangular", "triangular", "u-shaped", "student-t")
+DIVISORS = {"rectangular": math.sqrt(3.0), "triangular": math.sqrt(6.0), "u-shaped": math.sqrt(2.0)}
+INF_WORDS = {"inf", "infinity", "∞", "oo"}
+
+
+@dataclass(frozen=True)
+class Contribution:
+    """One input quantity's contribution to the measurand."""
+
+    name: str
+    u: float
+    c: float = 1.0
+    dof: float = math.inf
+    distribution: str = "normal"
+
+    @property
+    def value(self) -> float:
+        """The contribution to the measurand's standard uncertainty, ``|c|·u``."""
+        return abs(self.c) * self.u
+
+
+@dataclass
+class Budget:
+    """The evaluated budget: what :func:`evaluate` returns."""
+
+    contributions: list[Contribution]
+    combined: float
+    dof_eff: float
+    k: float
+    expanded: float
+    coverage_probability: float
+    quantity: str = ""
+    unit: str = ""
+    dof_rounding: str = "truncate"
+    shares: list[float] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form: ``combined, dof_eff, k, expanded, coverage_probability,
+        contributions`` (each ``name, u, c, dof, distribution, contribution, share``)
+        plus ``quantity, unit, dof_eff_infinite, dof_rounding``. JSON has no infinity:
+        an infinite ``dof`` or ``dof_eff`` is written as ``null`` and flagged."""
+        return {
+            "quantity": self.quantity,
+            "unit": self.unit,
+            "combined": self.combined,
+            "dof_eff": self.dof_eff,
+            "dof_eff_infinite": bool(math.isinf(self.dof_eff)),
+            "dof_rounding": self.dof_rounding,
+            "k": self.k,
+            "expanded": self.expanded,
+            "coverage_probability": self.coverage_probability,
+            "contributions": [
+                {"name": c.name, "u": c.u, "c": c.c, "dof": c.dof, "dof_infinite": bool(math.isinf(c.dof)),
+                 "distribution": c.distribution, "contribution": c.value, "share": s}
+                for c, s in zip(self.contributions, self.shares)
+            ],
+        }
+
+
+def _number(value: Any, what: str) -> float:
+    if isinstance(value, str) and value.strip().lower() in INF_WORDS:
+        return math.inf
+    if isinstance(value, bool):
+        raise InputError(f"{what}: {value!r} is not a number")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: {value!r} is not a number") from None
+    if math.isnan(x):
+        raise InputError(f"{what}: is NaN")
+    return x
+
+
+def contribution_from_dict(d: Mapping[str, Any], index: int = 0) -> Contribution:
+    """A :class:`Contribution` from a budget file entry, with a one-line error naming
+    the entry for anything missing or out of range."""
+    if not isinstance(d, Mapping):
+        raise InputError(f"contribution {index + 1}: expected a mapping with name and u, got {d!r}")
+    name = str(d.get("name", f"#{index + 1}"))
+    tag = f"contribution {index + 1} ({name!r})"
+    dist = str(d.get("distribution", "normal")).strip().lower()
+    if dist not in DISTRIBUTIONS:
+        raise InputError(f"{tag}: unknown distribution {dist!r}; use one of {', '.join(DISTRIBUTIONS)}")
+    if d.get("u") is not None:
+        u = _number(d["u"], f"{tag} u")
+    elif d.get("a") is not None or d.get("half_width") is not None:
+        a = _number(d.get("a", d.get("half_width")), f"{tag} half-width a")
+        if a < 0:
+            raise InputError(f"{tag}: half-width a = {a} must be >= 0")
+        if dist in DIVISORS:
+            u = a / DIVISORS[dist]
+        else:
+            k_a = _number(d.get("k_a", 2.0), f"{tag} k_a")
+            if not k_a > 0:
+                raise InputError(f"{tag}: k_a = {k_a} must be > 0")
+            u = a / k_a
+    else:
+        raise InputError(f"{tag}: missing standard uncertainty u (or half-width a)")
+    if not (u >= 0) or math.isinf(u):
+        raise InputError(f"{tag}: standard uncertainty u = {u} must be a finite number >= 0")
+    c = _number(d.get("c", 1.0), f"{tag} sensitivity c")
+    if math.isinf(c):
+        raise InputError(f"{tag}: sensitivity c must be finite")
+    dof = _number(d.get("dof", math.inf) if d.get("dof") is not None else math.inf, f"{tag} dof")
+    if not dof > 0:
+        raise InputError(f"{tag}: degrees of freedom dof = {dof:g} must be > 0 (use inf for an exactly known "
+                         "type B contribution)")
+    return Contribution(name=name, u=u, c=c, dof=dof, distribution=dist)
+
+
+def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -> float:
+    """Effective degrees of freedom of ``sqrt(sum u_i^2)`` (GUM eq. G.2b); ``inf`` when
+    every contribution with a non-zero value has infinite dof. Works on arrays too:
+    ``contributions`` of shape (n, ...) give a result of shape (...)."""
+    u = np.abs(np.asarray(list(contributions) if not isinstance(contributions, np.ndarray) else contributions,
+                          dtype=float))
+    nu = np.asarray(list(dofs) if not isinstance(dofs, np.ndarray) else dofs, dtype=float)
+    nu = nu.reshape(nu.shape + (1,) * (u.ndim - nu.ndim))
+    uc2 = np.sum(u ** 2, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = np.sum(np.where(np.isinf(nu), 0.0, u ** 4 / nu), axis=0)
+        out = np.where(denom > 0, uc2 ** 2 / np.where(denom > 0, denom, 1.0), np.inf)
+    return float(out) if out.ndim == 0 else out
+
+
+def coverage_factor(dof: float, p: float = 0.95, dof_rounding: str = "truncate") -> float:
+    """Two-sided coverage factor ``t_p(nu)`` (normal quantile for infinite ``nu``)."""
+    from scipy import stats
+
+    if not 0 < p < 1:
+        raise InputError(f"coverage_probability {p} must lie between 0 and 1")
+    if dof_rounding not in ("truncate", "none"):
+        raise InputError(f"dof_rounding {dof_rounding!r}: use truncate or none")
+    q = 0.5 * (1.0 + p)
+    if math.isinf(dof):
+        return float(stats.norm.ppf(q))
+    nu = math.floor(dof) if dof_rounding == "truncate" and dof >= 1 else dof
+    return float(stats.t.ppf(q, nu))
+
+
+def evaluate(contributions: Iterable[Contribution | Mapping[str, Any]], coverage_probability: float = 0.95,
+             quantity: str = "", unit: str = "", dof_rounding: str = "truncate") -> Budget:
+    """Evaluate a budget; entries may be :class:`Contribution` or file-style dicts."""
+    items = [c if isinstance(c, Contribution) else contribution_from_dict(c, i)
+             for i, c in enumerate(contributions)]
+    if not items:
+        raise InputError("the budget has no contributions")
+    p = _number(coverage_probability, "coverage_probability")
+    vals = np.array([c.value for c in items])
+    uc = float(math.sqrt(np.sum(vals ** 2)))
+    nu = welch_satterthwaite(vals, [c.dof for c in items])
+    k = coverage_factor(nu, p, dof_rounding)
+    shares = (vals ** 2 / uc ** 2).tolist() if uc > 0 else [0.0] * len(items)
+    return Budget(items, uc, float(nu), k, k * uc, p, quantity, unit, dof_rounding, shares)
+
+
+def budget_from_dict(doc: Mapping[str, Any]) -> Budget:
+    """Evaluate a budget file's content (see ``tests/data/uncertainty/budget_*.yaml``)."""
+    if not isinstance(doc, Mapping):
+        raise InputError("budget file: expected a mapping with a 'contributions' list")
+    contribs = doc.get("contributions")
+    if not isinstance(contribs, list):
+        raise InputError("budget file: missing 'contributions' (a list of {name, u, c, dof, distribution})")
+    return evaluate(contribs, doc.get("coverage_probability", 0.95), str(doc.get("quantity", "")),
+                    str(doc.get("unit", "")), str(doc.get("dof_rounding", "truncate")))

@@ -1,0 +1,67 @@
+"""Plugin entry points (``fn(ctx, spec, **params) -> dict``) for the host.
+
+``spec`` is what the manifest declares as a ``json`` input: a mapping, or the path of a
+YAML/JSON file (the host passes paths through as :class:`pathlib.Path`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+from camcmm.api import InputError, RunContext
+
+
+def load_spec(spec: Any) -> tuple[dict[str, Any], Path | None]:
+    """The input document and the folder relative paths in it refer to."""
+    if isinstance(spec, Mapping):
+        return dict(spec), None
+    if isinstance(spec, (str, Path)):
+        import yaml
+
+        path = Path(spec)
+        if not path.is_file():
+            raise InputError(f"{path}: no such file")
+        try:
+            doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" (line {mark.line + 1})" if mark is not None else ""
+            raise InputError(f"{path}: not valid YAML/JSON{where}") from None
+        if not isinstance(doc, dict):
+            raise InputError(f"{path}: expected a mapping at the top level, got {type(doc).__name__}")
+        return doc, path.parent
+    raise InputError(f"spec: expected a file path or a mapping, got {type(spec).__name__}")
+
+
+def budget(ctx: RunContext, spec: Any, coverage_probability: float | None = None,
+           dof_rounding: str = "truncate") -> dict[str, Any]:
+    from .gum import budget_from_dict
+
+    doc, _ = load_spec(spec)
+    if coverage_probability is not None:
+        doc["coverage_probability"] = coverage_probability
+    doc.setdefault("dof_rounding", dof_rounding)
+    return budget_from_dict(doc).to_dict()
+
+
+def iso15530_3(ctx: RunContext, spec: Any, k: float | None = None) -> dict[str, Any]:
+    from .iso15530 import from_dict
+
+    doc, base = load_spec(spec)
+    if k is not None:
+        doc["k"] = k
+    out = from_dict(doc, base)
+    if "note" in out:
+        ctx.warn(out["note"])
+    return out
+
+
+def montecarlo(ctx: RunContext, spec: Any, iterations: int | None = None, seed: int | None = None,
+               method: str | None = None, scheduler: str | None = None, studies: str = "") -> dict[str, Any]:
+    from .montecarlo import run_study
+
+    doc, base = load_spec(spec)
+    return run_study(doc, iterations=iterations, seed=seed, method=method, scheduler=scheduler or None,
+                     studies=[s.strip() for s in (studies or "").split(",") if s.strip()],
+                     progress=ctx.progress, warn=ctx.warn)
