@@ -536,7 +536,7 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
     if executor is None and scheduler:
         from .distributed import DaskExecutor
 
-        executor = own_client = DaskExecutor(scheduler)
+        executor = own_client = DaskExecutor(scheduler, float(doc.get("scheduler_timeout", 30)))
     t0 = time.perf_counter()
     try:
         groups = group_names(setup)
