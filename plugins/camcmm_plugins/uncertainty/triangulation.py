@@ -63,18 +63,33 @@ def _solve_sym3(m00, m01, m02, m11, m12, m22, r0, r1, r2):
 
 
 def linear(P: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Linear triangulation (eq. 3.2 with W = 1) by closed-form 3x3 normal equations."""
+    """Linear triangulation (eq. 3.2 with W = 1) by closed-form 3x3 normal equations.
+
+    Written for speed: one pass per row and entry into preallocated buffers (``out=``),
+    no temporaries of the batch's size beyond the nine accumulators and four row
+    buffers."""
     P = np.asarray(P, dtype=float)
     x = np.asarray(x, dtype=float)
     P = P[..., None, :, :, :] if P.ndim == x.ndim - 1 else P  # (..., V, 3, 4) -> (..., 1, V, 3, 4)
-    acc = None
-    for a0, a1, a2, a3 in _rows(P, x):
-        terms = (a0 * a0, a0 * a1, a0 * a2, a1 * a1, a1 * a2, a2 * a2, -a0 * a3, -a1 * a3, -a2 * a3)
-        if acc is None:
-            acc = [np.array(t, dtype=float, copy=True) for t in terms]
-        else:
-            for s, t in zip(acc, terms):
-                s += t
+    shape = np.broadcast_shapes(P.shape[:-3], x.shape[:-2])
+    acc = np.zeros((9,) + shape)
+    a = np.empty((4,) + shape)
+    tmp = np.empty(shape)
+    pairs = ((0, 0, 0), (1, 0, 1), (2, 0, 2), (3, 1, 1), (4, 1, 2), (5, 2, 2))
+    for v in range(P.shape[-3]):
+        p3 = P[..., v, 2, :]
+        for r in (0, 1):
+            c = x[..., v, r]
+            pr = P[..., v, r, :]
+            for i in range(4):
+                np.multiply(c, p3[..., i], out=a[i])
+                a[i] -= pr[..., i]
+            for k, i, j in pairs:
+                np.multiply(a[i], a[j], out=tmp)
+                acc[k] += tmp
+            for k, i in ((6, 0), (7, 1), (8, 2)):
+                np.multiply(a[i], a[3], out=tmp)
+                acc[k] -= tmp
     return _solve_sym3(*acc)
 
 
