@@ -14,6 +14,7 @@ from .host import RunContext, RunResult, default_host
 from .io import read, write
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
+from .project.select import project_values
 from .report import Report, charts
 from .units import to_mm_factor
 
@@ -30,5 +31,5 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
 __all__ = [
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
     "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
-    "charts", "combine", "get_algorithm", "guarded_verdict", "read", "simple_verdict", "to_mm_factor", "write",
+    "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "simple_verdict", "to_mm_factor", "write",
 ]

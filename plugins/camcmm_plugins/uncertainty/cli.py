@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any
+
+from camcmm.api import InputError
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -29,6 +32,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
                    help="truncate the effective dof to an integer before the t quantile (GUM G.4.1; default)")
     i = sub.add_parser("iso15530-3", help="ISO 15530-3 uncertainty with a calibrated workpiece")
     i.add_argument("file", help="input file (YAML): calibrated_value, u_cal, measurements, u_w, k")
+    i.add_argument("--project", help="take the repeated results from this project folder ...")
+    i.add_argument("--result", type=int, help="... from this stored result ...")
+    i.add_argument("--path", help="... at this path, e.g. parameters.PS.per_measurement[].value")
     i.add_argument("--k", type=float, default=None, help="coverage factor (overrides the file; default 2)")
     m = sub.add_parser("montecarlo", help="Monte Carlo uncertainty of a stereo camera system")
     m.add_argument("file", help="system file (YAML): cameras, uncertainties, grid")
@@ -64,6 +70,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         doc, base = load_spec(args.file)
         if args.k is not None:
             doc["k"] = args.k
+        given = [args.project, args.result, args.path]
+        if any(v is not None for v in given):
+            if any(v is None for v in given):
+                raise InputError("--project, --result and --path go together")
+            doc.pop("measurements", None)
+            doc.pop("measurements_file", None)
+            doc["measurements_from"] = {"project": str(Path(args.project).resolve()), "result": args.result,
+                                        "path": args.path}
         return from_dict(doc, base)
     from .montecarlo import run_study, write_outputs
 

@@ -28,7 +28,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, project_values
 
 
 def _num(doc: Mapping[str, Any], key: str, default: float | None = None, minimum: float | None = 0.0,
@@ -151,8 +151,19 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
         if base_dir is not None and not path.is_absolute():
             path = Path(base_dir) / path
         meas = read_measurements(path)
+    elif doc.get("measurements_from") is not None:
+        # repeated results straight from the project store, e.g. the sphere diameters of
+        # an acceptance test: {project: DIR, result: ID, path: parameters.PS.per_measurement[].value}
+        src = doc["measurements_from"]
+        if not isinstance(src, Mapping) or not all(src.get(k) is not None for k in ("project", "result", "path")):
+            raise InputError("measurements_from: needs project, result and path")
+        project = Path(src["project"])
+        if base_dir is not None and not project.is_absolute():
+            project = Path(base_dir) / project
+        meas = project_values(project, int(src["result"]), str(src["path"]))
     else:
-        raise InputError("measurements: missing (a list of repeated results, or measurements_file)")
+        raise InputError("measurements: missing (a list of repeated results, measurements_file, "
+                         "or measurements_from a project)")
     parts = {}
     if doc.get("u_w") is not None:
         parts["u_w"] = _num(doc, "u_w")
