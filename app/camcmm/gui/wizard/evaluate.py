@@ -1,0 +1,211 @@
+"""Importing one measurement: ``prepare`` on the server loop picks the slot,
+``evaluate`` in any thread reads the file and runs the standard without touching the
+store, ``record`` on the loop stores everything, so the GUI can run the slow middle in a
+worker."""
+
+from __future__ import annotations
+
+import copy
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...errors import CamcmmError, InputError
+from ...host import RunContext, to_jsonable
+from .values import _one_line, log
+
+def _run_dict(plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str,
+              warnings: list[str]) -> dict[str, Any]:
+    from ...project.store import utcnow
+
+    return {"plugin": plugin, "version": version, "params": params, "input_hashes": hashes,
+            "outputs": to_jsonable(outputs), "started": started, "finished": utcnow(),
+            "warnings": [str(w) for w in warnings]}
+
+
+@dataclass
+class Job:
+    """One import for one position: what ``prepare`` decided, ``evaluate`` computed."""
+
+    test: str
+    position: str
+    repeat: int
+    name: str = ""
+    path: Path | None = None
+    temp: Path | None = None  # a temp folder to remove after recording
+    cloud: Any = None
+    evaluation: dict[str, Any] | None = None
+    started: str = ""
+    error: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        return f"{self.test}/{self.position}"
+
+
+class WizardImport:
+    """The import steps of :class:`~camcmm.gui.wizard.Wizard`."""
+
+    # -- import: prepare (loop) -> evaluate (any thread) -> record (loop) --------------------
+    def prepare(self, test: str, position: str, repeat: int | None = None) -> Job:
+        """Check the position and pick its repeat slot: ``repeat`` (a redo) or the first
+        empty one; a position whose slots are all filled is redone at its last repeat."""
+        from ...project.store import utcnow
+
+        if not self.active:
+            raise InputError(self.load_error or "set up the acceptance test first")
+        r = self._req(test)
+        ids = [p["id"] for p in r["positions"]]
+        if position not in ids:
+            raise InputError(f"{test.replace('_', ' ')} has no position {position!r}; its positions: "
+                             f"{', '.join(ids)}")
+        slots = self._slots(test)[position]
+        if repeat is None:
+            repeat = next((i + 1 for i, mid in enumerate(slots) if mid is None), len(slots))
+        if not 1 <= int(repeat) <= len(slots):
+            raise InputError(f"{position}: repeat {repeat} is outside 1..{len(slots)}")
+        return Job(test, position, int(repeat), started=utcnow())
+
+    def evaluate(self, job: Job, source: str | Path | bytes, name: str | None = None) -> Job:
+        """Read the file and evaluate it with the standard. Thread-safe: touches neither
+        the store nor the wizard's state. Raises a one-line CamcmmError naming the file."""
+        from ... import io as cio
+
+        if isinstance(source, (bytes, bytearray, memoryview)):
+            from ..session import safe_name
+
+            job.name = safe_name(name or "upload")
+            job.temp = Path(tempfile.mkdtemp(prefix="camcmm-wizard-"))
+            job.path = job.temp / job.name
+            job.path.write_bytes(bytes(source))
+        else:
+            job.path = Path(source)
+            job.name = name or job.path.name
+            if not job.path.is_file():
+                raise InputError(f"{job.name}: no such file" if not job.path.exists() else f"{job.name}: is not a file")
+        try:
+            cloud = cio.read(job.path, unit=(self.state or {}).get("plan", {}).get("unit"))
+        except Exception as exc:
+            raise InputError(_one_line(exc, job.name).replace(str(job.path), job.name)) from exc
+        if not hasattr(cloud, "n_points"):
+            raise InputError(f"{job.name}: holds a {type(cloud).__name__.lower()}, not a point cloud")
+        if cloud.n_points == 0:
+            raise InputError(f"{job.name}: the file holds no points")
+        with self._lock:  # the loop may be recording another position meanwhile
+            plan = copy.deepcopy(self.plan)
+            sid = self.state["standard"]
+        std = self.standard(sid)
+        ctx = RunContext(self.host, sid)
+        try:
+            ev = std.evaluate_measurement(ctx, job.test, cloud, plan, file=job.name,
+                                          position=job.position, repeat=job.repeat)
+        except CamcmmError as exc:
+            raise type(exc)(_one_line(exc, job.name)) from exc
+        except Exception as exc:  # a plugin bug: one line naming the file and the standard
+            raise InputError(f"{job.name}: {sid} failed: {_one_line(exc)}") from exc
+        if not isinstance(ev, dict):
+            raise InputError(f"{job.name}: {sid} returned {type(ev).__name__}, not a dict")
+        ev = dict(ev)
+        ev.setdefault("test", job.test)
+        ev["file"], ev["position"], ev["repeat"] = job.name, job.position, job.repeat
+        for w in ctx.warnings:
+            ev.setdefault("warnings", [])
+            if w not in ev["warnings"]:
+                ev["warnings"].append(w)
+        job.cloud, job.evaluation = cloud, ev
+        return job
+
+    def record(self, job: Job) -> dict[str, Any]:
+        """Store an evaluated job: its file, measurement, deviations and result; the
+        replaced measurement (a redo) is soft-deleted; the state is saved. Returns the
+        position's card."""
+        from ...project.store import utcnow
+
+        assert job.evaluation is not None and job.path is not None
+        with self._lock:
+            std_id = self.state["standard"]
+            version = self.host.get(std_id).version
+            ev = dict(job.evaluation)
+            deviations = ev.pop("deviations", None)
+            h = self.project.add_file(job.path)
+            ev["sha256"] = h
+            meta = {"standard": std_id, "test": job.test, "position": job.position, "repeat": job.repeat,
+                    "file": job.name, "summary": f"{getattr(job.cloud, 'n_points', 0)} points"}
+            mid = self.project.add_measurement(f"{job.position} ({job.name})", h, kind="pointcloud",
+                                               system_id=self.state.get("system_id"),
+                                               artefact_id=(self.state.get("artefact_ids") or {}).get(job.test),
+                                               meta=meta)
+            files = {}
+            if deviations is not None and hasattr(deviations, "n_points"):
+                files["deviations"] = self.project.add_object(deviations, f"{job.position} deviations")
+            params = {"test": job.test, "position": job.position, "repeat": job.repeat}
+            rid = self.project.add_result(_run_dict(std_id, version, params, {"cloud": h}, ev, job.started,
+                                                    list(ev.get("warnings") or [])),
+                                          [mid], files, label=f"{std_id} {job.position}")
+            slots = self._slots(job.test)[job.position]
+            old = slots[job.repeat - 1]
+            if old is not None:
+                self.state["superseded"].append({"test": job.test, "position": job.position, "repeat": job.repeat,
+                                                 "measurement": old,
+                                                 "result": self.state["evaluations"].get(str(old)),
+                                                 "replaced": utcnow()})
+            slots[job.repeat - 1] = mid
+            self.state["evaluations"][str(mid)] = rid
+            self.state["errors"].pop(job.key, None)
+            self._outputs[rid] = to_jsonable(ev)
+            self._stale_summary()
+            self._sync_measurements()
+            self._save()
+            if old is not None:
+                try:
+                    self.project.remove_measurement(int(old))
+                except CamcmmError as exc:
+                    log.warning("replaced measurement %s stays listed: %s", old, exc)
+        job.extra.update(measurement=mid, result=rid, deviations=deviations)
+        self._cleanup(job)
+        return self.card(job.test, job.position)
+
+    def fail(self, job: Job, exc: BaseException) -> str:
+        """Remember why an import failed, for that position only; returns the message."""
+        msg = _one_line(exc, job.name)
+        job.error = msg
+        with self._lock:
+            if self.state is not None:
+                self.state.setdefault("errors", {})[job.key] = msg
+                try:
+                    self._save()
+                except CamcmmError as e:
+                    log.warning("could not save the error of %s: %s", job.key, e)
+        self._cleanup(job)
+        return msg
+
+    @staticmethod
+    def _cleanup(job: Job) -> None:
+        if job.temp is not None:
+            shutil.rmtree(job.temp, ignore_errors=True)
+            job.temp = None
+
+    def import_measurement(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
+                           repeat: int | None = None) -> dict[str, Any]:
+        """Import, evaluate and store one measurement in the calling thread. Returns the
+        position's card; a bad file gives the card with ``status`` "error" and the
+        reason (nothing else changes)."""
+        job = self.prepare(test, position, repeat)
+        try:
+            self.evaluate(job, source, name)
+        except Exception as exc:
+            self.fail(job, exc)
+            return self.card(test, position)
+        return self.record(job)
+
+    def redo(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
+             repeat: int | None = None) -> dict[str, Any]:
+        """Measure a position again: the new evaluation replaces the old one (of
+        ``repeat``, default the last filled repeat)."""
+        if repeat is None:
+            filled = self._filled(test, position)
+            repeat = filled[-1][0] if filled else None
+        return self.import_measurement(test, position, source, name, repeat)

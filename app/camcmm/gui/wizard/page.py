@@ -1,0 +1,174 @@
+"""The wizard's page state: one :class:`WizardPage` per server publishes a
+:class:`~camcmm.gui.wizard.Wizard` through the trame ``state`` (keys ``wz_*``) for
+:mod:`camcmm.gui.wizard_layout`; its handlers live in :mod:`.page_setup` and
+:mod:`.page_actions`."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+from .core import Wizard
+from .page_actions import PageActions
+from .page_setup import PageSetup
+from .values import SIGNED, SYMBOLS, _one_line, fmt_mm, log
+
+class WizardPage(PageSetup, PageActions):
+    """Publishes a :class:`Wizard` through the session's trame state (``wz_*`` keys)
+    and runs its slow steps in a worker thread. One per server."""
+
+    def __init__(self, session: Any, wizard: Wizard | None = None, downloads: str | Path | None = None):
+        self.session = session
+        self.state = session.state
+        self.wizard = wizard if wizard is not None else Wizard(session.project, session.host)
+        self.downloads = Path(downloads) if downloads else Path(tempfile.mkdtemp(prefix="camcmm-downloads-"))
+        self.downloads.mkdir(parents=True, exist_ok=True)
+        self.download_route = "camcmm-downloads"
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-wizard")
+        self._busy: set[str] = set()
+        self.last_card: dict[str, Any] | None = None
+        self._init_state()
+        self.refresh(setup_form=True)
+        w = self.wizard
+        if w.active:  # resume where the test stopped
+            done = w.complete and (w.state or {}).get("summary_result") is not None
+            self.state.wz_step = "result" if done else "positions"
+
+    # -- state ---------------------------------------------------------------------------
+    def _init_state(self) -> None:
+        s = self.state
+        s.page = s.page if getattr(s, "page", None) else "inspect"
+        s.wz_step = "setup"
+        s.wz_active = False
+        s.wz_error = ""
+        s.wz_setup_error = ""
+        s.wz_standards = []
+        s.wz_form = {}
+        s.wz_form_tests = []
+        s.wz_catalogue = {}
+        s.wz_mpe_fields = []
+        s.wz_locked = False
+        s.wz_title = ""
+        s.wz_blocks = []
+        s.wz_svgs = {}
+        s.wz_progress = []
+        s.wz_progress_text = ""
+        s.wz_busy = {}
+        s.wz_redo = None
+        s.wz_detail = None
+        s.wz_parameters = []
+        s.wz_verdict = ""
+        s.wz_verdict_guarded = ""
+        s.wz_complete = False
+        s.wz_summary_warnings = []
+        s.wz_reporting = False
+        s.wz_report_links = []
+
+    def _flush(self) -> None:
+        self.session._flush()
+
+    def refresh(self, setup_form: bool = False) -> None:
+        """Publish everything the page shows."""
+        s = self.state
+        w = self.wizard
+        s.wz_error = w.load_error
+        try:
+            s.wz_standards = [{"title": f"{x['name']} ({x['id']})", "value": x["id"], "summary": x["summary"]}
+                              for x in w.standards()]
+        except Exception as exc:  # discovery problems are shown, the page stays
+            s.wz_standards = []
+            s.wz_error = _one_line(exc)
+        s.wz_active = w.active
+        if setup_form:
+            self._setup_form()
+        if not w.active:
+            s.wz_locked = False
+            s.wz_blocks, s.wz_progress, s.wz_parameters = [], [], []
+            s.wz_title, s.wz_progress_text = "", ""
+            s.wz_verdict = s.wz_verdict_guarded = ""
+            s.wz_report_links = []
+            return
+        s.wz_locked = True
+        try:
+            self._publish_positions()
+            self._publish_summary()
+        except Exception as exc:
+            log.exception("wizard refresh failed")
+            s.wz_error = _one_line(exc)
+
+    def _publish_positions(self) -> None:
+        from ..wizard_layout import pictograms
+
+        s = self.state
+        w = self.wizard
+        blocks = w.cards()
+        busy = set(self._busy)
+        for b in blocks:
+            for c in b["cards"]:
+                c["busy"] = c["key"] in busy
+        s.wz_blocks = blocks
+        prog = w.progress()
+        s.wz_progress = prog
+        s.wz_progress_text = " · ".join(p["text"] for p in prog)
+        s.wz_complete = all(p["complete"] for p in prog)
+        if not s.wz_svgs or set(s.wz_svgs) != {c["key"] for b in blocks for c in b["cards"]}:
+            s.wz_svgs = pictograms(w.requirements(), w.plan)
+        plan = w.plan
+        s.wz_title = (f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
+                      + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"]) + " mm")
+
+    def _publish_summary(self) -> None:
+        s = self.state
+        w = self.wizard
+        try:
+            summary = w.summarize()
+        except Exception as exc:
+            s.wz_parameters = []
+            s.wz_verdict = s.wz_verdict_guarded = ""
+            s.wz_summary_warnings = [f"no summary: {_one_line(exc)}"]
+            return
+        rows = []
+        for key, p in (summary.get("parameters") or {}).items():
+            rows.append({"key": key, "symbol": SYMBOLS.get(key, key), "name": p.get("name") or key,
+                         "value": fmt_mm(p.get("value"), key in SIGNED), "mpe": fmt_mm(p.get("mpe")),
+                         "U": fmt_mm(p.get("U")), "verdict": p.get("verdict") or "incomplete",
+                         "verdict_guarded": p.get("verdict_guarded") or "incomplete",
+                         "n": p.get("n_evaluated", ""), "note": "; ".join(p.get("incomplete_reasons") or [])})
+        s.wz_parameters = rows
+        s.wz_verdict = summary.get("verdict") or "incomplete"
+        s.wz_verdict_guarded = summary.get("verdict_guarded") or ""
+        s.wz_summary_warnings = [str(x) for x in (summary.get("warnings") or [])][:20]
+        s.wz_report_links = self._links()
+
+    def _links(self) -> list[dict[str, str]]:
+        rid = (self.wizard.state or {}).get("summary_result")
+        out = []
+        for kind, path in self.wizard.report_paths().items():
+            name = f"acceptance-test-{rid}.{kind}"
+            dest = self.downloads / name
+            try:
+                if not dest.exists():
+                    shutil.copyfile(path, dest)
+            except OSError as exc:
+                log.warning("cannot offer %s for download: %s", path, exc)
+                continue
+            out.append({"kind": kind, "name": name, "url": f"{self.download_route}/{name}",
+                        "title": {"html": "Open report (HTML)", "pdf": "Download PDF", "json": "Download JSON"}
+                        .get(kind, kind)})
+        order = {"html": 0, "pdf": 1, "json": 2}
+        return sorted(out, key=lambda x: order.get(x["kind"], 9))
+
+    def close(self) -> None:
+        self._executor.shutdown(wait=False, cancel_futures=True)
+        shutil.rmtree(self.downloads, ignore_errors=True)
+
+
+def mount(server: Any, session: Any) -> WizardPage:
+    """Create the page for a session and serve its downloads folder (call before the
+    server starts)."""
+    page = WizardPage(session)
+    server.enable_module({"serve": {page.download_route: str(page.downloads)}})
+    return page

@@ -1,0 +1,244 @@
+"""The page's slow steps and the 3D view: imports evaluated in the worker thread and
+recorded on the loop, busy cards, a position's colour map shown from a good side, and
+the report written in the worker."""
+
+from __future__ import annotations
+
+import asyncio
+import copy
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import CamcmmError
+from .evaluate import Job
+from .positions import fit_rows
+from .values import _one_line
+
+def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
+    """(direction from the object to the camera, view-up) that shows an evaluation's
+    colour map well: a flat face-on (along its normal, from the sensor's side); a ball
+    bar or plate across its length, from above; a sphere from the front and above, as
+    the sensor saw it. None when the evaluation says nothing about its geometry."""
+    z = np.array([0.0, 0.0, 1.0])
+    if ev.get("normal") is not None:
+        n = np.asarray(ev["normal"], float)
+        n = n / (np.linalg.norm(n) or 1.0)
+        if n @ z < 0:
+            n = -n
+        up = np.array([0.0, 1.0, 0.0]) if abs(n @ z) > 0.9 else z
+        return n.tolist(), up.tolist()
+    centres = [s.get("center") for s in ev.get("spheres") or [] if isinstance(s, dict) and s.get("center")]
+    if len(centres) >= 2:
+        c = np.asarray(centres, float)
+        d = c[1] - c[0]
+        d = d / (np.linalg.norm(d) or 1.0)
+        if len(c) >= 3:  # a plate: face-on
+            n = np.cross(c[1] - c[0], c[2] - c[0])
+            n = n / (np.linalg.norm(n) or 1.0)
+            v = n if n @ z >= 0 else -n
+        else:
+            v = z - (z @ d) * d
+            if np.linalg.norm(v) < 0.2:  # a (nearly) vertical bar: from the front
+                v = np.array([0.0, -1.0, 0.0]) - d * d[1] * -1.0
+            v = v / (np.linalg.norm(v) or 1.0)
+            side = np.cross(d, v)
+            v = v + 0.4 * side
+        up = z if abs((v / np.linalg.norm(v)) @ z) < 0.9 else np.array([0.0, 1.0, 0.0])
+        return (v / np.linalg.norm(v)).tolist(), up.tolist()
+    if ev.get("center") is not None:
+        return [0.3, -0.6, 1.0], [0.0, 0.0, 1.0]
+    return None
+
+
+class PageActions:
+    """The position and report handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+
+    # -- handlers: positions -----------------------------------------------------------------
+    def _set_busy(self, key: str, on: bool) -> None:
+        (self._busy.add if on else self._busy.discard)(key)
+        self.state.wz_busy = {k: True for k in self._busy}
+
+    async def upload_async(self, test: str, position: str, upload: Any, repeat: int | None = None) -> None:
+        """A file chosen in a card's file input: evaluate in the worker, record on the loop."""
+        files = self.session.import_upload(upload) if upload else []
+        if not files:
+            return
+        f = files[0]
+        await self.import_async(test, position, f["content"], f["name"], repeat)
+
+    async def import_async(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
+                           repeat: int | None = None) -> dict[str, Any] | None:
+        key = f"{test}/{position}"
+        if key in self._busy:
+            self.session.error(f"{position}: a measurement is being evaluated; wait for it")
+            return None
+        if self.session._loop is None:
+            self.session.bind_loop()
+        try:
+            job = self.wizard.prepare(test, position, repeat)
+        except Exception as exc:
+            self.session.error(_one_line(exc))
+            return None
+        self._set_busy(key, True)
+        self.refresh_cards()
+        self._flush()
+        loop = asyncio.get_running_loop()
+        try:
+            await loop.run_in_executor(self._executor, self.wizard.evaluate, job, source, name)
+        except Exception as exc:
+            msg = self.wizard.fail(job, exc)
+            self._set_busy(key, False)
+            self.state.wz_redo = None
+            self.refresh()
+            self.session.error(msg)
+            self._flush()
+            return None
+        try:
+            card = self.wizard.record(job)
+        except Exception as exc:
+            msg = self.wizard.fail(job, exc)
+            self._set_busy(key, False)
+            self.refresh()
+            self.session.error(f"{position}: could not be saved in the project: {msg}")
+            self._flush()
+            return None
+        self._set_busy(key, False)
+        self.state.wz_redo = None
+        self.refresh()
+        self._after_record(job, card)
+        self._flush()
+        return card
+
+    def import_file(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
+                    repeat: int | None = None) -> dict[str, Any]:
+        """As :meth:`import_async` in the calling thread (tests, scripts)."""
+        job = self.wizard.prepare(test, position, repeat)
+        try:
+            self.wizard.evaluate(job, source, name)
+        except Exception as exc:
+            msg = self.wizard.fail(job, exc)
+            self.refresh()
+            self.session.error(msg)
+            return self.wizard.card(test, position)
+        card = self.wizard.record(job)
+        self.state.wz_redo = None
+        self.refresh()
+        self._after_record(job, card)
+        return card
+
+    def _after_record(self, job: Job, card: dict[str, Any]) -> None:
+        self.last_card = card
+        self.session.refresh_items()
+        rep = next((r for r in card["repeats"] if r["repeat"] == job.repeat), None)
+        self._detail(job.test, job.position, job.repeat, job.evaluation or {})
+        dev = job.extra.get("deviations")
+        if dev is not None:
+            self.show_cloud(f"wizard:{job.extra.get('result')}", dev, job.evaluation)
+        verdict = (rep or {}).get("verdict") or ""
+        values = ", ".join(f"{v['symbol']} {v['text']}" for v in (rep or {}).get("values", []))
+        prog = next((p["text"] for p in self.state.wz_progress if p["test"] == job.test), "")
+        self.session.info(f"{job.position}: {values} — {verdict}; {prog}")
+
+    def refresh_cards(self) -> None:
+        blocks = copy.deepcopy(self.state.wz_blocks or [])
+        for b in blocks:
+            for c in b["cards"]:
+                c["busy"] = c["key"] in self._busy
+        self.state.wz_blocks = blocks
+
+    def _detail(self, test: str, position: str, repeat: int, ev: dict[str, Any]) -> None:
+        self.state.wz_detail = {"title": f"{position} (repeat {repeat})" if self._repeats(test) > 1 else position,
+                                "file": ev.get("file") or "", "rows": fit_rows(ev),
+                                "warnings": [str(x) for x in ev.get("warnings") or []]}
+
+    def _repeats(self, test: str) -> int:
+        try:
+            return self.wizard._req(test)["repeats"]
+        except CamcmmError:
+            return 1
+
+    def show(self, test: str, position: str, repeat: int | None = None) -> None:
+        """Show a done position's deviation colour map in the 3D view and its fit."""
+        try:
+            cloud = self.wizard.deviations(test, position, repeat)
+        except Exception as exc:
+            self.session.error(_one_line(exc))
+            return
+        filled = self.wizard._filled(test, position)
+        rep, mid = (repeat, dict(filled).get(repeat)) if repeat else filled[-1]
+        self._detail(test, position, rep, self.wizard.evaluation(mid) or {})
+        self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud,
+                        self.wizard.evaluation(mid))
+
+    def show_cloud(self, key: str, cloud: Any, evaluation: dict[str, Any] | None = None) -> None:
+        """Show a deviations cloud coloured by ``deviation`` (legend in mm) in the
+        session's 3D view, looking at it as :func:`view_direction` suggests; the Inspect
+        page's colour selector follows."""
+        from ..view import color_fields
+
+        sess = self.session
+        field_name = "deviation" if "deviation" in (getattr(cloud, "fields", {}) or {}) else None
+        try:
+            sess.view.show(key, cloud, field_name)
+            look = view_direction(evaluation or {})
+            if look is not None:
+                sess.view.plotter.view_vector(look[0], viewup=look[1])
+                sess.view.plotter.reset_camera()
+                sess.view._changed(reset_camera=True)
+        except Exception as exc:
+            sess.error(f"cannot show {getattr(cloud, 'name', key)}: {_one_line(exc)}")
+            return
+        s = self.state
+        s.selected_item = None
+        s.color_fields = color_fields(cloud)
+        s.color_field = sess.view.field
+        s.legend_title = sess.view.scalar_bar_title
+        s.display_note = f"{getattr(cloud, 'name', key)}: {sess.view.note}"
+
+    def redo(self, test: str, position: str) -> None:
+        """Offer the file input again on a done card (the import then replaces it)."""
+        self.state.wz_redo = f"{test}/{position}"
+
+    # -- handlers: report ------------------------------------------------------------------
+    async def report_async(self) -> dict[str, Any] | None:
+        from ...project.store import utcnow
+
+        if self.state.wz_reporting:
+            return None
+        if self.session._loop is None:
+            self.session.bind_loop()
+        s = self.state
+        s.wz_reporting = True
+        self._flush()
+        started = utcnow()
+        folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
+        try:
+            per = self.wizard.per_measurement(with_deviations=True)
+            loop = asyncio.get_running_loop()
+            summary, paths = await loop.run_in_executor(self._executor, self.wizard.make_report, folder, per)
+            out = self.wizard.record_report(summary, paths, started)
+        except Exception as exc:
+            self.session.error(f"report: {_one_line(exc)}")
+            return None
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+            s.wz_reporting = False
+        self.refresh()
+        self.session.refresh_results()
+        self.session.info(f"report written (result #{out['summary_result']}): verdict {s.wz_verdict}")
+        self._flush()
+        return out
+
+    def report(self) -> dict[str, Any] | None:
+        try:
+            out = self.wizard.report()
+        except Exception as exc:
+            self.session.error(f"report: {_one_line(exc)}")
+            return None
+        self.refresh()
+        self.session.refresh_results()
+        return out

@@ -1,0 +1,148 @@
+"""The setup form on the page: filled from the running test or a standard's defaults,
+artefacts picked from the catalogue, and Start, which tells a catalogue artefact kept as
+it is from one whose values the operator edited."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from .catalogue import ARTEFACT_FIELDS, artefact_plan_fields
+from .setup import _FORM_KEYS
+from .values import SYMBOLS, _one_line
+
+def _same_value(a: Any, b: Any) -> bool:
+    """Equal as numbers when both read as numbers (the browser sends 20.0 back as 20)."""
+    def nums(x: Any) -> list[float]:
+        if isinstance(x, (list, tuple)):
+            return [float(v) for v in x]
+        return [float(p) for p in str(x).replace(",", " ").replace(";", " ").split()]
+
+    try:
+        return nums(a) == nums(b)
+    except (TypeError, ValueError):
+        return str(a).strip() == str(b).strip()
+
+
+def _options_text(plan: dict[str, Any]) -> str:
+    import yaml
+
+    extra = {k: v for k, v in plan.items() if k not in _FORM_KEYS and k != "name"}
+    return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
+
+
+class PageSetup:
+    """The setup handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+
+    def _setup_form(self, standard: str | None = None, keep: dict[str, Any] | None = None) -> None:
+        """The setup form: from the running test, else defaults of ``standard``."""
+        s = self.state
+        w = self.wizard
+        cat = w.catalogue()
+        ids = [x["value"] for x in s.wz_standards]
+        if w.active and standard is None:
+            plan = w.plan
+            standard = w.state["standard"]
+            form = {"standard": standard, "system_name": plan["system"].get("name", ""),
+                    "volume": [float(x) for x in plan["system"]["measuring_volume"]],
+                    "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
+                    "artefacts": {}, "include": list(w.state.get("tests") or []),
+                    "options": _options_text(plan)}
+            for test, a in (plan.get("artefacts") or {}).items():
+                aid = (w.state.get("artefact_ids") or {}).get(test) or ""
+                form["artefacts"][test] = {"_choice": aid, **{k: (", ".join(map(str, v)) if isinstance(v, list) else v)
+                                                              for k, v in a.items() if k not in ("id", "name")}}
+        else:
+            standard = standard or (keep or {}).get("standard") or (ids[0] if ids else None)
+            form = {"standard": standard, "system_name": (keep or {}).get("system_name", ""),
+                    "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
+                    "mpe": dict((keep or {}).get("mpe") or {}), "artefacts": {}, "include": [],
+                    "options": (keep or {}).get("options", "")}
+        tests = []
+        catalogue: dict[str, list[dict[str, Any]]] = {}
+        if standard:
+            try:
+                tests = w.setup_tests(standard)
+            except Exception as exc:
+                s.wz_setup_error = _one_line(exc)
+        params = []
+        for t in tests:
+            kind = t["test"]
+            options = [{"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""),
+                        "value": a["id"]} for a in cat if a["kind"] == kind]
+            catalogue[kind] = options
+            spec = ARTEFACT_FIELDS.get(kind) or []
+            t["fields"] = [{"key": k, "label": label, "unit": unit, "kind": fk} for k, label, unit, fk in spec]
+            t["options"] = options
+            if kind not in form["artefacts"]:
+                first = next((a for a in cat if a["kind"] == kind), None)
+                form["artefacts"][kind] = self._artefact_values(first) if first else {"_choice": ""}
+            for p in t["parameters"]:
+                if p not in params:
+                    params.append(p)
+        for p in params:
+            form["mpe"].setdefault(p, "")
+        s.wz_form = form
+        s.wz_form_tests = tests
+        s.wz_catalogue = catalogue
+        s.wz_mpe_fields = [{"key": p, "label": f"MPE {SYMBOLS.get(p, p)}"} for p in params]
+
+    @staticmethod
+    def _artefact_values(a: dict[str, Any]) -> dict[str, Any]:
+        vals = artefact_plan_fields(a)
+        out: dict[str, Any] = {"_choice": a["id"], "_id": a["id"], "_name": a.get("name", a["id"])}
+        for k, v in vals.items():
+            out[k] = ", ".join(f"{x:g}" for x in v) if isinstance(v, list) else v
+        return out
+
+    # -- handlers: setup -------------------------------------------------------------------
+    def choose_standard(self, standard: str, form: dict[str, Any] | None = None) -> None:
+        if self.wizard.active and self.state.wz_locked:
+            return
+        self.state.wz_setup_error = ""
+        self._setup_form(standard, keep=form)
+
+    def pick_artefact(self, test: str, choice: str, form: dict[str, Any] | None = None) -> None:
+        """Fill an artefact's fields from the catalogue (or the project's own)."""
+        form = copy.deepcopy(form if form is not None else self.state.wz_form)
+        entry = next((a for a in self.wizard.catalogue() if a["id"] == choice), None)
+        if entry is None:
+            return
+        form.setdefault("artefacts", {})[test] = self._artefact_values(entry)
+        self.state.wz_form = form
+
+    def start(self, form: dict[str, Any] | None = None) -> bool:
+        """Set up the test from the form; go to the positions."""
+        form = form if form is not None else self.state.wz_form
+        s = self.state
+        s.wz_setup_error = ""
+        try:
+            arts = {}
+            for test, a in (form.get("artefacts") or {}).items():
+                a = dict(a or {})
+                choice = a.pop("_choice", "")
+                entry = next((x for x in self.wizard.catalogue() if x["id"] == choice), None) if choice else None
+                if entry is not None:
+                    same = self._artefact_values(entry)
+                    edited = any(not _same_value(same.get(k), v) for k, v in a.items() if not k.startswith("_"))
+                    if edited:
+                        a["_id"], a["_name"] = f"{choice}-own", f"{entry.get('name', choice)} (own values)"
+                    else:
+                        a["_id"], a["_name"] = entry["id"], entry.get("name", entry["id"])
+                arts[test] = a
+            self.wizard.setup(form.get("standard"), form.get("system_name"), form.get("volume"), form.get("mpe") or {},
+                              arts, tests=form.get("include") or [], options=form.get("options"))
+        except Exception as exc:
+            s.wz_setup_error = _one_line(exc)
+            return False
+        s.wz_svgs = {}
+        self._busy.clear()
+        self.refresh(setup_form=True)
+        s.wz_step = "positions"
+        self.session.refresh_items()
+        self.session.info(f"acceptance test set up: {self.wizard.state['standard']}")
+        return True
+
+    def unlock(self) -> None:
+        """Allow a new test to be set up (the running one stays until Start)."""
+        self.state.wz_locked = False

@@ -1,0 +1,189 @@
+"""Setting up a test: which standards are installed, the plan from the setup form
+(checked field by field, then by the standard) and the start of a new run, which sends
+the running one to the history."""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from ...errors import CamcmmError, InputError
+from .catalogue import ARTEFACT_FIELDS, load_catalogue, plan_fields_to_artefact
+from .state import HISTORY_KEY
+from .values import SYMBOLS, _blank, _number, _vector, log
+
+#: Plan keys the setup form owns; the advanced options may not replace them.
+_FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
+
+
+def parse_options(options: Any) -> dict[str, Any]:
+    """More plan keys from the setup's advanced field: a dict or YAML text."""
+    import yaml
+
+    if _blank(options):
+        return {}
+    if isinstance(options, str):
+        try:
+            options = yaml.safe_load(options)
+        except yaml.YAMLError as exc:
+            raise InputError(f"plan options: not valid YAML ({' '.join(str(exc).split())})") from None
+    if not isinstance(options, dict):
+        raise InputError(f"plan options: give keys and values (e.g. 'outliers: vdi2634'), got {options!r}")
+    taken = [k for k in options if k in _FORM_KEYS]
+    if taken:
+        raise InputError(f"plan options: {taken[0]!r} is set by the form above, not here")
+    return dict(options)
+
+
+class WizardSetup:
+    """The setup steps of :class:`~camcmm.gui.wizard.Wizard`."""
+
+    # -- standards and catalogue ---------------------------------------------------------
+    def standards(self) -> list[dict[str, Any]]:
+        """Installed standard plugins that load: ``{"id", "name", "version", "summary"}``."""
+        out = []
+        for spec in self.host.all():
+            if spec.kind != "standard":
+                continue
+            if spec.status != "ok":
+                try:
+                    self.host.load(spec.id)
+                except CamcmmError:
+                    continue
+            out.append({"id": spec.id, "name": spec.name, "version": spec.version, "summary": spec.summary})
+        return out
+
+    def standard(self, sid: str | None = None) -> Any:
+        """The standard object (``host.load``) of ``sid`` or of the running test."""
+        sid = sid or (self.state or {}).get("standard")
+        if not sid:
+            raise InputError("no standard chosen yet")
+        if sid == (self.state or {}).get("standard") and self._std is not None:
+            return self._std
+        obj = self.host.load(sid)
+        for attr in ("requirements", "evaluate_measurement", "summarize", "write_report"):
+            if not callable(getattr(obj, attr, None)):
+                raise InputError(f"standard plugin {sid!r} lacks {attr}(); it does not speak the standard protocol "
+                                 "of docs/standards.md")
+        return obj
+
+    def catalogue(self) -> list[dict[str, Any]]:
+        """Artefacts to choose from: the shipped catalogue, then the project's own
+        (entered earlier; those replace a shipped one of the same id)."""
+        items = {a["id"]: a for a in load_catalogue()}
+        try:
+            own = [a.to_dict() for a in self.project.artefacts()]
+        except Exception:  # an older store without artefacts: the catalogue suffices
+            own = []
+        for a in own:
+            items[a["id"]] = {**a, "source": "project"}
+        return list(items.values())
+
+    def setup_tests(self, sid: str) -> list[dict[str, Any]]:
+        """The tests of standard ``sid`` before a plan exists: test, label, parameters,
+        required, positions count."""
+        std = self.standard(sid)
+        return [{"test": r["test"], "label": r.get("label") or r["test"], "parameters": list(r.get("parameters") or []),
+                 "required": bool(r.get("required", True)), "min_count": int(r.get("min_count") or 0),
+                 "repeats": int(r.get("repeats") or 1), "n_positions": len(r.get("positions") or [])}
+                for r in std.requirements(None)]
+
+    # -- setup ---------------------------------------------------------------------------
+    def build_plan(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
+                   artefacts: dict[str, dict[str, Any]], options: Any = None) -> dict[str, Any]:
+        """The plan dict from the setup form; values are checked here (one line naming
+        the field) and by the standard (``requirements(plan)``). ``options``: more plan
+        keys (a dict or YAML text: outliers, scaling, repeats, unit, options ...)."""
+        name = str(system_name or "").strip()
+        if not name:
+            raise InputError("measuring system: give it a name")
+        vol = _vector(measuring_volume, "measuring volume")
+        if min(vol) <= 0:
+            raise InputError(f"measuring volume: every edge must be > 0 mm, got {vol}")
+        mpes = {}
+        for key, v in (mpe or {}).items():
+            if _blank(v):
+                continue
+            mpes[key] = _number(v, f"MPE {SYMBOLS.get(key, key)}")
+        arts: dict[str, dict[str, Any]] = {}
+        for test, fields_ in (artefacts or {}).items():
+            spec = ARTEFACT_FIELDS.get(test)
+            values = {k: v for k, v in (fields_ or {}).items() if not k.startswith("_")}
+            if spec is None:
+                arts[test] = values
+                continue
+            entry: dict[str, Any] = {}
+            for key, label, _unit, kind in spec:
+                v = values.get(key)
+                if _blank(v):
+                    continue
+                what = f"artefact {test.replace('_', ' ')}: {label.lower()}"
+                entry[key] = _vector(v, what) if kind == "vector" else _number(v, what)
+            for key, v in values.items():  # extra calibrated values from the catalogue
+                if key not in entry and isinstance(v, (int, float)) and not isinstance(v, bool):
+                    entry[key] = float(v)
+            for meta in ("id", "name"):
+                if (fields_ or {}).get(f"_{meta}"):
+                    entry[meta] = str(fields_[f"_{meta}"])
+            arts[test] = entry
+        plan = {"standard": standard, "system": {"name": name, "measuring_volume": vol}, "mpe": mpes,
+                "artefacts": arts, "measurements": {},
+                "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)"}
+        plan.update(parse_options(options))
+        self.standard(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
+        return plan
+
+    def setup(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
+              artefacts: dict[str, dict[str, Any]], tests: list[str] | None = None, options: Any = None
+              ) -> dict[str, Any]:
+        """Start a new test (the running one, if any, goes to the history: its results
+        stay in the project). Returns the new state."""
+        from ...project.store import utcnow
+
+        std = self.standard(standard)
+        available = {r["test"]: r for r in std.requirements(None)}
+        chosen = [t for t, r in available.items() if r.get("required", True) or t in (tests or [])]
+        for t in chosen:
+            for param in available[t].get("parameters") or []:
+                v = (mpe or {}).get(param)
+                if _blank(v):
+                    raise InputError(f"MPE {SYMBOLS.get(param, param)} is empty; enter it from the measuring "
+                                     "system's specification")
+        plan = self.build_plan(standard, system_name, measuring_volume, mpe,
+                               {t: a for t, a in (artefacts or {}).items() if t in chosen}, options)
+        missing = [t for t in chosen if t not in plan["artefacts"]]
+        if missing:
+            raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
+        with self._lock:
+            self._archive()
+            sid = self.project.add_system(plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"],
+                                                                  "standard": standard})
+            art_ids = {}
+            for test, entry in plan["artefacts"].items():
+                aid = str((artefacts.get(test) or {}).get("_id") or "") or f"{test}-own"
+                name = str((artefacts.get(test) or {}).get("_name") or "") or f"own {test.replace('_', ' ')}"
+                try:
+                    art_ids[test] = self.project.add_artefact(plan_fields_to_artefact(test, entry, aid, name))
+                except CamcmmError as exc:
+                    log.warning("artefact %s not saved in the project: %s", aid, exc)
+            state = {"standard": standard, "plan": plan, "measurements": {}, "evaluations": {}, "positions": {},
+                     "errors": {}, "superseded": [], "tests": chosen, "system_id": sid, "artefact_ids": art_ids,
+                     "summary_result": None, "report": None, "verdict": None, "verdict_guarded": None,
+                     "created": utcnow()}
+            self.state = state
+            self._std = std
+            self._reqs = None
+            self._outputs = {}
+            self._save()
+        return state
+
+    def _archive(self) -> None:
+        if not self.state:
+            return
+        try:
+            history = list(self.project.get_state(HISTORY_KEY, []) or [])
+            history.append({k: self.state.get(k) for k in ("standard", "created", "summary_result", "verdict",
+                                                            "verdict_guarded", "measurements", "evaluations")})
+            self.project.set_state(HISTORY_KEY, history)
+        except CamcmmError as exc:
+            log.warning("could not keep the previous test in the history: %s", exc)
