@@ -74,6 +74,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from . import wizard, wizard_layout  # [wizard] the "Acceptance test" page
 
     wizard_page = wizard.mount(server, session)  # [wizard]
+    from . import inspect_layout, inspect_panel  # [inspection] the "Compare with CAD" page
+
+    inspect_page = inspect_panel.mount(server, session, display_limit)  # [inspection]
     state.trame__title = f"camcmm — {state.project_name}"
 
     # -- handlers (thin: all logic is in the session) ---------------------------------
@@ -136,6 +139,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             html.Span("{{ project_name }}", classes="text-subtitle-1",
                       raw_attrs=_tid("project-name"), title=("project_path",))
             wizard_layout.page_switch(v)  # [wizard] Inspect | Acceptance test
+            inspect_layout.page_switch(v, layout.toolbar)  # [inspection] ... | Compare with CAD
             v.VSpacer()
             v.VFileInput(
                 v_model=("upload", None),
@@ -330,7 +334,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         with layout.content:
             layout.content.classes = "d-flex"  # [wizard] the wizard's panel beside the 3D view
             wizard_layout.build_panel(wizard_page, _accept())  # [wizard]
-            with html.Div(classes="d-flex flex-column",
+            inspect_layout.build_panel(inspect_page)  # [inspection] its own view, charts and panel
+            with html.Div(classes=("page === 'compare' ? 'd-none' : 'd-flex flex-column'",),  # [inspection] hidden
                           style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
                 with html.Div(classes="d-flex align-center ga-3 px-3 py-1", style="min-height: 52px;"):
                     v.VSelect(
@@ -399,6 +404,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     view.on_update = view_changed
     server.session = session  # for scripts and tests
     server.wizard = wizard_page  # [wizard]
+    server.inspect = inspect_page  # [inspection]
     return server, session
 
 
@@ -430,6 +436,8 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
         session.close()
     if getattr(server, "wizard", None) is not None:  # [wizard]
         server.wizard.close()
+    if getattr(server, "inspect", None) is not None:  # [inspection]
+        server.inspect.close()
 
 
 def main(argv: list[str] | None = None) -> int:

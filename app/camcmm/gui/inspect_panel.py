@@ -1,0 +1,1919 @@
+"""Compare with CAD: the inspection page's logic, apart from the layout.
+
+The operator picks the measured cloud and the nominal (a CAD mesh or a reference
+cloud) from the project's items, an alignment method (the choices of the
+``inspect.compare`` manifest; the ``pairs`` methods take three point pairs clicked in
+the 3D view: on the measured cloud, then on the nominal, three times) and a tolerance,
+and runs the plugin in a worker thread. The result is shown as
+
+* the deviations cloud in the page's own 3D view: a diverging colour map on
+  ±``colour_limit`` with a legend titled ``deviation [µm]`` or ``[mm]`` (whichever
+  reads better), or tolerance bands (within ±tolerance green, above red, below blue);
+* a histogram and the Abbott-Firestone (material-ratio) curve as plotly figures, with
+  the 95 % interval, ±tolerance and the ISO 13565-2 construction drawn in;
+* a statistics table, the alignment (rms, scale, converged and its reason);
+* a picked point's coordinates and deviation (click in the view);
+* a section: a plane across an axis at a position, the nominal cut as polylines and
+  the measured points within ±half a point spacing of the plane, coloured by deviation.
+
+Export writes the coloured cloud as PLY with the field ``deviation`` (offered for
+download and added to the project as an item); Report runs the inspection plugin's own
+report writer (HTML, PDF, JSON, added to the project). The comparison is stored in the
+project (the result, its deviations cloud as a result file, project state key
+``inspection.current``), so reopening the project shows the last comparison.
+
+Two layers, as in the wizard: module functions (units, bands, figures, section,
+picking maths) are plain numpy/plotly and testable alone; :class:`InspectView` owns an
+off-screen pyvista plotter; :class:`InspectPage` publishes everything through the
+trame ``state`` (keys ``ins_*``) for :mod:`camcmm.gui.inspect_layout`. VTK, the state
+and the page's scene are touched only from the server loop; the plugin run, the
+display preparation, storing, export and report run in a worker thread.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import importlib
+import json
+import logging
+import math
+import re
+import shutil
+import tempfile
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import CamcmmError, InputError
+from ..host import RunResult, to_jsonable
+from ..params import form_schema, validate
+from .view import display_index, fmt_count
+
+log = logging.getLogger("camcmm.gui.inspect")
+
+PLUGIN = "inspect.compare"
+STATE_KEY = "inspection.current"
+DOWNLOAD_ROUTE = "camcmm-inspect-downloads"
+#: Parameters the page shows up front; the rest of the manifest's go under "More".
+MAIN_PARAMS = ("align", "tolerance")
+N_PAIRS = 3
+MINUS = "\u2212"
+
+ALIGN_TITLES = {
+    "icp": "ICP — rigid, from where the cloud is",
+    "similarity": "ICP with one uniform scale",
+    "global+icp": "Automatic (features + RANSAC), then ICP",
+    "global+similarity": "Automatic, then ICP with scale",
+    "pairs": "Three point pairs (picked) only",
+    "pairs+icp": "Three point pairs, then ICP",
+    "pairs+similarity": "Three point pairs, then ICP with scale",
+    "none": "None — the cloud is aligned already",
+}
+
+#: Tolerance bands: code -> (key, colour). NaN deviations get code 2 (grey).
+BANDS = {-1: ("below", "#2166ac"), 0: ("within", "#1a9850"), 1: ("above", "#d7301f"), 2: ("invalid", "#9e9e9e")}
+COLOURMAP = "RdBu_r"  # the plugin's and the report's diverging scale (blue below, red above)
+MEASURED_COLOUR = "#ef8a17"
+NOMINAL_COLOUR = "#b0b7c3"
+PAIR_COLOURS = {"measured": "#c62828", "nominal": "#1565c0"}
+
+
+# =============================================================================== units
+def display_unit(limit_mm: Any) -> tuple[str, float]:
+    """The unit numbers of this size read well in, and the factor mm -> unit: below
+    0.1 mm µm (0.05 mm reads 50 µm), else mm (the report's rule)."""
+    try:
+        a = abs(float(limit_mm))
+    except (TypeError, ValueError):
+        a = 0.0
+    if math.isfinite(a) and 0 < a < 0.1:
+        return "µm", 1e3
+    return "mm", 1.0
+
+
+def _num(v: float, digits: int = 3, signed: bool = False) -> str:
+    """``v`` with ``digits`` significant digits, never in exponent notation; a real
+    minus sign."""
+    if v is None or not math.isfinite(v):
+        return "—"
+    if v == 0:
+        decimals = max(digits - 1, 0)
+    else:
+        decimals = min(max(digits - 1 - int(math.floor(math.log10(abs(v)))), 0), 9)
+    text = f"{v:+.{decimals}f}" if signed else f"{v:.{decimals}f}"
+    return text.replace("-", MINUS)
+
+
+def fmt_len(x_mm: Any, unit: str = "mm", signed: bool = False, digits: int = 3) -> str:
+    """A length given in mm, written in ``unit`` (mm or µm): ``"+24.1 µm"``."""
+    try:
+        x = float(x_mm)
+    except (TypeError, ValueError):
+        return "—"
+    if not math.isfinite(x):
+        return "—"
+    f = 1e3 if unit == "µm" else 1.0
+    return f"{_num(x * f, digits, signed)} {unit}"
+
+
+def interval_text(stats: dict[str, Any], unit: str) -> str:
+    """The central 95 % of the deviations as the thesis writes it: ``"+24 µm / −33 µm"``
+    (upper bound first)."""
+    return f"{fmt_len(stats.get('p97_5'), unit, True)} / {fmt_len(stats.get('p2_5'), unit, True)}"
+
+
+def legend_title(unit: str) -> str:
+    return f"deviation [{unit}]"
+
+
+# =============================================================================== bands
+def band_codes(dev: Any, tolerance: float) -> np.ndarray:
+    """Per point: -1 below −tolerance, 0 within ±tolerance (inclusive, as the
+    statistics count it), +1 above, 2 not a number."""
+    d = np.asarray(dev, dtype=float)
+    t = abs(float(tolerance))
+    codes = np.zeros(d.shape, dtype=np.int8)
+    with np.errstate(invalid="ignore"):
+        codes[d > t] = 1
+        codes[d < -t] = -1
+    codes[~np.isfinite(d)] = 2
+    return codes
+
+
+def band_counts(dev: Any, tolerance: float) -> dict[str, int]:
+    """Points below, within and above ±tolerance (and not a number)."""
+    codes = band_codes(dev, tolerance)
+    n = np.bincount((codes + 1).astype(np.intp), minlength=4)
+    return {"below": int(n[0]), "within": int(n[1]), "above": int(n[2]), "invalid": int(n[3])}
+
+
+def band_legend(counts: dict[str, int], tolerance: float, unit: str) -> list[dict[str, Any]]:
+    """Legend rows ``{key, label, colour, count, percent}`` for the tolerance bands."""
+    total = max(sum(counts.values()), 1)
+    t = fmt_len(tolerance, unit)
+    labels = {"above": f"above +{t}", "within": f"within ±{t}", "below": f"below {MINUS}{t}",
+              "invalid": "no deviation (NaN)"}
+    rows = []
+    for code in (1, 0, -1, 2):
+        key, colour = BANDS[code]
+        if key == "invalid" and not counts.get(key):
+            continue
+        c = int(counts.get(key, 0))
+        rows.append({"key": key, "label": labels[key], "colour": colour, "count": c,
+                     "percent": round(100.0 * c / total, 2), "text": f"{labels[key]}: {100.0 * c / total:.1f} %"})
+    return rows
+
+
+def _hex_to_rgb(h: str) -> list[int]:
+    h = h.lstrip("#")
+    return [int(h[i:i + 2], 16) for i in (0, 2, 4)]
+
+
+def band_colours(codes: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8 colours of the band codes."""
+    lut = np.zeros((4, 3), dtype=np.uint8)
+    for code, (_, colour) in BANDS.items():
+        lut[code + 1] = _hex_to_rgb(colour)
+    return lut[(np.asarray(codes) + 1).astype(np.intp)]
+
+
+def diverging_colours(dev: Any, limit: float) -> np.ndarray:
+    """(N, 3) uint8 colours of the deviations on the diverging map over ±limit."""
+    from matplotlib import colormaps
+
+    lim = float(limit) if limit and limit > 0 else 1.0
+    u = np.clip(0.5 + 0.5 * np.nan_to_num(np.asarray(dev, dtype=float)) / lim, 0.0, 1.0)
+    return np.round(colormaps[COLOURMAP](u)[:, :3] * 255).astype(np.uint8)
+
+
+def _hex_colours(values: np.ndarray, limit: float) -> list[str]:
+    return ["#%02x%02x%02x" % tuple(c) for c in diverging_colours(values, limit)]
+
+
+# =============================================================================== tables
+def stats_rows(outputs: dict[str, Any], unit: str, tolerance: float | None = None,
+               dev: np.ndarray | None = None) -> list[dict[str, str]]:
+    """The statistics table: ``{key, name, value}`` rows in ``unit``. With a
+    ``tolerance`` (and the deviations) the share within it is counted here, so it
+    follows the tolerance field after the run."""
+    st = outputs.get("stats") or {}
+    rows = [{"key": "n", "name": "points", "value": fmt_count(st.get("n", 0))}]
+    for key, name, signed in (("mean", "mean", True), ("std", "std dev", False),
+                              ("rms", "rms", False), ("min", "min", True), ("max", "max", True),
+                              ("p2_5", "p2.5", True), ("p97_5", "p97.5", True)):
+        rows.append({"key": key, "name": name, "value": fmt_len(st.get(key), unit, signed)})
+    rows.append({"key": "interval95", "name": "95 % within", "value": interval_text(st, unit)})
+    if tolerance is not None and tolerance > 0:
+        if dev is not None:
+            c = band_counts(dev, tolerance)
+            total = max(sum(c.values()) - c["invalid"], 1)
+            share = c["within"] / total
+        else:
+            share = st.get("within_tolerance")
+        if share is not None:
+            rows.append({"key": "within", "name": f"within ±{fmt_len(tolerance, unit)}",
+                         "value": f"{100.0 * float(share):.2f} %"})
+    cov = outputs.get("coverage_info") or {}
+    if outputs.get("coverage") is not None:
+        rows.append({"key": "coverage", "name": "coverage (area)",
+                     "value": f"{100.0 * float(outputs['coverage']):.2f} %"
+                              + (f" (points within {fmt_len(cov.get('distance'), 'mm')})" if cov.get("distance") else "")})
+    return rows
+
+
+def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
+    """The alignment: method, converged (with the reason), rms, scale, rotation,
+    translation, overlap."""
+    a = outputs.get("alignment") or {}
+    conv = bool(outputs.get("converged", a.get("converged")))
+    reason = outputs.get("reason", a.get("reason")) or ""
+    rows = [{"key": "method", "name": "method", "value": str(a.get("method", ""))},
+            {"key": "converged", "name": "converged",
+             "value": ("yes" if conv else "NO") + (f" — {reason}" if reason else "")},
+            {"key": "rms", "name": "rms", "value": fmt_len(outputs.get("rms", a.get("rms")), unit)}]
+    scale = outputs.get("scale", a.get("scale"))
+    if scale is not None:
+        rows.append({"key": "scale", "name": "scale", "value": f"{float(scale):.8f}"})
+    if a.get("rotation_angle_deg") is not None:
+        rows.append({"key": "rotation", "name": "rotation", "value": f"{float(a['rotation_angle_deg']):.4f}°"})
+    t = outputs.get("translation", a.get("translation"))
+    if t is not None:
+        rows.append({"key": "translation", "name": "translation",
+                     "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm"})
+    ov = outputs.get("overlap", a.get("overlap"))
+    if ov is not None and isinstance(ov, (int, float)) and math.isfinite(ov):
+        rows.append({"key": "overlap", "name": "overlap", "value": f"{100.0 * float(ov):.1f} %"})
+    return rows
+
+
+# =============================================================================== figures
+def _fig_json(fig: Any) -> dict[str, Any]:
+    """A plotly figure as plain JSON (what the trame-plotly component binds to)."""
+    import plotly.io as pio
+
+    return json.loads(pio.to_json(fig, validate=True, engine="json"))
+
+
+def _base_layout(title: str, xtitle: str, ytitle: str) -> dict[str, Any]:
+    return {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
+            "margin": {"l": 56, "r": 14, "t": 34, "b": 40}, "xaxis": {"title": {"text": xtitle}, "zeroline": False},
+            "yaxis": {"title": {"text": ytitle}, "zeroline": False}, "showlegend": False,
+            "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
+            "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}}
+
+
+def histogram_figure(hist: dict[str, Any], stats: dict[str, Any], unit: str, limit: float,
+                     tolerance: float | None = None) -> dict[str, Any]:
+    """Bars of the deviation histogram (coloured as the colour map), the 95 % interval
+    shaded, ±tolerance as dashed lines; hover: the bin's range, count and share."""
+    import plotly.graph_objects as go
+
+    f = 1e3 if unit == "µm" else 1.0
+    edges = np.asarray(hist["edges"], dtype=float)
+    counts = np.asarray(hist["counts"], dtype=float)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    total = max(counts.sum(), 1.0)
+    custom = np.column_stack([edges[:-1] * f, edges[1:] * f, 100.0 * counts / total])
+    fig = go.Figure(go.Bar(
+        x=(centres * f).tolist(), y=counts.tolist(), width=(np.diff(edges) * f).tolist(),
+        marker={"color": _hex_colours(centres, limit), "line": {"width": 0}}, customdata=custom.tolist(),
+        hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
+                      "(%{customdata[2]:.2f} %)<extra></extra>", name="deviations"))
+    layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points")
+    lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
+    shapes = [{"type": "rect", "xref": "x", "yref": "paper", "x0": lo, "x1": hi, "y0": 0, "y1": 1,
+               "fillcolor": "rgba(46,125,50,0.10)", "line": {"width": 0}, "layer": "below"},
+              {"type": "line", "xref": "x", "yref": "paper", "x0": lo, "x1": lo, "y0": 0, "y1": 1,
+               "line": {"color": "#2e7d32", "width": 1, "dash": "dot"}},
+              {"type": "line", "xref": "x", "yref": "paper", "x0": hi, "x1": hi, "y0": 0, "y1": 1,
+               "line": {"color": "#2e7d32", "width": 1, "dash": "dot"}}]
+    notes = [{"x": 0.5 * (lo + hi), "y": 1.0, "xref": "x", "yref": "paper", "yanchor": "bottom", "showarrow": False,
+              "text": f"95 %: {interval_text(stats, unit)}", "font": {"size": 10, "color": "#2e7d32"}}]
+    if tolerance:
+        for s in (-1, 1):
+            x = s * float(tolerance) * f
+            shapes.append({"type": "line", "xref": "x", "yref": "paper", "x0": x, "x1": x, "y0": 0, "y1": 0.92,
+                           "line": {"color": "#c62828", "width": 1.5, "dash": "dash"}})
+        notes.append({"x": float(tolerance) * f, "y": 0.92, "xref": "x", "yref": "paper", "xanchor": "left",
+                      "showarrow": False, "text": f" ±{fmt_len(tolerance, unit)}", "font": {"size": 10, "color": "#c62828"}})
+    layout.update({"shapes": shapes, "annotations": notes, "bargap": 0})
+    fig.update_layout(**layout)
+    return _fig_json(fig)
+
+
+def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
+                          tolerance: float | None = None) -> dict[str, Any]:
+    """The Abbott-Firestone curve (material ratio % on x, deviation on y) with the
+    ISO 13565-2 construction: the 40 % secant of least gradient, the equivalent
+    straight line to 0 and 100 %, C1/C2 with Smr1/Smr2, the Spk and Svk triangles;
+    the 95 % interval shaded and ±tolerance dashed. Hover gives the values."""
+    import plotly.graph_objects as go
+
+    f = 1e3 if unit == "µm" else 1.0
+    x = np.asarray(mr["curve"]["mr_percent"], dtype=float)
+    y = np.asarray(mr["curve"]["height"], dtype=float) * f
+    C1, C2 = float(mr["C1"]) * f, float(mr["C2"]) * f
+    s1, s2 = float(mr["Smr1"]), float(mr["Smr2"])
+    spk, svk = float(mr["Spk"]) * f, float(mr["Svk"]) * f
+    a, b = float(mr["secant_start"]), float(mr["secant_end"])
+    ya, yb = np.interp([a, b], x, y)
+    u = unit
+    traces = [
+        go.Scatter(x=[0, s1, s1, 0, 0], y=[C1, C1, C1, C1 + spk, C1], mode="lines", fill="toself",
+                   fillcolor="rgba(198,40,40,0.12)", line={"color": "#c62828", "width": 1},
+                   name="Spk triangle", hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>"),
+        go.Scatter(x=[100, s2, s2, 100, 100], y=[C2, C2, C2, C2 - svk, C2], mode="lines", fill="toself",
+                   fillcolor="rgba(21,101,192,0.12)", line={"color": "#1565c0", "width": 1},
+                   name="Svk triangle", hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>"),
+        go.Scatter(x=[0, 100], y=[C1, C2], mode="lines", line={"color": "#6a1b9a", "width": 1, "dash": "dash"},
+                   name="equivalent straight line",
+                   hovertemplate=f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %<extra></extra>"),
+        go.Scatter(x=[0, s1, s1], y=[C1, C1, float(y.min())], mode="lines",
+                   line={"color": "#555", "width": 1, "dash": "dot"}, name="C1, Smr1",
+                   hovertemplate=f"C1 {C1:.4g} {u}, Smr1 {s1:.2f} %<extra></extra>"),
+        go.Scatter(x=[0, s2, s2], y=[C2, C2, float(y.min())], mode="lines",
+                   line={"color": "#555", "width": 1, "dash": "dot"}, name="C2, Smr2",
+                   hovertemplate=f"C2 {C2:.4g} {u}, Smr2 {s2:.2f} %<extra></extra>"),
+        go.Scatter(x=x.tolist(), y=y.tolist(), mode="lines", line={"color": "#111", "width": 2},
+                   name="material-ratio curve",
+                   hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4g}} {u}<extra></extra>"),
+        go.Scatter(x=[a, b], y=[float(ya), float(yb)], mode="lines", line={"color": "#6a1b9a", "width": 4},
+                   name="40 % secant of least gradient",
+                   hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %<br>Sk {float(mr['Sk']) * f:.4g} {u}"
+                                 "<extra></extra>"),
+    ]
+    fig = go.Figure(traces)
+    layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]")
+    lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
+    shapes = [{"type": "rect", "xref": "paper", "yref": "y", "x0": 0, "x1": 1, "y0": lo, "y1": hi,
+               "fillcolor": "rgba(46,125,50,0.10)", "line": {"width": 0}, "layer": "below"}]
+    notes = [{"x": 50, "y": hi, "xref": "x", "yref": "y", "yanchor": "bottom", "showarrow": False,
+              "text": f"95 % within {interval_text(stats, unit)}", "font": {"size": 10, "color": "#2e7d32"}},
+             {"x": 0.99, "y": 0.98, "xref": "paper", "yref": "paper", "xanchor": "right", "yanchor": "top",
+              "showarrow": False, "align": "right", "bgcolor": "rgba(255,255,255,0.85)", "bordercolor": "#ccc",
+              "borderwidth": 1, "font": {"size": 10},
+              "text": (f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {spk:.3g} {u} · Svk {svk:.3g} {u}"
+                       f"<br>Smr1 {s1:.2f} % · Smr2 {s2:.2f} %")}]
+    if tolerance:
+        for s in (-1, 1):
+            yv = s * float(tolerance) * f
+            shapes.append({"type": "line", "xref": "paper", "yref": "y", "x0": 0, "x1": 1, "y0": yv, "y1": yv,
+                           "line": {"color": "#c62828", "width": 1.5, "dash": "dash"}})
+        notes.append({"x": 0.01, "y": float(tolerance) * f, "xref": "paper", "yref": "y", "xanchor": "left",
+                      "yanchor": "bottom", "showarrow": False, "text": f"+{fmt_len(tolerance, unit)}",
+                      "font": {"size": 10, "color": "#c62828"}})
+    layout["xaxis"]["range"] = [0, 100]
+    pad = 0.06 * ((y.max() - y.min()) or 1.0)
+    layout["yaxis"]["range"] = [min(float(y.min()), C2 - svk) - pad, max(float(y.max()), C1 + spk) + pad]
+    layout.update({"shapes": shapes, "annotations": notes})
+    fig.update_layout(**layout)
+    return _fig_json(fig)
+
+
+def empty_figure(text: str = "") -> dict[str, Any]:
+    return {"data": [], "layout": {"xaxis": {"visible": False}, "yaxis": {"visible": False},
+                                   "margin": {"l": 10, "r": 10, "t": 10, "b": 10},
+                                   "annotations": [{"text": text, "showarrow": False, "xref": "paper",
+                                                    "yref": "paper", "x": 0.5, "y": 0.5}] if text else []}}
+
+
+# =============================================================================== section
+AXES = ("x", "y", "z")
+
+
+def point_spacing(points: np.ndarray, queries: int = 5000, seed: int = 0) -> float:
+    """Median nearest-neighbour distance of a cloud (mm), over a seeded sample of query
+    points against the whole cloud (an unbalanced KD-tree: 2 million points in about
+    0.4 s). Exact for regular grids as for scattered points, unlike a spacing measured
+    on a subset and rescaled."""
+    from scipy.spatial import cKDTree
+
+    P = np.asarray(points, dtype=float)
+    n = len(P)
+    if n < 2:
+        return 0.0
+    rng = np.random.default_rng(seed)
+    tree = cKDTree(P, balanced_tree=False, compact_nodes=False)
+    q = P if n <= queries else P[rng.choice(n, queries, replace=False)]
+    d, _ = tree.query(q, k=2)
+    nn = d[:, 1]
+    nn = nn[nn > 0]
+    return float(np.median(nn)) if nn.size else 0.0
+
+
+def _polylines(cut: Any) -> list[np.ndarray]:
+    """The polylines of a pyvista PolyData of lines (after ``strip``)."""
+    if cut is None or cut.n_points == 0:
+        return []
+    pts = np.asarray(cut.points, dtype=float)
+    conn = np.asarray(cut.lines)
+    out, i = [], 0
+    while i < len(conn):
+        k = int(conn[i])
+        ids = conn[i + 1:i + 1 + k]
+        if k >= 2:
+            out.append(pts[ids])
+        i += k + 1
+    return out
+
+
+def section(axis: int | str, position: float, points: np.ndarray, dev: np.ndarray, half_width: float,
+            nominal_poly: Any = None, nominal_points: np.ndarray | None = None,
+            max_points: int = 6000, seed: int = 0) -> dict[str, Any]:
+    """A cut through the part by the plane ``coord[axis] = position``.
+
+    ``nominal_poly`` (a pyvista mesh) is cut with ``slice`` into polylines; a nominal
+    cloud contributes its points within the slab. The measured points within
+    ±``half_width`` of the plane come with their deviations (at most ``max_points``,
+    a seeded subset). Returns 2-D coordinates on the plane's other two axes:
+    ``{"axis", "position", "u", "v" (axis names), "nominal": [(k, 2) arrays],
+    "nominal_points": (m, 2), "measured": (n, 2), "deviation": (n,), "n_in_slab",
+    "half_width"}``.
+    """
+    ax = AXES.index(axis) if isinstance(axis, str) else int(axis)
+    u, v = [a for a in range(3) if a != ax]
+    P = np.asarray(points, dtype=float)
+    d = np.asarray(dev, dtype=float)
+    hw = abs(float(half_width))
+    inside = np.nonzero(np.abs(P[:, ax] - position) <= hw)[0]
+    n_in = int(inside.size)
+    if inside.size > max_points:
+        inside = np.sort(np.random.default_rng(seed).choice(inside, max_points, replace=False))
+    lines: list[np.ndarray] = []
+    if nominal_poly is not None:
+        normal = np.eye(3)[ax]
+        origin = np.zeros(3)
+        origin[ax] = position
+        b = np.asarray(nominal_poly.bounds, dtype=float).reshape(3, 2)
+        if b[ax, 0] <= position <= b[ax, 1]:
+            cut = nominal_poly.slice(normal=normal, origin=origin, generate_triangles=False)
+            if cut.n_points:
+                cut = cut.strip()
+            lines = [pl[:, [u, v]] for pl in _polylines(cut)]
+    nom_pts = np.zeros((0, 2))
+    if nominal_points is not None:
+        Q = np.asarray(nominal_points, dtype=float)
+        sel = np.nonzero(np.abs(Q[:, ax] - position) <= hw)[0]
+        if sel.size > max_points:
+            sel = np.random.default_rng(seed + 1).choice(sel, max_points, replace=False)
+        nom_pts = Q[sel][:, [u, v]]
+    return {"axis": AXES[ax], "position": float(position), "u": AXES[u], "v": AXES[v], "nominal": lines,
+            "nominal_points": nom_pts, "measured": P[inside][:, [u, v]], "deviation": d[inside],
+            "n_in_slab": n_in, "half_width": hw}
+
+
+def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, Any]:
+    """The section as a 2-D chart (equal axes, mm): the nominal in black, the
+    measured points coloured by deviation on the colour map's scale."""
+    import plotly.graph_objects as go
+
+    f = 1e3 if unit == "µm" else 1.0
+    traces = []
+    m = sec["measured"]
+    if len(m):
+        dev = np.asarray(sec["deviation"], dtype=float) * f
+        lim = float(limit) * f
+        traces.append(go.Scatter(
+            x=m[:, 0].tolist(), y=m[:, 1].tolist(), mode="markers", name="measured",
+            marker={"color": np.nan_to_num(dev).tolist(), "colorscale": COLOURMAP, "cmin": -lim, "cmax": lim,
+                    "size": 4, "line": {"width": 0},
+                    "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9}},
+            customdata=np.nan_to_num(dev).tolist(),
+            hovertemplate=(f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
+                           f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>")))
+    if len(sec["nominal_points"]):
+        q = sec["nominal_points"]
+        traces.append(go.Scatter(x=q[:, 0].tolist(), y=q[:, 1].tolist(), mode="markers", name="nominal",
+                                 marker={"color": "#424242", "size": 2},
+                                 hovertemplate="nominal point<extra></extra>"))
+    if sec["nominal"]:
+        xs: list[float | None] = []
+        ys: list[float | None] = []
+        for pl in sec["nominal"]:
+            xs += pl[:, 0].tolist() + [None]
+            ys += pl[:, 1].tolist() + [None]
+        traces.append(go.Scatter(x=xs, y=ys, mode="lines", line={"color": "#212121", "width": 1.2}, name="nominal",
+                                 hovertemplate=f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm<extra></extra>"))
+    fig = go.Figure(traces)
+    title = (f"Section {sec['axis']} = {sec['position']:.3f} mm — {sec['n_in_slab']:,} measured points within "
+             f"±{fmt_len(sec['half_width'], 'mm')}").replace(",", " ")
+    layout = _base_layout(title, f"{sec['u']} [mm]", f"{sec['v']} [mm]")
+    layout["yaxis"].update({"scaleanchor": "x", "scaleratio": 1})
+    layout["title"]["font"] = {"size": 11}
+    if not traces:
+        layout["annotations"] = [{"text": "the plane misses the part", "showarrow": False, "xref": "paper",
+                                  "yref": "paper", "x": 0.5, "y": 0.5}]
+    fig.update_layout(**layout)
+    return _fig_json(fig)
+
+
+# =============================================================================== picking
+def world_to_display(renderer: Any, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Display coordinates (x right, y up, pixels of the render window) of ``points``,
+    their distance in front of the camera (mm, along its view direction) and whether
+    they are in front of it — the camera's composite projection, vectorised."""
+    P = np.asarray(points, dtype=float)
+    W, H = renderer.GetSize()
+    W, H = max(int(W), 1), max(int(H), 1)
+    ox, oy = renderer.GetOrigin()
+    cam = renderer.GetActiveCamera()
+    M = cam.GetCompositeProjectionTransformMatrix(W / H, -1, 1)
+    A = np.array([[M.GetElement(i, j) for j in range(4)] for i in range(4)])
+    h = P @ A[:3, :3].T + A[:3, 3]
+    w = P @ A[3, :3] + A[3, 3]
+    ok = w > 1e-12
+    ws = np.where(ok, w, 1.0)
+    ndc = h / ws[:, None]
+    xy = np.column_stack([ox + (ndc[:, 0] + 1.0) * 0.5 * W, oy + (ndc[:, 1] + 1.0) * 0.5 * H])
+    direction = np.asarray(cam.GetDirectionOfProjection(), dtype=float)
+    dist = (P - np.asarray(cam.GetPosition(), dtype=float)) @ direction
+    ok &= (np.abs(ndc[:, 2]) <= 1.0)
+    return xy, dist, ok
+
+
+def surface_distance(renderer: Any, x: float, y: float, r: int = 2) -> float | None:
+    """The distance in front of the camera (mm) of the nearest thing drawn within ``r``
+    pixels of display position (x, y), from the last frame's depth buffer; None where
+    only the background was drawn (or nothing was rendered yet)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkFloatArray
+
+    rw = renderer.GetRenderWindow()
+    if rw is None:
+        return None
+    W, H = rw.GetSize()
+    xi, yi = int(round(x)), int(round(y))
+    x0, x1 = max(xi - r, 0), min(xi + r, W - 1)
+    y0, y1 = max(yi - r, 0), min(yi + r, H - 1)
+    if x1 < x0 or y1 < y0:
+        return None
+    arr = vtkFloatArray()
+    if not rw.GetZbufferData(x0, y0, x1, y1, arr):
+        return None
+    z = vtk_to_numpy(arr)
+    z = z[(z > 0.0) & (z < 1.0)]
+    if not z.size:
+        return None
+    renderer.SetDisplayPoint(float(x), float(y), float(z.min()))
+    renderer.DisplayToWorld()
+    w = np.asarray(renderer.GetWorldPoint(), dtype=float)
+    if abs(w[3]) < 1e-300:
+        return None
+    cam = renderer.GetActiveCamera()
+    return float((w[:3] / w[3] - np.asarray(cam.GetPosition())) @ np.asarray(cam.GetDirectionOfProjection()))
+
+
+def pick_point(renderer: Any, points: np.ndarray, x: float, y: float, radii: tuple[float, ...] = (7, 14),
+               zbuffer: bool = True) -> int | None:
+    """The index of the point drawn at display position (x, y), or None.
+
+    Candidates are the points projected within a few pixels of the click (the radius
+    widened once if there are none). The depth drawn there (the last frame's depth
+    buffer) tells how far the visible surface is; without one, the front-most
+    candidate does. Of the candidates that far (within the depth a few pixels span
+    there), the one nearest to the click on screen is taken — not a point behind the
+    surface that shows through a gap.
+    """
+    P = np.asarray(points, dtype=float)
+    if not len(P):
+        return None
+    xy, dist, ok = world_to_display(renderer, P)
+    d2 = (xy[:, 0] - x) ** 2 + (xy[:, 1] - y) ** 2
+    cam = renderer.GetActiveCamera()
+    H = max(renderer.GetSize()[1], 1)
+    surface = surface_distance(renderer, x, y) if zbuffer else None
+    for r in radii:
+        cand = np.nonzero(ok & (d2 <= r * r))[0]
+        if not cand.size:
+            continue
+        front = float(dist[cand].min())
+        if surface is not None and surface > front:
+            front = surface
+        if cam.GetParallelProjection():
+            px = 2.0 * cam.GetParallelScale() / H
+        else:
+            px = 2.0 * max(front, 1e-9) * math.tan(math.radians(cam.GetViewAngle()) / 2.0) / H
+        slab = 2.0 * r * px
+        near = cand[np.abs(dist[cand] - front) <= slab] if surface is not None else cand[dist[cand] <= front + slab]
+        if not near.size:
+            near = cand[dist[cand] <= front + slab]
+        if not near.size:
+            continue
+        return int(near[np.argmin(d2[near])])
+    return None
+
+
+def pick_surface(renderer: Any, actor: Any, x: float, y: float) -> np.ndarray | None:
+    """The point of ``actor``'s surface under display position (x, y) (vtkCellPicker),
+    or None."""
+    from vtkmodules.vtkRenderingCore import vtkCellPicker
+
+    picker = vtkCellPicker()
+    picker.SetTolerance(0.0005)
+    picker.PickFromListOn()
+    picker.AddPickList(actor)
+    if picker.Pick(float(x), float(y), 0.0, renderer) and picker.GetCellId() >= 0:
+        return np.asarray(picker.GetPickPosition(), dtype=float)
+    return None
+
+
+# =============================================================================== the scene
+@dataclass
+class Prepared:
+    """What the view draws of a deviations cloud (made in a worker thread)."""
+
+    idx: np.ndarray | None  # displayed subset of the full cloud (None: all points)
+    points: np.ndarray      # displayed points (n_shown, 3), nominal coordinates
+    dev: np.ndarray         # their deviations (mm)
+    poly: Any               # pyvista PolyData of the displayed points
+    n_total: int
+
+    @property
+    def n_shown(self) -> int:
+        return len(self.points)
+
+
+def prepare_cloud(points: np.ndarray, dev: np.ndarray | None, display_limit: int, seed: int = 0) -> Prepared:
+    """The displayed subset (a fixed random one above ``display_limit``) as pyvista
+    points. Thread-safe: builds data only, draws nothing."""
+    import pyvista as pv
+
+    P = np.asarray(points, dtype=float)
+    n = len(P)
+    idx = display_index(n, int(display_limit), seed)
+    sub = P if idx is None else P[idx]
+    d = np.zeros(len(sub)) if dev is None else (np.asarray(dev, dtype=float) if idx is None else np.asarray(dev)[idx])
+    poly = pv.PolyData(np.ascontiguousarray(sub))
+    return Prepared(idx, sub, d, poly, n)
+
+
+class InspectView:
+    """The page's own 3D scene (one off-screen pyvista plotter, rendered server-side).
+
+    Scenes: ``inputs`` (the measured cloud and the nominal as they are, for picking
+    point pairs), ``colour`` (the deviations on the diverging map), ``bands``
+    (tolerance bands), ``failed`` (the cloud where the failed alignment left it, over
+    the nominal, uncoloured). Loop thread only.
+    """
+
+    def __init__(self, display_limit: int, window_size: tuple[int, int] = (900, 650)):
+        from . import setup_offscreen
+
+        setup_offscreen()
+        import pyvista as pv
+
+        self.display_limit = int(display_limit)
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background("#f4f5f7", top="#ffffff")
+        self.plotter.show_axes()
+        self.scene = "empty"
+        self.scalar_bar_title = ""
+        self.legend_labels: list[str] = []
+        self.note = ""
+        self.on_update: Callable[[bool], None] | None = None
+        self._inputs: dict[str, Any] = {}     # "measured"/"nominal" -> (Prepared | None, mesh poly | None)
+        self._actors: dict[str, Any] = {}
+        self.dev: Prepared | None = None
+        self.nominal_poly: Any = None
+
+    @property
+    def renderer(self) -> Any:
+        return self.plotter.renderer
+
+    # -- helpers -----------------------------------------------------------------------
+    def _changed(self, reset_camera: bool) -> None:
+        if reset_camera:
+            self.plotter.camera_position = "iso"
+            self.plotter.reset_camera()
+            self.plotter.camera.zoom(0.85 if self.scalar_bar_title else 0.95)
+        if self.on_update is not None:
+            self.on_update(reset_camera)
+
+    def _clear(self) -> None:
+        self.plotter.clear_actors()
+        for title in list(self.plotter.scalar_bars.keys()):
+            self.plotter.remove_scalar_bar(title)
+        if self.plotter.legend is not None:
+            self.plotter.remove_legend()
+        self._actors = {}
+        self.scalar_bar_title = ""
+        self.legend_labels = []
+
+    def _point_style(self, n: int) -> dict[str, Any]:
+        """Points small enough that they hardly overlap in a view of the whole part:
+        where they do, the ones standing out of the surface hide those below it and a
+        dense map looks redder than it is."""
+        size = 1 if n > 250_000 else (2 if n > 60_000 else (3 if n > 15_000 else 5))
+        return {"style": "points", "point_size": size, "render_points_as_spheres": False}
+
+    def _add_nominal(self, nominal: Any, opacity: float = 1.0) -> None:
+        import pyvista as pv
+
+        if nominal is None:
+            return
+        if hasattr(nominal, "faces"):
+            poly = self.nominal_poly if self.nominal_poly is not None else nominal.to_pyvista()
+            self.nominal_poly = poly
+            self._actors["nominal"] = self.plotter.add_mesh(poly, color=NOMINAL_COLOUR, opacity=opacity,
+                                                            smooth_shading=False, reset_camera=False, pickable=True)
+        else:
+            prep = self._inputs.get("nominal_cloud")
+            if prep is None or prep.n_total != nominal.n_points:
+                prep = prepare_cloud(nominal.points, None, self.display_limit, seed=1)
+                self._inputs["nominal_cloud"] = prep
+            self._actors["nominal"] = self.plotter.add_mesh(pv.PolyData(prep.points), color="#7b8494",
+                                                            reset_camera=False, **self._point_style(prep.n_shown))
+
+    # -- scenes ------------------------------------------------------------------------
+    def show_inputs(self, measured: Any, nominal: Any, markers: list[dict[str, Any]] | None = None,
+                    reset_camera: bool = True) -> None:
+        """The measured cloud (orange) and the nominal (grey) as they are."""
+        self._clear()
+        self.scene = "inputs"
+        if nominal is not None and hasattr(nominal, "faces"):
+            if self._inputs.get("nominal_key") is not nominal:
+                self.nominal_poly = nominal.to_pyvista()
+                self._inputs["nominal_key"] = nominal
+        self._add_nominal(nominal, opacity=0.55)
+        if measured is not None:
+            prep = self._inputs.get("measured")
+            if prep is None or self._inputs.get("measured_key") is not measured:
+                prep = prepare_cloud(measured.points, None, self.display_limit)
+                self._inputs["measured"] = prep
+                self._inputs["measured_key"] = measured
+            self._actors["measured"] = self.plotter.add_mesh(prep.poly, color=MEASURED_COLOUR, reset_camera=False,
+                                                             **self._point_style(prep.n_shown))
+            n = prep.n_total
+            self.note = (f"measured: {fmt_count(prep.n_shown)} of {fmt_count(n)} points shown"
+                         if prep.n_shown < n else f"measured: {fmt_count(n)} points")
+        self._legend([["measured", MEASURED_COLOUR, "rectangle"], ["nominal", NOMINAL_COLOUR, "rectangle"]],
+                     (0.16, 0.08))
+        self.legend_labels = ["measured", "nominal"]
+        self.set_markers(markers or [], render=False)
+        self._changed(reset_camera)
+
+    def show_deviations(self, prep: Prepared, limit: float, unit: str, mode: str = "colour",
+                        tolerance: float | None = None, reset_camera: bool = True) -> None:
+        """The deviations: ``mode`` "colour" (diverging map on ±limit, legend
+        "deviation [unit]") or "bands" (within ±tolerance green, above red, below blue)."""
+        self._clear()
+        self.dev = prep
+        f = 1e3 if unit == "µm" else 1.0
+        style = self._point_style(prep.n_shown)
+        if mode == "bands" and tolerance:
+            codes = band_codes(prep.dev, tolerance)
+            self.scene = "bands"
+            self._actors["cloud"] = self.plotter.add_mesh(prep.poly, scalars=band_colours(codes), rgb=True,
+                                                          reset_camera=False, **style)
+            c = band_counts(prep.dev, tolerance)
+            rows = band_legend(c, tolerance, unit)
+            labels = [[r["label"], r["colour"], "rectangle"] for r in rows]
+            self._legend(labels, (0.3, 0.04 * len(labels)))
+            self.legend_labels = [r["label"] for r in rows]
+        else:
+            self.scene = "colour"
+            lim = float(limit) * f if limit and limit > 0 else 1.0
+            self.scalar_bar_title = legend_title(unit)
+            self._actors["cloud"] = self.plotter.add_mesh(
+                prep.poly, scalars=(prep.dev * f), cmap=COLOURMAP, clim=[-lim, lim], reset_camera=False,
+                nan_color="#888888",
+                scalar_bar_args={"title": self.scalar_bar_title, "color": "black", "vertical": True,
+                                 "position_x": 0.86, "position_y": 0.12, "height": 0.75, "width": 0.05,
+                                 "fmt": "%.3g", "n_labels": 5, "title_font_size": 16, "label_font_size": 13},
+                **style)
+            bars = self.plotter.scalar_bars
+            if self.scalar_bar_title in bars:
+                bar = bars[self.scalar_bar_title]
+                from .view import _use_font
+
+                _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
+        n = prep.n_total
+        self.note = (f"showing {fmt_count(prep.n_shown)} of {fmt_count(n)} points (random subset for display; "
+                     "statistics use all)" if prep.n_shown < n else f"showing all {fmt_count(n)} points")
+        self._changed(reset_camera)
+
+    def show_failed(self, prep: Prepared, nominal: Any, reset_camera: bool = True) -> None:
+        """Where the failed alignment left the cloud, over the nominal; no colour map."""
+        self._clear()
+        self.dev = prep
+        self.scene = "failed"
+        self._add_nominal(nominal, opacity=0.5)
+        self._actors["cloud"] = self.plotter.add_mesh(prep.poly, color=MEASURED_COLOUR, reset_camera=False,
+                                                      **self._point_style(prep.n_shown))
+        self._legend([["measured (alignment failed)", MEASURED_COLOUR, "rectangle"],
+                      ["nominal", NOMINAL_COLOUR, "rectangle"]], (0.3, 0.08))
+        self.note = "alignment failed: no deviations shown"
+        self._changed(reset_camera)
+
+    def clear(self) -> None:
+        self._clear()
+        self.scene = "empty"
+        self.dev = None
+        self.note = ""
+        self._changed(False)
+
+    def _legend(self, labels: list[list[str]], size: tuple[float, float]) -> None:
+        """A legend box in the upper left corner (pyvista's "upper right" lets a wide box
+        run out of the window), in a font with µ, ± and −."""
+        from .view import _use_font
+
+        lg = self.plotter.add_legend(labels, bcolor="white", size=size, loc="upper left", border=True)
+        _use_font(lg.GetEntryTextProperty())
+
+    # -- overlays ----------------------------------------------------------------------
+    def set_markers(self, markers: list[dict[str, Any]], render: bool = True) -> None:
+        """Labelled markers ``{"point": [x, y, z], "label": str, "colour": hex}`` (picked
+        pairs, a picked point)."""
+        for name in [k for k in self._actors if k.startswith("marker")]:
+            self.plotter.remove_actor(self._actors.pop(name), render=False)
+        if markers:
+            pts = np.asarray([m["point"] for m in markers], dtype=float)
+            for i, m in enumerate(markers):
+                self._actors[f"marker{i}"] = self.plotter.add_points(
+                    pts[i:i + 1], color=m.get("colour", "#000000"), point_size=16, render_points_as_spheres=True,
+                    reset_camera=False, pickable=False)
+            lab = self.plotter.add_point_labels(pts, [m["label"] for m in markers], font_size=15, point_size=1,
+                                                shape_opacity=0.8, always_visible=True, show_points=False,
+                                                reset_camera=False, pickable=False)
+            self._actors["marker_labels"] = lab
+        if render:
+            self._changed(False)
+
+    def set_section_plane(self, axis: str | None, position: float = 0.0, bounds: np.ndarray | None = None,
+                          render: bool = True) -> None:
+        """The section plane's outline in the view (None removes it)."""
+        import pyvista as pv
+
+        old = self._actors.pop("section", None)
+        if old is not None:
+            self.plotter.remove_actor(old, render=False)
+        if axis is not None and bounds is not None:
+            ax = AXES.index(axis)
+            lo, hi = np.asarray(bounds[0], float), np.asarray(bounds[1], float)
+            pad = 0.06 * (hi - lo).max()
+            u, v = [a for a in range(3) if a != ax]
+            corners = []
+            for cu, cv in ((lo[u] - pad, lo[v] - pad), (hi[u] + pad, lo[v] - pad), (hi[u] + pad, hi[v] + pad),
+                           (lo[u] - pad, hi[v] + pad), (lo[u] - pad, lo[v] - pad)):
+                p = np.zeros(3)
+                p[ax], p[u], p[v] = position, cu, cv
+                corners.append(p)
+            self._actors["section"] = self.plotter.add_mesh(pv.lines_from_points(np.asarray(corners)),
+                                                            color="#37474f", line_width=3, reset_camera=False,
+                                                            pickable=False)
+        if render:
+            self._changed(False)
+
+    # -- picking -----------------------------------------------------------------------
+    def display_xy(self, fx: float, fy: float) -> tuple[float, float]:
+        """Fractions of the view (0..1 from the left, 0..1 from the top) as display
+        pixels (y up) of the render window."""
+        W, H = self.plotter.window_size
+        return float(fx) * W, (1.0 - float(fy)) * H
+
+    def pick_deviation(self, x: float, y: float) -> int | None:
+        """The index (into the full cloud) of the deviation point drawn at (x, y)."""
+        if self.dev is None:
+            return None
+        i = pick_point(self.renderer, self.dev.points, x, y)
+        if i is None:
+            return None
+        return int(i if self.dev.idx is None else self.dev.idx[i])
+
+    def pick_input(self, which: str, x: float, y: float) -> np.ndarray | None:
+        """The point of the measured cloud or of the nominal under (x, y)."""
+        if which == "measured":
+            prep = self._inputs.get("measured")
+            if prep is None:
+                return None
+            i = pick_point(self.renderer, prep.points, x, y)
+            return None if i is None else prep.points[i].copy()
+        actor = self._actors.get("nominal")
+        if actor is None:
+            return None
+        if self.nominal_poly is not None and self.scene == "inputs" and "nominal_cloud" not in self._inputs:
+            return pick_surface(self.renderer, actor, x, y)
+        prep = self._inputs.get("nominal_cloud")
+        if prep is None:
+            return pick_surface(self.renderer, actor, x, y)
+        i = pick_point(self.renderer, prep.points, x, y)
+        return None if i is None else prep.points[i].copy()
+
+    def forget_inputs(self) -> None:
+        self._inputs = {}
+        self.nominal_poly = None
+
+    def screenshot(self, path: str | None = None) -> np.ndarray:
+        return self.plotter.screenshot(path, return_img=True)
+
+
+# =============================================================================== the page
+def _one_line(exc: BaseException | str) -> str:
+    msg = str(exc) if isinstance(exc, (CamcmmError, str)) else f"{type(exc).__name__}: {exc}"
+    return " ".join(msg.split()) or "unknown error"
+
+
+def _safe_file_name(name: str) -> str:
+    base = re.sub(r"[^\w.\-+() ]", "_", str(name)).strip() or "inspection"
+    return base[:80]
+
+
+class InspectPage:
+    """Publishes the comparison through the session's trame state (``ins_*`` keys) and
+    runs the slow steps in a worker thread. One per server."""
+
+    def __init__(self, session: Any, downloads: str | Path | None = None, display_limit: int | None = None):
+        self.session = session
+        self.state = session.state
+        self.project = session.project
+        self.host = session.host
+        limit = display_limit or getattr(getattr(session, "view", None), "display_limit", None) or 500_000
+        self.view = InspectView(int(limit))
+        self.downloads = Path(downloads) if downloads else Path(tempfile.mkdtemp(prefix="camcmm-inspect-"))
+        self.downloads.mkdir(parents=True, exist_ok=True)
+        self.download_route = DOWNLOAD_ROUTE
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-inspect")
+        self._cancel: threading.Event | None = None
+        self._last_progress = 0.0
+        # the comparison on show
+        self.result: RunResult | None = None
+        self.outputs: dict[str, Any] | None = None
+        self.deviations: Any = None          # PointCloud with field "deviation"
+        self.prepared: Prepared | None = None
+        self.nominal: Any = None
+        self.measured: Any = None
+        self.result_id: int | None = None
+        self.saved: dict[str, Any] = {}
+        self._spacing: float | None = None
+        self._pairs_measured: list[list[float]] = []
+        self._pairs_nominal: list[list[float]] = []
+        self.timing: dict[str, float] = {}
+        self._spec = None
+        self._init_state()
+        self.refresh_inputs()
+        self.restore()
+
+    # -- state ---------------------------------------------------------------------------
+    def _init_state(self) -> None:
+        s = self.state
+        s.ins_measured = None
+        s.ins_nominal = None
+        s.ins_align_options = []
+        s.ins_align = "icp"
+        s.ins_tolerance = ""
+        s.ins_fields = []
+        s.ins_params = {}
+        s.ins_running = False
+        s.ins_progress = 0.0
+        s.ins_progress_message = ""
+        s.ins_error = ""
+        s.ins_has_result = False
+        s.ins_failed = False
+        s.ins_failed_reason = ""
+        s.ins_title = ""
+        s.ins_mode = "inputs"
+        s.ins_unit = "mm"
+        s.ins_legend_title = ""
+        s.ins_limit_text = ""
+        s.ins_bands = []
+        s.ins_note = ""
+        s.ins_stats = []
+        s.ins_alignment = []
+        s.ins_warnings = []
+        s.ins_picked = None
+        s.ins_pairs = []
+        s.ins_pick_hint = ""
+        s.ins_fig_hist = empty_figure("the histogram of the deviations appears here after Run")
+        s.ins_fig_af = empty_figure("the Abbott-Firestone curve appears here after Run")
+        s.ins_fig_section = empty_figure("a section through the part appears here after Run")
+        s.ins_section_axis = "z"
+        s.ins_section_pos = 0.0
+        s.ins_section_range = [0.0, 1.0, 0.01]
+        s.ins_export_links = []
+        s.ins_report_links = []
+        s.ins_busy = ""
+        s.ins_result_id = None
+        s.ins_timing = {}
+
+    def _flush(self) -> None:
+        self.session._flush()
+
+    def _error(self, msg: Any) -> None:
+        line = _one_line(msg) if not isinstance(msg, str) else " ".join(msg.split())
+        self.state.ins_error = line
+        self.session.error(line)
+
+    def _spec_of(self) -> Any:
+        if self._spec is None:
+            self._spec = self.host.get(PLUGIN)
+        return self._spec
+
+    # -- inputs --------------------------------------------------------------------------
+    def refresh_inputs(self) -> None:
+        """The form: alignment choices and parameters from the manifest; default items."""
+        s = self.state
+        try:
+            spec = self._spec_of()
+        except Exception as exc:  # a host without it (or a test's fake host): the page says so
+            s.ins_error = f"the inspection plugin ({PLUGIN}) is not available: {_one_line(exc)}"
+            return
+        if not s.ins_fields:
+            fields, values = [], {}
+            for f in form_schema(spec.parameters):
+                if f["name"] == "align":
+                    s.ins_align_options = [{"title": ALIGN_TITLES.get(c, c), "value": c} for c in f.get("choices") or []]
+                    if s.ins_align not in (f.get("choices") or []):
+                        s.ins_align = f.get("default") or (f.get("choices") or ["icp"])[0]
+                    continue
+                if f["name"] in MAIN_PARAMS:
+                    continue
+                d = {k: to_jsonable(v) for k, v in f.items()}
+                d["choices"] = list(f.get("choices") or [])
+                d["unit"] = f.get("unit", "")
+                d["help"] = f.get("help", "")
+                default = f.get("default")
+                values[f["name"]] = bool(default) if f["widget"] == "switch" else (
+                    "" if default is None else (", ".join(str(x) for x in default) if isinstance(default, list)
+                                                else to_jsonable(default)))
+                fields.append(d)
+            s.ins_fields = fields
+            s.ins_params = values
+        items = list(s.items or [])
+        clouds = [it["id"] for it in items if it.get("kind") == "pointcloud"]
+        geoms = [it["id"] for it in items if it.get("kind") in ("pointcloud", "mesh")]
+        if s.ins_measured not in clouds:
+            s.ins_measured = clouds[0] if clouds else None
+        if s.ins_nominal not in geoms:
+            meshes = [it["id"] for it in items if it.get("kind") == "mesh"]
+            others = [g for g in geoms if g != s.ins_measured]
+            s.ins_nominal = meshes[0] if meshes else (others[0] if others else None)
+
+    def _name(self, key: Any) -> str:
+        m = self.session._measurements.get(str(key)) if key is not None else None
+        return str(m.get("name") or key) if m else str(key)
+
+    def _load(self, key: Any, what: str) -> Any:
+        if key in (None, ""):
+            raise InputError(f"choose the {what} first (import it with the Import field)")
+        return self.session._load(str(key))
+
+    def pairs_method(self) -> bool:
+        return str(self.state.ins_align or "").startswith("pairs")
+
+    def set_inputs(self, measured: Any = None, nominal: Any = None) -> None:
+        """New measured/nominal choice: show them both (and forget picked pairs)."""
+        s = self.state
+        changed = False
+        if measured is not None and measured != s.ins_measured:
+            s.ins_measured, changed = measured, True
+        if nominal is not None and nominal != s.ins_nominal:
+            s.ins_nominal, changed = nominal, True
+        if changed:
+            self.view.forget_inputs()
+            self.clear_pairs(render=False)
+        self.show_inputs()
+
+    def show_inputs(self, reset_camera: bool = True) -> bool:
+        """The inputs scene (both objects as they are) for picking point pairs."""
+        s = self.state
+        try:
+            measured = self._load(s.ins_measured, "measured cloud") if s.ins_measured else None
+            nominal = self._load(s.ins_nominal, "nominal") if s.ins_nominal else None
+        except Exception as exc:
+            self._error(exc)
+            return False
+        if measured is not None and not hasattr(measured, "points"):
+            self._error(f"{self._name(s.ins_measured)} is not a point cloud")
+            return False
+        self.measured, self.nominal = measured, nominal
+        self.view.show_inputs(measured, nominal, self._pair_markers(), reset_camera=reset_camera)
+        s.ins_mode = "inputs"
+        s.ins_note = self.view.note
+        s.ins_legend_title = ""
+        self._pick_hint()
+        return True
+
+    def set_align(self, method: str) -> None:
+        self.state.ins_align = method
+        if self.pairs_method() and self.state.ins_mode != "inputs":
+            self.show_inputs()
+        self._pick_hint()
+
+    def opened(self) -> None:
+        """The page is shown: an empty view shows the chosen inputs."""
+        if self.view.scene == "empty" and not self.state.ins_running:
+            self.refresh_inputs()
+            if self.state.ins_measured or self.state.ins_nominal:
+                self.show_inputs()
+
+    # -- point pairs ---------------------------------------------------------------------
+    def _pair_markers(self) -> list[dict[str, Any]]:
+        out = []
+        for i, p in enumerate(self._pairs_measured):
+            out.append({"point": p, "label": f"M{i + 1}", "colour": PAIR_COLOURS["measured"]})
+        for i, p in enumerate(self._pairs_nominal):
+            out.append({"point": p, "label": f"N{i + 1}", "colour": PAIR_COLOURS["nominal"]})
+        return out
+
+    def _publish_pairs(self) -> None:
+        rows = []
+        for i in range(max(len(self._pairs_measured), len(self._pairs_nominal))):
+            m = self._pairs_measured[i] if i < len(self._pairs_measured) else None
+            n = self._pairs_nominal[i] if i < len(self._pairs_nominal) else None
+            fmt = (lambda p: "(" + ", ".join(f"{c:.2f}" for c in p) + ")")
+            rows.append({"i": i + 1, "measured": fmt(m) if m else "…", "nominal": fmt(n) if n else "…",
+                         "complete": m is not None and n is not None})
+        self.state.ins_pairs = rows
+        self._pick_hint()
+
+    def _pick_hint(self) -> None:
+        s = self.state
+        if not self.pairs_method():
+            s.ins_pick_hint = ""
+            return
+        nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+        if nm >= N_PAIRS and nn >= N_PAIRS:
+            s.ins_pick_hint = "three pairs picked: Run aligns with them"
+        elif nm <= nn:
+            s.ins_pick_hint = f"pair {nm + 1}: click a point on the measured cloud (orange)"
+        else:
+            s.ins_pick_hint = f"pair {nn + 1}: click the same point on the nominal (grey)"
+
+    def pairs(self) -> dict[str, list[list[float]]] | None:
+        """The picked pairs as the plugin takes them (complete pairs only)."""
+        k = min(len(self._pairs_measured), len(self._pairs_nominal))
+        if k == 0:
+            return None
+        return {"measured": self._pairs_measured[:k], "nominal": self._pairs_nominal[:k]}
+
+    def add_pair_point(self, which: str, point: Any) -> None:
+        """Record a picked point of a pair (also used by tests and scripts)."""
+        p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]
+        (self._pairs_measured if which == "measured" else self._pairs_nominal).append(p)
+        self._publish_pairs()
+        if self.view.scene == "inputs":
+            self.view.set_markers(self._pair_markers())
+
+    def clear_pairs(self, render: bool = True) -> None:
+        self._pairs_measured, self._pairs_nominal = [], []
+        self._publish_pairs()
+        if render and self.view.scene == "inputs":
+            self.view.set_markers([])
+
+    def undo_pair_point(self) -> None:
+        if len(self._pairs_measured) > len(self._pairs_nominal):
+            self._pairs_measured.pop()
+        elif self._pairs_nominal:
+            self._pairs_nominal.pop()
+        self._publish_pairs()
+        if self.view.scene == "inputs":
+            self.view.set_markers(self._pair_markers())
+
+    # -- picking -------------------------------------------------------------------------
+    def pick_at(self, fx: float, fy: float) -> dict[str, Any] | None:
+        """A click in the view at fractions (fx from the left, fy from the top): a pair
+        point in the inputs scene of a pairs method, else the deviation of the point
+        under the click."""
+        try:
+            x, y = self.view.display_xy(fx, fy)
+        except Exception as exc:
+            self._error(f"pick: {_one_line(exc)}")
+            return None
+        return self.pick_display(x, y)
+
+    def pick_display(self, x: float, y: float) -> dict[str, Any] | None:
+        """As :meth:`pick_at` with display pixels (x right, y up)."""
+        s = self.state
+        scene = self.view.scene
+        if scene == "inputs":
+            if not self.pairs_method():
+                s.ins_pick_hint = "choose a 'pairs' alignment to pick point pairs; after Run, a click shows a deviation"
+                return None
+            nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+            if nm >= N_PAIRS and nn >= N_PAIRS:
+                s.ins_pick_hint = "three pairs are picked; Clear them to pick again"
+                return None
+            which = "measured" if nm <= nn else "nominal"
+            p = self.view.pick_input(which, x, y)
+            if p is None:
+                s.ins_pick_hint = (f"no point of the {which} {'cloud' if which == 'measured' else ''} there; "
+                                   "click on it").replace("  ", " ")
+                return None
+            self.add_pair_point(which, p)
+            return {"which": which, "point": p.tolist()}
+        if scene in ("colour", "bands", "failed") and self.deviations is not None:
+            i = self.view.pick_deviation(x, y)
+            if i is None:
+                s.ins_picked = {"text": "no point there", "found": False}
+                return None
+            return self.pick_index(i)
+        return None
+
+    def pick_index(self, i: int) -> dict[str, Any]:
+        """Show the deviation of point ``i`` of the deviations cloud."""
+        cloud = self.deviations
+        p = np.asarray(cloud.points[i], dtype=float)
+        d = float(np.asarray(cloud.fields["deviation"])[i])
+        unit = self.state.ins_unit
+        valid = not self.state.ins_failed
+        info = {"found": True, "index": int(i), "x": float(p[0]), "y": float(p[1]), "z": float(p[2]),
+                "deviation_mm": d, "deviation": fmt_len(d, unit, True, 4),
+                "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm", "valid": valid}
+        tol = self._tolerance(quiet=True)
+        if tol:
+            info["band"] = BANDS[int(band_codes(np.array([d]), tol)[0])][0]
+        info["text"] = f"point #{i}: {info['coords']}, deviation {info['deviation']}" + (
+            "" if valid else " (alignment failed: not a valid deviation)")
+        self.state.ins_picked = info
+        label = info["deviation"] if valid else "?"
+        self.view.set_markers([{"point": p.tolist(), "label": label, "colour": "#212121"}])
+        return info
+
+    # -- running -------------------------------------------------------------------------
+    def _tolerance(self, quiet: bool = False) -> float | None:
+        t = self.state.ins_tolerance
+        if t is None or (isinstance(t, str) and not t.strip()):
+            return None
+        try:
+            v = float(str(t).replace(",", ".")) if not isinstance(t, (int, float)) else float(t)
+        except ValueError:
+            if not quiet:
+                raise InputError(f"tolerance: {t!r} is not a number") from None
+            return None
+        if not math.isfinite(v) or v < 0:
+            if not quiet:
+                raise InputError(f"tolerance: {t!r} must be a number ≥ 0 (mm)")
+            return None
+        return v or None
+
+    def _prepare_run(self, params: dict[str, Any] | None) -> tuple[dict[str, Any], dict[str, Any], list]:
+        s = self.state
+        spec = self._spec_of()
+        self.refresh_inputs()  # the items may have changed without a flush
+        if s.ins_measured in (None, ""):
+            raise InputError("choose the measured cloud first (import one with the Import field)")
+        if s.ins_nominal in (None, ""):
+            raise InputError("choose the nominal (a CAD mesh or a reference cloud) first")
+        if str(s.ins_measured) == str(s.ins_nominal):
+            raise InputError(f"{self._name(s.ins_measured)} is chosen as both measured and nominal; "
+                             "choose two different items")
+        declared = {p.name: p for p in spec.parameters}
+        raw: dict[str, Any] = {}
+        for k, v in (params if params is not None else (s.ins_params or {})).items():
+            p = declared.get(k)
+            if p is None or k in MAIN_PARAMS:
+                continue
+            if p.type != "str" and (v is None or (isinstance(v, str) and v.strip() == "")):
+                continue
+            raw[k] = v
+        raw["align"] = s.ins_align
+        tol = self._tolerance()
+        if tol is not None:
+            raw["tolerance"] = tol
+        values = validate(spec.parameters, raw, owner=f"plugin {PLUGIN!r}")
+        inputs: dict[str, Any] = {}
+        if str(values["align"]).startswith("pairs"):
+            pairs = self.pairs()
+            k = 0 if pairs is None else len(pairs["measured"])
+            if k < N_PAIRS:
+                raise InputError(f"alignment {values['align']!r} needs {N_PAIRS} point pairs, {k} picked: click a "
+                                 "point on the measured cloud, then the same point on the nominal, three times")
+            inputs["pairs"] = pairs
+        mids = [self.session._measurements[str(k)]["id"] for k in (s.ins_measured, s.ins_nominal)
+                if str(k) in self.session._measurements]
+        return inputs, values, mids
+
+    def _begin(self) -> threading.Event:
+        s = self.state
+        self._cancel = threading.Event()
+        self._last_progress = 0.0
+        s.ins_running = True
+        s.ins_progress = 0.0
+        s.ins_progress_message = f"running {PLUGIN} …"
+        s.ins_error = ""
+        self.session.clear_error()
+        return self._cancel
+
+    def _set_progress(self, fraction: float, message: str) -> None:
+        self.state.ins_progress = round(100.0 * float(fraction), 1)
+        if message:
+            self.state.ins_progress_message = message
+
+    def _progress_cb(self, fraction: float, message: str) -> None:
+        now = time.monotonic()
+        if fraction < 1.0 and now - self._last_progress < 0.1:
+            return
+        self._last_progress = now
+        self.session._post(self._set_progress, fraction, message)
+
+    def cancel(self) -> None:
+        if self._cancel is not None:
+            self._cancel.set()
+            self.state.ins_progress_message = "cancelling …"
+
+    def _compute(self, inputs: dict[str, Any], values: dict[str, Any], cancel: threading.Event,
+                 measured_key: str, nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
+        """Worker thread: load the inputs, run the plugin, prepare the display."""
+        t0 = time.time()
+        cloud = self.session._load(measured_key)
+        nominal = self.session._load(nominal_key)
+        if not hasattr(cloud, "points") or hasattr(cloud, "faces"):
+            raise InputError(f"{self._name(measured_key)}: the measured item must be a point cloud")
+        if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
+            raise InputError(f"{self._name(nominal_key)}: the nominal must be a mesh or a point cloud")
+        self.measured, self.nominal = cloud, nominal
+        result = self.host.run(PLUGIN, inputs={"cloud": cloud, "nominal": nominal, **inputs}, params=values,
+                               progress=self._progress_cb, cancel=cancel)
+        t_result = time.time()
+        dev = result.outputs["deviations"]
+        prep = prepare_cloud(dev.points, dev.fields["deviation"], self.view.display_limit)
+        return result, prep, {"started": t0, "result": t_result, "prepared": time.time()}
+
+    def run(self, params: dict[str, Any] | None = None) -> RunResult | None:
+        """Run the comparison in the calling thread (tests, scripts)."""
+        try:
+            inputs, values, mids = self._prepare_run(params)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        cancel = self._begin()
+        try:
+            result, prep, timing = self._compute(inputs, values, cancel, str(self.state.ins_measured),
+                                                 str(self.state.ins_nominal))
+        except Exception as exc:
+            self._failed(exc)
+            return None
+        self._show_result(result, prep, timing)
+        self._auto_section()
+        try:
+            stored = self._store(result, mids)
+        except Exception as exc:
+            self._error(f"the comparison could not be stored in the project: {_one_line(exc)}")
+            return result
+        self._stored(stored)
+        return result
+
+    async def run_async(self, params: dict[str, Any] | None = None) -> RunResult | None:
+        """As :meth:`run`, computing (and storing) in a worker while the page stays live."""
+        if self.session._loop is None:
+            self.session.bind_loop()
+        if self.state.ins_running:
+            self._error("a comparison is running; wait for it or cancel it")
+            return None
+        try:
+            inputs, values, mids = self._prepare_run(params)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        cancel = self._begin()
+        self._flush()
+        loop = asyncio.get_running_loop()
+        mk, nk = str(self.state.ins_measured), str(self.state.ins_nominal)
+        try:
+            result, prep, timing = await loop.run_in_executor(
+                self._executor, self._compute, inputs, values, cancel, mk, nk)
+        except Exception as exc:
+            self._failed(exc)
+            self._flush()
+            return None
+        self._show_result(result, prep, timing)
+        self._flush()
+        self.timing["flushed"] = time.time()
+        self.state.ins_timing = dict(self.timing)
+        self._auto_section()  # after the colour map is on its way: it needs the point spacing
+        self._flush()
+        try:
+            stored = await loop.run_in_executor(self._executor, self._store, result, mids)
+        except Exception as exc:
+            self._error(f"the comparison could not be stored in the project: {_one_line(exc)}")
+            self._flush()
+            return result
+        self._stored(stored)
+        self._flush()
+        return result
+
+    def _failed(self, exc: BaseException) -> None:
+        s = self.state
+        s.ins_running = False
+        s.ins_progress_message = "cancelled" if "cancelled" in str(exc) else "failed"
+        msg = _one_line(exc)
+        if PLUGIN not in msg and not isinstance(exc, InputError):
+            msg = f"{PLUGIN}: {msg}"
+        self._error(msg)
+
+    # -- showing a result -------------------------------------------------------------------
+    def _show_result(self, result: RunResult, prep: Prepared, timing: dict[str, float] | None = None,
+                     mode: str | None = None) -> None:
+        """Publish a comparison (fresh or restored) and draw it — the view first, so that
+        its image is on its way while the numbers and charts are made. Loop thread."""
+        s = self.state
+        if timing:
+            self.timing = dict(timing)
+            self.timing["loop"] = time.time()
+        o = result.outputs
+        self.result, self.outputs = result, o
+        self.deviations = o["deviations"]
+        self.prepared = prep
+        self._spacing = None
+        limit = float(o.get("colour_limit") or 0.0) or 1e-3
+        unit, _ = display_unit(limit)
+        converged = bool(o.get("converged"))
+        tol = self._tolerance(quiet=True)
+        if tol is None and o.get("stats", {}).get("tolerance") is not None:
+            tol = float(o["stats"]["tolerance"])
+            s.ins_tolerance = tol
+        s.ins_unit = unit
+        s.ins_has_result = True
+        s.ins_failed = not converged
+        s.ins_failed_reason = "" if converged else (o.get("reason") or "the alignment did not converge")
+        s.ins_legend_title = legend_title(unit)
+        s.ins_limit_text = f"colours saturate at ±{fmt_len(limit, unit)}"
+        s.ins_warnings = [str(w) for w in (result.warnings or [])][:12]
+        s.ins_alignment = alignment_rows(o, unit)
+        s.ins_picked = None
+        s.ins_title = (f"{self._name(s.ins_measured)} against {self._name(s.ins_nominal)} — "
+                       f"{fmt_count(self.deviations.n_points)} points, alignment {o.get('alignment', {}).get('method', '')}")
+        s.ins_running = False
+        s.ins_progress = 100.0
+        s.ins_progress_message = "done" if converged else "done — the alignment FAILED"
+        if converged:
+            wanted = mode or (s.ins_mode if s.ins_mode in ("colour", "bands") else "colour")
+            if wanted == "bands" and not tol:
+                wanted = "colour"
+            self._draw(wanted, reset_camera=True)
+            if timing:
+                self.timing["drawn"] = time.time()
+            self._publish_numbers(tol)
+        else:
+            s.ins_stats, s.ins_bands = [], []
+            s.ins_fig_hist = empty_figure("alignment failed: no deviations")
+            s.ins_fig_af = empty_figure("alignment failed: no deviations")
+            s.ins_fig_section = empty_figure("alignment failed")
+            s.ins_mode = "failed"
+            self.view.show_failed(prep, self.nominal, reset_camera=True)
+            s.ins_note = self.view.note
+        self._section_range(centre=True)
+        if timing:
+            self.timing.setdefault("drawn", time.time())
+            self.timing["numbers"] = time.time()
+            s.ins_timing = dict(self.timing)
+
+    def _publish_numbers(self, tol: float | None) -> None:
+        """Statistics, bands, histogram and curve for the current tolerance."""
+        s = self.state
+        o = self.outputs or {}
+        unit = s.ins_unit
+        dev = np.asarray(self.deviations.fields["deviation"], dtype=float)
+        s.ins_stats = stats_rows(o, unit, tol, dev)
+        s.ins_bands = band_legend(band_counts(dev, tol), tol, unit) if tol else []
+        limit = float(o.get("colour_limit") or 1e-3)
+        try:
+            s.ins_fig_hist = histogram_figure(o["histogram"], o["stats"], unit, limit, tol)
+        except Exception as exc:
+            log.exception("histogram figure")
+            s.ins_fig_hist = empty_figure(f"histogram: {_one_line(exc)}")
+        try:
+            s.ins_fig_af = material_ratio_figure(o["material_ratio"], o["stats"], unit, tol)
+        except Exception as exc:
+            log.exception("material-ratio figure")
+            s.ins_fig_af = empty_figure(f"material ratio: {_one_line(exc)}")
+
+    def _draw(self, mode: str, reset_camera: bool = False) -> None:
+        s = self.state
+        if self.prepared is None or self.outputs is None:
+            return
+        limit = float(self.outputs.get("colour_limit") or 1e-3)
+        self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, self._tolerance(quiet=True),
+                                  reset_camera=reset_camera)
+        s.ins_mode = self.view.scene
+        s.ins_note = self.view.note
+        if s.ins_section_axis and s.ins_fig_section.get("data"):
+            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self.deviations.bounds)
+
+    def set_mode(self, mode: str) -> None:
+        """The view's mode: colour | bands | inputs."""
+        s = self.state
+        if mode == "inputs":
+            self.show_inputs(reset_camera=False)
+            return
+        if self.deviations is None:
+            s.ins_mode = "inputs"
+            return
+        if s.ins_failed:
+            self._error("the alignment failed: the deviations are not valid, so they are not coloured")
+            s.ins_mode = "failed"
+            self.view.show_failed(self.prepared, self.nominal, reset_camera=False)
+            return
+        if mode == "bands" and not self._tolerance(quiet=True):
+            self._error("tolerance bands need a tolerance: enter one (mm)")
+            mode = "colour"
+        self._draw(mode)
+
+    def set_tolerance(self, value: Any) -> None:
+        """A new tolerance after the run: bands, the share within, the charts follow."""
+        s = self.state
+        s.ins_tolerance = value
+        try:
+            tol = self._tolerance()
+        except InputError as exc:
+            self._error(exc)
+            return
+        s.ins_error = ""
+        if self.deviations is None or s.ins_failed:
+            return
+        self._publish_numbers(tol)
+        if s.ins_mode == "bands":
+            self._draw("bands" if tol else "colour")
+        if s.ins_picked and s.ins_picked.get("found"):
+            self.pick_index(int(s.ins_picked["index"]))
+
+    # -- section ---------------------------------------------------------------------------
+    def _auto_section(self) -> None:
+        """The section through the middle, once a valid result is shown."""
+        if self.deviations is not None and not self.state.ins_failed:
+            self.set_section()
+
+    def spacing(self) -> float:
+        if self._spacing is None:
+            self._spacing = point_spacing(self.deviations.points) if self.deviations is not None else 0.0
+        return self._spacing
+
+    def _bounds(self) -> np.ndarray | None:
+        if self.deviations is None:
+            return None
+        b = self.deviations.bounds
+        if self.nominal is not None and hasattr(self.nominal, "bounds"):
+            nb = np.asarray(self.nominal.bounds, dtype=float)
+            b = np.vstack([np.minimum(b[0], nb[0]), np.maximum(b[1], nb[1])])
+        return b
+
+    def _section_range(self, centre: bool = False) -> None:
+        s = self.state
+        b = self._bounds()
+        if b is None:
+            return
+        ax = AXES.index(s.ins_section_axis or "z")
+        lo, hi = float(b[0, ax]), float(b[1, ax])
+        step = (hi - lo) / 200.0 or 0.01
+        s.ins_section_range = [lo, hi, float(f"{step:.3g}")]
+        if centre or not lo <= float(s.ins_section_pos or 0.0) <= hi:
+            s.ins_section_pos = float(f"{0.5 * (lo + hi):.6g}")
+
+    def set_section(self, axis: str | None = None, position: float | None = None) -> dict[str, Any] | None:
+        """Cut the part by the plane axis = position; publish the 2-D chart and show the
+        plane in the view."""
+        s = self.state
+        if axis is not None and axis != s.ins_section_axis:
+            s.ins_section_axis = axis
+            self._section_range(centre=True)
+        if position is not None:
+            s.ins_section_pos = float(position)
+        if self.deviations is None:
+            return None
+        try:
+            nominal_poly = None
+            nominal_points = None
+            if self.nominal is not None and hasattr(self.nominal, "faces"):
+                if self.view.nominal_poly is None:
+                    self.view.nominal_poly = self.nominal.to_pyvista()
+                nominal_poly = self.view.nominal_poly
+            elif self.nominal is not None:
+                nominal_points = self.nominal.points
+            sec = section(s.ins_section_axis, float(s.ins_section_pos), self.deviations.points,
+                          self.deviations.fields["deviation"], 0.5 * self.spacing(), nominal_poly, nominal_points)
+            s.ins_fig_section = section_figure(sec, s.ins_unit, float(self.outputs.get("colour_limit") or 1e-3))
+        except Exception as exc:
+            log.exception("section")
+            self._error(f"section: {_one_line(exc)}")
+            return None
+        if s.ins_mode in ("colour", "bands", "failed"):
+            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self._bounds())
+        return sec
+
+    # -- storing and restoring --------------------------------------------------------------
+    def _store(self, result: RunResult, mids: list) -> dict[str, Any]:
+        """Worker thread: the deviations cloud as a project file, the result, the state."""
+        dev = result.outputs["deviations"]
+        h = self.project.add_object(dev, _safe_file_name(dev.name) + ".ply")
+        rid = self.project.add_result(result, measurement_ids=mids, files={"deviations": h},
+                                      label="inspection: compare with CAD")
+        saved = {"result": rid, "measured": self._mid(self.state.ins_measured),
+                 "nominal": self._mid(self.state.ins_nominal), "align": result.params.get("align"),
+                 "tolerance": result.params.get("tolerance"), "pairs": self.pairs(), "deviations": h,
+                 "report": None, "export": None}
+        self.project.set_state(STATE_KEY, saved)
+        return saved
+
+    def _mid(self, key: Any) -> Any:
+        m = self.session._measurements.get(str(key))
+        return m["id"] if m else None
+
+    def _stored(self, saved: dict[str, Any]) -> None:
+        self.saved = saved
+        self.result_id = saved["result"]
+        self.state.ins_result_id = saved["result"]
+        self.state.ins_report_links = []
+        self.state.ins_export_links = []
+        self.session.refresh_results()
+        c = "" if not self.state.ins_failed else " — the alignment FAILED"
+        self.session.info(f"comparison stored as result #{saved['result']}{c}")
+
+    def restore(self) -> bool:
+        """Show the last comparison stored in the project (``inspection.current``)."""
+        try:
+            saved = self.project.get_state(STATE_KEY)
+        except Exception:
+            return False
+        if not isinstance(saved, dict) or saved.get("result") is None:
+            return False
+        s = self.state
+        try:
+            d = self.project.result(int(saved["result"]))
+            h = (d.get("files") or {}).get("deviations") or saved.get("deviations")
+            from .. import io as cio
+
+            cloud = cio.read(self.project.file_path(h))
+            outputs = dict(d.get("outputs") or {})
+            outputs["deviations"] = cloud
+            result = RunResult(d.get("plugin", PLUGIN), d.get("version", ""), d.get("params") or {},
+                               d.get("input_hashes") or {}, outputs, d.get("started", ""), d.get("finished", ""),
+                               list(d.get("warnings") or []))
+        except Exception as exc:
+            s.ins_error = f"the last comparison (result {saved.get('result')}) cannot be shown: {_one_line(exc)}"
+            return False
+        for key, attr in (("measured", "ins_measured"), ("nominal", "ins_nominal")):
+            if saved.get(key) is not None and str(saved[key]) in self.session._measurements:
+                setattr(s, attr, str(saved[key]))
+        if saved.get("align"):
+            s.ins_align = saved["align"]
+        if saved.get("tolerance") is not None:
+            s.ins_tolerance = saved["tolerance"]
+        pairs = saved.get("pairs") or {}
+        self._pairs_measured = [list(map(float, p)) for p in pairs.get("measured") or []]
+        self._pairs_nominal = [list(map(float, p)) for p in pairs.get("nominal") or []]
+        self._publish_pairs()
+        try:
+            self.nominal = self._load(s.ins_nominal, "nominal") if s.ins_nominal else None
+            self.measured = self._load(s.ins_measured, "measured cloud") if s.ins_measured else None
+        except Exception:
+            self.nominal = None
+        prep = prepare_cloud(cloud.points, cloud.fields.get("deviation"), self.view.display_limit)
+        self._show_result(result, prep)
+        self.saved = saved
+        self.result_id = int(saved["result"])
+        s.ins_result_id = self.result_id
+        s.ins_progress = 0.0
+        s.ins_progress_message = ""
+        self._auto_section()
+        s.ins_report_links = self._links(saved.get("report") or {}, "report")
+        s.ins_export_links = self._links({"ply": saved["export"]} if saved.get("export") else {}, "export")
+        return True
+
+    def _save_state(self) -> None:
+        try:
+            self.project.set_state(STATE_KEY, self.saved)
+        except Exception as exc:
+            log.warning("cannot save %s: %s", STATE_KEY, exc)
+
+    # -- export ----------------------------------------------------------------------------
+    def _export_cloud(self) -> Any:
+        """The deviations cloud coloured as the view shows it (colour map or bands),
+        with the field ``deviation`` (mm)."""
+        from ..model import PointCloud
+
+        c = self.deviations
+        dev = np.asarray(c.fields["deviation"], dtype=float)
+        tol = self._tolerance(quiet=True)
+        if self.state.ins_mode == "bands" and tol:
+            colours, what = band_colours(band_codes(dev, tol)), "tolerance bands"
+        else:
+            colours, what = diverging_colours(dev, float(self.outputs.get("colour_limit") or 1e-3)), "deviations"
+        fields = dict(c.fields)
+        units = dict(c.field_units)
+        units["deviation"] = "mm"
+        base = self._name(self.state.ins_measured) if self.state.ins_measured else c.name
+        base = re.sub(r"\.(ply|pcd|xyz|txt|csv|e57)$", "", base, flags=re.I)
+        return PointCloud(c.points, colours, c.normals, fields, units, f"{base} {what}", c.source_unit)
+
+    def _write_export(self, cloud: Any) -> tuple[Path, str]:
+        """Worker thread: write the PLY into the downloads folder and add it to the project."""
+        from .. import io as cio
+
+        name = _safe_file_name(cloud.name) + ".ply"
+        path = self.downloads / name
+        cio.write(cloud, path)
+        h = self.project.add_file(path)
+        return path, h
+
+    def export(self) -> dict[str, Any] | None:
+        """Export in the calling thread; returns ``{"path", "hash", "item"}``."""
+        if not self._can("export"):
+            return None
+        try:
+            cloud = self._export_cloud()
+            path, h = self._write_export(cloud)
+        except Exception as exc:
+            self._error(f"export: {_one_line(exc)}")
+            return None
+        return self._exported(cloud, path, h)
+
+    async def export_async(self) -> dict[str, Any] | None:
+        if not self._can("export"):
+            return None
+        self.state.ins_busy = "export"
+        self._flush()
+        try:
+            cloud = self._export_cloud()
+            path, h = await asyncio.get_running_loop().run_in_executor(self._executor, self._write_export, cloud)
+        except Exception as exc:
+            self._error(f"export: {_one_line(exc)}")
+            return None
+        finally:
+            self.state.ins_busy = ""
+        out = self._exported(cloud, path, h)
+        self._flush()
+        return out
+
+    def _exported(self, cloud: Any, path: Path, h: str) -> dict[str, Any]:
+        mid = self.session._add_measurement(path.name, h, cloud, source=f"{PLUGIN} result #{self.result_id}")
+        key = str(mid)
+        self.session._objects[key] = cloud
+        self.session.refresh_items()
+        if self.saved:
+            self.saved["export"] = h
+            self._save_state()
+        self.state.ins_export_links = [{"kind": "ply", "name": path.name, "url": f"{self.download_route}/{path.name}",
+                                        "title": f"Download {path.name}"}]
+        self.session.info(f"exported {path.name} ({fmt_count(cloud.n_points)} points, field deviation in mm); "
+                          "added to the project")
+        return {"path": str(path), "hash": h, "item": key}
+
+    def _can(self, what: str) -> bool:
+        if self.deviations is None or self.outputs is None:
+            self._error(f"{what}: run a comparison first")
+            return False
+        if what == "export" and self.state.ins_failed:
+            self._error("export: the alignment failed, so the deviations are not valid; nothing is exported "
+                        "(the report records the failure)")
+            return False
+        if self.state.ins_busy:
+            self._error(f"{what}: wait for the {self.state.ins_busy} to finish")
+            return False
+        return True
+
+    # -- report ----------------------------------------------------------------------------
+    def _report_writer(self) -> Callable[..., Any]:
+        """The inspection plugin's own report builder, found through its manifest entry."""
+        spec = self._spec_of()
+        package = spec.entry.split(":", 1)[0].rsplit(".", 1)[0]
+        try:
+            return importlib.import_module(f"{package}.report").build_report
+        except (ImportError, AttributeError) as exc:
+            raise CamcmmError(f"plugin {PLUGIN!r} ({package}) has no report writer: {exc}") from None
+
+    def _make_report(self, folder: Path) -> dict[str, str]:
+        """Worker thread: the report files (html, pdf, json) in ``folder``."""
+        build = self._report_writer()
+        o = dict(self.outputs or {})
+        tol = self._tolerance(quiet=True)
+        if tol is None:
+            tol = (o.get("stats") or {}).get("tolerance")
+        mname, nname = self._name(self.state.ins_measured), self._name(self.state.ins_nominal)
+        rep = build(o, cloud_file=mname, nominal_file=nname, run=self.result, tolerance=tol)
+        inputs = []
+        for key, role in ((self.state.ins_measured, "measured cloud"), (self.state.ins_nominal, "nominal")):
+            m = self.session._measurements.get(str(key))
+            if m and m.get("hash"):
+                inputs.append({"file": str(m.get("name")), "sha256": m["hash"], "role": role})
+        if inputs:
+            rep.provenance(inputs=inputs, extra={"project": str(getattr(self.project, "path", "")),
+                                                 "result": self.result_id})
+        return rep.write(folder, basename=f"inspection-{self.result_id or 'new'}")
+
+    def _record_report(self, paths: dict[str, str]) -> dict[str, str]:
+        files = {f"report_{k}": self.project.add_file(p) for k, p in paths.items()}
+        res = self.result
+        if res is not None:
+            mids = [m for m in (self._mid(self.state.ins_measured), self._mid(self.state.ins_nominal)) if m is not None]
+            run = {"plugin": res.plugin_id, "version": res.plugin_version, "params": res.params,
+                   "input_hashes": res.input_hashes, "outputs": {"report_of": self.result_id, "formats": sorted(paths)},
+                   "started": res.started, "finished": res.finished, "warnings": []}
+            try:
+                self.project.add_result(run, measurement_ids=mids, files=files,
+                                        label=f"inspection report of result #{self.result_id}")
+            except Exception as exc:
+                log.warning("report result: %s", exc)
+        if self.saved is not None:
+            self.saved["report"] = files
+            self._save_state()
+        return files
+
+    def _links(self, files: dict[str, str], what: str) -> list[dict[str, str]]:
+        out = []
+        titles = {"html": "Open report (HTML)", "pdf": "Download PDF", "json": "Download JSON"}
+        for name, h in files.items():
+            kind = name.removeprefix("report_")
+            try:
+                src = self.project.file_path(h)
+            except CamcmmError as exc:
+                log.warning("%s file %s: %s", what, name, exc)
+                continue
+            fname = (f"inspection-{self.result_id}.{kind}" if what == "report" else
+                     _safe_file_name(self._export_name(h)))
+            dest = self.downloads / fname
+            try:
+                if not dest.exists():
+                    shutil.copyfile(src, dest)
+            except OSError as exc:
+                log.warning("cannot offer %s for download: %s", src, exc)
+                continue
+            out.append({"kind": kind, "name": fname, "url": f"{self.download_route}/{fname}",
+                        "title": titles.get(kind, f"Download {fname}") if what == "report" else f"Download {fname}"})
+        order = {"html": 0, "pdf": 1, "json": 2}
+        return sorted(out, key=lambda x: order.get(x["kind"], 9))
+
+    def _export_name(self, h: str) -> str:
+        try:
+            for f in self.project.files():
+                if f["hash"] == h:
+                    return str(f["original_name"])
+        except Exception:
+            pass
+        return f"deviations-{self.result_id}.ply"
+
+    def report(self) -> dict[str, Any] | None:
+        """The report in the calling thread; returns ``{"paths", "files", "links"}``."""
+        if not self._can("report"):
+            return None
+        folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
+        try:
+            paths = self._make_report(folder)
+            files = self._record_report(paths)
+        except Exception as exc:
+            self._error(f"report: {_one_line(exc)}")
+            return None
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+        return self._reported(files)
+
+    async def report_async(self) -> dict[str, Any] | None:
+        if not self._can("report"):
+            return None
+        self.state.ins_busy = "report"
+        self._flush()
+        folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
+        loop = asyncio.get_running_loop()
+        try:
+            paths = await loop.run_in_executor(self._executor, self._make_report, folder)
+            files = await loop.run_in_executor(self._executor, self._record_report, paths)
+        except Exception as exc:
+            self._error(f"report: {_one_line(exc)}")
+            return None
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+            self.state.ins_busy = ""
+        out = self._reported(files)
+        self._flush()
+        return out
+
+    def _reported(self, files: dict[str, str]) -> dict[str, Any]:
+        links = self._links(files, "report")
+        self.state.ins_report_links = links
+        self.session.refresh_results()
+        self.session.info(f"report written: {', '.join(l['name'] for l in links)} (in the project)")
+        paths = {k.removeprefix("report_"): str(self.project.file_path(h)) for k, h in files.items()}
+        return {"files": files, "paths": paths, "links": links}
+
+    # -- shutdown --------------------------------------------------------------------------
+    def close(self) -> None:
+        if self._cancel is not None:
+            self._cancel.set()
+        self._executor.shutdown(wait=False, cancel_futures=True)
+        shutil.rmtree(self.downloads, ignore_errors=True)
+        try:
+            self.view.plotter.close()
+        except Exception:
+            pass
+
+
+def mount(server: Any, session: Any, display_limit: int | None = None) -> InspectPage:
+    """Create the page for a session, serve its downloads folder and follow the
+    project's items (call before the server starts)."""
+    page = InspectPage(session, display_limit=display_limit)
+    server.enable_module({"serve": {page.download_route: str(page.downloads)}})
+
+    @server.state.change("items")
+    def _items_changed(**_):
+        page.refresh_inputs()
+
+    @server.state.change("page")
+    def _page_changed(**changes):
+        if changes.get("page") == "compare":
+            page.opened()
+
+    return page

@@ -1,0 +1,378 @@
+"""The "Compare with CAD" page without a browser: the InspectPage behind it, on a real
+project, with the inspection plugin really running.
+
+The nominal is a CAD box (40 × 30 × 20 mm); the measured cloud is sampled on it with
+5 µm noise and a 30 µm bump on the top face, then moved by a known rigid motion. Every
+number the page shows is checked against an independent numpy computation on the
+plugin's deviations (the plugin's own correctness has its own tests).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+cio = pytest.importorskip("camcmm.io")
+pytest.importorskip("trame")
+pytest.importorskip("pyvista")
+pytest.importorskip("trame_plotly", reason="trame-plotly draws the page's charts")
+
+from camcmm.gui import inspect_panel as ip  # noqa: E402
+from camcmm.gui.app import build  # noqa: E402
+from camcmm.host import default_host  # noqa: E402
+from camcmm.model import PointCloud, TriangleMesh  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_inspection_shapes import box_mesh  # noqa: E402
+
+if "inspect.compare" not in default_host().plugins:
+    pytest.skip("the inspection plugin is not installed", allow_module_level=True)
+
+_names = itertools.count()
+LO, HI = np.array([0.0, 0.0, 0.0]), np.array([40.0, 30.0, 20.0])
+NOISE, BUMP = 0.005, 0.03
+ANGLE = math.radians(2.0)
+MOTION = np.array([[math.cos(ANGLE), -math.sin(ANGLE), 0, 0.3], [math.sin(ANGLE), math.cos(ANGLE), 0, -0.2],
+                   [0, 0, 1, 0.1], [0, 0, 0, 1.0]])
+
+
+def surface_points(V, F, n, rng):
+    tri = V[F]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    k = rng.choice(len(F), n, p=area / area.sum())
+    r1, r2 = rng.random(n), rng.random(n)
+    s = np.sqrt(r1)
+    t = tri[k]
+    return (1 - s)[:, None] * t[:, 0] + (s * (1 - r2))[:, None] * t[:, 1] + (s * r2)[:, None] * t[:, 2]
+
+
+def make_pair(folder: Path, n: int = 12000, offset=(0.0, 0.0, 0.0)) -> tuple[Path, Path, np.ndarray]:
+    """box.stl and scan.ply (moved by MOTION, and by ``offset`` on top); returns the paths
+    and the cloud's points in nominal coordinates (before the motion)."""
+    V, F = box_mesh(LO, HI, n=4)
+    rng = np.random.default_rng(3)
+    P = surface_points(V, F, n, rng)
+    top = P[:, 2] > HI[2] - 1e-9
+    P[top, 2] += BUMP * np.exp(-((P[top, 0] - 20) ** 2 + (P[top, 1] - 15) ** 2) / 20)
+    P += NOISE * rng.normal(size=P.shape)
+    moved = P @ MOTION[:3, :3].T + MOTION[:3, 3] + np.asarray(offset)
+    folder.mkdir(parents=True, exist_ok=True)
+    cio.write(TriangleMesh(V, F, name="box"), folder / "box.stl")
+    cio.write(PointCloud(moved, name="scan"), folder / "scan.ply")
+    return folder / "box.stl", folder / "scan.ply", P
+
+
+@pytest.fixture
+def app(tmp_path):
+    made = []
+
+    def make(project_dir=None, **kw):
+        server, session = build(f"test-inspect-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj", **kw)
+        server.state.ready()
+        made.append(server)
+        return server, session
+
+    yield make
+    for server in made:
+        server.inspect.close()
+        server.session.close()
+
+
+def imported(app, tmp_path, **kw):
+    stl, ply, truth = make_pair(tmp_path / "files", **kw)
+    server, session = app()
+    for f in (stl, ply):
+        assert session.import_file(f) is not None, server.state.error_message
+    page = server.inspect
+    page.refresh_inputs()
+    return server, session, page, truth
+
+
+def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
+    server, session, page, truth = imported(app, tmp_path)
+    s = server.state
+    names = {it["id"]: it["name"] for it in s.items}
+    assert names[s.ins_measured] == "scan.ply" and names[s.ins_nominal] == "box.stl"
+    assert [o["value"] for o in s.ins_align_options] == list(default_host().get("inspect.compare").parameters[0].choices)
+    s.ins_tolerance = "0.01"
+    result = page.run()
+    assert result is not None, s.ins_error
+    assert s.ins_error == "" and s.ins_has_result and not s.ins_failed
+    o = result.outputs
+    dev = np.asarray(page.deviations.fields["deviation"], dtype=float)
+    assert len(dev) == len(truth)
+
+    # the alignment undid the motion; the deviations are the noise and the bump
+    assert o["converged"] and abs(o["alignment"]["rotation_angle_deg"] - 2.0) < 0.01
+    assert abs(np.std(dev) - NOISE) < 0.15 * NOISE + 0.001
+    assert dev.max() > 0.8 * BUMP
+
+    # legend in µm (the colour limit is the tolerance, 10 µm), the view coloured by it
+    assert s.ins_unit == "µm" and s.ins_legend_title == "deviation [µm]"
+    assert page.view.scalar_bar_title == "deviation [µm]" and s.ins_mode == "colour"
+    assert "±10.0 µm" in s.ins_limit_text
+
+    # the statistics table = numpy on the deviations
+    rows = {r["key"]: r["value"] for r in s.ins_stats}
+    um = lambda x, signed=True: ip.fmt_len(x, "µm", signed)  # noqa: E731
+    assert rows["n"] == ip.fmt_count(len(dev))
+    assert rows["mean"] == um(dev.mean())
+    assert rows["std"] == um(dev.std(ddof=1), False)
+    assert rows["rms"] == um(np.sqrt(np.mean(dev ** 2)), False)
+    assert rows["min"] == um(dev.min()) and rows["max"] == um(dev.max())
+    p25, p975 = np.percentile(dev, [2.5, 97.5], method="hazen")
+    assert rows["p2_5"] == um(p25) and rows["p97_5"] == um(p975)
+    assert rows["interval95"] == f"{um(p975)} / {um(p25)}"
+    assert rows["interval95"].startswith("+") and " / \u2212" in rows["interval95"]
+    assert rows["within"] == f"{100 * np.mean(np.abs(dev) <= 0.01):.2f} %"
+    assert rows["coverage"].startswith(f"{100 * o['coverage']:.2f} %")
+    arows = {r["key"]: r["value"] for r in s.ins_alignment}
+    assert arows["converged"] == "yes" and arows["scale"] == f"{o['scale']:.8f}"
+    assert arows["rms"] == ip.fmt_len(o["rms"], "µm")
+
+    # tolerance bands: the counts are numpy's
+    bands = {b["key"]: b["count"] for b in s.ins_bands}
+    assert bands["within"] == int(np.sum(np.abs(dev) <= 0.01))
+    assert bands["above"] == int(np.sum(dev > 0.01)) and bands["below"] == int(np.sum(dev < -0.01))
+    page.set_mode("bands")
+    assert s.ins_mode == "bands" and page.view.scene == "bands"
+    assert page.view.legend_labels == ["above +10.0 µm", "within ±10.0 µm", "below \u221210.0 µm"]
+    # another tolerance after the run: bands and share follow, no re-run
+    page.set_tolerance("0.02")
+    bands = {b["key"]: b["count"] for b in s.ins_bands}
+    assert bands["within"] == int(np.sum(np.abs(dev) <= 0.02))
+    assert {r["key"]: r["value"] for r in s.ins_stats}["within"] == f"{100 * np.mean(np.abs(dev) <= 0.02):.2f} %"
+    page.set_mode("colour")
+    assert page.view.scene == "colour"
+
+    # histogram: the plugin's bins, in µm, the 95 % interval and ±tolerance marked
+    h = s.ins_fig_hist
+    bar = h["data"][0]
+    assert bar["type"] == "bar" and sum(bar["y"]) == len(dev)
+    edges = np.asarray(o["histogram"]["edges"])
+    assert np.allclose(bar["x"], 1e3 * 0.5 * (edges[1:] + edges[:-1]))
+    assert "µm" in bar["hovertemplate"] and "points" in bar["hovertemplate"]
+    xs = sorted({round(sh["x0"], 6) for sh in h["layout"]["shapes"] if sh["type"] == "line"})
+    assert np.allclose(xs, sorted([round(1e3 * p25, 6), round(1e3 * p975, 6), -20.0, 20.0]))
+
+    # Abbott-Firestone curve: the plugin's curve, with the construction
+    af = s.ins_fig_af
+    names = [t["name"] for t in af["data"]]
+    for part in ("material-ratio curve", "40 % secant of least gradient", "equivalent straight line",
+                 "Spk triangle", "Svk triangle", "C1, Smr1", "C2, Smr2"):
+        assert part in names
+    curve = af["data"][names.index("material-ratio curve")]
+    mr = o["material_ratio"]
+    assert np.allclose(curve["x"], mr["curve"]["mr_percent"])
+    assert np.allclose(curve["y"], 1e3 * np.asarray(mr["curve"]["height"]))
+    assert "material ratio" in curve["hovertemplate"]
+    spk = af["data"][names.index("Spk triangle")]
+    assert math.isclose(max(spk["y"]) - min(spk["y"]), 1e3 * mr["Spk"], rel_tol=1e-9)
+    assert math.isclose(max(spk["x"]), mr["Smr1"], rel_tol=1e-9)
+    assert any("95 % within" in a["text"] for a in af["layout"]["annotations"])
+
+    # the project keeps the comparison: result, deviations file, state
+    saved = session.project.get_state(ip.STATE_KEY)
+    assert saved["result"] == s.ins_result_id and saved["tolerance"] == 0.01
+    stored = session.project.result(saved["result"])
+    assert stored["plugin"] == "inspect.compare" and "deviations" in stored["files"]
+
+
+def test_pick_section_export_report_and_reopen(app, tmp_path):
+    server, session, page, truth = imported(app, tmp_path)
+    s = server.state
+    s.ins_tolerance = "0.01"
+    assert page.run() is not None, s.ins_error
+    cloud = page.deviations
+    dev = cloud.fields["deviation"]
+
+    # a pick at the screen position of a known point on the visible top face
+    view = page.view
+    view.plotter.view_xy()
+    view.screenshot()  # renders: the depth buffer says which surface is in front
+    top = np.nonzero(cloud.points[:, 2] > 19.99)[0]
+    i = int(top[np.argmin(np.linalg.norm(cloud.points[top, :2] - [12.0, 9.0], axis=1))])
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    c = vtkCoordinate()
+    c.SetCoordinateSystemToWorld()
+    c.SetValue(*cloud.points[i])
+    x, y = c.GetComputedDoubleDisplayValue(view.renderer)
+    info = page.pick_display(x, y)
+    assert info is not None and info["index"] == i
+    assert info["deviation_mm"] == pytest.approx(float(dev[i]))
+    assert s.ins_picked["deviation"] == ip.fmt_len(dev[i], "µm", True, 4)
+    assert s.ins_picked["band"] == ("within" if abs(dev[i]) <= 0.01 else ("above" if dev[i] > 0 else "below"))
+    W, H = view.plotter.window_size
+    assert page.pick_at(x / W, 1 - y / H)["index"] == i  # the browser's fractions
+    assert page.pick_display(2, 2) is None and s.ins_picked["found"] is False  # the background
+
+    # a section across z through the middle: the box's rectangle, the measured points in the slab
+    sec = page.set_section("z", 10.0)
+    assert sec is not None and sec["u"] == "x" and sec["v"] == "y"
+    pts = np.vstack(sec["nominal"])
+    assert np.allclose(pts.min(axis=0), [0, 0], atol=1e-9) and np.allclose(pts.max(axis=0), [40, 30], atol=1e-9)
+    on_edge = np.minimum.reduce([np.abs(pts[:, 0]), np.abs(pts[:, 0] - 40), np.abs(pts[:, 1]), np.abs(pts[:, 1] - 30)])
+    assert on_edge.max() < 1e-9
+    spacing = page.spacing()
+    assert 0.05 < spacing < 1.0
+    in_slab = np.abs(cloud.points[:, 2] - 10.0) <= 0.5 * spacing
+    assert sec["n_in_slab"] == int(in_slab.sum()) > 10
+    assert np.allclose(np.sort(sec["deviation"]), np.sort(dev[in_slab]))
+    fig = s.ins_fig_section
+    assert [t["name"] for t in fig["data"]] == ["measured", "nominal"]
+    assert fig["layout"]["yaxis"]["scaleanchor"] == "x"
+    assert s.ins_section_axis == "z" and s.ins_section_pos == 10.0
+    # another axis re-centres the plane on the part
+    sec = page.set_section("x")
+    assert s.ins_section_axis == "x" and abs(sec["position"] - 20.0) < 0.5 and sec["n_in_slab"] > 10
+
+    # export: a PLY that camcmm.io reads back with the deviation field; added to the project
+    n_items = len(s.items)
+    out = page.export()
+    assert out is not None, s.ins_error
+    back = cio.read(out["path"])
+    assert back.n_points == cloud.n_points and back.field_units.get("deviation") == "mm"
+    assert np.allclose(back.fields["deviation"], dev) and back.colors is not None
+    assert len(s.items) == n_items + 1 and s.ins_export_links[0]["url"].endswith(".ply")
+    assert session.project.file_path(out["hash"]).is_file()
+
+    # report: the plugin's writer, HTML/PDF/JSON in the project, links offered
+    rep = page.report()
+    assert rep is not None, s.ins_error
+    assert sorted(rep["paths"]) == ["html", "json", "pdf"]
+    for p in rep["paths"].values():
+        assert Path(p).is_file() and Path(p).stat().st_size > 1000
+    assert "Inspection against the nominal" in Path(rep["paths"]["html"]).read_text("utf-8")
+    assert [l["kind"] for l in s.ins_report_links] == ["html", "pdf", "json"]
+    for l in s.ins_report_links:
+        assert (page.downloads / l["name"]).is_file()
+
+    # reopening the project shows the last comparison
+    stats = list(s.ins_stats)
+    project_dir = session.project.path
+    server.inspect.close()
+    server.session.close()
+    session.project.close()
+    server2, _ = app(project_dir)
+    s2 = server2.state
+    assert s2.ins_has_result and not s2.ins_failed and s2.ins_mode == "colour"
+    assert s2.ins_stats == stats and s2.ins_unit == "µm"
+    assert [l["kind"] for l in s2.ins_report_links] == ["html", "pdf", "json"]
+    assert s2.ins_export_links and s2.ins_fig_af["data"] and s2.ins_fig_section["data"]
+    assert server2.inspect.view.scene == "colour" and server2.inspect.view.dev.n_total == cloud.n_points
+
+
+def test_no_overlap_is_reported_not_coloured(app, tmp_path):
+    server, session, page, _ = imported(app, tmp_path, offset=(500.0, 0.0, 0.0))
+    s = server.state
+    result = page.run()
+    assert result is not None and not result.outputs["converged"]
+    assert s.ins_failed and s.ins_failed_reason and s.ins_failed_reason == result.outputs["reason"]
+    assert "\n" not in s.ins_failed_reason
+    assert s.ins_stats == [] and s.ins_bands == [] and s.ins_fig_hist["data"] == []
+    assert page.view.scene == "failed" and page.view.scalar_bar_title == ""
+    assert {r["key"]: r["value"] for r in s.ins_alignment}["converged"].startswith("NO")
+    page.set_mode("colour")  # refused, with a reason
+    assert page.view.scene == "failed" and "alignment failed" in s.ins_error
+    assert page.export() is None and "not valid" in s.ins_error
+    rep = page.report()  # the report records the failure
+    assert rep is not None and "did not converge" in Path(rep["paths"]["html"]).read_text("utf-8")
+    # it is still stored (a failed comparison is a result too), and restored as failed
+    assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
+
+
+def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
+    server, session, page, truth = imported(app, tmp_path)
+    s = server.state
+    # turned by 90 degrees and moved far: plain ICP cannot, three pairs can
+    measured = page._load(s.ins_measured, "measured")
+    T = np.array([[0, -1, 0, 100.0], [1, 0, 0, 50.0], [0, 0, 1, -30.0], [0, 0, 0, 1]])
+    moved = PointCloud(measured.points @ T[:3, :3].T + T[:3, 3], name="turned")
+    cio.write(moved, tmp_path / "turned.ply")
+    key = session.import_file(tmp_path / "turned.ply")
+    page.set_inputs(measured=key)
+    page.set_align("pairs+icp")
+    assert s.ins_mode == "inputs" and page.view.scene == "inputs" and "measured" in s.ins_pick_hint
+    # pick: the measured point drawn at a screen position, then the nominal surface
+    view = page.view
+    view.plotter.view_isometric()
+    view.screenshot()
+    prep = view._inputs["measured"]
+    from camcmm.gui.inspect_panel import world_to_display
+
+    xy, dist, ok = world_to_display(view.renderer, prep.points)
+    j = int(np.argmin(dist))  # the point nearest to the camera is surely visible
+    got = page.pick_display(*xy[j])
+    assert got["which"] == "measured" and np.allclose(got["point"], prep.points[j])
+    assert "nominal" in s.ins_pick_hint
+    assert page.pick_display(2, 2) is None and "no point" in s.ins_pick_hint
+    page.undo_pair_point()
+    assert s.ins_pairs == []
+    # three pairs: measured corners of the turned box and the CAD corners
+    corners = np.array([[0, 0, 20.0], [40, 0, 20.0], [0, 30, 20.0]])
+    for c in corners:
+        page.add_pair_point("measured", (MOTION[:3, :3] @ c + MOTION[:3, 3]) @ T[:3, :3].T + T[:3, 3])
+        page.add_pair_point("nominal", c)
+    assert len(s.ins_pairs) == 3 and all(p["complete"] for p in s.ins_pairs)
+    assert "three pairs" in s.ins_pick_hint
+    result = page.run()
+    assert result is not None, s.ins_error
+    assert result.outputs["converged"], result.outputs["reason"]
+    assert abs(np.std(page.deviations.fields["deviation"]) - NOISE) < 0.002
+    assert session.project.get_state(ip.STATE_KEY)["pairs"]["nominal"] == corners.tolist()
+
+
+def test_bad_input_gets_one_line_reasons(app, tmp_path):
+    server, session, page, _ = imported(app, tmp_path)
+    s = server.state
+    page.state.ins_nominal = page.state.ins_measured
+    assert page.run() is None and "both measured and nominal" in s.ins_error
+    page.refresh_inputs()
+    s.ins_nominal = next(it["id"] for it in s.items if it["kind"] == "mesh")
+    s.ins_tolerance = "abc"
+    assert page.run() is None and "tolerance" in s.ins_error and "not a number" in s.ins_error
+    s.ins_tolerance = "-1"
+    assert page.run() is None and "tolerance" in s.ins_error
+    s.ins_tolerance = ""
+    page.set_align("pairs")
+    assert page.run() is None and "3 point pairs, 0 picked" in s.ins_error
+    page.set_align("icp")
+    s.ins_params = dict(s.ins_params, max_iterations="0")
+    assert page.run() is None and "max_iterations" in s.ins_error
+    for msg in session.errors:
+        assert "\n" not in msg
+    assert page.export() is None and "run a comparison first" in s.ins_error
+    assert page.report() is None and "run a comparison first" in s.ins_error
+    # bands without a tolerance are refused
+    s.ins_params = {k: v for k, v in s.ins_params.items() if k != "max_iterations"}
+    assert page.run() is not None
+    page.set_mode("bands")
+    assert s.ins_mode == "colour" and "tolerance" in s.ins_error
+
+
+def test_units_bands_and_picking_maths():
+    assert ip.display_unit(0.01) == ("µm", 1e3) and ip.display_unit(0.05) == ("µm", 1e3)
+    assert ip.display_unit(0.1) == ("mm", 1.0) and ip.display_unit(2.0) == ("mm", 1.0)
+    assert ip.fmt_len(0.024, "µm", True) == "+24.0 µm" and ip.fmt_len(-0.033, "µm", True) == "\u221233.0 µm"
+    assert ip.interval_text({"p2_5": -0.033, "p97_5": 0.024}, "µm") == "+24.0 µm / \u221233.0 µm"
+    assert ip.fmt_len(float("nan"), "mm") == "—"
+    d = np.array([-0.2, -0.1, 0.0, 0.1, 0.2, np.nan])
+    assert ip.band_codes(d, 0.1).tolist() == [-1, 0, 0, 0, 1, 2]
+    assert ip.band_counts(d, 0.1) == {"below": 1, "within": 3, "above": 1, "invalid": 1}
+    rows = ip.band_legend(ip.band_counts(d, 0.1), 0.1, "mm")
+    assert [r["key"] for r in rows] == ["above", "within", "below", "invalid"]
+    assert rows[1]["label"] == "within ±0.100 mm"
+    # a point spacing on a regular grid is the grid's step
+    g = np.stack(np.meshgrid(np.arange(200) * 0.5, np.arange(200) * 0.5, indexing="ij"), -1).reshape(-1, 2)
+    grid = np.column_stack([g, np.zeros(len(g))])
+    assert ip.point_spacing(grid) == pytest.approx(0.5)
+    assert ip.point_spacing(grid, queries=500) == pytest.approx(0.5)
