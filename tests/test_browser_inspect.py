@@ -1,0 +1,224 @@
+"""The "Compare with CAD" page end to end in a real headless Chromium (Playwright).
+
+The GUI server runs in a subprocess (``python -m camcmm.gui PROJECT --port 0``). The
+test imports a CAD box (STL) and a measured cloud of it (PLY, moved, with noise and a
+bump) through the file input, opens the page, sees both inputs in the page's 3D view,
+picks a point-pair point on the measured cloud, runs the comparison with a tolerance,
+and checks: the colour map in the view (pixels), the legend in µm, the statistics,
+the histogram and the Abbott-Firestone curve as plotly charts (with a hover label),
+the tolerance bands (green pixels, legend), a click in the view giving a point's
+deviation, Export and Report with their links. Screenshots go to
+``$CAMCMM_SCREENSHOTS`` (default ``/tmp/inspect-gui``).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import queue
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
+pytest.importorskip("trame_plotly", reason="trame-plotly draws the page's charts")
+cio = pytest.importorskip("camcmm.io")
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_inspect_gui import make_pair  # noqa: E402
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "inspect-gui"))
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+@pytest.fixture
+def gui_server(tmp_path):
+    env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(tmp_path / "proj"), "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    lines: queue.Queue[str] = queue.Queue()
+    log: list[str] = []
+
+    def pump():
+        for line in proc.stdout:
+            log.append(line)
+            lines.put(line)
+
+    threading.Thread(target=pump, daemon=True).start()
+    url, deadline = None, time.monotonic() + 60
+    while url is None and time.monotonic() < deadline:
+        try:
+            line = lines.get(timeout=0.5)
+        except queue.Empty:
+            if proc.poll() is not None:
+                break
+            continue
+        m = re.search(r"camcmm GUI: (http://\S+)", line)
+        if m:
+            url = m.group(1)
+    if url is None:
+        proc.kill()
+        pytest.fail("GUI server did not print its URL:\n" + "".join(log[-40:]))
+    yield url, log
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def hue_pixels(png: bytes) -> dict[str, int]:
+    """Vivid pixels by hue: the colour map's reds and blues, the bands' green, the
+    measured cloud's orange."""
+    from PIL import Image
+
+    hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV")).astype(float)
+    h, s, v = hsv[..., 0] * 360 / 255, hsv[..., 1] / 255, hsv[..., 2] / 255
+    vivid = (s > 0.35) & (v > 0.25)
+    return {"red": int((vivid & ((h < 22) | (h > 335))).sum()), "blue": int((vivid & (h > 190) & (h < 260)).sum()),
+            "green": int((vivid & (h > 100) & (h < 170)).sum()), "orange": int((vivid & (h > 26) & (h < 40)).sum())}
+
+
+def wait_view(view, test, timeout: float = 20.0) -> tuple[bytes, dict[str, int]]:
+    """Screenshots of the view until ``test(pixels)`` holds (a streamed image takes a moment)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        png = view.screenshot()
+        px = hue_pixels(png)
+        if test(px) or time.monotonic() > deadline:
+            return png, px
+        time.sleep(0.4)
+
+
+def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
+    url, log = gui_server
+    stl, ply, _ = make_pair(tmp_path / "files", n=8000)
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 900}, accept_downloads=True)
+            page.set_default_timeout(30_000)
+            page.goto(url)
+            page.wait_for_selector('[data-testid="project-name"]')
+            for f in (stl, ply):
+                page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(f))
+                page.wait_for_selector(f'[data-testid="item"]:has-text("{f.name}")')
+
+            # the page: its own view shows both inputs
+            page.locator('[data-testid="page-compare"]').click()
+            page.wait_for_selector('[data-testid="inspect"]')
+            assert "scan.ply" in page.locator('[data-testid="ins-measured"]').inner_text()
+            assert "box.stl" in page.locator('[data-testid="ins-nominal"]').inner_text()
+            view = page.locator('[data-testid="ins-view"]')
+            png, px = wait_view(view, lambda q: q["orange"] > 3000)
+            (SHOTS / "inspect-1-inputs.png").write_bytes(png)
+            assert px["orange"] > 3000, f"the inputs are not shown: {px}"
+
+            # a point pair: choose a pairs method, click the measured cloud
+            page.locator('[data-testid="ins-align"]').click()
+            page.get_by_role("option", name="Three point pairs, then ICP", exact=True).click()
+            page.wait_for_selector('[data-testid="ins-pick-hint"]:has-text("measured cloud")')
+            box = view.bounding_box()
+            page.mouse.click(box["x"] + 0.5 * box["width"], box["y"] + 0.5 * box["height"])
+            page.wait_for_selector('[data-testid="ins-pair"]:has-text("M (")')
+            page.wait_for_selector('[data-testid="ins-pick-hint"]:has-text("nominal")')
+            time.sleep(1.0)  # the view's next image (with the marker) follows the list
+            page.screenshot(path=str(SHOTS / "inspect-2-pair.png"))
+            page.locator('[data-testid="ins-pairs-clear"]').click()
+            page.locator('[data-testid="ins-align"]').click()
+            page.get_by_role("option", name="ICP — rigid, from where the cloud is", exact=True).click()
+
+            # run with a tolerance of 10 µm
+            tol = page.locator('[data-testid="ins-tolerance"] input')
+            tol.fill("0.01")
+            tol.press("Enter")
+            page.locator('[data-testid="ins-run"]').click()
+            page.wait_for_selector('[data-testid="ins-stats"]', timeout=60_000)
+            page.wait_for_selector('[data-testid="ins-progress"]:has-text("done")')
+            legend = page.locator('[data-testid="ins-legend"]').inner_text()
+            assert "deviation [µm]" in legend and "±10.0 µm" in legend
+            interval = page.locator('[data-testid="ins-stat-interval95"]').inner_text()
+            assert re.fullmatch(r"\+[\d.]+ µm / \u2212[\d.]+ µm", interval.strip()), interval
+            assert "%" in page.locator('[data-testid="ins-stat-within"]').inner_text()
+            assert page.locator('[data-testid="ins-align-converged"]').inner_text().strip() == "yes"
+            png, px = wait_view(view, lambda q: q["red"] > 2000 and q["blue"] > 2000 and q["orange"] < 500)
+            (SHOTS / "inspect-3-colour-map.png").write_bytes(png)
+            assert px["red"] > 2000 and px["blue"] > 2000 and px["orange"] < 500, f"no colour map: {px}"
+
+            # the charts: histogram bars, the curve, a hover label with values
+            page.wait_for_selector('[data-testid="ins-histogram"] .main-svg')
+            assert page.locator('[data-testid="ins-histogram"] .bars .point').count() > 10
+            assert "deviation [µm]" in page.locator('[data-testid="ins-histogram"] .xtitle').text_content()
+            page.wait_for_selector('[data-testid="ins-af"] .scatterlayer .trace')
+            assert page.locator('[data-testid="ins-af"] .scatterlayer .trace').count() >= 7
+            assert "material ratio [%]" in page.locator('[data-testid="ins-af"] .xtitle').text_content()
+            drag = page.locator('[data-testid="ins-af"] .nsewdrag').first
+            dbox = drag.bounding_box()
+            hover = page.locator('[data-testid="ins-af"] .hoverlayer .hovertext')
+            for fx in (0.5, 0.3, 0.7, 0.55):  # the curve runs through the middle of the plot
+                page.mouse.move(dbox["x"] + fx * dbox["width"], dbox["y"] + 0.5 * dbox["height"])
+                try:
+                    hover.first.wait_for(timeout=2000)
+                    break
+                except sync_api.TimeoutError:
+                    continue
+            assert hover.count() and "%" in hover.first.text_content()
+            page.wait_for_selector('[data-testid="ins-section"] .scatterlayer .trace')
+            page.screenshot(path=str(SHOTS / "inspect-4-result.png"))
+
+            # tolerance bands
+            page.locator('[data-testid="ins-mode-bands"]').click()
+            page.wait_for_selector('[data-testid="ins-band-within"]:has-text("within ±10.0 µm")')
+            png, px = wait_view(view, lambda q: q["green"] > 5000)
+            (SHOTS / "inspect-5-bands.png").write_bytes(png)
+            assert px["green"] > 5000, f"no tolerance bands: {px}"
+
+            # a click on the part: its deviation
+            box = view.bounding_box()
+            for fx, fy in ((0.5, 0.45), (0.5, 0.55), (0.45, 0.5), (0.55, 0.5)):
+                page.mouse.click(box["x"] + fx * box["width"], box["y"] + fy * box["height"])
+                try:
+                    page.wait_for_selector('[data-testid="ins-picked-deviation"]', timeout=5000)
+                    break
+                except sync_api.TimeoutError:
+                    continue
+            picked = page.locator('[data-testid="ins-picked-text"]').inner_text()
+            assert "deviation" in picked and "µm" in picked, picked
+            page.screenshot(path=str(SHOTS / "inspect-6-picked.png"))
+
+            # export and report
+            page.locator('[data-testid="ins-export"]').click()
+            page.wait_for_selector('[data-testid="ins-export-ply"]')
+            page.wait_for_selector('[data-testid="item"]:has-text("tolerance bands.ply")', state="attached")
+            page.locator('[data-testid="ins-report"]').click()
+            page.wait_for_selector('[data-testid="ins-report-pdf"]', timeout=60_000)
+            for kind in ("html", "pdf", "json"):
+                href = page.locator(f'[data-testid="ins-report-{kind}"]').get_attribute("href")
+                r = page.request.get(url.rstrip("/") + "/" + href)
+                assert r.ok and len(r.body()) > 1000, (kind, r.status)
+            assert b"Inspection against the nominal" in page.request.get(
+                url.rstrip("/") + "/" + page.locator('[data-testid="ins-report-html"]').get_attribute("href")).body()
+            page.screenshot(path=str(SHOTS / "inspect-7-report.png"))
+        finally:
+            browser.close()
+    errors = [line for line in log if "camcmm GUI error" in line]
+    assert not errors, errors
+    assert time.monotonic() - t0 < 90
