@@ -129,6 +129,8 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             assert "box.stl" in page.locator('[data-testid="ins-nominal"]').inner_text()
             view = page.locator('[data-testid="ins-view"]')
             png, px = wait_view(view, lambda q: q["orange"] > 3000)
+            time.sleep(1.0)  # the first image may still be the one made before the view had its size
+            png = view.screenshot()
             (SHOTS / "inspect-1-inputs.png").write_bytes(png)
             assert px["orange"] > 3000, f"the inputs are not shown: {px}"
 

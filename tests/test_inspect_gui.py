@@ -133,7 +133,8 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     assert rows["interval95"] == f"{um(p975)} / {um(p25)}"
     assert rows["interval95"].startswith("+") and " / \u2212" in rows["interval95"]
     assert rows["within"] == f"{100 * np.mean(np.abs(dev) <= 0.01):.2f} %"
-    assert rows["coverage"].startswith(f"{100 * o['coverage']:.2f} %")
+    assert rows["coverage"] == f"{100 * o['coverage']:.2f} %"
+    assert rows["coverage_distance"] == ip.fmt_len(o["coverage_info"]["distance"], "mm")
     arows = {r["key"]: r["value"] for r in s.ins_alignment}
     assert arows["converged"] == "yes" and arows["scale"] == f"{o['scale']:.8f}"
     assert arows["rms"] == ip.fmt_len(o["rms"], "µm")
@@ -288,6 +289,39 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     assert rep is not None and "did not converge" in Path(rep["paths"]["html"]).read_text("utf-8")
     # it is still stored (a failed comparison is a result too), and restored as failed
     assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
+    project_dir = session.project.path
+    server.inspect.close()
+    server.session.close()
+    session.project.close()
+    server2, _ = app(project_dir)
+    assert server2.state.ins_failed and server2.state.ins_failed_reason == result.outputs["reason"]
+    assert server2.inspect.view.scene == "failed" and server2.state.ins_stats == []
+
+
+def test_run_async_reports_progress_and_can_be_cancelled(app, tmp_path):
+    import asyncio
+
+    server, session, page, _ = imported(app, tmp_path)
+    s = server.state
+    seen = []
+    original = page._progress_cb
+
+    def progress(fraction, message):
+        seen.append(message)
+        if len(seen) == 2:  # the operator presses Cancel while the plugin runs
+            page.cancel()
+        original(fraction, message)
+
+    page._progress_cb = progress
+    assert asyncio.run(page.run_async()) is None
+    assert not s.ins_running and "cancelled" in s.ins_error and s.ins_progress_message == "cancelled"
+    assert not s.ins_has_result and session.project.get_state(ip.STATE_KEY) is None
+    # and a run that is not cancelled: done, shown and stored from the worker
+    page._progress_cb = original
+    result = asyncio.run(page.run_async())
+    assert result is not None and s.ins_has_result and not s.ins_running and s.ins_progress == 100.0
+    assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
+    assert {"result", "drawn", "numbers"} <= set(s.ins_timing)
 
 
 def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
@@ -329,6 +363,45 @@ def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
     assert result.outputs["converged"], result.outputs["reason"]
     assert abs(np.std(page.deviations.fields["deviation"]) - NOISE) < 0.002
     assert session.project.get_state(ip.STATE_KEY)["pairs"]["nominal"] == corners.tolist()
+
+
+def test_a_reference_cloud_as_the_nominal(app, tmp_path):
+    server, session, page, _ = imported(app, tmp_path)
+    s = server.state
+    V, F = box_mesh(LO, HI, n=4)
+    ref = PointCloud(surface_points(V, F, 30000, np.random.default_rng(9)), name="reference")
+    cio.write(ref, tmp_path / "reference.ply")
+    key = session.import_file(tmp_path / "reference.ply")
+    page.set_inputs(nominal=key)
+    assert page.view.scene == "inputs" and "nominal_cloud" in page.view._inputs
+    # a pair point on the nominal cloud is one of its points
+    page.set_align("pairs")
+    page.add_pair_point("measured", [1.0, 2.0, 20.0])
+    view = page.view
+    view.plotter.view_isometric()
+    view.screenshot()
+    from camcmm.gui.inspect_panel import world_to_display
+
+    prep = view._inputs["nominal_cloud"]
+    xy, dist, ok = world_to_display(view.renderer, prep.points)
+    j = int(np.argmin(dist))
+    got = page.pick_display(*xy[j])
+    assert got["which"] == "nominal" and np.allclose(got["point"], prep.points[j])
+    page.clear_pairs()
+    page.set_align("icp")
+    s.ins_tolerance = "0.02"
+    # a larger inlier distance through "More parameters": inspect.align judges a match
+    # against a reference cloud by point-to-point distances, which the cloud's spacing
+    # widens (reported to the plugin's author)
+    s.ins_params = dict(s.ins_params, inlier_distance="2")
+    result = page.run()
+    assert result is not None and result.outputs["converged"], result.outputs["reason"]
+    assert result.params["inlier_distance"] == 2.0
+    assert "local plane" in result.outputs["distance_method"]
+    sec = page.set_section("z", 10.0)
+    assert sec["nominal"] == [] and len(sec["nominal_points"]) > 10
+    assert np.all(np.abs(sec["nominal_points"]).max(axis=0) <= [40 + 1e-9, 30 + 1e-9])
+    assert [t["name"] for t in s.ins_fig_section["data"]] == ["measured", "nominal"]
 
 
 def test_bad_input_gets_one_line_reasons(app, tmp_path):

@@ -211,8 +211,9 @@ def build_panel(page: Any) -> None:
                     with html.Tbody():
                         with html.Tr(v_for="r in ins_stats", key="r.key"):
                             html.Td("{{ r.name }}", classes="text-caption text-no-wrap")
-                            html.Td("{{ r.value }}", classes="text-right text-no-wrap text-body-2",
-                                    raw_attrs=_dyn_tid("'ins-stat-' + r.key"))
+                            html.Td("{{ r.value }}", classes="text-right text-body-2",
+                                    raw_attrs=_dyn_tid("'ins-stat-' + r.key")
+                                    + [':class="r.value.length < 24 ? \'text-no-wrap\' : \'\'"'])
                 html.Div("Alignment", classes="text-subtitle-2 mt-2")
                 with v.VTable(density="compact", raw_attrs=_tid("ins-alignment")):
                     with html.Tbody():

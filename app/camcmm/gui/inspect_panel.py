@@ -220,9 +220,9 @@ def stats_rows(outputs: dict[str, Any], unit: str, tolerance: float | None = Non
                          "value": f"{100.0 * float(share):.2f} %"})
     cov = outputs.get("coverage_info") or {}
     if outputs.get("coverage") is not None:
-        rows.append({"key": "coverage", "name": "coverage (area)",
-                     "value": f"{100.0 * float(outputs['coverage']):.2f} %"
-                              + (f" (points within {fmt_len(cov.get('distance'), 'mm')})" if cov.get("distance") else "")})
+        rows.append({"key": "coverage", "name": "coverage (area)", "value": f"{100.0 * float(outputs['coverage']):.2f} %"})
+        if cov.get("distance"):
+            rows.append({"key": "coverage_distance", "name": "covered: a point within", "value": fmt_len(cov["distance"], "mm")})
     return rows
 
 
@@ -679,19 +679,42 @@ class InspectView:
         self._inputs: dict[str, Any] = {}     # "measured"/"nominal" -> (Prepared | None, mesh poly | None)
         self._actors: dict[str, Any] = {}
         self.dev: Prepared | None = None
-        self.nominal_poly: Any = None
+        self.nominal_poly: Any = None  # pyvista mesh of the nominal mesh _nominal_src
+        self._nominal_src: Any = None
+        # Until the operator turns or zooms, a new size of the view (the browser's, on
+        # mount or resize) frames the part anew: a camera reset for the wrong aspect
+        # leaves it small or cut.
+        self._camera_fresh = False
+        rw = self.plotter.render_window
+        rw.AddObserver("WindowResizeEvent", self._resized)
+        iren = rw.GetInteractor()
+        if iren is not None:
+            for event in ("LeftButtonPressEvent", "RightButtonPressEvent", "MiddleButtonPressEvent",
+                          "MouseWheelForwardEvent", "MouseWheelBackwardEvent"):
+                iren.AddObserver(event, self._touched)
 
     @property
     def renderer(self) -> Any:
         return self.plotter.renderer
 
     # -- helpers -----------------------------------------------------------------------
-    def _changed(self, reset_camera: bool) -> None:
+    def _frame(self) -> None:
+        self.plotter.camera_position = "iso"
+        self.plotter.reset_camera()
+        self.plotter.camera.zoom(0.85 if self.scalar_bar_title else 0.95)
+
+    def _resized(self, *_: Any) -> None:
+        if self._camera_fresh and self.scene != "empty":
+            self._frame()
+
+    def _touched(self, *_: Any) -> None:
+        self._camera_fresh = False
+
+    def _changed(self, reset_camera: bool, push: bool = True) -> None:
         if reset_camera:
-            self.plotter.camera_position = "iso"
-            self.plotter.reset_camera()
-            self.plotter.camera.zoom(0.85 if self.scalar_bar_title else 0.95)
-        if self.on_update is not None:
+            self._frame()
+            self._camera_fresh = True
+        if push and self.on_update is not None:
             self.on_update(reset_camera)
 
     def _clear(self) -> None:
@@ -711,14 +734,21 @@ class InspectView:
         size = 1 if n > 250_000 else (2 if n > 60_000 else (3 if n > 15_000 else 5))
         return {"style": "points", "point_size": size, "render_points_as_spheres": False}
 
+    def mesh_poly(self, nominal: Any) -> Any:
+        """The pyvista mesh of a nominal TriangleMesh, made once per mesh."""
+        if self._nominal_src is not nominal or self.nominal_poly is None:
+            self.nominal_poly = nominal.to_pyvista()
+            self._nominal_src = nominal
+        return self.nominal_poly
+
     def _add_nominal(self, nominal: Any, opacity: float = 1.0) -> None:
         import pyvista as pv
 
         if nominal is None:
             return
         if hasattr(nominal, "faces"):
-            poly = self.nominal_poly if self.nominal_poly is not None else nominal.to_pyvista()
-            self.nominal_poly = poly
+            self._inputs.pop("nominal_cloud", None)
+            poly = self.mesh_poly(nominal)
             self._actors["nominal"] = self.plotter.add_mesh(poly, color=NOMINAL_COLOUR, opacity=opacity,
                                                             smooth_shading=False, reset_camera=False, pickable=True)
         else:
@@ -731,14 +761,10 @@ class InspectView:
 
     # -- scenes ------------------------------------------------------------------------
     def show_inputs(self, measured: Any, nominal: Any, markers: list[dict[str, Any]] | None = None,
-                    reset_camera: bool = True) -> None:
+                    reset_camera: bool = True, push: bool = True) -> None:
         """The measured cloud (orange) and the nominal (grey) as they are."""
         self._clear()
         self.scene = "inputs"
-        if nominal is not None and hasattr(nominal, "faces"):
-            if self._inputs.get("nominal_key") is not nominal:
-                self.nominal_poly = nominal.to_pyvista()
-                self._inputs["nominal_key"] = nominal
         self._add_nominal(nominal, opacity=0.55)
         if measured is not None:
             prep = self._inputs.get("measured")
@@ -755,7 +781,7 @@ class InspectView:
                      (0.16, 0.08))
         self.legend_labels = ["measured", "nominal"]
         self.set_markers(markers or [], render=False)
-        self._changed(reset_camera)
+        self._changed(reset_camera, push)
 
     def show_deviations(self, prep: Prepared, limit: float, unit: str, mode: str = "colour",
                         tolerance: float | None = None, reset_camera: bool = True) -> None:
@@ -896,17 +922,15 @@ class InspectView:
         actor = self._actors.get("nominal")
         if actor is None:
             return None
-        if self.nominal_poly is not None and self.scene == "inputs" and "nominal_cloud" not in self._inputs:
-            return pick_surface(self.renderer, actor, x, y)
         prep = self._inputs.get("nominal_cloud")
-        if prep is None:
+        if prep is None:  # a mesh: the surface under the click
             return pick_surface(self.renderer, actor, x, y)
         i = pick_point(self.renderer, prep.points, x, y)
         return None if i is None else prep.points[i].copy()
 
     def forget_inputs(self) -> None:
         self._inputs = {}
-        self.nominal_poly = None
+        self.nominal_poly = self._nominal_src = None
 
     def screenshot(self, path: str | None = None) -> np.ndarray:
         return self.plotter.screenshot(path, return_img=True)
@@ -1078,7 +1102,7 @@ class InspectPage:
             self.clear_pairs(render=False)
         self.show_inputs()
 
-    def show_inputs(self, reset_camera: bool = True) -> bool:
+    def show_inputs(self, reset_camera: bool = True, push: bool = True) -> bool:
         """The inputs scene (both objects as they are) for picking point pairs."""
         s = self.state
         try:
@@ -1091,7 +1115,7 @@ class InspectPage:
             self._error(f"{self._name(s.ins_measured)} is not a point cloud")
             return False
         self.measured, self.nominal = measured, nominal
-        self.view.show_inputs(measured, nominal, self._pair_markers(), reset_camera=reset_camera)
+        self.view.show_inputs(measured, nominal, self._pair_markers(), reset_camera=reset_camera, push=push)
         s.ins_mode = "inputs"
         s.ins_note = self.view.note
         s.ins_legend_title = ""
@@ -1109,7 +1133,8 @@ class InspectPage:
         if self.view.scene == "empty" and not self.state.ins_running:
             self.refresh_inputs()
             if self.state.ins_measured or self.state.ins_nominal:
-                self.show_inputs()
+                # no image now: the view being mounted asks for one at its own size
+                self.show_inputs(push=False)
 
     # -- point pairs ---------------------------------------------------------------------
     def _pair_markers(self) -> list[dict[str, Any]]:
@@ -1579,9 +1604,7 @@ class InspectPage:
             nominal_poly = None
             nominal_points = None
             if self.nominal is not None and hasattr(self.nominal, "faces"):
-                if self.view.nominal_poly is None:
-                    self.view.nominal_poly = self.nominal.to_pyvista()
-                nominal_poly = self.view.nominal_poly
+                nominal_poly = self.view.mesh_poly(self.nominal)
             elif self.nominal is not None:
                 nominal_points = self.nominal.points
             sec = section(s.ins_section_axis, float(s.ins_section_pos), self.deviations.points,
