@@ -125,6 +125,8 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             # the page: its own view shows both inputs
             page.locator('[data-testid="page-compare"]').click()
             page.wait_for_selector('[data-testid="inspect"]')
+            page.wait_for_function("() => document.querySelector('[data-testid=\"items\"]')"
+                                   ".getBoundingClientRect().right <= 0")  # the drawer belongs to Inspect
             assert "scan.ply" in page.locator('[data-testid="ins-measured"]').inner_text()
             assert "box.stl" in page.locator('[data-testid="ins-nominal"]').inner_text()
             view = page.locator('[data-testid="ins-view"]')
@@ -185,6 +187,17 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             assert hover.count() and "%" in hover.first.text_content()
             page.wait_for_selector('[data-testid="ins-section"] .scatterlayer .trace')
             page.screenshot(path=str(SHOTS / "inspect-4-result.png"))
+            # the section across x, then at a quarter of the slider
+            page.locator('[data-testid="ins-section-x"]').click()
+            page.wait_for_selector('[data-testid="ins-section"] .gtitle:has-text("Section x =")')
+            title = page.locator('[data-testid="ins-section"] .gtitle').text_content()
+            track = page.locator('[data-testid="ins-section-pos"] .v-slider-track').bounding_box()
+            page.mouse.click(track["x"] + 0.25 * track["width"], track["y"] + 0.5 * track["height"])
+            page.wait_for_function("t => { const e = document.querySelector('[data-testid=\"ins-section\"] .gtitle');"
+                                   " return e && e.textContent !== t; }", arg=title)
+            x = float(re.search(r"Section x = ([\d.]+) mm", page.locator(
+                '[data-testid="ins-section"] .gtitle').text_content()).group(1))
+            assert 5 < x < 15, x  # a quarter of the way along 0 … 40 mm
 
             # tolerance bands
             page.locator('[data-testid="ins-mode-bands"]').click()
@@ -219,6 +232,14 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             assert b"Inspection against the nominal" in page.request.get(
                 url.rstrip("/") + "/" + page.locator('[data-testid="ins-report-html"]').get_attribute("href")).body()
             page.screenshot(path=str(SHOTS / "inspect-7-report.png"))
+
+            # back on the Inspect page: its drawer and its own view again, the export among the items
+            page.locator('[data-testid="page-inspect"]').click()
+            page.wait_for_selector('[data-testid="view"]', state="visible")
+            page.wait_for_function("() => { const e = document.querySelector('[data-testid=\"items\"]');"
+                                   " return e && e.getBoundingClientRect().left >= 0; }")  # the drawer slid back
+            assert not page.locator('[data-testid="inspect"]').count()
+            page.wait_for_selector('[data-testid="item"]:has-text("tolerance bands.ply")')
         finally:
             browser.close()
     errors = [line for line in log if "camcmm GUI error" in line]

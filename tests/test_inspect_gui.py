@@ -119,6 +119,10 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     assert s.ins_unit == "µm" and s.ins_legend_title == "deviation [µm]"
     assert page.view.scalar_bar_title == "deviation [µm]" and s.ins_mode == "colour"
     assert "±10.0 µm" in s.ins_limit_text
+    bar = page.view.plotter.scalar_bars["deviation [µm]"]
+    labels = bar.GetCustomLabels()
+    assert bar.GetUseCustomLabels() and bar.GetLookupTable().GetRange() == (-10.0, 10.0)
+    assert [labels.GetValue(i) for i in range(labels.GetNumberOfTuples())] == [-10, -5, 0, 5, 10]
 
     # the statistics table = numpy on the deviations
     rows = {r["key"]: r["value"] for r in s.ins_stats}
@@ -349,6 +353,17 @@ def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
     assert got["which"] == "measured" and np.allclose(got["point"], prep.points[j])
     assert "nominal" in s.ins_pick_hint
     assert page.pick_display(2, 2) is None and "no point" in s.ins_pick_hint
+    # then the nominal mesh: the point of its surface under the click (the cloud in front is not in the way)
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    c = vtkCoordinate()
+    c.SetCoordinateSystemToWorld()
+    c.SetValue(20.0, 15.0, 20.0)
+    got = page.pick_display(*c.GetComputedDoubleDisplayValue(view.renderer))
+    assert got["which"] == "nominal"
+    assert abs(got["point"][2] - 20.0) < 1e-6 and np.linalg.norm(np.subtract(got["point"], [20, 15, 20])) < 0.5
+    assert len(s.ins_pairs) == 1 and s.ins_pairs[0]["complete"] and "pair 2" in s.ins_pick_hint
+    page.undo_pair_point()
     page.undo_pair_point()
     assert s.ins_pairs == []
     # three pairs: measured corners of the turned box and the CAD corners
@@ -438,6 +453,9 @@ def test_units_bands_and_picking_maths():
     assert ip.fmt_len(0.024, "µm", True) == "+24.0 µm" and ip.fmt_len(-0.033, "µm", True) == "\u221233.0 µm"
     assert ip.interval_text({"p2_5": -0.033, "p97_5": 0.024}, "µm") == "+24.0 µm / \u221233.0 µm"
     assert ip.fmt_len(float("nan"), "mm") == "—"
+    assert ip.nice_ticks(10.0) == [-10, -5, 0, 5, 10] and ip.nice_ticks(19.7) == [-15, -10, -5, 0, 5, 10, 15]
+    assert ip.nice_ticks(0.25) == [-0.2, -0.1, 0, 0.1, 0.2] and ip.nice_ticks(45) == [-40, -20, 0, 20, 40]
+    assert ip.nice_ticks(0.0) == [0.0]
     d = np.array([-0.2, -0.1, 0.0, 0.1, 0.2, np.nan])
     assert ip.band_codes(d, 0.1).tolist() == [-1, 0, 0, 0, 1, 2]
     assert ip.band_counts(d, 0.1) == {"below": 1, "within": 3, "above": 1, "invalid": 1}

@@ -131,6 +131,22 @@ def legend_title(unit: str) -> str:
     return f"deviation [{unit}]"
 
 
+def nice_ticks(limit: float, n: int = 5) -> list[float]:
+    """Round tick values on a symmetric scale ±limit, 0 among them, at least ``n`` of
+    them with the largest round step (1, 2, 2.5, 5 × 10^k): 19.7 gives −15 … 15 in steps
+    of 5, not −19.7, −9.83, 0 …"""
+    lim = abs(float(limit))
+    if not math.isfinite(lim) or lim == 0:
+        return [0.0]
+    e0 = math.floor(math.log10(lim))
+    steps = sorted((m * 10.0 ** e for e in range(e0 - 2, e0 + 1) for m in (1.0, 2.0, 2.5, 5.0)), reverse=True)
+    for step in steps:
+        k = math.floor(lim / step + 1e-9)
+        if 2 * k + 1 >= n:
+            return [round(i * step, 12) for i in range(-k, k + 1)]
+    return [0.0]
+
+
 # =============================================================================== bands
 def band_codes(dev: Any, tolerance: float) -> np.ndarray:
     """Per point: -1 below −tolerance, 0 within ±tolerance (inclusive, as the
@@ -676,7 +692,9 @@ class InspectView:
         self.legend_labels: list[str] = []
         self.note = ""
         self.on_update: Callable[[bool], None] | None = None
-        self._inputs: dict[str, Any] = {}     # "measured"/"nominal" -> (Prepared | None, mesh poly | None)
+        # inputs scene: "measured" (Prepared) of the cloud "measured_key", "nominal_cloud"
+        # (Prepared) of a reference cloud as the nominal
+        self._inputs: dict[str, Any] = {}
         self._actors: dict[str, Any] = {}
         self.dev: Prepared | None = None
         self.nominal_poly: Any = None  # pyvista mesh of the nominal mesh _nominal_src
@@ -731,7 +749,7 @@ class InspectView:
         """Points small enough that they hardly overlap in a view of the whole part:
         where they do, the ones standing out of the surface hide those below it and a
         dense map looks redder than it is."""
-        size = 1 if n > 250_000 else (2 if n > 60_000 else (3 if n > 15_000 else 5))
+        size = 1 if n > 250_000 else (2 if n > 100_000 else (3 if n > 40_000 else (4 if n > 10_000 else 5)))
         return {"style": "points", "point_size": size, "render_points_as_spheres": False}
 
     def mesh_poly(self, nominal: Any) -> Any:
@@ -815,9 +833,17 @@ class InspectView:
             bars = self.plotter.scalar_bars
             if self.scalar_bar_title in bars:
                 bar = bars[self.scalar_bar_title]
+                from vtkmodules.vtkCommonCore import vtkDoubleArray
+
                 from .view import _use_font
 
                 _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
+                ticks = vtkDoubleArray()
+                for t in nice_ticks(lim):
+                    ticks.InsertNextValue(t)
+                bar.SetCustomLabels(ticks)
+                bar.SetUseCustomLabels(True)
+                bar.SetLabelFormat("%g")
         n = prep.n_total
         self.note = (f"showing {fmt_count(prep.n_shown)} of {fmt_count(n)} points (random subset for display; "
                      "statistics use all)" if prep.n_shown < n else f"showing all {fmt_count(n)} points")
