@@ -174,7 +174,8 @@ def build_panel(page: Any) -> None:
                                    indeterminate=("ins_running && ins_progress <= 0",), height=18, rounded=True,
                                    color=("ins_running ? 'primary' : (ins_failed ? 'error' : 'success')",),
                                    classes="mt-2", raw_attrs=_tid("ins-progress")):
-                html.Span("{{ ins_progress_message }} {{ Math.round(ins_progress) }} %", classes="text-caption")
+                html.Span("{{ ins_progress_message }} {{ Math.round(ins_progress) }} %", classes="text-caption",
+                          raw_attrs=[':class="ins_failed && !ins_running ? \'text-white\' : \'\'"'])
 
             # -- the verdict of the alignment ---------------------------------------------------
             with v.VAlert(v_if="ins_has_result && ins_failed", type="error", variant="flat", prominent=True,
@@ -224,7 +225,7 @@ def build_panel(page: Any) -> None:
         # -- centre: the 3D view ---------------------------------------------------------------
         with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
             with html.Div(classes="d-flex align-center flex-wrap ga-2 px-3 py-1", style="min-height: 52px;"):
-                with v.VBtnToggle(model_value=("ins_mode",), mandatory=True, density="compact", variant="outlined",
+                with v.VBtnToggle(model_value=("ins_mode",), density="compact", variant="outlined",
                                   divided=True, color="primary", update_modelValue=(on_mode, "[$event]"),
                                   raw_attrs=_tid("ins-mode")):
                     v.VBtn("Colour map", value="colour", disabled=("!ins_has_result || ins_failed",),

@@ -1549,6 +1549,10 @@ class InspectPage:
     def set_mode(self, mode: str) -> None:
         """The view's mode: colour | bands | inputs."""
         s = self.state
+        if mode not in ("colour", "bands", "inputs"):  # the toggle's button pressed again
+            s.ins_mode = self.view.scene if self.view.scene != "empty" else "inputs"
+            s.dirty("ins_mode")
+            return
         if mode == "inputs":
             self.show_inputs(reset_camera=False)
             return
@@ -1669,7 +1673,7 @@ class InspectPage:
         self.state.ins_report_links = []
         self.state.ins_export_links = []
         self.session.refresh_results()
-        c = "" if not self.state.ins_failed else " — the alignment FAILED"
+        c = "" if not self.state.ins_failed else " (the alignment failed)"
         self.session.info(f"comparison stored as result #{saved['result']}{c}")
 
     def restore(self) -> bool:
