@@ -398,6 +398,23 @@ def _compose(T: np.ndarray, delta: np.ndarray, c: np.ndarray, scale: bool) -> np
     return D @ T
 
 
+def _residuals(nom: Nominal, x: np.ndarray, d_in: float) -> tuple[np.ndarray, np.ndarray]:
+    """Distances (mm) of aligned points to the nominal, and whether each lies on its rim.
+
+    Against a reference cloud the nearest point lies up to half a point spacing away
+    sideways, which would inflate rms, sigma and overlap for a correct alignment: there
+    the distance is taken along the reference normal (point to plane, as the ICP does)
+    where the nearest point is close; far points keep their full distance so that clouds
+    that do not overlap still fail.
+    """
+    q, qn, rim = nom.closest(x)
+    e = np.linalg.norm(x - q, axis=1)
+    if nom.mesh is None:
+        plane = np.abs(np.einsum("ij,ij->i", x - q, qn))
+        e = np.where(e <= 3.0 * d_in, plane, e)
+    return e, rim
+
+
 def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = None, scale: bool = False,
         max_distance: float | None = None, kernel: str = "tukey", kernel_k: float | None = None,
         region: Any = None, max_iterations: int = 100, tolerance: float = 1e-9, max_points: int = 50_000,
@@ -507,8 +524,7 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
     # final evaluation on all points (in the region)
     x = apply(T, P)
     use = _in_box(x, box)
-    q, _, rim = nom.closest(x[use])
-    e = np.linalg.norm(x[use] - q, axis=1)
+    e, rim = _residuals(nom, x[use], d_in)
     inl = (e <= d_in) & ~rim
     al.n_points = int(use.sum())
     al.n_inliers = int(inl.sum())
@@ -589,8 +605,7 @@ def _evaluate(P: np.ndarray, nom: Nominal, T: np.ndarray, method: str, stages: l
     box = args.get("region")
     x = apply(T, P)
     use = _in_box(x, None if box is None else np.asarray(box, dtype=float).ravel())
-    q, _, rim = nom.closest(x[use])
-    e = np.linalg.norm(x[use] - q, axis=1)
+    e, rim = _residuals(nom, x[use], d_in)
     inl = (e <= d_in) & ~rim
     return Alignment(T, True, method, reason="no fitting requested", rms=float(np.sqrt(np.mean(e[inl] ** 2))) if
                      inl.any() else float("nan"), rms_all=float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan"),
