@@ -11,12 +11,8 @@ from __future__ import annotations
 
 import io
 import os
-import queue
 import re
-import subprocess
-import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -40,44 +36,6 @@ from camcmm.model import PointCloud  # noqa: E402
 SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", tempfile.gettempdir()))
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-
-
-@pytest.fixture
-def gui_server(tmp_path):
-    """Start the GUI on a fresh project; yield its URL."""
-    env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-    proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(tmp_path / "proj"), "--port", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    lines: queue.Queue[str] = queue.Queue()
-    log: list[str] = []
-
-    def pump():
-        for line in proc.stdout:
-            log.append(line)
-            lines.put(line)
-
-    threading.Thread(target=pump, daemon=True).start()
-    url, deadline = None, time.monotonic() + 60
-    while url is None and time.monotonic() < deadline:
-        try:
-            line = lines.get(timeout=0.5)
-        except queue.Empty:
-            if proc.poll() is not None:
-                break
-            continue
-        m = re.search(r"camcmm GUI: (http://\S+)", line)
-        if m:
-            url = m.group(1)
-    if url is None:
-        proc.kill()
-        pytest.fail("GUI server did not print its URL:\n" + "".join(log[-40:]))
-    yield url, log
-    proc.terminate()
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
 
 
 def coloured_pixels(png: bytes) -> int:
