@@ -27,14 +27,13 @@ from __future__ import annotations
 import argparse
 import io
 import os
-import queue
-import re
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
+
+from camcmm.errors import CamcmmError
+from camcmm.gui.process import GuiProcess
 
 import numpy as np
 
@@ -99,42 +98,11 @@ def make_project(folder: Path, n: int) -> Path:
     return proj
 
 
-class Server:
-    def __init__(self, project: Path):
-        env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-        self.log: list[str] = []
-        lines: queue.Queue[str] = queue.Queue()
-
-        def pump():
-            for line in self.proc.stdout:
-                self.log.append(line)
-                lines.put(line)
-
-        threading.Thread(target=pump, daemon=True).start()
-        self.url, deadline = None, time.monotonic() + 120
-        while self.url is None and time.monotonic() < deadline:
-            try:
-                m = re.search(r"camcmm GUI: (http://\S+)", lines.get(timeout=0.5))
-            except queue.Empty:
-                if self.proc.poll() is not None:
-                    break
-                continue
-            if m:
-                self.url = m.group(1)
-        if self.url is None:
-            self.stop()
-            raise SystemExit("the GUI server did not start:\n" + "".join(self.log[-30:]))
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+def Server(project: Path) -> GuiProcess:
+    try:
+        return GuiProcess(project, timeout=120)
+    except CamcmmError as exc:
+        raise SystemExit(str(exc)) from None
 
 
 def pixels(png: bytes) -> tuple[int, int]:

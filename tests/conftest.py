@@ -3,12 +3,6 @@
 from __future__ import annotations
 
 import os
-import queue
-import re
-import subprocess
-import sys
-import threading
-import time
 from pathlib import Path
 
 import pytest
@@ -29,37 +23,13 @@ def shared_data():
 
 @pytest.fixture
 def gui_server(tmp_path):
-    """Start the GUI on a fresh project; yield its URL."""
-    env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-    proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(tmp_path / "proj"), "--port", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-    lines: queue.Queue[str] = queue.Queue()
-    log: list[str] = []
+    """Start the GUI on a fresh project; yield its URL and its output lines."""
+    from camcmm.errors import CamcmmError
+    from camcmm.gui.process import GuiProcess
 
-    def pump():
-        for line in proc.stdout:
-            log.append(line)
-            lines.put(line)
-
-    threading.Thread(target=pump, daemon=True).start()
-    url, deadline = None, time.monotonic() + 60
-    while url is None and time.monotonic() < deadline:
-        try:
-            line = lines.get(timeout=0.5)
-        except queue.Empty:
-            if proc.poll() is not None:
-                break
-            continue
-        m = re.search(r"camcmm GUI: (http://\S+)", line)
-        if m:
-            url = m.group(1)
-    if url is None:
-        proc.kill()
-        pytest.fail("GUI server did not print its URL:\n" + "".join(log[-40:]))
-    yield url, log
-    proc.terminate()
     try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
+        server = GuiProcess(tmp_path / "proj")
+    except CamcmmError as exc:
+        pytest.fail(str(exc))
+    yield server.url, server.log
+    server.stop()

@@ -12,14 +12,13 @@ Report button and the report's links. Screenshots go to ``$CAMCMM_SCREENSHOTS``
 from __future__ import annotations
 
 import os
-import queue
-import re
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
+
+from camcmm.errors import CamcmmError
+from camcmm.gui.process import GuiProcess
 
 import pytest
 
@@ -53,50 +52,14 @@ def _standard():
         return None
 
 
-class Server:
-    """``python -m camcmm.gui PROJECT --port 0`` in a subprocess."""
+class Server(GuiProcess):
+    """The GUI in a subprocess; a failed start fails the test."""
 
     def __init__(self, project: Path):
-        env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
-        self.log: list[str] = []
-        lines: queue.Queue[str] = queue.Queue()
-
-        def pump():
-            for line in self.proc.stdout:
-                self.log.append(line)
-                lines.put(line)
-
-        threading.Thread(target=pump, daemon=True).start()
-        self.url, deadline = None, time.monotonic() + 60
-        while self.url is None and time.monotonic() < deadline:
-            try:
-                line = lines.get(timeout=0.5)
-            except queue.Empty:
-                if self.proc.poll() is not None:
-                    break
-                continue
-            m = re.search(r"camcmm GUI: (http://\S+)", line)
-            if m:
-                self.url = m.group(1)
-        if self.url is None:
-            self.proc.kill()
-            pytest.fail("GUI server did not print its URL:\n" + "".join(self.log[-40:]))
-
-    def kill(self) -> None:
-        """SIGKILL: no shutdown handler runs, as in a crash or a pulled plug."""
-        self.proc.kill()
-        self.proc.wait(timeout=10)
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        try:
+            super().__init__(project)
+        except CamcmmError as exc:
+            pytest.fail(str(exc))
 
 
 def _card(page, pos: str):
