@@ -1,0 +1,1 @@
+"""devices plugins (skeleton; filled in by its issue)."""

@@ -1,0 +1,1 @@
+"""fringe plugins (skeleton; filled in by its issue)."""
