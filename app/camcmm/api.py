@@ -11,7 +11,7 @@ from typing import Any, Callable
 from .conformity import combine, guarded_verdict, simple_verdict
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import RunContext, RunResult, default_host
-from .io import read, write
+from .io import read, read_calibration, write, write_calibration
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
 from .project.select import project_values
@@ -31,5 +31,6 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
 __all__ = [
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
     "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
-    "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "simple_verdict", "to_mm_factor", "write",
+    "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
+    "simple_verdict", "to_mm_factor", "write", "write_calibration",
 ]

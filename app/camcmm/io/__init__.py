@@ -4,6 +4,8 @@
     write(obj, path, binary=True, unit="mm")
     info(path, unit=None)  -> dict, JSON-able summary
     FORMATS                -> extension -> what it holds and what camcmm does with it
+    read_calibration(path) -> dict; write_calibration(path, cal)  (camera calibrations,
+                              OpenCV YAML or JSON; see camcmm.io.calibration)
 
 The format follows the extension (any case). Lengths always come back in mm; the
 object's ``source_unit`` records the unit of the file: the ``unit`` argument if given,
@@ -28,6 +30,7 @@ from ..errors import CamcmmError, InputError
 from ..model import Image, PointCloud, TriangleMesh
 from ..units import to_mm_factor
 from ._common import Raw, atomic_path, canonical_unit
+from .calibration import read_calibration, write_calibration
 
 _CLOUD, _MESH, _IMAGE = "pointcloud", "mesh", "image"
 
@@ -214,4 +217,4 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["FORMATS", "info", "read", "write"]
+__all__ = ["FORMATS", "info", "read", "read_calibration", "write", "write_calibration"]
