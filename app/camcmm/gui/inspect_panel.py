@@ -52,6 +52,7 @@ import numpy as np
 from ..errors import CamcmmError, InputError
 from ..host import RunResult, to_jsonable
 from ..params import form_schema, validate
+from .downloads import REPORT_TITLES, Downloads, safe_file_name, sort_links
 from .view import display_index, fmt_count
 
 log = logging.getLogger("camcmm.gui.inspect")
@@ -969,8 +970,7 @@ def _one_line(exc: BaseException | str) -> str:
 
 
 def _safe_file_name(name: str) -> str:
-    base = re.sub(r"[^\w.\-+() ]", "_", str(name)).strip() or "inspection"
-    return base[:80]
+    return safe_file_name(name, "inspection")
 
 
 class InspectPage:
@@ -984,9 +984,8 @@ class InspectPage:
         self.host = session.host
         limit = display_limit or getattr(getattr(session, "view", None), "display_limit", None) or 500_000
         self.view = InspectView(int(limit))
-        self.downloads = Path(downloads) if downloads else Path(tempfile.mkdtemp(prefix="camcmm-inspect-"))
-        self.downloads.mkdir(parents=True, exist_ok=True)
-        self.download_route = DOWNLOAD_ROUTE
+        self.offered = Downloads(DOWNLOAD_ROUTE, "camcmm-inspect-", downloads)
+        self.downloads, self.download_route = self.offered.folder, self.offered.route
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-inspect")
         self._cancel: threading.Event | None = None
         self._last_progress = 0.0
@@ -1800,8 +1799,7 @@ class InspectPage:
         if self.saved:
             self.saved["export"] = h
             self._save_state()
-        self.state.ins_export_links = [{"kind": "ply", "name": path.name, "url": f"{self.download_route}/{path.name}",
-                                        "title": f"Download {path.name}"}]
+        self.state.ins_export_links = [self.offered.offer(path.name, path, kind="ply")]
         self.session.info(f"exported {path.name} ({fmt_count(cloud.n_points)} points, field deviation in mm); "
                           "added to the project")
         return {"path": str(path), "hash": h, "item": key}
@@ -1868,7 +1866,6 @@ class InspectPage:
 
     def _links(self, files: dict[str, str], what: str) -> list[dict[str, str]]:
         out = []
-        titles = {"html": "Open report (HTML)", "pdf": "Download PDF", "json": "Download JSON"}
         for name, h in files.items():
             kind = name.removeprefix("report_")
             try:
@@ -1876,19 +1873,14 @@ class InspectPage:
             except CamcmmError as exc:
                 log.warning("%s file %s: %s", what, name, exc)
                 continue
-            fname = (f"inspection-{self.result_id}.{kind}" if what == "report" else
-                     _safe_file_name(self._export_name(h)))
-            dest = self.downloads / fname
-            try:
-                if not dest.exists():
-                    shutil.copyfile(src, dest)
-            except OSError as exc:
-                log.warning("cannot offer %s for download: %s", src, exc)
-                continue
-            out.append({"kind": kind, "name": fname, "url": f"{self.download_route}/{fname}",
-                        "title": titles.get(kind, f"Download {fname}") if what == "report" else f"Download {fname}"})
-        order = {"html": 0, "pdf": 1, "json": 2}
-        return sorted(out, key=lambda x: order.get(x["kind"], 9))
+            if what == "report":
+                link = self.offered.offer(f"inspection-{self.result_id}.{kind}", src, kind=kind,
+                                          title=REPORT_TITLES.get(kind))
+            else:
+                link = self.offered.offer(self._export_name(h), src, kind=kind)
+            if link:
+                out.append(link)
+        return sort_links(out)
 
     def _export_name(self, h: str) -> str:
         try:
@@ -1947,7 +1939,7 @@ class InspectPage:
         if self._cancel is not None:
             self._cancel.set()
         self._executor.shutdown(wait=False, cancel_futures=True)
-        shutil.rmtree(self.downloads, ignore_errors=True)
+        self.offered.close()
         try:
             self.view.plotter.close()
         except Exception:
@@ -1958,7 +1950,7 @@ def mount(server: Any, session: Any, display_limit: int | None = None) -> Inspec
     """Create the page for a session, serve its downloads folder and follow the
     project's items (call before the server starts)."""
     page = InspectPage(session, display_limit=display_limit)
-    server.enable_module({"serve": {page.download_route: str(page.downloads)}})
+    page.offered.mount(server)
 
     @server.state.change("items")
     def _items_changed(**_):

@@ -5,12 +5,11 @@
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from ..downloads import REPORT_TITLES, Downloads, sort_links
 from .core import Wizard
 from .page_actions import PageActions
 from .page_setup import PageSetup
@@ -24,9 +23,8 @@ class WizardPage(PageSetup, PageActions):
         self.session = session
         self.state = session.state
         self.wizard = wizard if wizard is not None else Wizard(session.project, session.host)
-        self.downloads = Path(downloads) if downloads else Path(tempfile.mkdtemp(prefix="camcmm-downloads-"))
-        self.downloads.mkdir(parents=True, exist_ok=True)
-        self.download_route = "camcmm-downloads"
+        self.offered = Downloads("camcmm-downloads", "camcmm-downloads-", downloads)
+        self.downloads, self.download_route = self.offered.folder, self.offered.route
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-wizard")
         self._busy: set[str] = set()
         self.last_card: dict[str, Any] | None = None
@@ -145,30 +143,19 @@ class WizardPage(PageSetup, PageActions):
 
     def _links(self) -> list[dict[str, str]]:
         rid = (self.wizard.state or {}).get("summary_result")
-        out = []
-        for kind, path in self.wizard.report_paths().items():
-            name = f"acceptance-test-{rid}.{kind}"
-            dest = self.downloads / name
-            try:
-                if not dest.exists():
-                    shutil.copyfile(path, dest)
-            except OSError as exc:
-                log.warning("cannot offer %s for download: %s", path, exc)
-                continue
-            out.append({"kind": kind, "name": name, "url": f"{self.download_route}/{name}",
-                        "title": {"html": "Open report (HTML)", "pdf": "Download PDF", "json": "Download JSON"}
-                        .get(kind, kind)})
-        order = {"html": 0, "pdf": 1, "json": 2}
-        return sorted(out, key=lambda x: order.get(x["kind"], 9))
+        links = (self.offered.offer(f"acceptance-test-{rid}.{kind}", path, kind=kind,
+                                    title=REPORT_TITLES.get(kind, kind))
+                 for kind, path in self.wizard.report_paths().items())
+        return sort_links(l for l in links if l)
 
     def close(self) -> None:
         self._executor.shutdown(wait=False, cancel_futures=True)
-        shutil.rmtree(self.downloads, ignore_errors=True)
+        self.offered.close()
 
 
 def mount(server: Any, session: Any) -> WizardPage:
     """Create the page for a session and serve its downloads folder (call before the
     server starts)."""
     page = WizardPage(session)
-    server.enable_module({"serve": {page.download_route: str(page.downloads)}})
+    page.offered.mount(server)
     return page
