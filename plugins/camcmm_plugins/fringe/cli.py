@@ -1,0 +1,99 @@
+"""``camcmm fringe patterns|reconstruct``
+
+* ``patterns SEQUENCE.yaml --out DIR``: writes the sequence's frames as PNG files at the
+  projector's resolution. JSON keys ``n_frames, projector_size, out, files, frames``.
+* ``reconstruct SEQUENCE.yaml --images DIR [--images2 DIR] --calibration CAL.yaml
+  [--json] [--out cloud.ply]``: decodes the captures (image files of DIR in natural sort
+  order, one per frame) and triangulates. JSON keys ``n_points, valid_fraction, bbox``
+  (+ ``method, warnings, out``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+from typing import Any
+
+from camcmm.api import InputError
+
+IMAGE_EXTS = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm")
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="what", required=True, metavar="{patterns,reconstruct}")
+    p = sub.add_parser("patterns", help="write a sequence's projector frames as PNG files")
+    p.add_argument("sequence", help="sequence file (YAML), see docs/fringe.md")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for pat00.png ...")
+    r = sub.add_parser("reconstruct", help="decode captured frames and triangulate a point cloud")
+    r.add_argument("sequence", help="sequence file (YAML) the captures follow")
+    r.add_argument("--images", required=True, metavar="DIR", help="camera 1's captures, one file per frame")
+    r.add_argument("--images2", metavar="DIR", help="camera 2's captures (camera-camera matching)")
+    r.add_argument("--calibration", required=True, metavar="CAL",
+                   help="calibration file (.yaml/.xml/.json) or a CalibrationDataDistortion-style folder")
+    r.add_argument("--out", metavar="cloud.ply", help="write the point cloud here")
+    r.add_argument("--method", choices=("auto", "projector", "stereo"), default="auto")
+    r.add_argument("--black-threshold", type=float, default=0.0, metavar="GREY")
+    r.add_argument("--modulation-threshold", type=float, default=0.0, metavar="GREY")
+    r.add_argument("--white-threshold", type=float, default=0.0, metavar="GREY")
+    r.add_argument("--saturation", type=float, default=0.0, metavar="GREY")
+    for sp in (p, r):
+        sp.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
+                        help="print one JSON document on stdout")
+
+
+def image_files(folder: str | Path) -> list[Path]:
+    """Image files of a folder in natural order (pat2 before pat10)."""
+    d = Path(folder)
+    if not d.is_dir():
+        raise InputError(f"{d}: not a folder of images")
+    files = [p for p in d.iterdir() if p.suffix.lower() in IMAGE_EXTS and p.is_file()]
+    if not files:
+        raise InputError(f"{d}: no image files ({', '.join(IMAGE_EXTS)})")
+
+    def key(p: Path):
+        return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", p.name)]
+
+    return sorted(files, key=key)
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    from .sequence import load_sequence
+
+    seq = load_sequence(args.sequence)
+    if args.what == "patterns":
+        from .patterns import save_patterns
+
+        files = save_patterns(seq, args.out)
+        return {"n_frames": seq.n_frames, "projector_size": list(seq.projector_size), "out": str(args.out),
+                "files": [str(f) for f in files], "frames": seq.describe()}
+    from camcmm.api import get_algorithm, write
+
+    files = image_files(args.images)
+    files2 = image_files(args.images2) if args.images2 else None
+    cal = args.calibration
+    res = get_algorithm("fringe.reconstruct")(
+        sequence=seq, images=[str(f) for f in files], images2=[str(f) for f in files2] if files2 else None,
+        calibration=str(cal), method=args.method, black_threshold=args.black_threshold,
+        modulation_threshold=args.modulation_threshold, white_threshold=args.white_threshold,
+        saturation=args.saturation)
+    out = {"n_points": res["n_points"], "valid_fraction": res["valid_fraction"], "bbox": res["bbox"],
+           "method": res.get("method", "")}
+    if args.out:
+        write(res["cloud"], args.out)
+        out["out"] = str(args.out)
+    return out
+
+
+def text(result: dict[str, Any]) -> str:
+    if "n_frames" in result:
+        w, h = result["projector_size"]
+        return f"{result['n_frames']} frames of {w}x{h} px written to {result['out']}"
+    bb = result["bbox"]
+    s = (f"{result['n_points']} points ({100 * result['valid_fraction']:.1f} % of the pixels valid, "
+         f"{result.get('method', '')})")
+    if bb:
+        s += "\n  bbox mm: " + " .. ".join("(" + ", ".join(f"{x:.3f}" for x in c) + ")" for c in bb)
+    if result.get("out"):
+        s += f"\n  written to {result['out']}"
+    return s
