@@ -77,6 +77,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from . import inspect_layout, inspect_panel  # [inspection] the "Compare with CAD" page
 
     inspect_page = inspect_panel.mount(server, session, display_limit)  # [inspection]
+    from . import uncertainty_layout, uncertainty_page  # [uncertainty] the "Uncertainty" page
+
+    uncertainty = uncertainty_page.mount(server, session)  # [uncertainty]
     state.trame__title = f"camcmm — {state.project_name}"
 
     # -- handlers (thin: all logic is in the session) ---------------------------------
@@ -140,6 +143,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                       raw_attrs=_tid("project-name"), title=("project_path",))
             wizard_layout.page_switch(v)  # [wizard] Inspect | Acceptance test
             inspect_layout.page_switch(v, layout.toolbar)  # [inspection] ... | Compare with CAD
+            uncertainty_layout.page_switch(v, layout.toolbar)  # [uncertainty] ... | Uncertainty
             v.VSpacer()
             v.VFileInput(
                 v_model=("upload", None),
@@ -335,7 +339,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             layout.content.classes = "d-flex"  # [wizard] the wizard's panel beside the 3D view
             wizard_layout.build_panel(wizard_page, _accept())  # [wizard]
             inspect_layout.build_panel(inspect_page)  # [inspection] its own view, charts and panel
-            with html.Div(classes=("page === 'compare' ? 'd-none' : 'd-flex flex-column'",),  # [inspection] hidden
+            uncertainty_layout.build_panel(uncertainty)  # [uncertainty]
+            with html.Div(classes=("['compare', 'uncertainty'].includes(page) ? 'd-none' : 'd-flex flex-column'",),
                           style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
                 with html.Div(classes="d-flex align-center ga-3 px-3 py-1", style="min-height: 52px;"):
                     v.VSelect(
@@ -405,6 +410,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     server.session = session  # for scripts and tests
     server.wizard = wizard_page  # [wizard]
     server.inspect = inspect_page  # [inspection]
+    server.uncertainty = uncertainty  # [uncertainty]
     return server, session
 
 
@@ -436,8 +442,9 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
         session.close()
     if getattr(server, "wizard", None) is not None:  # [wizard]
         server.wizard.close()
-    if getattr(server, "inspect", None) is not None:  # [inspection]
-        server.inspect.close()
+    for page in ("inspect", "uncertainty"):
+        if getattr(server, page, None) is not None:
+            getattr(server, page).close()
 
 
 def main(argv: list[str] | None = None) -> int:

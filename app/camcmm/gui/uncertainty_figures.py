@@ -1,0 +1,188 @@
+"""Charts of the Uncertainty page as plain plotly JSON, and the same charts as PNG.
+
+Plain dicts, not ``plotly.graph_objects``: the trame-plotly component binds to JSON,
+and the PNG export draws the very same dict with matplotlib (already a dependency
+for reports; plotly's own static export needs Kaleido and a browser), so what the
+operator sees and what they download cannot drift apart.
+
+Inputs are the outputs of ``uncertainty.budget`` and ``uncertainty.montecarlo``
+(see ``camcmm_plugins.uncertainty``); values in the result's unit (µm by default).
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any, Sequence
+
+import numpy as np
+
+AXES = ("x", "y", "z")
+AXIS_COLOURS = {"x": "#1f77b4", "y": "#2ca02c", "z": "#d62728"}
+FACTOR_TITLES = {
+    "feature_location": "feature location", "focal_length": "focal length",
+    "principal_point": "principal point", "radial_distortion": "radial distortion",
+    "tangential_distortion": "tangential distortion", "rotation": "rotation (camera 2)",
+    "translation": "translation (camera 2)", "joint": "all factors at once",
+}
+PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f")
+
+
+def shown_unit(unit: str | None) -> str:
+    """Units as files write them (``um``) and as people read them (``µm``)."""
+    return "µm" if unit == "um" else (unit or "")
+
+
+def factor_title(name: str) -> str:
+    return FACTOR_TITLES.get(name, name.replace("_", " "))
+
+
+def _layout(title: str, xtitle: str, ytitle: str, legend: bool = True, **extra: Any) -> dict[str, Any]:
+    lay = {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
+           "margin": {"l": 60, "r": 14, "t": 36, "b": 46},
+           "xaxis": {"title": {"text": xtitle}, "zeroline": False, "automargin": True},
+           "yaxis": {"title": {"text": ytitle}, "zeroline": False, "rangemode": "tozero", "automargin": True},
+           "showlegend": legend, "legend": {"orientation": "h", "y": -0.25},
+           "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
+           "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}}
+    lay.update(extra)
+    return lay
+
+
+def empty(text: str) -> dict[str, Any]:
+    lay = _layout("", "", "", legend=False)
+    lay["xaxis"] = {"visible": False}
+    lay["yaxis"] = {"visible": False}
+    lay["annotations"] = [{"text": text, "showarrow": False, "font": {"size": 12, "color": "#777"},
+                           "xref": "paper", "yref": "paper", "x": 0.5, "y": 0.5}]
+    return {"data": [], "layout": lay}
+
+
+def budget_figure(result: dict[str, Any]) -> dict[str, Any]:
+    """Horizontal bars: each contribution |c·u| with its share of u_c² in the label."""
+    rows = list(result.get("contributions") or [])
+    unit = shown_unit(result.get("unit"))
+    if not rows:
+        return empty("the budget's contributions appear here")
+    names = [str(r.get("name")) for r in rows][::-1]
+    values = [abs(float(r.get("contribution", 0.0))) for r in rows][::-1]
+    shares = [100.0 * float(r.get("share", 0.0)) for r in rows][::-1]
+    bar = {"type": "bar", "orientation": "h", "y": names, "x": values, "marker": {"color": "#1f77b4"},
+           "text": [f"{s:.1f} %" for s in shares], "textposition": "auto",
+           "hovertemplate": "%{y}<br>|c·u| = %{x:.4g} " + unit + "<br>share %{text}<extra></extra>"}
+    return {"data": [bar], "layout": _layout(f"Contributions to u_c ({unit})", f"|c·u| / {unit}", "", legend=False,
+                                             yaxis={"automargin": True})}
+
+
+def contributions_figure(mc: dict[str, Any]) -> dict[str, Any]:
+    """Grouped bars per influence factor in x, y and z (the form of thesis table 3.2)."""
+    contrib = mc.get("contributions") or {}
+    unit = shown_unit(mc.get("unit", "um"))
+    if not contrib:
+        return empty("run the Monte Carlo simulation to see the contributions")
+    names = [factor_title(f) for f in contrib]
+    data = [{"type": "bar", "name": a, "x": names, "y": [float(v[i]) for v in contrib.values()],
+             "marker": {"color": AXIS_COLOURS[a]},
+             "hovertemplate": "%{x}<br>u_" + a + " = %{y:.3g} " + unit + "<extra></extra>"}
+            for i, a in enumerate(AXES)]
+    comb = mc.get("combined") or [0, 0, 0]
+    title = "Contributions per factor; combined " + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb)) + f" {unit}"
+    return {"data": data, "layout": _layout(title, "influence factor", f"standard uncertainty / {unit}", barmode="group")}
+
+
+def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict[str, Any]:
+    """Thesis fig. 3.3: each factor's running standard uncertainty against the number
+    of iterations, on one axis."""
+    if not conv:
+        return empty("tick 'convergence' under Studies and run to see the convergence")
+    i = AXES.index(axis)
+    unit = shown_unit(unit)
+    data = []
+    for j, (f, c) in enumerate(conv.items()):
+        u = np.asarray(c["u"], float).reshape(-1, 3)
+        data.append({"type": "scatter", "mode": "lines", "name": factor_title(f),
+                     "x": np.asarray(c["iterations"]).tolist(), "y": u[:, i].tolist(),
+                     "line": {"color": PALETTE[j % len(PALETTE)], "width": 1.6},
+                     "hovertemplate": factor_title(f) + "<br>N = %{x}<br>u = %{y:.4g} " + unit + "<extra></extra>"})
+    lay = _layout(f"Convergence in {axis}", "iterations", f"u_{axis} / {unit}")
+    lay["xaxis"]["type"] = "log"
+    return {"data": data, "layout": lay}
+
+
+def sweep_figure(sweep: dict[str, Any], unit: str) -> dict[str, Any]:
+    """Thesis fig. 3.4: the feature-location contribution for sigma 0..1 px."""
+    if not sweep:
+        return empty("tick 'sweep' under Studies and run to see the feature-location sweep")
+    s = np.asarray(sweep["sigma_px"], float)
+    u = np.asarray(sweep["u"], float).reshape(-1, 3)
+    unit = shown_unit(unit)
+    data = [{"type": "scatter", "mode": "lines+markers", "name": a, "x": s.tolist(), "y": u[:, i].tolist(),
+             "line": {"color": AXIS_COLOURS[a]}} for i, a in enumerate(AXES)]
+    return {"data": data, "layout": _layout("Feature-location sweep", "σ of the feature location / px",
+                                            f"standard uncertainty / {unit}")}
+
+
+def spatial_figure(spatial: dict[str, Any], unit: str) -> dict[str, Any]:
+    """Thesis fig. 3.9: per-point standard deviation along a line through the volume."""
+    if not spatial:
+        return empty("tick 'spatial' under Studies and run to see the variation along an axis")
+    pos = np.asarray(spatial["position"], float)
+    std = np.asarray(spatial["std"], float).reshape(-1, 3)
+    unit = shown_unit(unit)
+    data = [{"type": "scatter", "mode": "lines+markers", "name": a, "x": pos.tolist(), "y": std[:, i].tolist(),
+             "line": {"color": AXIS_COLOURS[a]}} for i, a in enumerate(AXES)]
+    return {"data": data, "layout": _layout(f"Spatial variation along {spatial.get('axis', 'x')} (all factors)",
+                                            f"{spatial.get('axis', 'x')} / mm", f"standard deviation / {unit}")}
+
+
+def figure_png(fig: dict[str, Any], width_px: int = 900, height_px: int = 520) -> bytes:
+    """The plotly dict drawn with matplotlib (bars, grouped bars, lines) as PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    dpi = 100
+    f = Figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
+    ax = f.add_subplot(111)
+    lay = fig.get("layout", {})
+    traces = fig.get("data", [])
+    bars = [t for t in traces if t.get("type") == "bar"]
+    if bars and bars[0].get("orientation") == "h":
+        t = bars[0]
+        ax.barh(t["y"], t["x"], color=t.get("marker", {}).get("color", "#1f77b4"))
+    elif bars:
+        labels = list(bars[0]["x"])
+        w = 0.8 / len(bars)
+        x = np.arange(len(labels))
+        for k, t in enumerate(bars):
+            ax.bar(x + (k - (len(bars) - 1) / 2) * w, t["y"], w, label=t.get("name"),
+                   color=t.get("marker", {}).get("color"))
+        ax.set_xticks(x, labels, rotation=20, ha="right")
+    for t in traces:
+        if t.get("type") == "scatter":
+            ax.plot(t["x"], t["y"], marker="o" if "markers" in t.get("mode", "") else None, ms=3,
+                    label=t.get("name"), color=(t.get("line") or {}).get("color"))
+    if lay.get("xaxis", {}).get("type") == "log":
+        ax.set_xscale("log")
+    ax.set_title(lay.get("title", {}).get("text", ""), loc="left", fontsize=10)
+    ax.set_xlabel(lay.get("xaxis", {}).get("title", {}).get("text", ""))
+    ax.set_ylabel(lay.get("yaxis", {}).get("title", {}).get("text", ""))
+    ax.grid(True, alpha=0.3)
+    if lay.get("showlegend", False) and len(traces) > 1:
+        ax.legend(fontsize=8)
+    f.tight_layout()
+    buf = io.BytesIO()
+    f.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def table_csv(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> bytes:
+    """A small CSV (comma, dot decimal) for the export of tables."""
+    import csv
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for r in rows:
+        w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in r])
+    return buf.getvalue().encode("utf-8")

@@ -1,0 +1,126 @@
+"""The Uncertainty page's 3D scene: the measuring volume's grid of points with the
+distortion a systematic offset causes (thesis figs. 3.5-3.8) as arrows, or each
+point's standard uncertainty (per factor, from the Monte Carlo run) as colour.
+
+One off-screen pyvista plotter rendered server-side; the page pushes one image per
+scene change. Loop thread only.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from .uncertainty_figures import factor_title, shown_unit
+
+
+def map_options(result: dict[str, Any] | None) -> list[dict[str, str]]:
+    """What the view can show for a Monte Carlo result: ``distortion:<factor>`` for
+    each volume map and ``uncertainty:<factor>`` for each per-point standard deviation."""
+    if not result:
+        return []
+    out = []
+    vm = ((result.get("studies") or {}).get("volume_maps") or {}).get("factors") or {}
+    for f in vm:
+        out.append({"title": f"Distortion of the volume: +1 u of {factor_title(f)}", "value": f"distortion:{f}"})
+    for f in (result.get("per_point") or {}):
+        if f != "points":
+            out.append({"title": f"Uncertainty per point: {factor_title(f)}", "value": f"uncertainty:{f}"})
+    return out
+
+
+def scene_arrays(result: dict[str, Any], choice: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]:
+    """(points (P, 3) mm, magnitude (P,), vectors (P, 3) or None, what) for ``choice``.
+
+    Distortion: the error field in the result's unit (centroid removed), magnitude its
+    length. Uncertainty: the per-point standard deviations, magnitude their root sum of
+    squares over x, y, z."""
+    kind, _, factor = str(choice).partition(":")
+    if kind == "distortion":
+        vm = result["studies"]["volume_maps"]
+        pts = np.asarray(vm["points"], float).reshape(-1, 3)
+        e = np.asarray(vm["factors"][factor]["errors"], float).reshape(-1, 3)
+        return pts, np.linalg.norm(e, axis=1), e, f"|error| ({factor_title(factor)})"
+    if kind == "uncertainty":
+        pp = result["per_point"]
+        pts = np.asarray(pp["points"], float).reshape(-1, 3)
+        s = np.asarray(pp[factor], float).reshape(-1, 3)
+        return pts, np.sqrt((s ** 2).sum(axis=1)), None, f"u ({factor_title(factor)})"
+    raise ValueError(f"unknown map {choice!r}")
+
+
+class UncertaintyView:
+    def __init__(self, window_size: tuple[int, int] = (800, 600)):
+        from . import setup_offscreen
+
+        setup_offscreen()
+        import pyvista as pv
+
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background("#f4f5f7", top="#ffffff")
+        self.plotter.show_axes()
+        self.on_update: Callable[[bool], None] | None = None
+        self.shown = ""
+        self.note = ""
+        self.scale = 0.0
+
+    def clear(self) -> None:
+        self.plotter.clear_actors()
+        for title in list(self.plotter.scalar_bars.keys()):
+            self.plotter.remove_scalar_bar(title)
+        self.shown, self.note, self.scale = "", "", 0.0
+        if self.on_update is not None:
+            self.on_update(False)
+
+    def show(self, result: dict[str, Any], choice: str, unit: str) -> str:
+        """Draw ``choice`` (see :func:`map_options`); returns a one-line note for the page."""
+        import pyvista as pv
+
+        pts, mag, vec, what = scene_arrays(result, choice)
+        unit = shown_unit(unit)
+        self.plotter.clear_actors()
+        for title in list(self.plotter.scalar_bars.keys()):
+            self.plotter.remove_scalar_bar(title)
+        title = f"{what} / {unit}"
+        cloud = pv.PolyData(pts)
+        cloud[title] = mag
+        bar = {"title": title, "vertical": True, "position_x": 0.86, "position_y": 0.1, "height": 0.8,
+               "title_font_size": 12, "label_font_size": 11, "fmt": "%.3g"}
+        extent = float(np.ptp(pts, axis=0).max()) or 1.0
+        if vec is not None:
+            # The errors are micrometres in a volume of tens of millimetres: draw them
+            # magnified so that the longest arrow is a tenth of the volume, and say so.
+            longest = float(mag.max()) or 1.0
+            factor = 0.1 * extent / longest
+            cloud["vectors"] = vec
+            glyphs = cloud.glyph(orient="vectors", scale=title, factor=factor,
+                                 geom=pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04))
+            self.plotter.add_mesh(glyphs, scalars=title, cmap="viridis", scalar_bar_args=bar)
+            self.plotter.add_mesh(cloud, color="#444444", point_size=3, render_points_as_spheres=True,
+                                  show_scalar_bar=False)
+            self.scale = factor
+            magnified = factor / {"mm": 1.0, "µm": 1e-3, "nm": 1e-6}.get(unit, 1.0)
+            self.note = (f"arrows magnified {magnified:,.0f}× (longest {longest:.3g} {unit}); "
+                         f"{len(pts)} grid points")
+        else:
+            self.plotter.add_mesh(cloud, scalars=title, cmap="viridis", point_size=12,
+                                  render_points_as_spheres=True, scalar_bar_args=bar)
+            self.scale = 0.0
+            self.note = (f"{len(pts)} grid points; u from {float(mag.min()):.3g} to {float(mag.max()):.3g} {unit}")
+        self.shown = choice
+        self.plotter.camera_position = "iso"
+        self.plotter.reset_camera()
+        if self.on_update is not None:
+            self.on_update(True)
+        return self.note
+
+    def screenshot(self) -> np.ndarray:
+        return self.plotter.screenshot(return_img=True)
+
+    def close(self) -> None:
+        try:
+            self.plotter.close()
+        except Exception:
+            pass
+

@@ -1,0 +1,101 @@
+"""The Uncertainty page end to end in a real headless Chromium (Playwright).
+
+Opens the page, edits a cell of the shipped GUM budget (thesis table 3.2, x) and sees
+the combined uncertainty follow; runs a small Monte Carlo study of the shipped stereo
+system with progress, and sees the table, the contribution and convergence charts and
+the measuring volume's distortion arrows in the 3D view; the exports are offered.
+Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/uncertainty-gui``).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "uncertainty-gui"))
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def coloured_pixels(png: bytes) -> int:
+    from PIL import Image
+
+    hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV")).astype(float)
+    return int(((hsv[..., 1] > 90) & (hsv[..., 2] > 60)).sum())
+
+
+def number(text: str) -> float:
+    return float(re.search(r"[-+]?\d+(\.\d+)?(e[-+]?\d+)?", text.replace("u", "", 1).split("=")[1]).group(0))
+
+
+def test_uncertainty_page_in_the_browser(gui_server):
+    url, log = gui_server
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1500, "height": 1000})
+            page.set_default_timeout(30_000)
+            page.goto(url)
+            page.click('[data-testid="page-uncertainty"]')
+            combined = page.locator('[data-testid="unc-b-combined"]')
+            combined.wait_for()
+            # thesis table 3.2, x: sqrt(3.1² + 1.7² + 9.1² + 1.5² + 2.1²) = 10.08 µm
+            assert number(combined.inner_text()) == pytest.approx(
+                math.sqrt(3.1 ** 2 + 1.7 ** 2 + 9.1 ** 2 + 1.5 ** 2 + 2.1 ** 2), abs=0.005)
+            cell = page.locator('[data-testid="unc-b-u-2"] input')
+            cell.fill("0")
+            cell.press("Enter")
+            expect = math.sqrt(3.1 ** 2 + 1.7 ** 2 + 1.5 ** 2 + 2.1 ** 2)
+            deadline = time.monotonic() + 10
+            while abs(number(combined.inner_text()) - expect) > 0.005 and time.monotonic() < deadline:
+                time.sleep(0.2)
+            assert number(combined.inner_text()) == pytest.approx(expect, abs=0.005)
+            page.wait_for_selector('[data-testid="unc-b-chart"] .main-svg')
+            page.screenshot(path=str(SHOTS / "budget.png"), full_page=True)
+            page.click('[data-testid="unc-b-store"]')
+            page.wait_for_selector('[data-testid="unc-b-links"] a')
+
+            page.click('[data-testid="unc-tab-montecarlo"]')
+            it = page.locator('[data-testid="unc-mc-iterations"] input')
+            it.fill("300")
+            page.click('[data-testid="unc-mc-run"]')
+            page.wait_for_selector('[data-testid="unc-mc-progress"]')
+            page.wait_for_selector('[data-testid="unc-mc-table"]', timeout=120_000)
+            assert "done" in page.locator('[data-testid="unc-mc-message"]').inner_text()
+            rows = page.locator('[data-testid="unc-mc-table"] tbody tr')
+            assert rows.count() >= 8  # six factors of the shipped system + combined, dof, k, U
+            page.wait_for_selector('[data-testid="unc-mc-chart"] .main-svg')
+            page.wait_for_selector('[data-testid="unc-mc-convergence"] .main-svg .scatterlayer .trace')
+            assert "magnified" in page.locator('[data-testid="unc-mc-map-note"]').inner_text()
+            view = page.locator('[data-testid="unc-mc-view"]')
+            view.scroll_into_view_if_needed()
+            deadline = time.monotonic() + 20
+            while True:
+                png = view.screenshot()
+                if coloured_pixels(png) > 500 or time.monotonic() > deadline:
+                    break
+                time.sleep(0.5)
+            assert coloured_pixels(png) > 500, "no coloured arrows in the 3D view"
+            links = page.locator('[data-testid="unc-mc-links"] a')
+            assert links.count() >= 4
+            page.screenshot(path=str(SHOTS / "montecarlo.png"), full_page=True)
+        finally:
+            browser.close()
+    assert not [l for l in log if "Traceback" in l], log[-20:]

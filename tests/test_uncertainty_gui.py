@@ -1,0 +1,190 @@
+"""The Uncertainty page's logic, without a browser: the budget editor gives the CLI's
+numbers (GUM H.1 and the thesis table), a Monte Carlo run publishes its table, charts
+and volume maps from the plugin's own numbers, is stored and comes back on reopen;
+bad input gets one-line reasons and the page keeps working."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("trame")
+pytest.importorskip("pyvista")
+pytest.importorskip("trame_plotly")
+
+from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui import uncertainty_figures as figs  # noqa: E402
+
+DATA = Path(__file__).parent / "data" / "uncertainty"
+_names = itertools.count()
+
+
+@pytest.fixture
+def app(tmp_path):
+    made = []
+
+    def make(project_dir=None):
+        server, session = build(f"test-unc-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj")
+        server.state.ready()
+        made.append(server)
+        return server, session
+
+    yield make
+    for server in made:
+        for page in ("uncertainty", "inspect", "wizard"):
+            getattr(server, page).close()
+        server.session.close()
+
+
+def cli_json(*args) -> dict:
+    exe = Path(sys.executable).parent / "camcmm"
+    out = subprocess.run([str(exe), *args, "--json"], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_budget_editor_reproduces_gum_h1_and_the_cli(app):
+    server, _ = app()
+    page, s = server.uncertainty, server.state
+    # the starting budget is the shipped thesis table 3.2 (x column): already evaluated
+    assert s.unc_b_result is not None and len(s.unc_b_rows) == 5
+    doc = yaml.safe_load((DATA / "budget_gum_h1.yaml").read_text())
+    assert page.load_budget((DATA / "budget_gum_h1.yaml").read_bytes(), "h1.yaml")
+    # GUM H.1.6: u_c = 32 nm, nu_eff = 16, k = t_99(16) = 2.92, U_99 = 93 nm
+    assert page.budget["combined"] == pytest.approx(31.7, abs=0.05)
+    assert float(s.unc_b_result["dof_eff"]) == pytest.approx(16.7, abs=0.05)  # truncated to 16 for t
+    assert float(s.unc_b_result["k"]) == pytest.approx(2.92, abs=0.005)
+    assert round(page.budget["expanded"]) == 93
+    cli = cli_json("uncertainty", "budget", str(DATA / "budget_gum_h1.yaml"))
+    for key in ("combined", "dof_eff", "k", "expanded"):
+        assert page.budget[key] == pytest.approx(cli[key], rel=1e-12)
+    # the bar chart carries every contribution with its share
+    bar = s.unc_b_fig["data"][0]
+    assert len(bar["y"]) == len(doc["contributions"])
+    assert max(bar["x"]) == pytest.approx(25.0)
+
+
+def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(app, tmp_path):
+    server, _ = app()
+    page, s = server.uncertainty, server.state
+    rows = [{"name": "a", "u": "3", "c": "1", "dof": "inf", "distribution": "normal"},
+            {"name": "b", "u": "4", "c": "1", "dof": "inf", "distribution": "rectangular"}]
+    page.set_budget("length", "um", 0.95, rows)
+    assert page.budget["combined"] == pytest.approx(5.0)
+    assert page.budget["k"] == pytest.approx(1.959964, abs=1e-5) and s.unc_b_result["k"] == "1.96"
+    bad = [dict(rows[0], u="-1"), rows[1]]
+    assert page.set_budget("length", "um", 0.95, bad) is None
+    assert "a" in s.unc_b_error and "u" in s.unc_b_error and "\n" not in s.unc_b_error
+    zero = [rows[0], dict(rows[1], dof="0")]
+    assert page.set_budget("length", "um", 0.95, zero) is None
+    assert "dof" in s.unc_b_error
+    # the draft is in the project: a reopened page shows the edited (bad) table again
+    proj = server.session.project.path
+    server2, _ = app(proj)
+    assert server2.state.unc_b_rows[1]["dof"] == "0"
+    assert page.load_budget(b"contributions: 3", "x.yaml") is False
+    assert "x.yaml" in s.unc_error
+
+
+def test_budget_store_and_export(app):
+    server, session = app()
+    page, s = server.uncertainty, server.state
+    page.load_budget((DATA / "budget_example.yaml").read_bytes())
+    out = page.save_budget()
+    assert out is not None
+    rid = out["result_id"]
+    stored = session.project.result(rid)
+    assert stored["plugin"] == "uncertainty.budget"
+    assert stored["outputs"]["combined"] == pytest.approx(page.budget["combined"])
+    names = {l["name"] for l in s.unc_b_links}
+    assert names == {f"budget-{rid}.{x}" for x in ("yaml", "csv", "json", "png")}
+    folder = page.offered.folder
+    assert (folder / f"budget-{rid}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    again = yaml.safe_load((folder / f"budget-{rid}.yaml").read_text())
+    assert cli_json("uncertainty", "budget", str(folder / f"budget-{rid}.yaml"))["combined"] == \
+        pytest.approx(page.budget["combined"])
+    assert len(again["contributions"]) == 3
+
+
+def small_spec() -> str:
+    doc = yaml.safe_load((DATA / "montecarlo_thesis.yaml").read_text())
+    doc["grid"] = {"size": [60, 40, 40], "n": [4, 3, 3]}
+    return yaml.safe_dump(doc)
+
+
+def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(app):
+    server, session = app()
+    page, s = server.uncertainty, server.state
+    spec = small_spec()
+    params = {"iterations": 500, "seed": 3, "method": "linear", "studies": ["convergence", "volume_maps", "sweep"]}
+    full = page.run_montecarlo(spec, params)
+    assert full is not None, s.unc_error
+    # the same numbers as the plugin called directly with the same seed
+    direct = session.host.run("uncertainty.montecarlo", {"spec": yaml.safe_load(spec)},
+                              {"iterations": 500, "seed": 3, "method": "linear", "studies": ""}).outputs
+    for f, u in direct["contributions"].items():
+        assert np.allclose(full["contributions"][f], u, rtol=1e-12)
+    table = {r["factor"]: r for r in s.unc_mc_rows}
+    assert table["combined u"]["x"] == f"{direct['combined'][0]:.3g}"
+    # charts: bars per factor and axis, a convergence curve per factor
+    assert len(s.unc_mc_fig_contrib["data"]) == 3
+    assert len(s.unc_mc_fig_contrib["data"][0]["y"]) == len(direct["contributions"])
+    conv = s.unc_mc_fig_conv["data"]
+    assert len(conv) == len(direct["contributions"])
+    assert conv[0]["x"][-1] == 500
+    assert s.unc_mc_fig_sweep["data"] and len(s.unc_mc_fig_sweep["data"][0]["x"]) == 11
+    # the measuring volume: distortion arrows of the first volume map
+    assert s.unc_mc_map.startswith("distortion:")
+    assert "magnified" in s.unc_mc_map_note
+    img = page.view.screenshot()
+    assert img.std() > 5  # something is drawn
+    page.show_map("uncertainty:feature_location")
+    assert "grid points" in s.unc_mc_map_note
+    page.set_axis("z")
+    assert s.unc_mc_fig_conv["layout"]["yaxis"]["title"]["text"].startswith("u_z")
+    # exports: CSV, JSON, PNGs
+    names = {l["name"] for l in s.unc_mc_links}
+    rid = s.unc_mc_summary["result_id"]
+    assert {f"montecarlo-{rid}.csv", f"montecarlo-{rid}.json", f"montecarlo-{rid}-contributions.png",
+            f"montecarlo-{rid}-convergence.png", f"montecarlo-{rid}-sweep.png"} <= names
+    csv = (page.offered.folder / f"montecarlo-{rid}.csv").read_text().splitlines()
+    assert csv[0].startswith("factor,u_x (um)") and len(csv) == len(s.unc_mc_rows) + 1
+    # stored: the row holds the summary, the file every array; a new page shows it again
+    row = session.project.result(rid)
+    assert row["outputs"]["combined"] == pytest.approx(direct["combined"])
+    server2, _ = app(session.project.path)
+    s2 = server2.state
+    assert s2.unc_mc_summary["result_id"] == rid
+    assert s2.unc_mc_rows == s.unc_mc_rows
+    assert s2.unc_mc_maps == s.unc_mc_maps
+
+
+def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(app):
+    server, _ = app()
+    page, s = server.uncertainty, server.state
+    assert page.run_montecarlo("cameras: [", {}) is None
+    assert "YAML" in s.unc_error and "line" in s.unc_error
+    doc = yaml.safe_load(small_spec())
+    doc["uncertainties"]["focal_length"] = [-0.8, 0.8]
+    assert page.run_montecarlo(yaml.safe_dump(doc), {"iterations": 50}) is None
+    assert "focal_length" in s.unc_error and s.unc_mc_running is False
+    assert page.run_montecarlo(small_spec(), {"iterations": "many"}) is None
+    assert "iterations" in s.unc_error
+    assert page.run_montecarlo(small_spec(), {"iterations": 50, "studies": []}) is not None
+
+
+def test_png_export_draws_the_figure():
+    fig = figs.contributions_figure({"contributions": {"rotation": [9.1, 3.0, 4.0], "focal_length": [1.7, 1, 2]},
+                                     "combined": [9.3, 3.2, 4.5], "unit": "um"})
+    png = figs.figure_png(fig)
+    assert png[:4] == b"\x89PNG" and len(png) > 5000
+    assert math.isclose(fig["data"][0]["y"][0], 9.1)
