@@ -253,6 +253,30 @@ class PluginHost:
         call.__doc__ = spec.summary
         return call
 
+    def device(self, plugin_id: str, config: dict[str, Any] | None = None, **objects: Any) -> Any:
+        """Create a device plugin's object (not connected yet).
+
+        ``config`` (port, address, size ...) is validated against the manifest's
+        parameters like a run's parameters; values left unset are not passed, so the
+        class's own defaults apply. ``objects`` (other devices, the project, callbacks)
+        are passed through as they are.
+        """
+        spec = self.get(plugin_id)
+        if spec.kind != "device":
+            raise PluginError(f"plugin {plugin_id!r} is a {spec.kind}, not a device")
+        values = validate(spec.parameters, config or {}, owner=f"device {plugin_id!r}")
+        kwargs = {k: v for k, v in values.items() if v is not None}
+        clash = sorted(set(kwargs) & set(objects))
+        if clash:
+            raise PluginError(f"device {plugin_id!r}: {clash[0]!r} given both as a setting and as an object")
+        cls = self.load(plugin_id)
+        try:
+            return cls(**kwargs, **objects)
+        except CamcmmError:
+            raise
+        except Exception as exc:
+            raise PluginError(f"device {plugin_id!r} could not be created: {type(exc).__name__}: {exc}") from exc
+
     def _inputs(self, spec: PluginSpec, given: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
         declared = {p.name: p for p in spec.inputs}
         unknown = sorted(set(given) - set(declared))

@@ -1,0 +1,385 @@
+"""A simulated Zaber-ASCII stage, and an interferometer watching it, in a separate process.
+
+Run ``python -m camcmm_plugins.devices.simulator --pty --link /tmp/stage`` (or
+``camcmm devices simulate-stage``). It opens a pseudo-terminal (or listens on
+``--tcp HOST:PORT``, reached as ``socket://HOST:PORT``), prints ``STAGE <port>`` (and
+``INTERFEROMETER <port>`` with ``--interferometer``) and ``READY`` on stdout, and
+then answers the Zaber ASCII protocol (see :mod:`.zaber`) the way a real axis does:
+moves take time at ``--speed``, positions are microsteps, ``WR`` until homed,
+``RJ ... BADDATA`` outside the travel, ``RJ ... BADCOMMAND`` for unknown commands.
+
+The interferometer endpoint speaks the line protocol of
+:mod:`.interferometer` (``POS?`` -> ``POS <value> mm``) and reports the axis' TRUE
+position: the commanded one times (1 + ``--scale-error`` ppm) plus a periodic
+lead-screw error ``--periodic-um``, plus normal noise ``--noise-um``, relative to its
+datum (``ZERO``). The stage's own read-back is the commanded position, as a stepper
+stage's is, so the two differ as in a real scale run.
+
+Faults, for tests, as commands on the stage port (simulator only)::
+
+    /1 0 sim mute 2      no reply to the next 2 commands (time-outs)
+    /1 0 sim garble 1    the next reply is garbled
+    /1 0 sim delay 1.5   reply 1.5 s late from now on (0 ends it)
+    /1 0 sim hang        never answer again (a hung controller)
+    /1 0 sim exit        the process ends at once (a pulled cable / power loss)
+
+Killing the process (SIGKILL) is the other disconnection. Standard library only, so the
+process starts in a fraction of a second.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import random
+import select
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import tty
+from pathlib import Path
+
+VELOCITY_UNIT = 1.6384
+
+
+class SimAxis:
+    def __init__(self, speed_steps: float, limits: tuple[int, int] | None):
+        self.speed = float(speed_steps)  # microsteps/s
+        self.limits = limits
+        self.start = self.target = 0.0
+        self.t0 = 0.0
+        self.homed = False
+
+    def pos(self) -> float:
+        span = self.target - self.start
+        moved = (time.monotonic() - self.t0) * self.speed
+        return self.target if moved >= abs(span) else self.start + math.copysign(moved, span)
+
+    def busy(self) -> bool:
+        return self.pos() != self.target
+
+    def move_to(self, target: float) -> None:
+        self.start, self.target, self.t0 = self.pos(), float(target), time.monotonic()
+
+    def stop(self) -> None:
+        p = self.pos()
+        self.start = self.target = p
+
+
+class ZaberSim:
+    """The protocol state machine of one device with ``axes`` axes."""
+
+    def __init__(self, address: int = 1, axes: int = 1, speed_steps: float = 2_000_000.0,
+                 limit_max: int | None = 4_200_000):
+        self.address = address
+        lim = (0, int(limit_max)) if limit_max is not None else None
+        self.axes = [SimAxis(speed_steps, lim) for _ in range(axes)]
+        self.mute = 0
+        self.garble = 0
+        self.delay = 0.0
+        self.hung = False
+
+    def handle(self, line: str) -> list[str]:
+        text = line.strip()
+        if not text.startswith("/"):
+            return []
+        body = text[1:]
+        if ":" in body:  # checksum: drop the command if it does not match, as a device does
+            body, _, cc = body.rpartition(":")
+            if f"{(-sum(body.encode())) & 0xFF:02X}" != cc.upper():
+                return []
+        tokens = body.split()
+        dev = int(tokens.pop(0)) if tokens and tokens[0].isdigit() else 0
+        axis = int(tokens.pop(0)) if tokens and tokens[0].isdigit() else 0
+        mid = tokens.pop(0) if tokens and tokens[0].isdigit() else None
+        if dev not in (0, self.address):
+            return []
+        if tokens[:1] == ["sim"]:
+            return [self._reply(axis, mid, True, self._sim(tokens[1:]))]
+        if self.hung:
+            return []
+        if self.mute > 0:
+            self.mute -= 1
+            return []
+        if axis > len(self.axes):
+            return [self._reply(axis, mid, False, "BADAXIS")]
+        ok, data = self._command(axis, tokens)
+        reply = self._reply(axis, mid, ok, data)
+        if self.garble > 0:
+            self.garble -= 1
+            reply = reply[: max(4, len(reply) // 2)] + "~#~"
+        return [reply]
+
+    def _sim(self, args: list[str]) -> str:
+        what = args[0] if args else ""
+        n = args[1] if len(args) > 1 else "1"
+        if what == "mute":
+            self.mute = int(n)
+        elif what == "garble":
+            self.garble = int(n)
+        elif what == "delay":
+            self.delay = float(n)
+        elif what == "hang":
+            self.hung = True
+        elif what == "exit":
+            os._exit(3)
+        return "0"
+
+    def _reply(self, axis: int, mid: str | None, ok: bool, data: str) -> str:
+        axes = self.axes if axis == 0 else [self.axes[axis - 1]] if axis <= len(self.axes) else []
+        busy = any(a.busy() for a in axes)
+        warn = "--" if all(a.homed for a in axes) else "WR"
+        ident = f"{mid} " if mid is not None else ""
+        return f"@{self.address:02d} {axis} {ident}{'OK' if ok else 'RJ'} {'BUSY' if busy else 'IDLE'} {warn} {data}"
+
+    def _command(self, axis: int, t: list[str]) -> tuple[bool, str]:
+        if not t:
+            return True, "0"
+        ax = self.axes[axis - 1] if axis else None
+        cmd = " ".join(t[:2])
+        try:
+            if t[0] == "home" and len(t) == 1:
+                for a in ([ax] if ax else self.axes):
+                    a.move_to(0)
+                    a.homed = True
+                return True, "0"
+            if t[0] == "stop":
+                for a in ([ax] if ax else self.axes):
+                    a.stop()
+                return True, "0"
+            if ax is None:
+                return (True, "50081") if cmd == "get device.id" else (False, "BADAXIS" if t[0] in ("move", "get", "set") else "BADCOMMAND")
+            if cmd in ("move abs", "move rel") and len(t) == 3:
+                target = int(t[2]) + (round(ax.pos()) if t[1] == "rel" else 0)
+                if ax.limits and not ax.limits[0] <= target <= ax.limits[1]:
+                    return False, "BADDATA"
+                ax.move_to(target)
+                return True, "0"
+            if cmd in ("move min", "move max") and ax.limits:
+                ax.move_to(ax.limits[0 if t[1] == "min" else 1])
+                return True, "0"
+            if cmd in ("get pos", "get encoder.pos"):
+                return True, str(int(round(ax.pos())))
+            if cmd in ("get limit.min", "get limit.max") and ax.limits:
+                return True, str(ax.limits[0 if t[1] == "limit.min" else 1])
+            if cmd == "get maxspeed":
+                return True, str(int(round(ax.speed * VELOCITY_UNIT)))
+            if cmd == "set maxspeed" and len(t) == 3:
+                v = int(t[2])
+                if v <= 0:
+                    return False, "BADDATA"
+                ax.speed = v / VELOCITY_UNIT
+                return True, "0"
+            if t == ["warnings"]:
+                return True, "00" if ax.homed else "01 WR"
+        except ValueError:
+            return False, "BADDATA"
+        return False, "BADCOMMAND"
+
+
+class InterferometerSim:
+    """Watches axis 1 of ``stage``: true position in mm, noise, datum (``ZERO``)."""
+
+    def __init__(self, stage: ZaberSim, resolution: float, scale_ppm: float, periodic_um: float,
+                 period_mm: float, noise_um: float, seed: int):
+        self.stage, self.resolution = stage, resolution
+        self.scale, self.periodic, self.period = scale_ppm * 1e-6, periodic_um * 1e-3, period_mm
+        self.noise = noise_um * 1e-3
+        self.rng = random.Random(seed)
+        self.datum = 0.0
+
+    def truth(self) -> float:
+        x = self.stage.axes[0].pos() * self.resolution
+        return x * (1.0 + self.scale) + self.periodic * math.sin(2 * math.pi * x / self.period)
+
+    def handle(self, line: str) -> list[str]:
+        cmd = line.strip().upper()
+        if not cmd:
+            return []
+        if cmd == "POS?":
+            return [f"POS {self.truth() - self.datum + self.rng.gauss(0.0, self.noise):.7f} mm"]
+        if cmd == "ZERO":
+            self.datum = self.truth()
+            return ["OK"]
+        if cmd == "ID?":
+            return ["ID camcmm simulated interferometer"]
+        return [f"ERR unknown command {cmd[:20]}"]
+
+
+class _Endpoint:
+    """One byte stream (a pty master or a TCP listener with its client) and its handler."""
+
+    def __init__(self, kind: str, handler, pty: bool, link: str | None, tcp: str | None):
+        self.handler, self.buf, self.client = handler, b"", None
+        self.fd = self.listener = None
+        if pty:
+            master, slave = os.openpty()
+            tty.setraw(slave)  # no echo, no line editing: a serial line, not a terminal
+            self.fd, self._slave = master, slave  # keep the slave open so that clients may come and go
+            self.port = os.ttyname(slave)
+            if link:
+                tmp = f"{link}.{os.getpid()}.tmp"
+                os.symlink(self.port, tmp)
+                os.replace(tmp, link)
+                self.port = link
+        else:
+            host, _, port = (tcp or "127.0.0.1:0").rpartition(":")
+            self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            self.listener.bind((host or "127.0.0.1", int(port)))
+            self.listener.listen(1)
+            h, p = self.listener.getsockname()
+            self.port = f"socket://{h}:{p}"
+
+    def readables(self) -> list:
+        return [x for x in (self.fd, self.listener, self.client) if x is not None]
+
+    def on_ready(self, r, delay: float) -> None:
+        if r is self.listener:
+            if self.client is not None:
+                self.client.close()
+            self.client, _ = self.listener.accept()
+            self.buf = b""
+            return
+        try:
+            data = os.read(self.fd, 4096) if r is self.fd else self.client.recv(4096)
+        except OSError:
+            data = b""
+        if not data:
+            if r is self.client:
+                self.client.close()
+                self.client = None
+            return
+        self.buf += data
+        while True:
+            cut = min((i for i in (self.buf.find(b"\n"), self.buf.find(b"\r")) if i >= 0), default=-1)
+            if cut < 0:
+                break
+            line, self.buf = self.buf[:cut], self.buf[cut + 1:]
+            out = self.handler(line.decode("ascii", "replace"))
+            if out and delay:
+                time.sleep(delay)
+            for reply in out:
+                self.write((reply + "\r\n").encode("ascii"))
+
+    def write(self, data: bytes) -> None:
+        try:
+            if self.fd is not None:
+                os.write(self.fd, data)
+            elif self.client is not None:
+                self.client.sendall(data)
+        except OSError:
+            pass
+
+
+def serve(args: argparse.Namespace) -> None:
+    stage = ZaberSim(args.address, args.axes, args.speed / args.resolution,
+                     None if args.rotary else int(round(args.travel / args.resolution)))
+    eps = [_Endpoint("stage", stage.handle, not args.tcp, args.link, args.tcp)]
+    print(f"STAGE {eps[0].port}", flush=True)
+    if args.interferometer:
+        ifm = InterferometerSim(stage, args.resolution, args.scale_error, args.periodic_um, args.period_mm,
+                                args.noise_um, args.seed)
+        eps.append(_Endpoint("interferometer", ifm.handle, not args.tcp, args.interferometer_link,
+                             None if not args.tcp else args.interferometer_tcp or args.tcp.rpartition(":")[0] + ":0"))
+        print(f"INTERFEROMETER {eps[1].port}", flush=True)
+    print("READY", flush=True)
+    while True:
+        owners = {r: e for e in eps for r in e.readables()}
+        ready, _, _ = select.select(list(owners), [], [], 0.5)
+        for r in ready:
+            owners[r].on_ready(r, stage.delay if owners[r] is eps[0] else 0.0)
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--tcp", metavar="HOST:PORT", help="listen on TCP (socket://HOST:PORT) instead of a pty")
+    p.add_argument("--link", metavar="PATH", help="symlink to the pty, stable across restarts")
+    p.add_argument("--address", type=int, default=1, help="device address (default 1)")
+    p.add_argument("--axes", type=int, default=1)
+    p.add_argument("--resolution", type=float, default=0.001, help="mm (or deg) per microstep (default 0.001)")
+    p.add_argument("--speed", type=float, default=200.0, help="speed in mm/s (or deg/s); default 200")
+    p.add_argument("--travel", type=float, default=150.0, help="travel in mm from 0 (default 150)")
+    p.add_argument("--rotary", action="store_true", help="no travel limits (a rotary axis)")
+    p.add_argument("--interferometer", action="store_true", help="also serve an interferometer watching axis 1")
+    p.add_argument("--interferometer-link", metavar="PATH", help="symlink to the interferometer's pty")
+    p.add_argument("--interferometer-tcp", metavar="HOST:PORT", help="with --tcp: the interferometer's address")
+    p.add_argument("--scale-error", type=float, default=0.0, help="true/commanded - 1 in ppm")
+    p.add_argument("--periodic-um", type=float, default=0.0, help="periodic lead-screw error amplitude (um)")
+    p.add_argument("--period-mm", type=float, default=5.0, help="its period (mm)")
+    p.add_argument("--noise-um", type=float, default=0.0, help="interferometer noise (um, 1 sigma)")
+    p.add_argument("--seed", type=int, default=0)
+
+
+class SimulatorProcess:
+    """Start the simulator as a child process and read its ports. ``restart()`` starts
+    it again on the same ports (pty links or TCP port), as a power-cycled device."""
+
+    def __init__(self, *args: str, folder: str | os.PathLike | None = None, pty: bool = True,
+                 interferometer: bool = False, timeout: float = 20.0):
+        self.folder = Path(folder or tempfile.mkdtemp(prefix="camcmm-sim-"))
+        self.args = list(args)
+        if pty:
+            self.args += ["--link", str(self.folder / "stage")]
+            if interferometer:
+                self.args += ["--interferometer-link", str(self.folder / "interferometer")]
+        elif "--tcp" not in self.args:
+            self.args += ["--tcp", "127.0.0.1:0"]
+        if interferometer:
+            self.args.append("--interferometer")
+        self.timeout = timeout
+        self.proc: subprocess.Popen | None = None
+        self.stage_port = self.interferometer_port = ""
+        self.start()
+
+    def start(self) -> None:
+        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm_plugins.devices.simulator", *self.args],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + self.timeout
+        while time.monotonic() < deadline:
+            line = self.proc.stdout.readline()
+            if not line:
+                raise RuntimeError(f"stage simulator ended: {self.proc.stderr.read()[-500:]}")
+            word, _, rest = line.strip().partition(" ")
+            if word == "STAGE":
+                self.stage_port = rest
+                if rest.startswith("socket://") and "--tcp" in self.args:
+                    self.args[self.args.index("--tcp") + 1] = rest[len("socket://"):]
+            elif word == "INTERFEROMETER":
+                self.interferometer_port = rest
+                if rest.startswith("socket://") and "--interferometer-tcp" not in self.args:
+                    self.args += ["--interferometer-tcp", rest[len("socket://"):]]
+            elif word == "READY":
+                return
+        raise RuntimeError("stage simulator did not start in time")
+
+    def kill(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+        if self.proc is not None:
+            self.proc.wait()
+
+    def restart(self) -> None:
+        self.kill()
+        self.start()
+
+    stop = kill
+
+    def __enter__(self) -> "SimulatorProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.kill()
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="camcmm-stage-simulator", description=__doc__.splitlines()[0])
+    p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (the default without --tcp)")
+    configure(p)
+    serve(p.parse_args(argv))
+
+
+if __name__ == "__main__":
+    main()
