@@ -1,0 +1,146 @@
+"""Single-camera calibration (thesis ch. 2.4.2, eq. 2.17): pinhole + radial (k1-k3) and
+tangential distortion, optionally thin prism (s1-s4) or the rational model (k4-k6).
+
+:func:`calibrate_camera` runs cv2.calibrateCameraExtended on the views where the board
+was found, drops outlier views (per-view RMS above ``outlier_factor`` x the median, the
+worst first, recalibrating each time) and adds the parameter covariance from the
+Jacobian (see :mod:`.covariance`). Views left out are listed in ``rejected`` with
+the image name and the reason.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from camcmm.api import CameraModel, InputError
+
+from .boards import Board, Detection, parse_board, require_found
+from .covariance import Observation, assemble, covariance, free_intrinsics, parameter_names
+
+MIN_VIEWS = 3
+
+
+def model_flags(model: str = "standard", flags: int = 0) -> int:
+    """OpenCV flags for a distortion model: "standard" (k1 k2 p1 p2 k3), "thin-prism"
+    (+ s1-s4), "rational" (+ k4-k6), "rational-thin-prism"; ``flags`` are OR-ed in."""
+    import cv2
+
+    extra = {"standard": 0, "thin-prism": cv2.CALIB_THIN_PRISM_MODEL, "rational": cv2.CALIB_RATIONAL_MODEL,
+             "rational-thin-prism": cv2.CALIB_RATIONAL_MODEL | cv2.CALIB_THIN_PRISM_MODEL}
+    if model not in extra:
+        raise InputError(f"distortion model {model!r}: use one of {', '.join(extra)}")
+    return int(flags) | extra[model]
+
+
+def _calibrate(dets: list[Detection], size, flags, K0=None, D0=None):
+    import cv2
+
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, np.finfo(float).eps)
+    obj = [d.object_points for d in dets]
+    img = [d.image_points for d in dets]
+    rms, K, D, rv, tv, std_i, _std_e, per_view = cv2.calibrateCameraExtended(
+        obj, img, size, K0, D0, flags=flags, criteria=crit)
+    return float(rms), K, D.ravel(), [r.ravel() for r in rv], [t.ravel() for t in tv], std_i.ravel(), \
+        per_view.ravel()
+
+
+def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, model: str = "standard",
+                     flags: int = 0, outlier_factor: float = 3.0, name: str = "camera",
+                     progress=None) -> dict[str, Any]:
+    """Calibrate one camera from board detections (see :func:`boards.detect_all`).
+
+    Returns a dict: ``camera`` (CameraModel), ``camera_matrix`` (3, 3) px,
+    ``dist_coeffs`` (n,), ``rms`` px, ``std_intrinsics`` (4 + n,) OpenCV's standard
+    deviations of (fx fy cx cy dist...), ``covariance`` (4 + n, 4 + n) of the same from the
+    Jacobian, ``per_view_rms`` {image: px}, ``image_size`` [w, h], ``rejected``
+    [{image, reason}], ``views`` {names, rvecs (V, 3), tvecs (V, 3) mm: board -> camera},
+    ``parameter_covariance`` and ``parameter_names`` (intrinsics, then each view's pose),
+    ``residual_sigma`` px per coordinate, ``flags``.
+    ``outlier_factor`` <= 0 keeps every view where the board was found.
+    """
+    board = parse_board(board)
+    flags = model_flags(model, flags)
+    dets = list(detections)
+    require_found(board, dets)
+    rejected = [{"image": d.name, "reason": d.reason} for d in dets if not d.found]
+    used = [d for d in dets if d.found]
+    if len(used) < MIN_VIEWS:
+        raise InputError(f"board {board.spec} found in only {len(used)} image(s) "
+                         f"({', '.join(d.name for d in used)}); calibration needs at least {MIN_VIEWS} views")
+    size = used[0].image_size
+    while True:
+        if progress is not None:
+            progress(0.5, f"calibrating on {len(used)} views")
+        rms, K, D, rvecs, tvecs, std_i, per_view = _calibrate(used, size, flags)
+        med = float(np.median(per_view))
+        worst = int(np.argmax(per_view))
+        if outlier_factor <= 0 or len(used) <= MIN_VIEWS or per_view[worst] <= outlier_factor * med:
+            break
+        rejected.append({"image": used[worst].name,
+                         "reason": f"outlier: view RMS {per_view[worst]:.3g} px > {outlier_factor:g} x median "
+                                   f"{med:.3g} px"})
+        used.pop(worst)
+    cam = CameraModel(K, D, image_size=size, name=name)
+    obs = [Observation(v, 0, d.object_points, d.image_points) for v, d in enumerate(used)]
+    free = free_intrinsics(flags, D.size)
+    import cv2
+
+    aspect = [K[0, 0] / K[1, 1]] if flags & cv2.CALIB_FIX_ASPECT_RATIO else None
+    jtj, _, sse, rows, layout = assemble([(K, D)], [], list(zip(rvecs, tvecs)), obs, [free], aspect)
+    cov, sigma = covariance(jtj, sse, rows)
+    ii = layout["intrinsics"][0]
+    if aspect is not None:  # fx = a fy: its variance follows fy's
+        a = aspect[0]
+        cov[ii[0], :] = a * cov[ii[1], :]
+        cov[:, ii[0]] = a * cov[:, ii[1]]
+    names = [d.name for d in used]
+    return {
+        "camera": cam,
+        "camera_matrix": K,
+        "dist_coeffs": D,
+        "rms": rms,
+        "std_intrinsics": std_i[:4 + D.size],
+        "covariance": cov[np.ix_(ii, ii)],
+        "per_view_rms": {n: float(e) for n, e in zip(names, per_view)},
+        "image_size": [int(size[0]), int(size[1])],
+        "rejected": rejected,
+        "views": {"names": names, "rvecs": np.array(rvecs), "tvecs": np.array(tvecs)},
+        "parameter_covariance": cov,
+        "parameter_names": parameter_names([name], [D.size], len(used)),
+        "residual_sigma": sigma,
+        "flags": int(flags),
+        "board": board.spec,
+        "n_points": int(sum(len(d.ids) for d in used)),
+    }
+
+
+def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
+    """The calibration file dict (camcmm.api.write_calibration) of a camera result."""
+    keep = ("rms", "per_view_rms", "rejected", "views", "parameter_covariance", "parameter_names",
+            "residual_sigma", "flags", "board")
+    out = {"cameras": [result["camera"]], "std_intrinsics": [result["std_intrinsics"]],
+           "covariance": [result["covariance"]]}
+    out.update({k: result[k] for k in keep if k in result})
+    return out
+
+
+def camera_json(result: dict[str, Any]) -> dict[str, Any]:
+    """The CLI's JSON for one camera: camera_matrix, dist_coeffs, rms, std_intrinsics,
+    per_view_rms, image_size, rejected (+ std_named, residual_sigma, views used)."""
+    from .covariance import intrinsic_names
+
+    names = intrinsic_names(result["dist_coeffs"].size)
+    return {
+        "camera_matrix": np.asarray(result["camera_matrix"]).tolist(),
+        "dist_coeffs": np.asarray(result["dist_coeffs"]).tolist(),
+        "rms": result["rms"],
+        "std_intrinsics": np.asarray(result["std_intrinsics"]).tolist(),
+        "per_view_rms": result["per_view_rms"],
+        "image_size": result["image_size"],
+        "rejected": result["rejected"],
+        "std_named": dict(zip(names, np.asarray(result["std_intrinsics"]).tolist())),
+        "residual_sigma": result["residual_sigma"],
+        "n_views": len(result["per_view_rms"]),
+    }
