@@ -62,3 +62,11 @@ def artefact_cloud(ctx, artefact: str = "sphere", center=(0, 0, 0), direction=(1
         ctx.warn(f"the sensor sees only {len(pts)} of the {n_points} points asked for")
     cloud = PointCloud(pts, fields={"primitive": lab.astype(np.float64)}, name=f"simulated {artefact}")
     return {"cloud": cloud, "truth": truth}
+
+
+def capture(ctx, scene, out: str) -> dict[str, Any]:
+    """Render a scene file's capture sequence into ``out`` (virtuallab.capture)."""
+    from .capture import capture as run_capture
+    from .scene_file import load_scene
+
+    return run_capture(load_scene(scene), out, ctx)

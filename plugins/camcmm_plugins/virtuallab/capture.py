@@ -1,0 +1,255 @@
+"""Render a scene's capture sequence and write what a real system would hand over:
+frames per camera, the calibration file, plus the truth.
+
+Output folder::
+
+    camera1/frame000.png ...   one PNG per frame and camera (8-bit, or 16-bit for > 8 bits)
+    camera2/...
+    calibration.yaml           the calibration the system *believes* (systematic errors in)
+    calibration_true.yaml      the true one
+    sequence.yaml              a copy of the fringe sequence file, when the scene names one
+    truth.json                 artefact geometry, in the volume frame and in the calibration
+                               frame (camera 1), the frames shown and the errors switched on
+
+Frames: the sequence file's frames (patterns from the fringe plugin, ``fringe.patterns``,
+at its bit depth), then the scene's own ``patterns`` entries. Each camera and frame has
+its own noise stream (numpy SeedSequence of (seed, camera, frame)): reproducible.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from camcmm.api import CameraModel, Image, InputError, read, write, write_calibration
+
+from . import imaging, render, rig
+from .scene_file import LabScene
+from .speckle import speckle
+from .workpieces import rotation_xyz
+
+POINT_KEYS = ("center", "top_center", "base_center", "point", "center_distorted")
+DIR_KEYS = ("direction", "normal", "axis")
+
+
+def _projector_shape(scene: LabScene) -> tuple[int, int]:
+    if scene.projector is None:
+        raise InputError("the scene shows patterns but has no projector")
+    w, h = scene.projector.model.image_size
+    return h, w
+
+
+def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
+    """The frames to capture: dicts with ``name``, ``kind``, ``pattern`` (h, w) or None
+    (projector dark) and ``lamp`` (the diffuse lamp on)."""
+    frames: list[dict[str, Any]] = []
+    if scene.sequence is not None:
+        if ctx is None:
+            raise InputError("a fringe sequence needs the fringe plugin (run through the host)")
+        if not scene.sequence.is_file():
+            raise InputError(f"sequence {scene.sequence}: file not found")
+        out = ctx.algorithm("fringe.patterns")(sequence=str(scene.sequence))
+        size = tuple(int(x) for x in out["projector_size"])
+        if scene.projector is None or tuple(scene.projector.model.image_size) != size:
+            have = scene.projector.model.image_size if scene.projector is not None else None
+            raise InputError(f"sequence {scene.sequence.name}: patterns of {size[0]} x {size[1]} px, "
+                             f"but the projector shows {have}")
+        for k, (pat, desc) in enumerate(zip(np.asarray(out["patterns"]), out["frames"])):
+            frames.append({"name": desc.get("name", f"frame {k}"), "kind": desc.get("kind", "pattern"),
+                           "pattern": pat, "lamp": False, "source": "sequence"})
+    for i, entry in enumerate(scene.patterns):
+        what = f"patterns[{i}]"
+        if entry in ("white", "black"):
+            shape = _projector_shape(scene)
+            frames.append({"name": entry, "kind": entry, "lamp": False,
+                           "pattern": np.full(shape, 1.0 if entry == "white" else 0.0)})
+        elif entry == "diffuse":
+            frames.append({"name": "diffuse", "kind": "diffuse", "pattern": None, "lamp": True})
+        elif entry == "dark":
+            frames.append({"name": "dark", "kind": "dark", "pattern": None, "lamp": False})
+        elif isinstance(entry, dict) and "speckle" in entry:
+            sp = dict(entry["speckle"] or {})
+            try:
+                pat = speckle(_projector_shape(scene), float(sp.get("grain", 6.0)), int(sp.get("seed", 0)),
+                              float(sp.get("mean", 0.3)))
+            except ValueError as exc:
+                raise InputError(f"{what}: {exc}") from None
+            frames.append({"name": f"speckle {i}", "kind": "speckle", "pattern": pat, "lamp": False})
+        elif isinstance(entry, dict) and "image" in entry:
+            p = Path(entry["image"])
+            img = read(p if p.is_absolute() else scene.base / p)
+            if not isinstance(img, Image):
+                raise InputError(f"{what}: {entry['image']} is not an image")
+            data = img.data if img.data.ndim == 2 else img.data[..., :3].mean(axis=2)
+            if data.shape != _projector_shape(scene):
+                raise InputError(f"{what}: {entry['image']} is {data.shape[1]} x {data.shape[0]} px; the projector "
+                                 f"shows {scene.projector.model.image_size[0]} x {scene.projector.model.image_size[1]}")
+            frames.append({"name": p.name, "kind": "image", "pattern": img.data, "lamp": False})
+        else:
+            raise InputError(f"{what}: {entry!r}; use white, black, dark, diffuse, {{speckle: ...}} or {{image: FILE}}")
+    if not frames:
+        raise InputError("the scene shows nothing: give a sequence file or patterns")
+    return frames
+
+
+def _camera_sel(errors: dict, key: str, cams: list[CameraModel]) -> list[int]:
+    which = errors[key].get("camera", "all") if isinstance(errors[key], dict) else "all"
+    if which == "all":
+        return list(range(len(cams)))
+    for i, c in enumerate(cams):
+        if which == c.name or (isinstance(which, int) and which == i + 1):
+            return [i]
+    raise InputError(f"errors.{key}.camera {which!r}: no such device ({', '.join(c.name for c in cams)})")
+
+
+def calibration(scene: LabScene, with_errors: bool = True) -> dict[str, Any]:
+    """The calibration dict (api.write_calibration) of the scene's devices in camera 1's
+    frame; ``with_errors`` applies the scene's systematic errors (what the system
+    believes)."""
+    first = scene.cameras[0].model
+    devs = [d.model for d in scene.cameras] + ([scene.projector.model] if scene.projector is not None else [])
+    cams = [rig.relative_to(first, c) for c in devs]
+    e = scene.errors if with_errors else {}
+    if "focal_length" in e:
+        for i in _camera_sel(e, "focal_length", cams):
+            K = cams[i].camera_matrix.copy()
+            K[0, :2] *= 1 + float(e["focal_length"].get("relative", 0.0))   # fx and the skew term
+            K[1, 1] *= 1 + float(e["focal_length"].get("relative", 0.0))
+            cams[i].camera_matrix = K
+    if "principal_point" in e:
+        for i in _camera_sel(e, "principal_point", cams):
+            cams[i].camera_matrix[:2, 2] += np.asarray(e["principal_point"].get("shift", [0, 0]), float)
+    if "distortion" in e:
+        for i in _camera_sel(e, "distortion", cams):
+            dlt = np.asarray(e["distortion"].get("delta", []), float).ravel()
+            dc = np.zeros(max(len(cams[i].dist_coeffs), len(dlt)))
+            dc[: len(cams[i].dist_coeffs)] = cams[i].dist_coeffs
+            dc[: len(dlt)] += dlt
+            cams[i].dist_coeffs = dc
+    if "rotation" in e:
+        for i in _camera_sel(e, "rotation", cams):
+            if i == 0:
+                raise InputError("errors.rotation: camera 1 is the calibration frame; perturb another device")
+            cams[i].rotation = rotation_xyz(e["rotation"].get("angles_deg", [0, 0, 0])) @ cams[i].rotation
+    if "baseline" in e:
+        s = 1 + float(e["baseline"].get("relative", 0.0))
+        for c in cams[1:]:
+            c.translation = c.translation * s
+    cal: dict[str, Any] = {"cameras": cams, "source": "camcmm virtual lab",
+                           "systematic_errors": {k: v for k, v in e.items()} if e else {}}
+    if len(cams) > 1:
+        cal["R"], cal["T"] = cams[1].rotation, cams[1].translation
+    return cal
+
+
+def _transform(obj: Any, R: np.ndarray, t: np.ndarray) -> Any:
+    if isinstance(obj, dict):
+        out = {}
+        for k, v in obj.items():
+            if k in POINT_KEYS and np.shape(v) == (3,):
+                out[k] = (R @ np.asarray(v, float) + t).tolist()
+            elif k in DIR_KEYS and np.shape(v) == (3,):
+                out[k] = (R @ np.asarray(v, float)).tolist()
+            elif k == "axes" and np.shape(v) == (3, 3):
+                out[k] = (np.asarray(v, float) @ R.T).tolist()
+            else:
+                out[k] = _transform(v, R, t)
+        return out
+    if isinstance(obj, list):
+        return [_transform(v, R, t) for v in obj]
+    return obj
+
+
+def truth(scene: LabScene, frames: list[dict[str, Any]] | None = None) -> dict[str, Any]:
+    """Artefact geometry in the volume frame and in the calibration frame (camera 1)."""
+    R, t = scene.cameras[0].model.rotation, scene.cameras[0].model.translation
+    M = np.eye(4)
+    M[:3, :3], M[:3, 3] = R, t
+    return {"scene": scene.name, "unit": "mm",
+            "frame": "artefacts: measuring volume (origin at its centre, +z to the sensor); "
+                     "artefacts_calibration: camera 1, the calibration's world frame",
+            "volume_to_calibration": M.tolist(),
+            "artefacts": scene.artefacts, "artefacts_calibration": _transform(scene.artefacts, R, t),
+            "errors": scene.errors, "seed": scene.seed,
+            "frames": [{k: v for k, v in f.items() if k != "pattern"} for f in (frames or [])]}
+
+
+def prepare_views(scene: LabScene, progress: Callable[[float, str], None] | None = None) -> list[render.View]:
+    views = []
+    proj = scene.projector.model if scene.projector is not None else None
+    for i, cam in enumerate(scene.cameras):
+        if progress:
+            progress(i / max(len(scene.cameras), 1), f"casting rays for {cam.name}")
+        views.append(render.prepare(scene.primitives, scene.albedo, cam.model, proj, scene.lighting,
+                                    scene.supersample))
+    return views
+
+
+def render_frame(scene: LabScene, view: render.View, cam_index: int, frame_index: int, frame: dict[str, Any],
+                 noise: bool = True) -> np.ndarray:
+    """One digital image (uint8/uint16) of camera ``cam_index`` for ``frame``."""
+    dev = scene.cameras[cam_index]
+    L = render.radiance(view, frame["pattern"], scene.lighting, frame.get("lamp", False))
+    L = imaging.optics(L, view.depth, dev.model, dev.lens)
+    rng = np.random.default_rng(np.random.SeedSequence([scene.seed, cam_index, frame_index])) if noise else None
+    return imaging.expose(L, scene.sensor, rng)
+
+
+def render_all(scene: LabScene, frames: list[dict[str, Any]], views: list[render.View] | None = None,
+               progress: Callable[[float, str], None] | None = None) -> dict[str, list[np.ndarray]]:
+    """All frames of all cameras: {camera name: [image, ...]}."""
+    views = views or prepare_views(scene, progress)
+    out: dict[str, list[np.ndarray]] = {}
+    n = len(scene.cameras) * len(frames)
+    for i, dev in enumerate(scene.cameras):
+        imgs = []
+        for k, f in enumerate(frames):
+            if progress:
+                progress((i * len(frames) + k) / n, f"rendering {dev.name} frame {k + 1}/{len(frames)}")
+            imgs.append(render_frame(scene, views[i], i, k, f))
+        out[dev.name] = imgs
+    return out
+
+
+def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
+    """Render the scene's sequence into ``out`` (see the module docstring)."""
+    prog = ctx.progress if ctx is not None else None
+    d = Path(out)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out {out}: cannot create the folder ({exc.strerror})") from None
+    frames = scene_frames(scene, ctx)
+    views = prepare_views(scene, (lambda f, m: prog(0.3 * f, m)) if prog else None)
+    files: dict[str, list[str]] = {}
+    n = len(scene.cameras) * len(frames)
+    for i, (dev, view) in enumerate(zip(scene.cameras, views)):
+        cd = d / dev.name
+        cd.mkdir(exist_ok=True)
+        for old in cd.glob("frame*.png"):
+            old.unlink()                                  # a shorter sequence must not leave stale frames
+        files[dev.name] = []
+        for k, f in enumerate(frames):
+            if prog:
+                prog(0.3 + 0.7 * (i * len(frames) + k) / n, f"rendering {dev.name} frame {k + 1}/{len(frames)}")
+            p = cd / f"frame{k:03d}.png"
+            write(Image(render_frame(scene, view, i, k, f), name=p.name), p)
+            files[dev.name].append(str(p))
+    write_calibration(d / "calibration.yaml", calibration(scene, True))
+    write_calibration(d / "calibration_true.yaml", calibration(scene, False))
+    if scene.sequence is not None:
+        shutil.copyfile(scene.sequence, d / "sequence.yaml")
+    tr = truth(scene, frames)
+    tr["coverage"] = {dev.name: {"surface": float(v.coverage.mean()), "lit": float(v.lit.mean())}
+                      for dev, v in zip(scene.cameras, views)}
+    (d / "truth.json").write_text(json.dumps(tr, indent=1), encoding="utf-8")
+    if prog:
+        prog(1.0, "written")
+    return {"out": str(d), "cameras": [c.name for c in scene.cameras], "n_frames": len(frames),
+            "files": files, "calibration": str(d / "calibration.yaml"), "truth": str(d / "truth.json"),
+            "sequence": str(d / "sequence.yaml") if scene.sequence is not None else None,
+            "coverage": tr["coverage"]}

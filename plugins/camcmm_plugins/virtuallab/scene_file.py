@@ -1,0 +1,213 @@
+"""The virtual lab's scene file (YAML): artefacts, cameras, projector, lighting, sensor,
+the capture sequence and switchable systematic errors. Lengths mm, angles deg, px.
+
+Schema (``version: 1``; every section but ``artefacts`` optional)::
+
+    name: sphere in the stereo fringe system
+    seed: 1                                   # noise; each frame and camera its own stream
+    artefacts:                                # volume frame: origin at its centre, +z to the sensor
+      - {type: sphere, center: [0, 0, 0], diameter: 20.0, stem: true, albedo: 0.8}
+      - {type: ball_bar, center: [0, 0, 0], direction: [1, 1, 1], length: 49.944, sphere_diameter: 20}
+      - {type: ball_plate, center: [0, 0, 0], lengths: [5.942, 7.956, 9.957], sphere_diameter: 5,
+         rotation: 0, tilt: 0}
+      - {type: flat, center: [0, 0, 0], direction: [1, 0, 0], normal: [0, 0, 1], length: 150, width: 60}
+      - {type: gauge_blocks, center: [0, 0, -30], platen: [200, 150, 30], direction: [1, 0, 0],
+         blocks: [{length: 10, at: [-30, 0]}, {length: 25, at: [30, 0], size: [35, 9]}]}
+      - {type: box, center: [0, 0, 0], size: [30, 20, 10], direction: [1, 0, 0], normal: [0, 0, 1]}
+      - {type: mesh, file: part.stl, position: [0, 0, 0], rotation_deg: [0, 0, 0], scale: 1}
+      - {type: plane, center: [0, 0, -60], normal: [0, 0, 1], length: 400, width: 400, albedo: 0.3}
+    rig: {preset: stereo_fringe, image_size: [1280, 960]}   # or cameras: [...] and projector: {...}
+    cameras: [{name, image_size, focal_length, pixel_pitch, dist_coeffs, position, look_at, ...}]
+    projector: {name: projector, image_size: [1280, 800], ...}             # see rig.py for the fields
+    lighting: {projector: 0.8, ambient: 0.02, diffuse: 0.0, diffuse_direction: [0, 0, 1],
+               background: 0.0, gamma: 1.0, projector_blur: 0.0, falloff: true}
+    sensor: {bits: 8, full_well: 20000, read_noise: 10, exposure: 1.0, black_level: 0, shot_noise: true}
+    render: {supersample: 2}                  # s x s rays per pixel
+    sequence: fringe_sequence.yaml            # a fringe sequence file (the fringe plugin's patterns) ...
+    patterns:                                 # ... and/or frames listed here, shown after it
+      - white
+      - black
+      - {speckle: {grain: 6, mean: 0.3, seed: 1}}
+      - {image: pattern.png}                  # any image at the projector's resolution
+      - diffuse                               # projector dark, the diffuse lamp on
+    errors:                                   # systematic errors, switched on by listing them
+      focal_length: {camera: camera2, relative: 0.01}       # written fx, fy = true x (1 + 0.01)
+      baseline: {relative: 0.01}              # written translations (camera 1 frame) x (1 + 0.01)
+      principal_point: {camera: camera1, shift: [1.0, 0.0]}  # written (cx, cy) + shift, px
+      distortion: {camera: camera1, delta: [0.01, 0, 0, 0, 0]}  # written dist_coeffs + delta
+      rotation: {camera: camera2, angles_deg: [0.01, 0, 0]}  # written R = Rz Ry Rx(angles) R
+      projector_gamma: 2.2                    # the projector's true response (decoders assume 1)
+
+``type: plane`` is a large rectangle (a backdrop or table top) that is not an artefact.
+Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import yaml
+
+from camcmm.api import InputError, TriangleMesh, read
+
+from . import artefacts as art
+from . import rig, workpieces
+from .imaging import Sensor
+from .render import Lighting
+from .scene import Rectangle
+
+ARTEFACTS = ("sphere", "ball_bar", "ball_plate", "flat", "gauge_blocks", "box", "mesh", "plane")
+ERRORS = ("focal_length", "baseline", "principal_point", "distortion", "rotation", "projector_gamma")
+
+
+@dataclass
+class LabScene:
+    """A parsed scene file: primitives with one albedo each, the artefacts' truth (volume
+    frame), devices, light, sensor, what to show and the switched-on errors."""
+
+    name: str
+    primitives: list
+    albedo: np.ndarray
+    artefacts: list[dict[str, Any]]
+    cameras: list[rig.Device]
+    projector: rig.Device | None
+    lighting: Lighting
+    sensor: Sensor
+    supersample: int = 2
+    seed: int = 0
+    sequence: Path | None = None
+    patterns: list = field(default_factory=list)
+    errors: dict[str, Any] = field(default_factory=dict)
+    base: Path = Path(".")
+    source: dict[str, Any] = field(default_factory=dict)
+
+
+def _g(d: Mapping, key: str, default, what: str):
+    v = d.get(key, default)
+    if v is None:
+        raise ValueError(f"{what}.{key} is missing")
+    return v
+
+
+def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict[str, Any]]:
+    what = f"artefacts[{i}]"
+    if not isinstance(a, Mapping) or "type" not in a:
+        raise ValueError(f"{what}: expected a mapping with a type ({', '.join(ARTEFACTS)})")
+    t = a["type"]
+    c = a.get("center", [0.0, 0.0, 0.0])
+    if t == "sphere":
+        return art.sphere(c, float(_g(a, "diameter", None, what)), bool(a.get("stem", True)))
+    if t == "ball_bar":
+        return art.ball_bar(c, a.get("direction", [1, 0, 0]), float(_g(a, "length", None, what)),
+                            float(_g(a, "sphere_diameter", None, what)), bool(a.get("bar", True)))
+    if t == "ball_plate":
+        return art.ball_plate(c, _g(a, "lengths", None, what), float(_g(a, "sphere_diameter", None, what)),
+                              float(a.get("rotation", 0.0)), float(a.get("tilt", 0.0)), bool(a.get("plate", True)))
+    if t == "flat":
+        axis, n = art.axes_from(a.get("direction", [1, 0, 0]), a.get("normal"))
+        return art.flat(c, axis, n, float(_g(a, "length", None, what)), float(_g(a, "width", None, what)))
+    if t == "plane":
+        r = Rectangle(c, a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]),
+                      float(a.get("length", 500.0)), float(a.get("width", 500.0)), a.get("label", "plane"),
+                      measured=False)
+        return [r], {"kind": "plane", "center": r.center.tolist(), "normal": r.normal.tolist()}
+    if t == "gauge_blocks":
+        return workpieces.gauge_blocks(c, _g(a, "blocks", None, what), a.get("platen", (200.0, 150.0, 30.0)),
+                                       a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]))
+    if t == "box":
+        return workpieces.box(c, _g(a, "size", None, what), a.get("direction", [1, 0, 0]),
+                              a.get("normal", [0, 0, 1]))
+    if t == "mesh":
+        if "file" in a:
+            p = Path(a["file"])
+            m = read(p if p.is_absolute() else base / p, unit=a.get("unit"))
+            if not isinstance(m, TriangleMesh):
+                raise ValueError(f"{what}.file {a['file']!r} holds no triangle mesh")
+            V, F = m.vertices, m.faces
+        else:
+            V, F = _g(a, "vertices", None, what), _g(a, "faces", None, what)
+        return workpieces.mesh(V, F, a.get("position", [0, 0, 0]), a.get("rotation_deg", [0, 0, 0]),
+                               float(a.get("scale", 1.0)), a.get("label", "mesh"))
+    raise ValueError(f"{what}.type {t!r}: use one of {', '.join(ARTEFACTS)}")
+
+
+def _dataclass_from(cls, d: Mapping[str, Any] | None, what: str):
+    d = dict(d or {})
+    known = set(cls.__dataclass_fields__)
+    unknown = sorted(set(d) - known)
+    if unknown:
+        raise ValueError(f"{what}.{unknown[0]}: unknown entry; use {', '.join(sorted(known))}")
+    return cls(**d)
+
+
+def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
+    """A LabScene from a parsed scene document (ValueError names the entry)."""
+    if not isinstance(doc, Mapping):
+        raise ValueError("expected a mapping at the top level")
+    arts = doc.get("artefacts")
+    if not isinstance(arts, list) or not arts:
+        raise ValueError("artefacts: a list of at least one artefact is needed")
+    prims, albedo, truths = [], [], []
+    for i, a in enumerate(arts):
+        p, tr = build_artefact(a, i, base)
+        rho = float(a.get("albedo", 0.8))
+        if not 0 <= rho <= 1:
+            raise ValueError(f"artefacts[{i}].albedo {rho!r} must lie in 0..1")
+        tr["label"] = a.get("label", tr.get("label", f"{a['type']} {i + 1}"))
+        tr["albedo"] = rho
+        prims += p
+        albedo += [rho] * len(p)
+        truths.append(tr)
+    r = doc.get("rig")
+    if doc.get("cameras"):
+        cam_d, proj_d = list(doc["cameras"]), doc.get("projector")
+    elif r is not None:
+        r = dict(r)
+        cam_d, proj_d = rig.preset(r.pop("preset", "stereo_fringe"), r)
+        if doc.get("projector") is not None:
+            proj_d = {**proj_d, **doc["projector"]}
+    else:
+        cam_d, proj_d = rig.preset("stereo_fringe", {})
+    cams = [rig.device_from_dict(c, f"camera{i + 1}") for i, c in enumerate(cam_d)]
+    if len({c.name for c in cams}) != len(cams):
+        raise ValueError("cameras: names must differ (they name the image folders)")
+    proj = rig.device_from_dict(proj_d, "projector") if proj_d else None
+    light = _dataclass_from(Lighting, doc.get("lighting"), "lighting")
+    errors = dict(doc.get("errors") or {})
+    bad = sorted(set(errors) - set(ERRORS))
+    if bad:
+        raise ValueError(f"errors.{bad[0]}: unknown error; use {', '.join(ERRORS)}")
+    if "projector_gamma" in errors:
+        light.gamma = float(errors["projector_gamma"])
+    sensor = _dataclass_from(Sensor, doc.get("sensor"), "sensor")
+    if not 1 <= int(sensor.bits) <= 16:
+        raise ValueError(f"sensor.bits {sensor.bits!r}: use 1 .. 16")
+    ss = int((doc.get("render") or {}).get("supersample", 2))
+    if not 1 <= ss <= 8:
+        raise ValueError(f"render.supersample {ss!r}: use 1 .. 8")
+    seq = doc.get("sequence")
+    pats = doc.get("patterns") or []
+    if not isinstance(pats, list):
+        raise ValueError("patterns: expected a list")
+    return LabScene(str(doc.get("name", "virtual lab scene")), prims, np.asarray(albedo), truths, cams, proj,
+                    light, sensor, ss, int(doc.get("seed", 0)),
+                    (base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None),
+                    pats, errors, base, dict(doc))
+
+
+def load_scene(path: str | Path) -> LabScene:
+    """Read and check a scene file; InputError names the file and the bad entry."""
+    p = Path(path)
+    try:
+        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read the scene file ({exc.strerror})") from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"{p}: not valid YAML ({' '.join(str(exc).split())[:120]})") from None
+    try:
+        return scene_from_dict(doc, p.parent)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise InputError(f"{p}: {exc}") from None
