@@ -7,6 +7,7 @@ Schema (lengths in projector pixels; a pixel's centre is at its integer index)
 ::
 
     projector: {width: 912, height: 1140}   # required, px
+                          # optional calibration_scale: [sx, sy], see below
     bit_depth: 8          # 8 (uint8 patterns) or 16 (uint16); default 8
     gamma: 1.0            # projector gamma pre-compensated in the sinusoids (value**(1/gamma)); default 1
     levels: [0.0, 1.0]    # black and white drive level as a fraction of full scale; default [0, 1]
@@ -38,6 +39,12 @@ fewest that number every stripe of the span; the frames show the bits of gray(c)
 ``inverse``: ``none`` (bits thresholded by the white/black mean or the phase frames'
 mean), ``interleaved`` (bit, inverse, bit, inverse ... as OpenCV's GrayCodePattern) or
 ``after`` (all bits, then all inverses).
+
+``projector.calibration_scale`` (default [1, 1]): pattern pixels to the projector
+calibration's pixels, ``x_cal = s (x + 1/2) - 1/2``. A DLP with a diamond mirror array
+(e.g. TI LightCrafter 4500: 912 x 1140 patterns of half-height rows) is calibrated in
+square pixels, i.e. ``[1, 0.5]``. Decoded coordinates are pattern pixels; triangulation
+applies the scale.
 
 A phase group and a code group of the same direction are decoded together: the code gives
 the fringe order (eq. 5.4). A code whose period is half the phase period (one more bit)
@@ -125,6 +132,12 @@ class Sequence:
     phase_groups: list[PhaseGroup] = field(default_factory=list)
     code_groups: list[CodeGroup] = field(default_factory=list)
     name: str = "sequence"
+    calibration_scale: tuple[float, float] = (1.0, 1.0)
+
+    def to_calibration_px(self, direction: str, x):
+        """Pattern coordinate (px) along ``direction`` -> projector calibration px."""
+        s = self.calibration_scale[0 if direction == "vertical" else 1]
+        return x if s == 1.0 else s * (x + 0.5) - 0.5
 
     @property
     def n_frames(self) -> int:
@@ -214,7 +227,12 @@ def load_sequence(source: Any) -> Sequence:
     if not (isinstance(levels, (list, tuple)) and len(levels) == 2
             and all(isinstance(x, (int, float)) for x in levels) and 0 <= levels[0] < levels[1] <= 1):
         raise InputError(f"{name}: 'levels' must be [black, white] with 0 <= black < white <= 1, got {levels!r}")
-    seq = Sequence(width, height, bit_depth, gamma, (float(levels[0]), float(levels[1])), name=name)
+    scale = proj.get("calibration_scale", [1.0, 1.0])
+    if not (isinstance(scale, (list, tuple)) and len(scale) == 2
+            and all(isinstance(x, (int, float)) and x > 0 for x in scale)):
+        raise InputError(f"{name}: projector.calibration_scale must be [sx, sy] > 0, got {scale!r}")
+    seq = Sequence(width, height, bit_depth, gamma, (float(levels[0]), float(levels[1])), name=name,
+                   calibration_scale=(float(scale[0]), float(scale[1])))
     entries = source.get("frames")
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{name}: 'frames' must be a non-empty list")

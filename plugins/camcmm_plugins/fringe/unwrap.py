@@ -85,30 +85,37 @@ def refine(x_est: np.ndarray, level: Level, out: np.ndarray | None = None):
 
 
 def correct_boundaries(x: np.ndarray, period: float, valid: np.ndarray, code_period: float,
-                       code_offset: float) -> int:
+                       code_offset: float, passes: int = 4) -> int:
     """Fix +-1-fringe order errors next to code boundaries in place; returns how many.
 
     A pixel is corrected by j periods when it differs from the 5x5 median of x by j
     periods (|j| >= 1, within a quarter period), it lies within a quarter code stripe of
-    a code boundary, and most of its 5x5 neighbourhood is valid.
+    a code boundary, and most of its 5x5 neighbourhood is valid. A strip of wrong order
+    wider than two pixels is eaten from its edges, one pass at a time (up to ``passes``).
     """
     import cv2
 
-    med = cv2.medianBlur(np.ascontiguousarray(x, dtype=np.float32), 5)
-    d = np.subtract(x, med, dtype=np.float32)
-    d *= np.float32(1.0 / period)
-    j = np.rint(d)
-    cand = (j != 0) & (np.abs(d - j) < 0.25)
-    if not cand.any():
-        return 0
-    pos = (med - np.float32(code_offset)) * np.float32(1.0 / code_period)
-    pos -= np.floor(pos)
-    cand &= np.abs(pos - 0.5) > 0.25
     # outside the image counts as its mirror, so edge pixels are corrected too
     share = cv2.boxFilter(valid.astype(np.float32), -1, (5, 5), normalize=True)
-    cand &= share > 0.6
-    x[cand] -= j[cand] * np.float32(period)
-    return int(np.count_nonzero(cand))
+    trusted = valid & (share > 0.6)
+    total = 0
+    for _ in range(passes):
+        med = cv2.medianBlur(np.ascontiguousarray(x, dtype=np.float32), 5)
+        d = np.subtract(x, med, dtype=np.float32)
+        d *= np.float32(1.0 / period)
+        j = np.rint(d)
+        cand = (j != 0) & (np.abs(d - j) < 0.25) & trusted
+        if not cand.any():
+            break
+        pos = (med - np.float32(code_offset)) * np.float32(1.0 / code_period)
+        pos -= np.floor(pos)
+        cand &= np.abs(pos - 0.5) > 0.25
+        n = int(np.count_nonzero(cand))
+        if n == 0:
+            break
+        x[cand] -= j[cand] * np.float32(period)
+        total += n
+    return total
 
 
 def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, code_period: float = 0.0,
