@@ -3,8 +3,9 @@ frames per camera, the calibration file, plus the truth.
 
 Output folder::
 
-    camera1/frame000.png ...   one PNG per frame and camera (8-bit, or 16-bit for > 8 bits)
-    camera2/...
+    camera1/frame000.png ...   one PNG per frame and camera (8-bit, or 16-bit for > 8 bits):
+    camera2/...                the sequence's frames (exactly what a decoder expects) ...
+    camera1/extra/frame000.png ... and, with a sequence, the scene's own ``patterns`` here
     calibration.yaml           the calibration the system *believes* (systematic errors in)
     calibration_true.yaml      the true one
     sequence.yaml              a copy of the fringe sequence file, when the scene names one
@@ -25,7 +26,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from camcmm.api import CameraModel, Image, InputError, read, write, write_calibration
+from camcmm.api import CameraModel, Image, InputError, get_algorithm, read, write, write_calibration
 
 from . import imaging, render, rig
 from .scene_file import LabScene
@@ -48,11 +49,10 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
     (projector dark) and ``lamp`` (the diffuse lamp on)."""
     frames: list[dict[str, Any]] = []
     if scene.sequence is not None:
-        if ctx is None:
-            raise InputError("a fringe sequence needs the fringe plugin (run through the host)")
         if not scene.sequence.is_file():
             raise InputError(f"sequence {scene.sequence}: file not found")
-        out = ctx.algorithm("fringe.patterns")(sequence=str(scene.sequence))
+        fringe = ctx.algorithm("fringe.patterns") if ctx is not None else get_algorithm("fringe.patterns")
+        out = fringe(sequence=str(scene.sequence))
         size = tuple(int(x) for x in out["projector_size"])
         if scene.projector is None or tuple(scene.projector.model.image_size) != size:
             have = scene.projector.model.image_size if scene.projector is not None else None
@@ -229,14 +229,16 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     n = len(scene.cameras) * len(frames)
     for i, (dev, view) in enumerate(zip(scene.cameras, views)):
         cd = d / dev.name
-        cd.mkdir(exist_ok=True)
-        for old in cd.glob("frame*.png"):
+        (cd / "extra").mkdir(parents=True, exist_ok=True)
+        for old in [*cd.glob("frame*.png"), *(cd / "extra").glob("frame*.png")]:
             old.unlink()                                  # a shorter sequence must not leave stale frames
         files[dev.name] = []
+        n_seq = sum(f.get("source") == "sequence" for f in frames)
         for k, f in enumerate(frames):
             if prog:
                 prog(0.3 + 0.7 * (i * len(frames) + k) / n, f"rendering {dev.name} frame {k + 1}/{len(frames)}")
-            p = cd / f"frame{k:03d}.png"
+            extra = n_seq > 0 and f.get("source") != "sequence"
+            p = (cd / "extra" / f"frame{k - n_seq:03d}.png") if extra else cd / f"frame{k:03d}.png"
             write(Image(render_frame(scene, view, i, k, f), name=p.name), p)
             files[dev.name].append(str(p))
     write_calibration(d / "calibration.yaml", calibration(scene, True))
