@@ -66,6 +66,8 @@ class Sequence:
         self.run_id = uuid.uuid4().hex[:12]
         self.started = self.finished = ""
         self.fault_time: float | None = None
+        self.state_time = time.monotonic()
+        self._published = "idle"
         self._cond = threading.Condition()
         self._command: str | None = None
         self._thread: threading.Thread | None = None
@@ -100,14 +102,23 @@ class Sequence:
             self._command = "resume"
             self._cond.notify_all()
         self.events.emit("state", self.snapshot())
+        self._publish("resuming")
 
     def abort(self) -> None:
+        """Stop after the current step (at once when paused); stored frames stay."""
+        with self._cond:
+            aborting = self.state in ("paused", "resuming")
+            if aborting:
+                self.state = "aborting"
         self._signal("abort")
+        if aborting:
+            self.events.emit("state", self.snapshot())
+            self._publish("aborting")
 
     def wait(self, timeout: float | None = None, states: Seq[str] = ("paused", *TERMINAL)) -> str:
         """Block until the state is one of ``states`` (default: paused or finished)."""
         with self._cond:
-            self._cond.wait_for(lambda: self.state in states, timeout)
+            self._cond.wait_for(lambda: self._published == self.state and self.state in states, timeout)
             return self.state
 
     def snapshot(self) -> dict[str, Any]:
@@ -175,9 +186,16 @@ class Sequence:
     def _set_state(self, state: str, reason: str) -> None:
         with self._cond:
             self.state, self.reason = state, reason
-            self._cond.notify_all()
+            self.state_time = time.monotonic()
         self._save_progress()
         self.events.emit("state", self.snapshot())
+        self._publish(state)
+
+    def _publish(self, state: str) -> None:
+        # wait() returns only once the state event went out: a caller then sees what a GUI saw
+        with self._cond:
+            self._published = state
+            self._cond.notify_all()
 
     def _take(self) -> str | None:
         with self._cond:

@@ -320,6 +320,7 @@ class SimulatorProcess:
     def __init__(self, *args: str, folder: str | os.PathLike | None = None, pty: bool = True,
                  interferometer: bool = False, timeout: float = 20.0):
         self.folder = Path(folder or tempfile.mkdtemp(prefix="camcmm-sim-"))
+        self.folder.mkdir(parents=True, exist_ok=True)
         self.args = list(args)
         if pty:
             self.args += ["--link", str(self.folder / "stage")]
