@@ -26,7 +26,10 @@ def _stereo():
             "std_intrinsics": [np.arange(1, 15) * 0.01, np.arange(1, 19) * 0.02],
             "covariance": [np.diag(np.arange(1, 15) * 1e-4), None],
             "rectification": {"R1": np.eye(3), "P1": np.arange(12.0).reshape(3, 4)},
-            "board": "chessboard:9x6:25", "per_view_rms": [0.1, 0.2], "rejected": [{"image": "a.png", "reason": "x"}]}
+            "board": "chessboard:9x6:25", "per_view_rms": [0.1, 0.2], "rejected": [{"image": "a.png", "reason": "x"}],
+            # longer than FileStorage's string limit, and a big matrix
+            "note": "x" * 5000, "parameter_covariance": np.arange(3600.0).reshape(60, 60) / 7,
+            "views": {"names": ["a", "b"], "rvecs": [[0.1, 0.2, 0.3], [0.0, 0.0, 1.0]]}}
 
 
 def _same(a, b):
@@ -46,6 +49,8 @@ def _same(a, b):
     for k, v in a["rectification"].items():
         np.testing.assert_array_equal(v, b["rectification"][k])
     assert b["per_view_rms"] == a["per_view_rms"] and b["rejected"] == a["rejected"]
+    assert b["note"] == a["note"] and b["views"] == a["views"]
+    np.testing.assert_array_equal(b["parameter_covariance"], a["parameter_covariance"])
 
 
 @pytest.mark.parametrize("ext", [".yaml", ".yml", ".xml", ".json"])

@@ -31,14 +31,16 @@ One camera: ``camera_matrix``, ``dist_coeffs``, ``image_size`` (1x2: width, heig
 ``M1 D1 M2 D2 ...``, ``image_size1 image_size2 ...``, ``camera_name1 ...``,
 ``std_intrinsics1 ...``, ``covariance1 ...``, and ``R T E F`` for camera 2 in camera 1's
 frame; a third or later camera k has ``R<k>`` ``T<k>`` (its pose in camera 1's frame).
-``rms``, ``board``, ``R1 R2 P1 P2 Q`` (rectification); every other key is kept as one JSON
-string under ``camcmm_extra``. ``dist_coeffs`` is also read as ``distortion_coefficients``,
+``rms``, ``board``, ``R1 R2 P1 P2 Q`` (rectification); every other numeric 1-D/2-D array is
+written as a matrix under its own key (listed in ``camcmm_arrays``; a 1-D array comes back
+1-D), everything else as JSON text in the string sequence ``camcmm_extra``. ``dist_coeffs`` is also read as ``distortion_coefficients``,
 ``image_size`` also from ``image_width``/``image_height``.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +53,8 @@ from ._common import atomic_path
 _YAML_EXTS = (".yaml", ".yml", ".xml")
 _ARRAY_KEYS = ("R", "T", "E", "F")
 _RECT_KEYS = ("R1", "R2", "P1", "P2", "Q")
+_PIECE = 512
+_KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _OWN_KEYS = {"cameras", "rms", "std_intrinsics", "covariance", "R", "T", "E", "F", "rectification", "board"}
 
 
@@ -169,9 +173,26 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
             fs.write("rms", float(cal["rms"]))
         if cal.get("board") is not None:
             fs.write("board", str(cal["board"]))
-        extra = {k: _jsonable(v) for k, v in cal.items() if k not in _OWN_KEYS}
+        extra = {}
+        arrays = []
+        for k, v in cal.items():
+            if k in _OWN_KEYS:
+                continue
+            a = np.asarray(v) if isinstance(v, np.ndarray) else None
+            if a is not None and a.dtype.kind in "fiu" and 1 <= a.ndim <= 2 and a.size and _KEY.match(k):
+                fs.write(k, np.atleast_2d(a.astype(np.float64)))  # numeric arrays stay matrices
+                arrays.append(k)
+            else:
+                extra[k] = _jsonable(v)
+        if arrays:
+            fs.write("camcmm_arrays", ",".join(arrays))
         if extra:
-            fs.write("camcmm_extra", json.dumps(extra))
+            # FileStorage refuses long strings: the JSON goes as a sequence of pieces
+            text = json.dumps(extra)
+            fs.startWriteStruct("camcmm_extra", cv2.FileNode_SEQ)
+            for i in range(0, len(text), _PIECE):
+                fs.write("", text[i:i + _PIECE])
+            fs.endWriteStruct()
     finally:
         fs.release()
 
@@ -290,7 +311,13 @@ def _read_yaml(p: Path) -> dict[str, Any]:
         cal: dict[str, Any] = {"cameras": cams}
         extra = node("camcmm_extra")
         if extra is not None:
-            cal.update(json.loads(extra.string()))
+            doc = extra.string() if extra.isString() else "".join(extra.at(i).string() for i in range(extra.size()))
+            cal.update(json.loads(doc))
+        names = node("camcmm_arrays")
+        for key in ([] if names is None else names.string().split(",")):
+            a = mat(key)
+            if a is not None:
+                cal[key] = a.ravel() if a.shape[0] == 1 else a
         if real("rms") is not None:
             cal["rms"] = real("rms")
         if any(s is not None for s in std):

@@ -1,0 +1,170 @@
+"""Plugin entry points (``fn(ctx, **inputs, **params) -> dict``) for the host.
+
+Outputs are JSON-able; ``calibration`` is the calibration in the layout of camcmm's
+JSON calibration file (cameras as mappings). ``out`` (a .yaml/.yml/.xml/.json path)
+also writes it with camcmm.api.write_calibration.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from camcmm.api import CameraModel, InputError, RunContext, read_calibration, write_calibration
+
+
+def cal_json(cal: Mapping[str, Any]) -> dict[str, Any]:
+    """A calibration dict with its CameraModels as mappings and arrays as lists."""
+    def conv(v):
+        if isinstance(v, CameraModel):
+            return {"name": v.name, "camera_matrix": v.camera_matrix.tolist(), "dist_coeffs": v.dist_coeffs.tolist(),
+                    "rotation": v.rotation.tolist(), "translation": v.translation.tolist(),
+                    "image_size": list(v.image_size), "pixel_pitch": v.pixel_pitch}
+        if isinstance(v, np.ndarray):
+            return v.tolist()
+        if isinstance(v, Mapping):
+            return {str(k): conv(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [conv(x) for x in v]
+        if isinstance(v, np.generic):
+            return v.item()
+        return v
+    return conv(dict(cal))
+
+
+def load_calibration(value: Any) -> dict[str, Any]:
+    """A calibration from a file path, a calibration dict or a calibration result."""
+    if isinstance(value, (str, Path)):
+        return read_calibration(value)
+    if isinstance(value, Mapping):
+        d = dict(value)
+        if "cameras" in d and d["cameras"] and isinstance(d["cameras"][0], Mapping):
+            d["cameras"] = [CameraModel(c["camera_matrix"], c.get("dist_coeffs", np.zeros(5)),
+                                        c.get("rotation", np.eye(3)), c.get("translation", np.zeros(3)),
+                                        tuple(c.get("image_size", (0, 0))), c.get("pixel_pitch"),
+                                        c.get("name", "camera")) for c in d["cameras"]]
+        if "camera" in d and "cameras" not in d:
+            from .camera import calibration_dict
+
+            d = calibration_dict(d)
+        return d
+    raise InputError(f"calibration: expected a file path or a mapping, got {type(value).__name__}")
+
+
+def _write(out: str, cal: dict[str, Any]) -> str | None:
+    if out:
+        write_calibration(out, cal)
+        return str(out)
+    return None
+
+
+def camera(ctx: RunContext, images, board: str, model: str = "standard", detector: str = "auto",
+           subpix_window: int = 5, outlier_factor: float = 3.0, out: str = "") -> dict[str, Any]:
+    from .boards import detect_all
+    from .camera import calibrate_camera, calibration_dict, camera_json
+
+    dets = detect_all(board, images, detector=detector, subpix_window=subpix_window,
+                      progress=lambda f, m: ctx.progress(0.6 * f, m))
+    res = calibrate_camera(dets, board, model=model, outlier_factor=outlier_factor,
+                           progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
+    for r in res["rejected"]:
+        ctx.warn(f"{r['image']} left out: {r['reason']}")
+    cal = calibration_dict(res)
+    written = _write(out, cal)
+    return {**camera_json(res), "detections": [d.to_dict() for d in dets], "calibration": cal_json(cal),
+            "written": written}
+
+
+def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", detector: str = "auto",
+           subpix_window: int = 5, outlier_factor: float = 3.0, fix_intrinsics: bool = False,
+           alpha: float = -1.0, out: str = "") -> dict[str, Any]:
+    from .boards import detect_all
+    from .stereo import calibrate_stereo, calibration_dict, stereo_json
+
+    dl = detect_all(board, left, detector=detector, subpix_window=subpix_window,
+                    progress=lambda f, m: ctx.progress(0.3 * f, m))
+    dr = detect_all(board, right, detector=detector, subpix_window=subpix_window,
+                    progress=lambda f, m: ctx.progress(0.3 + 0.3 * f, m))
+    res = calibrate_stereo(dl, dr, board, model=model, outlier_factor=outlier_factor, fix_intrinsics=fix_intrinsics,
+                           alpha=alpha, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
+    for r in res["rejected"]:
+        ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
+    cal = calibration_dict(res)
+    written = _write(out, cal)
+    return {**stereo_json(res), "detections": {"left": [d.to_dict() for d in dl], "right": [d.to_dict() for d in dr]},
+            "calibration": cal_json(cal), "written": written}
+
+
+def projection_uncertainty(ctx: RunContext, calibration, distance: float, columns: int = 32, rows: int = 24,
+                           method: str = "mrcal") -> dict[str, Any]:
+    from .projection import projection_uncertainty as pu
+
+    out = pu(load_calibration(calibration), distance, grid=(columns, rows), method=method)
+    return {k: out[k] for k in ("map", "u", "v", "distance", "min", "max", "centre", "unit", "method")}
+
+
+def _pixels(value: Any) -> np.ndarray:
+    if isinstance(value, (str, Path)):
+        p = Path(value)
+        if not p.is_file():
+            raise InputError(f"{p.name}: file not found ({p})")
+        if p.suffix.lower() == ".npy":
+            return np.load(p)
+        import json
+
+        try:
+            doc = json.loads(p.read_text())
+        except ValueError as exc:
+            raise InputError(f"{p.name}: not valid JSON ({exc})") from None
+        value = doc.get("pixels", doc) if isinstance(doc, dict) else doc
+    elif isinstance(value, Mapping):
+        value = value.get("pixels")
+    try:
+        return np.asarray(value, np.float64)
+    except (TypeError, ValueError):
+        raise InputError("pixels: expected a (cameras, points, 2) array of numbers") from None
+
+
+def triangulate(ctx: RunContext, calibration, pixels, method: str = "optimal", pixel_sigma: float = 0.0,
+                calibration_covariance: bool = True) -> dict[str, Any]:
+    from .triangulation import triangulate as tri
+
+    cal = load_calibration(calibration)
+    cov = None
+    if calibration_covariance and cal.get("parameter_covariance") is not None:
+        names = cal.get("parameter_names") or []
+        if any(n.startswith("view") for n in names):
+            ctx.warn("the calibration's covariance holds board poses (a single camera): not used")
+        else:
+            cov = np.asarray(cal["parameter_covariance"], np.float64)
+    res = tri(cal["cameras"], _pixels(pixels), method=method, pixel_sigma=pixel_sigma or None,
+              parameter_covariance=cov)
+    return res
+
+
+def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float | None = None,
+          calibration=None, out: str = "") -> dict[str, Any]:
+    from .scale import apply_scale, read_interferometer_csv, scale_factor
+
+    data = read_interferometer_csv(interferometer)
+    res = scale_factor(data["interferometer"], data["camera"], data["run"], accuracy=accuracy, length=length)
+    res["file"] = data["file"]
+    if calibration is not None:
+        scaled = apply_scale(load_calibration(calibration), res["scale_factor"])
+        res["written"] = _write(out, scaled)
+        res["baseline"] = scaled.get("baseline")
+    elif out:
+        raise InputError("out: give the calibration to scale as well")
+    return res
+
+
+def gauge_block(ctx: RunContext, cloud, nominal: float, ransac_threshold: float | None = None,
+                up: list | None = None) -> dict[str, Any]:
+    from .gauge import gauge_block as gb
+
+    res = gb(cloud.points, nominal, up=up, ransac_threshold=ransac_threshold)
+    res["n_points"] = int(len(res["labels"]))
+    res["cloud"] = cloud.name
+    return res
