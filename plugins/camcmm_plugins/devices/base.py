@@ -291,6 +291,20 @@ class DeviceMonitor:
         self._thread.join(timeout=5)
 
 
+def port_errors() -> tuple[type[BaseException], ...]:
+    """The exceptions a vanished serial port raises (pyserial's, the OS's, termios')."""
+    import serial
+
+    errs: tuple[type[BaseException], ...] = (serial.SerialException, OSError)
+    try:
+        import termios
+
+        errs += (termios.error,)
+    except ImportError:  # Windows
+        pass
+    return errs
+
+
 def param(name: str, type: str = "float", default: Any = None, **kw: Any) -> Param:
     """Shorthand for a setting declaration (same fields as a manifest parameter)."""
     d = {"name": name, "type": type, "default": default, **kw}

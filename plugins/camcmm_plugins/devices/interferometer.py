@@ -25,7 +25,7 @@ import numpy as np
 
 from camcmm.api import InputError
 
-from .base import Device, DeviceDisconnected, DeviceTimeout, param
+from .base import Device, DeviceDisconnected, DeviceTimeout, param, port_errors
 
 UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "micron": 1e-3, "microns": 1e-3, "nm": 1e-6,
          "m": 1e3, "in": 25.4, "inch": 25.4}
@@ -107,26 +107,22 @@ class SerialInterferometer(Interferometer):
             self._ser = None
 
     def _line(self, deadline: float) -> str:
-        import serial
-
         try:
             while b"\n" not in self._buf:
                 if time.monotonic() > deadline:
                     raise self.error(f"no reading within {self.timeout:g} s", DeviceTimeout)
                 self._buf += self._ser.read(self._ser.in_waiting or 1)
-        except (serial.SerialException, OSError) as exc:
+        except port_errors() as exc:
             raise self.error(f"port lost ({' '.join(str(exc).split())[:160]})", DeviceDisconnected) from None
         line, _, self._buf = self._buf.partition(b"\n")
         return line.decode("ascii", "replace").strip()
 
     def _command(self, text: str) -> str:
-        import serial
-
         try:
             self._ser.reset_input_buffer()
             self._buf = b""
             self._ser.write((text + "\n").encode("ascii"))
-        except (serial.SerialException, OSError) as exc:
+        except port_errors() as exc:
             raise self.error(f"port lost ({' '.join(str(exc).split())[:160]})", DeviceDisconnected) from None
         deadline = time.monotonic() + self.timeout
         while True:
@@ -137,7 +133,11 @@ class SerialInterferometer(Interferometer):
     def _read(self) -> float:
         if self.mode == "stream":
             # the newest complete line: drop what queued up since the last read
-            self._buf += self._ser.read(self._ser.in_waiting) if self._ser.in_waiting else b""
+            try:
+                waiting = self._ser.in_waiting
+                self._buf += self._ser.read(waiting) if waiting else b""
+            except port_errors() as exc:
+                raise self.error(f"port lost ({' '.join(str(exc).split())[:160]})", DeviceDisconnected) from None
             lines = self._buf.split(b"\n")
             self._buf = lines[-1]
             done = [x.strip() for x in lines[:-1] if x.strip()]

@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from .base import DeviceDisconnected, DeviceError, DeviceTimeout
+from .base import DeviceDisconnected, DeviceError, DeviceTimeout, port_errors
 from .stage import Stage
 
 VELOCITY_UNIT = 1.6384  # Zaber: speed data = microsteps per second x 1.6384
@@ -140,8 +140,6 @@ class ZaberLink:
         raise AssertionError("unreachable")
 
     def _request_once(self, device: int, axis: int, command: str, timeout: float) -> Reply:
-        import serial
-
         if self._ser is None:
             raise self.error("port is closed", DeviceDisconnected)
         mid = None
@@ -168,9 +166,7 @@ class ZaberLink:
                     continue  # a late reply to an earlier, timed-out command
                 self.last_reply = time.monotonic()
                 return reply
-        except serial.SerialException as exc:
-            raise self.error(f"port lost ({_short(exc)})", DeviceDisconnected) from None
-        except OSError as exc:
+        except port_errors() as exc:
             raise self.error(f"port lost ({_short(exc)})", DeviceDisconnected) from None
 
     def _readline(self, deadline: float) -> bytes | None:
