@@ -1,0 +1,289 @@
+"""What a comparison on the "Compare with CAD" page takes: the plugin and its form, the
+measured cloud and the nominal chosen among the project's items, the alignment method,
+the tolerance, and the point pairs clicked in the 3D view (also a click on a result:
+the deviation of the point under it).
+
+:class:`InspectInputs` is a mixin of :class:`camcmm.gui.inspect_panel.InspectPage`
+(which owns ``state``, ``session``, ``host``, ``view``, the picked pairs and
+``_error``/``_spec_of``); loop thread only.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..errors import CamcmmError, InputError
+from ..host import to_jsonable
+from ..params import form_schema
+from .inspect_figures import BANDS, _num, band_codes, fmt_len
+
+PLUGIN = "inspect.compare"
+#: Parameters the page shows up front; the rest of the manifest's go under "More".
+MAIN_PARAMS = ("align", "tolerance")
+N_PAIRS = 3  # a rigid (or similarity) transform needs three non-collinear pairs
+
+ALIGN_TITLES = {
+    "icp": "ICP — rigid, from where the cloud is",
+    "similarity": "ICP with one uniform scale",
+    "global+icp": "Automatic (features + RANSAC), then ICP",
+    "global+similarity": "Automatic, then ICP with scale",
+    "pairs": "Three point pairs (picked) only",
+    "pairs+icp": "Three point pairs, then ICP",
+    "pairs+similarity": "Three point pairs, then ICP with scale",
+    "none": "None — the cloud is aligned already",
+}
+
+PAIR_COLOURS = {"measured": "#c62828", "nominal": "#1565c0"}
+
+
+def _one_line(exc: BaseException | str) -> str:
+    """An error as the one line the page shows: our own errors speak for themselves,
+    anything else is named by its type."""
+    msg = str(exc) if isinstance(exc, (CamcmmError, str)) else f"{type(exc).__name__}: {exc}"
+    return " ".join(msg.split()) or "unknown error"
+
+
+class InspectInputs:
+    """The form, the inputs scene, point pairs and picking (mixin of InspectPage)."""
+
+    # -- inputs --------------------------------------------------------------------------
+    def refresh_inputs(self) -> None:
+        """The form: alignment choices and parameters from the manifest; default items."""
+        s = self.state
+        try:
+            spec = self._spec_of()
+        except Exception as exc:  # a host without it (or a test's fake host): the page says so
+            s.ins_error = f"the inspection plugin ({PLUGIN}) is not available: {_one_line(exc)}"
+            return
+        if not s.ins_fields:
+            fields, values = [], {}
+            for f in form_schema(spec.parameters):
+                if f["name"] == "align":
+                    s.ins_align_options = [{"title": ALIGN_TITLES.get(c, c), "value": c} for c in f.get("choices") or []]
+                    if s.ins_align not in (f.get("choices") or []):
+                        s.ins_align = f.get("default") or (f.get("choices") or ["icp"])[0]
+                    continue
+                if f["name"] in MAIN_PARAMS:
+                    continue
+                d = {k: to_jsonable(v) for k, v in f.items()}
+                d["choices"] = list(f.get("choices") or [])
+                d["unit"] = f.get("unit", "")
+                d["help"] = f.get("help", "")
+                default = f.get("default")
+                values[f["name"]] = bool(default) if f["widget"] == "switch" else (
+                    "" if default is None else (", ".join(str(x) for x in default) if isinstance(default, list)
+                                                else to_jsonable(default)))
+                fields.append(d)
+            s.ins_fields = fields
+            s.ins_params = values
+        items = list(s.items or [])
+        clouds = [it["id"] for it in items if it.get("kind") == "pointcloud"]
+        geoms = [it["id"] for it in items if it.get("kind") in ("pointcloud", "mesh")]
+        if s.ins_measured not in clouds:
+            s.ins_measured = clouds[0] if clouds else None
+        if s.ins_nominal not in geoms:
+            meshes = [it["id"] for it in items if it.get("kind") == "mesh"]
+            others = [g for g in geoms if g != s.ins_measured]
+            s.ins_nominal = meshes[0] if meshes else (others[0] if others else None)
+
+    def _name(self, key: Any) -> str:
+        m = self.session._measurements.get(str(key)) if key is not None else None
+        return str(m.get("name") or key) if m else str(key)
+
+    def _load(self, key: Any, what: str) -> Any:
+        if key in (None, ""):
+            raise InputError(f"choose the {what} first (import it with the Import field)")
+        return self.session._load(str(key))
+
+    def pairs_method(self) -> bool:
+        return str(self.state.ins_align or "").startswith("pairs")
+
+    def set_inputs(self, measured: Any = None, nominal: Any = None) -> None:
+        """New measured/nominal choice: show them both (and forget picked pairs)."""
+        s = self.state
+        changed = False
+        if measured is not None and measured != s.ins_measured:
+            s.ins_measured, changed = measured, True
+        if nominal is not None and nominal != s.ins_nominal:
+            s.ins_nominal, changed = nominal, True
+        if changed:
+            self.view.forget_inputs()
+            self.clear_pairs(render=False)
+        self.show_inputs()
+
+    def show_inputs(self, reset_camera: bool = True, push: bool = True) -> bool:
+        """The inputs scene (both objects as they are) for picking point pairs."""
+        s = self.state
+        try:
+            measured = self._load(s.ins_measured, "measured cloud") if s.ins_measured else None
+            nominal = self._load(s.ins_nominal, "nominal") if s.ins_nominal else None
+        except Exception as exc:
+            self._error(exc)
+            return False
+        if measured is not None and not hasattr(measured, "points"):
+            self._error(f"{self._name(s.ins_measured)} is not a point cloud")
+            return False
+        self.measured, self.nominal = measured, nominal
+        self.view.show_inputs(measured, nominal, self._pair_markers(), reset_camera=reset_camera, push=push)
+        s.ins_mode = "inputs"
+        s.ins_note = self.view.note
+        s.ins_legend_title = ""
+        self._pick_hint()
+        return True
+
+    def set_align(self, method: str) -> None:
+        self.state.ins_align = method
+        if self.pairs_method() and self.state.ins_mode != "inputs":
+            self.show_inputs()
+        self._pick_hint()
+
+    def opened(self) -> None:
+        """The page is shown: an empty view shows the chosen inputs."""
+        if self.view.scene == "empty" and not self.state.ins_running:
+            self.refresh_inputs()
+            if self.state.ins_measured or self.state.ins_nominal:
+                # no image now: the view being mounted asks for one at its own size
+                self.show_inputs(push=False)
+
+    # -- point pairs ---------------------------------------------------------------------
+    def _pair_markers(self) -> list[dict[str, Any]]:
+        out = []
+        for i, p in enumerate(self._pairs_measured):
+            out.append({"point": p, "label": f"M{i + 1}", "colour": PAIR_COLOURS["measured"]})
+        for i, p in enumerate(self._pairs_nominal):
+            out.append({"point": p, "label": f"N{i + 1}", "colour": PAIR_COLOURS["nominal"]})
+        return out
+
+    def _publish_pairs(self) -> None:
+        rows = []
+        for i in range(max(len(self._pairs_measured), len(self._pairs_nominal))):
+            m = self._pairs_measured[i] if i < len(self._pairs_measured) else None
+            n = self._pairs_nominal[i] if i < len(self._pairs_nominal) else None
+            fmt = (lambda p: "(" + ", ".join(f"{c:.2f}" for c in p) + ")")
+            rows.append({"i": i + 1, "measured": fmt(m) if m else "…", "nominal": fmt(n) if n else "…",
+                         "complete": m is not None and n is not None})
+        self.state.ins_pairs = rows
+        self._pick_hint()
+
+    def _pick_hint(self) -> None:
+        s = self.state
+        if not self.pairs_method():
+            s.ins_pick_hint = ""
+            return
+        nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+        if nm >= N_PAIRS and nn >= N_PAIRS:
+            s.ins_pick_hint = "three pairs picked: Run aligns with them"
+        elif nm <= nn:
+            s.ins_pick_hint = f"pair {nm + 1}: click a point on the measured cloud (orange)"
+        else:
+            s.ins_pick_hint = f"pair {nn + 1}: click the same point on the nominal (grey)"
+
+    def pairs(self) -> dict[str, list[list[float]]] | None:
+        """The picked pairs as the plugin takes them (complete pairs only)."""
+        k = min(len(self._pairs_measured), len(self._pairs_nominal))
+        if k == 0:
+            return None
+        return {"measured": self._pairs_measured[:k], "nominal": self._pairs_nominal[:k]}
+
+    def add_pair_point(self, which: str, point: Any) -> None:
+        """Record a picked point of a pair (also used by tests and scripts)."""
+        p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]
+        (self._pairs_measured if which == "measured" else self._pairs_nominal).append(p)
+        self._publish_pairs()
+        if self.view.scene == "inputs":
+            self.view.set_markers(self._pair_markers())
+
+    def clear_pairs(self, render: bool = True) -> None:
+        self._pairs_measured, self._pairs_nominal = [], []
+        self._publish_pairs()
+        if render and self.view.scene == "inputs":
+            self.view.set_markers([])
+
+    def undo_pair_point(self) -> None:
+        if len(self._pairs_measured) > len(self._pairs_nominal):
+            self._pairs_measured.pop()
+        elif self._pairs_nominal:
+            self._pairs_nominal.pop()
+        self._publish_pairs()
+        if self.view.scene == "inputs":
+            self.view.set_markers(self._pair_markers())
+
+    # -- picking -------------------------------------------------------------------------
+    def pick_at(self, fx: float, fy: float) -> dict[str, Any] | None:
+        """A click in the view at fractions (fx from the left, fy from the top): a pair
+        point in the inputs scene of a pairs method, else the deviation of the point
+        under the click."""
+        try:
+            x, y = self.view.display_xy(fx, fy)
+        except Exception as exc:
+            self._error(f"pick: {_one_line(exc)}")
+            return None
+        return self.pick_display(x, y)
+
+    def pick_display(self, x: float, y: float) -> dict[str, Any] | None:
+        """As :meth:`pick_at` with display pixels (x right, y up)."""
+        s = self.state
+        scene = self.view.scene
+        if scene == "inputs":
+            if not self.pairs_method():
+                s.ins_pick_hint = "choose a 'pairs' alignment to pick point pairs; after Run, a click shows a deviation"
+                return None
+            nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+            if nm >= N_PAIRS and nn >= N_PAIRS:
+                s.ins_pick_hint = "three pairs are picked; Clear them to pick again"
+                return None
+            which = "measured" if nm <= nn else "nominal"
+            p = self.view.pick_input(which, x, y)
+            if p is None:
+                s.ins_pick_hint = (f"no point of the {which} {'cloud' if which == 'measured' else ''} there; "
+                                   "click on it").replace("  ", " ")
+                return None
+            self.add_pair_point(which, p)
+            return {"which": which, "point": p.tolist()}
+        if scene in ("colour", "bands", "failed") and self.deviations is not None:
+            i = self.view.pick_deviation(x, y)
+            if i is None:
+                s.ins_picked = {"text": "no point there", "found": False}
+                return None
+            return self.pick_index(i)
+        return None
+
+    def pick_index(self, i: int) -> dict[str, Any]:
+        """Show the deviation of point ``i`` of the deviations cloud."""
+        cloud = self.deviations
+        p = np.asarray(cloud.points[i], dtype=float)
+        d = float(np.asarray(cloud.fields["deviation"])[i])
+        unit = self.state.ins_unit
+        valid = not self.state.ins_failed
+        info = {"found": True, "index": int(i), "x": float(p[0]), "y": float(p[1]), "z": float(p[2]),
+                "deviation_mm": d, "deviation": fmt_len(d, unit, True, 4),
+                "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm", "valid": valid}
+        tol = self._tolerance(quiet=True)
+        if tol:
+            info["band"] = BANDS[int(band_codes(np.array([d]), tol)[0])][0]
+        info["text"] = f"point #{i}: {info['coords']}, deviation {info['deviation']}" + (
+            "" if valid else " (alignment failed: not a valid deviation)")
+        self.state.ins_picked = info
+        label = info["deviation"] if valid else "?"
+        self.view.set_markers([{"point": p.tolist(), "label": label, "colour": "#212121"}])
+        return info
+
+    # -- running -------------------------------------------------------------------------
+    def _tolerance(self, quiet: bool = False) -> float | None:
+        t = self.state.ins_tolerance
+        if t is None or (isinstance(t, str) and not t.strip()):
+            return None
+        try:
+            v = float(str(t).replace(",", ".")) if not isinstance(t, (int, float)) else float(t)
+        except ValueError:
+            if not quiet:
+                raise InputError(f"tolerance: {t!r} is not a number") from None
+            return None
+        if not math.isfinite(v) or v < 0:
+            if not quiet:
+                raise InputError(f"tolerance: {t!r} must be a number ≥ 0 (mm)")
+            return None
+        return v or None

@@ -1,0 +1,393 @@
+"""Running a comparison on the "Compare with CAD" page and showing its result: the
+plugin runs in a worker thread with progress and cancel; the result is drawn (the view
+first, so its image is on its way while the numbers and charts are made), the
+tolerance and the display mode follow the operator after the run, and a section cuts
+the part by a plane.
+
+:class:`InspectRun` is a mixin of :class:`camcmm.gui.inspect_panel.InspectPage`; it
+needs the inputs (:class:`camcmm.gui.inspect_inputs.InspectInputs`) and stores through
+:class:`camcmm.gui.inspect_export.InspectExport`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..host import RunResult
+from ..params import validate
+from .inspect_figures import (alignment_rows, band_counts, band_legend, display_unit, empty_figure, fmt_len,
+                              histogram_figure, legend_title, material_ratio_figure, section_figure, stats_rows)
+from .inspect_geometry import AXES, point_spacing, section
+from .inspect_inputs import MAIN_PARAMS, N_PAIRS, PLUGIN, _one_line
+from .inspect_scene import Prepared, prepare_cloud
+from .view import fmt_count
+
+log = logging.getLogger("camcmm.gui.inspect")
+
+
+class InspectRun:
+    """Run, cancel, show the result, tolerance and mode, section (mixin of InspectPage)."""
+
+    def _prepare_run(self, params: dict[str, Any] | None) -> tuple[dict[str, Any], dict[str, Any], list]:
+        s = self.state
+        spec = self._spec_of()
+        self.refresh_inputs()  # the items may have changed without a flush
+        if s.ins_measured in (None, ""):
+            raise InputError("choose the measured cloud first (import one with the Import field)")
+        if s.ins_nominal in (None, ""):
+            raise InputError("choose the nominal (a CAD mesh or a reference cloud) first")
+        if str(s.ins_measured) == str(s.ins_nominal):
+            raise InputError(f"{self._name(s.ins_measured)} is chosen as both measured and nominal; "
+                             "choose two different items")
+        declared = {p.name: p for p in spec.parameters}
+        raw: dict[str, Any] = {}
+        for k, v in (params if params is not None else (s.ins_params or {})).items():
+            p = declared.get(k)
+            if p is None or k in MAIN_PARAMS:
+                continue
+            if p.type != "str" and (v is None or (isinstance(v, str) and v.strip() == "")):
+                continue
+            raw[k] = v
+        raw["align"] = s.ins_align
+        tol = self._tolerance()
+        if tol is not None:
+            raw["tolerance"] = tol
+        values = validate(spec.parameters, raw, owner=f"plugin {PLUGIN!r}")
+        inputs: dict[str, Any] = {}
+        if str(values["align"]).startswith("pairs"):
+            pairs = self.pairs()
+            k = 0 if pairs is None else len(pairs["measured"])
+            if k < N_PAIRS:
+                raise InputError(f"alignment {values['align']!r} needs {N_PAIRS} point pairs, {k} picked: click a "
+                                 "point on the measured cloud, then the same point on the nominal, three times")
+            inputs["pairs"] = pairs
+        mids = [self.session._measurements[str(k)]["id"] for k in (s.ins_measured, s.ins_nominal)
+                if str(k) in self.session._measurements]
+        return inputs, values, mids
+
+    def _begin(self) -> threading.Event:
+        s = self.state
+        self._cancel = threading.Event()
+        self._last_progress = 0.0
+        s.ins_running = True
+        s.ins_progress = 0.0
+        s.ins_progress_message = f"running {PLUGIN} …"
+        s.ins_error = ""
+        self.session.clear_error()
+        return self._cancel
+
+    def _set_progress(self, fraction: float, message: str) -> None:
+        self.state.ins_progress = round(100.0 * float(fraction), 1)
+        if message:
+            self.state.ins_progress_message = message
+
+    def _progress_cb(self, fraction: float, message: str) -> None:
+        now = time.monotonic()
+        if fraction < 1.0 and now - self._last_progress < 0.1:
+            return
+        self._last_progress = now
+        self.session._post(self._set_progress, fraction, message)
+
+    def cancel(self) -> None:
+        if self._cancel is not None:
+            self._cancel.set()
+            self.state.ins_progress_message = "cancelling …"
+
+    def _compute(self, inputs: dict[str, Any], values: dict[str, Any], cancel: threading.Event,
+                 measured_key: str, nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
+        """Worker thread: load the inputs, run the plugin, prepare the display."""
+        t0 = time.time()
+        cloud = self.session._load(measured_key)
+        nominal = self.session._load(nominal_key)
+        if not hasattr(cloud, "points") or hasattr(cloud, "faces"):
+            raise InputError(f"{self._name(measured_key)}: the measured item must be a point cloud")
+        if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
+            raise InputError(f"{self._name(nominal_key)}: the nominal must be a mesh or a point cloud")
+        self.measured, self.nominal = cloud, nominal
+        result = self.host.run(PLUGIN, inputs={"cloud": cloud, "nominal": nominal, **inputs}, params=values,
+                               progress=self._progress_cb, cancel=cancel)
+        t_result = time.time()
+        dev = result.outputs["deviations"]
+        prep = prepare_cloud(dev.points, dev.fields["deviation"], self.view.display_limit)
+        return result, prep, {"started": t0, "result": t_result, "prepared": time.time()}
+
+    def _start(self, params: dict[str, Any] | None) -> tuple[dict[str, Any], dict[str, Any], list,
+                                                              threading.Event] | None:
+        """Check the form and begin a run: ``(inputs, values, measurement ids, cancel)``,
+        or None with the error shown (nothing has started then)."""
+        try:
+            inputs, values, mids = self._prepare_run(params)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        return inputs, values, mids, self._begin()
+
+    def _not_stored(self, exc: BaseException) -> None:
+        # the result is shown all the same: only reopening the project will miss it
+        self._error(f"the comparison could not be stored in the project: {_one_line(exc)}")
+
+    def run(self, params: dict[str, Any] | None = None) -> RunResult | None:
+        """Run the comparison in the calling thread (tests, scripts)."""
+        started = self._start(params)
+        if started is None:
+            return None
+        inputs, values, mids, cancel = started
+        try:
+            result, prep, timing = self._compute(inputs, values, cancel, str(self.state.ins_measured),
+                                                 str(self.state.ins_nominal))
+        except Exception as exc:
+            self._failed(exc)
+            return None
+        self._show_result(result, prep, timing)
+        self._auto_section()
+        try:
+            stored = self._store(result, mids)
+        except Exception as exc:
+            self._not_stored(exc)
+            return result
+        self._stored(stored)
+        return result
+
+    async def run_async(self, params: dict[str, Any] | None = None) -> RunResult | None:
+        """As :meth:`run`, computing (and storing) in a worker while the page stays live."""
+        if self.session._loop is None:
+            self.session.bind_loop()
+        if self.state.ins_running:
+            self._error("a comparison is running; wait for it or cancel it")
+            return None
+        started = self._start(params)
+        if started is None:
+            return None
+        inputs, values, mids, cancel = started
+        self._flush()
+        loop = asyncio.get_running_loop()
+        mk, nk = str(self.state.ins_measured), str(self.state.ins_nominal)
+        try:
+            result, prep, timing = await loop.run_in_executor(
+                self._executor, self._compute, inputs, values, cancel, mk, nk)
+        except Exception as exc:
+            self._failed(exc)
+            self._flush()
+            return None
+        self._show_result(result, prep, timing)
+        self._flush()
+        self.timing["flushed"] = time.time()
+        self.state.ins_timing = dict(self.timing)
+        self._auto_section()  # after the colour map is on its way: it needs the point spacing
+        self._flush()
+        try:
+            stored = await loop.run_in_executor(self._executor, self._store, result, mids)
+        except Exception as exc:
+            self._not_stored(exc)
+            self._flush()
+            return result
+        self._stored(stored)
+        self._flush()
+        return result
+
+    def _failed(self, exc: BaseException) -> None:
+        s = self.state
+        s.ins_running = False
+        s.ins_progress_message = "cancelled" if "cancelled" in str(exc) else "failed"
+        msg = _one_line(exc)
+        if PLUGIN not in msg and not isinstance(exc, InputError):
+            msg = f"{PLUGIN}: {msg}"
+        self._error(msg)
+
+    # -- showing a result -------------------------------------------------------------------
+    def _show_result(self, result: RunResult, prep: Prepared, timing: dict[str, float] | None = None,
+                     mode: str | None = None) -> None:
+        """Publish a comparison (fresh or restored) and draw it — the view first, so that
+        its image is on its way while the numbers and charts are made. Loop thread."""
+        s = self.state
+        if timing:
+            self.timing = dict(timing)
+            self.timing["loop"] = time.time()
+        o = result.outputs
+        self.result, self.outputs = result, o
+        self.deviations = o["deviations"]
+        self.prepared = prep
+        self._spacing = None
+        limit = float(o.get("colour_limit") or 0.0) or 1e-3
+        unit, _ = display_unit(limit)
+        converged = bool(o.get("converged"))
+        tol = self._tolerance(quiet=True)
+        if tol is None and o.get("stats", {}).get("tolerance") is not None:
+            tol = float(o["stats"]["tolerance"])
+            s.ins_tolerance = tol
+        s.ins_unit = unit
+        s.ins_has_result = True
+        s.ins_failed = not converged
+        s.ins_failed_reason = "" if converged else (o.get("reason") or "the alignment did not converge")
+        s.ins_legend_title = legend_title(unit)
+        s.ins_limit_text = f"colours saturate at ±{fmt_len(limit, unit)}"
+        s.ins_warnings = [str(w) for w in (result.warnings or [])][:12]
+        s.ins_alignment = alignment_rows(o, unit)
+        s.ins_picked = None
+        s.ins_title = (f"{self._name(s.ins_measured)} against {self._name(s.ins_nominal)} — "
+                       f"{fmt_count(self.deviations.n_points)} points, alignment {o.get('alignment', {}).get('method', '')}")
+        s.ins_running = False
+        s.ins_progress = 100.0
+        s.ins_progress_message = "done" if converged else "done — the alignment FAILED"
+        if converged:
+            wanted = mode or (s.ins_mode if s.ins_mode in ("colour", "bands") else "colour")
+            if wanted == "bands" and not tol:
+                wanted = "colour"
+            self._draw(wanted, reset_camera=True)
+            if timing:
+                self.timing["drawn"] = time.time()
+            self._publish_numbers(tol)
+        else:
+            s.ins_stats, s.ins_bands = [], []
+            s.ins_fig_hist = empty_figure("alignment failed: no deviations")
+            s.ins_fig_af = empty_figure("alignment failed: no deviations")
+            s.ins_fig_section = empty_figure("alignment failed")
+            s.ins_mode = "failed"
+            self.view.show_failed(prep, self.nominal, reset_camera=True)
+            s.ins_note = self.view.note
+        self._section_range(centre=True)
+        if timing:
+            self.timing.setdefault("drawn", time.time())
+            self.timing["numbers"] = time.time()
+            s.ins_timing = dict(self.timing)
+
+    def _publish_numbers(self, tol: float | None) -> None:
+        """Statistics, bands, histogram and curve for the current tolerance."""
+        s = self.state
+        o = self.outputs or {}
+        unit = s.ins_unit
+        dev = np.asarray(self.deviations.fields["deviation"], dtype=float)
+        s.ins_stats = stats_rows(o, unit, tol, dev)
+        s.ins_bands = band_legend(band_counts(dev, tol), tol, unit) if tol else []
+        limit = float(o.get("colour_limit") or 1e-3)
+        try:
+            s.ins_fig_hist = histogram_figure(o["histogram"], o["stats"], unit, limit, tol)
+        except Exception as exc:
+            log.exception("histogram figure")
+            s.ins_fig_hist = empty_figure(f"histogram: {_one_line(exc)}")
+        try:
+            s.ins_fig_af = material_ratio_figure(o["material_ratio"], o["stats"], unit, tol)
+        except Exception as exc:
+            log.exception("material-ratio figure")
+            s.ins_fig_af = empty_figure(f"material ratio: {_one_line(exc)}")
+
+    def _draw(self, mode: str, reset_camera: bool = False) -> None:
+        s = self.state
+        if self.prepared is None or self.outputs is None:
+            return
+        limit = float(self.outputs.get("colour_limit") or 1e-3)
+        self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, self._tolerance(quiet=True),
+                                  reset_camera=reset_camera)
+        s.ins_mode = self.view.scene
+        s.ins_note = self.view.note
+        if s.ins_section_axis and s.ins_fig_section.get("data"):
+            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self.deviations.bounds)
+
+    def set_mode(self, mode: str) -> None:
+        """The view's mode: colour | bands | inputs."""
+        s = self.state
+        if mode not in ("colour", "bands", "inputs"):  # the toggle's button pressed again
+            s.ins_mode = self.view.scene if self.view.scene != "empty" else "inputs"
+            s.dirty("ins_mode")
+            return
+        if mode == "inputs":
+            self.show_inputs(reset_camera=False)
+            return
+        if self.deviations is None:
+            s.ins_mode = "inputs"
+            return
+        if s.ins_failed:
+            self._error("the alignment failed: the deviations are not valid, so they are not coloured")
+            s.ins_mode = "failed"
+            self.view.show_failed(self.prepared, self.nominal, reset_camera=False)
+            return
+        if mode == "bands" and not self._tolerance(quiet=True):
+            self._error("tolerance bands need a tolerance: enter one (mm)")
+            mode = "colour"
+        self._draw(mode)
+
+    def set_tolerance(self, value: Any) -> None:
+        """A new tolerance after the run: bands, the share within, the charts follow."""
+        s = self.state
+        s.ins_tolerance = value
+        try:
+            tol = self._tolerance()
+        except InputError as exc:
+            self._error(exc)
+            return
+        s.ins_error = ""
+        if self.deviations is None or s.ins_failed:
+            return
+        self._publish_numbers(tol)
+        if s.ins_mode == "bands":
+            self._draw("bands" if tol else "colour")
+        if s.ins_picked and s.ins_picked.get("found"):
+            self.pick_index(int(s.ins_picked["index"]))
+
+    # -- section ---------------------------------------------------------------------------
+    def _auto_section(self) -> None:
+        """The section through the middle, once a valid result is shown."""
+        if self.deviations is not None and not self.state.ins_failed:
+            self.set_section()
+
+    def spacing(self) -> float:
+        if self._spacing is None:
+            self._spacing = point_spacing(self.deviations.points) if self.deviations is not None else 0.0
+        return self._spacing
+
+    def _bounds(self) -> np.ndarray | None:
+        if self.deviations is None:
+            return None
+        b = self.deviations.bounds
+        if self.nominal is not None and hasattr(self.nominal, "bounds"):
+            nb = np.asarray(self.nominal.bounds, dtype=float)
+            b = np.vstack([np.minimum(b[0], nb[0]), np.maximum(b[1], nb[1])])
+        return b
+
+    def _section_range(self, centre: bool = False) -> None:
+        s = self.state
+        b = self._bounds()
+        if b is None:
+            return
+        ax = AXES.index(s.ins_section_axis or "z")
+        lo, hi = float(b[0, ax]), float(b[1, ax])
+        step = (hi - lo) / 200.0 or 0.01
+        s.ins_section_range = [lo, hi, float(f"{step:.3g}")]
+        if centre or not lo <= float(s.ins_section_pos or 0.0) <= hi:
+            s.ins_section_pos = float(f"{0.5 * (lo + hi):.6g}")
+
+    def set_section(self, axis: str | None = None, position: float | None = None) -> dict[str, Any] | None:
+        """Cut the part by the plane axis = position; publish the 2-D chart and show the
+        plane in the view."""
+        s = self.state
+        if axis is not None and axis != s.ins_section_axis:
+            s.ins_section_axis = axis
+            self._section_range(centre=True)
+        if position is not None:
+            s.ins_section_pos = float(position)
+        if self.deviations is None:
+            return None
+        try:
+            nominal_poly = None
+            nominal_points = None
+            if self.nominal is not None and hasattr(self.nominal, "faces"):
+                nominal_poly = self.view.mesh_poly(self.nominal)
+            elif self.nominal is not None:
+                nominal_points = self.nominal.points
+            sec = section(s.ins_section_axis, float(s.ins_section_pos), self.deviations.points,
+                          self.deviations.fields["deviation"], 0.5 * self.spacing(), nominal_poly, nominal_points)
+            s.ins_fig_section = section_figure(sec, s.ins_unit, float(self.outputs.get("colour_limit") or 1e-3))
+        except Exception as exc:
+            log.exception("section")
+            self._error(f"section: {_one_line(exc)}")
+            return None
+        if s.ins_mode in ("colour", "bands", "failed"):
+            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self._bounds())
+        return sec
