@@ -12,8 +12,10 @@ fraction of all pixels):
 
 ``dark``          white - black contrast (or the phase frames' peak-to-peak estimate of it)
                   below ``black_threshold`` (default 5 % of full scale): no projector light.
-``saturated``     any frame at or above ``saturation`` (default: the image type's top
-                  level, for uint16 the smallest 2^b - 1 >= the data, b in 10, 12, 14, 16).
+``saturated``     any phase frame at or above ``saturation`` (clipped sinusoids bias the
+                  phase; a saturated white or code frame does not matter); default: the
+                  image type's top level, for uint16 the smallest 2^b - 1 >= the data,
+                  b in 10, 12, 14, 16.
 ``low_modulation`` modulation I'' of some phase group below ``modulation_threshold``
                   (default 2 % of full scale).
 ``code``          a code bit closer to its reference than ``white_threshold`` (off by
@@ -138,9 +140,10 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
     mod_thr = modulation_threshold if modulation_threshold > 0 else 0.02 * full
 
     rejected: dict[str, np.ndarray] = {}
-    brightest = frames[0].copy()
-    for f in frames[1:]:
-        np.maximum(brightest, f, out=brightest)
+    phase_frames = [i for g in seq.phase_groups for i in g.frames]
+    brightest = frames[phase_frames[0]].copy()
+    for i in phase_frames[1:]:
+        np.maximum(brightest, frames[i], out=brightest)
     rejected["saturated"] = brightest >= sat_level
     del brightest
 

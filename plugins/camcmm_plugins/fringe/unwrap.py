@@ -100,7 +100,9 @@ def correct_boundaries(x: np.ndarray, period: float, valid: np.ndarray, code_per
     trusted = valid & (share > 0.6)
     total = 0
     for _ in range(passes):
-        med = cv2.medianBlur(np.ascontiguousarray(x, dtype=np.float32), 5)
+        # medianBlur replicates the border, which would let a wrong edge row vote for itself
+        padded = cv2.copyMakeBorder(np.ascontiguousarray(x, dtype=np.float32), 2, 2, 2, 2, cv2.BORDER_REFLECT_101)
+        med = cv2.medianBlur(padded, 5)[2:-2, 2:-2]
         d = np.subtract(x, med, dtype=np.float32)
         d *= np.float32(1.0 / period)
         j = np.rint(d)
