@@ -162,8 +162,8 @@ class ZaberLink:
                     continue  # info or alert line
                 if reply.device != device or (axis and reply.axis not in (0, axis)):
                     continue  # another device on the daisy chain
-                if mid is not None and reply.msg_id is not None and reply.msg_id != mid:
-                    continue  # a late reply to an earlier, timed-out command
+                if mid is not None and reply.msg_id != mid:
+                    continue  # a late reply to an earlier, timed-out command (or another client's)
                 self.last_reply = time.monotonic()
                 return reply
         except port_errors() as exc:
