@@ -97,3 +97,20 @@ def test_cli_simulate_stage_serves_the_protocol(tmp_path):
     finally:
         proc.kill()
         proc.wait()
+
+
+def test_simulated_zaber_stage_starts_its_own_simulator():
+    host = default_host()
+    stage = host.device("devices.stage.zaber-simulated", {"speed": 500.0})
+    try:
+        stage.connect()
+        assert stage.port and stage.interferometer_port
+        laser = host.device("devices.interferometer.serial", {"port": stage.interferometer_port}).connect()
+        stage.home()
+        laser.zero()
+        x = stage.move_abs(12.5)
+        assert x == pytest.approx(12.5) and laser.read() == pytest.approx(x, abs=1e-9)
+        laser.disconnect()
+    finally:
+        stage.close_simulator()
+    assert stage.simulator.proc.poll() is not None

@@ -225,3 +225,37 @@ def test_sink_callable_and_operator_pause(project):
     assert [v for _, v in got] == [0, 1, 2, 3, 4] and seq.measurement_ids == [1, 2, 3, 4, 5]
     with pytest.raises(Exception, match="one or two cameras"):
         FringeSequence(project, SimulatedProjector().connect(), [], patterns=[np.zeros((4, 4))])
+
+
+def test_scale_run_with_the_laser_softwares_csv_survives_a_fault(tmp_path, project):
+    # The laser software recorded two readings per target; the stage dies after a few
+    # targets. After resume every row must still carry the readings of its own target.
+    targets = np.linspace(0, 40, 5)
+    readings = np.repeat(targets * (1 + 3e-5), 2) + np.tile([-1e-5, 1e-5], 5)
+    csv = tmp_path / "laser.csv"
+    csv.write_text("Target (mm),Reading (mm)\n" + "\n".join(f"{t},{r:.7f}" for t, r in
+                                                         zip(np.repeat(targets, 2), readings)))
+    from camcmm_plugins.devices.interferometer import CsvInterferometer
+
+    sim = SimulatorProcess("--resolution", "0.0001", "--speed", "200", folder=tmp_path / "sim")
+    try:
+        stage = ZaberLinearStage(sim.stage_port, name="act", resolution=0.0001).connect()
+        laser = CsvInterferometer(str(csv)).connect()
+        cam = SimulatedCamera("cam", size=(32, 24), stages=[stage]).connect()
+        seq = ScaleRunSequence(project, stage, laser, [cam], targets=targets, samples=2)
+        seen = []
+        seq.events.on("frame", lambda img, meta: seen.append(meta))
+        seq.start()
+        while len(seen) < 2:
+            time.sleep(0.001)
+        sim.kill()
+        assert seq.wait(timeout=5) == "paused"
+        sim.restart()
+        seq.resume()
+        assert seq.wait(timeout=30) == "done", seq.reason
+        rows = seq.table()
+        expected = readings.reshape(5, 2).mean(axis=1)
+        assert [r["interferometer_mm"] for r in rows] == pytest.approx(list(expected), abs=1e-12)
+        assert [len(r["measurement_ids"]) for r in rows] == [1] * 5
+    finally:
+        sim.kill()

@@ -156,14 +156,14 @@ class ScaleRunSequence(Sequence):
         _ensure_homed(self.stage)
         if step["kind"] == "setup":
             self.stage.move_abs(self.targets[0])
-            if self.zero_interferometer:
-                try:
-                    self.interferometer.zero()
-                except Exception as exc:  # a CSV import cannot be zeroed; its datum is the laser software's
-                    if "cannot set the datum" not in str(exc):
-                        raise
+            if self.zero_interferometer and getattr(self.interferometer, "can_zero", True):
+                self.interferometer.zero()  # a CSV import cannot: its datum is the laser software's
             return
         stage_mm = self.stage.move_abs(step["target_mm"])
+        if hasattr(self.interferometer, "seek"):
+            # readings recorded by the laser software, one group per target: a step run
+            # again after a fault must take the same ones
+            self.interferometer.seek(step["index"] * self.samples)
         reading = self.interferometer.read_mean(self.samples)
         row = {"index": step["index"], "target_mm": step["target_mm"], "stage_mm": stage_mm,
                "interferometer_mm": reading["mean"], "interferometer_std_mm": reading["std"],

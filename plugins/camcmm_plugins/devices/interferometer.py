@@ -49,6 +49,7 @@ class Interferometer(Device):
 
     kind = "interferometer"
     unit = "mm"
+    can_zero = True
     settings_schema = (param("samples", "int", 1, min=1, max=10000, help="Readings averaged per read_mean()."),)
 
     def read(self) -> float:
@@ -274,12 +275,19 @@ class CsvInterferometer(Interferometer):
         self._next = 0
         super().__init__(name, str(path), **settings)
 
+    can_zero = False
+
     def _open(self) -> None:
+        # a reconnect re-reads the file but keeps the place: readings already handed
+        # out belong to targets already done
         self.table = read_interferometer_csv(self.path, self.column, self.csv_unit)
-        self._next = 0
 
     def reset(self) -> None:
-        self._next = 0
+        self.seek(0)
+
+    def seek(self, k: int) -> None:
+        """The next read() returns reading ``k`` (0-based)."""
+        self._next = int(k)
 
     def _read(self) -> float:
         pos = self.table["positions"]

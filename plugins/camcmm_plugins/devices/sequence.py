@@ -17,7 +17,10 @@ sequence of the same name continues where a crashed one stopped.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import logging
+import shutil
 import tempfile
 import threading
 import time
@@ -126,7 +129,13 @@ class Sequence:
                 "reason": self.reason, "step": self.step, "steps": len(self.steps),
                 "label": self.steps[self.step]["label"] if self.step < len(self.steps) else "",
                 "frames": self.frames, "measurement_ids": list(self.measurement_ids),
-                "done": sorted(self.done_keys), "started": self.started, "finished": self.finished}
+                "done": sorted(self.done_keys), "started": self.started, "finished": self.finished,
+                "plan": self._plan_key()}
+
+    def _plan_key(self) -> str:
+        """A digest of the plan: progress saved for another plan is not taken over."""
+        text = json.dumps(jsonable(self.steps), sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     # -- for subclasses --------------------------------------------------------------------------
     def plan(self) -> list[dict[str, Any]]:
@@ -154,7 +163,7 @@ class Sequence:
         name = f"{self.name} {step['label']} {frame.metadata.get('camera', '')}".strip()
         if hasattr(self.store, "add_file"):
             ext = ".tif" if frame.data.dtype.kind == "f" else ".png"
-            path = self._tmp / f"{self.run_id}-{i:04d}-{len(self.done_keys):05d}{ext}"
+            path = self._tmp / f"{self.run_id}-{i:04d}-{uuid.uuid4().hex[:8]}{ext}"  # cameras write at once
             write(frame, path)
             try:
                 h = self.store.add_file(path)
@@ -248,6 +257,7 @@ class Sequence:
 
     def _end(self, state: str, reason: str) -> None:
         self.finished = utc_iso()
+        shutil.rmtree(self._tmp, ignore_errors=True)
         self._set_state(state, reason)
 
     def _key(self) -> str:
@@ -264,7 +274,7 @@ class Sequence:
         if not hasattr(self.store, "get_state"):
             return
         old = self.store.get_state(self._key())
-        if old and old.get("state") not in TERMINAL and old.get("steps") == len(self.steps):
+        if old and old.get("state") not in TERMINAL and old.get("plan") == self._plan_key():
             self.run_id = old["run_id"]
             self.done_keys = set(old.get("done", []))
             self.measurement_ids = list(old.get("measurement_ids", []))
