@@ -144,7 +144,7 @@ def point_covariance(cameras: Sequence[CameraModel], X: np.ndarray, pixel_sigma:
             p0 = off[-1] + 6 * (k - 1)
             B[:, 2 * k:2 * k + 2, p0:p0 + 6] = jac[:, :, :6]
     H = np.linalg.solve(np.einsum("nki,nkj->nij", A, A), np.transpose(A, (0, 2, 1)))  # (N, 3, 2V)
-    S = np.eye(2 * len(cams)) * float(pixel_sigma) ** 2
+    S = np.broadcast_to(np.eye(2 * len(cams)) * float(pixel_sigma) ** 2, (n, 2 * len(cams), 2 * len(cams)))
     if parameter_covariance is not None:
         C = np.asarray(parameter_covariance, np.float64)
         if C.shape != (n_theta, n_theta):
