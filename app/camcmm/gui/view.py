@@ -122,6 +122,11 @@ class SceneView:
         self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background("#f4f5f7", top="#ffffff")
         self.plotter.show_axes()
+        # Parts are seen from the theme's iso direction, as trame-pyvista's widget used to
+        # set it: VTK's own default camera looks straight down -z, a flat top view.
+        r = self.plotter.renderer
+        r.camera_position = r.get_default_cam_pos()
+        r.ResetCamera()
         self.shown: Shown | None = None
         self.field: str = SOLID
         self.actor = None
