@@ -60,7 +60,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
-    from trame_pyvista.widgets import PyVistaRemoteView
+    from trame.widgets.vtk import VtkRemoteView
 
     from .session import Session
     from .view import DISPLAY_LIMIT, SceneView
@@ -361,8 +361,11 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
                     html.Span("{{ display_note }}", classes="text-caption", raw_attrs=_tid("display-note"))
                 with html.Div(style="flex: 1 1 auto; min-height: 300px; position: relative;",
                               raw_attrs=_tid("view")):
-                    rview = PyVistaRemoteView(view.plotter, interactive_ratio=0.5, interactive_quality=60,
-                                              still_ratio=1)
+                    # trame-vtk's view on the render window, not trame-pyvista's: that one pushes an
+                    # image on every pyvista render() (about five per scene change); this one pushes
+                    # once, when view_changed below calls ctrl.view_update for a complete scene.
+                    rview = VtkRemoteView(view.plotter.render_window, interactive_ratio=0.5,
+                                          interactive_quality=60, still_ratio=1)
                     ctrl.view_update = rview.update
                     ctrl.view_reset_camera = rview.reset_camera
                 with v.VCard(v_if="result || result_warnings.length", classes="ma-2", variant="outlined",
