@@ -268,3 +268,38 @@ def test_speckle_relay_over_a_serial_line_and_by_hand():
         SpeckleProjector(settle_s=0).connect().on()
     with pytest.raises(DeviceError, match="not hex bytes"):
         SpeckleProjector("/dev/null", on_command="zz")
+
+
+def test_capture_replay_feeds_a_fringe_pair_from_a_rendering_plugin(tmp_path):
+    from camcmm.project import Project
+    from camcmm_plugins.devices.acquisition import FringeSequence
+    from camcmm_plugins.devices.simulated import CaptureReplay
+
+    calls = []
+
+    def fake_capture(scene, out):  # the virtual lab's contract: frames per camera, in sequence order
+        calls.append(scene)
+        files = {}
+        for cam in ("camera1", "camera2"):
+            files[cam] = []
+            for k in range(3):
+                path = tmp_path / f"{cam}_{k}.png"
+                cv2.imwrite(str(path), np.full((6, 8), 10 * k + (1 if cam == "camera2" else 0), np.uint8))
+                files[cam].append(str(path))
+        return {"files": files}
+
+    replay = CaptureReplay("scene.yaml", str(tmp_path / "render"), algorithm=fake_capture,
+                           cameras={"left": "camera1", "right": "camera2"})
+    proj = SimulatedProjector(size=(8, 6)).connect()
+    cams = [SimulatedCamera(n, size=(8, 6), projector=proj, renderer=replay).connect() for n in ("left", "right")]
+    with Project.create(tmp_path / "p") as p:
+        seq = FringeSequence(p, proj, cams, patterns=[np.zeros((6, 8), np.uint8)] * 3)
+        seq.start()
+        assert seq.wait(timeout=10) == "done", seq.reason
+        got = {(m["meta"]["camera"], m["meta"]["pattern_index"]): int(cv2.imread(str(p.file_path(m["hash"])), 0)[0, 0])
+               for m in p.measurements()}
+    assert got == {(c, k): 10 * k + (c == "right") for c in ("left", "right") for k in range(3)}
+    assert calls == ["scene.yaml"]  # rendered once
+    bad = SimulatedCamera("middle", projector=proj, renderer=replay).connect()
+    with pytest.raises(DeviceError, match="no rendered camera 'middle'"):
+        bad.grab()

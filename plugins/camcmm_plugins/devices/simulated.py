@@ -10,11 +10,13 @@ the virtual lab's image renderer once it exists. The state passed is:
 ``pattern_index``, ``stage_positions`` ({stage name: position in mm or deg}),
 ``stage_units`` ({name: "mm"|"deg"}), ``speckle`` (bool), ``frame`` (counter), ``seed``.
 
-Without a renderer :func:`synthetic_frame` draws a deterministic test scene.
+Without a renderer :func:`synthetic_frame` draws a deterministic test scene;
+:class:`CaptureReplay` replays frames the virtual lab rendered (``virtuallab.capture``).
 """
 
 from __future__ import annotations
 
+import threading
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -121,6 +123,48 @@ class SimulatedCamera(Camera):
         if index is not None:
             extra["pattern_index"] = index
         return img, extra
+
+
+class CaptureReplay:
+    """A renderer for :class:`SimulatedCamera` that replays a capture rendered beforehand
+    by a plugin — by default the virtual lab's ``virtuallab.capture`` (scene file in,
+    ``files`` {camera: [frame paths in sequence order]} out). A simulated camera whose
+    name is one of the plugin's cameras (or maps to one through ``cameras``) gets, for
+    the pattern on display, that camera's frame with the same index. The capture runs
+    on the first frame asked for, or at :meth:`prepare`.
+    """
+
+    def __init__(self, scene: Any, out: str, algorithm: str | Callable[..., dict] = "virtuallab.capture",
+                 cameras: dict[str, str] | None = None):
+        self.scene, self.out, self.algorithm = scene, str(out), algorithm
+        self.cameras = dict(cameras or {})
+        self.files: dict[str, list[str]] | None = None
+        self._cache: dict[tuple[str, int], np.ndarray] = {}
+        self._lock = threading.Lock()  # two cameras ask at once; render once
+
+    def prepare(self) -> dict[str, list[str]]:
+        with self._lock:
+            return self._prepare()
+
+    def _prepare(self) -> dict[str, list[str]]:
+        if self.files is None:
+            fn = get_algorithm(self.algorithm) if isinstance(self.algorithm, str) else self.algorithm
+            self.files = {str(k): [str(p) for p in v] for k, v in fn(scene=self.scene, out=self.out)["files"].items()}
+        return self.files
+
+    def __call__(self, camera: str = "", pattern_index: int | None = None, **_: Any) -> np.ndarray:
+        from camcmm.api import InputError, read
+
+        files = self.prepare()
+        name = self.cameras.get(camera, camera)
+        if name not in files:
+            raise InputError(f"capture replay: no rendered camera {name!r}; rendered: {', '.join(files)}")
+        k = 0 if pattern_index is None else int(pattern_index)
+        if not 0 <= k < len(files[name]):
+            raise InputError(f"capture replay: camera {name!r} has {len(files[name])} frames, asked for {k}")
+        if (name, k) not in self._cache:
+            self._cache[(name, k)] = read(files[name][k]).data
+        return self._cache[(name, k)]
 
 
 class SimulatedZaberStage(ZaberStage):
