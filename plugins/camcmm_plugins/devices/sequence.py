@@ -74,7 +74,7 @@ class Sequence:
         self._cond = threading.Condition()
         self._command: str | None = None
         self._thread: threading.Thread | None = None
-        self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-seq-"))
+        self._tmp = Path(tempfile.gettempdir())  # a folder of its own from start() on
         self._restore = restore
 
     # -- operator API -------------------------------------------------------------------------
@@ -82,6 +82,7 @@ class Sequence:
         if self._thread is not None:
             raise DeviceError(f"sequence {self.name!r} was already started")
         self.steps = self.plan()
+        self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-seq-"))
         if self._restore:
             self._load_progress()
         self._thread = threading.Thread(target=self._run, name=f"camcmm-seq-{self.name}", daemon=True)
@@ -257,7 +258,8 @@ class Sequence:
 
     def _end(self, state: str, reason: str) -> None:
         self.finished = utc_iso()
-        shutil.rmtree(self._tmp, ignore_errors=True)
+        if self._tmp.name.startswith("camcmm-seq-"):
+            shutil.rmtree(self._tmp, ignore_errors=True)
         self._set_state(state, reason)
 
     def _key(self) -> str:
