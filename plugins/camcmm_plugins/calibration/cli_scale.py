@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if bool(args.calibration) != bool(args.out):
         raise InputError("--calibration and --out go together")
     return scale(None, args.interferometer, accuracy=args.accuracy, length=args.length,
-                 calibration=args.calibration, out=args.out or "")
+                 calibration=args.calibration, save=args.out or "")
 
 
 def text(result: dict[str, Any]) -> str:

@@ -1,7 +1,7 @@
 """Plugin entry points (``fn(ctx, **inputs, **params) -> dict``) for the host.
 
 Outputs are JSON-able; ``calibration`` is the calibration in the layout of camcmm's
-JSON calibration file (cameras as mappings). ``out`` (a .yaml/.yml/.xml/.json path)
+JSON calibration file (cameras as mappings). ``save`` (a .yaml/.yml/.xml/.json path)
 also writes it with camcmm.api.write_calibration.
 """
 
@@ -53,15 +53,15 @@ def load_calibration(value: Any) -> dict[str, Any]:
     raise InputError(f"calibration: expected a file path or a mapping, got {type(value).__name__}")
 
 
-def _write(out: str, cal: dict[str, Any]) -> str | None:
-    if out:
-        write_calibration(out, cal)
-        return str(out)
+def _write(path: str, cal: dict[str, Any]) -> str | None:
+    if path:
+        write_calibration(path, cal)
+        return str(path)
     return None
 
 
 def camera(ctx: RunContext, images, board: str, model: str = "standard", detector: str = "auto",
-           subpix_window: int = 5, outlier_factor: float = 3.0, out: str = "") -> dict[str, Any]:
+           subpix_window: int = 5, outlier_factor: float = 3.0, save: str = "") -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibrate_camera, calibration_dict, camera_json
 
@@ -72,14 +72,14 @@ def camera(ctx: RunContext, images, board: str, model: str = "standard", detecto
     for r in res["rejected"]:
         ctx.warn(f"{r['image']} left out: {r['reason']}")
     cal = calibration_dict(res)
-    written = _write(out, cal)
+    written = _write(save, cal)
     return {**camera_json(res), "detections": [d.to_dict() for d in dets], "calibration": cal_json(cal),
             "written": written}
 
 
 def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", detector: str = "auto",
            subpix_window: int = 5, outlier_factor: float = 3.0, fix_intrinsics: bool = False,
-           alpha: float = -1.0, out: str = "") -> dict[str, Any]:
+           alpha: float = -1.0, save: str = "") -> dict[str, Any]:
     from .boards import detect_all
     from .stereo import calibrate_stereo, calibration_dict, stereo_json
 
@@ -92,7 +92,7 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
     for r in res["rejected"]:
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
     cal = calibration_dict(res)
-    written = _write(out, cal)
+    written = _write(save, cal)
     return {**stereo_json(res), "detections": {"left": [d.to_dict() for d in dl], "right": [d.to_dict() for d in dr]},
             "calibration": cal_json(cal), "written": written}
 
@@ -145,7 +145,7 @@ def triangulate(ctx: RunContext, calibration, pixels, method: str = "optimal", p
 
 
 def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float | None = None,
-          calibration=None, out: str = "") -> dict[str, Any]:
+          calibration=None, save: str = "") -> dict[str, Any]:
     from .scale import apply_scale, read_interferometer_csv, scale_factor
 
     data = read_interferometer_csv(interferometer)
@@ -153,10 +153,10 @@ def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float
     res["file"] = data["file"]
     if calibration is not None:
         scaled = apply_scale(load_calibration(calibration), res["scale_factor"])
-        res["written"] = _write(out, scaled)
+        res["written"] = _write(save, scaled)
         res["baseline"] = scaled.get("baseline")
-    elif out:
-        raise InputError("out: give the calibration to scale as well")
+    elif save:
+        raise InputError("save: give the calibration to scale as well")
     return res
 
 
