@@ -21,7 +21,7 @@ import pytest
 from camcmm_plugins.calibration.boards import detect_all
 from camcmm_plugins.calibration.camera import calibrate_camera
 from camcmm_plugins.calibration.projection import projection_uncertainty
-from camcmm_plugins.calibration.stereo import calibrate_stereo
+from camcmm_plugins.calibration.stereo import calibrate_stereo, rectify_images
 
 DATA = Path(__file__).parent / "data" / "opencv_stereo_chessboard"
 K_REF = np.array([[532.80992189, 0.0, 342.4952186], [0.0, 532.93346422, 233.8879292], [0.0, 0.0, 1.0]])
@@ -91,6 +91,17 @@ def test_opencv_stereo_pair():
     # E and F as OpenCV defines them: E = [T]x R, x_r^T F x_l = 0 on the corners
     tx = np.array([[0, -T[2], T[1]], [T[2], 0, -T[0]], [-T[1], T[0], 0]])
     np.testing.assert_allclose(res["E"], tx @ res["R"], atol=1e-9)
+    # rectified images: the corners found again in them lie on common rows
+    import cv2
+
+    rl, rr = rectify_images(res, cv2.imread(str(DATA / "left03.jpg"), 0), cv2.imread(str(DATA / "right03.jpg"), 0))
+    ok_l, cl = cv2.findChessboardCorners(rl, (9, 6))
+    ok_r, cr = cv2.findChessboardCorners(rr, (9, 6))
+    assert ok_l and ok_r
+    term = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.01)
+    cl = cv2.cornerSubPix(rl, cl, (5, 5), (-1, -1), term).reshape(-1, 2)
+    cr = cv2.cornerSubPix(rr, cr, (5, 5), (-1, -1), term).reshape(-1, 2)
+    assert np.abs(cl[:, 1] - cr[:, 1]).mean() < 0.5 and np.all(cl[:, 0] > cr[:, 0])  # disparity > 0
 
 
 def test_bouguet_example(shared_data):

@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import least_squares
 
 from camcmm.api import CameraModel, InputError
-from camcmm_plugins.calibration.triangulation import triangulate
+from camcmm_plugins.calibration.triangulation import fundamental, triangulate
 
 
 def _rot(*r):
@@ -55,6 +55,13 @@ def test_linear_is_opencv_dlt_and_optimal_is_the_least_squares_point(truth):
                              criteria=(3, 100, 1e-14)).reshape(-1, 2) for k, c in enumerate(cams)]
     Xh = cv2.triangulatePoints(cams[0].projection_matrix, cams[1].projection_matrix, u[0].T, u[1].T)
     assert np.abs(lin - (Xh[:3] / Xh[3]).T).max() < 0.01
+    # two cameras: Hartley-Sturm's optimum (cv2.correctMatches on the epipolar geometry)
+    x2 = np.stack([_proj(c, truth[:50]) for c in cams]) + rng.normal(0, 0.5, (2, 50, 2))
+    u2 = [cv2.undistortPoints(x2[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix,
+                              criteria=(3, 100, 1e-14)).reshape(1, -1, 2) for k, c in enumerate(cams)]
+    a, b = cv2.correctMatches(fundamental(cams[0], cams[1]), u2[0], u2[1])
+    Xh = cv2.triangulatePoints(cams[0].projection_matrix, cams[1].projection_matrix, a[0].T, b[0].T)
+    np.testing.assert_allclose(triangulate(cams, x2)["points"], (Xh[:3] / Xh[3]).T, atol=1e-7)
     for n_cams in (2, 3):
         cams = CAMS[:n_cams]
         x = np.stack([_proj(c, truth[:20]) for c in cams]) + rng.normal(0, 0.5, (n_cams, 20, 2))

@@ -243,3 +243,28 @@ def stereo_json(result: dict[str, Any]) -> dict[str, Any]:
         "rectification": {k: np.asarray(v).tolist() for k, v in result["rectification"].items()},
         "pairs": result["pairs"], "rejected": result["rejected"],
     }
+
+
+def rectify_images(cal: dict[str, Any], left: np.ndarray, right: np.ndarray,
+                   interpolation: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The pair resampled into the rectified frame (rows are epipolar lines), for
+    showing with horizontal lines. ``cal``: a stereo result or calibration dict with
+    ``cameras`` [left, right] and ``rectification`` (R1 R2 P1 P2; made with
+    cv2.stereoRectify when absent)."""
+    import cv2
+
+    c1, c2 = cal["cameras"][:2]
+    size = tuple(int(v) for v in c1.image_size) if c1.image_size[0] else (left.shape[1], left.shape[0])
+    rect = cal.get("rectification") or {}
+    if not all(k in rect for k in ("R1", "R2", "P1", "P2")):
+        R = c2.rotation @ c1.rotation.T
+        T = c2.translation - R @ c1.translation
+        R1, R2, P1, P2, *_ = cv2.stereoRectify(c1.camera_matrix, c1.dist_coeffs, c2.camera_matrix, c2.dist_coeffs,
+                                               size, R, T.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY)
+        rect = {"R1": R1, "R2": R2, "P1": P1, "P2": P2}
+    out = []
+    for cam, img, r, p in ((c1, left, rect["R1"], rect["P1"]), (c2, right, rect["R2"], rect["P2"])):
+        m1, m2 = cv2.initUndistortRectifyMap(cam.camera_matrix, cam.dist_coeffs, np.asarray(r, np.float64),
+                                             np.asarray(p, np.float64), size, cv2.CV_32FC1)
+        out.append(cv2.remap(img, m1, m2, cv2.INTER_LINEAR if interpolation is None else interpolation))
+    return out[0], out[1]

@@ -2,10 +2,11 @@
 
 * ``linear``: the SVD solution of eq. 3.2, A X = 0 with rows u p^3 - p^1 and
   v p^3 - p^2 per camera (p^k: row k of P = K [R | t]); the pixels are undistorted first.
-* ``optimal``: the point with the least reprojection error. Two cameras: Hartley-Sturm
-  (cv2.correctMatches moves both points onto a common epipolar line, then the linear
-  solution is exact); more cameras: Gauss-Newton on the reprojection error from the
-  linear solution. Both in undistorted pixel coordinates.
+* ``optimal``: the point with the least reprojection error (in undistorted pixel
+  coordinates), by Gauss-Newton from the linear solution, for any number of cameras.
+  For two cameras this is Hartley-Sturm's optimum (cv2.correctMatches, then the linear
+  solution; the tests check they agree), found ~10x faster than correctMatches, whose
+  per-point polynomial root finding takes ~45 us a point.
 
 Covariance to first order (implicit-function theorem on the least-squares problem):
 with A = d pixels / d X (2V, 3) and B = d pixels / d theta (calibration parameters),
@@ -72,7 +73,7 @@ def _gauss_newton(P: np.ndarray, x: np.ndarray, X: np.ndarray, iterations: int =
     return X
 
 
-def _fundamental(c1: CameraModel, c2: CameraModel) -> np.ndarray:
+def fundamental(c1: CameraModel, c2: CameraModel) -> np.ndarray:
     R = c2.rotation @ c1.rotation.T
     t = c2.translation - R @ c1.translation
     tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
@@ -90,8 +91,6 @@ def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optima
     rx ry rz tx ty tz, as a stereo calibration's ``parameter_covariance``) also
     ``covariance`` (N, 3, 3) mm^2 and ``std`` (N, 3) mm.
     """
-    import cv2
-
     cams = list(cameras)
     x = np.asarray(pixels, np.float64)
     if len(cams) < 2:
@@ -107,10 +106,6 @@ def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optima
     f = np.array([np.sqrt(abs(c.camera_matrix[0, 0] * c.camera_matrix[1, 1])) for c in cams])
     if method == "linear":
         X = _linear(P, u, f)
-    elif len(cams) == 2:
-        F = _fundamental(cams[0], cams[1])
-        a, b = cv2.correctMatches(F, u[0][None], u[1][None])
-        X = _linear(P, np.stack([a[0], b[0]]), f)
     else:
         X = _gauss_newton(P, u, _linear(P, u, f))
     rep = _project(P, X) - u
