@@ -133,3 +133,19 @@ def test_stereo_uncertainty_monte_carlo():
     base = np.array([r["baseline"] for r in runs])
     _ratio_ok([base.std(ddof=1)], [np.mean([r["baseline_std"] for r in runs])])
     assert abs(base.mean() - 120) < 4 * base.std(ddof=1) / np.sqrt(len(base))
+
+
+def test_stereo_with_partial_charuco_views():
+    """ChArUco views where each camera misses different corners: pairs use the ids both
+    saw; exact data give the rig back."""
+    b = parse_board("charuco:9x7:25:18")
+    poses = look_at_poses(8, 450, b, seed=6, tilt_deg=30)
+    left, right = _stereo_views(b, poses, 0.0, 0)
+    rng = np.random.default_rng(5)
+    for d in left + right:  # drop a different third of the corners in each view
+        keep = np.sort(rng.choice(len(d.ids), size=2 * len(d.ids) // 3, replace=False))
+        d.image_points, d.object_points, d.ids = d.image_points[keep], d.object_points[keep], d.ids[keep]
+    res = calibrate_stereo(left, right, b)
+    assert len(res["pairs"]) == 8
+    np.testing.assert_allclose(res["T"], TR, atol=1e-3)
+    np.testing.assert_allclose(res["rvec"], RV, atol=1e-5)
