@@ -38,7 +38,10 @@ def _coeffs(cam: CameraModel) -> np.ndarray:
 def distort(cam: CameraModel, x: np.ndarray, y: np.ndarray, jacobian: bool = False):
     """Distorted normalised coordinates (xd, yd) of ideal ones (x, y), arrays of any
     shape; with ``jacobian`` also the four partial derivatives d(xd, yd)/d(x, y)."""
-    k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = _coeffs(cam)[:12]
+    c = _coeffs(cam)
+    if not jacobian and not np.any(c):
+        return x, y
+    k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = c[:12]
     r2 = x * x + y * y
     a = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
     b = 1 + r2 * (k4 + r2 * (k5 + r2 * k6))
@@ -97,20 +100,25 @@ def centre(cam: CameraModel) -> np.ndarray:
 def pixel_rays(cam: CameraModel, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Unit ray directions (N, 3) in world coordinates through pixels (u, v) (N,),
     lens distortion removed; the rays start at ``centre(cam)``."""
-    x, y = undistort(cam, *to_normalised(cam, np.asarray(u, float), np.asarray(v, float)))
-    d = np.stack([x, y, np.ones_like(x)], axis=-1)
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    return d @ cam.rotation                        # rows times R: R^T d for each ray
+    x, y = undistort(cam, *to_normalised(cam, np.asarray(u, float).ravel(), np.asarray(v, float).ravel()))
+    return directions(cam, x, y)
 
 
 def project(cam: CameraModel, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pixel coordinates u, v (N,) of world points X (N, 3) with distortion, and the
     depth Z (mm) along the optical axis (points behind the camera have Z <= 0)."""
-    Xc = X @ cam.rotation.T + cam.translation
-    Z = Xc[:, 2]
+    Xc = transform(cam.rotation, cam.translation, X)
+    Z = Xc[2]
     safe = np.where(Z > 1e-12, Z, 1e-12)
-    u, v = to_pixels(cam, *distort(cam, Xc[:, 0] / safe, Xc[:, 1] / safe))
+    u, v = to_pixels(cam, *distort(cam, Xc[0] / safe, Xc[1] / safe))
     return u, v, Z
+
+
+def transform(R: np.ndarray, t, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Components of R x + t for points X (N, 3), as three (N,) arrays: three
+    matrix-vector products, which numpy runs ~10x faster than (N, 3) @ (3, 3)."""
+    t = np.zeros(3) if t is None else t
+    return X @ R[0] + t[0], X @ R[1] + t[1], X @ R[2] + t[2]
 
 
 def look_at(position, target, up=(0.0, 1.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -141,9 +149,9 @@ def intrinsics(focal_length: float, pixel_pitch: float, image_size, principal_po
     return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
 
 
-def grid_rays(cam: CameraModel, supersample: int = 1, step: int = 4) -> np.ndarray:
-    """Unit world ray directions (h*s*w*s, 3) through an s x s sub-pixel grid of the
-    whole image, row-major over the (h*s, w*s) grid of ``subpixel_grid``.
+def grid_normalised(cam: CameraModel, supersample: int = 1, step: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """Ideal normalised coordinates X, Y (h*s, w*s) of an s x s sub-pixel grid of the
+    whole image (the layout of ``subpixel_grid``).
 
     The inverse lens model is solved exactly (Newton) on a lattice every ``step`` px and
     interpolated by a bicubic spline (scipy) in between: the map is smooth, and the
@@ -156,21 +164,30 @@ def grid_rays(cam: CameraModel, supersample: int = 1, step: int = 4) -> np.ndarr
     off = (np.arange(s) + 0.5) / s - 0.5
     us = (np.arange(w)[:, None] + off[None, :]).ravel()
     vs = (np.arange(h)[:, None] + off[None, :]).ravel()
-    if np.any(_coeffs(cam)):
-        gu = np.arange(-2 * step, w + 2 * step + 1, step, dtype=float)
-        gv = np.arange(-2 * step, h + 2 * step + 1, step, dtype=float)
-        U, V = np.meshgrid(gu, gv)
-        x, y = undistort(cam, *to_normalised(cam, U, V))
-        X = RectBivariateSpline(gv, gu, x)(vs, us)
-        Y = RectBivariateSpline(gv, gu, y)(vs, us)
-    else:
-        X, Y = (np.broadcast_to(a, (len(vs), len(us))) for a in to_normalised(cam, us[None, :], vs[:, None]))
+    if not np.any(_coeffs(cam)):
+        X, Y = to_normalised(cam, us[None, :], vs[:, None])
+        return np.broadcast_to(X, (len(vs), len(us))), np.broadcast_to(Y, (len(vs), len(us)))
+    gu = np.arange(-2 * step, w + 2 * step + 1, step, dtype=float)
+    gv = np.arange(-2 * step, h + 2 * step + 1, step, dtype=float)
+    U, V = np.meshgrid(gu, gv)
+    x, y = undistort(cam, *to_normalised(cam, U, V))
+    return RectBivariateSpline(gv, gu, x)(vs, us), RectBivariateSpline(gv, gu, y)(vs, us)
+
+
+def directions(cam: CameraModel, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Unit world directions (N, 3) of ideal normalised coordinates X, Y (any shape)."""
     inv = 1.0 / np.sqrt(X * X + Y * Y + 1.0)
     Rt = cam.rotation.T                              # camera -> world
     d = np.empty((X.size, 3))
     for k in range(3):                               # R^T (x, y, 1) / |.|, without (N, 3) temporaries
         d[:, k] = ((Rt[k, 0] * X + Rt[k, 1] * Y + Rt[k, 2]) * inv).ravel()
     return d
+
+
+def grid_rays(cam: CameraModel, supersample: int = 1) -> np.ndarray:
+    """Unit world ray directions (h*s*w*s, 3) through an s x s sub-pixel grid of the
+    whole image, row-major over the (h*s, w*s) grid of ``subpixel_grid``."""
+    return directions(cam, *grid_normalised(cam, supersample))
 
 
 def subpixel_grid(image_size, supersample: int) -> tuple[np.ndarray, np.ndarray]:

@@ -24,6 +24,8 @@ Lengths in mm, images (h, w) in pixels.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,90 +89,107 @@ def _falloff_reference(projector) -> float:
     return float(abs(projector.translation[2])) or 1.0
 
 
+def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: int, r1: int) -> dict:
+    """Geometry of the sub-pixel rows r0..r1 (see ``prepare``); per-pixel sums over the
+    pixel rows they cover."""
+    w, h = camera.image_size
+    X, Y = XY
+    d = optics.directions(camera, X[r0:r1], Y[r0:r1])
+    C = optics.centre(camera)
+    p0, p1 = r0 // s, r1 // s                             # pixel rows of this batch
+    npx = (p1 - p0) * w
+    col = np.arange(w * s) // s
+    pix_of = ((np.arange(r0, r1) // s - p0)[:, None] * w + col[None, :]).ravel()
+    t, idx, nrm = cast(scene, C, d)
+    hit = np.flatnonzero(idx >= 0)
+    out = {"rows": (p0, p1), "prim": idx.reshape(r1 - r0, w * s)[(s // 2)::s, (s // 2)::s],
+           "base": np.bincount(pix_of, minlength=npx) * light.background}
+    zero = np.zeros(npx)
+    out.update(lamp=zero, depth=zero, hits=zero, lit=zero, pix=np.zeros(0, np.int32),
+               corner=np.zeros(0, np.int32), weights=np.zeros((4, 0), np.float32))
+    if not len(hit):
+        return out
+    dh = d[hit]
+    Xw = C + t[hit, None] * dh
+    n = nrm[hit]
+    n[np.einsum("ij,ij->i", n, dh) > 0] *= -1              # face the camera
+    rho = albedo[idx[hit]]
+    p = pix_of[hit]
+    ldir = np.asarray(light.diffuse_direction, float)
+    ldir = ldir / np.linalg.norm(ldir)
+    out["base"] = out["base"] + np.bincount(p, rho * light.ambient - light.background, minlength=npx)
+    out["lamp"] = np.bincount(p, rho * light.diffuse * np.clip(n @ ldir, 0, None), minlength=npx)
+    out["depth"] = np.bincount(p, Xw @ camera.rotation[2] + camera.translation[2], minlength=npx)
+    out["hits"] = np.bincount(p, minlength=npx).astype(float)
+    if projector is None or light.projector <= 0:
+        return out
+    P = optics.centre(projector)
+    up, vp, Zp = optics.project(projector, Xw)
+    pw, ph = projector.image_size
+    L = P - Xw
+    dist = np.sqrt(np.einsum("ij,ij->i", L, L))
+    cos = np.einsum("ij,ij->i", n, L) / dist
+    ok = np.flatnonzero((Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5) & (cos > 0))
+    if not len(ok):
+        return out
+    # shadows: the projector's own ray towards the point must reach it first
+    tp, _ = cast(scene, P, -L[ok] / dist[ok, None], want_normals=False)
+    ok = ok[tp >= dist[ok] - SHADOW_EPS]
+    g = rho[ok] * (light.projector / (s * s)) * cos[ok]
+    if light.falloff:
+        g = g * (_falloff_reference(projector) / dist[ok]) ** 2
+    uc = np.clip(up[ok], 0, pw - 1)
+    vc = np.clip(vp[ok], 0, ph - 1)
+    u0 = np.minimum(np.floor(uc), pw - 2)
+    v0 = np.minimum(np.floor(vc), ph - 2)
+    fu, fv = uc - u0, vc - v0
+    wts = np.empty((4, len(ok)), np.float32)
+    gv = g * fv
+    g -= gv                                                 # g (1 - fv)
+    wts[1] = g * fu
+    wts[0] = g - wts[1]
+    wts[3] = gv * fu
+    wts[2] = gv - wts[3]
+    out["weights"] = wts
+    out["corner"] = (v0 * pw + u0).astype(np.int32)
+    out["pix"] = (p[ok] + p0 * w).astype(np.int32)
+    out["lit"] = np.bincount(p[ok], minlength=npx).astype(float)
+    return out
+
+
 def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | None = None,
-            supersample: int = 2) -> View:
+            supersample: int = 2, workers: int | None = None) -> View:
     """Cast the camera's sub-pixel rays (``camera``, ``projector``: CameraModel) and
-    work out lighting geometry; ``albedo`` is one reflectance (0..1) per primitive."""
+    work out lighting geometry; ``albedo`` is one reflectance (0..1) per primitive.
+    Bands of image rows run on ``workers`` threads (default: the CPU count; numpy
+    releases the GIL in its array loops)."""
     light = lighting or Lighting()
     w, h = camera.image_size
     s = int(supersample)
     if w <= 0 or h <= 0:
         raise ValueError(f"camera {camera.name!r}: image size {camera.image_size} is not set")
+    if projector is not None and min(projector.image_size) < 2:
+        raise ValueError(f"projector {projector.name!r}: image size {projector.image_size} is below 2 x 2 px")
     albedo = np.broadcast_to(np.asarray(albedo, float), (len(scene),))
-    dirs = optics.grid_rays(camera, s)                     # (h*s*w*s, 3), row-major sub-pixel grid
-    C = optics.centre(camera)
-    n_sub = len(dirs)
-    # sub-sample -> pixel index, for the grid laid out as (h, s, w, s)
-    row = np.arange(h * s) // s
-    col = np.arange(w * s) // s
-    pix_of = (row[:, None] * w + col[None, :]).ravel()
-    base_sub = np.full(n_sub, light.background)
-    lamp_sub = np.zeros(n_sub)
-    depth_sum = np.zeros(h * w)
-    hits = np.zeros(h * w)
-    litc = np.zeros(h * w)
-    prim_sub = np.full(n_sub, -1, np.int64)
-    pix_l, corner_l, wts_l = [], [], []
-    d_ref = _falloff_reference(projector) if projector is not None else 1.0
-    ldir = np.asarray(light.diffuse_direction, float)
-    ldir = ldir / np.linalg.norm(ldir)
-    for a in range(0, n_sub, BATCH):
-        d = dirs[a:a + BATCH]
-        t, idx, nrm = cast(scene, C, d)
-        hit = np.flatnonzero(idx >= 0)
-        prim_sub[a + hit] = idx[hit]
-        if not len(hit):
-            continue
-        X = C + t[hit, None] * d[hit]
-        n = nrm[hit]
-        flip = np.einsum("ij,ij->i", n, d[hit]) > 0
-        n[flip] *= -1                                       # face the camera
-        rho = albedo[idx[hit]]
-        base_sub[a + hit] = rho * light.ambient
-        lamp_sub[a + hit] = rho * light.diffuse * np.clip(n @ ldir, 0, None)
-        p = pix_of[a + hit]
-        Zc = X @ camera.rotation[2] + camera.translation[2]
-        depth_sum += np.bincount(p, Zc, minlength=h * w)
-        hits += np.bincount(p, minlength=h * w)
-        if projector is None or light.projector <= 0:
-            continue
-        P = optics.centre(projector)
-        up, vp, Zp = optics.project(projector, X)
-        pw, ph = projector.image_size
-        inside = (Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5)
-        L = P - X
-        dist = np.linalg.norm(L, axis=1)
-        cos = np.einsum("ij,ij->i", n, L) / dist
-        ok = np.flatnonzero(inside & (cos > 0))
-        if not len(ok):
-            continue
-        # shadows: the projector's own ray towards the point must reach it first
-        ray = -L[ok] / dist[ok, None]
-        tp, _ = cast(scene, P, ray, want_normals=False)
-        ok = ok[tp >= dist[ok] - SHADOW_EPS]
-        g = rho[ok] * light.projector * cos[ok]
-        if light.falloff:
-            g = g * (d_ref / dist[ok]) ** 2
-        uc = np.clip(up[ok], 0, pw - 1)
-        vc = np.clip(vp[ok], 0, ph - 1)
-        u0 = np.minimum(np.floor(uc), pw - 2).astype(np.int64) if pw > 1 else np.zeros(len(ok), np.int64)
-        v0 = np.minimum(np.floor(vc), ph - 2).astype(np.int64) if ph > 1 else np.zeros(len(ok), np.int64)
-        fu, fv = uc - u0, vc - v0
-        g = g / (s * s)
-        wts_l.append(np.stack([g * (1 - fu) * (1 - fv), g * fu * (1 - fv), g * (1 - fu) * fv, g * fu * fv]))
-        corner_l.append(v0 * pw + u0)
-        pix_l.append(p[ok])
-        litc += np.bincount(p[ok], minlength=h * w)
-    base = np.bincount(pix_of, base_sub, minlength=h * w) / (s * s)
-    lamp = np.bincount(pix_of, lamp_sub, minlength=h * w) / (s * s)
+    XY = optics.grid_normalised(camera, s)                  # (h*s, w*s) each
+    rows = max(s, (BATCH // (w * s)) // s * s)             # whole pixel rows per band
+    bands = [(a, min(a + rows, h * s)) for a in range(0, h * s, rows)]
+    n_workers = workers or min(os.cpu_count() or 1, 8)
+    job = (lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r))
+    if n_workers > 1 and len(bands) > 1:
+        with ThreadPoolExecutor(n_workers) as pool:
+            parts = list(pool.map(job, bands))
+    else:
+        parts = [job(b) for b in bands]
+    cat = (lambda key: np.concatenate([q[key] for q in parts]))
+    hits = cat("hits")
     with np.errstate(invalid="ignore"):
-        depth = np.where(hits > 0, depth_sum / np.maximum(hits, 1), np.nan)
-    prim = prim_sub.reshape(h, s, w, s)[:, s // 2, :, s // 2]
-    cat = (lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dt))
-    return View((h, w), s, base.reshape(h, w), lamp.reshape(h, w), cat(pix_l, np.int64), cat(corner_l, np.int64),
-                np.hstack(wts_l) if wts_l else np.zeros((4, 0)),
+        depth = np.where(hits > 0, cat("depth") / np.maximum(hits, 1), np.nan)
+    return View((h, w), s, (cat("base") / (s * s)).reshape(h, w), (cat("lamp") / (s * s)).reshape(h, w),
+                cat("pix"), cat("corner"), np.hstack([q["weights"] for q in parts]),
                 (projector.image_size[1], projector.image_size[0]) if projector is not None else None,
-                depth.reshape(h, w), (hits / (s * s)).reshape(h, w), prim, (litc / (s * s)).reshape(h, w))
+                depth.reshape(h, w), (hits / (s * s)).reshape(h, w), np.vstack([q["prim"] for q in parts]),
+                (cat("lit") / (s * s)).reshape(h, w))
 
 
 def emitted(pattern: np.ndarray, lighting: Lighting) -> np.ndarray:
@@ -211,3 +230,38 @@ def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None =
                + f[c + pw] * view.weights[2] + f[c + pw + 1] * view.weights[3])
         img += np.bincount(view.pix, val, minlength=h * w)
     return img.reshape(h, w)
+
+
+def pixel_truth(scene: list, camera, projector=None) -> dict[str, np.ndarray]:
+    """The truth at every pixel centre (one ray each): ``points`` (h, w, 3) world surface
+    point (mm, NaN where nothing is hit), ``primitive`` (h, w) index (-1: none),
+    ``normals`` (h, w, 3) facing the camera, and with a projector ``projector_uv``
+    (h, w, 2) its exact projector coordinates (px, with its distortion) and ``lit``
+    (h, w) whether the projector lights the point (inside its image, facing it, no
+    shadow). What a decoder and a triangulation should recover, pixel by pixel."""
+    w, h = camera.image_size
+    d = optics.directions(camera, *optics.grid_normalised(camera, 1))
+    C = optics.centre(camera)
+    t, idx, nrm = cast(scene, C, d)
+    hit = idx >= 0
+    X = np.full((h * w, 3), np.nan)
+    X[hit] = C + t[hit, None] * d[hit]
+    nrm[np.einsum("ij,ij->i", nrm, d) > 0] *= -1
+    out = {"points": X.reshape(h, w, 3), "primitive": idx.reshape(h, w), "normals": nrm.reshape(h, w, 3)}
+    if projector is not None:
+        uv = np.full((h * w, 2), np.nan)
+        lit = np.zeros(h * w, bool)
+        k = np.flatnonzero(hit)
+        up, vp, Zp = optics.project(projector, X[k])
+        uv[k, 0], uv[k, 1] = up, vp
+        pw, ph = projector.image_size
+        L = optics.centre(projector) - X[k]
+        dist = np.sqrt(np.einsum("ij,ij->i", L, L))
+        ok = (Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5) \
+            & (np.einsum("ij,ij->i", nrm[k], L) > 0)
+        j = np.flatnonzero(ok)
+        tp, _ = cast(scene, optics.centre(projector), -L[j] / dist[j, None], want_normals=False)
+        lit[k[j[tp >= dist[j] - SHADOW_EPS]]] = True
+        out["projector_uv"] = uv.reshape(h, w, 2)
+        out["lit"] = lit.reshape(h, w)
+    return out
