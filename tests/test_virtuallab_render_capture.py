@@ -189,3 +189,35 @@ def test_a_sequence_for_another_projector_is_refused(tmp_path, capsys):
     (tmp_path / "seq.yaml").write_text(yaml.safe_dump({**SEQ, "projector": {"width": 912, "height": 1140}}))
     assert main(["simulate", str(p), "--out", str(tmp_path / "o")]) != 0
     assert "912 x 1140" in capsys.readouterr().err
+
+
+def test_virtual_system_moves_artefacts_and_images_them_where_the_truth_says(tmp_path):
+    from camcmm_plugins.virtuallab.lab import VirtualSystem
+
+    doc = {"seed": 2, "artefacts": [{"type": "ball_bar", "center": [0, 0, 0], "direction": [1, 0, 0],
+                                     "length": 50.0, "sphere_diameter": 12.0},
+                                    {"type": "gauge_blocks", "center": [0, 0, -30], "platen": [120, 100, 10],
+                                     "blocks": [{"length": 10, "at": [30, 30]}]}],
+           "rig": {"preset": "stereo_fringe", "image_size": [320, 240]}, "render": {"supersample": 1},
+           "lighting": {"ambient": 0.6}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    lab = VirtualSystem.from_file(tmp_path / "s.yaml")
+    assert lab.cameras == ["camera1", "camera2"] and lab.projector_size == (1280, 800)
+    before = lab.frame("camera1")
+    lab.move(rotation_deg=[0, 0, 90], translation=[5, 0, 2])
+    tr = lab.truth()["artefacts"]
+    c1, c2 = (np.array(s["center"]) for s in tr[0]["spheres"])
+    assert np.allclose(c1, [5, -25, 2]) and np.allclose(c2, [5, 25, 2])        # x -> y, then shifted
+    assert np.allclose(tr[1]["blocks"][0]["top_center"], [-25, 30, -20 + 2])
+    # the truth per pixel lies on the moved spheres
+    cam = lab.scene.cameras[0].model
+    pt = render.pixel_truth(lab.scene.primitives, cam)
+    for k, c in enumerate((c1, c2)):
+        X = pt["points"][pt["primitive"] == k]
+        assert len(X) > 50 and np.abs(np.linalg.norm(X - c, axis=1) - 6.0).max() < 1e-9
+    after = lab.frame("camera1")
+    assert after.shape == (240, 320) and not np.array_equal(before, after)
+    with pytest.raises(InputError, match="camera3"):
+        lab.frame("camera3")
+    with pytest.raises(InputError, match="projector shows"):
+        lab.frame("camera1", np.zeros((10, 10)))
