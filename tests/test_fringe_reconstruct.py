@@ -135,7 +135,7 @@ def test_noisy_sphere_radius_through_the_plugin():
     for kw in ({}, {"images2": fr2}):
         res = rec(sequence=SEQ, images=fr1, calibration=cal, **kw)
         cloud = res["cloud"]
-        assert res["n_points"] == cloud.n_points and set(cloud.fields) == {"modulation", "quality"}
+        assert res["n_points"] == cloud.n_points and set(cloud.fields) == {"modulation", "quality", "x_px", "y_px"}
         near = np.linalg.norm(cloud.points - CENTRE, axis=1) < RADIUS + 3
         fit = get_algorithm("fit.sphere")(cloud=cloud.subset(near), outliers="vdi2634")
         assert fit["radius"] == pytest.approx(RADIUS, abs=0.01)

@@ -84,13 +84,16 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
                              f"{proj.image_size[1]} px but the sequence declares {cal_size[0]}x{cal_size[1]} px")
         ctx.progress(0.6, "triangulating against the projector")
         pts, idx = projector_points(dec1, cam1, proj, triangulation, seq.to_calibration_px)
+        w = dec1.mask.shape[1]
         fields = {"modulation": dec1.modulation.ravel()[idx].astype(np.float64),
-                  "quality": dec1.quality.ravel()[idx].astype(np.float64)}
+                  "quality": dec1.quality.ravel()[idx].astype(np.float64),
+                  "x_px": (idx % w).astype(np.float64), "y_px": (idx // w).astype(np.float64)}
         valid = dec1.valid_fraction
         out["method"] = "camera-projector"
     if len(pts) == 0:
         raise InputError("no 3-D point: no valid pixel triangulates (check the calibration against the set-up)")
-    cloud = PointCloud(pts, fields=fields, field_units={"modulation": "grey levels", "quality": ""},
+    cloud = PointCloud(pts, fields=fields, field_units={"modulation": "grey levels", "quality": "",
+                                                        "x_px": "px", "y_px": "px"},
                        name="fringe")
     out.update({"cloud": cloud, "n_points": cloud.n_points, "valid_fraction": valid,
                 "bbox": cloud.bounds.tolist()})

@@ -20,7 +20,7 @@ surface is not linear between pixels: on a sphere 100 px in radius the linear cr
 alone biases the radius by -3 um, the cubic by -2 um, the rest being the bilinear
 resampling of the rectification; both shrink with the square of the pixel size).
 Matches that do not survive matching back from right to left (occlusions), or whose
-other fringe direction disagrees, are dropped. The disparity then gives the point
+other fringe direction disagrees (when both are decoded), are dropped. The disparity then gives the point
 through the rectification's Q matrix.
 """
 
@@ -73,61 +73,86 @@ def projector_points(dec: Decoded, cam: CameraModel, proj: CameraModel, axis: st
     return pts[ok], idx[ok]
 
 
-def match_rows(left: np.ndarray, right: np.ndarray, max_step: float | None = None) -> np.ndarray:
+def match_rows(left: np.ndarray, right: np.ndarray, max_step: float | None = None,
+               refine: bool = True) -> np.ndarray:
     """Sub-pixel right x of every left sample on the same row (NaN where none).
 
-    left, right : (H, W) float maps increasing along x (NaN invalid).
+    left, right : (H, W) float32 maps increasing along x (NaN invalid).
     A right pixel pair (x, x+1) brackets values in [right[x], right[x+1]) when both are
     valid and the step is positive and at most ``max_step`` (default 8x the median step);
-    the crossing is interpolated linearly. Left samples are used when their steps to both
-    row neighbours pass the same test. One binary search over all rows at once: the
-    rows are made one sorted key array ``row * stride + value``.
+    the crossing is interpolated linearly (and with ``refine`` on the cubic through
+    the four nearest samples). Left samples are used when their steps to both row
+    neighbours pass the same test. One binary search over all rows at once: the rows are
+    made one sorted key array ``row * stride + value``.
     """
     h, w = right.shape
-    a, b = right[:, :-1], right[:, 1:]
-    step = b - a
-    good = np.isfinite(step) & (step > 0)
-    if not good.any():
-        return np.full(left.shape, np.nan, np.float32)
-    if max_step is None:
-        max_step = 8.0 * float(np.median(step[good]))
-    good &= step <= max_step
-    rows, xs = np.nonzero(good)
-    lo = a[rows, xs].astype(np.float64)
-    span = float(np.nanmax(right) - np.nanmin(right)) + 1.0
-    base = float(np.nanmin(right))
-    stride = 2.0 * span
-    keys = rows * stride + (lo - base)
-    order = None
-    if keys.size > 1 and np.any(keys[1:] < keys[:-1]):  # occlusions can repeat a phase in a row
-        order = np.argsort(keys, kind="stable")
-        keys = keys[order]
-    # a left sample whose row steps to either neighbour are not like the right's good
-    # steps sits on a depth edge, where the rectification mixed two surfaces
-    lstep = np.diff(left, axis=1)
-    lgood = np.isfinite(lstep) & (lstep > 0) & (lstep <= max_step)
-    usable = np.zeros(left.shape, bool)
-    usable[:, 1:-1] = lgood[:, :-1] & lgood[:, 1:]
-    qi = np.flatnonzero(usable.ravel())
-    qrow = qi // w
-    qval = left.ravel()[qi].astype(np.float64)
-    qkey = qrow * stride + (qval - base)
-    pos = np.searchsorted(keys, qkey, side="right") - 1
-    ok = pos >= 0
-    pos = np.where(ok, pos, 0)
+    rf = np.ascontiguousarray(right, dtype=np.float32).ravel()
+    lf = np.ascontiguousarray(left, dtype=np.float32).ravel()
+    out = np.full(h * w, np.nan, np.float32)
+    step = np.diff(right, axis=1)
+    with np.errstate(invalid="ignore"):
+        if max_step is None:
+            pos_steps = step[step > 0]
+            if not pos_steps.size:
+                return out.reshape(h, w)
+            max_step = 8.0 * float(np.median(pos_steps))
+        good = (step > 0) & (step <= max_step)  # NaN compares False
+        gi = np.flatnonzero(good)
+        if not gi.size:
+            return out.reshape(h, w)
+        rows = gi // (w - 1)
+        ridx = gi + rows  # index of the pair's left sample in the (h, w) right map
+        lo = rf[ridx]
+        base = float(lo.min())
+        stride = 2.0 * (float(lo.max()) - base + max_step + 1.0)
+        keys = rows * stride + (lo - base)
+        order = None
+        if keys.size > 1 and np.any(keys[1:] < keys[:-1]):  # occlusions can repeat a phase in a row
+            order = np.argsort(keys, kind="stable")
+            keys = keys[order]
+        # a left sample whose row steps to either neighbour are not like the right's good
+        # steps sits on a depth edge, where the rectification mixed two surfaces
+        lstep = np.diff(left, axis=1)
+        lgood = (lstep > 0) & (lstep <= max_step)
+    qi = np.flatnonzero(lgood[:, :-1] & lgood[:, 1:])
+    if not qi.size:
+        return out.reshape(h, w)
+    qrow = qi // (w - 2)
+    lidx = qi + 2 * qrow + 1  # (row, x + 1) in the (h, w) left map
+    qval = lf[lidx]
+    pos = np.searchsorted(keys, qrow * stride + (qval - base), side="right") - 1
+    np.maximum(pos, 0, out=pos)
     cand = order[pos] if order is not None else pos
-    crow, cx = rows[cand], xs[cand]
-    ok &= crow == qrow
-    v0 = a[crow, cx].astype(np.float64)
-    v1 = b[crow, cx].astype(np.float64)
-    ok &= (qval >= v0) & (qval < v1)
-    out = np.full(left.size, np.nan, np.float32)
+    cidx = ridx[cand]
+    v0 = rf[cidx]
+    v1 = rf[cidx + 1]
+    ok = (rows[cand] == qrow) & (qval >= v0) & (qval < v1)
+    cidx, qval, v0, v1, lidx = cidx[ok], qval[ok], v0[ok], v1[ok], lidx[ok]
+    t = (qval - v0) / (v1 - v0)
+    cx = (cidx % w).astype(np.float32)
+    if refine:
+        t = _cubic_crossing(rf, cidx, cx, w, qval, v0, v1, t)
+    out[lidx] = cx + t
+    return out.reshape(h, w)
+
+
+def _cubic_crossing(rf, cidx, cx, w, q, p1, p2, t):
+    """Refine linear crossings t in [0, 1) on the Catmull-Rom cubic through the four
+    samples x-1 .. x+2 (one Newton step from the linear estimate, whose error is already
+    small); kept linear where a neighbour is missing or the step leaves [0, 1)."""
+    inner = (cx >= 1) & (cx < w - 2)
+    i = np.where(inner, cidx, 1)
+    p0 = rf[i - 1]
+    p3 = rf[i + 2]
+    c1 = 0.5 * (p2 - p0)
+    c2 = p0 - 2.5 * p1 + 2.0 * p2 - 0.5 * p3
+    c3 = 0.5 * (p3 - p0) + 1.5 * (p1 - p2)
+    f = p1 - q + t * (c1 + t * (c2 + t * c3))
+    df = c1 + t * (2.0 * c2 + 3.0 * t * c3)
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = (qval - v0) / (v1 - v0)
-        t = _cubic_crossing(right, crow, cx, qval, t)
-        sub = cx + t
-    out[qi[ok]] = sub[ok]
-    return out.reshape(left.shape)
+        tt = t - f / df
+    ok = inner & (tt >= 0) & (tt < 1)  # NaN (a missing neighbour) fails too
+    return np.where(ok, tt, t)
 
 
 def bilinear(img: np.ndarray, mx: np.ndarray, my: np.ndarray) -> np.ndarray:
@@ -167,36 +192,18 @@ def bilinear(img: np.ndarray, mx: np.ndarray, my: np.ndarray) -> np.ndarray:
     return a
 
 
-def _sample_at(img, maps, ys, xs):
-    """img at rectified positions (xs float, ys int): the rectification map is linear
-    between neighbouring columns, then img is sampled bilinearly."""
+def _sample_at(imgs, maps, ys, xs):
+    """Images at rectified positions (xs float, ys int rows of ``maps``): the
+    rectification map is linear between neighbouring columns, the images are sampled
+    bilinearly there."""
     w = maps[0].shape[1]
     x0 = np.clip(np.floor(xs).astype(np.int64), 0, w - 2)
-    f = xs - x0
-    mx = maps[0][ys, x0] * (1 - f) + maps[0][ys, x0 + 1] * f
-    my = maps[1][ys, x0] * (1 - f) + maps[1][ys, x0 + 1] * f
-    return bilinear(img, mx, my)
-
-
-def _cubic_crossing(right, rows, xs, q, t):
-    """Refine linear crossings t in [0, 1) on the Catmull-Rom cubic through the four
-    samples x-1 .. x+2 (two Newton steps); kept linear where a neighbour is missing."""
-    w = right.shape[1]
-    xm, xp = np.clip(xs - 1, 0, w - 1), np.clip(xs + 2, 0, w - 1)
-    p0 = right[rows, xm].astype(np.float64)
-    p1 = right[rows, xs].astype(np.float64)
-    p2 = right[rows, np.minimum(xs + 1, w - 1)].astype(np.float64)
-    p3 = right[rows, xp].astype(np.float64)
-    c1 = 0.5 * (p2 - p0)
-    c2 = p0 - 2.5 * p1 + 2 * p2 - 0.5 * p3
-    c3 = -0.5 * p0 + 1.5 * p1 - 1.5 * p2 + 0.5 * p3
-    tt = t.copy()
-    for _ in range(2):
-        f = p1 + tt * (c1 + tt * (c2 + tt * c3)) - q
-        df = c1 + tt * (2 * c2 + 3 * tt * c3)
-        tt = tt - f / df
-    ok = np.isfinite(tt) & (xs >= 1) & (xs + 2 < w) & (tt >= 0) & (tt < 1)
-    return np.where(ok, tt, t)
+    f = (xs - x0).astype(np.float32)
+    i = ys * w + x0
+    mx, my = maps[0].ravel(), maps[1].ravel()
+    px = mx[i] + (mx[i + 1] - mx[i]) * f
+    py = my[i] + (my[i + 1] - my[i]) * f
+    return [bilinear(img, px, py) for img in imgs]
 
 
 def _pose_between(cam1: CameraModel, cam2: CameraModel):
@@ -205,11 +212,14 @@ def _pose_between(cam1: CameraModel, cam2: CameraModel):
     return r, t
 
 
-def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraModel, direction: str = "auto"):
+def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraModel, direction: str = "auto",
+                  block_rows: int = 64):
     """Camera-camera matching of absolute phase along rectified rows, then triangulation.
 
-    Returns (points (n, 3) mm in the world frame, fields {"modulation", "quality"}) and
-    the direction matched.
+    Works through blocks of ``block_rows`` rectified rows so that each block's arrays stay
+    in the processor's cache. Returns (points (n, 3) mm in the world frame, fields
+    {"modulation", "quality", "x_px", "y_px"} (the camera-1 pixel of each point)) and the
+    direction matched.
     """
     import cv2
 
@@ -220,59 +230,78 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
     r, t = _pose_between(cam1, cam2)
     r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix,
                                                 cam2.dist_coeffs, (w, h), r, t.reshape(3, 1),
-                                                flags=cv2.CALIB_ZERO_DISPARITY,
-                                                alpha=-1)
+                                                flags=cv2.CALIB_ZERO_DISPARITY, alpha=-1)
     if abs(p2[1, 3]) > abs(p2[0, 3]):
         raise InputError("calibration: the cameras are displaced vertically; rectified rows would be columns "
                          "(turn the images or use camera-projector triangulation)")
     m1 = cv2.initUndistortRectifyMap(cam1.camera_matrix, cam1.dist_coeffs, r1, p1, (w, h), cv2.CV_32FC1)
     m2 = cv2.initUndistortRectifyMap(cam2.camera_matrix, cam2.dist_coeffs, r2, p2, (w, h), cv2.CV_32FC1)
-
-    def rect(img, maps):
-        return bilinear(img, maps[0], maps[1])
-
     have = [d for d in ("vertical", "horizontal") if dec1.coords.get(d) is not None
             and dec2.coords.get(d) is not None]
     if not have:
         raise InputError("stereo: the two cameras share no decoded fringe direction")
-    left = {d: rect(dec1.coords[d], m1) for d in have}
+
+    def median_step(img, maps):
+        rows = bilinear(img, maps[0][::16], maps[1][::16])
+        return float(np.nan_to_num(np.nanmedian(np.diff(rows, axis=1))))
+
     if direction == "auto":
         # match the coordinate that changes fastest along the rectified rows
-        grad = {d: np.nanmedian(np.abs(np.diff(left[d][::16], axis=1))) for d in have}
-        direction = max(have, key=lambda d: np.nan_to_num(grad[d]))
-    lmap = left[direction]
-    rmap = rect(dec2.coords[direction], m2)
-    sign = np.sign(np.nanmedian(np.diff(lmap[::16], axis=1)))
-    if sign < 0:  # the projector mirrored along the rows: make both increase
-        np.negative(lmap, out=lmap)
-        np.negative(rmap, out=rmap)
-    xr = match_rows(lmap, rmap)
-    # left-right consistency: where camera 2 does not see what camera 1 sees (occlusion)
-    # a left phase can still find an equal phase on another surface of the right row;
-    # matching back from the right must land on the same left pixel
-    xl = match_rows(rmap, lmap)
-    ys, xs = np.nonzero(np.isfinite(xr))
-    xrv = xr[ys, xs].astype(np.float64)
-    xi = np.clip(np.rint(xrv).astype(np.int64), 0, w - 1)
-    keep = np.abs(xl[ys, xi] - (xs + (xi - xrv))) < 1.0
+        direction = max(have, key=lambda d: abs(median_step(dec1.coords[d], m1)))
+    sign = np.float32(-1.0 if median_step(dec1.coords[direction], m1) < 0 else 1.0)
+    step2 = abs(median_step(dec2.coords[direction], m2))
+    max_step = 8.0 * step2 if step2 > 0 else None
     other = [d for d in have if d != direction]
-    if other:
-        # the other fringe direction must agree too: the same projector row (column)
-        lo_ = _sample_at(dec1.coords[other[0]], m1, ys, xs.astype(np.float64))
-        ro_ = _sample_at(dec2.coords[other[0]], m2, ys, xrv)
-        with np.errstate(invalid="ignore"):
-            keep &= np.abs(lo_ - ro_) < 1.0  # projector px; decoding noise is ~0.05 px
-    ys, xs, xrv = ys[keep], xs[keep], xrv[keep]
-    disp = xs - xrv
-    hom = np.column_stack([xs, ys, disp, np.ones_like(disp)]) @ q.T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pts_rect = hom[:, :3] / hom[:, 3:4]
-    pts_cam1 = pts_rect @ r1  # rectified camera 1 -> camera 1 (R1^T x)
-    pts = (pts_cam1 - cam1.translation) @ cam1.rotation  # camera 1 -> world
-    ok = np.isfinite(pts).all(axis=1) & (pts_rect[:, 2] > 0)
-    mod = _sample_at(dec1.modulation, m1, ys, xs.astype(np.float64))
-    mean = _sample_at(dec1.mean, m1, ys, xs.astype(np.float64))
+    # rectified camera 1 -> camera 1 (R1^T x) -> world (R^T (x - t)), as one affine map
+    to_world = r1 @ cam1.rotation
+    offset = -cam1.translation @ cam1.rotation
+    parts = []
+    for y0 in range(0, h, block_rows):
+        sl = slice(y0, min(h, y0 + block_rows))
+        b1, b2 = (m1[0][sl], m1[1][sl]), (m2[0][sl], m2[1][sl])
+        lmap = bilinear(dec1.coords[direction], *b1)
+        rmap = bilinear(dec2.coords[direction], *b2)
+        if sign < 0:  # the projector mirrored along the rows: make both increase
+            lmap *= sign
+            rmap *= sign
+        xr = match_rows(lmap, rmap, max_step).ravel()
+        fi = np.flatnonzero(np.isfinite(xr))
+        if not fi.size:
+            continue
+        ys = fi // w
+        xs = fi - ys * w
+        xrv = xr[fi].astype(np.float64)
+        # left-right consistency: where camera 2 does not see what camera 1 sees
+        # (occlusion) a left phase can still find an equal phase on another surface of
+        # the right row; matching back from the right must land on the same pixel
+        xl = match_rows(rmap, lmap, max_step, refine=False).ravel()
+        xi = np.clip(np.rint(xrv).astype(np.int64), 0, w - 1)
+        keep = np.abs(xl[ys * w + xi] - (xs + (xi - xrv))) < 1.0
+        if other:
+            # the other fringe direction must agree too: the same projector row (column)
+            lo_ = _sample_at([dec1.coords[other[0]]], b1, ys, xs)[0]
+            ro_ = _sample_at([dec2.coords[other[0]]], b2, ys, xrv)[0]
+            with np.errstate(invalid="ignore"):
+                keep &= np.abs(lo_ - ro_) < 1.0  # projector px; decoding noise is ~0.05 px
+        ys, xs, xrv = ys[keep], xs[keep], xrv[keep]
+        # Q (eq. of the rectified pair) written out: (X, Y, Z, W) = Q (x, y, d, 1)
+        x, y, d = xs.astype(np.float64), (ys + y0).astype(np.float64), xs - xrv
+        hw = q[3, 0] * x + q[3, 1] * y + q[3, 2] * d + q[3, 3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / hw
+        pr = np.empty((len(x), 3))
+        for k in range(3):
+            pr[:, k] = (q[k, 0] * x + q[k, 1] * y + q[k, 2] * d + q[k, 3]) * inv
+        pts = pr @ to_world + offset
+        mod, mean = _sample_at([dec1.modulation, dec1.mean], b1, ys, xs)
+        ok = np.isfinite(pts).all(axis=1) & (pr[:, 2] > 0) & np.isfinite(mod)
+        lin = ys * w + xs
+        parts.append((pts[ok], mod[ok], mean[ok], b1[0].ravel()[lin][ok], b1[1].ravel()[lin][ok]))
+    if not parts:
+        return np.zeros((0, 3)), {k: np.zeros(0) for k in ("modulation", "quality", "x_px", "y_px")}, direction
+    pts, mod, mean, xp, yp = (np.concatenate(c) for c in zip(*parts))
     quality = np.clip(mod / np.maximum(mean, 1e-6), 0, 1)
-    ok &= np.isfinite(mod)
-    fields = {"modulation": mod[ok].astype(np.float64), "quality": quality[ok].astype(np.float64)}
-    return pts[ok], fields, direction
+    fields = {"modulation": mod.astype(np.float64), "quality": quality.astype(np.float64),
+              # where the point is in camera 1's (distorted) image
+              "x_px": xp.astype(np.float64), "y_px": yp.astype(np.float64)}
+    return pts, fields, direction
