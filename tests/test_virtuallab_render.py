@@ -309,3 +309,28 @@ def test_sensor_noise_and_quantisation():
     assert sat.dtype == np.uint8 and np.all(sat == 255)
     clean = imaging.expose(L, s, None)
     assert np.all(clean == round(0.3 * 4095))
+
+
+def test_projector_defocus_lowers_the_fringe_modulation_as_its_blur_circle_says(devices):
+    cam, pj = devices
+    plane = Rectangle([0, 0, -60], [1, 0, 0], [0, 0, 1], 400, 400)     # 361 mm from the projector
+    light = render.Lighting(ambient=0.0, projector=0.8, falloff=False)
+    lens = imaging.Lens(f_number=2.0, focus_distance=301.0)
+    sharp = render.prepare([plane], 1.0, cam, pj, light, 1)
+    soft = render.prepare([plane], 1.0, cam, pj, light, 1, projector_lens=lens)
+    T = 16.0
+    pw, ph = pj.image_size
+    u = np.arange(pw)
+
+    def modulation(view):
+        I = [render.radiance(view, np.tile(0.5 + 0.5 * np.cos(2 * np.pi * u / T + k * np.pi / 2), (ph, 1)), light)
+             for k in range(4)]
+        return np.hypot(I[0] - I[2], I[1] - I[3]) / 2
+
+    ok = (sharp.lit == 1) & (soft.lit == 1)
+    ratio = np.median(modulation(soft)[ok] / modulation(sharp)[ok])
+    f = pj.camera_matrix[0, 0] * pj.pixel_pitch
+    c = f * f * 60 / (2.0 * 361 * (301 - f)) / pj.pixel_pitch             # blur circle, projector px
+    want = np.exp(-2 * np.pi**2 * (c / 4) ** 2 / T**2)                  # Gaussian of sigma c/4 on a sinusoid
+    assert c > 4
+    assert ratio == pytest.approx(want, abs=0.02)

@@ -185,7 +185,7 @@ def prepare_views(scene: LabScene, progress: Callable[[float, str], None] | None
         if progress:
             progress(i / max(len(scene.cameras), 1), f"casting rays for {cam.name}")
         views.append(render.prepare(scene.primitives, scene.albedo, cam.model, proj, scene.lighting,
-                                    scene.supersample))
+                                    scene.supersample, projector_lens=scene.projector.lens if proj else None))
     return views
 
 

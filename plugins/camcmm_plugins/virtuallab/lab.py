@@ -95,7 +95,8 @@ class VirtualSystem:
             proj = self.scene.projector.model if self.scene.projector is not None else None
             self._views[camera] = render.prepare(self.scene.primitives, self.scene.albedo,
                                                  self.scene.cameras[i].model, proj, self.scene.lighting,
-                                                 self.scene.supersample)
+                                                 self.scene.supersample,
+                                                 projector_lens=self.scene.projector.lens if proj else None)
         return self._views[camera]
 
     def frame(self, camera: str, pattern: np.ndarray | None = None, lamp: bool = False, exposure: float | None = None,

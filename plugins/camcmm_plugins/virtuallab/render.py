@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import optics
+from . import imaging, optics
 from .raycast import cast
 
 #: Rays cast per batch (bounds the memory of the intermediate (N, 3) arrays).
@@ -89,7 +89,7 @@ def _falloff_reference(projector) -> float:
     return float(abs(projector.translation[2])) or 1.0
 
 
-def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: int, r1: int) -> dict:
+def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: int, r1: int, plens=None) -> dict:
     """Geometry of the sub-pixel rows r0..r1 (see ``prepare``); per-pixel sums over the
     pixel rows they cover."""
     w, h = camera.image_size
@@ -106,7 +106,7 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
            "base": np.bincount(pix_of, minlength=npx) * light.background}
     zero = np.zeros(npx)
     out.update(lamp=zero, depth=zero, hits=zero, lit=zero, pix=np.zeros(0, np.int32),
-               corner=np.zeros(0, np.int32), weights=np.zeros((4, 0), np.float32))
+               corner=np.zeros(0, np.int32), weights=np.zeros((4, 0), np.float32), pblur=np.zeros(0, np.float32))
     if not len(hit):
         return out
     dh = d[hit]
@@ -153,14 +153,21 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     out["weights"] = wts
     out["corner"] = (v0 * pw + u0).astype(np.int32)
     out["pix"] = (p[ok] + p0 * w).astype(np.int32)
+    if plens is not None and plens.f_number and projector.pixel_pitch:
+        f = projector.camera_matrix[0, 0] * projector.pixel_pitch
+        sf = plens.focus_distance or _falloff_reference(projector)
+        out["pblur"] = imaging.blur_diameter(Zp[ok], f, plens.f_number, sf, projector.pixel_pitch).astype(np.float32)
     out["lit"] = np.bincount(p[ok], minlength=npx).astype(float)
     return out
 
 
 def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | None = None,
-            supersample: int = 2, workers: int | None = None) -> View:
+            supersample: int = 2, workers: int | None = None, projector_lens=None) -> View:
     """Cast the camera's sub-pixel rays (``camera``, ``projector``: CameraModel) and
     work out lighting geometry; ``albedo`` is one reflectance (0..1) per primitive.
+    ``projector_lens`` (imaging.Lens with an f-number and the projector's pixel pitch)
+    adds the projector's depth of field: each lit point sees the pattern blurred by the
+    projector's blur circle at its depth (levels 0.5 px apart, as ``imaging.defocus``).
     Bands of image rows run on ``workers`` threads (default: the CPU count; numpy
     releases the GIL in its array loops)."""
     light = lighting or Lighting()
@@ -175,7 +182,7 @@ def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | No
     rows = max(s, (BATCH // (w * s)) // s * s)             # whole pixel rows per band
     bands = [(a, min(a + rows, h * s)) for a in range(0, h * s, rows)]
     n_workers = workers or min(os.cpu_count() or 1, 8)
-    job = (lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r))
+    job = (lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r, plens=projector_lens))
     if n_workers > 1 and len(bands) > 1:
         with ThreadPoolExecutor(n_workers) as pool:
             parts = list(pool.map(job, bands))
@@ -183,13 +190,24 @@ def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | No
         parts = [job(b) for b in bands]
     cat = (lambda key: np.concatenate([q[key] for q in parts]))
     hits = cat("hits")
+    extra = {}
+    pblur = np.concatenate([q.get("pblur", np.zeros(0, np.float32)) for q in parts])
+    if len(pblur) and len(pblur) == sum(len(q["pix"]) for q in parts) and pblur.max() > 1e-3:
+        n = int(np.ceil(pblur.max() / imaging.LEVEL_STEP))
+        k = np.minimum((pblur / imaging.LEVEL_STEP).astype(np.int64), n - 1)
+        a = (pblur / imaging.LEVEL_STEP - k).astype(np.float32)
+        order = np.argsort(k, kind="stable")
+        bounds = np.searchsorted(k[order], np.arange(n + 1))
+        extra["pblur"] = {"levels": np.arange(n + 1) * imaging.LEVEL_STEP, "psf": projector_lens.psf,
+                          "groups": [(order[bounds[i]:bounds[i + 1]], a[order[bounds[i]:bounds[i + 1]]])
+                                     for i in range(n)]}
     with np.errstate(invalid="ignore"):
         depth = np.where(hits > 0, cat("depth") / np.maximum(hits, 1), np.nan)
     return View((h, w), s, (cat("base") / (s * s)).reshape(h, w), (cat("lamp") / (s * s)).reshape(h, w),
                 cat("pix"), cat("corner"), np.hstack([q["weights"] for q in parts]),
                 (projector.image_size[1], projector.image_size[0]) if projector is not None else None,
                 depth.reshape(h, w), (hits / (s * s)).reshape(h, w), np.vstack([q["prim"] for q in parts]),
-                (cat("lit") / (s * s)).reshape(h, w))
+                (cat("lit") / (s * s)).reshape(h, w), extra)
 
 
 def emitted(pattern: np.ndarray, lighting: Lighting) -> np.ndarray:
@@ -210,6 +228,11 @@ def emitted(pattern: np.ndarray, lighting: Lighting) -> np.ndarray:
     return p
 
 
+def _gather(f: np.ndarray, c: np.ndarray, wts: np.ndarray, pw: int) -> np.ndarray:
+    """Bilinear samples of the flat pattern ``f`` at corners ``c`` with weights (4, M)."""
+    return f[c] * wts[0] + f[c + 1] * wts[1] + f[c + pw] * wts[2] + f[c + pw + 1] * wts[3]
+
+
 def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None = None,
              lamp: bool = False) -> np.ndarray:
     """Radiance image (h, w) of one frame; ``pattern`` None: projector dark; ``lamp``:
@@ -223,11 +246,17 @@ def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None =
         if e.shape != view.pattern_shape:
             raise ValueError(f"pattern of {e.shape[1]} x {e.shape[0]} px; the projector shows "
                              f"{view.pattern_shape[1]} x {view.pattern_shape[0]}")
-        f = e.ravel()
         pw = view.pattern_shape[1]
-        c = view.corner
-        val = (f[c] * view.weights[0] + f[c + 1] * view.weights[1]
-               + f[c + pw] * view.weights[2] + f[c + pw + 1] * view.weights[3])
+        pb = view.extra.get("pblur")
+        if pb is None:
+            val = _gather(e.ravel(), view.corner, view.weights, pw)
+        else:                                     # projector defocus: two blur levels per point
+            blurred = [imaging.defocus(e, float(c), pb["psf"]).ravel() for c in pb["levels"]]
+            val = np.empty(len(view.pix))
+            for i, (sel, a) in enumerate(pb["groups"]):
+                if len(sel):
+                    c, wts = view.corner[sel], view.weights[:, sel]
+                    val[sel] = (1 - a) * _gather(blurred[i], c, wts, pw) + a * _gather(blurred[i + 1], c, wts, pw)
         img += np.bincount(view.pix, val, minlength=h * w)
     return img.reshape(h, w)
 

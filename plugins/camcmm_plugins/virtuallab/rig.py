@@ -29,7 +29,7 @@ A device entry (camera or projector)::
     up: [0, 1, 0]                            # world direction shown upwards
     rotation: [[...]]                        # or R, t (x_cam = R x_world + t)
     translation: [...]
-    f_number: 8                              # defocus (None: pinhole)
+    f_number: 8                              # defocus (None: pinhole); a projector's blurs its pattern
     focus_distance: 301                      # mm along the optical axis
     psf: gaussian                            # or disc
     blur: 0.0                                # extra Gaussian sigma (px)
@@ -125,7 +125,8 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
     image_size, baseline, distance, angle (deg, derived from baseline and distance
     when not given), focal_length / focal_lengths, dist_coeffs (one list per camera or
     one for both), f_number, focus_distance, psf, field_of_view (mm at ``distance``),
-    projector_size, projector_field (mm), projector_dist_coeffs, target."""
+    projector_size, projector_field (mm), projector_dist_coeffs, projector_f_number and
+    projector_focus_distance (the projector's depth of field; default: pinhole), target."""
     o = dict(options or {})
     if name not in ("stereo_fringe", "camera_projector"):
         raise ValueError(f"rig.preset {name!r}: use stereo_fringe or camera_projector")
@@ -163,6 +164,7 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
             "position": (target + [0.0, 0.0, dist]).tolist(), "look_at": target.tolist(), "up": [0, 1, 0]}
     if o.get("projector_f_number") is not None:
         proj["f_number"] = o["projector_f_number"]
+        proj["focus_distance"] = o.get("projector_focus_distance", dist)
     if name == "camera_projector":
         cams = cams[:1]
     return cams, proj
