@@ -37,9 +37,9 @@ PERIOD = 16.0
 
 
 def simulate(d: Path, artefacts: list, preset: str = "camera_projector", errors: dict | None = None,
-             seed: int = 1) -> tuple[Path, scene_file.LabScene]:
+             seed: int = 1, seq: dict | None = None) -> tuple[Path, scene_file.LabScene]:
     d.mkdir(parents=True, exist_ok=True)
-    (d / "seq.yaml").write_text(yaml.safe_dump(SEQ))
+    (d / "seq.yaml").write_text(yaml.safe_dump(seq or SEQ))
     doc = {"seed": seed, "artefacts": artefacts, "rig": {"preset": preset, "image_size": SIZE},
            "sequence": "seq.yaml", "errors": errors or {}}
     (d / "scene.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
@@ -184,6 +184,27 @@ def test_a_focal_length_error_shows_in_the_sphere(tmp_path):
           f"with f1 + 1 %: {results['calibration.yaml']:.4f} mm")
     assert abs(results["calibration_true.yaml"] - 20.0) < 0.015
     assert abs(results["calibration.yaml"] - 20.0) > 0.05
+
+
+@pytest.mark.parametrize("steps,gamma,worse", [(3, 1.0, False), (3, 2.2, True), (4, 2.2, False)])
+def test_an_uncorrected_projector_gamma_ripples_a_flat_under_three_step_phase_shifting(tmp_path, steps, gamma, worse):
+    """A projector with gamma 2.2 that the sequence does not pre-compensate shows
+    distorted sinusoids; N-step phase shifting takes harmonics k = N +- 1 for the
+    fundamental, so 3 steps turn the strong 2nd harmonic into a periodic phase error
+    (flatness F far beyond the thesis's MPE of 0.243 mm), while 4 steps see only the
+    weak 3rd and 5th, which the camera's pixels and blur average out at this scale."""
+    seq = yaml.safe_load(yaml.safe_dump(SEQ))
+    seq["frames"][2]["steps"] = steps
+    flat = [{"type": "flat", "center": [0, 0, 0], "direction": [1, 0, 0], "normal": [0, 0, 1], "length": 100,
+             "width": 60}]
+    out, _ = simulate(tmp_path, flat, errors={"projector_gamma": gamma}, seq=seq)
+    cloud = clean(reconstruct(out)["cloud"], out, "calibration.yaml")
+    F = get_algorithm("fit.plane")(cloud=cloud, outliers="vdi2634")["form"]["range"]
+    print(f"\n{steps}-step, gamma {gamma}: F = {F:.4f} mm")
+    if worse:
+        assert F > PART2["mpe"]["F"]
+    else:
+        assert F < 0.1
 
 
 # -- VDI/VDE 2634 part 2 through the chain -------------------------------------------------
