@@ -221,3 +221,17 @@ def test_virtual_system_moves_artefacts_and_images_them_where_the_truth_says(tmp
         lab.frame("camera3")
     with pytest.raises(InputError, match="projector shows"):
         lab.frame("camera1", np.zeros((10, 10)))
+
+
+def test_capture_warns_of_unseen_artefacts_and_saturation(tmp_path, capsys):
+    doc = {"artefacts": [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0},
+                         {"type": "sphere", "center": [400, 0, 0], "diameter": 20.0, "label": "far away"}],
+           "rig": {"preset": "stereo_fringe", "image_size": [160, 120]}, "render": {"supersample": 1},
+           "sensor": {"exposure": 4.0}, "patterns": ["white"]}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o"), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert any("'far away' is outside every camera's view" in w for w in res["warnings"])
+    assert any("saturate" in w for w in res["warnings"])
+    pix = res["coverage"]["camera1"]["artefact_pixels"]
+    assert pix["far away"] == 0 and pix["sphere 1"] > 100

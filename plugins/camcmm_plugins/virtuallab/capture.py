@@ -33,6 +33,8 @@ from .scene_file import LabScene
 from .speckle import speckle
 from .workpieces import rotation_xyz
 
+#: Fraction of saturated pixels in a frame above which the capture warns.
+SATURATION_WARN = 0.005
 POINT_KEYS = ("center", "top_center", "base_center", "point", "center_distorted")
 DIR_KEYS = ("direction", "normal", "axis")
 
@@ -226,6 +228,8 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     frames = scene_frames(scene, ctx)
     views = prepare_views(scene, (lambda f, m: prog(0.3 * f, m)) if prog else None)
     files: dict[str, list[str]] = {}
+    warnings = visibility(scene, views)
+    saturated: dict[str, float] = {}
     n = len(scene.cameras) * len(frames)
     for i, (dev, view) in enumerate(zip(scene.cameras, views)):
         cd = d / dev.name
@@ -239,19 +243,53 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
                 prog(0.3 + 0.7 * (i * len(frames) + k) / n, f"rendering {dev.name} frame {k + 1}/{len(frames)}")
             extra = n_seq > 0 and f.get("source") != "sequence"
             p = (cd / "extra" / f"frame{k - n_seq:03d}.png") if extra else cd / f"frame{k:03d}.png"
-            write(Image(render_frame(scene, view, i, k, f), name=p.name), p)
+            img = render_frame(scene, view, i, k, f)
+            write(Image(img, name=p.name), p)
             files[dev.name].append(str(p))
+            saturated[dev.name] = max(saturated.get(dev.name, 0.0), float(np.mean(img >= scene.sensor.max_dn)))
+    for name, frac in saturated.items():
+        if frac > SATURATION_WARN:
+            warnings.append(f"{name}: up to {100 * frac:.1f} % of the pixels saturate in a frame; "
+                            "lower sensor.exposure or lighting.projector")
     write_calibration(d / "calibration.yaml", calibration(scene, True))
     write_calibration(d / "calibration_true.yaml", calibration(scene, False))
     if scene.sequence is not None:
         shutil.copyfile(scene.sequence, d / "sequence.yaml")
     tr = truth(scene, frames)
-    tr["coverage"] = {dev.name: {"surface": float(v.coverage.mean()), "lit": float(v.lit.mean())}
+    tr["coverage"] = {dev.name: {"surface": float(v.coverage.mean()), "lit": float(v.lit.mean()),
+                                 "artefact_pixels": _pixels_per_artefact(scene, v)}
                       for dev, v in zip(scene.cameras, views)}
+    tr["warnings"] = warnings
+    for w in warnings:
+        if ctx is not None:
+            ctx.warn(w)
     (d / "truth.json").write_text(json.dumps(tr, indent=1), encoding="utf-8")
     if prog:
         prog(1.0, "written")
     return {"out": str(d), "cameras": [c.name for c in scene.cameras], "n_frames": len(frames),
             "files": files, "calibration": str(d / "calibration.yaml"), "truth": str(d / "truth.json"),
             "sequence": str(d / "sequence.yaml") if scene.sequence is not None else None,
-            "coverage": tr["coverage"]}
+            "coverage": tr["coverage"], "warnings": warnings}
+
+
+def _pixels_per_artefact(scene: LabScene, view: render.View) -> dict[str, int]:
+    """Pixels of each artefact (by label) in a view (at the pixel centres)."""
+    prim = view.primitive[view.primitive >= 0]
+    counts = np.bincount(scene.owner[prim], minlength=len(scene.artefacts)) if len(prim) else \
+        np.zeros(len(scene.artefacts), int)
+    return {a["label"]: int(c) for a, c in zip(scene.artefacts, counts)}
+
+
+def visibility(scene: LabScene, views: list[render.View]) -> list[str]:
+    """Warnings for artefacts no camera sees, or that the projector lights nowhere."""
+    out = []
+    for j, a in enumerate(scene.artefacts):
+        if a.get("kind") == "plane":
+            continue
+        seen = [int(np.sum(scene.owner[v.primitive[v.primitive >= 0]] == j)) for v in views]
+        if not any(seen):
+            out.append(f"artefact {a['label']!r} is outside every camera's view (or hidden)")
+        elif min(seen) == 0:
+            names = [d.name for d, k in zip(scene.cameras, seen) if k == 0]
+            out.append(f"artefact {a['label']!r} is not seen by {', '.join(names)}")
+    return out

@@ -2,7 +2,8 @@
 
 Renders a virtual-lab scene's capture sequence (see camcmm_plugins.virtuallab.scene_file
 for the scene file and camcmm_plugins.virtuallab.capture for what DIR receives). JSON
-keys ``out, cameras, n_frames, calibration, truth, sequence, coverage`` (+ ``files``).
+keys ``out, cameras, n_frames, calibration, truth, sequence, coverage, warnings``
+(+ ``files``).
 """
 
 from __future__ import annotations
@@ -25,5 +26,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def text(result: dict[str, Any]) -> str:
     cov = ", ".join(f"{k}: {100 * v['surface']:.0f} % surface, {100 * v['lit']:.0f} % lit"
                     for k, v in result["coverage"].items())
+    warn = "".join(f"\n  warning: {w}" for w in result.get("warnings", []))
     return (f"{result['n_frames']} frames x {len(result['cameras'])} cameras written to {result['out']}\n"
-            f"  calibration: {result['calibration']}\n  truth: {result['truth']}\n  {cov}")
+            f"  calibration: {result['calibration']}\n  truth: {result['truth']}\n  {cov}{warn}")

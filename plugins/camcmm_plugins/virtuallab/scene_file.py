@@ -83,6 +83,7 @@ class LabScene:
     errors: dict[str, Any] = field(default_factory=dict)
     base: Path = Path(".")
     source: dict[str, Any] = field(default_factory=dict)
+    owner: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))   # artefact of each primitive
 
 
 def _g(d: Mapping, key: str, default, what: str):
@@ -150,7 +151,7 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     arts = doc.get("artefacts")
     if not isinstance(arts, list) or not arts:
         raise ValueError("artefacts: a list of at least one artefact is needed")
-    prims, albedo, truths = [], [], []
+    prims, albedo, truths, owner = [], [], [], []
     for i, a in enumerate(arts):
         p, tr = build_artefact(a, i, base)
         rho = float(a.get("albedo", 0.8))
@@ -160,6 +161,7 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         tr["albedo"] = rho
         prims += p
         albedo += [rho] * len(p)
+        owner += [i] * len(p)
         truths.append(tr)
     r = doc.get("rig")
     if doc.get("cameras"):
@@ -195,7 +197,7 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     return LabScene(str(doc.get("name", "virtual lab scene")), prims, np.asarray(albedo), truths, cams, proj,
                     light, sensor, ss, int(doc.get("seed", 0)),
                     (base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None),
-                    pats, errors, base, dict(doc))
+                    pats, errors, base, dict(doc), np.asarray(owner, np.int64))
 
 
 def load_scene(path: str | Path) -> LabScene:
