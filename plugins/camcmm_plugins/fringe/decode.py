@@ -19,7 +19,7 @@ fraction of all pixels):
 ``low_modulation`` modulation I'' of some phase group below ``modulation_threshold``
                   (default 2 % of full scale).
 ``code``          a code bit closer to its reference than ``white_threshold`` (off by
-                  default), or a code word outside the projector.
+                  default), or a code word or decoded coordinate outside the projector.
 ``order``         a coarse-to-fine step whose estimate was off by more than 1/3 period.
 """
 
@@ -207,6 +207,8 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
         x, unreliable, st = unwrap(levels[d], span, code_est, cg.period if cg else 0.0, cg.offset if cg else 0.0,
                                    valid=pre_valid & ~code_bad, correction=boundary_correction, direction=d)
         order_bad |= unreliable
+        with np.errstate(invalid="ignore"):
+            code_bad |= (x < -0.5) | (x > span - 0.5)  # beyond the projector's pixels
         coords[d], steps[d] = x, st
     rejected["code"] = code_bad
     rejected["order"] = order_bad
