@@ -67,20 +67,22 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         files = save_patterns(seq, args.out)
         return {"n_frames": seq.n_frames, "projector_size": list(seq.projector_size), "out": str(args.out),
                 "files": [str(f) for f in files], "frames": seq.describe()}
-    from camcmm.api import get_algorithm, write
+    from camcmm.api import default_host, write
 
     files = image_files(args.images)
-    files2 = image_files(args.images2) if args.images2 else None
-    cal = args.calibration
-    res = get_algorithm("fringe.reconstruct")(
-        sequence=seq, images=[str(f) for f in files], images2=[str(f) for f in files2] if files2 else None,
-        calibration=str(cal), method=args.method, black_threshold=args.black_threshold,
-        modulation_threshold=args.modulation_threshold, white_threshold=args.white_threshold,
-        saturation=args.saturation)
-    out = {"n_points": res["n_points"], "valid_fraction": res["valid_fraction"], "bbox": res["bbox"],
-           "method": res.get("method", "")}
+    inputs = {"sequence": str(args.sequence), "images": [str(f) for f in files],
+              "calibration": str(args.calibration)}
+    if args.images2:
+        inputs["images2"] = [str(f) for f in image_files(args.images2)]
+    params = {"method": args.method, "black_threshold": args.black_threshold,
+              "modulation_threshold": args.modulation_threshold, "white_threshold": args.white_threshold,
+              "saturation": args.saturation}
+    res = default_host().run("fringe.reconstruct", inputs, params)
+    o = res.outputs
+    out = {"n_points": o["n_points"], "valid_fraction": o["valid_fraction"], "bbox": o["bbox"],
+           "method": o.get("method", ""), "warnings": res.warnings}
     if args.out:
-        write(res["cloud"], args.out)
+        write(o["cloud"], args.out)
         out["out"] = str(args.out)
     return out
 
@@ -96,4 +98,6 @@ def text(result: dict[str, Any]) -> str:
         s += "\n  bbox mm: " + " .. ".join("(" + ", ".join(f"{x:.3f}" for x in c) + ")" for c in bb)
     if result.get("out"):
         s += f"\n  written to {result['out']}"
+    for w in result.get("warnings", []):
+        s += f"\n  warning: {w}"
     return s
