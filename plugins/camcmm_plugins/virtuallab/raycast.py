@@ -254,7 +254,40 @@ def cast(scene: list, o: np.ndarray, d: np.ndarray, want_normals: bool = True):
             r_all, n_all = mesh_normals[k]
             keep = idx[r_all] == k                     # rows a later primitive did not take over
             normals[r_all[keep]] = n_all[keep]
+        elif isinstance(p, Rectangle):
+            normals[rows] = p.normal                   # constant: no hit points needed
         else:
             x = (o if o.ndim == 1 else o[rows]) + t[rows, None] * d[rows]
             normals[rows] = surface_normal(p, x)
     return t, idx, normals
+
+
+#: Primitives a point on them, facing the light, cannot shadow (convex or flat).
+_CONVEX = (Sphere, Box, Rectangle)
+
+
+def occluded(scene: list, o: np.ndarray, d: np.ndarray, dist: np.ndarray, own: np.ndarray,
+             eps: float = 1e-3) -> np.ndarray:
+    """Whether each ray from the shared origin ``o`` (3,) along unit ``d`` (N, 3) meets a
+    primitive before ``dist - eps`` (N,) mm: the shadow test of surface points seen
+    from a light at ``o``. ``own`` (N,) is the primitive each point lies on; a convex or
+    flat one cannot shadow its own points that face the light, so it is skipped for them.
+    Rays already found blocked are not tested again."""
+    blocked = np.zeros(len(d), bool)
+    for k, p in enumerate(scene):
+        open_ = ~blocked
+        if isinstance(p, _CONVEX):
+            open_ &= own != k
+        cand = _candidates(p, o, d)
+        rows = np.flatnonzero(open_) if cand is None else cand[open_[cand]]
+        if not len(rows):
+            continue
+        dd = d[rows]
+        if isinstance(p, Mesh):
+            tk = p.cast(o, dd)[0]
+        else:
+            tk = _shared_origin(p, o, dd)
+            if tk is None:
+                tk = p.intersect(np.broadcast_to(o, dd.shape), dd)
+        blocked[rows[tk < dist[rows] - eps]] = True
+    return blocked

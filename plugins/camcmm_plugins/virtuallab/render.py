@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import imaging, optics
-from .raycast import cast
+from .raycast import cast, occluded
 
 #: Rays cast per batch (bounds the memory of the intermediate (N, 3) arrays).
 BATCH = 1 << 20
@@ -132,9 +132,8 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     ok = np.flatnonzero((Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5) & (cos > 0))
     if not len(ok):
         return out
-    # shadows: the projector's own ray towards the point must reach it first
-    tp, _ = cast(scene, P, -L[ok] / dist[ok, None], want_normals=False)
-    ok = ok[tp >= dist[ok] - SHADOW_EPS]
+    # shadows: nothing may meet the projector's ray towards the point before it does
+    ok = ok[~occluded(scene, P, -L[ok] / dist[ok, None], dist[ok], idx[hit][ok], SHADOW_EPS)]
     g = rho[ok] * (light.projector / (s * s)) * cos[ok]
     if light.falloff:
         g = g * (_falloff_reference(projector) / dist[ok]) ** 2
@@ -289,8 +288,8 @@ def pixel_truth(scene: list, camera, projector=None) -> dict[str, np.ndarray]:
         ok = (Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5) \
             & (np.einsum("ij,ij->i", nrm[k], L) > 0)
         j = np.flatnonzero(ok)
-        tp, _ = cast(scene, optics.centre(projector), -L[j] / dist[j, None], want_normals=False)
-        lit[k[j[tp >= dist[j] - SHADOW_EPS]]] = True
+        blocked = occluded(scene, optics.centre(projector), -L[j] / dist[j, None], dist[j], idx[k[j]], SHADOW_EPS)
+        lit[k[j[~blocked]]] = True
         out["projector_uv"] = uv.reshape(h, w, 2)
         out["lit"] = lit.reshape(h, w)
     return out
