@@ -280,3 +280,12 @@ def test_any_pattern_image_lands_where_the_projector_sends_it(tmp_path):
     got = spk[ok] / white[ok]
     assert np.corrcoef(got, want)[0, 1] > 0.99
     assert np.median(np.abs(got - want)) < 0.01
+
+
+def test_the_sequence_may_sit_in_the_scene_file(tmp_path):
+    doc = {"artefacts": [{"type": "sphere", "diameter": 20.0}], "sequence": SEQ,
+           "rig": {"image_size": [160, 120]}, "render": {"supersample": 1}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 0
+    assert len(list((tmp_path / "o" / "camera2").glob("frame*.png"))) == 13
+    assert yaml.safe_load((tmp_path / "o" / "sequence.yaml").read_text()) == SEQ

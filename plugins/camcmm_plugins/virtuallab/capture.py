@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
+import yaml
 
 from camcmm.api import CameraModel, Image, InputError, get_algorithm, read, write, write_calibration
 
@@ -51,14 +52,16 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
     (projector dark) and ``lamp`` (the diffuse lamp on)."""
     frames: list[dict[str, Any]] = []
     if scene.sequence is not None:
-        if not scene.sequence.is_file():
+        inline = isinstance(scene.sequence, dict)
+        if not inline and not scene.sequence.is_file():
             raise InputError(f"sequence {scene.sequence}: file not found")
         fringe = ctx.algorithm("fringe.patterns") if ctx is not None else get_algorithm("fringe.patterns")
-        out = fringe(sequence=str(scene.sequence))
+        out = fringe(sequence=scene.sequence if inline else str(scene.sequence))
         size = tuple(int(x) for x in out["projector_size"])
         if scene.projector is None or tuple(scene.projector.model.image_size) != size:
             have = scene.projector.model.image_size if scene.projector is not None else None
-            raise InputError(f"sequence {scene.sequence.name}: patterns of {size[0]} x {size[1]} px, "
+            raise InputError(f"sequence {'(in the scene)' if inline else scene.sequence.name}: patterns of "
+                             f"{size[0]} x {size[1]} px, "
                              f"but the projector shows {have}")
         for k, (pat, desc) in enumerate(zip(np.asarray(out["patterns"]), out["frames"])):
             frames.append({"name": desc.get("name", f"frame {k}"), "kind": desc.get("kind", "pattern"),
@@ -253,7 +256,9 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
                             "lower sensor.exposure or lighting.projector")
     write_calibration(d / "calibration.yaml", calibration(scene, True))
     write_calibration(d / "calibration_true.yaml", calibration(scene, False))
-    if scene.sequence is not None:
+    if isinstance(scene.sequence, dict):
+        (d / "sequence.yaml").write_text(yaml.safe_dump(scene.sequence, sort_keys=False), encoding="utf-8")
+    elif scene.sequence is not None:
         shutil.copyfile(scene.sequence, d / "sequence.yaml")
     tr = truth(scene, frames)
     tr["coverage"] = {dev.name: {"surface": float(v.coverage.mean()), "lit": float(v.lit.mean()),

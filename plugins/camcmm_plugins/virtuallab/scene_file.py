@@ -23,7 +23,8 @@ Schema (``version: 1``; every section but ``artefacts`` optional)::
                background: 0.0, gamma: 1.0, projector_blur: 0.0, falloff: true}
     sensor: {bits: 8, full_well: 20000, read_noise: 10, exposure: 1.0, black_level: 0, shot_noise: true}
     render: {supersample: 2}                  # s x s rays per pixel
-    sequence: fringe_sequence.yaml            # a fringe sequence file (the fringe plugin's patterns) ...
+    sequence: fringe_sequence.yaml            # a fringe sequence file (the fringe plugin's patterns),
+                                              # or the sequence itself as a mapping ...
     patterns:                                 # ... and/or frames listed here, shown after it
       - white
       - black
@@ -78,7 +79,7 @@ class LabScene:
     sensor: Sensor
     supersample: int = 2
     seed: int = 0
-    sequence: Path | None = None
+    sequence: Path | dict | None = None
     patterns: list = field(default_factory=list)
     errors: dict[str, Any] = field(default_factory=dict)
     base: Path = Path(".")
@@ -196,7 +197,8 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         raise ValueError("patterns: expected a list")
     return LabScene(str(doc.get("name", "virtual lab scene")), prims, np.asarray(albedo), truths, cams, proj,
                     light, sensor, ss, int(doc.get("seed", 0)),
-                    (base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None),
+                    seq if isinstance(seq, Mapping) else
+                    ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
                     pats, errors, base, dict(doc), np.asarray(owner, np.int64))
 
 
