@@ -242,3 +242,16 @@ def test_bad_sequences_are_refused_with_one_line(doc, msg):
     with pytest.raises(InputError, match=msg) as exc:
         load_sequence(doc)
     assert "\n" not in str(exc.value)
+
+
+def test_decode_plugin_by_id():
+    from camcmm.api import get_algorithm
+
+    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
+                    {"type": "gray", "direction": "vertical", "period": 16}])
+    u, _ = true_maps()
+    out = get_algorithm("fringe.decode")(sequence=seq, images=render_captures(seq, u=u, noise=0.5))
+    assert out["v"] is None and out["mask"].all() and out["valid_fraction"] == 1.0
+    assert np.abs(out["u"] - u).max() < 0.2  # 6 sigma of noise and 8-bit rounding
+    assert abs(np.mean(out["modulation"]) - 80.0) < 0.05 and np.std(out["modulation"]) < 0.5
+    assert set(out["masks"]) == {"saturated", "low_modulation", "dark", "code", "order"}

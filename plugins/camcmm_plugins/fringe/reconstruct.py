@@ -11,8 +11,9 @@ displaced most (the better-conditioned stripe planes); ``"rays"`` triangulates t
 camera ray with the projector ray of (u_p, v_p) instead.
 
 Camera-camera (thesis ch. 5.2.4, figs. 5.4-5.5): both absolute-phase maps are rectified
-(cv2.stereoRectify, bilinear remap; an invalid neighbour makes the sample invalid), so a
-scene point lies on the same row of both. For every left pixel the right row is searched
+(cv2.stereoRectify's rotations, each camera's image kept whole at its resolution, exact
+bilinear sampling; an invalid neighbour makes the sample invalid), so a scene point lies
+on the same row of both. For every left pixel the right row is searched
 for the pair of neighbouring pixels whose phases bracket the left phase, and the crossing
 is interpolated linearly between them (the "two lowest phase differences" of fig. 5.5),
 then refined on the cubic through the four nearest samples (the phase of a curved
@@ -20,8 +21,8 @@ surface is not linear between pixels: on a sphere 100 px in radius the linear cr
 alone biases the radius by -3 um, the cubic by -2 um, the rest being the bilinear
 resampling of the rectification; both shrink with the square of the pixel size).
 Matches that do not survive matching back from right to left (occlusions), or whose
-other fringe direction disagrees (when both are decoded), are dropped. The disparity then gives the point
-through the rectification's Q matrix.
+other fringe direction disagrees (when both are decoded), are dropped. The disparity then
+gives the point through the rectification's Q matrix.
 """
 
 from __future__ import annotations
@@ -206,6 +207,53 @@ def _sample_at(imgs, maps, ys, xs):
     return [bilinear(img, px, py) for img in imgs]
 
 
+def rectification(cam1: CameraModel, cam2: CameraModel, size: tuple[int, int], max_growth: float = 4.0):
+    """Rectifying rotations R1, R2, projections P1, P2, Q and the rectified image size.
+
+    cv2.stereoRectify gives the rotations; the projections are then chosen so that each
+    camera's whole image lands inside the rectified one at about its own resolution:
+    focal length the mean of camera 1's, a common principal row, and each camera its own
+    principal column (a convergent pair's views are far apart in a common frame, and
+    CALIB_ZERO_DISPARITY at the image size would keep no overlap). The rectified image is
+    at most ``max_growth`` times the original pixels (the focal length shrinks to fit).
+    Q maps (x, y, x - x2, 1) to homogeneous camera-1-rectified coordinates.
+    """
+    import cv2
+
+    w, h = size
+    r, t = _pose_between(cam1, cam2)
+    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix,
+                                                cam2.dist_coeffs, (w, h), r, t.reshape(3, 1), alpha=-1)
+    if abs(p2[1, 3]) > abs(p2[0, 3]):
+        raise InputError("calibration: the cameras are displaced vertically; rectified rows would be columns "
+                         "(turn the images or use camera-projector triangulation)")
+    baseline = p2[0, 3] / p2[0, 0]  # Tx in mm: x2_rect = x1_rect + Tx (rectified frame)
+    # the outline of each image in normalised rectified coordinates
+    n = 256
+    edge = np.concatenate([np.c_[np.linspace(0, w - 1, n), np.zeros(n)], np.c_[np.linspace(0, w - 1, n),
+                           np.full(n, h - 1.0)], np.c_[np.zeros(n), np.linspace(0, h - 1, n)],
+                           np.c_[np.full(n, w - 1.0), np.linspace(0, h - 1, n)]])
+    boxes = []
+    for cam, rr in ((cam1, r1), (cam2, r2)):
+        xy = cv2.undistortPoints(edge.reshape(-1, 1, 2), cam.camera_matrix, cam.dist_coeffs, R=rr).reshape(-1, 2)
+        boxes.append((xy.min(axis=0), xy.max(axis=0)))
+    f = 0.5 * (cam1.camera_matrix[0, 0] + cam1.camera_matrix[1, 1])
+    y_lo = min(b[0][1] for b in boxes)
+    y_hi = max(b[1][1] for b in boxes)
+    x_span = max(b[1][0] - b[0][0] for b in boxes)
+    growth = (f * x_span + 1) * (f * (y_hi - y_lo) + 1) / (w * h)
+    if growth > max_growth:
+        f /= np.sqrt(growth / max_growth)
+    wr, hr = int(np.ceil(f * x_span)) + 1, int(np.ceil(f * (y_hi - y_lo))) + 1
+    cy = -f * y_lo
+    cx1, cx2 = -f * boxes[0][0][0], -f * boxes[1][0][0]
+    p1 = np.array([[f, 0, cx1, 0], [0, f, cy, 0], [0, 0, 1, 0]])
+    p2 = np.array([[f, 0, cx2, f * baseline], [0, f, cy, 0], [0, 0, 1, 0]])
+    # x1 - x2 = f (X / Z) + cx1 - (f (X + Tx) / Z + cx2) = -f Tx / Z + cx1 - cx2
+    q = np.array([[1, 0, 0, -cx1], [0, 1, 0, -cy], [0, 0, 0, f], [0, 0, -1 / baseline, (cx1 - cx2) / baseline]])
+    return r1, r2, p1, p2, q, (wr, hr)
+
+
 def _pose_between(cam1: CameraModel, cam2: CameraModel):
     r = cam2.rotation @ cam1.rotation.T
     t = cam2.translation - r @ cam1.translation
@@ -228,14 +276,10 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
         raise InputError(f"images2: {dec2.mask.shape[1]}x{dec2.mask.shape[0]} px, camera 1's are {w}x{h} px; "
                          "camera-camera matching needs equal sizes")
     r, t = _pose_between(cam1, cam2)
-    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix,
-                                                cam2.dist_coeffs, (w, h), r, t.reshape(3, 1),
-                                                flags=cv2.CALIB_ZERO_DISPARITY, alpha=-1)
-    if abs(p2[1, 3]) > abs(p2[0, 3]):
-        raise InputError("calibration: the cameras are displaced vertically; rectified rows would be columns "
-                         "(turn the images or use camera-projector triangulation)")
-    m1 = cv2.initUndistortRectifyMap(cam1.camera_matrix, cam1.dist_coeffs, r1, p1, (w, h), cv2.CV_32FC1)
-    m2 = cv2.initUndistortRectifyMap(cam2.camera_matrix, cam2.dist_coeffs, r2, p2, (w, h), cv2.CV_32FC1)
+    r1, r2, p1, p2, q, size = rectification(cam1, cam2, (w, h))
+    m1 = cv2.initUndistortRectifyMap(cam1.camera_matrix, cam1.dist_coeffs, r1, p1, size, cv2.CV_32FC1)
+    m2 = cv2.initUndistortRectifyMap(cam2.camera_matrix, cam2.dist_coeffs, r2, p2, size, cv2.CV_32FC1)
+    hr, wr = size[1], size[0]
     have = [d for d in ("vertical", "horizontal") if dec1.coords.get(d) is not None
             and dec2.coords.get(d) is not None]
     if not have:
@@ -256,8 +300,8 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
     to_world = r1 @ cam1.rotation
     offset = -cam1.translation @ cam1.rotation
     parts = []
-    for y0 in range(0, h, block_rows):
-        sl = slice(y0, min(h, y0 + block_rows))
+    for y0 in range(0, hr, block_rows):
+        sl = slice(y0, min(hr, y0 + block_rows))
         b1, b2 = (m1[0][sl], m1[1][sl]), (m2[0][sl], m2[1][sl])
         lmap = bilinear(dec1.coords[direction], *b1)
         rmap = bilinear(dec2.coords[direction], *b2)
@@ -268,15 +312,15 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
         fi = np.flatnonzero(np.isfinite(xr))
         if not fi.size:
             continue
-        ys = fi // w
-        xs = fi - ys * w
+        ys = fi // wr
+        xs = fi - ys * wr
         xrv = xr[fi].astype(np.float64)
         # left-right consistency: where camera 2 does not see what camera 1 sees
         # (occlusion) a left phase can still find an equal phase on another surface of
         # the right row; matching back from the right must land on the same pixel
         xl = match_rows(rmap, lmap, max_step, refine=False).ravel()
-        xi = np.clip(np.rint(xrv).astype(np.int64), 0, w - 1)
-        keep = np.abs(xl[ys * w + xi] - (xs + (xi - xrv))) < 1.0
+        xi = np.clip(np.rint(xrv).astype(np.int64), 0, wr - 1)
+        keep = np.abs(xl[ys * wr + xi] - (xs + (xi - xrv))) < 1.0
         if other:
             # the other fringe direction must agree too: the same projector row (column)
             lo_ = _sample_at([dec1.coords[other[0]]], b1, ys, xs)[0]
@@ -295,7 +339,7 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
         pts = pr @ to_world + offset
         mod, mean = _sample_at([dec1.modulation, dec1.mean], b1, ys, xs)
         ok = np.isfinite(pts).all(axis=1) & (pr[:, 2] > 0) & np.isfinite(mod)
-        lin = ys * w + xs
+        lin = ys * wr + xs
         parts.append((pts[ok], mod[ok], mean[ok], b1[0].ravel()[lin][ok], b1[1].ravel()[lin][ok]))
     if not parts:
         return np.zeros((0, 3)), {k: np.zeros(0) for k in ("modulation", "quality", "x_px", "y_px")}, direction
