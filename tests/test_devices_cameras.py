@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import ParameterError
-from camcmm_plugins.devices.base import DeviceError, DeviceTimeout
+from camcmm.api import DeviceError, DeviceTimeout
 from camcmm_plugins.devices.camera import OpenCVCamera
 from camcmm_plugins.devices.genicam import GenICamCamera
 from camcmm_plugins.devices.projector import PatternProjector, SimulatedProjector, SpeckleProjector

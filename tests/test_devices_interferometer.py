@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import InputError
-from camcmm_plugins.devices.base import DeviceError, DeviceTimeout
+from camcmm.api import DeviceError, DeviceTimeout
 from camcmm_plugins.devices.interferometer import (CsvInterferometer, SerialInterferometer,
                                                    SimulatedInterferometer, parse_position,
                                                    read_interferometer_csv)

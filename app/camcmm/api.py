@@ -9,6 +9,9 @@ from __future__ import annotations
 from typing import Any, Callable
 
 from .conformity import combine, guarded_verdict, simple_verdict
+from .devices import (Camera, Device, DeviceDisconnected, DeviceError, DeviceMonitor, DeviceStatus, DeviceTimeout,
+                      Events, Stage, port_errors, utc_iso)
+from .devices import param as device_param
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import RunContext, RunResult, default_host
 from .io import read, read_calibration, write, write_calibration
@@ -29,6 +32,8 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
 
 
 __all__ = [
+    "Camera", "Device", "DeviceDisconnected", "DeviceError", "DeviceMonitor", "DeviceStatus", "DeviceTimeout", "Events",
+    "Stage", "device_param", "port_errors", "utc_iso",
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
     "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
     "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import DeviceDisconnected, DeviceTimeout
+from camcmm.api import DeviceDisconnected, DeviceTimeout
 from .camera import Camera
 
 INSTALL_HINT = ("GenICam cameras need the optional package 'harvesters' (pip install harvesters) "

@@ -23,9 +23,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import Device, device_param as param, DeviceDisconnected, DeviceTimeout, InputError, port_errors
 
-from .base import Device, DeviceDisconnected, DeviceTimeout, param, port_errors
 
 UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "micron": 1e-3, "microns": 1e-3, "nm": 1e-6,
          "m": 1e3, "in": 25.4, "inch": 25.4}

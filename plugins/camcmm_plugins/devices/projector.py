@@ -17,9 +17,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from camcmm.api import get_algorithm
-
-from .base import Device, DeviceError, DeviceTimeout, param
+from camcmm.api import Device, device_param as param, DeviceError, DeviceTimeout, get_algorithm
 
 
 class PatternProjector(Device):

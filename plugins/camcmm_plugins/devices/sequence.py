@@ -30,9 +30,8 @@ from typing import Any, Sequence as Seq
 
 import numpy as np
 
-from camcmm.api import Image, write
+from camcmm.api import Device, DeviceError, Events, Image, utc_iso, write
 
-from .base import Device, DeviceError, Events, utc_iso
 
 log = logging.getLogger(__name__)
 

@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from .base import DeviceDisconnected, DeviceError, DeviceTimeout, port_errors
+from camcmm.api import DeviceDisconnected, DeviceError, DeviceTimeout, port_errors
 from .stage import Stage
 
 VELOCITY_UNIT = 1.6384  # Zaber: speed data = microsteps per second x 1.6384

@@ -26,9 +26,10 @@ from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from typing import Any, Callable, Iterator
 
-from camcmm.api import InputError, Param, ParameterError
+from ..errors import InputError, ParameterError
+from ..params import Param
 
-log = logging.getLogger(__name__)
+log = logging.getLogger("camcmm.devices")
 
 STATES = ("disconnected", "ready", "busy", "fault")
 
