@@ -3,7 +3,7 @@
 Toolbar: project name and the import button. Drawer: the project's items, the
 plugins with kind/version/status, and the selected plugin's form (built from its
 manifest by :func:`camcmm.params.form_schema`) with Run and a progress bar. Main
-area: the 3D view (server-side rendering, :class:`trame_pyvista.widgets.PyVistaRemoteView`)
+area: the 3D view (server-side rendering, trame-vtk's :class:`VtkRemoteView` on the plotter's window)
 with a colour-field selector, and the result panel. Errors appear in an alert and a
 snackbar. Key widgets carry ``data-testid`` attributes for the browser test.
 """
