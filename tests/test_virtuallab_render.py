@@ -111,6 +111,27 @@ def test_cast_finds_the_nearest_surface_with_outward_normals(devices):
     assert not np.any((disc > 1e-6) & (entry > 0) & (entry < t[on[3]]))
 
 
+@pytest.mark.parametrize("origin", [[0, 0, 60.0], [3, -2, 1.0], [150, 3, 1.0]])
+def test_shared_origin_forms_equal_the_primitives_own_intersections(origin):
+    from camcmm_plugins.virtuallab.raycast import _shared_origin
+
+    rng = np.random.default_rng(0)
+    o = np.array(origin)
+    d = rng.normal(size=(100000, 3))
+    d[:3000] = np.eye(3)[rng.integers(0, 3, 3000)] * rng.choice([-1, 1], (3000, 1))   # axis-parallel rays
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    prims = [Sphere([3, -2, 1], 8.0), Cylinder([0, -10, -5], [5, 12, 3], 4.0),
+             Rectangle([1, 2, 0], [1, 1, 0], [0.2, 0, 1], 30, 12), Box([3, -2, 1], [[1, 1, 0], [-1, 1, 0], [0, 0, 1]],
+                                                                     [20, 10, 5])]
+    for p in prims:
+        t1 = p.intersect(np.broadcast_to(o, d.shape), d)
+        t2 = _shared_origin(p, o, d)
+        assert np.array_equal(np.isfinite(t1), np.isfinite(t2)), type(p).__name__
+        hit = np.isfinite(t1)
+        assert hit.sum() > 100
+        assert np.abs(t1[hit] - t2[hit]).max() < 1e-9
+
+
 def test_mesh_box_casts_like_the_analytic_box(devices):
     cam, _ = devices
     box = Box([5, -4, 0], [[1, 1, 0], [-1, 1, 0], [0, 0, 1]], [40, 30, 20])

@@ -67,7 +67,8 @@ class Box:
         return np.where(ok, t, INF)
 
     def normal(self, p: np.ndarray) -> np.ndarray:
-        q = np.column_stack([(p - self.center) @ ax for ax in self.axes]) / (self.size / 2)
+        c = self.axes @ self.center
+        q = np.column_stack([(p @ ax - ck) / hk for ax, ck, hk in zip(self.axes, c, self.size / 2)])
         k = np.argmax(np.abs(q), axis=1)
         s = np.sign(q[np.arange(len(q)), k])
         return s[:, None] * self.axes[k]
@@ -174,6 +175,18 @@ def _shared_origin(p, o: np.ndarray, d: np.ndarray, eps: float = 1e-9) -> np.nda
         b = w @ p.v + t * (d @ p.v)
         inside = (np.abs(a) <= p.length / 2) & (np.abs(b) <= p.width / 2)
         return np.where(ok & (t > eps) & inside, t, INF)
+    if isinstance(p, Box):                            # slab method, one axis at a time
+        ol = p.axes @ (o - p.center)
+        tn = np.full(len(d), -INF)
+        tf = np.full(len(d), INF)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for ax, olk, hk in zip(p.axes, ol, p.size / 2):
+                inv = 1.0 / (d @ ax)
+                t1, t2 = (-hk - olk) * inv, (hk - olk) * inv   # +-inf for rays parallel to the slab
+                tn = np.fmax(tn, np.minimum(t1, t2))           # fmax/fmin skip a 0 * inf NaN
+                tf = np.fmin(tf, np.maximum(t1, t2))
+        t = np.where(tn > eps, tn, np.where(tf > eps, tf, INF))
+        return np.where(tn <= tf, t, INF)
     if isinstance(p, Cylinder):
         a = _unit(p.p1 - p.p0)
         w = o - p.p0

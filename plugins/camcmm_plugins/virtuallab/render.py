@@ -190,20 +190,24 @@ def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | No
     cat = (lambda key: np.concatenate([q[key] for q in parts]))
     hits = cat("hits")
     extra = {}
+    pix, corner, weights = cat("pix"), cat("corner"), np.hstack([q["weights"] for q in parts])
     pblur = np.concatenate([q.get("pblur", np.zeros(0, np.float32)) for q in parts])
-    if len(pblur) and len(pblur) == sum(len(q["pix"]) for q in parts) and pblur.max() > 1e-3:
+    if len(pblur) and len(pblur) == len(pix) and pblur.max() > 1e-3:
+        # samples sorted by blur level: each frame then gathers contiguous runs
         n = int(np.ceil(pblur.max() / imaging.LEVEL_STEP))
         k = np.minimum((pblur / imaging.LEVEL_STEP).astype(np.int64), n - 1)
-        a = (pblur / imaging.LEVEL_STEP - k).astype(np.float32)
         order = np.argsort(k, kind="stable")
-        bounds = np.searchsorted(k[order], np.arange(n + 1))
+        k = k[order]
+        pix, corner, weights = pix[order], corner[order], weights[:, order]
+        a = (pblur[order] / imaging.LEVEL_STEP - k).astype(np.float32)
+        bounds = np.searchsorted(k, np.arange(n + 1))
         extra["pblur"] = {"levels": np.arange(n + 1) * imaging.LEVEL_STEP, "psf": projector_lens.psf,
-                          "groups": [(order[bounds[i]:bounds[i + 1]], a[order[bounds[i]:bounds[i + 1]]])
+                          "groups": [(slice(bounds[i], bounds[i + 1]), a[bounds[i]:bounds[i + 1]])
                                      for i in range(n)]}
     with np.errstate(invalid="ignore"):
         depth = np.where(hits > 0, cat("depth") / np.maximum(hits, 1), np.nan)
     return View((h, w), s, (cat("base") / (s * s)).reshape(h, w), (cat("lamp") / (s * s)).reshape(h, w),
-                cat("pix"), cat("corner"), np.hstack([q["weights"] for q in parts]),
+                pix, corner, weights,
                 (projector.image_size[1], projector.image_size[0]) if projector is not None else None,
                 depth.reshape(h, w), (hits / (s * s)).reshape(h, w), np.vstack([q["prim"] for q in parts]),
                 (cat("lit") / (s * s)).reshape(h, w), extra)
@@ -253,7 +257,7 @@ def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None =
             blurred = [imaging.defocus(e, float(c), pb["psf"]).ravel() for c in pb["levels"]]
             val = np.empty(len(view.pix))
             for i, (sel, a) in enumerate(pb["groups"]):
-                if len(sel):
+                if len(a):
                     c, wts = view.corner[sel], view.weights[:, sel]
                     val[sel] = (1 - a) * _gather(blurred[i], c, wts, pw) + a * _gather(blurred[i + 1], c, wts, pw)
         img += np.bincount(view.pix, val, minlength=h * w)
