@@ -255,3 +255,11 @@ def test_decode_plugin_by_id():
     assert np.abs(out["u"] - u).max() < 0.2  # 6 sigma of noise and 8-bit rounding
     assert abs(np.mean(out["modulation"]) - 80.0) < 0.05 and np.std(out["modulation"]) < 0.5
     assert set(out["masks"]) == {"saturated", "low_modulation", "dark", "code", "order"}
+
+
+def test_a_code_coarser_than_the_fringes_is_refused():
+    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": 20},
+                    {"type": "gray", "direction": "vertical", "period": 40}])
+    u, _ = true_maps()
+    with pytest.raises(InputError, match="code's 40 px stripes are wider than the longest .* 20 px"):
+        decode(seq, render_captures(seq, u=u))

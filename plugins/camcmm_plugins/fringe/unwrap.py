@@ -153,6 +153,9 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
         todo = [top] + [lv for lv in chain if lv.period < top.period]
         x, err, steps = np.full(shape, np.float32(span / 2.0)), span / 2.0, []
     todo.sort(key=lambda lv: -lv.period)
+    if code is not None and todo[0].period < code_period * (1 - 1e-9):
+        raise InputError(f"{direction or 'these'} fringes: the code's {code_period:g} px stripes are wider than "
+                         f"the longest (beat) period {todo[0].period:.4g} px; the code cannot fix the fringe order")
     unreliable = np.zeros(shape, bool)
     for i, lv in enumerate(todo):
         safe = lv.period > 2.0 * err * (1 + 1e-6)
