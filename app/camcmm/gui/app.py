@@ -29,6 +29,10 @@ _NUMBER_RULE = (
 )
 
 
+#: pages that fill the content area (the Inspect view beside them is hidden)
+FULL_PAGES = ("compare", "uncertainty", "devices")
+
+
 def _tid(name: str) -> list[str]:
     return [f'data-testid="{name}"']
 
@@ -80,6 +84,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from . import uncertainty_layout, uncertainty_page  # [uncertainty] the "Uncertainty" page
 
     uncertainty = uncertainty_page.mount(server, session)  # [uncertainty]
+    from . import devices_layout, devices_page  # [devices] the "Devices" page
+
+    devices = devices_page.mount(server, session)  # [devices]
     state.trame__title = f"camcmm — {state.project_name}"
 
     # -- handlers (thin: all logic is in the session) ---------------------------------
@@ -144,6 +151,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             wizard_layout.page_switch(v)  # [wizard] Inspect | Acceptance test
             inspect_layout.page_switch(v, layout.toolbar)  # [inspection] ... | Compare with CAD
             uncertainty_layout.page_switch(v, layout.toolbar)  # [uncertainty] ... | Uncertainty
+            devices_layout.page_switch(v, layout.toolbar)  # [devices] ... | Devices
             v.VSpacer()
             v.VFileInput(
                 v_model=("upload", None),
@@ -340,7 +348,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             wizard_layout.build_panel(wizard_page, _accept())  # [wizard]
             inspect_layout.build_panel(inspect_page)  # [inspection] its own view, charts and panel
             uncertainty_layout.build_panel(uncertainty)  # [uncertainty]
-            with html.Div(classes=("['compare', 'uncertainty'].includes(page) ? 'd-none' : 'd-flex flex-column'",),
+            devices_layout.build_panel(devices)  # [devices]
+            # pages with a layout of their own hide the Inspect page's view
+            with html.Div(classes=(f"{list(FULL_PAGES)}.includes(page) ? 'd-none' : 'd-flex flex-column'",),
                           style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
                 with html.Div(classes="d-flex align-center ga-3 px-3 py-1", style="min-height: 52px;"):
                     v.VSelect(
@@ -414,6 +424,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     server.wizard = wizard_page  # [wizard]
     server.inspect = inspect_page  # [inspection]
     server.uncertainty = uncertainty  # [uncertainty]
+    server.devices = devices  # [devices]
     return server, session
 
 
@@ -445,7 +456,7 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
         session.close()
     if getattr(server, "wizard", None) is not None:  # [wizard]
         server.wizard.close()
-    for page in ("inspect", "uncertainty"):
+    for page in ("inspect", "uncertainty", "devices"):
         if getattr(server, page, None) is not None:
             getattr(server, page).close()
 
