@@ -80,7 +80,7 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
             break
         rejected.append({"image": used[worst].name,
                          "reason": f"outlier: view RMS {per_view[worst]:.3g} px > {outlier_factor:g} x median "
-                                   f"{med:.3g} px"})
+                                   f"{med:.3g} px", "rms": float(per_view[worst])})
         used.pop(worst)
     cam = CameraModel(K, D, image_size=size, name=name)
     obs = [Observation(v, 0, d.object_points, d.image_points) for v, d in enumerate(used)]

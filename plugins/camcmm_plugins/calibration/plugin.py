@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from camcmm.api import CameraModel, InputError, RunContext, read_calibration, write_calibration
+from camcmm.api import CameraModel, Image, InputError, RunContext, read_calibration, write_calibration
 
 
 def cal_json(cal: Mapping[str, Any]) -> dict[str, Any]:
@@ -81,6 +81,7 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
            subpix_window: int = 5, outlier_factor: float = 3.0, fix_intrinsics: bool = False,
            alpha: float = -1.0, save: str = "") -> dict[str, Any]:
     from .boards import detect_all
+    from .camera import calibration_dict as camera_dict
     from .stereo import calibrate_stereo, calibration_dict, stereo_json
 
     dl = detect_all(board, left, detector=detector, subpix_window=subpix_window,
@@ -93,8 +94,29 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
     cal = calibration_dict(res)
     written = _write(save, cal)
+    # each camera's own calibration keeps its board poses and their covariance, which the
+    # projection-uncertainty map needs (the joint stereo covariance has no board poses)
+    single = {k: cal_json(camera_dict(res["single"][k])) for k in ("left", "right")}
     return {**stereo_json(res), "detections": {"left": [d.to_dict() for d in dl], "right": [d.to_dict() for d in dr]},
-            "calibration": cal_json(cal), "written": written}
+            "calibration": cal_json(cal), "single": single, "written": written}
+
+
+def rectify(ctx: RunContext, calibration, left, right) -> dict[str, Any]:
+    from .stereo import rectify_images
+
+    cal = load_calibration(calibration)
+    cams = cal.get("cameras") or []
+    if len(cams) < 2:
+        raise InputError(f"rectification needs a stereo calibration (two cameras), got {len(cams)} camera(s)")
+    size = tuple(int(v) for v in cams[0].image_size)
+    for img, cam in ((left, cams[0]), (right, cams[1])):
+        w, h = img.size
+        if cam.image_size[0] and (w, h) != tuple(cam.image_size):
+            raise InputError(f"{img.name}: {w}x{h} px, but camera {cam.name!r} was calibrated at "
+                             f"{cam.image_size[0]}x{cam.image_size[1]} px")
+    rl, rr = rectify_images(cal, np.asarray(left.data), np.asarray(right.data))
+    return {"left": Image(rl, name=f"{left.name} (rectified)"), "right": Image(rr, name=f"{right.name} (rectified)"),
+            "image_size": list(size)}
 
 
 def projection_uncertainty(ctx: RunContext, calibration, distance: float, columns: int = 32, rows: int = 24,

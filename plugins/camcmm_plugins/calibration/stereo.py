@@ -151,7 +151,8 @@ def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], boar
         if outlier_factor <= 0 or len(pairs) <= MIN_VIEWS or worst_pair[w] <= outlier_factor * med:
             break
         rejected.append({"left": pairs[w][0], "right": pairs[w][1],
-                         "reason": f"outlier: pair RMS {worst_pair[w]:.3g} px > {outlier_factor:g} x median {med:.3g} px"})
+                         "reason": f"outlier: pair RMS {worst_pair[w]:.3g} px > {outlier_factor:g} x median {med:.3g} px",
+                         "rms": [float(v) for v in pv[w]]})
         pairs.pop(w)
     D1, D2, T = D1.ravel(), D2.ravel(), T.ravel()
     rvec = cv2.Rodrigues(R)[0].ravel()
