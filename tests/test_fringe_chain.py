@@ -171,8 +171,6 @@ def test_sphere_diameter_within_the_montecarlo_uncertainty(sphere_run):
     assert np.linalg.norm(np.asarray(fit["center"]) - c_true) < 0.01
 
 
-@pytest.mark.xfail(strict=True, reason="fringe.reconstruct rectifies with CALIB_ZERO_DISPARITY at the image size: "
-                   "a convergent pair (the thesis's 38.6 deg) loses its overlap and no pixel matches")
 def test_stereo_phase_matching_measures_the_sphere(tmp_path):
     """Camera-camera phase matching (thesis ch. 5.2.4) on the thesis's convergent pair.
     The diameter is held to 1/10 of the thesis's MPE for P_S, and the Monte Carlo
@@ -272,11 +270,14 @@ def _artefact(test: str, pos: dict, vol: np.ndarray) -> dict:
 
 
 @pytest.mark.slow
-def test_vdi2634_part2_through_the_chain_passes_and_fails_with_a_baseline_error(tmp_path):
+@pytest.mark.parametrize("method", ["projector", "stereo"])
+def test_vdi2634_part2_through_the_chain_passes_and_fails_with_a_baseline_error(tmp_path, method):
     """Every position VDI/VDE 2634-2 asks for (10 spheres, 7 ball bars, 6 flats) is
-    rendered, decoded, triangulated and its outline pixels cropped; the verdict passes with the true calibration and
-    fails when the calibration believes a baseline 1 % longer (the point cloud grows by
-    1 %: SD ~ 0.5 mm on the 50 mm bar, PS ~ 0.2 mm). ~1 min at 640 x 480."""
+    rendered, decoded, triangulated (camera-projector, or camera-camera phase matching
+    as in the thesis's ch. 5) and its outline pixels cropped; the verdict passes with
+    the true calibration and fails when the calibration believes a baseline 1 % longer
+    (the point cloud grows by 1 %: SD ~ 0.5 mm on the 50 mm bar, PS ~ 0.2 mm).
+    20-40 s each at 640 x 480."""
     from camcmm.host import default_host
 
     host = default_host()
@@ -291,10 +292,11 @@ def test_vdi2634_part2_through_the_chain_passes_and_fails_with_a_baseline_error(
     for test in ("sphere", "ball_bar", "flat"):
         for i, pos in enumerate(layout[test]):
             out, _ = simulate(tmp_path / f"{test}_{i}", [_artefact(test, pos, vol)],
+                              preset="stereo_fringe" if method == "stereo" else "camera_projector",
                               errors={"baseline": {"relative": 0.01}}, seed=100 + i)
             for cal, plan in plans.items():
                 name = f"{Path(cal).stem}_{test}_{i + 1:02d}.ply"
-                write(clean(reconstruct(out, cal)["cloud"], out, cal), tmp_path / name)
+                write(clean(reconstruct(out, cal, method)["cloud"], out, cal), tmp_path / name)
                 plan["measurements"][test].append(name)
     verdicts = {}
     for cal, plan in plans.items():
@@ -303,7 +305,7 @@ def test_vdi2634_part2_through_the_chain_passes_and_fails_with_a_baseline_error(
         verdicts[cal] = host.run("vdi2634-2", {"plan": p}).outputs
     good, bad = verdicts["calibration_true.yaml"], verdicts["calibration.yaml"]
     for name, res in (("true calibration", good), ("baseline +1 %", bad)):
-        print(f"\n{name}: {res['verdict']}; " + ", ".join(
+        print(f"\n{method}, {name}: {res['verdict']}; " + ", ".join(
             f"{k} {res['parameters'][k]['value']:+.4f} mm" for k in ("PF", "PS", "SD", "F")))
     assert good["verdict"] == "pass"
     assert abs(good["parameters"]["SD"]["value"]) < 0.03
