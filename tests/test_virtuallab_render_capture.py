@@ -289,3 +289,36 @@ def test_the_sequence_may_sit_in_the_scene_file(tmp_path):
     assert main(["simulate", str(tmp_path / "s.yaml"), "--out", str(tmp_path / "o")]) == 0
     assert len(list((tmp_path / "o" / "camera2").glob("frame*.png"))) == 13
     assert yaml.safe_load((tmp_path / "o" / "sequence.yaml").read_text()) == SEQ
+
+
+def test_frame_plugin_renders_what_a_simulated_camera_asks_for(tmp_path):
+    """virtuallab.frame takes a simulated camera's state (devices.SimulatedCamera) and
+    renders the scene with the stages' positions, the projector's pattern, exposure."""
+    from camcmm.api import get_algorithm
+
+    doc = {"seed": 1, "artefacts": [{"type": "sphere", "center": [20, 0, 0], "diameter": 16.0, "stem": False}],
+           "rig": {"preset": "stereo_fringe", "image_size": [320, 240]}, "render": {"supersample": 1},
+           "lighting": {"ambient": 0.0, "projector": 0.4}, "stages": {"table": {"type": "rotary"}},
+           "speckle": {"grain": 8}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    frame = get_algorithm("virtuallab.frame")
+    white = np.full((800, 1280), 255, np.uint8)
+    state = {"camera": "camera1", "camera_model": None, "size": (320, 240), "exposure_ms": 10.0, "gain_db": 0.0,
+             "pattern": white, "pattern_index": 0, "stage_positions": {"table": 0.0}, "stage_units": {"table": "deg"},
+             "speckle": False, "frame": 1, "seed": 0}
+    a = frame(scene=str(tmp_path / "s.yaml"), **state)["image"].astype(float)
+    b = frame(scene=str(tmp_path / "s.yaml"), **{**state, "stage_positions": {"table": 90.0}})["image"].astype(float)
+    s = scene_file.load_scene(tmp_path / "s.yaml")
+    cam = s.cameras[0].model
+    for img, centre in ((a, [20, 0, 0]), (b, [0, 20, 0])):          # 90 deg about z takes x to y
+        p, _ = cv2.projectPoints(np.array([centre], float), cv2.Rodrigues(cam.rotation)[0], cam.translation,
+                                 cam.camera_matrix, cam.dist_coeffs)
+        ys, xs = np.nonzero(img > 0.3 * img.max())
+        assert np.hypot(xs.mean() - p[0, 0, 0], ys.mean() - p[0, 0, 1]) < 3   # lit part of the sphere
+    twice = frame(scene=str(tmp_path / "s.yaml"), **{**state, "exposure_ms": 20.0})["image"].astype(float)
+    lit = a > 20
+    assert np.median(twice[lit] / a[lit]) == pytest.approx(2.0, rel=0.05)
+    dark = frame(scene=str(tmp_path / "s.yaml"), **{**state, "pattern": None, "speckle": True})["image"]
+    assert dark[lit].std() > 5                                        # speckle texture on the sphere
+    with pytest.raises(InputError, match="320 x 240"):
+        frame(scene=str(tmp_path / "s.yaml"), **{**state, "size": (640, 480)})

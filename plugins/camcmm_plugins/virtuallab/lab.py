@@ -123,6 +123,33 @@ class VirtualSystem:
         self.frames_taken += 1
         return imaging.expose(L, sensor, rng)
 
+    def set_stages(self, positions: dict[str, float], units: dict[str, str] | None = None) -> None:
+        """Place the artefacts where stages at ``positions`` ({name: mm or deg}) carry them.
+        The scene file's ``stages`` ({name: {type: linear|rotary, axis: [x, y, z],
+        origin: [x, y, z]}}) says how; an undeclared stage in "deg" (``units``) is a
+        turntable about the volume's z axis, one in mm a linear stage along x. Stages
+        act in the order given (the last carries the others)."""
+        decl = self.scene.stages
+        R, t = np.eye(3), np.zeros(3)
+        for name, pos in positions.items():
+            d = decl.get(name, {})
+            kind = d.get("type", "rotary" if (units or {}).get(name) == "deg" else "linear")
+            axis = np.asarray(d.get("axis", [0, 0, 1] if kind == "rotary" else [1, 0, 0]), float)
+            axis = axis / np.linalg.norm(axis)
+            if kind == "rotary":
+                o = np.asarray(d.get("origin", [0, 0, 0]), float)
+                a = np.radians(float(pos))
+                K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+                Rk = np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K      # Rodrigues
+                R, t = Rk @ R, Rk @ (t - o) + o
+            else:
+                t = t + float(pos) * axis
+        if not (np.allclose(R, self.R) and np.allclose(t, self.t)):
+            self.R, self.t = R, t
+            self.scene.primitives = [move_primitive(p, R, t) for p in self._base]
+            self.scene.artefacts = capture._transform(self._base_truth, R, t)
+            self._views.clear()
+
     def calibration(self, with_errors: bool = True) -> dict[str, Any]:
         """The calibration dict the system believes (``with_errors``) or the true one."""
         return capture.calibration(self.scene, with_errors)
@@ -131,3 +158,21 @@ class VirtualSystem:
         tr = capture.truth(self.scene)
         tr["pose"] = {"rotation": self.R.tolist(), "translation": self.t.tolist()}
         return tr
+
+
+_SYSTEMS: dict[tuple[str, float], VirtualSystem] = {}
+
+
+def system_for(scene: str | Path) -> VirtualSystem:
+    """One VirtualSystem per scene file (and its modification time), kept between calls:
+    a simulated camera asks for frame after frame of the same scene."""
+    p = Path(scene).resolve()
+    try:
+        key = (str(p), p.stat().st_mtime)
+    except OSError:
+        raise InputError(f"scene {scene}: file not found") from None
+    if key not in _SYSTEMS:
+        for k in [k for k in _SYSTEMS if k[0] == key[0]]:
+            del _SYSTEMS[k]
+        _SYSTEMS[key] = VirtualSystem.from_file(p)
+    return _SYSTEMS[key]

@@ -70,3 +70,35 @@ def capture(ctx, scene, out: str) -> dict[str, Any]:
     from .scene_file import load_scene
 
     return run_capture(load_scene(scene), out, ctx)
+
+
+def frame(ctx, scene, camera: str = "camera1", pattern=None, stage_positions=None, stage_units=None,
+          camera_model=None, size=None, exposure_ms: float = 10.0, gain_db: float = 0.0, pattern_index: int = -1,
+          speckle: bool = False, frame: int = 0, seed: int = -1) -> dict[str, Any]:
+    """One rendered frame for a simulated camera (virtuallab.frame): the state keywords
+    of camcmm_plugins.devices' SimulatedCamera in, ``{"image": array}`` out."""
+    from camcmm.api import InputError
+
+    from .lab import system_for
+    from .speckle import speckle as speckle_pattern
+
+    lab = system_for(scene)
+    if size is not None and tuple(int(x) for x in size) != tuple(lab.scene.cameras[lab._index(camera)].model.image_size):
+        want = lab.scene.cameras[lab._index(camera)].model.image_size
+        raise InputError(f"camera {camera!r}: asked for {size[0]} x {size[1]} px, the scene renders "
+                         f"{want[0]} x {want[1]}")
+    lab.set_stages(dict(stage_positions or {}), dict(stage_units or {}))
+    pat = None if pattern is None else np.asarray(pattern)
+    if speckle and lab.projector_size is not None:
+        sp = lab.scene.speckle
+        w, h = lab.projector_size
+        spk = speckle_pattern((h, w), float(sp.get("grain", 6.0)), int(sp.get("seed", 0)), float(sp.get("mean", 0.3)))
+        if pat is not None and np.issubdtype(pat.dtype, np.integer):
+            pat = pat / float(np.iinfo(pat.dtype).max)
+        pat = spk if pat is None else np.clip(pat + spk, 0, 1)
+    # the scene's exposure is the camera's at 10 ms and 0 dB
+    gain = float(exposure_ms) / 10.0 * 10 ** (float(gain_db) / 20.0)
+    if seed >= 0:
+        lab.frames_taken = int(seed) * 1_000_003 + int(frame)
+    img = lab.frame(camera, pat, exposure=lab.scene.sensor.exposure * gain)
+    return {"image": img}

@@ -38,6 +38,10 @@ Schema (``version: 1``; every section but ``artefacts`` optional)::
       distortion: {camera: camera1, delta: [0.01, 0, 0, 0, 0]}  # written dist_coeffs + delta
       rotation: {camera: camera2, angles_deg: [0.01, 0, 0]}  # written R = Rz Ry Rx(angles) R
       projector_gamma: 2.2                    # the projector's true response (decoders assume 1)
+    stages:                                   # simulated stages carrying the artefacts (lab.py)
+      turntable: {type: rotary, axis: [0, 0, 1], origin: [0, 0, 0]}   # deg
+      slide: {type: linear, axis: [1, 0, 0]}                        # mm
+    speckle: {grain: 6, seed: 0, mean: 0.3}   # what a simulated speckle laser shows
 
 ``type: plane`` is a large rectangle (a backdrop or table top) that is not an artefact.
 Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
@@ -85,6 +89,8 @@ class LabScene:
     base: Path = Path(".")
     source: dict[str, Any] = field(default_factory=dict)
     owner: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))   # artefact of each primitive
+    stages: dict[str, dict[str, Any]] = field(default_factory=dict)
+    speckle: dict[str, Any] = field(default_factory=dict)
 
 
 def _g(d: Mapping, key: str, default, what: str):
@@ -199,7 +205,21 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
                     light, sensor, ss, int(doc.get("seed", 0)),
                     seq if isinstance(seq, Mapping) else
                     ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
-                    pats, errors, base, dict(doc), np.asarray(owner, np.int64))
+                    pats, errors, base, dict(doc), np.asarray(owner, np.int64), _stages(doc.get("stages")),
+                    dict(doc.get("speckle") or {}))
+
+
+def _stages(d) -> dict[str, dict[str, Any]]:
+    if d is None:
+        return {}
+    if not isinstance(d, Mapping):
+        raise ValueError("stages: expected a mapping {name: {type, axis, origin}}")
+    for name, v in d.items():
+        if not isinstance(v, Mapping) or v.get("type", "linear") not in ("linear", "rotary"):
+            raise ValueError(f"stages.{name}: expected {{type: linear|rotary, axis: [x, y, z], origin: [x, y, z]}}")
+        if not np.linalg.norm(np.asarray(v.get("axis", [1, 0, 0]), float)) > 0:
+            raise ValueError(f"stages.{name}.axis has zero length")
+    return {str(k): dict(v) for k, v in d.items()}
 
 
 def load_scene(path: str | Path) -> LabScene:
