@@ -75,6 +75,12 @@ def build_panel(page: Any) -> None:
     def on_move(key, how, value):
         page.move(key, how, value)
 
+    def on_load(key, path):
+        page.load_patterns(key, path)
+
+    def on_show(key, index):
+        page.show_pattern(key, index)
+
     def on_seq_choose(pid):
         page.choose_sequence(pid)
 
@@ -104,7 +110,7 @@ def build_panel(page: Any) -> None:
             html.Div("Devices ({{ dev_list.length }})", classes="text-subtitle-2 mb-1")
             with v.VList(density="compact", nav=True, raw_attrs=_tid("dev-list")):
                 with v.VListItem(v_for="d in dev_list", key="d.key", active=("d.key === dev_selected",),
-                                 click=(on_select, "[d.key]"), raw_attrs=[':data-testid="\'dev-\' + d.name"']):
+                                 click=(on_select, "[d.key]"), raw_attrs=[':data-testid="\'dev-item-\' + d.name"']):
                     v.VListItemTitle("{{ d.name }} · {{ d.kind }}")
                     v.VListItemSubtitle("{{ d.message || d.label }}{{ d.position ? ' · ' + d.position : '' }}")
                     with html.Template(v_slot_append=True):
@@ -148,6 +154,23 @@ def build_panel(page: Any) -> None:
                            raw_attrs=_tid("dev-move-abs"))
                     v.VBtn("Move by", size="small", click=(on_move, "[d.key, 'rel', dev_move]"))
                     v.VBtn("Stop", size="small", color="error", variant="tonal", click=(on_move, "[d.key, 'stop', null]"))
+                with html.Div(v_if="d.kind === 'projector'", classes="mt-2", raw_attrs=_tid("dev-projector-panel")):
+                    html.Div("{{ d.patterns }} patterns loaded{{ d.index !== null && d.index !== undefined ? ', "
+                             "showing ' + d.index : '' }}. Open <a href='projector' target='_blank'>the projector "
+                             "page</a> full-screen on the projector's display.", classes="text-caption mb-1")
+                    with html.Div(classes="d-flex align-center ga-2"):
+                        v.VTextField(v_model=("dev_sequence_file", ""), label="Sequence file (empty: the shipped one)",
+                                     density="compact", variant="outlined", hide_details=True,
+                                     raw_attrs=_tid("dev-sequence-file"))
+                        v.VBtn("Load", size="small", click=(on_load, "[d.key, dev_sequence_file]"),
+                               raw_attrs=_tid("dev-load-patterns"))
+                    with html.Div(classes="d-flex align-center ga-2 mt-1"):
+                        v.VTextField(v_model=("dev_pattern", "0"), label="Pattern", density="compact",
+                                     variant="outlined", hide_details=True, style="max-width: 100px;",
+                                     raw_attrs=_tid("dev-pattern"))
+                        v.VBtn("Show", size="small", click=(on_show, "[d.key, dev_pattern]"),
+                               disabled=("!d.patterns",), raw_attrs=_tid("dev-show-pattern"))
+                        v.VBtn("Blank", size="small", variant="text", click=(on_show, "[d.key, null]"))
             html.Div("Select a device on the left.", v_if="!dev_selected", classes="text-caption")
         # -- right: sequences --------------------------------------------------------------------
         with html.Div(style="flex: 0 0 360px; max-width: 360px;", raw_attrs=_tid("dev-sequences")):

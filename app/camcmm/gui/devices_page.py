@@ -254,6 +254,29 @@ class DevicesPage:
             self._error(exc)
         self.publish()
 
+    def load_patterns(self, key: str, path: str | None = None) -> int:
+        """A pattern projector takes a fringe sequence file (default: the shipped one)."""
+        from .wizard import resources_dir
+
+        dev = self.devices[key]
+        source = str(path).strip() if path and str(path).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
+        try:
+            n = dev.load_sequence(source)
+        except Exception as exc:
+            self._error(exc)
+            return 0
+        self.session.info(f"{dev.label}: {n} patterns loaded")
+        self.publish()
+        return n
+
+    def show_pattern(self, key: str, index: Any) -> None:
+        dev = self.devices[key]
+        try:
+            dev.show(None if index in (None, "", "blank") else int(index))
+        except Exception as exc:
+            self._error(exc)
+        self.publish()
+
     # -- sequences ---------------------------------------------------------------------------------
     def choose_sequence(self, plugin_id: str | None) -> None:
         s = self.state
@@ -326,6 +349,9 @@ class DevicesPage:
         row = {"key": key, "plugin": self.plugin_of.get(key, ""), "name": dev.name, "kind": dev.kind,
                "label": dev.label, "state": st.state, "message": st.message, "connected": dev.connected,
                "live": bool(getattr(dev, "live", False))}
+        if dev.kind == "projector":
+            row["patterns"] = len(getattr(dev, "patterns", []) or [])
+            row["index"] = getattr(dev, "index", None)
         if dev.kind == "stage":
             try:
                 pos = dev.position() if dev.connected and st.state != "fault" else None
@@ -368,5 +394,18 @@ class DevicesPage:
                 pass
 
 
+    def pattern_projector(self) -> Any:
+        """The projector the projector page shows: the first pattern projector added."""
+        for dev in list(self.devices.values()):
+            if getattr(dev, "kind", "") == "projector" and hasattr(dev, "acknowledge"):
+                return dev
+        return None
+
+
 def mount(server: Any, session: Any) -> DevicesPage:
-    return DevicesPage(session)
+    """The page, and the projector page's routes (``/projector``) on the same server."""
+    from .projector_route import add_routes
+
+    page = DevicesPage(session)
+    add_routes(server, page.pattern_projector)
+    return page

@@ -1,0 +1,93 @@
+"""The Devices page and the projector page in a real headless Chromium.
+
+The operator adds the browser pattern projector, loads the shipped fringe sequence,
+opens the projector page (``/projector``) in a second window, adds a simulated camera
+and runs the fringe sequence capture: each capture waits for the projector page to
+acknowledge the pattern it shows, so the run completes only if the page keeps in step.
+Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/devices-gui``).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "devices-gui"))
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+def choose(page, testid: str, option: str) -> None:
+    page.click(f'[data-testid="{testid}"]')
+    page.locator(".v-overlay-container .v-list-item", has_text=option).first.click()
+
+
+def test_devices_page_and_projector_page_in_step(gui_server):
+    url, log = gui_server
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1500, "height": 950})
+            page.set_default_timeout(30_000)
+            page.goto(url)
+            page.click('[data-testid="page-devices"]')
+            choose(page, "dev-add-plugin", "Pattern projector (browser window)")
+            page.click('[data-testid="dev-add"]')
+            page.wait_for_selector('[data-testid="dev-state-projector"]')
+            page.click('[data-testid="dev-load-patterns"]')
+            page.wait_for_selector('[data-testid="dev-projector-panel"] >> text=23 patterns loaded')
+            proj = browser.new_page(viewport={"width": 640, "height": 400})
+            proj.goto(url.rstrip("/") + "/projector")
+            page.bring_to_front()
+            choose(page, "dev-add-plugin", "Simulated camera")
+            page.click('[data-testid="dev-add"]')
+            page.wait_for_selector('[data-testid="dev-state-sim-camera"]')
+            page.click('[data-testid="dev-grab"]')
+            page.wait_for_selector('[data-testid="dev-live-image"]')
+            choose(page, "dev-seq-plugin", "Fringe sequence capture")
+            page.click('[data-testid="dev-seq-start"]')
+            state = page.locator('[data-testid="dev-seq-state"]')
+            state.wait_for()
+            deadline = time.monotonic() + 60
+            while "done" not in state.inner_text() and time.monotonic() < deadline:
+                if "paused" in state.inner_text():
+                    break
+                time.sleep(0.3)
+            text = state.inner_text()
+            page.screenshot(path=str(SHOTS / "devices.png"), full_page=True)
+            assert "done" in text and "23 frames" in text, text
+            # the projector page shows a pattern (the last one is blanked: show pattern 2)
+            page.click('[data-testid="dev-item-projector"]')
+            page.fill('[data-testid="dev-pattern"] input', "2")
+            page.click('[data-testid="dev-show-pattern"]')
+            from PIL import Image
+
+            deadline = time.monotonic() + 10
+            while True:
+                png = proj.screenshot()
+                grey = np.asarray(Image.open(io.BytesIO(png)).convert("L"), float)
+                if grey.std() > 40 or time.monotonic() > deadline:
+                    break
+                time.sleep(0.3)
+            proj.screenshot(path=str(SHOTS / "projector.png"))
+            page.screenshot(path=str(SHOTS / "devices-show.png"), full_page=True)
+            assert grey.std() > 40, "the projector page shows no fringes"
+            assert "fault" not in page.locator('[data-testid="dev-state-projector"]').inner_text()
+        finally:
+            browser.close()
+    assert not [l for l in log if "Traceback" in l], log[-20:]
