@@ -77,6 +77,15 @@ def build_panel(page: Any, accept: str = "") -> None:
     async def on_report():
         await page.report_async()
 
+    async def on_acquire(test, position):
+        await page.acquire_async(test, position)
+
+    async def on_acquire_all():
+        await page.acquire_all_async()
+
+    def on_source(source):
+        page.set_source(source)
+
     with html.Div(v_if="page === 'acceptance'", classes="pa-3",
                   style="flex: 0 0 55%; max-width: 55%; height: calc(100vh - 48px - 24px); overflow-y: auto; "
                         "border-right: 1px solid rgba(0,0,0,0.12);",
@@ -171,6 +180,16 @@ def build_panel(page: Any, accept: str = "") -> None:
         # -- 2 positions --------------------------------------------------------------------
         with html.Div(v_if="wz_step === 'positions' && wz_active", raw_attrs=_tid("wz-positions")):
             html.Div("{{ wz_title }}", classes="text-subtitle-2 mb-1")
+            with html.Div(v_if="wz_sources.length", classes="d-flex align-center ga-2 mb-2"):
+                v.VSelect(model_value=("wz_source",),
+                          items=("[{title: 'Import files (measured elsewhere)', value: null}].concat(wz_sources)",),
+                          label="Measure with", density="compact", variant="outlined", hide_details=True,
+                          style="max-width: 420px;", update_modelValue=(on_source, "[$event]"),
+                          raw_attrs=_tid("wz-source"))
+                v.VBtn("Acquire all", v_if="wz_source", size="small", color="primary", prepend_icon="mdi-camera-burst",
+                       loading=("wz_acquiring_all",), disabled=("wz_acquiring_all",), click=on_acquire_all,
+                       raw_attrs=_tid("wz-acquire-all"))
+                v.VBtn("Stop", v_if="wz_acquiring_all", size="small", variant="text", click="wz_acquiring_all = false")
             with html.Div(classes="d-flex flex-wrap ga-2 mb-2"):
                 v.VChip("{{ p.text }}", v_for="p in wz_progress", key="p.test", size="small",
                         color=("p.complete ? 'success' : 'primary'",), variant=("p.complete ? 'flat' : 'tonal'",),
@@ -200,7 +219,7 @@ def build_panel(page: Any, accept: str = "") -> None:
                                   classes="mb-2")
                 with html.Div(style="display: grid; grid-template-columns: repeat(auto-fill, minmax(185px, 1fr)); "
                                     "gap: 8px;"):
-                    _card(v, html, accept, on_upload, on_redo, on_show)
+                    _card(v, html, accept, on_upload, on_redo, on_show, on_acquire)
 
         # -- 3 result -------------------------------------------------------------------------
         with html.Div(v_if="wz_step === 'result' && wz_active", raw_attrs=_tid("wz-result")):
@@ -246,7 +265,7 @@ def build_panel(page: Any, accept: str = "") -> None:
                      classes="text-caption mt-1")
 
 
-def _card(v: Any, html: Any, accept: str, on_upload, on_redo, on_show) -> None:
+def _card(v: Any, html: Any, accept: str, on_upload, on_redo, on_show, on_acquire) -> None:
     with v.VCard(v_for="c in b.cards", key="c.key", variant="outlined",
                  color=("c.status === 'done' ? (c.verdict === 'fail' ? 'error' : 'success') : "
                         "(c.status === 'error' ? 'error' : undefined)",),
@@ -276,6 +295,9 @@ def _card(v: Any, html: Any, accept: str, on_upload, on_redo, on_show) -> None:
         v.VAlert(v_if="c.error", text=("c.error",), type="error", density="compact", variant="tonal",
                  classes="mx-2 mt-1 text-caption", raw_attrs=_tid("card-error"))
         with html.Div(v_if="(c.status !== 'done' || wz_redo === c.key) && !wz_busy[c.key]", classes="px-2 pt-2"):
+            v.VBtn("Acquire", v_if="wz_source", block=True, size="small", color="primary", variant="tonal",
+                   prepend_icon="mdi-camera-iris", classes="mb-1", disabled=("wz_acquiring_all",),
+                   click=(on_acquire, "[c.test, c.id]"), raw_attrs=_tid("card-acquire"))
             v.VFileInput(label=("c.status === 'done' ? 'Redo: choose a file' : 'Import measurement'",),
                          accept=accept, density="compact", variant="outlined", hide_details=True,
                          prepend_icon="", prepend_inner_icon="mdi-file-import",

@@ -102,3 +102,20 @@ def frame(ctx, scene, camera: str = "camera1", pattern=None, stage_positions=Non
         lab.frames_taken = int(seed) * 1_000_003 + int(frame)
     img = lab.frame(camera, pat, exposure=lab.scene.sensor.exposure * gain)
     return {"image": img}
+
+
+def fringe_system(ctx, placement, preset: str = "stereo_fringe", method: str = "stereo", image_width: int = 640,
+                  image_height: int = 480, seed: int = 0, baseline_error: float = 0.0,
+                  focal_error: float = 0.0) -> dict[str, Any]:
+    """The simulated stereo fringe system measuring one placement (virtuallab.fringe-system)."""
+    from .system import measure
+
+    errors: dict[str, Any] = {}
+    if baseline_error:
+        errors["baseline"] = {"relative": float(baseline_error)}
+    if focal_error:
+        errors["focal_length"] = {"camera": "camera1", "relative": float(focal_error)}
+    if method == "stereo" and preset != "stereo_fringe":
+        raise ParameterError("method stereo needs the preset stereo_fringe (two cameras)")
+    return measure(dict(placement), preset, method, (image_width, image_height), seed, errors, ctx=ctx)
+

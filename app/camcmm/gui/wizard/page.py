@@ -11,11 +11,12 @@ from typing import Any
 
 from ..downloads import REPORT_TITLES, Downloads, sort_links
 from .core import Wizard
+from .page_acquire import PageAcquire, acquisition_sources
 from .page_actions import PageActions
 from .page_setup import PageSetup
 from .values import SIGNED, SYMBOLS, _one_line, fmt_mm, log
 
-class WizardPage(PageSetup, PageActions):
+class WizardPage(PageSetup, PageActions, PageAcquire):
     """Publishes a :class:`Wizard` through the session's trame state (``wz_*`` keys)
     and runs its slow steps in a worker thread. One per server."""
 
@@ -64,6 +65,10 @@ class WizardPage(PageSetup, PageActions):
         s.wz_summary_warnings = []
         s.wz_reporting = False
         s.wz_report_links = []
+        s.wz_sources = acquisition_sources(self.session.host)
+        s.wz_source = None
+        s.wz_source_params = {}
+        s.wz_acquiring_all = False
 
     def _flush(self) -> None:
         self.session._flush()

@@ -1,0 +1,118 @@
+"""Acquiring a position from a measuring system instead of importing a file.
+
+A measuring system the wizard can drive is any algorithm plugin whose manifest says
+``acquires: pointcloud``: it takes a ``placement`` (the test, the position as the
+standard lays it out, the measuring volume and the plan's artefacts) and returns a
+``cloud``. A real system measures whatever the operator has put in front of it (the
+placement tells it what to expect); a simulated one (``virtuallab.fringe-system``)
+puts the artefact there itself. The cloud then goes through exactly the import path
+of a file: evaluated in the worker, recorded on the loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from .values import _one_line
+
+
+def acquisition_sources(host: Any) -> list[dict[str, Any]]:
+    """The installed plugins that acquire a point cloud, for the "Measure with" list."""
+    out = []
+    try:
+        specs = host.all()
+    except Exception:
+        return out
+    for p in specs:
+        if p.kind == "algorithm" and p.extra.get("acquires") == "pointcloud":
+            out.append({"title": p.name, "value": p.id, "summary": p.summary})
+    return out
+
+
+class PageAcquire:
+    """The acquisition handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+
+    def set_source(self, plugin_id: str | None, params: dict[str, Any] | None = None) -> None:
+        self.state.wz_source = plugin_id or None
+        self.state.wz_source_params = dict(params or {})
+
+    def placement(self, test: str, position: str) -> dict[str, Any]:
+        w = self.wizard
+        plan = w.plan
+        req = next((r for r in w.requirements() if r["test"] == test), None)
+        pos = next((p for p in (req or {}).get("positions", []) if p["id"] == position), None)
+        if pos is None:
+            raise KeyError(f"{test}/{position}: no such position in this test")
+        return {"standard": w.state.get("standard"), "test": test, "position": dict(pos),
+                "measuring_volume": list((plan.get("system") or {}).get("measuring_volume") or []),
+                "artefacts": dict(plan.get("artefacts") or {})}
+
+    def _acquire(self, source: str, params: dict[str, Any], placement: dict[str, Any]) -> Path:
+        """Worker: run the system, write its cloud to a temporary PLY for the import."""
+        from ...io import write
+
+        res = self.session.host.run(source, inputs={"placement": placement}, params=params)
+        cloud = res.outputs["cloud"]
+        folder = Path(tempfile.mkdtemp(prefix="camcmm-acquire-"))
+        path = folder / f"{placement['test']}-{placement['position']['id']}.ply"
+        write(cloud, path)
+        return path
+
+    async def acquire_async(self, test: str, position: str, repeat: int | None = None) -> dict[str, Any] | None:
+        source = self.state.wz_source
+        key = f"{test}/{position}"
+        if not source:
+            self.session.error("choose a measuring system under 'Measure with' first")
+            return None
+        if key in self._busy:
+            self.session.error(f"{position}: a measurement is under way; wait for it")
+            return None
+        if self.session._loop is None:
+            self.session.bind_loop()
+        try:
+            placement = self.placement(test, position)
+        except Exception as exc:
+            self.session.error(_one_line(exc))
+            return None
+        self._set_busy(key, True)
+        self.refresh_cards()
+        self._flush()
+        loop = asyncio.get_running_loop()
+        try:
+            path = await loop.run_in_executor(self._executor, self._acquire, source,
+                                              dict(self.state.wz_source_params or {}), placement)
+        except Exception as exc:
+            self._set_busy(key, False)
+            self.refresh_cards()
+            self.session.error(f"{position}: {source} could not measure: {_one_line(exc)}")
+            self._flush()
+            return None
+        self._set_busy(key, False)
+        try:
+            return await self.import_async(test, position, path, path.name, repeat)
+        finally:
+            path.unlink(missing_ok=True)
+            path.parent.rmdir()
+
+    async def acquire_all_async(self) -> int:
+        """Every position still to do, one after the other; stops at the first failure."""
+        done = 0
+        self.state.wz_acquiring_all = True
+        self._flush()
+        try:
+            for block in self.wizard.cards():
+                for card in block["cards"]:
+                    while card["status"] in ("pending", "partial", "error"):
+                        if not self.state.wz_acquiring_all:
+                            return done
+                        if await self.acquire_async(card["test"], card["id"]) is None:
+                            return done
+                        done += 1
+                        card = self.wizard.card(card["test"], card["id"])
+        finally:
+            self.state.wz_acquiring_all = False
+            self._flush()
+        return done
