@@ -1,0 +1,72 @@
+"""A simulated stereo fringe system acquires a full VDI/VDE 2634-2 test through the
+wizard in a real headless Chromium (issue #9's "done when").
+
+The operator sets the test up, chooses "Measure with: Simulated stereo fringe-projection
+system", acquires the first sphere position with its card's Acquire button and the
+other 22 with "Acquire all"; each position is rendered, decoded and triangulated by
+camera-camera phase matching (thesis ch. 5.2.4) and evaluated as an imported file
+would be. The verdict is PASS. Screenshots: ``$CAMCMM_SCREENSHOTS`` (default
+``/tmp/acquire-gui``).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
+]
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_browser_wizard import ARGS, MPE, _card, _counter, _open_wizard  # noqa: E402
+
+SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "acquire-gui"))
+
+
+def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_server):
+    url, log = gui_server
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 950})
+            page.set_default_timeout(30_000)
+            _open_wizard(page, url)
+            page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
+            page.locator('[data-testid="wz-system-name"] input').fill("Virtual stereo fringe system")
+            for key, value in MPE.items():
+                page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
+            page.locator('[data-testid="wz-start"]').click()
+            page.wait_for_selector('[data-testid="wz-positions"]')
+            page.click('[data-testid="wz-source"]')
+            page.locator(".v-overlay-container .v-list-item", has_text="Simulated stereo fringe").first.click()
+            _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
+            page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=60_000)
+            assert _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"
+            page.screenshot(path=str(SHOTS / "acquire-1-first.png"))
+            page.click('[data-testid="wz-acquire-all"]')
+            deadline = time.monotonic() + 300
+            while time.monotonic() < deadline:
+                if page.locator('[data-testid="wz-goto-result"]').count():
+                    break
+                time.sleep(1.0)
+            page.screenshot(path=str(SHOTS / "acquire-2-all.png"))
+            for test, n in (("sphere", 10), ("ball_bar", 7), ("flat", 6)):
+                assert _counter(page, test).startswith(f"{n} of {n} "), _counter(page, test)
+            page.click('[data-testid="wz-goto-result"]')
+            verdict = page.locator('[data-testid="wz-verdict"]')
+            verdict.wait_for()
+            page.screenshot(path=str(SHOTS / "acquire-3-result.png"))
+            assert verdict.inner_text().strip() == "PASS"
+        finally:
+            browser.close()
+    assert not [l for l in log if "Traceback" in l], log[-20:]
