@@ -1,0 +1,178 @@
+"""The Calibration page's tables, from the outputs of ``calibration.camera`` and
+``calibration.stereo`` (see ``camcmm_plugins.calibration``), as JSON-able rows.
+
+One camera's outputs hold ``camera_matrix``, ``dist_coeffs``, ``rms``, ``std_named``,
+``per_view_rms`` {image: px}, ``rejected`` [{image, reason[, rms]}], ``detections`` and
+``calibration`` (with the board poses and covariance). A pair's outputs hold the same
+per camera under ``left``/``right``, the detections under ``detections.left/right``,
+each camera's own calibration under ``single`` and the pairs left out under
+``rejected`` [{left, right, reason[, rms]}].
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+SIDE_TITLES = {"camera": "camera", "left": "left camera", "right": "right camera"}
+
+
+def sides(mode: str) -> list[str]:
+    return ["left", "right"] if mode == "stereo" else ["left"]
+
+
+def side_title(mode: str, side: str) -> str:
+    return SIDE_TITLES["camera"] if mode != "stereo" else SIDE_TITLES[side]
+
+
+def camera_part(outputs: dict[str, Any], mode: str, side: str = "left") -> dict[str, Any]:
+    """One camera's numbers, detections and the calibration its heat map comes from."""
+    if mode != "stereo":
+        return {**outputs, "detections": outputs.get("detections") or [],
+                "map_calibration": outputs.get("calibration"), "pair_rejected": {}}
+    cam = dict(outputs.get(side) or {})
+    k = 0 if side == "left" else 1
+    pair_rejected = {}
+    for r in outputs.get("rejected") or []:
+        rms = r.get("rms")
+        pair_rejected[r.get(side)] = {"reason": r.get("reason", ""),
+                                      "rms": rms[k] if isinstance(rms, list) and len(rms) == 2 else None}
+    cam["detections"] = (outputs.get("detections") or {}).get(side) or []
+    cam["map_calibration"] = (outputs.get("single") or {}).get(side)
+    cam["pair_rejected"] = pair_rejected
+    return cam
+
+
+def view_rows(cam: dict[str, Any]) -> list[dict[str, Any]]:
+    """Per image, in the order given: status (used / left out / not found), the
+    reason, and the view's RMS reprojection error in px (also for an outlier, the RMS
+    it had when it was left out)."""
+    per_view = cam.get("per_view_rms") or {}
+    single = {r.get("image"): r for r in cam.get("rejected") or []}
+    pairs = cam.get("pair_rejected") or {}
+    rows = []
+    for d in cam.get("detections") or []:
+        name = d.get("image")
+        row = {"name": name, "status": "used", "reason": "", "rms": None, "n": len(d.get("corners") or [])}
+        if not d.get("found"):
+            row.update(status="not found", reason=d.get("reason") or "board not found")
+        elif name in per_view:
+            row["rms"] = float(per_view[name])
+        elif name in single:
+            row.update(status="left out", reason=single[name].get("reason", ""), rms=single[name].get("rms"))
+        elif name in pairs:
+            row.update(status="left out", reason=pairs[name]["reason"], rms=pairs[name]["rms"])
+        else:
+            row.update(status="left out", reason="not used by the calibration")
+        rows.append(row)
+    return rows
+
+
+def fmt(x: Any, digits: int = 4) -> str:
+    if x is None:
+        return "—"
+    x = float(x)
+    return "—" if not math.isfinite(x) else f"{x:.{digits}g}"
+
+
+def number_rows(cam: dict[str, Any]) -> list[dict[str, str]]:
+    """fx fy cx cy and the distortion coefficients with OpenCV's standard deviations
+    (from the Jacobian of the calibration), then the RMS reprojection error."""
+    K = np.asarray(cam.get("camera_matrix") or np.eye(3), float)
+    D = np.asarray(cam.get("dist_coeffs") or [], float).ravel()
+    values = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *D]
+    std = cam.get("std_named") or {}
+    names = list(std) if len(std) == len(values) else (["fx", "fy", "cx", "cy"] + [f"d{i}" for i in range(D.size)])
+    rows = [{"name": n, "value": fmt(v, 6), "std": fmt(std.get(n), 3), "unit": "px" if i < 4 else ""}
+            for i, (n, v) in enumerate(zip(names, values))]
+    rows.append({"name": "RMS", "value": fmt(cam.get("rms"), 4), "std": "", "unit": "px"})
+    return rows
+
+
+def stereo_rows(outputs: dict[str, Any]) -> list[dict[str, str]]:
+    """The right camera's pose in the left (x_r = R x_l + T) with standard deviations,
+    the baseline, and the epipolar error statistics."""
+    import cv2
+
+    R = np.asarray(outputs.get("R") or np.eye(3), float)
+    rvec = np.degrees(cv2.Rodrigues(R)[0].ravel())
+    srv = np.degrees(np.asarray(outputs.get("std_rvec") or [np.nan] * 3, float))
+    T = np.asarray(outputs.get("T") or [np.nan] * 3, float)
+    sT = np.asarray(outputs.get("std_T") or [np.nan] * 3, float)
+    rows = [{"name": f"rotation r{a} (Rodrigues)", "value": fmt(v, 5), "std": fmt(s, 2), "unit": "°"}
+            for a, v, s in zip("xyz", rvec, srv)]
+    rows.append({"name": "rotation angle", "value": fmt(float(np.linalg.norm(rvec)), 5), "std": "", "unit": "°"})
+    rows += [{"name": f"T{a}", "value": fmt(v, 6), "std": fmt(s, 2), "unit": "mm"} for a, v, s in zip("xyz", T, sT)]
+    rows.append({"name": "baseline |T|", "value": fmt(outputs.get("baseline"), 6),
+                 "std": fmt(outputs.get("baseline_std"), 2), "unit": "mm"})
+    rows.append({"name": "stereo RMS", "value": fmt(outputs.get("rms")), "std": "", "unit": "px"})
+    ep = outputs.get("epipolar") or {}
+    for k in ("rms", "mean", "median", "max"):
+        rows.append({"name": f"epipolar distance {k}", "value": fmt(ep.get(k), 3), "std": "", "unit": "px"})
+    dy = outputs.get("rectified_dy") or {}
+    for k in ("rms", "max"):
+        rows.append({"name": f"rectified row difference {k}", "value": fmt(dy.get(k), 3), "std": "", "unit": "px"})
+    return rows
+
+
+def used_pairs(outputs: dict[str, Any]) -> list[dict[str, Any]]:
+    """The pairs the stereo calibration used, as options for the rectified view."""
+    return [{"title": f"{p[0]} / {p[1]}", "value": i} for i, p in enumerate(outputs.get("pairs") or [])]
+
+
+def default_distance(cal: dict[str, Any] | None) -> float:
+    """The median depth (mm) of the board in the calibration's views: where the
+    calibration was made, so where its uncertainty is first worth looking at."""
+    try:
+        z = np.asarray(cal["views"]["tvecs"], float).reshape(-1, 3)[:, 2]
+        d = float(np.median(z))
+    except (KeyError, TypeError, ValueError, IndexError):
+        return 1000.0
+    if not (math.isfinite(d) and d > 0):
+        return 1000.0
+    return float(f"{d:.3g}")
+
+
+def used_corners(cam: dict[str, Any]) -> np.ndarray:
+    """(N, 2) px: the corners of every view the calibration used (its coverage)."""
+    used = set((cam.get("per_view_rms") or {}).keys())
+    pts = [np.asarray(d["corners"], float).reshape(-1, 2) for d in cam.get("detections") or []
+           if d.get("found") and d.get("image") in used and d.get("corners")]
+    return np.concatenate(pts) if pts else np.zeros((0, 2))
+
+
+def summary(outputs: dict[str, Any], mode: str) -> dict[str, Any]:
+    """The one-line facts above the results."""
+    out = {"mode": mode, "rms": fmt(outputs.get("rms"), 4)}
+    if mode == "stereo":
+        out["views"] = f"{len(outputs.get('pairs') or [])} of {len((outputs.get('detections') or {}).get('left') or [])} pairs"
+        out["image_size"] = " × ".join(str(v) for v in (outputs.get("left") or {}).get("image_size") or [])
+        out["baseline"] = f"{fmt(outputs.get('baseline'), 5)} ± {fmt(outputs.get('baseline_std'), 2)} mm"
+    else:
+        out["views"] = f"{len(outputs.get('per_view_rms') or {})} of {len(outputs.get('detections') or [])} images"
+        out["image_size"] = " × ".join(str(v) for v in outputs.get("image_size") or [])
+        out["baseline"] = ""
+    return out
+
+
+def rms_hint(outputs: dict[str, Any], board: str, limit: float = 1.0) -> list[str]:
+    """A warning when the RMS reprojection error is over ``limit`` px: board corners
+    are found to a few tenths of a pixel, so more hints at a wrong board spec (a board
+    spec smaller than the board is found inside it) or at bad images."""
+    rms = outputs.get("rms")
+    if rms is None or not float(rms) > limit:
+        return []
+    return [f"RMS {float(rms):.3g} px is large for a board calibration (well under 1 px is usual): check the board "
+            f"spec {board} (COLSxROWS counts inner corners; a smaller size is also found inside a larger board) "
+            "and the images with the largest errors"]
+
+
+def views_csv_rows(outputs: dict[str, Any], mode: str) -> list[list[Any]]:
+    """camera, image, status, RMS (px), corners, reason: every image of every camera."""
+    rows = []
+    for side in sides(mode):
+        for r in view_rows(camera_part(outputs, mode, side)):
+            rows.append([side_title(mode, side), r["name"], r["status"], r["rms"], r["n"], r["reason"]])
+    return rows
