@@ -51,14 +51,15 @@ def views_figure(rows: list[dict[str, Any]], rms: float | None, title: str) -> d
         sel = [r for r in rows if r["status"] == status and r["rms"] is not None]
         if sel:
             data.append({"type": "bar", "name": label, "x": [r["name"] for r in sel], "y": [r["rms"] for r in sel],
-                         "marker": {"color": colour}, "text": [r["reason"] for r in sel],
-                         "hovertemplate": "%{x}<br>RMS %{y:.3g} px<br>%{text}<extra>" + label + "</extra>"})
+                         "marker": {"color": colour}, "customdata": [r["reason"] for r in sel],
+                         "hovertemplate": "%{x}<br>RMS %{y:.3g} px<br>%{customdata}<extra>" + label + "</extra>"})
     missing = [r for r in rows if r["rms"] is None]
     if missing:
         data.append({"type": "scatter", "mode": "markers", "name": "no board / not used",
-                     "x": [r["name"] for r in missing], "y": [0.0] * len(missing), "text": [r["reason"] for r in missing],
-                     "marker": {"symbol": "x", "size": 10, "color": NOT_FOUND},
-                     "hovertemplate": "%{x}<br>%{text}<extra></extra>"})
+                     "x": [r["name"] for r in missing], "y": [0.0] * len(missing),
+                     "customdata": [r["reason"] for r in missing], "cliponaxis": False,
+                     "marker": {"symbol": "x", "size": 11, "color": LEFT_OUT, "line": {"width": 1}},
+                     "hovertemplate": "%{x}<br>%{customdata}<extra></extra>"})
     lay = _layout(title, "", "RMS reprojection error / px", barmode="overlay")
     lay["xaxis"].update({"type": "category", "categoryorder": "array", "categoryarray": names, "tickangle": -45})
     top = max([r["rms"] for r in rows if r["rms"] is not None] + [float(rms or 0.0)])
@@ -139,7 +140,7 @@ def views_png(rows: list[dict[str, Any]], rms: float | None, title: str, width_p
     ax.bar(x, [r["rms"] or 0.0 for r in rows], color=colours)
     for i, r in enumerate(rows):
         if r["rms"] is None:
-            ax.plot(i, 0, "x", color=NOT_FOUND, ms=8)
+            ax.plot(i, 0, "x", color=LEFT_OUT, ms=8, clip_on=False)
     if rms is not None:
         ax.axhline(float(rms), ls="--", lw=1, color="#444", label=f"overall RMS {float(rms):.3g} px")
         ax.legend(fontsize=8)

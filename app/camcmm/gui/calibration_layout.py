@@ -135,7 +135,8 @@ def _inputs(v: Any, html: Any, page: Any) -> None:
                 v.VTextField(v_model=("cal_outlier", 3.0), label="Outlier × median", type="number", min=0,
                              step="0.5", density="compact", variant="outlined", hide_details=True,
                              style="max-width: 130px;", disabled=("cal_running",),
-                             title="Leave out views whose RMS exceeds this times the median (0 keeps all)")
+                             title="Leave out views whose RMS exceeds this times the median (0 keeps all)",
+                             raw_attrs=_tid("cal-outlier"))
             v.VTextField(v_model=("cal_name", ""), label="Name of the calibration (optional)", density="compact",
                          variant="outlined", hide_details=True, disabled=("cal_running",), raw_attrs=_tid("cal-name"))
             with html.Div(classes="d-flex ga-2 mt-3"):
@@ -243,14 +244,15 @@ def _results(v: Any, html: Any, tplotly: Any, page: Any) -> None:
                               density="compact", color="primary", variant="outlined", divided=True):
                 v.VBtn("Left camera", value="left", size="small", raw_attrs=_tid("cal-side-left"))
                 v.VBtn("Right camera", value="right", size="small", raw_attrs=_tid("cal-side-right"))
-        v.VAlert(v_for="(w, i) in cal_warnings", key="i", text=("w",), type="warning", density="compact",
-                 classes="mb-1")
+        with v.VAlert(v_if="cal_warnings.length", type="warning", variant="tonal", density="compact", classes="mb-3",
+                      raw_attrs=_tid("cal-warnings")):
+            html.Div("{{ w }}", v_for="(w, i) in cal_warnings", key="i", classes="text-body-2")
         _image_list(v, html, page)
         with html.Div(classes="d-flex align-start ga-3 mb-3"):
             with v.VCard(variant="outlined", style="flex: 1 1 0; min-width: 0;"):
-                tplotly.Figure(state_variable_name="cal_fig_views", display_mode_bar=True, style="height: 400px;",
+                tplotly.Figure(state_variable_name="cal_fig_views", display_mode_bar=True, style="height: 440px;",
                                raw_attrs=_tid("cal-chart"))
-            with v.VCard(variant="outlined", style="flex: 0 0 400px; max-height: 400px; overflow-y: auto;",
+            with v.VCard(variant="outlined", style="flex: 0 0 400px; max-height: 440px; overflow-y: auto;",
                          raw_attrs=_tid("cal-numbers")):
                 v.VCardTitle("Intrinsics, {{ (cal_sides.find(x => x.value === cal_side) || {}).title }}",
                              classes="text-subtitle-2 pb-0")
