@@ -44,12 +44,13 @@ _names = itertools.count()
 
 @pytest.fixture
 def app(tmp_path):
-    """The GUI with the Calibration page mounted as app.py mounts the other pages."""
+    """The GUI's Calibration page: app.py's once it is wired there, else mounted here the
+    way app.py mounts the other pages."""
     made = []
 
     def make(project_dir=None):
         server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj")
-        page = calibration_page.mount(server, session)
+        page = getattr(server, "calibration", None) or calibration_page.mount(server, session)
         server.state.ready()
         made.append((server, page))
         return page, session
