@@ -48,7 +48,7 @@ def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_se
             page.locator('[data-testid="wz-start"]').click()
             page.wait_for_selector('[data-testid="wz-positions"]')
             page.click('[data-testid="wz-source"]')
-            page.locator(".v-overlay-container .v-list-item", has_text="Simulated stereo fringe").first.click()
+            page.locator(".v-overlay--active .v-list-item", has_text="Simulated stereo fringe").first.click()
             _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
             page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=60_000)
             assert _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"

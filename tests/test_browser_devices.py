@@ -33,7 +33,7 @@ ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-f
 
 def choose(page, testid: str, option: str) -> None:
     page.click(f'[data-testid="{testid}"]')
-    page.locator(".v-overlay-container .v-list-item", has_text=option).first.click()
+    page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
 
 
 def test_devices_page_and_projector_page_in_step(gui_server):
@@ -51,10 +51,13 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             page.wait_for_selector('[data-testid="dev-state-projector"]')
             page.click('[data-testid="dev-load-patterns"]')
             page.wait_for_selector('[data-testid="dev-projector-panel"] >> text=23 patterns loaded')
-            proj = browser.new_page(viewport={"width": 640, "height": 400})
+            # its own browser, as a window on the projector's display: both stay in the
+            # foreground (a background tab's timers are throttled to 1 Hz)
+            projector_browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            proj = projector_browser.new_page(viewport={"width": 640, "height": 400})
             proj.goto(url.rstrip("/") + "/projector")
-            page.bring_to_front()
             choose(page, "dev-add-plugin", "Simulated camera")
+            page.wait_for_selector('[data-testid="dev-add-renderer"]')  # the camera's own form
             page.click('[data-testid="dev-add"]')
             page.wait_for_selector('[data-testid="dev-state-sim-camera"]')
             page.click('[data-testid="dev-grab"]')
@@ -90,4 +93,6 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             assert "fault" not in page.locator('[data-testid="dev-state-projector"]').inner_text()
         finally:
             browser.close()
+            if "projector_browser" in locals():
+                projector_browser.close()
     assert not [l for l in log if "Traceback" in l], log[-20:]

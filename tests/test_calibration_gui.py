@@ -28,8 +28,7 @@ cv2 = pytest.importorskip("cv2")
 
 from camcmm.gui import calibration_draw as draw  # noqa: E402
 from camcmm.gui import calibration_figures as figs  # noqa: E402
-from camcmm.gui import calibration_page  # noqa: E402
-from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui.app import build, close  # noqa: E402
 from camcmm.io import read_calibration  # noqa: E402
 
 DATA = Path(__file__).parent / "data" / "opencv_stereo_chessboard"
@@ -50,18 +49,14 @@ def app(tmp_path):
 
     def make(project_dir=None):
         server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj")
-        page = getattr(server, "calibration", None) or calibration_page.mount(server, session)
+        page = server.calibration
         server.state.ready()
         made.append((server, page))
         return page, session
 
     yield make
-    for server, page in made:
-        page.close()
-        for name in ("uncertainty", "inspect", "wizard", "devices"):
-            if getattr(server, name, None) is not None:
-                getattr(server, name).close()
-        server.session.close()
+    for server, _ in made:
+        close(server)
 
 
 def folder_request(mode="camera", **kw):

@@ -26,7 +26,7 @@ pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly", reason="trame-plotly draws the page's charts")
 
 from camcmm.gui import inspect_panel as ip  # noqa: E402
-from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui.app import build, close  # noqa: E402
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud, TriangleMesh  # noqa: E402
 
@@ -82,8 +82,7 @@ def app(tmp_path):
 
     yield make
     for server in made:
-        server.inspect.close()
-        server.session.close()
+        close(server)
 
 
 def imported(app, tmp_path, **kw):

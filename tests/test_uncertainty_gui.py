@@ -21,7 +21,7 @@ pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 
-from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui.app import build, close  # noqa: E402
 from camcmm.gui import uncertainty_figures as figs  # noqa: E402
 
 DATA = Path(__file__).parent / "data" / "uncertainty"
@@ -40,9 +40,7 @@ def app(tmp_path):
 
     yield make
     for server in made:
-        for page in ("uncertainty", "inspect", "wizard"):
-            getattr(server, page).close()
-        server.session.close()
+        close(server)
 
 
 def cli_json(*args) -> dict:

@@ -504,9 +504,10 @@ def gui(tmp_path):
         return server, session, server.wizard
 
     yield make
+    from camcmm.gui.app import close
+
     for server in made:
-        server.wizard.close()
-        server.session.close()
+        close(server)
 
 
 def test_page_setup_import_view_and_report(tmp_path, gui, kit):

@@ -16,7 +16,7 @@ import pytest
 pytest.importorskip("trame")
 pytest.importorskip("cv2")
 
-from camcmm.gui.app import build  # noqa: E402
+from camcmm.gui.app import build, close  # noqa: E402
 
 _names = itertools.count()
 MPE = {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243}  # thesis ch. 5 system
@@ -41,9 +41,7 @@ def wizard(tmp_path):
 
     yield make
     for server in made:
-        for p in ("devices", "uncertainty", "inspect", "wizard"):
-            getattr(server, p).close()
-        server.session.close()
+        close(server)
 
 
 def test_the_simulated_fringe_system_is_offered(wizard):

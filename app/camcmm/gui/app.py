@@ -30,7 +30,9 @@ _NUMBER_RULE = (
 
 
 #: pages that fill the content area (the Inspect view beside them is hidden)
-FULL_PAGES = ("compare", "uncertainty", "devices")
+FULL_PAGES = ("compare", "uncertainty", "devices", "calibration")
+#: the server's page objects that hold threads and temporary folders (closed on stop)
+PAGES_TO_CLOSE = ("inspect", "uncertainty", "devices", "calibration")
 
 
 def _tid(name: str) -> list[str]:
@@ -87,6 +89,9 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from . import devices_layout, devices_page  # [devices] the "Devices" page
 
     devices = devices_page.mount(server, session)  # [devices]
+    from . import calibration_layout, calibration_page  # [calibration] the "Calibration" page
+
+    calibration = calibration_page.mount(server, session)  # [calibration]
     state.trame__title = f"camcmm — {state.project_name}"
 
     # -- handlers (thin: all logic is in the session) ---------------------------------
@@ -151,6 +156,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             wizard_layout.page_switch(v)  # [wizard] Inspect | Acceptance test
             inspect_layout.page_switch(v, layout.toolbar)  # [inspection] ... | Compare with CAD
             uncertainty_layout.page_switch(v, layout.toolbar)  # [uncertainty] ... | Uncertainty
+            calibration_layout.page_switch(v, layout.toolbar)  # [calibration] ... | Calibration
             devices_layout.page_switch(v, layout.toolbar)  # [devices] ... | Devices
             v.VSpacer()
             v.VFileInput(
@@ -349,6 +355,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
             inspect_layout.build_panel(inspect_page)  # [inspection] its own view, charts and panel
             uncertainty_layout.build_panel(uncertainty)  # [uncertainty]
             devices_layout.build_panel(devices)  # [devices]
+            calibration_layout.build_panel(calibration)  # [calibration]
             # pages with a layout of their own hide the Inspect page's view
             with html.Div(classes=(f"{list(FULL_PAGES)}.includes(page) ? 'd-none' : 'd-flex flex-column'",),
                           style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
@@ -425,6 +432,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     server.inspect = inspect_page  # [inspection]
     server.uncertainty = uncertainty  # [uncertainty]
     server.devices = devices  # [devices]
+    server.calibration = calibration  # [calibration]
     return server, session
 
 
@@ -451,14 +459,18 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
     server.controller.on_server_ready.add(announce)
     with _bare_argv():
         server.start(host=host, port=int(port), open_browser=False, timeout=0, show_connection_info=False)
+    close(server)
+
+
+def close(server: Any) -> None:
+    """Stop the pages' workers and remove their temporary folders, then the session
+    (after a server stops; tests call it for servers they built without starting)."""
+    for page in ("wizard", *PAGES_TO_CLOSE):
+        if getattr(server, page, None) is not None:
+            getattr(server, page).close()
     session = getattr(server, "session", None)
     if session is not None:
         session.close()
-    if getattr(server, "wizard", None) is not None:  # [wizard]
-        server.wizard.close()
-    for page in ("inspect", "uncertainty", "devices"):
-        if getattr(server, page, None) is not None:
-            getattr(server, page).close()
 
 
 def main(argv: list[str] | None = None) -> int:

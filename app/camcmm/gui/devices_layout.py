@@ -51,14 +51,19 @@ def build_panel(page: Any) -> None:
     def on_choose(pid):
         page.choose_plugin(pid)
 
-    def on_add(pid, values):
-        page.add(pid, values)
+    async def on_add(pid, values):
+        key = page.add(pid, values, connect=False)
+        if key is not None:
+            await page.act_async(key, "connect")
 
     def on_select(key):
         page.select(key)
 
-    def on_connect(key, on):
-        page.connect(key) if on else page.disconnect(key)
+    async def on_connect(key, on):
+        if on:
+            await page.act_async(key, "connect")
+        else:
+            page.disconnect(key)
 
     def on_remove(key):
         page.remove(key)
@@ -66,20 +71,20 @@ def build_panel(page: Any) -> None:
     def on_apply(key, values):
         page.apply_settings(key, values)
 
-    def on_grab(key):
-        page.grab(key)
+    async def on_grab(key):
+        await page.act_async(key, "grab")
 
     def on_live(key, on):
         page.live(key, on)
 
-    def on_move(key, how, value):
-        page.move(key, how, value)
+    async def on_move(key, how, value):
+        await page.act_async(key, how, value)
 
-    def on_load(key, path):
-        page.load_patterns(key, path)
+    async def on_load(key, path):
+        await page.act_async(key, "load", path)
 
-    def on_show(key, index):
-        page.show_pattern(key, index)
+    async def on_show(key, index):
+        await page.act_async(key, "show", index)
 
     def on_seq_choose(pid):
         page.choose_sequence(pid)

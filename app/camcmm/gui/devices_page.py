@@ -13,9 +13,11 @@ so that one that stops answering shows as ``fault`` within about two seconds.
 
 from __future__ import annotations
 
+import asyncio
 import base64
 import logging
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
 
 from ..devices import DeviceMonitor
@@ -69,6 +71,9 @@ class DevicesPage:
         self._counter = 0
         self.monitor: DeviceMonitor | None = None
         self._lock = threading.Lock()
+        # device I/O waits (a move, an acknowledged pattern, a grab): never on the server
+        # loop, which also serves the projector page's acknowledgement
+        self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix="camcmm-devices")
         s = self.state
         s.dev_error = ""
         s.dev_catalogue = self._catalogue()
@@ -110,7 +115,8 @@ class DevicesPage:
             return
         spec = self.host.get(plugin_id)
         s.dev_add_fields = form_schema(spec.parameters)
-        s.dev_add_values = {p.name: p.default for p in spec.parameters}
+        # tagged with the plugin: a click on Add that races the new form sends the old values
+        s.dev_add_values = {"_plugin": plugin_id, **{p.name: p.default for p in spec.parameters}}
 
     # -- devices --------------------------------------------------------------------------------
     def add(self, plugin_id: str, values: dict[str, Any] | None = None, connect: bool = True) -> str | None:
@@ -119,7 +125,10 @@ class DevicesPage:
             spec = self.host.get(plugin_id)
             if spec.extra.get("role") == "sequence":
                 raise CamcmmError(f"{plugin_id} is a sequence: set it up under Sequences")
-            config = {k: v for k, v in (values or {}).items() if v not in ("", None)}
+            values = dict(values or {})
+            if values.pop("_plugin", plugin_id) != plugin_id:
+                values = {}  # the form of another plugin: take this one's defaults
+            config = {k: v for k, v in values.items() if v not in ("", None)}
             objects = self._objects_for(plugin_id)
             dev = self.host.device(plugin_id, config, **objects)
         except Exception as exc:
@@ -152,14 +161,7 @@ class DevicesPage:
         return out
 
     def connect(self, key: str) -> bool:
-        try:
-            self.devices[key].connect()
-            return True
-        except Exception as exc:
-            self._error(exc)
-            return False
-        finally:
-            self.publish()
+        return self.act(key, "connect") is not None
 
     def disconnect(self, key: str) -> None:
         dev = self.devices.get(key)
@@ -206,17 +208,65 @@ class DevicesPage:
         self.publish()
         return True
 
-    # -- camera and stage actions ----------------------------------------------------------------
-    def grab(self, key: str) -> str:
-        """One frame into the live image (also the first frame of a live view)."""
+    # -- device actions ----------------------------------------------------------------------------
+    # An action is its device I/O (``_io``: may wait for a move, a frame, the projector
+    # page's acknowledgement; any thread) and what it shows (``_done``: the server loop).
+    # The GUI awaits ``act_async``, which waits in the page's worker, never on the loop:
+    # the loop also serves the projector page whose acknowledgement a ``show`` awaits.
+    @staticmethod
+    def _io(dev: Any, action: str, arg: Any = None) -> Any:
+        if action == "connect":
+            return dev.connect()
+        if action == "grab":
+            return dev.grab()
+        if action in ("home", "stop"):
+            return getattr(dev, action)()
+        if action in ("abs", "rel"):
+            try:
+                x = float(arg)
+            except (TypeError, ValueError):
+                raise CamcmmError(f"{dev.label}: move {action}: {arg!r} is not a number") from None
+            return (dev.move_abs if action == "abs" else dev.move_rel)(x)
+        if action == "load":
+            from .wizard import resources_dir
+
+            path = str(arg).strip() if arg and str(arg).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
+            return dev.load_sequence(path)
+        if action == "show":
+            return dev.show(None if arg in (None, "", "blank") else int(arg))
+        raise CamcmmError(f"{dev.label}: unknown action {action!r}")
+
+    def _done(self, dev: Any, action: str, out: Any) -> None:
+        if action == "grab":
+            self._show_frame(out)
+        elif action == "load":
+            self.session.info(f"{dev.label}: {out} patterns loaded")
+        self.publish()
+
+    def act(self, key: str, action: str, arg: Any = None) -> Any:
+        """An action in the calling thread (tests, scripts); None with the reason shown
+        when it fails. Actions: connect, grab, home, abs, rel, stop, load, show."""
         dev = self.devices[key]
         try:
-            frame = dev.grab()
+            out = self._io(dev, action, arg)
         except Exception as exc:
             self._error(exc)
-            return ""
-        self._show_frame(frame)
-        return self.state.dev_live
+            self.publish()
+            return None
+        self._done(dev, action, out)
+        return True if out is None else out
+
+    async def act_async(self, key: str, action: str, arg: Any = None) -> Any:
+        dev = self.devices[key]
+        loop = asyncio.get_running_loop()
+        try:
+            out = await loop.run_in_executor(self._executor, self._io, dev, action, arg)
+        except Exception as exc:
+            self._error(exc)
+            self.publish()
+            return None
+        self._done(dev, action, out)
+        return True if out is None else out
 
     def _show_frame(self, frame: Any) -> None:
         meta = getattr(frame, "metadata", {}) or {}
@@ -233,46 +283,6 @@ class DevicesPage:
                 dev.start_live(fps)
             else:
                 dev.stop_live()
-        except Exception as exc:
-            self._error(exc)
-        self.publish()
-
-    def move(self, key: str, how: str, value: Any = None) -> None:
-        """``home`` | ``abs`` | ``rel`` | ``stop`` on a stage (in its unit, mm or deg)."""
-        dev = self.devices[key]
-        try:
-            if how == "home":
-                dev.home()
-            elif how == "stop":
-                dev.stop()
-            else:
-                x = float(value)
-                (dev.move_abs if how == "abs" else dev.move_rel)(x)
-        except (TypeError, ValueError):
-            self._error(f"{dev.label}: move {how}: {value!r} is not a number")
-        except Exception as exc:
-            self._error(exc)
-        self.publish()
-
-    def load_patterns(self, key: str, path: str | None = None) -> int:
-        """A pattern projector takes a fringe sequence file (default: the shipped one)."""
-        from .wizard import resources_dir
-
-        dev = self.devices[key]
-        source = str(path).strip() if path and str(path).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
-        try:
-            n = dev.load_sequence(source)
-        except Exception as exc:
-            self._error(exc)
-            return 0
-        self.session.info(f"{dev.label}: {n} patterns loaded")
-        self.publish()
-        return n
-
-    def show_pattern(self, key: str, index: Any) -> None:
-        dev = self.devices[key]
-        try:
-            dev.show(None if index in (None, "", "blank") else int(index))
         except Exception as exc:
             self._error(exc)
         self.publish()
@@ -385,6 +395,7 @@ class DevicesPage:
                 pass
         if self.monitor is not None:
             self.monitor.stop()
+        self._executor.shutdown(wait=False, cancel_futures=True)
         for dev in list(self.devices.values()):
             try:
                 if getattr(dev, "live", False):
