@@ -6,9 +6,12 @@ modules/python/test/test_calibration.py at 20a13ea): 13 left images, pattern (9,
 square 1, findChessboardCorners + cornerSubPix (5, 5), calibrateCamera(flags=0);
 |rms - 0.196334638034| < 0.01, L1(K - K_ref) < 10, L1(dist - dist_ref) < normDistEps.
 That commit has normDistEps = 0.001; OpenCV's later test (with ``import cv2 as cv``)
-relaxed it to 0.05. OpenCV 5.0's detector gives an L1 of 0.0057, driven by k2 and k3
-(each well within a tenth of its own standard deviation), so the test holds the current
-upstream tolerance and asserts the per-coefficient agreement in standard deviations.
+relaxed it to 0.05. OpenCV 5.0 gives an L1 of 0.0057, driven by k2 and k3 (each well
+within a tenth of its own standard deviation), and so does OpenCV 4.10 running the test's
+own procedure (checked 2026-11-21 with opencv-python-headless 4.10.0.84: rms 0.196235,
+K L1 0.0804, dist L1 0.005731, identical digits): the reference distortion predates both,
+which is why upstream relaxed the tolerance. The test holds the current upstream
+tolerance and asserts the per-coefficient agreement in standard deviations.
 """
 
 from __future__ import annotations
