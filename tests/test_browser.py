@@ -10,20 +10,18 @@ Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default: the system temp folder).
 from __future__ import annotations
 
 import io
-import os
+import sys
 import re
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import ARGS, CHROMIUM, MARKS, shots  # noqa: E402
+
+pytestmark = MARKS
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
@@ -33,9 +31,7 @@ if not hasattr(cio, "read"):
 
 from camcmm.model import PointCloud  # noqa: E402
 
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", tempfile.gettempdir()))
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SHOTS = shots("camcmm-gui")
 
 
 def coloured_pixels(png: bytes) -> int:

@@ -11,32 +11,27 @@ would be. The verdict is PASS. Screenshots: ``$CAMCMM_SCREENSHOTS`` (default
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, choose, launch, shots  # noqa: E402
+
+pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_browser_wizard import ARGS, MPE, _card, _counter, _open_wizard  # noqa: E402
+from test_browser_wizard import MPE, _card, _counter, _open_wizard  # noqa: E402
 
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "acquire-gui"))
+SHOTS = shots("acquire-gui")
 
 
 def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_server):
     url, log = gui_server
-    SHOTS.mkdir(parents=True, exist_ok=True)
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1400, "height": 950})
             page.set_default_timeout(30_000)
@@ -47,8 +42,7 @@ def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_se
                 page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
             page.locator('[data-testid="wz-start"]').click()
             page.wait_for_selector('[data-testid="wz-positions"]')
-            page.click('[data-testid="wz-source"]')
-            page.locator(".v-overlay--active .v-list-item", has_text="Simulated stereo fringe").first.click()
+            choose(page, "wz-source", "Simulated stereo fringe")
             _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
             page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=60_000)
             assert _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"

@@ -13,26 +13,22 @@ from __future__ import annotations
 
 import base64
 import io
-import os
-import tempfile
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, launch, shots  # noqa: E402
+
+pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 
 DATA = Path(__file__).parent / "data" / "opencv_stereo_chessboard"
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "calibration-gui"))
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SHOTS = shots("calibration-gui")
 
 
 def coloured_pixels(png: bytes) -> int:
@@ -63,7 +59,7 @@ def check_calibration_page(url: str, shots: Path = SHOTS) -> None:
     """The browser part, on a GUI already serving a fresh project at ``url``."""
     shots.mkdir(parents=True, exist_ok=True)
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1600, "height": 1000})
             page.set_default_timeout(30_000)

@@ -10,37 +10,28 @@ Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/devices-gui``).
 from __future__ import annotations
 
 import io
-import os
-import tempfile
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, choose, launch, shots  # noqa: E402
+
+pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "devices-gui"))
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SHOTS = shots("devices-gui")
 
-
-def choose(page, testid: str, option: str) -> None:
-    page.click(f'[data-testid="{testid}"]')
-    page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
 
 
 def test_devices_page_and_projector_page_in_step(gui_server):
     url, log = gui_server
-    SHOTS.mkdir(parents=True, exist_ok=True)
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1500, "height": 950})
             page.set_default_timeout(30_000)
@@ -53,7 +44,7 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             page.wait_for_selector('[data-testid="dev-projector-panel"] >> text=23 patterns loaded')
             # its own browser, as a window on the projector's display: both stay in the
             # foreground (a background tab's timers are throttled to 1 Hz)
-            projector_browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            projector_browser = launch(p)
             proj = projector_browser.new_page(viewport={"width": 640, "height": 400})
             proj.goto(url.rstrip("/") + "/projector")
             choose(page, "dev-add-plugin", "Simulated camera")

@@ -14,33 +14,27 @@ deviation, Export and Report with their links. Screenshots go to
 from __future__ import annotations
 
 import io
-import os
 import re
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, launch, shots  # noqa: E402
+
+pytestmark = MARKS
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 pytest.importorskip("trame_plotly", reason="trame-plotly draws the page's charts")
 cio = pytest.importorskip("camcmm.io")
 
-sys.path.insert(0, str(Path(__file__).parent))
 from test_inspect_gui import make_pair  # noqa: E402
 
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "inspect-gui"))
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SHOTS = shots("inspect-gui")
 
 
 def hue_pixels(png: bytes) -> dict[str, int]:
@@ -69,10 +63,9 @@ def wait_view(view, test, timeout: float = 20.0) -> tuple[bytes, dict[str, int]]
 def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
     url, log = gui_server
     stl, ply, _ = make_pair(tmp_path / "files", n=8000)
-    SHOTS.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        browser = launch(p)
         try:
             page = browser.new_page(viewport={"width": 1400, "height": 900}, accept_downloads=True)
             page.set_default_timeout(30_000)

@@ -11,9 +11,7 @@ Report button and the report's links. Screenshots go to ``$CAMCMM_SCREENSHOTS``
 
 from __future__ import annotations
 
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -22,23 +20,19 @@ from camcmm.gui.process import GuiProcess
 
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
-]
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import ARGS, CHROMIUM, MARKS, launch, shots  # noqa: E402
+
+pytestmark = MARKS
 
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 cio = pytest.importorskip("camcmm.io")
 
 from camcmm.host import default_host  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).parent))
 from test_wizard import MPE, write_measurements  # noqa: E402
 
-SHOTS = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / "wizard"))
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+SHOTS = shots("wizard")
 STANDARD = "vdi2634-2"
 
 
@@ -86,7 +80,6 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
     std = _standard()
     if std is None:
         pytest.skip(f"the {STANDARD} standard plugin is not installed (yet)")
-    SHOTS.mkdir(parents=True, exist_ok=True)
     files = write_measurements(tmp_path / "meas", std.requirements(None), n=2500)
     bad = tmp_path / "broken.xyz"
     bad.write_text("1 2 3\n4 nan 6\n")
@@ -229,13 +222,12 @@ def test_demo_project_opens_with_a_finished_test(tmp_path):
         pytest.skip("the demo's acceptance test needs the vdi2634-2 and virtual-lab plugins")
     from camcmm.demo import create_demo
 
-    SHOTS.mkdir(parents=True, exist_ok=True)
     summary = create_demo(tmp_path / "demo")
     verdict = summary["acceptance"]["verdict"]
     server = Server(tmp_path / "demo")
     try:
         with sync_api.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+            browser = launch(p)
             try:
                 page = browser.new_page(viewport={"width": 1400, "height": 900})
                 page.set_default_timeout(30_000)

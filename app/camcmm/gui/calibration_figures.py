@@ -14,29 +14,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .plotly_json import LEGEND_TOP_RIGHT, empty, layout
+
 USED, LEFT_OUT, NOT_FOUND = "#1f77b4", "#d62728", "#7f7f7f"
 
 
-def _layout(title: str, xtitle: str, ytitle: str, **extra: Any) -> dict[str, Any]:
-    lay = {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
-           "margin": {"l": 56, "r": 14, "t": 36, "b": 40},
-           "xaxis": {"title": {"text": xtitle}, "zeroline": False, "automargin": True},
-           "yaxis": {"title": {"text": ytitle}, "zeroline": False, "automargin": True},
-           "showlegend": True, "legend": {"orientation": "h", "y": 1.0, "yanchor": "bottom", "x": 1, "xanchor": "right",
-                                            "bgcolor": "rgba(0,0,0,0)"},
-           "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
-           "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}}
-    lay.update(extra)
-    return lay
-
-
-def empty(text: str) -> dict[str, Any]:
-    lay = _layout("", "", "", showlegend=False)
-    lay["xaxis"] = {"visible": False}
-    lay["yaxis"] = {"visible": False}
-    lay["annotations"] = [{"text": text, "showarrow": False, "font": {"size": 12, "color": "#777"},
-                           "xref": "paper", "yref": "paper", "x": 0.5, "y": 0.5}]
-    return {"data": [], "layout": lay}
+def _layout(title: str, xtitle: str, ytitle: str, showlegend: bool = True, **extra: Any) -> dict[str, Any]:
+    return layout(title, xtitle, ytitle, LEGEND_TOP_RIGHT if showlegend else None, **extra)
 
 
 def views_figure(rows: list[dict[str, Any]], rms: float | None, title: str) -> dict[str, Any]:

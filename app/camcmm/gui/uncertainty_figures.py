@@ -16,6 +16,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .plotly_json import LEGEND_BELOW, empty, layout
+
 AXES = ("x", "y", "z")
 AXIS_COLOURS = {"x": "#1f77b4", "y": "#2ca02c", "z": "#d62728"}
 FACTOR_TITLES = {
@@ -37,24 +39,7 @@ def factor_title(name: str) -> str:
 
 
 def _layout(title: str, xtitle: str, ytitle: str, legend: bool = True, **extra: Any) -> dict[str, Any]:
-    lay = {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
-           "margin": {"l": 60, "r": 14, "t": 36, "b": 46},
-           "xaxis": {"title": {"text": xtitle}, "zeroline": False, "automargin": True},
-           "yaxis": {"title": {"text": ytitle}, "zeroline": False, "rangemode": "tozero", "automargin": True},
-           "showlegend": legend, "legend": {"orientation": "h", "y": -0.25},
-           "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
-           "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}}
-    lay.update(extra)
-    return lay
-
-
-def empty(text: str) -> dict[str, Any]:
-    lay = _layout("", "", "", legend=False)
-    lay["xaxis"] = {"visible": False}
-    lay["yaxis"] = {"visible": False}
-    lay["annotations"] = [{"text": text, "showarrow": False, "font": {"size": 12, "color": "#777"},
-                           "xref": "paper", "yref": "paper", "x": 0.5, "y": 0.5}]
-    return {"data": [], "layout": lay}
+    return layout(title, xtitle, ytitle, LEGEND_BELOW if legend else None, y_from_zero=True, **extra)
 
 
 def budget_figure(result: dict[str, Any]) -> dict[str, Any]:

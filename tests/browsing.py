@@ -1,0 +1,35 @@
+"""What the browser tests share: Debian's Chromium with the launch flags that work on
+these machines (never ``playwright install``: it downloads), the markers that skip a
+test when there is no Chromium, where screenshots go, and picking from a Vuetify menu."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+MARKS = [pytest.mark.browser,
+         pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive")]
+
+
+def shots(name: str) -> Path:
+    """The screenshot folder: ``$CAMCMM_SCREENSHOTS`` or ``<tmp>/<name>`` (made)."""
+    folder = Path(os.environ.get("CAMCMM_SCREENSHOTS", Path(tempfile.gettempdir()) / name))
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def launch(playwright):
+    return playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+
+
+def choose(page, testid: str, option: str) -> None:
+    """Open the select ``testid`` and click the option with that text (in the open menu
+    only: closed menus stay in the DOM)."""
+    page.click(f'[data-testid="{testid}"]')
+    page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
