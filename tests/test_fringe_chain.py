@@ -172,12 +172,19 @@ def test_sphere_diameter_within_the_montecarlo_uncertainty(sphere_run):
 
 
 def test_stereo_phase_matching_measures_the_sphere(tmp_path):
-    """Camera-camera phase matching (thesis ch. 5.2.4) on the thesis's convergent pair.
-    The diameter is held to 1/10 of the thesis's MPE for P_S, and the Monte Carlo
-    u(D) of the same set-up is printed beside it: matching along rectified rows
-    resamples the phase maps, which biases a sphere's radius by a few micrometres at
-    this pixel size (the fringe plugin's own note), an effect the Monte Carlo model of
-    independent feature errors does not contain."""
+    """Camera-camera phase matching (thesis ch. 5.2.4) on the thesis's convergent pair:
+    the 20 mm sphere's diameter and the bias of the correspondences (where the measured
+    and the true point fall in camera 2), with the Monte Carlo u(D) of the same set-up.
+
+    Measured (640 x 480, seed 1): D - 20 mm = +1.3 um, correspondence median +0.0009 px,
+    MC u(D) = 0.72 um; seeds 1-6: +0.8 um mean, 0.75 um scatter. Rectifying the phase
+    maps with plain bilinear sampling gave -7.5 um and +0.0063 px (the phase's curvature
+    across the sphere). Of the remaining +1 um, the matching contributes < 0.15 um: with
+    noise-free captures it is +1.0 um, with the pixel-centre truth phases (or pixels
+    rendered as point samples) -0.1 um; the rest is the pixels' area integration in
+    the rendered images, which shifts the decoded phases by ~0.002 projector px. The
+    correction's cost is noise: form 27 um (21 um before), correspondence scatter
+    0.018 px (0.014 px), hence the larger MC u(D) (0.55 um before)."""
     out, scene = simulate(tmp_path, [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0, "stem": False}],
                           preset="stereo_fringe")
     rec = reconstruct(out, method="stereo")
@@ -216,7 +223,8 @@ def test_stereo_phase_matching_measures_the_sphere(tmp_path):
     u_D = 2 * sphere_fit_radii(X).std(ddof=1) * np.sqrt(len(pts) / len(Q))
     print(f"\nstereo: {len(Q)} points, D - D_true = {1e3 * (D - 20.0):+.2f} um, form {1e3 * fit['form']['range']:.1f} um; "
           f"camera-2 correspondence sigma {sigma:.4f} px, median {np.median(e):+.4f} px; MC u(D) = {1e3 * u_D:.2f} um")
-    assert abs(D - 20.0) < 0.1 * PART2["mpe"]["PS"]
+    assert abs(D - 20.0) < 2e-3
+    assert abs(np.median(e)) < 0.003                                      # camera-2 px
     assert fit["form"]["range"] < 0.05
 
 
