@@ -83,18 +83,18 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT]},
                               params={"board": BOARD}).outputs
     out = doc["outputs"]
-    # equal up to OpenCV's run-to-run rounding (its solver is multi-threaded)
-    assert np.allclose(out["camera_matrix"], direct["camera_matrix"], rtol=1e-9, atol=0)
+    # equal up to OpenCV's run-to-run rounding (its solver is multi-threaded: ~1e-9 relative seen)
+    assert np.allclose(out["camera_matrix"], direct["camera_matrix"], rtol=1e-7, atol=0)
     assert np.allclose(out["dist_coeffs"], direct["dist_coeffs"], rtol=1e-7, atol=1e-12)
-    assert out["rms"] == pytest.approx(direct["rms"], rel=1e-9)
-    assert out["per_view_rms"] == pytest.approx(direct["per_view_rms"], rel=1e-9)
+    assert out["rms"] == pytest.approx(direct["rms"], rel=1e-7)
+    assert out["per_view_rms"] == pytest.approx(direct["per_view_rms"], rel=1e-7)
     # OpenCV's unit-test reference within OpenCV's own tolerances
     assert abs(out["rms"] - RMS_REF) < 0.01
     assert np.abs(np.asarray(out["camera_matrix"]) - K_REF).sum() < 10.0
     # the image list: 13 images, all used, each with its view RMS
     assert [r["name"] for r in s.cal_rows] == [p.name for p in LEFT]
     assert all(r["status"] == "used" and r["thumb"].startswith("data:image/jpeg") for r in s.cal_rows)
-    assert [r["rms"] for r in s.cal_rows] == pytest.approx([direct["per_view_rms"][p.name] for p in LEFT], rel=1e-9)
+    assert [r["rms"] for r in s.cal_rows] == pytest.approx([direct["per_view_rms"][p.name] for p in LEFT], rel=1e-7)
     # the chart: one bar per view at its RMS, the overall RMS as a line
     bars = s.cal_fig_views["data"]
     assert len(bars) == 1 and bars[0]["y"] == [r["rms"] for r in s.cal_rows]
@@ -207,7 +207,7 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     # each camera's own calibration in 'single' is the camera plugin's on that camera's images
     cam_r = session.host.run("calibration.camera", inputs={"images": [str(p) for p in RIGHT]},
                              params={"board": BOARD}).outputs
-    assert np.allclose(out["single"]["right"]["cameras"][0]["camera_matrix"], cam_r["camera_matrix"], rtol=1e-9)
+    assert np.allclose(out["single"]["right"]["cameras"][0]["camera_matrix"], cam_r["camera_matrix"], rtol=1e-7)
     # the right camera's list, numbers (refined jointly) and heat map
     page.show_side("right")
     assert [r["name"] for r in s.cal_rows] == [p.name for p in RIGHT]
@@ -248,7 +248,7 @@ def test_images_from_an_upload_and_from_the_project_items(app):
     assert [r["name"] for r in s.cal_rows] == [p.name for p in LEFT[:4]]
     direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT[:4]]},
                               params={"board": BOARD}).outputs
-    assert np.allclose(doc["outputs"]["camera_matrix"], direct["camera_matrix"], rtol=1e-9)
+    assert np.allclose(doc["outputs"]["camera_matrix"], direct["camera_matrix"], rtol=1e-7)
     row = session.project.result(doc["current"]["result"])
     assert sorted(row["measurement_ids"]) == sorted(int(k) for k in keys)
     # pairs by name among the items
