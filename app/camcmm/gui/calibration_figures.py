@@ -160,14 +160,3 @@ def heatmap_png(pu: dict[str, Any], corners: np.ndarray | None, image_size: Sequ
     ax.set_title(title, loc="left", fontsize=10)
     return _png(f)
 
-
-def table_csv(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> bytes:
-    """A small CSV (comma, dot decimal)."""
-    import csv
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for r in rows:
-        w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in r])
-    return buf.getvalue().encode("utf-8")

@@ -19,6 +19,7 @@ from . import calibration_draw as draw
 from . import calibration_figures as figs
 from . import calibration_inputs as inputs
 from . import calibration_results as res
+from .downloads import table_csv
 
 log = logging.getLogger("camcmm.gui.calibration")
 
@@ -256,7 +257,7 @@ class CalibrationShow:
                 links.append(self.offered.offer(f"{base}.{ext}", src=self.project.file_path(cur[key]), replace=True))
             except Exception as exc:
                 log.warning("cannot offer the calibration %s: %s", ext, exc)
-        links.append(self.offered.offer(f"{base}-views.csv", replace=True, data=figs.table_csv(
+        links.append(self.offered.offer(f"{base}-views.csv", replace=True, data=table_csv(
             ["camera", "image", "status", "rms_px", "points", "reason"], res.views_csv_rows(doc["outputs"], mode))))
         for side in res.sides(mode):
             cam = res.camera_part(doc["outputs"], mode, side)

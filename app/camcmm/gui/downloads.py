@@ -13,7 +13,7 @@ import re
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 log = logging.getLogger("camcmm.gui")
 
@@ -30,6 +30,20 @@ def safe_file_name(name: str, default: str = "download") -> str:
 def sort_links(links: Iterable[dict[str, str]]) -> list[dict[str, str]]:
     """Reports first in the order HTML, PDF, JSON; everything else after."""
     return sorted(links, key=lambda x: _ORDER.get(x.get("kind", ""), 9))
+
+
+def table_csv(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> bytes:
+    """A small CSV (comma, dot decimal; floats to 6 significant digits) for the export
+    of a page's table."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(header)
+    for r in rows:
+        w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in r])
+    return buf.getvalue().encode("utf-8")
 
 
 class Downloads:

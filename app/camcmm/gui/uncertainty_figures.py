@@ -12,7 +12,7 @@ Inputs are the outputs of ``uncertainty.budget`` and ``uncertainty.montecarlo``
 from __future__ import annotations
 
 import io
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -160,14 +160,3 @@ def figure_png(fig: dict[str, Any], width_px: int = 900, height_px: int = 520) -
     f.savefig(buf, format="png")
     return buf.getvalue()
 
-
-def table_csv(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> bytes:
-    """A small CSV (comma, dot decimal) for the export of tables."""
-    import csv
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for r in rows:
-        w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in r])
-    return buf.getvalue().encode("utf-8")

@@ -28,7 +28,7 @@ from typing import Any
 from ..errors import CamcmmError, InputError
 from ..host import to_jsonable
 from . import uncertainty_figures as figs
-from .downloads import Downloads
+from .downloads import Downloads, table_csv
 from .uncertainty_view import UncertaintyView, map_options
 
 log = logging.getLogger("camcmm.gui.uncertainty")
@@ -218,7 +218,7 @@ class UncertaintyPage:
         name = f"budget-{rid}"
         links = [
             self.offered.offer(f"{name}.yaml", data=yaml.safe_dump(doc, sort_keys=False, allow_unicode=True).encode()),
-            self.offered.offer(f"{name}.csv", data=figs.table_csv(
+            self.offered.offer(f"{name}.csv", data=table_csv(
                 ["name", f"u ({res.get('unit', '')})", "c", "dof", "distribution", "|c·u|", "share"], rows)),
             self.offered.offer(f"{name}.json", data=json.dumps(to_jsonable(res), indent=1, default=str).encode()),
             self.offered.offer(f"{name}.png", data=figs.figure_png(figs.budget_figure(res))),
@@ -422,7 +422,7 @@ class UncertaintyPage:
         rows = [[r["factor"], r["x"], r["y"], r["z"], r["dof"], r["distribution"]] for r in self.state.unc_mc_rows]
         unit = full.get("unit", "um")
         studies = full.get("studies") or {}
-        links = [self.offered.offer(f"{name}.csv", data=figs.table_csv([header[0]] + [f"{h} ({unit})" for h in header[1:4]]
+        links = [self.offered.offer(f"{name}.csv", data=table_csv([header[0]] + [f"{h} ({unit})" for h in header[1:4]]
                                                                        + header[4:], rows), replace=True),
                  self.offered.offer(f"{name}.json", data=json.dumps(full).encode(), replace=True),
                  self.offered.offer(f"{name}-contributions.png", data=figs.figure_png(figs.contributions_figure(full)),
