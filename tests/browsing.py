@@ -33,3 +33,13 @@ def choose(page, testid: str, option: str) -> None:
     only: closed menus stay in the DOM)."""
     page.click(f'[data-testid="{testid}"]')
     page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
+
+
+def server_tracebacks(log: list[str]) -> list[str]:
+    """The tracebacks in a GUI server's output that pass through camcmm's code. A
+    traceback only in wslink/aiohttp is the server pushing an update to a browser that
+    has just closed (a race at the end of every test), not a fault of the app."""
+    text = "".join(log)
+    blocks = text.split("Traceback (most recent call last):")[1:]
+    ours = ("/app/camcmm/", "/camcmm_plugins/", "site-packages/camcmm/")
+    return [b[:2000] for b in blocks if any(o in b.split("\n\n")[0] for o in ours)]

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, choose, launch, shots  # noqa: E402
+from browsing import MARKS, choose, launch, server_tracebacks, shots  # noqa: E402
 
 pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
@@ -63,4 +63,4 @@ def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_se
             assert verdict.inner_text().strip() == "PASS"
         finally:
             browser.close()
-    assert not [l for l in log if "Traceback" in l], log[-20:]
+    assert not server_tracebacks(log), server_tracebacks(log)

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, choose, launch, shots  # noqa: E402
+from browsing import MARKS, choose, launch, server_tracebacks, shots  # noqa: E402
 
 pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
@@ -86,4 +86,4 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             browser.close()
             if "projector_browser" in locals():
                 projector_browser.close()
-    assert not [l for l in log if "Traceback" in l], log[-20:]
+    assert not server_tracebacks(log), server_tracebacks(log)
