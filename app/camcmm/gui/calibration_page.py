@@ -277,8 +277,9 @@ class CalibrationPage(CalibrationShow):
         self.project.set_state(CURRENT_KEY, doc["current"])
         self.project.set_state(INPUTS_KEY, req)
 
-    def run(self, req: dict[str, Any] | None = None) -> dict[str, Any] | None:
-        """Calibrate in the calling thread (tests, scripts); the doc, or None after an error."""
+    def _prepare(self, req: dict[str, Any] | None) -> tuple[dict[str, Any], Any] | None:
+        """The checked request (the form's when None) and its image source, kept as the
+        page's inputs; None with the reason shown."""
         req = self.request() if req is None else req
         try:
             req, src = self._check(req)
@@ -286,6 +287,14 @@ class CalibrationPage(CalibrationShow):
             self._error(exc)
             return None
         self._set_request(req)
+        return req, src
+
+    def run(self, req: dict[str, Any] | None = None) -> dict[str, Any] | None:
+        """Calibrate in the calling thread (tests, scripts); the doc, or None after an error."""
+        checked = self._prepare(req)
+        if checked is None:
+            return None
+        req, src = checked
         cancel = self._begin()
         try:
             doc, pics = self._compute(req, src, cancel)
@@ -299,13 +308,10 @@ class CalibrationPage(CalibrationShow):
             return None
         if self.session._loop is None:
             self.session.bind_loop()
-        req = self.request() if req is None else req
-        try:
-            req, src = self._check(req)
-        except Exception as exc:
-            self._error(exc)
+        checked = self._prepare(req)
+        if checked is None:
             return None
-        self._set_request(req)
+        req, src = checked
         cancel = self._begin()
         self._flush()
         try:
