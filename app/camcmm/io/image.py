@@ -6,31 +6,149 @@ uint16 (16-bit PNG/TIFF from machine-vision cameras) or float32 (TIFF). Only the
 page of a multi-page TIFF is read. The bytes are read by Python and decoded from
 memory, so paths with non-ASCII characters work on every platform.
 
+Decompression bombs: a few kB of PNG can hold 20000 x 20000 px, gigabytes once
+decoded. The width and height are read from the file's header first and an image of
+more than ``CAMCMM_MAX_IMAGE_PIXELS`` pixels (environment variable, default
+100 million, about a 10000 x 10000 camera frame) is refused before OpenCV decodes it.
+OpenCV has no header-only read and its own limit (``OPENCV_IO_MAX_IMAGE_PIXELS``) is
+read once per process, so the few header bytes are parsed here.
+
 Writing encodes ``Image.data`` unchanged (BGR order) with the extension's codec.
 """
 
 from __future__ import annotations
 
+import os
+import struct
 from pathlib import Path
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..model import Image
 from ._common import fail
 
+#: Default of ``CAMCMM_MAX_IMAGE_PIXELS``: width x height above this is refused.
+MAX_IMAGE_PIXELS = 100_000_000
+
+
+def max_image_pixels() -> int:
+    """The pixel cap: ``CAMCMM_MAX_IMAGE_PIXELS`` if set (a positive integer), else
+    :data:`MAX_IMAGE_PIXELS`."""
+    text = os.environ.get("CAMCMM_MAX_IMAGE_PIXELS", "").strip()
+    if not text:
+        return MAX_IMAGE_PIXELS
+    try:
+        number = float(text)
+        value = int(number) if number.is_integer() else 0
+    except (ValueError, OverflowError):
+        value = 0
+    if value <= 0:
+        raise ParameterError(f"CAMCMM_MAX_IMAGE_PIXELS={text[:40]!r} is not a positive whole number of pixels")
+    return value
+
 
 def read(path: Path, name: str) -> Image:
+    buf = np.fromfile(path, np.uint8)
+    size = image_size(memoryview(buf))  # the whole file: a TIFF may keep its IFD at the end
+    if size is not None:
+        check_image_size(size, name)
     import cv2
 
-    buf = np.fromfile(path, np.uint8)
     try:
         data = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
     except cv2.error as exc:
         raise fail(name, f"cannot decode the image ({' '.join(str(exc).split())[:160]})") from exc
     if data is None:
         raise fail(name, f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file")
+    if data.size == 0:
+        raise fail(name, f"the image has no pixels ({data.shape[1] if data.ndim > 1 else 0} x {data.shape[0]})")
     meta = {"file": name, "channel_order": "BGR" if data.ndim == 3 else "grey"}
     return Image(data, name=name, metadata=meta)
+
+
+def check_image_size(size: tuple[int, int], name: str) -> None:
+    """Refuse a (width, height) that is empty or above the pixel cap, naming the file."""
+    w, h = size
+    if w <= 0 or h <= 0:
+        raise fail(name, f"the image header declares {w} x {h} px; an image needs at least 1 x 1")
+    cap = max_image_pixels()
+    if w * h > cap:
+        raise fail(name, f"the image header declares {w} x {h} px ({w * h / 1e6:.0f} Mpx), more than the "
+                         f"{cap / 1e6:g} Mpx camcmm decodes (set CAMCMM_MAX_IMAGE_PIXELS to allow more)")
+
+
+def image_size(head: bytes | memoryview) -> tuple[int, int] | None:
+    """(width, height) from the header of a PNG, JPEG, BMP or TIFF file, or None
+    when the header is not one of those or is cut short (OpenCV then decides)."""
+    try:
+        if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+            return struct.unpack(">II", head[16:24])
+        if head[:2] == b"BM" and len(head) >= 26:
+            hsize = struct.unpack("<I", head[14:18])[0]
+            if hsize == 12:  # OS/2 BITMAPCOREHEADER
+                return struct.unpack("<HH", head[18:22])
+            w, h = struct.unpack("<ii", head[18:26])
+            return w, abs(h)  # a negative height means top-down rows
+        if head[:2] == b"\xff\xd8":
+            return _jpeg_size(head)
+        if head[:4] in (b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"):
+            return _tiff_size(head)
+    except (struct.error, IndexError):
+        return None
+    return None
+
+
+_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+
+
+def _jpeg_size(head) -> tuple[int, int] | None:
+    i = 2
+    while i + 4 <= len(head):
+        if head[i] != 0xFF:
+            return None
+        marker = head[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        if marker in (0x01, 0xD8) or 0xD0 <= marker <= 0xD7:  # no length
+            i += 2
+            continue
+        length = struct.unpack(">H", head[i + 2:i + 4])[0]
+        if marker in _SOF:
+            h, w = struct.unpack(">HH", head[i + 5:i + 9])
+            return w, h
+        if marker in (0xD9, 0xDA) or length < 2:  # end of image or scan data before any frame
+            return None
+        i += 2 + length
+    return None
+
+
+def _tiff_size(head) -> tuple[int, int] | None:
+    bo = "<" if head[:2] == b"II" else ">"
+    big = head[2:4] in (b"+\0", b"\0+")
+    if big:
+        offset = struct.unpack(bo + "Q", head[8:16])[0]
+        count = struct.unpack(bo + "Q", head[offset:offset + 8])[0]
+        entry, first, value_at = 20, offset + 8, 12
+    else:
+        offset = struct.unpack(bo + "I", head[4:8])[0]
+        count = struct.unpack(bo + "H", head[offset:offset + 2])[0]
+        entry, first, value_at = 12, offset + 2, 8
+    found: dict[int, int] = {}
+    for k in range(min(count, 4096)):
+        e = head[first + k * entry:first + (k + 1) * entry]
+        if len(e) < entry:
+            break
+        tag, typ = struct.unpack(bo + "HH", e[:4])
+        if tag in (256, 257):
+            code = {3: "H", 4: "I", 16: "Q"}.get(typ)
+            if code is None:
+                return None
+            found[tag] = struct.unpack(bo + code, e[value_at:value_at + struct.calcsize(code)])[0]
+    if 256 in found and 257 in found:
+        return found[256], found[257]
+    return None
 
 
 def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str) -> None:

@@ -62,6 +62,10 @@ def read(path: Path, name: str) -> Raw:
         if offset + n * dt.itemsize > size:
             raise fail(name, f"truncated PCD: the header promises {n} points of {dt.itemsize} bytes "
                              f"({offset + n * dt.itemsize} bytes in all) but the file has {size}")
+        extra = size - offset - n * dt.itemsize
+        if dt.itemsize and extra >= dt.itemsize:
+            raise fail(name, f"PCD declares {n} points of {dt.itemsize} bytes but the file has {extra} bytes more, "
+                             f"room for {extra // dt.itemsize} more points: POINTS is wrong or data was appended")
         arr = np.fromfile(path, dt, n, offset=offset) if n else np.zeros(0, dt)
         arrays = {f: arr[f].reshape(n, c) for f, _, (c,) in cols}
     elif data == "binary_compressed":
@@ -113,6 +117,10 @@ def _header(fh, name: str) -> tuple[dict, list[str], int]:
         out["POINTS"] = int(hdr["POINTS"][0]) if "POINTS" in hdr else width * height
     except (KeyError, IndexError, ValueError) as exc:
         raise fail(name, f"bad PCD header: missing or malformed {exc}") from None
+    if min(out["POINTS"], width, height, *out["SIZE"], *out["COUNT"]) < 0:
+        raise fail(name, "bad PCD header: negative POINTS, WIDTH, HEIGHT, SIZE or COUNT")
+    if "POINTS" in hdr and "WIDTH" in hdr and width * height != out["POINTS"]:
+        raise fail(name, f"bad PCD header: POINTS {out['POINTS']} but WIDTH x HEIGHT = {width} x {height}")
     if not all(len(out[k]) == nf for k in ("SIZE", "TYPE", "COUNT")):
         raise fail(name, "bad PCD header: FIELDS, SIZE, TYPE and COUNT have different lengths")
     return out, comments, fh.tell()
@@ -124,7 +132,9 @@ def _ascii(path: Path, offset: int, ncols: int, n: int, name: str) -> np.ndarray
         lines = [ln for ln in fh.read().decode("latin-1").splitlines() if ln.strip()]
     if len(lines) < n:
         raise fail(name, f"truncated PCD: the header promises {n} points but the file has {len(lines)} lines")
-    lines = lines[:n]
+    if len(lines) > n:
+        raise fail(name, f"PCD declares {n} points but the file has {len(lines)} data lines: "
+                         f"POINTS is wrong or data was appended")
     try:
         table = np.loadtxt(lines, dtype=np.float64, ndmin=2, comments=None) if n else np.zeros((0, ncols))
     except ValueError:
@@ -160,8 +170,11 @@ def _compressed(path: Path, offset: int, cols, n: int, name: str) -> dict:
         sizes = fh.read(8)
         if len(sizes) < 8:
             raise fail(name, "truncated PCD: no compressed block after DATA binary_compressed")
-        csize, usize = np.frombuffer(sizes, "<u4")
-        blob = fh.read(int(csize))
+        csize, usize = (int(v) for v in np.frombuffer(sizes, "<u4"))
+        need = n * sum(np.dtype(code).itemsize * c for _, code, (c,) in cols)
+        if usize != need:
+            raise fail(name, f"PCD compressed block unpacks to {usize} bytes, but {n} points need {need}")
+        blob = fh.read(csize)
     if len(blob) < csize:
         raise fail(name, f"truncated PCD: the compressed block should have {csize} bytes, the file has {len(blob)}")
     raw = _lzf_decompress(blob, int(usize), name)
@@ -185,6 +198,8 @@ def _lzf_decompress(data: bytes, size: int, name: str) -> bytes:
             ctrl = data[ip]
             ip += 1
             if ctrl < 32:  # a literal run of ctrl + 1 bytes
+                if len(out) + ctrl + 1 > size:
+                    raise ValueError(f"more than the declared {size} bytes")
                 out += data[ip:ip + ctrl + 1]
                 ip += ctrl + 1
                 continue
@@ -195,6 +210,8 @@ def _lzf_decompress(data: bytes, size: int, name: str) -> bytes:
             ref = len(out) - ((ctrl & 0x1F) << 8) - data[ip] - 1
             ip += 1
             length += 2
+            if len(out) + length > size:  # more than the header says: stop before it grows
+                raise ValueError(f"more than the declared {size} bytes")
             if ref < 0:
                 raise ValueError("back reference before the start")
             if ref + length <= len(out):

@@ -153,7 +153,7 @@ def _read_binary(path: Path, hdr: _Header, name: str, size: int):
     """Element name -> {property -> array}; list properties as (rows, k) arrays.
     None when a list changes length between rows (the caller falls back to plyfile)."""
     bo = "<" if hdr.encoding == "binary_little_endian" else ">"
-    offset, out = hdr.size, {}
+    offset, out, last = hdr.size, {}, None
     with open(path, "rb") as fh:
         for el in hdr.elements:
             if el.fixed:
@@ -172,7 +172,23 @@ def _read_binary(path: Path, hdr: _Header, name: str, size: int):
                     return None
             out[el.name] = {p.name: _native(arr[p.name]) for p in el.props}
             offset = need
+            last = (el, dt.itemsize)
+    if hdr.elements and size > offset:
+        _excess_binary(name, hdr, last, size - offset, size)
     return out
+
+
+def _excess_binary(name: str, hdr: _Header, last: tuple[_Element, int], extra: int, size: int) -> None:
+    """Bytes after the last element: a header that undercounts its rows (a writer that
+    patched the count wrongly, a concatenation) would silently lose data, so refuse
+    as soon as the bytes could hold one more row. Fewer bytes than a row (a closing
+    newline some writers add) lose nothing."""
+    el, row = last
+    if row and extra >= row:
+        counts = ", ".join(f"{e.count} {e.name}" for e in hdr.elements)
+        raise fail(name, f"binary PLY has {extra} bytes after the rows its header declares ({counts}); "
+                         f"that is room for {extra // row} more {el.name} rows: the header's counts are wrong "
+                         f"or data was appended ({size} bytes in all)")
 
 
 def _native(a: np.ndarray) -> np.ndarray:
@@ -230,6 +246,10 @@ def _read_ascii(path: Path, hdr: _Header, name: str) -> dict:
                              f"but the file has only {len(block)}")
         pos += el.count
         out[el.name] = _ascii_element(block, el, name)
+    if len(lines) > pos:
+        counts = ", ".join(f"{e.count} {e.name}" for e in hdr.elements)
+        raise fail(name, f"ascii PLY has {len(lines) - pos} more lines than its header declares ({counts}; "
+                         f"{len(lines)} data lines): the header's counts are wrong or data was appended")
     return out
 
 

@@ -38,7 +38,11 @@ def read(path: Path, name: str) -> Raw:
     if len(data) < 84 + 50 * n:
         raise fail(name, f"truncated binary STL: the header promises {n} triangles ({84 + 50 * n} bytes) "
                          f"but the file has {len(data)} bytes")
-    # some exporters pad binary files; the triangles the header counts are all there
+    extra = len(data) - 84 - 50 * n
+    if extra >= 50:  # room for more triangles than the header counts: refuse rather than drop them
+        raise fail(name, f"binary STL declares {n} triangles ({84 + 50 * n} bytes) but the file has {len(data)} "
+                         f"bytes, room for {extra // 50} more: the triangle count is wrong or data was appended")
+    # a few bytes of padding, which some exporters add, hold no triangle: nothing is lost
     return _binary(data, n, name)
 
 
