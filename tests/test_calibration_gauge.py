@@ -39,6 +39,17 @@ def test_exact_cloud():
     assert np.dot(res["platen"]["normal"], R[:, 2]) > 0  # points from the platen to the face
 
 
+def test_parallelism_resolves_tiny_angles():
+    """The angle between two normals, against exact-by-construction pairs: arccos of the
+    dot product would give 0 or 8.5e-7 deg for all of these."""
+    from camcmm_plugins.calibration.gauge import _angle_deg
+
+    for t in (1e-15, 1e-12, 1e-9, 1e-6, 0.3):  # rad
+        a, b = np.array([1.0, 0.0, 0.0]), np.array([np.cos(t), np.sin(t), 0.0])
+        assert _angle_deg(a, b) == pytest.approx(np.degrees(t), rel=1e-12)
+        assert _angle_deg(a, -b) == pytest.approx(np.degrees(t), rel=1e-12)  # a normal's sign is arbitrary
+
+
 def test_noise_walls_and_the_platen_rule():
     rng = np.random.default_rng(1)
     pts, R = _cloud(rng, noise=0.03, walls=300)

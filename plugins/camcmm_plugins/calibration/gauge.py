@@ -40,6 +40,15 @@ def _extent(points: np.ndarray, normal: np.ndarray) -> float:
     return float(np.sum(np.linalg.svd(c, compute_uv=False)[:2] ** 2) / len(points))
 
 
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle (deg) between the lines along unit vectors a and b, 0 .. 90.
+
+    atan2(|a x b|, |a . b|) rather than arccos(a . b): near 0 the cosine is flat, so
+    arccos cannot resolve angles below ~1e-6 deg (one rounding step under 1.0 is
+    already 8.5e-7 deg); the cross product keeps full relative precision."""
+    return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), abs(float(np.dot(a, b))))))
+
+
 def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | None = None,
                 seed: int = 0) -> dict[str, Any]:
     """Height of a gauge block over its platen from an (N, 3) cloud in mm.
@@ -118,5 +127,5 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
     height = float(np.dot(cb - ca, na))
     return {"height": height, "error": height - float(nominal), "nominal": float(nominal),
             "platen": surface(ca, na, labels == 0), "top": surface(cb, nb, labels == 1),
-            "parallelism": float(np.degrees(np.arccos(np.clip(abs(np.dot(na, nb)), -1, 1)))),
+            "parallelism": _angle_deg(na, nb),
             "labels": labels, "unit": "mm"}
