@@ -15,11 +15,13 @@ from .devices import param as device_param
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import RunContext, RunResult, default_host
 from .io import read, read_calibration, write, write_calibration
+from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
 from .project.select import project_values
 from .report import Report, charts
 from .units import to_mm_factor
+from .yamlfile import YamlError, load_yaml, read_yaml
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -38,4 +40,6 @@ __all__ = [
     "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
     "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
     "simple_verdict", "to_mm_factor", "write", "write_calibration",
+    "check_budget", "check_count", "check_disk", "human_bytes", "memory_limit",
+    "YamlError", "load_yaml", "read_yaml",
 ]
