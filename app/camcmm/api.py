@@ -21,6 +21,7 @@ from .params import Param
 from .project.select import project_values
 from .report import Report, charts
 from .units import to_mm_factor
+from .yamlfile import YamlError, load_yaml, read_yaml
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -40,4 +41,5 @@ __all__ = [
     "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
     "simple_verdict", "to_mm_factor", "write", "write_calibration",
     "check_budget", "check_count", "check_disk", "human_bytes", "memory_limit",
+    "YamlError", "load_yaml", "read_yaml",
 ]
