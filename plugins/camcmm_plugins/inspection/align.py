@@ -103,7 +103,10 @@ class Alignment:
 
     def to_dict(self) -> dict[str, Any]:
         R = self.rotation
-        angle = float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+        # atan2(sin, cos) from the skew and trace parts: arccos of the trace alone cannot
+        # resolve a rotation below ~1e-6 deg
+        w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+        angle = float(np.degrees(np.arctan2(np.linalg.norm(w) / 2, (np.trace(R) - 1) / 2)))
         return {
             "transform": self.transform.tolist(), "scale": self.scale, "rotation": R.tolist(),
             "rotation_angle_deg": angle, "translation": self.translation.tolist(),
