@@ -221,6 +221,103 @@ class Image:
         return int(self.data.shape[1]), int(self.data.shape[0])
 
 
+#: OpenCV's distortion models: none, k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4 [tau_x tau_y]]]]
+DIST_COUNTS = (0, 4, 5, 8, 12, 14)
+#: |R R^T - I| and |det R - 1| allowed: a rotation written with 6 decimals (as MATLAB's
+#: calibration toolboxes print it) is off by up to ~3e-6; a non-rotation is off by far more.
+ROTATION_TOL = 1e-5
+#: the largest image side a camera model may declare (px); OpenCV's maps and the image
+#: readers' limits are far below what a garbled file could ask for.
+MAX_IMAGE_SIDE = 65536
+
+
+def _num(v: float) -> str:
+    return f"{v:.6g}"
+
+
+def camera_problem(camera_matrix: Any, dist_coeffs: Any = (), rotation: Any = None, translation: Any = None,
+                   image_size: Any = (0, 0), pixel_pitch: Any = None) -> str | None:
+    """The first reason (one line, no culprit prefix) why these cannot describe a camera,
+    or None: positive finite focal lengths (px), a finite principal point inside or near
+    the image when its size is known, K's last row (0, 0, 1), finite distortion with an
+    OpenCV coefficient count, a rotation (orthonormal, det +1 within ``ROTATION_TOL``), a
+    finite translation (mm), whole positive image sides (or (0, 0): unknown) and a positive
+    pixel pitch (mm) when given. Native code (OpenCV's undistortion maps) crashes on some
+    of these, so every reader checks them before anything computes."""
+    try:
+        K = np.asarray(camera_matrix, dtype=np.float64)
+    except (TypeError, ValueError):
+        return "camera_matrix is not a matrix of numbers"
+    if K.size != 9:
+        return f"camera_matrix must be 3 x 3 (9 numbers), got {K.size} numbers"
+    K = K.reshape(3, 3)
+    for what, v in (("fx", K[0, 0]), ("fy", K[1, 1])):
+        if not (np.isfinite(v) and v > 0):
+            return f"focal length {what} = {_num(v)} px must be positive and finite"
+    for what, v in (("cx", K[0, 2]), ("cy", K[1, 2]), ("skew", K[0, 1])):
+        if not np.isfinite(v):
+            return f"principal point {what} = {_num(v)} px must be finite" if what != "skew" \
+                else f"skew = {_num(v)} must be finite"
+    if not np.allclose(K[2], (0.0, 0.0, 1.0), rtol=0, atol=1e-9) or abs(K[1, 0]) > 1e-9:
+        return f"camera_matrix last row must be (0, 0, 1) and K[1,0] = 0, got {K[2].tolist()} and {_num(K[1, 0])}"
+    try:
+        d = np.asarray(dist_coeffs if dist_coeffs is not None else (), dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        return "distortion coefficients are not numbers"
+    if d.size not in DIST_COUNTS:
+        return (f"{d.size} distortion coefficients; OpenCV's models have "
+                f"{', '.join(str(n) for n in DIST_COUNTS[1:])}")
+    if not np.all(np.isfinite(d)):
+        i = int(np.flatnonzero(~np.isfinite(d))[0])
+        return f"distortion coefficient {i + 1} = {_num(d[i])} must be finite"
+    try:
+        size = [float(v) for v in (image_size if image_size is not None else (0, 0))]
+    except (TypeError, ValueError):
+        return f"image size {image_size!r} is not two numbers"
+    if len(size) != 2:
+        return f"image size must be (width, height), got {len(size)} numbers"
+    w, h = size
+    if (w, h) != (0.0, 0.0):
+        for what, v in (("width", w), ("height", h)):
+            if not (np.isfinite(v) and v == int(v) and 0 < v <= MAX_IMAGE_SIDE):
+                return f"image {what} = {_num(v)} px must be a whole number from 1 to {MAX_IMAGE_SIDE}"
+        for what, v, n in (("cx", K[0, 2], w), ("cy", K[1, 2], h)):
+            if not -n <= v <= 2 * n:  # more than an image away from it: a garbled value
+                return f"principal point {what} = {_num(v)} px lies far outside the {int(w)} x {int(h)} px image"
+    if rotation is not None:
+        try:
+            R = np.asarray(rotation, dtype=np.float64)
+        except (TypeError, ValueError):
+            return "rotation is not a matrix of numbers"
+        if R.size != 9:
+            return f"rotation must be 3 x 3 (9 numbers), got {R.size} numbers"
+        R = R.reshape(3, 3)
+        if not np.all(np.isfinite(R)):
+            return "rotation has NaN or infinite entries"
+        off = float(np.abs(R @ R.T - np.eye(3)).max())
+        det = float(np.linalg.det(R))
+        if off > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
+            kind = "a reflection" if det < 0 else "not a rotation"
+            return f"rotation is {kind} (max |R R^T - I| = {off:.2g}, det R = {det:.6g}; need det +1)"
+    if translation is not None:
+        try:
+            t = np.asarray(translation, dtype=np.float64).ravel()
+        except (TypeError, ValueError):
+            return "translation is not numbers"
+        if t.size != 3:
+            return f"translation must have 3 numbers (mm), got {t.size}"
+        if not np.all(np.isfinite(t)):
+            return f"translation {t.tolist()} mm must be finite"
+    if pixel_pitch is not None:
+        try:
+            pp = float(pixel_pitch)
+        except (TypeError, ValueError):
+            return f"pixel pitch {pixel_pitch!r} is not a number"
+        if not (np.isfinite(pp) and pp > 0):
+            return f"pixel pitch = {_num(pp)} mm must be positive and finite"
+    return None
+
+
 @dataclass(eq=False)
 class CameraModel:
     """A pinhole camera with lens distortion (thesis ch. 2.3, eqs. 2.1-2.6).
@@ -228,7 +325,9 @@ class CameraModel:
     camera_matrix : (3, 3) K in pixels; dist_coeffs : OpenCV order
     (k1, k2, p1, p2, k3[, k4, k5, k6, s1, s2, s3, s4]); rotation (3, 3) and translation
     (3,) in mm map world to camera coordinates, x_cam = R x_world + t;
-    image_size : (width, height) px; pixel_pitch in mm when known.
+    image_size : (width, height) px, (0, 0) when unknown; pixel_pitch in mm when known.
+    Construction refuses values no camera has (see :func:`camera_problem`) with an
+    InputError naming the camera.
     """
 
     camera_matrix: np.ndarray
@@ -240,6 +339,16 @@ class CameraModel:
     name: str = "camera"
 
     def __post_init__(self) -> None:
+        if self.dist_coeffs is None:
+            self.dist_coeffs = np.zeros(5)
+        if self.rotation is None:
+            self.rotation = np.eye(3)
+        if self.translation is None:
+            self.translation = np.zeros(3)
+        why = camera_problem(self.camera_matrix, self.dist_coeffs, self.rotation, self.translation,
+                             self.image_size, self.pixel_pitch)
+        if why is not None:
+            raise InputError(f"camera {self.name!r}: {why}")
         self.camera_matrix = np.asarray(self.camera_matrix, dtype=np.float64).reshape(3, 3)
         self.dist_coeffs = np.asarray(self.dist_coeffs, dtype=np.float64).ravel()
         self.rotation = np.asarray(self.rotation, dtype=np.float64).reshape(3, 3)
@@ -250,6 +359,11 @@ class CameraModel:
     def projection_matrix(self) -> np.ndarray:
         """(3, 4) P = K [R | t] (thesis eq. 2.1), distortion not included."""
         return self.camera_matrix @ np.hstack([self.rotation, self.translation[:, None]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        """(3,) the projection centre in world coordinates, mm (C = -R^T t)."""
+        return -self.rotation.T @ self.translation
 
 
 @dataclass(frozen=True)

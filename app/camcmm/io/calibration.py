@@ -34,7 +34,14 @@ frame; a third or later camera k has ``R<k>`` ``T<k>`` (its pose in camera 1's f
 ``rms``, ``board``, ``R1 R2 P1 P2 Q`` (rectification); every other numeric 1-D/2-D array is
 written as a matrix under its own key (listed in ``camcmm_arrays``; a 1-D array comes back
 1-D), everything else as JSON text in the string sequence ``camcmm_extra``. ``dist_coeffs`` is also read as ``distortion_coefficients``,
-``image_size`` also from ``image_width``/``image_height``.
+``image_size`` also from ``image_width``/``image_height``; a camera of unknown size has none
+(an ``image_size`` of [0, 0] also means unknown).
+
+Reading refuses, with one line naming the file, the camera and the value, what no camera
+has and what crashes native code further on: focal lengths that are not positive and
+finite, a non-finite principal point or distortion, a rotation that is not one (or a
+reflection), partial, negative or fractional image sizes, a second camera with no baseline
+to the first, non-finite E, F or rectification matrices (see ``model.camera_problem``).
 """
 
 from __future__ import annotations
@@ -47,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CamcmmError, InputError
-from ..model import CameraModel
+from ..model import ROTATION_TOL, CameraModel, camera_problem
 from ._common import atomic_path
 
 _YAML_EXTS = (".yaml", ".yml", ".xml")
@@ -98,6 +105,64 @@ def _check(cal: dict[str, Any], name: str) -> list[CameraModel]:
     return list(cams)
 
 
+def _camera(fname: str, k: int, K: Any, dist: Any, R: Any, t: Any, size: Any, pitch: Any, name: str) -> CameraModel:
+    """CameraModel ``k`` (1-based) of file ``fname``; InputError naming the file, the camera
+    and the value when it cannot describe a camera (see model.camera_problem)."""
+    if K is None:
+        raise InputError(f"{fname}: camera {k} ({name}) has no camera matrix")
+    why = camera_problem(K, dist, R, t, size, pitch)
+    if why is not None:
+        raise InputError(f"{fname}: camera {k} ({name}): {why}")
+    return CameraModel(K, dist, R, t, size, pitch, name)
+
+
+def _finite_matrix(fname: str, key: str, a: Any) -> np.ndarray:
+    try:
+        m = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{fname}: {key} is not a matrix of numbers") from None
+    if not np.all(np.isfinite(m)):
+        raise InputError(f"{fname}: {key} has NaN or infinite entries")
+    return m
+
+
+def _check_calibration(fname: str, cal: dict[str, Any]) -> dict[str, Any]:
+    """Checks over the whole calibration: every camera away from camera 1's centre (a
+    stereo pair or a camera+projector needs a baseline), R a rotation and T finite and
+    non-zero, E, F, the rectification and the RMS finite."""
+    cams = cal["cameras"]
+    c1 = cams[0].centre
+    for k, cam in enumerate(cams[1:], start=2):
+        b = float(np.linalg.norm(cam.centre - c1))
+        if not b > 1e-6:
+            raise InputError(f"{fname}: camera {k} ({cam.name}) has a zero baseline: its centre coincides with "
+                             f"camera 1's (distance {b:.3g} mm); a stereo or camera-projector pair needs one")
+    if cal.get("R") is not None:
+        R = _finite_matrix(fname, "R", cal["R"])
+        if R.size != 9:
+            raise InputError(f"{fname}: R must be 3 x 3, got {R.size} numbers")
+        R = R.reshape(3, 3)
+        off, det = float(np.abs(R @ R.T - np.eye(3)).max()), float(np.linalg.det(R))
+        if off > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
+            raise InputError(f"{fname}: R is {'a reflection' if det < 0 else 'not a rotation'} "
+                             f"(max |R R^T - I| = {off:.2g}, det R = {det:.6g}; need det +1)")
+    if cal.get("T") is not None:
+        T = _finite_matrix(fname, "T", cal["T"]).ravel()
+        if T.size != 3:
+            raise InputError(f"{fname}: T must have 3 numbers (mm), got {T.size}")
+        if not float(np.linalg.norm(T)) > 1e-6:
+            raise InputError(f"{fname}: T = {T.tolist()} mm: a zero baseline between the cameras")
+    for key in ("E", "F"):
+        if cal.get(key) is not None:
+            _finite_matrix(fname, key, cal[key])
+    for key, v in (cal.get("rectification") or {}).items():
+        _finite_matrix(fname, key, v)
+    rms = cal.get("rms")
+    if rms is not None and not (isinstance(rms, (int, float, np.number)) and np.isfinite(rms) and rms >= 0):
+        raise InputError(f"{fname}: rms = {rms!r} px must be a finite number >= 0")
+    return cal
+
+
 def write_calibration(path: str | Path, cal: dict[str, Any]) -> None:
     """Write the calibration dict ``cal`` (see the module docstring) to ``path``.
 
@@ -143,8 +208,9 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
             sfx = "" if one else str(k)
             fs.write("camera_matrix" if one else f"M{k}", cam.camera_matrix)
             fs.write("dist_coeffs" if one else f"D{k}", mat(cam.dist_coeffs))
-            fs.write(f"image_size{sfx}", np.array([cam.image_size], dtype=np.int32))
-            if one:
+            if cam.image_size != (0, 0):  # unknown: left out, as a reader expects
+                fs.write(f"image_size{sfx}", np.array([cam.image_size], dtype=np.int32))
+            if one and cam.image_size != (0, 0):
                 fs.write("image_width", int(cam.image_size[0]))
                 fs.write("image_height", int(cam.image_size[1]))
             fs.write(f"camera_name{sfx}", cam.name)
@@ -209,7 +275,7 @@ def read_calibration(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise InputError(f"{p.name}: calibration file not found ({p})")
     try:
-        return _read_json(p) if kind == "json" else _read_yaml(p)
+        return _check_calibration(p.name, _read_json(p) if kind == "json" else _read_yaml(p))
     except CamcmmError:
         raise
     except Exception as exc:
@@ -223,12 +289,13 @@ def _read_json(p: Path) -> dict[str, Any]:
         raise InputError(f"{p.name}: not a calibration file (no 'cameras' list)")
     cams = []
     for i, c in enumerate(doc["cameras"]):
-        if "camera_matrix" not in c:
+        if not isinstance(c, dict) or "camera_matrix" not in c:
             raise InputError(f"{p.name}: camera {i + 1} has no camera_matrix")
-        cams.append(CameraModel(camera_matrix=c["camera_matrix"], dist_coeffs=c.get("dist_coeffs", np.zeros(5)),
-                                rotation=c.get("rotation", np.eye(3)), translation=c.get("translation", np.zeros(3)),
-                                image_size=tuple(c.get("image_size", (0, 0))), pixel_pitch=c.get("pixel_pitch"),
-                                name=c.get("name", f"camera{i + 1}")))
+        size = c.get("image_size")
+        cams.append(_camera(p.name, i + 1, c["camera_matrix"], c.get("dist_coeffs", np.zeros(5)),
+                            c.get("rotation", np.eye(3)), c.get("translation", np.zeros(3)),
+                            (0, 0) if size is None else size, c.get("pixel_pitch"),
+                            str(c.get("name", f"camera{i + 1}"))))
     cal = {k: v for k, v in doc.items() if k not in ("format", "version", "unit", "cameras")}
     cal["cameras"] = cams
     for key in _ARRAY_KEYS:
@@ -260,9 +327,9 @@ def _read_yaml(p: Path) -> dict[str, Any]:
         def size(sfx):
             s = mat(f"image_size{sfx}")
             if s is not None:
-                return tuple(int(v) for v in s.ravel()[:2])
+                return tuple(float(v) for v in s.ravel())
             w, h = node(f"image_width{sfx}"), node(f"image_height{sfx}")
-            return (int(w.real()), int(h.real())) if w is not None and h is not None else (0, 0)
+            return (w.real(), h.real()) if w is not None and h is not None else (0, 0)
 
         def text(key, default):
             n = node(key)
@@ -277,10 +344,10 @@ def _read_yaml(p: Path) -> dict[str, Any]:
             dist = mat("dist_coeffs")
             dist = mat("distortion_coefficients") if dist is None else dist
             pose = (mat("R_world"), mat("T_world"))
-            cams.append(CameraModel(mat("camera_matrix"), np.zeros(5) if dist is None else dist,
-                                    np.eye(3) if pose[0] is None else pose[0],
-                                    np.zeros(3) if pose[1] is None else pose[1], size(""),
-                                    real("pixel_pitch"), text("camera_name", "camera")))
+            cams.append(_camera(p.name, 1, mat("camera_matrix"), np.zeros(5) if dist is None else dist,
+                                np.eye(3) if pose[0] is None else pose[0],
+                                np.zeros(3) if pose[1] is None else pose[1], size(""),
+                                real("pixel_pitch"), text("camera_name", "camera")))
             std.append(mat("std_intrinsics"))
             cov.append(mat("covariance"))
         else:
@@ -300,9 +367,9 @@ def _read_yaml(p: Path) -> dict[str, Any]:
                                          f"({'R, T' if k == 2 else f'R{k}, T{k}'} missing; OpenCV's stereo_calib "
                                          f"sample writes them to a separate extrinsics.yml)")
                 d = mat(f"D{k}")
-                cams.append(CameraModel(mat(f"M{k}"), np.zeros(5) if d is None else d, r, t, size(str(k)),
-                                        real(f"pixel_pitch{k}"),
-                                        text(f"camera_name{k}", "left" if k == 1 else "right" if k == 2 else f"camera{k}")))
+                cams.append(_camera(p.name, k, mat(f"M{k}"), np.zeros(5) if d is None else d, r, t, size(str(k)),
+                                    real(f"pixel_pitch{k}"),
+                                    text(f"camera_name{k}", "left" if k == 1 else "right" if k == 2 else f"camera{k}")))
                 std.append(mat(f"std_intrinsics{k}"))
                 cov.append(mat(f"covariance{k}"))
                 k += 1
