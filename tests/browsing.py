@@ -28,6 +28,15 @@ def launch(playwright):
     return playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
 
 
+def at(url: str, path: str) -> str:
+    """``path`` on the server of ``url`` (as the GUI printed it, ``http://H:P/?token=T``),
+    keeping the token: ``at(url, "/projector")`` -> ``http://H:P/projector?token=T``."""
+    from urllib.parse import urlsplit, urlunsplit
+
+    u = urlsplit(url)
+    return urlunsplit((u.scheme, u.netloc, "/" + path.lstrip("/"), u.query, ""))
+
+
 def choose(page, testid: str, option: str) -> None:
     """Open the select ``testid`` and click the option with that text (in the open menu
     only: closed menus stay in the DOM)."""

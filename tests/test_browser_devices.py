@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, choose, launch, server_tracebacks, shots  # noqa: E402
+from browsing import MARKS, at, choose, launch, server_tracebacks, shots  # noqa: E402
 
 pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
@@ -46,7 +46,7 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             # foreground (a background tab's timers are throttled to 1 Hz)
             projector_browser = launch(p)
             proj = projector_browser.new_page(viewport={"width": 640, "height": 400})
-            proj.goto(url.rstrip("/") + "/projector")
+            proj.goto(at(url, "/projector"))  # its own browser: the token in the address
             choose(page, "dev-add-plugin", "Simulated camera")
             page.wait_for_selector('[data-testid="dev-add-renderer"]')  # the camera's own form
             page.click('[data-testid="dev-add"]')

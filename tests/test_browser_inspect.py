@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, launch, shots  # noqa: E402
+from browsing import MARKS, at, launch, shots  # noqa: E402
 
 pytestmark = MARKS
 
@@ -180,10 +180,10 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             page.wait_for_selector('[data-testid="ins-report-pdf"]', timeout=60_000)
             for kind in ("html", "pdf", "json"):
                 href = page.locator(f'[data-testid="ins-report-{kind}"]').get_attribute("href")
-                r = page.request.get(url.rstrip("/") + "/" + href)
+                r = page.request.get(at(url, href))
                 assert r.ok and len(r.body()) > 1000, (kind, r.status)
             assert b"Inspection against the nominal" in page.request.get(
-                url.rstrip("/") + "/" + page.locator('[data-testid="ins-report-html"]').get_attribute("href")).body()
+                at(url, page.locator('[data-testid="ins-report-html"]').get_attribute("href"))).body()
             page.screenshot(path=str(SHOTS / "inspect-7-report.png"))
 
             # back on the Inspect page: its drawer and its own view again, the export among the items

@@ -197,7 +197,7 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
                 link = page.locator('[data-testid="wz-report-html"]')
                 link.wait_for(timeout=60_000)
                 href = link.get_attribute("href")
-                resp = page.request.get(server.url.rstrip("/") + "/" + href.lstrip("/"))
+                resp = page.request.get(server.base + href.lstrip("/"))
                 assert resp.ok and "VDI/VDE 2634" in resp.text()
                 with page.expect_download() as dl:
                     page.locator('[data-testid="wz-report-pdf"]').click()

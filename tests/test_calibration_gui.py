@@ -48,7 +48,8 @@ def app(tmp_path):
     made = []
 
     def make(project_dir=None):
-        server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj")
+        server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj",
+                                data_roots=[DATA, tmp_path])  # the folders the page may read
         page = server.calibration
         server.state.ready()
         made.append((server, page))

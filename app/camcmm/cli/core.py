@@ -21,15 +21,17 @@ def _json_flag(p: argparse.ArgumentParser) -> None:
 
 # -- serve ---------------------------------------------------------------------------
 def _serve_args(p: argparse.ArgumentParser) -> None:
+    from ..gui.app import add_serve_arguments  # light: trame and VTK load in build()
+
     p.add_argument("--project", default="camcmm-project", help="project folder (created if missing)")
-    p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (0 picks a free one)")
+    add_serve_arguments(p)  # --host, --data-root, --token-file, --no-token, --allow-origin, --certfile/--keyfile
 
 
 def _serve(args: argparse.Namespace) -> None:
-    from ..gui import serve  # lazy: trame and VTK are heavy
+    from ..gui.app import serve_from_args  # lazy: trame and VTK are heavy
 
-    serve(args.project, host=args.host, port=args.port)
+    serve_from_args(args.project, args, port=args.port)
 
 
 # -- plugins -------------------------------------------------------------------------

@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from ..errors import CamcmmError
 from . import setup_offscreen
 
 # Client-side check of a number field against its declared limits (Vuetify rule).
@@ -56,10 +57,12 @@ def open_project(project_dir: str | Path) -> Any:
 
 
 def build(server_name: str, project_dir: str | Path, project: Any = None, host: Any = None,
-          display_limit: int | None = None) -> tuple[Any, Any]:
+          display_limit: int | None = None, data_roots: Any = ()) -> tuple[Any, Any]:
     """Build the trame server and the session on a project folder (created if new).
 
-    Returns ``(server, session)``; nothing listens until :func:`start`.
+    The browser reaches only the project folder and ``data_roots`` (``session.roots``,
+    a :class:`~camcmm.gui.roots.Roots`). Returns ``(server, session)``; nothing
+    listens until :func:`start`.
     """
     setup_offscreen()
     from trame.app import get_server
@@ -68,7 +71,8 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     from trame.widgets import vuetify3 as v
     from trame.widgets.vtk import VtkRemoteView
 
-    from .session import Session
+    from .roots import Roots
+    from .session import _ITEM_TYPES, Session
     from .view import DISPLAY_LIMIT, SceneView
 
     server = get_server(server_name, client_type="vue3")
@@ -77,6 +81,7 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         project = open_project(project_dir)
     view = SceneView(display_limit or DISPLAY_LIMIT)
     session = Session(server, project, host=host, view=view)
+    session.roots = Roots(getattr(project, "path", project_dir), data_roots)  # before the pages mount
     from . import wizard, wizard_layout  # [wizard] the "Acceptance test" page
 
     wizard_page = wizard.mount(server, session)  # [wizard]
@@ -117,7 +122,14 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
     async def on_import_path(path):
         state.path_dialog = False
         if path and str(path).strip():
-            await session.import_file_async(os.path.expanduser(str(path).strip().strip('"')))
+            try:  # only the project folder and the data roots: refused before anything is read
+                allowed = session.roots.check(path)
+            except CamcmmError as exc:
+                session.error(str(exc))
+                return
+            await session.import_file_async(str(allowed), Path(str(path).strip().strip('"')).name)
+
+    ctrl.import_server_path = on_import_path  # for tests
 
     def on_select_item(key):
         session.select_item(key)
@@ -129,7 +141,15 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         if not pid:
             session.error("choose a plugin first")
             return
+        try:  # a parameter or input naming a file or folder: only inside the roots
+            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, input_values,
+                                                                _ITEM_TYPES)
+        except CamcmmError as exc:
+            session.error(str(exc))
+            return
         await session.run_plugin_async(pid, form_values or {}, input_values or {})
+
+    ctrl.run_plugin_form = on_run  # for tests
 
     def on_show_result(rid):
         session.show_result(rid)
@@ -437,27 +457,50 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
 
 
 @contextmanager
-def _bare_argv():
-    """trame parses ``sys.argv``; keep the CLI's own arguments away from it."""
+def _bare_argv(extra: list[str] | None = None):
+    """trame parses ``sys.argv``; keep the CLI's own arguments away from it (and give
+    it ``extra`` ones of its own)."""
     saved = sys.argv
-    sys.argv = saved[:1]
+    sys.argv = saved[:1] + list(extra or [])
     try:
         yield
     finally:
         sys.argv = saved
 
 
-def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False) -> None:
-    """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/`` once listening."""
+def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
+          token: str | None = None, allowed_origins: Any = (), certfile: str | None = None,
+          keyfile: str | None = None) -> None:
+    """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once
+    listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`);
+    ``token=None`` only on a loopback address. ``certfile``/``keyfile``: serve HTTPS."""
+    from .security import Guard, binding_warning, is_loopback
+
+    if token is None and not is_loopback(host):
+        raise CamcmmError(f"--host {host}: refused without a token (see docs/security.md)")
+    if bool(certfile) != bool(keyfile):
+        raise CamcmmError("--certfile and --keyfile go together")
+    tls = bool(certfile)
+    warning = binding_warning(host, tls)
+    if warning:
+        print(warning, file=sys.stderr, flush=True)
+    guard = Guard(token, allowed_origins)
+    guard.install(server)
+    server.guard = guard
+    scheme = "https" if tls else "http"
+    shown = f"[{host}]" if ":" in host else host
+
     def announce(**_):
-        print(f"camcmm GUI: http://{host}:{server.port}/", flush=True)
+        url = guard.url(f"{scheme}://{shown}:{server.port}/")
+        print(f"camcmm GUI: {url}", flush=True)
         if open_browser:
             import webbrowser
 
-            webbrowser.open(f"http://{host}:{server.port}/")
+            webbrowser.open(url)
 
     server.controller.on_server_ready.add(announce)
-    with _bare_argv():
+    extra = guard.wslink_args() + (["--ssl", f"{certfile},{keyfile}"] if tls else [])
+    with _bare_argv(extra):
         server.start(host=host, port=int(port), open_browser=False, timeout=0, show_connection_info=False)
     close(server)
 
@@ -473,16 +516,46 @@ def close(server: Any) -> None:
         session.close()
 
 
+def add_serve_arguments(ap: Any) -> None:
+    """The options ``camcmm serve`` and ``python -m camcmm.gui`` share (besides the
+    project and the port): data roots, token, origins, TLS."""
+    ap.add_argument("--host", default="127.0.0.1",
+                    help="address to bind (default 127.0.0.1: this machine only; see docs/security.md)")
+    ap.add_argument("--data-root", action="append", default=[], metavar="DIR",
+                    help="a folder the browser may read and write besides the project folder (repeatable)")
+    ap.add_argument("--token-file", metavar="FILE",
+                    help="a fixed token (password) read from FILE instead of a random one per launch "
+                         "(also: $CAMCMM_TOKEN)")
+    ap.add_argument("--no-token", action="store_true",
+                    help="no token (only with a loopback --host): any local program may drive the app")
+    ap.add_argument("--allow-origin", action="append", default=[], metavar="URL",
+                    help="another origin the browser may use, e.g. a reverse proxy's https://lab.example (repeatable)")
+    ap.add_argument("--certfile", help="TLS certificate (PEM): serve HTTPS")
+    ap.add_argument("--keyfile", help="TLS private key (PEM) of --certfile")
+
+
+def serve_from_args(project: str | Path, args: Any, port: int, open_browser: bool = False) -> None:
+    """:func:`camcmm.gui.serve` with the options of :func:`add_serve_arguments`."""
+    from . import serve
+
+    serve(project, host=args.host, port=port, open_browser=open_browser, data_roots=args.data_root,
+          no_token=args.no_token, token_file=args.token_file, allowed_origins=args.allow_origin,
+          certfile=args.certfile, keyfile=args.keyfile)
+
+
 def main(argv: list[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(prog="python -m camcmm.gui", description="Serve the camcmm GUI on a project folder.")
     ap.add_argument("project", help="project folder (created if missing)")
-    ap.add_argument("--host", default="127.0.0.1")
     ap.add_argument("--port", type=int, default=0, help="0 picks a free port")
     ap.add_argument("--open", action="store_true", help="open the system browser")
+    add_serve_arguments(ap)
     args = ap.parse_args(argv)
     os.environ.setdefault("TRAME_DISABLE_V3_WARNING", "1")
-    server, _ = build("camcmm", args.project)
-    start(server, host=args.host, port=args.port, open_browser=args.open)
+    try:
+        serve_from_args(args.project, args, port=args.port, open_browser=args.open)
+    except CamcmmError as exc:
+        print(f"camcmm: error: {exc}", file=sys.stderr, flush=True)
+        return 2
     return 0

@@ -45,18 +45,20 @@ def _unique(names: Iterable[str]) -> list[str]:
     return out
 
 
-def folder_sources(folder: str, pattern: str = "*", what: str = "images") -> list[dict[str, Any]]:
+def folder_sources(folder: str, pattern: str = "*", what: str = "images", roots: Any = None) -> list[dict[str, Any]]:
     """Image files in ``folder`` matching ``pattern`` (a glob; ';' separates several),
-    sorted by name."""
+    sorted by name. With ``roots`` (a :class:`~camcmm.gui.roots.Roots`, the folders the
+    browser may reach) a folder elsewhere is refused before it is looked at."""
     text = str(folder or "").strip().strip('"')
     if not text:
         raise InputError(f"{what}: give the folder on the server that holds the board images")
-    root = Path(text).expanduser()
+    root = roots.check(text, "server folder") if roots is not None else Path(text).expanduser()
     if not root.is_dir():
         raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
     pats = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
     files = sorted(p for p in root.iterdir()
-                   if p.is_file() and p.suffix.lower() in IMAGE_EXTS and any(fnmatch.fnmatch(p.name, q) for q in pats))
+                   if p.is_file() and p.suffix.lower() in IMAGE_EXTS and any(fnmatch.fnmatch(p.name, q) for q in pats)
+                   and (roots is None or roots.allows(p)))  # a link to a file elsewhere stays out
     if not files:
         raise InputError(f"{what}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r} in {root}")
     return [{"name": p.name, "path": str(p.resolve()), "hash": None, "item": None} for p in files]

@@ -128,9 +128,11 @@ class CalibrationPage(CalibrationShow):
         req["model"] = req.get("model") or "standard"
         first = "left images" if mode == "stereo" else "images"
         if req.get("source") == "folder":
-            src = {"left": inputs.folder_sources(req["folder"], req.get("left_pattern") or "*", first)}
+            src = {"left": inputs.folder_sources(req["folder"], req.get("left_pattern") or "*", first,
+                                                   roots=getattr(self.session, "roots", None))}
             if mode == "stereo":
-                src["right"] = inputs.folder_sources(req["folder"], req.get("right_pattern") or "*", "right images")
+                src["right"] = inputs.folder_sources(req["folder"], req.get("right_pattern") or "*", "right images",
+                                                     roots=getattr(self.session, "roots", None))
         else:
             req["source"] = "items"
             src = {"left": inputs.item_sources(self.project, req.get("left"), first)}

@@ -2,7 +2,7 @@
 
 Used by the browser tests and benchmarks (and open to a lab's own end-to-end tests):
 ``python -m camcmm.gui PROJECT --port 0`` picks a free port and prints
-``camcmm GUI: http://...``, which is read here.
+``camcmm GUI: http://HOST:PORT/?token=TOKEN``, which is read here.
 """
 
 from __future__ import annotations
@@ -15,17 +15,25 @@ import sys
 import threading
 import time
 from pathlib import Path
+from urllib.parse import parse_qs, urlencode, urlsplit
 
 from ..errors import CamcmmError
 
 
 class GuiProcess:
-    """``python -m camcmm.gui PROJECT --port 0`` in a subprocess; ``url`` once it listens,
-    ``log`` every line it printed."""
+    """``python -m camcmm.gui PROJECT --port 0`` in a subprocess. Once it listens:
+    ``url`` as printed (with ``?token=``: open it in the browser), ``base``
+    (``http://HOST:PORT/``), ``token``; ``log`` every line it printed.
+    ``data_roots``: folders the browser may reach besides the project; ``args``: more
+    options of ``python -m camcmm.gui``."""
 
-    def __init__(self, project: str | Path, timeout: float = 60.0):
+    def __init__(self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = ()):
         env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
-        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"],
+        env.pop("CAMCMM_TOKEN", None)  # a fresh random token per launch, whatever the caller's shell holds
+        cmd = [sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"]
+        for d in data_roots:
+            cmd += ["--data-root", str(d)]
+        self.proc = subprocess.Popen(cmd + [str(a) for a in args],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
         self.log: list[str] = []
         lines: queue.Queue[str] = queue.Queue()
@@ -45,12 +53,20 @@ class GuiProcess:
                 if self.proc.poll() is not None:
                     break
                 continue
-            m = re.search(r"camcmm GUI: (http://\S+)", line)
+            m = re.search(r"camcmm GUI: (https?://\S+)", line)
             if m:
                 self.url = m.group(1)
         if self.url is None:
             self.kill()
             raise CamcmmError("the GUI server did not print its URL: " + " | ".join(self.log[-20:]))
+        u = urlsplit(self.url)
+        self.base = f"{u.scheme}://{u.netloc}/"
+        self.token: str | None = parse_qs(u.query).get("token", [None])[0]
+
+    def at(self, path: str, token: bool = True) -> str:
+        """The address of ``path`` on the server (``/projector``), with the token."""
+        url = self.base.rstrip("/") + "/" + path.lstrip("/")
+        return f"{url}?{urlencode({'token': self.token})}" if token and self.token else url
 
     def kill(self) -> None:
         """SIGKILL: no shutdown handler runs, as in a crash or a pulled plug."""

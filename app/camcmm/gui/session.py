@@ -349,7 +349,7 @@ class Session:
             path, obj, label = self.read_file(source, name)
             return self._register(path, obj, label)
         except Exception as exc:
-            self.error(self._reason(exc, label))
+            self.error(self._import_reason(exc, label, source))
             return None
         finally:
             self.state.importing = False
@@ -369,12 +369,22 @@ class Session:
                 self._executor, self.read_file, source, name)
             return self._register(path, obj, label)
         except Exception as exc:
-            self.error(self._reason(exc, label))
+            self.error(self._import_reason(exc, label, source))
             return None
         finally:
             self.state.importing = False
             self._drop_upload(source)
             self._flush()
+
+    def _import_reason(self, exc: BaseException, label: str, source: Any) -> str:
+        """The one-line reason; for a file read on the server, without the bytes a
+        reader quotes from it (the page shows what failed, not what the file holds)."""
+        msg = self._reason(exc, label)
+        if isinstance(source, (str, Path)):
+            from .roots import redact
+
+            msg = redact(msg, keep=(label, str(source)))
+        return msg
 
     def _drop_upload(self, source: Any) -> None:
         """Delete the temp copies of uploads (the project keeps its own copy)."""

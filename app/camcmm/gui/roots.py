@@ -1,0 +1,119 @@
+"""The folders a browser may reach on the server: the project folder and the data
+roots the operator named at start (``camcmm serve --data-root DIR``, repeatable).
+
+Every path that comes from the page — "import a file on the server", the Calibration
+page's server folder, a plugin parameter that names a file or an output folder, an
+input typed as a path — goes through :meth:`Roots.check` before the server touches
+it. A path is resolved first (``~``, ``..`` and symlinks: a link inside a root that
+points outside is outside), then it must lie in one of the roots. A refusal is one
+line naming the path as typed; it never says whether the path exists, nor shows a
+byte of it. A relative path is taken from the project folder.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any, Iterable
+
+from ..errors import InputError
+
+#: parameter names that name a file or a folder when a manifest does not say so (``path: true``)
+PATH_NAMES = frozenset({"save", "out", "output", "outdir", "directory", "dir", "folder", "path", "file",
+                        "plan", "cti"})
+PATH_SUFFIXES = ("_path", "_dir", "_file", "_folder", "_directory")
+
+
+class Roots:
+    """The folders a browser may reach, resolved once. ``folders[0]`` is the project's."""
+
+    def __init__(self, project_dir: str | Path, data_roots: Iterable[str | Path] = ()):
+        folders = [Path(project_dir).expanduser().resolve()]
+        for d in data_roots or ():
+            p = Path(d).expanduser()
+            if not p.is_dir():
+                raise InputError(f"--data-root {d}: {'is not a folder' if p.exists() else 'no such folder'}")
+            folders.append(p.resolve())
+        self.folders: tuple[Path, ...] = tuple(dict.fromkeys(folders))
+
+    @property
+    def project(self) -> Path:
+        return self.folders[0]
+
+    def allows(self, path: str | Path) -> bool:
+        try:
+            self.check(path)
+        except InputError:
+            return False
+        return True
+
+    def check(self, path: str | Path, what: str = "") -> Path:
+        """``path`` resolved, if it lies in a root; else :class:`InputError` (one line).
+
+        ``what`` names the field for the message (``"server folder"``, ``"parameter 'out'"``).
+        """
+        text = str(path).strip().strip('"').strip()
+        label = f"{what}: {text}" if what else text
+        if not text or "\x00" in text:
+            raise InputError(f"{label or what or 'path'}: not a path")
+        p = Path(text).expanduser()
+        if not p.is_absolute():
+            p = self.project / p
+        try:
+            r = p.resolve()
+        except (OSError, RuntimeError) as exc:  # a symlink loop
+            raise InputError(f"{label}: cannot be resolved ({type(exc).__name__})") from None
+        if any(r == f or r.is_relative_to(f) for f in self.folders):
+            return r
+        raise InputError(f"{label}: outside the folders this server may read (project folder and --data-root); "
+                         "start camcmm serve with --data-root FOLDER to allow another folder")
+
+    def check_run(self, spec: Any, params: dict[str, Any] | None, inputs: dict[str, Any] | None,
+                  item_types: Iterable[str] = ()) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The form's ``params`` and ``inputs`` for plugin ``spec`` with every path
+        checked and made absolute (``(params, inputs)`` copies); InputError for the first
+        one outside the roots. An input whose type the form offers as a project item
+        (``item_types``) holds an item id, not a path, and is left alone."""
+        params, inputs = dict(params or {}), dict(inputs or {})
+        for p in getattr(spec, "parameters", ()) or ():
+            v = params.get(p.name)
+            if is_path_param(p) and isinstance(v, str) and v.strip():
+                params[p.name] = str(self.check(v, f"parameter {p.name!r}"))
+        items = set(item_types)
+        for port in getattr(spec, "inputs", ()) or ():
+            v = inputs.get(port.name)
+            if port.type in items or v in (None, ""):
+                continue
+            if isinstance(v, str) and v.lstrip()[:1] in ("{", "["):
+                continue  # inline JSON typed into the field, not a path
+            if isinstance(v, str):
+                inputs[port.name] = str(self.check(v, f"input {port.name!r}"))
+            elif isinstance(v, (list, tuple)):
+                inputs[port.name] = [str(self.check(x, f"input {port.name!r}")) for x in v]
+        return params, inputs
+
+
+def is_path_param(p: Any) -> bool:
+    """Does parameter declaration ``p`` name a file or folder? Declared ``path: true``,
+    or a ``str`` parameter named like one (``out``, ``save``, ``*_dir`` ...)."""
+    if getattr(p, "path", False):
+        return True
+    if getattr(p, "type", "") != "str":
+        return False
+    name = str(getattr(p, "name", "")).lower()
+    return name in PATH_NAMES or name.endswith(PATH_SUFFIXES)
+
+
+_QUOTED = re.compile(r"""(?<![\w])(['"])(?:(?!\1).){1,400}?\1""")
+
+
+def redact(message: str, keep: Iterable[str] = ()) -> str:
+    """``message`` with quoted snippets (a reader quoting the line it could not parse)
+    replaced by ``'…'``: the page names the file and the reason, not its content.
+    Quoted strings equal to one of ``keep`` (the file's name) stay."""
+    kept = {str(k) for k in keep if k}
+
+    def sub(m: re.Match) -> str:
+        return m.group(0) if m.group(0)[1:-1] in kept else "'…'"
+
+    return _QUOTED.sub(sub, str(message))

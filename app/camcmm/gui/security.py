@@ -1,0 +1,231 @@
+"""Who may drive the server: a browser holding the per-launch token, on a page of the
+server's own origin.
+
+One aiohttp middleware in front of every route of trame's web server — the app page
+and its assets, the websocket ``/ws`` (which carries uploads too), the pages' served
+download folders and ``/projector*`` — does three checks:
+
+1. an ``Origin`` header (sent by browsers on websocket handshakes and POSTs) must be
+   the origin the browser reached the server at (its ``Host``) or one named with
+   ``--allow-origin``; a subresource request another site or port started
+   (``Sec-Fetch-Site``) is refused too;
+2. the token: ``?token=`` in the URL once (as Jupyter prints it), after which an
+   HttpOnly, SameSite=Strict cookie carries it; or ``Authorization: token …`` for
+   scripts. Compared with :func:`hmac.compare_digest`;
+3. the trame client authenticates its websocket with wslink's secret, which is set to
+   the token (so the default ``wslink-secret`` no longer works): the app page is
+   redirected to ``index.html?secret=…``, which the client reads and removes from the
+   address bar.
+
+Refusals are ``403`` with one line of text. The token is random per launch
+(:func:`new_token`), or a fixed password from ``$CAMCMM_TOKEN`` or a token file.
+"""
+
+from __future__ import annotations
+
+import hmac
+import ipaddress
+import os
+import secrets
+from pathlib import Path
+from typing import Any, Iterable
+from urllib.parse import urlencode, urlsplit
+
+from ..errors import CamcmmError
+
+TOKEN_ENV = "CAMCMM_TOKEN"
+MIN_TOKEN_LENGTH = 16
+SECURITY_DOC = "docs/security.md"
+#: the paths of the app page (the ones that get ``?secret=`` for the trame client)
+APP_PAGES = ("/", "/index.html")
+
+
+def new_token() -> str:
+    """A fresh random token: 32 bytes, URL-safe base64 (43 characters)."""
+    return secrets.token_urlsafe(32)
+
+
+def is_loopback(host: str) -> bool:
+    """Does binding to ``host`` keep the server on this machine?"""
+    h = str(host or "").strip().strip("[]").lower()
+    if h == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(h).is_loopback
+    except ValueError:
+        return False  # a name: it may resolve to any interface
+
+
+def choose_token(host: str, no_token: bool = False, token_file: str | Path | None = None,
+                 env: dict[str, str] | None = None) -> str | None:
+    """The token for this launch: from ``token_file``, else ``$CAMCMM_TOKEN``, else a
+    new random one; ``None`` with ``no_token``, which only a loopback address allows.
+    Raises CamcmmError (one line) for a refused combination or a weak password."""
+    env = os.environ if env is None else env
+    if no_token:
+        if not is_loopback(host):
+            raise CamcmmError(f"--no-token: refused for --host {host}: beyond this machine every client needs "
+                              f"the token (see {SECURITY_DOC})")
+        return None
+    if token_file:
+        try:
+            token = Path(token_file).expanduser().read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise CamcmmError(f"--token-file {token_file}: cannot read it ({type(exc).__name__})") from None
+        source = f"--token-file {token_file}"
+    elif env.get(TOKEN_ENV, "").strip():
+        token, source = env[TOKEN_ENV].strip(), f"${TOKEN_ENV}"
+    else:
+        return new_token()
+    if len(token) < MIN_TOKEN_LENGTH or any(c.isspace() for c in token):
+        raise CamcmmError(f"{source}: the token must be at least {MIN_TOKEN_LENGTH} characters without spaces")
+    return token
+
+
+def binding_warning(host: str, tls: bool) -> str | None:
+    """A one-line warning for a server reachable from the network without TLS."""
+    if is_loopback(host) or tls:
+        return None
+    return (f"camcmm: warning: serving on {host} without TLS: the token and all data cross the network in "
+            f"clear text; run behind a TLS reverse proxy or give --certfile/--keyfile (see {SECURITY_DOC})")
+
+
+def _netloc(scheme: str, netloc: str) -> tuple[str, int | None] | None:
+    """(host, port) with the scheme's default port dropped; None when unreadable."""
+    try:
+        u = urlsplit(f"//{netloc}")
+        host, port = (u.hostname or "").lower(), u.port
+    except ValueError:
+        return None
+    if not host:
+        return None
+    if port == {"http": 80, "https": 443, "ws": 80, "wss": 443}.get(scheme):
+        port = None
+    return host, port
+
+
+class Guard:
+    """The checks above, for one server. ``token=None`` checks the origin only
+    (``--no-token`` on a loopback address)."""
+
+    def __init__(self, token: str | None, allowed_origins: Iterable[str] = ()):
+        self.token = token
+        self.allowed_origins = frozenset(o.rstrip("/").lower() for o in allowed_origins if o)
+        self.cookie_name = "camcmm-token"
+        self.refused = 0  # count, for tests and the log
+
+    # -- wiring ----------------------------------------------------------------------------
+    def install(self, server: Any) -> None:
+        """Put the middleware in front of every route when trame's web server is made
+        (before its routes freeze)."""
+
+        def bind(wslink_server: Any) -> None:
+            wslink_server.app.middlewares.append(self.middleware)
+
+        def ready(**_: Any) -> None:  # one cookie per port: two servers on one host keep theirs
+            self.cookie_name = f"camcmm-token-{server.port}"
+
+        server.controller.on_server_bind.add(bind)
+        server.controller.on_server_ready.add(ready)
+
+    def url(self, base: str) -> str:
+        """``base`` (``http://HOST:PORT/``) with ``?token=`` when there is one."""
+        return f"{base}?{urlencode({'token': self.token})}" if self.token else base
+
+    def wslink_args(self) -> list[str]:
+        """trame's command-line arguments that make the websocket's secret the token."""
+        return ["--authKey", self.token] if self.token else []
+
+    # -- checks ----------------------------------------------------------------------------
+    def origin_ok(self, origin: str, request: Any) -> bool:
+        o = origin.strip().rstrip("/").lower()
+        if o in self.allowed_origins:
+            return True
+        try:
+            u = urlsplit(o)
+        except ValueError:
+            return False
+        if u.scheme not in ("http", "https") or not u.netloc:
+            return False  # "null" (a sandboxed frame, a file:// page) and the like
+        mine = _netloc(u.scheme, request.headers.get("Host", ""))
+        return mine is not None and _netloc(u.scheme, u.netloc) == mine
+
+    def token_ok(self, supplied: str | None) -> bool:
+        return bool(self.token) and supplied is not None and hmac.compare_digest(
+            str(supplied).encode("utf-8", "replace"), self.token.encode("utf-8"))
+
+    def _header_token(self, request: Any) -> str | None:
+        auth = request.headers.get("Authorization", "")
+        for scheme in ("token ", "bearer "):
+            if auth.lower().startswith(scheme):
+                return auth[len(scheme):].strip()
+        return None
+
+    def _refuse(self, why: str) -> Any:
+        from aiohttp import web
+
+        self.refused += 1
+        return web.Response(status=403, text=f"camcmm: {why}\n", content_type="text/plain")
+
+    def _redirect(self, request: Any, query: dict[str, str], set_cookie: bool) -> Any:
+        """To the same page (a relative address: right behind a proxy's path prefix
+        too) with ``query``; setting the cookie on the way."""
+        from aiohttp import web
+
+        if request.path in APP_PAGES:
+            name = "index.html"
+        else:
+            name = request.path.rsplit("/", 1)[-1] or "./"
+        resp = web.Response(status=302, headers={"Location": name + (f"?{urlencode(query)}" if query else ""),
+                                                 "Cache-Control": "no-store", "Referrer-Policy": "no-referrer"})
+        if set_cookie:
+            secure = request.secure or request.headers.get("X-Forwarded-Proto", "").lower() == "https"
+            resp.set_cookie(self.cookie_name, self.token, httponly=True, samesite="Strict", path="/",
+                            secure=secure)
+        return resp
+
+    async def check(self, request: Any) -> Any | None:
+        """None when ``request`` may go on; else the response that refuses or redirects it."""
+        origin = request.headers.get("Origin")
+        if origin is not None and not self.origin_ok(origin, request):
+            return self._refuse("refused: a page from another origin may not use this server")
+        site = request.headers.get("Sec-Fetch-Site", "")
+        if site in ("cross-site", "same-site") and request.headers.get("Sec-Fetch-Mode", "") != "navigate":
+            return self._refuse("refused: a request started by another site")
+        if not self.token:
+            return None
+        upgrade = request.headers.get("Upgrade", "").lower() == "websocket"
+        query = dict(request.query)
+        if "token" in query:
+            if not self.token_ok(query.pop("token")):
+                return self._refuse("wrong token: open the address camcmm serve printed")
+            if request.method == "GET" and not upgrade:
+                if request.path in APP_PAGES:
+                    query["secret"] = self.token
+                return self._redirect(request, query, set_cookie=True)
+            return None
+        if self.token_ok(self._header_token(request)):
+            return None
+        if self.token_ok(request.cookies.get(self.cookie_name)):
+            if request.method == "GET" and request.path in APP_PAGES and not upgrade \
+                    and not self.token_ok(query.get("secret")):
+                query["secret"] = self.token  # a reload: the client removed it from the address
+                return self._redirect(request, query, set_cookie=False)
+            return None
+        return self._refuse("this server needs its token: open the address camcmm serve printed "
+                            "(it ends in ?token=...)")
+
+    @property
+    def middleware(self) -> Any:
+        from aiohttp import web
+
+        guard = self
+
+        @web.middleware
+        async def camcmm_guard(request: Any, handler: Any) -> Any:
+            refusal = await guard.check(request)
+            if refusal is not None:
+                return refusal
+            return await handler(request)
+
+        return camcmm_guard
