@@ -136,7 +136,9 @@ class PluginHost:
         self.errors: list[PluginSpec] = []
         self._loaded: dict[str, Any] = {}
         self._lock = threading.Lock()
-        eps = md.entry_points(group=GROUP) if entry_points is None else entry_points
+        # kept so that a worker process can build the same host (camcmm.worker); None: installed
+        self.entry_points = None if entry_points is None else list(entry_points)
+        eps = md.entry_points(group=GROUP) if entry_points is None else self.entry_points
         for ep in sorted(eps, key=lambda e: e.name):
             self._read(ep)
 

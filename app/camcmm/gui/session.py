@@ -28,6 +28,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import worker  # plugin runs in a worker process: a native crash cannot end the server
 from ..errors import CamcmmError, InputError, PluginError
 from ..host import RunResult, default_host, to_jsonable
 from ..params import form_schema, validate
@@ -643,7 +644,7 @@ class Session:
             return None
         cancel = self._begin_run(plugin_id)
         try:
-            result = self.host.run(plugin_id, inputs=objs, params=values, progress=self._progress_cb, cancel=cancel)
+            result = worker.run(self.host, plugin_id, objs, values, progress=self._progress_cb, cancel=cancel)
         except Exception as exc:
             self._run_failed(plugin_id, exc)
             return None
@@ -668,7 +669,7 @@ class Session:
         try:
             result = await loop.run_in_executor(
                 self._executor,
-                lambda: self.host.run(plugin_id, inputs=objs, params=values, progress=self._progress_cb, cancel=cancel))
+                lambda: worker.run(self.host, plugin_id, objs, values, progress=self._progress_cb, cancel=cancel))
         except Exception as exc:
             self._run_failed(plugin_id, exc)
             self._flush()
