@@ -150,6 +150,7 @@ def test_simulated_interferometer_follows_a_stage():
 
     stage = SimulatedStage("lin", speed=1000.0).connect()
     laser = SimulatedInterferometer(follow=stage, noise=0.001, seed=3).connect()
+    stage.home()
     stage.move_abs(42.0)
     m = laser.read_mean(200)
     assert m["mean"] == pytest.approx(42.0, abs=4 * 0.001 / np.sqrt(200))

@@ -86,6 +86,7 @@ def test_refusals_name_the_device_and_port(stage, sim):
         stage.request("frobnicate")
     wide = ZaberStage(sim.stage_port, name="wide", resolution=RES, travel=(-1000, 1000)).connect()
     try:
+        wide.home()
         with pytest.raises(DeviceError, match=r"refused 'move abs -\d+': BADDATA"):
             wide.move_abs(-5)  # the device's own limit refuses it
     finally:
@@ -125,7 +126,7 @@ def test_garbled_replies(stage):
     stage.home()
     stage.request("sim garble 1")
     assert stage.position() == 0.0  # a query is safe to repeat: retried once
-    stage.request("sim garble 1")
+    stage.request("sim garble 1 move")
     with pytest.raises(DeviceError, match="garbled reply to 'move abs"):
         stage.move_abs(5.0)  # a move is not repeated blindly
     assert stage.status().state == "fault"

@@ -3,7 +3,16 @@ read-back, wait until idle) in user units, mm for linear and degrees for rotary 
 
 A concrete stage implements four primitives in its own units: ``_home``,
 ``_move_abs(value)``, ``_poll() -> (busy, position)`` and ``_stop``; the base class adds
-the waiting, the time-outs, limit checks and the status/position events.
+the waiting, the time-outs, limit checks, the homing guard and the status/position
+events. A stage whose controller can tell whether it holds a reference position also
+implements ``_referenced() -> bool``, asked before every move.
+
+Moves need a reference: a stage that is not homed (after power-up, or since its
+controller reset and lost the position) refuses ``move_abs`` and ``move_rel`` with a
+one-line :class:`DeviceError` until it is homed, unless the caller confirms with
+``allow_unhomed=True``. Relative moves are refused too: the travel limits are checked
+in the controller's count, which without a reference no longer says where the carriage
+is, so a relative move can drive into the end stop as well as an absolute one.
 """
 
 from __future__ import annotations
@@ -18,7 +27,10 @@ from .base import Device, DeviceTimeout, param
 class Stage(Device):
     """One motion axis. ``unit`` is ``"mm"`` or ``"deg"``. Moves wait for the end of the
     motion unless ``wait=False``; a motion that takes longer than the setting
-    ``move_timeout_s`` raises :class:`DeviceTimeout` (the stage is then told to stop)."""
+    ``move_timeout_s`` raises :class:`DeviceTimeout` (the stage is then told to stop).
+
+    ``homed`` is True once the axis holds a reference position; a subclass sets it
+    False when the controller reports that it lost it (a reset, a power cycle)."""
 
     kind = "stage"
     unit = "mm"
@@ -30,8 +42,19 @@ class Stage(Device):
 
     def __init__(self, name: str = "", port: str = "", limits: tuple[float, float] | None = None, **settings: Any):
         self.limits: tuple[float, float] | None = tuple(limits) if limits is not None else None  # type: ignore[assignment]
-        self.homed = False
+        self._homed = False
+        self._unhomed_since = ""  # why the reference is missing, for the refusal
         super().__init__(name, port, **settings)
+
+    @property
+    def homed(self) -> bool:
+        return self._homed
+
+    @homed.setter
+    def homed(self, value: bool) -> None:
+        if self._homed and not value:
+            self._unhomed_since = "since the controller reset"
+        self._homed = bool(value)
 
     # -- public API ---------------------------------------------------------------------
     def home(self, wait: bool = True) -> float | None:
@@ -39,30 +62,55 @@ class Stage(Device):
         with self.guard("homing"):
             self.require()
             self._set_status("busy", "homing")
+            self._homed = False  # the old reference is void from here on (no "reset" reason)
             self._home()
         if wait:
             pos = self.wait_idle()
+            with self.guard("checking the reference position"):
+                known = self._referenced()
+                if known is False:
+                    raise self.error("homing ended without a reference position")
             self.homed = True
+            self._unhomed_since = ""
             return pos
         return None
 
-    def move_abs(self, position: float, wait: bool = True) -> float | None:
-        """Move to ``position`` (unit). Returns the read-back position when waiting."""
+    def move_abs(self, position: float, wait: bool = True, allow_unhomed: bool = False) -> float | None:
+        """Move to ``position`` (unit). Returns the read-back position when waiting.
+        Refused while the stage is not homed unless ``allow_unhomed`` (the operator
+        confirmed that the axis may move without a reference)."""
         value = float(position)
         if not math.isfinite(value):
             raise self.error(f"target position {position!r} is not a finite number")
         if self.limits is not None and not (self.limits[0] - 1e-9 <= value <= self.limits[1] + 1e-9):
             raise self.error(f"target {value:g} {self.unit} is outside the travel "
                              f"{self.limits[0]:g} .. {self.limits[1]:g} {self.unit}")
+        if not allow_unhomed:
+            self.require_homed()
         with self.guard(f"moving to {value:g} {self.unit}"):
             self.require()
             self._set_status("busy", f"moving to {value:g} {self.unit}")
             self._move_abs(value)
         return self.wait_idle() if wait else None
 
-    def move_rel(self, distance: float, wait: bool = True) -> float | None:
-        """Move by ``distance`` (unit) from the current position."""
-        return self.move_abs(self.position() + float(distance), wait=wait)
+    def move_rel(self, distance: float, wait: bool = True, allow_unhomed: bool = False) -> float | None:
+        """Move by ``distance`` (unit) from the current position; refused while not
+        homed, as :meth:`move_abs`."""
+        if not allow_unhomed:
+            self.require_homed()
+        return self.move_abs(self.position() + float(distance), wait=wait, allow_unhomed=True)
+
+    def require_homed(self) -> None:
+        """Raise a one-line DeviceError unless the axis holds a reference position
+        (asking the controller when it can tell). Not a device fault: the status stays."""
+        with self.guard("checking the reference position"):
+            self.require()
+            known = self._referenced()
+        if known is not None:
+            self.homed = known
+        if not self.homed:
+            why = self._unhomed_since or "yet"
+            raise self.error(f"not homed {why}; home it first (or confirm with allow_unhomed=True)")
 
     def position(self) -> float:
         """The position read back from the device (unit)."""
@@ -77,9 +125,11 @@ class Stage(Device):
 
     def wait_idle(self, timeout: float | None = None, poll_s: float = 0.05) -> float:
         """Poll until the axis stops; returns the final position. A time-out stops the
-        axis and raises DeviceTimeout. Each poll emits ``position`` (float)."""
+        axis and raises DeviceTimeout; a stage that lost its reference during the motion
+        (a controller reset) raises DeviceError. Each poll emits ``position`` (float)."""
         limit = float(self._settings["move_timeout_s"] if timeout is None else timeout)
         deadline = time.monotonic() + limit
+        was_homed = self.homed
         while True:
             with self.guard("waiting for the end of the motion"):
                 busy, pos = self._poll()
@@ -94,6 +144,13 @@ class Stage(Device):
                     self._fault(err)
                 raise err
             time.sleep(poll_s)
+        if was_homed and not self.homed:
+            # the controller reset mid-move: it stopped and counts from 0, so the end
+            # position is no answer to the move
+            err = self.error(f"lost its reference during the motion (the controller reset) at {pos:g} {self.unit};"
+                             " home it again")
+            self._fault(err)
+            raise err
         settle = float(self._settings.get("settle_s") or 0.0)
         if settle:
             time.sleep(settle)
@@ -115,6 +172,11 @@ class Stage(Device):
         self._set_status("busy" if busy else "ready", "", position=pos)
 
     # -- primitives -------------------------------------------------------------------------
+    def _referenced(self) -> bool | None:
+        """Whether the controller holds a reference position (None: it cannot tell;
+        then :attr:`homed` as set by :meth:`home` decides)."""
+        return None
+
     def _home(self) -> None:
         raise NotImplementedError
 

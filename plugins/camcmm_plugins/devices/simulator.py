@@ -19,9 +19,20 @@ Faults, for tests, as commands on the stage port (simulator only)::
 
     /1 0 sim mute 2      no reply to the next 2 commands (time-outs)
     /1 0 sim garble 1    the next reply is garbled
+    /1 0 sim garble 1 move   ... the next reply to a command starting with 'move'
     /1 0 sim delay 1.5   reply 1.5 s late from now on (0 ends it)
     /1 0 sim hang        never answer again (a hung controller)
     /1 0 sim exit        the process ends at once (a pulled cable / power loss)
+    /1 0 sim exit 3      ... when the 3rd command from now arrives, unanswered (mid-move)
+    /1 0 sim hang 3      ... likewise: the controller stops answering at the 3rd command
+    /1 0 sim reset [3]   the controller resets (now, or at the 3rd command): axes stop,
+                         positions count from 0 and have no reference (WR) until homed
+    /1 0 sim stall       the next move never reaches its target (BUSY until ``stop``)
+    /1 0 sim alerts 2    the next 2 replies come after an alert (``!``) and an info
+                         (``#``) line
+    /1 0 sim noise 2     the next 2 replies come among line noise: a truncated reply to
+                         another message id, a line of junk bytes, and the remains of a
+                         truncated alert in front of the reply on the same line
 
 Killing the process (SIGKILL) is the other disconnection. Standard library only, so the
 process starts in a fraction of a second.
@@ -52,8 +63,11 @@ class SimAxis:
         self.start = self.target = 0.0
         self.t0 = 0.0
         self.homed = False
+        self.stall_next = self.stalled = False
 
     def pos(self) -> float:
+        if self.stalled:  # held up (an obstruction, a slipping coupling): busy, not moving
+            return self.start
         span = self.target - self.start
         moved = (time.monotonic() - self.t0) * self.speed
         return self.target if moved >= abs(span) else self.start + math.copysign(moved, span)
@@ -63,10 +77,17 @@ class SimAxis:
 
     def move_to(self, target: float) -> None:
         self.start, self.target, self.t0 = self.pos(), float(target), time.monotonic()
+        self.stalled, self.stall_next = self.stall_next and target != self.start, False
 
     def stop(self) -> None:
         p = self.pos()
         self.start = self.target = p
+        self.stalled = False
+
+    def reset(self) -> None:
+        # a controller reset: the motion ends where it is and the count restarts at 0
+        self.start = self.target = 0.0
+        self.homed = self.stalled = self.stall_next = False
 
 
 class ZaberSim:
@@ -79,8 +100,12 @@ class ZaberSim:
         self.axes = [SimAxis(speed_steps, lim) for _ in range(axes)]
         self.mute = 0
         self.garble = 0
+        self.garble_only = ""
+        self.alerts = 0
+        self.noise = 0
         self.delay = 0.0
         self.hung = False
+        self.at_command: dict[str, int] = {}  # fault -> commands until it strikes
 
     def handle(self, line: str) -> list[str]:
         text = line.strip()
@@ -99,6 +124,11 @@ class ZaberSim:
             return []
         if tokens[:1] == ["sim"]:
             return [self._reply(axis, mid, True, self._sim(tokens[1:]))]
+        for fault in list(self.at_command):
+            self.at_command[fault] -= 1
+            if self.at_command[fault] <= 0:
+                del self.at_command[fault]
+                self._strike(fault)
         if self.hung:
             return []
         if self.mute > 0:
@@ -108,10 +138,29 @@ class ZaberSim:
             return [self._reply(axis, mid, False, "BADAXIS")]
         ok, data = self._command(axis, tokens)
         reply = self._reply(axis, mid, ok, data)
-        if self.garble > 0:
+        if self.garble > 0 and " ".join(tokens).startswith(self.garble_only):
             self.garble -= 1
             reply = reply[: max(4, len(reply) // 2)] + "~#~"
-        return [reply]
+        out = [reply]
+        if self.alerts > 0:
+            self.alerts -= 1
+            out[:0] = [f"!{self.address:02d} {axis or 1} IDLE --", f"#{self.address:02d} {axis} 0 simulated info line"]
+        if self.noise > 0:
+            self.noise -= 1
+            other = f" {(int(mid) + 50) % 100}" if mid is not None else ""
+            out = ([f"@{self.address:02d} {axis}{other} OK BU", "\x00\x7f~%&\x15 ="]
+                   + out[:-1] + [f"!{self.address:02d} {axis or 1} ID" + out[-1]])
+        return out
+
+    def _strike(self, fault: str) -> None:
+        if fault == "exit":
+            os._exit(3)
+        elif fault == "hang":
+            self.hung = True
+        elif fault == "reset":
+            for a in self.axes:
+                a.reset()
+            self.mute = self.garble = self.alerts = self.noise = 0
 
     def _sim(self, args: list[str]) -> str:
         what = args[0] if args else ""
@@ -119,13 +168,21 @@ class ZaberSim:
         if what == "mute":
             self.mute = int(n)
         elif what == "garble":
-            self.garble = int(n)
+            self.garble, self.garble_only = int(n), " ".join(args[2:])
+        elif what == "alerts":
+            self.alerts = int(n)
+        elif what == "noise":
+            self.noise = int(n)
         elif what == "delay":
             self.delay = float(n)
-        elif what == "hang":
-            self.hung = True
-        elif what == "exit":
-            os._exit(3)
+        elif what == "stall":
+            for a in self.axes:
+                a.stall_next = True
+        elif what in ("hang", "exit", "reset"):
+            if len(args) > 1 and int(n) > 0:
+                self.at_command[what] = int(n)
+            else:
+                self._strike(what)
         return "0"
 
     def _reply(self, axis: int, mid: str | None, ok: bool, data: str) -> str:

@@ -15,13 +15,20 @@ microsteps (or encoder counts); ``resolution`` converts them to mm or degrees. S
 are sent as ``maxspeed`` data = microsteps/s x 1.6384 (the manual's velocity unit).
 
 Message ids (0..99) are sent with every command so that a reply arriving after its
-command timed out is never taken for the reply to the next command. The checksum is the
+command timed out is never taken for the reply to the next command. They also sort out
+line noise: an unreadable line that carries this command's id is its reply, garbled
+(an error, or a retry for a query); any other unreadable line (a truncated reply to
+another id, junk after a cable was jiggled) is counted, reported in the status' health
+(``garbled_lines``, ``last_garbled``) and skipped, as are alerts (``!``, counted in
+``alerts``) and info lines (``#``). A reply glued to the remains of a truncated line is
+recovered from its ``@``. The checksum is the
 manual's: the two's complement of the byte sum of the text between the leading ``/``
 or ``@`` and the ``:``, as two upper-case hex digits.
 """
 
 from __future__ import annotations
 
+import logging
 import re
 import time
 from dataclasses import dataclass
@@ -31,8 +38,11 @@ from camcmm.api import DeviceDisconnected, DeviceError, DeviceTimeout, port_erro
 from .stage import Stage
 
 VELOCITY_UNIT = 1.6384  # Zaber: speed data = microsteps per second x 1.6384
+MAX_LINE = 4096  # bytes without a line end that count as one unreadable line
 
 _REPLY = re.compile(r"^@(\d{2}) (\d+) (?:(\d{1,2}) )?(OK|RJ) (BUSY|IDLE) (\S\S) ?(.*)$")
+_HEAD = re.compile(r"^@(\d{2}) (\d+)(?: (\d{1,2})\b)?")  # what a garbled reply may still tell
+log = logging.getLogger("camcmm.devices")
 
 
 def checksum(body: str) -> str:
@@ -105,6 +115,8 @@ class ZaberLink:
         self._buf = b""
         self._next_id = 0
         self.last_reply = 0.0
+        self.garbled = self.alerts = 0  # unreadable lines and alerts skipped since open
+        self.last_garbled = self.last_alert = ""
 
     def open(self) -> None:
         import serial  # pyserial; imported here so that the manifest loads without it
@@ -147,18 +159,30 @@ class ZaberLink:
             mid, self._next_id = self._next_id, (self._next_id + 1) % 100
         line = format_command(device, axis, command, mid, self.checksums)
         deadline = time.monotonic() + timeout
+        skipped = self.garbled
         try:
             self._ser.write(line)
             self._ser.flush()
             while True:
-                raw = self._readline(deadline)
+                # a device flooding lines must not keep us here past the deadline
+                raw = self._readline(deadline) if time.monotonic() < deadline else None
                 if raw is None:
-                    raise self.error(f"no reply to {command or 'status'!r} within {timeout:g} s", DeviceTimeout)
+                    n = self.garbled - skipped
+                    noise = f" ({n} unreadable line{'s' * (n != 1)} meanwhile, last {self.last_garbled})" if n else ""
+                    raise self.error(f"no reply to {command or 'status'!r} within {timeout:g} s{noise}", DeviceTimeout)
+                text = raw.decode("ascii", "replace").strip()
                 try:
-                    reply = parse_reply(raw.decode("ascii", "replace"))
+                    reply, junk = _salvage(text)
                 except ValueError as exc:
-                    raise _Garbled(str(exc)) from None
+                    if _is_reply_to(text, device, axis, mid):
+                        raise _Garbled(str(exc)) from None
+                    self._skip_garbled(text)
+                    continue
+                if junk:
+                    self._skip_garbled(junk)
                 if reply is None:
+                    if text.startswith("!"):
+                        self.alerts, self.last_alert = self.alerts + 1, text[:60]
                     continue  # info or alert line
                 if reply.device != device or (axis and reply.axis not in (0, axis)):
                     continue  # another device on the daisy chain
@@ -169,8 +193,16 @@ class ZaberLink:
         except port_errors() as exc:
             raise self.error(f"port lost ({_short(exc)})", DeviceDisconnected) from None
 
+    def _skip_garbled(self, text: str) -> None:
+        self.garbled += 1
+        self.last_garbled = repr(text[:40])
+        log.warning("%s: skipped an unreadable line %s", self.url, self.last_garbled)
+
     def _readline(self, deadline: float) -> bytes | None:
         while b"\n" not in self._buf:
+            if len(self._buf) > MAX_LINE:  # junk without line ends: one unreadable line
+                line, self._buf = self._buf, b""
+                return line
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
@@ -179,6 +211,26 @@ class ZaberLink:
             self._buf += chunk
         line, _, self._buf = self._buf.partition(b"\n")
         return line.rstrip(b"\r")
+
+
+def _salvage(text: str) -> tuple[Reply | None, str]:
+    """(reply or None, junk in front of it) for one received line; a reply glued to the
+    remains of a truncated line is recovered from its last '@'. ValueError if unreadable."""
+    at = text.rfind("@")
+    if at > 0:
+        try:
+            return parse_reply(text[at:]), text[:at]
+        except ValueError:
+            pass
+    return parse_reply(text), ""
+
+
+def _is_reply_to(text: str, device: int, axis: int, msg_id: int | None) -> bool:
+    """Whether an unreadable line still shows that it is the reply to this command."""
+    m = _HEAD.match(text)
+    if not m or int(m.group(1)) != device or (axis and int(m.group(2)) not in (0, axis)):
+        return False
+    return msg_id is None or (m.group(3) is not None and int(m.group(3)) == msg_id)
 
 
 class _Garbled(Exception):
@@ -220,17 +272,31 @@ class ZaberStage(Stage):
         """Send a raw command to this axis and return its reply (RJ raises)."""
         with self.guard(f"{command!r}"):
             self.require()
-            reply = self._link.request(self.address, self.axis, command, timeout, retries)
-            self._note(reply)
+            reply = self._ask(command, retries, timeout)
             if not reply.ok:
                 raise self.error(f"refused {command!r}: {reply.data or 'rejected'}")
             return reply
+
+    def _ask(self, command: str, retries: int = 1, timeout: float | None = None) -> Reply:
+        try:
+            reply = self._link.request(self.address, self.axis, command, timeout, retries)
+        finally:
+            self._note_link()
+        self._note(reply)
+        return reply
 
     def _note(self, reply: Reply) -> None:
         if reply.warning == "WR":
             self.homed = False
         if reply.warning not in ("--", "NI"):
             self._status_health(warning=reply.warning)
+
+    def _note_link(self) -> None:
+        # line noise and alerts are skipped, not hidden: the counts go into the health
+        link, health = self._link, self._status.health
+        if link.garbled != health.get("garbled_lines", 0) or link.alerts != health.get("alerts", 0):
+            self._status_health(garbled_lines=link.garbled, last_garbled=link.last_garbled,
+                                alerts=link.alerts, last_alert=link.last_alert)
 
     def _status_health(self, **health: Any) -> None:
         self._set_status(self._status.state, self._status.message, **health)
@@ -243,8 +309,7 @@ class ZaberStage(Stage):
         self._link.url = self.port
         self._link.open()
         try:
-            reply = self._link.request(self.address, self.axis, "", retries=1)
-            self.homed = reply.warning != "WR"
+            self.homed = self._referenced()
             if not self._travel_given and self.unit == "mm":
                 lo = self._link.request(self.address, self.axis, "get limit.min", retries=1)
                 hi = self._link.request(self.address, self.axis, "get limit.max", retries=1)
@@ -277,11 +342,10 @@ class ZaberStage(Stage):
     def _stop(self) -> None:
         self.request("stop")
 
-    def wait_idle(self, timeout: float | None = None, poll_s: float = 0.05) -> float:
-        pos = super().wait_idle(timeout, poll_s)
-        reply = self.request("", retries=1)
-        self.homed = reply.warning != "WR"
-        return pos
+    def _referenced(self) -> bool:
+        # 'warnings' lists every flag; a reply's warning field shows only the most urgent
+        reply = self._ask("warnings")
+        return "WR" not in (reply.data.split()[1:] if reply.ok else [reply.warning])
 
     def capabilities(self) -> dict[str, Any]:
         return {**super().capabilities(), "protocol": "zaber-ascii", "address": self.address, "axis": self.axis,
