@@ -30,6 +30,8 @@ Conventions
   of the points used.
 * ``std_uncertainty`` comes from the covariance ``s² (JᵀJ)⁻¹``, ``s² = Σr²/(n − p)``;
   NaN (JSON null) with no degrees of freedom and for minimum-zone fits.
+* ``warnings`` on the result say when the element does not describe the points (form
+  systematic and large, an ill-determined direction or radius): see :mod:`.checks`.
 * Outlier rules always work on least-squares residuals; with ``method="minzone"``
   the minimum-zone element is fitted to the points the rule kept.
 * ``vdi2634`` costs O(N + m²) for lines, planes, spheres and planar circles (a few
@@ -52,6 +54,7 @@ from camcmm.api import ParameterError
 
 from . import minzone
 from ._geometry import Frame, as_points
+from .checks import fit_warnings
 from .circles import CIRCLE3D
 from .cylinders import CYLINDER
 from .lines import LINE2D, LINE3D
@@ -113,12 +116,14 @@ def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = 
         residuals *= frame.scale
     else:
         residuals = model.residuals(state, y) * frame.scale
+    warnings = fit_warnings(element, params, std, x[used], residuals[used], method)
     if nominal_radius is not None and "radius" in params:
         extra["nominal_radius"] = float(nominal_radius)
         extra["radius_deviation"] = float(params["radius"] - nominal_radius)
     return FitResult(element=element, method=method, outliers=str(rule), params=params,
                      std_uncertainty=std, residuals=residuals, used=used, removed=removed,
-                     iterations=res.iterations, covariance=cov, covariance_names=names, extra=extra)
+                     iterations=res.iterations, covariance=cov, covariance_names=names, extra=extra,
+                     warnings=warnings)
 
 
 def fit_line(points: Any, outliers: str = "none", **kw) -> FitResult:

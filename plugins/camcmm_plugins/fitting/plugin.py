@@ -38,6 +38,8 @@ def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nomin
     ctx.progress(0.05, f"{element} fit")
     res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
     out = res.to_dict()
+    for w in out.pop("warnings", []):   # the host's result warnings: CLI JSON and GUI
+        ctx.warn(w)
     out["removed_indices"] = res.removed
     dev = _deviations(cloud, res)
     if dev is not None:

@@ -40,6 +40,8 @@ class FitResult:
     used : (N,) bool, the points the final fit used.
     removed : indices of the removed points, in the order of removal.
     covariance : covariance of the parameters in ``covariance_names`` (mm, rad).
+    warnings : one-line warnings when the element does not describe the points (see
+        :mod:`.checks`); empty when it does.
     """
 
     element: str
@@ -54,6 +56,7 @@ class FitResult:
     covariance: np.ndarray | None = None
     covariance_names: tuple[str, ...] = ()
     extra: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def __getattr__(self, name: str) -> Any:
         params = self.__dict__.get("params", {})
@@ -98,6 +101,7 @@ class FitResult:
         d["form"] = self.form
         d["std_uncertainty"] = {k: _plain(v) for k, v in self.std_uncertainty.items()}
         d.update({k: _plain(v) for k, v in self.extra.items()})
+        d["warnings"] = list(self.warnings)
         if residuals:
             d["residuals"] = self.residuals.tolist()
             d["removed_indices"] = self.removed.tolist()

@@ -1,0 +1,165 @@
+"""Does the fitted element describe the points? Warnings for a fit that is not silent.
+
+A least-squares fit always returns *an* element: a cylinder through a sphere, a line
+through a ball of points. Three checks, each on the points the fit used, each a
+one-line warning (``FitResult.warnings``, the JSON ``warnings`` of ``camcmm fit`` and of
+the fit plugins):
+
+* **Form against noise and size.** The form rms is compared with the noise the points
+  show around the element *locally*: each point's residual vector (point minus its
+  foot on the element) against the mean of its neighbours' (neighbours found among the
+  feet, so the noise does not choose them). With the right element the residuals are
+  the noise and the two agree (ratio ~1 whatever the sampling density); with the wrong
+  one the residuals are a smooth misfit that neighbours share, and the ratio is large.
+  A real part's form deviation is smooth too, so the warning also needs the form rms to
+  be a sizeable fraction of the points' extent (:data:`FORM_FRACTION`): form errors of
+  measured parts are far below it, a wrong element's misfit is far above.
+* **Ill-determined direction.** A line's direction or a plane's normal comes from the
+  points' principal axes: when the two largest (line) or two smallest (plane) singular
+  values of the centred points are comparable, the direction is a toss-up between
+  them, however small its standard uncertainty looks with many points.
+* **Large uncertainty.** The standard uncertainty (fit covariance) of a radius relative
+  to the radius, or of a direction in degrees.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+#: Form rms above this many times the local noise estimate counts as systematic: the
+#: estimate scatters by ~10 % for a few hundred points, and the right element gives 1.
+NOISE_FACTOR = 3.0
+#: ... and only when it is also above this fraction of the points' RMS spread about their
+#: centroid: form deviations of real parts are well below 1 % of their size (0.1 mm on a
+#: 10 mm sphere is a gross one); a wrong element leaves 5-100 %.
+FORM_FRACTION = 0.01
+#: A line whose points spread across more than this fraction of their spread along it
+#: (second / first singular value), or a plane whose points are thicker than this
+#: fraction of their narrower width (third / second): the direction is ill-determined.
+SPREAD_RATIO = 0.3
+#: Form rms above this fraction of the points' RMS spread is a warning whatever the noise:
+#: points scattered that far about the element are not described by it (a circle through
+#: a flat patch, a cylinder through a sparse sphere).
+GROSS_FRACTION = 0.1
+#: Standard uncertainty of a radius above this fraction of the radius.
+MAX_REL_U_RADIUS = 0.05
+#: Standard uncertainty of a direction (line, axis, normal) above this angle, degrees.
+MAX_U_DIRECTION_DEG = 1.0
+#: Neighbours per point for the local noise estimate, how many points to estimate it at,
+#: and how many (strided) points to look for neighbours among.
+K_NEIGHBOURS = 8
+NOISE_SAMPLE = 4000
+TREE_SAMPLE = 50_000
+
+
+def residual_vectors(element: str, params: dict[str, Any], x: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """(N, d) vectors from each point's foot on the element to the point, mm; ``r`` (N,)
+    the signed residuals (their lengths, for the elements with one residual direction)."""
+    if element == "line":
+        p, a = params["point"], params["direction"]
+        y = x - p
+        return y - np.outer(y @ a, a)
+    if element == "plane":
+        return np.outer(r, params["normal"])
+    if element == "sphere" or (element == "circle" and x.shape[1] == 2):
+        y = x - params["center"]
+        return r[:, None] * y / np.maximum(np.linalg.norm(y, axis=1), 1e-300)[:, None]
+    if element == "circle":
+        c, n, rad = params["center"], params["normal"], params["radius"]
+        y = x - c
+        q = y - np.outer(y @ n, n)
+        u = q / np.maximum(np.linalg.norm(q, axis=1), 1e-300)[:, None]
+        return y - rad * u
+    if element == "cylinder":
+        p, a = params["point"], params["axis"]
+        y = x - p
+        q = y - np.outer(y @ a, a)
+        return r[:, None] * q / np.maximum(np.linalg.norm(q, axis=1), 1e-300)[:, None]
+    raise ValueError(element)
+
+
+def local_noise(feet: np.ndarray, v: np.ndarray, m: int, k: int = K_NEIGHBOURS) -> float:
+    """RMS noise (mm, as a distance) from the differences between each point's residual
+    vector ``v`` (N, d) and the mean of its k nearest neighbours' (neighbours among the
+    ``feet``). For independent Gaussian noise with ``m`` components per residual (1 on a
+    surface or a curve in the plane, 2 on a curve in space), |v_i - mean_k v_j|² is
+    (1 + 1/k) σ² times a chi-square with m degrees of freedom, σ² the variance per
+    component; the median is used, scaled by the chi-square median, so that the few
+    points where a wrong element's misfit changes steeply do not pass for noise."""
+    from scipy.spatial import cKDTree
+
+    qstep = max(1, len(feet) // NOISE_SAMPLE)
+    q = np.arange(0, len(feet), qstep)
+    _, idx = cKDTree(feet).query(feet[q], k=k + 1)
+    nb = v[idx[:, 1:]].mean(axis=1)
+    d2 = np.sum((v[q] - nb) ** 2, axis=1)
+    return float(np.sqrt(m * np.median(d2) / CHI2_MEDIAN[m] / (1.0 + 1.0 / k)))
+
+
+#: Medians of the chi-square distribution with 1 and 2 degrees of freedom.
+CHI2_MEDIAN = {1: 0.454936423119572, 2: 1.386294361119891}
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.3g}"
+
+
+def fit_warnings(element: str, params: dict[str, Any], std: dict[str, Any], x: np.ndarray,
+                 r: np.ndarray, method: str = "ls") -> list[str]:
+    """Warnings for the element ``params`` fitted to the points ``x`` (N, d) mm it used,
+    with residuals ``r`` (N,) mm (distances from the element, signed or not) and standard
+    uncertainties ``std`` (see the module docstring). Empty when the element describes
+    the points."""
+    out: list[str] = []
+    n, d = x.shape
+    if n < 3:
+        return out
+    xc = x - x.mean(axis=0)
+    # RMS spread along the principal axes (mm), largest first; only ratios of them are
+    # used, so the 3x3 scatter matrix is accurate enough
+    sv = np.sqrt(np.clip(np.linalg.eigvalsh(xc.T @ xc / n), 0.0, None))[::-1]
+    spread = float(np.sqrt(np.sum(sv ** 2)))
+    if not spread > 0:
+        return out
+    if element == "line" and sv[1] > SPREAD_RATIO * sv[0]:
+        out.append(f"line fit: the points spread {_fmt(sv[1])} mm across against {_fmt(sv[0])} mm along the "
+                   f"line (RMS): the direction is ill-determined; the points do not look like a line")
+    if element == "plane" and sv[2] > SPREAD_RATIO * sv[1]:
+        out.append(f"plane fit: the points are {_fmt(sv[2])} mm thick against {_fmt(sv[1])} mm wide (RMS): the "
+                   f"normal is ill-determined; the points do not look like a plane")
+    rms = float(np.sqrt(np.mean(r * r)))
+    if rms > FORM_FRACTION * spread:
+        ratio = None
+        if n > 2 * K_NEIGHBOURS:
+            step = max(1, n // TREE_SAMPLE)
+            xs, rs = x[::step], r[::step]
+            v = residual_vectors(element, params, xs, rs)
+            m = 2 if element in ("line", "circle") and d == 3 else 1
+            noise = local_noise(xs - v, v, m)
+            ratio = rms / noise if noise > 0 else np.inf
+        systematic = ratio is not None and ratio > NOISE_FACTOR
+        if systematic or rms > GROSS_FRACTION * spread:
+            head = f"{element} fit: form rms {_fmt(rms)} mm is {_fmt(100 * rms / spread)} % of the points' extent"
+            if systematic:
+                out.append(f"{head} and {_fmt(ratio)} times the point-to-point noise ({_fmt(noise)} mm): the "
+                           f"residuals are systematic; the points may not be a {element}")
+            else:
+                out.append(f"{head}: the {element} describes the points poorly (the wrong element, or noise "
+                           f"as large as the part)")
+    if method == "ls":
+        u_r = std.get("radius")
+        rad = params.get("radius")
+        if u_r is not None and rad and np.isfinite(u_r) and u_r > MAX_REL_U_RADIUS * abs(rad):
+            out.append(f"{element} fit: the radius {_fmt(rad)} mm is ill-determined (standard uncertainty "
+                       f"{_fmt(u_r)} mm, {_fmt(100 * u_r / abs(rad))} %)")
+        for key in ("direction", "axis", "normal"):
+            u = std.get(key)
+            if u is None:
+                continue
+            u = float(np.linalg.norm(np.asarray(u, dtype=float)))
+            if np.isfinite(u) and np.degrees(u) > MAX_U_DIRECTION_DEG:
+                out.append(f"{element} fit: the {key} is ill-determined (standard uncertainty "
+                           f"{_fmt(np.degrees(u))}°)")
+    return out
