@@ -114,7 +114,7 @@ def test_a_plan_that_is_no_plan(tmp_path):
     with pytest.raises(InputError, match="plan file not found"):
         std(None, tmp_path / "none.yaml")
     (tmp_path / "broken.yaml").write_text("standard: [unclosed\n")
-    with pytest.raises(InputError, match="not a valid YAML plan"):
+    with pytest.raises(InputError, match="broken.yaml: not valid YAML at line 2"):
         std(None, tmp_path / "broken.yaml")
     (tmp_path / "list.yaml").write_text("- 1\n- 2\n")
     with pytest.raises(InputError, match="must be a YAML mapping"):

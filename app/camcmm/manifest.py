@@ -31,10 +31,9 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-import yaml
-
 from .errors import PluginError
 from .params import Param
+from .yamlfile import YamlError, load_yaml
 
 KINDS = ("algorithm", "device", "standard")
 INPUT_TYPES = ("pointcloud", "mesh", "geometry", "image", "images", "file", "files", "json")
@@ -149,9 +148,9 @@ def parse_manifest(text: str, default_version: str, distribution: str, where: st
     """Parse a manifest's YAML text. Returns (plugins, commands, errors): one bad plugin
     entry does not hide its good neighbours; each error is a one-line reason."""
     try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise PluginError(f"{where}: manifest is not valid YAML ({' '.join(str(exc).split())})") from None
+        doc = load_yaml(text, name=where)
+    except YamlError as exc:
+        raise PluginError(str(exc)) from None
     if not isinstance(doc, dict):
         raise PluginError(f"{where}: manifest must be a mapping with a 'plugins' list")
     plugins, errors = [], []

@@ -27,6 +27,7 @@ from typing import Any
 
 from ..errors import CamcmmError, InputError
 from ..host import to_jsonable
+from ..yamlfile import load_yaml, read_yaml
 from . import uncertainty_figures as figs
 from .downloads import Downloads, table_csv
 from .uncertainty_view import UncertaintyView, map_options
@@ -180,12 +181,10 @@ class UncertaintyPage:
 
     def load_budget(self, text: str | bytes, name: str = "budget.yaml") -> bool:
         """Replace the editor's budget by a YAML/JSON budget file's."""
-        import yaml
-
         try:
-            doc = yaml.safe_load(text.decode("utf-8") if isinstance(text, bytes) else text)
-        except (yaml.YAMLError, UnicodeDecodeError) as exc:
-            self._error(f"{name}: not a YAML budget ({_one_line(str(exc).splitlines()[0])})")
+            doc = load_yaml(text, name=name)
+        except InputError as exc:
+            self._error(str(exc))
             return False
         if not isinstance(doc, dict) or not isinstance(doc.get("contributions"), list):
             self._error(f"{name}: expected a mapping with a 'contributions' list")
@@ -230,14 +229,7 @@ class UncertaintyPage:
 
     # -- the Monte Carlo study -------------------------------------------------------------
     def _mc_inputs(self, spec_text: str, params: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-        import yaml
-
-        try:
-            doc = yaml.safe_load(spec_text or "")
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" at line {mark.line + 1}" if mark is not None else ""
-            raise InputError(f"system description: not valid YAML{where}") from None
+        doc = load_yaml(spec_text or "", name="system description")
         if not isinstance(doc, dict):
             raise InputError("system description: expected a mapping (cameras, stereo, grid, uncertainties)")
         values: dict[str, Any] = {}
@@ -450,8 +442,8 @@ class UncertaintyPage:
             draft = None
         if not isinstance(draft, dict):
             try:
-                draft = yaml.safe_load(_resource("budget.yaml").read_text("utf-8"))
-            except OSError:
+                draft = read_yaml(_resource("budget.yaml"))
+            except InputError:
                 draft = {"quantity": "", "unit": "um", "coverage_probability": 0.95, "contributions": []}
         self.set_budget(str(draft.get("quantity", "")), str(draft.get("unit", "")),
                         draft.get("coverage_probability", 0.95), budget_rows_from_doc(draft), save_draft=False)

@@ -60,7 +60,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, read_yaml
 
 DIRECTIONS = ("vertical", "horizontal")
 INVERSE_MODES = ("none", "interleaved", "after")
@@ -201,17 +201,11 @@ def load_sequence(source: Any) -> Sequence:
         return source
     name = "sequence"
     if isinstance(source, (str, Path)):
-        import yaml
-
         path = Path(source)
         name = path.name
         if not path.is_file():
             raise InputError(f"{path}: no such sequence file")
-        try:
-            source = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            raise InputError(f"{name}: not valid YAML{f' (line {mark.line + 1})' if mark else ''}") from None
+        source = read_yaml(path, name=name)
     if not isinstance(source, Mapping):
         raise InputError(f"{name}: a sequence must be a mapping with 'projector' and 'frames'")
     proj = source.get("projector")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from camcmm.api import InputError, RunContext
+from camcmm.api import InputError, RunContext, read_yaml
 
 
 def load_spec(spec: Any) -> tuple[dict[str, Any], Path | None]:
@@ -17,17 +17,10 @@ def load_spec(spec: Any) -> tuple[dict[str, Any], Path | None]:
     if isinstance(spec, Mapping):
         return dict(spec), None
     if isinstance(spec, (str, Path)):
-        import yaml
-
         path = Path(spec)
         if not path.is_file():
             raise InputError(f"{path}: no such file")
-        try:
-            doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" (line {mark.line + 1})" if mark is not None else ""
-            raise InputError(f"{path}: not valid YAML/JSON{where}") from None
+        doc = read_yaml(path)
         if not isinstance(doc, dict):
             raise InputError(f"{path}: expected a mapping at the top level, got {type(doc).__name__}")
         return doc, path.parent

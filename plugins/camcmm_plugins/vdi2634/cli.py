@@ -11,9 +11,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from camcmm.api import InputError, PluginError, default_host
+from camcmm.api import InputError, PluginError, default_host, read_yaml
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -25,10 +23,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def _standard_of(path: Path) -> str:
     if not path.is_file():
         raise InputError(f"{path}: plan file not found")
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        raise InputError(f"{path.name}: not a valid YAML plan ({' '.join(str(exc).split())})") from None
+    doc = read_yaml(path, name=path.name)
     std = doc.get("standard") if isinstance(doc, dict) else None
     if not isinstance(std, str) or not std:
         raise InputError(f"{path.name}: standard is missing; say which standard the plan is for (e.g. vdi2634-2)")

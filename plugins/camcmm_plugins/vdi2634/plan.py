@@ -34,9 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
-
-from camcmm.api import Artefact, Certificate, InputError, to_mm_factor
+from camcmm.api import Artefact, Certificate, InputError, read_yaml, to_mm_factor
 
 TESTS = ("sphere", "ball_bar", "flat", "ball_plate")
 PARAMETERS = ("PF", "PS", "SD", "F")
@@ -145,10 +143,7 @@ def read_source(source: Any) -> tuple[dict[str, Any], Path | None, str]:
     path = Path(source)
     if not path.is_file():
         raise InputError(f"{path}: plan file not found")
-    try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path.name}: not a valid YAML plan ({' '.join(str(exc).split())})") from None
+    doc = read_yaml(path, name=path.name)  # one line naming the file: syntax, duplicate key, alias bomb
     if not isinstance(doc, dict):
         raise InputError(f"{path.name}: a plan must be a YAML mapping with standard, system, mpe, artefacts, "
                          "measurements")

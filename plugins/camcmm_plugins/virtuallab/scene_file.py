@@ -54,9 +54,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-import yaml
 
-from camcmm.api import InputError, TriangleMesh, read
+from camcmm.api import InputError, TriangleMesh, read, read_yaml
 
 from . import artefacts as art
 from . import rig, workpieces
@@ -225,12 +224,7 @@ def _stages(d) -> dict[str, dict[str, Any]]:
 def load_scene(path: str | Path) -> LabScene:
     """Read and check a scene file; InputError names the file and the bad entry."""
     p = Path(path)
-    try:
-        doc = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read the scene file ({exc.strerror})") from None
-    except yaml.YAMLError as exc:
-        raise InputError(f"{p}: not valid YAML ({' '.join(str(exc).split())[:120]})") from None
+    doc = read_yaml(p)
     try:
         return scene_from_dict(doc, p.parent)
     except (ValueError, TypeError, KeyError) as exc:

@@ -7,6 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ...errors import InputError
+from ...yamlfile import read_yaml
 from .values import log
 
 #: The plan fields of each artefact kind (docs/standards.md), as the setup form shows
@@ -37,12 +39,10 @@ def resources_dir() -> Path:
 def load_catalogue(path: str | Path | None = None) -> list[dict[str, Any]]:
     """The shipped artefact catalogue (``resources/artefacts.yaml``) as Artefact dicts;
     an empty list (logged) when it is missing or unreadable."""
-    import yaml
-
     path = Path(path) if path is not None else resources_dir() / "artefacts.yaml"
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError) as exc:
+        doc = read_yaml(path) or {}
+    except InputError as exc:
         log.warning("artefact catalogue %s: %s", path, exc)
         return []
     out = []

@@ -8,6 +8,7 @@ import copy
 from typing import Any
 
 from ...errors import CamcmmError, InputError
+from ...yamlfile import load_yaml
 from .catalogue import ARTEFACT_FIELDS, load_catalogue, plan_fields_to_artefact
 from .state import HISTORY_KEY
 from .values import SYMBOLS, _blank, _number, _vector, log
@@ -18,15 +19,10 @@ _FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
 
 def parse_options(options: Any) -> dict[str, Any]:
     """More plan keys from the setup's advanced field: a dict or YAML text."""
-    import yaml
-
     if _blank(options):
         return {}
     if isinstance(options, str):
-        try:
-            options = yaml.safe_load(options)
-        except yaml.YAMLError as exc:
-            raise InputError(f"plan options: not valid YAML ({' '.join(str(exc).split())})") from None
+        options = load_yaml(options, name="plan options")
     if not isinstance(options, dict):
         raise InputError(f"plan options: give keys and values (e.g. 'outliers: vdi2634'), got {options!r}")
     taken = [k for k in options if k in _FORM_KEYS]
