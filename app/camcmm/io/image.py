@@ -19,7 +19,11 @@ Writing encodes ``Image.data`` unchanged (BGR order) with the extension's codec.
 from __future__ import annotations
 
 import os
+import re
 import struct
+import tempfile
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -50,21 +54,85 @@ def max_image_pixels() -> int:
 
 def read(path: Path, name: str) -> Image:
     buf = np.fromfile(path, np.uint8)
-    size = image_size(memoryview(buf))  # the whole file: a TIFF may keep its IFD at the end
+    head = memoryview(buf)  # the whole file: a TIFF may keep its IFD at the end
+    kind, expected = image_kind(head), _KIND_OF_EXT.get(path.suffix.lower())
+    if kind is not None and expected is not None and kind != expected:
+        raise fail(name, f"the file holds a {kind} image, not {expected} as its extension says; rename it "
+                         f"to {_EXT_OF_KIND[kind]}")
+    size = image_size(head)
     if size is not None:
         check_image_size(size, name)
     import cv2
 
-    try:
-        data = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
-    except cv2.error as exc:
-        raise fail(name, f"cannot decode the image ({' '.join(str(exc).split())[:160]})") from exc
+    with _native_stderr() as said:
+        try:
+            data = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+        except cv2.error as exc:
+            data, error = None, " ".join(str(exc).split())[:160]
+        else:
+            error = None
     if data is None:
-        raise fail(name, f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file")
+        why = error or _reason(said[0])
+        raise fail(name, f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file"
+                         + (f" ({why})" if why else ""))
+    if said[0]:  # a decoder's warnings about an image it could read: pass them on
+        os.write(2, said[0].encode())
     if data.size == 0:
         raise fail(name, f"the image has no pixels ({data.shape[1] if data.ndim > 1 else 0} x {data.shape[0]})")
     meta = {"file": name, "channel_order": "BGR" if data.ndim == 3 else "grey"}
     return Image(data, name=name, metadata=meta)
+
+
+_KIND_OF_EXT = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF", ".bmp": "BMP"}
+_EXT_OF_KIND = {"PNG": ".png", "JPEG": ".jpg", "TIFF": ".tif", "BMP": ".bmp"}
+_STDERR_LOCK = threading.Lock()
+_LOG_PREFIX = re.compile(r"^\[\s*\w+:\d+@[\d.]+\]\s+global\s+\S+\s+(\S+\s+)?")
+
+
+def image_kind(head: bytes | memoryview) -> str | None:
+    """"PNG", "JPEG", "TIFF" or "BMP" from the file's first bytes, None for anything else."""
+    if bytes(head[:8]) == b"\x89PNG\r\n\x1a\n":
+        return "PNG"
+    if bytes(head[:3]) == b"\xff\xd8\xff":
+        return "JPEG"
+    if bytes(head[:4]) in (b"II*\0", b"MM\0*", b"II+\0", b"MM\0+"):
+        return "TIFF"
+    if bytes(head[:2]) == b"BM":
+        return "BMP"
+    return None
+
+
+@contextmanager
+def _native_stderr():
+    """Collect what native decoders print on file descriptor 2 while they run (libpng
+    and libtiff print there, OpenCV logs there): a corrupt image then gives one error
+    line that carries their reason, not a second line from the library. Yields a list
+    that holds the text afterwards."""
+    said: list[str] = []
+    with _STDERR_LOCK:
+        try:
+            saved = os.dup(2)
+        except OSError:  # no stderr to redirect
+            said.append("")
+            yield said
+            return
+        with tempfile.TemporaryFile() as tmp:
+            os.dup2(tmp.fileno(), 2)
+            try:
+                yield said
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                tmp.seek(0)
+                said.append(tmp.read(65536).decode("utf-8", "replace"))
+
+
+def _reason(text: str) -> str:
+    """The last line a decoder printed, without OpenCV's log prefix."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    if not lines:
+        return ""
+    return " ".join(_LOG_PREFIX.sub("", lines[-1]).split())[:160]
 
 
 def check_image_size(size: tuple[int, int], name: str) -> None:

@@ -141,6 +141,9 @@ def _header(fh, name: str) -> _Header:
         raise fail(name, f"PLY header has no end_header line in its first {_MAX_HEADER_LINES} lines")
     if encoding is None:
         raise fail(name, "PLY header has no format line")
+    for el in elements:
+        if el.count and not el.props:  # rows of nothing: a header that cannot be right
+            raise fail(name, f"PLY element {el.name!r} declares {el.count} rows but no properties")
     return _Header(encoding, elements, comments, fh.tell())
 
 

@@ -35,6 +35,8 @@ from ._common import Raw, check_name, cloud_columns, colors_to_uint8, fail, fiel
 
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
+#: More columns than this on a line is no point list (a matrix, an image as text...).
+MAX_COLUMNS = 1000
 _DELIM_NAMES = {",": "','", ";": "';'", "\t": "tab", None: "spaces"}
 _COLOR_NAMES = (("red", "green", "blue"), ("r", "g", "b"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
 _NORMAL_NAMES = (("nx", "ny", "nz"), ("normal_x", "normal_y", "normal_z"), ("normalx", "normaly", "normalz"))
@@ -98,6 +100,9 @@ def read(path: Path, name: str) -> Raw:
     if decimal_comma:
         data = [ln.replace(",", ".") for ln in data]
     ncol = len(_split(data[0].strip(), delim))
+    if ncol > MAX_COLUMNS:
+        raise InputError(f"{name} line {start + 1}: {ncol} columns, more than the {MAX_COLUMNS} a point list "
+                         f"may have; is this a point list (x y z per line)?")
     table = _parse(data, delim, ncol, start, name, lines)
     names = None
     if header is not None:
