@@ -196,7 +196,8 @@ class ZaberLink:
     def _skip_garbled(self, text: str) -> None:
         self.garbled += 1
         self.last_garbled = repr(text[:40])
-        log.warning("%s: skipped an unreadable line %s", self.url, self.last_garbled)
+        if self.garbled <= 3 or self.garbled % 100 == 0:  # a noisy line must not flood the log
+            log.warning("%s: skipped unreadable line no. %d: %s", self.url, self.garbled, self.last_garbled)
 
     def _readline(self, deadline: float) -> bytes | None:
         while b"\n" not in self._buf:
