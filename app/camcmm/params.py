@@ -15,6 +15,16 @@ from typing import Any
 from .errors import ParameterError
 
 TYPES = ("float", "int", "bool", "str", "choice", "vector")
+#: The keys a declaration may have; another key is a typo (``maximum:`` for ``max:``) that
+#: would silently drop a limit.
+KEYS = ("name", "type", "default", "unit", "min", "max", "exclusive_min", "finite", "choices", "length",
+        "required", "help")
+#: Largest integer any int parameter takes, declared max or not: beyond it JSON (a double)
+#: no longer holds integers exactly.
+INT_LIMIT = 2**53
+#: Most numbers a vector without a declared ``length`` takes, and longest str value.
+MAX_VECTOR = 10_000
+MAX_STR = 65_536
 
 
 @dataclass(frozen=True)
@@ -23,7 +33,11 @@ class Param:
 
     type: ``float``, ``int``, ``bool``, ``str``, ``choice`` (one of ``choices``) or
     ``vector`` (a list of ``length`` floats). ``unit`` is informative text shown beside
-    the value (``mm``, ``um``, ``deg``, ``px``...). ``minimum``/``maximum`` are inclusive.
+    the value (``mm``, ``um``, ``deg``, ``px``...). ``minimum``/``maximum`` (manifest
+    ``min``/``max``) are inclusive; ``exclusive_minimum`` (``exclusive_min``) is a bound
+    the value must exceed (a radius > 0). Floats must be finite unless ``finite`` is false.
+    Limits apply to each number of a vector. Every int parameter and every size, count or
+    iteration number should declare ``max`` (the built-in plugins all do; a test checks).
     A ``default`` of ``None`` with ``required`` false means "not given".
     """
 
@@ -33,6 +47,8 @@ class Param:
     unit: str = ""
     minimum: float | None = None
     maximum: float | None = None
+    exclusive_minimum: float | None = None
+    finite: bool = True
     choices: tuple[str, ...] = ()
     length: int | None = None
     required: bool = False
@@ -40,8 +56,11 @@ class Param:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Param":
-        if "name" not in d:
+        if not isinstance(d, dict) or "name" not in d:
             raise ParameterError(f"parameter declaration without a name: {d!r}")
+        unknown = [k for k in d if k not in KEYS]
+        if unknown:
+            raise ParameterError(f"parameter {d['name']!r}: unknown key {unknown[0]!r}; use {', '.join(KEYS)}")
         kind = d.get("type", "float")
         if kind not in TYPES:
             raise ParameterError(f"parameter {d['name']!r}: unknown type {kind!r}; use one of {', '.join(TYPES)}")
@@ -53,13 +72,18 @@ class Param:
             type=kind,
             default=d.get("default"),
             unit=str(d.get("unit", "")),
-            minimum=d.get("min"),
-            maximum=d.get("max"),
+            minimum=_limit(d, "min"),
+            maximum=_limit(d, "max"),
+            exclusive_minimum=_limit(d, "exclusive_min"),
+            finite=bool(d.get("finite", True)),
             choices=choices,
             length=d.get("length"),
             required=bool(d.get("required", False)),
             help=str(d.get("help", "")),
         )
+        lo = max((x for x in (p.minimum, p.exclusive_minimum) if x is not None), default=None)
+        if lo is not None and p.maximum is not None and lo > p.maximum:
+            raise ParameterError(f"parameter {p.name!r}: min {lo} is above max {p.maximum}")
         if p.default is not None:
             p.coerce(p.default)  # a bad default is a bad manifest
         return p
@@ -67,9 +91,11 @@ class Param:
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": self.type, "default": self.default}
         for key, value in (("unit", self.unit), ("min", self.minimum), ("max", self.maximum),
-                           ("length", self.length), ("help", self.help)):
+                           ("exclusive_min", self.exclusive_minimum), ("length", self.length), ("help", self.help)):
             if value not in (None, ""):
                 d[key] = value
+        if not self.finite:
+            d["finite"] = False
         if self.choices:
             d["choices"] = list(self.choices)
         if self.required:
@@ -85,17 +111,49 @@ class Param:
             return None
         try:
             out = _COERCE[self.type](self, value)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(f"parameter {self.name!r}: {value!r} is not a valid {self.type} ({exc})") from None
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ParameterError(f"parameter {self.name!r}: {_short(value)} is not a valid {self.type} "
+                                 f"({_short(str(exc), quote=False)})") from None
+        unit = f" {self.unit}" if self.unit else ""
         for x in out if isinstance(out, list) else [out]:
             if isinstance(x, float) and not math.isfinite(x):
-                raise ParameterError(f"parameter {self.name!r}: {value!r} is not finite")
+                if self.finite:
+                    raise ParameterError(f"parameter {self.name!r}: {_short(value)} is not finite")
+                continue
             if isinstance(x, (int, float)) and not isinstance(x, bool):
                 if self.minimum is not None and x < self.minimum:
-                    raise ParameterError(f"parameter {self.name!r} = {x} is below its minimum {self.minimum} {self.unit}".rstrip())
+                    raise ParameterError(f"parameter {self.name!r} = {x} is below its minimum {self.minimum}{unit}")
+                if self.exclusive_minimum is not None and not x > self.exclusive_minimum:
+                    raise ParameterError(f"parameter {self.name!r} = {x} must be above {self.exclusive_minimum}{unit}")
                 if self.maximum is not None and x > self.maximum:
-                    raise ParameterError(f"parameter {self.name!r} = {x} is above its maximum {self.maximum} {self.unit}".rstrip())
+                    raise ParameterError(f"parameter {self.name!r} = {x} is above its maximum {self.maximum}{unit}")
         return out
+
+    def limits_text(self) -> str:
+        """The declared limits as one short phrase (``1 <= x <= 64``), '' when none."""
+        lo = (f"{_num(self.minimum)} <= " if self.minimum is not None
+              else f"{_num(self.exclusive_minimum)} < " if self.exclusive_minimum is not None else "")
+        hi = f" <= {_num(self.maximum)}" if self.maximum is not None else ""
+        return f"{lo}x{hi}" if lo or hi else ""
+
+
+def _limit(d: dict[str, Any], key: str) -> float | None:
+    """A declared limit: a finite number or absent."""
+    v = d.get(key)
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ParameterError(f"parameter {d.get('name')!r}: {key} must be a finite number, got {v!r}")
+    return v
+
+
+def _num(x: float) -> str:
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+def _short(value: Any, n: int = 60, quote: bool = True) -> str:
+    s = repr(value) if quote else value
+    return s if len(s) <= n else s[: n - 3] + "..."
 
 
 def _to_bool(p: Param, v: Any) -> bool:
@@ -112,10 +170,36 @@ def _to_bool(p: Param, v: Any) -> bool:
 def _to_int(p: Param, v: Any) -> int:
     if isinstance(v, bool):
         raise ValueError("expected an integer")
-    f = float(v)
-    if f != int(f):
-        raise ValueError("expected an integer")
-    return int(f)
+    if isinstance(v, int):
+        n = v
+    elif isinstance(v, str) and len(v) > 100:
+        raise ValueError("too long for a number")
+    else:
+        try:
+            n = int(str(v).strip()) if isinstance(v, str) else int(v)  # exact for '123456789012345678'
+            if not isinstance(v, str) and n != v:
+                raise ValueError("expected an integer")
+        except ValueError:
+            f = float(v)  # '1e3', 2.0; inf/nan raise below
+            if not math.isfinite(f) or f != int(f):
+                raise ValueError("expected an integer") from None
+            n = int(f)
+    if abs(n) > INT_LIMIT:
+        raise ValueError("beyond +-2**53")
+    return n
+
+
+def _to_float(p: Param, v: Any) -> float:
+    if isinstance(v, str) and len(v) > 100:
+        raise ValueError("too long for a number")
+    return float(v)
+
+
+def _to_str(p: Param, v: Any) -> str:
+    s = str(v)
+    if len(s) > MAX_STR:
+        raise ValueError(f"longer than {MAX_STR} characters")
+    return s
 
 
 def _to_choice(p: Param, v: Any) -> str:
@@ -126,18 +210,23 @@ def _to_choice(p: Param, v: Any) -> str:
 
 
 def _to_vector(p: Param, v: Any) -> list[float]:
-    items = [x for x in str(v).replace(",", " ").split()] if isinstance(v, str) else list(v)
-    out = [float(x) for x in items]
+    most = p.length if p.length is not None else MAX_VECTOR
+    if isinstance(v, str) and len(v) > 100 * (most + 1):
+        raise ValueError(f"more than {most} numbers")
+    items = [x for x in v.replace(",", " ").split()] if isinstance(v, str) else list(v)
+    if len(items) > most and p.length is None:
+        raise ValueError(f"more than {most} numbers")
+    out = [_to_float(p, x) for x in items]
     if p.length is not None and len(out) != p.length:
         raise ValueError(f"expected {p.length} numbers, got {len(out)}")
     return out
 
 
 _COERCE = {
-    "float": lambda p, v: float(v),
+    "float": _to_float,
     "int": _to_int,
     "bool": _to_bool,
-    "str": lambda p, v: str(v),
+    "str": _to_str,
     "choice": _to_choice,
     "vector": _to_vector,
 }
@@ -167,9 +256,12 @@ def add_cli_options(parser: argparse.ArgumentParser, params: list[Param]) -> Non
     for p in params:
         unit = f" [{p.unit}]" if p.unit else ""
         extra = f" (one of: {', '.join(p.choices)})" if p.choices else ""
+        limits = f" ({p.limits_text()})" if p.limits_text() else ""
         default = f" (default: {p.default})" if p.default is not None else ""
+        # '%' in help text is argparse's format character
+        text = f"{p.help}{unit}{extra}{limits}{default}".replace("%", "%%")
         parser.add_argument(cli_flag(p.name), dest=f"param__{p.name}", metavar=p.type.upper(),
-                            default=None, help=f"{p.help}{unit}{extra}{default}")
+                            default=None, help=text)
 
 
 def cli_values(args: argparse.Namespace) -> dict[str, Any]:
