@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, check_budget, check_disk, human_bytes
 
 from .sequence import Sequence, load_sequence
 
@@ -89,6 +89,8 @@ def generate_patterns(sequence, dtype=None) -> np.ndarray:
     if dtype is None:
         dtype = np.uint8 if seq.bit_depth == 8 else np.uint16
     dtype = np.dtype(dtype)
+    check_budget(f"{seq.name}: {seq.n_frames} frames of {seq.width} x {seq.height} px ({dtype.name})",
+                 float(seq.n_frames) * seq.width * seq.height * dtype.itemsize)
     out = np.empty((seq.n_frames, seq.height, seq.width), dtype=dtype)
     for i in range(seq.n_frames):
         p = pattern_profile(seq, i)
@@ -104,6 +106,7 @@ def save_patterns(sequence, out_dir, prefix: str = "pat") -> list[Path]:
 
     seq = load_sequence(sequence)
     out = Path(out_dir)
+    check_disk(f"{seq.name}: {seq.n_frames} PNG frames", 4096.0 * seq.n_frames, out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -118,6 +121,11 @@ def save_patterns(sequence, out_dir, prefix: str = "pat") -> list[Path]:
         ok, buf = cv2.imencode(".png", img)
         if not ok:
             raise InputError(f"{path}: OpenCV could not encode the pattern")
+        if i == 0:
+            # the first frame's PNG, twice over (code frames compress less than white),
+            # estimates the whole sequence before anything is written
+            each = 2.0 * buf.nbytes + 4096
+            check_disk(f"{seq.name}: {seq.n_frames} PNG frames of ~{human_bytes(each)}", each * seq.n_frames, out)
         buf.tofile(path)
         paths.append(path)
     return paths

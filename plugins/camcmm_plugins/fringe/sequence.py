@@ -46,6 +46,10 @@ calibration's pixels, ``x_cal = s (x + 1/2) - 1/2``. A DLP with a diamond mirror
 square pixels, i.e. ``[1, 0.5]``. Decoded coordinates are pattern pixels; triangulation
 applies the scale.
 
+Limits (checked on reading, before anything is allocated): projector sides up to
+``MAX_SIDE`` px, at most ``MAX_FRAMES`` frames in all, one frame within the memory limit
+(``camcmm.api.check_budget``).
+
 A phase group and a code group of the same direction are decoded together: the code gives
 the fringe order (eq. 5.4). A code whose period is half the phase period (one more bit)
 is the complementary Gray code: its boundaries fall mid-fringe and no order errors remain.
@@ -60,11 +64,15 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from camcmm.api import InputError, read_yaml
+from camcmm.api import InputError, check_budget, check_count, read_yaml
 
 DIRECTIONS = ("vertical", "horizontal")
 INVERSE_MODES = ("none", "interleaved", "after")
 KINDS = ("white", "black", "phase", "gray", "binary", "ignore")
+#: Largest projector side (px) a sequence may declare (an 8K projector is 7680 px wide).
+MAX_SIDE = 16384
+#: Most frames a sequence may hold (a long multi-frequency sequence has ~100).
+MAX_FRAMES = 4096
 
 
 @dataclass(frozen=True)
@@ -213,6 +221,10 @@ def load_sequence(source: Any) -> Sequence:
         raise InputError(f"{name}: 'projector: {{width: W, height: H}}' is required")
     width = _num(proj, "width", None, f"{name}: projector", lo=1, integer=True)
     height = _num(proj, "height", None, f"{name}: projector", lo=1, integer=True)
+    check_count(f"{name}: projector.width", width, MAX_SIDE)
+    check_count(f"{name}: projector.height", height, MAX_SIDE)
+    # one frame at a time is what a writer holds (float64 while it is computed)
+    check_budget(f"{name}: projector {width} x {height} px", 8.0 * width * height)
     bit_depth = _num(source, "bit_depth", 8, name, integer=True)
     if bit_depth not in (8, 16):
         raise InputError(f"{name}: bit_depth must be 8 or 16, got {bit_depth}")
@@ -232,6 +244,7 @@ def load_sequence(source: Any) -> Sequence:
         raise InputError(f"{name}: 'frames' must be a non-empty list")
     for i, entry in enumerate(entries):
         _add_entry(seq, entry, f"{name}: frames[{i}]")
+        check_count(f"{name}: frames[{i}]: the sequence's frame count", seq.n_frames, MAX_FRAMES)
     for d in DIRECTIONS:
         if any(c.direction == d for c in seq.code_groups) and not any(p.direction == d for p in seq.phase_groups):
             raise InputError(f"{name}: a {d} code needs a {d} phase group to refine (a code alone is not decoded)")
@@ -246,6 +259,7 @@ def _add_entry(seq: Sequence, entry: Any, where: str) -> None:
     kind = _choice(entry, "type", KINDS, None, where)
     if kind in ("white", "black", "ignore"):
         count = _num(entry, "count", 1, where, lo=1, integer=True)
+        check_count(f"{where}: count", count, MAX_FRAMES - seq.n_frames)
         seq.frames.extend(Frame(kind) for _ in range(count))
         return
     direction = _choice(entry, "direction", DIRECTIONS, None, where)
@@ -259,6 +273,7 @@ def _add_entry(seq: Sequence, entry: Any, where: str) -> None:
         steps = _num(entry, "steps", None, where, integer=True)
         if steps < 3:
             raise InputError(f"{where}: 'steps' = {steps}: N-step phase shifting needs N >= 3")
+        check_count(f"{where}: steps", steps, MAX_FRAMES - seq.n_frames)
         shifts_deg = entry.get("shifts_deg", [360.0 * k / steps for k in range(steps)])
         if not (isinstance(shifts_deg, (list, tuple)) and len(shifts_deg) == steps):
             raise InputError(f"{where}: 'shifts_deg' must list {steps} phase shifts in degrees")
