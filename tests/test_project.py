@@ -541,7 +541,7 @@ def test_old_leftovers_are_swept(tmp_path):
     Project.create(root).close()
     old_tmp = root / "data" / ".tmp" / "123-abc"
     old_db = root / f".{DB_NAME}.123.4.tmp"
-    young = root / "data" / ".tmp" / "456-def"
+    young = root / "data" / ".tmp" / f"{os.getpid()}-def"  # a running writer's: kept
     young.parent.mkdir()
     for f in (old_tmp, old_db, young):
         f.write_bytes(b"x")

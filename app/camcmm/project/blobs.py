@@ -25,6 +25,13 @@ CHUNK = 1 << 20
 HASH_RE = re.compile(r"^[0-9a-f]{64}$")
 _EXT_RE = re.compile(r"^\.[a-z0-9_]{1,15}$")
 TMP_DIR = ".tmp"
+#: Temp names in ``data/.tmp`` start with the writer's pid: ``<pid>-<random><ext>``
+#: (:meth:`BlobStore.new_tmp`) and ``.<pid>-<random>.<pid>-<hex>.tmp<ext>`` (camcmm.io's
+#: atomic write of such a file).
+_TMP_PID = re.compile(r"^\.?(\d+)-")
+#: A file younger than its writer's start by more than this [s] is not that writer's
+#: (the pid was reused); /proc gives start times to ~1 s (boot time in whole seconds).
+_START_SLACK_S = 2.0
 
 
 def normalise_ext(name: str | os.PathLike) -> str:
@@ -144,15 +151,17 @@ class BlobStore:
         return None
 
     def sweep_tmp(self, max_age_s: float = 24 * 3600) -> int:
-        """Remove temp files left by crashed writers. Only old ones: a young temp file
-        may belong to another process writing into the same project right now."""
+        """Remove temp files left by killed writers: those whose writer (the pid in the
+        name) is no longer running, and any older than ``max_age_s``. A temp file of a
+        running writer stays: it may be writing into this project right now."""
         d = self.root / TMP_DIR
         if not d.is_dir():
             return 0
         n, now = 0, time.time()
         for p in d.iterdir():
             try:
-                if now - p.stat().st_mtime > max_age_s:
+                m = _TMP_PID.match(p.name)
+                if orphaned(p.stat().st_mtime, int(m.group(1)) if m else None, now, max_age_s):
                     if p.is_dir():
                         shutil.rmtree(p)
                     else:
@@ -161,3 +170,44 @@ class BlobStore:
             except OSError:
                 pass
         return n
+
+
+def orphaned(mtime: float, pid: int | None, now: float, max_age_s: float) -> bool:
+    """Whether a temp file (modified at ``mtime``, named with writer ``pid``) is left over:
+    older than ``max_age_s``, or its writer is gone. Never true for a running writer's."""
+    return now - mtime > max_age_s or (pid is not None and writer_gone(pid, mtime))
+
+
+def writer_gone(pid: int, mtime: float) -> bool:
+    """True only when process ``pid`` surely is not the one that wrote a file at ``mtime``:
+    no such process, a zombie, or (Linux) one that started after the file was written
+    (its pid was reused). False when unsure, e.g. outside POSIX: the age limit decides.
+
+    The process table is this machine's: a project's writers all run on one machine
+    (SQLite's WAL, which the store uses, does not work across machines either).
+    """
+    if os.name != "posix" or pid <= 0:  # os.kill(0, ...) would mean the process group
+        return False
+    try:
+        os.kill(pid, 0)  # signal 0: existence check, nothing is sent
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        pass  # exists, another user's
+    except (OSError, OverflowError):
+        return False
+    state, started = _proc_stat(pid)
+    return state == "Z" or (started is not None and mtime < started - _START_SLACK_S)
+
+
+def _proc_stat(pid: int) -> tuple[str | None, float | None]:
+    """(state letter, start time in epoch seconds) of ``pid`` from Linux's /proc, or Nones."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+        fields = stat[stat.rindex(")") + 2:].split()  # the command name may hold spaces
+        with open("/proc/stat") as fh:
+            btime = next(int(line.split()[1]) for line in fh if line.startswith("btime "))
+        # fields[0] is field 3 (state) of proc(5); starttime is field 22, in clock ticks after boot
+        return fields[0], btime + int(fields[19]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, StopIteration):
+        return None, None

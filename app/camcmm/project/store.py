@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import sqlite3
 import threading
 import time
@@ -40,11 +41,14 @@ from typing import Any, Iterable, Iterator
 from ..errors import CamcmmError, InputError, ProjectError
 from . import schema
 from ..hashing import file_hash
-from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext
+from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext, orphaned
 from .jsonutil import dumps, loads
 
 DB_NAME = "project.sqlite"
 DATA_DIR = "data"
+#: Temp databases of an interrupted create (``.project.sqlite.<pid>.<thread>.tmp`` and its
+#: -wal/-shm) or migration backup (``.project.sqlite.<pid>.bak.tmp``).
+_DB_TMP_PID = re.compile(rf"^\.{re.escape(DB_NAME)}\.(\d+)\.")
 BUSY_TIMEOUT_S = 10.0  # another process (CLI, second GUI) may hold the write lock briefly
 
 
@@ -108,18 +112,22 @@ class Project:
         self.name: str = row[0] if row else root.name
         self._sweep_leftovers()
 
-    def _sweep_leftovers(self, max_age_s: float = 3600.0) -> None:
-        """Remove what crashed writers left: temp data files and temp databases of an
-        interrupted create or backup. Only old ones - a young one may belong to a
-        process working on this project right now."""
-        self._blobs.sweep_tmp(max_age_s)
+    def _sweep_leftovers(self, max_age_s: float = 3600.0) -> int:
+        """Remove what killed writers left: temp data files and temp databases of an
+        interrupted create or backup, each named with its writer's pid. Those of a
+        writer that is no longer running go at once, the others after ``max_age_s``
+        (a running writer's may be in use right now). Returns how many were removed."""
+        n = self._blobs.sweep_tmp(max_age_s)
         now = time.time()
         for p in self.path.glob(f".{DB_NAME}.*"):
+            m = _DB_TMP_PID.match(p.name)
             try:
-                if now - p.stat().st_mtime > max_age_s:
+                if orphaned(p.stat().st_mtime, int(m.group(1)) if m else None, now, max_age_s):
                     p.unlink()
+                    n += 1
             except OSError:
                 pass
+        return n
 
     @classmethod
     def open(cls, path: str | os.PathLike) -> "Project":
