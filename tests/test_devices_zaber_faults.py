@@ -137,3 +137,19 @@ def test_devices_page_shows_the_refusal_as_one_line(tmp_path):
                                              "(or confirm with allow_unhomed=True)")
     finally:
         close(server)
+
+
+def test_a_reply_lost_in_line_noise(stage):
+    stage.home()
+    stage.request("sim noise 1")
+    stage.request("sim mute 1")  # the next command is lost; two unreadable lines arrive instead
+    with pytest.raises(DeviceTimeout, match=r"no reply to 'get pos' within 0.5 s \(2 unreadable lines meanwhile, "
+                                            r"last '\\x00\\x7f~%&\\x15 ='\)$"):
+        stage.position()
+    # a garbled reply glued to the remains of a truncated alert is still this command's reply:
+    # an error for a move (not repeated blindly), not an alert line to skip
+    stage.request("sim garble 1 move")
+    stage.request("sim noise 1")
+    with pytest.raises(DeviceError, match=r"garbled reply to 'move abs 104987': not a Zaber reply: '@01 1 \d+ O\S*~#~'"):
+        stage.request("move abs 104987")  # 5 mm
+    assert stage.wait_idle() == pytest.approx(104987 * RES, abs=1e-12)

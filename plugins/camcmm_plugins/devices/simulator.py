@@ -131,9 +131,9 @@ class ZaberSim:
                 self._strike(fault)
         if self.hung:
             return []
-        if self.mute > 0:
+        if self.mute > 0:  # the command is lost; line noise still comes
             self.mute -= 1
-            return []
+            return self._noisy([], axis, mid)
         if axis > len(self.axes):
             return [self._reply(axis, mid, False, "BADAXIS")]
         ok, data = self._command(axis, tokens)
@@ -145,12 +145,15 @@ class ZaberSim:
         if self.alerts > 0:
             self.alerts -= 1
             out[:0] = [f"!{self.address:02d} {axis or 1} IDLE --", f"#{self.address:02d} {axis} 0 simulated info line"]
-        if self.noise > 0:
-            self.noise -= 1
-            other = f" {(int(mid) + 50) % 100}" if mid is not None else ""
-            out = ([f"@{self.address:02d} {axis}{other} OK BU", "\x00\x7f~%&\x15 ="]
-                   + out[:-1] + [f"!{self.address:02d} {axis or 1} ID" + out[-1]])
-        return out
+        return self._noisy(out, axis, mid)
+
+    def _noisy(self, out: list[str], axis: int, mid: str | None) -> list[str]:
+        if self.noise <= 0:
+            return out
+        self.noise -= 1
+        other = f" {(int(mid) + 50) % 100}" if mid is not None else ""
+        noise = [f"@{self.address:02d} {axis}{other} OK BU", "\x00\x7f~%&\x15 ="]
+        return noise + out[:-1] + [f"!{self.address:02d} {axis or 1} ID" + out[-1]] if out else noise
 
     def _strike(self, fault: str) -> None:
         if fault == "exit":

@@ -174,7 +174,7 @@ class ZaberLink:
                 try:
                     reply, junk = _salvage(text)
                 except ValueError as exc:
-                    if _is_reply_to(text, device, axis, mid):
+                    if _is_reply_to(text[max(text.rfind("@"), 0):], device, axis, mid):
                         raise _Garbled(str(exc)) from None
                     self._skip_garbled(text)
                     continue
@@ -222,7 +222,8 @@ def _salvage(text: str) -> tuple[Reply | None, str]:
         try:
             return parse_reply(text[at:]), text[:at]
         except ValueError:
-            pass
+            if _HEAD.match(text[at:]):  # a garbled reply behind junk: not an alert or info line
+                raise
     return parse_reply(text), ""
 
 
