@@ -354,5 +354,10 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         assert "outside the folders" in state.cal_error
         assert page.run({**req, "folder": str(tree.data)}) is None  # allowed, but holds no board images
         assert "no image files" in state.cal_error and "outside" not in state.cal_error
+
+        # and a device that reads a file (the CSV interferometer): the same folders
+        assert server.devices.add("devices.interferometer.csv", {"path": str(tree.outside / "secret.xyz")}) is None
+        assert "parameter 'path'" in state.dev_error and "outside the folders" in state.dev_error, state.dev_error
+        assert SECRET not in state.dev_error
     finally:
         close(server)

@@ -129,6 +129,8 @@ class DevicesPage:
             if values.pop("_plugin", plugin_id) != plugin_id:
                 values = {}  # the form of another plugin: take this one's defaults
             config = {k: v for k, v in values.items() if v not in ("", None)}
+            if getattr(self.session, "roots", None) is not None:  # a file it reads: in the browser's folders only
+                config, _ = self.session.roots.check_run(spec, config, {})
             objects = self._objects_for(plugin_id)
             dev = self.host.device(plugin_id, config, **objects)
         except Exception as exc:
@@ -317,6 +319,8 @@ class DevicesPage:
         try:
             objects = self._sequence_objects(plugin_id)
             config = {k: v for k, v in (values or {}).items() if v not in ("", None)}
+            if getattr(self.session, "roots", None) is not None:
+                config, _ = self.session.roots.check_run(self.host.get(plugin_id), config, {})
             seq = self.host.device(plugin_id, config, **objects)
         except Exception as exc:
             self._error(exc)
