@@ -151,3 +151,29 @@ def test_no_raw_yaml_loading_left_in_the_code():
             if p.name != "yamlfile.py"
             for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1) if pattern.search(line)]
     assert not hits, hits
+
+
+def test_uncertainty_page_refuses_a_small_bomb_upload_and_keeps_working(tmp_path):
+    """The reported case: a few hundred bytes uploaded as a budget must not grow the server."""
+    pytest.importorskip("trame")
+    pytest.importorskip("pyvista")
+    import os
+
+    from camcmm.gui.app import build, close
+
+    server, _ = build(f"test-yaml-{os.getpid()}", tmp_path / "proj")
+    try:
+        server.state.ready()
+        page, s = server.uncertainty, server.state
+        bomb = (_laughs(levels=7) + "contributions: *h\n").encode()
+        assert len(bomb) < 400  # 9**8 = 4.3e7 strings as rows
+        rows_before = list(s.unc_b_rows)
+        assert page.load_budget(bomb, "lol.yaml") is False
+        assert s.unc_error.startswith("lol.yaml:") and "alias" in s.unc_error
+        assert s.unc_b_rows == rows_before
+        assert page.load_budget(b"quantity: L\ncontributions: []\nquantity: M\n", "dup.yaml") is False
+        assert "duplicate key 'quantity'" in s.unc_error
+        assert page.run_montecarlo("cameras: &c [1]\ncameras: *c\n", {}) is None
+        assert s.unc_error.startswith("system description: duplicate key 'cameras'")
+    finally:
+        close(server)
