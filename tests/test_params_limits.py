@@ -37,6 +37,17 @@ def test_every_int_and_size_parameter_of_every_manifest_declares_a_max():
     assert not missing, f"declare 'max' for: {', '.join(missing)}"
 
 
+def test_every_int_device_setting_declares_a_max():
+    host = default_host()
+    missing = []
+    for spec in _specs():
+        if spec.kind == "device":
+            for p in getattr(host.load(spec.id), "settings_schema", None) or ():
+                if p.type == "int" and p.maximum is None:
+                    missing.append(f"{spec.id}:{p.name}")
+    assert not missing, f"declare 'max' for: {', '.join(missing)}"
+
+
 def test_defaults_are_inside_their_limits_and_limits_are_finite():
     for spec in _specs():
         for p in spec.parameters:
