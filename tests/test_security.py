@@ -361,3 +361,31 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         assert SECRET not in state.dev_error
     finally:
         close(server)
+
+
+def test_https_with_certfile_and_keyfile(tmp_path):
+    """``--certfile/--keyfile``: the server prints an https URL and answers over TLS."""
+    import shutil
+    import ssl
+
+    pytest.importorskip("trame")
+    if not shutil.which("openssl"):
+        pytest.skip("openssl is absent: no certificate to make")
+    cert, key = tmp_path / "c.pem", tmp_path / "k.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out", str(cert),
+                    "-days", "1", "-subj", "/CN=127.0.0.1"], check=True, capture_output=True, timeout=60)
+    from camcmm.gui.process import GuiProcess
+
+    s = GuiProcess(tmp_path / "proj", args=("--certfile", cert, "--keyfile", key))
+    try:
+        assert s.url.startswith("https://127.0.0.1:") and s.token
+        ctx = ssl.create_default_context(cafile=str(cert))
+        ctx.check_hostname = False
+        req = urllib.request.Request(s.base + "projector/state", headers={"Authorization": f"token {s.token}"})
+        with urllib.request.urlopen(req, context=ctx, timeout=20) as r:
+            assert r.status == 200
+        with pytest.raises(urllib.error.HTTPError) as e:
+            urllib.request.urlopen(s.base + "projector/state", context=ctx, timeout=20)
+        assert e.value.code == 403
+    finally:
+        s.stop()

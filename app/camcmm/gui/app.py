@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import socket
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -488,7 +489,8 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
     guard.install(server)
     server.guard = guard
     scheme = "https" if tls else "http"
-    shown = f"[{host}]" if ":" in host else host
+    # a wildcard address is no address to open: show the machine's name, as Jupyter does
+    shown = socket.gethostname() if host in ("0.0.0.0", "::", "") else (f"[{host}]" if ":" in host else host)
 
     def announce(**_):
         url = guard.url(f"{scheme}://{shown}:{server.port}/")
