@@ -14,7 +14,7 @@ from .devices import (Camera, Device, DeviceDisconnected, DeviceError, DeviceMon
 from .devices import param as device_param
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import RunContext, RunResult, default_host
-from .io import read, read_calibration, write, write_calibration
+from .io import check_calibration, read, read_calibration, write, write_calibration
 from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
@@ -42,4 +42,5 @@ __all__ = [
     "simple_verdict", "to_mm_factor", "write", "write_calibration",
     "check_budget", "check_count", "check_disk", "human_bytes", "memory_limit",
     "YamlError", "load_yaml", "read_yaml",
+    "check_calibration",
 ]

@@ -355,6 +355,15 @@ class CameraModel:
         self.translation = np.asarray(self.translation, dtype=np.float64).reshape(3)
         self.image_size = (int(self.image_size[0]), int(self.image_size[1]))
 
+    def check(self) -> "CameraModel":
+        """The camera itself, after checking it again (for a model whose arrays were
+        changed after it was made); InputError naming the camera otherwise."""
+        why = camera_problem(self.camera_matrix, self.dist_coeffs, self.rotation, self.translation,
+                             self.image_size, self.pixel_pitch)
+        if why is not None:
+            raise InputError(f"camera {self.name!r}: {why}")
+        return self
+
     @property
     def projection_matrix(self) -> np.ndarray:
         """(3, 4) P = K [R | t] (thesis eq. 2.1), distortion not included."""

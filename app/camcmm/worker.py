@@ -130,13 +130,15 @@ def _child() -> None:
         cancel.clear()
         current[0] = n
         last = [0.0]
+        sending = threading.Lock()  # a plugin may report progress from threads of its own
 
         def progress(fraction: float, message: str) -> None:
-            now = time.monotonic()
-            if fraction < 1.0 and now - last[0] < _PROGRESS_EVERY_S:
-                return
-            last[0] = now
-            conn.send(("progress", fraction, message))
+            with sending:
+                now = time.monotonic()
+                if fraction < 1.0 and now - last[0] < _PROGRESS_EVERY_S:
+                    return
+                last[0] = now
+                conn.send(("progress", fraction, message))
 
         try:
             data = _answer(host.run(plugin_id, inputs, params, progress=progress, cancel=cancel), plugin_id)
@@ -231,19 +233,18 @@ def _death(code: int | None) -> str:
 
 def _take(recipe: tuple | None) -> _Worker:
     key = (recipe, tuple(sys.path))
+    found = None
     with _lock:
-        for w in list(_idle):
-            if w.key == key:
-                _idle.remove(w)
-                if w.alive():
-                    return w
-                w.broken = True
-    stale = [w for w in list(_idle) if not w.alive()]
-    for w in stale:
-        with _lock:
-            if w in _idle:
-                _idle.remove(w)
+        stale = [w for w in _idle if not w.alive()]
+        for w in stale:
+            _idle.remove(w)
+        found = next((w for w in _idle if w.key == key), None)
+        if found is not None:
+            _idle.remove(found)
+    for w in stale:  # died while idle (killed from outside): reap it
         w.kill()
+    if found is not None:
+        return found
     w = _Worker(recipe)
     with _lock:
         _all.add(w)

@@ -26,6 +26,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from .. import worker
 from ..errors import CamcmmError, InputError
 from ..host import to_jsonable
 from . import calibration_draw as draw
@@ -224,8 +225,8 @@ class CalibrationPage(CalibrationShow):
             params = {"board": req["board"], "model": req["model"], "outlier_factor": req["outlier_factor"],
                       "save": str(tmp / "calibration.json")}
             ins = {"left": images["left"], "right": images["right"]} if mode == "stereo" else {"images": images["left"]}
-            run = self.host.run(STEREO if mode == "stereo" else CAMERA, inputs=ins, params=params,
-                                progress=lambda f, m: self._progress_cb(0.1 + 0.7 * f, m), cancel=cancel)
+            run = worker.run(self.host, STEREO if mode == "stereo" else CAMERA, ins, params,
+                             progress=lambda f, m: self._progress_cb(0.1 + 0.7 * f, m), cancel=cancel)
             run.outputs.pop("written", None)
             outputs = to_jsonable(run.outputs)
             doc = {"version": 1, "request": req, "sources": src, "outputs": outputs, "warnings": list(run.warnings),
@@ -254,8 +255,8 @@ class CalibrationPage(CalibrationShow):
         cal = cam.get("map_calibration")
         if not cal:
             return None
-        out = self.host.run(PROJECTION, inputs={"calibration": cal},
-                            params={"distance": float(distance), "columns": MAP_GRID[0], "rows": MAP_GRID[1]}).outputs
+        out = worker.run(self.host, PROJECTION, {"calibration": cal},
+                         {"distance": float(distance), "columns": MAP_GRID[0], "rows": MAP_GRID[1]}).outputs
         return to_jsonable({k: out[k] for k in ("map", "u", "v", "distance", "min", "max", "centre", "method")})
 
     def _store(self, doc: dict[str, Any], run: Any, tmp: Path) -> None:

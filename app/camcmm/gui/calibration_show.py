@@ -14,6 +14,7 @@ import asyncio
 import logging
 from typing import Any
 
+from .. import worker
 from ..errors import InputError
 from . import calibration_draw as draw
 from . import calibration_figures as figs
@@ -204,8 +205,8 @@ class CalibrationShow:
         ln, rn = pairs[int(index)]
         try:
             left, right = self._image(doc, "left", ln, images), self._image(doc, "right", rn, images)
-            out = self.host.run("calibration.rectify", inputs={"calibration": doc["outputs"]["calibration"],
-                                                               "left": left, "right": right}).outputs
+            out = worker.run(self.host, "calibration.rectify", {"calibration": doc["outputs"]["calibration"],
+                                                              "left": left, "right": right}).outputs
             pic = draw.rectified_pair(out["left"].data, out["right"].data)
         except Exception as exc:
             return "", f"{ln} / {rn}: the rectified pair cannot be shown: {_err(exc)}"

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import worker
 from ..errors import InputError
 from ..host import RunResult
 from ..params import validate
@@ -111,8 +112,8 @@ class InspectRun:
         if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
             raise InputError(f"{self._name(nominal_key)}: the nominal must be a mesh or a point cloud")
         self.measured, self.nominal = cloud, nominal
-        result = self.host.run(PLUGIN, inputs={"cloud": cloud, "nominal": nominal, **inputs}, params=values,
-                               progress=self._progress_cb, cancel=cancel)
+        result = worker.run(self.host, PLUGIN, {"cloud": cloud, "nominal": nominal, **inputs}, values,
+                            progress=self._progress_cb, cancel=cancel)
         t_result = time.time()
         dev = result.outputs["deviations"]
         prep = prepare_cloud(dev.points, dev.fields["deviation"], self.view.display_limit)

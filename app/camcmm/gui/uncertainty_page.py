@@ -25,6 +25,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from .. import worker
 from ..errors import CamcmmError, InputError
 from ..host import to_jsonable
 from ..yamlfile import load_yaml, read_yaml
@@ -271,8 +272,7 @@ class UncertaintyPage:
             self.state.unc_mc_message = "cancelling …"
 
     def _compute(self, doc: dict[str, Any], values: dict[str, Any], cancel: threading.Event) -> Any:
-        return self.host.run(MONTECARLO, inputs={"spec": doc}, params=values, progress=self._progress_cb,
-                             cancel=cancel)
+        return worker.run(self.host, MONTECARLO, {"spec": doc}, values, progress=self._progress_cb, cancel=cancel)
 
     def _store(self, run: Any, doc: dict[str, Any]) -> tuple[int, str]:
         """Worker: the summary as the result row, everything (arrays too) as a JSON file."""

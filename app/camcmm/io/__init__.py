@@ -30,7 +30,7 @@ from ..errors import CamcmmError, InputError
 from ..model import Image, PointCloud, TriangleMesh
 from ..units import to_mm_factor
 from ._common import Raw, atomic_path, canonical_unit
-from .calibration import read_calibration, write_calibration
+from .calibration import check_calibration, read_calibration, write_calibration
 
 _CLOUD, _MESH, _IMAGE = "pointcloud", "mesh", "image"
 
@@ -217,4 +217,4 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
     return out
 
 
-__all__ = ["FORMATS", "info", "read", "read_calibration", "write", "write_calibration"]
+__all__ = ["FORMATS", "check_calibration", "info", "read", "read_calibration", "write", "write_calibration"]

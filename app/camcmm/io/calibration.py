@@ -126,11 +126,21 @@ def _finite_matrix(fname: str, key: str, a: Any) -> np.ndarray:
     return m
 
 
-def _check_calibration(fname: str, cal: dict[str, Any]) -> dict[str, Any]:
-    """Checks over the whole calibration: every camera away from camera 1's centre (a
-    stereo pair or a camera+projector needs a baseline), R a rotation and T finite and
-    non-zero, E, F, the rectification and the RMS finite."""
-    cams = cal["cameras"]
+def check_calibration(cal: dict[str, Any], fname: str = "calibration") -> dict[str, Any]:
+    """``cal`` itself after checking it as :func:`read_calibration` does; InputError
+    starting with ``fname`` otherwise. For calibrations built or changed in code (a
+    simulation's systematic errors, a dict from JSON): every camera a camera (see
+    model.camera_problem), every camera away from camera 1's centre (a stereo pair or a
+    camera+projector needs a baseline), R a rotation and T finite and non-zero, E, F, the
+    rectification and the RMS finite."""
+    cams = cal.get("cameras") if isinstance(cal, dict) else None
+    if not cams or not all(isinstance(c, CameraModel) for c in cams):
+        raise InputError(f"{fname}: a calibration needs 'cameras', a non-empty list of CameraModel")
+    for k, cam in enumerate(cams, start=1):
+        why = camera_problem(cam.camera_matrix, cam.dist_coeffs, cam.rotation, cam.translation,
+                             cam.image_size, cam.pixel_pitch)
+        if why is not None:
+            raise InputError(f"{fname}: camera {k} ({cam.name}): {why}")
     c1 = cams[0].centre
     for k, cam in enumerate(cams[1:], start=2):
         b = float(np.linalg.norm(cam.centre - c1))
@@ -172,6 +182,7 @@ def write_calibration(path: str | Path, cal: dict[str, Any]) -> None:
     p = Path(path)
     kind = _kind(p)
     cams = _check(cal, p.name)
+    check_calibration(cal, p.name)
     if not p.parent.is_dir():
         raise InputError(f"{p.name}: cannot write, the folder {p.parent} does not exist")
     try:
@@ -275,7 +286,7 @@ def read_calibration(path: str | Path) -> dict[str, Any]:
     if not p.is_file():
         raise InputError(f"{p.name}: calibration file not found ({p})")
     try:
-        return _check_calibration(p.name, _read_json(p) if kind == "json" else _read_yaml(p))
+        return check_calibration(_read_json(p) if kind == "json" else _read_yaml(p), p.name)
     except CamcmmError:
         raise
     except Exception as exc:
@@ -406,4 +417,4 @@ def _read_yaml(p: Path) -> dict[str, Any]:
         fs.release()
 
 
-__all__ = ["read_calibration", "write_calibration"]
+__all__ = ["check_calibration", "read_calibration", "write_calibration"]

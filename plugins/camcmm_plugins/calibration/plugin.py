@@ -12,7 +12,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from camcmm.api import CameraModel, Image, InputError, RunContext, read_calibration, write_calibration
+from camcmm.api import (CameraModel, Image, InputError, RunContext, check_calibration, read_calibration,
+                        write_calibration)
 
 
 def cal_json(cal: Mapping[str, Any]) -> dict[str, Any]:
@@ -49,7 +50,7 @@ def load_calibration(value: Any) -> dict[str, Any]:
             from .camera import calibration_dict
 
             d = calibration_dict(d)
-        return d
+        return check_calibration(d, "calibration") if d.get("cameras") else d
     raise InputError(f"calibration: expected a file path or a mapping, got {type(value).__name__}")
 
 
@@ -71,6 +72,8 @@ def camera(ctx: RunContext, images, board: str, model: str = "standard", detecto
                            progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
     for r in res["rejected"]:
         ctx.warn(f"{r['image']} left out: {r['reason']}")
+    for w in res["warnings"]:
+        ctx.warn(w)
     cal = calibration_dict(res)
     written = _write(save, cal)
     return {**camera_json(res), "detections": [d.to_dict() for d in dets], "calibration": cal_json(cal),
@@ -92,6 +95,8 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
                            alpha=alpha, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
     for r in res["rejected"]:
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
+    for w in res["warnings"]:
+        ctx.warn(w)
     cal = calibration_dict(res)
     written = _write(save, cal)
     # each camera's own calibration keeps its board poses and their covariance, which the

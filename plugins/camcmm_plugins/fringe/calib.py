@@ -26,7 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from camcmm.api import CameraModel, InputError
+from camcmm.api import CameraModel, InputError, check_calibration
 
 
 def _matrix(folder: Path, name: str, shape: tuple[int, ...], required: bool = True):
@@ -58,14 +58,17 @@ def read_text_folder(folder: str | Path) -> dict[str, Any]:
     for name, r in (("ProjRotationMatrix.txt", r_p), ("CamRotationMatrixRight.txt", r_cam)):
         if r is not None and (abs(np.linalg.det(r) - 1) > 1e-3 or np.abs(r @ r.T - np.eye(3)).max() > 1e-3):
             raise InputError(f"{name}: not a rotation matrix (R R^T != I or det != 1)")
-    cam = CameraModel(k_cam, dist_cam, np.eye(3) if r_cam is None else r_cam,
-                      np.zeros(3) if t_cam is None else t_cam, name="camera")
-    proj = CameraModel(k_p, dist_p, r_p, t_p, name="projector")
-    moved = (r_cam is not None and not np.allclose(r_cam, np.eye(3))) or (t_cam is not None and np.any(t_cam))
-    if moved:
-        # the projector's pose is stated in the camera's frame: chain it to the world
-        proj = CameraModel(k_p, dist_p, r_p @ r_cam, r_p @ t_cam + t_p, name="projector")
-    return {"cameras": [cam, proj], "source": str(d)}
+    try:
+        cam = CameraModel(k_cam, dist_cam, np.eye(3) if r_cam is None else r_cam,
+                          np.zeros(3) if t_cam is None else t_cam, name="camera")
+        proj = CameraModel(k_p, dist_p, r_p, t_p, name="projector")
+        moved = (r_cam is not None and not np.allclose(r_cam, np.eye(3))) or (t_cam is not None and np.any(t_cam))
+        if moved:
+            # the projector's pose is stated in the camera's frame: chain it to the world
+            proj = CameraModel(k_p, dist_p, r_p @ r_cam, r_p @ t_cam + t_p, name="projector")
+    except InputError as exc:  # the same checks as a calibration file's, named by the folder
+        raise InputError(f"{d.name}: {exc}") from None
+    return check_calibration({"cameras": [cam, proj], "source": str(d)}, d.name)
 
 
 def load_calibration(source: Any) -> dict[str, Any]:
@@ -74,7 +77,7 @@ def load_calibration(source: Any) -> dict[str, Any]:
         cams = source.get("cameras")
         if not cams or not all(isinstance(c, CameraModel) for c in cams):
             raise InputError("calibration: needs 'cameras', a non-empty list of CameraModel")
-        return dict(source)
+        return check_calibration(dict(source), "calibration")  # its models may have been changed since
     if isinstance(source, (str, Path)):
         p = Path(source)
         if p.is_dir():

@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from camcmm.api import CameraModel, Image, InputError, get_algorithm, read, write, write_calibration
+from camcmm.api import check_calibration
 
 from . import imaging, render, rig
 from .scene_file import LabScene
@@ -148,7 +149,8 @@ def calibration(scene: LabScene, with_errors: bool = True) -> dict[str, Any]:
                            "systematic_errors": {k: v for k, v in e.items()} if e else {}}
     if len(cams) > 1:
         cal["R"], cal["T"] = cams[1].rotation, cams[1].translation
-    return cal
+    # a systematic error may leave no camera (focal_length relative -2, baseline relative -1)
+    return check_calibration(cal, "calibration with the systematic errors" if e else "calibration")
 
 
 def _transform(obj: Any, R: np.ndarray, t: np.ndarray) -> Any:

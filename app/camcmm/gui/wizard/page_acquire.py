@@ -16,6 +16,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from ... import worker
 from .values import _one_line
 
 
@@ -54,7 +55,7 @@ class PageAcquire:
         """Worker: run the system, write its cloud to a temporary PLY for the import."""
         from ...io import write
 
-        res = self.session.host.run(source, inputs={"placement": placement}, params=params)
+        res = worker.run(self.session.host, source, {"placement": placement}, params)
         cloud = res.outputs["cloud"]
         folder = Path(tempfile.mkdtemp(prefix="camcmm-acquire-"))
         path = folder / f"{placement['test']}-{placement['position']['id']}.ply"

@@ -1,0 +1,64 @@
+"""The server survives a negative-focal-length calibration through the GUI (issue 13's
+"done when"), in a real headless Chromium against ``camcmm.gui`` in a child process.
+
+The wizard's simulated fringe system measures with its calibration's focal length
+multiplied by (1 + focal_error); focal_error = -2 gives fx < 0, which once crashed
+OpenCV's native code and with it the server for every operator. The page has no field
+for it, but a client can write any state, as an attacker's script would: here the test
+does so through trame's client API. The page must show one line naming the value, the
+server must keep serving (a second measurement, a fresh page load).
+"""
+
+from __future__ import annotations
+
+import sys
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, choose, launch, server_tracebacks, shots  # noqa: E402
+
+pytestmark = MARKS
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+
+from test_browser_wizard import MPE, _card, _counter, _open_wizard  # noqa: E402
+
+SHOTS = shots("worker-gui")
+PARAMS = "{method: 'projector', preset: 'camera_projector'%s}"
+
+
+def test_negative_focal_length_through_the_wizard_leaves_the_server_serving(gui_server):
+    url, log = gui_server
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 950})
+            page.set_default_timeout(30_000)
+            _open_wizard(page, url)
+            page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
+            page.locator('[data-testid="wz-system-name"] input').fill("Virtual stereo fringe system")
+            for key, value in MPE.items():
+                page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
+            page.locator('[data-testid="wz-start"]').click()
+            page.wait_for_selector('[data-testid="wz-positions"]')
+            choose(page, "wz-source", "Simulated stereo fringe")
+            page.evaluate("window.trame.state.set('wz_source_params', %s)" % (PARAMS % ", focal_error: -2"))
+            _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
+            alert = page.locator('[data-testid="error-snackbar"]', has_text="focal length")
+            alert.wait_for(timeout=120_000)
+            text = " ".join(alert.inner_text().split())
+            page.screenshot(path=str(SHOTS / "worker-1-negative-focal.png"))
+            assert "focal length fx = -" in text and "must be positive and finite" in text, text
+            # the same server measures the position once the calibration is sound
+            page.evaluate("window.trame.state.set('wz_source_params', %s)" % (PARAMS % ""))
+            _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
+            page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=120_000)
+            assert _counter(page, "sphere").startswith("1 of 10")
+            page.screenshot(path=str(SHOTS / "worker-2-next-measurement.png"))
+        finally:
+            browser.close()
+    with urllib.request.urlopen(url, timeout=30) as resp:  # a fresh page load still answers
+        assert resp.status == 200
+    assert not server_tracebacks(log), server_tracebacks(log)
