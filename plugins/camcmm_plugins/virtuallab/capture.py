@@ -27,7 +27,8 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
-from camcmm.api import CameraModel, Image, InputError, get_algorithm, read, write, write_calibration
+from camcmm.api import (CameraModel, Image, InputError, check_disk, get_algorithm, human_bytes, read, write,
+                        write_calibration)
 from camcmm.api import check_calibration
 
 from . import imaging, render, rig
@@ -231,6 +232,13 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     except OSError as exc:
         raise InputError(f"--out {out}: cannot create the folder ({exc.strerror})") from None
     frames = scene_frames(scene, ctx)
+    # refuse what cannot be written before hours of rendering: raw frame bytes (noisy
+    # frames compress little) and a truth that JSON cannot hold
+    px = sum(int(c.model.image_size[0]) * int(c.model.image_size[1]) for c in scene.cameras)
+    depth = 1 if scene.sensor.bits <= 8 else 2
+    check_disk(f"{len(frames)} frames x {len(scene.cameras)} cameras (~{human_bytes(px * depth)} per frame)",
+               float(len(frames)) * px * depth, d)
+    _json_text(truth(scene, frames))
     views = prepare_views(scene, (lambda f, m: prog(0.3 * f, m)) if prog else None)
     files: dict[str, list[str]] = {}
     warnings = visibility(scene, views)
@@ -270,13 +278,38 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     for w in warnings:
         if ctx is not None:
             ctx.warn(w)
-    (d / "truth.json").write_text(json.dumps(tr, indent=1), encoding="utf-8")
+    (d / "truth.json").write_text(_json_text(tr), encoding="utf-8")
     if prog:
         prog(1.0, "written")
     return {"out": str(d), "cameras": [c.name for c in scene.cameras], "n_frames": len(frames),
             "files": files, "calibration": str(d / "calibration.yaml"), "truth": str(d / "truth.json"),
             "sequence": str(d / "sequence.yaml") if scene.sequence is not None else None,
             "coverage": tr["coverage"], "warnings": warnings}
+
+
+def _json_text(doc: dict[str, Any]) -> str:
+    """truth.json's text; a NaN or infinity (not JSON) is an error naming where it is."""
+    try:
+        return json.dumps(doc, indent=1, allow_nan=False)
+    except ValueError:
+        where = _nonfinite_path(doc) or "a value"
+        raise InputError(f"truth.json: {where} is not a finite number") from None
+
+
+def _nonfinite_path(obj: Any, path: str = "") -> str | None:
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            hit = _nonfinite_path(v, f"{path}.{k}" if path else str(k))
+            if hit:
+                return hit
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            hit = _nonfinite_path(v, f"{path}[{i}]")
+            if hit:
+                return hit
+    elif isinstance(obj, (float, np.floating)) and not np.isfinite(obj):
+        return f"{path} = {float(obj)}"
+    return None
 
 
 def _pixels_per_artefact(scene: LabScene, view: render.View) -> dict[str, int]:

@@ -120,6 +120,28 @@ def device_from_dict(d: Mapping[str, Any], default_name: str) -> Device:
     return Device(model, lens)
 
 
+def _pos(v, what: str) -> float:
+    """A finite number > 0, or ValueError naming it (a length, a field of view)."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} {v!r} is not a number") from None
+    if not (np.isfinite(x) and x > 0):
+        raise ValueError(f"{what} {v!r} must be a finite number > 0")
+    return x
+
+
+def _size(v, what: str) -> list[int]:
+    """[width, height] px, whole numbers >= 2, or ValueError naming it."""
+    try:
+        a = _vec(v, 2, what) if isinstance(v, (list, tuple)) else None
+    except (TypeError, ValueError):
+        a = None
+    if a is None or np.any(a != np.round(a)) or np.any(a < 2):
+        raise ValueError(f"{what} {v!r} must be [width, height], whole numbers >= 2 px")
+    return [int(x) for x in a]
+
+
 def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[dict], dict]:
     """Device entries (cameras, projector) of a named preset; ``options`` override:
     image_size, baseline, distance, angle (deg, derived from baseline and distance
@@ -130,13 +152,19 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
     o = dict(options or {})
     if name not in ("stereo_fringe", "camera_projector"):
         raise ValueError(f"rig.preset {name!r}: use stereo_fringe or camera_projector")
-    size = [int(x) for x in o.get("image_size", [1280, 960])]
-    b = float(o.get("baseline", BASELINE))
-    dist = float(o.get("distance", CONVERGENCE))
+    size = _size(o.get("image_size", [1280, 960]), "rig.image_size")
+    b = _pos(o.get("baseline", BASELINE), "rig.baseline")
+    dist = _pos(o.get("distance", CONVERGENCE), "rig.distance")
     target = np.asarray(o.get("target", [0.0, 0.0, 0.0]), float)
     h = float(np.sqrt(max(dist**2 - (b / 2) ** 2, 1e-9)))
     fls = o.get("focal_lengths") or ([o["focal_length"]] * 2 if "focal_length" in o else
                                      [f for f, _ in THESIS_LENSES])
+    if not isinstance(fls, (list, tuple)) or len(fls) != 2:
+        raise ValueError(f"rig.focal_lengths {fls!r}: expected two focal lengths (mm)")
+    fls = [_pos(f, "rig.focal_length") for f in fls]
+    for key in ("field_of_view", "projector_field"):
+        if o.get(key) is not None:
+            _pos(o[key], f"rig.{key}")
     dc = o.get("dist_coeffs")
     if dc is None:
         dcs = [k for _, k in THESIS_LENSES]
@@ -155,7 +183,7 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
                      "position": (target + [sx * b / 2, 0.0, h]).tolist(), "look_at": target.tolist(),
                      "up": [0, 1, 0], "f_number": o.get("f_number", 8.0),
                      "focus_distance": o.get("focus_distance", dist), "psf": o.get("psf", "gaussian")})
-    psize = [int(x) for x in o.get("projector_size", [1280, 800])]
+    psize = _size(o.get("projector_size", [1280, 800]), "rig.projector_size")
     field_mm = float(o.get("projector_field", 1.2 * (fov if fov is not None else SENSOR_WIDTH * dist / fls[0])))
     pf = 10.0                                            # projector lens (mm); only the ratio matters
     proj = {"name": "projector", "image_size": psize, "focal_length": pf,

@@ -45,17 +45,23 @@ Schema (``version: 1``; every section but ``artefacts`` optional)::
 
 ``type: plane`` is a large rectangle (a backdrop or table top) that is not an artefact.
 Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
+
+Checked on reading, each with one line naming the entry: every number in the file is
+finite; diameters, lengths, widths and mesh scales are > 0; ``seed`` is a whole number
+>= 0; sensor and lighting levels are >= 0 (``full_well``, ``gamma`` > 0); image sides are
+at most ``MAX_SIDE`` px and the rendering's memory estimate (``RAY_BYTES`` per cast ray,
+``PIXEL_BYTES`` per pixel of the largest image) is within ``camcmm.api.check_budget``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-
-from camcmm.api import InputError, TriangleMesh, read, read_yaml
+from camcmm.api import CamcmmError, InputError, TriangleMesh, check_budget, check_count, read, read_yaml
 
 from . import artefacts as art
 from . import rig, workpieces
@@ -65,6 +71,16 @@ from .scene import Rectangle
 
 ARTEFACTS = ("sphere", "ball_bar", "ball_plate", "flat", "gauge_blocks", "box", "mesh", "plane")
 ERRORS = ("focal_length", "baseline", "principal_point", "distortion", "rotation", "projector_gamma")
+#: Largest image side (px) of a scene's camera or projector.
+MAX_SIDE = 16384
+#: Most entries in a scene's ``patterns`` list.
+MAX_PATTERNS = 4096
+#: Memory (bytes) per cast ray (the views kept plus the casting batches) and per pixel of
+#: the frame being rendered (radiance, defocus levels, noise). Measured: 1.2 GB peak for
+#: two 1280 x 960 px cameras at supersample 2 (9.8 M rays); tracemalloc at 640 x 480 px
+#: gives ~110 B per pixel for a frame.
+RAY_BYTES = 130
+PIXEL_BYTES = 350
 
 
 @dataclass
@@ -99,26 +115,55 @@ def _g(d: Mapping, key: str, default, what: str):
     return v
 
 
+def _positive(a: Mapping, key: str, default, what: str) -> float:
+    """``a[key]`` as a finite number > 0 (a length in mm, a scale), or ValueError naming it."""
+    v = _g(a, key, default, what)
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}.{key} {v!r} is not a number") from None
+    if not (math.isfinite(x) and x > 0):
+        raise ValueError(f"{what}.{key} {v!r} must be a finite number > 0")
+    return x
+
+
+def _nonfinite(obj: Any, path: str = "") -> tuple[str, Any] | None:
+    """(path, value) of the first NaN or infinite number in a parsed document, or None."""
+    if isinstance(obj, Mapping):
+        for k, v in obj.items():
+            hit = _nonfinite(v, f"{path}.{k}" if path else str(k))
+            if hit:
+                return hit
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            hit = _nonfinite(v, f"{path}[{i}]")
+            if hit:
+                return hit
+    elif isinstance(obj, float) and not math.isfinite(obj):
+        return path, obj
+    return None
+
+
 def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict[str, Any]]:
     what = f"artefacts[{i}]"
     if not isinstance(a, Mapping) or "type" not in a:
         raise ValueError(f"{what}: expected a mapping with a type ({', '.join(ARTEFACTS)})")
     t = a["type"]
-    c = a.get("center", [0.0, 0.0, 0.0])
+    c = rig._vec(a.get("center", [0.0, 0.0, 0.0]), 3, f"{what}.center")
     if t == "sphere":
-        return art.sphere(c, float(_g(a, "diameter", None, what)), bool(a.get("stem", True)))
+        return art.sphere(c, _positive(a, "diameter", None, what), bool(a.get("stem", True)))
     if t == "ball_bar":
-        return art.ball_bar(c, a.get("direction", [1, 0, 0]), float(_g(a, "length", None, what)),
-                            float(_g(a, "sphere_diameter", None, what)), bool(a.get("bar", True)))
+        return art.ball_bar(c, a.get("direction", [1, 0, 0]), _positive(a, "length", None, what),
+                            _positive(a, "sphere_diameter", None, what), bool(a.get("bar", True)))
     if t == "ball_plate":
-        return art.ball_plate(c, _g(a, "lengths", None, what), float(_g(a, "sphere_diameter", None, what)),
+        return art.ball_plate(c, _g(a, "lengths", None, what), _positive(a, "sphere_diameter", None, what),
                               float(a.get("rotation", 0.0)), float(a.get("tilt", 0.0)), bool(a.get("plate", True)))
     if t == "flat":
         axis, n = art.axes_from(a.get("direction", [1, 0, 0]), a.get("normal"))
-        return art.flat(c, axis, n, float(_g(a, "length", None, what)), float(_g(a, "width", None, what)))
+        return art.flat(c, axis, n, _positive(a, "length", None, what), _positive(a, "width", None, what))
     if t == "plane":
         r = Rectangle(c, a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]),
-                      float(a.get("length", 500.0)), float(a.get("width", 500.0)), a.get("label", "plane"),
+                      _positive(a, "length", 500.0, what), _positive(a, "width", 500.0, what), a.get("label", "plane"),
                       measured=False)
         return [r], {"kind": "plane", "center": r.center.tolist(), "normal": r.normal.tolist()}
     if t == "gauge_blocks":
@@ -137,7 +182,7 @@ def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict
         else:
             V, F = _g(a, "vertices", None, what), _g(a, "faces", None, what)
         return workpieces.mesh(V, F, a.get("position", [0, 0, 0]), a.get("rotation_deg", [0, 0, 0]),
-                               float(a.get("scale", 1.0)), a.get("label", "mesh"))
+                               _positive(a, "scale", 1.0, what), a.get("label", "mesh"))
     raise ValueError(f"{what}.type {t!r}: use one of {', '.join(ARTEFACTS)}")
 
 
@@ -154,6 +199,12 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     """A LabScene from a parsed scene document (ValueError names the entry)."""
     if not isinstance(doc, Mapping):
         raise ValueError("expected a mapping at the top level")
+    bad = _nonfinite(doc)
+    if bad:
+        raise ValueError(f"{bad[0]} {bad[1]!r} is not a finite number")
+    seed = doc.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed {seed!r} must be a whole number >= 0")
     arts = doc.get("artefacts")
     if not isinstance(arts, list) or not arts:
         raise ValueError("artefacts: a list of at least one artefact is needed")
@@ -189,23 +240,53 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     if bad:
         raise ValueError(f"errors.{bad[0]}: unknown error; use {', '.join(ERRORS)}")
     if "projector_gamma" in errors:
-        light.gamma = float(errors["projector_gamma"])
+        light.gamma = _positive(errors, "projector_gamma", None, "errors")
+    _check_levels(light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",))
     sensor = _dataclass_from(Sensor, doc.get("sensor"), "sensor")
-    if not 1 <= int(sensor.bits) <= 16:
-        raise ValueError(f"sensor.bits {sensor.bits!r}: use 1 .. 16")
-    ss = int((doc.get("render") or {}).get("supersample", 2))
-    if not 1 <= ss <= 8:
-        raise ValueError(f"render.supersample {ss!r}: use 1 .. 8")
+    if isinstance(sensor.bits, bool) or not isinstance(sensor.bits, int) or not 1 <= sensor.bits <= 16:
+        raise ValueError(f"sensor.bits {sensor.bits!r}: use a whole number 1 .. 16")
+    _check_levels(sensor, "sensor", ("read_noise", "exposure", "black_level"), ("full_well",))
+    ss = (doc.get("render") or {}).get("supersample", 2)
+    if isinstance(ss, bool) or not isinstance(ss, int) or not 1 <= ss <= 8:
+        raise ValueError(f"render.supersample {ss!r}: use a whole number 1 .. 8")
     seq = doc.get("sequence")
     pats = doc.get("patterns") or []
     if not isinstance(pats, list):
         raise ValueError("patterns: expected a list")
+    check_count("patterns: the number of entries", len(pats), MAX_PATTERNS)
+    _check_size(cams, proj, ss, len(pats))
     return LabScene(str(doc.get("name", "virtual lab scene")), prims, np.asarray(albedo), truths, cams, proj,
-                    light, sensor, ss, int(doc.get("seed", 0)),
+                    light, sensor, ss, seed,
                     seq if isinstance(seq, Mapping) else
                     ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
                     pats, errors, base, dict(doc), np.asarray(owner, np.int64), _stages(doc.get("stages")),
                     dict(doc.get("speckle") or {}))
+
+
+def _check_levels(obj, what: str, non_negative: tuple[str, ...], positive: tuple[str, ...]) -> None:
+    """Light levels, noise and gains: numbers >= 0 (``positive``: > 0); ValueError names the field."""
+    for key in non_negative + positive:
+        v = getattr(obj, key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ValueError(f"{what}.{key} {v!r} is not a finite number")
+        if v < 0 or (key in positive and v == 0):
+            raise ValueError(f"{what}.{key} {v!r} must be {'> 0' if key in positive else '>= 0'}")
+
+
+def _check_size(cams: list, proj, supersample: int, n_patterns: int) -> None:
+    """Image sides and the rendering's memory estimate, before any ray is cast."""
+    devs = cams + ([proj] if proj is not None else [])
+    for d in devs:
+        w, h = d.model.image_size
+        check_count(f"{d.name}.image_size width", w, MAX_SIDE)
+        check_count(f"{d.name}.image_size height", h, MAX_SIDE)
+    px = [int(c.model.image_size[0]) * int(c.model.image_size[1]) for c in cams]
+    ppx = int(proj.model.image_size[0]) * int(proj.model.image_size[1]) if proj is not None else 0
+    # rays of every camera are kept at once; one frame is rendered at a time; a white,
+    # black or speckle entry of ``patterns`` is a float64 image at the projector's size
+    need = RAY_BYTES * supersample ** 2 * sum(px) + PIXEL_BYTES * max(px, default=0) + 8.0 * ppx * n_patterns
+    sizes = ", ".join(f"{c.name} {c.model.image_size[0]} x {c.model.image_size[1]} px" for c in cams)
+    check_budget(f"rendering {sizes} at supersample {supersample}", need)
 
 
 def _stages(d) -> dict[str, dict[str, Any]]:
@@ -227,5 +308,5 @@ def load_scene(path: str | Path) -> LabScene:
     doc = read_yaml(p)
     try:
         return scene_from_dict(doc, p.parent)
-    except (ValueError, TypeError, KeyError) as exc:
+    except (ValueError, TypeError, KeyError, CamcmmError) as exc:
         raise InputError(f"{p}: {exc}") from None
