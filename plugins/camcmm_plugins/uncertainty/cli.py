@@ -79,12 +79,21 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             doc["measurements_from"] = {"project": str(Path(args.project).resolve()), "result": args.result,
                                         "path": args.path}
         return from_dict(doc, base)
-    from .montecarlo import run_study, write_outputs
+    from camcmm.api import CamcmmError
 
+    from .montecarlo import MAX_ITERATIONS, run_study, write_outputs
+
+    if args.iterations is not None and not 2 <= args.iterations <= MAX_ITERATIONS:
+        raise InputError(f"--iterations {args.iterations} must lie in 2 .. {MAX_ITERATIONS}")
+    if args.seed is not None and args.seed < 0:
+        raise InputError(f"--seed {args.seed} must be >= 0")
     doc, base = load_spec(args.file)
     studies = [s.strip() for s in args.studies.split(",") if s.strip()]
-    res = run_study(doc, iterations=args.iterations, seed=args.seed, method=args.method,
-                    scheduler=args.scheduler, studies=studies)
+    try:
+        res = run_study(doc, iterations=args.iterations, seed=args.seed, method=args.method,
+                        scheduler=args.scheduler, studies=studies)
+    except CamcmmError as exc:              # the rest comes from the file: name it
+        raise type(exc)(f"{Path(args.file).name}: {exc}") from None
     if args.out:
         res["files"] = write_outputs(res, args.out)
     return res

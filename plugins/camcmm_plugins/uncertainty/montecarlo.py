@@ -30,6 +30,12 @@ deviations. The combined standard uncertainty is the root sum of squares (eq. 3.
 with Welch–Satterthwaite dof, Student-t k and U per axis. The study ``joint`` perturbs
 all factors at once.
 
+Limits, checked before any trial runs (one line naming the value): ``iterations`` 2 ..
+``MAX_ITERATIONS``, ``seed`` >= 0, at most ``MAX_POINTS`` grid points, and the memory
+estimate (``TRIAL_BYTES`` per trial and point of a chunk, ``POINT_BYTES`` per grid point,
+48 B per point of each chunk's statistics, kept until merged) within
+``camcmm.api.check_budget``.
+
 Work is split into chunks of ``chunk`` trials, each with its own random stream spawned
 from ``np.random.SeedSequence(seed)`` (per factor, then per chunk) and the chunk
 statistics are merged in chunk order (Chan et al.'s pairwise update): the local run and
@@ -46,7 +52,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, check_budget
 
 from . import gum, stereo_model as sm, triangulation as tri
 
@@ -55,6 +61,28 @@ FACTORS = ("feature_location", "focal_length", "principal_point", "radial_distor
 DEFAULT_DIST = {f: ("normal" if f == "feature_location" else "rectangular") for f in FACTORS}
 UNITS = {"mm": 1.0, "um": 1e3, "µm": 1e3, "nm": 1e6}
 STUDIES = ("convergence", "sweep", "volume_maps", "spatial", "joint")
+#: Most trials per factor (the thesis ran 10^4 .. 10^5).
+MAX_ITERATIONS = 10_000_000
+#: Most grid points (a 100 x 100 x 100 grid).
+MAX_POINTS = 1_000_000
+#: Memory per trial and grid point of a chunk (offsets, image points, triangulation,
+#: errors; tracemalloc: 307 B linear, 361 B optimal) and per grid point of the set-up.
+TRIAL_BYTES = 400
+POINT_BYTES = 600
+
+
+def _whole(value: Any, what: str, lo: int, hi: int) -> int:
+    """A whole number lo .. hi from a file or the command line, or an error naming it."""
+    try:
+        x = float(value)
+        ok = not isinstance(value, bool) and math.isfinite(x) and x == int(x)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InputError(f"{what} = {value!r} is not a whole number")
+    if not lo <= int(x) <= hi:
+        raise InputError(f"{what} = {int(x)} must " + (f"be >= {lo}" if hi >= 2 ** 62 else f"lie in {lo} .. {hi}"))
+    return int(x)
 
 
 @dataclass
@@ -148,6 +176,9 @@ def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
     n = _vec(g.get("n", 10), 3, "grid.n").astype(int)
     if np.any(n < 1) or np.any(size < 0):
         raise InputError("grid: n must be >= 1 and size >= 0 along every axis")
+    n_points = int(np.prod(n.astype(float)))
+    if n_points > MAX_POINTS:
+        raise InputError(f"grid.n {n.tolist()} makes {n_points} points; the limit is {MAX_POINTS}")
     axes = [np.linspace(c - s / 2, c + s / 2, k) if k > 1 else np.array([c]) for c, s, k in zip(center, size, n)]
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     if len(pts) < 2:
@@ -200,9 +231,7 @@ def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
     unit = str(doc.get("unit", "um"))
     if unit not in UNITS:
         raise InputError(f"unit {unit!r}: use mm, um or nm")
-    chunk = int(doc.get("chunk", 250))
-    if chunk < 1:
-        raise InputError("chunk must be >= 1 trial")
+    chunk = _whole(doc.get("chunk", 250), "chunk", 1, MAX_ITERATIONS)
     return Setup(system, pts, tuple(int(k) for k in n), stds, dists, dofs, m, chunk, unit)
 
 
@@ -481,9 +510,12 @@ def volume_maps(setup: Setup, multiple: float = 1.0) -> dict[str, Any]:
 def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[float],
                   executor=None) -> dict[str, Any]:
     """Fig. 3.4: the feature-location contribution for sigma from 0 to 1 px."""
-    levels = np.asarray(levels, float)
-    if levels.ndim != 1 or np.any(levels < 0):
-        raise InputError("sweep_levels: expected a list of feature-location sigmas >= 0 px")
+    try:
+        levels = np.asarray(levels, float)
+    except (TypeError, ValueError):
+        levels = np.zeros((0, 0))
+    if levels.ndim != 1 or not 1 <= len(levels) <= 1000 or not np.all(np.isfinite(levels)) or np.any(levels < 0):
+        raise InputError("sweep_levels: expected a list of 1 .. 1000 feature-location sigmas >= 0 px")
     stds = dict(setup.stds)
     stds["feature_location"] = np.ones((2, 2))
     sub = Setup(setup.system, setup.points, setup.grid_shape, stds, setup.distributions, setup.dofs,
@@ -521,9 +553,10 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
               progress: Callable | None = None, warn: Callable | None = None,
               executor=None) -> dict[str, Any]:
     """The whole Monte Carlo study; returns the JSON-able result (arrays as numpy)."""
+    N = _whole(iterations if iterations is not None else doc.get("iterations", 10000), "iterations", 2,
+               MAX_ITERATIONS)
+    s = _whole(seed if seed is not None else doc.get("seed", 0), "seed", 0, 2 ** 63 - 1)
     setup = setup_from_dict(doc, method)
-    N = int(iterations if iterations is not None else doc.get("iterations", 10000))
-    s = int(seed if seed is not None else doc.get("seed", 0))
     studies = list(studies) or list(doc.get("studies", []) or [])
     if "all" in studies:
         studies = list(STUDIES)
@@ -532,6 +565,11 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
         raise InputError(f"study {bad[0]!r}: use {', '.join(STUDIES)} or all")
     if not setup.factors:
         raise InputError("uncertainties: every factor is zero; nothing to simulate")
+    P = len(setup.points)
+    groups_n = len(setup.factors) + ("joint" in studies)
+    chunks = -(-N // setup.chunk)
+    check_budget(f"Monte Carlo of {N} iterations x {P} grid points (chunk {setup.chunk})",
+                 TRIAL_BYTES * min(setup.chunk, N) * P + POINT_BYTES * P + 48.0 * chunks * groups_n * P)
     own_client = None
     if executor is None and scheduler:
         from .distributed import DaskExecutor
@@ -558,12 +596,16 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
         if "volume_maps" in studies:
             extra["volume_maps"] = volume_maps(setup, float(doc.get("volume_map_multiple", 1.0)))
         if "sweep" in studies:
-            extra["sweep"] = feature_sweep(setup, min(N, int(doc.get("sweep_iterations", 2000))), s + 1,
+            n_sweep = _whole(doc.get("sweep_iterations", 2000), "sweep_iterations", 2, MAX_ITERATIONS)
+            extra["sweep"] = feature_sweep(setup, min(N, n_sweep), s + 1,
                                            doc.get("sweep_levels", np.linspace(0, 1, 11)), executor)
         if "spatial" in studies:
             sp = doc.get("spatial", {}) or {}
-            extra["spatial"] = spatial_variation(setup, min(N, int(sp.get("iterations", N))), s + 2,
-                                                 sp.get("axis", "x"), int(sp.get("n", 21)), executor)
+            if sp.get("axis", "x") not in ("x", "y", "z"):
+                raise InputError(f"spatial.axis {sp.get('axis')!r}: use x, y or z")
+            extra["spatial"] = spatial_variation(
+                setup, min(N, _whole(sp.get("iterations", N), "spatial.iterations", 2, MAX_ITERATIONS)), s + 2,
+                sp.get("axis", "x"), _whole(sp.get("n", 21), "spatial.n", 2, 10_000), executor)
         out["studies"] = extra
         out["elapsed_s"] = time.perf_counter() - t0
         return out

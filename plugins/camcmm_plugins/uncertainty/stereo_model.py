@@ -124,6 +124,27 @@ def polar_uncertainty(T, u_T) -> tuple[float, float]:
 
 
 # ------------------------------------------------------------------ cameras
+#: Largest image side (px) a camera may declare.
+MAX_SIDE = 100_000
+
+
+def _finite(v: Any) -> bool:
+    try:
+        return not isinstance(v, bool) and math.isfinite(float(v))
+    except (TypeError, ValueError):
+        return False
+
+
+def _image_size(v: Any, name: str) -> tuple[int, int]:
+    """(width, height) px, each 1 .. MAX_SIDE; absent: (0, 0), i.e. not known."""
+    if v is None:
+        return (0, 0)
+    ok = isinstance(v, (list, tuple)) and len(v) == 2 and all(_finite(x) and float(x) == int(float(x)) for x in v)
+    if not ok or not all(1 <= int(float(x)) <= MAX_SIDE for x in v):
+        raise InputError(f"{name}: image_size {v!r} must be [width, height], whole numbers 1 .. {MAX_SIDE} px")
+    return int(float(v[0])), int(float(v[1]))
+
+
 @dataclass
 class Camera:
     """Intrinsics of one camera: focal lengths and principal point in px, distortion."""
@@ -145,13 +166,17 @@ class Camera:
     def from_dict(cls, d: Mapping[str, Any], name: str = "camera") -> "Camera":
         if not isinstance(d, Mapping):
             raise InputError(f"{name}: expected a mapping")
+        size = _image_size(d.get("image_size"), name)
+        for key in ("focal_length", "pixel_pitch", "fu", "fv"):
+            v = d.get(key)
+            if v is not None and not (_finite(v) and float(v) > 0):
+                raise InputError(f"{name}: {key} = {v!r} must be a finite number > 0")
         if "camera_matrix" in d:  # CameraModel / OpenCV form
             K = np.asarray(d["camera_matrix"], dtype=float).reshape(3, 3)
             dist = list(np.asarray(d.get("dist_coeffs", [0] * 5), dtype=float).ravel()) + [0.0] * 5
             fu, fv, u0, v0 = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
             k, p = [dist[0], dist[1], dist[4]], [dist[2], dist[3]]
         else:
-            size = d.get("image_size", (0, 0))
             pitch = d.get("pixel_pitch")
             if d.get("focal_length") is not None and pitch:  # mm -> px
                 fu = fv = float(d["focal_length"]) / float(pitch)
@@ -165,11 +190,15 @@ class Camera:
                 raise InputError(f"{name}: missing principal point u0, v0 (or image_size)")
             k = list(d.get("k", [d.get("k1", 0.0), d.get("k2", 0.0), d.get("k3", 0.0)]))
             p = list(d.get("p", [d.get("p1", 0.0), d.get("p2", 0.0)]))
-        cam = cls(float(fu), float(fv), float(u0), float(v0), np.asarray((list(k) + [0.0] * 3)[:3], float),
-                  np.asarray((list(p) + [0.0] * 2)[:2], float),
-                  tuple(int(v) for v in d.get("image_size", (0, 0))), d.get("pixel_pitch"))
-        if not (cam.fu > 0 and cam.fv > 0):
-            raise InputError(f"{name}: focal lengths must be > 0 px (fu={cam.fu:g}, fv={cam.fv:g})")
+        try:
+            cam = cls(float(fu), float(fv), float(u0), float(v0), np.asarray((list(k) + [0.0] * 3)[:3], float),
+                      np.asarray((list(p) + [0.0] * 2)[:2], float), size, d.get("pixel_pitch"))
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{name}: intrinsics must be numbers ({exc})") from None
+        if not (cam.fu > 0 and cam.fv > 0 and np.isfinite(cam.fu) and np.isfinite(cam.fv)):
+            raise InputError(f"{name}: focal lengths must be finite and > 0 px (fu={cam.fu:g}, fv={cam.fv:g})")
+        if not np.all(np.isfinite([cam.u0, cam.v0, *cam.k, *cam.p])):
+            raise InputError(f"{name}: principal point and distortion must be finite numbers")
         return cam
 
     def to_model(self, R=np.eye(3), T=np.zeros(3), name: str = "camera"):
