@@ -41,6 +41,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     from . import api
 
+    if args.nominal_radius is not None:
+        args.nominal_radius = _declared(args.element, "nominal_radius", args.nominal_radius)
     cloud = read(args.file, unit=args.unit) if args.unit else read(args.file)
     if not hasattr(cloud, "points"):
         raise InputError(f"{args.file}: holds a {type(cloud).__name__}, not a point cloud")
@@ -56,6 +58,22 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     out = res.to_dict(residuals=args.residuals)
     out.update(extra)
     return out
+
+
+def _declared(element: str, name: str, value: Any) -> Any:
+    """A command-line value checked by the fit plugin's own parameter declaration (so the
+    CLI, JSON runs and the GUI share one rule: --nominal-radius finite and > 0)."""
+    from camcmm.api import InputError, ParameterError, default_host
+
+    spec = default_host().get(f"fit.{element}")
+    param = next((p for p in spec.parameters if p.name == name), None)
+    flag = "--" + name.replace("_", "-")
+    if param is None:
+        raise InputError(f"{flag}: fit.{element} has no {name.replace('_', ' ')}")
+    try:
+        return param.coerce(value)
+    except ParameterError as exc:
+        raise ParameterError(f"{flag}: {exc}") from None
 
 
 def _vec(v: Any) -> str:

@@ -202,6 +202,14 @@ def _cone(x: np.ndarray, center: np.ndarray, viewpoint: np.ndarray, half_angle_d
     return cosang >= np.cos(np.radians(half_angle_deg))
 
 
+def _positive(r: Any) -> bool:
+    """A finite number > 0 (NaN fails every comparison, so ``r <= 0`` alone lets it through)."""
+    try:
+        return bool(np.isfinite(float(r)) and float(r) > 0)
+    except (TypeError, ValueError):
+        return False
+
+
 def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None = None,
                     tolerance: float | None = None, min_points: int = 30,
                     radius_tolerance: float = 0.2) -> Segmentation:
@@ -216,8 +224,8 @@ def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None
     then y, then z of their centres. Each point belongs to at most one sphere.
     """
     x = as_points(points, "sphere")
-    if not nominal_radius or nominal_radius <= 0:
-        raise InputError("sphere segmentation needs a positive nominal radius (mm)")
+    if not _positive(nominal_radius):
+        raise InputError(f"sphere segmentation needs a positive nominal radius (mm), got {nominal_radius!r}")
     centres = _detect(x, nominal_radius, n_spheres, max(8, min_points // 4))
     found: list[tuple[np.ndarray, FitResult]] = []
     notes = []
@@ -271,8 +279,8 @@ def extract_sphere(points: Any, nominal_radius: float | None = None, *, toleranc
     """
     x = as_points(points, "sphere")
     if nominal_radius is not None:
-        if nominal_radius <= 0:
-            raise InputError("sphere extraction: the nominal radius must be positive (mm)")
+        if not _positive(nominal_radius):
+            raise InputError(f"sphere extraction: the nominal radius must be positive (mm), got {nominal_radius!r}")
         centres = _detect(x, nominal_radius, 1, 8)
         if not centres:
             raise GeometryError(f"no sphere of radius {nominal_radius:g} mm found in {len(x)} points")
