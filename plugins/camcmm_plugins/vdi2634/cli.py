@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     spec = host.get(std)
     if spec.kind != "standard":
         raise PluginError(f"{path.name}: standard {std!r} is a {spec.kind} plugin, not a standard")
-    params = {"workers": args.workers} if args.workers else {}
+    # through the declaration (min 1, max 64), so --workers 0 is refused, not the default
+    params = {"workers": args.workers} if args.workers is not None else {}
     res = host.run(std, {"plan": path}, params)
     result = res.outputs
     result["run"] = {"plugin": res.plugin_id, "version": res.plugin_version, "input_hashes": res.input_hashes,

@@ -58,16 +58,20 @@ def _name(cloud: PointCloud, name: str | None) -> str:
 
 
 def check_extent(cloud: PointCloud, expected: float, name: str, what: str) -> None:
-    """Refuse a cloud whose size says it is in metres (or is no such artefact at all).
+    """Refuse a cloud whose size says it is in the wrong unit (or is no such artefact).
 
     ``expected`` is the artefact's size in mm; a cloud 1000 times smaller than it is
-    almost surely a file in metres read as mm."""
+    almost surely a file in metres read as mm, 1000 times larger a file in mm read as
+    metres (``unit: m`` in the plan on mm files)."""
     if cloud.n_points < 10:
         raise GeometryError(f"{name}: only {cloud.n_points} points; too few for a {what}")
     extent = float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
     if extent < expected / 50 and 0.05 * expected <= extent * 1000 <= 20 * expected:
         raise InputError(f"{name}: the cloud spans {extent:.4g} but a {what} of {expected:g} mm was expected; "
                          f"it looks like metres; convert it or give its unit (unit: m in the plan)")
+    if extent > 50 * expected and 0.05 * expected <= extent / 1000 <= 20 * expected:
+        raise InputError(f"{name}: the cloud spans {extent:.4g} mm but a {what} of {expected:g} mm was expected; "
+                         f"it looks like a file in mm read as metres; check the unit the plan gives it")
 
 
 def _fit(ctx, plugin: str, name: str, expect: str = "", **kw) -> dict[str, Any]:
@@ -108,6 +112,9 @@ def _size_check(d_fit: float, d_ref: float, name: str, what: str) -> None:
     if 0.5e-3 <= d_fit / d_ref <= 2e-3:
         raise InputError(f"{name}: the fitted {what} diameter is {d_fit:.4g}, about 1/1000 of {d_ref:g} mm; "
                          "it looks like metres; convert it or give its unit (unit: m in the plan)")
+    if 500 <= d_fit / d_ref <= 2000:
+        raise InputError(f"{name}: the fitted {what} diameter is {d_fit:.4g} mm, about 1000 x {d_ref:g} mm; "
+                         "it looks like a file in mm read as metres; check the unit the plan gives it")
     raise GeometryError(f"{name}: no {what} of diameter {d_ref:g} mm in it (the least-squares sphere has "
                         f"diameter {d_fit:.4g} mm); is this the right file?")
 
