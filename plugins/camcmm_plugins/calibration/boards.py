@@ -27,6 +27,10 @@ from camcmm.api import Image, InputError
 
 KINDS = ("chessboard", "charuco", "circles", "acircles")
 _SIZE = re.compile(r"^(\d+)\s*[x×X]\s*(\d+)$")
+#: Largest board: points along a side, points in all, square side or spacing (mm).
+MAX_SIDE = 200
+MAX_POINTS = 10_000
+MAX_LENGTH = 10_000.0
 
 
 @dataclass(frozen=True)
@@ -108,12 +112,22 @@ def parse_board(spec: str) -> Board:
     if cols < least or rows < least:
         raise InputError(f"board {spec!r}: needs at least {least}x{least} "
                          f"{'squares' if kind == 'charuco' else 'points'}")
+    if cols > MAX_SIDE or rows > MAX_SIDE or cols * rows > MAX_POINTS:
+        raise InputError(f"board {spec!r}: {cols}x{rows} is more than a board holds "
+                         f"(at most {MAX_SIDE} along a side and {MAX_POINTS} points)")
+    if max(nums) > MAX_LENGTH:
+        raise InputError(f"board {spec!r}: {max(nums):g} mm is more than {MAX_LENGTH:g} mm; "
+                         "square size and spacing are in mm")
     if kind == "charuco":
         import cv2
 
         dictionary = parts[4].upper() if len(parts) == 5 else "DICT_5X5_100"
         if not dictionary.startswith("DICT_") or not hasattr(cv2.aruco, dictionary):
             raise InputError(f"board {spec!r}: unknown ArUco dictionary {dictionary!r} (e.g. DICT_5X5_100)")
+        m = re.match(r"^DICT_\dX\d_(\d+)$", dictionary)
+        if m and cols * rows // 2 > int(m.group(1)):
+            raise InputError(f"board {spec!r}: {cols}x{rows} squares hold {cols * rows // 2} markers; "
+                             f"{dictionary} has only {m.group(1)}")
         if nums[1] >= nums[0]:
             raise InputError(f"board {spec!r}: the marker ({nums[1]:g} mm) must be smaller than the square")
         return Board(kind, cols, rows, nums[0], nums[1], dictionary)
