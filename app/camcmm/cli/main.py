@@ -98,6 +98,10 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 1
+    except MemoryError as exc:  # an estimate let it through: still one line, naming the allocation
+        what = " ".join(str(exc).split()) or "an allocation failed"
+        print(f"camcmm: error: out of memory: {what}; use smaller sizes or counts", file=sys.stderr)
+        return 2
     except Exception as exc:  # a bug: still one line for the user, the exit code says so
         print(f"camcmm: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1
