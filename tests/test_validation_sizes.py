@@ -139,16 +139,20 @@ def mc_file(tmp_path):
 
 
 @pytest.mark.parametrize("changes,args,needle", [
-    ({}, ["--iterations", str(10 ** 12)], "--iterations 1000000000000 must lie in 2 .. 10000000"),
-    ({"iterations": 10 ** 12}, [], "mc.yaml: iterations = 1000000000000 must lie in 2 .. 10000000"),
-    ({}, ["--seed", "-1"], "--seed -1 must be >= 0"),
-    ({"seed": -1}, ["--iterations", "10"], "mc.yaml: seed = -1 must be >= 0"),
+    # the command line through the plugin's declaration, the file against the same limits
+    ({}, ["--iterations", str(10 ** 12)],
+     "--iterations: parameter 'iterations' = 1000000000000 is above its maximum"),
+    ({"iterations": 10 ** 12}, [], "mc.yaml: iterations = 1000000000000 must lie in 2 .. 100000000"),
+    ({}, ["--seed", "-1"], "--seed: parameter 'seed' = -1 is below its minimum 0"),
+    ({"seed": -1}, ["--iterations", "10"], "mc.yaml: seed = -1 must lie in 0 .. 4294967295"),
     ({"seed": 1.5}, ["--iterations", "10"], "mc.yaml: seed = 1.5 is not a whole number"),
     ({"grid_n": [3000, 3000, 3000]}, ["--iterations", "10"],
      "mc.yaml: grid.n [3000, 3000, 3000] makes 27000000000 points; the limit is 1000000"),
     ({"camera1_image_size": [0, 0]}, ["--iterations", "10"], "mc.yaml: camera 1: image_size [0, 0]"),
     ({"camera1_pixel_pitch": 0}, ["--iterations", "10"], "mc.yaml: camera 1: pixel_pitch = 0"),
-    ({"chunk": 10 ** 9}, ["--iterations", "10"], "mc.yaml: chunk = 1000000000"),
+    ({"chunk": 10 ** 9}, ["--iterations", "10"], "mc.yaml: chunk = 1000000000 must lie in 1 .. 100000000"),
+    ({"iterations": 10 ** 8}, [],
+     "mc.yaml: Monte Carlo of 100000000 iterations x 1000 grid points (chunk 250) needs ~"),
     ({"spatial": {"n": 10 ** 9}, "studies": ["spatial"]}, ["--iterations", "10"], "mc.yaml: spatial.n = 1000000000"),
 ])
 def test_montecarlo_refuses_before_any_trial(mc_file, capsys, changes, args, needle):

@@ -81,12 +81,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         return from_dict(doc, base)
     from camcmm.api import CamcmmError
 
-    from .montecarlo import MAX_ITERATIONS, run_study, write_outputs
+    from .montecarlo import run_study, write_outputs
 
-    if args.iterations is not None and not 2 <= args.iterations <= MAX_ITERATIONS:
-        raise InputError(f"--iterations {args.iterations} must lie in 2 .. {MAX_ITERATIONS}")
-    if args.seed is not None and args.seed < 0:
-        raise InputError(f"--seed {args.seed} must be >= 0")
+    args.iterations = _declared("iterations", args.iterations)
+    args.seed = _declared("seed", args.seed)
     doc, base = load_spec(args.file)
     studies = [s.strip() for s in args.studies.split(",") if s.strip()]
     try:
@@ -97,6 +95,20 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.out:
         res["files"] = write_outputs(res, args.out)
     return res
+
+
+def _declared(name: str, value: Any) -> Any:
+    """A command-line value checked by uncertainty.montecarlo's own declaration (one rule
+    for the CLI, JSON runs and the GUI)."""
+    from camcmm.api import ParameterError, default_host
+
+    if value is None:
+        return None
+    param = next(p for p in default_host().get("uncertainty.montecarlo").parameters if p.name == name)
+    try:
+        return param.coerce(value)
+    except ParameterError as exc:
+        raise ParameterError(f"--{name}: {exc}") from None
 
 
 def _g(x: Any, fmt: str = ".4g") -> str:
