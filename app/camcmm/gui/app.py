@@ -142,8 +142,10 @@ def build(server_name: str, project_dir: str | Path, project: Any = None, host: 
         if not pid:
             session.error("choose a plugin first")
             return
-        try:  # a parameter or input naming a file or folder: only inside the roots
-            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, input_values,
+        try:  # a parameter or input naming a file or folder: only inside the roots (the run also
+            # takes inputs from the state, which the client writes too: check those as well)
+            inputs = {**dict(state.input_values or {}), **dict(input_values or {})}
+            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, inputs,
                                                                 _ITEM_TYPES)
         except CamcmmError as exc:
             session.error(str(exc))
