@@ -42,7 +42,10 @@ def read_interferometer_csv(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{p.name}: file not found ({p})")
-    text = p.read_text(encoding="utf-8-sig")
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{p.name}: not a CSV text file (not UTF-8 at byte {exc.start})") from None
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 2:
         raise InputError(f"{p.name}: needs a header row and at least 2 data rows")

@@ -49,6 +49,8 @@ def _json_input(value: Any, what: str) -> Any:
         raise InputError(f"{what} {str(path)!r}: cannot read it ({exc.strerror})") from None
     except json.JSONDecodeError as exc:
         raise InputError(f"{what} {path.name}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{what} {path.name}: not valid JSON (not UTF-8 text at byte {exc.start})") from None
 
 
 def _transform_input(value: Any) -> np.ndarray | None:
@@ -65,7 +67,8 @@ def _transform_input(value: Any) -> np.ndarray | None:
 
 def _need_cloud(cloud: Any, what: str = "cloud") -> PointCloud:
     if not isinstance(cloud, PointCloud):
-        raise InputError(f"{what}: expected a point cloud, got a {type(cloud).__name__}")
+        name = getattr(cloud, "name", "")
+        raise InputError(f"{what}{f' {name}' if name else ''}: expected a point cloud, got a {type(cloud).__name__}")
     if cloud.n_points < 10:
         raise InputError(f"{cloud.name}: {cloud.n_points} points are too few to inspect (need at least 10)")
     return cloud
