@@ -277,6 +277,8 @@ def _add_entry(seq: Sequence, entry: Any, where: str) -> None:
         shifts_deg = entry.get("shifts_deg", [360.0 * k / steps for k in range(steps)])
         if not (isinstance(shifts_deg, (list, tuple)) and len(shifts_deg) == steps):
             raise InputError(f"{where}: 'shifts_deg' must list {steps} phase shifts in degrees")
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in shifts_deg):
+            raise InputError(f"{where}: 'shifts_deg' must be finite numbers (degrees), got {list(shifts_deg)!r}")
         shifts = tuple(math.radians(float(s)) for s in shifts_deg)
         # eq. 5.3 needs sum(sin delta) = sum(cos delta) = 0 and equal weights in both
         # quadratures; otherwise the arctangent is biased

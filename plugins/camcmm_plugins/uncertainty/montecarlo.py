@@ -119,7 +119,10 @@ class Setup:
 
 # ------------------------------------------------------------------ input
 def _vec(v, n, what) -> np.ndarray:
-    a = np.atleast_1d(np.asarray(v, dtype=float))
+    try:
+        a = np.atleast_1d(np.asarray(v, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(f"{what}: expected {n} finite numbers, got {v!r}") from None
     if a.size == 1:
         a = np.repeat(a, n)
     if a.size != n or not np.all(np.isfinite(a)):
@@ -134,12 +137,19 @@ def _per_camera(value, n, what) -> np.ndarray:
     if isinstance(value, (list, tuple)) and len(value) == 2 and all(isinstance(v, (list, tuple)) for v in value):
         arr = np.array([_vec(v, n, f"uncertainties.{what}") for v in value])
     else:
-        a = np.atleast_1d(np.asarray(value, dtype=float))
+        a = _vec(value, len(value) if isinstance(value, (list, tuple)) else 1, f"uncertainties.{what}")
         arr = np.vstack([_vec(np.pad(a, (0, max(0, n - a.size))) if 1 < a.size < n else a, n,
                               f"uncertainties.{what}")] * 2)
     if np.any(arr < 0):
         raise InputError(f"uncertainties.{what}: standard uncertainties must be >= 0, got {value!r}")
     return arr
+
+
+def _mapping(doc: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    v = doc.get(key) or {}
+    if not isinstance(v, Mapping):
+        raise InputError(f"{key}: expected a mapping, got {v!r}")
+    return v
 
 
 def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
@@ -158,13 +168,15 @@ def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
     if not isinstance(st, Mapping):
         raise InputError("stereo: expected a mapping (baseline + angle_deg, or rotation + translation)")
     if "R" in st or "rotation_matrix" in st:
-        R = np.asarray(st.get("R", st.get("rotation_matrix")), float).reshape(3, 3)
+        R = _vec(st.get("R", st.get("rotation_matrix")), 9, "stereo.R").reshape(3, 3)
+        if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+            raise InputError("stereo.R is not a rotation matrix (R R^T = I, det R = +1)")
         system = sm.StereoSystem(c1, c2, R, _vec(st.get("T", st.get("translation")), 3, "stereo.T"))
     elif "translation" in st:
         ang = np.radians(_vec(st.get("rotation_deg", [0, 0, 0]), 3, "stereo.rotation_deg"))
         system = sm.StereoSystem(c1, c2, sm.rot_xyz(*ang), _vec(st["translation"], 3, "stereo.translation"))
     elif "baseline" in st:
-        b, a = float(st["baseline"]), float(st.get("angle_deg", 0.0))
+        b, a = _vec(st["baseline"], 1, "stereo.baseline")[0], _vec(st.get("angle_deg", 0.0), 1, "stereo.angle_deg")[0]
         if not b > 0:
             raise InputError(f"stereo.baseline = {b:g} must be > 0 mm")
         system = sm.StereoSystem.from_baseline_angle(c1, c2, b, a)
@@ -172,12 +184,14 @@ def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
         raise InputError("stereo: give baseline (mm) and angle_deg, or rotation_deg and translation, or R and T")
     if np.linalg.norm(system.T) == 0:
         raise InputError("stereo: the two cameras coincide (zero translation)")
-    g = doc.get("grid", {}) or {}
+    g = _mapping(doc, "grid")
     center = _vec(g.get("center", system.convergence_point()), 3, "grid.center")
     size = _vec(g.get("size", 50.0), 3, "grid.size")
     n = _vec(g.get("n", 10), 3, "grid.n").astype(int)
     if np.any(n < 1) or np.any(size < 0):
         raise InputError("grid: n must be >= 1 and size >= 0 along every axis")
+    if np.any((size == 0) & (n > 1)):
+        raise InputError(f"grid: size {size.tolist()} with n {n.tolist()} puts several points at one place")
     n_points = int(np.prod(n.astype(float)))
     if n_points > MAX_POINTS:
         raise InputError(f"grid.n {n.tolist()} makes {n_points} points; the limit is {MAX_POINTS}")
@@ -213,14 +227,14 @@ def setup_from_dict(doc: Mapping[str, Any], method: str | None = None) -> Setup:
         if np.any(np.asarray(stds[f]) < 0):
             raise InputError(f"uncertainties.{f}: standard uncertainties must be >= 0, got {val!r}")
     dists = dict(DEFAULT_DIST)
-    for f, d in (doc.get("distributions") or {}).items():
+    for f, d in _mapping(doc, "distributions").items():
         if f not in FACTORS:
             raise InputError(f"distributions.{f}: unknown factor")
         if d not in ("normal", "rectangular"):
             raise InputError(f"distributions.{f}: {d!r}; use normal or rectangular")
         dists[f] = d
     dofs = {f: math.inf for f in FACTORS}
-    for f, d in (doc.get("dof") or {}).items():
+    for f, d in _mapping(doc, "dof").items():
         if f not in FACTORS:
             raise InputError(f"dof.{f}: unknown factor")
         x = gum._number(d, f"dof.{f}")
@@ -555,6 +569,18 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
               progress: Callable | None = None, warn: Callable | None = None,
               executor=None) -> dict[str, Any]:
     """The whole Monte Carlo study; returns the JSON-able result (arrays as numpy)."""
+    # absurd magnitudes (1e308 mm) overflow inside the model: numpy's warnings would
+    # clutter stderr, the non-finite result is refused below in one line instead
+    with np.errstate(all="ignore"):
+        out = _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn, executor)
+    bad = [f for f, u in out["contributions"].items() if not np.all(np.isfinite(u))]
+    if bad or not np.all(np.isfinite(out["combined"])):
+        raise InputError(f"the model gives non-finite errors{' for ' + bad[0] if bad else ''}; "
+                         "check the magnitudes of the cameras, stereo, grid and uncertainties")
+    return out
+
+
+def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn, executor) -> dict[str, Any]:
     N = _whole(iterations if iterations is not None else doc.get("iterations", 10000), "iterations", 2,
                MAX_ITERATIONS)
     s = _whole(seed if seed is not None else doc.get("seed", 0), "seed", 0, MAX_SEED)

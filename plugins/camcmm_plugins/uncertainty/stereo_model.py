@@ -118,8 +118,8 @@ def polar_uncertainty(T, u_T) -> tuple[float, float]:
     rho = math.sqrt(rho2)
     dth = (Tx * Tz / (Tr2 * rho), Ty * Tz / (Tr2 * rho), -rho / Tr2)
     dph = (-Ty / rho2, Tx / rho2)
-    u_th = math.sqrt((dth[0] * ux) ** 2 + (dth[1] * uy) ** 2 + (dth[2] * uz) ** 2)
-    u_ph = math.sqrt((dph[0] * ux) ** 2 + (dph[1] * uy) ** 2)
+    u_th = math.hypot(dth[0] * ux, dth[1] * uy, dth[2] * uz)     # hypot: no overflow in the squares
+    u_ph = math.hypot(dph[0] * ux, dph[1] * uy)
     return u_th, u_ph
 
 
@@ -171,26 +171,26 @@ class Camera:
             v = d.get(key)
             if v is not None and not (_finite(v) and float(v) > 0):
                 raise InputError(f"{name}: {key} = {v!r} must be a finite number > 0")
-        if "camera_matrix" in d:  # CameraModel / OpenCV form
-            K = np.asarray(d["camera_matrix"], dtype=float).reshape(3, 3)
-            dist = list(np.asarray(d.get("dist_coeffs", [0] * 5), dtype=float).ravel()) + [0.0] * 5
-            fu, fv, u0, v0 = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
-            k, p = [dist[0], dist[1], dist[4]], [dist[2], dist[3]]
-        else:
-            pitch = d.get("pixel_pitch")
-            if d.get("focal_length") is not None and pitch:  # mm -> px
-                fu = fv = float(d["focal_length"]) / float(pitch)
-            else:
-                fu, fv = d.get("fu"), d.get("fv", d.get("fu"))
-            if fu is None:
-                raise InputError(f"{name}: missing fu (focal length in px) or focal_length with pixel_pitch")
-            u0 = d.get("u0", size[0] / 2 if size[0] else None)
-            v0 = d.get("v0", size[1] / 2 if size[1] else None)
-            if u0 is None or v0 is None:
-                raise InputError(f"{name}: missing principal point u0, v0 (or image_size)")
-            k = list(d.get("k", [d.get("k1", 0.0), d.get("k2", 0.0), d.get("k3", 0.0)]))
-            p = list(d.get("p", [d.get("p1", 0.0), d.get("p2", 0.0)]))
         try:
+            if "camera_matrix" in d:  # CameraModel / OpenCV form
+                K = np.asarray(d["camera_matrix"], dtype=float).reshape(3, 3)
+                dist = list(np.asarray(d.get("dist_coeffs", [0] * 5), dtype=float).ravel()) + [0.0] * 5
+                fu, fv, u0, v0 = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+                k, p = [dist[0], dist[1], dist[4]], [dist[2], dist[3]]
+            else:
+                pitch = d.get("pixel_pitch")
+                if d.get("focal_length") is not None and pitch:  # mm -> px
+                    fu = fv = float(d["focal_length"]) / float(pitch)
+                else:
+                    fu, fv = d.get("fu"), d.get("fv", d.get("fu"))
+                if fu is None:
+                    raise InputError(f"{name}: missing fu (focal length in px) or focal_length with pixel_pitch")
+                u0 = d.get("u0", size[0] / 2 if size[0] else None)
+                v0 = d.get("v0", size[1] / 2 if size[1] else None)
+                if u0 is None or v0 is None:
+                    raise InputError(f"{name}: missing principal point u0, v0 (or image_size)")
+                k = list(d.get("k", [d.get("k1", 0.0), d.get("k2", 0.0), d.get("k3", 0.0)]))
+                p = list(d.get("p", [d.get("p1", 0.0), d.get("p2", 0.0)]))
             cam = cls(float(fu), float(fv), float(u0), float(v0), np.asarray((list(k) + [0.0] * 3)[:3], float),
                       np.asarray((list(p) + [0.0] * 2)[:2], float), size, d.get("pixel_pitch"))
         except (TypeError, ValueError) as exc:
