@@ -46,3 +46,71 @@ def test_negative_focal_length_is_one_line_and_the_next_measurement_works(wizard
     page.set_source("virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector"})
     card = asyncio.run(page.acquire_async("sphere", "sphere-01"))
     assert card is not None and card["status"] == "done", state.error_message
+
+
+UNCHECKED_YAML = """
+name: unchecked-lab
+plugins:
+  - id: unchecked.fringe-system
+    kind: algorithm
+    acquires: pointcloud
+    name: The simulated stereo fringe system with the camera checks switched off
+    entry: {pkg}.run:measure
+    inputs: [{{name: placement, type: json}}]
+"""
+
+UNCHECKED_PY = '''
+import camcmm.io.calibration as ic
+import camcmm.model as mm
+import camcmm_plugins.fringe.calib as fc
+import camcmm_plugins.virtuallab.capture as cap
+
+def measure(ctx, placement):
+    """What issue 13 saw before the checks: fx < 0 reaches OpenCV's rectification maps."""
+    saved = mm.camera_problem, ic.camera_problem, ic.check_calibration, cap.check_calibration, fc.check_calibration
+    mm.camera_problem = ic.camera_problem = lambda *a, **k: None
+    ic.check_calibration = cap.check_calibration = fc.check_calibration = lambda cal, name="": cal
+    try:
+        return ctx.algorithm("virtuallab.fringe-system")(placement=placement, method="stereo",
+                                                         preset="stereo_fringe", focal_error=-2.0)
+    finally:
+        mm.camera_problem, ic.camera_problem, ic.check_calibration, cap.check_calibration, fc.check_calibration = saved
+'''
+
+
+def test_the_native_crash_of_issue_13_ends_the_worker_not_the_server(tmp_path, monkeypatch):
+    """The checks switched off in a lab plugin: the negative focal length crashes OpenCV
+    (SIGSEGV, exit 139 in the CLI) inside the worker; the wizard shows one line and the
+    next measurement, with the built-in system, works in a fresh worker."""
+    import importlib.metadata as md
+
+    from camcmm.host import PluginHost
+
+    pkg = f"unchecked_lab_{os.getpid()}_{next(_names)}"
+    root = tmp_path / "labsrc" / pkg
+    root.mkdir(parents=True)
+    (root / "__init__.py").write_text("")
+    (root / "plugin.yaml").write_text(UNCHECKED_YAML.format(pkg=pkg))
+    (root / "run.py").write_text(UNCHECKED_PY)
+    monkeypatch.syspath_prepend(str(tmp_path / "labsrc"))
+    lab = md.EntryPoint(name="unchecked-lab", value=f"{pkg}:plugin.yaml", group="camcmm.plugins")
+    host = PluginHost(entry_points=[*md.entry_points(group="camcmm.plugins"), lab])
+    server, session = build(f"test-wgui-{os.getpid()}-{next(_names)}", tmp_path / "proj", host=host)
+    server.state.ready()
+    try:
+        page, state = server.wizard, server.state
+        page.choose_standard("vdi2634-2", state.wz_form)
+        form = json.loads(json.dumps(state.wz_form))
+        form["system_name"] = "Virtual stereo fringe system"
+        form["mpe"] = {"PF": "0.186", "PS": "0.143", "SD": "0.096", "F": "0.243"}
+        form["measuring_volume"] = [100, 100, 100]
+        assert page.start(form), state.wz_setup_error
+        page.set_source("unchecked.fringe-system")
+        assert asyncio.run(page.acquire_async("sphere", "sphere-01")) is None
+        line = state.error_message
+        assert "\n" not in line and "the worker process died (SIGSEGV); the server keeps running" in line, line
+        page.set_source("virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector"})
+        card = asyncio.run(page.acquire_async("sphere", "sphere-01"))
+        assert card is not None and card["status"] == "done", state.error_message
+    finally:
+        close(server)
