@@ -17,6 +17,7 @@ import numpy as np
 from camcmm.api import CameraModel, InputError
 
 from .boards import Board, Detection, parse_board, require_found
+from .checks import MAX_RMS_PX, camera_warnings
 from .covariance import Observation, assemble, covariance, free_intrinsics, parameter_names
 
 MIN_VIEWS = 3
@@ -48,7 +49,7 @@ def _calibrate(dets: list[Detection], size, flags, K0=None, D0=None):
 
 def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, model: str = "standard",
                      flags: int = 0, outlier_factor: float = 3.0, name: str = "camera",
-                     progress=None) -> dict[str, Any]:
+                     progress=None, max_rms: float = MAX_RMS_PX) -> dict[str, Any]:
     """Calibrate one camera from board detections (see :func:`boards.detect_all`).
 
     Returns a dict: ``camera`` (CameraModel), ``camera_matrix`` (3, 3) px,
@@ -57,7 +58,9 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
     Jacobian, ``per_view_rms`` {image: px}, ``image_size`` [w, h], ``rejected``
     [{image, reason}], ``views`` {names, rvecs (V, 3), tvecs (V, 3) mm: board -> camera},
     ``parameter_covariance`` and ``parameter_names`` (intrinsics, then each view's pose),
-    ``residual_sigma`` px per coordinate, ``flags``.
+    ``residual_sigma`` px per coordinate, ``flags``, ``warnings`` (one line each: views in
+    the same pose, too few or too little tilt, implausible or uncertain intrinsics, RMS
+    above ``max_rms`` px; see :mod:`.checks`).
     ``outlier_factor`` <= 0 keeps every view where the board was found.
     """
     board = parse_board(board)
@@ -96,7 +99,7 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
         cov[ii[0], :] = a * cov[ii[1], :]
         cov[:, ii[0]] = a * cov[:, ii[1]]
     names = [d.name for d in used]
-    return {
+    out = {
         "camera": cam,
         "camera_matrix": K,
         "dist_coeffs": D,
@@ -114,6 +117,8 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
         "board": board.spec,
         "n_points": int(sum(len(d.ids) for d in used)),
     }
+    out["warnings"] = camera_warnings(out, max_rms)
+    return out
 
 
 def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
@@ -128,7 +133,7 @@ def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
 
 def camera_json(result: dict[str, Any]) -> dict[str, Any]:
     """The CLI's JSON for one camera: camera_matrix, dist_coeffs, rms, std_intrinsics,
-    per_view_rms, image_size, rejected (+ std_named, residual_sigma, views used)."""
+    per_view_rms, image_size, rejected, warnings (+ std_named, residual_sigma, views used)."""
     from .covariance import intrinsic_names
 
     names = intrinsic_names(result["dist_coeffs"].size)
@@ -143,4 +148,5 @@ def camera_json(result: dict[str, Any]) -> dict[str, Any]:
         "std_named": dict(zip(names, np.asarray(result["std_intrinsics"]).tolist())),
         "residual_sigma": result["residual_sigma"],
         "n_views": len(result["per_view_rms"]),
+        "warnings": list(result.get("warnings", [])),
     }

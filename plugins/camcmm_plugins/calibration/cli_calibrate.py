@@ -3,11 +3,12 @@
 * ``camera IMAGES... --board chessboard:COLSxROWS:SQUARE_MM [--out CAL.yaml]``: JSON keys
   ``camera_matrix`` (3x3), ``dist_coeffs``, ``rms``, ``std_intrinsics``, ``per_view_rms``
   ({image: px}), ``image_size``, ``rejected`` ([{image, reason}]) (+ ``std_named``,
-  ``residual_sigma``, ``n_views``, ``projection_uncertainty`` with ``--distance``, ``written``).
+  ``residual_sigma``, ``n_views``, ``warnings``, ``projection_uncertainty`` with ``--distance``,
+  ``written``).
 * ``stereo --left IMAGES... --right IMAGES... --board ... [--out CAL.yaml]``: JSON keys
   ``left``, ``right`` (as above), ``R``, ``T`` (mm), ``E``, ``F``, ``rms`` (+ ``std_rvec``,
   ``std_T``, ``baseline``, ``baseline_std``, ``spread``, ``epipolar``, ``rectified_dy``,
-  ``rectification``, ``pairs``, ``rejected``, ``written``).
+  ``rectification``, ``pairs``, ``rejected``, ``warnings``, ``written``).
 
 Board specs: see camcmm_plugins.calibration.boards (chessboard, charuco, circles, acircles).
 """
@@ -108,6 +109,7 @@ def text(result: dict[str, Any]) -> str:
                   f"{result['baseline_std']:.2g} mm, T = ({t[0]:.4f}, {t[1]:.4f}, {t[2]:.4f}) mm",
                   f"  epipolar distance RMS {result['epipolar']['rms']:.3f} px, max {result['epipolar']['max']:.3f} px"]
         lines += [f"  pair left out: {r['left']} / {r['right']}: {r['reason']}" for r in result["rejected"]]
+    lines += [f"warning: {w}" for w in result.get("warnings", [])]
     if result.get("written"):
         lines.append(f"written to {result['written']}")
     return "\n".join(lines)

@@ -19,6 +19,7 @@ from camcmm.api import CameraModel, InputError
 
 from .boards import Board, Detection, parse_board, require_found
 from .camera import MIN_VIEWS, calibrate_camera, model_flags
+from .checks import MAX_RMS_PX, stereo_warnings
 from .covariance import Observation, assemble, covariance, free_intrinsics, intrinsic_names
 
 
@@ -90,7 +91,7 @@ def relative_pose_spread(single_l: dict, single_r: dict, pairs: list[tuple[str, 
 def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], board: Board | str, *,
                      model: str = "standard", flags: int = 0, outlier_factor: float = 3.0,
                      fix_intrinsics: bool = False, alpha: float = -1.0, names=("left", "right"),
-                     progress=None) -> dict[str, Any]:
+                     progress=None, max_rms: float = MAX_RMS_PX) -> dict[str, Any]:
     """Calibrate a stereo pair from board detections, image i of ``left`` paired with
     image i of ``right``.
 
@@ -103,7 +104,9 @@ def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], boar
     roi1, roi2), ``epipolar`` (distances to epipolar lines, px) and ``rectified_dy``,
     ``pairs`` (image names used), ``rejected`` pairs, ``parameter_covariance`` over
     ``parameter_names`` (both cameras' intrinsics, then right.rx ... right.tz), ``single``
-    (each camera's own calibration).
+    (each camera's own calibration), ``warnings`` (the pairs' board poses, both cameras'
+    intrinsics, the RMS against ``max_rms`` px, the baseline's uncertainty: see
+    :mod:`.checks`).
     """
     import cv2
 
@@ -186,6 +189,9 @@ def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], boar
                 "per_view_rms": {pn[k]: float(x) for pn, x in zip(pair_names, e)},
                 "image_size": list(size), "rejected": single["rejected"]}
 
+    warnings = stereo_warnings(pair_names, [np.ravel(r) for r in rvecs], [np.ravel(t) for t in tvecs],
+                               [(K1, D1), (K2, D2)], [cov_g[:n1, :n1], cov_g[n1:n1 + n2, n1:n1 + n2]], size,
+                               float(rms), baseline, float(np.sqrt(u @ cov_T @ u)), board.spec, max_rms)
     cam_l = CameraModel(K1, D1, image_size=size, name=names[0])
     cam_r = CameraModel(K2, D2, R, T, size, name=names[1])
     pnames = [f"{names[0]}.{p}" for p in intrinsic_names(D1.size)] + \
@@ -212,6 +218,7 @@ def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], boar
         "flags": int(sflags),
         "board": board.spec,
         "single": {"left": single_l, "right": single_r},
+        "warnings": warnings,
     }
 
 
@@ -229,7 +236,7 @@ def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
 
 def stereo_json(result: dict[str, Any]) -> dict[str, Any]:
     """The CLI's JSON: left, right (as for one camera), R, T, E, F, rms (+ uncertainties,
-    baseline, epipolar statistics, rectification, pairs, rejected)."""
+    baseline, epipolar statistics, rectification, pairs, rejected, warnings)."""
     def cam(c):
         return {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in c.items()}
 
@@ -242,7 +249,7 @@ def stereo_json(result: dict[str, Any]) -> dict[str, Any]:
         "baseline": result["baseline"], "baseline_std": result["baseline_std"], "spread": sp,
         "epipolar": result["epipolar"], "rectified_dy": result["rectified_dy"],
         "rectification": {k: np.asarray(v).tolist() for k, v in result["rectification"].items()},
-        "pairs": result["pairs"], "rejected": result["rejected"],
+        "pairs": result["pairs"], "rejected": result["rejected"], "warnings": list(result.get("warnings", [])),
     }
 
 
