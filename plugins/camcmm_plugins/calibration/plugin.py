@@ -74,8 +74,6 @@ def camera(ctx: RunContext, images, board: str, model: str = "standard", detecto
         ctx.warn(f"{r['image']} left out: {r['reason']}")
     for w in res["warnings"]:
         ctx.warn(w)
-    for w in res["warnings"]:
-        ctx.warn(w)
     cal = calibration_dict(res)
     written = _write(save, cal)
     return {**camera_json(res), "detections": [d.to_dict() for d in dets], "calibration": cal_json(cal),
@@ -97,8 +95,6 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
                            alpha=alpha, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
     for r in res["rejected"]:
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
-    for w in res["warnings"]:
-        ctx.warn(w)
     for w in res["warnings"]:
         ctx.warn(w)
     cal = calibration_dict(res)
