@@ -197,3 +197,29 @@ def test_cli_json_and_text_carry_the_warnings():
     p = subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT[:4]), "--board", BOARD],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0 and "warning: only 4 distinct board poses" in p.stdout
+
+
+def test_calibration_page_shows_the_warnings(tmp_path):
+    """The page's alert (state cal_warnings): the same image under three names warns and
+    names the views; OpenCV's 13 good views give an empty alert."""
+    import shutil
+
+    pytest.importorskip("trame")
+    pytest.importorskip("pyvista")
+    from camcmm.gui.app import build, close
+
+    for name in ("a.jpg", "b.jpg", "c.jpg"):
+        shutil.copy(LEFT[0], tmp_path / name)
+    server, _ = build(f"test-calwarn-{id(tmp_path)}", tmp_path / "proj", data_roots=[DATA, tmp_path])
+    try:
+        page, s = server.calibration, server.state
+        s.ready()
+        req = {"mode": "camera", "source": "folder", "folder": str(tmp_path), "left_pattern": "*.jpg",
+               "right_pattern": "", "board": BOARD}
+        assert page.run(req) is not None, s.cal_error
+        assert any(w.startswith("views 1, 2, 3 (a.jpg, b.jpg, c.jpg) show the board in the same pose")
+                   for w in s.cal_warnings), s.cal_warnings
+        assert page.run({**req, "folder": str(DATA), "left_pattern": "left*"}) is not None, s.cal_error
+        assert list(s.cal_warnings) == []
+    finally:
+        close(server)
