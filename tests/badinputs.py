@@ -243,6 +243,7 @@ def _reader_cases() -> list[Case]:
     # common to every format
     for ext in (".ply", ".pcd", ".xyz", ".txt", ".csv", ".stl", ".obj", ".e57", ".png", ".jpg", ".tif", ".bmp"):
         e = ext[1:]
+        add(f"{e}_empty{ext}", b"")
         add(f"{e}_one_byte{ext}", b"\x00")
         add(f"{e}_newline{ext}", b"\n")
         add(f"{e}_spaces{ext}", b"   \n \t \r\n")
@@ -1282,9 +1283,16 @@ def run_cases(cases: list[Case], workers: int = 2) -> dict[str, dict]:
                     if not todo:
                         return
                     case = todo.pop(0)
-                if w is None or not w.alive():
-                    w = Worker()
-                res = w.run(case)
+                try:
+                    if w is None or not w.alive():
+                        w = Worker()
+                    res = w.run(case)
+                except Exception as exc:  # the harness, not the case: still that case's failure
+                    res = {"rc": f"harness: {type(exc).__name__}: {exc}", "stdout": "", "stderr": "", "seconds": 0,
+                           "memory": 0}
+                    if w is not None:
+                        w.kill()
+                    w = None
                 results[case.id] = res
                 if not w.alive() or (isinstance(res.get("memory"), int) and res["memory"] > MEMORY_LIMIT // 2):
                     w.kill()  # a fresh baseline for the next case

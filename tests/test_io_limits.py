@@ -55,6 +55,21 @@ def test_ply_mesh_with_more_faces_than_declared(tmp_path):
     refused(p, "4 face", "16 more face rows")
 
 
+def test_ply_mesh_of_mixed_polygons_with_more_faces_than_declared(tmp_path):
+    """Triangles and quads (rows of different lengths, read by plyfile) behind a face
+    count that is too small; a closing newline alone is still read."""
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], "<f4")
+    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    tri = bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
+    body = head + v.tobytes() + tri + bytes([4]) + np.array([0, 1, 3, 4], "<i4").tobytes()
+    p = tmp_path / "mixed.ply"
+    p.write_bytes(body + b"\n")
+    assert cio.read(p).n_faces == 3
+    p.write_bytes(body + tri * 5)
+    refused(p, "2 face", "65 bytes")
+
+
 def test_ply_with_a_closing_newline_after_the_binary_rows_is_read(tmp_path):
     """Fewer bytes than one row cannot be data that was dropped."""
     p = tmp_path / "nl.ply"

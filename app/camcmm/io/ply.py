@@ -83,7 +83,7 @@ def read(path: Path, name: str) -> Raw:
     else:
         elements = _read_binary(path, hdr, name, size)
         if elements is None:
-            elements = _read_with_plyfile(path, name)
+            elements = _read_with_plyfile(path, hdr, name, size)
     return _interpret(elements, hdr, name)
 
 
@@ -189,8 +189,9 @@ def _excess_binary(name: str, hdr: _Header, last: tuple[_Element, int], extra: i
     el, row = last
     if row and extra >= row:
         counts = ", ".join(f"{e.count} {e.name}" for e in hdr.elements)
+        room = f"{'up to ' if not el.fixed else ''}{extra // row}"
         raise fail(name, f"binary PLY has {extra} bytes after the rows its header declares ({counts}); "
-                         f"that is room for {extra // row} more {el.name} rows: the header's counts are wrong "
+                         f"that is room for {room} more {el.name} rows: the header's counts are wrong "
                          f"or data was appended ({size} bytes in all)")
 
 
@@ -221,16 +222,25 @@ def _constant_list_dtype(fh, el: _Element, bo: str, offset: int, size: int, name
     return np.dtype(fields), lists
 
 
-def _read_with_plyfile(path: Path, name: str) -> dict:
+def _read_with_plyfile(path: Path, hdr: _Header, name: str, size: int) -> dict:
     import plyfile  # only for ragged lists, which the numpy path cannot read in one go
 
     try:
-        data = plyfile.PlyData.read(str(path))
+        with open(path, "rb") as fh:
+            data = plyfile.PlyData.read(fh)
+            end = fh.tell()  # plyfile stops where the declared rows end
     except Exception as exc:
         reason = " ".join(str(exc).split())
         if "end-of-file" in reason:
             raise fail(name, f"truncated binary PLY ({reason})") from exc
         raise fail(name, f"cannot read the PLY body ({reason})") from exc
+    if hdr.elements and size > end:
+        last = hdr.elements[-1]
+        # the shortest row the last element can have: its scalars, its lists empty but
+        # a face's corners, which are at least three
+        row = sum(np.dtype(p.dtype).itemsize * (3 if p.name in _FACE_LISTS else 0) + np.dtype(p.count).itemsize
+                  if p.count else np.dtype(p.dtype).itemsize for p in last.props)
+        _excess_binary(name, hdr, (last, row), size - end, size)
     return {el.name: {p.name: (list(el.data[p.name]) if isinstance(p, plyfile.PlyListProperty)
                                else el.data[p.name]) for p in el.properties}
             for el in data.elements}
