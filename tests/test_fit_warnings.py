@@ -167,3 +167,5 @@ def test_warnings_in_plugin_result_and_cli_json(tmp_path):
     assert any("direction is ill-determined" in w for w in doc["warnings"])
     out = subprocess.run([exe, "fit", "sphere", str(f), "--json"], capture_output=True, text=True, timeout=120)
     assert json.loads(out.stdout)["warnings"] == []
+    out = subprocess.run([exe, "fit", "plane", str(f)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and "\nwarning: plane fit: the points are" in out.stdout

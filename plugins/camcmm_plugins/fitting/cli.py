@@ -6,7 +6,8 @@ prints the result; with ``--json`` (added by the core CLI) one JSON document wit
 keys ``element, method, outliers, n_points, n_used, n_removed``, the element's
 parameters (sphere: ``center, radius``; plane: ``point, normal``; circle: ``center,
 normal, radius``; cylinder: ``point, axis, radius``; line: ``point, direction``),
-``form {range, max, min, std, rms}`` and ``std_uncertainty {parameter: value}``.
+``form {range, max, min, std, rms}``, ``std_uncertainty {parameter: value}`` and
+``warnings`` (when the element does not describe the points; see checks.py).
 """
 
 from __future__ import annotations
@@ -102,4 +103,5 @@ def text(result: dict[str, Any]) -> str:
     f = result["form"]
     lines.append("  form       range {range:.6f}  max {max:.6f}  min {min:.6f}  std {std:.6f}  rms {rms:.6f} mm"
                  .format(**{k: (v if v is not None else float('nan')) for k, v in f.items()}))
+    lines += [f"warning: {w}" for w in result.get("warnings", [])]
     return "\n".join(lines)
