@@ -6,7 +6,10 @@ from __future__ import annotations
 import importlib.metadata as md
 import itertools
 import os
+import subprocess
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -47,6 +50,11 @@ plugins:
     kind: algorithm
     name: Sleeps, never looking at cancel
     entry: {pkg}.run:stubborn
+  - id: crash.pidfile
+    kind: algorithm
+    name: Writes its process id, then sleeps
+    entry: {pkg}.run:pidfile
+    parameters: [{{name: path, type: str}}]
   - id: crash.unpicklable
     kind: algorithm
     name: Returns a function
@@ -83,19 +91,31 @@ def stubborn(ctx):
     time.sleep(60)
     return {}
 
+def pidfile(ctx, path):
+    with open(path + ".tmp", "w") as f:
+        f.write(str(os.getpid()))
+    os.replace(path + ".tmp", path)
+    time.sleep(60)
+    return {}
+
 def unpicklable(ctx):
     return {"fn": lambda: 1}
 """
 
 
-@pytest.fixture
-def crash_host(tmp_path, monkeypatch):
+def _lab(tmp_path):
     pkg = f"crash_lab_{os.getpid()}_{next(_names)}"
     root = tmp_path / "labsrc" / pkg
     root.mkdir(parents=True)
     (root / "__init__.py").write_text("")
     (root / "plugin.yaml").write_text(CRASH_YAML.format(pkg=pkg))
     (root / "run.py").write_text(CRASH_PY)
+    return pkg
+
+
+@pytest.fixture
+def crash_host(tmp_path, monkeypatch):
+    pkg = _lab(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path / "labsrc"))
     return PluginHost(entry_points=[md.EntryPoint(name="crash-lab", value=f"{pkg}:plugin.yaml",
                                                   group="camcmm.plugins")])
@@ -190,3 +210,37 @@ def test_session_shows_the_crash_as_one_line_and_keeps_working(crash_host, tmp_p
         assert [r["plugin"] for r in server.state.results][0] == "crash.good"
     finally:
         s.close()
+
+
+def test_a_worker_whose_server_was_killed_mid_run_exits(tmp_path):
+    pkg = _lab(tmp_path)
+    pid_file = tmp_path / "worker.pid"
+    script = (
+        "import sys, importlib.metadata as md\n"
+        f"sys.path.insert(0, {str(tmp_path / 'labsrc')!r})\n"
+        "from camcmm import worker\n"
+        "from camcmm.host import PluginHost\n"
+        f"host = PluginHost([md.EntryPoint('crash-lab', '{pkg}:plugin.yaml', 'camcmm.plugins')])\n"
+        f"worker.run(host, 'crash.pidfile', params={{'path': {str(pid_file)!r}}})\n")
+    server = subprocess.Popen([sys.executable, "-c", script])
+    try:
+        deadline = time.monotonic() + 120
+        while not pid_file.exists() and time.monotonic() < deadline and server.poll() is None:
+            time.sleep(0.1)
+        pid = int(pid_file.read_text())
+        assert pid != server.pid
+    finally:
+        server.kill()  # SIGKILL: no atexit, as in a crash
+        server.wait()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and _running(pid):
+        time.sleep(0.2)
+    assert not _running(pid), "the orphaned worker kept running"
+
+
+def _running(pid: int) -> bool:
+    try:
+        state = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0]
+    except FileNotFoundError:
+        return False
+    return state != "Z"  # a zombie has exited (its parent, init, reaps it)

@@ -21,7 +21,7 @@ warm between runs, so the start-up (Python, the host's manifests; the plugin's i
 on its first run) is paid once. A worker is keyed by its host's entry points and
 ``sys.path``; it may start processes of its own (Dask, process pools). Runs at the same
 time get workers of their own; at most ``KEEP_IDLE`` idle workers are kept. A worker
-whose server is gone exits at its next read.
+whose server is gone exits (within a second, even mid-run).
 
 A host that cannot be rebuilt in another process (not a :class:`PluginHost`, e.g. a
 test's stand-in) runs in the calling thread, as does every run when the environment
@@ -117,6 +117,14 @@ def _child() -> None:
                 cancel.set()
 
     threading.Thread(target=listen, daemon=True, name="camcmm-worker-cancel").start()
+    server = os.getppid()
+
+    def orphaned() -> None:  # a server killed mid-run must not leave its worker computing for nobody
+        while os.getppid() == server:
+            time.sleep(1.0)
+        os._exit(0)
+
+    threading.Thread(target=orphaned, daemon=True, name="camcmm-worker-orphan").start()
     host = _host_from(recipe)
     conn.send(("ready", os.getpid()))
     while True:
