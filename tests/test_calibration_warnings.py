@@ -161,6 +161,8 @@ def test_intrinsic_plausibility_checks():
     k = np.array([[532.8, 0, 342.5], [0, 532.9, 233.9], [0, 0, 1]])
     assert any("folds over" in s for s in checks.intrinsic_warnings(k, [-0.28, 0.03, 0, 0, -363573.0], SIZE))
     assert checks.intrinsic_warnings(k, [-0.281, 0.029, 0.0012, -0.00014, 0.155], SIZE) == []  # its real one
+    k5 = np.array([[3834.0, 0, 320], [0, 3834.0, 240], [0, 0, 1]])              # and the fx 3834 px
+    assert any("folds over" in s for s in checks.intrinsic_warnings(k5, [0, 0, 0, 0, -363573.0], SIZE))
     # uncertainty: 2 % of fx
     cov = np.diag([16.0 ** 2, 1.0, 1.0, 1.0] + [0.0] * 5)
     assert any("large uncertainty: fx 800 ± 16 px" in s for s in checks.intrinsic_warnings(K, D, SIZE, cov))
