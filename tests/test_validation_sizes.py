@@ -154,6 +154,17 @@ def mc_file(tmp_path):
     ({"iterations": 10 ** 8}, [],
      "mc.yaml: Monte Carlo of 100000000 iterations x 1000 grid points (chunk 250) needs ~"),
     ({"spatial": {"n": 10 ** 9}, "studies": ["spatial"]}, ["--iterations", "10"], "mc.yaml: spatial.n = 1000000000"),
+    # wrong types and magnitudes
+    ({"grid": "abc"}, ["--iterations", "10"], "mc.yaml: grid: expected a mapping, got 'abc'"),
+    ({"dof": 3}, ["--iterations", "10"], "mc.yaml: dof: expected a mapping"),
+    ({"grid_size": [60, "abc", 40]}, ["--iterations", "10"], "mc.yaml: grid.size: expected 3 finite numbers"),
+    ({"grid_size": [60, 0, 40]}, ["--iterations", "10"], "puts several points at one place"),
+    ({"stereo": {"baseline": "abc"}}, ["--iterations", "10"], "mc.yaml: stereo.baseline: expected 1 finite numbers"),
+    ({"stereo": {"R": [[1, 0, 0], [0, 1, 0], [0, 0, 2]], "T": [-200, 0, 0]}}, ["--iterations", "10"],
+     "mc.yaml: stereo.R is not a rotation matrix"),
+    ({"camera1_k": 0.1}, ["--iterations", "10"], "mc.yaml: camera 1: intrinsics must be numbers"),
+    ({"uncertainties": {"radial_distortion": [0, 1e308, 0]}}, ["--iterations", "10"],
+     "mc.yaml: the model gives non-finite errors for radial_distortion"),
 ])
 def test_montecarlo_refuses_before_any_trial(mc_file, capsys, changes, args, needle):
     refused(capsys, ["uncertainty", "montecarlo", mc_file(**changes), *args], needle)

@@ -77,6 +77,14 @@ def _scene(tmp_path, **changes):
     ({"rig": {"preset": "stereo_fringe", "image_size": [16000, 16000]}},
      "rendering camera1 16000 x 16000 px, camera2 16000 x 16000 px at supersample 1 needs ~"),
     ({"patterns": ["white"] * 5000}, "patterns: the number of entries = 5000 is more than the limit of 4096"),
+    # wrong types and magnitudes that overflowed inside the renderer
+    ({"artefacts": [{"type": "sphere", "diameter": 1e308}]}, "artefacts[0].diameter 1e+308 is not a finite number"),
+    ({"sensor": {"exposure": 1e6}}, "sensor.exposure 1000000.0 must be >= 0 and <= 1000"),
+    ({"render": "abc"}, "render: expected a mapping"),
+    ({"sensor": [8]}, "sensor: expected a mapping"),
+    ({"errors": {"focal_length": 2.5}}, "errors.focal_length: expected a mapping with relative"),
+    ({"errors": {"focal_length": {"relative": "abc"}}}, "errors.focal_length.relative 'abc'"),
+    ({"errors": {"baseline": {"relative": -1}}}, "errors.baseline.relative -1 must lie between -1 and 1"),
 ])
 def test_simulate_refuses_bad_scene_values(tmp_path, capsys, changes, needle):
     out = tmp_path / "out"

@@ -47,7 +47,7 @@ Schema (``version: 1``; every section but ``artefacts`` optional)::
 Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
 
 Checked on reading, each with one line naming the entry: every number in the file is
-finite; diameters, lengths, widths and mesh scales are > 0; ``seed`` is a whole number
+finite and at most ``MAX_NUMBER`` in magnitude; diameters, lengths, widths and mesh scales are > 0; ``seed`` is a whole number
 >= 0; sensor and lighting levels are >= 0 (``full_well``, ``gamma`` > 0); image sides are
 at most ``MAX_SIDE`` px and the rendering's memory estimate (``RAY_BYTES`` per cast ray,
 ``PIXEL_BYTES`` per pixel of the largest image) is within ``camcmm.api.check_budget``.
@@ -81,6 +81,13 @@ MAX_PATTERNS = 4096
 #: gives ~110 B per pixel for a frame.
 RAY_BYTES = 130
 PIXEL_BYTES = 350
+#: Largest magnitude of any number in a scene file (mm: 1000 km; beyond it the ray
+#: casting's squares overflow float64 long before anything is measured).
+MAX_NUMBER = 1e9
+#: Largest light level, gain or exposure, and electron count (full well, read noise):
+#: beyond them the shot noise's Poisson mean overflows.
+MAX_LEVEL = 1e3
+MAX_ELECTRONS = 1e7
 
 
 @dataclass
@@ -122,15 +129,18 @@ def _positive(a: Mapping, key: str, default, what: str) -> float:
         x = float(v)
     except (TypeError, ValueError):
         raise ValueError(f"{what}.{key} {v!r} is not a number") from None
-    if not (math.isfinite(x) and x > 0):
-        raise ValueError(f"{what}.{key} {v!r} must be a finite number > 0")
+    if not (math.isfinite(x) and 0 < x <= MAX_NUMBER):
+        raise ValueError(f"{what}.{key} {v!r} must be a finite number > 0 and <= {MAX_NUMBER:g}")
     return x
 
 
 def _nonfinite(obj: Any, path: str = "") -> tuple[str, Any] | None:
-    """(path, value) of the first NaN or infinite number in a parsed document, or None."""
+    """(path, value) of the first NaN, infinite or larger than ``MAX_NUMBER`` number in a
+    parsed document (seeds apart), or None."""
     if isinstance(obj, Mapping):
         for k, v in obj.items():
+            if k == "seed" and isinstance(v, int):       # noise seeds: any whole number >= 0
+                continue
             hit = _nonfinite(v, f"{path}.{k}" if path else str(k))
             if hit:
                 return hit
@@ -139,7 +149,7 @@ def _nonfinite(obj: Any, path: str = "") -> tuple[str, Any] | None:
             hit = _nonfinite(v, f"{path}[{i}]")
             if hit:
                 return hit
-    elif isinstance(obj, float) and not math.isfinite(obj):
+    elif isinstance(obj, (int, float)) and not isinstance(obj, bool) and not abs(obj) <= MAX_NUMBER:
         return path, obj
     return None
 
@@ -187,6 +197,8 @@ def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict
 
 
 def _dataclass_from(cls, d: Mapping[str, Any] | None, what: str):
+    if d is not None and not isinstance(d, Mapping):
+        raise ValueError(f"{what}: expected a mapping, got {d!r}")
     d = dict(d or {})
     known = set(cls.__dataclass_fields__)
     unknown = sorted(set(d) - known)
@@ -201,7 +213,7 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         raise ValueError("expected a mapping at the top level")
     bad = _nonfinite(doc)
     if bad:
-        raise ValueError(f"{bad[0]} {bad[1]!r} is not a finite number")
+        raise ValueError(f"{bad[0]} {bad[1]!r} is not a finite number of at most {MAX_NUMBER:g}")
     seed = doc.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed {seed!r} must be a whole number >= 0")
@@ -235,18 +247,20 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         raise ValueError("cameras: names must differ (they name the image folders)")
     proj = rig.device_from_dict(proj_d, "projector") if proj_d else None
     light = _dataclass_from(Lighting, doc.get("lighting"), "lighting")
-    errors = dict(doc.get("errors") or {})
-    bad = sorted(set(errors) - set(ERRORS))
-    if bad:
-        raise ValueError(f"errors.{bad[0]}: unknown error; use {', '.join(ERRORS)}")
+    errors = _errors(doc.get("errors"))
     if "projector_gamma" in errors:
         light.gamma = _positive(errors, "projector_gamma", None, "errors")
-    _check_levels(light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",))
+    _check_levels(light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",),
+                  MAX_LEVEL)
     sensor = _dataclass_from(Sensor, doc.get("sensor"), "sensor")
     if isinstance(sensor.bits, bool) or not isinstance(sensor.bits, int) or not 1 <= sensor.bits <= 16:
         raise ValueError(f"sensor.bits {sensor.bits!r}: use a whole number 1 .. 16")
-    _check_levels(sensor, "sensor", ("read_noise", "exposure", "black_level"), ("full_well",))
-    ss = (doc.get("render") or {}).get("supersample", 2)
+    _check_levels(sensor, "sensor", ("exposure",), (), MAX_LEVEL)
+    _check_levels(sensor, "sensor", ("read_noise", "black_level"), ("full_well",), MAX_ELECTRONS)
+    render = doc.get("render") or {}
+    if not isinstance(render, Mapping):
+        raise ValueError(f"render: expected a mapping {{supersample: N}}, got {render!r}")
+    ss = render.get("supersample", 2)
     if isinstance(ss, bool) or not isinstance(ss, int) or not 1 <= ss <= 8:
         raise ValueError(f"render.supersample {ss!r}: use a whole number 1 .. 8")
     seq = doc.get("sequence")
@@ -263,14 +277,44 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
                     dict(doc.get("speckle") or {}))
 
 
-def _check_levels(obj, what: str, non_negative: tuple[str, ...], positive: tuple[str, ...]) -> None:
-    """Light levels, noise and gains: numbers >= 0 (``positive``: > 0); ValueError names the field."""
+def _check_levels(obj, what: str, non_negative: tuple[str, ...], positive: tuple[str, ...],
+                  maximum: float) -> None:
+    """Light levels, noise and gains: numbers >= 0 (``positive``: > 0) up to ``maximum``;
+    ValueError names the field."""
     for key in non_negative + positive:
         v = getattr(obj, key)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise ValueError(f"{what}.{key} {v!r} is not a finite number")
-        if v < 0 or (key in positive and v == 0):
-            raise ValueError(f"{what}.{key} {v!r} must be {'> 0' if key in positive else '>= 0'}")
+        if v < 0 or (key in positive and v == 0) or v > maximum:
+            raise ValueError(f"{what}.{key} {v!r} must be {'> 0' if key in positive else '>= 0'} and <= {maximum:g}")
+
+
+def _errors(d: Any) -> dict[str, Any]:
+    """The switched-on systematic errors, each of the shape the module docstring gives."""
+    if d is None:
+        return {}
+    if not isinstance(d, Mapping):
+        raise ValueError(f"errors: expected a mapping {{name: settings}}, got {d!r}")
+    bad = sorted(set(d) - set(ERRORS))
+    if bad:
+        raise ValueError(f"errors.{bad[0]}: unknown error; use {', '.join(ERRORS)}")
+    shapes = {"focal_length": ("relative", 1), "baseline": ("relative", 1), "principal_point": ("shift", 2),
+              "distortion": ("delta", None), "rotation": ("angles_deg", 3)}
+    for name, v in d.items():
+        if name == "projector_gamma":
+            continue
+        key, n = shapes[name]
+        if not isinstance(v, Mapping):
+            raise ValueError(f"errors.{name}: expected a mapping with {key}, got {v!r}")
+        x = v.get(key, 0.0)
+        items = x if isinstance(x, (list, tuple)) else [x]
+        if (n is not None and (len(items) != n or (n == 1 and isinstance(x, (list, tuple))))) \
+                or not 1 <= len(items) <= 12 \
+                or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in items):
+            raise ValueError(f"errors.{name}.{key} {x!r}: expected {n or 'up to 12'} number(s)")
+        if key == "relative" and not -1 < x < 1:
+            raise ValueError(f"errors.{name}.relative {x!r} must lie between -1 and 1")
+    return dict(d)
 
 
 def _check_size(cams: list, proj, supersample: int, n_patterns: int) -> None:
