@@ -9,7 +9,7 @@ A plugin is numpy, OpenCV, Open3D: C and C++ that a bad input can make read memo
 does not own. In the CLI that ends one command; in the GUI server it ended every
 operator's session. So the GUI's plugin runs go through :func:`run`: the inputs are
 pickled to a worker process, which runs ``PluginHost.run`` there and pickles the
-RunResult back; progress comes back over the same pipe, cancel goes over an event. A
+RunResult back; progress comes back over the same pipe, a cancel over a second one. A
 worker that dies (SIGSEGV, SIGABRT, killed for memory) becomes one line, a
 :class:`PluginError`, and the next run gets a fresh worker.
 
@@ -25,7 +25,7 @@ whose server is gone exits (within a second, even mid-run).
 
 A host that cannot be rebuilt in another process (not a :class:`PluginHost`, e.g. a
 test's stand-in) runs in the calling thread, as does every run when the environment
-variable ``CAMCMM_ISOLATE`` is ``0``.
+variable ``CAMCMM_ISOLATE`` is ``0`` and on a system that is not POSIX.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from __future__ import annotations
 import atexit
 import importlib.metadata as md
 import logging
-import multiprocessing.connection  # noqa: F401 - Pipe
 import multiprocessing as mp
 import os
 import pickle
@@ -169,7 +168,8 @@ def isolatable(host: Any) -> bool:
     """Whether ``host``'s runs can go to a worker process (a PluginHost, isolation on)."""
     from .host import PluginHost
 
-    return os.environ.get("CAMCMM_ISOLATE", "1") != "0" and type(host) is PluginHost
+    # the pipes are handed over as inherited descriptors (POSIX); elsewhere runs stay in process
+    return os.name == "posix" and os.environ.get("CAMCMM_ISOLATE", "1") != "0" and type(host) is PluginHost
 
 
 class _Worker:
