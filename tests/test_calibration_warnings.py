@@ -185,6 +185,8 @@ def test_plugin_run_warnings_reach_the_gui(left_dets):
     run = host.run("calibration.camera", {"images": [str(LEFT[0])] * 3}, {"board": BOARD})
     assert any("show the board in the same pose" in w for w in run.warnings)
     assert run.to_json()["warnings"] == run.warnings
+    run = host.run("calibration.camera", {"images": [str(p) for p in LEFT]}, {"board": BOARD, "max_rms": 0.1})
+    assert len(run.warnings) == 1 and "above 0.1 px" in run.warnings[0]
 
 
 def test_cli_json_and_text_carry_the_warnings():
@@ -199,6 +201,9 @@ def test_cli_json_and_text_carry_the_warnings():
     p = subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT[:4]), "--board", BOARD],
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0 and "warning: only 4 distinct board poses" in p.stdout
+    out = json.loads(subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT), "--board", BOARD, "--max-rms",
+                                     "0.1", "--json"], capture_output=True, text=True, timeout=300).stdout)
+    assert [w for w in out["warnings"] if "RMS reprojection error" in w and "above 0.1 px" in w]
 
 
 def test_calibration_page_shows_the_warnings(tmp_path):

@@ -32,6 +32,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--subpix-window", type=int, default=5, metavar="W", help="cornerSubPix half window, px (default 5)")
     p.add_argument("--outlier-factor", type=float, default=3.0, metavar="F",
                    help="leave out views whose RMS exceeds F x the median (default 3; 0 keeps all)")
+    p.add_argument("--max-rms", type=float, default=1.0, metavar="PX",
+                   help="warn when the RMS reprojection error is above PX (default 1)")
     # the core adds --json to the command's parser; accept it after the subcommand too
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
@@ -60,7 +62,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .camera import calibrate_camera, calibration_dict, camera_json
 
         dets = detect_all(board, args.images, detector=args.detector, subpix_window=args.subpix_window)
-        res = calibrate_camera(dets, board, model=args.model, outlier_factor=args.outlier_factor)
+        res = calibrate_camera(dets, board, model=args.model, outlier_factor=args.outlier_factor,
+                               max_rms=args.max_rms)
         out = camera_json(res)
         if args.distance is not None:
             from .projection import projection_uncertainty
@@ -76,7 +79,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     dl = detect_all(board, args.left, detector=args.detector, subpix_window=args.subpix_window)
     dr = detect_all(board, args.right, detector=args.detector, subpix_window=args.subpix_window)
     res = calibrate_stereo(dl, dr, board, model=args.model, outlier_factor=args.outlier_factor,
-                           fix_intrinsics=args.fix_intrinsics)
+                           fix_intrinsics=args.fix_intrinsics, max_rms=args.max_rms)
     out = stereo_json(res)
     if args.out:
         write_calibration(args.out, calibration_dict(res))

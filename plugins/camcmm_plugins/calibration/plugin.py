@@ -62,13 +62,13 @@ def _write(path: str, cal: dict[str, Any]) -> str | None:
 
 
 def camera(ctx: RunContext, images, board: str, model: str = "standard", detector: str = "auto",
-           subpix_window: int = 5, outlier_factor: float = 3.0, save: str = "") -> dict[str, Any]:
+           subpix_window: int = 5, outlier_factor: float = 3.0, save: str = "", max_rms: float = 1.0) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibrate_camera, calibration_dict, camera_json
 
     dets = detect_all(board, images, detector=detector, subpix_window=subpix_window,
                       progress=lambda f, m: ctx.progress(0.6 * f, m))
-    res = calibrate_camera(dets, board, model=model, outlier_factor=outlier_factor,
+    res = calibrate_camera(dets, board, model=model, outlier_factor=outlier_factor, max_rms=max_rms,
                            progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
     for r in res["rejected"]:
         ctx.warn(f"{r['image']} left out: {r['reason']}")
@@ -82,7 +82,7 @@ def camera(ctx: RunContext, images, board: str, model: str = "standard", detecto
 
 def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", detector: str = "auto",
            subpix_window: int = 5, outlier_factor: float = 3.0, fix_intrinsics: bool = False,
-           alpha: float = -1.0, save: str = "") -> dict[str, Any]:
+           alpha: float = -1.0, save: str = "", max_rms: float = 1.0) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibration_dict as camera_dict
     from .stereo import calibrate_stereo, calibration_dict, stereo_json
@@ -92,7 +92,7 @@ def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", de
     dr = detect_all(board, right, detector=detector, subpix_window=subpix_window,
                     progress=lambda f, m: ctx.progress(0.3 + 0.3 * f, m))
     res = calibrate_stereo(dl, dr, board, model=model, outlier_factor=outlier_factor, fix_intrinsics=fix_intrinsics,
-                           alpha=alpha, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
+                           alpha=alpha, max_rms=max_rms, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
     for r in res["rejected"]:
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
     for w in res["warnings"]:
