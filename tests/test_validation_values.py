@@ -200,3 +200,32 @@ def test_plan_in_metres_on_mm_files_is_caught_for_the_flat(acceptance_set, capsy
 ])
 def test_board_specs_of_impossible_sizes(tmp_path, capsys, spec, needle):
     refused(capsys, ["calibrate", "camera", tmp_path / "none.png", "--board", spec], needle)
+
+
+# ---------------------------------------------------------------- GUM budgets and ISO 15530-3
+def test_budget_dof_does_not_depend_on_the_scale(tmp_path, capsys):
+    """Welch-Satterthwaite is scale-free: the same budget in units 1e200 times larger has
+    the same nu_eff (u^4 of 1e200 used to overflow to inf/inf = nan)."""
+    base = {"contributions": [{"name": "a", "u": 3.1, "dof": 14}, {"name": "b", "u": 1.7, "dof": 2244}]}
+    docs = []
+    for scale in (1.0, 1e200):
+        doc = {"contributions": [{**c, "u": c["u"] * scale} for c in base["contributions"]]}
+        (tmp_path / "b.yaml").write_text(yaml.safe_dump(doc))
+        assert main(["uncertainty", "budget", str(tmp_path / "b.yaml"), "--json"]) == 0
+        docs.append(json.loads(capsys.readouterr().out))
+    a, b = docs
+    assert b["dof_eff"] == pytest.approx(a["dof_eff"], rel=1e-12) and math.isfinite(a["dof_eff"])
+    assert b["combined"] == pytest.approx(a["combined"] * 1e200, rel=1e-12)
+
+
+@pytest.mark.parametrize("command,doc,needle", [
+    ("budget", {"contributions": [{"name": "a", "u": 1e308, "dof": 14}]}, "U = k u_c overflows"),
+    ("iso15530-3", {"calibrated_value": 5, "u_cal": 1e308, "measurements": [5.0, 5.1]}, "U = k u_c overflows"),
+    ("iso15530-3", {"calibrated_value": 5, "u_cal": 0.001, "measurements": [5.0, 5.1], "k": None},
+     "k = None must be a finite number > 0"),
+    ("iso15530-3", {"calibrated_value": 5, "u_cal": 0.001, "measurements": [1e308, -1e308]},
+     "measurements: their mean or spread overflows"),
+])
+def test_uncertainty_overflow_is_one_line(tmp_path, capsys, command, doc, needle):
+    (tmp_path / "u.yaml").write_text(yaml.safe_dump(doc))
+    refused(capsys, ["uncertainty", command, tmp_path / "u.yaml"], needle)

@@ -148,6 +148,9 @@ def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -
                           dtype=float))
     nu = np.asarray(list(dofs) if not isinstance(dofs, np.ndarray) else dofs, dtype=float)
     nu = nu.reshape(nu.shape + (1,) * (u.ndim - nu.ndim))
+    # nu is scale-free: dividing by the largest contribution keeps u^4 from overflowing
+    top = np.max(u, axis=0)
+    u = u / np.where(top > 0, top, 1.0)
     uc2 = np.sum(u ** 2, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         denom = np.sum(np.where(np.isinf(nu), 0.0, u ** 4 / nu), axis=0)
@@ -179,10 +182,12 @@ def evaluate(contributions: Iterable[Contribution | Mapping[str, Any]], coverage
         raise InputError("the budget has no contributions")
     p = _number(coverage_probability, "coverage_probability")
     vals = np.array([c.value for c in items])
-    uc = float(math.sqrt(np.sum(vals ** 2)))
+    uc = math.hypot(*vals)                  # no overflow in the squares
     nu = welch_satterthwaite(vals, [c.dof for c in items])
     k = coverage_factor(nu, p, dof_rounding)
-    shares = (vals ** 2 / uc ** 2).tolist() if uc > 0 else [0.0] * len(items)
+    if not math.isfinite(k * uc):
+        raise InputError(f"U = k u_c overflows (u_c = {uc:g}, k = {k:g}); check the contributions' magnitudes")
+    shares = ((vals / uc) ** 2).tolist() if uc > 0 else [0.0] * len(items)
     return Budget(items, uc, float(nu), k, k * uc, p, quantity, unit, dof_rounding, shares)
 
 

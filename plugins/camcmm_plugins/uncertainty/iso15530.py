@@ -95,26 +95,31 @@ def evaluate(measurements: Sequence[float], calibrated_value: float, u_cal: floa
     for name, v in (("u_cal", u_cal), ("u_w", u_w)):
         if not (v >= 0) or not math.isfinite(v):
             raise InputError(f"{name} = {v!r} must be a finite number >= 0")
-    if not k > 0:
-        raise InputError(f"k = {k!r} must be > 0")
+    if isinstance(k, bool) or not isinstance(k, (int, float)) or not (math.isfinite(k) and k > 0):
+        raise InputError(f"k = {k!r} must be a finite number > 0")
     n = int(y.size)
-    mean = float(y.mean())
-    u_p = float(y.std(ddof=1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        mean = float(y.mean())
+        u_p = float(y.std(ddof=1))
+    if not (math.isfinite(mean) and math.isfinite(u_p)):
+        raise InputError("measurements: their mean or spread overflows; check the values")
     bias = mean - float(calibrated_value)
     u_b_method = "given"
     if u_b is None:
         u_b, u_b_method = u_p / math.sqrt(n), "u_p/sqrt(n)"
     elif not (u_b >= 0):
         raise InputError(f"u_b = {u_b!r} must be >= 0")
-    uc = math.sqrt(u_cal ** 2 + u_p ** 2 + u_b ** 2 + u_w ** 2)
-    uc_unc = math.sqrt(u_cal ** 2 + u_p ** 2 + u_w ** 2)
+    uc = math.hypot(u_cal, u_p, u_b, u_w)                # hypot: no overflow in the squares
+    uc_unc = math.hypot(u_cal, u_p, u_w)
+    if not math.isfinite(k * uc + abs(bias)):
+        raise InputError(f"U = k u_c overflows (u_c = {uc:g}, k = {k:g}); check the magnitudes")
     parts = {"u_cal": u_cal, "u_p": u_p, "u_b": u_b, "u_w": u_w}
     return {
         "n": n, "mean": mean, "std": u_p, "calibrated_value": float(calibrated_value), "bias": bias,
         "u_cal": u_cal, "u_p": u_p, "u_b": u_b, "u_b_method": u_b_method, "u_w": u_w,
         "combined": uc, "k": float(k), "U": float(k) * uc,
         "U_uncorrected_bias": float(k) * uc_unc + abs(bias),
-        "shares": {name: (v ** 2 / uc ** 2 if uc > 0 else 0.0) for name, v in parts.items()},
+        "shares": {name: ((v / uc) ** 2 if uc > 0 else 0.0) for name, v in parts.items()},
         "measurements": y.tolist(),
     }
 
@@ -172,7 +177,7 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
             parts[key] = _num(doc, key)
     if doc.get("thermal") is not None:
         parts["u_w_thermal"] = thermal_u(doc["thermal"])
-    u_w = math.sqrt(sum(v ** 2 for v in parts.values()))
+    u_w = math.hypot(*parts.values())
     u_b = _num(doc, "u_b") if doc.get("u_b") is not None else None
     out = evaluate(meas, x_cal, u_cal, _num(doc, "k", 2.0, strict=True), u_w, u_b)
     out["u_w_parts"] = parts
