@@ -523,6 +523,9 @@ def _verify_cases() -> list[Case]:
     plan_case("unknown-artefact", _plan(measurements={"cube": ["s.ply"]}), ("cube",))
     plan_case("measurement-unit-bad", _plan(measurements={"sphere": [{"file": "s.ply", "unit": "furlong"}]}),
               ("furlong",))
+    plan_case("measurement-excess-data", _plan(measurements={"sphere": ["x.ply"]}), ("x.ply",),
+              {"x.ply": ply_binary(_sphere(2000), 100)})
+    plan_case("measurement-image", _plan(measurements={"sphere": ["i.png"]}), ("i.png",), {"i.png": _encoded(".png")})
     plan_case("huge-file", b"# " + b"x" * (20 << 20) + b"\n" + _plan(), ("plan.yaml",))
     for w in ("0", "-1", "abc", "1000000", "nan"):
         plan_case(f"workers-{w}", _plan(), ("workers", w), args=("--workers", w))
@@ -566,6 +569,8 @@ def _inspect_cases() -> list[Case]:
     ic("nominal-nan-mesh", (), ("n.stl",), {"n.stl": stl_binary(np.full((4, 3, 3), np.nan))})
     ic("nominal-three-points", (), ("n.stl", "n.xyz", "nominal"), {"n.stl": b"", "n.xyz": _xyz_text(v[:3])})
     ic("cloud-nan", (), ("c.xyz",), {"c.xyz": _xyz_text(pts) + b"nan 0 0\n"})
+    ic("cloud-excess", (), ("c.ply",), {"c.ply": ply_binary(pts, 100)}, cloud="c.ply")
+    ic("cloud-truncated", (), ("c.ply",), {"c.ply": ply_binary(pts)[:-100]}, cloud="c.ply")
     ic("cloud-one-point", (), ("c.xyz", "point"), {"c.xyz": b"1 2 3\n"})
     ic("cloud-image", (), ("c.png",), {"c.png": _encoded(".png")}, cloud="c.png")
     ic("out-bad-ext", ("--out", "out.las"), ("out.las",))
@@ -717,6 +722,16 @@ def _calibration_cases() -> list[Case]:
     cases.append(Case("calibrate-stereo-missing",
                       ("calibrate", "stereo", "--left", "x.png", "--right", "y.png", "--board", "chessboard:9x6:20"),
                       {}, ("x.png", "y.png")))
+    for cid, left, names in (("junk", {"l.png": _junk(900)}, ("l.png",)), ("bomb", {"l.png": png_bomb()}, ("l.png",)),
+                             ("misnamed", {"l.png": _encoded(".jpg")}, ("l.png",)),
+                             ("empty", {"l.png": b""}, ("l.png",))):
+        cases.append(Case(f"calibrate-stereo-left-{cid}",
+                          ("calibrate", "stereo", "--left", "l.png", "--right", "b1.png", "--board", "chessboard:9x6:20",
+                           "--json"), {**imgs, **left}, names))
+    for spec in ("chessboard:9x6", "acircles:0x0:5"):
+        cases.append(Case(f"calibrate-stereo-board-{spec.replace(':', '-')}",
+                          ("calibrate", "stereo", "--left", "b0.png", "--right", "b1.png", "--board", spec, "--json"),
+                          imgs, ("board", spec)))
     cases.append(Case("calibrate-no-images", ("calibrate", "camera", "--board", "chessboard:9x6:20"), {},
                       ("IMAGES", "required")))
     return cases
@@ -977,6 +992,7 @@ def _top_cases() -> list[Case]:
             Case("uncertainty-no-sub", ("uncertainty", "nothing"), {}, ("nothing",)),
             Case("fringe-no-sub", ("fringe", "nothing"), {}, ("nothing",)),
             Case("calibrate-no-sub", ("calibrate", "nothing"), {}, ("nothing",)),
+            Case("plugins-bogus", ("plugins", "--bogus"), {}, ("--bogus",)),
             Case("demo-into-file", ("demo", "f.txt", "--json"), {"f.txt": b"x"}, ("f.txt",)),
             Case("serve-bad-port", ("serve", "--port", "99999", "--project", "p"), {}, ("port", "99999"), timeout=90),
             Case("serve-port-text", ("serve", "--port", "http"), {}, ("port", "http"), timeout=60)]
