@@ -353,6 +353,20 @@ def warm(host: Any) -> None:
         _give(_take(_recipe(host)))
 
 
+def warm_later(host: Any) -> threading.Thread:
+    """:func:`warm` in a background thread (at server start: the first run then finds its
+    worker ready); a failure is logged as one line, the first run will try again."""
+    def go() -> None:
+        try:
+            warm(host)
+        except Exception as exc:
+            log.warning("plugin worker not started ahead: %s", " ".join(str(exc).split()))
+
+    t = threading.Thread(target=go, daemon=True, name="camcmm-worker-warm")
+    t.start()
+    return t
+
+
 def spawn_seconds() -> list[float]:
     """How long each worker took to start (s), for benchmarks and the log."""
     return list(_spawn_seconds)
@@ -368,4 +382,4 @@ def shutdown() -> None:
         w.kill()
 
 
-__all__ = ["run", "run_isolated", "isolatable", "warm", "shutdown", "spawn_seconds", "KEEP_IDLE"]
+__all__ = ["run", "run_isolated", "isolatable", "warm", "warm_later", "shutdown", "spawn_seconds", "KEEP_IDLE"]

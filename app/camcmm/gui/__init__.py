@@ -40,6 +40,9 @@ def serve(project_dir: str | Path, host: str = "127.0.0.1", port: int = 0, open_
     token = choose_token(host, no_token=no_token, token_file=token_file)
     Roots(project_dir, data_roots)  # a missing --data-root is refused before the project is made
     server, _session = build(server_name, project_dir, data_roots=data_roots)
+    from .. import worker
+
+    worker.warm_later(_session.host)  # the plugin worker process starts while the page loads
     start(server, host=host, port=port, open_browser=open_browser, token=token, allowed_origins=allowed_origins,
           certfile=certfile, keyfile=keyfile)
 
