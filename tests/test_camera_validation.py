@@ -149,3 +149,36 @@ def test_fringe_reconstruct_with_a_negative_focal_length_is_a_one_line_error(tmp
     assert proc.returncode == 2, (proc.returncode, proc.stderr)  # the CLI's code for a one-line input error
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("camcmm: error:"), proc.stderr
     assert "cal.yaml: camera 1 (left): focal length fx = -800 px must be positive and finite" in proc.stderr
+
+
+def test_models_changed_after_they_were_made_are_caught_on_writing_and_by_check_calibration(tmp_path):
+    from camcmm.api import check_calibration
+
+    cams = [CameraModel(K1, name="left"), CameraModel(K2, np.zeros(5), R2, T2, (640, 480), name="right")]
+    cams[1].camera_matrix = _with(K2, 0, 0, -810.0)  # as a simulated systematic error of -200 % would
+    with pytest.raises(InputError, match=r"^out.yaml: camera 2 \(right\): focal length fx = -810 px"):
+        write_calibration(tmp_path / "out.yaml", {"cameras": cams})
+    assert not (tmp_path / "out.yaml").exists()
+    cams[1].camera_matrix = K2
+    cams[1].translation = np.zeros(3)
+    with pytest.raises(InputError, match="^sim: camera 2 .right. has a zero baseline"):
+        check_calibration({"cameras": cams}, "sim")
+    cams[1].translation = T2
+    assert check_calibration({"cameras": cams}, "sim")["cameras"] is cams
+
+
+def test_a_fringe_text_folder_is_checked_and_named(tmp_path):
+    from camcmm_plugins.fringe.calib import read_text_folder
+
+    d = tmp_path / "CalibrationDataDistortion"
+    d.mkdir()
+    np.savetxt(d / "CamIntrinsicMatrixRight.txt", K1)
+    np.savetxt(d / "CamDistortionCoefficientsRight.txt", np.zeros(5))
+    np.savetxt(d / "ProjIntrinsicMatrix.txt", _with(K2, 1, 1, -805.0))
+    np.savetxt(d / "ProjDistortionCoefficients.txt", np.zeros(5))
+    np.savetxt(d / "ProjRotationMatrix.txt", np.round(R2, 6))
+    np.savetxt(d / "ProjTranslationVector.txt", T2)
+    with pytest.raises(InputError, match="^CalibrationDataDistortion: camera 'projector': focal length fy = -805 px"):
+        read_text_folder(d)
+    np.savetxt(d / "ProjIntrinsicMatrix.txt", K2)
+    assert read_text_folder(d)["cameras"][1].name == "projector"
