@@ -5,7 +5,7 @@
 * ``reconstruct SEQUENCE.yaml --images DIR [--images2 DIR] --calibration CAL.yaml
   [--json] [--out cloud.ply]``: decodes the captures (image files of DIR in natural sort
   order, one per frame) and triangulates. JSON keys ``n_points, valid_fraction, bbox``
-  (+ ``method, warnings, out``).
+  (+ ``method, order_errors_corrected, order_errors_dropped, warnings, out``).
 """
 
 from __future__ import annotations
@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     res = default_host().run("fringe.reconstruct", inputs, params)
     o = res.outputs
     out = {"n_points": o["n_points"], "valid_fraction": o["valid_fraction"], "bbox": o["bbox"],
-           "method": o.get("method", ""), "warnings": res.warnings}
+           "method": o.get("method", ""), "order_errors_corrected": o.get("order_errors_corrected", 0),
+           "order_errors_dropped": o.get("order_errors_dropped", 0), "warnings": res.warnings}
     if args.out:
         write(o["cloud"], args.out)
         out["out"] = str(args.out)

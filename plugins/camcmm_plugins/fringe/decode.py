@@ -25,6 +25,7 @@ fraction of all pixels):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -36,6 +37,9 @@ from .codes import decode_code
 from .phase import wrapped_phase
 from .sequence import Sequence, load_sequence
 from .unwrap import Level, unwrap
+
+#: see :func:`unmixed`: a blend of phases 0.23 periods apart keeps 75 % of the modulation
+MIXED_SHARE = 0.75
 
 
 @dataclass
@@ -50,6 +54,8 @@ class Decoded:
     full_scale: float
     steps: dict[str, list[str]] = field(default_factory=dict)
     wrapped: dict[str, np.ndarray] = field(default_factory=dict)
+    # pixels whose fringe order the checks corrected / dropped (:mod:`.orders`), all directions
+    orders: dict[str, int] = field(default_factory=lambda: {"corrected": 0, "dropped": 0})
 
     @property
     def u(self) -> np.ndarray | None:
@@ -181,12 +187,14 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
 
     code_bad = np.zeros(shape, bool)
     order_bad = np.zeros(shape, bool)
+    orders = {"corrected": 0, "dropped": 0}
     pre_valid = ~(rejected["saturated"] | rejected["dark"] | rejected["low_modulation"])
+    trusted = unmixed(modulation)
     coords, steps = {}, {}
     for d in seq.directions:
         span = seq.span(d)
         codes = [c for c in seq.code_groups if c.direction == d]
-        code_est, cg = None, None
+        code_est, cg, code_half = None, None, None
         if codes:
             cg = min(codes, key=lambda c: c.period)
             if cg.inverse_frames:
@@ -199,14 +207,15 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
             if contrast is not None:
                 code_bad |= contrast < white_threshold
             code_bad |= (word * cg.period + cg.offset) >= span
-            code_est = word.astype(np.float32)
-            code_est += np.float32(0.5)
-            code_est *= np.float32(cg.period)
-            code_est += np.float32(cg.offset)
+            code_est, code_half = stripe_centres(word, cg.period, cg.offset)
             del word
-        x, unreliable, st = unwrap(levels[d], span, code_est, cg.period if cg else 0.0, cg.offset if cg else 0.0,
-                                   valid=pre_valid & ~code_bad, correction=boundary_correction, direction=d)
+        x, unreliable, st, stats = unwrap(levels[d], span, code_est, cg.period if cg else 0.0,
+                                          cg.offset if cg else 0.0, valid=pre_valid & ~code_bad,
+                                          correction=boundary_correction, direction=d,
+                                          code_half=code_half, trusted=trusted)
         order_bad |= unreliable
+        for k in orders:
+            orders[k] += stats[k]
         with np.errstate(invalid="ignore"):
             code_bad |= (x < -0.5) | (x > span - 0.5)  # beyond the projector's pixels
         coords[d], steps[d] = x, st
@@ -225,7 +234,42 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
         worst = max(fractions, key=fractions.get)
         raise InputError(f"{name}: no pixel decodes ({worst}: {100 * fractions[worst]:.1f} % of the pixels); "
                          "check exposure, the thresholds and that the frames follow the sequence")
-    return Decoded(coords, mask, modulation, mean, fractions, full, steps, wrapped)
+    return Decoded(coords, mask, modulation, mean, fractions, full, steps, wrapped, orders)
+
+
+def unmixed(modulation: np.ndarray) -> np.ndarray:
+    """Pixels whose modulation is at least MIXED_SHARE of the largest in their 3 x 3
+    neighbourhood. A pixel on a depth step averages two phases, and its modulation drops
+    (by cos(pi d) for phases d periods apart); such a pixel's phase lies between its
+    neighbours' and would vouch for a wrong order across the step."""
+    import cv2
+
+    top = cv2.dilate(modulation, np.ones((3, 3), np.uint8))
+    return modulation >= np.float32(MIXED_SHARE) * top
+
+
+def stripe_centres(word: np.ndarray, period: float, offset: float):
+    """Centre of each pixel's code stripe, px (float32 (H, W)), and the largest
+    half-width of a stripe, px.
+
+    Projector pixel u (centre at u, covering u - 1/2 .. u + 1/2) shows the word
+    floor((u - offset) / period), so stripe c covers ceil(offset + c period) - 1/2 to
+    ceil(offset + (c + 1) period) - 1/2: its edges lie between projector pixels, half a
+    pixel before the phase wraps at offset + c period.
+    """
+    lo = word.astype(np.float32)
+    lo *= np.float32(period)
+    lo += np.float32(offset)
+    hi = lo + np.float32(period)
+    # an edge at an integer (a float32 product a hair above it) is that integer
+    lo -= np.float32(1e-3)
+    hi -= np.float32(1e-3)
+    np.ceil(lo, out=lo)
+    np.ceil(hi, out=hi)
+    lo += hi
+    lo *= np.float32(0.5)
+    lo -= np.float32(0.5)
+    return lo, 0.5 * math.ceil(period - 1e-9)
 
 
 def _mean_of(frames: list[np.ndarray]) -> np.ndarray:

@@ -34,8 +34,19 @@ def decode(ctx: RunContext, sequence: Any, images: Any, black_threshold: float =
     ctx.progress(0.05, "decoding")
     dec = run_decode(sequence, images, warn=ctx.warn, **_decode_kw(
         black_threshold, modulation_threshold, white_threshold, saturation, boundary_correction))
+    _warn_orders(ctx, dec, "images")
     return {"u": dec.u, "v": dec.v, "modulation": dec.modulation, "mask": dec.mask,
-            "valid_fraction": dec.valid_fraction, "masks": dec.rejected}
+            "valid_fraction": dec.valid_fraction, "masks": dec.rejected,
+            "order_errors_corrected": dec.orders["corrected"], "order_errors_dropped": dec.orders["dropped"]}
+
+
+def _warn_orders(ctx: RunContext, dec, name: str) -> None:
+    """A warning when the order checks dropped more than 1 % of the decoded pixels."""
+    kept = int(np.count_nonzero(dec.mask))
+    n = dec.orders["dropped"]
+    if n > 0.01 * max(kept, 1):
+        ctx.warn(f"{name}: {n} pixels ({100 * n / max(kept + n, 1):.1f} %) dropped whose fringe order neither the "
+                 "code nor their neighbours settle; a complementary Gray code (stripes of half the period) avoids this")
 
 
 def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, images2: Any = None,
@@ -65,11 +76,13 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
         raise InputError("calibration: no camera besides the projector")
     ctx.progress(0.05, "decoding camera 1")
     dec1 = run_decode(seq, images, warn=ctx.warn, name="images", **kw)
+    _warn_orders(ctx, dec1, "images")
     cam1 = check_image_size(cams[0], dec1.mask.shape, "the images")
     out: dict[str, Any] = {}
     if method == "stereo":
         ctx.progress(0.4, "decoding camera 2")
         dec2 = run_decode(seq, images2, warn=ctx.warn, name="images2", **kw)
+        _warn_orders(ctx, dec2, "images2")
         cam2 = check_image_size(cams[1], dec2.mask.shape, "images2")
         ctx.progress(0.75, "matching phases along rectified rows")
         pts, fields, direction = stereo_points(dec1, dec2, cam1, cam2)
@@ -103,6 +116,9 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
                        name="fringe")
     out.update({"cloud": cloud, "n_points": cloud.n_points, "valid_fraction": valid,
                 "bbox": cloud.bounds.tolist()})
+    decs = [dec1] + ([dec2] if method == "stereo" else [])
+    out["order_errors_corrected"] = sum(d.orders["corrected"] for d in decs)
+    out["order_errors_dropped"] = sum(d.orders["dropped"] for d in decs)
     if keep_phase:
         out.update({"u": dec1.u, "v": dec1.v})
     return out
