@@ -182,6 +182,20 @@ def jpeg_header(w: int, h: int) -> bytes:
 
 
 @functools.cache
+def _e57_bytes() -> bytes:
+    """A valid E57 file of 200 points, written by camcmm (through pye57)."""
+    import tempfile
+
+    from camcmm.io import write
+    from camcmm.model import PointCloud
+
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "ok.e57"
+        write(PointCloud(_sphere(200), name="s"), p)
+        return p.read_bytes()
+
+
+@functools.cache
 def png_bomb() -> bytes:
     """12000 x 12000 grey zeros: 144 Mpx, 144 MB decoded, about 140 kB on disk."""
     return png(12000, 12000)
@@ -386,6 +400,13 @@ def _reader_cases() -> list[Case]:
     add("e57_magic_only.e57", b"ASTM-E57" + b"\0" * 40)
     add("e57_magic_junk.e57", b"ASTM-E57" + _junk(4000, 3))
     add("e57_header_lies.e57", b"ASTM-E57" + struct.pack("<IIQQQ", 1, 0, 2**40, 48, 2**40) + _junk(2000, 4))
+    e57 = _e57_bytes()
+    add("e57_truncated_half.e57", e57[:len(e57) // 2])
+    add("e57_truncated_last_page.e57", e57[:-1024])
+    flipped = bytearray(e57)
+    flipped[len(e57) // 2] ^= 0xFF
+    add("e57_byte_flipped.e57", bytes(flipped))
+    add("e57_appended_junk.e57", e57 + _junk(3000, 5))
     # images
     add("png_truncated.png", _encoded(".png")[:60])
     add("png_zero_width.png", png(0, 10, idat=zlib.compress(b"")))
