@@ -125,14 +125,15 @@ def test_token_choice(tmp_path):
     assert "without TLS" in w and "docs/security.md" in w and "\n" not in w
 
 
-def test_serve_refuses_no_token_beyond_loopback_and_a_missing_data_root(tmp_path):
+def test_serve_refuses_bad_options_in_one_line(tmp_path):
     """One line on stderr and a non-zero exit, before any project or server is made."""
     env = dict(os.environ)
     env.pop("CAMCMM_TOKEN", None)
-    for args, words in ((["--host", "0.0.0.0", "--no-token"], "--no-token: refused"),
-                        (["--data-root", str(tmp_path / "nowhere")], "no such folder")):
-        r = subprocess.run([sys.executable, "-m", "camcmm.cli.main", "serve", "--project", str(tmp_path / "p"),
-                            "--port", "0", *args], capture_output=True, text=True, timeout=60, env=env)
+    for args, words in ((["--port", "0", "--host", "0.0.0.0", "--no-token"], "--no-token: refused"),
+                        (["--port", "0", "--data-root", str(tmp_path / "nowhere")], "no such folder"),
+                        (["--port", "99999"], "99999: a port is 0")):
+        r = subprocess.run([sys.executable, "-m", "camcmm.cli.main", "serve", "--project", str(tmp_path / "p"), *args],
+                           capture_output=True, text=True, timeout=60, env=env)
         assert r.returncode != 0 and words in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1, r.stderr
         assert not (tmp_path / "p").exists()

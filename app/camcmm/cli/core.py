@@ -21,10 +21,10 @@ def _json_flag(p: argparse.ArgumentParser) -> None:
 
 # -- serve ---------------------------------------------------------------------------
 def _serve_args(p: argparse.ArgumentParser) -> None:
-    from ..gui.app import add_serve_arguments  # light: trame and VTK load in build()
+    from ..gui.app import add_serve_arguments, port_number  # light: trame and VTK load in build()
 
     p.add_argument("--project", default="camcmm-project", help="project folder (created if missing)")
-    p.add_argument("--port", type=int, default=8080, help="port (0 picks a free one)")
+    p.add_argument("--port", type=port_number, default=8080, help="port (0 picks a free one)")
     add_serve_arguments(p)  # --host, --data-root, --token-file, --no-token, --allow-origin, --certfile/--keyfile
 
 

@@ -504,9 +504,13 @@ def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: boo
 
     server.controller.on_server_ready.add(announce)
     extra = guard.wslink_args() + (["--ssl", f"{certfile},{keyfile}"] if tls else [])
-    with _bare_argv(extra):
-        server.start(host=host, port=int(port), open_browser=False, timeout=0, show_connection_info=False)
-    close(server)
+    try:
+        with _bare_argv(extra):
+            server.start(host=host, port=int(port), open_browser=False, timeout=0, show_connection_info=False)
+    except OSError as exc:  # the port is taken, the address is not this machine's ...
+        raise CamcmmError(f"cannot listen on {host} port {port}: {exc.strerror or exc}") from None
+    finally:
+        close(server)
 
 
 def close(server: Any) -> None:
@@ -518,6 +522,19 @@ def close(server: Any) -> None:
     session = getattr(server, "session", None)
     if session is not None:
         session.close()
+
+
+def port_number(text: str) -> int:
+    """argparse type of ``--port``: 0 (a free port) to 65535."""
+    import argparse
+
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port number (0 to 65535)") from None
+    if not 0 <= n <= 65535:
+        raise argparse.ArgumentTypeError(f"{n}: a port is 0 (a free one) to 65535")
+    return n
 
 
 def add_serve_arguments(ap: Any) -> None:
@@ -552,7 +569,7 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="python -m camcmm.gui", description="Serve the camcmm GUI on a project folder.")
     ap.add_argument("project", help="project folder (created if missing)")
-    ap.add_argument("--port", type=int, default=0, help="0 picks a free port")
+    ap.add_argument("--port", type=port_number, default=0, help="0 picks a free port")
     ap.add_argument("--open", action="store_true", help="open the system browser")
     add_serve_arguments(ap)
     args = ap.parse_args(argv)
