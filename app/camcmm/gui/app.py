@@ -472,12 +472,16 @@ def _bare_argv(extra: list[str] | None = None):
 
 
 def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
-          token: str | None = None, allowed_origins: Any = (), certfile: str | None = None,
+          token: str | None = "auto", allowed_origins: Any = (), certfile: str | None = None,
           keyfile: str | None = None) -> None:
     """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once
-    listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`);
-    ``token=None`` only on a loopback address. ``certfile``/``keyfile``: serve HTTPS."""
-    from .security import Guard, binding_warning, is_loopback
+    listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`):
+    ``"auto"`` makes a random one, ``None`` (no token) is refused beyond loopback.
+    ``certfile``/``keyfile``: serve HTTPS."""
+    from .security import Guard, binding_warning, is_loopback, new_token
+
+    if token == "auto":
+        token = new_token()
 
     if token is None and not is_loopback(host):
         raise CamcmmError(f"--host {host}: refused without a token (see docs/security.md)")
