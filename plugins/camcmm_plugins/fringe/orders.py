@@ -59,10 +59,13 @@ CONTINUITY = 1.0 / 3.0
 MARGIN = 0.25
 FOOTPRINT_SHARE = 0.5
 EDGE_PX = 1.0
+#: share of a band's votes its order needs (the rest: links across a depth step)
+AGREE = 0.9
 NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 def _wrap(d: np.ndarray) -> np.ndarray:
+    """d - rint(d) in place: a phase difference wrapped into [-1/2, 1/2] periods."""
     d -= np.rint(d)
     return d
 
@@ -73,15 +76,17 @@ def footprint(frac: np.ndarray, valid: np.ndarray) -> np.ndarray:
     (0.5 per axis where no valid neighbour tells). (H, W) float32."""
     g = np.zeros(frac.shape, np.float32)
     for axis in (0, 1):
-        d = np.abs(_wrap(np.diff(frac, axis=axis)))
+        d = _wrap(np.diff(frac, axis=axis))
+        np.abs(d, out=d)
         pair = valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
-        d[~pair] = -1.0
+        np.invert(pair, out=pair)
+        np.copyto(d, np.float32(-1.0), where=pair)
         best = np.full(frac.shape, -1.0, np.float32)
         lo = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
         hi = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
         np.maximum(best[lo], d, out=best[lo])
         np.maximum(best[hi], d, out=best[hi])
-        best[best < 0] = 0.5
+        np.copyto(best, np.float32(0.5), where=best < 0)
         g += best
     return g
 
@@ -126,55 +131,15 @@ def _votes(p, x, frac, period, source, shape):
     return count, zero, jmin, jmax
 
 
-def resolve(x: np.ndarray, frac: np.ndarray, period: float, valid: np.ndarray, doubt: np.ndarray,
-            alt: np.ndarray, passes: int = 256):
-    """Settle doubtful pixels from their sure neighbours (in place on x, px).
-
-    alt : (H, W) int8, the other order the code allows (+1 or -1).
-    Returns (number corrected, (H, W) bool of the doubtful pixels dropped).
-    """
-    source = valid & ~doubt
-    todo = np.flatnonzero(valid & doubt)
-    dropped = np.zeros(x.shape, bool)
-    corrected = 0
-    altf = alt.ravel()
-    xf = x.reshape(-1)
-    for _ in range(passes):
-        if not todo.size:
-            break
-        count, _, jmin, jmax = _votes(todo, x, frac, period, source, x.shape)
-        agree = jmin == jmax
-        allowed = (jmin == 0) | (jmin == altf[todo])
-        settle = (count >= 2) & agree & allowed
-        conflict = (count >= 1) & ~(agree & allowed)
-        fix = todo[settle & (jmin != 0)]
-        xf[fix] += altf[fix].astype(np.float32) * np.float32(period)
-        corrected += fix.size
-        dropped.ravel()[todo[conflict]] = True
-        source.ravel()[todo[settle]] = True
-        if not settle.any():
-            break
-        todo = todo[~settle & ~conflict]
-    dropped.ravel()[todo] = True
-    return corrected, dropped
-
-
 def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: np.ndarray, valid: np.ndarray,
-           doubt: np.ndarray, alt: np.ndarray, smooth: np.ndarray):
+           doubt: np.ndarray, alt: np.ndarray, smooth: np.ndarray, rounds: int = 32):
     """Settle the doubtful pixels band by band (in place on x, px); see the module docstring.
 
-    flip : (H, W) float32, the phase (periods, [0, 1)) at which each pixel's code
-           rounding flips: ((x_code - offset) / period + 1/2) mod 1.
-    A band (the doubtful pixels linked by 4-neighbour steps within CONTINUITY) lies
-    around one flip point, so its true coordinates all have the same index K of the
-    nearest point of phase ``flip``. Each Itoh-consistent link from a sure 8-neighbour
-    votes for a K; a band whose votes (at least two) all agree takes that K, and each of
-    its pixels moves to its candidate of that K (its code's order or ``alt``; pixels
-    whose move the code does not allow are dropped). Bands whose votes disagree, and all
-    bands when the pixels have different flip phases (a code not of the fringe
-    period), are settled pixel by pixel (:func:`resolve`).
+    flip   : (H, W) float32, the phase (periods, [0, 1)) at which each pixel's code
+             rounding flips: ((x_code - offset) / period + 1/2) mod 1.
+    alt    : (H, W) int8, the other order the code allows (+1 or -1).
     smooth : (H, W) bool, pixels whose phase changes by less than CONTINUITY to every
-           side (:func:`footprint`); only these link, vote or are settled.
+             side and that mix no surfaces; only these link, vote or are settled.
     Returns (number corrected, (H, W) bool of the pixels dropped).
     """
     from scipy.sparse import coo_matrix
@@ -182,81 +147,83 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
 
     dropped = doubt & ~smooth  # no continuity to judge by (an outline, a depth step)
     doubt = doubt & smooth
-    valid = valid & smooth
     idx = np.flatnonzero(doubt)
     if not idx.size:
         return 0, dropped
-    ff, xf, phi = frac.ravel(), x.reshape(-1), flip.ravel()
-    spread = _wrap(phi[idx] - phi[idx[0]])
-    if np.abs(spread).max() > 1e-3:
-        n, more = resolve(x, frac, period, valid, doubt, alt)
-        return n, dropped | more
     h, w = x.shape
+    ff, xf, phi = frac.ravel(), x.reshape(-1), flip.ravel()
+    inv, off = np.float32(1.0 / period), np.float32(offset)
+    # K: index of the nearest flip point, as the code has it
+    kmap = np.zeros(h * w, np.int64)
+    kmap[idx] = np.rint((xf[idx] - off) * inv - phi[idx]).astype(np.int64)
     node = np.full(h * w, -1, np.int64)
     node[idx] = np.arange(idx.size)
     rows, cols = [], []
-    for step, a, b in ((1, doubt[:, :-1], doubt[:, 1:]), (w, doubt[:-1], doubt[1:])):
-        pair = a & b
-        if step == 1:
-            pair &= np.abs(_wrap(np.diff(frac, axis=1))) < CONTINUITY
-            first = np.flatnonzero(np.pad(pair, ((0, 0), (0, 1))))
-        else:
-            pair &= np.abs(_wrap(np.diff(frac, axis=0))) < CONTINUITY
-            first = np.flatnonzero(np.pad(pair, ((0, 1), (0, 0))))
-        rows.append(node[first])
-        cols.append(node[first + step])
-    r = np.concatenate(rows)
-    c = np.concatenate(cols)
+    for step in (1, w):
+        first = idx[(idx % w < w - 1) if step == 1 else (idx < (h - 1) * w)]
+        second = first + step
+        keep = doubt.ravel()[second]
+        first, second = first[keep], second[keep]
+        wd = _wrap(ff[first] - ff[second])
+        keep = (np.abs(wd) < CONTINUITY) & (kmap[first] == kmap[second]) & \
+            (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
+        rows.append(node[first[keep]])
+        cols.append(node[second[keep]])
+    r, c = np.concatenate(rows), np.concatenate(cols)
     graph = coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(idx.size, idx.size))
     n_bands, band = connected_components(graph, directed=False)
-    del graph, r, c, rows, cols
-    inv = np.float32(1.0 / period)
-    off = np.float32(offset)
-    k_own = np.rint((xf[idx] - off) * inv - phi[idx]).astype(np.int64)
-    # votes: (band, K) of every link from a sure neighbour
+    del graph, r, c, rows, cols, node
+    source = (valid & ~doubt & smooth).ravel().copy()
+    pending = np.ones(n_bands, bool)
+    a_ = alt.ravel()[idx]
+    k_own = kmap[idx]
+    del kmap
+    corrected = 0
     row, col = np.divmod(idx, w)
-    sure = (valid & ~doubt).ravel()
-    vb, vk = [], []
-    for dy, dx in NEIGHBOURS:
-        inb = (row + dy >= 0) & (row + dy < h) & (col + dx >= 0) & (col + dx < w)
-        n = np.where(inb, idx + dy * w + dx, idx)
-        wd = _wrap(np.subtract(ff[idx], ff[n], dtype=np.float32))
-        ok = inb & sure[n] & (np.abs(wd) < CONTINUITY)
-        implied = xf[n[ok]] + wd[ok] * np.float32(period)
-        vb.append(band[ok])
-        vk.append(np.rint((implied - off) * inv - phi[idx[ok]]).astype(np.int64))
-    vb, vk = np.concatenate(vb), np.concatenate(vk)
-    k_band = np.full(n_bands, np.iinfo(np.int64).min, np.int64)
-    if vb.size:
+    todo = np.arange(idx.size)
+    for _ in range(rounds):
+        if not todo.size:
+            break
+        vb, vk = [], []
+        p = idx[todo]
+        for dy, dx in NEIGHBOURS:
+            inb = (row[todo] + dy >= 0) & (row[todo] + dy < h) & (col[todo] + dx >= 0) & (col[todo] + dx < w)
+            n = np.where(inb, p + dy * w + dx, p)
+            wd = _wrap(np.subtract(ff[p], ff[n], dtype=np.float32))
+            ok = inb & source[n] & (np.abs(wd) < CONTINUITY)
+            implied = xf[n[ok]] + wd[ok] * np.float32(period)
+            vb.append(band[todo[ok]])
+            vk.append(np.rint((implied - off) * inv - phi[p[ok]]).astype(np.int64))
+        vb, vk = np.concatenate(vb), np.concatenate(vk)
+        if not vb.size:
+            break
         lo = int(vk.min())
         span = int(vk.max()) - lo + 1
         key, count = np.unique(vb * span + (vk - lo), return_counts=True)
         kb, kk = np.divmod(key, span)
         total = np.bincount(kb, weights=count, minlength=n_bands)
-        # the leading K of each band: sort by (band, count) and take each band's last
         order = np.lexsort((count, kb))
         last = order[np.r_[kb[order][1:] != kb[order][:-1], True]]
         lead_b, lead_n = kb[last], count[last]
-        clear = (lead_n >= 2) & (lead_n == total[lead_b])
+        clear = (lead_n >= 2) & (lead_n >= AGREE * total[lead_b])
+        if not clear.any():
+            break
+        k_band = np.zeros(n_bands, np.int64)
         k_band[lead_b[clear]] = kk[last][clear] + lo
-    target = k_band[band]
-    unclear = target == np.iinfo(np.int64).min
-    j = target - k_own
-    a_ = alt.ravel()[idx]
-    ok = ~unclear & ((j == 0) | (j == a_))
-    fix = ok & (j != 0)
-    xf[idx[fix]] += j[fix].astype(np.float32) * np.float32(period)
-    dropped.ravel()[idx[~ok & ~unclear]] = True
-    n = int(np.count_nonzero(fix))
-    if unclear.any():
-        # a band that reaches two flip points (through a gap in the sure pixels) or
-        # none: its pixels one by one, from whatever sure or settled pixels touch them
-        rest = np.zeros(x.shape, bool)
-        rest.ravel()[idx[unclear]] = True
-        more, lost = resolve(x, frac, period, valid & ~dropped, rest, alt)
-        n += more
-        dropped |= lost
-    return n, dropped
+        done = np.zeros(n_bands, bool)
+        done[lead_b[clear]] = True
+        pending &= ~done
+        sel = todo[done[band[todo]]]
+        j = k_band[band[sel]] - k_own[sel]
+        ok = (j == 0) | (j == a_[sel])
+        fix = sel[ok & (j != 0)]
+        xf[idx[fix]] += (k_band[band[fix]] - k_own[fix]).astype(np.float32) * np.float32(period)
+        corrected += fix.size
+        dropped.ravel()[idx[sel[~ok]]] = True
+        source[idx[sel[ok]]] = True
+        todo = todo[~done[band[todo]]]
+    dropped.ravel()[idx[todo]] = True
+    return corrected, dropped
 
 
 def check_continuity(x: np.ndarray, frac: np.ndarray, period: float, valid: np.ndarray):
