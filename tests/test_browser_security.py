@@ -44,7 +44,8 @@ img.onerror = () => done("img", "error");
 img.src = "http://" + app + "/logo.png?nocache=" + Math.random();  // not the cached favicon
 fetch("http://" + app + "/projector/state", {credentials: "include"})
   .then(r => r.text()).then(t => done("fetch", t)).catch(() => done("fetch", "error"));
-</script><pre id="out"></pre></body></html>"""
+</script><pre id="out"></pre>
+<iframe id="frame" src="http://%(app)s/index.html" width="600" height="300"></iframe></body></html>"""
 
 
 @pytest.fixture
@@ -123,6 +124,10 @@ def test_another_origin_and_a_client_without_the_token_cannot_connect(served):
                 assert got.get("ws") == "error", got
                 assert got.get("img") == "error", got
                 assert got.get("fetch") == "error", got  # no CORS: the page reads nothing
+                # nor can it show the app in a frame to have the operator click through it
+                frame = next(f for f in evil.frames if f.url.startswith(server.base))
+                frame.wait_for_load_state()
+                assert "refused" in frame.content() and frame.locator('[data-testid="project-name"]').count() == 0
                 # the app itself keeps working, a reload too (the cookie gives the client its secret again)
                 app.reload()
                 app.wait_for_selector('[data-testid="project-name"]:has-text("proj")')

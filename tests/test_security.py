@@ -199,6 +199,8 @@ def test_guard_refuses_other_origins_even_with_the_token():
         assert _check(g, "/projector/state", {**ok, "Sec-Fetch-Site": site, "Sec-Fetch-Mode": "no-cors"}).status == 403
     assert _check(g, "/projector/state", {**ok, "Sec-Fetch-Site": "same-origin", "Sec-Fetch-Mode": "cors"}) is None
     assert _check(g, "/projector", {**ok, "Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"}) is None
+    framed = {**ok, "Sec-Fetch-Site": "same-site", "Sec-Fetch-Mode": "navigate", "Sec-Fetch-Dest": "iframe"}
+    assert _check(g, "/index.html", framed).status == 403  # the app in another site's frame
 
 
 def test_without_a_token_the_origin_is_still_checked():
@@ -245,8 +247,9 @@ def test_the_server_answers_nothing_without_its_token(server):
     status, headers, _ = _http(server.url)
     assert status == 302 and server.token in headers["Set-Cookie"] and "HttpOnly" in headers["Set-Cookie"]
     auth = {"Authorization": f"token {server.token}"}
-    status, _, body = _http(server.base + "projector/state", headers=auth)
+    status, headers, body = _http(server.base + "projector/state", headers=auth)
     assert status == 200 and json.loads(body)["version"] == 0
+    assert headers["X-Frame-Options"] == "SAMEORIGIN" and "frame-ancestors 'self'" in headers["Content-Security-Policy"]
     assert _http(server.base + "projector/ack?v=1", "POST", auth)[0] == 200
     assert _http(server.base + "projector/ack?v=1", "POST", {**auth, "Origin": "http://127.0.0.1:1"})[0] == 403
 

@@ -38,6 +38,10 @@ MIN_TOKEN_LENGTH = 16
 SECURITY_DOC = "docs/security.md"
 #: the paths of the app page (the ones that get ``?secret=`` for the trame client)
 APP_PAGES = ("/", "/index.html")
+#: on every response: no page of another origin frames the app (clicks through a
+#: transparent frame), and no address with the secret leaves in a Referer
+HEADERS = {"X-Frame-Options": "SAMEORIGIN", "Content-Security-Policy": "frame-ancestors 'self'",
+           "Referrer-Policy": "same-origin"}
 
 
 def new_token() -> str:
@@ -190,7 +194,9 @@ class Guard:
         if origin is not None and not self.origin_ok(origin, request):
             return self._refuse("refused: a page from another origin may not use this server")
         site = request.headers.get("Sec-Fetch-Site", "")
-        if site in ("cross-site", "same-site") and request.headers.get("Sec-Fetch-Mode", "") != "navigate":
+        top_level = request.headers.get("Sec-Fetch-Mode", "") == "navigate" and \
+            request.headers.get("Sec-Fetch-Dest", "document") == "document"
+        if site in ("cross-site", "same-site") and not top_level:  # an <img>, a fetch, a frame
             return self._refuse("refused: a request started by another site")
         if not self.token:
             return None
@@ -226,6 +232,10 @@ class Guard:
             refusal = await guard.check(request)
             if refusal is not None:
                 return refusal
-            return await handler(request)
+            response = await handler(request)
+            if not getattr(response, "prepared", True):  # a websocket is already under way
+                for key, value in HEADERS.items():
+                    response.headers.setdefault(key, value)
+            return response
 
         return camcmm_guard
