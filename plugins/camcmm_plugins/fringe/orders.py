@@ -4,7 +4,6 @@ their neighbours' phase continuity, and a last continuity check of every decoded
     footprint(frac, valid)                         -> (H, W) float32, periods per camera pixel
     doubtful(r, g, period, code_half)              -> (H, W) bool
     settle(x, frac, period, offset, flip, valid, doubt, alt, smooth) -> (corrected, dropped)
-    resolve(x, frac, period, valid, doubt, alt)    -> (corrected, dropped)   pixel by pixel
     check_continuity(x, frac, period, valid)       -> (corrected, dropped)
 
 Why. A code word c of a stripe of half-width ``h`` px gives the coordinate to within
@@ -32,13 +31,16 @@ two surfaces; an outline or a depth step gives no evidence.
 
 Settling (:func:`settle`): the doubtful pixels, linked by 4-neighbour steps, form bands
 along the code boundaries. A band lies around one point where the code's rounding
-flips, so all its true coordinates have the same index K of the nearest such point:
-every link from a sure 8-neighbour votes for a K, a band whose votes (at least two) all
-agree takes that K, and each pixel moves to its candidate of that K. A band whose votes
-disagree (it reaches two boundaries through a gap in the sure pixels) is settled pixel
-by pixel (:func:`resolve`: at least two unanimous votes of sure or settled neighbours,
-in passes). Pixels whose voters disagree, whose move the code does not allow, that no
-vote reaches, or that are not smooth, are dropped.
+flips, so all its true coordinates have the same index K of the nearest such point.
+Every link from a sure 8-neighbour votes for a K; a band with at least two votes, AGREE
+(90 %) of them for one K, takes it, and each of its pixels moves to its candidate of
+that K (its code's order or ``alt``). A band without such a vote (it reaches two flip
+points through a depth step whose jump mimics continuity) is split into the parts the
+code puts at one flip point; these are decided the same way in rounds, sure and
+already settled pixels voting, a part only once sources touch COVER (20 %) of its edge
+pixels (a thin strip of misread code is not decided by the few votes at one end).
+Pixels whose move the code does not allow, that no clear vote reaches, or that are not
+smooth, are dropped.
 
 Continuity check (any unwrapping): a pixel whose continuity is broken to at least as
 many valid 8-neighbours as it holds to is dropped, unless none holds to it and at least
@@ -61,6 +63,8 @@ FOOTPRINT_SHARE = 0.5
 EDGE_PX = 1.0
 #: share of a band's votes its order needs (the rest: links across a depth step)
 AGREE = 0.9
+#: share of a band part's edge pixels that must touch a source before it is decided
+COVER = 0.2
 NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
@@ -131,6 +135,78 @@ def _votes(p, x, frac, period, source, shape):
     return count, zero, jmin, jmax
 
 
+def _bands(members: np.ndarray, mask: np.ndarray, ff, phi, kmap, shape, same_k: bool):
+    """Connected components of the pixels ``members`` (flat, sorted; ``mask`` the same
+    as an image): 4-neighbours linked when their phases differ by less than CONTINUITY,
+    their flip phases agree and (``same_k``) the code puts them at the same flip point."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    h, w = shape
+    node = np.full(h * w, -1, np.int64)
+    node[members] = np.arange(members.size)
+    rows, cols = [], []
+    for step in (1, w):
+        first = members[(members % w < w - 1) if step == 1 else (members < (h - 1) * w)]
+        first = first[mask.ravel()[first + step]]
+        second = first + step
+        keep = (np.abs(_wrap(ff[first] - ff[second])) < CONTINUITY) & \
+            (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
+        if same_k:
+            keep &= kmap[first] == kmap[second]
+        rows.append(node[first[keep]])
+        cols.append(node[second[keep]])
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(members.size, members.size))
+    return connected_components(graph, directed=False)
+
+
+def _leading(p, group, n_groups, source, xf, ff, phi, period, offset, shape, labels=None):
+    """Votes of the source 8-neighbours of pixels p (flat) for the flip-point index K of
+    their group: (K per group, bool per group: at least two votes and AGREE of them).
+    With ``labels`` (each pixel's group + 1 as a flat image, 0 outside), a group also
+    needs sources along COVER of its edge pixels (its pixels with a neighbour outside
+    it): a long strip is not decided by the few votes at one of its ends."""
+    h, w = shape
+    row, col = np.divmod(p, w)
+    inv, off = np.float32(1.0 / period), np.float32(offset)
+    vb, vk = [], []
+    touched = np.zeros(p.size, bool)
+    edge = np.zeros(p.size, bool)
+    for dy, dx in NEIGHBOURS:
+        inb = (row + dy >= 0) & (row + dy < h) & (col + dx >= 0) & (col + dx < w)
+        n = np.where(inb, p + dy * w + dx, p)
+        wd = _wrap(np.subtract(ff[p], ff[n], dtype=np.float32))
+        ok = inb & source[n] & (np.abs(wd) < CONTINUITY)
+        implied = xf[n[ok]] + wd[ok] * np.float32(period)
+        vb.append(group[ok])
+        vk.append(np.rint((implied - off) * inv - phi[p[ok]]).astype(np.int64))
+        if labels is not None:
+            touched |= ok
+            edge |= inb & (labels[n] != group + 1)
+    vb, vk = np.concatenate(vb), np.concatenate(vk)
+    k_group = np.zeros(n_groups, np.int64)
+    clear = np.zeros(n_groups, bool)
+    if not vb.size:
+        return k_group, clear
+    lo = int(vk.min())
+    span = int(vk.max()) - lo + 1
+    key, count = np.unique(vb * span + (vk - lo), return_counts=True)
+    kb, kk = np.divmod(key, span)
+    total = np.bincount(kb, weights=count, minlength=n_groups)
+    order = np.lexsort((count, kb))
+    last = order[np.r_[kb[order][1:] != kb[order][:-1], True]]
+    lead_b, lead_n = kb[last], count[last]
+    good = (lead_n >= 2) & (lead_n >= AGREE * total[lead_b])
+    if labels is not None:
+        n_touched = np.bincount(group[touched], minlength=n_groups)
+        n_edge = np.bincount(group[edge], minlength=n_groups)
+        good &= n_touched[lead_b] >= COVER * n_edge[lead_b]
+    k_group[lead_b[good]] = kk[last][good] + lo
+    clear[lead_b[good]] = True
+    return k_group, clear
+
+
 def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: np.ndarray, valid: np.ndarray,
            doubt: np.ndarray, alt: np.ndarray, smooth: np.ndarray, rounds: int = 32):
     """Settle the doubtful pixels band by band (in place on x, px); see the module docstring.
@@ -142,87 +218,56 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
              side and that mix no surfaces; only these link, vote or are settled.
     Returns (number corrected, (H, W) bool of the pixels dropped).
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     dropped = doubt & ~smooth  # no continuity to judge by (an outline, a depth step)
     doubt = doubt & smooth
     idx = np.flatnonzero(doubt)
     if not idx.size:
         return 0, dropped
-    h, w = x.shape
-    ff, xf, phi = frac.ravel(), x.reshape(-1), flip.ravel()
-    inv, off = np.float32(1.0 / period), np.float32(offset)
-    # K: index of the nearest flip point, as the code has it
-    kmap = np.zeros(h * w, np.int64)
-    kmap[idx] = np.rint((xf[idx] - off) * inv - phi[idx]).astype(np.int64)
-    node = np.full(h * w, -1, np.int64)
-    node[idx] = np.arange(idx.size)
-    rows, cols = [], []
-    for step in (1, w):
-        first = idx[(idx % w < w - 1) if step == 1 else (idx < (h - 1) * w)]
-        second = first + step
-        keep = doubt.ravel()[second]
-        first, second = first[keep], second[keep]
-        wd = _wrap(ff[first] - ff[second])
-        keep = (np.abs(wd) < CONTINUITY) & (kmap[first] == kmap[second]) & \
-            (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
-        rows.append(node[first[keep]])
-        cols.append(node[second[keep]])
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(idx.size, idx.size))
-    n_bands, band = connected_components(graph, directed=False)
-    del graph, r, c, rows, cols, node
+    shape = x.shape
+    ff, xf, phi, af = frac.ravel(), x.reshape(-1), flip.ravel(), alt.ravel()
+    kmap = np.zeros(x.size, np.int64)
+    kmap[idx] = np.rint((xf[idx] - np.float32(offset)) * np.float32(1.0 / period) - phi[idx]).astype(np.int64)
     source = (valid & ~doubt & smooth).ravel().copy()
-    pending = np.ones(n_bands, bool)
-    a_ = alt.ravel()[idx]
-    k_own = kmap[idx]
-    del kmap
     corrected = 0
-    row, col = np.divmod(idx, w)
-    todo = np.arange(idx.size)
-    for _ in range(rounds):
-        if not todo.size:
-            break
-        vb, vk = [], []
-        p = idx[todo]
-        for dy, dx in NEIGHBOURS:
-            inb = (row[todo] + dy >= 0) & (row[todo] + dy < h) & (col[todo] + dx >= 0) & (col[todo] + dx < w)
-            n = np.where(inb, p + dy * w + dx, p)
-            wd = _wrap(np.subtract(ff[p], ff[n], dtype=np.float32))
-            ok = inb & source[n] & (np.abs(wd) < CONTINUITY)
-            implied = xf[n[ok]] + wd[ok] * np.float32(period)
-            vb.append(band[todo[ok]])
-            vk.append(np.rint((implied - off) * inv - phi[p[ok]]).astype(np.int64))
-        vb, vk = np.concatenate(vb), np.concatenate(vk)
-        if not vb.size:
-            break
-        lo = int(vk.min())
-        span = int(vk.max()) - lo + 1
-        key, count = np.unique(vb * span + (vk - lo), return_counts=True)
-        kb, kk = np.divmod(key, span)
-        total = np.bincount(kb, weights=count, minlength=n_bands)
-        order = np.lexsort((count, kb))
-        last = order[np.r_[kb[order][1:] != kb[order][:-1], True]]
-        lead_b, lead_n = kb[last], count[last]
-        clear = (lead_n >= 2) & (lead_n >= AGREE * total[lead_b])
-        if not clear.any():
-            break
-        k_band = np.zeros(n_bands, np.int64)
-        k_band[lead_b[clear]] = kk[last][clear] + lo
-        done = np.zeros(n_bands, bool)
-        done[lead_b[clear]] = True
-        pending &= ~done
-        sel = todo[done[band[todo]]]
-        j = k_band[band[sel]] - k_own[sel]
-        ok = (j == 0) | (j == a_[sel])
-        fix = sel[ok & (j != 0)]
-        xf[idx[fix]] += (k_band[band[fix]] - k_own[fix]).astype(np.float32) * np.float32(period)
+
+    def apply(p, k):
+        """Move pixels p to their candidate of flip index k; returns the pixels kept."""
+        nonlocal corrected
+        j = k - kmap[p]
+        ok = (j == 0) | (j == af[p])
+        fix = p[ok & (j != 0)]
+        xf[fix] += j[ok & (j != 0)].astype(np.float32) * np.float32(period)
         corrected += fix.size
-        dropped.ravel()[idx[sel[~ok]]] = True
-        source[idx[sel[ok]]] = True
-        todo = todo[~done[band[todo]]]
-    dropped.ravel()[idx[todo]] = True
+        dropped.ravel()[p[~ok]] = True
+        source[p[ok]] = True
+
+    # 1. whole bands, voted by their sure neighbours
+    n_bands, band = _bands(idx, doubt, ff, phi, kmap, shape, same_k=False)
+    k_band, clear = _leading(idx, band, n_bands, source, xf, ff, phi, period, offset, shape)
+    done = clear[band]
+    apply(idx[done], k_band[band[done]])
+    # 2. the rest (a band reaching two flip points through a depth step, or none):
+    #    its parts the code puts at one flip point, in rounds from sure and settled pixels
+    rest = idx[~done]
+    if rest.size:
+        mask = np.zeros(shape, bool)
+        mask.ravel()[rest] = True
+        n_parts, part = _bands(rest, mask, ff, phi, kmap, shape, same_k=True)
+        labels = np.zeros(x.size, np.int64)
+        labels[rest] = part + 1
+        todo = np.arange(rest.size)
+        for _ in range(rounds):
+            if not todo.size:
+                break
+            k_part, clear = _leading(rest[todo], part[todo], n_parts, source, xf, ff, phi, period, offset, shape,
+                                     labels)
+            if not clear.any():
+                break
+            now = clear[part[todo]]
+            sel = todo[now]
+            apply(rest[sel], k_part[part[sel]])
+            todo = todo[~now]
+        dropped.ravel()[rest[todo]] = True
     return corrected, dropped
 
 
