@@ -101,7 +101,10 @@ def _child() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C in the terminal is the server's to handle
     conn, ctl = Connection(int(sys.argv[1])), Connection(int(sys.argv[2]))
-    recipe, path = conn.recv()
+    try:
+        recipe, path = conn.recv()
+    except (EOFError, OSError):  # the server stopped before handing over its recipe
+        return
     sys.path[:] = path
     cancel = threading.Event()
     current = [0]

@@ -157,18 +157,6 @@ def summary(outputs: dict[str, Any], mode: str) -> dict[str, Any]:
     return out
 
 
-def rms_hint(outputs: dict[str, Any], board: str, limit: float = 1.0) -> list[str]:
-    """A warning when the RMS reprojection error is over ``limit`` px: board corners
-    are found to a few tenths of a pixel, so more hints at a wrong board spec (a board
-    spec smaller than the board is found inside it) or at bad images."""
-    rms = outputs.get("rms")
-    if rms is None or not float(rms) > limit:
-        return []
-    return [f"RMS {float(rms):.3g} px is large for a board calibration (well under 1 px is usual): check the board "
-            f"spec {board} (COLSxROWS counts inner corners; a smaller size is also found inside a larger board) "
-            "and the images with the largest errors"]
-
-
 def views_csv_rows(outputs: dict[str, Any], mode: str) -> list[list[Any]]:
     """camera, image, status, RMS (px), corners, reason: every image of every camera."""
     rows = []

@@ -59,7 +59,7 @@ class CalibrationShow:
         cur = doc.get("current") or {}
         s.cal_summary = {**res.summary(out, mode), "name": cur.get("name", ""), "result": cur.get("result"),
                          "board": doc["request"]["board"], "model": doc["request"]["model"]}
-        s.cal_warnings = list(doc.get("warnings") or []) + res.rms_hint(out, doc["request"]["board"])
+        s.cal_warnings = list(doc.get("warnings") or [])  # the plugin warns on RMS, poses, parameters
         s.cal_sides = [{"title": res.side_title(mode, k), "value": k} for k in res.sides(mode)]
         s.cal_stereo_rows = res.stereo_rows(out) if mode == "stereo" else []
         s.cal_pairs = res.used_pairs(out) if mode == "stereo" else []
