@@ -242,8 +242,22 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
         source[p[ok]] = True
 
     # 1. whole bands, voted by their sure neighbours
-    n_bands, band = _bands(idx, doubt, ff, phi, kmap, shape, same_k=False)
-    k_band, clear = _leading(idx, band, n_bands, source, xf, ff, phi, period, offset, shape)
+    import cv2
+
+    if np.abs(_wrap(phi[idx] - phi[idx[0]])).max() < 1e-3:
+        # one flip phase (a code of the fringe period): two smooth 4-neighbours always
+        # link (their phases differ by less than either's footprint < CONTINUITY)
+        n_bands, labels = cv2.connectedComponents(doubt.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
+        band = labels.ravel()[idx].astype(np.int64) - 1
+        n_bands -= 1
+        del labels
+    else:
+        n_bands, band = _bands(idx, doubt, ff, phi, kmap, shape, same_k=False)
+
+    # only a band's rim can have a sure neighbour
+    near = cv2.dilate(source.reshape(shape).view(np.uint8), np.ones((3, 3), np.uint8)).ravel()[idx] > 0
+    k_band, clear = _leading(idx[near], band[near], n_bands, source, xf, ff, phi, period, offset, shape)
+    del near
     done = clear[band]
     apply(idx[done], k_band[band[done]])
     # 2. the rest (a band reaching two flip points through a depth step, or none):
