@@ -125,8 +125,6 @@ KNOWN: dict[str, str] = {
         "devices simulate-stage (H4): internal OverflowError: bind(): port must be 0-65535.",
     "devices-simulate-stage-seed--1":
         "devices simulate-stage (H4): hang: no answer in 6 s",
-    "serve-bad-port":
-        "serve (H1): internal OverflowError: bind(): port must be 0-65535.",
 }
 
 
