@@ -17,9 +17,14 @@ In one run:
   fit) timed on ``--ref-rows`` rows; both extrapolated to the full pair;
 
 with the seconds, their ratio, and the accuracy of the points (distance to the true
-sphere and plane, mean radial residual on the sphere).
+sphere and plane, mean radial residual on the sphere). The cost of the fringe-order
+checks (``fringe/orders.py``) is shown against ``boundary_correction: none`` (the plain
+rounding of eq. 5.4) decoding the same frames in the same process, alternately, best of
+``--repeat`` each. ``--code period`` replaces the complementary code by a Gray code of
+the fringe period (24 px stripes, 7 bits), which leaves half the pixels doubtful.
 
     .venv/bin/python benchmarks/bench_fringe.py [--width 4000 --height 3000] [--ref-pixels 20000] [--ref-rows 2]
+                                                [--code complementary|period] [--repeat 2]
 
 Target: <= 15 s for the 12-megapixel pair on the 2-core development machine. The
 curvature correction of the phase resampling (which removes a sphere-radius bias at
@@ -47,6 +52,9 @@ from camcmm_plugins.fringe.triangulate import camera_rays, project
 SEQ = {"projector": {"width": 1920, "height": 1080}, "frames": [
     {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
     {"type": "gray", "direction": "vertical", "period": 12, "bits": 8}]}
+SEQ_PERIOD = {"projector": {"width": 1920, "height": 1080}, "frames": [
+    {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
+    {"type": "gray", "direction": "vertical", "period": 24}]}
 CENTRE, RADIUS, PLANE_Z = np.array([30.0, 0.0, 400.0]), 20.0, 440.0
 
 
@@ -125,9 +133,11 @@ def main() -> None:
     ap.add_argument("--height", type=int, default=3000)
     ap.add_argument("--ref-pixels", type=int, default=20000)
     ap.add_argument("--ref-rows", type=int, default=2)
+    ap.add_argument("--code", choices=("complementary", "period"), default="complementary")
+    ap.add_argument("--repeat", type=int, default=2, help="decodes with and without the order checks")
     args = ap.parse_args()
     w, h = args.width, args.height
-    seq = load_sequence(SEQ)
+    seq = load_sequence(SEQ if args.code == "complementary" else SEQ_PERIOD)
     cam1, cam2, proj = rig(w, h)
 
     t0 = time.perf_counter()
@@ -154,6 +164,21 @@ def main() -> None:
     on = np.abs(r - RADIUS) < 0.1
     print(f"           sphere ({on.sum():,} points within 0.1 mm of it): mean radial residual "
           f"{(r[on] - RADIUS).mean() * 1e3:+.3f} um")
+
+    # the order checks against the plain rounding, alternately on the same frames
+    times = {"auto": [t_dec], "none": []}
+    for i in range(2 * max(args.repeat, 1) - 1):
+        corr = "none" if i % 2 == 0 else "auto"
+        t0 = time.perf_counter()
+        for f in frames:
+            decode(seq, f, boundary_correction=corr)
+        times[corr].append(time.perf_counter() - t0)
+    t_auto, t_none = min(times["auto"]), min(times["none"])
+    orders = {k: d1.orders[k] + d2.orders[k] for k in d1.orders}
+    print(f"order checks ({args.code} code): decode 2 cameras {t_auto:.2f} s, without them "
+          f"(boundary_correction: none) {t_none:.2f} s, ratio {t_auto / t_none:.2f} (best of "
+          f"{len(times['auto'])}/{len(times['none'])}); {orders['corrected']:,} orders corrected, "
+          f"{orders['dropped']:,} pixels dropped")
 
     # reference 1: per-pixel decoding in Python on a sample of pixels
     rng = np.random.default_rng(0)

@@ -38,9 +38,6 @@ from .phase import wrapped_phase
 from .sequence import Sequence, load_sequence
 from .unwrap import Level, unwrap
 
-#: see :func:`unmixed`: a blend of phases 0.23 periods apart keeps 75 % of the modulation
-MIXED_SHARE = 0.75
-
 
 @dataclass
 class Decoded:
@@ -189,7 +186,6 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
     order_bad = np.zeros(shape, bool)
     orders = {"corrected": 0, "dropped": 0}
     pre_valid = ~(rejected["saturated"] | rejected["dark"] | rejected["low_modulation"])
-    trusted = unmixed(modulation)
     coords, steps = {}, {}
     for d in seq.directions:
         span = seq.span(d)
@@ -212,7 +208,7 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
         x, unreliable, st, stats = unwrap(levels[d], span, code_est, cg.period if cg else 0.0,
                                           cg.offset if cg else 0.0, valid=pre_valid & ~code_bad,
                                           correction=boundary_correction, direction=d,
-                                          code_half=code_half, trusted=trusted)
+                                          code_half=code_half, modulation=modulation)
         order_bad |= unreliable
         for k in orders:
             orders[k] += stats[k]
@@ -235,17 +231,6 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
         raise InputError(f"{name}: no pixel decodes ({worst}: {100 * fractions[worst]:.1f} % of the pixels); "
                          "check exposure, the thresholds and that the frames follow the sequence")
     return Decoded(coords, mask, modulation, mean, fractions, full, steps, wrapped, orders)
-
-
-def unmixed(modulation: np.ndarray) -> np.ndarray:
-    """Pixels whose modulation is at least MIXED_SHARE of the largest in their 3 x 3
-    neighbourhood. A pixel on a depth step averages two phases, and its modulation drops
-    (by cos(pi d) for phases d periods apart); such a pixel's phase lies between its
-    neighbours' and would vouch for a wrong order across the step."""
-    import cv2
-
-    top = cv2.dilate(modulation, np.ones((3, 3), np.uint8))
-    return modulation >= np.float32(MIXED_SHARE) * top
 
 
 def stripe_centres(word: np.ndarray, period: float, offset: float):

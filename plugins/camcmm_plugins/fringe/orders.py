@@ -65,6 +65,10 @@ EDGE_PX = 1.0
 AGREE = 0.9
 #: share of a band part's edge pixels that must touch a source before it is decided
 COVER = 0.2
+#: see :func:`unmixed`: a blend of phases 0.23 periods apart keeps 75 % of the modulation
+MIXED_SHARE = 0.75
+#: pixels per block of the full-image passes (1 MB of float32: stays in the cache)
+BLOCK_PIXELS = 1 << 18
 NEIGHBOURS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
@@ -74,25 +78,88 @@ def _wrap(d: np.ndarray) -> np.ndarray:
     return d
 
 
+def _row_blocks(h: int, w: int):
+    """Row ranges [a, b) of about BLOCK_PIXELS pixels each."""
+    n = max(1, BLOCK_PIXELS // max(w, 1))
+    return [(a, min(a + n, h)) for a in range(0, h, n)]
+
+
+def _footprint_rows(frac: np.ndarray, valid: np.ndarray, a: int, b: int) -> np.ndarray:
+    """:func:`footprint` of rows a..b-1 (reads one row more on either side)."""
+    h, w = frac.shape
+    n = b - a
+    g = np.zeros((n, w), np.float32)
+    best = np.empty((n, w), np.float32)
+    # axis 0: the differences of rows e0..e1-1, pair j = rows (e0 + j, e0 + j + 1)
+    e0, e1 = max(a - 1, 0), min(b + 1, h)
+    d = _wrap(np.subtract(frac[e0 + 1:e1], frac[e0:e1 - 1]))
+    np.abs(d, out=d)
+    pair = valid[e0 + 1:e1] & valid[e0:e1 - 1]
+    np.invert(pair, out=pair)
+    np.copyto(d, np.float32(-1.0), where=pair)
+    best.fill(-1.0)
+    lo, hi = max(a, 1), min(b, h - 1)  # rows with a pair above / below
+    np.maximum(best[lo - a:], d[lo - 1 - e0:b - 1 - e0], out=best[lo - a:])
+    np.maximum(best[:hi - a], d[a - e0:hi - e0], out=best[:hi - a])
+    np.copyto(best, np.float32(0.5), where=best < 0)
+    g += best
+    # axis 1
+    f, v = frac[a:b], valid[a:b]
+    d = _wrap(np.subtract(f[:, 1:], f[:, :-1]))
+    np.abs(d, out=d)
+    pair = v[:, 1:] & v[:, :-1]
+    np.invert(pair, out=pair)
+    np.copyto(d, np.float32(-1.0), where=pair)
+    best.fill(-1.0)
+    np.maximum(best[:, 1:], d, out=best[:, 1:])
+    np.maximum(best[:, :-1], d, out=best[:, :-1])
+    np.copyto(best, np.float32(0.5), where=best < 0)
+    g += best
+    return g
+
+
 def footprint(frac: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """Change of the phase across one camera pixel, periods: the larger wrapped
     difference to the left/right neighbour plus the larger to the upper/lower one
     (0.5 per axis where no valid neighbour tells). (H, W) float32."""
-    g = np.zeros(frac.shape, np.float32)
-    for axis in (0, 1):
-        d = _wrap(np.diff(frac, axis=axis))
-        np.abs(d, out=d)
-        pair = valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
-        np.invert(pair, out=pair)
-        np.copyto(d, np.float32(-1.0), where=pair)
-        best = np.full(frac.shape, -1.0, np.float32)
-        lo = (slice(1, None), slice(None)) if axis == 0 else (slice(None), slice(1, None))
-        hi = (slice(None, -1), slice(None)) if axis == 0 else (slice(None), slice(None, -1))
-        np.maximum(best[lo], d, out=best[lo])
-        np.maximum(best[hi], d, out=best[hi])
-        np.copyto(best, np.float32(0.5), where=best < 0)
-        g += best
+    g = np.empty(frac.shape, np.float32)
+    for a, b in _row_blocks(*frac.shape):
+        g[a:b] = _footprint_rows(frac, valid, a, b)
     return g
+
+
+def unmixed(modulation: np.ndarray, a: int = 0, b: int | None = None) -> np.ndarray:
+    """Pixels (of rows a..b-1) whose modulation is at least MIXED_SHARE of the largest
+    in their 3 x 3 neighbourhood. A pixel on a depth step averages two phases, and its
+    modulation drops (by cos(pi d) for phases d periods apart); such a pixel's phase
+    lies between its neighbours' and would vouch for a wrong order across the step."""
+    import cv2
+
+    h = modulation.shape[0]
+    b = h if b is None else b
+    e0, e1 = max(a - 1, 0), min(b + 1, h)
+    top = cv2.dilate(modulation[e0:e1], np.ones((3, 3), np.uint8))[a - e0:b - e0]
+    top *= np.float32(MIXED_SHARE)
+    return modulation[a:b] >= top
+
+
+def local_checks(frac: np.ndarray, valid: np.ndarray, period: float, r: np.ndarray | None = None,
+                 code_half: float = 0.0, modulation: np.ndarray | None = None):
+    """The per-pixel maps of the order checks in one pass of cache-sized row blocks
+    (no full-image float temporaries): ``doubt`` = valid & :func:`doubtful` (None
+    without r) and ``smooth`` = footprint < CONTINUITY, and with ``modulation`` also
+    :func:`unmixed`. Returns (doubt, smooth), (H, W) bool."""
+    shape = frac.shape
+    doubt = None if r is None else np.empty(shape, bool)
+    smooth = np.empty(shape, bool)
+    for a, b in _row_blocks(*shape):
+        g = _footprint_rows(frac, valid, a, b)
+        if doubt is not None:
+            np.logical_and(doubtful(r[a:b], g, period, code_half), valid[a:b], out=doubt[a:b])
+        np.less(g, CONTINUITY, out=smooth[a:b])
+        if modulation is not None:
+            smooth[a:b] &= unmixed(modulation, a, b)
+    return doubt, smooth
 
 
 def doubtful(r: np.ndarray, g: np.ndarray, period: float, code_half: float) -> np.ndarray:
@@ -285,27 +352,38 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
     return corrected, dropped
 
 
+def _mark_broken(x, frac, valid, axis, inv, broken):
+    """broken |= pixels of a valid pair along ``axis`` whose phases are continuous
+    (|wrapped difference| < CONTINUITY) but whose coordinates differ by another order."""
+    wd = _wrap(np.diff(frac, axis=axis))
+    d = np.diff(x, axis=axis)
+    d *= inv
+    d -= wd
+    pair = valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
+    bad = pair & (np.abs(wd) < CONTINUITY) & (np.abs(d) > 0.5)
+    if axis == 0:
+        broken[1:] |= bad
+        broken[:-1] |= bad
+    else:
+        broken[:, 1:] |= bad
+        broken[:, :-1] |= bad
+
+
 def check_continuity(x: np.ndarray, frac: np.ndarray, period: float, valid: np.ndarray):
     """The last continuity check (module docstring), in place on x (px).
 
     Returns (number corrected, (H, W) bool of the pixels dropped).
     """
     inv = np.float32(1.0 / period)
+    h, w = x.shape
     broken = np.zeros(x.shape, bool)
     with np.errstate(invalid="ignore"):
-        for axis in (0, 1):
-            wd = _wrap(np.diff(frac, axis=axis))
-            d = np.diff(x, axis=axis)
-            d *= inv
-            d -= wd
-            pair = valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
-            bad = pair & (np.abs(wd) < CONTINUITY) & (np.abs(d) > 0.5)
-            if axis == 0:
-                broken[1:] |= bad
-                broken[:-1] |= bad
-            else:
-                broken[:, 1:] |= bad
-                broken[:, :-1] |= bad
+        for a, b in _row_blocks(h, w):
+            # pairs along a row, then pairs of rows (i, i + 1), i in a..b-1
+            _mark_broken(x[a:b], frac[a:b], valid[a:b], 1, inv, broken[a:b])
+            hi = min(b + 1, h)
+            if hi - a > 1:
+                _mark_broken(x[a:hi], frac[a:hi], valid[a:hi], 0, inv, broken[a:hi])
     p = np.flatnonzero(broken)
     dropped = np.zeros(x.shape, bool)
     if not p.size:

@@ -32,7 +32,7 @@ import numpy as np
 
 from camcmm.api import InputError
 
-from .orders import CONTINUITY, check_continuity, doubtful, footprint, settle
+from .orders import check_continuity, local_checks, settle
 
 # a refinement whose estimate is off by more than this fraction of the finer period is
 # flagged as unreliable (a correct one is off by the phase noise times the period ratio)
@@ -90,7 +90,7 @@ def refine(x_est: np.ndarray, level: Level, out: np.ndarray | None = None):
 
 def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, code_period: float = 0.0,
            code_offset: float = 0.0, valid: np.ndarray | None = None, correction: str = "auto",
-           direction: str = "", code_half: float | None = None, trusted: np.ndarray | None = None):
+           direction: str = "", code_half: float | None = None, modulation: np.ndarray | None = None):
     """Absolute projector coordinate from wrapped levels (and a code estimate).
 
     levels : the direction's phase groups as Levels (any number, any periods).
@@ -99,8 +99,8 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
              of stripe width ``code_period`` and origin ``code_offset``; ``code_half``
              the largest half-width of a stripe, px (default code_period / 2).
     valid  : (H, W) bool, pixels worth decoding (the neighbours that may vouch for a pixel).
-    trusted : (H, W) bool, pixels whose phase may vouch for a neighbour's order (default
-             all; decode excludes pixels that mix two surfaces, see :mod:`.decode`).
+    modulation : (H, W) float32, I'' (grey levels); with it, pixels that mix two
+             surfaces (:func:`.orders.unmixed`) do not vouch for a neighbour's order.
     correction : "auto" (settle the orders the code leaves doubtful from the neighbours'
              phase continuity, drop what stays doubtful, check the continuity of the
              result; :mod:`.orders`) or "none" (the plain coarse-to-fine rounding).
@@ -146,13 +146,7 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
         if i > 0:
             unreliable |= np.abs(r) > RESIDUAL_LIMIT
         elif code is not None and check:
-            g = footprint(lv.frac, valid)
-            doubt = doubtful(r, g, lv.period, half)
-            smooth = g < CONTINUITY
-            if trusted is not None:
-                smooth &= trusted
-            del g
-            doubt &= valid
+            doubt, smooth = local_checks(lv.frac, valid, lv.period, r, half, modulation)
             if doubt.any():
                 alt = np.where(r > 0, np.int8(1), np.int8(-1))
                 flip = np.subtract(code, np.float32(lv.offset), dtype=np.float32)
@@ -173,7 +167,7 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
             order_note = ""
     if check:
         if smooth is None or todo[0] is not finest:
-            smooth = footprint(finest.frac, valid) < CONTINUITY
+            _, smooth = local_checks(finest.frac, valid, finest.period)
         n, dropped = check_continuity(x, finest.frac, finest.period, valid & ~unreliable & smooth)
         nd = int(np.count_nonzero(dropped))
         unreliable |= dropped
