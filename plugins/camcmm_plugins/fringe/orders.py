@@ -47,6 +47,10 @@ many valid 8-neighbours as it holds to is dropped, unless none holds to it and a
 three agree on one correction (then it is corrected). On clean data it finds nothing;
 it catches what a misread bit leaves. Every step is vectorised over the pixels
 concerned (flat indices, eight neighbour offsets; bands by scipy's connected components).
+The per-pixel maps over the whole image (footprint, doubtful, smooth, unmixed, broken
+continuity) are computed in row blocks of BLOCK_PIXELS that stay in the cache, with
+the same float32 operations as whole-image arrays would take (identical results):
+with a complementary code, where nothing is doubtful, they are all the checks cost.
 """
 
 from __future__ import annotations
@@ -202,15 +206,16 @@ def _votes(p, x, frac, period, source, shape):
     return count, zero, jmin, jmax
 
 
-def _bands(members: np.ndarray, mask: np.ndarray, ff, phi, kmap, shape, same_k: bool):
+def _bands(members: np.ndarray, mask: np.ndarray, ff, phi, kmem, shape):
     """Connected components of the pixels ``members`` (flat, sorted; ``mask`` the same
     as an image): 4-neighbours linked when their phases differ by less than CONTINUITY,
-    their flip phases agree and (``same_k``) the code puts them at the same flip point."""
+    their flip phases agree and (``kmem`` given: the members' flip-point indices) the
+    code puts them at the same flip point."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
     h, w = shape
-    node = np.full(h * w, -1, np.int64)
+    node = np.full(h * w, -1, np.int32 if members.size < 2 ** 31 else np.int64)
     node[members] = np.arange(members.size)
     rows, cols = [], []
     for step in (1, w):
@@ -219,10 +224,11 @@ def _bands(members: np.ndarray, mask: np.ndarray, ff, phi, kmap, shape, same_k: 
         second = first + step
         keep = (np.abs(_wrap(ff[first] - ff[second])) < CONTINUITY) & \
             (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
-        if same_k:
-            keep &= kmap[first] == kmap[second]
-        rows.append(node[first[keep]])
-        cols.append(node[second[keep]])
+        n1, n2 = node[first], node[second]
+        if kmem is not None:
+            keep &= kmem[n1] == kmem[n2]
+        rows.append(n1[keep])
+        cols.append(n2[keep])
     r, c = np.concatenate(rows), np.concatenate(cols)
     graph = coo_matrix((np.ones(r.size, np.int8), (r, c)), shape=(members.size, members.size))
     return connected_components(graph, directed=False)
@@ -236,22 +242,28 @@ def _leading(p, group, n_groups, source, xf, ff, phi, period, offset, shape, lab
     it): a long strip is not decided by the few votes at one of its ends."""
     h, w = shape
     row, col = np.divmod(p, w)
+    inside = {(-1, 0): row > 0, (1, 0): row < h - 1, (0, -1): col > 0, (0, 1): col < w - 1}
+    del row, col
+    fp, php = ff[p], phi[p]
     inv, off = np.float32(1.0 / period), np.float32(offset)
     vb, vk = [], []
     touched = np.zeros(p.size, bool)
     edge = np.zeros(p.size, bool)
     for dy, dx in NEIGHBOURS:
-        inb = (row + dy >= 0) & (row + dy < h) & (col + dx >= 0) & (col + dx < w)
+        if dy and dx:
+            inb = inside[dy, 0] & inside[0, dx]
+        else:
+            inb = inside[dy, dx]
         n = np.where(inb, p + dy * w + dx, p)
-        wd = _wrap(np.subtract(ff[p], ff[n], dtype=np.float32))
+        wd = _wrap(np.subtract(fp, ff[n], dtype=np.float32))
         ok = inb & source[n] & (np.abs(wd) < CONTINUITY)
         implied = xf[n[ok]] + wd[ok] * np.float32(period)
         vb.append(group[ok])
-        vk.append(np.rint((implied - off) * inv - phi[p[ok]]).astype(np.int64))
+        vk.append(np.rint((implied - off) * inv - php[ok]).astype(np.int64))
         if labels is not None:
             touched |= ok
             edge |= inb & (labels[n] != group + 1)
-    vb, vk = np.concatenate(vb), np.concatenate(vk)
+    vb, vk = np.concatenate(vb).astype(np.int64, copy=False), np.concatenate(vk)
     k_group = np.zeros(n_groups, np.int64)
     clear = np.zeros(n_groups, bool)
     if not vb.size:
@@ -292,49 +304,77 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
         return 0, dropped
     shape = x.shape
     ff, xf, phi, af = frac.ravel(), x.reshape(-1), flip.ravel(), alt.ravel()
-    kmap = np.zeros(x.size, np.int64)
-    kmap[idx] = np.rint((xf[idx] - np.float32(offset)) * np.float32(1.0 / period) - phi[idx]).astype(np.int64)
-    source = (valid & ~doubt & smooth).ravel().copy()
+    # each doubtful pixel's flip-point index, aligned with idx
+    ph = phi[idx]
+    kc = xf[idx]
+    kc -= np.float32(offset)
+    kc *= np.float32(1.0 / period)
+    kc -= ph
+    kc = np.rint(kc, out=kc).astype(np.int32)
+    source = (valid & ~doubt & smooth).ravel()
     corrected = 0
 
-    def apply(p, k):
-        """Move pixels p to their candidate of flip index k; returns the pixels kept."""
+    def apply(p, k, kp):
+        """Move pixels p (flip indices kp) to their candidate of flip index k; returns
+        which of them are kept."""
         nonlocal corrected
-        j = k - kmap[p]
+        j = k - kp
         ok = (j == 0) | (j == af[p])
-        fix = p[ok & (j != 0)]
-        xf[fix] += j[ok & (j != 0)].astype(np.float32) * np.float32(period)
+        moved = ok & (j != 0)
+        fix = p[moved]
+        xf[fix] += j[moved].astype(np.float32) * np.float32(period)
         corrected += fix.size
         dropped.ravel()[p[~ok]] = True
-        source[p[ok]] = True
+        return ok
 
     # 1. whole bands, voted by their sure neighbours
     import cv2
 
-    if np.abs(_wrap(phi[idx] - phi[idx[0]])).max() < 1e-3:
+    ph -= ph[0]
+    if np.abs(_wrap(ph), out=ph).max() < 1e-3:
         # one flip phase (a code of the fringe period): two smooth 4-neighbours always
         # link (their phases differ by less than either's footprint < CONTINUITY)
         n_bands, labels = cv2.connectedComponents(doubt.view(np.uint8), connectivity=4, ltype=cv2.CV_32S)
-        band = labels.ravel()[idx].astype(np.int64) - 1
+        band = labels.ravel()[idx]
+        band -= 1
         n_bands -= 1
         del labels
     else:
-        n_bands, band = _bands(idx, doubt, ff, phi, kmap, shape, same_k=False)
+        n_bands, band = _bands(idx, doubt, ff, phi, None, shape)
+    del ph
 
     # only a band's rim can have a sure neighbour
     near = cv2.dilate(source.reshape(shape).view(np.uint8), np.ones((3, 3), np.uint8)).ravel()[idx] > 0
     k_band, clear = _leading(idx[near], band[near], n_bands, source, xf, ff, phi, period, offset, shape)
     del near
     done = clear[band]
-    apply(idx[done], k_band[band[done]])
+    # over all doubtful pixels at once (most bands are decided): j = the move to the
+    # band's flip point, allowed when 0 or the code's other order
+    j = k_band.astype(np.int32)[band]
+    j -= kc
+    ok = j == 0
+    ok |= j == af[idx]
+    ok &= done
+    fix = idx[ok & (j != 0)]
+    xf[fix] += j[ok & (j != 0)].astype(np.float32) * np.float32(period)
+    corrected += fix.size
+    del fix, j
+    ok ^= done  # decided, but not allowed
+    dropped.ravel()[idx[ok]] = True
     # 2. the rest (a band reaching two flip points through a depth step, or none):
     #    its parts the code puts at one flip point, in rounds from sure and settled pixels
     rest = idx[~done]
     if rest.size:
+        # sources now: the sure ones and the doubtful pixels just settled
+        source = (valid & smooth).ravel()
+        source[rest] = False
+        source[idx[ok]] = False
+        del ok
+        k_rest = kc[~done]
         mask = np.zeros(shape, bool)
         mask.ravel()[rest] = True
-        n_parts, part = _bands(rest, mask, ff, phi, kmap, shape, same_k=True)
-        labels = np.zeros(x.size, np.int64)
+        n_parts, part = _bands(rest, mask, ff, phi, k_rest, shape)
+        labels = np.zeros(x.size, np.int32 if n_parts < 2 ** 31 - 1 else np.int64)
         labels[rest] = part + 1
         todo = np.arange(rest.size)
         for _ in range(rounds):
@@ -346,7 +386,8 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
                 break
             now = clear[part[todo]]
             sel = todo[now]
-            apply(rest[sel], k_part[part[sel]])
+            ok = apply(rest[sel], k_part[part[sel]], k_rest[sel])
+            source[rest[sel[ok]]] = True
             todo = todo[~now]
         dropped.ravel()[rest[todo]] = True
     return corrected, dropped
