@@ -82,7 +82,7 @@ def _wrap(d: np.ndarray) -> np.ndarray:
     return d
 
 
-def _row_blocks(h: int, w: int):
+def row_blocks(h: int, w: int):
     """Row ranges [a, b) of about BLOCK_PIXELS pixels each."""
     n = max(1, BLOCK_PIXELS // max(w, 1))
     return [(a, min(a + n, h)) for a in range(0, h, n)]
@@ -127,7 +127,7 @@ def footprint(frac: np.ndarray, valid: np.ndarray) -> np.ndarray:
     difference to the left/right neighbour plus the larger to the upper/lower one
     (0.5 per axis where no valid neighbour tells). (H, W) float32."""
     g = np.empty(frac.shape, np.float32)
-    for a, b in _row_blocks(*frac.shape):
+    for a, b in row_blocks(*frac.shape):
         g[a:b] = _footprint_rows(frac, valid, a, b)
     return g
 
@@ -156,7 +156,7 @@ def local_checks(frac: np.ndarray, valid: np.ndarray, period: float, r: np.ndarr
     shape = frac.shape
     doubt = None if r is None else np.empty(shape, bool)
     smooth = np.empty(shape, bool)
-    for a, b in _row_blocks(*shape):
+    for a, b in row_blocks(*shape):
         g = _footprint_rows(frac, valid, a, b)
         if doubt is not None:
             np.logical_and(doubtful(r[a:b], g, period, code_half), valid[a:b], out=doubt[a:b])
@@ -419,7 +419,7 @@ def check_continuity(x: np.ndarray, frac: np.ndarray, period: float, valid: np.n
     h, w = x.shape
     broken = np.zeros(x.shape, bool)
     with np.errstate(invalid="ignore"):
-        for a, b in _row_blocks(h, w):
+        for a, b in row_blocks(h, w):
             # pairs along a row, then pairs of rows (i, i + 1), i in a..b-1
             _mark_broken(x[a:b], frac[a:b], valid[a:b], 1, inv, broken[a:b])
             hi = min(b + 1, h)

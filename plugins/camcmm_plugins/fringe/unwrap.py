@@ -32,7 +32,7 @@ import numpy as np
 
 from camcmm.api import InputError
 
-from .orders import check_continuity, local_checks, settle
+from .orders import check_continuity, local_checks, row_blocks, settle
 
 # a refinement whose estimate is off by more than this fraction of the finer period is
 # flagged as unreliable (a correct one is off by the phase noise times the period ratio)
@@ -149,10 +149,13 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
             doubt, smooth = local_checks(lv.frac, valid, lv.period, r, half, modulation)
             if doubt.any():
                 alt = np.where(r > 0, np.int8(1), np.int8(-1))
-                flip = np.subtract(code, np.float32(lv.offset), dtype=np.float32)
+                # r is not needed any more: the flip phase takes its memory
+                flip = np.subtract(code, np.float32(lv.offset), dtype=np.float32, out=r)
+                del r
                 flip *= np.float32(1.0 / lv.period)
                 flip += np.float32(0.5)
-                flip -= np.floor(flip)
+                for a, b in row_blocks(*shape):
+                    flip[a:b] -= np.floor(flip[a:b])
                 n, dropped = settle(x, lv.frac, lv.period, lv.offset, flip, valid, doubt, alt, smooth)
                 del flip, alt
                 unreliable |= dropped
