@@ -96,28 +96,35 @@ def _footprint_rows(frac: np.ndarray, valid: np.ndarray, a: int, b: int) -> np.n
     best = np.empty((n, w), np.float32)
     # axis 0: the differences of rows e0..e1-1, pair j = rows (e0 + j, e0 + j + 1)
     e0, e1 = max(a - 1, 0), min(b + 1, h)
+    # all pixels valid (most blocks): no pair to mask, and with two rows / columns or
+    # more every pixel has a pair, so no "none tells" either
+    every = bool(valid[e0:e1].all())
     d = _wrap(np.subtract(frac[e0 + 1:e1], frac[e0:e1 - 1]))
     np.abs(d, out=d)
-    pair = valid[e0 + 1:e1] & valid[e0:e1 - 1]
-    np.invert(pair, out=pair)
-    np.copyto(d, np.float32(-1.0), where=pair)
+    if not every:
+        pair = valid[e0 + 1:e1] & valid[e0:e1 - 1]
+        np.invert(pair, out=pair)
+        np.copyto(d, np.float32(-1.0), where=pair)
     best.fill(-1.0)
     lo, hi = max(a, 1), min(b, h - 1)  # rows with a pair above / below
     np.maximum(best[lo - a:], d[lo - 1 - e0:b - 1 - e0], out=best[lo - a:])
     np.maximum(best[:hi - a], d[a - e0:hi - e0], out=best[:hi - a])
-    np.copyto(best, np.float32(0.5), where=best < 0)
+    if not every or h < 2:
+        np.copyto(best, np.float32(0.5), where=best < 0)
     g += best
     # axis 1
     f, v = frac[a:b], valid[a:b]
     d = _wrap(np.subtract(f[:, 1:], f[:, :-1]))
     np.abs(d, out=d)
-    pair = v[:, 1:] & v[:, :-1]
-    np.invert(pair, out=pair)
-    np.copyto(d, np.float32(-1.0), where=pair)
+    if not every:
+        pair = v[:, 1:] & v[:, :-1]
+        np.invert(pair, out=pair)
+        np.copyto(d, np.float32(-1.0), where=pair)
     best.fill(-1.0)
     np.maximum(best[:, 1:], d, out=best[:, 1:])
     np.maximum(best[:, :-1], d, out=best[:, :-1])
-    np.copyto(best, np.float32(0.5), where=best < 0)
+    if not every or w < 2:
+        np.copyto(best, np.float32(0.5), where=best < 0)
     g += best
     return g
 
@@ -159,20 +166,22 @@ def local_checks(frac: np.ndarray, valid: np.ndarray, period: float, r: np.ndarr
     for a, b in row_blocks(*shape):
         g = _footprint_rows(frac, valid, a, b)
         if doubt is not None:
-            np.logical_and(doubtful(r[a:b], g, period, code_half), valid[a:b], out=doubt[a:b])
+            doubtful(r[a:b], g, period, code_half, out=doubt[a:b])
+            doubt[a:b] &= valid[a:b]
         np.less(g, CONTINUITY, out=smooth[a:b])
         if modulation is not None:
             smooth[a:b] &= unmixed(modulation, a, b)
     return doubt, smooth
 
 
-def doubtful(r: np.ndarray, g: np.ndarray, period: float, code_half: float) -> np.ndarray:
+def doubtful(r: np.ndarray, g: np.ndarray, period: float, code_half: float, out=None) -> np.ndarray:
     """Pixels whose order the code does not settle: |r| >= 1 - (code_half + m) / period
     with m = max(MARGIN period, FOOTPRINT_SHARE g period + EDGE_PX) (module docstring);
     r, g (H, W) in periods."""
     m = np.maximum(np.float32(MARGIN), np.float32(FOOTPRINT_SHARE) * g + np.float32(EDGE_PX / period))
     m += np.float32(code_half / period - 1.0)
-    return np.abs(r) >= -m
+    np.negative(m, out=m)
+    return np.greater_equal(np.abs(r), m, out=out)
 
 
 def _votes(p, x, frac, period, source, shape):
@@ -400,8 +409,9 @@ def _mark_broken(x, frac, valid, axis, inv, broken):
     d = np.diff(x, axis=axis)
     d *= inv
     d -= wd
-    pair = valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
-    bad = pair & (np.abs(wd) < CONTINUITY) & (np.abs(d) > 0.5)
+    bad = (np.abs(wd) < CONTINUITY) & (np.abs(d) > 0.5)
+    if not valid.all():
+        bad &= valid[1:] & valid[:-1] if axis == 0 else valid[:, 1:] & valid[:, :-1]
     if axis == 0:
         broken[1:] |= bad
         broken[:-1] |= bad
@@ -421,8 +431,10 @@ def check_continuity(x: np.ndarray, frac: np.ndarray, period: float, valid: np.n
     with np.errstate(invalid="ignore"):
         for a, b in row_blocks(h, w):
             # pairs along a row, then pairs of rows (i, i + 1), i in a..b-1
-            _mark_broken(x[a:b], frac[a:b], valid[a:b], 1, inv, broken[a:b])
             hi = min(b + 1, h)
+            if not valid[a:hi].any():
+                continue
+            _mark_broken(x[a:b], frac[a:b], valid[a:b], 1, inv, broken[a:b])
             if hi - a > 1:
                 _mark_broken(x[a:hi], frac[a:hi], valid[a:hi], 0, inv, broken[a:hi])
     p = np.flatnonzero(broken)
