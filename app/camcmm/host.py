@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import CamcmmError, PluginError
+from .errors import CamcmmError, InputError, PluginError
 from .hashing import file_hash, object_hash
 from .manifest import CommandSpec, PluginSpec, parse_manifest
 from .params import validate
@@ -292,12 +292,14 @@ class PluginHost:
                 continue
             value = given[name]
             if isinstance(value, (str, Path)) and port.type not in ("file", "json"):
+                read_value = read(value)  # first: a missing or bad file is its one-line InputError
                 hashes[name] = file_hash(value)
-                value = read(value)
+                value = read_value
             elif isinstance(value, (list, tuple)) and port.type in ("images", "files") and value and \
                     isinstance(value[0], (str, Path)):
+                read_value = [read(v) for v in value] if port.type == "images" else [_existing(v) for v in value]
                 hashes[name] = object_hash([file_hash(v) for v in value])
-                value = [read(v) for v in value] if port.type == "images" else [Path(v) for v in value]
+                value = read_value
             elif isinstance(value, (str, Path)):
                 path = Path(value)
                 hashes[name] = file_hash(path) if path.is_file() else object_hash(str(path))
@@ -306,6 +308,13 @@ class PluginHost:
                 hashes[name] = object_hash(value)
             loaded[name] = value
         return loaded, hashes
+
+
+def _existing(path: str | Path) -> Path:
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    return path
 
 
 def read(path: str | Path) -> Any:

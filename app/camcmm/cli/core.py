@@ -93,16 +93,38 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("rest", nargs=argparse.REMAINDER, help="inputs (files, in declared order) and --PARAM VALUE options")
 
 
+#: The options of `camcmm run` itself; a plugin parameter of one of these names is given as
+#: ``--param-NAME`` so that these keep one meaning whatever the plugin.
+_RUN_OPTIONS = ("project", "out", "json", "help")
+
+
+class _Prefixed:
+    """An argparse parser seen through ``--param-NAME`` flags (same dest, same help)."""
+
+    def __init__(self, parser: argparse.ArgumentParser):
+        self.parser = parser
+
+    def add_argument(self, flag: str, **kw: Any) -> Any:
+        return self.parser.add_argument("--param-" + flag[2:], **kw)
+
+
 def _plugin_parser(spec) -> argparse.ArgumentParser:
     from .main import _Parser
 
-    p = _Parser(prog=f"camcmm run {spec.id}", description=spec.summary)
+    clash = [q for q in spec.parameters if q.name in _RUN_OPTIONS]
+    epilog = ("The plugin's parameter" + ("s " if len(clash) > 1 else " ")
+              + ", ".join(f"'{q.name}'" for q in clash) + " " + ("are" if len(clash) > 1 else "is")
+              + " given as " + ", ".join(f"--param-{q.name}" for q in clash)
+              + ": --project, --out and --json are camcmm run's own options.") if clash else None
+    p = _Parser(prog=f"camcmm run {spec.id}", description=spec.summary, epilog=epilog)
     for port in spec.inputs:
         nargs = "+" if port.type in ("images", "files") else ("?" if port.optional else None)
         p.add_argument(port.name, nargs=nargs, help=f"{port.type} {port.help}".strip())
-    add_cli_options(p, spec.parameters)
+    add_cli_options(p, [q for q in spec.parameters if q.name not in _RUN_OPTIONS])
+    add_cli_options(_Prefixed(p), clash)  # type: ignore[arg-type]
     p.add_argument("--project", help="record the result in this project folder")
-    p.add_argument("--out", help="write the first cloud/mesh output to this file")
+    p.add_argument("--out", help="write the first cloud/mesh output to this file"
+                   + ("; the plugin's own parameter 'out' is --param-out" if any(q.name == "out" for q in clash) else ""))
     _json_flag(p)
     return p
 
@@ -120,7 +142,9 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     geometry = [(k, v) for k, v in result.outputs.items() if hasattr(v, "n_points") or hasattr(v, "n_faces")]
     if pa.out:
         if not geometry:
-            raise CamcmmError(f"plugin {spec.id!r} produced no cloud or mesh to write to {pa.out}")
+            hint = ("; its own parameter 'out' is --param-out" if any(q.name == "out" for q in spec.parameters)
+                    else "")
+            raise CamcmmError(f"plugin {spec.id!r} produced no cloud or mesh to write to {pa.out}{hint}")
         from ..io import write
 
         write(geometry[0][1], pa.out)

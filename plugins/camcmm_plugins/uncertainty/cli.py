@@ -1,7 +1,7 @@
 """``camcmm uncertainty budget|iso15530-3|montecarlo FILE.yaml [--json]``
 
 * ``budget FILE``: a GUM budget. JSON keys ``combined, dof_eff, k, expanded,
-  coverage_probability, contributions`` (+ ``quantity, unit, dof_eff_infinite``);
+  coverage_probability, contributions`` (+ ``quantity, unit, dof_eff_infinite, warnings``);
   an infinite dof is written as ``null``.
 * ``iso15530-3 FILE``: ISO 15530-3 with a calibrated workpiece. JSON keys ``mean, bias,
   u_cal, u_p, u_b, u_w, k, U, n`` (+ ``U_uncorrected_bias, combined, shares``).
@@ -81,11 +81,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         return from_dict(doc, base)
     from camcmm.api import CamcmmError
 
-    from .montecarlo import run_study, write_outputs
+    from .montecarlo import check_out_dir, run_study, write_outputs
 
     args.iterations = _declared("iterations", args.iterations)
     args.seed = _declared("seed", args.seed)
     doc, base = load_spec(args.file)
+    if args.out:
+        check_out_dir(args.out, create=False)
     studies = [s.strip() for s in args.studies.split(",") if s.strip()]
     try:
         res = run_study(doc, iterations=args.iterations, seed=args.seed, method=args.method,
@@ -124,6 +126,7 @@ def text(result: dict[str, Any]) -> str:
         for c in result["contributions"]:
             lines.append(f"  {c['name']:28} u={_g(c['u'])} c={_g(c['c'])} |c|u={_g(c['contribution'])} "
                          f"dof={_g(c['dof'])} {c['distribution']:11} share {100 * c['share']:.1f} %")
+        lines += [f"warning: {w}" for w in result.get("warnings", [])]
         return "\n".join(lines)
     if "u_cal" in result:  # iso15530-3
         unit = result.get("unit", "")

@@ -65,12 +65,14 @@ class Budget:
     unit: str = ""
     dof_rounding: str = "truncate"
     shares: list[float] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form: ``combined, dof_eff, k, expanded, coverage_probability,
         contributions`` (each ``name, u, c, dof, distribution, contribution, share``)
-        plus ``quantity, unit, dof_eff_infinite, dof_rounding``. JSON has no infinity:
-        an infinite ``dof`` or ``dof_eff`` is written as ``null`` and flagged."""
+        plus ``quantity, unit, dof_eff_infinite, dof_rounding`` and ``warnings`` (why the
+        result may be meaningless). JSON has no infinity: an infinite ``dof`` or
+        ``dof_eff`` is written as ``null`` and flagged."""
         return {
             "quantity": self.quantity,
             "unit": self.unit,
@@ -86,6 +88,7 @@ class Budget:
                  "distribution": c.distribution, "contribution": c.value, "share": s}
                 for c, s in zip(self.contributions, self.shares)
             ],
+            "warnings": list(self.warnings),
         }
 
 
@@ -188,7 +191,12 @@ def evaluate(contributions: Iterable[Contribution | Mapping[str, Any]], coverage
     if not math.isfinite(k * uc):
         raise InputError(f"U = k u_c overflows (u_c = {uc:g}, k = {k:g}); check the contributions' magnitudes")
     shares = ((vals / uc) ** 2).tolist() if uc > 0 else [0.0] * len(items)
-    return Budget(items, uc, float(nu), k, k * uc, p, quantity, unit, dof_rounding, shares)
+    warnings = []
+    if uc == 0:
+        # legal arithmetic, but no measurement is exact: a budget of zeros is a mistake
+        warnings.append("the combined standard uncertainty u_c is 0: every contribution |c|·u is zero; "
+                        "check the budget's u and c values")
+    return Budget(items, uc, float(nu), k, k * uc, p, quantity, unit, dof_rounding, shares, warnings)
 
 
 def budget_from_dict(doc: Mapping[str, Any]) -> Budget:

@@ -646,8 +646,7 @@ def write_outputs(result: Mapping[str, Any], out_dir: str | Path) -> dict[str, s
     """``montecarlo.json`` (the summary) and ``montecarlo.npz`` (every array)."""
     import json
 
-    d = Path(out_dir)
-    d.mkdir(parents=True, exist_ok=True)
+    d = check_out_dir(out_dir)
     arrays: dict[str, np.ndarray] = {}
 
     def walk(x, key):
@@ -665,6 +664,24 @@ def write_outputs(result: Mapping[str, Any], out_dir: str | Path) -> dict[str, s
         return x
 
     doc = walk(result, "")
-    (d / "montecarlo.json").write_text(json.dumps(doc, indent=1))
-    np.savez_compressed(d / "montecarlo.npz", **arrays)
+    try:
+        (d / "montecarlo.json").write_text(json.dumps(doc, indent=1))
+        np.savez_compressed(d / "montecarlo.npz", **arrays)
+    except OSError as exc:
+        raise InputError(f"--out {d}: cannot write montecarlo.json/.npz there ({exc.strerror or exc})") from None
     return {"json": str(d / "montecarlo.json"), "npz": str(d / "montecarlo.npz")}
+
+
+def check_out_dir(out_dir: str | Path, create: bool = True) -> Path:
+    """The output folder, created if missing (``create``); a one-line InputError naming it
+    when it is a file or cannot be created (callers check before a long study, not after)."""
+    d = Path(out_dir)
+    if d.exists() and not d.is_dir():
+        raise InputError(f"--out {d}: exists and is not a folder")
+    if not create:
+        return d
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out {d}: cannot create the folder ({exc.strerror or exc})") from None
+    return d

@@ -35,7 +35,10 @@ def budget(ctx: RunContext, spec: Any, coverage_probability: float | None = None
     if coverage_probability is not None:
         doc["coverage_probability"] = coverage_probability
     doc.setdefault("dof_rounding", dof_rounding)
-    return budget_from_dict(doc).to_dict()
+    out = budget_from_dict(doc).to_dict()
+    for w in out.pop("warnings"):
+        ctx.warn(w)
+    return out
 
 
 def iso15530_3(ctx: RunContext, spec: Any, k: float | None = None) -> dict[str, Any]:
