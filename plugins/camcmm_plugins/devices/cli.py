@@ -29,9 +29,19 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> dict[str, Any] | None:
     if args.what == "simulate-stage":
-        from .simulator import serve
+        from camcmm.api import ParameterError
 
-        serve(args)
+        from .simulator import ConfigError, Simulator
+
+        try:  # every option is checked before anything is opened or printed
+            sim = Simulator(args)
+        except ConfigError as exc:
+            raise ParameterError(str(exc)) from None
+        try:
+            sim.announce()
+            sim.serve_forever()
+        finally:
+            sim.close()
         return None
     from camcmm.api import default_host
 

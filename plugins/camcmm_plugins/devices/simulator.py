@@ -56,6 +56,21 @@ from pathlib import Path
 VELOCITY_UNIT = 1.6384
 
 
+MAX_DATA = 2**31 - 1  # positions and speeds are signed 32-bit numbers, as a device's
+MAX_DELAY_S = 60.0  # longest reply delay ``sim delay`` sets
+MAX_LINE = 4096  # a longer line without an end is dropped, as a device's input buffer overflows
+
+
+def _data(text: str) -> int:
+    """A command's integer data; ValueError (-> BADDATA) outside the 32-bit range."""
+    if len(text) > 12:
+        raise ValueError(text)
+    v = int(text)
+    if not -MAX_DATA <= v <= MAX_DATA:
+        raise ValueError(text)
+    return v
+
+
 class SimAxis:
     def __init__(self, speed_steps: float, limits: tuple[int, int] | None):
         self.speed = float(speed_steps)  # microsteps/s
@@ -123,7 +138,8 @@ class ZaberSim:
         if dev not in (0, self.address):
             return []
         if tokens[:1] == ["sim"]:
-            return [self._reply(axis, mid, True, self._sim(tokens[1:]))]
+            ok, data = self._sim(tokens[1:])
+            return [self._reply(axis, mid, ok, data)]
         for fault in list(self.at_command):
             self.at_command[fault] -= 1
             if self.at_command[fault] <= 0:
@@ -165,28 +181,39 @@ class ZaberSim:
                 a.reset()
             self.mute = self.garble = self.alerts = self.noise = 0
 
-    def _sim(self, args: list[str]) -> str:
+    def _sim(self, args: list[str]) -> tuple[bool, str]:
         what = args[0] if args else ""
         n = args[1] if len(args) > 1 else "1"
+        count = int(n) if n.isdigit() and len(n) <= 9 else -1  # counts: 0 .. 999999999
+        if what in ("mute", "garble", "alerts", "noise", "hang", "exit", "reset") and count < 0:
+            return False, "BADDATA"
         if what == "mute":
-            self.mute = int(n)
+            self.mute = count
         elif what == "garble":
-            self.garble, self.garble_only = int(n), " ".join(args[2:])
+            self.garble, self.garble_only = count, " ".join(args[2:])
         elif what == "alerts":
-            self.alerts = int(n)
+            self.alerts = count
         elif what == "noise":
-            self.noise = int(n)
+            self.noise = count
         elif what == "delay":
-            self.delay = float(n)
+            try:
+                delay = float(n)
+            except ValueError:
+                return False, "BADDATA"
+            if not 0.0 <= delay <= MAX_DELAY_S:  # also refuses nan
+                return False, "BADDATA"
+            self.delay = delay
         elif what == "stall":
             for a in self.axes:
                 a.stall_next = True
         elif what in ("hang", "exit", "reset"):
-            if len(args) > 1 and int(n) > 0:
-                self.at_command[what] = int(n)
+            if len(args) > 1 and count > 0:
+                self.at_command[what] = count
             else:
                 self._strike(what)
-        return "0"
+        else:
+            return False, "BADCOMMAND"
+        return True, "0"
 
     def _reply(self, axis: int, mid: str | None, ok: bool, data: str) -> str:
         axes = self.axes if axis == 0 else [self.axes[axis - 1]] if axis <= len(self.axes) else []
@@ -213,8 +240,9 @@ class ZaberSim:
             if ax is None:
                 return (True, "50081") if cmd == "get device.id" else (False, "BADAXIS" if t[0] in ("move", "get", "set") else "BADCOMMAND")
             if cmd in ("move abs", "move rel") and len(t) == 3:
-                target = int(t[2]) + (round(ax.pos()) if t[1] == "rel" else 0)
-                if ax.limits and not ax.limits[0] <= target <= ax.limits[1]:
+                target = _data(t[2]) + (round(ax.pos()) if t[1] == "rel" else 0)
+                lo, hi = ax.limits or (-MAX_DATA, MAX_DATA)
+                if not lo <= target <= hi:
                     return False, "BADDATA"
                 ax.move_to(target)
                 return True, "0"
@@ -228,7 +256,7 @@ class ZaberSim:
             if cmd == "get maxspeed":
                 return True, str(int(round(ax.speed * VELOCITY_UNIT)))
             if cmd == "set maxspeed" and len(t) == 3:
-                v = int(t[2])
+                v = _data(t[2])
                 if v <= 0:
                     return False, "BADDATA"
                 ax.speed = v / VELOCITY_UNIT
@@ -269,30 +297,141 @@ class InterferometerSim:
         return [f"ERR unknown command {cmd[:20]}"]
 
 
-class _Endpoint:
-    """One byte stream (a pty master or a TCP listener with its client) and its handler."""
+class ConfigError(ValueError):
+    """A simulator option that is out of range or cannot be used; ``str()`` is one line
+    naming the option and its value."""
 
-    def __init__(self, kind: str, handler, pty: bool, link: str | None, tcp: str | None):
+
+def _num(v: float) -> str:
+    return str(v) if isinstance(v, int) else f"{v:g}"
+
+
+def _opt(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def parse_hostport(text: str, option: str = "--tcp") -> tuple[str, int]:
+    """``HOST:PORT`` -> (host, port); an empty host is 127.0.0.1, port 0 a free one."""
+    host, colon, port = str(text).rpartition(":")
+    if not colon or not port.isdigit() or len(port) > 5 or int(port) > 65535:
+        raise ConfigError(f"{option} {text!r}: expected HOST:PORT with a port from 0 (a free one) to 65535")
+    if any(c.isspace() for c in host) or "/" in host:
+        raise ConfigError(f"{option} {text!r}: {host!r} is not a host name or address")
+    return host or "127.0.0.1", int(port)
+
+
+def _check_link(path: str, option: str) -> None:
+    p = Path(path)
+    if p.is_symlink() or not p.exists():
+        if not p.parent.is_dir():
+            raise ConfigError(f"{option} {path}: the folder {p.parent} does not exist")
+        return
+    # never replace a user's file or folder by the link
+    raise ConfigError(f"{option} {path}: exists and is not a link; give a new path")
+
+
+#: option -> (integer?, lowest, highest, lowest excluded?, what it is); nan and inf are never accepted
+LIMITS: dict[str, tuple[bool, float, float, bool, str]] = {
+    "address": (True, 1, 99, False, "the device number on the daisy chain"),
+    "axes": (True, 1, 9, False, "the number of axes"),
+    "resolution": (False, 0.0, 1e6, True, "the size of one microstep in mm (or deg)"),
+    "speed": (False, 0.0, 1e9, True, "the speed in mm/s (or deg/s)"),
+    "travel": (False, 0.0, 1e9, True, "the travel in mm from 0"),
+    "scale_error": (False, -1e6, 1e6, True, "the scale error in ppm"),
+    "periodic_um": (False, 0.0, 1e6, False, "the periodic error's amplitude in um"),
+    "period_mm": (False, 0.0, 1e9, True, "the periodic error's period in mm"),
+    "noise_um": (False, 0.0, 1e6, False, "the interferometer noise in um (1 sigma)"),
+    "seed": (True, 0, 2**32 - 1, False, "the noise seed"),
+}
+
+
+def check(args: argparse.Namespace) -> None:
+    """Refuse a configuration the simulator cannot serve, before anything is opened:
+    raises :class:`ConfigError` naming the option and its value. The same checks hold
+    for ``camcmm devices simulate-stage``, ``python -m`` and :class:`SimulatorProcess`."""
+    for name, (integer, lo, hi, lo_open, what) in LIMITS.items():
+        v = getattr(args, name)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and v != int(v)):
+            raise ConfigError(f"{_opt(name)} {v!r}: {what} must be {'an integer' if integer else 'a number'}")
+        if not (lo < v if lo_open else lo <= v) or not v <= hi:  # also refuses nan
+            low = f"> {_num(lo)}" if lo_open else f">= {_num(lo)}"
+            raise ConfigError(f"{_opt(name)} {_num(v)}: {what} must be {low} and <= {_num(hi)}")
+    steps_per_s = args.speed / args.resolution * VELOCITY_UNIT
+    if not 0.5 <= steps_per_s < MAX_DATA + 0.5:  # rounds to 1 .. MAX_DATA (inf is refused too)
+        raise ConfigError(f"--speed {args.speed:g} with --resolution {args.resolution:g}: {steps_per_s:.6g} speed units "
+                          f"(microsteps/s x {VELOCITY_UNIT}); the device takes 1 to {MAX_DATA}")
+    if not args.rotary and not 0.5 <= args.travel / args.resolution < MAX_DATA + 0.5:
+        raise ConfigError(f"--travel {args.travel:g} with --resolution {args.resolution:g}: "
+                          f"{args.travel / args.resolution:.6g} microsteps; the device counts 1 to {MAX_DATA}")
+    if args.tcp is not None:
+        parse_hostport(args.tcp)
+        if args.link:
+            raise ConfigError(f"--link {args.link}: a link is for the pty; with --tcp the port is socket://HOST:PORT")
+    elif args.link:
+        _check_link(args.link, "--link")
+    if not args.interferometer:
+        for name in ("interferometer_link", "interferometer_tcp"):
+            if getattr(args, name):
+                raise ConfigError(f"{_opt(name)} {getattr(args, name)}: needs --interferometer")
+        return
+    if args.interferometer_tcp is not None:
+        if args.tcp is None:
+            raise ConfigError(f"--interferometer-tcp {args.interferometer_tcp}: needs --tcp (else it is on a pty)")
+        parse_hostport(args.interferometer_tcp, "--interferometer-tcp")
+    if args.interferometer_link:
+        if args.tcp is not None:
+            raise ConfigError(f"--interferometer-link {args.interferometer_link}: a link is for the pty; "
+                              "with --tcp use --interferometer-tcp")
+        _check_link(args.interferometer_link, "--interferometer-link")
+        if args.link and os.path.abspath(args.link) == os.path.abspath(args.interferometer_link):
+            raise ConfigError(f"--interferometer-link {args.interferometer_link}: the same path as --link")
+
+
+class _Endpoint:
+    """One byte stream (a pty master or a TCP listener with its client) and its handler.
+    Opening failures are :class:`ConfigError` naming ``option`` and its value."""
+
+    bugs = 0  # exceptions a handler raised (reported on stderr)
+
+    def __init__(self, handler, link: str | None, tcp: str | None, option: str):
         self.handler, self.buf, self.client = handler, b"", None
-        self.fd = self.listener = None
-        if pty:
+        self.fd = self.listener = self._slave = None
+        if tcp is None:
             master, slave = os.openpty()
             tty.setraw(slave)  # no echo, no line editing: a serial line, not a terminal
             self.fd, self._slave = master, slave  # keep the slave open so that clients may come and go
             self.port = os.ttyname(slave)
             if link:
                 tmp = f"{link}.{os.getpid()}.tmp"
-                os.symlink(self.port, tmp)
-                os.replace(tmp, link)
+                try:
+                    os.symlink(self.port, tmp)
+                    os.replace(tmp, link)
+                except OSError as exc:
+                    self.close()
+                    raise ConfigError(f"{option} {link}: cannot make the link: {exc.strerror or exc}") from None
                 self.port = link
         else:
-            host, _, port = (tcp or "127.0.0.1:0").rpartition(":")
+            host, port = parse_hostport(tcp, option)
             self.listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-            self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            self.listener.bind((host or "127.0.0.1", int(port)))
-            self.listener.listen(1)
+            try:
+                self.listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+                self.listener.bind((host, port))
+                self.listener.listen(1)
+            except (OSError, OverflowError, UnicodeError) as exc:
+                self.close()
+                reason = getattr(exc, "strerror", None) or exc
+                raise ConfigError(f"{option} {tcp}: cannot listen there: {reason}") from None
             h, p = self.listener.getsockname()
             self.port = f"socket://{h}:{p}"
+
+    def close(self) -> None:
+        for x in (self.client, self.listener):
+            if x is not None:
+                x.close()
+        for fd in (self.fd, self._slave):
+            if fd is not None:
+                os.close(fd)
+        self.client = self.listener = self.fd = self._slave = None
 
     def readables(self) -> list:
         return [x for x in (self.fd, self.listener, self.client) if x is not None]
@@ -317,13 +456,20 @@ class _Endpoint:
         while True:
             cut = min((i for i in (self.buf.find(b"\n"), self.buf.find(b"\r")) if i >= 0), default=-1)
             if cut < 0:
+                self.buf = self.buf[-MAX_LINE:] if len(self.buf) > MAX_LINE else self.buf
                 break
             line, self.buf = self.buf[:cut], self.buf[cut + 1:]
-            out = self.handler(line.decode("ascii", "replace"))
+            try:
+                out = self.handler(line[:MAX_LINE].decode("ascii", "replace"))
+            except Exception as exc:  # a simulator bug: say so (a few times: stderr may be an undrained pipe),
+                _Endpoint.bugs += 1     # keep serving as a device would
+                if _Endpoint.bugs <= 10:
+                    print(f"simulator: {type(exc).__name__}: {exc} on {line[:80]!r}", file=sys.stderr, flush=True)
+                out = []
             if out and delay:
                 time.sleep(delay)
             for reply in out:
-                self.write((reply + "\r\n").encode("ascii"))
+                self.write((reply + "\r\n").encode("ascii", "replace"))
 
     def write(self, data: bytes) -> None:
         try:
@@ -335,42 +481,88 @@ class _Endpoint:
             pass
 
 
+class Simulator:
+    """The stage (and interferometer) endpoints of ``args`` (the options of
+    :func:`configure`), checked and opened; :class:`ConfigError` if they cannot be."""
+
+    def __init__(self, args: argparse.Namespace):
+        check(args)
+        self.stage = ZaberSim(args.address, args.axes, args.speed / args.resolution,
+                              None if args.rotary else int(round(args.travel / args.resolution)))
+        self.endpoints = [_Endpoint(self.stage.handle, args.link, args.tcp, "--tcp" if args.tcp else "--link")]
+        if args.interferometer:
+            ifm = InterferometerSim(self.stage, args.resolution, args.scale_error, args.periodic_um, args.period_mm,
+                                    args.noise_um, args.seed)
+            tcp = None if args.tcp is None else args.interferometer_tcp or parse_hostport(args.tcp)[0] + ":0"
+            try:
+                self.endpoints.append(_Endpoint(ifm.handle, args.interferometer_link, tcp,
+                                                "--interferometer-tcp" if tcp else "--interferometer-link"))
+            except ConfigError:
+                self.close()
+                raise
+
+    def announce(self) -> None:
+        print(f"STAGE {self.endpoints[0].port}", flush=True)
+        if len(self.endpoints) > 1:
+            print(f"INTERFEROMETER {self.endpoints[1].port}", flush=True)
+        print("READY", flush=True)
+
+    def serve_forever(self) -> None:
+        eps = self.endpoints
+        while True:
+            owners = {r: e for e in eps for r in e.readables()}
+            ready, _, _ = select.select(list(owners), [], [], 0.5)
+            for r in ready:
+                owners[r].on_ready(r, self.stage.delay if owners[r] is eps[0] else 0.0)
+
+    def close(self) -> None:
+        for e in self.endpoints:
+            e.close()
+
+
 def serve(args: argparse.Namespace) -> None:
-    stage = ZaberSim(args.address, args.axes, args.speed / args.resolution,
-                     None if args.rotary else int(round(args.travel / args.resolution)))
-    eps = [_Endpoint("stage", stage.handle, not args.tcp, args.link, args.tcp)]
-    print(f"STAGE {eps[0].port}", flush=True)
-    if args.interferometer:
-        ifm = InterferometerSim(stage, args.resolution, args.scale_error, args.periodic_um, args.period_mm,
-                                args.noise_um, args.seed)
-        eps.append(_Endpoint("interferometer", ifm.handle, not args.tcp, args.interferometer_link,
-                             None if not args.tcp else args.interferometer_tcp or args.tcp.rpartition(":")[0] + ":0"))
-        print(f"INTERFEROMETER {eps[1].port}", flush=True)
-    print("READY", flush=True)
-    while True:
-        owners = {r: e for e in eps for r in e.readables()}
-        ready, _, _ = select.select(list(owners), [], [], 0.5)
-        for r in ready:
-            owners[r].on_ready(r, stage.delay if owners[r] is eps[0] else 0.0)
+    """Check and open (:class:`ConfigError` if impossible), print the ports, serve until killed."""
+    sim = Simulator(args)
+    try:
+        sim.announce()
+        sim.serve_forever()
+    finally:
+        sim.close()
 
 
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tcp", metavar="HOST:PORT", help="listen on TCP (socket://HOST:PORT) instead of a pty")
-    p.add_argument("--link", metavar="PATH", help="symlink to the pty, stable across restarts")
-    p.add_argument("--address", type=int, default=1, help="device address (default 1)")
-    p.add_argument("--axes", type=int, default=1)
-    p.add_argument("--resolution", type=float, default=0.001, help="mm (or deg) per microstep (default 0.001)")
-    p.add_argument("--speed", type=float, default=200.0, help="speed in mm/s (or deg/s); default 200")
-    p.add_argument("--travel", type=float, default=150.0, help="travel in mm from 0 (default 150)")
+    p.add_argument("--link", metavar="PATH", help="symlink to the pty, stable across restarts (a new path or a link)")
+    p.add_argument("--address", type=int, default=1, help="device address, 1 to 99 (default 1)")
+    p.add_argument("--axes", type=int, default=1, help="number of axes, 1 to 9 (default 1)")
+    p.add_argument("--resolution", type=float, default=0.001, help="mm (or deg) per microstep, > 0 (default 0.001)")
+    p.add_argument("--speed", type=float, default=200.0, help="speed in mm/s (or deg/s), > 0; default 200")
+    p.add_argument("--travel", type=float, default=150.0, help="travel in mm from 0, > 0 (default 150)")
     p.add_argument("--rotary", action="store_true", help="no travel limits (a rotary axis)")
     p.add_argument("--interferometer", action="store_true", help="also serve an interferometer watching axis 1")
     p.add_argument("--interferometer-link", metavar="PATH", help="symlink to the interferometer's pty")
     p.add_argument("--interferometer-tcp", metavar="HOST:PORT", help="with --tcp: the interferometer's address")
-    p.add_argument("--scale-error", type=float, default=0.0, help="true/commanded - 1 in ppm")
-    p.add_argument("--periodic-um", type=float, default=0.0, help="periodic lead-screw error amplitude (um)")
-    p.add_argument("--period-mm", type=float, default=5.0, help="its period (mm)")
-    p.add_argument("--noise-um", type=float, default=0.0, help="interferometer noise (um, 1 sigma)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--scale-error", type=float, default=0.0, help="true/commanded - 1 in ppm (-1e6 to 1e6)")
+    p.add_argument("--periodic-um", type=float, default=0.0, help="periodic lead-screw error amplitude (um, >= 0)")
+    p.add_argument("--period-mm", type=float, default=5.0, help="its period (mm, > 0)")
+    p.add_argument("--noise-um", type=float, default=0.0, help="interferometer noise (um, 1 sigma, >= 0)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed, 0 to 2**32-1")
+
+
+class _RaisingParser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise ConfigError(message)
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    """The simulator's options from ``argv``, checked: :class:`ConfigError` names the
+    first one at fault (what the process would refuse, without starting it)."""
+    p = _RaisingParser(prog="camcmm-stage-simulator", add_help=False)
+    p.add_argument("--pty", action="store_true")
+    configure(p)
+    args = p.parse_args(argv)
+    check(args)
+    return args
 
 
 class SimulatorProcess:
@@ -381,8 +573,8 @@ class SimulatorProcess:
                  interferometer: bool = False, timeout: float = 20.0):
         self.folder = Path(folder or tempfile.mkdtemp(prefix="camcmm-sim-"))
         self.folder.mkdir(parents=True, exist_ok=True)
-        self.args = list(args)
-        if pty:
+        self.args = [str(a) for a in args]
+        if pty and "--tcp" not in self.args:
             self.args += ["--link", str(self.folder / "stage")]
             if interferometer:
                 self.args += ["--interferometer-link", str(self.folder / "interferometer")]
@@ -390,6 +582,7 @@ class SimulatorProcess:
             self.args += ["--tcp", "127.0.0.1:0"]
         if interferometer:
             self.args.append("--interferometer")
+        parse(self.args)  # an impossible configuration is refused here, in one line, not by a child
         self.timeout = timeout
         self.proc: subprocess.Popen | None = None
         self.stage_port = self.interferometer_port = ""
@@ -402,7 +595,12 @@ class SimulatorProcess:
         while time.monotonic() < deadline:
             line = self.proc.stdout.readline()
             if not line:
-                raise RuntimeError(f"stage simulator ended: {self.proc.stderr.read()[-500:]}")
+                why = [x for x in self.proc.stderr.read()[-2000:].splitlines() if x.strip()]
+                self.proc.wait()
+                if self.proc.returncode == 2 and why:  # refused its configuration (e.g. a TCP port in use)
+                    raise ConfigError(why[-1].strip().removeprefix("camcmm-stage-simulator: error: "))
+                raise RuntimeError(f"stage simulator ended (exit {self.proc.returncode}): "
+                                   f"{why[-1].strip() if why else 'no message'}")
             word, _, rest = line.strip().partition(" ")
             if word == "STAGE":
                 self.stage_port = rest
@@ -439,7 +637,16 @@ def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(prog="camcmm-stage-simulator", description=__doc__.splitlines()[0])
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (the default without --tcp)")
     configure(p)
-    serve(p.parse_args(argv))
+    args = p.parse_args(argv)
+    try:
+        sim = Simulator(args)
+    except ConfigError as exc:
+        p.error(str(exc))
+    try:
+        sim.announce()
+        sim.serve_forever()
+    finally:
+        sim.close()
 
 
 if __name__ == "__main__":
