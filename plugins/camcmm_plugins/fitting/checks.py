@@ -1,7 +1,7 @@
 """Does the fitted element describe the points? Warnings for a fit that is not silent.
 
 A least-squares fit always returns *an* element: a cylinder through a sphere, a line
-through a ball of points. Three checks, each on the points the fit used, each a
+through a ball of points. Four checks, each on the points the fit used, each a
 one-line warning (``FitResult.warnings``, the JSON ``warnings`` of ``camcmm fit`` and of
 the fit plugins):
 
@@ -18,6 +18,9 @@ the fit plugins):
   points' principal axes: when the two largest (line) or two smallest (plane) singular
   values of the centred points are comparable, the direction is a toss-up between
   them, however small its standard uncertainty looks with many points.
+* **No redundancy.** As few points as the element needs (two for a line, three for a
+  plane or circle, four for a sphere, five for a cylinder): the element passes through
+  them, the form is zero and the uncertainties are undefined whatever the part is like.
 * **Large uncertainty.** The standard uncertainty (fit covariance) of a radius relative
   to the radius, or of a direction in degrees.
 """
@@ -27,6 +30,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+
+from ._geometry import N_MIN
 
 #: Form rms above this many times the local noise estimate counts as systematic: the
 #: estimate scatters by ~10 % for a few hundred points, and the right element gives 1.
@@ -114,6 +119,11 @@ def fit_warnings(element: str, params: dict[str, Any], std: dict[str, Any], x: n
     the points."""
     out: list[str] = []
     n, d = x.shape
+    if n <= N_MIN[element]:
+        # the element (generically) passes through that few points: its zero form and
+        # undefined uncertainties would read as a perfect part
+        out.append(f"{element} fit: only {n} points, the fewest a {element} needs: no redundancy, so the form "
+                   f"and the uncertainties say nothing about the part; measure more points")
     if n < 3:
         return out
     xc = x - x.mean(axis=0)

@@ -7,7 +7,8 @@ keys ``element, method, outliers, n_points, n_used, n_removed``, the element's
 parameters (sphere: ``center, radius``; plane: ``point, normal``; circle: ``center,
 normal, radius``; cylinder: ``point, axis, radius``; line: ``point, direction``),
 ``form {range, max, min, std, rms}``, ``std_uncertainty {parameter: value}`` and
-``warnings`` (when the element does not describe the points; see checks.py).
+``warnings`` (when the element does not describe the points; see checks.py). A mesh
+file is fitted by its vertices, with a warning (see source.py); errors name FILE.
 """
 
 from __future__ import annotations
@@ -41,23 +42,26 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from camcmm.api import InputError
 
     from . import api
+    from .source import as_cloud, naming
 
     if args.nominal_radius is not None:
         args.nominal_radius = _declared(args.element, "nominal_radius", args.nominal_radius)
-    cloud = read(args.file, unit=args.unit) if args.unit else read(args.file)
-    if not hasattr(cloud, "points"):
-        raise InputError(f"{args.file}: holds a {type(cloud).__name__}, not a point cloud")
+    if args.extract and args.element != "sphere":
+        raise InputError("--extract works for a sphere only")
+    obj = read(args.file, unit=args.unit) if args.unit else read(args.file)
+    cloud, note = as_cloud(obj, args.element, str(args.file))
     pts = cloud.points
     extra: dict[str, Any] = {"file": str(args.file)}
-    if args.extract:
-        if args.element != "sphere":
-            raise InputError("--extract works for a sphere only")
-        seg = api.extract_sphere(pts, args.nominal_radius)
-        extra["n_points_raw"] = len(pts)
-        pts = pts[seg.indices]
-    res = api.fit(args.element, pts, args.outliers, args.method, nominal_radius=args.nominal_radius)
+    with naming(str(args.file)):
+        if args.extract:
+            seg = api.extract_sphere(pts, args.nominal_radius)
+            extra["n_points_raw"] = len(pts)
+            pts = pts[seg.indices]
+        res = api.fit(args.element, pts, args.outliers, args.method, nominal_radius=args.nominal_radius)
     out = res.to_dict(residuals=args.residuals)
     out.update(extra)
+    if note:
+        out["warnings"] = [note, *out["warnings"]]
     return out
 
 

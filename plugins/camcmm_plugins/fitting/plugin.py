@@ -3,7 +3,8 @@
 Each ``fit_*`` returns the JSON document of ``camcmm fit`` (lengths in mm; numpy
 arrays are converted by the host) plus ``deviations``: the input cloud with the
 per-point fields ``deviation`` (signed residual, mm) and ``outlier`` (1 for points the
-outlier rule removed), for a deviation colour map.
+outlier rule removed), for a deviation colour map. A mesh given as the cloud is fitted
+by its vertices, with a warning; errors name the cloud's file (see source.py).
 """
 
 from __future__ import annotations
@@ -15,10 +16,19 @@ import numpy as np
 from camcmm.api import PointCloud
 
 from . import api
+from .source import as_cloud, naming, source_name
 
 
 def _points(cloud: Any) -> np.ndarray:
     return cloud.points if hasattr(cloud, "points") else np.asarray(cloud, dtype=float)
+
+
+def _input(ctx, cloud: Any, what: str) -> Any:
+    """The input as a cloud (a mesh's vertices, with a warning), for fitting ``what``."""
+    cloud, note = as_cloud(cloud, what)
+    if note:
+        ctx.warn(note)
+    return cloud
 
 
 def _deviations(cloud: Any, res: api.FitResult) -> PointCloud | None:
@@ -36,7 +46,9 @@ def _deviations(cloud: Any, res: api.FitResult) -> PointCloud | None:
 def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nominal_radius: float | None = None,
          **kw: Any) -> dict[str, Any]:
     ctx.progress(0.05, f"{element} fit")
-    res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
+    cloud = _input(ctx, cloud, element)
+    with naming(source_name(cloud)):
+        res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
     out = res.to_dict()
     for w in out.pop("warnings", []):   # the host's result warnings: CLI JSON and GUI
         ctx.warn(w)
@@ -63,7 +75,9 @@ def fit_sphere(ctx, cloud, outliers: str = "none", method: str = "ls", nominal_r
                extract: bool = False) -> dict[str, Any]:
     if extract:
         ctx.progress(0.02, "extracting the sphere")
-        seg = api.extract_sphere(_points(cloud), nominal_radius)
+        cloud = _input(ctx, cloud, "sphere")
+        with naming(source_name(cloud)):
+            seg = api.extract_sphere(_points(cloud), nominal_radius)
         sub = cloud.subset(seg.indices) if isinstance(cloud, PointCloud) else _points(cloud)[seg.indices]
         out = _fit(ctx, "sphere", sub, outliers, method, nominal_radius)
         out["n_points_raw"] = len(_points(cloud))
@@ -80,8 +94,10 @@ def segment_spheres(ctx, cloud, nominal_radius: float, n_spheres: int | None = N
                     tolerance: float | None = None, min_points: int = 30) -> dict[str, Any]:
     """Split a ball-bar or ball-plate cloud into its spheres."""
     ctx.progress(0.05, "detecting spheres")
-    seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
-                              min_points=min_points)
+    cloud = _input(ctx, cloud, "sphere")
+    with naming(source_name(cloud)):
+        seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
+                                  min_points=min_points)
     for note in seg.notes:
         ctx.warn(note)
     out: dict[str, Any] = {
@@ -98,8 +114,10 @@ def segment_sphere(ctx, cloud, nominal_radius: float | None = None, tolerance: f
                    viewpoint: list[float] | None = None, cone_half_angle: float | None = None) -> dict[str, Any]:
     """Extract the sphere from a raw scan holding its mount and background."""
     ctx.progress(0.05, "extracting the sphere")
-    seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
-                             cone_half_angle=cone_half_angle)
+    cloud = _input(ctx, cloud, "sphere")
+    with naming(source_name(cloud)):
+        seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
+                                 cone_half_angle=cone_half_angle)
     out = seg.to_dict()
     out["n_points_raw"] = len(_points(cloud))
     if isinstance(cloud, PointCloud):

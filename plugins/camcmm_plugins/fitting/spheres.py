@@ -76,6 +76,8 @@ class HypersphereModel:
             if s[-1] > FLAT * s[0]:
                 return
         flat = "a plane (coplanar)" if self.dim == 3 else "a straight line (collinear)"
+        if self.dim == 3 and s[1] <= FLAT * s[0]:
+            flat = "a straight line (collinear)"
         raise GeometryError(f"{self.element} fit: the points lie on {flat}; "
                             f"a {self.element} needs points off it")
 
