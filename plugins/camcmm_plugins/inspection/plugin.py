@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError, ParameterError, PointCloud, TriangleMesh, read
+from camcmm.api import GeometryError, InputError, ParameterError, PointCloud, TriangleMesh, read
 
 from . import align as al
 from . import coverage as cov
@@ -114,7 +114,23 @@ def _nominal(nominal: Any) -> al.Nominal:
 def run_alignment(cloud: PointCloud, nom: al.Nominal, method: str, pairs: Any = None, **params: Any) -> al.Alignment:
     args = {k: params[k] for k in _ALIGN_KEYS if params.get(k) is not None}
     p = _json_input(pairs, "pairs")
-    return al.align(cloud.points, nom, method=method, pairs=p, **args)
+    if p is pairs or not method.startswith("pairs"):
+        return al.align(cloud.points, nom, method=method, pairs=p, **args)
+    # pairs read from a file: its errors name the file
+    where = f"point pairs in {Path(pairs).name}"
+    if not isinstance(p, dict) or "measured" not in p or "nominal" not in p:
+        raise InputError(f'{where}: expected {{"measured": [[x, y, z], ...], "nominal": [[x, y, z], ...]}}')
+    for key in ("measured", "nominal"):
+        try:
+            np.asarray(p[key], dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"{where}: {key!r} must be a list of [x, y, z] numbers") from None
+    try:
+        return al.align(cloud.points, nom, method=method, pairs=p, **args)
+    except (InputError, GeometryError) as exc:
+        if str(exc).startswith("point pairs"):
+            raise type(exc)(where + str(exc)[len("point pairs"):]) from None
+        raise
 
 
 def _alignment_outputs(a: al.Alignment) -> dict[str, Any]:
