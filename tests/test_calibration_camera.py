@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from camcmm.api import InputError
+from camcmm.api import InputError, ParameterError
 from camcmm_plugins.calibration.boards import Detection, detect, detect_all, parse_board
 from camcmm_plugins.calibration.camera import calibrate_camera
 from camcmm_plugins.calibration.covariance import Observation, assemble, free_intrinsics
@@ -48,6 +48,20 @@ def test_detection_matches_exact_projection(spec, distance):
         assert det.found, det.reason
         err = np.linalg.norm(det.image_points - project(b, K, D, r, t)[det.ids], axis=1)
         assert np.median(err) < 0.08 and err.max() < 0.15
+
+
+def test_subpix_window_is_refused_before_opencv_asserts():
+    """cornerSubPix asserts on a window < 1 or wider than the image - 5 px (an 'internal
+    error' from OpenCV); detect refuses both in one line naming the window and the image."""
+    b = parse_board("chessboard:5x4:10")
+    r, t = look_at_poses(1, 140, b, tilt_deg=10, seed=1)[0]
+    img = render_view(b, np.array([[120.0, 0, 50], [0, 120, 40], [0, 0, 1]]), np.zeros(5), r, t, (100, 80))
+    assert detect(b, "tiny.png", img, detector="classic", subpix_window=37).found  # 2 * 37 + 5 <= 80
+    with pytest.raises(ParameterError, match=r"tiny.png: subpix window 38 px .* 100x80 px image \(at most 37"):
+        detect(b, "tiny.png", img, detector="classic", subpix_window=38)
+    for w in (0, -1, 2.5, True):
+        with pytest.raises(ParameterError, match="subpix window"):
+            detect(b, "tiny.png", img, subpix_window=w)
 
 
 def test_chessboard_order_is_canonical_when_the_board_is_turned():

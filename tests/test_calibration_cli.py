@@ -84,6 +84,13 @@ def test_scale_and_gauge_block(tmp_path):
     write(PointCloud(pts), tmp_path / "block.ply")
     g = _camcmm("gauge-block", tmp_path / "block.ply", "--nominal", "5.0006", "--json")
     assert abs(g["error"]) < 1e-9 and g["top"]["n_points"] == int(top.sum()) and "labels" not in g
+    # the options are checked by the plugins' declarations, as JSON runs and the GUI are
+    err = _camcmm("scale", "--interferometer", tmp_path / "scale.csv", "--accuracy", "2", ok=False)
+    assert err.startswith("camcmm: error: --accuracy: parameter 'accuracy' = 2.0 is above its maximum")
+    err = _camcmm("gauge-block", tmp_path / "block.ply", "--nominal", "5", "--ransac-threshold", "0", ok=False)
+    assert "--ransac-threshold: parameter 'ransac_threshold' = 0.0 must be above 0 mm" in err
+    err = _camcmm("gauge-block", tmp_path / "block.ply", "--nominal", "5", "--up", "0", "0", "0", ok=False)
+    assert "up [0.0, 0.0, 0.0] must be 3 finite numbers, not all zero" in err
 
 
 def test_bad_input(tmp_path):
@@ -98,6 +105,10 @@ def test_bad_input(tmp_path):
     err = _camcmm("calibrate", "stereo", "--left", *LEFT[:3], "--right", *RIGHT[:2], "--board",
                   "chessboard:9x6:25", ok=False)
     assert "3 left images but 2 right images" in err
+    for opt, val, why in (("--subpix-window", "0", "below its minimum 1 px"), ("--outlier-factor", "nan", "not finite"),
+                          ("--max-rms", "-1", "below its minimum 0"), ("--distance", "0", "must be above 0 mm")):
+        err = _camcmm("calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6:25", opt, val, ok=False)
+        assert err.startswith(f"camcmm: error: {opt}: parameter '{opt[2:].replace('-', '_')}'") and why in err
 
 
 def test_run_through_the_host(tmp_path):

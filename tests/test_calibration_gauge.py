@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from camcmm.api import GeometryError, InputError
+from camcmm.api import GeometryError, InputError, ParameterError
 from camcmm_plugins.calibration.gauge import gauge_block
 
 L = 5.0006  # the thesis' calibrated 5 mm block
@@ -86,3 +86,24 @@ def test_bad_input():
         gauge_block(flat[:, :2], 5.0)
     with pytest.raises(GeometryError, match="at least 20"):
         gauge_block(flat[:5], 5.0)
+
+
+def test_ransac_threshold_and_up_are_checked():
+    """A threshold of 0 used to mean 'the default' silently and a negative or NaN one
+    gave a NaN plane; an up of zeros or NaN chose the face as the platen (the swapped
+    split went out without a word); an up along the surfaces decides nothing."""
+    pts, R = _cloud(np.random.default_rng(4))
+    for thr in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ParameterError, match="ransac threshold"):
+            gauge_block(pts, 5.0, ransac_threshold=thr)
+    for up in ([0, 0, 0], [np.nan, 0, 1], [1, 0], "up"):
+        with pytest.raises(ParameterError, match="up .* 3 finite numbers, not all zero"):
+            gauge_block(pts, 5.0, up=up)
+    with pytest.raises(GeometryError, match="90 deg from the surfaces' normal"):
+        gauge_block(pts, 5.0, up=R[:, 0])
+    ref = gauge_block(pts, 5.0)
+    # a rough up (45 deg off, tiny or huge) still says which side; a threshold given is used
+    for up in (R[:, 2] + R[:, 0], 1e-300 * R[:, 2], 1e300 * R[:, 2]):
+        res = gauge_block(pts, 5.0, up=up)
+        assert res["height"] == pytest.approx(L, abs=1e-10) and res["top"]["n_points"] == ref["top"]["n_points"]
+    assert gauge_block(pts, 5.0, ransac_threshold=0.2)["height"] == pytest.approx(L, abs=1e-10)

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from camcmm.api import CameraModel, InputError
+from camcmm.api import CameraModel, InputError, ParameterError
 from camcmm_plugins.calibration.scale import apply_scale, read_interferometer_csv, scale_factor
 
 SLOPE, NOISE = 1.000150, 0.004  # camera reads 150 ppm long; 4 um noise per position
@@ -73,6 +73,14 @@ def test_one_dimensional_csv_and_bad_files(tmp_path):
         read_interferometer_csv(tmp_path / "c.csv")
     with pytest.raises(InputError, match="at least 3"):
         scale_factor([0, 1], [0, 1])
+    with pytest.raises(InputError, match="^d.csv: run '1' has 2 position"):  # the data's file named
+        scale_factor([0, 1], [0, 1], source="d.csv")
+    for acc in (-1e-7, float("nan"), 1.0):  # a negative accuracy gave u_cal < 0 without a word
+        with pytest.raises(ParameterError, match="accuracy"):
+            scale_factor(x, c, accuracy=acc)
+    for length in (0.0, -5.0, float("nan")):
+        with pytest.raises(ParameterError, match="length"):
+            scale_factor(x, c, length=length)
     with pytest.raises(InputError, match="do not change"):
         scale_factor([1, 1, 1], [0, 1, 2])
 

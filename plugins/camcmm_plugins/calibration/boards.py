@@ -23,7 +23,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from camcmm.api import Image, InputError
+from camcmm.api import Image, InputError, ParameterError
 
 KINDS = ("chessboard", "charuco", "circles", "acircles")
 _SIZE = re.compile(r"^(\d+)\s*[x×X]\s*(\d+)$")
@@ -206,6 +206,8 @@ def detect(board: Board | str, name: str, image: np.ndarray, *, detector: str = 
     import cv2
 
     board = parse_board(board)
+    if isinstance(subpix_window, bool) or not isinstance(subpix_window, (int, np.integer)) or subpix_window < 1:
+        raise ParameterError(f"subpix window {subpix_window!r} must be a whole number of px, at least 1")
     img = grey(image)
     size = (int(img.shape[1]), int(img.shape[0]))
     det = Detection(name, size)
@@ -227,6 +229,9 @@ def detect(board: Board | str, name: str, image: np.ndarray, *, detector: str = 
                                               flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
             corners = c if ok else None
         if corners is not None and detector != "sb":
+            if 2 * subpix_window + 5 > min(size):  # cornerSubPix's own limit (it asserts)
+                raise ParameterError(f"{name}: subpix window {subpix_window} px is too large for a "
+                                     f"{size[0]}x{size[1]} px image (at most {(min(size) - 5) // 2} px)")
             corners = cv2.cornerSubPix(img, corners, (subpix_window, subpix_window), (-1, -1), term)
         if corners is None:
             det.reason = f"chessboard {board.cols}x{board.rows} not found"

@@ -22,8 +22,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from camcmm.api import PointCloud, read
 
+    from .declared import declared
     from .plugin import gauge_block
 
+    for name in ("nominal", "ransac_threshold", "up"):
+        setattr(args, name, declared("calibration.gauge-block", name, getattr(args, name)))
     cloud = read(args.cloud)
     if not isinstance(cloud, PointCloud):
         from camcmm.api import InputError

@@ -30,8 +30,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from camcmm.api import InputError
 
+    from .declared import declared
     from .plugin import scale
 
+    args.accuracy = declared("calibration.scale", "accuracy", args.accuracy)
+    args.length = declared("calibration.scale", "length", args.length)
     if bool(args.calibration) != bool(args.out):
         raise InputError("--calibration and --out go together")
     return scale(None, args.interferometer, accuracy=args.accuracy, length=args.length,

@@ -23,7 +23,12 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import GeometryError, InputError
+from camcmm.api import GeometryError, InputError, ParameterError
+
+#: ``up`` only says which side of the platen the block stands on: it may be rough, but
+#: beyond this angle from the surfaces' normal the sign of up . (top - platen) depends
+#: as much on where the face sits sideways as on which surface is higher.
+MAX_UP_ANGLE_DEG = 60.0
 
 
 def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -54,8 +59,8 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
     """Height of a gauge block over its platen from an (N, 3) cloud in mm.
 
     ``nominal``: calibrated (or nominal) length, mm; ``up``: optional (3,) direction
-    from the platen towards the block's face; ``ransac_threshold``: inlier band of the
-    first plane, mm (default nominal / 10). Returns ``height``, ``error`` (height -
+    from the platen towards the block's face (within MAX_UP_ANGLE_DEG of the normal);
+    ``ransac_threshold``: inlier band of the first plane, mm (default nominal / 10). Returns ``height``, ``error`` (height -
     nominal), ``nominal``, ``platen`` and ``top`` ({point, normal, n_points, flatness,
     std}), ``parallelism`` (angle between the normals, deg), ``labels`` (N,) 0 platen,
     1 top, -1 neither.
@@ -68,7 +73,19 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
         raise InputError(f"gauge block: nominal length {nominal!r} must be a positive number of mm")
     if len(pts) < 20:
         raise GeometryError(f"gauge block: {len(pts)} points; need at least 20 on the two surfaces")
-    thr = float(ransac_threshold) if ransac_threshold else nominal / 10.0
+    if ransac_threshold is not None and not (np.isfinite(ransac_threshold) and ransac_threshold > 0):
+        raise ParameterError(f"gauge block: ransac threshold {ransac_threshold!r} must be a positive number of mm")
+    u = None
+    if up is not None:
+        try:
+            u = np.asarray(up, np.float64).ravel()
+        except (TypeError, ValueError):
+            u = np.array([np.nan])
+        if u.shape != (3,) or not np.all(np.isfinite(u)) or not np.any(u):
+            raise ParameterError(f"gauge block: up {up!r} must be 3 finite numbers, not all zero")
+        u = u / np.abs(u).max()  # first, so that neither 1e-320 nor 1e308 under- or overflows the norm
+        u = u / np.linalg.norm(u)
+    thr = float(ransac_threshold) if ransac_threshold is not None else nominal / 10.0
     import open3d as o3d
 
     o3d.utility.random.seed(int(seed))
@@ -106,8 +123,11 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
             idx = idx[keep]
     ca, na = fit_plane(pts[labels == 0])
     cb, nb = fit_plane(pts[labels == 1])
-    if up is not None:
-        u = np.asarray(up, np.float64).ravel()
+    if u is not None:
+        off = _angle_deg(na, u)
+        if off > MAX_UP_ANGLE_DEG:
+            raise GeometryError(f"gauge block: up {up!r} is {off:.0f} deg from the surfaces' normal (at most "
+                                f"{MAX_UP_ANGLE_DEG:g}); it must point from the platen to the block's face")
         platen_is_a = np.dot(cb - ca, u) > 0
     else:
         platen_is_a = _extent(pts[labels == 0], na) >= _extent(pts[labels == 1], nb)

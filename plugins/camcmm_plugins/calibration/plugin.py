@@ -176,7 +176,8 @@ def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float
     from .scale import apply_scale, read_interferometer_csv, scale_factor
 
     data = read_interferometer_csv(interferometer)
-    res = scale_factor(data["interferometer"], data["camera"], data["run"], accuracy=accuracy, length=length)
+    res = scale_factor(data["interferometer"], data["camera"], data["run"], accuracy=accuracy, length=length,
+                       source=data["file"])
     res["file"] = data["file"]
     if calibration is not None:
         scaled = apply_scale(load_calibration(calibration), res["scale_factor"])

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, ParameterError
 
 _ALIASES = {"interferometer": ("interferometer", "laser", "reference"),
             "camera": ("camera", "position", "measured"), "x": ("x",), "y": ("y",), "z": ("z",), "run": ("run",)}
@@ -91,7 +91,7 @@ def _displacement(cam: np.ndarray, d_int: np.ndarray) -> np.ndarray:
 
 
 def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
-                 length: float | None = None) -> dict[str, Any]:
+                 length: float | None = None, source: str = "") -> dict[str, Any]:
     """Scale factor by linear regression per run (module docstring).
 
     interferometer (N,) mm; camera (N,) mm or (N, 3) mm; run (N,) labels or None.
@@ -100,23 +100,30 @@ def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
     ``repeatability`` (std of the slopes, and in ppm), ``residuals`` {run: (n,) mm} and
     ``displacement`` {run: (n,) mm} (fig. 3.11), ``residual_std_per_position`` (when all runs
     have the same count), ``length`` L mm, ``u_cal``, ``u_p``, ``u_length`` mm (eq. 3.22).
+    ``source``: the data's file name, put in front of the messages about the data.
     """
     from scipy import stats
 
+    if not (np.isfinite(accuracy) and 0 <= accuracy < 1):
+        raise ParameterError(f"accuracy {accuracy!r}: the interferometer's relative accuracy must be a finite "
+                             "number from 0 to below 1")
+    if length is not None and not (np.isfinite(length) and length > 0):
+        raise ParameterError(f"length {length!r} must be a positive number of mm")
+    where = f"{source}: " if source else ""
     x_all = np.asarray(interferometer, np.float64).ravel()
     c_all = np.asarray(camera, np.float64)
     if c_all.ndim == 2 and c_all.shape[1] != 3 or c_all.shape[0] != x_all.size:
-        raise InputError(f"camera positions {c_all.shape} do not match {x_all.size} interferometer positions")
+        raise InputError(f"{where}camera positions {c_all.shape} do not match {x_all.size} interferometer positions")
     labels = np.array(["1"] * x_all.size) if run is None else np.asarray(run).astype(str)
     order = list(dict.fromkeys(labels.tolist()))
     runs, residuals, displ = [], {}, {}
     for r in order:
         m = labels == r
         if m.sum() < 3:
-            raise InputError(f"run {r!r} has {int(m.sum())} positions; a regression needs at least 3")
+            raise InputError(f"{where}run {r!r} has {int(m.sum())} position(s); a regression needs at least 3")
         d_int = x_all[m] - x_all[m][0]
         if np.ptp(d_int) <= 0:
-            raise InputError(f"run {r!r}: the interferometer positions do not change")
+            raise InputError(f"{where}run {r!r}: the interferometer positions do not change")
         d_cam = _displacement(c_all[m], d_int)
         fit = stats.linregress(d_int, d_cam)
         res = d_cam - (fit.slope * d_int + fit.intercept)
