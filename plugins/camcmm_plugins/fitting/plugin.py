@@ -4,7 +4,9 @@ Each ``fit_*`` returns the JSON document of ``camcmm fit`` (lengths in mm; numpy
 arrays are converted by the host) plus ``deviations``: the input cloud with the
 per-point fields ``deviation`` (signed residual, mm) and ``outlier`` (1 for points the
 outlier rule removed), for a deviation colour map. A mesh given as the cloud is fitted
-by its vertices, with a warning; errors name the cloud's file (see source.py).
+by its vertices, with a warning (see source.py). Errors are not prefixed with the
+cloud's name here: callers that fit many clouds (vdi2634) name them with their own
+context, and ``camcmm fit`` names its file.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from camcmm.api import PointCloud
 
 from . import api
-from .source import as_cloud, naming, source_name
+from .source import as_cloud
 
 
 def _points(cloud: Any) -> np.ndarray:
@@ -47,8 +49,7 @@ def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nomin
          **kw: Any) -> dict[str, Any]:
     ctx.progress(0.05, f"{element} fit")
     cloud = _input(ctx, cloud, element)
-    with naming(source_name(cloud)):
-        res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
+    res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
     out = res.to_dict()
     for w in out.pop("warnings", []):   # the host's result warnings: CLI JSON and GUI
         ctx.warn(w)
@@ -76,8 +77,7 @@ def fit_sphere(ctx, cloud, outliers: str = "none", method: str = "ls", nominal_r
     if extract:
         ctx.progress(0.02, "extracting the sphere")
         cloud = _input(ctx, cloud, "sphere")
-        with naming(source_name(cloud)):
-            seg = api.extract_sphere(_points(cloud), nominal_radius)
+        seg = api.extract_sphere(_points(cloud), nominal_radius)
         sub = cloud.subset(seg.indices) if isinstance(cloud, PointCloud) else _points(cloud)[seg.indices]
         out = _fit(ctx, "sphere", sub, outliers, method, nominal_radius)
         out["n_points_raw"] = len(_points(cloud))
@@ -95,9 +95,8 @@ def segment_spheres(ctx, cloud, nominal_radius: float, n_spheres: int | None = N
     """Split a ball-bar or ball-plate cloud into its spheres."""
     ctx.progress(0.05, "detecting spheres")
     cloud = _input(ctx, cloud, "sphere")
-    with naming(source_name(cloud)):
-        seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
-                                  min_points=min_points)
+    seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
+                              min_points=min_points)
     for note in seg.notes:
         ctx.warn(note)
     out: dict[str, Any] = {
@@ -115,9 +114,8 @@ def segment_sphere(ctx, cloud, nominal_radius: float | None = None, tolerance: f
     """Extract the sphere from a raw scan holding its mount and background."""
     ctx.progress(0.05, "extracting the sphere")
     cloud = _input(ctx, cloud, "sphere")
-    with naming(source_name(cloud)):
-        seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
-                                 cone_half_angle=cone_half_angle)
+    seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
+                             cone_half_angle=cone_half_angle)
     out = seg.to_dict()
     out["n_points_raw"] = len(_points(cloud))
     if isinstance(cloud, PointCloud):

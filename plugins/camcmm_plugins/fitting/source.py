@@ -6,9 +6,9 @@
   surface), but it is not what the mesh's surface says: the faces are ignored and every
   vertex counts the same however much area it stands for, so a mesh tessellated finer
   in one region pulls the fit there.
-* :func:`naming`: errors raised while fitting name the file (or the cloud) they concern,
+* :func:`naming`: errors raised while ``camcmm fit`` fits a file name it,
   ``same.xyz: sphere fit: all 50 points coincide``, so that a batch of files tells which
-  one failed.
+  one failed. (The plugins leave naming to their callers, which know the context.)
 """
 
 from __future__ import annotations
