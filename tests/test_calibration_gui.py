@@ -86,7 +86,10 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     out = doc["outputs"]
     # equal up to OpenCV's run-to-run rounding (its solver is multi-threaded: ~1e-9 relative seen)
     assert np.allclose(out["camera_matrix"], direct["camera_matrix"], rtol=1e-7, atol=0)
-    assert np.allclose(out["dist_coeffs"], direct["dist_coeffs"], rtol=1e-7, atol=1e-12)
+    # k2, k3 are ill-conditioned: the same ~1e-9 noise moves them by up to ~3e-7 relative, so
+    # they are compared against their own standard deviation (std_intrinsics: fx fy cx cy, then them)
+    dist_std = np.asarray(direct["std_intrinsics"])[4:4 + len(direct["dist_coeffs"])]
+    assert np.all(np.abs(np.subtract(out["dist_coeffs"], direct["dist_coeffs"])) <= 1e-4 * dist_std)
     assert out["rms"] == pytest.approx(direct["rms"], rel=1e-7)
     assert out["per_view_rms"] == pytest.approx(direct["per_view_rms"], rel=1e-7)
     # OpenCV's unit-test reference within OpenCV's own tolerances
