@@ -34,6 +34,11 @@ Faults, for tests, as commands on the stage port (simulator only)::
                          another message id, a line of junk bytes, and the remains of a
                          truncated alert in front of the reply on the same line
 
+Every option is checked before anything is opened (:func:`check`; ``camcmm devices
+simulate-stage``, ``python -m`` and :class:`SimulatorProcess` alike): a value the
+simulator cannot serve is refused in one line naming the option and the value. Lines
+on its ports never end it: bad data is answered ``RJ ... BADDATA``.
+
 Killing the process (SIGKILL) is the other disconnection. Standard library only, so the
 process starts in a fraction of a second.
 """
@@ -554,6 +559,12 @@ class _RaisingParser(argparse.ArgumentParser):
         raise ConfigError(message)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        print(f"{self.prog}: error: {message}", file=sys.stderr)  # one line, as camcmm's own errors
+        raise SystemExit(2)
+
+
 def parse(argv: list[str]) -> argparse.Namespace:
     """The simulator's options from ``argv``, checked: :class:`ConfigError` names the
     first one at fault (what the process would refuse, without starting it)."""
@@ -634,7 +645,7 @@ class SimulatorProcess:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="camcmm-stage-simulator", description=__doc__.splitlines()[0])
+    p = _OneLineParser(prog="camcmm-stage-simulator", description=__doc__.splitlines()[0])
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (the default without --tcp)")
     configure(p)
     args = p.parse_args(argv)
