@@ -3,6 +3,8 @@ their neighbours' phase continuity, and a last continuity check of every decoded
 
     footprint(frac, valid)                         -> (H, W) float32, periods per camera pixel
     doubtful(r, g, period, code_half)              -> (H, W) bool
+    unmixed(modulation)                            -> (H, W) bool
+    local_checks(frac, valid, period, r, code_half, modulation) -> (doubt, smooth), row blocks
     settle(x, frac, period, offset, flip, valid, doubt, alt, smooth) -> (corrected, dropped)
     check_continuity(x, frac, period, valid)       -> (corrected, dropped)
 
