@@ -68,6 +68,43 @@ def test_errors_are_one_line_on_stderr_with_nonzero_exit(cloud_file, tmp_path):
         assert len(lines) == 1 and text in lines[0], proc.stderr
 
 
+def _main(capsys, *args):
+    """``camcmm ARGS`` in this process: (exit code, stdout, stderr lines)."""
+    from camcmm.cli.main import main
+
+    try:
+        rc = main([str(a) for a in args])
+    except SystemExit as exc:  # --help
+        rc = exc.code
+    out, err = capsys.readouterr()
+    return rc, out, [ln for ln in err.splitlines() if ln.strip()]
+
+
+def test_run_a_missing_input_file_is_one_line_naming_it(tmp_path, capsys):
+    rc, out, err = _main(capsys, "run", "cloud.downsample", tmp_path / "gone.ply", "--voxel-size", "1")
+    assert rc == 2 and out == "" and len(err) == 1
+    assert "gone.ply" in err[0] and "internal" not in err[0] and "Errno" not in err[0]
+
+
+def test_run_gives_a_parameter_named_like_its_own_option_as_param_name(tmp_path, capsys):
+    """fringe.patterns declares a parameter 'out' (a folder for PNGs); `camcmm run` keeps
+    its own --out (write the cloud/mesh output) and takes the parameter as --param-out."""
+    seq = tmp_path / "s.yaml"
+    seq.write_text("projector: {width: 64, height: 32}\nbit_depth: 8\nframes: [white, black]\n")
+    rc, out, err = _main(capsys, "run", "fringe.patterns", "--help")
+    assert rc == 0 and "--param-out" in out and "camcmm run's own options" in out
+    folder = tmp_path / "pngs"
+    rc, out, err = _main(capsys, "run", "fringe.patterns", seq, "--param-out", folder, "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["params"]["out"] == str(folder)
+    assert sorted(p.name for p in folder.iterdir()) == ["pat00.png", "pat01.png"]
+    # run's own --out still means "write the first cloud/mesh": fringe.patterns has none
+    rc, out, err = _main(capsys, "run", "fringe.patterns", seq, "--out", tmp_path / "x.ply")
+    assert rc == 2 and len(err) == 1 and "--param-out" in err[0] and "x.ply" in err[0]
+    assert not (tmp_path / "x.ply").exists()
+
+
 def test_demo_creates_a_project(tmp_path):
     doc = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
     assert len(doc["measurements"]) >= 4

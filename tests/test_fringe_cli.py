@@ -119,6 +119,17 @@ def test_reconstruct_bad_input_is_one_line(seq_file, capture_dir, tmp_path):
     assert "missing.yaml: no such sequence file" in p.stderr
 
 
+def test_no_decoded_pixel_names_the_thresholds_given(seq_file, capture_dir, capsys):
+    from camcmm.cli.main import main
+
+    folder, cal, _ = capture_dir
+    args = ["fringe", "reconstruct", str(seq_file), "--images", str(folder), "--calibration", str(cal)]
+    assert main(args + ["--modulation-threshold", "300", "--saturation", "0"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "no pixel decodes (low_modulation" in lines[0]
+    assert "(given: --modulation-threshold 300, --saturation 0 (0: the image type's maximum))" in lines[0]
+
+
 def test_saturated_captures_are_reported_with_their_fraction(seq_file, capture_dir):
     folder, cal, _ = capture_dir
     img = cv2.imread(str(folder / "img2.png"), cv2.IMREAD_UNCHANGED)  # the first phase frame

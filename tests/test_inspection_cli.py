@@ -134,6 +134,34 @@ def test_cli_bad_input(files, tmp_path):
     assert out.returncode == 2 and "JSON" in out.stderr
 
 
+@pytest.mark.parametrize("doc,needle", [
+    ('{"measured": [[0,0,0],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,NaN,0]]}', "finite"),
+    ('{"measured": [[0,0,0],[1,0,0]], "nominal": [[0,0,0],[1,0,0]]}', "2 pairs"),
+    ('{"measured": [[0,0,0],[1,0,0],[2,0,0]], "nominal": [[0,0,0],[1,0,0],[2,0,0]]}', "one line"),
+    ('{"measured": [[0,0,"x"],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,1,0]]}', "'measured'"),
+    ('{"measured": [[0,0,0],[1,0,0],[0,1,0]]}', '"nominal"'),
+    ("[1, 2, 3]", '"measured"'),
+])
+def test_cli_pairs_file_errors_name_the_file(files, tmp_path, capsys, doc, needle):
+    from camcmm.cli.main import main
+
+    d = files["dir"]
+    (tmp_path / "p.json").write_text(doc)
+    rc = main(["inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs",
+               "--pairs", str(tmp_path / "p.json")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and "p.json" in lines[0] and needle in lines[0], lines
+
+
+def test_cli_tolerance_must_be_above_zero(files, capsys):
+    from camcmm.cli.main import main
+
+    d = files["dir"]
+    assert main(["inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--tolerance", "0"]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "'tolerance'" in lines[0] and "above 0" in lines[0]
+
+
 def test_plugins_through_the_host(files):
     """What a GUI gets: inspect.align, then inspect.deviations with its transform; the
     coloured cloud, histogram, coverage samples and the material-ratio curve arrays."""

@@ -155,6 +155,23 @@ def test_budget_through_the_host():
     assert res.outputs["k"] == pytest.approx(3.169, abs=1e-3)
 
 
+def test_budget_of_zeros_warns_that_the_combined_uncertainty_is_zero(tmp_path, capsys):
+    """u_c = 0 is legal arithmetic but no measurement is exact: CLI, JSON and host warn."""
+    from camcmm.cli.main import main
+
+    b = gum.evaluate([{"name": "a", "u": 0, "dof": 10}, {"name": "b", "u": 2.0, "c": 0}])
+    assert b.combined == 0 and len(b.warnings) == 1 and "u_c is 0" in b.warnings[0]
+    assert gum.evaluate([{"name": "a", "u": 1e-300, "dof": 10}]).warnings == []
+    f = tmp_path / "b.yaml"
+    f.write_text("quantity: x\nunit: um\ncontributions:\n  - {name: a, u: 0, dof: 10}\n")
+    assert main(["uncertainty", "budget", str(f), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["warnings"] == b.warnings
+    assert main(["uncertainty", "budget", str(f)]) == 0
+    assert "warning: the combined standard uncertainty u_c is 0" in capsys.readouterr().out
+    res = PluginHost().run("uncertainty.budget", {"spec": f})
+    assert res.warnings == b.warnings and "warnings" not in res.outputs
+
+
 def test_budget_cli_subprocess_text():
     out = subprocess.run([sys.executable, "-m", "camcmm", "uncertainty", "budget", str(DATA / "budget_gum_h1.yaml")],
                          capture_output=True, text=True)

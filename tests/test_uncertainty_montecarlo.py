@@ -198,6 +198,19 @@ def test_cli_json_and_out(tmp_path, capsys):
     assert any(k.startswith("studies.volume_maps") for k in z.files)
 
 
+def test_cli_out_naming_a_file_is_one_line_before_the_study(tmp_path, capsys):
+    from camcmm.cli.main import main
+
+    f = tmp_path / "mc.yaml"
+    f.write_text(yaml.safe_dump(_doc()))
+    (tmp_path / "o.txt").write_text("x")
+    assert main(["uncertainty", "montecarlo", str(f), "--iterations", "100", "--out", str(tmp_path / "o.txt")]) == 2
+    cap = capsys.readouterr()
+    lines = cap.err.strip().splitlines()
+    assert cap.out == "" and len(lines) == 1 and "o.txt" in lines[0] and "not a folder" in lines[0]
+    assert (tmp_path / "o.txt").read_text() == "x"
+
+
 def test_through_the_host():
     from camcmm.host import PluginHost
 

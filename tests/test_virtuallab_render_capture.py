@@ -173,6 +173,7 @@ def test_gauge_blocks_and_a_mesh_from_a_file(tmp_path):
     ({"artefacts": [{"type": "sphere"}]}, "diameter"),
     ({"artefacts": [{"type": "sphere", "diameter": 20}], "errors": {"scale": 0.01}}, "errors.scale"),
     ({"artefacts": [{"type": "sphere", "diameter": 20}], "sensor": {"bitz": 8}}, "sensor.bitz"),
+    ({"artefacts": [{"type": "sphere", "diameter": 20}], "sensor": {"bits": 3}}, "sensor.bits 3"),
     ({"artefacts": [{"type": "sphere", "diameter": 20}], "cameras": [{"name": "c", "image_size": [10, 10]}]},
      "camera_matrix"),
 ])

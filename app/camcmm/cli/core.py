@@ -123,8 +123,8 @@ def _plugin_parser(spec) -> argparse.ArgumentParser:
     add_cli_options(p, [q for q in spec.parameters if q.name not in _RUN_OPTIONS])
     add_cli_options(_Prefixed(p), clash)  # type: ignore[arg-type]
     p.add_argument("--project", help="record the result in this project folder")
-    p.add_argument("--out", help="write the first cloud/mesh output to this file"
-                   + ("; the plugin's own parameter 'out' is --param-out" if any(q.name == "out" for q in clash) else ""))
+    own_out = "; the plugin's own parameter 'out' is --param-out" if any(q.name == "out" for q in clash) else ""
+    p.add_argument("--out", help="write the first cloud/mesh output to this file" + own_out)
     _json_flag(p)
     return p
 

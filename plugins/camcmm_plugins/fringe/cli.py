@@ -18,6 +18,9 @@ from typing import Any
 from camcmm.api import InputError
 
 IMAGE_EXTS = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm")
+#: fringe.decode's thresholds (grey levels) and what their default 0 means
+THRESHOLDS = {"black_threshold": "5 % of full scale", "modulation_threshold": "2 % of full scale",
+              "white_threshold": "no such rule", "saturation": "the image type's maximum"}
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -33,10 +36,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
                    help="calibration file (.yaml/.xml/.json) or a CalibrationDataDistortion-style folder")
     r.add_argument("--out", metavar="cloud.ply", help="write the point cloud here")
     r.add_argument("--method", choices=("auto", "projector", "stereo"), default="auto")
-    r.add_argument("--black-threshold", type=float, default=0.0, metavar="GREY")
-    r.add_argument("--modulation-threshold", type=float, default=0.0, metavar="GREY")
-    r.add_argument("--white-threshold", type=float, default=0.0, metavar="GREY")
-    r.add_argument("--saturation", type=float, default=0.0, metavar="GREY")
+    # None: not given, the plugin's declared default applies
+    for opt, zero in THRESHOLDS.items():
+        r.add_argument("--" + opt.replace("_", "-"), type=float, default=None, metavar="GREY",
+                       help=f"fringe.decode's {opt} (default 0: {zero})".replace("%", "%%"))
     for sp in (p, r):
         sp.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
                         help="print one JSON document on stdout")
@@ -74,10 +77,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
               "calibration": str(args.calibration)}
     if args.images2:
         inputs["images2"] = [str(f) for f in image_files(args.images2)]
-    params = {"method": args.method, "black_threshold": args.black_threshold,
-              "modulation_threshold": args.modulation_threshold, "white_threshold": args.white_threshold,
-              "saturation": args.saturation}
-    res = default_host().run("fringe.reconstruct", inputs, params)
+    given = {k: getattr(args, k) for k in THRESHOLDS if getattr(args, k) is not None}
+    try:
+        res = default_host().run("fringe.reconstruct", inputs, {"method": args.method, **given})
+    except InputError as exc:
+        if "no pixel decodes" not in str(exc) or not given:
+            raise
+        # the thresholds the operator set are the first suspects: name them
+        named = ", ".join(f"--{k.replace('_', '-')} {v:g}" + (f" (0: {THRESHOLDS[k]})" if v == 0 else "")
+                          for k, v in given.items())
+        raise InputError(f"{exc} (given: {named})") from None
     o = res.outputs
     out = {"n_points": o["n_points"], "valid_fraction": o["valid_fraction"], "bbox": o["bbox"],
            "method": o.get("method", ""), "order_errors_corrected": o.get("order_errors_corrected", 0),

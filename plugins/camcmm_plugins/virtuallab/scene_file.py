@@ -48,8 +48,8 @@ Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
 
 Checked on reading, each with one line naming the entry: every number in the file is
 finite and at most ``MAX_NUMBER`` in magnitude; diameters, lengths, widths and mesh scales are > 0; ``seed`` is a whole number
->= 0; sensor and lighting levels are >= 0 (``full_well``, ``gamma`` > 0); image sides are
-at most ``MAX_SIDE`` px and the rendering's memory estimate (``RAY_BYTES`` per cast ray,
+>= 0; sensor ``bits`` 8 .. 16; sensor and lighting levels are >= 0 (``full_well``, ``gamma`` > 0);
+image sides are at most ``MAX_SIDE`` px and the rendering's memory estimate (``RAY_BYTES`` per cast ray,
 ``PIXEL_BYTES`` per pixel of the largest image) is within ``camcmm.api.check_budget``.
 """
 
@@ -253,8 +253,10 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     _check_levels(light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",),
                   MAX_LEVEL)
     sensor = _dataclass_from(Sensor, doc.get("sensor"), "sensor")
-    if isinstance(sensor.bits, bool) or not isinstance(sensor.bits, int) or not 1 <= sensor.bits <= 16:
-        raise ValueError(f"sensor.bits {sensor.bits!r}: use a whole number 1 .. 16")
+    # frames are 8- or 16-bit images read at their type's full scale: below 8 bits a frame
+    # would use 2^bits of 256 grey levels and decode as nearly dark
+    if isinstance(sensor.bits, bool) or not isinstance(sensor.bits, int) or not 8 <= sensor.bits <= 16:
+        raise ValueError(f"sensor.bits {sensor.bits!r}: use a whole number 8 .. 16 (a camera's digitisation)")
     _check_levels(sensor, "sensor", ("exposure",), (), MAX_LEVEL)
     _check_levels(sensor, "sensor", ("read_noise", "black_level"), ("full_well",), MAX_ELECTRONS)
     render = doc.get("render") or {}
