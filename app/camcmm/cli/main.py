@@ -25,7 +25,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports usage errors as one line on stderr (exit 2)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        print(f"camcmm {self.prog.split(' ', 1)[-1]}: {message}", file=sys.stderr)
+        print(f"{self.prog}: {message}", file=sys.stderr)  # prog is "camcmm" or "camcmm SUBCOMMAND"
         raise SystemExit(2)
 
 
