@@ -229,3 +229,12 @@ def test_budget_dof_does_not_depend_on_the_scale(tmp_path, capsys):
 def test_uncertainty_overflow_is_one_line(tmp_path, capsys, command, doc, needle):
     (tmp_path / "u.yaml").write_text(yaml.safe_dump(doc))
     refused(capsys, ["uncertainty", command, tmp_path / "u.yaml"], needle)
+
+
+def test_truth_with_a_nan_is_refused_naming_where_it_is():
+    from camcmm.errors import InputError
+    from camcmm_plugins.virtuallab.capture import _json_text
+
+    with pytest.raises(InputError, match=r"truth.json: a.b\[1\] = nan is not a finite number"):
+        _json_text({"a": {"b": [1.0, float("nan")]}, "seed": 3})
+    assert json.loads(_json_text({"a": [1.0, 2e300]}))["a"][1] == 2e300  # big but finite is fine here

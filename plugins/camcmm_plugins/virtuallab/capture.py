@@ -32,7 +32,7 @@ from camcmm.api import (CameraModel, Image, InputError, check_disk, get_algorith
 from camcmm.api import check_calibration
 
 from . import imaging, render, rig
-from .scene_file import LabScene
+from .scene_file import LabScene, _nonfinite
 from .speckle import speckle
 from .workpieces import rotation_xyz
 
@@ -292,24 +292,9 @@ def _json_text(doc: dict[str, Any]) -> str:
     try:
         return json.dumps(doc, indent=1, allow_nan=False)
     except ValueError:
-        where = _nonfinite_path(doc) or "a value"
+        hit = _nonfinite(doc, limit=float("inf"))
+        where = f"{hit[0]} = {float(hit[1])}" if hit else "a value"
         raise InputError(f"truth.json: {where} is not a finite number") from None
-
-
-def _nonfinite_path(obj: Any, path: str = "") -> str | None:
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            hit = _nonfinite_path(v, f"{path}.{k}" if path else str(k))
-            if hit:
-                return hit
-    elif isinstance(obj, (list, tuple)):
-        for i, v in enumerate(obj):
-            hit = _nonfinite_path(v, f"{path}[{i}]")
-            if hit:
-                return hit
-    elif isinstance(obj, (float, np.floating)) and not np.isfinite(obj):
-        return f"{path} = {float(obj)}"
-    return None
 
 
 def _pixels_per_artefact(scene: LabScene, view: render.View) -> dict[str, int]:

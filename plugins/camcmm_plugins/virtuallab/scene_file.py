@@ -134,22 +134,22 @@ def _positive(a: Mapping, key: str, default, what: str) -> float:
     return x
 
 
-def _nonfinite(obj: Any, path: str = "") -> tuple[str, Any] | None:
-    """(path, value) of the first NaN, infinite or larger than ``MAX_NUMBER`` number in a
+def _nonfinite(obj: Any, path: str = "", limit: float = MAX_NUMBER) -> tuple[str, Any] | None:
+    """(path, value) of the first NaN, infinite or larger than ``limit`` number in a
     parsed document (seeds apart), or None."""
     if isinstance(obj, Mapping):
         for k, v in obj.items():
             if k == "seed" and isinstance(v, int):       # noise seeds: any whole number >= 0
                 continue
-            hit = _nonfinite(v, f"{path}.{k}" if path else str(k))
+            hit = _nonfinite(v, f"{path}.{k}" if path else str(k), limit)
             if hit:
                 return hit
     elif isinstance(obj, (list, tuple)):
         for i, v in enumerate(obj):
-            hit = _nonfinite(v, f"{path}[{i}]")
+            hit = _nonfinite(v, f"{path}[{i}]", limit)
             if hit:
                 return hit
-    elif isinstance(obj, (int, float)) and not isinstance(obj, bool) and not abs(obj) <= MAX_NUMBER:
+    elif isinstance(obj, (int, float, np.floating)) and not isinstance(obj, bool) and not abs(obj) <= limit:
         return path, obj
     return None
 
