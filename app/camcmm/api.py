@@ -33,12 +33,31 @@ def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
     return default_host().algorithm(plugin_id)
 
 
+def declared_value(plugin_id: str, name: str, value: Any, flag: str | None = None) -> Any:
+    """``value`` coerced and checked by parameter ``name`` of ``plugin_id``'s declaration
+    (plugin.yaml), for commands that call a plugin's numerics directly rather than through
+    the host: one rule for the CLI, JSON runs and the GUI. None stays None (not given).
+    A refusal is a ParameterError naming the option, e.g. ``--subpix-window: parameter
+    'subpix_window' = 0 is below its minimum 1 px``; a plugin without that parameter is
+    an InputError (``--nominal-radius: fit.line has no nominal radius``)."""
+    if value is None:
+        return None
+    flag = flag or "--" + name.replace("_", "-")
+    param = next((p for p in default_host().get(plugin_id).parameters if p.name == name), None)
+    if param is None:
+        raise InputError(f"{flag}: {plugin_id} has no {name.replace('_', ' ')}")
+    try:
+        return param.coerce(value)
+    except ParameterError as exc:
+        raise ParameterError(f"{flag}: {exc}") from None
+
+
 __all__ = [
     "Camera", "Device", "DeviceDisconnected", "DeviceError", "DeviceMonitor", "DeviceStatus", "DeviceTimeout", "Events",
     "Stage", "device_param", "port_errors", "utc_iso",
     "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
     "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
-    "charts", "combine", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
+    "charts", "combine", "declared_value", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
     "simple_verdict", "to_mm_factor", "write", "write_calibration",
     "check_budget", "check_count", "check_disk", "human_bytes", "memory_limit",
     "YamlError", "load_yaml", "read_yaml",

@@ -53,16 +53,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from camcmm.api import write_calibration
+    from camcmm.api import declared_value, write_calibration
 
     from .boards import detect_all, parse_board
-    from .declared import declared
 
     pid = f"calibration.{args.what}"
     for name in ("subpix_window", "outlier_factor", "max_rms"):
-        setattr(args, name, declared(pid, name, getattr(args, name)))
+        setattr(args, name, declared_value(pid, name, getattr(args, name)))
     if args.what == "camera":
-        args.distance = declared("calibration.projection-uncertainty", "distance", args.distance)
+        args.distance = declared_value("calibration.projection-uncertainty", "distance", args.distance)
     board = parse_board(args.board)
     if args.what == "camera":
         from .camera import calibrate_camera, calibration_dict, camera_json

@@ -20,13 +20,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from camcmm.api import PointCloud, read
-
-    from .declared import declared
+    from camcmm.api import PointCloud, declared_value, read
     from .plugin import gauge_block
 
     for name in ("nominal", "ransac_threshold", "up"):
-        setattr(args, name, declared("calibration.gauge-block", name, getattr(args, name)))
+        setattr(args, name, declared_value("calibration.gauge-block", name, getattr(args, name)))
     cloud = read(args.cloud)
     if not isinstance(cloud, PointCloud):
         from camcmm.api import InputError

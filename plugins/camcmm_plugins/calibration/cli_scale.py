@@ -28,13 +28,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from camcmm.api import InputError
-
-    from .declared import declared
+    from camcmm.api import InputError, declared_value
     from .plugin import scale
 
-    args.accuracy = declared("calibration.scale", "accuracy", args.accuracy)
-    args.length = declared("calibration.scale", "length", args.length)
+    args.accuracy = declared_value("calibration.scale", "accuracy", args.accuracy)
+    args.length = declared_value("calibration.scale", "length", args.length)
     if bool(args.calibration) != bool(args.out):
         raise InputError("--calibration and --out go together")
     return scale(None, args.interferometer, accuracy=args.accuracy, length=args.length,

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from camcmm.api import read
+from camcmm.api import declared_value, read
 
 RULES = "none, vdi2634 (3 of every 1000 points, one at a time), percent:P, sigma:K"
 
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from .source import as_cloud, naming
 
     if args.nominal_radius is not None:
-        args.nominal_radius = _declared(args.element, "nominal_radius", args.nominal_radius)
+        args.nominal_radius = declared_value(f"fit.{args.element}", "nominal_radius", args.nominal_radius)
     if args.extract and args.element != "sphere":
         raise InputError("--extract works for a sphere only")
     obj = read(args.file, unit=args.unit) if args.unit else read(args.file)
@@ -63,22 +63,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if note:
         out["warnings"] = [note, *out["warnings"]]
     return out
-
-
-def _declared(element: str, name: str, value: Any) -> Any:
-    """A command-line value checked by the fit plugin's own parameter declaration (so the
-    CLI, JSON runs and the GUI share one rule: --nominal-radius finite and > 0)."""
-    from camcmm.api import InputError, ParameterError, default_host
-
-    spec = default_host().get(f"fit.{element}")
-    param = next((p for p in spec.parameters if p.name == name), None)
-    flag = "--" + name.replace("_", "-")
-    if param is None:
-        raise InputError(f"{flag}: fit.{element} has no {name.replace('_', ' ')}")
-    try:
-        return param.coerce(value)
-    except ParameterError as exc:
-        raise ParameterError(f"{flag}: {exc}") from None
 
 
 def _vec(v: Any) -> str:

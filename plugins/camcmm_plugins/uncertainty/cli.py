@@ -79,12 +79,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             doc["measurements_from"] = {"project": str(Path(args.project).resolve()), "result": args.result,
                                         "path": args.path}
         return from_dict(doc, base)
-    from camcmm.api import CamcmmError
+    from camcmm.api import CamcmmError, declared_value
 
     from .montecarlo import check_out_dir, run_study, write_outputs
 
-    args.iterations = _declared("iterations", args.iterations)
-    args.seed = _declared("seed", args.seed)
+    args.iterations = declared_value("uncertainty.montecarlo", "iterations", args.iterations)
+    args.seed = declared_value("uncertainty.montecarlo", "seed", args.seed)
     doc, base = load_spec(args.file)
     if args.out:
         check_out_dir(args.out, create=False)
@@ -97,20 +97,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.out:
         res["files"] = write_outputs(res, args.out)
     return res
-
-
-def _declared(name: str, value: Any) -> Any:
-    """A command-line value checked by uncertainty.montecarlo's own declaration (one rule
-    for the CLI, JSON runs and the GUI)."""
-    from camcmm.api import ParameterError, default_host
-
-    if value is None:
-        return None
-    param = next(p for p in default_host().get("uncertainty.montecarlo").parameters if p.name == name)
-    try:
-        return param.coerce(value)
-    except ParameterError as exc:
-        raise ParameterError(f"--{name}: {exc}") from None
 
 
 def _g(x: Any, fmt: str = ".4g") -> str:
