@@ -119,3 +119,47 @@ def test_the_native_crash_of_issue_13_ends_the_worker_not_the_server(tmp_path, m
         assert card is not None and card["status"] == "done", state.error_message
     finally:
         close(server)
+
+
+def test_a_negative_focal_length_calibration_file_through_the_inspect_form(tmp_path):
+    """The issue's own path: fringe.reconstruct run from the page's plugin form on a
+    calibration file with fx = -800 px (once SIGSEGV in cv2.initUndistortRectifyMap, which
+    took the server down). One line naming the file and value; the server's session runs on."""
+    import cv2
+    import yaml
+
+    from camcmm_plugins.fringe.patterns import generate_patterns
+    from test_camera_validation import K1, _pair, _with, _write_yaml
+
+    server, session = build(f"test-wgui-{os.getpid()}-{next(_names)}", tmp_path / "proj")
+    try:
+        server.state.ready()
+        folder = tmp_path / "proj" / "capture"  # inside the project: the page may read it
+        frames = folder / "frames"
+        frames.mkdir(parents=True)
+        seq = {"projector": {"width": 64, "height": 48}, "frames": [
+            "white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16}]}
+        (folder / "seq.yaml").write_text(yaml.safe_dump(seq))
+        for i, f in enumerate(generate_patterns(seq)):
+            cv2.imwrite(str(frames / f"img{i:02d}.png"), f)
+        cal = folder / "cal.yaml"
+        _write_yaml(cal, _pair(k1=_with(K1, 0, 0, -800), size1=[64, 48], size2=[64, 48],
+                               k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]]))
+        inputs = {"sequence": str(folder / "seq.yaml"), "images": sorted(str(p) for p in frames.iterdir()),
+                  "calibration": str(cal)}
+        assert session.run_plugin("fringe.reconstruct", {}, inputs) is None
+        line = server.state.error_message
+        assert "\n" not in line and "cal.yaml" in line and "fx = -800 px must be positive and finite" in line, line
+        # the same session runs the next plugin (in a worker that may be new or the same)
+        import numpy as np
+
+        from camcmm.api import PointCloud, write
+
+        pts = np.random.default_rng(1).uniform(0, 10, (2000, 3))
+        write(PointCloud(pts), folder / "cloud.ply")
+        assert session.import_file(folder / "cloud.ply") is not None
+        session.select_plugin("cloud.downsample")
+        res = session.run_plugin("cloud.downsample", {"voxel_size": 2.0})
+        assert res is not None and 0 < len(res.outputs["cloud"].points) < 2000, server.state.error_message
+    finally:
+        close(server)
