@@ -86,7 +86,8 @@ def test_the_plugin_fits_a_mesh_by_its_vertices_with_a_warning(tmp_path):
 
 
 def test_the_plugin_refuses_an_image_naming_it():
-    with pytest.raises(InputError, match=r"^i\.png: not a point cloud or a mesh"):
+    # the host refuses it by the port's declared kind before the plugin runs
+    with pytest.raises(InputError, match=r"^i\.png: fit\.plane input 'cloud' needs a point cloud or a triangle mesh"):
         PluginHost().run("fit.plane", {"cloud": Image(np.zeros((4, 4), np.uint8), name="i.png")})
 
 

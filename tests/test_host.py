@@ -141,3 +141,18 @@ def test_installed_builtins_are_discovered_like_external_ones():
     host = PluginHost()
     ids = {s.id for s in host.check() if s.status == "ok"}
     assert {"cloud.downsample", "cloud.denoise", "cloud.normals"} <= ids
+
+
+def test_a_file_of_the_wrong_kind_is_refused_naming_it(tmp_path):
+    """A mesh where a point cloud is declared: one line naming the file, before the plugin
+    fails on a missing attribute far from the cause (issue 13)."""
+    import numpy as np
+
+    from camcmm.api import InputError, TriangleMesh, write
+    from camcmm.host import PluginHost
+
+    mesh = TriangleMesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    write(mesh, tmp_path / "m.stl")
+    with pytest.raises(InputError, match=r"m\.stl: cloud\.downsample input 'cloud' needs a point cloud; "
+                                         r"this is a triangle mesh"):
+        PluginHost().run("cloud.downsample", {"cloud": str(tmp_path / "m.stl")}, {"voxel_size": 1.0})

@@ -306,8 +306,34 @@ class PluginHost:
                 value = path
             else:
                 hashes[name] = object_hash(value)
+            _check_kind(spec.id, port, value, given[name])
             loaded[name] = value
         return loaded, hashes
+
+
+#: what each geometry or image port accepts (class names of camcmm.model)
+_PORT_KINDS = {"pointcloud": ("PointCloud",), "mesh": ("TriangleMesh",),
+               "geometry": ("PointCloud", "TriangleMesh"), "image": ("Image",)}
+_KIND_WORDS = {"PointCloud": "a point cloud", "TriangleMesh": "a triangle mesh", "Image": "an image"}
+
+
+def _check_kind(plugin_id: str, port: Any, value: Any, given: Any) -> None:
+    """A file of the wrong kind for a port (a mesh where a cloud is declared) is refused
+    here in one line naming the file: inside the plugin it would fail on a missing
+    attribute, far from the cause."""
+    kinds = _PORT_KINDS.get(port.type)
+    values = value if port.type == "images" and isinstance(value, list) else [value]
+    names = given if port.type == "images" and isinstance(given, (list, tuple)) else [given]
+    kinds = kinds or (("Image",) if port.type == "images" else None)
+    if not kinds:
+        return
+    for v, g in zip(values, names):
+        kind = type(v).__name__
+        if kind in _KIND_WORDS and kind not in kinds:
+            label = g if isinstance(g, (str, Path)) else getattr(v, "name", "")
+            src = f"{label}: " if label else ""
+            want = " or ".join(_KIND_WORDS[k] for k in kinds)
+            raise InputError(f"{src}{plugin_id} input {port.name!r} needs {want}; this is {_KIND_WORDS[kind]}")
 
 
 def _existing(path: str | Path) -> Path:
