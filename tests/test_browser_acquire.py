@@ -28,21 +28,28 @@ from test_browser_wizard import MPE, _card, _counter, _open_wizard  # noqa: E402
 SHOTS = shots("acquire-gui")
 
 
+def start_with_simulated_system(browser, url):
+    """A page on the wizard with a part-2 test of the virtual stereo fringe system started
+    and that system chosen as the source of the measurements."""
+    page = browser.new_page(viewport={"width": 1400, "height": 950})
+    page.set_default_timeout(30_000)
+    _open_wizard(page, url)
+    page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
+    page.locator('[data-testid="wz-system-name"] input').fill("Virtual stereo fringe system")
+    for key, value in MPE.items():
+        page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
+    page.locator('[data-testid="wz-start"]').click()
+    page.wait_for_selector('[data-testid="wz-positions"]')
+    choose(page, "wz-source", "Simulated stereo fringe")
+    return page
+
+
 def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_server):
     url, log = gui_server
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
-            page = browser.new_page(viewport={"width": 1400, "height": 950})
-            page.set_default_timeout(30_000)
-            _open_wizard(page, url)
-            page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
-            page.locator('[data-testid="wz-system-name"] input').fill("Virtual stereo fringe system")
-            for key, value in MPE.items():
-                page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
-            page.locator('[data-testid="wz-start"]').click()
-            page.wait_for_selector('[data-testid="wz-positions"]')
-            choose(page, "wz-source", "Simulated stereo fringe")
+            page = start_with_simulated_system(browser, url)
             _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
             page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=60_000)
             assert _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"

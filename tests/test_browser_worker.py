@@ -17,12 +17,13 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, choose, launch, server_tracebacks, shots  # noqa: E402
+from browsing import MARKS, launch, server_tracebacks, shots  # noqa: E402
 
 pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 
-from test_browser_wizard import MPE, _card, _counter, _open_wizard  # noqa: E402
+from test_browser_acquire import start_with_simulated_system  # noqa: E402
+from test_browser_wizard import _card, _counter  # noqa: E402
 
 SHOTS = shots("worker-gui")
 PARAMS = "{method: 'projector', preset: 'camera_projector'%s}"
@@ -33,16 +34,7 @@ def test_negative_focal_length_through_the_wizard_leaves_the_server_serving(gui_
     with sync_api.sync_playwright() as p:
         browser = launch(p)
         try:
-            page = browser.new_page(viewport={"width": 1400, "height": 950})
-            page.set_default_timeout(30_000)
-            _open_wizard(page, url)
-            page.wait_for_selector('[data-testid="wz-artefact-sphere"]')
-            page.locator('[data-testid="wz-system-name"] input').fill("Virtual stereo fringe system")
-            for key, value in MPE.items():
-                page.locator(f'[data-testid="wz-mpe-{key}"] input').fill(str(value))
-            page.locator('[data-testid="wz-start"]').click()
-            page.wait_for_selector('[data-testid="wz-positions"]')
-            choose(page, "wz-source", "Simulated stereo fringe")
+            page = start_with_simulated_system(browser, url)
             page.evaluate("window.trame.state.set('wz_source_params', %s)" % (PARAMS % ", focal_error: -2"))
             _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
             alert = page.locator('[data-testid="error-snackbar"]', has_text="focal_error")

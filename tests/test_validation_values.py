@@ -19,18 +19,7 @@ import yaml
 
 from camcmm.api import InputError, PointCloud, write
 from camcmm.cli.main import main
-
-
-def refused(capsys, argv, needle: str) -> str:
-    """Run ``camcmm argv``; the one stderr line, which must contain ``needle``."""
-    rc = main([str(a) for a in argv])
-    out, err = capsys.readouterr()
-    assert rc != 0, out
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert "Traceback" not in err and "internal error" not in err, err
-    assert needle in lines[0], lines[0]
-    return lines[0]
+from cliasserts import refused
 
 
 def _no_nan(text: str):
