@@ -393,3 +393,16 @@ def test_https_with_certfile_and_keyfile(tmp_path):
         assert e.value.code == 403
     finally:
         s.stop()
+
+
+def test_a_token_beginning_with_a_dash_reaches_wslink():
+    """token_urlsafe begins with '-' once in 64 launches; trame's argparse must still take it
+    as the websocket secret (it once read '--authKey -x…' as a missing value and the server
+    did not start)."""
+    from trame.app import get_server
+
+    from camcmm.gui.security import Guard
+
+    token = "-" + "x" * 42
+    args, _ = get_server("test-dash-token", client_type="vue3").cli.parse_known_args(Guard(token).wslink_args())
+    assert args.authKey == token

@@ -138,7 +138,9 @@ class Guard:
 
     def wslink_args(self) -> list[str]:
         """trame's command-line arguments that make the websocket's secret the token."""
-        return ["--authKey", self.token] if self.token else []
+        # "--authKey=VALUE": a token may begin with "-" (token_urlsafe gives one in 64), which
+        # argparse would take for an option after a separate "--authKey"
+        return [f"--authKey={self.token}"] if self.token else []
 
     # -- checks ----------------------------------------------------------------------------
     def origin_ok(self, origin: str, request: Any) -> bool:
