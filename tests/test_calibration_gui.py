@@ -50,7 +50,7 @@ def app(tmp_path):
     def make(project_dir=None):
         server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj",
                                 data_roots=[DATA, tmp_path])  # the folders the page may read
-        page = server.calibration
+        page = server.pages["calibration"]
         server.state.ready()
         made.append((server, page))
         return page, session

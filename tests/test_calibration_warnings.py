@@ -219,7 +219,7 @@ def test_calibration_page_shows_the_warnings(tmp_path):
         shutil.copy(LEFT[0], tmp_path / name)
     server, _ = build(f"test-calwarn-{id(tmp_path)}", tmp_path / "proj", data_roots=[DATA, tmp_path])
     try:
-        page, s = server.calibration, server.state
+        page, s = server.pages["calibration"], server.state
         s.ready()
         req = {"mode": "camera", "source": "folder", "folder": str(tmp_path), "left_pattern": "*.jpg",
                "right_pattern": "", "board": BOARD}

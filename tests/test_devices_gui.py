@@ -24,7 +24,7 @@ _names = itertools.count()
 def page(tmp_path):
     server, session = build(f"test-dev-{os.getpid()}-{next(_names)}", tmp_path / "proj")
     server.state.ready()
-    yield server.devices
+    yield server.pages["devices"]
     close(server)
 
 

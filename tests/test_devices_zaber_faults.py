@@ -122,7 +122,7 @@ def test_devices_page_shows_the_refusal_as_one_line(tmp_path):
 
     server, _ = build(f"test-dev-faults-{id(tmp_path)}", tmp_path / "proj")
     server.state.ready()
-    page = server.devices
+    page = server.pages["devices"]
     try:
         key = page.add("devices.stage.zaber-simulated", {"name": "x", "speed": 500.0})
         assert key is not None, page.state.dev_error

@@ -90,7 +90,7 @@ def imported(app, tmp_path, **kw):
     server, session = app()
     for f in (stl, ply):
         assert session.import_file(f) is not None, server.state.error_message
-    page = server.inspect
+    page = server.pages["compare"]
     page.refresh_inputs()
     return server, session, page, truth
 
@@ -263,7 +263,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     # reopening the project shows the last comparison
     stats = list(s.ins_stats)
     project_dir = session.project.path
-    server.inspect.close()
+    server.pages["compare"].close()
     server.session.close()
     session.project.close()
     server2, _ = app(project_dir)
@@ -272,7 +272,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     assert s2.ins_stats == stats and s2.ins_unit == "µm"
     assert [l["kind"] for l in s2.ins_report_links] == ["html", "pdf", "json"]
     assert s2.ins_export_links and s2.ins_fig_af["data"] and s2.ins_fig_section["data"]
-    assert server2.inspect.view.scene == "colour" and server2.inspect.view.dev.n_total == cloud.n_points
+    assert server2.pages["compare"].view.scene == "colour" and server2.pages["compare"].view.dev.n_total == cloud.n_points
 
 
 def test_no_overlap_is_reported_not_coloured(app, tmp_path):
@@ -293,12 +293,12 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     # it is still stored (a failed comparison is a result too), and restored as failed
     assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
     project_dir = session.project.path
-    server.inspect.close()
+    server.pages["compare"].close()
     server.session.close()
     session.project.close()
     server2, _ = app(project_dir)
     assert server2.state.ins_failed and server2.state.ins_failed_reason == result.outputs["reason"]
-    assert server2.inspect.view.scene == "failed" and server2.state.ins_stats == []
+    assert server2.pages["compare"].view.scene == "failed" and server2.state.ins_stats == []
 
 
 def test_run_async_reports_progress_and_can_be_cancelled(app, tmp_path):
@@ -331,7 +331,7 @@ def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
     server, session, page, truth = imported(app, tmp_path)
     s = server.state
     # turned by 90 degrees and moved far: plain ICP cannot, three pairs can
-    measured = page._load(s.ins_measured, "measured")
+    measured = page.load(s.ins_measured, "measured")
     T = np.array([[0, -1, 0, 100.0], [1, 0, 0, 50.0], [0, 0, 1, -30.0], [0, 0, 0, 1]])
     moved = PointCloud(measured.points @ T[:3, :3].T + T[:3, 3], name="turned")
     cio.write(moved, tmp_path / "turned.ply")

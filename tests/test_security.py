@@ -348,7 +348,7 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         assert out["ran"] == 0 and not (tree.outside / "patterns").exists()
 
         # the Calibration page's folder on the server
-        page = server.calibration
+        page = server.pages["calibration"]
         req = {"mode": "camera", "source": "folder", "folder": str(tree.outside), "left_pattern": "*",
                "board": "chessboard:9x6:25"}
         assert page.run(req) is None
@@ -360,7 +360,7 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         assert "no image files" in state.cal_error and "outside" not in state.cal_error
 
         # and a device that reads a file (the CSV interferometer): the same folders
-        assert server.devices.add("devices.interferometer.csv", {"path": str(tree.outside / "secret.xyz")}) is None
+        assert server.pages["devices"].add("devices.interferometer.csv", {"path": str(tree.outside / "secret.xyz")}) is None
         assert "parameter 'path'" in state.dev_error and "outside the folders" in state.dev_error, state.dev_error
         assert SECRET not in state.dev_error
     finally:

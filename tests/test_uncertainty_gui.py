@@ -52,7 +52,7 @@ def cli_json(*args) -> dict:
 
 def test_budget_editor_reproduces_gum_h1_and_the_cli(app):
     server, _ = app()
-    page, s = server.uncertainty, server.state
+    page, s = server.pages["uncertainty"], server.state
     # the starting budget is the shipped thesis table 3.2 (x column): already evaluated
     assert s.unc_b_result is not None and len(s.unc_b_rows) == 5
     doc = yaml.safe_load((DATA / "budget_gum_h1.yaml").read_text())
@@ -73,7 +73,7 @@ def test_budget_editor_reproduces_gum_h1_and_the_cli(app):
 
 def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(app, tmp_path):
     server, _ = app()
-    page, s = server.uncertainty, server.state
+    page, s = server.pages["uncertainty"], server.state
     rows = [{"name": "a", "u": "3", "c": "1", "dof": "inf", "distribution": "normal"},
             {"name": "b", "u": "4", "c": "1", "dof": "inf", "distribution": "rectangular"}]
     page.set_budget("length", "um", 0.95, rows)
@@ -95,7 +95,7 @@ def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(app, tmp_path):
 
 def test_budget_store_and_export(app):
     server, session = app()
-    page, s = server.uncertainty, server.state
+    page, s = server.pages["uncertainty"], server.state
     page.load_budget((DATA / "budget_example.yaml").read_bytes())
     out = page.save_budget()
     assert out is not None
@@ -121,7 +121,7 @@ def small_spec() -> str:
 
 def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(app):
     server, session = app()
-    page, s = server.uncertainty, server.state
+    page, s = server.pages["uncertainty"], server.state
     spec = small_spec()
     params = {"iterations": 500, "seed": 3, "method": "linear", "studies": ["convergence", "volume_maps", "sweep"]}
     full = page.run_montecarlo(spec, params)
@@ -168,7 +168,7 @@ def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(app):
 
 def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(app):
     server, _ = app()
-    page, s = server.uncertainty, server.state
+    page, s = server.pages["uncertainty"], server.state
     assert page.run_montecarlo("cameras: [", {}) is None
     assert "YAML" in s.unc_error and "line" in s.unc_error
     doc = yaml.safe_load(small_spec())

@@ -501,7 +501,7 @@ def gui(tmp_path):
         server, session = build(f"test-wizard-{os.getpid()}-{next(_names)}", project_dir, host=host)
         server.state.ready()
         made.append(server)
-        return server, session, server.wizard
+        return server, session, server.pages["acceptance"]
 
     yield make
     from camcmm.gui.app import close
@@ -573,7 +573,7 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     assert any(r["id"] == str(out["summary_result"]) for r in state.results)
 
     # a restart of the server: the page opens on the result, the report still offered
-    server.wizard.close()
+    server.pages["acceptance"].close()
     server.session.close()
     server.session.project.close()
     server2, _s2, page2 = gui(tmp_path / "proj", host=host)

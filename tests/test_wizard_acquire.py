@@ -30,7 +30,7 @@ def wizard(tmp_path):
         server, session = build(f"test-acq-{os.getpid()}-{next(_names)}", tmp_path / name)
         server.state.ready()
         made.append(server)
-        page, state = server.wizard, server.state
+        page, state = server.pages["acceptance"], server.state
         page.choose_standard("vdi2634-2", state.wz_form)
         form = json.loads(json.dumps(state.wz_form))
         form["system_name"] = "Virtual stereo fringe system"

@@ -24,7 +24,7 @@ _names = itertools.count()
 def wizard(tmp_path):
     server, session = build(f"test-wgui-{os.getpid()}-{next(_names)}", tmp_path / "proj")
     server.state.ready()
-    page, state = server.wizard, server.state
+    page, state = server.pages["acceptance"], server.state
     page.choose_standard("vdi2634-2", state.wz_form)
     form = json.loads(json.dumps(state.wz_form))
     form["system_name"] = "Virtual stereo fringe system"
@@ -103,7 +103,7 @@ def test_the_native_crash_of_issue_13_ends_the_worker_not_the_server(tmp_path, m
     server, session = build(f"test-wgui-{os.getpid()}-{next(_names)}", tmp_path / "proj", host=host)
     server.state.ready()
     try:
-        page, state = server.wizard, server.state
+        page, state = server.pages["acceptance"], server.state
         page.choose_standard("vdi2634-2", state.wz_form)
         form = json.loads(json.dumps(state.wz_form))
         form["system_name"] = "Virtual stereo fringe system"

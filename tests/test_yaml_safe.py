@@ -164,7 +164,7 @@ def test_uncertainty_page_refuses_a_small_bomb_upload_and_keeps_working(tmp_path
     server, _ = build(f"test-yaml-{os.getpid()}", tmp_path / "proj")
     try:
         server.state.ready()
-        page, s = server.uncertainty, server.state
+        page, s = server.pages["uncertainty"], server.state
         bomb = (_laughs(levels=7) + "contributions: *h\n").encode()
         assert len(bomb) < 400  # 9**8 = 4.3e7 strings as rows
         rows_before = list(s.unc_b_rows)

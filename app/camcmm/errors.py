@@ -33,3 +33,26 @@ class GeometryError(CamcmmError):
 
 class ProjectError(CamcmmError):
     """A project folder that cannot be opened or written."""
+
+
+def one_line(exc: BaseException | str, name: str = "", *paths: object) -> str:
+    """The reason an operator reads: one line, naming ``name`` (a file, a plugin).
+
+    A :class:`CamcmmError` is its own message; anything else (a bug, a library's
+    error) is prefixed with its type so it is not mistaken for a checked reason.
+    ``paths`` (e.g. the temporary copy of an upload) are replaced by ``name``, the
+    name the operator knows.
+    """
+    if isinstance(exc, str):
+        msg = exc
+    elif isinstance(exc, CamcmmError):
+        msg = str(exc)
+    else:
+        msg = f"{type(exc).__name__}: {exc}"
+    msg = " ".join(msg.split()) or "unknown error"
+    for p in paths:
+        if p:
+            msg = msg.replace(str(p), name)
+    if name and name not in msg:
+        msg = f"{name}: {msg}"
+    return msg

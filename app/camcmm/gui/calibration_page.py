@@ -87,8 +87,8 @@ class CalibrationPage(CalibrationShow):
         s.cal_systems, s.cal_system_options = [], []
         s.cal_system_target, s.cal_system_name = "new", ""
 
-    def _flush(self) -> None:
-        self.session._flush()
+    def flush(self) -> None:
+        self.session.flush()
 
     def _error(self, msg: Any) -> None:
         line = one_line(msg)
@@ -162,7 +162,7 @@ class CalibrationPage(CalibrationShow):
             except Exception as exc:
                 self._error(self.session._reason(exc, f["name"]))
             finally:
-                self.session._drop_upload(f["content"])
+                self.session.drop_upload(f["content"])
         if keys:
             self.session.refresh_items()
             attr = "cal_right_items" if side == "right" else "cal_left_items"
@@ -197,7 +197,7 @@ class CalibrationPage(CalibrationShow):
         def show() -> None:
             self.state.cal_progress = round(100.0 * float(fraction), 1)
             self.state.cal_message = message or "calibrating"
-        self.session._post(show)
+        self.session.post(show)
 
     def cancel(self) -> None:
         if self._cancel is not None:
@@ -316,15 +316,15 @@ class CalibrationPage(CalibrationShow):
             return None
         req, src = checked
         cancel = self._begin()
-        self._flush()
+        self.flush()
         try:
             doc, pics = await asyncio.get_running_loop().run_in_executor(self._executor, self._compute, req, src, cancel)
         except Exception as exc:
             out = self._failed(exc)
-            self._flush()
+            self.flush()
             return out
         out = self._finished(doc, pics)
-        self._flush()
+        self.flush()
         return out
 
     def _failed(self, exc: BaseException) -> None:

@@ -195,7 +195,7 @@ class CalibrationShow:
         url, note = await asyncio.get_running_loop().run_in_executor(self._executor, self._overlay, doc, side, name)
         if self.doc is doc and self.state.cal_selected == name:
             self.state.cal_overlay, self.state.cal_overlay_note = url, note
-        self._flush()
+        self.flush()
 
     def _rectified(self, doc: dict[str, Any], index: int, images: dict[str, list] | None = None) -> tuple[str, str]:
         """(data URL, note) of used pair ``index`` rectified, with horizontal lines."""
@@ -229,7 +229,7 @@ class CalibrationShow:
         pic = await asyncio.get_running_loop().run_in_executor(self._executor, self._rectified, doc, int(index))
         if self.doc is doc and self.state.cal_pair == int(index):
             self.state.cal_rectified, self.state.cal_rectified_note = pic
-        self._flush()
+        self.flush()
 
     # -- downloads --------------------------------------------------------------------------
     def _base(self, doc: dict[str, Any]) -> str:

@@ -6,7 +6,7 @@ are stored in the project as they arrive. State keys ``dev_*``.
 Devices are made by the host from their manifest (``host.device(id, config,
 **objects)``): the page knows the device interface of :mod:`camcmm.devices`, not any
 particular device. Device events arrive on the device's own threads (a sequence
-worker, a live view); the page hands them to the server loop with ``session._post``
+worker, a live view); the page hands them to the server loop with ``session.post``
 and never blocks in them. A :class:`~camcmm.devices.DeviceMonitor` pings idle devices
 so that one that stops answering shows as ``fault`` within about two seconds.
 """
@@ -141,7 +141,7 @@ class DevicesPage:
             key = f"d{self._counter}"
         self.devices[key], self.plugin_of[key] = dev, plugin_id
         for event in ("status", "fault", "position"):
-            self._unsub.append(dev.events.on(event, lambda *a, k=key: self.session._post(self._publish_one, k)))
+            self._unsub.append(dev.events.on(event, lambda *a, k=key: self.session.post(self._publish_one, k)))
         if connect:
             self.connect(key)
         self._restart_monitor()
@@ -281,7 +281,7 @@ class DevicesPage:
         dev = self.devices[key]
         try:
             if on:
-                self._unsub.append(dev.events.on("frame", lambda fr, *a: self.session._post(self._show_frame, fr)))
+                self._unsub.append(dev.events.on("frame", lambda fr, *a: self.session.post(self._show_frame, fr)))
                 dev.start_live(fps)
             else:
                 dev.stop_live()
@@ -327,8 +327,8 @@ class DevicesPage:
             return None
         self.sequence = seq
         for event in ("state", "progress", "fault"):
-            self._unsub.append(seq.events.on(event, lambda *a: self.session._post(self._publish_sequence)))
-        self._unsub.append(seq.events.on("frame", lambda *a: self.session._post(self.session.refresh_items)))
+            self._unsub.append(seq.events.on(event, lambda *a: self.session.post(self._publish_sequence)))
+        self._unsub.append(seq.events.on("frame", lambda *a: self.session.post(self.session.refresh_items)))
         seq.start()
         self._publish_sequence()
         return seq

@@ -104,8 +104,8 @@ class InspectExport:
         self._pairs_nominal = [list(map(float, p)) for p in pairs.get("nominal") or []]
         self._publish_pairs()
         try:
-            self.nominal = self._load(s.ins_nominal, "nominal") if s.ins_nominal else None
-            self.measured = self._load(s.ins_measured, "measured cloud") if s.ins_measured else None
+            self.nominal = self.load(s.ins_nominal, "nominal") if s.ins_nominal else None
+            self.measured = self.load(s.ins_measured, "measured cloud") if s.ins_measured else None
         except Exception:
             self.nominal = None
         prep = prepare_cloud(cloud.points, cloud.fields.get("deviation"), self.view.display_limit)
@@ -172,7 +172,7 @@ class InspectExport:
         if not self._can("export"):
             return None
         self.state.ins_busy = "export"
-        self._flush()
+        self.flush()
         try:
             cloud = self._export_cloud()
             path, h = await asyncio.get_running_loop().run_in_executor(self._executor, self._write_export, cloud)
@@ -182,11 +182,11 @@ class InspectExport:
         finally:
             self.state.ins_busy = ""
         out = self._exported(cloud, path, h)
-        self._flush()
+        self.flush()
         return out
 
     def _exported(self, cloud: Any, path: Path, h: str) -> dict[str, Any]:
-        mid = self.session._add_measurement(path.name, h, cloud, source=f"{PLUGIN} result #{self.result_id}")
+        mid = self.session.add_measurement(path.name, h, cloud, source=f"{PLUGIN} result #{self.result_id}")
         key = str(mid)
         self.session._objects[key] = cloud
         self.session.refresh_items()
@@ -304,7 +304,7 @@ class InspectExport:
         if not self._can("report"):
             return None
         self.state.ins_busy = "report"
-        self._flush()
+        self.flush()
         folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
         loop = asyncio.get_running_loop()
         try:
@@ -317,7 +317,7 @@ class InspectExport:
             shutil.rmtree(folder, ignore_errors=True)
             self.state.ins_busy = ""
         out = self._reported(files)
-        self._flush()
+        self.flush()
         return out
 
     def _reported(self, files: dict[str, str]) -> dict[str, Any]:

@@ -93,10 +93,10 @@ class InspectInputs:
         m = self.session._measurements.get(str(key)) if key is not None else None
         return str(m.get("name") or key) if m else str(key)
 
-    def _load(self, key: Any, what: str) -> Any:
+    def load(self, key: Any, what: str) -> Any:
         if key in (None, ""):
             raise InputError(f"choose the {what} first (import it with the Import field)")
-        return self.session._load(str(key))
+        return self.session.load(str(key))
 
     def pairs_method(self) -> bool:
         return str(self.state.ins_align or "").startswith("pairs")
@@ -118,8 +118,8 @@ class InspectInputs:
         """The inputs scene (both objects as they are) for picking point pairs."""
         s = self.state
         try:
-            measured = self._load(s.ins_measured, "measured cloud") if s.ins_measured else None
-            nominal = self._load(s.ins_nominal, "nominal") if s.ins_nominal else None
+            measured = self.load(s.ins_measured, "measured cloud") if s.ins_measured else None
+            nominal = self.load(s.ins_nominal, "nominal") if s.ins_nominal else None
         except Exception as exc:
             self._error(exc)
             return False

@@ -150,8 +150,8 @@ class InspectPage(InspectInputs, InspectRun, InspectExport):
         s.ins_result_id = None
         s.ins_timing = {}
 
-    def _flush(self) -> None:
-        self.session._flush()
+    def flush(self) -> None:
+        self.session.flush()
 
     def _error(self, msg: Any) -> None:
         line = _one_line(msg) if not isinstance(msg, str) else " ".join(msg.split())

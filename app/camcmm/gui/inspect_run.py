@@ -94,7 +94,7 @@ class InspectRun:
         if fraction < 1.0 and now - self._last_progress < 0.1:
             return
         self._last_progress = now
-        self.session._post(self._set_progress, fraction, message)
+        self.session.post(self._set_progress, fraction, message)
 
     def cancel(self) -> None:
         if self._cancel is not None:
@@ -105,8 +105,8 @@ class InspectRun:
                  measured_key: str, nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
         """Worker thread: load the inputs, run the plugin, prepare the display."""
         t0 = time.time()
-        cloud = self.session._load(measured_key)
-        nominal = self.session._load(nominal_key)
+        cloud = self.session.load(measured_key)
+        nominal = self.session.load(nominal_key)
         if not hasattr(cloud, "points") or hasattr(cloud, "faces"):
             raise InputError(f"{self._name(measured_key)}: the measured item must be a point cloud")
         if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
@@ -167,7 +167,7 @@ class InspectRun:
         if started is None:
             return None
         inputs, values, mids, cancel = started
-        self._flush()
+        self.flush()
         loop = asyncio.get_running_loop()
         mk, nk = str(self.state.ins_measured), str(self.state.ins_nominal)
         try:
@@ -175,22 +175,22 @@ class InspectRun:
                 self._executor, self._compute, inputs, values, cancel, mk, nk)
         except Exception as exc:
             self._failed(exc)
-            self._flush()
+            self.flush()
             return None
         self._show_result(result, prep, timing)
-        self._flush()
+        self.flush()
         self.timing["flushed"] = time.time()
         self.state.ins_timing = dict(self.timing)
         self._auto_section()  # after the colour map is on its way: it needs the point spacing
-        self._flush()
+        self.flush()
         try:
             stored = await loop.run_in_executor(self._executor, self._store, result, mids)
         except Exception as exc:
             self._not_stored(exc)
-            self._flush()
+            self.flush()
             return result
         self._stored(stored)
-        self._flush()
+        self.flush()
         return result
 
     def _failed(self, exc: BaseException) -> None:

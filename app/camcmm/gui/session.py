@@ -206,7 +206,7 @@ class Session:
         s.info_visible = False
         s.importing = False
 
-    def _flush(self) -> None:
+    def flush(self) -> None:
         try:
             self.state.flush()
         except Exception:  # a client vanishing mid-update must not break the logic
@@ -217,7 +217,7 @@ class Session:
         self._loop = loop or asyncio.get_running_loop()
         self._loop_thread = threading.get_ident()
 
-    def _post(self, fn: Callable[..., None], *args: Any) -> None:
+    def post(self, fn: Callable[..., None], *args: Any) -> None:
         """Run ``fn`` on the loop thread (now, if we are on it or there is no loop)."""
         if self._loop is not None and threading.get_ident() != self._loop_thread and not self._loop.is_closed():
             def call() -> None:
@@ -276,7 +276,7 @@ class Session:
         self.state.items = items
         self._refresh_form_inputs()
 
-    def _load(self, key: str) -> Any:
+    def load(self, key: str) -> Any:
         if key in self._objects:
             return self._objects[key]
         m = self._measurements.get(key)
@@ -322,7 +322,7 @@ class Session:
     def _register(self, path: Path, obj: Any, name: str) -> str:
         """Store a read file in the project and show it. Loop thread only."""
         h = self.project.add_file(path)
-        mid = self._add_measurement(name, h, obj)
+        mid = self.add_measurement(name, h, obj)
         key = str(mid)
         self._objects[key] = obj
         self._summary[key] = f"{kind_of(obj)} · {describe(obj)}"
@@ -331,7 +331,7 @@ class Session:
         self.info(f"imported {name}: {describe(obj)}")
         return key
 
-    def _add_measurement(self, name: str, h: str, obj: Any, source: str = "") -> Any:
+    def add_measurement(self, name: str, h: str, obj: Any, source: str = "") -> Any:
         meta = {"summary": describe(obj)}
         if source:
             meta["made_by"] = source
@@ -354,7 +354,7 @@ class Session:
             return None
         finally:
             self.state.importing = False
-            self._drop_upload(source)
+            self.drop_upload(source)
 
     async def import_file_async(self, source: str | Path | bytes, name: str | None = None) -> str | None:
         """As :meth:`import_file`, reading in a worker thread so the page stays live."""
@@ -364,7 +364,7 @@ class Session:
         self.state.importing = True
         self.clear_error()
         self.info(f"reading {label} …")
-        self._flush()
+        self.flush()
         try:
             path, obj, label = await asyncio.get_running_loop().run_in_executor(
                 self._executor, self.read_file, source, name)
@@ -374,8 +374,8 @@ class Session:
             return None
         finally:
             self.state.importing = False
-            self._drop_upload(source)
-            self._flush()
+            self.drop_upload(source)
+            self.flush()
 
     def _import_reason(self, exc: BaseException, label: str, source: Any) -> str:
         """The one-line reason; for a file read on the server, without the bytes a
@@ -387,7 +387,7 @@ class Session:
             msg = redact(msg, keep=(label, str(source)))
         return msg
 
-    def _drop_upload(self, source: Any) -> None:
+    def drop_upload(self, source: Any) -> None:
         """Delete the temp copies of uploads (the project keeps its own copy)."""
         if isinstance(source, (bytes, bytearray, memoryview)):
             for folder in self._tmp.glob("upload-*"):
@@ -413,7 +413,7 @@ class Session:
             return
         key = str(key)
         try:
-            obj = self._load(key)
+            obj = self.load(key)
         except Exception as exc:
             name = self._measurements.get(key, {}).get("name", key)
             self.error(self._reason(exc, str(name)))
@@ -589,7 +589,7 @@ class Session:
                         continue
                     raise PluginError(f"plugin {plugin_id!r} needs input {port.name!r} ({port.type}): "
                                       "import a file or choose an item")
-                obj = self._load(str(key))
+                obj = self.load(str(key))
                 if kind_of(obj) not in _ITEM_TYPES[port.type]:
                     raise PluginError(f"plugin {plugin_id!r}: input {port.name!r} must be a {port.type}, "
                                       f"item {getattr(obj, 'name', key)!r} is a {kind_of(obj)}")
@@ -626,7 +626,7 @@ class Session:
         if fraction < 1.0 and now - self._last_progress < 0.1:
             return  # at most ten updates a second reach the page
         self._last_progress = now
-        self._post(self._set_progress, fraction, message)
+        self.post(self._set_progress, fraction, message)
 
     def cancel_run(self) -> None:
         if self._cancel is not None:
@@ -664,7 +664,7 @@ class Session:
             self.error(self._reason(exc, ""))
             return None
         cancel = self._begin_run(plugin_id)
-        self._flush()
+        self.flush()
         loop = asyncio.get_running_loop()
         try:
             result = await loop.run_in_executor(
@@ -672,10 +672,10 @@ class Session:
                 lambda: worker.run(self.host, plugin_id, objs, values, progress=self._progress_cb, cancel=cancel))
         except Exception as exc:
             self._run_failed(plugin_id, exc)
-            self._flush()
+            self.flush()
             return None
         out = self._run_done(spec, result, mids, objs)
-        self._flush()
+        self.flush()
         return out
 
     def _run_failed(self, plugin_id: str, exc: BaseException) -> None:
@@ -740,7 +740,7 @@ class Session:
                 f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
             try:
                 h = self.project.add_object(obj, name)
-                mid = self._add_measurement(name, h, obj, source=f"{spec.id} {result.plugin_version}")
+                mid = self.add_measurement(name, h, obj, source=f"{spec.id} {result.plugin_version}")
             except Exception as exc:
                 warnings.append(f"output {label!r} could not be stored: {self._reason(exc, '')}")
                 continue

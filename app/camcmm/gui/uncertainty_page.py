@@ -131,8 +131,8 @@ class UncertaintyPage:
         s.unc_mc_map_note = ""
         s.unc_mc_links = []
 
-    def _flush(self) -> None:
-        self.session._flush()
+    def flush(self) -> None:
+        self.session.flush()
 
     def _error(self, msg: Any) -> None:
         line = _one_line(msg) if not isinstance(msg, str) else " ".join(msg.split())
@@ -264,7 +264,7 @@ class UncertaintyPage:
         def show() -> None:
             self.state.unc_mc_progress = round(100.0 * float(fraction), 1)
             self.state.unc_mc_message = message or "Monte Carlo"
-        self.session._post(show)
+        self.session.post(show)
 
     def cancel(self) -> None:
         if self._cancel is not None:
@@ -319,20 +319,20 @@ class UncertaintyPage:
             self._error(exc)
             return None
         cancel = self._begin()
-        self._flush()
+        self.flush()
         loop = asyncio.get_running_loop()
         try:
             run = await loop.run_in_executor(self._executor, self._compute, doc, values, cancel)
             self.state.unc_mc_message = "storing the result in the project …"
-            self._flush()
+            self.flush()
             rid, h = await loop.run_in_executor(self._executor, self._store, run, doc)
             full = await loop.run_in_executor(self._executor, self._read_json, h)
         except Exception as exc:
             out = self._failed(exc)
-            self._flush()
+            self.flush()
             return out
         out = self._finished(full, rid)
-        self._flush()
+        self.flush()
         return out
 
     def _read_json(self, h: str) -> dict[str, Any]:

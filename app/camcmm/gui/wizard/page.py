@@ -70,8 +70,8 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_source_params = {}
         s.wz_acquiring_all = False
 
-    def _flush(self) -> None:
-        self.session._flush()
+    def flush(self) -> None:
+        self.session.flush()
 
     def refresh(self, setup_form: bool = False) -> None:
         """Publish everything the page shows."""

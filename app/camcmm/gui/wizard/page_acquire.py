@@ -80,7 +80,7 @@ class PageAcquire:
             return None
         self._set_busy(key, True)
         self.refresh_cards()
-        self._flush()
+        self.flush()
         loop = asyncio.get_running_loop()
         try:
             path = await loop.run_in_executor(self._executor, self._acquire, source,
@@ -89,7 +89,7 @@ class PageAcquire:
             self._set_busy(key, False)
             self.refresh_cards()
             self.session.error(f"{position}: {source} could not measure: {_one_line(exc)}")
-            self._flush()
+            self.flush()
             return None
         self._set_busy(key, False)
         try:
@@ -102,7 +102,7 @@ class PageAcquire:
         """Every position still to do, one after the other; stops at the first failure."""
         done = 0
         self.state.wz_acquiring_all = True
-        self._flush()
+        self.flush()
         try:
             for block in self.wizard.cards():
                 for card in block["cards"]:
@@ -115,5 +115,5 @@ class PageAcquire:
                         card = self.wizard.card(card["test"], card["id"])
         finally:
             self.state.wz_acquiring_all = False
-            self._flush()
+            self.flush()
         return done

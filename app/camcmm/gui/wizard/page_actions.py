@@ -85,7 +85,7 @@ class PageActions:
             return None
         self._set_busy(key, True)
         self.refresh_cards()
-        self._flush()
+        self.flush()
         loop = asyncio.get_running_loop()
         try:
             await loop.run_in_executor(self._executor, self.wizard.evaluate, job, source, name)
@@ -95,7 +95,7 @@ class PageActions:
             self.state.wz_redo = None
             self.refresh()
             self.session.error(msg)
-            self._flush()
+            self.flush()
             return None
         try:
             card = self.wizard.record(job)
@@ -104,13 +104,13 @@ class PageActions:
             self._set_busy(key, False)
             self.refresh()
             self.session.error(f"{position}: could not be saved in the project: {msg}")
-            self._flush()
+            self.flush()
             return None
         self._set_busy(key, False)
         self.state.wz_redo = None
         self.refresh()
         self._after_record(job, card)
-        self._flush()
+        self.flush()
         return card
 
     def import_file(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
@@ -213,7 +213,7 @@ class PageActions:
             self.session.bind_loop()
         s = self.state
         s.wz_reporting = True
-        self._flush()
+        self.flush()
         started = utcnow()
         folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
         try:
@@ -230,7 +230,7 @@ class PageActions:
         self.refresh()
         self.session.refresh_results()
         self.session.info(f"report written (result #{out['summary_result']}): verdict {s.wz_verdict}")
-        self._flush()
+        self.flush()
         return out
 
     def report(self) -> dict[str, Any] | None:

@@ -1,0 +1,162 @@
+"""Background work of a page, written once: start, throttled progress, cancel, failure, result.
+
+A page owns one :class:`Job` (or a few: one per kind of work that may overlap). The
+work runs in the job's worker thread while the server's event loop keeps the page
+live; progress reaches the page at most ``1 / interval`` times a second; a cancelled
+run raises :class:`Cancelled` (test it with ``isinstance``, never by its text); any
+other failure is shown as one line (:func:`camcmm.errors.one_line`). Async only: the
+server's loop drives it, and tests drive it with :func:`asyncio.run`.
+
+Typical use in a page::
+
+    self.job = Job("compare", state=session.state, on_progress=self._show_progress)
+
+    async def run_async(self, params):
+        try:
+            result = await self.job.run(self._compute, params)   # in the worker thread
+        except Exception as exc:
+            status, message = Job.outcome(exc, "inspect.compare")
+            ...
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+from ..errors import CamcmmError, one_line
+from ..host import Cancelled
+
+__all__ = ["Busy", "Cancelled", "Job"]
+
+
+class Busy(CamcmmError):
+    """A job was started while the previous run of the same job is still going."""
+
+
+class Job:
+    """One kind of background work of a page.
+
+    Parameters
+    ----------
+    name
+        What the operator calls the work ("the comparison", "calibration"): it names
+        the job in messages and its worker threads.
+    state
+        The trame state: progress and results posted from the worker are pushed to
+        the browser inside ``with state:``. None in tests without a server.
+    on_progress
+        ``on_progress(fraction, message)``, called on the loop thread with
+        ``fraction`` in 0..1.
+    workers
+        Worker threads (1: the work of this job runs in order).
+    interval
+        Least time between two progress updates in s (the final 1.0 always passes).
+    """
+
+    def __init__(self, name: str, *, state: Any = None, on_progress: Callable[[float, str], Any] | None = None,
+                 workers: int = 1, interval: float = 0.1):
+        self.name = name
+        self.state = state
+        self._on_progress = on_progress
+        self._interval = float(interval)
+        self._pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix=f"camcmm-{name.replace(' ', '-')}")
+        self._cancel = threading.Event()
+        self._last = 0.0
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._loop_thread: int | None = None
+        self.running = False
+
+    # -- a run ---------------------------------------------------------------------------
+    def begin(self) -> threading.Event:
+        """Mark the job running and return the run's cancel event; :class:`Busy` if it is."""
+        if self.running:
+            raise Busy(f"{self.name} is running; wait for it or cancel it")
+        self._bind()
+        self.running = True
+        self._cancel = threading.Event()
+        self._last = 0.0
+        return self._cancel
+
+    def end(self) -> None:
+        """Mark the run finished (done, failed or cancelled)."""
+        self.running = False
+
+    @property
+    def cancel_event(self) -> threading.Event:
+        """The current run's cancel event (hand it to :func:`camcmm.worker.run`)."""
+        return self._cancel
+
+    def cancel(self) -> bool:
+        """Ask the running work to stop; True if a run was going."""
+        self._cancel.set()
+        return self.running
+
+    def cancelled(self) -> bool:
+        return self._cancel.is_set()
+
+    def check(self) -> None:
+        """Raise :class:`Cancelled` if the operator cancelled (for the work's own loops)."""
+        if self._cancel.is_set():
+            raise Cancelled(f"{self.name}: cancelled")
+
+    def progress(self, fraction: float, message: str = "") -> None:
+        """The work's progress callback (any thread); throttled to the page."""
+        now = time.monotonic()
+        if float(fraction) < 1.0 and now - self._last < self._interval:
+            return
+        self._last = now
+        if self._on_progress is not None:
+            self.post(self._on_progress, float(fraction), message)
+
+    async def call(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``fn(*args, **kwargs)`` in the job's worker thread; its result or its exception."""
+        self._bind()
+        loop = asyncio.get_running_loop()
+        return await loop.run_in_executor(self._pool, functools.partial(fn, *args, **kwargs))
+
+    async def run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """:meth:`begin`, :meth:`call`, :meth:`end` (also when the work fails)."""
+        self.begin()
+        try:
+            return await self.call(fn, *args, **kwargs)
+        finally:
+            self.end()
+
+    # -- the page's thread ----------------------------------------------------------------
+    def _bind(self) -> None:
+        try:
+            self._loop = asyncio.get_running_loop()
+            self._loop_thread = threading.get_ident()
+        except RuntimeError:  # called outside a loop (a test's set-up): post runs at once
+            pass
+
+    def post(self, fn: Callable[..., Any], *args: Any) -> None:
+        """Run ``fn(*args)`` on the loop thread (at once when already on it, or no loop)."""
+        loop = self._loop
+        if loop is not None and threading.get_ident() != self._loop_thread and not loop.is_closed():
+            def call() -> None:
+                if self.state is None:
+                    fn(*args)
+                    return
+                with self.state:  # leaving the block pushes the changes to the browser
+                    fn(*args)
+            loop.call_soon_threadsafe(call)
+        else:
+            fn(*args)
+
+    @staticmethod
+    def outcome(exc: BaseException, name: str = "") -> tuple[str, str]:
+        """``("cancelled" | "failed", one-line message)`` for a run that raised ``exc``."""
+        if isinstance(exc, Cancelled):
+            return "cancelled", one_line(exc, name)
+        return "failed", one_line(exc, name)
+
+    def close(self) -> None:
+        """Cancel and let the worker threads go (the server stops)."""
+        self._cancel.set()
+        self._pool.shutdown(wait=False, cancel_futures=True)

@@ -1,0 +1,84 @@
+"""Widgets every page shares: test ids and the form of a plugin's declared parameters.
+
+A plugin's parameters are declared once, in its manifest; :func:`camcmm.params.form_schema`
+turns them into ``fields`` (name, label, widget, unit, min, max, choices, help) and
+:func:`param_form` draws them — the same way on every page. Import inside a layout
+function: this module loads trame's widgets.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def tid(name: str) -> list[str]:
+    """``raw_attrs`` giving a widget the fixed ``data-testid`` ``name`` (for the browser tests)."""
+    return [f'data-testid="{name}"']
+
+
+def accepted_extensions() -> str:
+    """The file input's ``accept`` list: every extension camcmm.io reads."""
+    from ..io import FORMATS
+
+    return ",".join(sorted(ext for ext, f in FORMATS.items() if f.get("readable", True)))
+
+
+def dyn_tid(expr: str) -> list[str]:
+    """``raw_attrs`` giving a widget a ``data-testid`` computed by the JavaScript ``expr``."""
+    return [f':data-testid="{expr}"']
+
+
+def assign(var: str, key: str) -> str:
+    """A JavaScript handler that replaces the dict ``var`` with one where ``key`` is the
+    event's value: trame syncs a changed top-level variable, not a changed member."""
+    return f"{var} = Object.assign({{}}, {var}, {{[{key}]: $event}})"
+
+
+# Client-side check of a number field against its declared limits (a Vuetify rule); the
+# server checks again with camcmm.params, this only tells the operator early.
+_NUMBER_RULE = (
+    "[v => (v === '' || v === null || v === undefined) || !isNaN(Number(v)) || 'not a number',"
+    " v => (v === '' || v === null || v === undefined || {f}.min == null || Number(v) >= {f}.min)"
+    " || ('at least ' + {f}.min + ' ' + ({f}.unit || '')),"
+    " v => (v === '' || v === null || v === undefined || {f}.max == null || Number(v) <= {f}.max)"
+    " || ('at most ' + {f}.max + ' ' + ({f}.unit || ''))]"
+)
+
+
+def param_form(fields: str, values: str, testid: str, *, disabled: str = "false", numbers: bool = True,
+               sync: bool = False, hide_details: str | bool = "auto") -> None:
+    """Draw the fields of the state list ``fields`` bound to the state dict ``values``.
+
+    Each widget has ``data-testid`` ``<testid>-<name>``. ``numbers``: a number widget
+    with the declared limits as client-side rules (else a text field). ``sync``: write
+    a whole new dict on each change (for dicts the server reads back while the page
+    is open, e.g. a device's settings) instead of ``v_model`` on a member.
+    ``disabled``: a JavaScript expression.
+    """
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    f = "field"
+    ident = dyn_tid(f"'{testid}-' + {f}.name")
+
+    def bind(**kw: Any) -> dict[str, Any]:
+        if sync:
+            kw.update(model_value=(f"{values}[{f}.name]",), update_modelValue=assign(values, f"{f}.name"))
+        else:
+            kw["v_model"] = f"{values}[{f}.name]"
+        return dict(kw, disabled=(disabled,), raw_attrs=ident)
+
+    with html.Template(v_for=f"{f} in {fields}", key=f"{f}.name"):
+        if numbers:
+            v.VTextField(**bind(v_if=f"{f}.widget === 'number'", type="number", label=(f"{f}.label",),
+                                suffix=(f"{f}.unit",), hint=(f"{f}.help",), min=(f"{f}.min",), max=(f"{f}.max",),
+                                step="any", rules=(_NUMBER_RULE.format(f=f),), density="compact",
+                                variant="outlined", hide_details=hide_details, classes="mb-1"))
+        v.VSwitch(**bind(**{"v_else_if" if numbers else "v_if": f"{f}.widget === 'switch'"},
+                         label=(f"{f}.label",), hint=(f"{f}.help",), color="primary", density="compact",
+                         hide_details=hide_details))
+        v.VSelect(**bind(v_else_if=f"{f}.widget === 'select'", items=(f"{f}.choices",), label=(f"{f}.label",),
+                         hint=(f"{f}.help",), density="compact", variant="outlined", hide_details=hide_details,
+                         classes="mb-1"))
+        v.VTextField(**bind(v_else=True, label=(f"{f}.label",), suffix=(f"{f}.unit",), hint=(f"{f}.help",),
+                            density="compact", variant="outlined", hide_details=hide_details, classes="mb-1"))
