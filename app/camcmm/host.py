@@ -180,6 +180,21 @@ class PluginHost:
             hint = f"; did you mean {', '.join(close[:3])}?" if close else "; `camcmm plugins` lists them"
             raise PluginError(f"no plugin with id {plugin_id!r}{hint}") from None
 
+    def providing(self, task: str) -> list[PluginSpec]:
+        """The usable plugins whose manifest declares ``provides: [task, ...]``, by id."""
+        return sorted((s for s in self.plugins.values() if task in s.provides), key=lambda s: s.id)
+
+    def provider(self, task: str) -> PluginSpec:
+        """The plugin a page or command runs for ``task`` (e.g. ``compare-with-cad``): the
+        one declaring it, or, when several do, the first by id that is not a built-in
+        (a lab's own replaces camcmm's). PluginError when none is installed."""
+        found = self.providing(task)
+        if not found:
+            raise PluginError(f"no plugin provides {task!r}: install one that declares it "
+                              "(`camcmm plugins` lists what is installed)")
+        own = [s for s in found if s.distribution != "camcmm"]
+        return (own or found)[0]
+
     def load(self, plugin_id: str) -> Any:
         """Import a plugin's entry object; on failure set its status and raise."""
         spec = self.get(plugin_id)

@@ -74,6 +74,7 @@ class PluginSpec:
     outputs: list[Port] = field(default_factory=list)
     distribution: str = ""
     status: str = "ok"
+    provides: list[str] = field(default_factory=list)
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
@@ -128,7 +129,11 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
         params = [Param.from_dict(p) for p in d.get("parameters") or []]
     except Exception as exc:  # ParameterError or a malformed mapping
         raise PluginError(f"{where}: plugin {pid!r}: {exc}") from None
-    known = {"id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs"}
+    provides = d.get("provides") or []
+    if isinstance(provides, str) or not all(isinstance(t, str) and _ID.match(t) for t in provides):
+        raise PluginError(f"{where}: plugin {pid!r}: 'provides' must be a list of task names "
+                          f"(lower-case letters, digits, '.', '_', '-'), got {provides!r}")
+    known = {"id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs", "provides"}
     return PluginSpec(
         id=pid,
         kind=str(d["kind"]),
@@ -140,6 +145,7 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
         inputs=[_port(p, where) for p in d.get("inputs") or []],
         outputs=[_port(p, where) for p in d.get("outputs") or []],
         distribution=distribution,
+        provides=list(provides),
         extra={k: v for k, v in d.items() if k not in known},
     )
 

@@ -332,13 +332,21 @@ class Session:
         return key
 
     def add_measurement(self, name: str, h: str, obj: Any, source: str = "") -> Any:
+        """Record ``obj`` (stored as file hash ``h``) as a new item; it stays loaded.
+        Returns the measurement id (its item key is ``str(id)``)."""
         meta = {"summary": describe(obj)}
         if source:
             meta["made_by"] = source
         try:
-            return self.project.add_measurement(name, h, kind_of(obj), meta=meta)
+            mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
         except TypeError:  # a store without meta
-            return self.project.add_measurement(name, h, kind_of(obj))
+            mid = self.project.add_measurement(name, h, kind_of(obj))
+        self._objects[str(mid)] = obj
+        return mid
+
+    def measurement(self, key: Any) -> dict[str, Any] | None:
+        """The project's record of item ``key`` (``id``, ``name``, ``kind`` ...), or None."""
+        return None if key is None else self._measurements.get(str(key))
 
     def import_file(self, source: str | Path | bytes, name: str | None = None) -> str | None:
         """Import a file into the project and show it. Returns the new item's id, or
