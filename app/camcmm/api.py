@@ -2,26 +2,60 @@
 
 Built-in plugins import from ``camcmm.api`` only, never from other camcmm modules or
 from each other; a test checks this. Importing it loads neither trame, VTK nor Open3D.
+
+The names are grouped below by topic. Which of them are stable (kept, with the same
+meaning, for every 1.x of :data:`API_VERSION`) is listed in docs/api.md, which a test
+holds equal to ``__all__``.
 """
 
 from __future__ import annotations
 
 from typing import Any, Callable
 
-from .conformity import combine, guarded_verdict, simple_verdict
-from .devices import (Camera, Device, DeviceDisconnected, DeviceError, DeviceMonitor, DeviceStatus, DeviceTimeout,
-                      Events, Stage, port_errors, utc_iso)
-from .devices import param as device_param
+# -- errors: what a plugin raises so the operator reads one line ----------------------
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
-from .host import RunContext, RunResult, default_host
-from .io import check_calibration, read, read_calibration, write, write_calibration
-from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
+from .yamlfile import YamlError
+
+# -- the data model: clouds, meshes, images, cameras, artefacts (lengths in mm) ---------
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
+
+# -- files: geometry, images, calibrations, YAML ----------------------------------------
+from .io import check_calibration, read, read_calibration, write, write_calibration
+from .yamlfile import load_yaml, read_yaml
+
+# -- parameters and units -----------------------------------------------------------------
 from .params import Param
 from .project.select import project_values
-from .report import Report, charts
 from .units import to_mm_factor
-from .yamlfile import YamlError, load_yaml, read_yaml
+
+# -- running plugins: the context a plugin gets, other plugins as callables -----------
+from .host import Cancelled, RunContext, RunResult, default_host
+
+# -- conformity decisions (ISO 14253-1) -------------------------------------------------
+from .conformity import combine, guarded_verdict, simple_verdict
+
+# -- reports: one document rendered as HTML, PDF and JSON ------------------------------
+from .report import Report, charts
+
+# -- acceptance-test standards: the typed protocol (declaration, results) -------------
+from .standard import (ArtefactField, ArtefactKind, ParameterResult, PositionEvaluation, PositionSpec,
+                       QualityParameter, Standard, StandardDeclaration, TestDeclaration, TestResult)
+
+# -- resource limits: refuse a job the machine cannot hold, before it starts ------------
+from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
+
+# -- devices: the base classes device plugins subclass --------------------------------
+from .devices import (Camera, Device, DeviceDisconnected, DeviceError, DeviceMonitor, DeviceStatus,
+                      DeviceTimeout, Events, Stage, port_errors, utc_iso)
+from .devices import param as device_param
+
+# -- JSON and time: the one cleaner and the one clock -----------------------------------
+from .jsonable import to_jsonable, utc_now
+
+# -- the version of this API ------------------------------------------------------------
+#: Major.minor of the plugin API. The major changes when a stable name is removed or
+#: changes meaning; the minor when names are added. Plugins may check it at import.
+API_VERSION = "1.0"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -53,13 +87,30 @@ def declared_value(plugin_id: str, name: str, value: Any, flag: str | None = Non
 
 
 __all__ = [
-    "Camera", "Device", "DeviceDisconnected", "DeviceError", "DeviceMonitor", "DeviceStatus", "DeviceTimeout", "Events",
-    "Stage", "device_param", "port_errors", "utc_iso",
-    "Artefact", "CameraModel", "CamcmmError", "Certificate", "GeometryError", "Image", "InputError",
-    "Param", "ParameterError", "PluginError", "PointCloud", "Report", "RunContext", "RunResult", "TriangleMesh",
-    "charts", "combine", "declared_value", "get_algorithm", "guarded_verdict", "project_values", "read", "read_calibration",
-    "simple_verdict", "to_mm_factor", "write", "write_calibration",
+    # version
+    "API_VERSION",
+    # errors
+    "CamcmmError", "GeometryError", "InputError", "ParameterError", "PluginError", "YamlError",
+    # data model
+    "Artefact", "CameraModel", "Certificate", "Image", "PointCloud", "TriangleMesh",
+    # files
+    "check_calibration", "load_yaml", "read", "read_calibration", "read_yaml", "write", "write_calibration",
+    # parameters and units
+    "Param", "declared_value", "project_values", "to_mm_factor",
+    # running plugins
+    "Cancelled", "RunContext", "RunResult", "default_host", "get_algorithm",
+    # conformity
+    "combine", "guarded_verdict", "simple_verdict",
+    # reports
+    "Report", "charts",
+    # standards
+    "ArtefactField", "ArtefactKind", "ParameterResult", "PositionEvaluation", "PositionSpec", "QualityParameter",
+    "Standard", "StandardDeclaration", "TestDeclaration", "TestResult",
+    # resource limits
     "check_budget", "check_count", "check_disk", "human_bytes", "memory_limit",
-    "YamlError", "load_yaml", "read_yaml",
-    "check_calibration",
+    # devices
+    "Camera", "Device", "DeviceDisconnected", "DeviceError", "DeviceMonitor", "DeviceStatus", "DeviceTimeout",
+    "Events", "Stage", "device_param", "port_errors", "utc_iso",
+    # JSON and time
+    "to_jsonable", "utc_now",
 ]

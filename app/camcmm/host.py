@@ -14,14 +14,12 @@ import importlib.resources
 import threading
 import traceback
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
 from .errors import CamcmmError, InputError, PluginError
 from .hashing import file_hash, object_hash
+from .jsonable import to_jsonable, utc_now
 from .manifest import CommandSpec, PluginSpec, parse_manifest
 from .params import validate
 
@@ -93,29 +91,6 @@ class RunResult:
             "finished": self.finished,
             "warnings": self.warnings,
         }
-
-
-def to_jsonable(x: Any) -> Any:
-    """Numpy scalars and arrays to Python; clouds and meshes to a short summary."""
-    if isinstance(x, dict):
-        return {str(k): to_jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [to_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, float) and not np.isfinite(x):
-        return None  # JSON has no NaN; None says "not defined"
-    if hasattr(x, "n_points"):
-        return {"kind": "pointcloud", "name": x.name, "n_points": x.n_points}
-    if hasattr(x, "n_faces"):
-        return {"kind": "mesh", "name": x.name, "n_vertices": x.n_vertices, "n_faces": x.n_faces}
-    return x
-
-
-def _utcnow() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
 
 
 def _import_entry(entry: str) -> Any:
@@ -235,7 +210,7 @@ class PluginHost:
         loaded, hashes = self._inputs(spec, inputs or {})
         fn = self.load(plugin_id)
         ctx = context or RunContext(self, plugin_id, progress, cancel)
-        started = _utcnow()
+        started = utc_now()
         try:
             outputs = fn(ctx, **loaded, **values)
         except CamcmmError:
@@ -250,7 +225,7 @@ class PluginHost:
             raise PluginError(f"plugin {plugin_id!r} returned {type(outputs).__name__}, expected a dict of outputs")
         if context is None:
             ctx.progress(1.0, "done")
-        return RunResult(plugin_id, spec.version, values, hashes, outputs, started, _utcnow(), ctx.warnings)
+        return RunResult(plugin_id, spec.version, values, hashes, outputs, started, utc_now(), ctx.warnings)
 
     def algorithm(self, plugin_id: str, parent: RunContext | None = None) -> Callable[..., dict[str, Any]]:
         """Another plugin as a plain callable ``f(**inputs_and_params) -> outputs``."""

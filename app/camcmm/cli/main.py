@@ -17,7 +17,8 @@ from typing import Any, Callable
 
 from .. import __version__
 from ..errors import CamcmmError
-from ..host import default_host, to_jsonable
+from ..host import default_host
+from ..jsonable import to_jsonable
 from . import core
 
 

@@ -55,6 +55,7 @@ import numpy as np
 
 from ..errors import CamcmmError, InputError
 from ..model import ROTATION_TOL, CameraModel, camera_problem
+from ..jsonable import to_jsonable
 from ._common import atomic_path
 
 _YAML_EXTS = (".yaml", ".yml", ".xml")
@@ -73,20 +74,6 @@ def _kind(path: Path) -> str:
         return "json"
     raise InputError(f"{path.name}: unknown calibration format (extension {path.suffix!r}); "
                      f"use .yaml, .yml, .xml (OpenCV FileStorage) or .json")
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, (np.floating, np.integer, np.bool_)):
-        return value.item()
-    if isinstance(value, CameraModel):
-        return _camera_to_json(value)
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    return value
 
 
 def _camera_to_json(cam: CameraModel) -> dict[str, Any]:
@@ -189,7 +176,7 @@ def write_calibration(path: str | Path, cal: dict[str, Any]) -> None:
         with atomic_path(p) as tmp:
             if kind == "json":
                 doc = {"format": "camcmm-calibration", "version": 1, "unit": "mm",
-                       **{k: _jsonable(v) for k, v in cal.items() if k != "cameras"},
+                       **{k: to_jsonable(v, keep_nan=True) for k, v in cal.items() if k != "cameras"},
                        "cameras": [_camera_to_json(c) for c in cams]}
                 tmp.write_text(json.dumps(doc, indent=1, allow_nan=True))
             else:
@@ -260,7 +247,7 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
                 fs.write(k, np.atleast_2d(a.astype(np.float64)))  # numeric arrays stay matrices
                 arrays.append(k)
             else:
-                extra[k] = _jsonable(v)
+                extra[k] = to_jsonable(v, keep_nan=True)
         if arrays:
             fs.write("camcmm_arrays", ",".join(arrays))
         if extra:

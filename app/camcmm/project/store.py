@@ -34,13 +34,13 @@ import sqlite3
 import threading
 import time
 from contextlib import contextmanager
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from ..errors import CamcmmError, InputError, ProjectError
 from . import schema
 from ..hashing import file_hash
+from ..jsonable import utc_now
 from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext, orphaned
 from .jsonutil import dumps, loads
 
@@ -52,9 +52,8 @@ _DB_TMP_PID = re.compile(rf"^\.{re.escape(DB_NAME)}\.(\d+)\.")
 BUSY_TIMEOUT_S = 10.0  # another process (CLI, second GUI) may hold the write lock briefly
 
 
-def utcnow() -> str:
-    """Now, UTC, ISO 8601 with milliseconds (the format of RunResult times)."""
-    return datetime.now(timezone.utc).isoformat(timespec="milliseconds")
+#: Now, UTC, ISO 8601 with milliseconds: the one clock, under the name callers know here.
+utcnow = utc_now
 
 
 def _connect(db: Path, create: bool = False) -> sqlite3.Connection:

@@ -20,11 +20,11 @@ import platform
 import struct
 import tempfile
 from dataclasses import dataclass, field
-from datetime import date, datetime, timezone
 from pathlib import Path, PurePath
 from typing import Any, Iterable, Sequence
 
 from ..errors import CamcmmError, InputError
+from ..jsonable import to_jsonable, utc_now
 
 #: The verdict words a report shows, as :mod:`camcmm.conformity` returns them.
 VERDICTS = ("pass", "fail", "inconclusive", "incomplete")
@@ -42,36 +42,14 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 # --------------------------------------------------------------------------- JSON
 def jsonable(x: Any, where: str = "data") -> Any:
-    """``x`` as plain JSON data: numpy values become numbers and lists, NaN/Inf ``null``.
+    """``x`` as plain JSON data (:func:`camcmm.jsonable.to_jsonable`): numpy values become
+    numbers and lists, NaN/Inf ``null``.
 
     JSON has no NaN, and a report file that ``json.loads`` cannot read is worse than
     one that says "not defined" (null). Anything else that is not data raises a
     TypeError naming where it sits, so a caller learns which key to fix.
     """
-    if x is None or isinstance(x, (bool, str)):
-        return x
-    if isinstance(x, int):
-        return int(x)  # also numpy ints and bools that subclass int
-    if isinstance(x, float):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, dict):
-        return {str(k): jsonable(v, f"{where}[{k!r}]") for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [jsonable(v, f"{where}[{i}]") for i, v in enumerate(x)]
-    if isinstance(x, (set, frozenset)):
-        return [jsonable(v, where) for v in sorted(x, key=repr)]
-    if isinstance(x, PurePath):
-        return str(x)
-    if isinstance(x, (datetime, date)):
-        return x.isoformat()
-    if hasattr(x, "to_dict"):  # Artefact, Certificate-like records, RunResult ...
-        return jsonable(x.to_dict(), where)
-    if hasattr(x, "__dataclass_fields__"):
-        return {k: jsonable(getattr(x, k), f"{where}.{k}") for k in x.__dataclass_fields__}
-    if hasattr(x, "tolist") and type(x).__module__.split(".")[0] == "numpy":
-        return jsonable(x.tolist(), where)  # arrays and numpy scalars (float32, bool_ ...)
-    raise TypeError(f"report {where}: cannot put a {type(x).__name__} into JSON; "
-                    "give numbers, strings, lists or dicts")
+    return to_jsonable(x, strict=True, where=f"report {where}")
 
 
 def text(x: Any) -> str:
@@ -428,7 +406,7 @@ class Report:
         self.meta: dict[str, Any] = dict(meta or {})
         self.sections: list[Section] = []
         self.data: Any = None
-        self.created = datetime.now(timezone.utc).replace(microsecond=0).isoformat()
+        self.created = utc_now(timespec="seconds")
         self._dpi = dpi
         self._provenance: dict[str, Any] = {"software": None, "plugins": [], "inputs": [], "extra": {}}
 

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from camcmm.api import to_jsonable
+
 from ._geometry import form_figures
 
 #: Parameter names per element, in the order of the JSON document.
@@ -94,30 +96,15 @@ class FitResult:
         }
         for k in PARAMETERS[self.element]:
             if k in self.params:
-                d[k] = _plain(self.params[k])
+                d[k] = to_jsonable(self.params[k])
         for k, v in self.params.items():
             if k not in d:
-                d[k] = _plain(v)
+                d[k] = to_jsonable(v)
         d["form"] = self.form
-        d["std_uncertainty"] = {k: _plain(v) for k, v in self.std_uncertainty.items()}
-        d.update({k: _plain(v) for k, v in self.extra.items()})
+        d["std_uncertainty"] = {k: to_jsonable(v) for k, v in self.std_uncertainty.items()}
+        d.update({k: to_jsonable(v) for k, v in self.extra.items()})
         d["warnings"] = list(self.warnings)
         if residuals:
             d["residuals"] = self.residuals.tolist()
             d["removed_indices"] = self.removed.tolist()
         return d
-
-
-def _plain(v: Any) -> Any:
-    if isinstance(v, np.ndarray):
-        return [_plain(x) for x in v.tolist()]
-    if isinstance(v, (np.floating, float)):
-        v = float(v)
-        return v if np.isfinite(v) else None
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, list):
-        return [_plain(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _plain(x) for k, x in v.items()}
-    return v
