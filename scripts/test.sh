@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Set up (first time only) and run the whole test suite, the browser test included.
-# Extra arguments go to pytest (e.g. -k fit, -m "not browser").
+# Set up (first time only), lint, and run the whole test suite, the browser tests included.
+# Extra arguments go to pytest (e.g. -k fit, -m "not slow" for the quick run).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh || exit 1
 export VTK_DEFAULT_OPENGL_WINDOW=${VTK_DEFAULT_OPENGL_WINDOW:-vtkEGLRenderWindow}
+# Lint before the tests: a failure here stops the run (the style rules are in pyproject.toml).
+.venv/bin/ruff check app plugins tests examples benchmarks || exit 1
+# .venv/bin/ruff format --check app plugins tests examples benchmarks || exit 1   # enabled after the one-time format
 .venv/bin/python -m pytest -p no:dash "$@"
 rc=$?
 if [ "$rc" = 5 ]; then
