@@ -9,6 +9,7 @@ GeometryError; the right one, with realistic noise and on partial arcs and caps,
 
 from __future__ import annotations
 
+import asyncio
 import json
 import shutil
 import subprocess
@@ -186,9 +187,9 @@ def test_gui_shows_the_fit_warnings(tmp_path):
         server.state.ready()
         s.import_file(f)
         item = server.state.selected_item
-        assert s.run_plugin("fit.line", {}, {"cloud": item}) is not None, server.state.error_message
+        assert asyncio.run(server.pages["inspect"].run_plugin("fit.line", {}, {"cloud": item})) is not None, server.state.error_message
         assert any("direction is ill-determined" in w for w in server.state.result_warnings)
-        assert s.run_plugin("fit.sphere", {}, {"cloud": item}) is not None, server.state.error_message
+        assert asyncio.run(server.pages["inspect"].run_plugin("fit.sphere", {}, {"cloud": item})) is not None, server.state.error_message
         assert server.state.result_warnings == []
     finally:
         s.close()

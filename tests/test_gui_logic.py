@@ -1,15 +1,15 @@
-"""GUI logic without a browser: the session behind the page, on a real project.
+"""GUI logic without a browser: the session and the Inspect page, on a real project.
 
-Each test builds the app on its own trame server (``get_server(name)``) and calls
-``state.ready()`` so that state changes flush (and run ``@state.change`` handlers) as
-they do with a client connected.
+Each test builds the app on its own trame server (conftest's ``gui_app``, which calls
+``state.ready()`` so that state changes flush and run ``@state.change`` handlers as
+they do with a client connected). A plugin runs as the Run button runs it:
+``asyncio.run(page.run_plugin(...))``.
 """
 
 from __future__ import annotations
 
 import asyncio
 import importlib.metadata as md
-import itertools
 import os
 from pathlib import Path
 
@@ -24,13 +24,9 @@ if not hasattr(cio, "read"):
 pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 
-from camcmm.gui.app import build  # noqa: E402
 from camcmm.gui.view import DISPLAY_LIMIT, SOLID  # noqa: E402
 from camcmm.host import PluginHost  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
-
-_names = itertools.count()
-
 
 def sphere_cloud(n: int = 4000, radius: float = 10.0, seed: int = 0) -> PointCloud:
     """Points on a sphere with a signed ``deviation`` field in mm."""
@@ -43,17 +39,18 @@ def sphere_cloud(n: int = 4000, radius: float = 10.0, seed: int = 0) -> PointClo
 
 
 @pytest.fixture
-def app(tmp_path):
+def app(gui_app):
+    """``make(project_dir=None, **build_kw) -> (server, session, page)``: the Inspect page too."""
     def make(project_dir=None, **kw):
-        server, session = build(f"test-gui-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj", **kw)
-        server.state.ready()
-        made.append(session)
-        return server, session
+        server, session = gui_app(project_dir, **kw)
+        return server, session, server.pages["inspect"]
 
-    made = []
-    yield make
-    for s in made:
-        s.close()
+    return make
+
+
+def run(page, plugin_id, params=None, inputs=None):
+    """The Inspect page's run, as the Run button starts it, to its end."""
+    return asyncio.run(page.run_plugin(plugin_id, params, inputs))
 
 
 @pytest.fixture
@@ -69,7 +66,7 @@ def snapshot(project):
 
 
 def test_import_cloud_shows_it_coloured_with_legend(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     state = server.state
     assert state.items == [] and state.plugins, "fresh project: no items, plugins listed"
     key = s.import_file(cloud_file)
@@ -102,7 +99,7 @@ def test_mesh_and_image_items(app, tmp_path):
     cio.write(mesh, tmp_path / "ball.stl")
     img = (np.arange(64 * 48) % 251).astype(np.uint8).reshape(48, 64)
     cio.write(Image(img), tmp_path / "cam0.png")
-    server, s = app()
+    server, s, page = app()
     key = s.import_file(tmp_path / "ball.stl")
     assert key is not None, server.state.error_message
     assert server.state.items[0]["kind"] == "mesh" and s.view.shown.kind == "mesh"
@@ -117,19 +114,19 @@ def test_mesh_and_image_items(app, tmp_path):
 
 
 def test_colour_field_selector_through_state(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     s.import_file(cloud_file)
     server.state.color_field = "z"
     server.state.flush()  # as a client change would: runs the @state.change handler
     assert s.view.field == "z"
     assert server.state.legend_title == "z [mm]"
     assert list(s.view.plotter.scalar_bars.keys()) == ["z [mm]"]
-    s.set_color_field(SOLID)
+    page.set_color_field(SOLID)
     assert server.state.legend_title == "" and len(s.view.plotter.scalar_bars.keys()) == 0
 
 
 def test_import_uploaded_bytes_keeps_the_original_name(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     files = s.import_upload([{"name": "scan 1.ply", "size": 1, "content": [cloud_file.read_bytes()]}])
     key = s.import_file(files[0]["content"], files[0]["name"])
     assert key is not None, server.state.error_message
@@ -151,11 +148,11 @@ def _bad_files(tmp_path: Path) -> dict[str, bytes]:
 
 
 def test_bad_files_give_a_named_error_and_lose_nothing(app, cloud_file, tmp_path):
-    server, s = app()
+    server, s, page = app()
     state = server.state
     assert s.import_file(cloud_file) is not None
-    s.select_plugin("cloud.downsample")
-    assert s.run_plugin("cloud.downsample", {"voxel_size": 2.0}) is not None
+    page.select_plugin("cloud.downsample")
+    assert run(page, "cloud.downsample", {"voxel_size": 2.0}) is not None
     before = snapshot(s.project)
     items_before = [dict(it) for it in state.items]
     for name, data in _bad_files(tmp_path).items():
@@ -179,22 +176,22 @@ def test_bad_files_give_a_named_error_and_lose_nothing(app, cloud_file, tmp_path
 
 
 def test_plugin_form_and_run(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     state = server.state
     s.import_file(cloud_file)
     rows = {p["id"]: p for p in state.plugins}
     assert rows["cloud.downsample"]["ok"] and rows["cloud.downsample"]["kind"] == "algorithm"
-    s.select_plugin("cloud.downsample")
+    page.select_plugin("cloud.downsample")
     (field,) = [f for f in state.form_fields if f["name"] == "voxel_size"]
     assert field["widget"] == "number" and field["unit"] == "mm" and field["label"] == "voxel size [mm]"
     assert field["min"] is not None and state.form_values["voxel_size"] == field["default"]
     assert state.input_values == {"cloud": state.selected_item}
     seen = []
-    orig = s._set_progress
-    s._set_progress = lambda f, m: (seen.append(f), orig(f, m))
+    orig = page.show_progress
+    page.show_progress = lambda f, m: (seen.append(f), orig(f, m))
     n_items = len(state.items)
     # values as the browser sends them: numbers as text
-    res = s.run_plugin("cloud.downsample", {"voxel_size": "2.5"}, state.input_values)
+    res = run(page, "cloud.downsample", {"voxel_size": "2.5"}, state.input_values)
     assert res is not None, state.error_message
     assert seen and seen[-1] == 1.0
     assert state.progress == 100.0 and not state.running
@@ -206,7 +203,7 @@ def test_plugin_form_and_run(app, cloud_file):
     assert stored[0]["params"] == {"voxel_size": 2.5}
     assert len(state.results) == 1
     # a stored result can be shown again from the project
-    s.show_result(stored[0]["id"])
+    page.show_result(stored[0]["id"])
     assert {r["name"]: r["value"] for r in state.result_rows}["n_points"] == by_name["n_points"]["value"]
     # the output cloud became a new item and is shown
     assert len(state.items) == n_items + 1
@@ -215,31 +212,31 @@ def test_plugin_form_and_run(app, cloud_file):
 
 
 def test_bad_parameter_is_reported_and_nothing_stored(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     s.import_file(cloud_file)
-    s.select_plugin("cloud.downsample")
-    assert s.run_plugin("cloud.downsample", {"voxel_size": "-1"}) is None
+    page.select_plugin("cloud.downsample")
+    assert run(page, "cloud.downsample", {"voxel_size": "-1"}) is None
     assert "voxel_size" in server.state.error_message
-    assert s.run_plugin("cloud.downsample", {"voxel_size": "abc"}) is None
+    assert run(page, "cloud.downsample", {"voxel_size": "abc"}) is None
     assert "voxel_size" in server.state.error_message
     assert s.project.results() == []
     assert not server.state.running
 
 
 def test_run_without_input_says_what_is_missing(app):
-    server, s = app()
-    s.select_plugin("cloud.downsample")
-    assert s.run_plugin("cloud.downsample", {}) is None
+    server, s, page = app()
+    page.select_plugin("cloud.downsample")
+    assert run(page, "cloud.downsample", {}) is None
     assert "cloud" in server.state.error_message and "cloud.downsample" in server.state.error_message
 
 
 def test_async_run_reports_progress_from_the_worker_thread(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
     s.import_file(cloud_file)
-    s.select_plugin("cloud.downsample")
+    page.select_plugin("cloud.downsample")
 
     async def go():
-        return await s.run_plugin_async("cloud.downsample", {"voxel_size": 3.0})
+        return await page.run_plugin("cloud.downsample", {"voxel_size": 3.0})
 
     res = asyncio.run(go())
     assert res is not None, server.state.error_message
@@ -248,7 +245,7 @@ def test_async_run_reports_progress_from_the_worker_thread(app, cloud_file):
 
 
 def test_async_import(app, cloud_file):
-    server, s = app()
+    server, s, page = app()
 
     async def go():
         s.bind_loop()
@@ -261,23 +258,23 @@ def test_async_import(app, cloud_file):
 def test_failed_plugins_are_listed_with_their_reason(app):
     broken = md.EntryPoint(name="brokenlab", value="no_such_lab_package:plugin.yaml", group="camcmm.plugins")
     host = PluginHost(entry_points=[*md.entry_points(group="camcmm.plugins"), broken])
-    server, s = app(host=host)
+    server, s, page = app(host=host)
     rows = {p["id"]: p for p in server.state.plugins}
     assert not rows["brokenlab"]["ok"]
     assert "no_such_lab_package" in rows["brokenlab"]["status"]
-    s.select_plugin("brokenlab")
+    page.select_plugin("brokenlab")
     assert "brokenlab" in server.state.error_message
 
 
 def test_reopening_the_project_lists_and_shows_its_items(app, cloud_file, tmp_path):
-    _, s = app()
+    _, s, page = app()
     k1 = s.import_file(cloud_file)
     s.import_file(cloud_file.read_bytes(), "second.ply")
     s.select_item(k1)
-    s.set_color_field("y")
+    page.set_color_field("y")
     assert not list(s._tmp.glob("upload-*")), "temp copies of uploads are removed"
     s.project.close()
-    server, s2 = app(tmp_path / "proj")
+    server, s2, _page2 = app(tmp_path / "proj")
     assert [it["name"] for it in server.state.items] == ["sphere.ply", "second.ply"]
     # what was shown is shown again
     assert server.state.selected_item == k1 and server.state.color_field == "y"
@@ -297,14 +294,14 @@ def test_two_million_points_are_decimated_for_display(app, tmp_path):
     pts = rng.uniform(-50, 50, size=(n, 3))
     path = tmp_path / "big.ply"
     cio.write(PointCloud(pts, fields={"deviation": pts[:, 2] * 1e-3}, field_units={"deviation": "mm"}), path)
-    server, s = app()
+    server, s, page = app()
     key = s.import_file(path)
     assert key is not None, server.state.error_message
     assert s.view.shown.n_total == n
     assert s.view.shown.n_shown <= DISPLAY_LIMIT
     assert server.state.display_note.startswith("showing 500 000 of 2 000 000 points")
-    assert s._objects[key].n_points == n  # the full data stay for computations
-    s.set_color_field("x")
+    assert s.load(key).n_points == n  # the full data stay for computations
+    page.set_color_field("x")
     assert s.view.shown.n_shown <= DISPLAY_LIMIT
 
 
@@ -353,7 +350,7 @@ def stats(ctx, cloud, origin, steps, scale, squared, method, note):
 
 @pytest.fixture
 def lab_host(tmp_path, monkeypatch):
-    pkg = f"gui_lab_{next(_names)}"
+    pkg = f"gui_lab_{os.getpid()}_{id(tmp_path)}"
     root = tmp_path / "labsrc" / pkg
     root.mkdir(parents=True)
     (root / "__init__.py").write_text("")
@@ -365,14 +362,14 @@ def lab_host(tmp_path, monkeypatch):
 
 
 def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
-    server, s = app(host=lab_host)
+    server, s, page = app(host=lab_host)
     state = server.state
     rows = {p["id"]: p for p in state.plugins}
     assert rows["lab.slowstats"]["runnable"] and not rows["lab.device"]["runnable"]
-    s.select_plugin("lab.device")
+    page.select_plugin("lab.device")
     assert "device" in state.error_message and state.selected_plugin is None
     s.import_file(cloud_file)
-    s.select_plugin("lab.slowstats")
+    page.select_plugin("lab.slowstats")
     widgets = {f["name"]: (f["widget"], f["label"]) for f in state.form_fields}
     assert widgets == {"origin": ("text", "origin [mm]"), "steps": ("number", "steps"),
                        "scale": ("number", "scale [um]"), "squared": ("switch", "squared"),
@@ -381,10 +378,10 @@ def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
                                  "method": "mean", "note": ""}
     assert [f["choices"] for f in state.form_fields if f["name"] == "method"] == [["mean", "median"]]
     seen = []
-    orig = s._set_progress
-    s._set_progress = lambda f, m: (seen.append((f, m)), orig(f, m))
+    orig = page.show_progress
+    page.show_progress = lambda f, m: (seen.append((f, m)), orig(f, m))
     values = dict(state.form_values, origin="1, 2, 3", squared=True, method="median", steps="3")
-    res = s.run_plugin("lab.slowstats", values)
+    res = run(page, "lab.slowstats", values)
     assert res is not None, state.error_message
     assert [m for _, m in seen][:3] == ["step 1 of 3", "step 2 of 3", "step 3 of 3"]
     assert seen[-1][0] == 1.0
@@ -397,24 +394,24 @@ def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
     # the per-point output became a colour field on a copy of the cloud
     assert state.items[-1]["name"].startswith("lab.slowstats fields")
     assert state.color_field in [f["value"] for f in state.color_fields]
-    s.set_color_field("per_point")
+    page.set_color_field("per_point")
     assert state.legend_title == "per_point [mm]"
     # bad vector
-    assert s.run_plugin("lab.slowstats", dict(values, origin="1, 2")) is None
+    assert run(page, "lab.slowstats", dict(values, origin="1, 2")) is None
     assert "origin" in state.error_message
 
 
 def test_cancel_a_running_plugin(app, lab_host, cloud_file):
-    server, s = app(host=lab_host)
+    server, s, page = app(host=lab_host)
     s.import_file(cloud_file)
-    s.select_plugin("lab.slowstats")
+    page.select_plugin("lab.slowstats")
 
     async def go():
-        task = asyncio.ensure_future(s.run_plugin_async("lab.slowstats", {"steps": 50}))
+        task = asyncio.ensure_future(page.run_plugin("lab.slowstats", {"steps": 50}))
         while not server.state.running:
             await asyncio.sleep(0.01)
         await asyncio.sleep(0.3)
-        s.cancel_run()
+        page.cancel()
         return await task
 
     assert asyncio.run(go()) is None

@@ -3,6 +3,7 @@ next run works; results, errors, progress and cancel cross the process boundary.
 
 from __future__ import annotations
 
+import asyncio
 import importlib.metadata as md
 import itertools
 import os
@@ -200,11 +201,11 @@ def test_session_shows_the_crash_as_one_line_and_keeps_working(crash_host, tmp_p
     server, s = build(f"test-worker-{os.getpid()}-{next(_names)}", tmp_path / "proj", host=crash_host)
     server.state.ready()
     try:
-        assert s.run_plugin("crash.segv") is None
+        assert asyncio.run(server.pages["inspect"].run_plugin("crash.segv")) is None
         line = server.state.error_message
         assert "\n" not in line and "crash.segv: the worker process died (SIGSEGV)" in line, line
         assert server.state.running is False
-        res = s.run_plugin("crash.good", {"factor": 4.0})
+        res = asyncio.run(server.pages["inspect"].run_plugin("crash.good", {"factor": 4.0}))
         assert res is not None, server.state.error_message
         assert res.outputs["factor"] == 4.0 and res.outputs["pid"] != os.getpid()
         assert [r["plugin"] for r in server.state.results][0] == "crash.good"

@@ -147,7 +147,8 @@ def test_a_negative_focal_length_calibration_file_through_the_inspect_form(tmp_p
                                k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]]))
         inputs = {"sequence": str(folder / "seq.yaml"), "images": sorted(str(p) for p in frames.iterdir()),
                   "calibration": str(cal)}
-        assert session.run_plugin("fringe.reconstruct", {}, inputs) is None
+        page = server.pages["inspect"]
+        assert asyncio.run(page.run_plugin("fringe.reconstruct", {}, inputs)) is None
         line = server.state.error_message
         assert "\n" not in line and "cal.yaml" in line and "fx = -800 px must be positive and finite" in line, line
         # the same session runs the next plugin (in a worker that may be new or the same)
@@ -158,8 +159,8 @@ def test_a_negative_focal_length_calibration_file_through_the_inspect_form(tmp_p
         pts = np.random.default_rng(1).uniform(0, 10, (2000, 3))
         write(PointCloud(pts), folder / "cloud.ply")
         assert session.import_file(folder / "cloud.ply") is not None
-        session.select_plugin("cloud.downsample")
-        res = session.run_plugin("cloud.downsample", {"voxel_size": 2.0})
+        page.select_plugin("cloud.downsample")
+        res = asyncio.run(page.run_plugin("cloud.downsample", {"voxel_size": 2.0}))
         assert res is not None and 0 < len(res.outputs["cloud"].points) < 2000, server.state.error_message
     finally:
         close(server)

@@ -154,7 +154,8 @@ def _layout(server: Any, session: Any, pages: list[Any]) -> None:
     from trame.widgets import vuetify3 as v
 
     first = pages[0].key if pages else ""
-    with SinglePageWithDrawerLayout(server, width=400, theme=("theme", "light")) as layout:
+    opened = bool(pages) and pages[0].drawer is not None  # the first page shown has its drawer open
+    with SinglePageWithDrawerLayout(server, width=400, show_drawer=opened, theme=("theme", "light")) as layout:
         layout.title.set_text("camcmm")
         with layout.toolbar:
             layout.toolbar.density = "compact"

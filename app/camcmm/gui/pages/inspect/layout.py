@@ -59,7 +59,7 @@ def _form(page: Any) -> None:
         param_form("form_fields", "form_values", "param")
         with html.Div(classes="d-flex ga-2 mt-1"):
             v.VBtn("Run", color="primary", prepend_icon="mdi-play",
-                   click=(page.run, "[selected_plugin, form_values, input_values]"),
+                   click=(page.run_form, "[selected_plugin, form_values, input_values]"),
                    disabled=("running",), loading=("running",), raw_attrs=tid("run-button"))
             v.VBtn("Cancel", v_if="running", variant="text", click=page.cancel, raw_attrs=tid("cancel-button"))
         with v.VProgressLinear(v_show="running || progress > 0", model_value=("progress",),

@@ -1,0 +1,110 @@
+"""The Inspect page's plugin form: its fields from the plugin's declaration, its input
+selects from the project's items, and the arguments of a run from what the operator
+filled in. Pure functions of a plugin spec and plain data (no state, no widgets)."""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from ....errors import PluginError
+from ....host import to_jsonable
+from ....params import form_schema, validate
+from ...session import kind_of
+from .results import fmt_value
+
+#: Input port types the form can fill from the project's items: port type -> item kinds.
+ITEM_TYPES = {"pointcloud": ("pointcloud",), "mesh": ("mesh",), "geometry": ("pointcloud", "mesh"),
+              "image": ("image",)}
+
+
+def _initial(f: dict[str, Any]) -> Any:
+    """The value a field starts with: its default as the widget shows it."""
+    default = f.get("default")
+    if f["widget"] == "switch":
+        return bool(default)
+    if default is None:
+        return ""
+    if f["type"] == "vector":  # a text field: "1, 2, 3"
+        return ", ".join(fmt_value(x) for x in default)
+    return to_jsonable(default)
+
+
+def fields_of(spec: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """``(fields, values)`` of the plugin's parameters: the list the form draws (see
+    :func:`camcmm.gui.widgets.param_form`; a required field's label ends in ``*``) and
+    the values it starts with, by parameter name."""
+    fields, values = [], {}
+    for f in form_schema(spec.parameters):
+        d = {k: to_jsonable(v) for k, v in f.items()}
+        d.update(unit=f.get("unit", ""), min=f.get("min"), max=f.get("max"), choices=list(f.get("choices") or []),
+                 help=f.get("help", ""))
+        d["label"] = f["label"] if f.get("required") is not True else f["label"] + " *"
+        values[f["name"]] = _initial(f)
+        fields.append(d)
+    return fields, values
+
+
+def inputs_of(spec: Any, items: list[dict[str, Any]], current: dict[str, Any],
+              selected: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """``(inputs, values)``: one select per input port the items can fill (options: the
+    items of a fitting kind), a text field for any other port. A port keeps the item
+    chosen in ``current`` while it exists; else it takes the ``selected`` item if it
+    fits, else the newest fitting one (an optional port: none)."""
+    inputs, values = [], {}
+    for port in spec.inputs:
+        kinds = ITEM_TYPES.get(port.type)
+        entry = {"name": port.name, "type": port.type, "optional": port.optional,
+                 "label": f"{port.name} ({port.type})" + ("" if port.optional else " *"),
+                 "help": port.help, "supported": kinds is not None, "options": []}
+        if kinds is not None:
+            opts = [{"title": it["name"], "value": it["id"]} for it in items if it["kind"] in kinds]
+            entry["options"] = opts
+            ids = [o["value"] for o in opts]
+            chosen = current.get(port.name)
+            if chosen not in ids:
+                chosen = selected if selected in ids else (ids[-1] if ids and not port.optional else None)
+            values[port.name] = chosen
+        else:
+            values[port.name] = current.get(port.name, "")
+        inputs.append(entry)
+    return inputs, values
+
+
+def run_arguments(spec: Any, params: dict[str, Any], chosen: dict[str, Any], load: Callable[[str], Any],
+                  record: Callable[[str], dict | None]) -> tuple[dict[str, Any], dict[str, Any], list]:
+    """``(values, inputs, measurement_ids)`` of a run: the parameters checked by their
+    declaration (an empty field means the default), the input objects (items loaded
+    with ``load(key)``, other ports as given) and the ids of the items used
+    (``record(key)["id"]``). Raises a one-line :class:`~camcmm.errors.CamcmmError`."""
+    pid = spec.id
+    if spec.kind == "device":
+        raise PluginError(f"plugin {pid!r} is a device; devices are connected, not run")
+    declared = {p.name: p for p in spec.parameters}
+    raw = {}
+    for k, v in params.items():
+        p = declared.get(k)
+        if p is not None and p.type != "str" and (v is None or (isinstance(v, str) and v.strip() == "")):
+            continue
+        raw[k] = v
+    values = validate(spec.parameters, raw, owner=f"plugin {pid!r}")
+    objs, mids = {}, []
+    for port in spec.inputs:
+        key = chosen.get(port.name)
+        if port.type in ITEM_TYPES:
+            if key in (None, ""):
+                if port.optional:
+                    continue
+                raise PluginError(f"plugin {pid!r} needs input {port.name!r} ({port.type}): "
+                                  "import a file or choose an item")
+            obj = load(str(key))
+            if kind_of(obj) not in ITEM_TYPES[port.type]:
+                raise PluginError(f"plugin {pid!r}: input {port.name!r} must be a {port.type}, "
+                                  f"item {getattr(obj, 'name', key)!r} is a {kind_of(obj)}")
+            objs[port.name] = obj
+            mids.append((record(str(key)) or {}).get("id", key))
+        elif key not in (None, ""):
+            objs[port.name] = key
+        elif not port.optional:
+            raise PluginError(f"plugin {pid!r} needs input {port.name!r} ({port.type}), "
+                              "which this form cannot provide yet; use the CLI")
+    return values, objs, mids
