@@ -6,8 +6,7 @@ sequence within 2 s, and after the simulator is back the operator's Resume compl
 
 from __future__ import annotations
 
-import itertools
-import os
+import asyncio
 import time
 
 import pytest
@@ -15,17 +14,23 @@ import pytest
 pytest.importorskip("trame")
 pytest.importorskip("serial")
 
-from camcmm.gui.app import build, close  # noqa: E402
-
-_names = itertools.count()
-
 
 @pytest.fixture
-def page(tmp_path):
-    server, session = build(f"test-dev-{os.getpid()}-{next(_names)}", tmp_path / "proj")
-    server.state.ready()
-    yield server.pages["devices"]
-    close(server)
+def page(gui_app):
+    server, _ = gui_app()
+    return server.pages["devices"]
+
+
+def act(page, key, action, arg=None):
+    """The page's device action, awaited as the layout's handlers await it."""
+    return asyncio.run(page.act(key, action, arg))
+
+
+def add(page, plugin_id, values):
+    """Add and connect, as the page's "Add and connect" button does."""
+    key = page.add(plugin_id, values)
+    assert key is not None and act(page, key, "connect"), page.state.dev_error
+    return key
 
 
 def wait_for(test, timeout: float) -> float:
@@ -43,18 +48,18 @@ def test_catalogue_add_grab_move_and_bad_settings(page):
     assert ids["devices.camera.simulated"]["role"] == "camera" and ids["devices.camera.simulated"]["simulated"]
     page.choose_plugin("devices.camera.simulated")
     assert {f["name"] for f in s.dev_add_fields} >= {"name", "size"}
-    stage = page.add("devices.stage.simulated", {"unit": "mm", "name": "x"})
-    cam = page.add("devices.camera.simulated", {"size": [64, 48], "name": "cam"})
+    stage = add(page, "devices.stage.simulated", {"unit": "mm", "name": "x"})
+    cam = add(page, "devices.camera.simulated", {"size": [64, 48], "name": "cam"})
     assert [d["state"] for d in s.dev_list] == ["ready", "ready"]
     page.select(cam)
-    assert page.act(cam, "grab") and s.dev_live.startswith("data:image/png;base64,")
+    assert act(page, cam, "grab") and s.dev_live.startswith("data:image/png;base64,")
     assert "64×48 px" in s.dev_live_note
     page.select(stage)
-    page.act(stage, "home")
-    page.act(stage, "abs", "12.5")
+    act(page, stage, "home")
+    act(page, stage, "abs", "12.5")
     row = [d for d in s.dev_list if d["key"] == stage][0]
     assert row["position"].startswith("12.5")
-    assert page.act(stage, "rel", "many") is None
+    assert act(page, stage, "rel", "many") is None
     assert "not a number" in s.dev_error and "\n" not in s.dev_error
     page.select(cam)
     assert not page.apply_settings(cam, {"exposure_ms": -5})
@@ -65,9 +70,8 @@ def test_catalogue_add_grab_move_and_bad_settings(page):
 
 def test_turntable_through_the_serial_stage_pauses_on_a_killed_simulator_and_resumes(page):
     s = page.state
-    stage = page.add("devices.stage.zaber-simulated", {"rotary": True, "speed": 720.0, "name": "turntable"})
-    assert stage is not None, s.dev_error
-    page.add("devices.camera.simulated", {"size": [32, 24], "name": "cam"})
+    stage = add(page, "devices.stage.zaber-simulated", {"rotary": True, "speed": 720.0, "name": "turntable"})
+    add(page, "devices.camera.simulated", {"size": [32, 24], "name": "cam"})
     page.choose_sequence("devices.sequence.turntable")
     seq = page.start_sequence("devices.sequence.turntable", {"n_images": 12, "span_deg": 180.0, "name": "tt-gui"})
     assert seq is not None, s.dev_error
@@ -80,7 +84,7 @@ def test_turntable_through_the_serial_stage_pauses_on_a_killed_simulator_and_res
     frames_before = s.dev_seq["frames"]
     stored = [m for m in page.project.measurements() if m["kind"] == "image"]
     assert len(stored) == frames_before  # every frame taken before the kill is in the store
-    assert page.connect(stage)  # the simulator comes back (as a power-cycled controller)
+    assert act(page, stage, "connect")  # the simulator comes back (as a power-cycled controller)
     page.sequence_action("resume")
     assert wait_for(lambda: (s.dev_seq or {}).get("state") == "done", 30) < 30, s.dev_seq
     images = [m for m in page.project.measurements() if m["kind"] == "image"]

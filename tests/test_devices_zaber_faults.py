@@ -116,27 +116,27 @@ def test_controller_reset_during_a_move_is_not_a_finished_move(stage):
         stage.move_abs(50.0)
 
 
-def test_devices_page_shows_the_refusal_as_one_line(tmp_path):
+def test_devices_page_shows_the_refusal_as_one_line(gui_app):
     pytest.importorskip("trame")
-    from camcmm.gui.app import build, close
+    import asyncio
 
-    server, _ = build(f"test-dev-faults-{id(tmp_path)}", tmp_path / "proj")
-    server.state.ready()
+    server, _ = gui_app()
     page = server.pages["devices"]
-    try:
-        key = page.add("devices.stage.zaber-simulated", {"name": "x", "speed": 500.0})
-        assert key is not None, page.state.dev_error
-        assert page.act(key, "abs", "10") is None
-        assert page.state.dev_error.startswith("stage 'x' on ")
-        assert "not homed yet; home it first (or confirm with allow_unhomed=True)" in page.state.dev_error
-        assert "\n" not in page.state.dev_error
-        assert page.act(key, "home") == 0.0 and page.act(key, "abs", "10") == pytest.approx(10.0)
-        page.devices[key]._link.request(1, 0, "sim reset")
-        assert page.act(key, "rel", "1") is None
-        assert page.state.dev_error.endswith("not homed since the controller reset; home it first "
-                                             "(or confirm with allow_unhomed=True)")
-    finally:
-        close(server)
+
+    def act(*args):  # the page's device action, awaited as its buttons await it
+        return asyncio.run(page.act(key, *args))
+
+    key = page.add("devices.stage.zaber-simulated", {"name": "x", "speed": 500.0})
+    assert key is not None and act("connect"), page.state.dev_error
+    assert act("abs", "10") is None
+    assert page.state.dev_error.startswith("stage 'x' on ")
+    assert "not homed yet; home it first (or confirm with allow_unhomed=True)" in page.state.dev_error
+    assert "\n" not in page.state.dev_error
+    assert act("home") == 0.0 and act("abs", "10") == pytest.approx(10.0)
+    page.devices[key]._link.request(1, 0, "sim reset")
+    assert act("rel", "1") is None
+    assert page.state.dev_error.endswith("not homed since the controller reset; home it first "
+                                         "(or confirm with allow_unhomed=True)")
 
 
 def test_a_reply_lost_in_line_noise(stage):

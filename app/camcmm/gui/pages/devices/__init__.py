@@ -1,4 +1,10 @@
-"""The "Devices" page: cameras, stages and projectors, real or simulated, and acquisition sequences."""
+"""The "Devices" page: cameras, stages and projectors, real or simulated, and acquisition sequences.
+
+``page.py`` (state and handlers), ``layout.py`` (widgets, one function per card),
+``wiring.py`` (what a device plugin declares: role, simulated, needs), ``actions.py``
+(a device action's I/O), ``live.py`` (a frame as a PNG), ``projector.py`` (the
+``/projector`` page shown full-screen on the projector's display).
+"""
 
 from __future__ import annotations
 
@@ -8,15 +14,15 @@ from .. import Page
 
 
 def _mount(server: Any, session: Any) -> Any:
-    from ... import devices_page
+    from .page import mount
 
-    return devices_page.mount(server, session)
+    return mount(server, session)
 
 
 def _build(page: Any) -> None:
-    from ... import devices_layout
+    from .layout import build
 
-    devices_layout.build_panel(page)
+    build(page)
 
 
 PAGE = Page("devices", "Devices", "mdi-camera-iris", _mount, _build, order=50)

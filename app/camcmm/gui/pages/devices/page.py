@@ -1,64 +1,40 @@
-"""The "Devices" page's logic: add device plugins (real or simulated), connect them,
-see their status and health, change their settings, watch a camera live, move a
-stage, and run an acquisition sequence (turntable, fringe, scale run) whose frames
-are stored in the project as they arrive. State keys ``dev_*``.
+"""The "Devices" page's state and handlers: add device plugins (real or simulated),
+connect them, see their status and health, change their settings, watch a camera live,
+move a stage, and run an acquisition sequence (turntable, fringe, scale run) whose
+frames are stored in the project as they arrive. State keys ``dev_*``.
 
 Devices are made by the host from their manifest (``host.device(id, config,
-**objects)``): the page knows the device interface of :mod:`camcmm.devices`, not any
-particular device. Device events arrive on the device's own threads (a sequence
-worker, a live view); the page hands them to the server loop with ``session.post``
-and never blocks in them. A :class:`~camcmm.devices.DeviceMonitor` pings idle devices
-so that one that stops answering shows as ``fault`` within about two seconds.
+**objects)``): the page knows the device interface of :mod:`camcmm.devices` and what a
+manifest declares (:mod:`.wiring`: role, simulated, needs), not any particular device.
+Device I/O runs in the page's :class:`~camcmm.gui.jobs.Job` (two workers: a Stop must
+not wait behind the move it stops). Device events arrive on the device's own threads (a
+sequence worker, a live view); the page hands them to the server loop with
+``session.post`` and never blocks in them. A :class:`~camcmm.devices.DeviceMonitor`
+pings idle devices so that one that stops answering shows as ``fault`` within about
+two seconds.
 """
 
 from __future__ import annotations
 
-import asyncio
-import base64
-import logging
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable
 
-from ..devices import DeviceMonitor
-from ..errors import CamcmmError
-from ..params import form_schema
+from ....devices import DeviceMonitor
+from ....errors import CamcmmError, one_line
+from ....params import form_schema
+from ...jobs import Job
+from . import wiring
+from .actions import perform
+from .live import frame_data_url, frame_note
+from .projector import add_routes
 
-log = logging.getLogger("camcmm.gui.devices")
-
-ROLES = ("camera", "projector", "stage", "interferometer", "speckle", "sequence")
-#: which objects a sequence takes from the connected devices, by role
-SEQUENCE_OBJECTS = {
-    "devices.sequence.turntable": {"stage": "stage", "cameras": "camera*", "speckle": "speckle?"},
-    "devices.sequence.fringe": {"projector": "projector", "cameras": "camera*"},
-    "devices.sequence.scale-run": {"stage": "stage", "interferometer": "interferometer", "cameras": "camera*?"},
-}
-LIVE_MAX_PX = 640
-
-
-def _one_line(exc: BaseException | str) -> str:
-    msg = str(exc) if isinstance(exc, (CamcmmError, str)) else f"{type(exc).__name__}: {exc}"
-    return " ".join(msg.split()) or "unknown error"
-
-
-def frame_data_url(data: Any, max_px: int = LIVE_MAX_PX) -> str:
-    """A camera frame (H, W) or (H, W, 3) as a PNG data URL, downscaled to ``max_px``."""
-    import cv2
-    import numpy as np
-
-    img = np.asarray(data)
-    if img.dtype != np.uint8:
-        top = float(img.max()) or 1.0
-        img = np.clip(img.astype(np.float32) * (255.0 / top), 0, 255).astype(np.uint8)
-    h, w = img.shape[:2]
-    s = max_px / max(h, w)
-    if s < 1:
-        img = cv2.resize(img, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
-    ok, buf = cv2.imencode(".png", img)
-    return "data:image/png;base64," + base64.b64encode(buf.tobytes()).decode() if ok else ""
+ACTIVE = ("running", "paused", "resuming")
+"""Sequence states in which another sequence may not start."""
 
 
 class DevicesPage:
+    """The page object (``server.pages["devices"]``); every handler the layout calls."""
+
     def __init__(self, session: Any):
         self.session = session
         self.state = session.state
@@ -67,13 +43,11 @@ class DevicesPage:
         self.devices: dict[str, Any] = {}       # key -> device object
         self.plugin_of: dict[str, str] = {}     # key -> plugin id
         self.sequence: Any = None
+        self.monitor: DeviceMonitor | None = None
+        self.io = Job("device I/O", state=session.state, workers=2)
         self._unsub: list[Callable[[], None]] = []
         self._counter = 0
-        self.monitor: DeviceMonitor | None = None
         self._lock = threading.Lock()
-        # device I/O waits (a move, an acknowledged pattern, a grab): never on the server
-        # loop, which also serves the projector page's acknowledgement
-        self._executor = ThreadPoolExecutor(max_workers=2, thread_name_prefix="camcmm-devices")
         s = self.state
         s.dev_error = ""
         s.dev_catalogue = self._catalogue()
@@ -93,19 +67,13 @@ class DevicesPage:
 
     # -- catalogue ----------------------------------------------------------------------------
     def _catalogue(self) -> list[dict[str, Any]]:
-        out = []
+        """Every device plugin the host knows (sequences too), by role, real first."""
         try:
-            specs = [p for p in self.host.all() if p.kind == "device"]
+            rows = [wiring.catalogue_entry(p) for p in self.host.all() if p.kind == "device"]
         except Exception as exc:
-            self.state.dev_error = _one_line(exc)
+            self.state.dev_error = one_line(exc)
             return []
-        for p in specs:
-            role = str(p.extra.get("role", "device"))
-            sim = bool(p.extra.get("simulated", False))
-            out.append({"id": p.id, "title": f"{p.name}{' (simulated)' if sim else ''}", "role": role,
-                        "simulated": sim, "summary": p.summary})
-        order = {r: i for i, r in enumerate(ROLES)}
-        return sorted(out, key=lambda d: (order.get(d["role"], 9), d["simulated"], d["title"]))
+        return sorted(rows, key=wiring.catalogue_order)
 
     def choose_plugin(self, plugin_id: str | None) -> None:
         s = self.state
@@ -119,19 +87,22 @@ class DevicesPage:
         s.dev_add_values = {"_plugin": plugin_id, **{p.name: p.default for p in spec.parameters}}
 
     # -- devices --------------------------------------------------------------------------------
-    def add(self, plugin_id: str, values: dict[str, Any] | None = None, connect: bool = True) -> str | None:
-        """Create (and connect) a device; returns its key, or None with the reason shown."""
+    def add(self, plugin_id: str, values: dict[str, Any] | None = None) -> str | None:
+        """Make a device from its plugin and the form's ``values``; returns its key, or
+        None with the reason shown. No device I/O: connect it with ``await act(key, "connect")``.
+
+        The objects it declares it ``needs`` come from the devices added before it (a
+        simulated camera renders the simulated projector's pattern and the stages' positions).
+        """
         try:
             spec = self.host.get(plugin_id)
-            if spec.extra.get("role") == "sequence":
+            if wiring.role(spec) == "sequence":
                 raise CamcmmError(f"{plugin_id} is a sequence: set it up under Sequences")
             values = dict(values or {})
             if values.pop("_plugin", plugin_id) != plugin_id:
                 values = {}  # the form of another plugin: take this one's defaults
-            config = {k: v for k, v in values.items() if v not in ("", None)}
-            if getattr(self.session, "roots", None) is not None:  # a file it reads: in the browser's folders only
-                config, _ = self.session.roots.check_run(spec, config, {})
-            objects = self._objects_for(plugin_id)
+            config = self._checked(spec, values)
+            objects = wiring.objects_for(spec, self.devices.values())
             dev = self.host.device(plugin_id, config, **objects)
         except Exception as exc:
             self._error(exc)
@@ -142,28 +113,17 @@ class DevicesPage:
         self.devices[key], self.plugin_of[key] = dev, plugin_id
         for event in ("status", "fault", "position"):
             self._unsub.append(dev.events.on(event, lambda *a, k=key: self.session.post(self._publish_one, k)))
-        if connect:
-            self.connect(key)
         self._restart_monitor()
         self.select(key)
         self.publish()
         return key
 
-    def _objects_for(self, plugin_id: str) -> dict[str, Any]:
-        """A simulated camera sees the simulated projector and stages already added."""
-        if plugin_id != "devices.camera.simulated":
-            return {}
-        out: dict[str, Any] = {}
-        projectors = [d for d in self.devices.values() if getattr(d, "kind", "") == "projector"]
-        stages = [d for d in self.devices.values() if getattr(d, "kind", "") == "stage"]
-        if projectors:
-            out["projector"] = projectors[0]
-        if stages:
-            out["stages"] = stages
-        return out
-
-    def connect(self, key: str) -> bool:
-        return self.act(key, "connect") is not None
+    def _checked(self, spec: Any, values: dict[str, Any]) -> dict[str, Any]:
+        """The form's values without the empty ones; a file it reads must be in the browser's folders."""
+        config = {k: v for k, v in values.items() if v not in ("", None)}
+        if getattr(self.session, "roots", None) is not None:  # None: a session without a browser
+            config, _ = self.session.roots.check_run(spec, config, {})
+        return config
 
     def disconnect(self, key: str) -> None:
         dev = self.devices.get(key)
@@ -211,73 +171,33 @@ class DevicesPage:
         return True
 
     # -- device actions ----------------------------------------------------------------------------
-    # An action is its device I/O (``_io``: may wait for a move, a frame, the projector
-    # page's acknowledgement; any thread) and what it shows (``_done``: the server loop).
-    # The GUI awaits ``act_async``, which waits in the page's worker, never on the loop:
-    # the loop also serves the projector page whose acknowledgement a ``show`` awaits.
-    @staticmethod
-    def _io(dev: Any, action: str, arg: Any = None) -> Any:
-        if action == "connect":
-            return dev.connect()
-        if action == "grab":
-            return dev.grab()
-        if action in ("home", "stop"):
-            return getattr(dev, action)()
-        if action in ("abs", "rel"):
-            try:
-                x = float(arg)
-            except (TypeError, ValueError):
-                raise CamcmmError(f"{dev.label}: move {action}: {arg!r} is not a number") from None
-            return (dev.move_abs if action == "abs" else dev.move_rel)(x)
-        if action == "load":
-            from .wizard import resources_dir
-
-            path = str(arg).strip() if arg and str(arg).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
-            return dev.load_sequence(path)
-        if action == "show":
-            return dev.show(None if arg in (None, "", "blank") else int(arg))
-        raise CamcmmError(f"{dev.label}: unknown action {action!r}")
-
-    def _done(self, dev: Any, action: str, out: Any) -> None:
+    async def act(self, key: str, action: str, arg: Any = None) -> Any:
+        """Do ``action`` (:data:`.actions.ACTIONS`: connect, grab, home, abs, rel, stop, load,
+        show) in the device job's worker; its result (True for None), or None with the
+        reason shown when it fails."""
+        dev = self.devices.get(key)
+        if dev is None:
+            self._error(f"no device {key!r}: it was removed")
+            return None
+        try:
+            out = await self.io.call(perform, dev, action, arg)
+        except Exception as exc:
+            self._error(exc)
+            self.publish()
+            return None
         if action == "grab":
             self._show_frame(out)
         elif action == "load":
             self.session.info(f"{dev.label}: {out} patterns loaded")
         self.publish()
-
-    def act(self, key: str, action: str, arg: Any = None) -> Any:
-        """An action in the calling thread (tests, scripts); None with the reason shown
-        when it fails. Actions: connect, grab, home, abs, rel, stop, load, show."""
-        dev = self.devices[key]
-        try:
-            out = self._io(dev, action, arg)
-        except Exception as exc:
-            self._error(exc)
-            self.publish()
-            return None
-        self._done(dev, action, out)
-        return True if out is None else out
-
-    async def act_async(self, key: str, action: str, arg: Any = None) -> Any:
-        dev = self.devices[key]
-        loop = asyncio.get_running_loop()
-        try:
-            out = await loop.run_in_executor(self._executor, self._io, dev, action, arg)
-        except Exception as exc:
-            self._error(exc)
-            self.publish()
-            return None
-        self._done(dev, action, out)
         return True if out is None else out
 
     def _show_frame(self, frame: Any) -> None:
-        meta = getattr(frame, "metadata", {}) or {}
         self.state.dev_live = frame_data_url(frame.data)
-        self.state.dev_live_note = " · ".join(str(x) for x in (
-            f"#{meta.get('frame')}", meta.get("time", ""), f"{meta.get('exposure_ms', '')} ms",
-            f"{frame.data.shape[1]}×{frame.data.shape[0]} px") if x)
+        self.state.dev_live_note = frame_note(frame)
 
     def live(self, key: str, on: bool, fps: float = 4.0) -> None:
+        """Start (``fps`` frames/s at most) or stop a camera's live view."""
         dev = self.devices[key]
         try:
             if on:
@@ -297,31 +217,17 @@ class DevicesPage:
         s.dev_seq_fields = form_schema(spec.parameters) if spec else []
         s.dev_seq_values = {p.name: p.default for p in spec.parameters} if spec else {}
 
-    def _sequence_objects(self, plugin_id: str) -> dict[str, Any]:
-        need = SEQUENCE_OBJECTS.get(plugin_id, {})
-        out: dict[str, Any] = {"store": self.project}
-        connected = [d for d in self.devices.values() if d.connected]
-        for arg, role in need.items():
-            base, many, optional = role.rstrip("*?"), "*" in role, role.endswith("?")
-            found = [d for d in connected if getattr(d, "kind", "") == base]
-            if not found and not optional:
-                raise CamcmmError(f"{plugin_id}: connect a {base} first")
-            if many:
-                out[arg] = found
-            elif found:
-                out[arg] = found[0]
-        return out
-
     def start_sequence(self, plugin_id: str, values: dict[str, Any] | None = None) -> Any:
-        if self.sequence is not None and self.sequence.snapshot()["state"] in ("running", "paused", "resuming"):
+        """Start a sequence on the connected devices it declares it needs; it stores its
+        frames in the project (``store``) on its own thread. Returns it, or None with the reason."""
+        if self.sequence is not None and self.sequence.snapshot()["state"] in ACTIVE:
             self._error("a sequence is under way: pause, resume or abort it first")
             return None
         try:
-            objects = self._sequence_objects(plugin_id)
-            config = {k: v for k, v in (values or {}).items() if v not in ("", None)}
-            if getattr(self.session, "roots", None) is not None:
-                config, _ = self.session.roots.check_run(self.host.get(plugin_id), config, {})
-            seq = self.host.device(plugin_id, config, **objects)
+            spec = self.host.get(plugin_id)
+            connected = [d for d in self.devices.values() if d.connected]
+            objects = {"store": self.project, **wiring.objects_for(spec, connected)}
+            seq = self.host.device(plugin_id, self._checked(spec, dict(values or {})), **objects)
         except Exception as exc:
             self._error(exc)
             return None
@@ -334,6 +240,7 @@ class DevicesPage:
         return seq
 
     def sequence_action(self, action: str) -> None:
+        """``pause``, ``resume`` or ``abort`` the sequence (it acts on its own thread)."""
         seq = self.sequence
         if seq is None or action not in ("pause", "resume", "abort"):
             return
@@ -369,7 +276,7 @@ class DevicesPage:
         if dev.kind == "stage":
             try:
                 pos = dev.position() if dev.connected and st.state != "fault" else None
-            except Exception:
+            except Exception:  # the monitor shows the fault; the list just leaves the position out
                 pos = None
             row["position"] = "" if pos is None else f"{pos:.4f} {getattr(dev, 'unit', '')}"
         return row
@@ -381,33 +288,10 @@ class DevicesPage:
     def publish(self) -> None:
         self.state.dev_list = [self._row(k) for k in self.devices]
 
-    def _error(self, msg: Any) -> None:
-        line = _one_line(msg)
+    def _error(self, msg: BaseException | str) -> None:
+        line = one_line(msg)
         self.state.dev_error = line
         self.session.error(line)
-
-    def close(self) -> None:
-        for u in self._unsub:
-            try:
-                u()
-            except Exception:
-                pass
-        if self.sequence is not None:
-            try:
-                self.sequence.abort()
-            except Exception:
-                pass
-        if self.monitor is not None:
-            self.monitor.stop()
-        self._executor.shutdown(wait=False, cancel_futures=True)
-        for dev in list(self.devices.values()):
-            try:
-                if getattr(dev, "live", False):
-                    dev.stop_live()
-                dev.disconnect()
-            except Exception:
-                pass
-
 
     def pattern_projector(self) -> Any:
         """The projector the projector page shows: the first pattern projector added."""
@@ -416,11 +300,32 @@ class DevicesPage:
                 return dev
         return None
 
+    def close(self) -> None:
+        """Stop the sequence, the monitor, the device job and every device (the server stops)."""
+        for off in self._unsub:
+            try:
+                off()
+            except Exception:  # a device already gone: nothing left to unsubscribe from
+                pass
+        if self.sequence is not None:
+            try:
+                self.sequence.abort()
+            except Exception:
+                pass
+        if self.monitor is not None:
+            self.monitor.stop()
+        self.io.close()
+        for dev in list(self.devices.values()):
+            try:
+                if getattr(dev, "live", False):
+                    dev.stop_live()
+                dev.disconnect()
+            except Exception:  # closing: one device's failure must not keep the others open
+                pass
+
 
 def mount(server: Any, session: Any) -> DevicesPage:
     """The page, and the projector page's routes (``/projector``) on the same server."""
-    from .projector_route import add_routes
-
     page = DevicesPage(session)
     add_routes(server, page.pattern_projector)
     return page

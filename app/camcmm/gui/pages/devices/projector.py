@@ -1,6 +1,6 @@
-"""The projector page: ``http://HOST:PORT/projector`` opened full-screen on the
-projector's display shows the pattern of the connected pattern projector, in step
-with the captures.
+"""The projector page, the Devices page's second window: ``http://HOST:PORT/projector``
+opened full-screen on the projector's display shows the pattern of the connected
+pattern projector, in step with the captures.
 
 No desktop program: a plain page served by the app's own web server (routes added
 to trame's aiohttp application through ``on_server_bind``). It polls the display
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-PAGE = """<!doctype html>
+HTML = """<!doctype html>
 <html><head><meta charset="utf-8"><title>camcmm projector</title>
 <style>html,body{margin:0;height:100%;background:#000;overflow:hidden;cursor:none}
 img{position:fixed;left:0;top:0;width:100vw;height:100vh;object-fit:contain;image-rendering:pixelated}
@@ -56,7 +56,7 @@ def add_routes(server: Any, projector_of: Callable[[], Any]) -> None:
     from aiohttp import web
 
     async def page(_request):
-        return web.Response(text=PAGE, content_type="text/html")
+        return web.Response(text=HTML, content_type="text/html")
 
     async def state(_request):
         p = projector_of()

@@ -1,0 +1,42 @@
+"""A device action's I/O: what the buttons of the selected device do.
+
+:func:`perform` may wait (for a move, a frame, the projector page's acknowledgement),
+so the page runs it in its device job's worker threads, never on the server loop: the
+loop also serves the projector page whose acknowledgement a ``show`` awaits.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ....assets import resources_dir
+from ....errors import CamcmmError
+
+ACTIONS = ("connect", "grab", "home", "abs", "rel", "stop", "load", "show")
+
+
+def perform(dev: Any, action: str, arg: Any = None) -> Any:
+    """Do ``action`` on ``dev`` in the calling thread; returns what the device returns.
+
+    ``abs``/``rel``: ``arg`` is the target/step in the stage's unit (mm or deg);
+    ``load``: ``arg`` is a pattern sequence file (empty: the shipped fringe sequence);
+    ``show``: ``arg`` is the pattern index (None, "" or "blank": a blank screen).
+    """
+    if action == "connect":
+        return dev.connect()
+    if action == "grab":
+        return dev.grab()
+    if action in ("home", "stop"):
+        return getattr(dev, action)()
+    if action in ("abs", "rel"):
+        try:
+            x = float(arg)
+        except (TypeError, ValueError):
+            raise CamcmmError(f"{dev.label}: move {action}: {arg!r} is not a number") from None
+        return (dev.move_abs if action == "abs" else dev.move_rel)(x)
+    if action == "load":
+        path = str(arg).strip() if arg and str(arg).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
+        return dev.load_sequence(path)
+    if action == "show":
+        return dev.show(None if arg in (None, "", "blank") else int(arg))
+    raise CamcmmError(f"{dev.label}: unknown action {action!r}")

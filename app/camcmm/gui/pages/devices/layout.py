@@ -1,0 +1,195 @@
+"""The "Devices" page's widgets around a :class:`~camcmm.gui.pages.devices.page.DevicesPage`.
+
+Left: add a device (real or simulated, its form from the manifest) and the list of
+devices with their state. Centre: the selected device — settings, a camera's live
+image, a stage's moves, a projector's patterns. Right: acquisition sequences with
+progress, pause, resume and abort; a device fault pauses the sequence and shows the reason.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ...widgets import dyn_tid, param_form, tid
+from .. import shown
+
+# the colour of a device's state chip (JavaScript, for the device ``d`` of a v_for)
+STATE_COLOUR = "({ready: 'success', busy: 'primary', fault: 'error', disconnected: 'grey'})[d.state] || 'grey'"
+
+
+def build(page: Any) -> None:
+    """The page's three columns, shown while ``page === 'devices'``."""
+    from trame.widgets import html
+
+    with html.Div(v_if=shown("devices"), classes="d-flex ga-3 pa-3", raw_attrs=tid("devices"),
+                  style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); overflow-y: auto;"):
+        with html.Div(style="flex: 0 0 340px; max-width: 340px;"):
+            _add(page)
+            _list(page)
+        with html.Div(style="flex: 1 1 0; min-width: 0;", raw_attrs=tid("dev-detail")):
+            _detail(page)
+        with html.Div(style="flex: 0 0 360px; max-width: 360px;", raw_attrs=tid("dev-sequences")):
+            _sequences(page)
+
+
+def _add(page: Any) -> None:
+    """The error line, the plugin to add and its form."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_add(pid: str, values: dict[str, Any]) -> None:
+        key = page.add(pid, values)
+        if key is not None:
+            await page.act(key, "connect")
+
+    v.VAlert(v_if="dev_error", text=("dev_error",), type="error", density="compact", closable=True,
+             classes="mb-2", click_close="dev_error = ''", raw_attrs=tid("dev-error"))
+    html.Div("Add a device", classes="text-subtitle-2 mb-1")
+    v.VSelect(model_value=("dev_add_id",), items=("dev_catalogue.filter(d => d.role !== 'sequence')",),
+              item_title="title", item_value="id", label="Device plugin", density="compact",
+              variant="outlined", hide_details=True, classes="mb-2",
+              update_modelValue=(page.choose_plugin, "[$event]"), raw_attrs=tid("dev-add-plugin"))
+    param_form("dev_add_fields", "dev_add_values", "dev-add", sync=True)
+    v.VBtn("Add and connect", prepend_icon="mdi-connection", color="primary", size="small", classes="mt-1",
+           disabled=("!dev_add_id",), click=(on_add, "[dev_add_id, dev_add_values]"), raw_attrs=tid("dev-add"))
+
+
+def _list(page: Any) -> None:
+    """The devices added, with their state; a click selects one."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    v.VDivider(classes="my-3")
+    html.Div("Devices ({{ dev_list.length }})", classes="text-subtitle-2 mb-1")
+    with v.VList(density="compact", nav=True, raw_attrs=tid("dev-list")):
+        with v.VListItem(v_for="d in dev_list", key="d.key", active=("d.key === dev_selected",),
+                         click=(page.select, "[d.key]"), raw_attrs=dyn_tid("'dev-item-' + d.name")):
+            v.VListItemTitle("{{ d.name }} · {{ d.kind }}")
+            v.VListItemSubtitle("{{ d.message || d.label }}{{ d.position ? ' · ' + d.position : '' }}")
+            with html.Template(v_slot_append=True):
+                v.VChip("{{ d.state }}", size="x-small", variant="flat", color=(STATE_COLOUR,),
+                        raw_attrs=dyn_tid("'dev-state-' + d.name"))
+        v.VListItem(v_if="!dev_list.length", subtitle="No device yet: add one above (a simulated one needs "
+                                                       "no hardware).")
+
+
+def _detail(page: Any) -> None:
+    """The selected device: connect/remove, its fault, settings and the controls of its kind."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_connect(key: str, on: bool) -> None:
+        if on:
+            await page.act(key, "connect")
+        else:
+            page.disconnect(key)
+
+    with html.Template(v_for="d in dev_list.filter(x => x.key === dev_selected)", key="d.key"):
+        with html.Div(classes="d-flex align-center ga-2 mb-2"):
+            html.Div("{{ d.label }}", classes="text-subtitle-1")
+            v.VChip("{{ d.state }}", size="small", variant="flat", color=(STATE_COLOUR,))
+            v.VSpacer()
+            v.VBtn("{{ d.connected ? 'Disconnect' : 'Connect' }}", size="small", variant="tonal",
+                   click=(on_connect, "[d.key, !d.connected]"), raw_attrs=tid("dev-connect"))
+            v.VBtn("Remove", size="small", variant="text", click=(page.remove, "[d.key]"))
+        v.VAlert(v_if="d.state === 'fault'", text=("d.message",), type="error", density="compact",
+                 classes="mb-2", raw_attrs=tid("dev-fault"))
+        with html.Div(v_if="dev_settings_fields.length", classes="mb-2"):
+            html.Div("Settings", classes="text-subtitle-2 mb-1")
+            param_form("dev_settings_fields", "dev_settings_values", "dev-setting", sync=True)
+            v.VBtn("Apply", size="small", color="primary", variant="tonal",
+                   click=(page.apply_settings, "[d.key, dev_settings_values]"), raw_attrs=tid("dev-apply"))
+        _camera(page)
+        _stage(page)
+        _projector(page)
+    html.Div("Select a device on the left.", v_if="!dev_selected", classes="text-caption")
+
+
+def _camera(page: Any) -> None:
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_grab(key: str) -> None:
+        await page.act(key, "grab")
+
+    with html.Div(v_if="d.kind === 'camera'", classes="mt-2"):
+        with html.Div(classes="d-flex ga-2 mb-1"):
+            v.VBtn("Grab", size="small", prepend_icon="mdi-camera", click=(on_grab, "[d.key]"),
+                   disabled=("!d.connected",), raw_attrs=tid("dev-grab"))
+            v.VBtn("{{ d.live ? 'Stop live' : 'Live view' }}", size="small", prepend_icon="mdi-video",
+                   click=(page.live, "[d.key, !d.live]"), disabled=("!d.connected",), raw_attrs=tid("dev-live"))
+        html.Img(v_if="dev_live", src=("dev_live",), style="max-width: 100%; border: 1px solid #ccc;",
+                 raw_attrs=tid("dev-live-image"))
+        html.Div("{{ dev_live_note }}", classes="text-caption")
+
+
+def _stage(page: Any) -> None:
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_move(key: str, how: str, value: Any) -> None:
+        await page.act(key, how, value)
+
+    with html.Div(v_if="d.kind === 'stage'", classes="d-flex align-center ga-2 mt-2"):
+        v.VBtn("Home", size="small", click=(on_move, "[d.key, 'home', null]"), raw_attrs=tid("dev-home"))
+        v.VTextField(v_model=("dev_move", "10"), label="Target / step", density="compact", variant="outlined",
+                     hide_details=True, style="max-width: 140px;", raw_attrs=tid("dev-move-value"))
+        v.VBtn("Move to", size="small", click=(on_move, "[d.key, 'abs', dev_move]"), raw_attrs=tid("dev-move-abs"))
+        v.VBtn("Move by", size="small", click=(on_move, "[d.key, 'rel', dev_move]"))
+        v.VBtn("Stop", size="small", color="error", variant="tonal", click=(on_move, "[d.key, 'stop', null]"))
+
+
+def _projector(page: Any) -> None:
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_load(key: str, path: str) -> None:
+        await page.act(key, "load", path)
+
+    async def on_show(key: str, index: Any) -> None:
+        await page.act(key, "show", index)
+
+    with html.Div(v_if="d.kind === 'projector'", classes="mt-2", raw_attrs=tid("dev-projector-panel")):
+        html.Div("{{ d.patterns }} patterns loaded{{ d.index !== null && d.index !== undefined ? ', "
+                 "showing ' + d.index : '' }}. Open <a href='projector' target='_blank'>the projector "
+                 "page</a> full-screen on the projector's display.", classes="text-caption mb-1")
+        with html.Div(classes="d-flex align-center ga-2"):
+            v.VTextField(v_model=("dev_sequence_file", ""), label="Sequence file (empty: the shipped one)",
+                         density="compact", variant="outlined", hide_details=True,
+                         raw_attrs=tid("dev-sequence-file"))
+            v.VBtn("Load", size="small", click=(on_load, "[d.key, dev_sequence_file]"),
+                   raw_attrs=tid("dev-load-patterns"))
+        with html.Div(classes="d-flex align-center ga-2 mt-1"):
+            v.VTextField(v_model=("dev_pattern", "0"), label="Pattern", density="compact", variant="outlined",
+                         hide_details=True, style="max-width: 100px;", raw_attrs=tid("dev-pattern"))
+            v.VBtn("Show", size="small", click=(on_show, "[d.key, dev_pattern]"), disabled=("!d.patterns",),
+                   raw_attrs=tid("dev-show-pattern"))
+            v.VBtn("Blank", size="small", variant="text", click=(on_show, "[d.key, null]"))
+
+
+def _sequences(page: Any) -> None:
+    """The sequence to run, its form, the run's buttons and its progress."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    html.Div("Acquisition sequences", classes="text-subtitle-2 mb-1")
+    html.Div("Frames are stored in the project as they arrive; a device fault pauses the run.",
+             classes="text-caption mb-2")
+    v.VSelect(model_value=("dev_seq_id",), items=("dev_catalogue.filter(d => d.role === 'sequence')",),
+              item_title="title", item_value="id", label="Sequence", density="compact", variant="outlined",
+              hide_details=True, classes="mb-2", update_modelValue=(page.choose_sequence, "[$event]"),
+              raw_attrs=tid("dev-seq-plugin"))
+    param_form("dev_seq_fields", "dev_seq_values", "dev-seq", sync=True)
+    with html.Div(classes="d-flex flex-wrap ga-1 mt-1"):
+        v.VBtn("Start", size="small", color="primary", prepend_icon="mdi-play", disabled=("!dev_seq_id",),
+               click=(page.start_sequence, "[dev_seq_id, dev_seq_values]"), raw_attrs=tid("dev-seq-start"))
+        for action, icon in (("pause", "mdi-pause"), ("resume", "mdi-play-pause"), ("abort", "mdi-stop")):
+            v.VBtn(action.capitalize(), size="small", variant="tonal", prepend_icon=icon, disabled=("!dev_seq",),
+                   click=(page.sequence_action, f"['{action}']"), raw_attrs=tid(f"dev-seq-{action}"))
+    with v.VCard(v_if="dev_seq", variant="tonal", classes="mt-2", raw_attrs=tid("dev-seq-status")):
+        with v.VCardText(classes="py-2"):
+            html.Div("{{ dev_seq.name }}: {{ dev_seq.state }} — {{ dev_seq.label }} · {{ dev_seq.frames }} frames",
+                     raw_attrs=tid("dev-seq-state"))
+            v.VProgressLinear(model_value=("dev_seq.progress",), height=10, rounded=True, classes="my-1",
+                              color=("dev_seq.state === 'paused' ? 'warning' : 'primary'",))
+            html.Div("{{ dev_seq.reason }}", v_if="dev_seq.reason", classes="text-caption text-error")
