@@ -8,13 +8,13 @@ names a YAML file inside the package, npe2-style::
 
 The file declares what the package contributes::
 
+    schema: 1                       # the manifest format (absent: 1)
     name: my-lab-plugin
     plugins:
       - id: mylab.flatness          # unique, dotted
         kind: algorithm             # algorithm | device | standard
         name: Flatness (lab method)
-        version: 1.2.0              # optional; defaults to the distribution's version
-        summary: One line.
+        summary: One line.          # the version is the distribution's
         entry: my_lab_plugin.flat:run   # imported only when the plugin is used
         inputs:  [{name: cloud, type: pointcloud}]
         parameters: [{name: tolerance, type: float, unit: mm, default: 0.01, min: 0}]
@@ -22,7 +22,9 @@ The file declares what the package contributes::
     commands:                       # optional CLI subcommands: camcmm NAME ...
       - {name: flat, summary: One line., entry: my_lab_plugin.cli}
 
-See docs/plugins.md for the full contract.
+Every key, its type and meaning is in docs/manifest.md; the contract of a plugin's code
+in docs/plugins.md. A wrong value is refused in one line naming the plugin and the key;
+an unknown key is kept in ``PluginSpec.extra`` with a warning (``x-`` keys silently).
 """
 
 from __future__ import annotations
@@ -35,9 +37,24 @@ from .errors import PluginError
 from .params import Param
 from .yamlfile import YamlError, load_yaml
 
+#: The manifest format this camcmm reads; a manifest without ``schema`` is schema 1.
+SCHEMA = 1
 KINDS = ("algorithm", "device", "standard")
 INPUT_TYPES = ("pointcloud", "mesh", "geometry", "image", "images", "file", "files", "json")
+#: What an ``acquires`` plugin hands to the acceptance wizard's acquisition step.
+ACQUIRES = ("pointcloud", "mesh", "image", "images")
+#: The device roles camcmm's pages know; a lab may declare others (any lower-case name).
+ROLES = ("camera", "stage", "projector", "interferometer", "speckle", "sequence")
 _ID = re.compile(r"^[a-z0-9][a-z0-9_.-]*$")
+_SLOT = re.compile(r"^[a-z_][a-z0-9_]*$")
+_NEED = re.compile(r"^([a-z0-9][a-z0-9_.-]*)(\*?)(\??)$")
+_ENTRY = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+#: Keys of a plugin entry (docs/manifest.md); others go to ``extra`` with a warning.
+KEYS = ("id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs", "provides",
+        "role", "simulated", "acquires", "needs", "report")
+#: Declared keys also kept in ``extra`` while readers move to the attributes (remove
+#: once nothing reads ``spec.extra["role"]`` and friends).
+_ALSO_IN_EXTRA = ("role", "simulated", "acquires", "needs", "report")
 
 
 @dataclass
@@ -75,9 +92,18 @@ class PluginSpec:
     distribution: str = ""
     status: str = "ok"
     provides: list[str] = field(default_factory=list)
+    role: str = ""
+    simulated: bool = False
+    acquires: str = ""
+    needs: dict[str, str] = field(default_factory=dict)
+    report: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
+        declared = {"provides": self.provides, "role": self.role, "simulated": self.simulated,
+                    "acquires": self.acquires, "needs": self.needs, "report": self.report,
+                    "warnings": self.warnings}
         return {
             "id": self.id,
             "kind": self.kind,
@@ -90,7 +116,27 @@ class PluginSpec:
             "parameters": [p.to_dict() for p in self.parameters],
             "inputs": [p.to_dict() for p in self.inputs],
             "outputs": [p.to_dict() for p in self.outputs],
+            **{k: v for k, v in declared.items() if v},  # only what the manifest says
         }
+
+
+@dataclass(frozen=True)
+class Need:
+    """One slot of a sequence device's ``needs``: the ``role`` of the device(s) it takes,
+    whether it takes several (``camera*``) and whether it may stay empty (``speckle?``)."""
+
+    role: str
+    many: bool = False
+    optional: bool = False
+
+
+def need(pattern: str) -> Need:
+    """Parse a ``needs`` pattern: ``"stage"`` (exactly one), ``"camera*"`` (one or more),
+    ``"speckle?"`` (none or one), ``"camera*?"`` (any number). ValueError otherwise."""
+    m = _NEED.match(str(pattern))
+    if not m:
+        raise ValueError(f"{pattern!r} is not a role name followed by nothing, '*', '?' or '*?'")
+    return Need(m.group(1), m.group(2) == "*", m.group(3) == "?")
 
 
 @dataclass
@@ -111,8 +157,46 @@ def _port(d: Any, where: str) -> Port:
                 bool(d.get("optional", False)))
 
 
+def _declared(d: dict[str, Any], kind: str, fail: Any) -> dict[str, Any]:
+    """The optional schema-1 fields of one entry, checked; ``fail(key, reason)`` raises."""
+    provides = d.get("provides") or []
+    if isinstance(provides, str) or not isinstance(provides, list) or \
+            not all(isinstance(t, str) and _ID.match(t) for t in provides):
+        fail("provides", f"must be a list of task names (lower-case letters, digits, '.', '_', '-'), "
+                         f"got {provides!r}")
+    role = d.get("role", "")
+    if role != "" and (kind != "device" or not isinstance(role, str) or not _ID.match(role)):
+        fail("role", f"must be a lower-case name ({', '.join(ROLES)}, ...) on a device, got {role!r}"
+             + (f" on a {kind}" if kind != "device" else ""))
+    simulated = d.get("simulated", False)
+    if not isinstance(simulated, bool):
+        fail("simulated", f"must be true or false, got {simulated!r}")
+    acquires = d.get("acquires", "")
+    if acquires != "" and acquires not in ACQUIRES:
+        fail("acquires", f"must be one of {', '.join(ACQUIRES)}, got {acquires!r}")
+    needs = d.get("needs") or {}
+    if "needs" in d and (not isinstance(needs, dict) or kind != "device"):
+        fail("needs", f"must be a mapping slot: role on a device, got {needs!r}")
+    for slot, pattern in needs.items():
+        if not isinstance(slot, str) or not _SLOT.match(slot):
+            fail("needs", f"slot {slot!r} must be a lower-case identifier (it is passed as a keyword)")
+        try:
+            need(pattern)
+        except ValueError as exc:
+            fail("needs", f"slot {slot!r}: {exc}")
+    report = d.get("report", "")
+    if report != "" and (not isinstance(report, str) or not _ENTRY.match(report)):
+        fail("report", f"must read 'module:function', got {report!r}")
+    version = d.get("version")
+    if version is not None and not isinstance(version, (str, int, float)):
+        fail("version", f"must be a version string, got {version!r}")
+    return {"provides": list(provides), "role": role, "simulated": simulated, "acquires": acquires,
+            "needs": {str(k): str(v) for k, v in needs.items()}, "report": report}
+
+
 def parse_plugin(d: Any, default_version: str, distribution: str, where: str) -> PluginSpec:
-    """Build a PluginSpec from one manifest entry; raise PluginError naming the fault."""
+    """Build a PluginSpec from one manifest entry; raise PluginError naming the fault
+    (``<where>: plugin 'x.y' field 'role': must be ...``)."""
     if not isinstance(d, dict):
         raise PluginError(f"{where}: a plugin entry must be a mapping, got {type(d).__name__}")
     missing = [k for k in ("id", "kind", "name", "entry") if not d.get(k)]
@@ -121,19 +205,22 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
     pid = str(d["id"])
     if not _ID.match(pid):
         raise PluginError(f"{where}: plugin id {pid!r} must be lower-case letters, digits, '.', '_' or '-'")
+
+    def fail(key: str, reason: str) -> None:
+        raise PluginError(f"{where}: plugin {pid!r} field {key!r}: {reason}")
+
     if d["kind"] not in KINDS:
-        raise PluginError(f"{where}: plugin {pid!r} has kind {d['kind']!r}; use one of {', '.join(KINDS)}")
+        fail("kind", f"{d['kind']!r} is not one of {', '.join(KINDS)}")
     if ":" not in str(d["entry"]):
-        raise PluginError(f"{where}: plugin {pid!r} entry {d['entry']!r} must read 'module:attribute'")
+        fail("entry", f"{d['entry']!r} must read 'module:attribute'")
     try:
         params = [Param.from_dict(p) for p in d.get("parameters") or []]
     except Exception as exc:  # ParameterError or a malformed mapping
         raise PluginError(f"{where}: plugin {pid!r}: {exc}") from None
-    provides = d.get("provides") or []
-    if isinstance(provides, str) or not all(isinstance(t, str) and _ID.match(t) for t in provides):
-        raise PluginError(f"{where}: plugin {pid!r}: 'provides' must be a list of task names "
-                          f"(lower-case letters, digits, '.', '_', '-'), got {provides!r}")
-    known = {"id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs", "provides"}
+    declared = _declared(d, str(d["kind"]), fail)
+    unknown = [k for k in d if k not in KEYS]
+    warnings = [f"{where}: plugin {pid!r}: unknown key {k!r} (kept in extra; see docs/manifest.md)"
+                for k in unknown if not str(k).startswith(("x-", "x_"))]
     return PluginSpec(
         id=pid,
         kind=str(d["kind"]),
@@ -145,8 +232,9 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
         inputs=[_port(p, where) for p in d.get("inputs") or []],
         outputs=[_port(p, where) for p in d.get("outputs") or []],
         distribution=distribution,
-        provides=list(provides),
-        extra={k: v for k, v in d.items() if k not in known},
+        **declared,
+        extra={k: v for k, v in d.items() if k in unknown or k in _ALSO_IN_EXTRA},
+        warnings=warnings,
     )
 
 
@@ -159,14 +247,21 @@ def parse_manifest(text: str, default_version: str, distribution: str, where: st
         raise PluginError(str(exc)) from None
     if not isinstance(doc, dict):
         raise PluginError(f"{where}: manifest must be a mapping with a 'plugins' list")
-    plugins, errors = [], []
+    schema = doc.get("schema", 1)
+    if not isinstance(schema, int) or isinstance(schema, bool) or schema < 1:
+        raise PluginError(f"{where}: field 'schema' must be a whole number (1), got {schema!r}")
+    if schema > SCHEMA:
+        raise PluginError(f"{where}: manifest schema {schema} is newer than this camcmm reads ({SCHEMA}); "
+                          "update camcmm")
+    plugins: list[PluginSpec] = []
+    errors: list[tuple[str, str]] = []
     for i, entry in enumerate(doc.get("plugins") or []):
         try:
             plugins.append(parse_plugin(entry, default_version, distribution, where))
         except PluginError as exc:
             pid = (entry.get("id") if isinstance(entry, dict) else None) or f"{distribution}[{i}]"
             errors.append((str(pid), str(exc)))
-    commands = []
+    commands: list[CommandSpec] = []
     for c in doc.get("commands") or []:
         if not isinstance(c, dict) or not c.get("name") or not c.get("entry"):
             errors.append((f"{distribution}:command", f"{where}: a command needs a name and an entry, got {c!r}"))

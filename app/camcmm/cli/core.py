@@ -43,7 +43,8 @@ def _plugins(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     return {
         "plugins": [
-            {k: s.to_dict()[k] for k in ("id", "kind", "name", "version", "status", "distribution", "summary")}
+            {k: v for k, v in s.to_dict().items()
+             if k in ("id", "kind", "name", "version", "status", "distribution", "summary", "warnings")}
             for s in host.check()
         ],
         "commands": [{"name": c.name, "summary": c.summary, "distribution": c.distribution}
@@ -55,6 +56,7 @@ def _plugins_text(result: dict[str, Any]) -> str:
     rows = [f"{'ID':24} {'KIND':10} {'VERSION':9} STATUS"]
     for p in result["plugins"]:
         rows.append(f"{p['id']:24} {p['kind']:10} {p['version']:9} {p['status']}")
+        rows.extend(f"  warning: {w}" for w in p.get("warnings", []))  # e.g. a misspelt manifest key
     return "\n".join(rows)
 
 
