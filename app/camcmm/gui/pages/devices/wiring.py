@@ -64,7 +64,8 @@ def objects_for(spec: Any, devices: Iterable[Any]) -> dict[str, Any]:
         base, many, optional = pattern.rstrip("*?"), "*" in pattern, pattern.endswith("?")
         found = [d for d in pool if getattr(d, "kind", "") == base]
         if not found and not optional:
-            raise CamcmmError(f"{spec.id}: connect a {base} first")
+            article = "an" if base[:1] in "aeiou" else "a"
+            raise CamcmmError(f"{spec.id}: connect {article} {base} first")
         if many:
             out[slot] = found
         elif found:

@@ -1,0 +1,1 @@
+"""A lab's own device for camcmm: a motorised lift (z axis), simulated. See README.md."""
