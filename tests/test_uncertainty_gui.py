@@ -5,12 +5,9 @@ bad input gets one-line reasons and the page keeps working."""
 
 from __future__ import annotations
 
-import itertools
+import asyncio
 import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,37 +18,22 @@ pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 
-from camcmm.gui.app import build, close  # noqa: E402
-from camcmm.gui import uncertainty_figures as figs  # noqa: E402
+from conftest import run_camcmm  # noqa: E402
+from camcmm.gui.pages.uncertainty import figures as figs  # noqa: E402
 
 DATA = Path(__file__).parent / "data" / "uncertainty"
-_names = itertools.count()
-
-
-@pytest.fixture
-def app(tmp_path):
-    made = []
-
-    def make(project_dir=None):
-        server, session = build(f"test-unc-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj")
-        server.state.ready()
-        made.append(server)
-        return server, session
-
-    yield make
-    for server in made:
-        close(server)
 
 
 def cli_json(*args) -> dict:
-    exe = Path(sys.executable).parent / "camcmm"
-    out = subprocess.run([str(exe), *args, "--json"], capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0, out.stderr
-    return json.loads(out.stdout)
+    return json.loads(run_camcmm(*args, "--json").stdout)
 
 
-def test_budget_editor_reproduces_gum_h1_and_the_cli(app):
-    server, _ = app()
+def run_mc(page, spec, params):
+    return asyncio.run(page.run_montecarlo_async(spec, params))
+
+
+def test_budget_editor_reproduces_gum_h1_and_the_cli(gui_app):
+    server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
     # the starting budget is the shipped thesis table 3.2 (x column): already evaluated
     assert s.unc_b_result is not None and len(s.unc_b_rows) == 5
@@ -71,8 +53,8 @@ def test_budget_editor_reproduces_gum_h1_and_the_cli(app):
     assert max(bar["x"]) == pytest.approx(25.0)
 
 
-def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(app, tmp_path):
-    server, _ = app()
+def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(gui_app, tmp_path):
+    server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
     rows = [{"name": "a", "u": "3", "c": "1", "dof": "inf", "distribution": "normal"},
             {"name": "b", "u": "4", "c": "1", "dof": "inf", "distribution": "rectangular"}]
@@ -87,14 +69,14 @@ def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(app, tmp_path):
     assert "dof" in s.unc_b_error
     # the draft is in the project: a reopened page shows the edited (bad) table again
     proj = server.session.project.path
-    server2, _ = app(proj)
+    server2, _ = gui_app(proj)
     assert server2.state.unc_b_rows[1]["dof"] == "0"
     assert page.load_budget(b"contributions: 3", "x.yaml") is False
     assert "x.yaml" in s.unc_error
 
 
-def test_budget_store_and_export(app):
-    server, session = app()
+def test_budget_store_and_export(gui_app):
+    server, session = gui_app()
     page, s = server.pages["uncertainty"], server.state
     page.load_budget((DATA / "budget_example.yaml").read_bytes())
     out = page.save_budget()
@@ -119,15 +101,15 @@ def small_spec() -> str:
     return yaml.safe_dump(doc)
 
 
-def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(app):
-    server, session = app()
+def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(gui_app):
+    server, session = gui_app()
     page, s = server.pages["uncertainty"], server.state
     spec = small_spec()
     params = {"iterations": 500, "seed": 3, "method": "linear", "studies": ["convergence", "volume_maps", "sweep"]}
-    full = page.run_montecarlo(spec, params)
+    full = run_mc(page, spec, params)
     assert full is not None, s.unc_error
     # the same numbers as the plugin called directly with the same seed
-    direct = session.host.run("uncertainty.montecarlo", {"spec": yaml.safe_load(spec)},
+    direct = session.host.run(session.host.provider("monte-carlo-uncertainty").id, {"spec": yaml.safe_load(spec)},
                               {"iterations": 500, "seed": 3, "method": "linear", "studies": ""}).outputs
     for f, u in direct["contributions"].items():
         assert np.allclose(full["contributions"][f], u, rtol=1e-12)
@@ -159,25 +141,25 @@ def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(app):
     # stored: the row holds the summary, the file every array; a new page shows it again
     row = session.project.result(rid)
     assert row["outputs"]["combined"] == pytest.approx(direct["combined"])
-    server2, _ = app(session.project.path)
+    server2, _ = gui_app(session.project.path)
     s2 = server2.state
     assert s2.unc_mc_summary["result_id"] == rid
     assert s2.unc_mc_rows == s.unc_mc_rows
     assert s2.unc_mc_maps == s.unc_mc_maps
 
 
-def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(app):
-    server, _ = app()
+def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(gui_app):
+    server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
-    assert page.run_montecarlo("cameras: [", {}) is None
+    assert run_mc(page, "cameras: [", {}) is None
     assert "YAML" in s.unc_error and "line" in s.unc_error
     doc = yaml.safe_load(small_spec())
     doc["uncertainties"]["focal_length"] = [-0.8, 0.8]
-    assert page.run_montecarlo(yaml.safe_dump(doc), {"iterations": 50}) is None
+    assert run_mc(page, yaml.safe_dump(doc), {"iterations": 50}) is None
     assert "focal_length" in s.unc_error and s.unc_mc_running is False
-    assert page.run_montecarlo(small_spec(), {"iterations": "many"}) is None
+    assert run_mc(page, small_spec(), {"iterations": "many"}) is None
     assert "iterations" in s.unc_error
-    assert page.run_montecarlo(small_spec(), {"iterations": 50, "studies": []}) is not None
+    assert run_mc(page, small_spec(), {"iterations": 50, "studies": []}) is not None
 
 
 def test_png_export_draws_the_figure():
@@ -186,3 +168,22 @@ def test_png_export_draws_the_figure():
     png = figs.figure_png(fig)
     assert png[:4] == b"\x89PNG" and len(png) > 5000
     assert math.isclose(fig["data"][0]["y"][0], 9.1)
+
+
+def test_montecarlo_cancel_is_said_and_the_next_run_works(gui_app):
+    server, _ = gui_app()
+    page, s = server.pages["uncertainty"], server.state
+
+    async def cancel_soon():
+        task = asyncio.ensure_future(page.run_montecarlo_async(small_spec(), {"iterations": 5_000_000}))
+        while not s.unc_mc_running and not task.done():
+            await asyncio.sleep(0.02)
+        await asyncio.sleep(0.3)
+        page.cancel()
+        return await task
+
+    assert asyncio.run(cancel_soon()) is None
+    assert s.unc_mc_message == "cancelled" and s.unc_mc_running is False
+    assert "cancel" in s.unc_error and "\n" not in s.unc_error
+    assert run_mc(page, small_spec(), {"iterations": 50, "studies": []}) is not None
+    assert s.unc_mc_message.startswith("done")

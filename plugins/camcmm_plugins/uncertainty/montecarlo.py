@@ -511,7 +511,10 @@ def propagate(setup: Setup, factor: str, rel_step: float = 1e-3) -> dict[str, An
 # ------------------------------------------------------------------ studies
 def volume_maps(setup: Setup, multiple: float = 1.0) -> dict[str, Any]:
     """Figs. 3.5-3.8: the error field of the grid (centroid removed) under a systematic
-    offset of +``multiple`` standard uncertainties in every parameter of each factor."""
+    offset of +``multiple`` standard uncertainties in every parameter of each factor.
+
+    Each factor gives ``errors`` (P, 3) in the result's unit, ``norm`` (P,) their
+    lengths, ``offset`` (the parameters' offsets) and ``range`` (3,) max - min per axis."""
     unit = UNITS[setup.unit]
     out = {}
     for f in setup.factors:
@@ -519,7 +522,8 @@ def volume_maps(setup: Setup, multiple: float = 1.0) -> dict[str, Any]:
             continue
         off = {f: (multiple * np.asarray(setup.stds[f], float))[None]}
         E = errors(setup, measure(setup, off, 1))[0] * unit
-        out[f] = {"errors": E, "offset": off[f][0], "range": (E.max(axis=0) - E.min(axis=0)).tolist()}
+        out[f] = {"errors": E, "norm": np.linalg.norm(E, axis=1), "offset": off[f][0],
+                  "range": (E.max(axis=0) - E.min(axis=0)).tolist()}
     return {"points": setup.points, "grid_shape": list(setup.grid_shape), "multiple": multiple, "factors": out}
 
 
@@ -568,7 +572,13 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
               method: str | None = None, scheduler: str | None = None, studies: Sequence[str] = (),
               progress: Callable | None = None, warn: Callable | None = None,
               executor=None) -> dict[str, Any]:
-    """The whole Monte Carlo study; returns the JSON-able result (arrays as numpy)."""
+    """The whole Monte Carlo study; returns the JSON-able result (arrays as numpy).
+
+    Besides the table (``contributions``, ``combined``, ``dof_eff``, ``k``, ``expanded``,
+    per axis, in ``unit``): ``per_point`` (``points`` (P, 3) mm and per factor the (P, 3)
+    standard deviations), ``per_point_norm`` (per factor (P,): the length of each point's
+    (x, y, z) standard deviations) and ``studies`` (see :func:`volume_maps` and the others).
+    """
     # absurd magnitudes (1e308 mm) overflow inside the model: numpy's warnings would
     # clutter stderr, the non-finite result is refused below in one line instead
     with np.errstate(all="ignore"):
@@ -615,6 +625,8 @@ def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn
                     "executor": "dask" if (scheduler or executor is not None and
                                            not isinstance(executor, LocalExecutor)) else "local"})
         out["per_point"] = {"points": setup.points, **{f: r["std"] for f, r in res.items()}}
+        # each point's standard uncertainties (x, y, z) as one length, the magnitude a map shows
+        out["per_point_norm"] = {f: np.sqrt((r["std"] ** 2).sum(axis=1)) for f, r in res.items()}
         extra: dict[str, Any] = {}
         if "joint" in res:
             out["combined_joint"] = res["joint"]["u"].tolist()

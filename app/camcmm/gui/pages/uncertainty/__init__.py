@@ -1,4 +1,12 @@
-"""The "Uncertainty" page: Monte Carlo and GUM uncertainty of a measuring system."""
+"""The "Uncertainty" page: a GUM budget editor and a Monte Carlo study of a stereo system.
+
+Modules: :mod:`.page` (state and handlers), :mod:`.budget` (the budget editor's
+documents and exports), :mod:`.study` (the Monte Carlo form, storage, table and
+exports), :mod:`.figures` (charts as plotly JSON and PNG), :mod:`.view` (the measuring
+volume in 3D) and :mod:`.layout` (the widgets). The numbers are the uncertainty
+plugins'; the page finds them by task (``uncertainty-budget``,
+``monte-carlo-uncertainty``).
+"""
 
 from __future__ import annotations
 
@@ -8,15 +16,15 @@ from .. import Page
 
 
 def _mount(server: Any, session: Any) -> Any:
-    from ... import uncertainty_page
+    from .page import mount
 
-    return uncertainty_page.mount(server, session)
+    return mount(server, session)
 
 
 def _build(page: Any) -> None:
-    from ... import uncertainty_layout
+    from .layout import build
 
-    uncertainty_layout.build_panel(page)
+    build(page)
 
 
 PAGE = Page("uncertainty", "Uncertainty", "mdi-sigma", _mount, _build, order=30)

@@ -5,18 +5,21 @@ and the PNG export draws the very same dict with matplotlib (already a dependenc
 for reports; plotly's own static export needs Kaleido and a browser), so what the
 operator sees and what they download cannot drift apart.
 
-Inputs are the outputs of ``uncertainty.budget`` and ``uncertainty.montecarlo``
-(see ``camcmm_plugins.uncertainty``); values in the result's unit (µm by default).
+Inputs are the outputs of the plugins providing ``uncertainty-budget`` and
+``monte-carlo-uncertainty`` (camcmm's own: ``camcmm_plugins.uncertainty``); values in
+the result's unit (µm by default). Presentation only: every number drawn is one the
+plugin returned.
 """
 
 from __future__ import annotations
 
 import io
+import math
 from typing import Any
 
 import numpy as np
 
-from .plotly_json import LEGEND_BELOW, empty, layout
+from ...plotly_json import LEGEND_BELOW, empty, layout
 
 AXES = ("x", "y", "z")
 AXIS_COLOURS = {"x": "#1f77b4", "y": "#2ca02c", "z": "#d62728"}
@@ -36,6 +39,15 @@ def shown_unit(unit: str | None) -> str:
 
 def factor_title(name: str) -> str:
     return FACTOR_TITLES.get(name, name.replace("_", " "))
+
+
+def fmt(x: Any, digits: int = 4) -> str:
+    """A number as the tables show it: ``digits`` significant digits; None and inf as ∞
+    (an infinite number of degrees of freedom)."""
+    if x is None:
+        return "∞"
+    x = float(x)
+    return "∞" if math.isinf(x) else f"{x:.{digits}g}"
 
 
 def _layout(title: str, xtitle: str, ytitle: str, legend: bool = True, **extra: Any) -> dict[str, Any]:

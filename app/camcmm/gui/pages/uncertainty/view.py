@@ -3,7 +3,8 @@ distortion a systematic offset causes (thesis figs. 3.5-3.8) as arrows, or each
 point's standard uncertainty (per factor, from the Monte Carlo run) as colour.
 
 One off-screen pyvista plotter rendered server-side; the page pushes one image per
-scene change. Loop thread only.
+scene change. Loop thread only. The magnitudes are the plugin's; only the arrows'
+drawing scale (so the longest is a tenth of the volume) is chosen here.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .uncertainty_figures import factor_title, shown_unit
+from ....errors import InputError
+from ... import setup_offscreen
+from .figures import factor_title, shown_unit
 
 
 def map_options(result: dict[str, Any] | None) -> list[dict[str, str]]:
@@ -31,29 +34,37 @@ def map_options(result: dict[str, Any] | None) -> list[dict[str, str]]:
 
 
 def scene_arrays(result: dict[str, Any], choice: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]:
-    """(points (P, 3) mm, magnitude (P,), vectors (P, 3) or None, what) for ``choice``.
+    """(points (P, 3) mm, magnitude (P,), vectors (P, 3) or None, what) for ``choice``,
+    all as the plugin returned them.
 
-    Distortion: the error field in the result's unit (centroid removed), magnitude its
-    length. Uncertainty: the per-point standard deviations, magnitude their root sum of
-    squares over x, y, z."""
+    Distortion: the error field (centroid removed) in the result's unit and its
+    lengths (``volume_maps.factors.<f>.norm``). Uncertainty: each point's length of its
+    (x, y, z) standard deviations (``per_point_norm``)."""
     kind, _, factor = str(choice).partition(":")
-    if kind == "distortion":
-        vm = result["studies"]["volume_maps"]
-        pts = np.asarray(vm["points"], float).reshape(-1, 3)
-        e = np.asarray(vm["factors"][factor]["errors"], float).reshape(-1, 3)
-        return pts, np.linalg.norm(e, axis=1), e, f"|error| ({factor_title(factor)})"
-    if kind == "uncertainty":
-        pp = result["per_point"]
-        pts = np.asarray(pp["points"], float).reshape(-1, 3)
-        s = np.asarray(pp[factor], float).reshape(-1, 3)
-        return pts, np.sqrt((s ** 2).sum(axis=1)), None, f"u ({factor_title(factor)})"
-    raise ValueError(f"unknown map {choice!r}")
+    try:
+        if kind == "distortion":
+            vm = result["studies"]["volume_maps"]
+            m = vm["factors"][factor]
+            return (_points(vm["points"]), np.asarray(m["norm"], float).ravel(),
+                    _points(m["errors"]), f"|error| ({factor_title(factor)})")
+        if kind == "uncertainty":
+            return (_points(result["per_point"]["points"]), np.asarray(result["per_point_norm"][factor], float).ravel(),
+                    None, f"u ({factor_title(factor)})")
+    except KeyError:
+        # a result stored by an earlier camcmm lacks the lengths the map shows
+        raise InputError(f"{choice}: this result has no such map; run the study again") from None
+    raise InputError(f"unknown map {choice!r}")
+
+
+def _points(a: Any) -> np.ndarray:
+    return np.asarray(a, float).reshape(-1, 3)
 
 
 class UncertaintyView:
-    def __init__(self, window_size: tuple[int, int] = (800, 600)):
-        from . import setup_offscreen
+    """The off-screen plotter of the measuring volume; ``on_update(reset_camera)`` tells
+    the page's remote view to fetch a new image."""
 
+    def __init__(self, window_size: tuple[int, int] = (800, 600)):
         setup_offscreen()
         import pyvista as pv
 

@@ -1,0 +1,305 @@
+"""The "Uncertainty" page's state and handlers: a GUM budget editor and a Monte Carlo
+study of a stereo system, published through the trame state (``unc_*`` keys).
+
+Both run the plugins that provide ``uncertainty-budget`` and ``monte-carlo-uncertainty``
+(found by task through the host, as the CLI finds its own), so the page shows the CLI's
+numbers. The budget is evaluated as the operator types (it is cheap, on the loop
+thread); a draft is kept in the project's state so an edited table survives a restart.
+A Monte Carlo run is the page's one :class:`~camcmm.gui.jobs.Job` (progress, cancel);
+its result is stored in the project (the summary in the result row, every array in a
+JSON file) and shown again on reopen.
+
+Threading: state, store reads and VTK on the server loop; the plugin run and the file
+writing in the job's worker.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from .... import worker
+from ....assets import resources_dir
+from ....errors import InputError, one_line
+from ....yamlfile import load_yaml, read_yaml
+from ...downloads import Downloads
+from ...jobs import Job
+from . import budget as bud
+from . import figures as figs
+from . import study
+from .view import UncertaintyView, map_options
+
+log = logging.getLogger("camcmm.gui.uncertainty")
+
+BUDGET_TASK, MONTECARLO_TASK = "uncertainty-budget", "monte-carlo-uncertainty"
+DRAFT_KEY = "uncertainty.budget.draft"
+
+
+def _resource(name: str) -> Path:
+    return resources_dir() / "uncertainty" / name
+
+
+class UncertaintyPage:
+    """The page object (``server.pages["uncertainty"]``)."""
+
+    def __init__(self, session: Any, downloads: str | Path | None = None):
+        self.session = session
+        self.server: Any = None  # set by mount: the layout binds its triggers to its controller
+        self.state = session.state
+        self.project = session.project
+        self.host = session.host
+        self.offered = Downloads("camcmm-uncertainty-downloads", "camcmm-uncertainty-", downloads)
+        self.view = UncertaintyView()
+        self.job = Job("the Monte Carlo run", state=self.state, on_progress=self._show_progress, interval=0.2)
+        self.budget: dict[str, Any] | None = None
+        self.mc: dict[str, Any] | None = None
+        self.mc_result_id: int | None = None
+        self._init_state()
+        self.restore()
+
+    # -- state ---------------------------------------------------------------------------
+    def _init_state(self) -> None:
+        s = self.state
+        s.unc_tab = "budget"
+        s.unc_error = ""
+        s.unc_b_error = ""
+        s.unc_b_distributions = bud.DISTRIBUTIONS
+        s.unc_b_result = None
+        s.unc_b_fig = figs.empty("the budget's contributions appear here")
+        s.unc_b_links = []
+        s.unc_mc_spec = ""
+        s.unc_mc_iterations = 2000
+        s.unc_mc_seed = 1
+        s.unc_mc_method = "linear"
+        s.unc_mc_studies = ["convergence", "volume_maps"]
+        s.unc_mc_study_options = study.STUDIES
+        s.unc_mc_scheduler = ""
+        s.unc_mc_running = False
+        s.unc_mc_progress = 0.0
+        s.unc_mc_message = ""
+        s.unc_mc_rows = []
+        s.unc_mc_summary = None
+        s.unc_mc_axis = "x"
+        s.unc_mc_fig_contrib = figs.contributions_figure({})
+        s.unc_mc_fig_conv = figs.convergence_figure({}, "um")
+        s.unc_mc_fig_sweep = figs.sweep_figure({}, "um")
+        s.unc_mc_fig_spatial = figs.spatial_figure({}, "um")
+        s.unc_mc_maps = []
+        s.unc_mc_map = None
+        s.unc_mc_map_note = ""
+        s.unc_mc_links = []
+
+    def flush(self) -> None:
+        self.session.flush()
+
+    def _error(self, msg: BaseException | str) -> None:
+        line = one_line(msg)
+        self.state.unc_error = line
+        self.session.error(line)
+
+    def _plugin(self, task: str) -> str:
+        """The id of the plugin doing ``task`` (PluginError, one line, when none is installed)."""
+        return self.host.provider(task).id
+
+    # -- the budget --------------------------------------------------------------------------
+    def set_budget(self, quantity: str, unit: str, p: Any, rows: list[dict[str, Any]],
+                   save_draft: bool = True) -> dict | None:
+        """Evaluate the editor's budget; the result (or the one-line reason) is shown at once."""
+        s = self.state
+        s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows = quantity, unit, p, [dict(r) for r in rows]
+        doc = bud.budget_doc(quantity, unit, p, rows)
+        if save_draft:
+            try:
+                self.project.set_state(DRAFT_KEY, doc)
+            except Exception as exc:  # the editor keeps working; the reason is shown
+                s.unc_b_error = f"the draft could not be kept in the project: {one_line(exc)}"
+        try:
+            res = self.host.run(self._plugin(BUDGET_TASK), inputs={"spec": doc}).outputs
+        except Exception as exc:
+            self.budget = None
+            s.unc_b_result, s.unc_b_error = None, one_line(exc)
+            s.unc_b_fig = figs.empty("fix the table to see the contributions")
+            return None
+        self.budget = res
+        s.unc_b_error = ""
+        s.unc_b_result = bud.shown(res)
+        s.unc_b_fig = figs.budget_figure(res)
+        return res
+
+    def add_row(self) -> None:
+        self.state.unc_b_rows = list(self.state.unc_b_rows or []) + [dict(bud.EMPTY_ROW)]
+        self.state.unc_b_error = "a new row: give its name and u"
+
+    def remove_row(self, i: int) -> None:
+        rows = [r for j, r in enumerate(self.state.unc_b_rows or []) if j != int(i)]
+        s = self.state
+        self.set_budget(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, rows)
+
+    def load_budget(self, text: str | bytes, name: str = "budget.yaml") -> bool:
+        """Replace the editor's budget by a YAML/JSON budget file's."""
+        try:
+            doc = load_yaml(text, name=name)
+        except InputError as exc:
+            self._error(exc)
+            return False
+        if not isinstance(doc, dict) or not isinstance(doc.get("contributions"), list):
+            self._error(f"{name}: expected a mapping with a 'contributions' list")
+            return False
+        self.set_budget(str(doc.get("quantity", "")), str(doc.get("unit", "")),
+                        doc.get("coverage_probability", 0.95), bud.rows_from_doc(doc))
+        return True
+
+    def save_budget(self) -> dict[str, Any] | None:
+        """Store the evaluated budget as a result and offer YAML, CSV, JSON and PNG."""
+        if self.budget is None:
+            self._error("the budget has errors: fix the table first")
+            return None
+        s = self.state
+        doc = bud.budget_doc(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows)
+        try:
+            run = self.host.run(self._plugin(BUDGET_TASK), inputs={"spec": doc})
+            rid = self.project.add_result(run, label=f"GUM budget: {doc['quantity']}")
+        except Exception as exc:
+            self._error(f"budget: {one_line(exc)}")
+            return None
+        s.unc_b_links = bud.exports(self.offered, f"budget-{rid}", doc, run.outputs)
+        self.session.refresh_results()
+        self.session.info(f"budget stored as result #{rid}")
+        return {"result_id": rid, "links": s.unc_b_links}
+
+    # -- the Monte Carlo study -------------------------------------------------------------
+    def _show_progress(self, fraction: float, message: str) -> None:
+        self.state.unc_mc_progress = round(100.0 * float(fraction), 1)
+        self.state.unc_mc_message = message or "Monte Carlo"
+
+    def cancel(self) -> None:
+        if self.job.cancel():
+            self.state.unc_mc_message = "cancelling …"
+
+    def _compute(self, plugin_id: str, doc: dict[str, Any], values: dict[str, Any]) -> Any:
+        """Worker: the plugin's run (in a worker process when the host allows)."""
+        return worker.run(self.host, plugin_id, {"spec": doc}, values, progress=self.job.progress,
+                          cancel=self.job.cancel_event)
+
+    async def run_montecarlo_async(self, spec_text: str, params: dict[str, Any]) -> dict[str, Any] | None:
+        """Run the study of the system ``spec_text`` (YAML) with the form's ``params``
+        (iterations, seed, method, studies, scheduler); store and show it. The full
+        result, or None (the reason is in ``unc_error``)."""
+        s = self.state
+        if self.job.running:
+            self._error("a Monte Carlo run is going on; wait for it or cancel it")
+            return None
+        try:
+            spec = self.host.provider(MONTECARLO_TASK)
+            doc, values = study.inputs(spec_text, params, spec)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        self.job.begin()
+        s.unc_mc_running, s.unc_mc_progress, s.unc_mc_message, s.unc_error = True, 0.0, "starting …", ""
+        self.flush()
+        try:
+            run = await self.job.call(self._compute, spec.id, doc, values)
+            s.unc_mc_message = "storing the result in the project …"
+            self.flush()
+            rid, h = await self.job.call(study.store, self.project, run, doc)
+            full = await self.job.call(study.read, self.project, h)
+        except Exception as exc:
+            status, line = Job.outcome(exc)
+            s.unc_mc_running, s.unc_mc_message = False, status
+            self._error(line)
+            return None
+        finally:
+            self.job.end()
+            self.flush()
+        s.unc_mc_running, s.unc_mc_progress = False, 100.0
+        s.unc_mc_message = study.done_message(full)
+        self.show_montecarlo(full, rid)
+        self.session.refresh_results()
+        self.flush()
+        return full
+
+    def show_montecarlo(self, full: dict[str, Any], rid: int | None = None) -> None:
+        """Publish a Monte Carlo result (fresh, or read back from the project)."""
+        s = self.state
+        self.mc, self.mc_result_id = full, rid
+        s.unc_mc_rows = study.table_rows(full)
+        s.unc_mc_summary = {"unit": figs.shown_unit(full.get("unit", "um")), "iterations": full.get("iterations"),
+                            "result_id": rid, "method": full.get("method"), "n_points": full.get("n_points")}
+        self._draw_figures()
+        s.unc_mc_maps = map_options(full)
+        s.unc_mc_map = s.unc_mc_maps[0]["value"] if s.unc_mc_maps else None
+        self.show_map(s.unc_mc_map)
+        s.unc_mc_links = study.exports(self.offered, full, rid, s.unc_mc_rows, s.unc_mc_axis or "x")
+
+    def _draw_figures(self) -> None:
+        s, full = self.state, self.mc or {}
+        studies = full.get("studies") or {}
+        unit = full.get("unit", "um")
+        s.unc_mc_fig_contrib = figs.contributions_figure(full)
+        s.unc_mc_fig_conv = figs.convergence_figure(studies.get("convergence") or {}, unit, s.unc_mc_axis or "x")
+        s.unc_mc_fig_sweep = figs.sweep_figure(studies.get("sweep") or {}, unit)
+        s.unc_mc_fig_spatial = figs.spatial_figure(studies.get("spatial") or {}, unit)
+
+    def set_axis(self, axis: str) -> None:
+        self.state.unc_mc_axis = axis if axis in figs.AXES else "x"
+        self._draw_figures()
+
+    def show_map(self, choice: str | None) -> None:
+        s = self.state
+        s.unc_mc_map = choice
+        if not choice or self.mc is None:
+            self.view.clear()
+            s.unc_mc_map_note = "tick 'volume_maps' under Studies and run to see the measuring volume" if self.mc else ""
+            return
+        try:
+            s.unc_mc_map_note = self.view.show(self.mc, choice, self.mc.get("unit", "um"))
+        except Exception as exc:
+            s.unc_mc_map_note = f"cannot show {choice}: {one_line(exc)}"
+
+    # -- restore -----------------------------------------------------------------------------
+    def restore(self) -> None:
+        """The draft budget (or the shipped example) and the last stored Monte Carlo run."""
+        import yaml
+
+        s = self.state
+        try:
+            draft = self.project.get_state(DRAFT_KEY)
+        except Exception:
+            draft = None
+        if not isinstance(draft, dict):
+            try:
+                draft = read_yaml(_resource("budget.yaml"))
+            except InputError:
+                draft = {"quantity": "", "unit": "um", "coverage_probability": 0.95, "contributions": []}
+        self.set_budget(str(draft.get("quantity", "")), str(draft.get("unit", "")),
+                        draft.get("coverage_probability", 0.95), bud.rows_from_doc(draft), save_draft=False)
+        try:
+            s.unc_mc_spec = _resource("stereo_system.yaml").read_text("utf-8")
+        except OSError:
+            s.unc_mc_spec = ""
+        try:
+            cur = self.project.get_state(study.MC_KEY)
+            if isinstance(cur, dict) and self.project.has_file(str(cur.get("file"))):
+                full = study.read(self.project, str(cur["file"]))
+                if isinstance(full.get("system"), dict):
+                    s.unc_mc_spec = yaml.safe_dump(full["system"], sort_keys=False)
+                s.unc_mc_message = f"result #{cur.get('result')} from the project"
+                self.show_montecarlo(full, cur.get("result"))
+        except Exception as exc:  # a damaged file must not keep the page from opening
+            log.warning("cannot restore the Monte Carlo result: %s", exc)
+            s.unc_mc_message = f"the stored Monte Carlo result could not be read: {one_line(exc)}"
+
+    def close(self) -> None:
+        self.job.close()
+        self.offered.close()
+        self.view.close()
+
+
+def mount(server: Any, session: Any) -> UncertaintyPage:
+    """Create the page for a session and serve its downloads (before the server starts)."""
+    page = UncertaintyPage(session)
+    page.server = server
+    page.offered.mount(server)
+    return page
