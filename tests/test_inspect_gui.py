@@ -1,4 +1,4 @@
-"""The "Compare with CAD" page without a browser: the InspectPage behind it, on a real
+"""The "Compare with CAD" page without a browser: the ComparePage behind it, on a real
 project, with the inspection plugin really running.
 
 The nominal is a CAD box (40 × 30 × 20 mm); the measured cloud is sampled on it with
@@ -9,7 +9,7 @@ plugin's deviations (the plugin's own correctness has its own tests).
 
 from __future__ import annotations
 
-import itertools
+import asyncio
 import math
 import os
 import sys
@@ -25,8 +25,10 @@ pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly", reason="trame-plotly draws the page's charts")
 
-from camcmm.gui import inspect_panel as ip  # noqa: E402
-from camcmm.gui.app import build, close  # noqa: E402
+from camcmm.gui.pages.compare import tables as ip  # noqa: E402
+from camcmm.gui.pages.compare.page import STATE_KEY  # noqa: E402
+from camcmm.gui.pages.compare.picking import world_to_display  # noqa: E402
+from camcmm.gui.view import fmt_count  # noqa: E402
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud, TriangleMesh  # noqa: E402
 
@@ -36,7 +38,6 @@ from test_inspection_shapes import box_mesh  # noqa: E402
 if "inspect.compare" not in default_host().plugins:
     pytest.skip("the inspection plugin is not installed", allow_module_level=True)
 
-_names = itertools.count()
 LO, HI = np.array([0.0, 0.0, 0.0]), np.array([40.0, 30.0, 20.0])
 NOISE, BUMP = 0.005, 0.03
 ANGLE = math.radians(2.0)
@@ -71,18 +72,8 @@ def make_pair(folder: Path, n: int = 12000, offset=(0.0, 0.0, 0.0)) -> tuple[Pat
 
 
 @pytest.fixture
-def app(tmp_path):
-    made = []
-
-    def make(project_dir=None, **kw):
-        server, session = build(f"test-inspect-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj", **kw)
-        server.state.ready()
-        made.append(server)
-        return server, session
-
-    yield make
-    for server in made:
-        close(server)
+def app(gui_app):
+    return gui_app
 
 
 def imported(app, tmp_path, **kw):
@@ -102,7 +93,7 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     assert names[s.ins_measured] == "scan.ply" and names[s.ins_nominal] == "box.stl"
     assert [o["value"] for o in s.ins_align_options] == list(default_host().get("inspect.compare").parameters[0].choices)
     s.ins_tolerance = "0.01"
-    result = page.run()
+    result = asyncio.run(page.run_async())
     assert result is not None, s.ins_error
     assert s.ins_error == "" and s.ins_has_result and not s.ins_failed
     o = result.outputs
@@ -126,7 +117,7 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     # the statistics table = numpy on the deviations
     rows = {r["key"]: r["value"] for r in s.ins_stats}
     um = lambda x, signed=True: ip.fmt_len(x, "µm", signed)  # noqa: E731
-    assert rows["n"] == ip.fmt_count(len(dev))
+    assert rows["n"] == fmt_count(len(dev))
     assert rows["mean"] == um(dev.mean())
     assert rows["std"] == um(dev.std(ddof=1), False)
     assert rows["rms"] == um(np.sqrt(np.mean(dev ** 2)), False)
@@ -184,7 +175,7 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     assert any("95 % within" in a["text"] for a in af["layout"]["annotations"])
 
     # the project keeps the comparison: result, deviations file, state
-    saved = session.project.get_state(ip.STATE_KEY)
+    saved = session.project.get_state(STATE_KEY)
     assert saved["result"] == s.ins_result_id and saved["tolerance"] == 0.01
     stored = session.project.result(saved["result"])
     assert stored["plugin"] == "inspect.compare" and "deviations" in stored["files"]
@@ -194,7 +185,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     server, session, page, truth = imported(app, tmp_path)
     s = server.state
     s.ins_tolerance = "0.01"
-    assert page.run() is not None, s.ins_error
+    assert asyncio.run(page.run_async()) is not None, s.ins_error
     cloud = page.deviations
     dev = cloud.fields["deviation"]
 
@@ -241,7 +232,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
 
     # export: a PLY that camcmm.io reads back with the deviation field; added to the project
     n_items = len(s.items)
-    out = page.export()
+    out = asyncio.run(page.export_async())
     assert out is not None, s.ins_error
     back = cio.read(out["path"])
     assert back.n_points == cloud.n_points and back.field_units.get("deviation") == "mm"
@@ -250,7 +241,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     assert session.project.file_path(out["hash"]).is_file()
 
     # report: the plugin's writer, HTML/PDF/JSON in the project, links offered
-    rep = page.report()
+    rep = asyncio.run(page.report_async())
     assert rep is not None, s.ins_error
     assert sorted(rep["paths"]) == ["html", "json", "pdf"]
     for p in rep["paths"].values():
@@ -278,7 +269,7 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
 def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     server, session, page, _ = imported(app, tmp_path, offset=(500.0, 0.0, 0.0))
     s = server.state
-    result = page.run()
+    result = asyncio.run(page.run_async())
     assert result is not None and not result.outputs["converged"]
     assert s.ins_failed and s.ins_failed_reason and s.ins_failed_reason == result.outputs["reason"]
     assert "\n" not in s.ins_failed_reason
@@ -287,11 +278,11 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     assert {r["key"]: r["value"] for r in s.ins_alignment}["converged"].startswith("NO")
     page.set_mode("colour")  # refused, with a reason
     assert page.view.scene == "failed" and "alignment failed" in s.ins_error
-    assert page.export() is None and "not valid" in s.ins_error
-    rep = page.report()  # the report records the failure
+    assert asyncio.run(page.export_async()) is None and "not valid" in s.ins_error
+    rep = asyncio.run(page.report_async())  # the report records the failure
     assert rep is not None and "did not converge" in Path(rep["paths"]["html"]).read_text("utf-8")
     # it is still stored (a failed comparison is a result too), and restored as failed
-    assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
+    assert session.project.get_state(STATE_KEY)["result"] == s.ins_result_id
     project_dir = session.project.path
     server.pages["compare"].close()
     server.session.close()
@@ -302,12 +293,10 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
 
 
 def test_run_async_reports_progress_and_can_be_cancelled(app, tmp_path):
-    import asyncio
-
     server, session, page, _ = imported(app, tmp_path)
     s = server.state
     seen = []
-    original = page._progress_cb
+    original = page.job.progress
 
     def progress(fraction, message):
         seen.append(message)
@@ -315,15 +304,15 @@ def test_run_async_reports_progress_and_can_be_cancelled(app, tmp_path):
             page.cancel()
         original(fraction, message)
 
-    page._progress_cb = progress
+    page.job.progress = progress
     assert asyncio.run(page.run_async()) is None
     assert not s.ins_running and "cancelled" in s.ins_error and s.ins_progress_message == "cancelled"
-    assert not s.ins_has_result and session.project.get_state(ip.STATE_KEY) is None
+    assert not s.ins_has_result and session.project.get_state(STATE_KEY) is None
     # and a run that is not cancelled: done, shown and stored from the worker
-    page._progress_cb = original
+    page.job.progress = original
     result = asyncio.run(page.run_async())
     assert result is not None and s.ins_has_result and not s.ins_running and s.ins_progress == 100.0
-    assert session.project.get_state(ip.STATE_KEY)["result"] == s.ins_result_id
+    assert session.project.get_state(STATE_KEY)["result"] == s.ins_result_id
     assert {"result", "drawn", "numbers"} <= set(s.ins_timing)
 
 
@@ -344,8 +333,6 @@ def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
     view.plotter.view_isometric()
     view.screenshot()
     prep = view._inputs["measured"]
-    from camcmm.gui.inspect_panel import world_to_display
-
     xy, dist, ok = world_to_display(view.renderer, prep.points)
     j = int(np.argmin(dist))  # the point nearest to the camera is surely visible
     got = page.pick_display(*xy[j])
@@ -372,11 +359,11 @@ def test_point_pairs_picked_in_the_view_align_a_turned_part(app, tmp_path):
         page.add_pair_point("nominal", c)
     assert len(s.ins_pairs) == 3 and all(p["complete"] for p in s.ins_pairs)
     assert "three pairs" in s.ins_pick_hint
-    result = page.run()
+    result = asyncio.run(page.run_async())
     assert result is not None, s.ins_error
     assert result.outputs["converged"], result.outputs["reason"]
     assert abs(np.std(page.deviations.fields["deviation"]) - NOISE) < 0.002
-    assert session.project.get_state(ip.STATE_KEY)["pairs"]["nominal"] == corners.tolist()
+    assert session.project.get_state(STATE_KEY)["pairs"]["nominal"] == corners.tolist()
 
 
 def test_a_reference_cloud_as_the_nominal(app, tmp_path):
@@ -394,8 +381,6 @@ def test_a_reference_cloud_as_the_nominal(app, tmp_path):
     view = page.view
     view.plotter.view_isometric()
     view.screenshot()
-    from camcmm.gui.inspect_panel import world_to_display
-
     prep = view._inputs["nominal_cloud"]
     xy, dist, ok = world_to_display(view.renderer, prep.points)
     j = int(np.argmin(dist))
@@ -408,7 +393,7 @@ def test_a_reference_cloud_as_the_nominal(app, tmp_path):
     # against a reference cloud by point-to-point distances, which the cloud's spacing
     # widens (reported to the plugin's author)
     s.ins_params = dict(s.ins_params, inlier_distance="2")
-    result = page.run()
+    result = asyncio.run(page.run_async())
     assert result is not None and result.outputs["converged"], result.outputs["reason"]
     assert result.params["inlier_distance"] == 2.0
     assert "local plane" in result.outputs["distance_method"]
@@ -422,26 +407,26 @@ def test_bad_input_gets_one_line_reasons(app, tmp_path):
     server, session, page, _ = imported(app, tmp_path)
     s = server.state
     page.state.ins_nominal = page.state.ins_measured
-    assert page.run() is None and "both measured and nominal" in s.ins_error
+    assert asyncio.run(page.run_async()) is None and "both measured and nominal" in s.ins_error
     page.refresh_inputs()
     s.ins_nominal = next(it["id"] for it in s.items if it["kind"] == "mesh")
     s.ins_tolerance = "abc"
-    assert page.run() is None and "tolerance" in s.ins_error and "not a number" in s.ins_error
+    assert asyncio.run(page.run_async()) is None and "tolerance" in s.ins_error and "not a number" in s.ins_error
     s.ins_tolerance = "-1"
-    assert page.run() is None and "tolerance" in s.ins_error
+    assert asyncio.run(page.run_async()) is None and "tolerance" in s.ins_error
     s.ins_tolerance = ""
     page.set_align("pairs")
-    assert page.run() is None and "3 point pairs, 0 picked" in s.ins_error
+    assert asyncio.run(page.run_async()) is None and "3 point pairs, 0 picked" in s.ins_error
     page.set_align("icp")
     s.ins_params = dict(s.ins_params, max_iterations="0")
-    assert page.run() is None and "max_iterations" in s.ins_error
+    assert asyncio.run(page.run_async()) is None and "max_iterations" in s.ins_error
     for msg in session.errors:
         assert "\n" not in msg
-    assert page.export() is None and "run a comparison first" in s.ins_error
-    assert page.report() is None and "run a comparison first" in s.ins_error
+    assert asyncio.run(page.export_async()) is None and "run a comparison first" in s.ins_error
+    assert asyncio.run(page.report_async()) is None and "run a comparison first" in s.ins_error
     # bands without a tolerance are refused
     s.ins_params = {k: v for k, v in s.ins_params.items() if k != "max_iterations"}
-    assert page.run() is not None
+    assert asyncio.run(page.run_async()) is not None
     page.set_mode("bands")
     assert s.ins_mode == "colour" and "tolerance" in s.ins_error
 
@@ -456,13 +441,19 @@ def test_units_bands_and_picking_maths():
     assert ip.nice_ticks(0.25) == [-0.2, -0.1, 0, 0.1, 0.2] and ip.nice_ticks(45) == [-40, -20, 0, 20, 40]
     assert ip.nice_ticks(0.0) == [0.0]
     d = np.array([-0.2, -0.1, 0.0, 0.1, 0.2, np.nan])
-    assert ip.band_codes(d, 0.1).tolist() == [-1, 0, 0, 0, 1, 2]
-    assert ip.band_counts(d, 0.1) == {"below": 1, "within": 3, "above": 1, "invalid": 1}
-    rows = ip.band_legend(ip.band_counts(d, 0.1), 0.1, "mm")
+    # the bands come from the plugin providing "tolerance-bands"
+    host = default_host()
+    cloud = PointCloud(np.zeros((len(d), 3)), fields={"deviation": d}, name="d")
+    bands = host.run(host.provider("tolerance-bands").id, {"deviations": cloud}, {"tolerance": 0.1}).outputs
+    assert np.asarray(bands["codes"]).tolist() == [-1, 0, 0, 0, 1, 2]
+    assert bands["counts"] == {"below": 1, "within": 3, "above": 1, "invalid": 1} and bands["within"] == 0.6
+    rows = ip.band_legend(bands["counts"], 0.1, "mm")
     assert [r["key"] for r in rows] == ["above", "within", "below", "invalid"]
     assert rows[1]["label"] == "within ±0.100 mm"
     # a point spacing on a regular grid is the grid's step
     g = np.stack(np.meshgrid(np.arange(200) * 0.5, np.arange(200) * 0.5, indexing="ij"), -1).reshape(-1, 2)
     grid = np.column_stack([g, np.zeros(len(g))])
-    assert ip.point_spacing(grid) == pytest.approx(0.5)
-    assert ip.point_spacing(grid, queries=500) == pytest.approx(0.5)
+    from camcmm_plugins.inspection.display import point_spacing
+
+    assert point_spacing(grid) == pytest.approx(0.5)
+    assert point_spacing(grid, queries=500) == pytest.approx(0.5)

@@ -29,6 +29,7 @@ from camcmm.api import GeometryError, InputError, ParameterError, PointCloud, Tr
 
 from . import align as al
 from . import coverage as cov
+from . import display as disp
 from . import distance as dist
 from . import material_ratio as mrmod
 from . import stats as st
@@ -294,3 +295,31 @@ def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", leve
     if smr_at:
         out["Smr"] = {f"{c:g}": 100.0 * float(curve.smr(c)) for c in smr_at}
     return out
+
+
+# --------------------------------------------------------------------------- what a viewer shows
+def bands(ctx, deviations, tolerance: float | None = None) -> dict[str, Any]:
+    """inspect.bands: each point of a deviations cloud below, within or above ±tolerance."""
+    if not tolerance:
+        raise ParameterError("tolerance: give the tolerance (mm, > 0) the bands are drawn for")
+    codes = disp.band_codes(disp.deviation_field(deviations), tolerance)
+    counts = disp.band_counts(codes)
+    return {"codes": codes, "counts": counts, "within": disp.within_share(counts)}
+
+
+def section(ctx, deviations, nominal=None, axis: str = "z", position: float | None = None,
+            half_width: float | None = None, max_points: int = 6000, seed: int = 0) -> dict[str, Any]:
+    """inspect.section: a plane across an axis cutting the nominal and the deviations cloud."""
+    dev = disp.deviation_field(deviations)
+    ax = disp.AXES.index(axis)
+    if position is None:
+        lo, hi = deviations.points[:, ax].min(), deviations.points[:, ax].max()
+        position = 0.5 * (float(lo) + float(hi))
+    spacing = None
+    if half_width is None:
+        spacing = disp.point_spacing(deviations.points)
+        half_width = 0.5 * spacing
+    mesh = nominal if isinstance(nominal, TriangleMesh) else None
+    cloud = nominal.points if isinstance(nominal, PointCloud) else None
+    sec = disp.section(ax, position, deviations.points, dev, half_width, mesh, cloud, max_points, seed)
+    return {"section": sec, "spacing": spacing}

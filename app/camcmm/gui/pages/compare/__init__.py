@@ -8,15 +8,15 @@ from .. import Page
 
 
 def _mount(server: Any, session: Any) -> Any:
-    from ... import inspect_panel
+    from .page import mount
 
-    return inspect_panel.mount(server, session, session.view.display_limit)
+    return mount(server, session, session.view.display_limit)
 
 
 def _build(page: Any) -> None:
-    from ... import inspect_layout
+    from .layout import build
 
-    inspect_layout.build_panel(page)
+    build(page)
 
 
 PAGE = Page("compare", "Compare with CAD", "mdi-vector-difference", _mount, _build, order=20)

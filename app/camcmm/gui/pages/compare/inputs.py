@@ -3,9 +3,9 @@ measured cloud and the nominal chosen among the project's items, the alignment m
 the tolerance, and the point pairs clicked in the 3D view (also a click on a result:
 the deviation of the point under it).
 
-:class:`InspectInputs` is a mixin of :class:`camcmm.gui.inspect_panel.InspectPage`
-(which owns ``state``, ``session``, ``host``, ``view``, the picked pairs and
-``_error``/``_spec_of``); loop thread only.
+:class:`Inputs` is a mixin of :class:`.page.ComparePage` (which owns ``state``,
+``session``, ``host``, ``view``, the picked pairs, ``bands`` and ``_error``/``_spec_of``);
+loop thread only.
 """
 
 from __future__ import annotations
@@ -15,12 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import CamcmmError, InputError
-from ..host import to_jsonable
-from ..params import form_schema
-from .inspect_figures import BANDS, _num, band_codes, fmt_len
+from ....errors import InputError, one_line
+from ....host import to_jsonable
+from ....params import form_schema
+from .tables import BANDS, _num, fmt_len
 
-PLUGIN = "inspect.compare"
+#: The task whose plugin the page runs (``provides:`` in its manifest).
+TASK = "compare-with-cad"
 #: Parameters the page shows up front; the rest of the manifest's go under "More".
 MAIN_PARAMS = ("align", "tolerance")
 N_PAIRS = 3  # a rigid (or similarity) transform needs three non-collinear pairs
@@ -39,15 +40,8 @@ ALIGN_TITLES = {
 PAIR_COLOURS = {"measured": "#c62828", "nominal": "#1565c0"}
 
 
-def _one_line(exc: BaseException | str) -> str:
-    """An error as the one line the page shows: our own errors speak for themselves,
-    anything else is named by its type."""
-    msg = str(exc) if isinstance(exc, (CamcmmError, str)) else f"{type(exc).__name__}: {exc}"
-    return " ".join(msg.split()) or "unknown error"
-
-
-class InspectInputs:
-    """The form, the inputs scene, point pairs and picking (mixin of InspectPage)."""
+class Inputs:
+    """The form, the inputs scene, point pairs and picking (mixin of ComparePage)."""
 
     # -- inputs --------------------------------------------------------------------------
     def refresh_inputs(self) -> None:
@@ -56,7 +50,7 @@ class InspectInputs:
         try:
             spec = self._spec_of()
         except Exception as exc:  # a host without it (or a test's fake host): the page says so
-            s.ins_error = f"the inspection plugin ({PLUGIN}) is not available: {_one_line(exc)}"
+            s.ins_error = f"no plugin to compare with CAD ({TASK}) is available: {one_line(exc)}"
             return
         if not s.ins_fields:
             fields, values = [], {}
@@ -90,7 +84,7 @@ class InspectInputs:
             s.ins_nominal = meshes[0] if meshes else (others[0] if others else None)
 
     def _name(self, key: Any) -> str:
-        m = self.session._measurements.get(str(key)) if key is not None else None
+        m = self.session.measurement(key)
         return str(m.get("name") or key) if m else str(key)
 
     def load(self, key: Any, what: str) -> Any:
@@ -219,7 +213,7 @@ class InspectInputs:
         try:
             x, y = self.view.display_xy(fx, fy)
         except Exception as exc:
-            self._error(f"pick: {_one_line(exc)}")
+            self._error(f"pick: {one_line(exc)}")
             return None
         return self.pick_display(x, y)
 
@@ -261,9 +255,8 @@ class InspectInputs:
         info = {"found": True, "index": int(i), "x": float(p[0]), "y": float(p[1]), "z": float(p[2]),
                 "deviation_mm": d, "deviation": fmt_len(d, unit, True, 4),
                 "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm", "valid": valid}
-        tol = self._tolerance(quiet=True)
-        if tol:
-            info["band"] = BANDS[int(band_codes(np.array([d]), tol)[0])][0]
+        if self.bands is not None:
+            info["band"] = BANDS[int(self.bands["codes"][i])][0]
         info["text"] = f"point #{i}: {info['coords']}, deviation {info['deviation']}" + (
             "" if valid else " (alignment failed: not a valid deviation)")
         self.state.ins_picked = info

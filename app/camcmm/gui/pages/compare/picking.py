@@ -1,9 +1,8 @@
-"""Geometry of the "Compare with CAD" scene: the spacing of a cloud, a section through
-the part, and picking a point under the mouse.
+"""Picking in the "Compare with CAD" scene: which point or surface is under the mouse.
 
-Functions on numpy arrays (mm) and, for picking, a VTK renderer (display pixels, x
-right, y up). VTK's point picker takes the point nearest the pick ray, which may lie
-behind the surface the operator sees; so a point is picked here from the camera's
+Functions of a VTK renderer and numpy arrays (mm; display pixels, x right, y up). VTK's
+point picker takes the point nearest the pick ray, which may lie behind the surface the
+operator sees; so a point is picked here from the camera's
 projection and the last frame's depth buffer (a mesh is still picked by VTK's cell
 picker). No trame, no state: testable with a bare off-screen renderer.
 """
@@ -16,92 +15,6 @@ from typing import Any
 import numpy as np
 
 
-# =============================================================================== section
-AXES = ("x", "y", "z")
-
-
-def point_spacing(points: np.ndarray, queries: int = 5000, seed: int = 0) -> float:
-    """Median nearest-neighbour distance of a cloud (mm), over a seeded sample of query
-    points against the whole cloud (an unbalanced KD-tree: 2 million points in about
-    0.4 s). Exact for regular grids as for scattered points, unlike a spacing measured
-    on a subset and rescaled."""
-    from scipy.spatial import cKDTree
-
-    P = np.asarray(points, dtype=float)
-    n = len(P)
-    if n < 2:
-        return 0.0
-    rng = np.random.default_rng(seed)
-    tree = cKDTree(P, balanced_tree=False, compact_nodes=False)
-    q = P if n <= queries else P[rng.choice(n, queries, replace=False)]
-    d, _ = tree.query(q, k=2)
-    nn = d[:, 1]
-    nn = nn[nn > 0]
-    return float(np.median(nn)) if nn.size else 0.0
-
-
-def _polylines(cut: Any) -> list[np.ndarray]:
-    """The polylines of a pyvista PolyData of lines (after ``strip``)."""
-    if cut is None or cut.n_points == 0:
-        return []
-    pts = np.asarray(cut.points, dtype=float)
-    conn = np.asarray(cut.lines)
-    out, i = [], 0
-    while i < len(conn):
-        k = int(conn[i])
-        ids = conn[i + 1:i + 1 + k]
-        if k >= 2:
-            out.append(pts[ids])
-        i += k + 1
-    return out
-
-
-def section(axis: int | str, position: float, points: np.ndarray, dev: np.ndarray, half_width: float,
-            nominal_poly: Any = None, nominal_points: np.ndarray | None = None,
-            max_points: int = 6000, seed: int = 0) -> dict[str, Any]:
-    """A cut through the part by the plane ``coord[axis] = position``.
-
-    ``nominal_poly`` (a pyvista mesh) is cut with ``slice`` into polylines; a nominal
-    cloud contributes its points within the slab. The measured points within
-    ±``half_width`` of the plane come with their deviations (at most ``max_points``,
-    a seeded subset). Returns 2-D coordinates on the plane's other two axes:
-    ``{"axis", "position", "u", "v" (axis names), "nominal": [(k, 2) arrays],
-    "nominal_points": (m, 2), "measured": (n, 2), "deviation": (n,), "n_in_slab",
-    "half_width"}``.
-    """
-    ax = AXES.index(axis) if isinstance(axis, str) else int(axis)
-    u, v = [a for a in range(3) if a != ax]
-    P = np.asarray(points, dtype=float)
-    d = np.asarray(dev, dtype=float)
-    hw = abs(float(half_width))
-    inside = np.nonzero(np.abs(P[:, ax] - position) <= hw)[0]
-    n_in = int(inside.size)
-    if inside.size > max_points:
-        inside = np.sort(np.random.default_rng(seed).choice(inside, max_points, replace=False))
-    lines: list[np.ndarray] = []
-    if nominal_poly is not None:
-        normal = np.eye(3)[ax]
-        origin = np.zeros(3)
-        origin[ax] = position
-        b = np.asarray(nominal_poly.bounds, dtype=float).reshape(3, 2)
-        if b[ax, 0] <= position <= b[ax, 1]:
-            cut = nominal_poly.slice(normal=normal, origin=origin, generate_triangles=False)
-            if cut.n_points:
-                cut = cut.strip()
-            lines = [pl[:, [u, v]] for pl in _polylines(cut)]
-    nom_pts = np.zeros((0, 2))
-    if nominal_points is not None:
-        Q = np.asarray(nominal_points, dtype=float)
-        sel = np.nonzero(np.abs(Q[:, ax] - position) <= hw)[0]
-        if sel.size > max_points:
-            sel = np.random.default_rng(seed + 1).choice(sel, max_points, replace=False)
-        nom_pts = Q[sel][:, [u, v]]
-    return {"axis": AXES[ax], "position": float(position), "u": AXES[u], "v": AXES[v], "nominal": lines,
-            "nominal_points": nom_pts, "measured": P[inside][:, [u, v]], "deviation": d[inside],
-            "n_in_slab": n_in, "half_width": hw}
-
-
-# =============================================================================== picking
 def world_to_display(renderer: Any, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Display coordinates (x right, y up, pixels of the render window) of ``points``,
     their distance in front of the camera (mm, along its view direction) and whether

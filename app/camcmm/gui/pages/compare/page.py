@@ -1,10 +1,10 @@
 """Compare with CAD: the inspection page's logic, apart from the layout.
 
 The operator picks the measured cloud and the nominal (a CAD mesh or a reference
-cloud) from the project's items, an alignment method (the choices of the
-``inspect.compare`` manifest; the ``pairs`` methods take three point pairs clicked in
-the 3D view: on the measured cloud, then on the nominal, three times) and a tolerance,
-and runs the plugin in a worker thread. The result is shown as
+cloud) from the project's items, an alignment method (the choices declared by the
+plugin providing ``compare-with-cad``; the ``pairs`` methods take three point pairs
+clicked in the 3D view: on the measured cloud, then on the nominal, three times) and a
+tolerance, and runs the plugin in the page's job. The result is shown as
 
 * the deviations cloud in the page's own 3D view: a diverging colour map on
   ±``colour_limit`` with a legend titled ``deviation [µm]`` or ``[mm]`` (whichever
@@ -22,61 +22,46 @@ report writer (HTML, PDF, JSON, added to the project). The comparison is stored 
 project (the result, its deviations cloud as a result file, project state key
 ``inspection.current``), so reopening the project shows the last comparison.
 
-The page is one :class:`InspectPage` made of mixins, a module each, each readable alone:
+The page is one :class:`ComparePage` made of mixins, a module each, each readable alone:
 
-* :mod:`.inspect_inputs` — the form, the items, point pairs, picking in the view;
-* :mod:`.inspect_run` — running, showing the result, tolerance, display mode, section;
-* :mod:`.inspect_export` — storing, restoring, export, report and their links;
+* :mod:`.inputs` — the form, the items, point pairs, picking in the view;
+* :mod:`.run` — running (in the page's :class:`~camcmm.gui.jobs.Job`), showing the
+  result, tolerance (bands from the ``tolerance-bands`` plugin), display mode;
+* :mod:`.section` — the section (cut by the ``deviation-section`` plugin);
+* :mod:`.export` — storing, restoring, export, report and their links;
 
-over plain modules testable without trame: :mod:`.inspect_figures` (units, bands,
-tables, plotly figures), :mod:`.inspect_geometry` (point spacing, section, picking
-maths) and :mod:`.inspect_scene` (:class:`InspectView`, the page's off-screen pyvista
-plotter). :class:`InspectPage` publishes everything through the trame ``state`` (keys
-``ins_*``) for :mod:`camcmm.gui.inspect_layout`. VTK, the state and the page's scene
-are touched only from the server loop; the plugin run, the display preparation,
-storing, export and report run in a worker thread.
-
-The names tests and scripts import from here (units, bands, figures, geometry, the
-view) are re-exported from those modules.
+over plain modules testable without trame: :mod:`.tables` (units, legends, tables),
+:mod:`.figures` (plotly figures), :mod:`.picking` (picking maths) and :mod:`.scene`
+(:class:`CompareView`, the page's off-screen pyvista plotter). :class:`ComparePage`
+publishes everything through the trame ``state`` (keys ``ins_*``) for :mod:`.layout`.
+VTK, the state and the page's scene are touched only from the server loop; the plugin
+run, the display preparation, storing, export and report run in the job's thread.
 """
 
 from __future__ import annotations
 
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from ..host import RunResult
-from .downloads import Downloads
-from .inspect_export import STATE_KEY, InspectExport
-from .inspect_figures import (BANDS, COLOURMAP, MINUS, alignment_rows, band_codes, band_colours, band_counts,
-                              band_legend, display_unit, diverging_colours, empty_figure, fmt_len,
-                              histogram_figure, interval_text, legend_title, material_ratio_figure, nice_ticks,
-                              section_figure, stats_rows)
-from .inspect_geometry import (AXES, pick_point, pick_surface, point_spacing, section, surface_distance,
-                               world_to_display)
-from .inspect_inputs import ALIGN_TITLES, MAIN_PARAMS, N_PAIRS, PAIR_COLOURS, PLUGIN, InspectInputs, _one_line
-from .inspect_run import InspectRun
-from .inspect_scene import MEASURED_COLOUR, NOMINAL_COLOUR, InspectView, Prepared, prepare_cloud
-from .view import fmt_count
+from ....errors import one_line
+from ....host import RunResult
+from ...downloads import Downloads
+from ...jobs import Job
+from .export import STATE_KEY, Export
+from .figures import empty_figure
+from .inputs import TASK, Inputs
+from .run import Run
+from .scene import CompareView, Prepared
+from .section import Section
 
-__all__ = [
-    "ALIGN_TITLES", "AXES", "BANDS", "COLOURMAP", "DOWNLOAD_ROUTE", "InspectPage", "InspectView", "MAIN_PARAMS",
-    "MEASURED_COLOUR", "MINUS", "NOMINAL_COLOUR", "N_PAIRS", "PAIR_COLOURS", "PLUGIN", "Prepared", "STATE_KEY",
-    "alignment_rows", "band_codes", "band_colours", "band_counts", "band_legend", "display_unit",
-    "diverging_colours", "empty_figure", "fmt_count", "fmt_len", "histogram_figure", "interval_text",
-    "legend_title", "material_ratio_figure", "mount", "nice_ticks", "pick_point", "pick_surface",
-    "point_spacing", "prepare_cloud", "section", "section_figure", "stats_rows", "surface_distance",
-    "world_to_display",
-]
+__all__ = ["DOWNLOAD_ROUTE", "STATE_KEY", "ComparePage", "mount"]
 
 DOWNLOAD_ROUTE = "camcmm-inspect-downloads"
 
 
-class InspectPage(InspectInputs, InspectRun, InspectExport):
+class ComparePage(Inputs, Run, Section, Export):
     """Publishes the comparison through the session's trame state (``ins_*`` keys) and
-    runs the slow steps in a worker thread. One per server."""
+    runs the slow steps in its job. One per server."""
 
     def __init__(self, session: Any, downloads: str | Path | None = None, display_limit: int | None = None):
         self.session = session
@@ -84,17 +69,16 @@ class InspectPage(InspectInputs, InspectRun, InspectExport):
         self.project = session.project
         self.host = session.host
         limit = display_limit or getattr(getattr(session, "view", None), "display_limit", None) or 500_000
-        self.view = InspectView(int(limit))
+        self.view = CompareView(int(limit))
         self.offered = Downloads(DOWNLOAD_ROUTE, "camcmm-inspect-", downloads)
         self.downloads, self.download_route = self.offered.folder, self.offered.route
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-inspect")
-        self._cancel: threading.Event | None = None
-        self._last_progress = 0.0
+        self.job = Job("the comparison", state=self.state, on_progress=self._set_progress)
         # the comparison on show
         self.result: RunResult | None = None
         self.outputs: dict[str, Any] | None = None
         self.deviations: Any = None          # PointCloud with field "deviation"
         self.prepared: Prepared | None = None
+        self.bands: dict[str, Any] | None = None  # the plugin's bands for the tolerance shown
         self.nominal: Any = None
         self.measured: Any = None
         self.result_id: int | None = None
@@ -154,20 +138,19 @@ class InspectPage(InspectInputs, InspectRun, InspectExport):
         self.session.flush()
 
     def _error(self, msg: Any) -> None:
-        line = _one_line(msg) if not isinstance(msg, str) else " ".join(msg.split())
+        line = one_line(msg)
         self.state.ins_error = line
         self.session.error(line)
 
     def _spec_of(self) -> Any:
+        """The manifest of the plugin that compares with CAD (found by its task)."""
         if self._spec is None:
-            self._spec = self.host.get(PLUGIN)
+            self._spec = self.host.provider(TASK)
         return self._spec
 
     # -- shutdown --------------------------------------------------------------------------
     def close(self) -> None:
-        if self._cancel is not None:
-            self._cancel.set()
-        self._executor.shutdown(wait=False, cancel_futures=True)
+        self.job.close()
         self.offered.close()
         try:
             self.view.plotter.close()
@@ -175,10 +158,10 @@ class InspectPage(InspectInputs, InspectRun, InspectExport):
             pass
 
 
-def mount(server: Any, session: Any, display_limit: int | None = None) -> InspectPage:
+def mount(server: Any, session: Any, display_limit: int | None = None) -> ComparePage:
     """Create the page for a session, serve its downloads folder and follow the
     project's items (call before the server starts)."""
-    page = InspectPage(session, display_limit=display_limit)
+    page = ComparePage(session, display_limit=display_limit)
     page.offered.mount(server)
 
     @server.state.change("items")

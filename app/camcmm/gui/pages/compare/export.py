@@ -4,30 +4,31 @@ project (the result, its deviations cloud as a result file, the page's state und
 coloured PLY (offered for download and added as an item); reported by the inspection
 plugin's own report writer (HTML, PDF, JSON, added to the project).
 
-:class:`InspectExport` is a mixin of :class:`camcmm.gui.inspect_panel.InspectPage`.
-Files are written in its worker thread; the state is touched from the loop.
+:class:`Export` is a mixin of :class:`.page.ComparePage`. Files are written in the
+page's job (a worker thread); the state is touched from the loop.
 """
 
 from __future__ import annotations
 
-import asyncio
 import importlib
 import logging
 import re
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from ..errors import CamcmmError
-from ..host import RunResult
-from .downloads import REPORT_TITLES, safe_file_name, sort_links
-from .inspect_figures import band_codes, band_colours, diverging_colours
-from .inspect_inputs import PLUGIN, _one_line
-from .inspect_scene import prepare_cloud
-from .view import fmt_count
+from .... import io as cio
+from ....errors import CamcmmError, PluginError, one_line
+from ....host import RunResult
+from ....model import PointCloud
+from ...downloads import REPORT_TITLES, safe_file_name, sort_links
+from ...view import fmt_count
+from .scene import prepare_cloud
+from .tables import band_colours, diverging_colours
 
 log = logging.getLogger("camcmm.gui.inspect")
 
@@ -38,8 +39,8 @@ def _safe_file_name(name: str) -> str:
     return safe_file_name(name, "inspection")
 
 
-class InspectExport:
-    """Store, restore, export and report (mixin of InspectPage)."""
+class Export:
+    """Store, restore, export and report (mixin of ComparePage)."""
 
     # -- storing and restoring --------------------------------------------------------------
     def _store(self, result: RunResult, mids: list) -> dict[str, Any]:
@@ -56,7 +57,7 @@ class InspectExport:
         return saved
 
     def _mid(self, key: Any) -> Any:
-        m = self.session._measurements.get(str(key))
+        m = self.session.measurement(key)
         return m["id"] if m else None
 
     def _stored(self, saved: dict[str, Any]) -> None:
@@ -81,19 +82,17 @@ class InspectExport:
         try:
             d = self.project.result(int(saved["result"]))
             h = (d.get("files") or {}).get("deviations") or saved.get("deviations")
-            from .. import io as cio
-
             cloud = cio.read(self.project.file_path(h))
             outputs = dict(d.get("outputs") or {})
             outputs["deviations"] = cloud
-            result = RunResult(d.get("plugin", PLUGIN), d.get("version", ""), d.get("params") or {},
+            result = RunResult(d.get("plugin") or self._spec_of().id, d.get("version", ""), d.get("params") or {},
                                d.get("input_hashes") or {}, outputs, d.get("started", ""), d.get("finished", ""),
                                list(d.get("warnings") or []))
         except Exception as exc:
-            s.ins_error = f"the last comparison (result {saved.get('result')}) cannot be shown: {_one_line(exc)}"
+            s.ins_error = f"the last comparison (result {saved.get('result')}) cannot be shown: {one_line(exc)}"
             return False
         for key, attr in (("measured", "ins_measured"), ("nominal", "ins_nominal")):
-            if saved.get(key) is not None and str(saved[key]) in self.session._measurements:
+            if saved.get(key) is not None and self.session.measurement(saved[key]) is not None:
                 setattr(s, attr, str(saved[key]))
         if saved.get("align"):
             s.ins_align = saved["align"]
@@ -130,13 +129,10 @@ class InspectExport:
     def _export_cloud(self) -> Any:
         """The deviations cloud coloured as the view shows it (colour map or bands),
         with the field ``deviation`` (mm)."""
-        from ..model import PointCloud
-
         c = self.deviations
         dev = np.asarray(c.fields["deviation"], dtype=float)
-        tol = self._tolerance(quiet=True)
-        if self.state.ins_mode == "bands" and tol:
-            colours, what = band_colours(band_codes(dev, tol)), "tolerance bands"
+        if self.state.ins_mode == "bands" and self.bands is not None:
+            colours, what = band_colours(self.bands["codes"]), "tolerance bands"
         else:
             colours, what = diverging_colours(dev, float(self.outputs.get("colour_limit") or 1e-3)), "deviations"
         fields = dict(c.fields)
@@ -148,36 +144,24 @@ class InspectExport:
 
     def _write_export(self, cloud: Any) -> tuple[Path, str]:
         """Worker thread: write the PLY into the downloads folder and add it to the project."""
-        from .. import io as cio
-
         name = _safe_file_name(cloud.name) + ".ply"
         path = self.downloads / name
         cio.write(cloud, path)
         h = self.project.add_file(path)
         return path, h
 
-    def export(self) -> dict[str, Any] | None:
-        """Export in the calling thread; returns ``{"path", "hash", "item"}``."""
-        if not self._can("export"):
-            return None
-        try:
-            cloud = self._export_cloud()
-            path, h = self._write_export(cloud)
-        except Exception as exc:
-            self._error(f"export: {_one_line(exc)}")
-            return None
-        return self._exported(cloud, path, h)
-
     async def export_async(self) -> dict[str, Any] | None:
+        """Export in the page's job; returns ``{"path", "hash", "item"}``, or None with
+        the reason shown."""
         if not self._can("export"):
             return None
         self.state.ins_busy = "export"
         self.flush()
         try:
             cloud = self._export_cloud()
-            path, h = await asyncio.get_running_loop().run_in_executor(self._executor, self._write_export, cloud)
+            path, h = await self.job.run(self._write_export, cloud)
         except Exception as exc:
-            self._error(f"export: {_one_line(exc)}")
+            self._error(f"export: {one_line(exc)}")
             return None
         finally:
             self.state.ins_busy = ""
@@ -186,9 +170,9 @@ class InspectExport:
         return out
 
     def _exported(self, cloud: Any, path: Path, h: str) -> dict[str, Any]:
-        mid = self.session.add_measurement(path.name, h, cloud, source=f"{PLUGIN} result #{self.result_id}")
+        mid = self.session.add_measurement(path.name, h, cloud,
+                                           source=f"{self._spec_of().id} result #{self.result_id}")
         key = str(mid)
-        self.session._objects[key] = cloud
         self.session.refresh_items()
         if self.saved:
             self.saved["export"] = h
@@ -213,13 +197,18 @@ class InspectExport:
 
     # -- report ----------------------------------------------------------------------------
     def _report_writer(self) -> Callable[..., Any]:
-        """The inspection plugin's own report builder, found through its manifest entry."""
+        """The report writer the comparison plugin's manifest declares (``report:
+        module:function``)."""
         spec = self._spec_of()
-        package = spec.entry.split(":", 1)[0].rsplit(".", 1)[0]
+        declared = getattr(spec, "report", None) or spec.extra.get("report")
+        if not declared:
+            raise PluginError(f"plugin {spec.id!r} declares no report writer ('report: module:function')")
+        module, _, name = str(declared).partition(":")
         try:
-            return importlib.import_module(f"{package}.report").build_report
+            return getattr(importlib.import_module(module), name)
         except (ImportError, AttributeError) as exc:
-            raise CamcmmError(f"plugin {PLUGIN!r} ({package}) has no report writer: {exc}") from None
+            raise PluginError(f"plugin {spec.id!r}: its report writer {declared!r} cannot be loaded: "
+                              f"{one_line(exc)}") from None
 
     def _make_report(self, folder: Path) -> dict[str, str]:
         """Worker thread: the report files (html, pdf, json) in ``folder``."""
@@ -232,13 +221,18 @@ class InspectExport:
         rep = build(o, cloud_file=mname, nominal_file=nname, run=self.result, tolerance=tol)
         inputs = []
         for key, role in ((self.state.ins_measured, "measured cloud"), (self.state.ins_nominal, "nominal")):
-            m = self.session._measurements.get(str(key))
+            m = self.session.measurement(key)
             if m and m.get("hash"):
                 inputs.append({"file": str(m.get("name")), "sha256": m["hash"], "role": role})
         if inputs:
             rep.provenance(inputs=inputs, extra={"project": str(getattr(self.project, "path", "")),
                                                  "result": self.result_id})
         return rep.write(folder, basename=f"inspection-{self.result_id or 'new'}")
+
+    def _report_files(self, folder: Path) -> tuple[dict[str, str], dict[str, str]]:
+        """Worker thread: write the report and record it in the project."""
+        paths = self._make_report(folder)
+        return paths, self._record_report(paths)
 
     def _record_report(self, paths: dict[str, str]) -> dict[str, str]:
         files = {f"report_{k}": self.project.add_file(p) for k, p in paths.items()}
@@ -285,33 +279,18 @@ class InspectExport:
             pass
         return f"deviations-{self.result_id}.ply"
 
-    def report(self) -> dict[str, Any] | None:
-        """The report in the calling thread; returns ``{"paths", "files", "links"}``."""
-        if not self._can("report"):
-            return None
-        folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
-        try:
-            paths = self._make_report(folder)
-            files = self._record_report(paths)
-        except Exception as exc:
-            self._error(f"report: {_one_line(exc)}")
-            return None
-        finally:
-            shutil.rmtree(folder, ignore_errors=True)
-        return self._reported(files)
-
     async def report_async(self) -> dict[str, Any] | None:
+        """The plugin's report (HTML, PDF, JSON) in the page's job, added to the project;
+        returns ``{"paths", "files", "links"}``, or None with the reason shown."""
         if not self._can("report"):
             return None
         self.state.ins_busy = "report"
         self.flush()
         folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
-        loop = asyncio.get_running_loop()
         try:
-            paths = await loop.run_in_executor(self._executor, self._make_report, folder)
-            files = await loop.run_in_executor(self._executor, self._record_report, paths)
+            paths, files = await self.job.run(self._report_files, folder)
         except Exception as exc:
-            self._error(f"report: {_one_line(exc)}")
+            self._error(f"report: {one_line(exc)}")
             return None
         finally:
             shutil.rmtree(folder, ignore_errors=True)

@@ -1,5 +1,4 @@
-"""The "Compare with CAD" page: the Vuetify layout around a
-:class:`camcmm.gui.inspect_panel.InspectPage`.
+"""The "Compare with CAD" page: the Vuetify layout around a :class:`.page.ComparePage`.
 
 Three columns (the drawer is closed on this page): **left** the comparison's setup
 (measured cloud, nominal, alignment, tolerance, point pairs, more parameters, Run),
@@ -16,42 +15,16 @@ from __future__ import annotations
 
 from typing import Any
 
-
-def _tid(name: str) -> list[str]:
-    return [f'data-testid="{name}"']
-
-
-def _dyn_tid(expr: str) -> list[str]:
-    return [f':data-testid="{expr}"']
-
-
-def page_switch(v: Any, toolbar: Any) -> None:
-    """Add "Compare with CAD" to the toolbar's page toggle (Inspect | Acceptance test),
-    or as a button beside it when the toggle is not found."""
-    from trame.widgets import vuetify3
-
-    toggle = None
-    for child in reversed(list(getattr(toolbar, "children", []) or [])):
-        if isinstance(child, vuetify3.VBtnToggle):
-            toggle = child
-            break
-    if toggle is not None:
-        with toggle:
-            v.VBtn("Compare with CAD", value="compare", prepend_icon="mdi-vector-difference",
-                   raw_attrs=_tid("page-compare"))
-    else:
-        v.VBtn("Compare with CAD", prepend_icon="mdi-vector-difference", classes="ml-2", density="compact",
-               variant=("page === 'compare' ? 'flat' : 'outlined'",), color="primary",
-               click="page = 'compare'; main_drawer = false", raw_attrs=_tid("page-compare"))
-
+from ...widgets import dyn_tid, param_form, tid
+from .. import shown
 
 _FIELD = ("[v => (v === '' || v === null || v === undefined) || !isNaN(Number(v)) || 'not a number',"
           " v => (v === '' || v === null || v === undefined || Number(v) >= 0) || 'at least 0 mm']")
 
 
-def build_panel(page: Any) -> None:
+def build(page: Any) -> None:
     """The page inside the current layout context (shown when ``page === 'compare'``);
-    wires the widgets to ``page`` (an InspectPage) and its view to a remote view."""
+    wires the widgets to ``page`` (a ComparePage) and its view to a remote view."""
     from trame.widgets import html
     from trame.widgets import plotly as tplotly
     from trame.widgets import vuetify3 as v
@@ -102,44 +75,44 @@ def build_panel(page: Any) -> None:
     tol = ctrl.trigger_name(on_tolerance)
     state.client_only("ins_down")
 
-    with html.Div(v_if="page === 'compare'", classes="d-flex", raw_attrs=_tid("inspect"),
+    with html.Div(v_if=shown("compare"), classes="d-flex", raw_attrs=tid("inspect"),
                   style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px);"):
         # -- left: setup, verdict, numbers, pick, export/report --------------------------------
-        with html.Div(classes="pa-3", raw_attrs=_tid("ins-panel"),
+        with html.Div(classes="pa-3", raw_attrs=tid("ins-panel"),
                       style="flex: 0 0 350px; max-width: 350px; overflow-y: auto; "
                             "border-right: 1px solid rgba(0,0,0,0.12);"):
             v.VAlert(v_if="ins_error", text=("ins_error",), type="error", density="compact", closable=True,
-                     classes="mb-2", click_close="ins_error = ''", raw_attrs=_tid("ins-error"))
+                     classes="mb-2", click_close="ins_error = ''", raw_attrs=tid("ins-error"))
             html.Div("Compare a measured cloud with its CAD nominal", classes="text-subtitle-2 mb-2")
             v.VSelect(model_value=("ins_measured",), items=("items.filter(i => i.kind === 'pointcloud')",),
                       item_title="name", item_value="id", label="Measured cloud", density="compact",
                       variant="outlined", hide_details=True, classes="mb-2", disabled=("ins_running",),
                       no_data_text="no point cloud yet: import one (Inspect page)",
-                      update_modelValue=(on_inputs, "[$event, null]"), raw_attrs=_tid("ins-measured"))
+                      update_modelValue=(on_inputs, "[$event, null]"), raw_attrs=tid("ins-measured"))
             v.VSelect(model_value=("ins_nominal",),
                       items=("items.filter(i => i.kind === 'mesh' || i.kind === 'pointcloud')",),
                       item_title="name", item_value="id", label="Nominal (CAD mesh or reference cloud)",
                       density="compact", variant="outlined", hide_details=True, classes="mb-2",
                       disabled=("ins_running",), no_data_text="no mesh yet: import an STL/OBJ/PLY (Inspect page)",
-                      update_modelValue=(on_inputs, "[null, $event]"), raw_attrs=_tid("ins-nominal"))
+                      update_modelValue=(on_inputs, "[null, $event]"), raw_attrs=tid("ins-nominal"))
             v.VSelect(model_value=("ins_align",), items=("ins_align_options",), label="Alignment",
                       density="compact", variant="outlined", hide_details=True, classes="mb-2",
                       disabled=("ins_running",), update_modelValue=(on_align, "[$event]"),
-                      raw_attrs=_tid("ins-align"))
+                      raw_attrs=tid("ins-align"))
             v.VTextField(v_model=("ins_tolerance",), label="Tolerance ± (colours, bands, share within)",
                          suffix="mm", type="number", step="any", min=0, rules=(_FIELD,), density="compact",
                          variant="outlined", hide_details="auto", classes="mb-2", disabled=("ins_running",),
                          blur=f"trigger('{tol}', [ins_tolerance])",
-                         raw_attrs=_tid("ins-tolerance") + [f'@keydown.enter="trigger(\'{tol}\', [ins_tolerance])"'])
+                         raw_attrs=tid("ins-tolerance") + [f'@keydown.enter="trigger(\'{tol}\', [ins_tolerance])"'])
             # point pairs
             with v.VCard(v_if="(ins_align || '').startsWith('pairs')", variant="tonal", color="primary",
-                         classes="mb-2", raw_attrs=_tid("ins-pairs")):
+                         classes="mb-2", raw_attrs=tid("ins-pairs")):
                 with v.VCardText(classes="py-2"):
                     html.Div("Point pairs (coarse alignment)", classes="text-subtitle-2")
-                    html.Div("{{ ins_pick_hint }}", classes="text-caption mb-1", raw_attrs=_tid("ins-pick-hint"))
+                    html.Div("{{ ins_pick_hint }}", classes="text-caption mb-1", raw_attrs=tid("ins-pick-hint"))
                     with v.VTable(density="compact", v_if="ins_pairs.length", style="background: transparent;"):
                         with html.Tbody():
-                            with html.Tr(v_for="p in ins_pairs", key="p.i", raw_attrs=_tid("ins-pair")):
+                            with html.Tr(v_for="p in ins_pairs", key="p.i", raw_attrs=tid("ins-pair")):
                                 html.Td("{{ p.i }}", classes="text-caption")
                                 html.Td("M {{ p.measured }}", classes="text-caption", style="color: #c62828;")
                                 html.Td("N {{ p.nominal }}", classes="text-caption", style="color: #1565c0;")
@@ -147,44 +120,34 @@ def build_panel(page: Any) -> None:
                         v.VBtn("Show inputs", size="x-small", variant="text", click=(on_mode, "['inputs']"),
                                v_if="ins_mode !== 'inputs'")
                         v.VBtn("Undo", size="x-small", variant="text", click=on_undo_pair,
-                               disabled=("!ins_pairs.length",), raw_attrs=_tid("ins-pairs-undo"))
+                               disabled=("!ins_pairs.length",), raw_attrs=tid("ins-pairs-undo"))
                         v.VBtn("Clear", size="x-small", variant="text", click=on_clear_pairs,
-                               disabled=("!ins_pairs.length",), raw_attrs=_tid("ins-pairs-clear"))
+                               disabled=("!ins_pairs.length",), raw_attrs=tid("ins-pairs-clear"))
             # more parameters (from the manifest)
-            with v.VExpansionPanels(classes="mb-2", raw_attrs=_tid("ins-more")):
+            with v.VExpansionPanels(classes="mb-2", raw_attrs=tid("ins-more")):
                 with v.VExpansionPanel(title="More parameters"):
                     with v.VExpansionPanelText():
-                        with html.Template(v_for="field in ins_fields", key="field.name"):
-                            v.VSelect(v_if="field.widget === 'select'", v_model="ins_params[field.name]",
-                                      items=("field.choices",), label=("field.label",), hint=("field.help",),
-                                      density="compact", variant="outlined", classes="mb-1",
-                                      raw_attrs=_dyn_tid("'ins-param-' + field.name"))
-                            v.VSwitch(v_else_if="field.widget === 'switch'", v_model="ins_params[field.name]",
-                                      label=("field.label",), color="primary", density="compact",
-                                      hide_details="auto")
-                            v.VTextField(v_else=True, v_model="ins_params[field.name]", label=("field.label",),
-                                         hint=("field.help",), density="compact", variant="outlined", classes="mb-1",
-                                         raw_attrs=_dyn_tid("'ins-param-' + field.name"))
+                        param_form("ins_fields", "ins_params", "ins-param", numbers=False)
             with html.Div(classes="d-flex ga-2"):
                 v.VBtn("Run", color="primary", prepend_icon="mdi-play", click=(on_run, "[ins_params]"),
                        disabled=("ins_running || !ins_measured || !ins_nominal",), loading=("ins_running",),
-                       raw_attrs=_tid("ins-run"))
-                v.VBtn("Cancel", v_if="ins_running", variant="text", click=on_cancel, raw_attrs=_tid("ins-cancel"))
+                       raw_attrs=tid("ins-run"))
+                v.VBtn("Cancel", v_if="ins_running", variant="text", click=on_cancel, raw_attrs=tid("ins-cancel"))
             with v.VProgressLinear(v_show="ins_running || ins_progress > 0", model_value=("ins_progress",),
                                    indeterminate=("ins_running && ins_progress <= 0",), height=18, rounded=True,
                                    color=("ins_running ? 'primary' : (ins_failed ? 'error' : 'success')",),
-                                   classes="mt-2", raw_attrs=_tid("ins-progress")):
+                                   classes="mt-2", raw_attrs=tid("ins-progress")):
                 html.Span("{{ ins_progress_message }} {{ Math.round(ins_progress) }} %", classes="text-caption",
                           raw_attrs=[':class="ins_failed && !ins_running ? \'text-white\' : \'\'"'])
 
             # -- the verdict of the alignment ---------------------------------------------------
             with v.VAlert(v_if="ins_has_result && ins_failed", type="error", variant="flat", prominent=True,
-                          classes="mt-3", title="Alignment failed", raw_attrs=_tid("ins-failed")):
-                html.Div("{{ ins_failed_reason }}", raw_attrs=_tid("ins-failed-reason"))
+                          classes="mt-3", title="Alignment failed", raw_attrs=tid("ins-failed")):
+                html.Div("{{ ins_failed_reason }}", raw_attrs=tid("ins-failed-reason"))
                 html.Div("No deviations are shown: they would rest on a wrong alignment. Try point pairs or "
                          "the automatic coarse alignment, a larger max distance, or check the inputs.",
                          classes="text-caption mt-1")
-            with html.Div(v_if="ins_has_result", classes="mt-3", raw_attrs=_tid("ins-results")):
+            with html.Div(v_if="ins_has_result", classes="mt-3", raw_attrs=tid("ins-results")):
                 html.Div("{{ ins_title }}", classes="text-caption text-medium-emphasis mb-1")
                 # export and report
                 with html.Div(classes="d-flex flex-wrap ga-2 mb-1"):
@@ -192,68 +155,68 @@ def build_panel(page: Any) -> None:
                            click=on_export, loading=("ins_busy === 'export'",),
                            disabled=("!!ins_busy || ins_running || ins_failed",),
                            title="The cloud coloured as shown, with the field 'deviation' (mm); added to the project",
-                           raw_attrs=_tid("ins-export"))
+                           raw_attrs=tid("ins-export"))
                     v.VBtn("Report", prepend_icon="mdi-file-document-outline", color="primary", size="small",
                            click=on_report, loading=("ins_busy === 'report'",), disabled=("!!ins_busy || ins_running",),
                            title="HTML, PDF and JSON by the inspection plugin's report writer; added to the project",
-                           raw_attrs=_tid("ins-report"))
+                           raw_attrs=tid("ins-report"))
                 with html.Div(classes="d-flex flex-column mb-2"):
                     html.A("{{ l.title }}", v_for="l in ins_export_links", key="l.name", href=("l.url",),
-                           download=("l.name",), classes="text-body-2", raw_attrs=_dyn_tid("'ins-export-' + l.kind"))
+                           download=("l.name",), classes="text-body-2", raw_attrs=dyn_tid("'ins-export-' + l.kind"))
                     html.A("{{ l.title }}", v_for="l in ins_report_links", key="l.kind", href=("l.url",),
                            target="_blank", download=("l.kind === 'html' ? undefined : l.name",),
-                           classes="text-body-2", raw_attrs=_dyn_tid("'ins-report-' + l.kind"))
+                           classes="text-body-2", raw_attrs=dyn_tid("'ins-report-' + l.kind"))
                 with v.VExpansionPanels(v_if="ins_warnings.length", classes="mb-2"):
                     with v.VExpansionPanel(title=("'Warnings (' + ins_warnings.length + ')'",)):
                         with v.VExpansionPanelText():
                             html.Div("{{ w }}", v_for="(w, i) in ins_warnings", key="i", classes="text-caption")
                 html.Div("Deviations", v_if="!ins_failed", classes="text-subtitle-2")
-                with v.VTable(v_if="!ins_failed", density="compact", raw_attrs=_tid("ins-stats")):
+                with v.VTable(v_if="!ins_failed", density="compact", raw_attrs=tid("ins-stats")):
                     with html.Tbody():
                         with html.Tr(v_for="r in ins_stats", key="r.key"):
                             html.Td("{{ r.name }}", classes="text-caption text-no-wrap")
                             html.Td("{{ r.value }}", classes="text-right text-body-2",
-                                    raw_attrs=_dyn_tid("'ins-stat-' + r.key")
+                                    raw_attrs=dyn_tid("'ins-stat-' + r.key")
                                     + [':class="r.value.length < 24 ? \'text-no-wrap\' : \'\'"'])
                 html.Div("Alignment", classes="text-subtitle-2 mt-2")
-                with v.VTable(density="compact", raw_attrs=_tid("ins-alignment")):
+                with v.VTable(density="compact", raw_attrs=tid("ins-alignment")):
                     with html.Tbody():
                         with html.Tr(v_for="r in ins_alignment", key="r.key"):
                             html.Td("{{ r.name }}", classes="text-caption")
                             html.Td("{{ r.value }}", classes="text-right text-body-2",
-                                    raw_attrs=_dyn_tid("'ins-align-' + r.key"))
+                                    raw_attrs=dyn_tid("'ins-align-' + r.key"))
         # -- centre: the 3D view ---------------------------------------------------------------
         with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
             with html.Div(classes="d-flex align-center flex-wrap ga-2 px-3 py-1", style="min-height: 52px;"):
                 with v.VBtnToggle(model_value=("ins_mode",), density="compact", variant="outlined",
                                   divided=True, color="primary", update_modelValue=(on_mode, "[$event]"),
-                                  raw_attrs=_tid("ins-mode")):
+                                  raw_attrs=tid("ins-mode")):
                     v.VBtn("Colour map", value="colour", disabled=("!ins_has_result || ins_failed",),
-                           raw_attrs=_tid("ins-mode-colour"))
+                           raw_attrs=tid("ins-mode-colour"))
                     v.VBtn("Tolerance bands", value="bands",
                            disabled=("!ins_has_result || ins_failed || !(Number(ins_tolerance) > 0)",),
-                           raw_attrs=_tid("ins-mode-bands"))
-                    v.VBtn("Inputs", value="inputs", raw_attrs=_tid("ins-mode-inputs"))
+                           raw_attrs=tid("ins-mode-bands"))
+                    v.VBtn("Inputs", value="inputs", raw_attrs=tid("ins-mode-inputs"))
                 v.VChip("{{ ins_legend_title }} · {{ ins_limit_text }}", v_if="ins_mode === 'colour'", size="small",
-                        prepend_icon="mdi-palette", raw_attrs=_tid("ins-legend"))
-                with html.Div(v_if="ins_mode === 'bands'", classes="d-flex flex-wrap ga-1", raw_attrs=_tid("ins-bands")):
+                        prepend_icon="mdi-palette", raw_attrs=tid("ins-legend"))
+                with html.Div(v_if="ins_mode === 'bands'", classes="d-flex flex-wrap ga-1", raw_attrs=tid("ins-bands")):
                     with v.VChip(v_for="b in ins_bands", key="b.key", size="small", variant="outlined",
-                                 raw_attrs=_dyn_tid("'ins-band-' + b.key")):
+                                 raw_attrs=dyn_tid("'ins-band-' + b.key")):
                         html.Span(style=("{display: 'inline-block', width: '10px', height: '10px', "
                                          "marginRight: '6px', background: b.colour}",))
                         html.Span("{{ b.text }}")
                 v.VChip("alignment failed", v_if="ins_mode === 'failed'", size="small", color="error", variant="flat")
             html.Div("{{ ins_note }}", classes="text-caption px-3", style="margin-top: -6px;",
-                     raw_attrs=_tid("ins-note"))
+                     raw_attrs=tid("ins-note"))
             # server-side times (epoch s) of the last run's stages, for benchmarks/bench_gui_colourmap.py
             html.Span(v_if="ins_timing && ins_timing.result", style="display: none;",
-                      raw_attrs=_tid("ins-timing") + [':data-result="ins_timing.result"',
+                      raw_attrs=tid("ins-timing") + [':data-result="ins_timing.result"',
                                                       ':data-loop="ins_timing.loop"',
                                                       ':data-drawn="ins_timing.drawn"',
                                                       ':data-numbers="ins_timing.numbers"',
                                                       ':data-flushed="ins_timing.flushed"'])
             with html.Div(style="flex: 1 1 auto; min-height: 300px; position: relative;",
-                          raw_attrs=_tid("ins-view") + [
+                          raw_attrs=tid("ins-view") + [
                               '@pointerdown="ins_down = [$event.clientX, $event.clientY, $event.button]"',
                               '@pointerup="ins_down && $event.button === 0 && ins_down[2] === 0 && '
                               'Math.abs($event.clientX - ins_down[0]) + Math.abs($event.clientY - ins_down[1]) < 5 && '
@@ -266,43 +229,43 @@ def build_panel(page: Any) -> None:
                 # pushes one when its scene is complete.
                 rview = VtkRemoteView(page.view.plotter.render_window, interactive_ratio=0.5,
                                       interactive_quality=60, still_ratio=1)
-            with v.VCard(v_if="ins_picked", variant="tonal", classes="ma-2", raw_attrs=_tid("ins-picked")):
+            with v.VCard(v_if="ins_picked", variant="tonal", classes="ma-2", raw_attrs=tid("ins-picked")):
                 with v.VCardText(classes="py-2 d-flex align-center ga-2"):
                     v.VIcon("mdi-target", size="small")
-                    html.Span("{{ ins_picked.text }}", raw_attrs=_tid("ins-picked-text"))
+                    html.Span("{{ ins_picked.text }}", raw_attrs=tid("ins-picked-text"))
                     v.VChip("{{ ins_picked.deviation }}", v_if="ins_picked.found", size="small", variant="flat",
                             color=("ins_picked.band === 'above' ? 'red-darken-2' : (ins_picked.band === 'below' ? "
                                    "'blue-darken-2' : (ins_picked.band === 'within' ? 'green-darken-2' : 'grey-darken-2'))",),
-                            raw_attrs=_tid("ins-picked-deviation"))
+                            raw_attrs=tid("ins-picked-deviation"))
             html.Div("Click a point for its deviation; drag to turn, wheel to zoom."
                      " With a 'pairs' alignment the Inputs view takes the point pairs.",
                      classes="text-caption px-3 pb-1 text-medium-emphasis")
 
         # -- right: charts -----------------------------------------------------------------------
-        with html.Div(classes="pa-2 d-flex flex-column ga-2", raw_attrs=_tid("ins-charts"),
+        with html.Div(classes="pa-2 d-flex flex-column ga-2", raw_attrs=tid("ins-charts"),
                       style="flex: 0 0 34%; max-width: 34%; overflow-y: auto; "
                             "border-left: 1px solid rgba(0,0,0,0.12);"):
-            with html.Div(style="height: 30vh; min-height: 200px;", raw_attrs=_tid("ins-histogram")):
+            with html.Div(style="height: 30vh; min-height: 200px;", raw_attrs=tid("ins-histogram")):
                 tplotly.Figure(state_variable_name="ins_fig_hist", display_mode_bar=False, display_logo=False)
-            with html.Div(style="height: 32vh; min-height: 220px;", raw_attrs=_tid("ins-af")):
+            with html.Div(style="height: 32vh; min-height: 220px;", raw_attrs=tid("ins-af")):
                 tplotly.Figure(state_variable_name="ins_fig_af", display_mode_bar=False, display_logo=False)
-            with html.Div(classes="d-flex align-center ga-2", raw_attrs=_tid("ins-section-controls")):
+            with html.Div(classes="d-flex align-center ga-2", raw_attrs=tid("ins-section-controls")):
                 html.Span("Section", classes="text-subtitle-2")
                 with v.VBtnToggle(model_value=("ins_section_axis",), mandatory=True, density="compact",
                                   variant="outlined", divided=True, disabled=("!ins_has_result",),
-                                  update_modelValue=(on_section, "[$event, null]"), raw_attrs=_tid("ins-section-axis")):
+                                  update_modelValue=(on_section, "[$event, null]"), raw_attrs=tid("ins-section-axis")):
                     for a in ("x", "y", "z"):
-                        v.VBtn(a, value=a, size="small", raw_attrs=_tid(f"ins-section-{a}"))
+                        v.VBtn(a, value=a, size="small", raw_attrs=tid(f"ins-section-{a}"))
                 v.VSlider(v_model=("ins_section_pos",), min=("ins_section_range[0]",), max=("ins_section_range[1]",),
                           step=("ins_section_range[2]",), density="compact", hide_details=True,
                           disabled=("!ins_has_result",), thumb_label=True, color="primary",
-                          end=(on_section, "[ins_section_axis, $event]"), raw_attrs=_tid("ins-section-pos"))
+                          end=(on_section, "[ins_section_axis, $event]"), raw_attrs=tid("ins-section-pos"))
                 v.VBtn("Cut", size="small", variant="tonal", disabled=("!ins_has_result",),
-                       click=(on_section, "[ins_section_axis, ins_section_pos]"), raw_attrs=_tid("ins-section-cut"))
+                       click=(on_section, "[ins_section_axis, ins_section_pos]"), raw_attrs=tid("ins-section-cut"))
             html.Div("{{ ins_section_axis }} = {{ Number(ins_section_pos).toFixed(3) }} mm: the nominal cut (black) "
                      "and the measured points within ± half their spacing of the plane", v_if="ins_has_result",
                      classes="text-caption text-medium-emphasis")
-            with html.Div(style="height: 34vh; min-height: 220px;", raw_attrs=_tid("ins-section")):
+            with html.Div(style="height: 34vh; min-height: 220px;", raw_attrs=tid("ins-section")):
                 tplotly.Figure(state_variable_name="ins_fig_section", display_mode_bar=False, display_logo=False)
 
     def view_changed(reset_camera: bool) -> None:

@@ -2,7 +2,7 @@
 server-side, showing the inputs (for picking point pairs), the deviations on a colour
 map or in tolerance bands, or where a failed alignment left the cloud.
 
-:func:`prepare_cloud` builds what is drawn (in a worker thread); :class:`InspectView`
+:func:`prepare_cloud` builds what is drawn (in a worker thread); :class:`CompareView`
 draws it (server loop only: VTK is not thread-safe). The main page's scene is
 :class:`camcmm.gui.view.SceneView`; this one is separate so that each page keeps its
 own scene and camera.
@@ -10,15 +10,18 @@ own scene and camera.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from .inspect_figures import COLOURMAP, band_codes, band_colours, band_counts, band_legend, legend_title, nice_ticks
-from .inspect_geometry import AXES, pick_point, pick_surface
-from .view import display_index, fmt_count
+from ... import setup_offscreen
+from ...view import _use_font, display_index, fmt_count
+from .picking import pick_point, pick_surface
+from .tables import COLOURMAP, band_colours, legend_title, nice_ticks
 
+AXES = ("x", "y", "z")
 MEASURED_COLOUR = "#ef8a17"
 NOMINAL_COLOUR = "#b0b7c3"
 
@@ -52,7 +55,7 @@ def prepare_cloud(points: np.ndarray, dev: np.ndarray | None, display_limit: int
     return Prepared(idx, sub, d, poly, n)
 
 
-class InspectView:
+class CompareView:
     """The page's own 3D scene (one off-screen pyvista plotter, rendered server-side).
 
     Scenes: ``inputs`` (the measured cloud and the nominal as they are, for picking
@@ -62,8 +65,6 @@ class InspectView:
     """
 
     def __init__(self, display_limit: int, window_size: tuple[int, int] = (900, 650)):
-        from . import setup_offscreen
-
         setup_offscreen()
         import pyvista as pv
 
@@ -186,20 +187,22 @@ class InspectView:
         self._changed(reset_camera, push)
 
     def show_deviations(self, prep: Prepared, limit: float, unit: str, mode: str = "colour",
-                        tolerance: float | None = None, reset_camera: bool = True) -> None:
-        """The deviations: ``mode`` "colour" (diverging map on ±limit, legend
-        "deviation [unit]") or "bands" (within ±tolerance green, above red, below blue)."""
+                        bands: dict[str, Any] | None = None, reset_camera: bool = True) -> None:
+        """The deviations: ``mode`` "colour" (diverging map on ±limit mm, legend
+        "deviation [unit]") or "bands" (within ±tolerance green, above red, below blue):
+        ``bands`` is ``{"codes": (n_total,) band codes of the whole cloud, "rows": the
+        legend rows}``."""
         self._clear()
         self.dev = prep
         f = 1e3 if unit == "µm" else 1.0
         style = self._point_style(prep.n_shown)
-        if mode == "bands" and tolerance:
-            codes = band_codes(prep.dev, tolerance)
+        if mode == "bands" and bands:
+            codes = np.asarray(bands["codes"])
+            codes = codes if prep.idx is None else codes[prep.idx]
             self.scene = "bands"
             self._actors["cloud"] = self.plotter.add_mesh(prep.poly, scalars=band_colours(codes), rgb=True,
                                                           reset_camera=False, **style)
-            c = band_counts(prep.dev, tolerance)
-            rows = band_legend(c, tolerance, unit)
+            rows = bands["rows"]
             labels = [[r["label"], r["colour"], "rectangle"] for r in rows]
             self._legend(labels, (0.3, 0.04 * len(labels)))
             self.legend_labels = [r["label"] for r in rows]
@@ -218,8 +221,6 @@ class InspectView:
             if self.scalar_bar_title in bars:
                 bar = bars[self.scalar_bar_title]
                 from vtkmodules.vtkCommonCore import vtkDoubleArray
-
-                from .view import _use_font
 
                 _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
                 ticks = vtkDoubleArray()
@@ -256,8 +257,6 @@ class InspectView:
     def _legend(self, labels: list[list[str]], size: tuple[float, float]) -> None:
         """A legend box in the upper left corner (pyvista's "upper right" lets a wide box
         run out of the window), in a font with µ, ± and −."""
-        from .view import _use_font
-
         lg = self.plotter.add_legend(labels, bcolor="white", size=size, loc="upper left", border=True)
         _use_font(lg.GetEntryTextProperty())
 

@@ -1,213 +1,26 @@
-"""Numbers and charts of the "Compare with CAD" page: lengths in the unit that reads
-well, tolerance bands and their colours, the statistics and alignment tables, and the
-plotly figures (histogram, Abbott-Firestone curve, section, empty).
+"""The plotly figures of the "Compare with CAD" page: the histogram, the
+Abbott-Firestone curve, a section, and an empty placeholder.
 
-Plain functions on numpy arrays and dicts (the plugin's outputs); nothing here touches
-trame, VTK or the project, so each can be tested alone. Lengths come in mm; ``unit``
-("mm" or "µm", from :func:`display_unit`) only chooses how they are written.
+Each builds a plotly figure (as plain JSON for trame-plotly) from numbers the inspection
+plugin returned (histogram bins, the material-ratio curve and its construction, a
+section); nothing here computes them. Lengths come in mm; ``unit`` only chooses how
+they are drawn.
 """
 
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
 import numpy as np
 
-from .view import fmt_count
-
-MINUS = "\u2212"  # a real minus sign: "-" reads as a hyphen next to µm
-#: Tolerance bands: code -> (key, colour). NaN deviations get code 2 (grey).
-BANDS = {-1: ("below", "#2166ac"), 0: ("within", "#1a9850"), 1: ("above", "#d7301f"), 2: ("invalid", "#9e9e9e")}
-COLOURMAP = "RdBu_r"  # the plugin's and the report's diverging scale (blue below, red above)
-
-
-# =============================================================================== units
-def display_unit(limit_mm: Any) -> tuple[str, float]:
-    """The unit numbers of this size read well in, and the factor mm -> unit: below
-    0.1 mm µm (0.05 mm reads 50 µm), else mm (the report's rule)."""
-    try:
-        a = abs(float(limit_mm))
-    except (TypeError, ValueError):
-        a = 0.0
-    if math.isfinite(a) and 0 < a < 0.1:
-        return "µm", 1e3
-    return "mm", 1.0
-
-
-def _num(v: float, digits: int = 3, signed: bool = False) -> str:
-    """``v`` with ``digits`` significant digits, never in exponent notation; a real
-    minus sign."""
-    if v is None or not math.isfinite(v):
-        return "—"
-    if v == 0:
-        decimals = max(digits - 1, 0)
-    else:
-        decimals = min(max(digits - 1 - int(math.floor(math.log10(abs(v)))), 0), 9)
-    text = f"{v:+.{decimals}f}" if signed else f"{v:.{decimals}f}"
-    return text.replace("-", MINUS)
-
-
-def fmt_len(x_mm: Any, unit: str = "mm", signed: bool = False, digits: int = 3) -> str:
-    """A length given in mm, written in ``unit`` (mm or µm): ``"+24.1 µm"``."""
-    try:
-        x = float(x_mm)
-    except (TypeError, ValueError):
-        return "—"
-    if not math.isfinite(x):
-        return "—"
-    f = 1e3 if unit == "µm" else 1.0
-    return f"{_num(x * f, digits, signed)} {unit}"
-
-
-def interval_text(stats: dict[str, Any], unit: str) -> str:
-    """The central 95 % of the deviations as the thesis writes it: ``"+24 µm / −33 µm"``
-    (upper bound first)."""
-    return f"{fmt_len(stats.get('p97_5'), unit, True)} / {fmt_len(stats.get('p2_5'), unit, True)}"
-
-
-def legend_title(unit: str) -> str:
-    return f"deviation [{unit}]"
-
-
-def nice_ticks(limit: float, n: int = 5) -> list[float]:
-    """Round tick values on a symmetric scale ±limit, 0 among them, at least ``n`` of
-    them with the largest round step (1, 2, 2.5, 5 × 10^k): 19.7 gives −15 … 15 in steps
-    of 5, not −19.7, −9.83, 0 …"""
-    lim = abs(float(limit))
-    if not math.isfinite(lim) or lim == 0:
-        return [0.0]
-    e0 = math.floor(math.log10(lim))
-    steps = sorted((m * 10.0 ** e for e in range(e0 - 2, e0 + 1) for m in (1.0, 2.0, 2.5, 5.0)), reverse=True)
-    for step in steps:
-        k = math.floor(lim / step + 1e-9)
-        if 2 * k + 1 >= n:
-            return [round(i * step, 12) for i in range(-k, k + 1)]
-    return [0.0]
-
-
-# =============================================================================== bands
-def band_codes(dev: Any, tolerance: float) -> np.ndarray:
-    """Per point: -1 below −tolerance, 0 within ±tolerance (inclusive, as the
-    statistics count it), +1 above, 2 not a number."""
-    d = np.asarray(dev, dtype=float)
-    t = abs(float(tolerance))
-    codes = np.zeros(d.shape, dtype=np.int8)
-    with np.errstate(invalid="ignore"):
-        codes[d > t] = 1
-        codes[d < -t] = -1
-    codes[~np.isfinite(d)] = 2
-    return codes
-
-
-def band_counts(dev: Any, tolerance: float) -> dict[str, int]:
-    """Points below, within and above ±tolerance (and not a number)."""
-    codes = band_codes(dev, tolerance)
-    n = np.bincount((codes + 1).astype(np.intp), minlength=4)
-    return {"below": int(n[0]), "within": int(n[1]), "above": int(n[2]), "invalid": int(n[3])}
-
-
-def band_legend(counts: dict[str, int], tolerance: float, unit: str) -> list[dict[str, Any]]:
-    """Legend rows ``{key, label, colour, count, percent}`` for the tolerance bands."""
-    total = max(sum(counts.values()), 1)
-    t = fmt_len(tolerance, unit)
-    labels = {"above": f"above +{t}", "within": f"within ±{t}", "below": f"below {MINUS}{t}",
-              "invalid": "no deviation (NaN)"}
-    rows = []
-    for code in (1, 0, -1, 2):
-        key, colour = BANDS[code]
-        if key == "invalid" and not counts.get(key):
-            continue
-        c = int(counts.get(key, 0))
-        rows.append({"key": key, "label": labels[key], "colour": colour, "count": c,
-                     "percent": round(100.0 * c / total, 2), "text": f"{labels[key]}: {100.0 * c / total:.1f} %"})
-    return rows
-
-
-def _hex_to_rgb(h: str) -> list[int]:
-    h = h.lstrip("#")
-    return [int(h[i:i + 2], 16) for i in (0, 2, 4)]
-
-
-def band_colours(codes: np.ndarray) -> np.ndarray:
-    """(N, 3) uint8 colours of the band codes."""
-    lut = np.zeros((4, 3), dtype=np.uint8)
-    for code, (_, colour) in BANDS.items():
-        lut[code + 1] = _hex_to_rgb(colour)
-    return lut[(np.asarray(codes) + 1).astype(np.intp)]
-
-
-def diverging_colours(dev: Any, limit: float) -> np.ndarray:
-    """(N, 3) uint8 colours of the deviations on the diverging map over ±limit."""
-    from matplotlib import colormaps
-
-    lim = float(limit) if limit and limit > 0 else 1.0
-    u = np.clip(0.5 + 0.5 * np.nan_to_num(np.asarray(dev, dtype=float)) / lim, 0.0, 1.0)
-    return np.round(colormaps[COLOURMAP](u)[:, :3] * 255).astype(np.uint8)
+from .tables import COLOURMAP, diverging_colours, fmt_len, interval_text
 
 
 def _hex_colours(values: np.ndarray, limit: float) -> list[str]:
-    return ["#%02x%02x%02x" % tuple(c) for c in diverging_colours(values, limit)]
+    return ["#{:02x}{:02x}{:02x}".format(*c) for c in diverging_colours(values, limit)]
 
 
-# =============================================================================== tables
-def stats_rows(outputs: dict[str, Any], unit: str, tolerance: float | None = None,
-               dev: np.ndarray | None = None) -> list[dict[str, str]]:
-    """The statistics table: ``{key, name, value}`` rows in ``unit``. With a
-    ``tolerance`` (and the deviations) the share within it is counted here, so it
-    follows the tolerance field after the run."""
-    st = outputs.get("stats") or {}
-    rows = [{"key": "n", "name": "points", "value": fmt_count(st.get("n", 0))}]
-    for key, name, signed in (("mean", "mean", True), ("std", "std dev", False),
-                              ("rms", "rms", False), ("min", "min", True), ("max", "max", True),
-                              ("p2_5", "p2.5", True), ("p97_5", "p97.5", True)):
-        rows.append({"key": key, "name": name, "value": fmt_len(st.get(key), unit, signed)})
-    rows.append({"key": "interval95", "name": "95 % within", "value": interval_text(st, unit)})
-    if tolerance is not None and tolerance > 0:
-        if dev is not None:
-            c = band_counts(dev, tolerance)
-            total = max(sum(c.values()) - c["invalid"], 1)
-            share = c["within"] / total
-        else:
-            share = st.get("within_tolerance")
-        if share is not None:
-            rows.append({"key": "within", "name": f"within ±{fmt_len(tolerance, unit)}",
-                         "value": f"{100.0 * float(share):.2f} %"})
-    cov = outputs.get("coverage_info") or {}
-    if outputs.get("coverage") is not None:
-        rows.append({"key": "coverage", "name": "coverage (area)", "value": f"{100.0 * float(outputs['coverage']):.2f} %"})
-        if cov.get("distance"):
-            rows.append({"key": "coverage_distance", "name": "covered: a point within", "value": fmt_len(cov["distance"], "mm")})
-    return rows
-
-
-def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
-    """The alignment: method, converged (with the reason), rms, scale, rotation,
-    translation, overlap."""
-    a = outputs.get("alignment") or {}
-    conv = bool(outputs.get("converged", a.get("converged")))
-    reason = outputs.get("reason", a.get("reason")) or ""
-    rows = [{"key": "method", "name": "method", "value": str(a.get("method", ""))},
-            {"key": "converged", "name": "converged",
-             "value": ("yes" if conv else "NO") + (f" — {reason}" if reason else "")},
-            {"key": "rms", "name": "rms", "value": fmt_len(outputs.get("rms", a.get("rms")), unit)}]
-    scale = outputs.get("scale", a.get("scale"))
-    if scale is not None:
-        rows.append({"key": "scale", "name": "scale", "value": f"{float(scale):.8f}"})
-    if a.get("rotation_angle_deg") is not None:
-        rows.append({"key": "rotation", "name": "rotation", "value": f"{float(a['rotation_angle_deg']):.4f}°"})
-    t = outputs.get("translation", a.get("translation"))
-    if t is not None:
-        rows.append({"key": "translation", "name": "translation",
-                     "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm"})
-    ov = outputs.get("overlap", a.get("overlap"))
-    if ov is not None and isinstance(ov, (int, float)) and math.isfinite(ov):
-        rows.append({"key": "overlap", "name": "overlap", "value": f"{100.0 * float(ov):.1f} %"})
-    return rows
-
-
-# =============================================================================== figures
 def _fig_json(fig: Any) -> dict[str, Any]:
     """A plotly figure as plain JSON (what the trame-plotly component binds to)."""
     import plotly.io as pio

@@ -1,40 +1,42 @@
 """Running a comparison on the "Compare with CAD" page and showing its result: the
-plugin runs in a worker thread with progress and cancel; the result is drawn (the view
-first, so its image is on its way while the numbers and charts are made), the
+plugin runs in the page's job (a worker thread; progress, cancel); the result is drawn
+(the view first, so its image is on its way while the numbers and charts are made), the
 tolerance and the display mode follow the operator after the run, and a section cuts
 the part by a plane.
 
-:class:`InspectRun` is a mixin of :class:`camcmm.gui.inspect_panel.InspectPage`; it
-needs the inputs (:class:`camcmm.gui.inspect_inputs.InspectInputs`) and stores through
-:class:`camcmm.gui.inspect_export.InspectExport`.
+The tolerance bands beside the plugin's outputs come from a plugin too (task
+``tolerance-bands``); the section is :mod:`.section`.
+
+:class:`Run` is a mixin of :class:`.page.ComparePage`; it needs the inputs
+(:class:`.inputs.Inputs`) and stores through :class:`.export.Export`.
 """
 
 from __future__ import annotations
 
-import asyncio
 import logging
-import threading
 import time
 from typing import Any
 
 import numpy as np
 
-from .. import worker
-from ..errors import InputError
-from ..host import RunResult
-from ..params import validate
-from .inspect_figures import (alignment_rows, band_counts, band_legend, display_unit, empty_figure, fmt_len,
-                              histogram_figure, legend_title, material_ratio_figure, section_figure, stats_rows)
-from .inspect_geometry import AXES, point_spacing, section
-from .inspect_inputs import MAIN_PARAMS, N_PAIRS, PLUGIN, _one_line
-from .inspect_scene import Prepared, prepare_cloud
-from .view import fmt_count
+from .... import worker
+from ....errors import InputError, one_line
+from ....host import RunResult
+from ....params import validate
+from ...jobs import Job
+from ...view import fmt_count
+from .figures import empty_figure, histogram_figure, material_ratio_figure
+from .inputs import MAIN_PARAMS, N_PAIRS
+from .scene import Prepared, prepare_cloud
+from .tables import alignment_rows, band_legend, display_unit, fmt_len, legend_title, stats_rows
 
-log = logging.getLogger("camcmm.gui.inspect")
+log = logging.getLogger("camcmm.gui.compare")
+
+BANDS_TASK = "tolerance-bands"
 
 
-class InspectRun:
-    """Run, cancel, show the result, tolerance and mode, section (mixin of InspectPage)."""
+class Run:
+    """Run, cancel, show the result, tolerance and mode, section (mixin of ComparePage)."""
 
     def _prepare_run(self, params: dict[str, Any] | None) -> tuple[dict[str, Any], dict[str, Any], list]:
         s = self.state
@@ -60,7 +62,7 @@ class InspectRun:
         tol = self._tolerance()
         if tol is not None:
             raw["tolerance"] = tol
-        values = validate(spec.parameters, raw, owner=f"plugin {PLUGIN!r}")
+        values = validate(spec.parameters, raw, owner=f"plugin {spec.id!r}")
         inputs: dict[str, Any] = {}
         if str(values["align"]).startswith("pairs"):
             pairs = self.pairs()
@@ -69,40 +71,29 @@ class InspectRun:
                 raise InputError(f"alignment {values['align']!r} needs {N_PAIRS} point pairs, {k} picked: click a "
                                  "point on the measured cloud, then the same point on the nominal, three times")
             inputs["pairs"] = pairs
-        mids = [self.session._measurements[str(k)]["id"] for k in (s.ins_measured, s.ins_nominal)
-                if str(k) in self.session._measurements]
+        mids = [self._mid(k) for k in (s.ins_measured, s.ins_nominal) if self._mid(k) is not None]
         return inputs, values, mids
 
-    def _begin(self) -> threading.Event:
+    def _started(self, plugin_id: str) -> None:
         s = self.state
-        self._cancel = threading.Event()
-        self._last_progress = 0.0
         s.ins_running = True
         s.ins_progress = 0.0
-        s.ins_progress_message = f"running {PLUGIN} …"
+        s.ins_progress_message = f"running {plugin_id} …"
         s.ins_error = ""
         self.session.clear_error()
-        return self._cancel
 
     def _set_progress(self, fraction: float, message: str) -> None:
+        """The job's progress (fraction 0..1), on the loop thread."""
         self.state.ins_progress = round(100.0 * float(fraction), 1)
         if message:
             self.state.ins_progress_message = message
 
-    def _progress_cb(self, fraction: float, message: str) -> None:
-        now = time.monotonic()
-        if fraction < 1.0 and now - self._last_progress < 0.1:
-            return
-        self._last_progress = now
-        self.session.post(self._set_progress, fraction, message)
-
     def cancel(self) -> None:
-        if self._cancel is not None:
-            self._cancel.set()
+        if self.job.cancel():
             self.state.ins_progress_message = "cancelling …"
 
-    def _compute(self, inputs: dict[str, Any], values: dict[str, Any], cancel: threading.Event,
-                 measured_key: str, nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
+    def _compute(self, inputs: dict[str, Any], values: dict[str, Any], measured_key: str,
+                 nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
         """Worker thread: load the inputs, run the plugin, prepare the display."""
         t0 = time.time()
         cloud = self.session.load(measured_key)
@@ -112,67 +103,40 @@ class InspectRun:
         if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
             raise InputError(f"{self._name(nominal_key)}: the nominal must be a mesh or a point cloud")
         self.measured, self.nominal = cloud, nominal
-        result = worker.run(self.host, PLUGIN, {"cloud": cloud, "nominal": nominal, **inputs}, values,
-                            progress=self._progress_cb, cancel=cancel)
+        result = worker.run(self.host, self._spec_of().id, {"cloud": cloud, "nominal": nominal, **inputs}, values,
+                            progress=self.job.progress, cancel=self.job.cancel_event)
         t_result = time.time()
         dev = result.outputs["deviations"]
         prep = prepare_cloud(dev.points, dev.fields["deviation"], self.view.display_limit)
         return result, prep, {"started": t0, "result": t_result, "prepared": time.time()}
 
-    def _start(self, params: dict[str, Any] | None) -> tuple[dict[str, Any], dict[str, Any], list,
-                                                              threading.Event] | None:
-        """Check the form and begin a run: ``(inputs, values, measurement ids, cancel)``,
-        or None with the error shown (nothing has started then)."""
+    def _not_stored(self, exc: BaseException) -> None:
+        # the result is shown all the same: only reopening the project will miss it
+        self._error(f"the comparison could not be stored in the project: {one_line(exc)}")
+
+    async def run_async(self, params: dict[str, Any] | None = None) -> RunResult | None:
+        """Check the form, compute (and store) in the page's job while the page stays
+        live, show the result. None (with the reason shown) if it did not run."""
+        if self.job.running:
+            self._error("a comparison is running; wait for it or cancel it")
+            return None
         try:
             inputs, values, mids = self._prepare_run(params)
         except Exception as exc:
             self._error(exc)
             return None
-        return inputs, values, mids, self._begin()
-
-    def _not_stored(self, exc: BaseException) -> None:
-        # the result is shown all the same: only reopening the project will miss it
-        self._error(f"the comparison could not be stored in the project: {_one_line(exc)}")
-
-    def run(self, params: dict[str, Any] | None = None) -> RunResult | None:
-        """Run the comparison in the calling thread (tests, scripts)."""
-        started = self._start(params)
-        if started is None:
-            return None
-        inputs, values, mids, cancel = started
+        self.job.begin()
         try:
-            result, prep, timing = self._compute(inputs, values, cancel, str(self.state.ins_measured),
-                                                 str(self.state.ins_nominal))
-        except Exception as exc:
-            self._failed(exc)
-            return None
-        self._show_result(result, prep, timing)
-        self._auto_section()
-        try:
-            stored = self._store(result, mids)
-        except Exception as exc:
-            self._not_stored(exc)
-            return result
-        self._stored(stored)
-        return result
+            return await self._run_begun(inputs, values, mids)
+        finally:
+            self.job.end()
 
-    async def run_async(self, params: dict[str, Any] | None = None) -> RunResult | None:
-        """As :meth:`run`, computing (and storing) in a worker while the page stays live."""
-        if self.session._loop is None:
-            self.session.bind_loop()
-        if self.state.ins_running:
-            self._error("a comparison is running; wait for it or cancel it")
-            return None
-        started = self._start(params)
-        if started is None:
-            return None
-        inputs, values, mids, cancel = started
+    async def _run_begun(self, inputs: dict[str, Any], values: dict[str, Any], mids: list) -> RunResult | None:
+        self._started(self._spec_of().id)
         self.flush()
-        loop = asyncio.get_running_loop()
         mk, nk = str(self.state.ins_measured), str(self.state.ins_nominal)
         try:
-            result, prep, timing = await loop.run_in_executor(
-                self._executor, self._compute, inputs, values, cancel, mk, nk)
+            result, prep, timing = await self.job.call(self._compute, inputs, values, mk, nk)
         except Exception as exc:
             self._failed(exc)
             self.flush()
@@ -184,7 +148,7 @@ class InspectRun:
         self._auto_section()  # after the colour map is on its way: it needs the point spacing
         self.flush()
         try:
-            stored = await loop.run_in_executor(self._executor, self._store, result, mids)
+            stored = await self.job.call(self._store, result, mids)
         except Exception as exc:
             self._not_stored(exc)
             self.flush()
@@ -196,10 +160,9 @@ class InspectRun:
     def _failed(self, exc: BaseException) -> None:
         s = self.state
         s.ins_running = False
-        s.ins_progress_message = "cancelled" if "cancelled" in str(exc) else "failed"
-        msg = _one_line(exc)
-        if PLUGIN not in msg and not isinstance(exc, InputError):
-            msg = f"{PLUGIN}: {msg}"
+        # an input the operator gave speaks for itself; anything else names the plugin
+        status, msg = Job.outcome(exc, "" if isinstance(exc, InputError) else self._spec_of().id)
+        s.ins_progress_message = status
         self._error(msg)
 
     # -- showing a result -------------------------------------------------------------------
@@ -216,6 +179,7 @@ class InspectRun:
         self.deviations = o["deviations"]
         self.prepared = prep
         self._spacing = None
+        self.bands = None
         limit = float(o.get("colour_limit") or 0.0) or 1e-3
         unit, _ = display_unit(limit)
         converged = bool(o.get("converged"))
@@ -259,33 +223,61 @@ class InspectRun:
             self.timing["numbers"] = time.time()
             s.ins_timing = dict(self.timing)
 
+    def _update_bands(self, tol: float | None) -> None:
+        """The plugin's tolerance bands of the whole deviations cloud for ``tol`` (mm):
+        ``self.bands = {"tolerance", "codes" (N,), "counts", "within"}``, None without a
+        tolerance. Made once per tolerance."""
+        if not tol or self.deviations is None:
+            self.bands = None
+            return
+        if self.bands is not None and self.bands["tolerance"] == tol:
+            return
+        spec = self.host.provider(BANDS_TASK)
+        out = self.host.run(spec.id, {"deviations": self.deviations}, {"tolerance": tol}).outputs
+        self.bands = {"tolerance": tol, "codes": np.asarray(out["codes"]), "counts": dict(out["counts"]),
+                      "within": float(out["within"])}
+
     def _publish_numbers(self, tol: float | None) -> None:
         """Statistics, bands, histogram and curve for the current tolerance."""
         s = self.state
         o = self.outputs or {}
         unit = s.ins_unit
-        dev = np.asarray(self.deviations.fields["deviation"], dtype=float)
-        s.ins_stats = stats_rows(o, unit, tol, dev)
-        s.ins_bands = band_legend(band_counts(dev, tol), tol, unit) if tol else []
+        try:
+            self._update_bands(tol)
+        except Exception as exc:
+            log.exception("tolerance bands")
+            self.bands = None
+            self._error(f"tolerance bands: {one_line(exc)}")
+        within = self.bands["within"] if self.bands else None
+        s.ins_stats = stats_rows(o, unit, tol, within)
+        s.ins_bands = band_legend(self.bands["counts"], tol, unit) if self.bands else []
         limit = float(o.get("colour_limit") or 1e-3)
         try:
             s.ins_fig_hist = histogram_figure(o["histogram"], o["stats"], unit, limit, tol)
         except Exception as exc:
             log.exception("histogram figure")
-            s.ins_fig_hist = empty_figure(f"histogram: {_one_line(exc)}")
+            s.ins_fig_hist = empty_figure(f"histogram: {one_line(exc)}")
         try:
             s.ins_fig_af = material_ratio_figure(o["material_ratio"], o["stats"], unit, tol)
         except Exception as exc:
             log.exception("material-ratio figure")
-            s.ins_fig_af = empty_figure(f"material ratio: {_one_line(exc)}")
+            s.ins_fig_af = empty_figure(f"material ratio: {one_line(exc)}")
 
     def _draw(self, mode: str, reset_camera: bool = False) -> None:
         s = self.state
         if self.prepared is None or self.outputs is None:
             return
         limit = float(self.outputs.get("colour_limit") or 1e-3)
-        self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, self._tolerance(quiet=True),
-                                  reset_camera=reset_camera)
+        bands = None
+        if mode == "bands":
+            try:
+                self._update_bands(self._tolerance(quiet=True))
+            except Exception as exc:
+                self._error(f"tolerance bands: {one_line(exc)}")
+        if mode == "bands" and self.bands is not None:
+            bands = {"codes": self.bands["codes"],
+                     "rows": band_legend(self.bands["counts"], self.bands["tolerance"], s.ins_unit)}
+        self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, bands, reset_camera=reset_camera)
         s.ins_mode = self.view.scene
         s.ins_note = self.view.note
         if s.ins_section_axis and s.ins_fig_section.get("data"):
@@ -331,64 +323,3 @@ class InspectRun:
             self._draw("bands" if tol else "colour")
         if s.ins_picked and s.ins_picked.get("found"):
             self.pick_index(int(s.ins_picked["index"]))
-
-    # -- section ---------------------------------------------------------------------------
-    def _auto_section(self) -> None:
-        """The section through the middle, once a valid result is shown."""
-        if self.deviations is not None and not self.state.ins_failed:
-            self.set_section()
-
-    def spacing(self) -> float:
-        if self._spacing is None:
-            self._spacing = point_spacing(self.deviations.points) if self.deviations is not None else 0.0
-        return self._spacing
-
-    def _bounds(self) -> np.ndarray | None:
-        if self.deviations is None:
-            return None
-        b = self.deviations.bounds
-        if self.nominal is not None and hasattr(self.nominal, "bounds"):
-            nb = np.asarray(self.nominal.bounds, dtype=float)
-            b = np.vstack([np.minimum(b[0], nb[0]), np.maximum(b[1], nb[1])])
-        return b
-
-    def _section_range(self, centre: bool = False) -> None:
-        s = self.state
-        b = self._bounds()
-        if b is None:
-            return
-        ax = AXES.index(s.ins_section_axis or "z")
-        lo, hi = float(b[0, ax]), float(b[1, ax])
-        step = (hi - lo) / 200.0 or 0.01
-        s.ins_section_range = [lo, hi, float(f"{step:.3g}")]
-        if centre or not lo <= float(s.ins_section_pos or 0.0) <= hi:
-            s.ins_section_pos = float(f"{0.5 * (lo + hi):.6g}")
-
-    def set_section(self, axis: str | None = None, position: float | None = None) -> dict[str, Any] | None:
-        """Cut the part by the plane axis = position; publish the 2-D chart and show the
-        plane in the view."""
-        s = self.state
-        if axis is not None and axis != s.ins_section_axis:
-            s.ins_section_axis = axis
-            self._section_range(centre=True)
-        if position is not None:
-            s.ins_section_pos = float(position)
-        if self.deviations is None:
-            return None
-        try:
-            nominal_poly = None
-            nominal_points = None
-            if self.nominal is not None and hasattr(self.nominal, "faces"):
-                nominal_poly = self.view.mesh_poly(self.nominal)
-            elif self.nominal is not None:
-                nominal_points = self.nominal.points
-            sec = section(s.ins_section_axis, float(s.ins_section_pos), self.deviations.points,
-                          self.deviations.fields["deviation"], 0.5 * self.spacing(), nominal_poly, nominal_points)
-            s.ins_fig_section = section_figure(sec, s.ins_unit, float(self.outputs.get("colour_limit") or 1e-3))
-        except Exception as exc:
-            log.exception("section")
-            self._error(f"section: {_one_line(exc)}")
-            return None
-        if s.ins_mode in ("colour", "bands", "failed"):
-            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self._bounds())
-        return sec
