@@ -10,9 +10,9 @@ shown again on reopen; bad input gets one-line reasons and the page keeps workin
 
 from __future__ import annotations
 
+import asyncio
 import csv
 import io
-import itertools
 import os
 import shutil
 import threading
@@ -26,9 +26,8 @@ pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 cv2 = pytest.importorskip("cv2")
 
-from camcmm.gui import calibration_draw as draw  # noqa: E402
-from camcmm.gui import calibration_figures as figs  # noqa: E402
-from camcmm.gui.app import build, close  # noqa: E402
+from camcmm.gui.pages.calibration import draw  # noqa: E402
+from camcmm.gui.pages.calibration import figures as figs  # noqa: E402
 from camcmm.io import read_calibration  # noqa: E402
 
 DATA = Path(__file__).parent / "data" / "opencv_stereo_chessboard"
@@ -38,26 +37,25 @@ BOARD = "chessboard:9x6:25"
 # OpenCV's own unit-test reference for these left images (SOURCE.txt): K, |rms - ref| < 0.01, L1(K - K_ref) < 10
 K_REF = np.array([[532.80992189, 0.0, 342.4952186], [0.0, 532.93346422, 233.8879292], [0.0, 0.0, 1.0]])
 RMS_REF = 0.196334638034
-_names = itertools.count()
 
 
 @pytest.fixture
-def app(tmp_path):
-    """The GUI's Calibration page: app.py's once it is wired there, else mounted here the
-    way app.py mounts the other pages."""
-    made = []
-
+def app(gui_app, tmp_path):
+    """``make(project_dir=None) -> (page, session)``: the GUI's Calibration page."""
     def make(project_dir=None):
-        server, session = build(f"test-cal-{os.getpid()}-{next(_names)}", project_dir or tmp_path / "proj",
-                                data_roots=[DATA, tmp_path])  # the folders the page may read
-        page = server.pages["calibration"]
-        server.state.ready()
-        made.append((server, page))
-        return page, session
+        server, session = gui_app(project_dir, data_roots=[DATA, tmp_path])  # the folders the page may read
+        return server.pages["calibration"], session
 
-    yield make
-    for server, _ in made:
-        close(server)
+    return make
+
+
+def run(page, req=None):
+    """A calibration run as the server's loop runs it; the page document or None."""
+    return asyncio.run(page.run_async(req))
+
+
+def select(page, name):
+    asyncio.run(page.select_image_async(name))
 
 
 def folder_request(mode="camera", **kw):
@@ -79,7 +77,7 @@ def saturated(img: np.ndarray) -> np.ndarray:
 def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     page, session = app()
     s = page.state
-    doc = page.run(folder_request())
+    doc = run(page, folder_request())
     assert doc is not None, s.cal_error
     direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT]},
                               params={"board": BOARD}).outputs
@@ -117,13 +115,13 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     assert np.allclose(heat["customdata"], pu["map"], rtol=1e-6)
     assert heat["x"] == pytest.approx(list(pu["u"])) and len(heat["y"]) == 36
     assert len(s.cal_fig_map["data"][1]["x"]) == 13 * 54  # the corners used, as dots
-    page.set_distance(800)
+    asyncio.run(page.set_distance_async(800))
     assert "z = 800 mm" in s.cal_fig_map["layout"]["title"]["text"]
     far = session.host.run("calibration.projection-uncertainty", inputs={"calibration": direct["calibration"]},
                            params={"distance": 800, "columns": 48, "rows": 36}).outputs
     assert np.allclose(s.cal_fig_map["data"][0]["customdata"], far["map"], rtol=1e-6)
     # the corners drawn where they were detected: saturated colour at each corner, none in the grey image
-    page.select_image("left12.jpg")
+    select(page, "left12.jpg")
     assert s.cal_selected == "left12.jpg" and "54 points" in s.cal_overlay_note
     pic = decode(s.cal_overlay)
     assert pic.shape[:2] == (480, 640)
@@ -137,7 +135,7 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
 def test_stored_downloaded_used_by_a_system_and_restored(app):
     page, session = app()
     s = page.state
-    page.run(folder_request(name="left camera, May"))
+    run(page, folder_request(name="left camera, May"))
     cur = page.doc["current"]
     row = session.project.result(cur["result"])
     assert row["plugin"] == "calibration.camera" and row["label"] == "calibration: left camera, May"
@@ -173,7 +171,7 @@ def test_stored_downloaded_used_by_a_system_and_restored(app):
     assert [(x["name"], x["calibration"], x["current"]) for x in s.cal_systems] == \
         [("rig A", "left camera, May", True), ("rig B", "left camera, May", True)]
     # reopened: the same calibration, list, numbers, chart and heat map; the systems
-    page.select_image("left03.jpg")
+    select(page, "left03.jpg")
     page2, _ = app(session.project.path)
     s2 = page2.state
     assert s2.cal_summary["result"] == rid and s2.cal_numbers == s.cal_numbers
@@ -192,7 +190,7 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
 
     page, session = app()
     s = page.state
-    doc = page.run(folder_request("stereo"))
+    doc = run(page, folder_request("stereo"))
     assert doc is not None, s.cal_error
     direct = session.host.run("calibration.stereo", inputs={"left": [str(p) for p in LEFT],
                                                             "right": [str(p) for p in RIGHT]},
@@ -228,7 +226,7 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     l_img, r_img = cv2.imread(str(LEFT[2]), cv2.IMREAD_UNCHANGED), cv2.imread(str(RIGHT[2]), cv2.IMREAD_UNCHANGED)
     ref_l, ref_r = rectify_images(load_calibration(cal), l_img, r_img)
     assert np.array_equal(rect["left"].data, ref_l) and np.array_equal(rect["right"].data, ref_r)
-    page.show_pair(2)
+    asyncio.run(page.show_pair_async(2))
     assert s.cal_pair == 2 and "left03.jpg / right03.jpg" in s.cal_rectified_note
     pic = decode(s.cal_rectified)
     assert pic.shape[1] <= 1400 and pic.shape[0] == pytest.approx(480 * pic.shape[1] / (1280 + 6), abs=2)
@@ -247,7 +245,7 @@ def test_images_from_an_upload_and_from_the_project_items(app):
     keys = page.add_uploads(upload, "left")
     assert len(keys) == 4 and s.cal_left_items == keys and s.cal_source == "items"
     assert [it["name"] for it in s.items if it["kind"] == "image"] == [p.name for p in LEFT[:4]]
-    doc = page.run({"mode": "camera", "source": "items", "left": keys, "board": BOARD})
+    doc = run(page, {"mode": "camera", "source": "items", "left": keys, "board": BOARD})
     assert doc is not None, s.cal_error
     assert [r["name"] for r in s.cal_rows] == [p.name for p in LEFT[:4]]
     direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT[:4]]},
@@ -262,7 +260,7 @@ def test_images_from_an_upload_and_from_the_project_items(app):
     names = {it["id"]: it["name"] for it in s.items}
     assert [names[k] for k in s.cal_left_items] == [p.name for p in LEFT[:4]]
     assert [names[k] for k in s.cal_right_items] == [p.name for p in RIGHT[:4]]
-    assert page.run() is not None, s.cal_error
+    assert run(page) is not None, s.cal_error
     assert s.cal_summary["views"] == "4 of 4 pairs"
 
 
@@ -271,7 +269,7 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
     s = page.state
 
     def fails(req, *words):
-        assert page.run(req) is None
+        assert run(page, req) is None
         line = s.cal_error
         assert "\n" not in line and s.cal_running is False, line
         for w in words:
@@ -295,21 +293,21 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
           "3 left images but 2 right images")
     assert s.cal_summary is None  # nothing shown yet, nothing broken
     # cancelled: the run stops, the page says so
-    begin = page._begin
+    begin = page.job.begin
 
     def cancelled_begin():
         ev = begin()
         ev.set()
         return ev
-    page._begin = cancelled_begin
-    assert page.run(folder_request()) is None and s.cal_message == "cancelled"
-    page._begin = begin
+    page.job.begin = cancelled_begin
+    assert run(page, folder_request()) is None and s.cal_message == "cancelled"
+    del page.job.begin
     # a blank image (no board) is listed with the reason; outliers are left out with their RMS
     (odd / "small.png").unlink()
     cv2.imwrite(str(odd / "blank.png"), np.full((480, 640), 200, np.uint8))
     for p in LEFT[3:8]:
         shutil.copy(p, odd / p.name)
-    doc = page.run(folder_request(folder=str(odd), left_pattern="*", outlier_factor=1.1))
+    doc = run(page, folder_request(folder=str(odd), left_pattern="*", outlier_factor=1.1))
     assert doc is not None, s.cal_error
     status = {r["name"]: r for r in s.cal_rows}
     assert status["blank.png"]["status"] == "not found" and "not found" in status["blank.png"]["reason"]
@@ -320,14 +318,14 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
     traces = {t["name"]: t for t in s.cal_fig_views["data"]}
     assert set(traces["left out"]["x"]) == {r["name"] for r in out}
     assert traces["no board / not used"]["x"] == ["blank.png"]
-    page.select_image("blank.png")
+    select(page, "blank.png")
     assert "not found" in s.cal_overlay_note and s.cal_overlay.startswith("data:image/jpeg")
     assert any("blank.png left out" in w for w in s.cal_warnings)
     # an image gone from its folder: the list and numbers stay, the picture says why
     os.remove(odd / "left05.jpg")
-    page.select_image("left05.jpg")
+    select(page, "left05.jpg")
     assert s.cal_overlay == "" and "no longer at" in s.cal_overlay_note
-    page.set_distance("far")
+    asyncio.run(page.set_distance_async("far"))
     assert "working distance" in s.cal_error
 
 
@@ -342,7 +340,7 @@ def test_figures_and_pngs():
     u, v = np.linspace(0, 639, 8), np.linspace(0, 479, 6)
     uu, vv = np.meshgrid(u, v)
     sigma = 0.05 * np.exp(((uu - 320) ** 2 + (vv - 240) ** 2) / 40000.0)  # spans > 20x: log colour
-    pu = {"map": sigma.tolist(), "u": u.tolist(), "v": v.tolist()}
+    pu = {"map": sigma.tolist(), "u": u.tolist(), "v": v.tolist(), "min": sigma.min(), "max": sigma.max()}
     heat = figs.heatmap_figure(pu, np.array([[100.0, 100.0]]), [640, 480], "t")
     assert np.allclose(heat["data"][0]["z"], np.log10(sigma)) and heat["data"][0]["customdata"] == sigma.tolist()
     ticks = heat["data"][0]["colorbar"]["ticktext"]
@@ -350,24 +348,18 @@ def test_figures_and_pngs():
     assert heat["layout"]["yaxis"]["range"] == [480, 0]
     png = figs.heatmap_png(pu, None, [640, 480], "t")
     assert png[:4] == b"\x89PNG" and len(png) > 5000
-    flat = figs.heatmap_figure({"map": [[1.0, 1.2], [1.1, 1.3]], "u": [0, 9], "v": [0, 9]}, None, [10, 10], "t")
+    flat = figs.heatmap_figure({"map": [[1.0, 1.2], [1.1, 1.3]], "u": [0, 9], "v": [0, 9], "min": 1.0, "max": 1.3},
+                               None, [10, 10], "t")
     assert flat["data"][0]["z"] == [[1.0, 1.2], [1.1, 1.3]] and "tickvals" not in flat["data"][0]["colorbar"]
 
 
 def test_worker_run_with_progress(app):
     """The async run: the worker calibrates while the loop stays free; progress reaches the page."""
-    import asyncio
-
-    page, session = app()
+    page, _ = app()
     seen = []
-    orig = page._progress_cb
-    page._progress_cb = lambda f, m: (seen.append((threading.current_thread().name, f)), orig(f, m))
-
-    async def go():
-        session.bind_loop()
-        return await page.run_async(folder_request(left_pattern="left0[1-5]*"))
-
-    doc = asyncio.run(go())
+    orig = page.job.progress
+    page.job.progress = lambda f, m="": (seen.append((threading.current_thread().name, f)), orig(f, m))
+    doc = run(page, folder_request(left_pattern="left0[1-5]*"))
     assert doc is not None, page.state.cal_error
     assert page.state.cal_running is False and page.state.cal_progress == 100.0
     assert seen and all(name.startswith("camcmm-calibration") for name, _ in seen)

@@ -179,8 +179,8 @@ def test_stereo_same_pair_three_times(left_dets, right_dets):
 
 
 def test_plugin_run_warnings_reach_the_gui(left_dets):
-    """The Calibration page shows the run's warnings (calibration_page stores run.warnings
-    and calibration_show puts them in the one alert)."""
+    """The Calibration page shows the run's warnings (its run stores run.warnings in the
+    page document and show.Results puts them in the one alert)."""
     host = PluginHost()
     run = host.run("calibration.camera", {"images": [str(LEFT[0])] * 3}, {"board": BOARD})
     assert any("show the board in the same pose" in w for w in run.warnings)
@@ -206,27 +206,23 @@ def test_cli_json_and_text_carry_the_warnings():
     assert [w for w in out["warnings"] if "RMS reprojection error" in w and "above 0.1 px" in w]
 
 
-def test_calibration_page_shows_the_warnings(tmp_path):
+def test_calibration_page_shows_the_warnings(gui_app, tmp_path):
     """The page's alert (state cal_warnings): the same image under three names warns and
     names the views; OpenCV's 13 good views give an empty alert."""
+    import asyncio
     import shutil
 
     pytest.importorskip("trame")
     pytest.importorskip("pyvista")
-    from camcmm.gui.app import build, close
 
     for name in ("a.jpg", "b.jpg", "c.jpg"):
         shutil.copy(LEFT[0], tmp_path / name)
-    server, _ = build(f"test-calwarn-{id(tmp_path)}", tmp_path / "proj", data_roots=[DATA, tmp_path])
-    try:
-        page, s = server.pages["calibration"], server.state
-        s.ready()
-        req = {"mode": "camera", "source": "folder", "folder": str(tmp_path), "left_pattern": "*.jpg",
-               "right_pattern": "", "board": BOARD}
-        assert page.run(req) is not None, s.cal_error
-        assert any(w.startswith("views 1, 2, 3 (a.jpg, b.jpg, c.jpg) show the board in the same pose")
-                   for w in s.cal_warnings), s.cal_warnings
-        assert page.run({**req, "folder": str(DATA), "left_pattern": "left*"}) is not None, s.cal_error
-        assert list(s.cal_warnings) == []
-    finally:
-        close(server)
+    server, _ = gui_app(tmp_path / "proj", data_roots=[DATA, tmp_path])
+    page, s = server.pages["calibration"], server.state
+    req = {"mode": "camera", "source": "folder", "folder": str(tmp_path), "left_pattern": "*.jpg",
+           "right_pattern": "", "board": BOARD}
+    assert asyncio.run(page.run_async(req)) is not None, s.cal_error
+    assert any(w.startswith("views 1, 2, 3 (a.jpg, b.jpg, c.jpg) show the board in the same pose")
+               for w in s.cal_warnings), s.cal_warnings
+    assert asyncio.run(page.run_async({**req, "folder": str(DATA), "left_pattern": "left*"})) is not None, s.cal_error
+    assert list(s.cal_warnings) == []

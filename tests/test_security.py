@@ -351,12 +351,12 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         page = server.pages["calibration"]
         req = {"mode": "camera", "source": "folder", "folder": str(tree.outside), "left_pattern": "*",
                "board": "chessboard:9x6:25"}
-        assert page.run(req) is None
+        assert asyncio.run(page.run_async(req)) is None
         assert "server folder" in state.cal_error and "outside the folders" in state.cal_error, state.cal_error
         (tree.proj / "boards").symlink_to(tree.outside)  # a link in the project to a folder elsewhere
-        assert page.run({**req, "folder": str(tree.proj / "boards")}) is None
+        assert asyncio.run(page.run_async({**req, "folder": str(tree.proj / "boards")})) is None
         assert "outside the folders" in state.cal_error
-        assert page.run({**req, "folder": str(tree.data)}) is None  # allowed, but holds no board images
+        assert asyncio.run(page.run_async({**req, "folder": str(tree.data)})) is None  # allowed, but holds no board images
         assert "no image files" in state.cal_error and "outside" not in state.cal_error
 
         # and a device that reads a file (the CSV interferometer): the same folders

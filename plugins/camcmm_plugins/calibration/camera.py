@@ -131,6 +131,18 @@ def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def board_distance(result: dict[str, Any]) -> float | None:
+    """The median depth (mm, along the optical axis) of the board over the views a
+    calibration used: where it was made, so where its uncertainty is first worth
+    looking at. None when the result holds no board poses."""
+    try:
+        z = np.asarray(result["views"]["tvecs"], float).reshape(-1, 3)[:, 2]
+        d = float(np.median(z))
+    except (KeyError, TypeError, ValueError, IndexError):
+        return None
+    return d if np.isfinite(d) and d > 0 else None
+
+
 def camera_json(result: dict[str, Any]) -> dict[str, Any]:
     """The CLI's JSON for one camera: camera_matrix, dist_coeffs, rms, std_intrinsics,
     per_view_rms, image_size, rejected, warnings (+ std_named, residual_sigma, views used)."""
@@ -148,5 +160,6 @@ def camera_json(result: dict[str, Any]) -> dict[str, Any]:
         "std_named": dict(zip(names, np.asarray(result["std_intrinsics"]).tolist())),
         "residual_sigma": result["residual_sigma"],
         "n_views": len(result["per_view_rms"]),
+        "board_distance": board_distance(result),
         "warnings": list(result.get("warnings", [])),
     }

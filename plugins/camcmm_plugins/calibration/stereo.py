@@ -18,7 +18,7 @@ import numpy as np
 from camcmm.api import CameraModel, InputError
 
 from .boards import Board, Detection, parse_board, require_found
-from .camera import MIN_VIEWS, calibrate_camera, model_flags
+from .camera import MIN_VIEWS, board_distance, calibrate_camera, model_flags
 from .checks import MAX_RMS_PX, stereo_warnings
 from .covariance import Observation, assemble, covariance, free_intrinsics, intrinsic_names
 
@@ -187,7 +187,8 @@ def calibrate_stereo(left: Sequence[Detection], right: Sequence[Detection], boar
         return {"camera_matrix": K, "dist_coeffs": D, "rms": float(np.sqrt(np.sum(npts * e ** 2) / npts.sum())),
                 "std_intrinsics": std, "std_named": dict(zip(intrinsic_names(nd), std.tolist())),
                 "per_view_rms": {pn[k]: float(x) for pn, x in zip(pair_names, e)},
-                "image_size": list(size), "rejected": single["rejected"]}
+                "image_size": list(size), "rejected": single["rejected"],
+                "board_distance": board_distance(single)}
 
     warnings = stereo_warnings(pair_names, [np.ravel(r) for r in rvecs], [np.ravel(t) for t in tvecs],
                                [(K1, D1), (K2, D2)], [cov_g[:n1, :n1], cov_g[n1:n1 + n2, n1:n1 + n2]], size,
@@ -245,6 +246,7 @@ def stereo_json(result: dict[str, Any]) -> dict[str, Any]:
         "left": cam(result["left"]), "right": cam(result["right"]),
         "R": result["R"].tolist(), "T": result["T"].tolist(), "E": result["E"].tolist(), "F": result["F"].tolist(),
         "rms": result["rms"],
+        "rvec": np.ravel(result["rvec"]).tolist(), "rotation_angle": float(np.linalg.norm(result["rvec"])),
         "std_rvec": result["std_rvec"].tolist(), "std_T": result["std_T"].tolist(),
         "baseline": result["baseline"], "baseline_std": result["baseline_std"], "spread": sp,
         "epipolar": result["epipolar"], "rectified_dy": result["rectified_dy"],

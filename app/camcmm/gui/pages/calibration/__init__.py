@@ -1,22 +1,16 @@
-"""The "Calibration" page: one camera or a stereo pair from images of a target."""
+"""The "Calibration" page: one camera or a stereo pair from images of a target.
+
+``page.py`` holds the state and handlers, ``layout.py`` the widgets; a run is
+``run.py`` (in a worker), what is shown of it ``show.py`` with ``results.py`` (tables),
+``figures.py`` (charts), ``pictures.py`` and ``draw.py`` (images), ``links.py``
+(downloads); ``inputs.py`` says where the board images come from, ``systems.py`` which
+measuring systems use a calibration.
+"""
 
 from __future__ import annotations
 
-from typing import Any
-
 from .. import Page
+from .layout import build
+from .page import mount
 
-
-def _mount(server: Any, session: Any) -> Any:
-    from ... import calibration_page
-
-    return calibration_page.mount(server, session)
-
-
-def _build(page: Any) -> None:
-    from ... import calibration_layout
-
-    calibration_layout.build_panel(page)
-
-
-PAGE = Page("calibration", "Calibration", "mdi-checkerboard", _mount, _build, order=40)
+PAGE = Page("calibration", "Calibration", "mdi-checkerboard", mount, build, order=40)

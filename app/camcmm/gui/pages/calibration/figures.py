@@ -2,19 +2,21 @@
 
 Plain dicts (the trame-plotly component binds to JSON); the PNG export draws the same
 numbers with matplotlib (plotly's static export needs Kaleido and a browser), as the
-Uncertainty page does. Inputs are the rows of :mod:`calibration_results` and the
-output of ``calibration.projection-uncertainty`` (map (rows, columns) px, u, v).
+Uncertainty page does. Inputs are the rows of :mod:`.results` and the
+output of the projection-uncertainty plugin (map (rows, columns) px, u, v, min, max):
+the numbers are the plugins'; this module only draws them.
 """
 
 from __future__ import annotations
 
 import io
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from .plotly_json import LEGEND_TOP_RIGHT, empty, layout
+from ...plotly_json import LEGEND_TOP_RIGHT, empty, layout
 
 USED, LEFT_OUT, NOT_FOUND = "#1f77b4", "#d62728", "#7f7f7f"
 
@@ -72,7 +74,7 @@ def heatmap_figure(pu: dict[str, Any] | None, corners: np.ndarray | None, image_
     if not pu or pu.get("map") is None:
         return empty("run a calibration to see the projection uncertainty across the image")
     z = np.asarray(pu["map"], float)
-    lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
+    lo, hi = float(pu["min"]), float(pu["max"])  # the plugin's range of the map
     log = lo > 0 and hi / lo > 20
     colour = np.log10(z) if log else z
     bar = {"title": {"text": "σ / px", "side": "right"}, "thickness": 14}
@@ -144,7 +146,7 @@ def heatmap_png(pu: dict[str, Any], corners: np.ndarray | None, image_size: Sequ
     ax = f.add_subplot(111)
     z = np.asarray(pu["map"], float)
     u, v = np.asarray(pu["u"], float), np.asarray(pu["v"], float)
-    lo, hi = float(z.min()), float(z.max())
+    lo, hi = float(pu["min"]), float(pu["max"])
     norm = LogNorm(lo, hi) if lo > 0 and hi / lo > 20 else None
     im = ax.imshow(z, extent=(u[0], u[-1], v[-1], v[0]), cmap="viridis", norm=norm, interpolation="bilinear",
                    aspect="equal")

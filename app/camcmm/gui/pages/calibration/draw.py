@@ -9,7 +9,7 @@ readable. The pictures go to the page as ``data:`` URLs (JPEG for photographs).
 from __future__ import annotations
 
 import base64
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -25,7 +25,8 @@ def bgr8(data: np.ndarray) -> np.ndarray:
     if a.dtype != np.uint8:
         f = a.astype(np.float64)
         lo, hi = float(np.nanmin(f)), float(np.nanmax(f))
-        a = np.zeros(a.shape, np.uint8) if hi <= lo else np.clip((f - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
+        a = np.zeros(a.shape, np.uint8) if hi <= lo else \
+            np.clip((f - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
     if a.ndim == 2:
         return cv2.cvtColor(a, cv2.COLOR_GRAY2BGR)
     if a.shape[2] == 4:

@@ -1,5 +1,6 @@
-"""The Calibration page's tables, from the outputs of ``calibration.camera`` and
-``calibration.stereo`` (see ``camcmm_plugins.calibration``), as JSON-able rows.
+"""The Calibration page's tables, from the outputs of the camera- and stereo-calibration
+plugins (see ``camcmm_plugins.calibration``), as JSON-able rows: formatting and
+bookkeeping only, every number is the plugin's.
 
 One camera's outputs hold ``camera_matrix``, ``dist_coeffs``, ``rms``, ``std_named``,
 ``per_view_rms`` {image: px}, ``rejected`` [{image, reason[, rms]}], ``detections`` and
@@ -93,17 +94,18 @@ def number_rows(cam: dict[str, Any]) -> list[dict[str, str]]:
 
 def stereo_rows(outputs: dict[str, Any]) -> list[dict[str, str]]:
     """The right camera's pose in the left (x_r = R x_l + T) with standard deviations,
-    the baseline, and the epipolar error statistics."""
-    import cv2
-
-    R = np.asarray(outputs.get("R") or np.eye(3), float)
-    rvec = np.degrees(cv2.Rodrigues(R)[0].ravel())
-    srv = np.degrees(np.asarray(outputs.get("std_rvec") or [np.nan] * 3, float))
-    T = np.asarray(outputs.get("T") or [np.nan] * 3, float)
-    sT = np.asarray(outputs.get("std_T") or [np.nan] * 3, float)
+    the baseline, and the epipolar error statistics, as the stereo plugin gives them
+    (rotation as its Rodrigues vector, shown in degrees)."""
+    nan3 = [math.nan] * 3
+    rvec = np.degrees(np.asarray(outputs.get("rvec") or nan3, float))
+    srv = np.degrees(np.asarray(outputs.get("std_rvec") or nan3, float))
+    T = np.asarray(outputs.get("T") or nan3, float)
+    sT = np.asarray(outputs.get("std_T") or nan3, float)
+    angle = outputs.get("rotation_angle")
     rows = [{"name": f"rotation r{a} (Rodrigues)", "value": fmt(v, 5), "std": fmt(s, 2), "unit": "°"}
             for a, v, s in zip("xyz", rvec, srv)]
-    rows.append({"name": "rotation angle", "value": fmt(float(np.linalg.norm(rvec)), 5), "std": "", "unit": "°"})
+    rows.append({"name": "rotation angle", "value": fmt(None if angle is None else math.degrees(angle), 5), "std": "",
+                 "unit": "°"})
     rows += [{"name": f"T{a}", "value": fmt(v, 6), "std": fmt(s, 2), "unit": "mm"} for a, v, s in zip("xyz", T, sT)]
     rows.append({"name": "baseline |T|", "value": fmt(outputs.get("baseline"), 6),
                  "std": fmt(outputs.get("baseline_std"), 2), "unit": "mm"})
@@ -122,13 +124,13 @@ def used_pairs(outputs: dict[str, Any]) -> list[dict[str, Any]]:
     return [{"title": f"{p[0]} / {p[1]}", "value": i} for i, p in enumerate(outputs.get("pairs") or [])]
 
 
-def default_distance(cal: dict[str, Any] | None) -> float:
-    """The median depth (mm) of the board in the calibration's views: where the
-    calibration was made, so where its uncertainty is first worth looking at."""
+def default_distance(cam: dict[str, Any]) -> float:
+    """The working distance (mm) the heat map first shows: the board's median depth in
+    the views the calibration used (the plugin's ``board_distance``), to 3 digits; 1000 mm
+    when the plugin gives none."""
     try:
-        z = np.asarray(cal["views"]["tvecs"], float).reshape(-1, 3)[:, 2]
-        d = float(np.median(z))
-    except (KeyError, TypeError, ValueError, IndexError):
+        d = float(cam.get("board_distance"))
+    except (TypeError, ValueError):
         return 1000.0
     if not (math.isfinite(d) and d > 0):
         return 1000.0
@@ -147,7 +149,8 @@ def summary(outputs: dict[str, Any], mode: str) -> dict[str, Any]:
     """The one-line facts above the results."""
     out = {"mode": mode, "rms": fmt(outputs.get("rms"), 4)}
     if mode == "stereo":
-        out["views"] = f"{len(outputs.get('pairs') or [])} of {len((outputs.get('detections') or {}).get('left') or [])} pairs"
+        n = len((outputs.get("detections") or {}).get("left") or [])
+        out["views"] = f"{len(outputs.get('pairs') or [])} of {n} pairs"
         out["image_size"] = " × ".join(str(v) for v in (outputs.get("left") or {}).get("image_size") or [])
         out["baseline"] = f"{fmt(outputs.get('baseline'), 5)} ± {fmt(outputs.get('baseline_std'), 2)} mm"
     else:

@@ -9,10 +9,11 @@ the image lives in the project (so a reopened page finds it again) and the item 
 from __future__ import annotations
 
 import fnmatch
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
-from ..errors import InputError
+from ....errors import InputError
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 BOARD_HELP = ("chessboard:COLSxROWS:SQUARE_MM counts inner corners (chessboard:9x6:25); "
@@ -26,6 +27,9 @@ BOARD_HINTS = {
     "acircles": "acircles:COLSxROWS:SPACING_MM, OpenCV's asymmetric circle grid, e.g. acircles:4x11:10",
     "": "chessboard:9x6:25 (inner corners), charuco:11x8:15:11, circles:7x6:20 or acircles:4x11:10",
 }
+#: the keys of a run request (the layout sends them; the project remembers the last)
+REQUEST_KEYS = ("mode", "source", "left", "right", "folder", "left_pattern", "right_pattern", "board", "model",
+                "outlier_factor", "name")
 MODELS = [
     {"title": "standard: k1 k2 p1 p2 k3", "value": "standard"},
     {"title": "thin prism: + s1-s4", "value": "thin-prism"},
@@ -115,7 +119,7 @@ def resolve(path: str | None, h: str | None, project: Any) -> Path | None:
 
 def read_source(src: dict[str, Any], project: Any) -> Any:
     """A source read as a :class:`camcmm.model.Image` named as the operator knows it."""
-    from .. import io as cio
+    from .... import io as cio
 
     p = resolve(src.get("path"), src.get("hash"), project)
     if p is None:
@@ -137,3 +141,38 @@ def board_layout(spec: str) -> tuple[str, tuple[int, int] | None]:
     except (IndexError, ValueError):
         return kind, None
     return kind, ((c - 1, r - 1) if kind == "charuco" else (c, r))
+
+
+def check_request(req: dict[str, Any], project: Any, roots: Any = None
+                  ) -> tuple[dict[str, Any], dict[str, list[dict[str, Any]]]]:
+    """The request cleaned (mode, board, model, outlier factor) and its image sources
+    ``{"left": [...], "right": [...]}`` (one camera: left only); InputError naming what is
+    wrong. Reads the project (loop thread); the plugin judges the board spec itself."""
+    req = {k: req.get(k) for k in REQUEST_KEYS}
+    mode = "stereo" if req["mode"] == "stereo" else "camera"
+    req["mode"] = mode
+    req["board"] = str(req.get("board") or "").strip()
+    if not req["board"]:
+        raise InputError("board: give the board spec, e.g. chessboard:9x6:25 (" + BOARD_HELP + ")")
+    try:
+        req["outlier_factor"] = float(req.get("outlier_factor") if req.get("outlier_factor") not in (None, "")
+                                      else 3.0)
+    except (TypeError, ValueError):
+        raise InputError(f"outlier factor: {req.get('outlier_factor')!r} is not a number") from None
+    req["model"] = req.get("model") or "standard"
+    first = "left images" if mode == "stereo" else "images"
+    if req.get("source") == "folder":
+        src = {"left": folder_sources(req["folder"], req.get("left_pattern") or "*", first, roots=roots)}
+        if mode == "stereo":
+            src["right"] = folder_sources(req["folder"], req.get("right_pattern") or "*", "right images", roots=roots)
+    else:
+        req["source"] = "items"
+        src = {"left": item_sources(project, req.get("left"), first)}
+        if mode == "stereo":
+            src["right"] = item_sources(project, req.get("right"), "right images")
+    if mode == "stereo":
+        both = {s["path"] for s in src["left"]} & {s["path"] for s in src["right"]}
+        if both:
+            raise InputError(f"the same image is among the left and the right images ({len(both)} of them); "
+                             "give each camera its own images")
+    return req, src

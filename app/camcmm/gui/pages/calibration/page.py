@@ -1,0 +1,248 @@
+"""The "Calibration" page's state and handlers: board images in, a camera or stereo
+calibration out, published through the trame state (``cal_*`` keys).
+
+A run (reading the images, calibrating, heat maps, thumbnails, storing; :mod:`.run`)
+goes to the page's calibration :class:`~camcmm.gui.jobs.Job` with progress and cancel;
+pictures made on demand go to a second job, so choosing an image never waits for a
+run. What is shown of a calibration is :class:`.show.Results`; the measuring systems
+that use it are :mod:`.systems`. State changes happen on the server's loop; plugin runs
+and file writing in the jobs' workers.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from ....errors import InputError, one_line
+from ...downloads import Downloads
+from ...jobs import Job
+from . import inputs, run, systems
+from . import results as res
+from .show import Results
+
+log = logging.getLogger("camcmm.gui.calibration")
+
+#: request key -> state variable of the input it comes from
+FIELDS = {"mode": "cal_mode", "source": "cal_source", "left": "cal_left_items", "right": "cal_right_items",
+          "folder": "cal_folder", "left_pattern": "cal_left_pattern", "right_pattern": "cal_right_pattern",
+          "board": "cal_board", "model": "cal_model", "outlier_factor": "cal_outlier", "name": "cal_name"}
+
+
+class CalibrationPage:
+    def __init__(self, session: Any, downloads: str | Path | None = None):
+        self.session = session
+        self.state = session.state
+        self.project = session.project
+        self.host = session.host
+        self.offered = Downloads("camcmm-calibration-downloads", "camcmm-calibration-", downloads)
+        self.job = Job("calibration", state=self.state, on_progress=self._show_progress, interval=0.15)
+        self.pictures = Job("calibration pictures", state=self.state)
+        self._init_state()
+        self.results = Results(session, self.offered, self.pictures, self._error)
+        self.refresh_systems()
+        self.restore()
+
+    # -- state ------------------------------------------------------------------------------
+    def _init_state(self) -> None:
+        s = self.state
+        s.cal_mode = "camera"
+        s.cal_source = "items" if inputs.image_items(s.items) else "folder"
+        s.cal_left_items, s.cal_right_items = [], []
+        s.cal_folder, s.cal_left_pattern, s.cal_right_pattern = "", "*", "right*"
+        s.cal_upload_left = s.cal_upload_right = None
+        s.cal_board = "chessboard:9x6:25"
+        s.cal_board_hints = inputs.BOARD_HINTS
+        s.cal_models = inputs.MODELS
+        s.cal_model = "standard"
+        s.cal_outlier = 3.0
+        s.cal_name = ""
+        s.cal_running = False
+        s.cal_progress = 0.0
+        s.cal_message = ""
+        s.cal_error = ""
+        s.cal_systems, s.cal_system_options = [], []
+        s.cal_system_target, s.cal_system_name = systems.NEW, ""
+
+    def flush(self) -> None:
+        self.session.flush()
+
+    def _error(self, msg: Any) -> None:
+        line = one_line(msg)
+        self.state.cal_error = line
+        self.session.error(line)
+
+    # -- what is shown (see show.Results) ---------------------------------------------------
+    @property
+    def doc(self) -> dict[str, Any] | None:
+        """The page document of the calibration shown (None: none yet)."""
+        return self.results.doc
+
+    @property
+    def shown_side(self) -> str:
+        return self.results.shown_side
+
+    def show_doc(self, doc: dict[str, Any], pics: dict[str, Any] | None = None) -> None:
+        self.results.show_doc(doc, pics)
+        self.refresh_systems()
+
+    def show_side(self, side: str) -> None:
+        self.results.show_side(side)
+
+    async def select_image_async(self, name: str) -> None:
+        await self.results.select_image_async(name)
+
+    async def show_pair_async(self, index: Any) -> None:
+        await self.results.show_pair_async(index)
+
+    async def set_distance_async(self, distance: Any) -> None:
+        await self.results.set_distance_async(distance)
+
+    # -- inputs -----------------------------------------------------------------------------
+    def request(self) -> dict[str, Any]:
+        """The inputs as they stand in the page (the layout sends the same dict)."""
+        req = {key: self.state[var] for key, var in FIELDS.items()}
+        req["left"], req["right"] = list(req["left"] or []), list(req["right"] or [])
+        return req
+
+    def _set_request(self, req: dict[str, Any]) -> None:
+        for key, var in FIELDS.items():
+            if key in req and req[key] is not None:
+                self.state[var] = req[key]
+
+    def add_uploads(self, upload: Any, side: str = "left") -> list[str]:
+        """Uploaded images become image items of the project, chosen for ``side``."""
+        keys = []
+        for f in self.session.import_upload(upload):
+            try:
+                path, obj, name = self.session.read_file(f["content"], f["name"])
+                if not (hasattr(obj, "data") and hasattr(obj, "size")):
+                    raise InputError(f"{name}: not an image")
+                h = self.project.add_file(path)
+                keys.append(str(self.session.add_measurement(name, h, obj, "calibration page upload")))
+            except Exception as exc:
+                self._error(one_line(exc, f["name"]))
+            finally:
+                self.session.drop_upload(f["content"])
+        if keys:
+            self.session.refresh_items()
+            var = "cal_right_items" if side == "right" else "cal_left_items"
+            self.state[var] = list(self.state[var] or []) + keys
+            self.state.cal_source = "items"
+            self.session.info(f"{len(keys)} image(s) added to the project")
+        return keys
+
+    def pick_by_name(self) -> None:
+        """Choose every image item (one camera) or split them by 'left'/'right' in the name."""
+        left, right = inputs.split_by_name(self.state.items, self.state.cal_mode == "stereo")
+        self.state.cal_left_items, self.state.cal_right_items = left, right
+        self.state.cal_source = "items"
+        if not left:
+            self._error("no image items" + (" named left…" if self.state.cal_mode == "stereo" else "")
+                        + " in the project: upload the board images or import them")
+
+    # -- the run ----------------------------------------------------------------------------
+    def _show_progress(self, fraction: float, message: str) -> None:
+        self.state.cal_progress = round(100.0 * fraction, 1)
+        self.state.cal_message = message or "calibrating"
+
+    def cancel(self) -> None:
+        if self.job.cancel():
+            self.state.cal_message = "cancelling …"
+
+    def _work(self, req: dict[str, Any], src: dict[str, list]) -> tuple[dict[str, Any], dict[str, Any]]:
+        """In the job's worker: calibrate and store, then the first pictures and the downloads."""
+        doc, images = run.calibrate(self.host, self.project, req, src, self.job)
+        self.job.progress(0.95, "drawing")
+        return doc, self.results.pictures(doc, images)
+
+    async def run_async(self, req: dict[str, Any] | None = None) -> dict[str, Any] | None:
+        """Calibrate with ``req`` (the form's inputs when None); the page document, or
+        None with the reason shown."""
+        s = self.state
+        if self.job.running:
+            self._error("a calibration is running; wait for it or cancel it")
+            return None
+        try:
+            req, src = inputs.check_request(self.request() if req is None else req, self.project,
+                                            self.session.roots)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        self._set_request(req)
+        s.cal_running, s.cal_progress, s.cal_message, s.cal_error = True, 0.0, "starting …", ""
+        self.flush()
+        try:
+            doc, pics = await self.job.run(self._work, req, src)
+        except Exception as exc:
+            status, line = Job.outcome(exc)
+            s.cal_running, s.cal_progress, s.cal_message = False, 0.0, status
+            self._error(line)
+            self.flush()
+            return None
+        s.cal_running, s.cal_progress = False, 100.0
+        s.cal_message = f"done: RMS {res.fmt(doc['outputs'].get('rms'), 4)} px, result #{doc['current']['result']}"
+        self.show_doc(doc, pics)
+        self.session.refresh_results()
+        self.session.info(f"calibration stored as result #{doc['current']['result']}")
+        self.flush()
+        return doc
+
+    # -- restore ----------------------------------------------------------------------------
+    def restore(self) -> None:
+        """The inputs of the last run and the current calibration, as stored."""
+        try:
+            req = run.stored_inputs(self.project)
+            if req is not None:
+                self._set_request(req)
+            doc = run.stored_doc(self.project)
+            if doc is not None:
+                self.show_doc(doc)
+                self.state.cal_message = f"result #{doc['current'].get('result')} from the project"
+        except Exception as exc:  # a damaged file must not keep the page from opening
+            log.warning("cannot restore the calibration: %s", exc)
+            self.state.cal_message = f"the stored calibration could not be read: {one_line(exc)}"
+
+    # -- measuring systems ------------------------------------------------------------------
+    def refresh_systems(self) -> None:
+        """The project's measuring systems and the calibration each refers to."""
+        s = self.state
+        try:
+            s.cal_systems, s.cal_system_options = systems.rows(self.project, (self.doc or {}).get("current"))
+        except Exception as exc:
+            s.cal_systems, s.cal_system_options = [], [systems.new_option()]
+            self._error(f"measuring systems: {one_line(exc)}")
+            return
+        if s.cal_system_target not in [o["value"] for o in s.cal_system_options]:
+            s.cal_system_target = systems.NEW
+
+    def use_calibration(self, target: Any = systems.NEW, name: str = "") -> int | None:
+        """Let measuring system ``target`` (an id, or "new" with ``name``) refer to the
+        shown calibration (:func:`.systems.use`). Returns the system's id."""
+        cur = (self.doc or {}).get("current")
+        if not cur:
+            self._error("no calibration to use yet: run one first")
+            return None
+        try:
+            sid = systems.use(self.project, cur, target, name)
+        except Exception as exc:
+            self._error(f"measuring system: {one_line(exc)}")
+            return None
+        self.state.cal_system_target = sid
+        self.refresh_systems()
+        self.state.cal_system_target = sid
+        self.session.info(f"measuring system #{sid} uses calibration {cur['name']!r}")
+        return sid
+
+    def close(self) -> None:
+        self.job.close()
+        self.pictures.close()
+        self.offered.close()
+
+
+def mount(server: Any, session: Any) -> CalibrationPage:
+    """Create the page for a session and serve its downloads (before the server starts)."""
+    page = CalibrationPage(session)
+    page.offered.mount(server)
+    return page
