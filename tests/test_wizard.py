@@ -1,4 +1,4 @@
-"""The acceptance-test wizard without a browser: camcmm.gui.wizard on a real project.
+"""The acceptance page without a browser: camcmm.gui.pages.acceptance on a real project.
 
 A part-2 test is set up, every position imported (clouds generated here with numpy:
 partial spheres with noise, ball bars of two spheres at the calibrated length,
@@ -6,9 +6,9 @@ flats), counters checked, a position redone, a bad file refused for its position
 only; then a NEW wizard on the same project (a restart) resumes with the same state;
 the summary verdict and the report files in the project.
 
-Each flow runs against a small fake standard implementing the standard protocol of
-docs/standards.md (so the wizard's logic is tested on its own) and against the real
-``vdi2634-2`` plugin when it is installed.
+Each flow runs against a small fake standard implementing the typed standard protocol
+(camcmm.standard: its declaration, requirements, evaluations; so the wizard's logic is
+tested on its own) and against the real ``vdi2634-2`` plugin when it is installed.
 """
 
 from __future__ import annotations
@@ -29,12 +29,14 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 cio = pytest.importorskip("camcmm.io")
 
 from camcmm.errors import GeometryError, InputError  # noqa: E402
-from camcmm.gui.wizard import (STATE_KEY, Wizard, artefact_plan_fields, load_catalogue,  # noqa: E402
-                               plan_fields_to_artefact)
-from camcmm.gui.wizard_layout import pictogram, pictograms  # noqa: E402
+from camcmm.api import (ArtefactField, ArtefactKind, PositionSpec, QualityParameter,  # noqa: E402
+                        StandardDeclaration, TestDeclaration)
+from camcmm.gui.pages.acceptance import (STATE_KEY, Wizard, artefact_plan_fields, load_catalogue,  # noqa: E402
+                                         plan_fields_to_artefact)
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 from camcmm.project import Project  # noqa: E402
+from camcmm_plugins.vdi2634.pictograms import pictogram, pictograms  # noqa: E402
 
 MPE = {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243}
 VOLUME = [100.0, 100.0, 100.0]
@@ -129,11 +131,30 @@ def _fit_sphere(p):
     return c, r, np.linalg.norm(p - c, axis=1) - r
 
 
+_FIELDS = {"sphere": (ArtefactField("diameter", "Diameter (calibrated)", certificate="diameter",
+                                    uncertainty="uncertainty"), ArtefactField("uncertainty", "Its uncertainty U"),
+                      ArtefactField("k", "Coverage factor k", unit="")),
+           "ball_bar": (ArtefactField("length", "Length (calibrated)", certificate="length", uncertainty="uncertainty"),
+                        ArtefactField("uncertainty", "Its uncertainty U"), ArtefactField("sphere_diameter", "Sphere")),
+           "flat": (ArtefactField("length", "Length"), ArtefactField("width", "Width"),
+                    ArtefactField("flatness", "Flatness", certificate="flatness"))}
+_DECLARATION = StandardDeclaration(
+    "fake-2", "Fake standard part 2",
+    (QualityParameter("PF", "P_F", "form"), QualityParameter("PS", "P_S", "size", signed=True),
+     QualityParameter("SD", "SD", "spacing", signed=True), QualityParameter("F", "F", "flatness")),
+    tuple(ArtefactKind(t, t, f) for t, f in _FIELDS.items()),
+    tuple(TestDeclaration(t, label, t, tuple(params), n) for t, label, params, n in _TESTS),
+    tuple(PositionSpec(t, p["id"], p["label"], t, p["hint"]) for t, ps in _POS.items() for p in ps))
+
+
 class FakeStandard:
     """The standard protocol with plain numpy fits: what the wizard relies on, nothing more."""
 
     def __init__(self):
         self.evaluated = 0
+
+    def declare(self):
+        return _DECLARATION
 
     def _plan(self, plan):
         if plan is None:
@@ -448,7 +469,7 @@ def test_catalogue_round_trip_and_own_artefacts(tmp_path):
     flat = artefact_plan_fields(next(a for a in cat if a["kind"] == "flat"))
     assert flat["length"] == 150.0 and flat["flatness_uncertainty"] == 0.0005
     back = plan_fields_to_artefact("ball_bar", {"length": 49.9, "uncertainty": 0.001, "k": 2, "sphere_diameter": 20},
-                                   "bb-own", "own bar")
+                                   "bb-own", "own bar", _DECLARATION.artefact("ball_bar"))
     assert back["certificates"]["length"]["value"] == 49.9 and back["nominal"]["sphere_diameter"] == 20
     host = FakeHost()
     with Project.create(tmp_path / "proj") as project:
@@ -488,26 +509,15 @@ def test_pictograms_are_svg_for_every_position():
 
 # -- the page (trame state) -------------------------------------------------------------------------
 pytest.importorskip("trame")
-_names = itertools.count()
 
 
 @pytest.fixture
-def gui(tmp_path):
-    made = []
-
+def gui(gui_app):
     def make(project_dir, host=None):
-        from camcmm.gui.app import build
-
-        server, session = build(f"test-wizard-{os.getpid()}-{next(_names)}", project_dir, host=host)
-        server.state.ready()
-        made.append(server)
+        server, session = gui_app(project_dir, host=host)
         return server, session, server.pages["acceptance"]
 
-    yield make
-    from camcmm.gui.app import close
-
-    for server in made:
-        close(server)
+    return make
 
 
 def test_page_setup_import_view_and_report(tmp_path, gui, kit):
@@ -554,7 +564,7 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     for test in ("sphere", "ball_bar", "flat"):
         for pos, path in files[test]:
             if (test, pos) != ("sphere", "sphere-01"):
-                page.import_file(test, pos, path)
+                asyncio.run(page.import_async(test, pos, path))
     assert state.wz_complete and state.wz_verdict == "pass"
     assert [r["key"] for r in state.wz_parameters] == ["PF", "PS", "SD", "F"]
     assert all(r["verdict"] == "pass" for r in state.wz_parameters)

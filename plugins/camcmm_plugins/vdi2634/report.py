@@ -18,11 +18,11 @@ from typing import Any
 
 from camcmm.api import Report, charts
 
-from .standard import plain
+from .declaration import SYMBOLS
+from .plain import plain
 
 TEST_TITLES = {"sphere": "Probing errors P_F and P_S (sphere)", "ball_bar": "Sphere-spacing error SD (ball bar)",
                "flat": "Flatness measurement error F (flat)", "ball_plate": "Sphere-spacing error SD (ball plate)"}
-SYMBOLS = {"PF": "P_F", "PS": "P_S", "SD": "SD", "F": "F"}
 CERT_NAMES = {"diameter": "diameter", "form": "form deviation", "length": "length", "flatness": "flatness",
               "sphere_diameter": "sphere diameter", "length_1": "L1 = |c1 c2|", "length_2": "L2 = |c2 c3|",
               "length_3": "L3 = |c3 c1|"}

@@ -27,6 +27,8 @@ import numpy as np
 
 from camcmm.api import GeometryError, InputError, PointCloud
 
+from .segment import detect
+
 #: RANSAC (segment.sphere without a radius) scores every hypothesis against every point;
 #: 1000 points fix a radius to well under 1 % (detection needs 10 %) in about 0.2 s.
 RANSAC_POINTS = 1_000
@@ -83,8 +85,6 @@ def estimate_radius(ctx, cloud: PointCloud, name: str) -> float:
 def find_spheres_by_ratio(ctx, cloud: PointCloud, name: str, d_main: float, d_scale: float) -> list[np.ndarray]:
     """Indices of [probing sphere, scale sphere 1, scale sphere 2] in a reconstruction
     of unknown scale, told apart by their calibrated diameters."""
-    from .measure import detect  # measure imports this module
-
     ratio = d_scale / d_main
     if 0.75 < ratio < 1 / 0.75:
         raise InputError(f"{name}: scale spheres ({d_scale:g} mm) and probing sphere ({d_main:g} mm) are too alike "

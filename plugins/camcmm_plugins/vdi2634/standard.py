@@ -3,11 +3,14 @@
 An instance is the manifest ``entry`` of a standard plugin; the host loads it with
 ``host.load(id)``. It offers:
 
+* ``declare()`` -> the :class:`camcmm.api.StandardDeclaration` (parameters, artefacts,
+  tests, positions; :mod:`.declaration`);
 * ``__call__(ctx, plan)`` -> the full result JSON (so ``host.run(id, {"plan": ...})`` works);
 * ``requirements(plan)`` -> per test the positions the standard asks for;
 * ``evaluate_measurement(ctx, test, cloud, plan)`` -> one measurement at once;
 * ``summarize(ctx, plan, per_measurement)`` -> the full JSON from stored evaluations;
-* ``write_report(result, directory, plan)`` -> {"html", "pdf", "json"} paths.
+* ``write_report(result, directory, plan)`` -> {"html", "pdf", "json"} paths;
+* ``pictograms(requirements, plan)`` -> an SVG per position (:mod:`.pictograms`).
 
 Verdicts (ISO 14253-1, via camcmm.api): simple acceptance |E| <= MPE as VDI/VDE 2634
 states it, and beside it guarded acceptance |E| <= MPE - U with U the test's own
@@ -24,20 +27,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
-from camcmm.api import (CamcmmError, InputError, PointCloud, RunContext, combine, default_host, guarded_verdict,
-                        simple_verdict)
+from camcmm.api import (CamcmmError, InputError, PointCloud, RunContext, StandardDeclaration, combine, default_host,
+                        guarded_verdict, simple_verdict)
 
-from . import measure, plan as plans, positions, rules, uncertainty
+from . import declaration, describe, measure, pictograms as drawings, plan as plans, positions, report, rules
+from . import uncertainty
+from .plain import plain
 
 INCOMPLETE = "incomplete"
 #: A deviations cloud kept in a batch result (for the report's colour maps) has at most this many points.
 REPORT_POINTS = 30_000
 #: The algorithms a standard asks the host for (their versions go into the provenance).
 ALGORITHMS = ("fit.sphere", "fit.plane", "segment.spheres", "segment.sphere")
-PARAMETER_NAMES = {"PF": "Probing error form P_F", "PS": "Probing error size P_S",
-                   "SD": "Sphere-spacing error SD", "F": "Flatness measurement error F"}
+PARAMETER_NAMES = declaration.NAMES
 
 
 @dataclass(frozen=True)
@@ -57,25 +60,6 @@ def _version() -> str:
         return importlib.metadata.version("camcmm")
     except importlib.metadata.PackageNotFoundError:
         return "unknown"
-
-
-def plain(x: Any) -> Any:
-    """JSON-able copy: numpy to Python, clouds to a short summary, NaN to None."""
-    if isinstance(x, dict):
-        return {str(k): plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [plain(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return plain(x.tolist())
-    if isinstance(x, np.generic):
-        return plain(x.item())
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    if isinstance(x, PointCloud):
-        return {"kind": "pointcloud", "name": x.name, "n_points": x.n_points}
-    if isinstance(x, Path):
-        return str(x)
-    return x
 
 
 def decimate(cloud: PointCloud | None, limit: int = REPORT_POINTS) -> PointCloud | None:
@@ -136,6 +120,15 @@ class Standard:
         return 1
 
     # -- protocol ------------------------------------------------------------------------
+    def declare(self) -> StandardDeclaration:
+        """Parameters, artefacts, tests and positions (before any plan; part 3's repeats
+        are its default, a plan may change them)."""
+        return declaration.declare(self.id, self.title, self.part, self.specs, self.repeats(None))
+
+    def pictograms(self, requirements: list[dict[str, Any]], plan: dict[str, Any]) -> dict[str, str]:
+        """``{"test/position": svg}``: each position drawn in the plan's measuring volume."""
+        return drawings.pictograms(requirements, plan)
+
     def requirements(self, plan: Any = None) -> list[dict[str, Any]]:
         """Per test: label, parameters, minimum number of positions, repeats, whether
         required, the artefact and the positions (ids, labels, hints, coordinates)."""
@@ -164,7 +157,7 @@ class Standard:
             item = plans.PlannedMeasurement(test, path.name, path, position or "", repeat or 1, p.unit, path.name)
             cloud, sha = measure.load(item)
         name = file or getattr(cloud, "name", None)
-        out = measure.evaluate(ctx, test, cloud, p, name)
+        out = describe.add_words(measure.evaluate(ctx, test, cloud, p, name))
         out.update({"file": name, "position": position, "repeat": repeat or 1})
         if sha:
             out["sha256"] = sha
@@ -174,7 +167,7 @@ class Standard:
         base = {"test": item.test, "file": item.name, "position": item.position, "repeat": item.repeat}
         try:
             cloud, sha = measure.load(item)
-            out = measure.evaluate(ctx, item.test, cloud, p, item.name)
+            out = describe.add_words(measure.evaluate(ctx, item.test, cloud, p, item.name))
             out["deviations"] = decimate(out.get("deviations"))
             out.update(base, sha256=sha)
             return out
@@ -309,6 +302,4 @@ class Standard:
     # -- report --------------------------------------------------------------------------
     def write_report(self, result: dict[str, Any], directory: str | Path, plan: Any = None) -> dict[str, str]:
         """Write the HTML/PDF/JSON report of a result into ``directory``."""
-        from . import report
-
         return report.write(result, Path(directory), self.load_plan(plan) if plan is not None else None)

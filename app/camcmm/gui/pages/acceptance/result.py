@@ -9,8 +9,12 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from ...errors import CamcmmError, InputError
-from ...host import RunContext
+from camcmm import io as cio
+from camcmm.errors import CamcmmError, InputError
+from camcmm.host import RunContext
+from camcmm.project.store import utcnow
+from camcmm.standard import as_dict
+
 from .evaluate import _run_dict
 from .values import log
 
@@ -19,7 +23,7 @@ REPORT_POINTS = 30_000
 
 
 class WizardResult:
-    """Summary and report of :class:`~camcmm.gui.wizard.Wizard`."""
+    """Summary and report of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
 
     # -- summary and report ----------------------------------------------------------------
     def per_measurement(self, with_deviations: bool = False) -> dict[str, list[dict[str, Any]]]:
@@ -56,14 +60,12 @@ class WizardResult:
             plan = copy.deepcopy(self.plan)
             sid = self.state["standard"]
         ctx = RunContext(self.host, sid)
-        return self.standard(sid).summarize(ctx, plan, per if per is not None else self.per_measurement())
+        return as_dict(self.standard(sid).summarize(ctx, plan, per if per is not None else self.per_measurement()))
 
     def make_report(self, directory: str | Path, per: dict[str, list[dict[str, Any]]] | None = None
                     ) -> tuple[dict[str, Any], dict[str, str]]:
         """Summarise and write the report files into ``directory`` (any thread; give
         ``per`` from :meth:`per_measurement` taken on the loop). Returns (summary, paths)."""
-        from ... import io as cio
-
         per = copy.deepcopy(per) if per is not None else self.per_measurement(with_deviations=True)
         for evs in per.values():
             for ev in evs:
@@ -86,8 +88,6 @@ class WizardResult:
 
     def record_report(self, summary: dict[str, Any], paths: dict[str, str], started: str = "") -> dict[str, Any]:
         """Store the summary as a result with the report files; the state names it."""
-        from ...project.store import utcnow
-
         with self._lock:
             std_id = self.state["standard"]
             version = self.host.get(std_id).version
@@ -110,8 +110,6 @@ class WizardResult:
     def report(self, directory: str | Path | None = None) -> dict[str, Any]:
         """Summary + report in the calling thread; returns ``{"summary_result", "files"
         ({"report_html": hash, ...}), "paths" (the files in the project)}``."""
-        from ...project.store import utcnow
-
         started = utcnow()
         tmp = None
         if directory is None:
@@ -139,8 +137,6 @@ class WizardResult:
 
     def deviations(self, test: str, position: str, repeat: int | None = None) -> Any:
         """The deviations cloud (field ``deviation``, mm) of a done position, from the project."""
-        from ... import io as cio
-
         filled = self._filled(test, position)
         if not filled:
             raise InputError(f"{position}: nothing measured yet")

@@ -11,13 +11,13 @@ of a file: evaluated in the worker, recorded on the loop.
 
 from __future__ import annotations
 
-import asyncio
 import tempfile
 from pathlib import Path
 from typing import Any
 
-from ... import worker
-from .values import _one_line
+from camcmm import worker
+from camcmm.errors import one_line
+from camcmm.io import write
 
 
 def acquisition_sources(host: Any) -> list[dict[str, Any]]:
@@ -34,7 +34,7 @@ def acquisition_sources(host: Any) -> list[dict[str, Any]]:
 
 
 class PageAcquire:
-    """The acquisition handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+    """The acquisition handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
     def set_source(self, plugin_id: str | None, params: dict[str, Any] | None = None) -> None:
         self.state.wz_source = plugin_id or None
@@ -53,8 +53,6 @@ class PageAcquire:
 
     def _acquire(self, source: str, params: dict[str, Any], placement: dict[str, Any]) -> Path:
         """Worker: run the system, write its cloud to a temporary PLY for the import."""
-        from ...io import write
-
         res = worker.run(self.session.host, source, {"placement": placement}, params)
         cloud = res.outputs["cloud"]
         folder = Path(tempfile.mkdtemp(prefix="camcmm-acquire-"))
@@ -71,24 +69,21 @@ class PageAcquire:
         if key in self._busy:
             self.session.error(f"{position}: a measurement is under way; wait for it")
             return None
-        if self.session._loop is None:
-            self.session.bind_loop()
+        self.session.bind_loop()
         try:
             placement = self.placement(test, position)
         except Exception as exc:
-            self.session.error(_one_line(exc))
+            self.session.error(one_line(exc))
             return None
         self._set_busy(key, True)
         self.refresh_cards()
         self.flush()
-        loop = asyncio.get_running_loop()
         try:
-            path = await loop.run_in_executor(self._executor, self._acquire, source,
-                                              dict(self.state.wz_source_params or {}), placement)
+            path = await self.job.call(self._acquire, source, dict(self.state.wz_source_params or {}), placement)
         except Exception as exc:
             self._set_busy(key, False)
             self.refresh_cards()
-            self.session.error(f"{position}: {source} could not measure: {_one_line(exc)}")
+            self.session.error(f"{position}: {source} could not measure: {one_line(exc)}")
             self.flush()
             return None
         self._set_busy(key, False)

@@ -1,61 +1,34 @@
 """The page's slow steps and the 3D view: imports evaluated in the worker thread and
-recorded on the loop, busy cards, a position's colour map shown from a good side, and
-the report written in the worker."""
+recorded on the loop, busy cards, a position's colour map shown from the side the
+standard suggests (an evaluation's ``view``), and the report written in the worker."""
 
 from __future__ import annotations
 
-import asyncio
 import copy
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from camcmm.errors import CamcmmError, one_line
+from camcmm.project.store import utcnow
 
-from ...errors import CamcmmError
-from .evaluate import Job
+from ...view import color_fields
+from .evaluate import PendingEvaluation
 from .positions import fit_rows
-from .values import _one_line
+
 
 def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
-    """(direction from the object to the camera, view-up) that shows an evaluation's
-    colour map well: a flat face-on (along its normal, from the sensor's side); a ball
-    bar or plate across its length, from above; a sphere from the front and above, as
-    the sensor saw it. None when the evaluation says nothing about its geometry."""
-    z = np.array([0.0, 0.0, 1.0])
-    if ev.get("normal") is not None:
-        n = np.asarray(ev["normal"], float)
-        n = n / (np.linalg.norm(n) or 1.0)
-        if n @ z < 0:
-            n = -n
-        up = np.array([0.0, 1.0, 0.0]) if abs(n @ z) > 0.9 else z
-        return n.tolist(), up.tolist()
-    centres = [s.get("center") for s in ev.get("spheres") or [] if isinstance(s, dict) and s.get("center")]
-    if len(centres) >= 2:
-        c = np.asarray(centres, float)
-        d = c[1] - c[0]
-        d = d / (np.linalg.norm(d) or 1.0)
-        if len(c) >= 3:  # a plate: face-on
-            n = np.cross(c[1] - c[0], c[2] - c[0])
-            n = n / (np.linalg.norm(n) or 1.0)
-            v = n if n @ z >= 0 else -n
-        else:
-            v = z - (z @ d) * d
-            if np.linalg.norm(v) < 0.2:  # a (nearly) vertical bar: from the front
-                v = np.array([0.0, -1.0, 0.0]) - d * d[1] * -1.0
-            v = v / (np.linalg.norm(v) or 1.0)
-            side = np.cross(d, v)
-            v = v + 0.4 * side
-        up = z if abs((v / np.linalg.norm(v)) @ z) < 0.9 else np.array([0.0, 1.0, 0.0])
-        return (v / np.linalg.norm(v)).tolist(), up.tolist()
-    if ev.get("center") is not None:
-        return [0.3, -0.6, 1.0], [0.0, 0.0, 1.0]
-    return None
+    """(direction from the object to the camera, view-up) the standard suggests for an
+    evaluation's colour map (its ``view``); None when it suggests none."""
+    view = ev.get("view")
+    if not isinstance(view, dict) or not view.get("direction"):
+        return None
+    return [float(x) for x in view["direction"]], [float(x) for x in view.get("up") or (0.0, 0.0, 1.0)]
 
 
 class PageActions:
-    """The position and report handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+    """The position and report handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
     # -- handlers: positions -----------------------------------------------------------------
     def _set_busy(self, key: str, on: bool) -> None:
@@ -76,19 +49,17 @@ class PageActions:
         if key in self._busy:
             self.session.error(f"{position}: a measurement is being evaluated; wait for it")
             return None
-        if self.session._loop is None:
-            self.session.bind_loop()
+        self.session.bind_loop()
         try:
             job = self.wizard.prepare(test, position, repeat)
         except Exception as exc:
-            self.session.error(_one_line(exc))
+            self.session.error(one_line(exc))
             return None
         self._set_busy(key, True)
         self.refresh_cards()
         self.flush()
-        loop = asyncio.get_running_loop()
         try:
-            await loop.run_in_executor(self._executor, self.wizard.evaluate, job, source, name)
+            await self.job.call(self.wizard.evaluate, job, source, name)
         except Exception as exc:
             msg = self.wizard.fail(job, exc)
             self._set_busy(key, False)
@@ -113,24 +84,7 @@ class PageActions:
         self.flush()
         return card
 
-    def import_file(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
-                    repeat: int | None = None) -> dict[str, Any]:
-        """As :meth:`import_async` in the calling thread (tests, scripts)."""
-        job = self.wizard.prepare(test, position, repeat)
-        try:
-            self.wizard.evaluate(job, source, name)
-        except Exception as exc:
-            msg = self.wizard.fail(job, exc)
-            self.refresh()
-            self.session.error(msg)
-            return self.wizard.card(test, position)
-        card = self.wizard.record(job)
-        self.state.wz_redo = None
-        self.refresh()
-        self._after_record(job, card)
-        return card
-
-    def _after_record(self, job: Job, card: dict[str, Any]) -> None:
+    def _after_record(self, job: PendingEvaluation, card: dict[str, Any]) -> None:
         self.last_card = card
         self.session.refresh_items()
         rep = next((r for r in card["repeats"] if r["repeat"] == job.repeat), None)
@@ -152,7 +106,7 @@ class PageActions:
 
     def _detail(self, test: str, position: str, repeat: int, ev: dict[str, Any]) -> None:
         self.state.wz_detail = {"title": f"{position} (repeat {repeat})" if self._repeats(test) > 1 else position,
-                                "file": ev.get("file") or "", "rows": fit_rows(ev),
+                                "file": ev.get("file") or "", "rows": fit_rows(ev, self.wizard.declaration()),
                                 "warnings": [str(x) for x in ev.get("warnings") or []]}
 
     def _repeats(self, test: str) -> int:
@@ -166,7 +120,7 @@ class PageActions:
         try:
             cloud = self.wizard.deviations(test, position, repeat)
         except Exception as exc:
-            self.session.error(_one_line(exc))
+            self.session.error(one_line(exc))
             return
         filled = self.wizard._filled(test, position)
         rep, mid = (repeat, dict(filled).get(repeat)) if repeat else filled[-1]
@@ -178,8 +132,6 @@ class PageActions:
         """Show a deviations cloud coloured by ``deviation`` (legend in mm) in the
         session's 3D view, looking at it as :func:`view_direction` suggests; the Inspect
         page's colour selector follows."""
-        from ..view import color_fields
-
         sess = self.session
         field_name = "deviation" if "deviation" in (getattr(cloud, "fields", {}) or {}) else None
         try:
@@ -190,7 +142,7 @@ class PageActions:
                 sess.view.plotter.reset_camera()
                 sess.view._changed(reset_camera=True)
         except Exception as exc:
-            sess.error(f"cannot show {getattr(cloud, 'name', key)}: {_one_line(exc)}")
+            sess.error(f"cannot show {getattr(cloud, 'name', key)}: {one_line(exc)}")
             return
         s = self.state
         s.selected_item = None
@@ -205,12 +157,9 @@ class PageActions:
 
     # -- handlers: report ------------------------------------------------------------------
     async def report_async(self) -> dict[str, Any] | None:
-        from ...project.store import utcnow
-
         if self.state.wz_reporting:
             return None
-        if self.session._loop is None:
-            self.session.bind_loop()
+        self.session.bind_loop()
         s = self.state
         s.wz_reporting = True
         self.flush()
@@ -218,11 +167,10 @@ class PageActions:
         folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
         try:
             per = self.wizard.per_measurement(with_deviations=True)
-            loop = asyncio.get_running_loop()
-            summary, paths = await loop.run_in_executor(self._executor, self.wizard.make_report, folder, per)
+            summary, paths = await self.job.call(self.wizard.make_report, folder, per)
             out = self.wizard.record_report(summary, paths, started)
         except Exception as exc:
-            self.session.error(f"report: {_one_line(exc)}")
+            self.session.error(f"report: {one_line(exc)}")
             return None
         finally:
             shutil.rmtree(folder, ignore_errors=True)
@@ -231,14 +179,4 @@ class PageActions:
         self.session.refresh_results()
         self.session.info(f"report written (result #{out['summary_result']}): verdict {s.wz_verdict}")
         self.flush()
-        return out
-
-    def report(self) -> dict[str, Any] | None:
-        try:
-            out = self.wizard.report()
-        except Exception as exc:
-            self.session.error(f"report: {_one_line(exc)}")
-            return None
-        self.refresh()
-        self.session.refresh_results()
         return out

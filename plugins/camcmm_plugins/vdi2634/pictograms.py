@@ -1,5 +1,6 @@
-"""Pictograms of the acceptance-test wizard: where the standard wants the artefact, as
-inline SVG for the position cards of :mod:`camcmm.gui.wizard_layout`.
+"""Pictograms of the VDI/VDE 2634 positions: where the standard wants the artefact, as
+inline SVG for the position cards of the GUI's acceptance page (which asks the standard
+for them: ``Standard.pictograms(requirements, plan)``).
 
 The measuring volume is drawn as a box in cabinet projection (x to the right, y away
 from the operator, z up; origin in the centre, as the standard plugin gives its

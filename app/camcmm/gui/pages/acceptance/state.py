@@ -8,21 +8,23 @@ import copy
 import threading
 from typing import Any
 
-from ...errors import CamcmmError, InputError
-from ...host import default_host
+from camcmm.errors import CamcmmError, InputError
+from camcmm.host import default_host
+from camcmm.project.store import utcnow
 
 STATE_KEY = "acceptance.current"
 HISTORY_KEY = "acceptance.history"
 
 
 class WizardState:
-    """The saved state of :class:`~camcmm.gui.wizard.Wizard` and the lookups on it."""
+    """The saved state of :class:`~camcmm.gui.pages.acceptance.Wizard` and the lookups on it."""
 
     def __init__(self, project: Any, host: Any = None):
         self.project = project
         self.host = host if host is not None else default_host()
         self.state: dict[str, Any] | None = None
         self._std: Any = None
+        self._decls: dict[str, Any] = {}  # standard id -> its StandardDeclaration
         self._reqs: list[dict[str, Any]] | None = None
         self._outputs: dict[int, dict[str, Any]] = {}  # result id -> stored evaluation
         self._lock = threading.RLock()
@@ -186,7 +188,5 @@ class WizardState:
         self.state.update({"summary_result": None, "report": None, "verdict": None, "verdict_guarded": None})
 
     def _save(self) -> None:
-        from ...project.store import utcnow
-
         self.state["updated"] = utcnow()
         self.project.set_state(STATE_KEY, self.state)

@@ -7,9 +7,14 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from .catalogue import ARTEFACT_FIELDS, artefact_plan_fields
+import yaml
+
+from camcmm.errors import one_line
+
+from .catalogue import artefact_plan_fields
+from .declared import artefact_fields, artefact_kind, parameter
 from .setup import _FORM_KEYS
-from .values import SYMBOLS, _one_line
+
 
 def _same_value(a: Any, b: Any) -> bool:
     """Equal as numbers when both read as numbers (the browser sends 20.0 back as 20)."""
@@ -25,14 +30,12 @@ def _same_value(a: Any, b: Any) -> bool:
 
 
 def _options_text(plan: dict[str, Any]) -> str:
-    import yaml
-
     extra = {k: v for k, v in plan.items() if k not in _FORM_KEYS and k != "name"}
     return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
 
 
 class PageSetup:
-    """The setup handlers of :class:`~camcmm.gui.wizard.WizardPage`."""
+    """The setup handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
     def _setup_form(self, standard: str | None = None, keep: dict[str, Any] | None = None) -> None:
         """The setup form: from the running test, else defaults of ``standard``."""
@@ -60,23 +63,27 @@ class PageSetup:
                     "options": (keep or {}).get("options", "")}
         tests = []
         catalogue: dict[str, list[dict[str, Any]]] = {}
+        decl = None
         if standard:
             try:
                 tests = w.setup_tests(standard)
+                decl = w.declaration(standard)
             except Exception as exc:
-                s.wz_setup_error = _one_line(exc)
+                s.wz_setup_error = one_line(exc)
         params = []
         for t in tests:
-            kind = t["test"]
+            test = t["test"]
+            kind = artefact_kind(decl, test) if decl is not None else test
             options = [{"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""),
                         "value": a["id"]} for a in cat if a["kind"] == kind]
-            catalogue[kind] = options
-            spec = ARTEFACT_FIELDS.get(kind) or []
-            t["fields"] = [{"key": k, "label": label, "unit": unit, "kind": fk} for k, label, unit, fk in spec]
+            catalogue[test] = options
+            spec = artefact_fields(decl, test) if decl is not None else []
+            t["fields"] = [{"key": f.key, "label": f.label, "unit": f.unit, "kind": f.kind, "help": f.help}
+                           for f in spec]
             t["options"] = options
-            if kind not in form["artefacts"]:
+            if test not in form["artefacts"]:
                 first = next((a for a in cat if a["kind"] == kind), None)
-                form["artefacts"][kind] = self._artefact_values(first) if first else {"_choice": ""}
+                form["artefacts"][test] = self._artefact_values(first) if first else {"_choice": ""}
             for p in t["parameters"]:
                 if p not in params:
                     params.append(p)
@@ -85,7 +92,8 @@ class PageSetup:
         s.wz_form = form
         s.wz_form_tests = tests
         s.wz_catalogue = catalogue
-        s.wz_mpe_fields = [{"key": p, "label": f"MPE {SYMBOLS.get(p, p)}"} for p in params]
+        s.wz_mpe_fields = [{"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit}
+                           for p in params]
 
     @staticmethod
     def _artefact_values(a: dict[str, Any]) -> dict[str, Any]:
@@ -133,7 +141,7 @@ class PageSetup:
             self.wizard.setup(form.get("standard"), form.get("system_name"), form.get("volume"), form.get("mpe") or {},
                               arts, tests=form.get("include") or [], options=form.get("options"))
         except Exception as exc:
-            s.wz_setup_error = _one_line(exc)
+            s.wz_setup_error = one_line(exc)
             return False
         s.wz_svgs = {}
         self._busy.clear()

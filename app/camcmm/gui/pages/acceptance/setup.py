@@ -7,11 +7,15 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from ...errors import CamcmmError, InputError
-from ...yamlfile import load_yaml
-from .catalogue import ARTEFACT_FIELDS, load_catalogue, plan_fields_to_artefact
+from camcmm.errors import CamcmmError, InputError
+from camcmm.project.store import utcnow
+from camcmm.standard import StandardDeclaration
+from camcmm.yamlfile import load_yaml
+
+from .catalogue import load_catalogue, plan_fields_to_artefact
+from .declared import artefact_fields, artefact_kind, declaration_of, parameter
 from .state import HISTORY_KEY
-from .values import SYMBOLS, _blank, _number, _vector, log
+from .values import _blank, _number, _vector, log
 
 #: Plan keys the setup form owns; the advanced options may not replace them.
 _FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
@@ -63,6 +67,13 @@ class WizardSetup:
                                  "of docs/standards.md")
         return obj
 
+    def declaration(self, sid: str | None = None) -> StandardDeclaration:
+        """What standard ``sid`` (or the running test's) declares; cached per standard."""
+        sid = sid or (self.state or {}).get("standard")
+        if sid not in self._decls:
+            self._decls[sid] = declaration_of(self.standard(sid), sid)
+        return self._decls[sid]
+
     def catalogue(self) -> list[dict[str, Any]]:
         """Artefacts to choose from: the shipped catalogue, then the project's own
         (entered earlier; those replace a shipped one of the same id)."""
@@ -96,25 +107,30 @@ class WizardSetup:
         vol = _vector(measuring_volume, "measuring volume")
         if min(vol) <= 0:
             raise InputError(f"measuring volume: every edge must be > 0 mm, got {vol}")
+        decl = self.declaration(standard)
         mpes = {}
         for key, v in (mpe or {}).items():
             if _blank(v):
                 continue
-            mpes[key] = _number(v, f"MPE {SYMBOLS.get(key, key)}")
+            mpes[key] = _number(v, f"MPE {parameter(decl, key).symbol}")
         arts: dict[str, dict[str, Any]] = {}
         for test, fields_ in (artefacts or {}).items():
-            spec = ARTEFACT_FIELDS.get(test)
+            spec = artefact_fields(decl, test)
             values = {k: v for k, v in (fields_ or {}).items() if not k.startswith("_")}
-            if spec is None:
+            if not spec:
                 arts[test] = values
                 continue
             entry: dict[str, Any] = {}
-            for key, label, _unit, kind in spec:
-                v = values.get(key)
+            for f in spec:
+                v = values.get(f.key)
                 if _blank(v):
                     continue
-                what = f"artefact {test.replace('_', ' ')}: {label.lower()}"
-                entry[key] = _vector(v, what) if kind == "vector" else _number(v, what)
+                what = f"artefact {test.replace('_', ' ')}: {f.label.lower()}"
+                entry[f.key] = _vector(v, what, f.size) if f.kind == "vector" else _number(v, what)
+                for x in entry[f.key] if f.kind == "vector" else [entry[f.key]]:
+                    if (f.min is not None and x < f.min) or (f.max is not None and x > f.max):
+                        lo, hi = ("" if f.min is None else f"{f.min:g}"), ("" if f.max is None else f"{f.max:g}")
+                        raise InputError(f"{what}: {x:g} is outside the declared range {lo}..{hi} {f.unit}")
             for key, v in values.items():  # extra calibrated values from the catalogue
                 if key not in entry and isinstance(v, (int, float)) and not isinstance(v, bool):
                     entry[key] = float(v)
@@ -134,16 +150,15 @@ class WizardSetup:
               ) -> dict[str, Any]:
         """Start a new test (the running one, if any, goes to the history: its results
         stay in the project). Returns the new state."""
-        from ...project.store import utcnow
-
         std = self.standard(standard)
+        decl = self.declaration(standard)
         available = {r["test"]: r for r in std.requirements(None)}
         chosen = [t for t, r in available.items() if r.get("required", True) or t in (tests or [])]
         for t in chosen:
             for param in available[t].get("parameters") or []:
                 v = (mpe or {}).get(param)
                 if _blank(v):
-                    raise InputError(f"MPE {SYMBOLS.get(param, param)} is empty; enter it from the measuring "
+                    raise InputError(f"MPE {parameter(decl, param).symbol} is empty; enter it from the measuring "
                                      "system's specification")
         plan = self.build_plan(standard, system_name, measuring_volume, mpe,
                                {t: a for t, a in (artefacts or {}).items() if t in chosen}, options)
@@ -159,7 +174,9 @@ class WizardSetup:
                 aid = str((artefacts.get(test) or {}).get("_id") or "") or f"{test}-own"
                 name = str((artefacts.get(test) or {}).get("_name") or "") or f"own {test.replace('_', ' ')}"
                 try:
-                    art_ids[test] = self.project.add_artefact(plan_fields_to_artefact(test, entry, aid, name))
+                    kind = artefact_kind(decl, test)
+                    art_ids[test] = self.project.add_artefact(
+                        plan_fields_to_artefact(kind, entry, aid, name, decl.artefact(kind)))
                 except CamcmmError as exc:
                     log.warning("artefact %s not saved in the project: %s", aid, exc)
             state = {"standard": standard, "plan": plan, "measurements": {}, "evaluations": {}, "positions": {},

@@ -1,24 +1,30 @@
-"""The wizard's page state: one :class:`WizardPage` per server publishes a
-:class:`~camcmm.gui.wizard.Wizard` through the trame ``state`` (keys ``wz_*``) for
-:mod:`camcmm.gui.wizard_layout`; its handlers live in :mod:`.page_setup` and
-:mod:`.page_actions`."""
+"""The page's state: one :class:`WizardPage` per server publishes a
+:class:`~camcmm.gui.pages.acceptance.Wizard` through the trame ``state`` (keys ``wz_*``)
+for :mod:`.layout`; its handlers live in :mod:`.form`, :mod:`.actions` and
+:mod:`.acquire`."""
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from ..downloads import REPORT_TITLES, Downloads, sort_links
-from .core import Wizard
-from .page_acquire import PageAcquire, acquisition_sources
-from .page_actions import PageActions
-from .page_setup import PageSetup
-from .values import SIGNED, SYMBOLS, _one_line, fmt_mm, log
+from camcmm.errors import one_line
+
+from ...downloads import REPORT_TITLES, Downloads, sort_links
+from ...jobs import Job
+from .acquire import PageAcquire, acquisition_sources
+from .actions import PageActions
+from .declared import parameter
+from .form import PageSetup
+from .pictograms import pictograms
+from .values import fmt_mm, log
+from .wizard import Wizard
+
 
 class WizardPage(PageSetup, PageActions, PageAcquire):
     """Publishes a :class:`Wizard` through the session's trame state (``wz_*`` keys)
-    and runs its slow steps in a worker thread. One per server."""
+    and runs its slow steps in the worker thread of its :class:`~camcmm.gui.jobs.Job`.
+    One per server."""
 
     def __init__(self, session: Any, wizard: Wizard | None = None, downloads: str | Path | None = None):
         self.session = session
@@ -26,7 +32,8 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         self.wizard = wizard if wizard is not None else Wizard(session.project, session.host)
         self.offered = Downloads("camcmm-downloads", "camcmm-downloads-", downloads)
         self.downloads, self.download_route = self.offered.folder, self.offered.route
-        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="camcmm-wizard")
+        # one worker: evaluations, acquisitions and the report run in order
+        self.job = Job("acceptance test", state=self.state)
         self._busy: set[str] = set()
         self.last_card: dict[str, Any] | None = None
         self._init_state()
@@ -83,7 +90,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
                               for x in w.standards()]
         except Exception as exc:  # discovery problems are shown, the page stays
             s.wz_standards = []
-            s.wz_error = _one_line(exc)
+            s.wz_error = one_line(exc)
         s.wz_active = w.active
         if setup_form:
             self._setup_form()
@@ -100,11 +107,9 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
             self._publish_summary()
         except Exception as exc:
             log.exception("wizard refresh failed")
-            s.wz_error = _one_line(exc)
+            s.wz_error = one_line(exc)
 
     def _publish_positions(self) -> None:
-        from ..wizard_layout import pictograms
-
         s = self.state
         w = self.wizard
         blocks = w.cards()
@@ -118,7 +123,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_progress_text = " · ".join(p["text"] for p in prog)
         s.wz_complete = all(p["complete"] for p in prog)
         if not s.wz_svgs or set(s.wz_svgs) != {c["key"] for b in blocks for c in b["cards"]}:
-            s.wz_svgs = pictograms(w.requirements(), w.plan)
+            s.wz_svgs = pictograms(w.standard(), w.requirements(), w.plan)
         plan = w.plan
         s.wz_title = (f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
                       + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"]) + " mm")
@@ -131,13 +136,16 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         except Exception as exc:
             s.wz_parameters = []
             s.wz_verdict = s.wz_verdict_guarded = ""
-            s.wz_summary_warnings = [f"no summary: {_one_line(exc)}"]
+            s.wz_summary_warnings = [f"no summary: {one_line(exc)}"]
             return
         rows = []
+        decl = w.declaration()
         for key, p in (summary.get("parameters") or {}).items():
-            rows.append({"key": key, "symbol": SYMBOLS.get(key, key), "name": p.get("name") or key,
-                         "value": fmt_mm(p.get("value"), key in SIGNED), "mpe": fmt_mm(p.get("mpe")),
-                         "U": fmt_mm(p.get("U")), "verdict": p.get("verdict") or "incomplete",
+            q = parameter(decl, key)
+            unit = p.get("unit") or q.unit
+            rows.append({"key": key, "symbol": q.symbol, "name": p.get("name") or q.name,
+                         "value": fmt_mm(p.get("value"), q.signed, unit), "mpe": fmt_mm(p.get("mpe"), unit=unit),
+                         "U": fmt_mm(p.get("U"), unit=unit), "verdict": p.get("verdict") or "incomplete",
                          "verdict_guarded": p.get("verdict_guarded") or "incomplete",
                          "n": p.get("n_evaluated", ""), "note": "; ".join(p.get("incomplete_reasons") or [])})
         s.wz_parameters = rows
@@ -154,7 +162,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         return sort_links(l for l in links if l)
 
     def close(self) -> None:
-        self._executor.shutdown(wait=False, cancel_futures=True)
+        self.job.close()
         self.offered.close()
 
 

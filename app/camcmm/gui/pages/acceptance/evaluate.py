@@ -12,21 +12,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...errors import CamcmmError, InputError
-from ...host import RunContext, to_jsonable
-from .values import _one_line, log
+from camcmm import io as cio
+from camcmm.errors import CamcmmError, InputError, one_line
+from camcmm.host import RunContext, to_jsonable
+from camcmm.project.store import utcnow
+from camcmm.standard import as_dict
+
+from ...session import safe_name
+from .values import log
+
 
 def _run_dict(plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str,
               warnings: list[str]) -> dict[str, Any]:
-    from ...project.store import utcnow
-
+    """A result record for the project store (times UTC ISO)."""
     return {"plugin": plugin, "version": version, "params": params, "input_hashes": hashes,
             "outputs": to_jsonable(outputs), "started": started, "finished": utcnow(),
             "warnings": [str(w) for w in warnings]}
 
 
 @dataclass
-class Job:
+class PendingEvaluation:
     """One import for one position: what ``prepare`` decided, ``evaluate`` computed."""
 
     test: str
@@ -47,14 +52,12 @@ class Job:
 
 
 class WizardImport:
-    """The import steps of :class:`~camcmm.gui.wizard.Wizard`."""
+    """The import steps of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
 
     # -- import: prepare (loop) -> evaluate (any thread) -> record (loop) --------------------
-    def prepare(self, test: str, position: str, repeat: int | None = None) -> Job:
+    def prepare(self, test: str, position: str, repeat: int | None = None) -> PendingEvaluation:
         """Check the position and pick its repeat slot: ``repeat`` (a redo) or the first
         empty one; a position whose slots are all filled is redone at its last repeat."""
-        from ...project.store import utcnow
-
         if not self.active:
             raise InputError(self.load_error or "set up the acceptance test first")
         r = self._req(test)
@@ -67,16 +70,12 @@ class WizardImport:
             repeat = next((i + 1 for i, mid in enumerate(slots) if mid is None), len(slots))
         if not 1 <= int(repeat) <= len(slots):
             raise InputError(f"{position}: repeat {repeat} is outside 1..{len(slots)}")
-        return Job(test, position, int(repeat), started=utcnow())
+        return PendingEvaluation(test, position, int(repeat), started=utcnow())
 
-    def evaluate(self, job: Job, source: str | Path | bytes, name: str | None = None) -> Job:
+    def evaluate(self, job: PendingEvaluation, source: str | Path | bytes, name: str | None = None) -> PendingEvaluation:
         """Read the file and evaluate it with the standard. Thread-safe: touches neither
         the store nor the wizard's state. Raises a one-line CamcmmError naming the file."""
-        from ... import io as cio
-
         if isinstance(source, (bytes, bytearray, memoryview)):
-            from ..session import safe_name
-
             job.name = safe_name(name or "upload")
             job.temp = Path(tempfile.mkdtemp(prefix="camcmm-wizard-"))
             job.path = job.temp / job.name
@@ -89,7 +88,7 @@ class WizardImport:
         try:
             cloud = cio.read(job.path, unit=(self.state or {}).get("plan", {}).get("unit"))
         except Exception as exc:
-            raise InputError(_one_line(exc, job.name).replace(str(job.path), job.name)) from exc
+            raise InputError(one_line(exc, job.name, job.path)) from exc
         if not hasattr(cloud, "n_points"):
             raise InputError(f"{job.name}: holds a {type(cloud).__name__.lower()}, not a point cloud")
         if cloud.n_points == 0:
@@ -103,9 +102,10 @@ class WizardImport:
             ev = std.evaluate_measurement(ctx, job.test, cloud, plan, file=job.name,
                                           position=job.position, repeat=job.repeat)
         except CamcmmError as exc:
-            raise type(exc)(_one_line(exc, job.name)) from exc
+            raise type(exc)(one_line(exc, job.name)) from exc
         except Exception as exc:  # a plugin bug: one line naming the file and the standard
-            raise InputError(f"{job.name}: {sid} failed: {_one_line(exc)}") from exc
+            raise InputError(f"{job.name}: {sid} failed: {one_line(exc)}") from exc
+        ev = as_dict(ev)
         if not isinstance(ev, dict):
             raise InputError(f"{job.name}: {sid} returned {type(ev).__name__}, not a dict")
         ev = dict(ev)
@@ -118,12 +118,10 @@ class WizardImport:
         job.cloud, job.evaluation = cloud, ev
         return job
 
-    def record(self, job: Job) -> dict[str, Any]:
+    def record(self, job: PendingEvaluation) -> dict[str, Any]:
         """Store an evaluated job: its file, measurement, deviations and result; the
         replaced measurement (a redo) is soft-deleted; the state is saved. Returns the
         position's card."""
-        from ...project.store import utcnow
-
         assert job.evaluation is not None and job.path is not None
         with self._lock:
             std_id = self.state["standard"]
@@ -168,9 +166,9 @@ class WizardImport:
         self._cleanup(job)
         return self.card(job.test, job.position)
 
-    def fail(self, job: Job, exc: BaseException) -> str:
+    def fail(self, job: PendingEvaluation, exc: BaseException) -> str:
         """Remember why an import failed, for that position only; returns the message."""
-        msg = _one_line(exc, job.name)
+        msg = one_line(exc, job.name)
         job.error = msg
         with self._lock:
             if self.state is not None:
@@ -183,7 +181,7 @@ class WizardImport:
         return msg
 
     @staticmethod
-    def _cleanup(job: Job) -> None:
+    def _cleanup(job: PendingEvaluation) -> None:
         if job.temp is not None:
             shutil.rmtree(job.temp, ignore_errors=True)
             job.temp = None

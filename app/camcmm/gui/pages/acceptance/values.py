@@ -1,5 +1,5 @@
-"""Values on their way in and out of the wizard: numbers typed into the setup form, mm
-text on the cards, verdicts against an MPE, and errors as one line for the operator."""
+"""Values on their way in and out of the acceptance page: numbers typed into the setup
+form, text with units on the cards, and verdicts against an MPE."""
 
 from __future__ import annotations
 
@@ -7,17 +7,12 @@ import logging
 import math
 from typing import Any
 
-from ...conformity import combine, simple_verdict
-from ...errors import CamcmmError, InputError
+from camcmm.conformity import combine, simple_verdict
+from camcmm.errors import InputError
 
-#: One logger for the whole package, under the name it always had, so logging set up
-#: for "camcmm.gui.wizard" keeps seeing every message.
+#: One logger for the page, under the name it always had (logging set up for
+#: "camcmm.gui.wizard" keeps seeing every message).
 log = logging.getLogger("camcmm.gui.wizard")
-
-#: Quality parameters by their symbol as cards and reports print it; the SIGNED ones
-#: (probing size, sphere distance) are shown with their sign.
-SYMBOLS = {"PF": "P_F", "PS": "P_S", "SD": "SD", "F": "F"}
-SIGNED = ("PS", "SD")
 
 
 def _blank(value: Any) -> bool:
@@ -55,17 +50,17 @@ def _vector(value: Any, what: str, n: int = 3) -> list[float]:
     return [_number(p, f"{what}[{i}]") for i, p in enumerate(parts)]
 
 
-def fmt_mm(v: Any, signed: bool = False) -> str:
+def fmt_mm(v: Any, signed: bool = False, unit: str = "mm") -> str:
+    """A value as text with 4 decimals and its unit ("–" when there is none)."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "–"
-    return f"{float(v):+.4f} mm" if signed else f"{float(v):.4f} mm"
+    text = f"{float(v):+.4f}" if signed else f"{float(v):.4f}"
+    return f"{text} {unit}".rstrip()
 
 
-def fmt_value(param: str, v: Any) -> str:
-    """A parameter's value (a number, or a list of them per length) as mm text, signed
-    where the parameter has a sign."""
-    signed = param in SIGNED
-    return ", ".join(fmt_mm(x, signed) for x in v) if isinstance(v, list) else fmt_mm(v, signed)
+def fmt_value(v: Any, signed: bool = False, unit: str = "mm") -> str:
+    """A parameter's value (a number, or a list of them, e.g. per length) as text."""
+    return ", ".join(fmt_mm(x, signed, unit) for x in v) if isinstance(v, list) else fmt_mm(v, signed, unit)
 
 
 def _verdict(value: Any, mpe: float | None) -> str:
@@ -74,11 +69,3 @@ def _verdict(value: Any, mpe: float | None) -> str:
     if isinstance(value, list):
         return combine(simple_verdict(v, mpe) for v in value)
     return simple_verdict(value, mpe)
-
-
-def _one_line(exc: BaseException, name: str = "") -> str:
-    msg = str(exc) if isinstance(exc, CamcmmError) else f"{type(exc).__name__}: {exc}"
-    msg = " ".join(msg.split()) or type(exc).__name__
-    if name and name not in msg:
-        msg = f"{name}: {msg}"
-    return msg
