@@ -15,7 +15,7 @@ import pytest
 
 from camcmm.errors import InputError
 from camcmm.report import Report, charts
-from camcmm.report.document import CONTENT_WIDTH_MM, FigureRow, layout, png_size
+from camcmm.report.blocks import CONTENT_WIDTH_MM, FigureRow, layout, png_size
 
 EVIL = "<script>alert(1)</script>"
 
@@ -267,7 +267,7 @@ def test_importing_report_loads_no_plotting_or_pdf_library():
 
 
 def test_cell_text_keeps_certified_digits_and_shortens_computed_ones():
-    from camcmm.report.document import text
+    from camcmm.report.blocks import text
     assert text(300.0451) == "300.0451"  # a certified length keeps its 0.1 µm digit
     assert text(0.1 + 0.2) == "0.3" and text(0.189432123456) == "0.1894321"
     assert text(np.int64(12345678)) == "12345678" and text(np.float32(0.1)) == "0.1"

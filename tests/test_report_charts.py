@@ -13,7 +13,7 @@ import pytest
 from camcmm.errors import InputError
 from camcmm.report import charts
 from camcmm.report.charts import _subsample
-from camcmm.report.document import PNG_SIGNATURE, png_size
+from camcmm.report.blocks import PNG_SIGNATURE, png_size
 
 
 def _cap(n: int, radius: float = 12.5, cap_deg: float = 70.0, centre=(10.0, -5.0, 30.0), seed: int = 0):

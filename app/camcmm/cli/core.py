@@ -13,6 +13,7 @@ from typing import Any
 from ..errors import CamcmmError, PluginError
 from ..host import default_host
 from ..params import add_cli_options, cli_values
+from .parser import Parser
 
 
 def _json_flag(p: argparse.ArgumentParser) -> None:
@@ -111,14 +112,12 @@ class _Prefixed:
 
 
 def _plugin_parser(spec) -> argparse.ArgumentParser:
-    from .main import _Parser
-
     clash = [q for q in spec.parameters if q.name in _RUN_OPTIONS]
     epilog = ("The plugin's parameter" + ("s " if len(clash) > 1 else " ")
               + ", ".join(f"'{q.name}'" for q in clash) + " " + ("are" if len(clash) > 1 else "is")
               + " given as " + ", ".join(f"--param-{q.name}" for q in clash)
               + ": --project, --out and --json are camcmm run's own options.") if clash else None
-    p = _Parser(prog=f"camcmm run {spec.id}", description=spec.summary, epilog=epilog)
+    p = Parser(prog=f"camcmm run {spec.id}", description=spec.summary, epilog=epilog)
     for port in spec.inputs:
         nargs = "+" if port.type in ("images", "files") else ("?" if port.optional else None)
         p.add_argument(port.name, nargs=nargs, help=f"{port.type} {port.help}".strip())

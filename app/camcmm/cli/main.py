@@ -20,20 +20,13 @@ from ..errors import CamcmmError
 from ..host import default_host
 from ..jsonable import to_jsonable
 from . import core
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage errors as one line on stderr (exit 2)."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        print(f"{self.prog}: {message}", file=sys.stderr)  # prog is "camcmm" or "camcmm SUBCOMMAND"
-        raise SystemExit(2)
+from .parser import Parser
 
 
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, Callable]]:
-    parser = _Parser(prog="camcmm", description="Camera-based close-range coordinate metrology workbench.")
+    parser = Parser(prog="camcmm", description="Camera-based close-range coordinate metrology workbench.")
     parser.add_argument("--version", action="version", version=f"camcmm {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     handlers: dict[str, Callable] = {}
     for name, (summary, configure, run, text) in core.COMMANDS.items():
         p = sub.add_parser(name, help=summary, description=summary)
@@ -64,7 +57,7 @@ def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable 
         module = importlib.import_module(spec.entry)
     except Exception as exc:
         raise CamcmmError(f"command {name!r} from {spec.distribution} cannot be loaded: {type(exc).__name__}: {exc}") from exc
-    p = _Parser(prog=f"camcmm {name}", description=spec.summary)
+    p = Parser(prog=f"camcmm {name}", description=spec.summary)
     module.configure(p)
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     args = p.parse_args(argv)

@@ -22,6 +22,7 @@ matplotlib when a chart is drawn, the PDF writer reportlab when a PDF is made.
 from __future__ import annotations
 
 from . import charts
-from .document import VERDICTS, Report, Section, jsonable
+from .blocks import VERDICTS, jsonable
+from .document import Report, Section
 
 __all__ = ["Report", "Section", "VERDICTS", "charts", "jsonable"]

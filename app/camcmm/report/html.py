@@ -14,8 +14,8 @@ import html
 import json
 from typing import Any
 
-from .document import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, Figure, FigureRow, KeyValues, Paragraph,
-                       Table, VerdictTable, Warning_, jsonable, layout, provenance_blocks, text)
+from .blocks import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, Figure, FigureRow, KeyValues, Paragraph,
+                     Table, VerdictTable, Warning_, jsonable, layout, provenance_blocks, text)
 
 # Badge colours; the PDF uses the same ones (pdf.py imports them).
 VERDICT_COLOURS = {

@@ -17,8 +17,8 @@ from importlib.util import find_spec
 from pathlib import Path
 from typing import Any
 
-from .document import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, FigureRow, KeyValues, Paragraph,
-                       Table, VerdictTable, Warning_, layout, provenance_blocks, text)
+from .blocks import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, FigureRow, KeyValues, Paragraph,
+                     Table, VerdictTable, Warning_, layout, provenance_blocks, text)
 from .html import VERDICT_COLOURS
 
 MARGIN_MM = 20.0

@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 from camcmm.api import GeometryError, InputError
 
 from ._geometry import as_points
+from .elements import fit_sphere
 from .result import FitResult
 
 #: Points used for the detection (normals and votes); the refinement uses all.
@@ -162,8 +163,6 @@ def _refine(x: np.ndarray, center: np.ndarray, radius: float, tolerance: float |
 
     Only the points in a box of half-width 1.5 R about the detected centre are looked
     at (one pass over the cloud), which keeps the rounds cheap on big clouds."""
-    from .api import fit_sphere
-
     box = np.flatnonzero((np.abs(x - center) <= 1.5 * radius).all(axis=1))
     if len(box) < 4:
         raise GeometryError(f"sphere near {np.round(center, 3).tolist()} mm: only {len(box)} points near it")
@@ -256,8 +255,6 @@ def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None
         better = d < best[idx]
         labels[idx[better]] = k
         best[idx[better]] = d[better]
-    from .api import fit_sphere
-
     spheres = []
     for k, (idx, res) in enumerate(found):
         own = np.flatnonzero(labels == k)
@@ -293,8 +290,6 @@ def extract_sphere(points: Any, nominal_radius: float | None = None, *, toleranc
         vp = np.zeros(3) if viewpoint is None else np.asarray(viewpoint, float)
         xi = x[idx]
         keep = _cone(xi, res.params["center"], vp, cone_half_angle)
-        from .api import fit_sphere
-
         for _ in range(5):
             res = fit_sphere(xi[keep])
             new = _cone(xi, res.params["center"], vp, cone_half_angle)

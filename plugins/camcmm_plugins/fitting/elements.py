@@ -1,0 +1,108 @@
+"""The fits themselves: :func:`fit` and one function per element (the conventions
+are described in :mod:`.api`, the module to import)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import ParameterError
+
+from . import minzone
+from ._geometry import Frame, as_points
+from .checks import fit_warnings
+from .circles import CIRCLE3D
+from .cylinders import CYLINDER
+from .lines import LINE2D, LINE3D
+from .outliers import Rule, apply, parse_rule
+from .planes import PLANE
+from .result import FitResult
+from .spheres import CIRCLE2D, SPHERE
+
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder")
+METHODS = ("ls", "minzone")
+MINZONE = ("plane", "sphere")
+
+
+def _model(element: str, dim: int):
+    return {("line", 3): LINE3D, ("line", 2): LINE2D, ("plane", 3): PLANE, ("circle", 3): CIRCLE3D,
+            ("circle", 2): CIRCLE2D, ("sphere", 3): SPHERE, ("cylinder", 3): CYLINDER}[(element, dim)]
+
+
+def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = "ls", *,
+        max_iter: int = 100, nominal_radius: float | None = None, fast: bool = True) -> FitResult:
+    """Fit a geometric element to points in mm; see the module docstring.
+
+    ``nominal_radius`` (mm, circle/sphere/cylinder) adds ``radius_deviation`` = fitted −
+    nominal to the result. ``fast=False`` runs the vdi2634 rule as the naive loop (for
+    checks). ``max_iter`` bounds the Gauss-Newton iterations of each fit.
+    """
+    if element not in ELEMENTS:
+        raise ParameterError(f"unknown element {element!r}; use one of {', '.join(ELEMENTS)}")
+    if method not in METHODS:
+        raise ParameterError(f"unknown method {method!r}; use ls or minzone")
+    if method == "minzone" and element not in MINZONE:
+        raise ParameterError(f"method minzone is available for {' and '.join(MINZONE)}, not for a {element}")
+    rule = parse_rule(outliers)
+    dims = (2, 3) if element in ("line", "circle") else (3,)
+    x = as_points(points, element, dims)
+    frame, y = Frame.normalise(x, element)          # y: normalised points as columns (d, N)
+    model = _model(element, x.shape[1])
+    model.check(y)
+    used, removed, res = apply(model, y, rule, max_iter=max_iter, fast=fast)
+    params, std, cov, names = model.report(res, frame)
+    state = res.state
+    extra: dict[str, Any] = {}
+    if method == "minzone":
+        yu = y[:, used] if not used.all() else y
+        if element == "plane":
+            state, width = minzone.plane(yu, res.state)
+            params = {"point": state[:3] * frame.scale + frame.origin, "normal": state[3:]}
+        else:
+            state, width = minzone.sphere(yu, res.state)
+            params = {"center": state[:-1] * frame.scale + frame.origin, "radius": float(state[-1] * frame.scale)}
+        std = {k: (np.full(np.shape(v), np.nan) if np.ndim(v) else float("nan")) for k, v in params.items()}
+        cov, names = None, ()
+    if method == "ls" and len(res.r) == int(used.sum()):
+        # the fit's residuals are at the solution already (linearised last step)
+        residuals = np.empty(y.shape[1])
+        residuals[used] = res.r
+        if not used.all():
+            residuals[~used] = model.residuals(state, y[:, ~used])
+        residuals *= frame.scale
+    else:
+        residuals = model.residuals(state, y) * frame.scale
+    warnings = fit_warnings(element, params, std, x[used], residuals[used], method)
+    if nominal_radius is not None and "radius" in params:
+        extra["nominal_radius"] = float(nominal_radius)
+        extra["radius_deviation"] = float(params["radius"] - nominal_radius)
+    return FitResult(element=element, method=method, outliers=str(rule), params=params,
+                     std_uncertainty=std, residuals=residuals, used=used, removed=removed,
+                     iterations=res.iterations, covariance=cov, covariance_names=names, extra=extra,
+                     warnings=warnings)
+
+
+def fit_line(points: Any, outliers: str = "none", **kw) -> FitResult:
+    """Least-squares line; points (N, 3) or (N, 2) mm. See :func:`fit`."""
+    return fit("line", points, outliers, **kw)
+
+
+def fit_plane(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
+    """Least-squares or minimum-zone plane; points (N, 3) mm. See :func:`fit`."""
+    return fit("plane", points, outliers, method, **kw)
+
+
+def fit_circle(points: Any, outliers: str = "none", **kw) -> FitResult:
+    """Least-squares circle in space (N, 3) or in the plane (N, 2), mm. See :func:`fit`."""
+    return fit("circle", points, outliers, **kw)
+
+
+def fit_sphere(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
+    """Least-squares or minimum-zone sphere; points (N, 3) mm. See :func:`fit`."""
+    return fit("sphere", points, outliers, method, **kw)
+
+
+def fit_cylinder(points: Any, outliers: str = "none", **kw) -> FitResult:
+    """Least-squares cylinder; points (N, 3) mm. See :func:`fit`."""
+    return fit("cylinder", points, outliers, **kw)
