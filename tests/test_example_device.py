@@ -37,7 +37,7 @@ def host(monkeypatch):
 
 def test_the_lab_device_connects_homes_and_moves_in_whole_steps(host):
     spec = host.get("lab.lift")
-    assert (spec.kind, spec.status) == ("device", "ok")
+    assert (spec.kind, spec.status, spec.role, spec.simulated, spec.warnings) == ("device", "ok", "stage", True, [])
     lift = host.device("lab.lift", {"step_um": 2.5, "travel_mm": 40.0})
     assert lift.kind == "stage" and lift.unit == "mm" and not lift.connected
     lift.configure(speed=200.0)  # mm/s: the test need not wait
