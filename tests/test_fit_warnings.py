@@ -172,24 +172,22 @@ def test_warnings_in_plugin_result_and_cli_json(tmp_path):
     assert out.returncode == 0 and "\nwarning: plane fit: the points are" in out.stdout
 
 
-def test_gui_shows_the_fit_warnings(tmp_path):
-    """The main page's result card lists the run's warnings (state result_warnings): a
+def test_gui_shows_the_fit_warnings(tmp_path, gui_app):
+    """The Inspect page's result card lists the run's warnings (state result_warnings): a
     line through a ball warns, a sphere through it does not."""
+    import asyncio
+
     pytest.importorskip("trame")
     pytest.importorskip("pyvista")
     from camcmm import io as cio
-    from camcmm.gui.app import build
 
     f = tmp_path / "ball.ply"
     cio.write(PointCloud(_sphere_cloud(2000), name="ball"), f)
-    server, s = build(f"test-fitwarn-{id(tmp_path)}", tmp_path / "proj")
-    try:
-        server.state.ready()
-        s.import_file(f)
-        item = server.state.selected_item
-        assert asyncio.run(server.pages["inspect"].run_plugin("fit.line", {}, {"cloud": item})) is not None, server.state.error_message
-        assert any("direction is ill-determined" in w for w in server.state.result_warnings)
-        assert asyncio.run(server.pages["inspect"].run_plugin("fit.sphere", {}, {"cloud": item})) is not None, server.state.error_message
-        assert server.state.result_warnings == []
-    finally:
-        s.close()
+    server, s = gui_app()
+    s.import_file(f)
+    item = server.state.selected_item
+    page = server.pages["inspect"]
+    assert asyncio.run(page.run_plugin("fit.line", {}, {"cloud": item})) is not None, server.state.error_message
+    assert any("direction is ill-determined" in w for w in server.state.result_warnings)
+    assert asyncio.run(page.run_plugin("fit.sphere", {}, {"cloud": item})) is not None, server.state.error_message
+    assert server.state.result_warnings == []
