@@ -3,54 +3,54 @@
 Built-in plugins import from ``camcmm.api`` only, never from other camcmm modules or
 from each other; a test checks this. Importing it loads neither trame, VTK nor Open3D.
 
-The names are grouped below by topic. Which of them are stable (kept, with the same
+The names are grouped by topic in ``__all__``. Which of them are stable (kept, with the same
 meaning, for every 1.x of :data:`API_VERSION`) is listed in docs/api.md, which a test
 holds equal to ``__all__``.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
-# -- errors: what a plugin raises so the operator reads one line ----------------------
+from .conformity import combine, guarded_verdict, simple_verdict
+from .devices import (
+    Camera,
+    Device,
+    DeviceDisconnected,
+    DeviceError,
+    DeviceMonitor,
+    DeviceStatus,
+    DeviceTimeout,
+    Events,
+    Stage,
+    port_errors,
+    utc_iso,
+)
+from .devices import param as device_param
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
-from .yamlfile import YamlError
-
-# -- the data model: clouds, meshes, images, cameras, artefacts (lengths in mm) ---------
-from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
-
-# -- files: geometry, images, calibrations, YAML ----------------------------------------
+from .host import Cancelled, RunContext, RunResult, default_host
 from .io import check_calibration, read, read_calibration, write, write_calibration
-from .yamlfile import load_yaml, read_yaml
-
-# -- parameters and units -----------------------------------------------------------------
+from .jsonable import to_jsonable, utc_now
+from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
+from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
 from .params import Param
 from .project.select import project_values
-from .units import to_mm_factor
-
-# -- running plugins: the context a plugin gets, other plugins as callables -----------
-from .host import Cancelled, RunContext, RunResult, default_host
-
-# -- conformity decisions (ISO 14253-1) -------------------------------------------------
-from .conformity import combine, guarded_verdict, simple_verdict
-
-# -- reports: one document rendered as HTML, PDF and JSON ------------------------------
 from .report import Report, charts
-
-# -- acceptance-test standards: the typed protocol (declaration, results) -------------
-from .standard import (ArtefactField, ArtefactKind, ParameterResult, PositionEvaluation, PositionSpec,
-                       QualityParameter, Standard, StandardDeclaration, TestDeclaration, TestResult)
-
-# -- resource limits: refuse a job the machine cannot hold, before it starts ------------
-from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
-
-# -- devices: the base classes device plugins subclass --------------------------------
-from .devices import (Camera, Device, DeviceDisconnected, DeviceError, DeviceMonitor, DeviceStatus,
-                      DeviceTimeout, Events, Stage, port_errors, utc_iso)
-from .devices import param as device_param
-
-# -- JSON and time: the one cleaner and the one clock -----------------------------------
-from .jsonable import to_jsonable, utc_now
+from .standard import (
+    ArtefactField,
+    ArtefactKind,
+    ParameterResult,
+    PositionEvaluation,
+    PositionSpec,
+    QualityParameter,
+    Standard,
+    StandardDeclaration,
+    TestDeclaration,
+    TestResult,
+)
+from .units import to_mm_factor
+from .yamlfile import YamlError, load_yaml, read_yaml
 
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or

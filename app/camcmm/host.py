@@ -13,9 +13,10 @@ import importlib.metadata as md
 import importlib.resources
 import threading
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from .errors import CamcmmError, InputError, PluginError
 from .hashing import file_hash, object_hash
@@ -41,7 +42,7 @@ class RunContext:
     true once the operator asked to stop (long loops should check it).
     """
 
-    def __init__(self, host: "PluginHost", plugin_id: str, progress: ProgressCallback | None = None,
+    def __init__(self, host: PluginHost, plugin_id: str, progress: ProgressCallback | None = None,
                  cancel: threading.Event | None = None):
         self.host = host
         self.plugin_id = plugin_id

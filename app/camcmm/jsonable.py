@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import time
-from datetime import date, datetime, timezone
+from datetime import UTC, date, datetime
 from pathlib import PurePath
 from typing import Any
 
@@ -33,7 +33,7 @@ def utc_now(t: float | None = None, timespec: str = "milliseconds") -> str:
     :meth:`datetime.isoformat` (``"milliseconds"``: the format of run results and
     project records; ``"seconds"``: a report's creation time).
     """
-    return datetime.fromtimestamp(time.time() if t is None else t, timezone.utc).isoformat(timespec=timespec)
+    return datetime.fromtimestamp(time.time() if t is None else t, UTC).isoformat(timespec=timespec)
 
 
 def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: bool = False) -> Any:
@@ -48,12 +48,11 @@ def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: 
     - a point cloud or mesh becomes a short summary (``kind``, ``name``, counts):
       results hold the numbers, the project holds the geometry;
     - an object with ``to_dict()`` or a dataclass becomes its mapping;
-
     - bytes become hex text.
 
     Anything else is returned as it is, or, with ``strict=True``, raises
-    :class:`NotJsonable` (a TypeError) naming where it sits (``where`` is the caller's name for ``x``, e.g. ``"table rows"``),
-    so that the caller learns which key to fix.
+    :class:`NotJsonable` (a TypeError) naming where it sits (``where`` is the caller's
+    name for ``x``, e.g. ``"table rows"``), so that the caller learns which key to fix.
     numpy is recognised by its module name: importing this module does not import numpy.
     """
     def sub(v: Any, at: str) -> Any:

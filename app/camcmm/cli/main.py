@@ -13,7 +13,8 @@ import argparse
 import importlib
 import json
 import sys
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from .. import __version__
 from ..errors import CamcmmError
@@ -56,7 +57,8 @@ def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable 
     try:
         module = importlib.import_module(spec.entry)
     except Exception as exc:
-        raise CamcmmError(f"command {name!r} from {spec.distribution} cannot be loaded: {type(exc).__name__}: {exc}") from exc
+        raise CamcmmError(f"command {name!r} from {spec.distribution} cannot be loaded: "
+                          f"{type(exc).__name__}: {exc}") from exc
     p = Parser(prog=f"camcmm {name}", description=spec.summary)
     module.configure(p)
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")

@@ -11,9 +11,10 @@ import io
 import json
 import math
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
-from typing import Any, Iterable
+from typing import Any
 
 from ..errors import InputError
 from ..jsonable import to_jsonable

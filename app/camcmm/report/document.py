@@ -16,13 +16,27 @@ import json
 import os
 import platform
 import tempfile
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any
 
 from ..errors import CamcmmError, InputError
 from ..jsonable import utc_now
-from .blocks import (CONTENT_WIDTH_MM, SCHEMA, VERDICTS, Figure, KeyValues, Paragraph, Table, Verdict,
-                     Warning_, _align_for, _png_from, jsonable, png_size)
+from .blocks import (
+    CONTENT_WIDTH_MM,
+    SCHEMA,
+    VERDICTS,
+    Figure,
+    KeyValues,
+    Paragraph,
+    Table,
+    Verdict,
+    Warning_,
+    _align_for,
+    _png_from,
+    jsonable,
+    png_size,
+)
 
 
 class Section:
@@ -33,19 +47,19 @@ class Section:
         self.blocks: list[Any] = []
         self._dpi = dpi
 
-    def paragraph(self, text: str) -> "Section":
+    def paragraph(self, text: str) -> Section:
         """Plain text (no markup: it is escaped in every rendering)."""
         self.blocks.append(Paragraph(str(text)))
         return self
 
-    def keyvalues(self, items: dict[str, Any] | Sequence[tuple[str, Any]], caption: str = "") -> "Section":
+    def keyvalues(self, items: dict[str, Any] | Sequence[tuple[str, Any]], caption: str = "") -> Section:
         """A two-column table of names and values, in the given order."""
         pairs = list(items.items()) if isinstance(items, dict) else [tuple(p) for p in items]
         self.blocks.append(KeyValues([(str(k), v) for k, v in pairs], str(caption)))
         return self
 
     def table(self, columns: Sequence[str], rows: Iterable[Sequence[Any]], caption: str = "",
-              align: Sequence[str] | None = None) -> "Section":
+              align: Sequence[str] | None = None) -> Section:
         """A table; long ones split across PDF pages with the header row repeated.
 
         Cells may be numbers, strings or None (shown as a dash). ``align`` is one of
@@ -69,7 +83,7 @@ class Section:
         return self
 
     def figure(self, image: Any, caption: str = "", width_mm: float | None = None,
-               data: Any = None) -> "Section":
+               data: Any = None) -> Section:
         """A figure from PNG bytes (e.g. from :mod:`camcmm.report.charts`), a PNG file
         or a matplotlib figure.
 
@@ -88,7 +102,7 @@ class Section:
         return self
 
     def verdict(self, label: str, simple: str, guarded: str | None = None, value: Any = None,
-                limit: Any = None, uncertainty: Any = None, note: str = "") -> "Section":
+                limit: Any = None, uncertainty: Any = None, note: str = "") -> Section:
         """A verdict line with coloured badges under the simple and guarded decision rules.
 
         Verdict words are those of :mod:`camcmm.conformity`: pass, fail, inconclusive,
@@ -103,7 +117,7 @@ class Section:
         self.blocks.append(Verdict(str(label), simple, guarded, value, limit, uncertainty, str(note)))
         return self
 
-    def warning(self, text: str) -> "Section":
+    def warning(self, text: str) -> Section:
         """Text an operator must not overlook (shown highlighted)."""
         self.blocks.append(Warning_(str(text)))
         return self
@@ -140,7 +154,7 @@ class Report:
         return s
 
     def provenance(self, software: str | None = None, plugins: Iterable[dict] = (),
-                   inputs: Iterable[dict] = (), extra: dict[str, Any] | None = None) -> "Report":
+                   inputs: Iterable[dict] = (), extra: dict[str, Any] | None = None) -> Report:
         """Record what produced the report; may be called more than once (lists add up).
 
         ``inputs`` are dicts with at least ``file``; a missing ``sha256`` is computed
