@@ -25,11 +25,15 @@ class GuiProcess:
     ``url`` as printed (with ``?token=``: open it in the browser), ``base``
     (``http://HOST:PORT/``), ``token``; ``log`` every line it printed.
     ``data_roots``: folders the browser may reach besides the project; ``args``: more
-    options of ``python -m camcmm.gui``."""
+    options of ``python -m camcmm.gui``; ``preload``: modules (names or ``.py`` paths)
+    the server imports before it builds the app, e.g. one that registers a page of a
+    test (``$CAMCMM_GUI_PRELOAD``, see :mod:`camcmm.gui`)."""
 
-    def __init__(self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = ()):
+    def __init__(self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = (),
+                 preload: tuple = ()):
         env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
         env.pop("CAMCMM_TOKEN", None)  # a fresh random token per launch, whatever the caller's shell holds
+        env["CAMCMM_GUI_PRELOAD"] = os.pathsep.join(str(m) for m in preload)  # never the caller's
         cmd = [sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"]
         for d in data_roots:
             cmd += ["--data-root", str(d)]
