@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import io
 import math
-import sys
 import re
+import sys
 import time
 from pathlib import Path
 

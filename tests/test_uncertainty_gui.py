@@ -18,8 +18,8 @@ pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 
-from conftest import run_camcmm  # noqa: E402
 from camcmm.gui.pages.uncertainty import figures as figs  # noqa: E402
+from conftest import run_camcmm  # noqa: E402
 
 DATA = Path(__file__).parent / "data" / "uncertainty"
 

@@ -11,7 +11,8 @@ multi-camera networks.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from camcmm.api import InputError
 
@@ -30,7 +31,8 @@ class DaskExecutor:
             try:
                 self.client, self._own = Client(scheduler, timeout=timeout), True
             except Exception as exc:  # noqa: BLE001 - any connection failure is the address's fault
-                raise InputError(f"Dask scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc})") from None
+                raise InputError(f"Dask scheduler {scheduler!r}: cannot connect "
+                                 f"({type(exc).__name__}: {exc})") from None
 
     def map(self, fn: Callable, tasks: Sequence[tuple], progress: Callable | None = None) -> list:
         from dask.distributed import as_completed

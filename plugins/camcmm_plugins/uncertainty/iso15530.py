@@ -23,8 +23,9 @@ and, when the bias is left uncorrected, ISO 15530-3:2004's
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 

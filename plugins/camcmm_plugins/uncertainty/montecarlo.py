@@ -46,15 +46,18 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from camcmm.api import InputError, check_budget
 
-from . import gum, stereo_model as sm, triangulation as tri
+from . import gum
+from . import stereo_model as sm
+from . import triangulation as tri
 
 FACTORS = ("feature_location", "focal_length", "principal_point", "radial_distortion",
            "tangential_distortion", "rotation", "translation")

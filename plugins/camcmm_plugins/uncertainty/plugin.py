@@ -6,8 +6,9 @@ YAML/JSON file (the host passes paths through as :class:`pathlib.Path`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from camcmm.api import InputError, RunContext, read_yaml
 

@@ -21,8 +21,9 @@ magnitude sets the scale, which is traced separately. Eq. 3.21 as printed has
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -163,7 +164,7 @@ class Camera:
         return np.array([[self.fu, 0, self.u0], [0, self.fv, self.v0], [0, 0, 1.0]])
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any], name: str = "camera") -> "Camera":
+    def from_dict(cls, d: Mapping[str, Any], name: str = "camera") -> Camera:
         if not isinstance(d, Mapping):
             raise InputError(f"{name}: expected a mapping")
         size = _image_size(d.get("image_size"), name)
@@ -201,8 +202,13 @@ class Camera:
             raise InputError(f"{name}: principal point and distortion must be finite numbers")
         return cam
 
-    def to_model(self, R=np.eye(3), T=np.zeros(3), name: str = "camera"):
+    def to_model(self, R=None, T=None, name: str = "camera"):
+        """The camera as a :class:`camcmm.api.CameraModel` with pose ``R`` (3, 3) and
+        ``T`` (3,) mm (default: the identity, at the origin)."""
         from camcmm.api import CameraModel
+
+        R = np.eye(3) if R is None else R
+        T = np.zeros(3) if T is None else T
 
         dist = [self.k[0], self.k[1], self.p[0], self.p[1], self.k[2]]
         return CameraModel(self.K, dist, R, T, self.image_size, self.pixel_pitch, name)
@@ -226,7 +232,7 @@ class StereoSystem:
         return [self.cam1, self.cam2]
 
     @classmethod
-    def from_baseline_angle(cls, cam1: Camera, cam2: Camera, baseline: float, angle_deg: float) -> "StereoSystem":
+    def from_baseline_angle(cls, cam1: Camera, cam2: Camera, baseline: float, angle_deg: float) -> StereoSystem:
         """Symmetric convergent pair in the x-z plane: camera 2 at ``baseline`` mm from
         camera 1, optical axes meeting at ``angle_deg`` (thesis: 199.35 mm, 38.64 deg,
         converging 301 mm from each camera)."""

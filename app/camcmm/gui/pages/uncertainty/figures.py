@@ -82,8 +82,10 @@ def contributions_figure(mc: dict[str, Any]) -> dict[str, Any]:
              "hovertemplate": "%{x}<br>u_" + a + " = %{y:.3g} " + unit + "<extra></extra>"}
             for i, a in enumerate(AXES)]
     comb = mc.get("combined") or [0, 0, 0]
-    title = "Contributions per factor; combined " + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb)) + f" {unit}"
-    return {"data": data, "layout": _layout(title, "influence factor", f"standard uncertainty / {unit}", barmode="group")}
+    title = ("Contributions per factor; combined "
+             + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb)) + f" {unit}")
+    return {"data": data,
+            "layout": _layout(title, "influence factor", f"standard uncertainty / {unit}", barmode="group")}
 
 
 def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict[str, Any]:

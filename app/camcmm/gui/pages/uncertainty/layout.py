@@ -5,7 +5,8 @@ Two tabs. **GUM budget**: the quantity, unit and coverage probability, an editab
 table of contributions (name, u, c, dof, distribution) evaluated as one types, the
 result (u_c, ν_eff, k, U and each share) and a bar chart; Store & export.
 **Monte Carlo**: the stereo system as YAML (cameras, stereo, grid, uncertainties),
-iterations, seed, triangulation, studies and an optional Dask scheduler; Run with
+the plugin's declared parameters (iterations, seed, triangulation, an optional Dask
+scheduler; :func:`~camcmm.gui.widgets.param_form`), the studies to tick; Run with
 progress and Cancel; the table of contributions in x, y, z (thesis table 3.2), the
 bar chart, the convergence, sweep and spatial plots, and the measuring volume in 3D
 (distortion arrows or per-point uncertainty); the exports as links.
@@ -15,8 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...widgets import param_form, tid
 from .. import shown
-from ...widgets import tid
 
 
 def _row_update(field: str) -> str:
@@ -67,7 +68,8 @@ def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
             with v.VTable(density="compact", raw_attrs=tid("unc-b-table")):
                 with html.Thead():
                     with html.Tr():
-                        for h in ("Contribution", "u (standard)", "c (sensitivity)", "dof (∞: inf)", "Distribution", ""):
+                        for h in ("Contribution", "u (standard)", "c (sensitivity)", "dof (∞: inf)",
+                                  "Distribution", ""):
                             html.Th(h)
                 with html.Tbody():
                     with html.Tr(v_for="(r, i) in unc_b_rows", key="i", raw_attrs=tid("unc-b-row")):
@@ -78,8 +80,8 @@ def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
                                              raw_attrs=[f':data-testid="\'unc-b-{field}-\' + i"',
                                                         f'@keydown.enter="{call}"'])
                         with html.Td(style="min-width: 140px;"):
-                            v.VSelect(model_value=("r.distribution",), items=("unc_b_distributions",), density="compact",
-                                      variant="plain", hide_details=True,
+                            v.VSelect(model_value=("r.distribution",), items=("unc_b_distributions",),
+                                      density="compact", variant="plain", hide_details=True,
                                       update_modelValue=_row_update("distribution") + "; " + call)
                         with html.Td():
                             v.VBtn(icon="mdi-delete-outline", size="x-small", variant="text",
@@ -127,9 +129,8 @@ def _mc_tab(v: Any, html: Any, tplotly: Any, page: Any) -> None:
 
 def _mc_form(v: Any, html: Any, page: Any) -> None:
     """The system (YAML), the run's parameters, Run / Cancel, progress and the exports."""
-    async def on_run(spec, iterations, seed, method, studies, scheduler):
-        await page.run_montecarlo_async(spec, {"iterations": iterations, "seed": seed, "method": method,
-                                               "studies": studies, "scheduler": scheduler})
+    async def on_run(spec, params, studies):
+        await page.run_montecarlo_async(spec, {**(params or {}), "studies": studies})
 
     def on_cancel():
         page.cancel()
@@ -138,27 +139,15 @@ def _mc_form(v: Any, html: Any, page: Any) -> None:
                 rows=14, density="compact", variant="outlined", hide_details=True,
                 style="font-family: monospace; font-size: 11px;", disabled=("unc_mc_running",),
                 raw_attrs=tid("unc-mc-spec"))
-    with html.Div(classes="d-flex ga-2 mt-2"):
-        v.VTextField(v_model=("unc_mc_iterations", 2000), label="Iterations", type="number", min=2,
-                     density="compact", variant="outlined", hide_details=True,
-                     disabled=("unc_mc_running",), raw_attrs=tid("unc-mc-iterations"))
-        v.VTextField(v_model=("unc_mc_seed", 1), label="Seed", type="number", min=0, density="compact",
-                     variant="outlined", hide_details=True, disabled=("unc_mc_running",))
-    v.VSelect(v_model=("unc_mc_method", "linear"), items=("['linear', 'optimal']",),
-              label="Triangulation (linear: SVD, eq. 3.2; optimal: least reprojection error)",
-              density="compact", variant="outlined", hide_details=True, classes="mt-2",
-              disabled=("unc_mc_running",))
+    with html.Div(classes="mt-2"):
+        param_form("unc_mc_fields", "unc_mc_params", "unc-mc", disabled="unc_mc_running")
     v.VSelect(v_model=("unc_mc_studies", []), items=("unc_mc_study_options",), label="Studies",
               multiple=True, chips=True, density="compact", variant="outlined", hide_details=True,
               classes="mt-2", disabled=("unc_mc_running",), raw_attrs=tid("unc-mc-studies"))
-    v.VTextField(v_model=("unc_mc_scheduler", ""), label="Dask scheduler (empty: this machine)",
-                 placeholder="tcp://host:8786", density="compact", variant="outlined", hide_details=True,
-                 classes="mt-2", disabled=("unc_mc_running",))
     with html.Div(classes="d-flex ga-2 mt-2"):
         v.VBtn("Run", color="primary", prepend_icon="mdi-play", loading=("unc_mc_running",),
                disabled=("unc_mc_running",),
-               click=(on_run, "[unc_mc_spec, unc_mc_iterations, unc_mc_seed, unc_mc_method, "
-                              "unc_mc_studies, unc_mc_scheduler]"),
+               click=(on_run, "[unc_mc_spec, unc_mc_params, unc_mc_studies]"),
                raw_attrs=tid("unc-mc-run"))
         v.VBtn("Cancel", v_if="unc_mc_running", variant="text", click=on_cancel,
                raw_attrs=tid("unc-mc-cancel"))

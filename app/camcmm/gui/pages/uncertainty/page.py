@@ -21,7 +21,7 @@ from typing import Any
 
 from .... import worker
 from ....assets import resources_dir
-from ....errors import InputError, one_line
+from ....errors import CamcmmError, InputError, one_line
 from ....yamlfile import load_yaml, read_yaml
 from ...downloads import Downloads
 from ...jobs import Job
@@ -69,12 +69,14 @@ class UncertaintyPage:
         s.unc_b_fig = figs.empty("the budget's contributions appear here")
         s.unc_b_links = []
         s.unc_mc_spec = ""
-        s.unc_mc_iterations = 2000
-        s.unc_mc_seed = 1
-        s.unc_mc_method = "linear"
+        try:
+            s.unc_mc_fields = study.form_fields(self.host.provider(MONTECARLO_TASK))
+        except CamcmmError as exc:  # no plugin for the study: the page opens, Run says why
+            log.warning("%s", one_line(exc))
+            s.unc_mc_fields = []
+        s.unc_mc_params = dict(study.START)
         s.unc_mc_studies = ["convergence", "volume_maps"]
         s.unc_mc_study_options = study.STUDIES
-        s.unc_mc_scheduler = ""
         s.unc_mc_running = False
         s.unc_mc_progress = 0.0
         s.unc_mc_message = ""
@@ -184,7 +186,8 @@ class UncertaintyPage:
 
     async def run_montecarlo_async(self, spec_text: str, params: dict[str, Any]) -> dict[str, Any] | None:
         """Run the study of the system ``spec_text`` (YAML) with the form's ``params``
-        (iterations, seed, method, studies, scheduler); store and show it. The full
+        (iterations, seed, method, scheduler as typed; studies a list of
+        :data:`~.study.STUDIES`); store and show it. The full
         result, or None (the reason is in ``unc_error``)."""
         s = self.state
         if self.job.running:
@@ -251,7 +254,8 @@ class UncertaintyPage:
         s.unc_mc_map = choice
         if not choice or self.mc is None:
             self.view.clear()
-            s.unc_mc_map_note = "tick 'volume_maps' under Studies and run to see the measuring volume" if self.mc else ""
+            s.unc_mc_map_note = ("tick 'volume_maps' under Studies and run to see the measuring volume"
+                                 if self.mc else "")
             return
         try:
             s.unc_mc_map_note = self.view.show(self.mc, choice, self.mc.get("unit", "um"))

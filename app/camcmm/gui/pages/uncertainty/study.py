@@ -14,16 +14,25 @@ from typing import Any
 
 from ....errors import InputError
 from ....jsonable import to_jsonable
-from ....params import validate
+from ....params import form_schema, validate
 from ....yamlfile import load_yaml
 from ...downloads import Downloads, table_csv
 from . import figures as figs
 
 STUDIES = ["convergence", "sweep", "volume_maps", "spatial"]
+#: The form's first values (the plugin's own defaults are the file's or 10000 iterations:
+#: a first run in the page should take seconds).
+START = {"iterations": 2000, "seed": 1, "method": "linear", "scheduler": ""}
 #: The project state key naming the last stored run ({"result": id, "file": hash}).
 MC_KEY = "uncertainty.montecarlo.current"
 #: Outputs too large for the result row: they are in the stored JSON file only.
 ARRAYS = ("per_point", "per_point_norm", "studies", "system")
+
+
+def form_fields(plugin: Any) -> list[dict[str, Any]]:
+    """The form of ``plugin``'s declared parameters (:func:`camcmm.params.form_schema`)
+    but ``studies``, which the page offers as a list to tick (:data:`STUDIES`)."""
+    return [f for f in form_schema(plugin.parameters) if f["name"] != "studies"]
 
 
 def inputs(spec_text: str, form: dict[str, Any], plugin: Any) -> tuple[dict[str, Any], dict[str, Any]]:

@@ -9,7 +9,8 @@ drawing scale (so the longest is a tenth of the volume) is chosen here.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
