@@ -7,29 +7,20 @@ calibration the ball bars fail (their length error ~ 0.01 x 50 mm)."""
 from __future__ import annotations
 
 import asyncio
-import itertools
 import json
-import os
 
 import pytest
 
 pytest.importorskip("trame")
 pytest.importorskip("cv2")
 
-from camcmm.gui.app import build, close  # noqa: E402
-
-_names = itertools.count()
 MPE = {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243}  # thesis ch. 5 system
 
 
 @pytest.fixture
-def wizard(tmp_path):
-    made = []
-
+def wizard(tmp_path, gui_app):
     def make(name):
-        server, session = build(f"test-acq-{os.getpid()}-{next(_names)}", tmp_path / name)
-        server.state.ready()
-        made.append(server)
+        server, _session = gui_app(tmp_path / name)
         page, state = server.pages["acceptance"], server.state
         page.choose_standard("vdi2634-2", state.wz_form)
         form = json.loads(json.dumps(state.wz_form))
@@ -39,9 +30,7 @@ def wizard(tmp_path):
         assert page.start(form), state.wz_setup_error
         return page, state
 
-    yield make
-    for server in made:
-        close(server)
+    return make
 
 
 def test_the_simulated_fringe_system_is_offered(wizard):
