@@ -46,6 +46,7 @@ def _data_url_png(page, selector: str) -> bytes:
 
 def _wait_text(locator, wanted: str, timeout: float = 120.0) -> str:
     deadline = time.monotonic() + timeout
+    locator.wait_for(timeout=1000 * timeout)  # a loaded machine may take longer than the default 30 s
     text = ""
     while time.monotonic() < deadline:
         text = locator.inner_text()
