@@ -17,7 +17,8 @@ two seconds.
 from __future__ import annotations
 
 import threading
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from ....devices import DeviceMonitor
 from ....errors import CamcmmError, one_line

@@ -13,7 +13,8 @@ so it works in any browser put on any screen.
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 HTML = """<!doctype html>
 <html><head><meta charset="utf-8"><title>camcmm projector</title>
@@ -36,7 +37,8 @@ async function tick() {
         img.onload = async () => {
           // painted on the next animation frame; a window in the background gets
           // none, so do not wait for one longer than 50 ms
-          await new Promise(done => { requestAnimationFrame(() => requestAnimationFrame(done)); setTimeout(done, 50); });
+          await new Promise(done => {
+            requestAnimationFrame(() => requestAnimationFrame(done)); setTimeout(done, 50); });
           await fetch('projector/ack?v=' + v, {method: 'POST'});
           shown = v; loading = false; };
         img.onerror = () => { loading = false; };

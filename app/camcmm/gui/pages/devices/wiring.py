@@ -9,7 +9,8 @@ a trailing ``?``: the slot may stay empty). The page reads these declarations
 
 from __future__ import annotations
 
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 from ....errors import CamcmmError
 from ....manifest import ROLES, need
