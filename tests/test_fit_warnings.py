@@ -175,8 +175,6 @@ def test_warnings_in_plugin_result_and_cli_json(tmp_path):
 def test_gui_shows_the_fit_warnings(tmp_path, gui_app):
     """The Inspect page's result card lists the run's warnings (state result_warnings): a
     line through a ball warns, a sphere through it does not."""
-    import asyncio
-
     pytest.importorskip("trame")
     pytest.importorskip("pyvista")
     from camcmm import io as cio
