@@ -91,7 +91,8 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     s = server.state
     names = {it["id"]: it["name"] for it in s.items}
     assert names[s.ins_measured] == "scan.ply" and names[s.ins_nominal] == "box.stl"
-    assert [o["value"] for o in s.ins_align_options] == list(default_host().get("inspect.compare").parameters[0].choices)
+    choices = default_host().get("inspect.compare").parameters[0].choices
+    assert [o["value"] for o in s.ins_align_options] == list(choices)
     s.ins_tolerance = "0.01"
     result = asyncio.run(page.run_async())
     assert result is not None, s.ins_error
@@ -263,7 +264,8 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     assert s2.ins_stats == stats and s2.ins_unit == "µm"
     assert [l["kind"] for l in s2.ins_report_links] == ["html", "pdf", "json"]
     assert s2.ins_export_links and s2.ins_fig_af["data"] and s2.ins_fig_section["data"]
-    assert server2.pages["compare"].view.scene == "colour" and server2.pages["compare"].view.dev.n_total == cloud.n_points
+    view2 = server2.pages["compare"].view
+    assert view2.scene == "colour" and view2.dev.n_total == cloud.n_points
 
 
 def test_no_overlap_is_reported_not_coloured(app, tmp_path):

@@ -69,7 +69,8 @@ def histogram_figure(hist: dict[str, Any], stats: dict[str, Any], unit: str, lim
             shapes.append({"type": "line", "xref": "x", "yref": "paper", "x0": x, "x1": x, "y0": 0, "y1": 0.92,
                            "line": {"color": "#c62828", "width": 1.5, "dash": "dash"}})
         notes.append({"x": float(tolerance) * f, "y": 0.92, "xref": "x", "yref": "paper", "xanchor": "left",
-                      "showarrow": False, "text": f" ±{fmt_len(tolerance, unit)}", "font": {"size": 10, "color": "#c62828"}})
+                      "showarrow": False, "text": f" ±{fmt_len(tolerance, unit)}",
+                      "font": {"size": 10, "color": "#c62828"}})
     layout.update({"shapes": shapes, "annotations": notes, "bargap": 0})
     fig.update_layout(**layout)
     return _fig_json(fig)
@@ -95,13 +96,16 @@ def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
     traces = [
         go.Scatter(x=[0, s1, s1, 0, 0], y=[C1, C1, C1, C1 + spk, C1], mode="lines", fill="toself",
                    fillcolor="rgba(198,40,40,0.12)", line={"color": "#c62828", "width": 1},
-                   name="Spk triangle", hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>"),
+                   name="Spk triangle",
+                   hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>"),
         go.Scatter(x=[100, s2, s2, 100, 100], y=[C2, C2, C2, C2 - svk, C2], mode="lines", fill="toself",
                    fillcolor="rgba(21,101,192,0.12)", line={"color": "#1565c0", "width": 1},
-                   name="Svk triangle", hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>"),
+                   name="Svk triangle",
+                   hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>"),
         go.Scatter(x=[0, 100], y=[C1, C2], mode="lines", line={"color": "#6a1b9a", "width": 1, "dash": "dash"},
                    name="equivalent straight line",
-                   hovertemplate=f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %<extra></extra>"),
+                   hovertemplate=(f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %"
+                                  "<extra></extra>")),
         go.Scatter(x=[0, s1, s1], y=[C1, C1, float(y.min())], mode="lines",
                    line={"color": "#555", "width": 1, "dash": "dot"}, name="C1, Smr1",
                    hovertemplate=f"C1 {C1:.4g} {u}, Smr1 {s1:.2f} %<extra></extra>"),
@@ -113,7 +117,8 @@ def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
                    hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4g}} {u}<extra></extra>"),
         go.Scatter(x=[a, b], y=[float(ya), float(yb)], mode="lines", line={"color": "#6a1b9a", "width": 4},
                    name="40 % secant of least gradient",
-                   hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %<br>Sk {float(mr['Sk']) * f:.4g} {u}"
+                   hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %"
+                                 f"<br>Sk {float(mr['Sk']) * f:.4g} {u}"
                                  "<extra></extra>"),
     ]
     fig = go.Figure(traces)
@@ -182,7 +187,8 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
             xs += pl[:, 0].tolist() + [None]
             ys += pl[:, 1].tolist() + [None]
         traces.append(go.Scatter(x=xs, y=ys, mode="lines", line={"color": "#212121", "width": 1.2}, name="nominal",
-                                 hovertemplate=f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm<extra></extra>"))
+                                 hovertemplate=(f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
+                                                "<extra></extra>")))
     fig = go.Figure(traces)
     title = (f"Section {sec['axis']} = {sec['position']:.3f} mm — {sec['n_in_slab']:,} measured points within "
              f"±{fmt_len(sec['half_width'], 'mm')}").replace(",", " ")

@@ -56,7 +56,8 @@ class Inputs:
             fields, values = [], {}
             for f in form_schema(spec.parameters):
                 if f["name"] == "align":
-                    s.ins_align_options = [{"title": ALIGN_TITLES.get(c, c), "value": c} for c in f.get("choices") or []]
+                    s.ins_align_options = [{"title": ALIGN_TITLES.get(c, c), "value": c}
+                                           for c in f.get("choices") or []]
                     if s.ins_align not in (f.get("choices") or []):
                         s.ins_align = f.get("default") or (f.get("choices") or ["icp"])[0]
                     continue

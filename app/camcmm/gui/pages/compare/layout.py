@@ -34,7 +34,7 @@ def build(page: Any) -> None:
     ctrl = server.controller
     state = server.state
 
-    # -- handlers (thin: the logic is in the InspectPage) -----------------------------------
+    # -- handlers (thin: the logic is in the ComparePage) -----------------------------------
     def on_inputs(measured, nominal):
         page.set_inputs(measured, nominal)
 
@@ -235,7 +235,8 @@ def build(page: Any) -> None:
                     html.Span("{{ ins_picked.text }}", raw_attrs=tid("ins-picked-text"))
                     v.VChip("{{ ins_picked.deviation }}", v_if="ins_picked.found", size="small", variant="flat",
                             color=("ins_picked.band === 'above' ? 'red-darken-2' : (ins_picked.band === 'below' ? "
-                                   "'blue-darken-2' : (ins_picked.band === 'within' ? 'green-darken-2' : 'grey-darken-2'))",),
+                                   "'blue-darken-2' : (ins_picked.band === 'within' ? 'green-darken-2' : "
+                                   "'grey-darken-2'))",),
                             raw_attrs=tid("ins-picked-deviation"))
             html.Div("Click a point for its deviation; drag to turn, wheel to zoom."
                      " With a 'pairs' alignment the Inputs view takes the point pairs.",

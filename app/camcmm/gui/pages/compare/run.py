@@ -197,7 +197,8 @@ class Run:
         s.ins_alignment = alignment_rows(o, unit)
         s.ins_picked = None
         s.ins_title = (f"{self._name(s.ins_measured)} against {self._name(s.ins_nominal)} — "
-                       f"{fmt_count(self.deviations.n_points)} points, alignment {o.get('alignment', {}).get('method', '')}")
+                       f"{fmt_count(self.deviations.n_points)} points, "
+                       f"alignment {o.get('alignment', {}).get('method', '')}")
         s.ins_running = False
         s.ins_progress = 100.0
         s.ins_progress_message = "done" if converged else "done — the alignment FAILED"
