@@ -7,6 +7,8 @@ cd "$(dirname "$0")/.."
 export VTK_DEFAULT_OPENGL_WINDOW=${VTK_DEFAULT_OPENGL_WINDOW:-vtkEGLRenderWindow}
 # Lint before the tests: a failure here stops the run (the style rules are in pyproject.toml).
 .venv/bin/ruff check app plugins tests examples benchmarks || exit 1
+# Types of the core (the [tool.mypy] section of pyproject.toml says which files).
+.venv/bin/python -m mypy || exit 1
 # .venv/bin/ruff format --check app plugins tests examples benchmarks || exit 1   # enabled after the one-time format
 .venv/bin/python -m pytest -p no:dash "$@"
 rc=$?

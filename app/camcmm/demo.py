@@ -111,7 +111,7 @@ def _clouds(project: Project) -> None:
 
 
 def _summary(project: Project, notes: list[str] | None = None) -> dict[str, Any]:
-    out = {
+    out: dict[str, Any] = {
         "project": str(project.path),
         "name": project.name,
         "measurements": [{"id": m["id"], "name": m["name"], "kind": m["kind"]} for m in project.measurements()],

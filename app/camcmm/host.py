@@ -114,14 +114,15 @@ class PluginHost:
         self._lock = threading.Lock()
         # kept so that a worker process can build the same host (camcmm.worker); None: installed
         self.entry_points = None if entry_points is None else list(entry_points)
-        eps = md.entry_points(group=GROUP) if entry_points is None else self.entry_points
+        eps = md.entry_points(group=GROUP) if self.entry_points is None else self.entry_points
         for ep in sorted(eps, key=lambda e: e.name):
             self._read(ep)
 
     # -- discovery -----------------------------------------------------------------
     def _read(self, ep: md.EntryPoint) -> None:
-        dist = ep.dist.name if getattr(ep, "dist", None) is not None else ep.name
-        version = ep.dist.version if getattr(ep, "dist", None) is not None else "0"
+        d = getattr(ep, "dist", None)
+        dist = d.name if d is not None else ep.name
+        version = d.version if d is not None else "0"
         where = f"plugin package {ep.name!r} ({ep.value})"
         try:
             package, _, resource = ep.value.partition(":")

@@ -68,7 +68,7 @@ class Port:
     optional: bool = False
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "type": self.type}
+        d: dict[str, Any] = {"name": self.name, "type": self.type}
         d.update({k: v for k, v in (("unit", self.unit), ("help", self.help)) if v})
         if self.optional:
             d["optional"] = True

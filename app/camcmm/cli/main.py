@@ -24,11 +24,12 @@ from . import core
 from .parser import Parser
 
 
-def build_parser() -> tuple[argparse.ArgumentParser, dict[str, Callable]]:
+def build_parser() -> tuple[argparse.ArgumentParser, dict[str, Any]]:
     parser = Parser(prog="camcmm", description="Camera-based close-range coordinate metrology workbench.")
     parser.add_argument("--version", action="version", version=f"camcmm {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
-    handlers: dict[str, Callable] = {}
+    # name -> (run, text) for core commands, the CommandSpec for contributed ones
+    handlers: dict[str, Any] = {}
     for name, (summary, configure, run, text) in core.COMMANDS.items():
         p = sub.add_parser(name, help=summary, description=summary)
         configure(p)

@@ -127,6 +127,7 @@ def _read(path: str | Path, unit: str | None) -> tuple[Any, dict[str, Any], Raw 
 
 
 def _build(raw: Raw, name: str, fmt: dict[str, Any], unit: str | None, factor: float | None):
+    source: str | None
     if unit is not None:
         source = unit.strip().lower().replace("µ", "u")
     elif raw.unit is not None:

@@ -237,17 +237,17 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
             fs.write("rms", float(cal["rms"]))
         if cal.get("board") is not None:
             fs.write("board", str(cal["board"]))
-        extra = {}
-        arrays = []
-        for k, v in cal.items():
-            if k in _OWN_KEYS:
+        extra: dict[str, Any] = {}
+        arrays: list[str] = []
+        for key, v in cal.items():
+            if key in _OWN_KEYS:
                 continue
             a = np.asarray(v) if isinstance(v, np.ndarray) else None
-            if a is not None and a.dtype.kind in "fiu" and 1 <= a.ndim <= 2 and a.size and _KEY.match(k):
-                fs.write(k, np.atleast_2d(a.astype(np.float64)))  # numeric arrays stay matrices
-                arrays.append(k)
+            if a is not None and a.dtype.kind in "fiu" and 1 <= a.ndim <= 2 and a.size and _KEY.match(key):
+                fs.write(key, np.atleast_2d(a.astype(np.float64)))  # numeric arrays stay matrices
+                arrays.append(key)
             else:
-                extra[k] = to_jsonable(v, keep_nan=True)
+                extra[key] = to_jsonable(v, keep_nan=True)
         if arrays:
             fs.write("camcmm_arrays", ",".join(arrays))
         if extra:

@@ -126,10 +126,10 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
             buffers.append(libe57.SourceDestBuffer(imf, key, staging[key], capacity, True, True))
         writer = points.writer(buffers)
         for start in range(0, n, capacity):
-            k = min(capacity, n - start)
+            count = min(capacity, n - start)
             for key, col in columns.items():
-                staging[key][:k] = col[start:start + k]
-            writer.write(k)
+                staging[key][:count] = col[start:start + count]
+            writer.write(count)
         writer.close()
     finally:
         e57.close()

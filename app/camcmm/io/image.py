@@ -54,7 +54,7 @@ def max_image_pixels() -> int:
 
 def read(path: Path, name: str) -> Image:
     buf = np.fromfile(path, np.uint8)
-    head = memoryview(buf)  # the whole file: a TIFF may keep its IFD at the end
+    head = memoryview(buf.data)  # the whole file: a TIFF may keep its IFD at the end
     kind, expected = image_kind(head), _KIND_OF_EXT.get(path.suffix.lower())
     if kind is not None and expected is not None and kind != expected:
         raise fail(name, f"the file holds a {kind} image, not {expected} as its extension says; rename it "
@@ -64,6 +64,7 @@ def read(path: Path, name: str) -> Image:
         check_image_size(size, name)
     import cv2
 
+    error: str | None
     with _native_stderr() as said:
         try:
             data = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)

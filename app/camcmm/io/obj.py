@@ -63,7 +63,7 @@ def read(path: Path, name: str) -> Raw:
     if not verts:
         raise fail(name, "no vertices ('v' lines) found; is this an OBJ file?")
     vertices = _floats(verts, name, "vertex", linenos["vertex"])
-    faces = triangulate(polys, name) if polys else np.zeros((0, 3), np.int64)
+    faces = triangulate([np.asarray(p) for p in polys], name) if polys else np.zeros((0, 3), np.int64)
     vertex_normals = None
     if normals and corner_normals:
         vn = _floats(normals, name, "normal", linenos["normal"])

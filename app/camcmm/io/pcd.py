@@ -150,6 +150,8 @@ def _ascii(path: Path, offset: int, ncols: int, n: int, name: str) -> np.ndarray
                     bad = True
             if bad:
                 raise fail(name, f"PCD point {i}: expected {ncols} numbers, found {line[:60]!r}")
+    if table is None:  # every line looked right, yet numpy refused them together
+        raise fail(name, "PCD points cannot be read as a table of numbers")
     return table
 
 

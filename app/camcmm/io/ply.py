@@ -156,7 +156,8 @@ def _read_binary(path: Path, hdr: _Header, name: str, size: int):
     """Element name -> {property -> array}; list properties as (rows, k) arrays.
     None when a list changes length between rows (the caller falls back to plyfile)."""
     bo = "<" if hdr.encoding == "binary_little_endian" else ">"
-    offset, out, last = hdr.size, {}, None
+    offset, out = hdr.size, {}
+    last: tuple[_Element, int] | None = None
     with open(path, "rb") as fh:
         for el in hdr.elements:
             if el.fixed:
@@ -176,7 +177,7 @@ def _read_binary(path: Path, hdr: _Header, name: str, size: int):
             out[el.name] = {p.name: _native(arr[p.name]) for p in el.props}
             offset = need
             last = (el, dt.itemsize)
-    if hdr.elements and size > offset:
+    if hdr.elements and last is not None and size > offset:
         _excess_binary(name, hdr, last, size - offset, size)
     return out
 
@@ -203,7 +204,8 @@ def _native(a: np.ndarray) -> np.ndarray:
 def _constant_list_dtype(fh, el: _Element, bo: str, offset: int, size: int, name: str):
     """The row dtype of an element with list properties, assuming every row has the
     list lengths of the first row (true for triangle meshes); checked after reading."""
-    fields, lists = [], {}
+    fields: list[tuple] = []
+    lists: dict[str, int] = {}
     fh.seek(offset)
     for j, p in enumerate(el.props):
         item = np.dtype(bo + p.dtype)
@@ -269,12 +271,12 @@ def _read_ascii(path: Path, hdr: _Header, name: str) -> dict:
 def _ascii_element(block: list[str], el: _Element, name: str) -> dict:
     n_scalar = len(el.props)
     if el.fixed:
-        table = _numbers(block, n_scalar, el.name, name)
-        return {p.name: _as_type(table[:, j], p.dtype, el.name, p.name, name) for j, p in enumerate(el.props)}
+        numbers = _numbers(block, n_scalar, el.name, name)
+        return {p.name: _as_type(numbers[:, j], p.dtype, el.name, p.name, name) for j, p in enumerate(el.props)}
     # Lists: when every row has the same number of values (triangles) the rows form a
     # table; otherwise walk the tokens row by row.
     first = block[0].split() if block else []
-    table = None
+    table: np.ndarray | None = None
     if block:
         try:
             table = np.loadtxt(block, dtype=np.float64, ndmin=2, comments=None)

@@ -68,7 +68,7 @@ def _ascii(data: bytes, name: str) -> Raw:
                          f"(truncated?)")
     if len(found) % 3:
         raise fail(name, f"ascii STL has {len(found)} vertex lines, not a multiple of 3 (truncated?)")
-    corners = np.zeros((0, 3))
+    corners: np.ndarray | None = np.zeros((0, 3))
     if found:
         try:
             corners = np.loadtxt(found, dtype=np.float64, ndmin=2, comments=None)
@@ -78,6 +78,7 @@ def _ascii(data: bytes, name: str) -> Raw:
             bad = next(v for v in found if not _is_float_triple(v))
             raise fail(name, f"ascii STL vertex {bad.strip()[:60]!r} is not three numbers")
     first = data.lstrip().split(b"\n", 1)[0]
+    assert corners is not None  # a failed parse raised above
     vertices, faces = _merge(corners)
     return Raw(vertices, faces=faces, unit=_unit(first), encoding="ascii")
 

@@ -185,7 +185,7 @@ class Project:
             try:
                 version = schema.migrate(conn, version, latest)
             except Exception as exc:
-                reached = schema.read_version(conn)
+                reached = schema.read_version(conn) or 0
                 raise ProjectError(f"migrating {db} from schema {reached} to {reached + 1} failed "
                                    f"({type(exc).__name__}: {exc}); the project was left at schema "
                                    f"{reached}") from exc
@@ -406,7 +406,7 @@ class Project:
         with self._tx(f"adding system {name!r}") as conn:
             cur = conn.execute("INSERT INTO systems(name, meta, created) VALUES (?, ?, ?)",
                                (name, meta_json, utcnow()))
-            return int(cur.lastrowid)
+            return int(cur.lastrowid or 0)
 
     def update_system(self, sid: int, name: str | None = None, meta: dict[str, Any] | None = None) -> None:
         """Rename a system and/or replace its meta (e.g. after a new calibration)."""
@@ -497,7 +497,7 @@ class Project:
                 "VALUES (?, ?, ?, ?, ?, ?, ?)",
                 (name, kind, file_hash, None if system_id is None else int(system_id), artefact_id,
                  meta_json, utcnow()))
-            return int(cur.lastrowid)
+            return int(cur.lastrowid or 0)
 
     _MEASUREMENT_SQL = "SELECT m.*, f.ext FROM measurements m JOIN files f ON f.hash = m.hash"
 
@@ -579,7 +579,7 @@ class Project:
             cur = conn.execute(
                 "INSERT INTO results(plugin, version, params, input_hashes, outputs, started, finished, "
                 "warnings, created, label) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", cols)
-            rid = int(cur.lastrowid)
+            rid = int(cur.lastrowid or 0)
             conn.executemany("INSERT INTO result_measurements(result_id, measurement_id) VALUES (?, ?)",
                              [(rid, m) for m in mids])
             conn.executemany("INSERT INTO result_files(result_id, name, hash) VALUES (?, ?, ?)",

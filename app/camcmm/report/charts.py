@@ -87,10 +87,10 @@ def _new_figure(width_mm: float, height_mm: float):
     from matplotlib.figure import Figure
     import matplotlib as mpl
 
-    rc = {"font.size": 7.5, "axes.titlesize": 8.5, "axes.labelsize": 7.5, "xtick.labelsize": 7,
+    rc: dict[str, Any] = {"font.size": 7.5, "axes.titlesize": 8.5, "axes.labelsize": 7.5, "xtick.labelsize": 7,
           "ytick.labelsize": 7, "legend.fontsize": 7, "axes.linewidth": 0.6,
           "xtick.major.width": 0.6, "ytick.major.width": 0.6, "svg.fonttype": "none"}
-    with mpl.rc_context(rc):
+    with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         fig = Figure(figsize=(width_mm * _MM, height_mm * _MM), dpi=DPI)
     return fig, rc
 
@@ -185,7 +185,7 @@ def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: floa
     long_labels = max(len(s_) for s_ in labels) > 6 or v.size > 14
     bottom = 6 + (0.9 * min(max(len(s_) for s_ in labels), 14) if long_labels else 3)
     fig, rc = _new_figure(width_mm, height_mm)
-    with mpl.rc_context(rc):
+    with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         ax = _axes(fig, width_mm, height_mm, left=14, bottom=bottom, right=3, top=_top_mm(title))
         x = np.arange(v.size)
         colours = np.where(beyond, _COLOURS["bad"], _COLOURS["ok"] if lim is not None else _COLOURS["plain"])
@@ -424,6 +424,7 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
     if kind == "auto":
         kind = "sphere" if center is not None else "plane" if normal is not None else _guess_kind(p)
 
+    c: np.ndarray | None
     if kind == "sphere":
         if center is None:
             c, _r = _fit_sphere(p)
@@ -435,7 +436,7 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
         geo["centre"] = c.tolist()
     else:
         c = None if center is None else np.asarray(center, dtype=float).reshape(3)
-        x, y, geo = _plane_xy(p, c, normal)
+        x, y, geo = _plane_xy(p, c, None if normal is None else np.asarray(normal, dtype=float))
     cylindrical = geo["projection"].startswith("cylindrical")
 
     # colour range: symmetric about zero, in a unit that reads well
@@ -476,7 +477,7 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
 
     idx = _subsample(d, max_points)
     fig, rc = _new_figure(width_mm, height_mm)
-    with mpl.rc_context(rc):
+    with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         ax = _axes(fig, width_mm, height_mm, left, bottom, right, top)
         # marker area (pt²) such that the drawn points roughly tile the plot area
         plot_h = height_mm - bottom - top
@@ -554,7 +555,7 @@ def histogram(values: Any, unit: str = "mm", bins: int | str = "auto", limit: fl
     sd = float(v.std(ddof=1)) if v.size > 1 else 0.0
 
     fig, rc = _new_figure(width_mm, height_mm)
-    with mpl.rc_context(rc):
+    with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         from matplotlib import colormaps
         from matplotlib.colors import Normalize
         ax = _axes(fig, width_mm, height_mm, left=13, bottom=10, right=3, top=_top_mm(title))

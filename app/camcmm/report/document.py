@@ -67,7 +67,8 @@ class Section:
         right-aligned.
         """
         columns = [str(c) for c in columns]
-        rows = [list(r) for r in rows]
+        table_rows: list[list[Any]] = [list(r) for r in rows]
+        rows = table_rows
         for i, r in enumerate(rows):
             if len(r) != len(columns):
                 raise InputError(f"report table {caption or columns!r}: row {i} has {len(r)} cells "
