@@ -459,3 +459,33 @@ def test_units_bands_and_picking_maths():
 
     assert point_spacing(grid) == pytest.approx(0.5)
     assert point_spacing(grid, queries=500) == pytest.approx(0.5)
+
+
+def test_the_section_plugin_cuts_a_mesh_into_closed_polylines():
+    """The cut the page draws comes from the plugin providing "deviation-section": a
+    cylinder cut across its axis is one closed polygon on its surface."""
+    import pyvista as pv
+
+    host = default_host()
+    cyl = pv.Cylinder(radius=5.0, height=20.0, direction=(0, 0, 1), resolution=64, capping=True).triangulate()
+    faces = np.asarray(cyl.faces).reshape(-1, 4)[:, 1:]
+    mesh = TriangleMesh(np.asarray(cyl.points, dtype=float), faces, name="cylinder")
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.uniform(-5, 5, 2000), rng.uniform(-5, 5, 2000), rng.uniform(-10, 10, 2000)])
+    cloud = PointCloud(pts, fields={"deviation": pts[:, 2] * 1e-3}, name="slab")
+    out = host.run(host.provider("deviation-section").id, {"deviations": cloud, "nominal": mesh},
+                   {"axis": "z", "position": 3.0, "half_width": 0.5}).outputs
+    sec = out["section"]
+    assert out["spacing"] is None and sec["u"] == "x" and sec["v"] == "y"
+    assert len(sec["nominal"]) == 1
+    ring = sec["nominal"][0]
+    assert np.allclose(ring[0], ring[-1]) and len(ring) >= 65  # the quads' diagonals cross too
+    r = np.hypot(ring[:, 0], ring[:, 1])
+    assert r.max() <= 5.0 + 1e-6 and r.min() >= 5.0 * math.cos(math.pi / 64) - 1e-6  # float32 vertices
+    in_slab = np.abs(pts[:, 2] - 3.0) <= 0.5
+    assert sec["n_in_slab"] == int(in_slab.sum())
+    assert np.allclose(np.sort(sec["deviation"]), np.sort(pts[in_slab, 2] * 1e-3))
+    # without a half width the slab is half the cloud's median point spacing
+    out = host.run(host.provider("deviation-section").id, {"deviations": cloud}, {"axis": "x"}).outputs
+    assert out["spacing"] > 0 and out["section"]["half_width"] == pytest.approx(0.5 * out["spacing"])
+    assert out["section"]["nominal"] == [] and abs(out["section"]["position"]) < 5
