@@ -108,6 +108,7 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     assert float(nums["RMS"]["value"]) == pytest.approx(direct["rms"], rel=1e-3)
     # the heat map is the projection-uncertainty plugin's map at the boards' median depth
     z = float(np.median(np.asarray(direct["calibration"]["views"]["tvecs"])[:, 2]))
+    assert direct["board_distance"] == pytest.approx(z, rel=1e-12)  # the plugin says where to look first
     assert s.cal_distance == pytest.approx(z, rel=1e-2)
     pu = session.host.run("calibration.projection-uncertainty", inputs={"calibration": direct["calibration"]},
                           params={"distance": s.cal_distance, "columns": 48, "rows": 36}).outputs
@@ -205,6 +206,10 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     assert float(rows["baseline |T|"]["value"]) == pytest.approx(direct["baseline"], rel=1e-5)
     assert float(rows["Tx"]["std"]) == pytest.approx(direct["std_T"][0], rel=0.05)
     assert float(rows["epipolar distance rms"]["value"]) == pytest.approx(direct["epipolar"]["rms"], rel=1e-2)
+    # the pose as the plugin's Rodrigues vector, in degrees
+    assert direct["rotation_angle"] == pytest.approx(np.linalg.norm(cv2.Rodrigues(np.asarray(direct["R"]))[0]))
+    assert float(rows["rotation angle"]["value"]) == pytest.approx(np.degrees(direct["rotation_angle"]), rel=1e-4)
+    assert float(rows["rotation ry (Rodrigues)"]["value"]) == pytest.approx(np.degrees(direct["rvec"][1]), rel=1e-4)
     assert s.cal_summary["views"] == "13 of 13 pairs"
     # each camera's own calibration in 'single' is the camera plugin's on that camera's images
     cam_r = session.host.run("calibration.camera", inputs={"images": [str(p) for p in RIGHT]},
