@@ -62,8 +62,14 @@ def test_catalogue_add_grab_move_and_bad_settings(page):
     assert act(page, stage, "rel", "many") is None
     assert "not a number" in s.dev_error and "\n" not in s.dev_error
     page.select(cam)
-    assert not page.apply_settings(cam, {"exposure_ms": -5})
+    assert not asyncio.run(page.apply_settings(cam, {"exposure_ms": -5}))
     assert "exposure" in s.dev_error
+    assert asyncio.run(page.apply_settings(cam, {"exposure_ms": "20", "gain_db": ""}))  # empty: left as it is
+    assert (s.dev_settings_values["exposure_ms"], s.dev_settings_values["gain_db"]) == (20.0, 0.0)
+    asyncio.run(page.remove(stage))
+    assert [d["name"] for d in s.dev_list] == ["cam"] and s.dev_selected == cam
+    asyncio.run(page.disconnect(cam))
+    assert [(d["state"], d["connected"]) for d in s.dev_list] == [("disconnected", False)]
     assert page.add("devices.camera.simulated", {"size": "wide"}) is None
     assert "size" in s.dev_error
 

@@ -12,18 +12,25 @@ from typing import Any
 from ....assets import resources_dir
 from ....errors import CamcmmError
 
-ACTIONS = ("connect", "grab", "home", "abs", "rel", "stop", "load", "show")
+ACTIONS = ("connect", "disconnect", "configure", "grab", "home", "abs", "rel", "stop", "load", "show")
 
 
 def perform(dev: Any, action: str, arg: Any = None) -> Any:
     """Do ``action`` on ``dev`` in the calling thread; returns what the device returns.
 
+    ``configure``: ``arg`` is the dict of settings to change (returns all settings);
     ``abs``/``rel``: ``arg`` is the target/step in the stage's unit (mm or deg);
     ``load``: ``arg`` is a pattern sequence file (empty: the shipped fringe sequence);
     ``show``: ``arg`` is the pattern index (None, "" or "blank": a blank screen).
     """
     if action == "connect":
         return dev.connect()
+    if action == "disconnect":
+        if getattr(dev, "live", False):
+            dev.stop_live()
+        return dev.disconnect()
+    if action == "configure":
+        return dev.configure(**dict(arg or {}))
     if action == "grab":
         return dev.grab()
     if action in ("home", "stop"):

@@ -79,10 +79,7 @@ def _detail(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     async def on_connect(key: str, on: bool) -> None:
-        if on:
-            await page.act(key, "connect")
-        else:
-            page.disconnect(key)
+        await page.act(key, "connect" if on else "disconnect")
 
     with html.Template(v_for="d in dev_list.filter(x => x.key === dev_selected)", key="d.key"):
         with html.Div(classes="d-flex align-center ga-2 mb-2"):

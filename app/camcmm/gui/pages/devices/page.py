@@ -126,16 +126,12 @@ class DevicesPage:
             config, _ = self.session.roots.check_run(spec, config, {})
         return config
 
-    def disconnect(self, key: str) -> None:
-        dev = self.devices.get(key)
-        if dev is not None:
-            if getattr(dev, "live", False):
-                dev.stop_live()
-            dev.disconnect()
-        self.publish()
+    async def disconnect(self, key: str) -> None:
+        """Stop a camera's live view and close the device (in the device job)."""
+        await self.act(key, "disconnect")
 
-    def remove(self, key: str) -> None:
-        self.disconnect(key)
+    async def remove(self, key: str) -> None:
+        await self.disconnect(key)
         self.devices.pop(key, None)
         self.plugin_of.pop(key, None)
         if self.state.dev_selected == key:
@@ -156,26 +152,17 @@ class DevicesPage:
         s.dev_settings_values = dict(dev.settings()) if dev else {}
         s.dev_live, s.dev_live_note = "", ""
 
-    def apply_settings(self, key: str, values: dict[str, Any]) -> bool:
-        dev = self.devices.get(key)
-        if dev is None:
-            return False
+    async def apply_settings(self, key: str, values: dict[str, Any]) -> bool:
+        """Change the settings the form gives (empty fields left as they are); False with
+        the reason shown when the device refuses one."""
         changed = {k: v for k, v in (values or {}).items() if v not in ("", None)}
-        try:
-            dev.configure(**changed)
-        except Exception as exc:
-            self._error(exc)
-            return False
-        self.state.dev_settings_values = dict(dev.settings())
-        self.session.info(f"{dev.label}: settings applied")
-        self.publish()
-        return True
+        return await self.act(key, "configure", changed) is not None
 
     # -- device actions ----------------------------------------------------------------------------
     async def act(self, key: str, action: str, arg: Any = None) -> Any:
-        """Do ``action`` (:data:`.actions.ACTIONS`: connect, grab, home, abs, rel, stop, load,
-        show) in the device job's worker; its result (True for None), or None with the
-        reason shown when it fails."""
+        """Do ``action`` (:data:`.actions.ACTIONS`: connect, disconnect, configure, grab, home,
+        abs, rel, stop, load, show) in the device job's worker; its result (True for None),
+        or None with the reason shown when it fails."""
         dev = self.devices.get(key)
         if dev is None:
             self._error(f"no device {key!r}: it was removed")
@@ -190,6 +177,9 @@ class DevicesPage:
             self._show_frame(out)
         elif action == "load":
             self.session.info(f"{dev.label}: {out} patterns loaded")
+        elif action == "configure":
+            self.state.dev_settings_values = dict(out)
+            self.session.info(f"{dev.label}: settings applied")
         self.publish()
         return True if out is None else out
 
@@ -318,9 +308,7 @@ class DevicesPage:
         self.io.close()
         for dev in list(self.devices.values()):
             try:
-                if getattr(dev, "live", False):
-                    dev.stop_live()
-                dev.disconnect()
+                perform(dev, "disconnect")
             except Exception:  # closing: one device's failure must not keep the others open
                 pass
 
