@@ -23,7 +23,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import CamcmmError, InputError
 
 #: Most points a deviation map draws; more only cost time and look the same.
 MAX_DRAWN = 50_000
@@ -233,46 +233,39 @@ def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: floa
 
 
 # --------------------------------------------------------------------------- geometry
-def _fit_sphere(p: np.ndarray) -> tuple[np.ndarray, float]:
-    """Algebraic least-squares sphere (centre, radius).
+def _fitted(element: str, p: np.ndarray) -> dict[str, Any]:
+    """The outputs of the installed plugin that provides ``<element>-fit`` ("sphere" or
+    "plane"; camcmm's fit.sphere / fit.plane, or a lab's own) for the points p (N, 3) mm.
 
-    Only used to place the map when the caller gives no centre; the deviations drawn
-    are the caller's, computed with whatever (certified) fit the standard chose.
+    Only used to place a map when the caller gives no centre or normal: charts draw,
+    they do not fit. The deviations drawn are the caller's, from whatever (certified)
+    fit the standard chose.
     """
-    m = p.mean(axis=0)
-    q = p - m  # centring keeps the normal equations well conditioned
-    A = np.column_stack([2 * q, np.ones(len(q))])
-    b = (q * q).sum(axis=1)
-    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c = sol[:3]
-    r2 = sol[3] + c @ c
-    return c + m, float(math.sqrt(r2)) if r2 > 0 else float("nan")
+    from ..host import default_host  # lazy: a chart made without a fit never needs the host
+    from ..model import PointCloud
 
-
-def _fit_plane(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Centroid and the singular vectors of the centred points (rows: major, minor, normal)."""
-    c = p.mean(axis=0)
-    _, s, vt = np.linalg.svd(p - c, full_matrices=False)
-    return c, vt, s
+    host = default_host()
+    return host.run(host.provider(f"{element}-fit").id, {"cloud": PointCloud(p, name="chart points")}).outputs
 
 
 def _guess_kind(p: np.ndarray) -> str:
     """"sphere" or "plane" for points with no centre or normal given.
 
-    A plane's residual is the smallest singular value; a sphere's is the spread of the
-    radial distances about the fitted radius. A sphere is chosen only if it fits at
-    least twice as well and its radius is not huge against the patch (a nearly flat
-    patch is fitted by an enormous sphere just as well as by a plane).
+    Both are fitted by the plugins; a sphere is chosen only if its form RMS is less than
+    half the plane's and its radius is not huge against the patch (a nearly flat patch
+    is fitted by an enormous sphere just as well as by a plane).
     """
     if len(p) < 5:
         return "plane"
-    c, vt, s = _fit_plane(p)
-    plane_rms = s[-1] / math.sqrt(len(p))
-    centre, r = _fit_sphere(p)
-    if not math.isfinite(r):
+    plane_rms = float(_fitted("plane", p)["form"]["rms"])
+    try:
+        sphere = _fitted("sphere", p)
+    except CamcmmError:  # no sphere through these points (does not converge, degenerate)
         return "plane"
-    sphere_rms = float(np.std(np.linalg.norm(p - centre, axis=1)))
-    extent = float(np.ptp(p @ vt[0]))
+    r, sphere_rms = float(sphere["radius"]), float(sphere["form"]["rms"])
+    if not math.isfinite(r) or not math.isfinite(sphere_rms):
+        return "plane"
+    extent = float(np.ptp(p, axis=0).max())
     return "sphere" if sphere_rms < 0.5 * plane_rms and r < 10 * max(extent, 1e-12) else "plane"
 
 
@@ -329,23 +322,25 @@ def _sphere_xy(p: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def _plane_xy(p: np.ndarray, centre: np.ndarray | None, normal: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, dict]:
-    """In-plane coordinates: origin at ``centre`` (default the centroid), the u axis
+    """In-plane coordinates: origin at ``centre`` (default the fitted plane's point), the u axis
     along the longest extent of the points, so a long flat lies across the page.
 
     Singular vectors have no sign, so signs are fixed by convention (a fitted normal
     points to +z, or else along its largest component; u along its largest component):
     the same flat measured twice is drawn the same way round, not mirrored.
     """
-    c0, vt, _ = _fit_plane(p)
-    c = c0 if centre is None else centre
+    if normal is None or centre is None:
+        plane = _fitted("plane", p)
+    c = np.asarray(plane["point"], dtype=float) if centre is None else centre
     if normal is None:
-        n = vt[2]
+        n = np.asarray(plane["normal"], dtype=float)
         if n[2] < 0 or (abs(n[2]) < 1e-9 and n[np.argmax(np.abs(n))] < 0):
             n = -n
     else:
         n = _unit(np.asarray(normal, dtype=float).reshape(3))
     q = p - c
     q_in = q - np.outer(q @ n, n)
+    # the principal direction of the drawing: which way the map lies on the page
     _, _, vt2 = np.linalg.svd(q_in - q_in.mean(axis=0), full_matrices=False)
     u = vt2[0] - (vt2[0] @ n) * n
     u /= np.linalg.norm(u)
@@ -385,7 +380,8 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
     sphere (outside positive), normal distance for a plane. ``kind`` "sphere", "plane"
     or "auto" (a given ``center`` means sphere, a given ``normal`` plane, otherwise
     decided from the points). Pass the centre/normal of the standard's own fit when
-    there is one; without them a quick least-squares fit places the map.
+    there is one; without them the fitting plugin (task ``sphere-fit`` / ``plane-fit``)
+    places the map.
 
     A sphere is drawn in an equal-area projection (see ``_sphere_xy``), a flat over its
     in-plane coordinates. The colour map is diverging and centred on zero; its range
@@ -427,7 +423,10 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
     c: np.ndarray | None
     if kind == "sphere":
         if center is None:
-            c, _r = _fit_sphere(p)
+            try:
+                c = np.asarray(_fitted("sphere", p)["center"], dtype=float)
+            except CamcmmError:
+                c = np.full(3, np.nan)
             if not np.isfinite(c).all():
                 raise InputError(f"{what}: the points do not define a sphere; give center=")
         else:
