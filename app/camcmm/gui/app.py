@@ -1,11 +1,13 @@
-"""Page layout: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session`.
+"""The app shell: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session` and
+the registered pages (:mod:`camcmm.gui.pages`).
 
-Toolbar: project name and the import button. Drawer: the project's items, the
-plugins with kind/version/status, and the selected plugin's form (built from its
-manifest by :func:`camcmm.params.form_schema`) with Run and a progress bar. Main
-area: the 3D view (server-side rendering, trame-vtk's :class:`VtkRemoteView` on the plotter's window)
-with a colour-field selector, and the result panel. Errors appear in an alert and a
-snackbar. Key widgets carry ``data-testid`` attributes for the browser test.
+Toolbar: the project's name, one button per page (``page-<key>``, in the pages'
+order) and the import (a file through the browser, or a path on the server). Drawer:
+the error alert and the drawer of the page shown; it is open on a page that has one
+(state ``drawer_pages``, ``main_drawer``). Main area: every page's widgets, each shown
+while the state ``page`` is its key. Errors also appear in a snackbar. Key widgets
+carry ``data-testid`` attributes for the browser tests. :func:`start` serves it
+behind the token guard (:mod:`camcmm.gui.security`).
 """
 
 from __future__ import annotations
@@ -157,6 +159,7 @@ def _layout(server: Any, session: Any, pages: list[Any]) -> None:
     opened = bool(pages) and pages[0].drawer is not None  # the first page shown has its drawer open
     with SinglePageWithDrawerLayout(server, width=400, show_drawer=opened, theme=("theme", "light")) as layout:
         layout.title.set_text("camcmm")
+        layout.icon.v_show = "drawer_pages.includes(page)"  # no empty drawer to open elsewhere
         with layout.toolbar:
             layout.toolbar.density = "compact"
             v.VIcon("mdi-folder-outline", size="small", classes="ml-4 mr-1")
