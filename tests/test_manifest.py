@@ -103,3 +103,25 @@ def test_manifest_doc_names_every_key():
     doc = (ROOT / "docs" / "manifest.md").read_text()
     missing = [k for k in (*KEYS, "schema", "commands") if f"`{k}`" not in doc]
     assert not missing, f"docs/manifest.md does not document {missing}"
+
+
+def test_a_default_written_in_both_manifest_and_signature_agrees():
+    # The manifest's default is the one the host passes; a different default in the entry
+    # function's signature would be what a direct Python call gets - the same plugin
+    # answering differently by the way it is called.
+    import inspect
+
+    host = default_host()
+    differ = []
+    for spec in host.plugins.values():
+        obj = host.load(spec.id)
+        sig = inspect.signature(obj.__init__ if inspect.isclass(obj) else obj)
+        for p in spec.parameters:
+            arg = sig.parameters.get(p.name)
+            if p.default is None or arg is None or arg.default is inspect.Parameter.empty:
+                continue
+            if arg.default is None and p.type == "str" and p.default == "":
+                continue  # both say "not given"
+            if p.coerce(arg.default) != p.coerce(p.default):
+                differ.append(f"{spec.id} {p.name}: manifest {p.default!r}, signature {arg.default!r}")
+    assert not differ, "\n".join(differ)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import io
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -40,7 +41,7 @@ class ChartPNG(bytes):
 
     info: dict
 
-    def __new__(cls, png: bytes, info: dict) -> "ChartPNG":
+    def __new__(cls, png: bytes, info: dict) -> ChartPNG:
         obj = super().__new__(cls, png)
         obj.info = info
         return obj
@@ -84,8 +85,8 @@ def _values(values: Any, what: str, allow_missing: bool = False) -> np.ndarray:
 
 def _new_figure(width_mm: float, height_mm: float):
     """An Agg-backed Figure of the given printed size (no pyplot, so no display)."""
-    from matplotlib.figure import Figure
     import matplotlib as mpl
+    from matplotlib.figure import Figure
 
     rc: dict[str, Any] = {"font.size": 7.5, "axes.titlesize": 8.5, "axes.labelsize": 7.5, "xtick.labelsize": 7,
           "ytick.labelsize": 7, "legend.fontsize": 7, "axes.linewidth": 0.6,
@@ -321,7 +322,8 @@ def _sphere_xy(p: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return x, y, info
 
 
-def _plane_xy(p: np.ndarray, centre: np.ndarray | None, normal: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, dict]:
+def _plane_xy(p: np.ndarray, centre: np.ndarray | None,
+              normal: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, dict]:
     """In-plane coordinates: origin at ``centre`` (default the fitted plane's point), the u axis
     along the longest extent of the points, so a long flat lies across the page.
 

@@ -32,11 +32,45 @@ def _model(element: str, dim: int):
 
 def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = "ls", *,
         max_iter: int = 100, nominal_radius: float | None = None, fast: bool = True) -> FitResult:
-    """Fit a geometric element to points in mm; see the module docstring.
+    """Fit a geometric element to points in mm (conventions: :mod:`.api`).
 
-    ``nominal_radius`` (mm, circle/sphere/cylinder) adds ``radius_deviation`` = fitted −
-    nominal to the result. ``fast=False`` runs the vdi2634 rule as the naive loop (for
-    checks). ``max_iter`` bounds the Gauss-Newton iterations of each fit.
+    Least squares in the orthogonal sense, or minimum zone (Chebyshev) for a plane or a
+    sphere, after the outlier rule has removed what it removes.
+
+    Parameters
+    ----------
+    element : {"line", "plane", "circle", "sphere", "cylinder"}
+    points : array_like, shape (N, 3), or (N, 2) for a line or circle
+        Coordinates in mm; a PointCloud's ``points`` or any numeric array. NaN or Inf
+        is refused (InputError).
+    outliers : str or Rule, default "none"
+        ``"none"``, ``"vdi2634"`` (3 of every 1000 points, one at a time, largest residual
+        first), ``"percent:P"`` or ``"sigma:K"``; see :mod:`.outliers`.
+    method : {"ls", "minzone"}, default "ls"
+        ``"minzone"`` only for a plane or a sphere.
+    max_iter : int, default 100
+        Bound on the Gauss-Newton iterations of each fit.
+    nominal_radius : float, optional
+        mm; for a circle, sphere or cylinder adds ``nominal_radius`` and
+        ``radius_deviation`` (fitted − nominal, mm) to the result.
+    fast : bool, default True
+        False runs the vdi2634 rule as the naive loop (for checks).
+
+    Returns
+    -------
+    FitResult
+        ``params`` (centre/point (3,) mm, normal/axis/direction (3,) unit vector, radius
+        mm), ``std_uncertainty`` of each (same shapes, mm; NaN for minimum zone),
+        ``form`` (range, max, min, std, rms in mm over the points used), signed
+        ``residuals`` (N,) mm for every point, boolean ``used`` and index ``removed``
+        arrays, and ``warnings`` when the element does not describe the points.
+
+    Raises
+    ------
+    ParameterError
+        Unknown element, method or rule.
+    InputError, GeometryError
+        Bad points; degenerate geometry or no convergence.
     """
     if element not in ELEMENTS:
         raise ParameterError(f"unknown element {element!r}; use one of {', '.join(ELEMENTS)}")
@@ -84,25 +118,44 @@ def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = 
 
 
 def fit_line(points: Any, outliers: str = "none", **kw) -> FitResult:
-    """Least-squares line; points (N, 3) or (N, 2) mm. See :func:`fit`."""
+    """Least-squares line through points (N, 3) or (N, 2), mm: :func:`fit` with ``element="line"``.
+
+    Returns a FitResult with ``point`` (3,) or (2,) mm and unit ``direction``; residuals
+    are distances (3-D) or signed, left of the line positive (2-D)."""
     return fit("line", points, outliers, **kw)
 
 
 def fit_plane(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
-    """Least-squares or minimum-zone plane; points (N, 3) mm. See :func:`fit`."""
+    """Least-squares or minimum-zone plane through points (N, 3), mm: :func:`fit` with
+    ``element="plane"``.
+
+    Returns a FitResult with ``point`` (3,) mm and unit ``normal`` (3,); residuals are
+    signed, on the normal's side positive; ``form["range"]`` is the flatness (mm)."""
     return fit("plane", points, outliers, method, **kw)
 
 
 def fit_circle(points: Any, outliers: str = "none", **kw) -> FitResult:
-    """Least-squares circle in space (N, 3) or in the plane (N, 2), mm. See :func:`fit`."""
+    """Least-squares circle in space (points (N, 3)) or in the plane ((N, 2)), mm:
+    :func:`fit` with ``element="circle"``.
+
+    Returns a FitResult with ``center`` mm, unit ``normal`` (3-D only) and ``radius`` mm;
+    in space the residual is the full distance from the circle, sqrt(h² + (ρ − r)²)."""
     return fit("circle", points, outliers, **kw)
 
 
 def fit_sphere(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
-    """Least-squares or minimum-zone sphere; points (N, 3) mm. See :func:`fit`."""
+    """Least-squares or minimum-zone sphere through points (N, 3), mm: :func:`fit` with
+    ``element="sphere"``.
+
+    Returns a FitResult with ``center`` (3,) mm and ``radius`` mm; residuals are signed,
+    outside positive. With ``outliers="vdi2634"`` this is the VDI/VDE 2634 probing fit."""
     return fit("sphere", points, outliers, method, **kw)
 
 
 def fit_cylinder(points: Any, outliers: str = "none", **kw) -> FitResult:
-    """Least-squares cylinder; points (N, 3) mm. See :func:`fit`."""
+    """Least-squares cylinder through points (N, 3), mm, also on a partial arc: :func:`fit`
+    with ``element="cylinder"``.
+
+    Returns a FitResult with ``point`` (3,) mm on the axis, unit ``axis`` (3,) and
+    ``radius`` mm; residuals are signed, outside positive."""
     return fit("cylinder", points, outliers, **kw)
