@@ -52,16 +52,42 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
                      progress=None, max_rms: float = MAX_RMS_PX) -> dict[str, Any]:
     """Calibrate one camera from board detections (see :func:`boards.detect_all`).
 
-    Returns a dict: ``camera`` (CameraModel), ``camera_matrix`` (3, 3) px,
-    ``dist_coeffs`` (n,), ``rms`` px, ``std_intrinsics`` (4 + n,) OpenCV's standard
-    deviations of (fx fy cx cy dist...), ``covariance`` (4 + n, 4 + n) of the same from the
-    Jacobian, ``per_view_rms`` {image: px}, ``image_size`` [w, h], ``rejected``
-    [{image, reason}], ``views`` {names, rvecs (V, 3), tvecs (V, 3) mm: board -> camera},
-    ``parameter_covariance`` and ``parameter_names`` (intrinsics, then each view's pose),
-    ``residual_sigma`` px per coordinate, ``flags``, ``warnings`` (one line each: views in
-    the same pose, too few or too little tilt, implausible or uncertain intrinsics, RMS
-    above ``max_rms`` px; see :mod:`.checks`).
-    ``outlier_factor`` <= 0 keeps every view where the board was found.
+    Parameters
+    ----------
+    detections : sequence of Detection
+        One per image; those where the board was not found are listed in ``rejected``.
+    board : Board or str
+        The board, or its spec (``"charuco:11x8:15:11"``, see :func:`boards.parse_board`).
+    model : str, default "standard"
+        Distortion model (:func:`model_flags`): which OpenCV coefficients are free.
+    flags : int, default 0
+        Further OpenCV calibration flags, or-ed with the model's.
+    outlier_factor : float, default 3.0
+        Views whose RMS exceeds this multiple of the median view RMS are dropped and the
+        calibration repeated; <= 0 keeps every view where the board was found.
+    name : str, default "camera"
+        The CameraModel's name.
+    progress : callable(fraction, message), optional
+    max_rms : float, default MAX_RMS_PX
+        px; an overall RMS above it gives a warning.
+
+    Returns
+    -------
+    dict
+        ``camera`` (CameraModel), ``camera_matrix`` (3, 3) px, ``dist_coeffs`` (n,),
+        ``rms`` px, ``std_intrinsics`` (4 + n,) OpenCV's standard deviations of
+        (fx fy cx cy dist...), ``covariance`` (4 + n, 4 + n) of the same from the Jacobian,
+        ``per_view_rms`` {image: px}, ``image_size`` [w, h] px, ``rejected``
+        [{image, reason}], ``views`` {names, rvecs (V, 3) rad, tvecs (V, 3) mm: board ->
+        camera}, ``parameter_covariance`` and ``parameter_names`` (intrinsics, then each
+        view's pose), ``residual_sigma`` px per coordinate, ``flags``, ``warnings`` (one
+        line each: views in the same pose, too few or too little tilt, implausible or
+        uncertain intrinsics, RMS above ``max_rms`` px; see :mod:`.checks`).
+
+    Raises
+    ------
+    InputError
+        The board was found in fewer than the minimum number of views.
     """
     board = parse_board(board)
     flags = model_flags(model, flags)

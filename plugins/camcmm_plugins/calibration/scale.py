@@ -94,13 +94,30 @@ def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
                  length: float | None = None, source: str = "") -> dict[str, Any]:
     """Scale factor by linear regression per run (module docstring).
 
-    interferometer (N,) mm; camera (N,) mm or (N, 3) mm; run (N,) labels or None.
-    Returns ``slope`` (mean over runs), ``scale_factor`` = 1 / slope,
-    ``u_scale_factor``, ``runs`` [{run, slope, intercept, stderr, rms_residual, n}],
-    ``repeatability`` (std of the slopes, and in ppm), ``residuals`` {run: (n,) mm} and
-    ``displacement`` {run: (n,) mm} (fig. 3.11), ``residual_std_per_position`` (when all runs
-    have the same count), ``length`` L mm, ``u_cal``, ``u_p``, ``u_length`` mm (eq. 3.22).
-    ``source``: the data's file name, put in front of the messages about the data.
+    Parameters
+    ----------
+    interferometer : array_like, shape (N,)
+        Reference displacements, mm.
+    camera : array_like, shape (N,) or (N, 3)
+        The camera system's displacements (or positions), mm.
+    run : array_like, shape (N,), optional
+        Run labels; None: one run.
+    accuracy : float, default 5e-7
+        The interferometer's relative accuracy (dimensionless), 0 <= accuracy < 1.
+    length : float, optional
+        mm, the length L the uncertainty is stated for (default the longest run's travel).
+    source : str, default ""
+        The data's file name, put in front of the messages about the data.
+
+    Returns
+    -------
+    dict
+        ``slope`` (mean over runs), ``scale_factor`` = 1 / slope, ``u_scale_factor``,
+        ``runs`` [{run, slope, intercept, stderr, rms_residual, n}], ``repeatability``
+        (std of the slopes, and in ppm), ``residuals`` {run: (n,) mm} and
+        ``displacement`` {run: (n,) mm} (fig. 3.11), ``residual_std_per_position`` (when
+        all runs have the same count), ``length`` L mm, ``u_cal``, ``u_p``, ``u_length``
+        mm (eq. 3.22).
     """
     from scipy import stats
 

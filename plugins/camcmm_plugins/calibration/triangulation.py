@@ -84,12 +84,25 @@ def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optima
                 pixel_sigma: float | None = None, parameter_covariance: np.ndarray | None = None) -> dict[str, Any]:
     """Triangulate N points seen by V >= 2 cameras.
 
-    pixels: (V, N, 2) observed (distorted) px, camera k's in row k. Returns ``points``
-    (N, 3) mm in the world frame (camera 0's for a calibration), ``reprojection_rms``
-    (N,) px; with ``pixel_sigma`` (px, per coordinate) and/or ``parameter_covariance``
-    (over each camera's intrinsics fx fy cx cy dist..., then each camera k >= 1's pose
-    rx ry rz tx ty tz, as a stereo calibration's ``parameter_covariance``) also
-    ``covariance`` (N, 3, 3) mm^2 and ``std`` (N, 3) mm.
+    Parameters
+    ----------
+    cameras : sequence of CameraModel, length V >= 2
+    pixels : array_like, shape (V, N, 2)
+        Observed (distorted) pixel coordinates, px; camera k's in row k.
+    method : {"optimal", "linear"}, default "optimal"
+        Least reprojection error, or the linear (DLT) solution (module docstring).
+    pixel_sigma : float, optional
+        px, standard deviation per image coordinate.
+    parameter_covariance : ndarray, optional
+        Over each camera's intrinsics fx fy cx cy dist..., then each camera k >= 1's pose
+        rx ry rz tx ty tz (as a stereo calibration's ``parameter_covariance``).
+
+    Returns
+    -------
+    dict
+        ``points`` (N, 3) mm in the world frame (camera 0's for a calibration),
+        ``reprojection_rms`` (N,) px; with ``pixel_sigma`` and/or
+        ``parameter_covariance`` also ``covariance`` (N, 3, 3) mm² and ``std`` (N, 3) mm.
     """
     cams = list(cameras)
     x = np.asarray(pixels, np.float64)
