@@ -70,7 +70,8 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             page = browser.new_page(viewport={"width": 1400, "height": 900}, accept_downloads=True)
             page.set_default_timeout(30_000)
             page.goto(url)
-            page.wait_for_selector('[data-testid="project-name"]')
+            # the first load parses the client's bundles: slow on a busy machine
+            page.wait_for_selector('[data-testid="project-name"]', timeout=120_000)
             for f in (stl, ply):
                 page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(f))
                 page.wait_for_selector(f'[data-testid="item"]:has-text("{f.name}")')
