@@ -268,6 +268,14 @@ class FakeHost:
     def load(self, pid):
         return self.std
 
+    def providing(self, task):
+        return []
+
+    def provider(self, task):  # the other pages ask for their tasks: none here
+        from camcmm.errors import PluginError
+
+        raise PluginError(f"no plugin provides {task!r}")
+
 
 def _real_available() -> bool:
     try:

@@ -236,6 +236,13 @@ class SceneView:
             self.field = SOLID
             self.actor = self.plotter.add_mesh(poly, color="#3b6ea5", reset_camera=False, **style)
 
+    def look(self, direction: Any, up: Any) -> None:
+        """Look at what is shown from ``direction`` (object to camera) with ``up`` up,
+        framing it (e.g. a deviation map from the side its standard suggests)."""
+        self.plotter.view_vector(list(direction), viewup=list(up))
+        self.plotter.reset_camera()
+        self._changed(reset_camera=True)
+
     def _changed(self, reset_camera: bool) -> None:
         if self.on_update is not None:
             self.on_update(reset_camera)

@@ -111,7 +111,7 @@ class PageActions:
 
     def _repeats(self, test: str) -> int:
         try:
-            return self.wizard._req(test)["repeats"]
+            return self.wizard.requirement(test)["repeats"]
         except CamcmmError:
             return 1
 
@@ -122,7 +122,7 @@ class PageActions:
         except Exception as exc:
             self.session.error(one_line(exc))
             return
-        filled = self.wizard._filled(test, position)
+        filled = self.wizard.filled(test, position)
         rep, mid = (repeat, dict(filled).get(repeat)) if repeat else filled[-1]
         self._detail(test, position, rep, self.wizard.evaluation(mid) or {})
         self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud,
@@ -138,9 +138,7 @@ class PageActions:
             sess.view.show(key, cloud, field_name)
             look = view_direction(evaluation or {})
             if look is not None:
-                sess.view.plotter.view_vector(look[0], viewup=look[1])
-                sess.view.plotter.reset_camera()
-                sess.view._changed(reset_camera=True)
+                sess.view.look(*look)
         except Exception as exc:
             sess.error(f"cannot show {getattr(cloud, 'name', key)}: {one_line(exc)}")
             return

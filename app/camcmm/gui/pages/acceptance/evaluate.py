@@ -60,7 +60,7 @@ class WizardImport:
         empty one; a position whose slots are all filled is redone at its last repeat."""
         if not self.active:
             raise InputError(self.load_error or "set up the acceptance test first")
-        r = self._req(test)
+        r = self.requirement(test)
         ids = [p["id"] for p in r["positions"]]
         if position not in ids:
             raise InputError(f"{test.replace('_', ' ')} has no position {position!r}; its positions: "
@@ -204,6 +204,6 @@ class WizardImport:
         """Measure a position again: the new evaluation replaces the old one (of
         ``repeat``, default the last filled repeat)."""
         if repeat is None:
-            filled = self._filled(test, position)
+            filled = self.filled(test, position)
             repeat = filled[-1][0] if filled else None
         return self.import_measurement(test, position, source, name, repeat)

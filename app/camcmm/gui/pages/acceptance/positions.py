@@ -19,7 +19,7 @@ class WizardPositions:
 
     def progress(self) -> list[dict[str, Any]]:
         """Counters per test: ``{"test", "label", "done", "total", "required", "text",
-        "complete"}`` — text like "7 of 10 sphere positions"."""
+        "complete"}`` — text like "7 of 10 <test label>"."""
         out = []
         for r in self.requirements():
             slots = self._slots(r["test"])

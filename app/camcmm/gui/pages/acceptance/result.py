@@ -137,7 +137,7 @@ class WizardResult:
 
     def deviations(self, test: str, position: str, repeat: int | None = None) -> Any:
         """The deviations cloud (field ``deviation``, mm) of a done position, from the project."""
-        filled = self._filled(test, position)
+        filled = self.filled(test, position)
         if not filled:
             raise InputError(f"{position}: nothing measured yet")
         mid = dict(filled).get(repeat) if repeat else filled[-1][1]

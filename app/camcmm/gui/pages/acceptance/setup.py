@@ -28,7 +28,7 @@ def parse_options(options: Any) -> dict[str, Any]:
     if isinstance(options, str):
         options = load_yaml(options, name="plan options")
     if not isinstance(options, dict):
-        raise InputError(f"plan options: give keys and values (e.g. 'outliers: vdi2634'), got {options!r}")
+        raise InputError(f"plan options: give keys and values (e.g. 'unit: mm'), got {options!r}")
     taken = [k for k in options if k in _FORM_KEYS]
     if taken:
         raise InputError(f"plan options: {taken[0]!r} is set by the form above, not here")

@@ -126,7 +126,7 @@ class WizardState:
         self._reqs = reqs
         return reqs
 
-    def _req(self, test: str) -> dict[str, Any]:
+    def requirement(self, test: str) -> dict[str, Any]:
         for r in self.requirements():
             if r["test"] == test:
                 return r
@@ -134,7 +134,7 @@ class WizardState:
                          f"{', '.join(r['test'] for r in self.requirements())}")
 
     def _slots(self, test: str) -> dict[str, list]:
-        r = self._req(test)
+        r = self.requirement(test)
         positions = self.state.setdefault("positions", {}).setdefault(test, {})
         for p in r["positions"]:
             slot = positions.setdefault(p["id"], [None] * r["repeats"])
@@ -142,7 +142,7 @@ class WizardState:
                 slot.extend([None] * (r["repeats"] - len(slot)))
         return positions
 
-    def _filled(self, test: str, position: str) -> list[tuple[int, int]]:
+    def filled(self, test: str, position: str) -> list[tuple[int, int]]:
         """(repeat, measurement id) of each measured repeat of a position, in order."""
         slots = self._slots(test).get(position) or []
         return [(i + 1, mid) for i, mid in enumerate(slots) if mid is not None]
