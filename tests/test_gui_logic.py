@@ -408,7 +408,9 @@ def test_cancel_a_running_plugin(app, lab_host, cloud_file):
 
     async def go():
         task = asyncio.ensure_future(page.run_plugin("lab.slowstats", {"steps": 50}))
-        while not server.state.running:
+        # cancel once the plugin computes: a cancel while a new worker process is still
+        # starting is only honoured by stopping the worker after worker.CANCEL_GRACE_S
+        while not task.done() and not str(server.state.progress_message).startswith("step"):
             await asyncio.sleep(0.01)
         await asyncio.sleep(0.3)
         page.cancel()
