@@ -412,6 +412,8 @@ def test_cancel_a_running_plugin(app, lab_host, cloud_file):
         # starting is only honoured by stopping the worker after worker.CANCEL_GRACE_S
         while not task.done() and not str(server.state.progress_message).startswith("step"):
             await asyncio.sleep(0.01)
+        assert await page.run_plugin("lab.slowstats", {"steps": 1}) is None  # one run at a time
+        assert "is running; wait for it or cancel it" in server.state.error_message
         await asyncio.sleep(0.3)
         page.cancel()
         return await task
