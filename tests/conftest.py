@@ -69,3 +69,36 @@ def run_camcmm(*args, ok=True, timeout=300, **kw):
     if ok:
         assert proc.returncode == 0, proc.stderr
     return proc
+
+
+# -- marks by rule ---------------------------------------------------------------------------------
+# `pytest -m "not slow"` is the quick run (under two minutes on the 2-core reference machine).
+# The browser tests are marked here by their file name; the other slow ones (measured > ~5 s with
+# `pytest --durations=0` under load) by their node id below, so that the list lives in one place.
+SLOW_TESTS: frozenset[str] = frozenset()
+
+
+def pytest_collection_modifyitems(config, items):
+    """tests/test_browser_*.py -> browser + slow; the node ids in SLOW_TESTS -> slow."""
+    for item in items:
+        if item.path.name.startswith("test_browser"):
+            item.add_marker(pytest.mark.browser)
+            item.add_marker(pytest.mark.slow)
+        elif item.nodeid.split("[")[0] in SLOW_TESTS or item.nodeid in SLOW_TESTS:
+            item.add_marker(pytest.mark.slow)
+
+
+def cli_json(*args, **kw):
+    """``run_camcmm(*args)`` that must succeed; its stdout parsed as the one JSON document."""
+    import json
+
+    return json.loads(run_camcmm(*args, **kw).stdout)
+
+
+def cli_refused(*args, code=None, **kw) -> str:
+    """``run_camcmm(*args)`` that must be refused: a non-zero exit (``code`` if given) and one
+    stderr line ``camcmm: error: …``, returned."""
+    proc = run_camcmm(*args, ok=False, **kw)
+    assert proc.returncode != 0 if code is None else proc.returncode == code, (proc.returncode, proc.stderr)
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("camcmm: error:"), proc.stderr
+    return proc.stderr

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,14 +14,7 @@ import pytest
 from camcmm import __version__
 from camcmm.io import write
 from camcmm.model import PointCloud
-
-
-def camcmm(*args, ok=True):
-    proc = subprocess.run([sys.executable, "-m", "camcmm", *map(str, args)], capture_output=True, text=True,
-                          timeout=120)
-    if ok:
-        assert proc.returncode == 0, proc.stderr
-    return proc
+from conftest import cli_json, run_camcmm
 
 
 @pytest.fixture
@@ -31,11 +26,20 @@ def cloud_file(tmp_path):
 
 
 def test_version():
-    assert camcmm("--version").stdout.strip() == f"camcmm {__version__}"
+    assert run_camcmm("--version").stdout.strip() == f"camcmm {__version__}"
+
+
+def test_console_script_runs():
+    """The installed ``camcmm`` entry point (the other tests run ``python -m camcmm``)."""
+    exe = shutil.which("camcmm", path=str(Path(sys.executable).parent))
+    if exe is None:
+        pytest.skip("the camcmm entry point is not installed")
+    proc = subprocess.run([exe, "--version"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.strip() == f"camcmm {__version__}", proc.stderr
 
 
 def test_plugins_json_lists_builtins_with_kind_version_status():
-    doc = json.loads(camcmm("plugins", "--json").stdout)
+    doc = cli_json("plugins", "--json")
     by_id = {p["id"]: p for p in doc["plugins"]}
     for pid in ("cloud.downsample", "cloud.denoise", "cloud.normals"):
         assert by_id[pid]["kind"] == "algorithm" and by_id[pid]["status"] == "ok"
@@ -44,13 +48,13 @@ def test_plugins_json_lists_builtins_with_kind_version_status():
 
 def test_run_a_plugin_with_declared_parameters(cloud_file, tmp_path):
     out = tmp_path / "down.ply"
-    proc = camcmm("run", "cloud.downsample", cloud_file, "--voxel-size", "2.5", "--out", out,
+    proc = run_camcmm("run", "cloud.downsample", cloud_file, "--voxel-size", "2.5", "--out", out,
                   "--project", tmp_path / "proj", "--json")
     doc = json.loads(proc.stdout)
     assert doc["plugin"] == "cloud.downsample" and doc["params"] == {"voxel_size": 2.5}
     assert 0 < doc["outputs"]["n_points"] < 2000 and doc["result_id"] >= 1
     assert out.exists()
-    info = json.loads(camcmm("info", out, "--json").stdout)
+    info = cli_json("info", out, "--json")
     assert info["n_points"] == doc["outputs"]["n_points"]
 
 
@@ -62,7 +66,7 @@ def test_errors_are_one_line_on_stderr_with_nonzero_exit(cloud_file, tmp_path):
         (["run", "cloud.downsample", cloud_file, "--voxl", "1"], "unrecognized arguments"),
     ]
     for args, text in cases:
-        proc = camcmm(*args, ok=False)
+        proc = run_camcmm(*args, ok=False)
         assert proc.returncode != 0 and proc.stdout == ""
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and text in lines[0], proc.stderr
@@ -106,9 +110,9 @@ def test_run_gives_a_parameter_named_like_its_own_option_as_param_name(tmp_path,
 
 
 def test_demo_creates_a_project(tmp_path):
-    doc = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
+    doc = cli_json("demo", tmp_path / "demo", "--json")
     assert len(doc["measurements"]) >= 4
-    again = json.loads(camcmm("demo", tmp_path / "demo", "--json").stdout)
+    again = cli_json("demo", tmp_path / "demo", "--json")
     assert again["measurements"] == doc["measurements"]  # re-opening does not duplicate
 
 
@@ -123,7 +127,7 @@ def test_info_json_reads_every_format(tmp_path, ext):
         obj = PointCloud(rng.uniform(-5, 5, (300, 3)))
     path = tmp_path / f"thing{ext}"
     write(obj, path)
-    doc = json.loads(camcmm("info", path, "--json").stdout)
+    doc = cli_json("info", path, "--json")
     assert doc["unit"] == "mm"
     if ext in (".stl", ".obj"):
         assert doc["kind"] == "mesh" and doc["n_faces"] == 2

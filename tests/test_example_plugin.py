@@ -3,7 +3,6 @@ and run like a built-in one."""
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -13,6 +12,7 @@ import pytest
 
 from camcmm.io import write
 from camcmm.model import PointCloud
+from conftest import cli_json
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_plugin"
 
@@ -32,20 +32,13 @@ def installed():
     _pip("uninstall", "-y", "camcmm-lab-example")
 
 
-def _camcmm(*args):
-    proc = subprocess.run([sys.executable, "-m", "camcmm", *map(str, args)], capture_output=True, text=True,
-                          timeout=120)
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
-
-
 def test_lab_plugin_is_discovered_and_runs(installed, tmp_path):
-    plugins = {p["id"]: p for p in _camcmm("plugins", "--json")["plugins"]}
+    plugins = {p["id"]: p for p in cli_json("plugins", "--json")["plugins"]}
     lab = plugins["lab.centroid"]
     assert (lab["kind"], lab["version"], lab["status"], lab["distribution"]) == \
         ("algorithm", "0.3.1", "ok", "camcmm-lab-example")
     pts = np.array([[0.0, 0, 0], [2, 0, 0], [2, 4, 0], [0, 4, 6]])
     write(PointCloud(pts), tmp_path / "c.ply")
-    doc = _camcmm("run", "lab.centroid", tmp_path / "c.ply", "--json")
+    doc = cli_json("run", "lab.centroid", tmp_path / "c.ply", "--json")
     assert doc["outputs"]["centroid"] == pytest.approx([1.0, 2.0, 1.5])
     assert doc["outputs"]["extent"] == pytest.approx([2.0, 4.0, 6.0])

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +12,7 @@ import pytest
 from camcmm.api import PointCloud
 from camcmm.host import PluginHost
 from camcmm_plugins.fitting import cli
+from conftest import cli_json, run_camcmm
 
 KEYS = {"element", "method", "outliers", "n_points", "n_used", "n_removed", "form", "std_uncertainty"}
 PARAMS = {"sphere": ("center", "radius"), "plane": ("point", "normal"), "circle": ("center", "normal", "radius"),
@@ -82,19 +80,9 @@ def test_cli_module_minzone_nominal_and_errors(tmp_path):
         _run(["cylinder", str(files["cylinder"]), "--method", "minzone"])
 
 
-def _camcmm():
-    exe = shutil.which("camcmm", path=str(Path(sys.executable).parent))
-    if exe is None:
-        pytest.skip("the camcmm entry point is not installed")
-    return exe
-
-
 def test_camcmm_fit_subprocess_json(tmp_path):
     files = _clouds(tmp_path)
-    run = subprocess.run([_camcmm(), "fit", "sphere", str(files["sphere"]), "--outliers", "vdi2634", "--json"],
-                         capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr
-    out = json.loads(run.stdout)
+    out = cli_json("fit", "sphere", files["sphere"], "--outliers", "vdi2634", "--json")
     assert KEYS <= set(out) and out["n_removed"] == 9
     assert abs(out["radius"] - 10) < 0.01 and len(out["center"]) == 3
     assert set(out["form"]) == FORM
@@ -102,23 +90,17 @@ def test_camcmm_fit_subprocess_json(tmp_path):
 
 def test_camcmm_fit_subprocess_text_and_errors(tmp_path):
     files = _clouds(tmp_path)
-    run = subprocess.run([_camcmm(), "fit", "plane", str(files["plane"])], capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.startswith("plane (ls, outliers none)")
-    run = subprocess.run([_camcmm(), "fit", "sphere", str(files["plane"])], capture_output=True, text=True, timeout=120)
+    assert run_camcmm("fit", "plane", files["plane"]).stdout.startswith("plane (ls, outliers none)")
+    run = run_camcmm("fit", "sphere", files["plane"], ok=False)
     assert run.returncode != 0
     assert run.stderr.count("\n") == 1 and "nearly on a plane" in run.stderr
-    run = subprocess.run([_camcmm(), "fit", "sphere", str(files["sphere"]), "--outliers", "bogus"],
-                         capture_output=True, text=True, timeout=120)
+    run = run_camcmm("fit", "sphere", files["sphere"], "--outliers", "bogus", ok=False)
     assert run.returncode != 0 and "unknown outlier rule" in run.stderr
 
 
 def test_camcmm_fit_extract_nist_scan():
-    run = subprocess.run([_camcmm(), "fit", "sphere", str(NIST / "SPH102.xyz"), "--unit", "m", "--extract",
-                          "--nominal-radius", "50", "--outliers", "vdi2634", "--json"],
-                         capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr
-    out = json.loads(run.stdout)
+    out = cli_json("fit", "sphere", NIST / "SPH102.xyz", "--unit", "m", "--extract", "--nominal-radius", "50",
+                   "--outliers", "vdi2634", "--json")
     assert abs(out["radius"] - 50) < 0.3 and out["n_points_raw"] == 1893 and out["n_points"] < 1893
 
 

@@ -3,10 +3,6 @@ document out, one-line errors."""
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-
 import cv2
 import numpy as np
 import pytest
@@ -16,6 +12,7 @@ from camcmm.api import CameraModel, read, write_calibration
 from camcmm_plugins.fringe.patterns import generate_patterns
 from camcmm_plugins.fringe.synthetic import render_captures
 from camcmm_plugins.fringe.triangulate import camera_rays, project
+from conftest import cli_json, cli_refused, run_camcmm
 
 SEQ = {"projector": {"width": 320, "height": 240}, "frames": [
     "white", "black",
@@ -27,17 +24,6 @@ SEQ = {"projector": {"width": 320, "height": 240}, "frames": [
 W, H = 200, 150
 
 
-def camcmm(*args, ok=True):
-    proc = subprocess.run([sys.executable, "-m", "camcmm", *map(str, args)], capture_output=True, text=True,
-                          timeout=180)
-    if ok:
-        assert proc.returncode == 0, proc.stderr
-    else:
-        assert proc.returncode != 0
-        assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("camcmm: error:"), proc.stderr
-    return proc
-
-
 @pytest.fixture
 def seq_file(tmp_path):
     p = tmp_path / "sequence.yaml"
@@ -47,7 +33,7 @@ def seq_file(tmp_path):
 
 def test_patterns_are_written_at_the_projector_resolution(seq_file, tmp_path):
     out = tmp_path / "pats"
-    doc = json.loads(camcmm("fringe", "patterns", seq_file, "--out", out, "--json").stdout)
+    doc = cli_json("fringe", "patterns", seq_file, "--out", out, "--json")
     assert doc["n_frames"] == 2 + 4 + 2 * 6 + 3 + 3 and doc["projector_size"] == [320, 240]
     assert len(doc["files"]) == doc["n_frames"] and (out / "pat00.png").is_file()
     expected = generate_patterns(SEQ)
@@ -91,8 +77,8 @@ def capture_dir(tmp_path):
 def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path):
     folder, cal, lit = capture_dir
     out = tmp_path / "cloud.ply"
-    doc = json.loads(camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
-                            "--json", "--out", out).stdout)
+    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
+               "--json", "--out", out)
     assert {"n_points", "valid_fraction", "bbox"} <= set(doc)
     assert doc["valid_fraction"] == pytest.approx(lit, abs=0.02)
     assert doc["n_points"] > 0.9 * lit * W * H
@@ -107,16 +93,16 @@ def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path):
 def test_reconstruct_bad_input_is_one_line(seq_file, capture_dir, tmp_path):
     folder, cal, _ = capture_dir
     (folder / "img23.png").unlink()
-    p = camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, ok=False)
-    assert "23 frames given, too few for the sequence 'sequence.yaml' which declares 24" in p.stderr
+    err = cli_refused("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal)
+    assert "23 frames given, too few for the sequence 'sequence.yaml' which declares 24" in err
     cam, proj = rig()
     other = tmp_path / "other.yaml"
     write_calibration(other, {"cameras": [CameraModel(cam.camera_matrix, image_size=(640, 480), name="cam"), proj]})
     cv2.imwrite(str(folder / "img23.png"), cv2.imread(str(folder / "img0.png"), cv2.IMREAD_UNCHANGED))
-    p = camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", other, ok=False)
-    assert "calibrated for 640x480 px but the images are 200x150 px" in p.stderr
-    p = camcmm("fringe", "patterns", tmp_path / "missing.yaml", "--out", tmp_path / "x", ok=False)
-    assert "missing.yaml: no such sequence file" in p.stderr
+    err = cli_refused("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", other)
+    assert "calibrated for 640x480 px but the images are 200x150 px" in err
+    err = cli_refused("fringe", "patterns", tmp_path / "missing.yaml", "--out", tmp_path / "x")
+    assert "missing.yaml: no such sequence file" in err
 
 
 def test_no_decoded_pixel_names_the_thresholds_given(seq_file, capture_dir, capsys):
@@ -135,8 +121,8 @@ def test_saturated_captures_are_reported_with_their_fraction(seq_file, capture_d
     img = cv2.imread(str(folder / "img2.png"), cv2.IMREAD_UNCHANGED)  # the first phase frame
     img[:30, :50] = 255
     cv2.imwrite(str(folder / "img2.png"), img)
-    doc = json.loads(camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
-                            "--json").stdout)
+    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
+               "--json")
     assert any(f"{100 * 30 * 50 / (W * H):.2f} % of the pixels are saturated" in w for w in doc["warnings"])
-    text = camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal).stdout
+    text = run_camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal).stdout
     assert "points (" in text and "warning: images: 5.00 % of the pixels are saturated" in text

@@ -8,8 +8,6 @@ patch of its top raised by 30 µm, moved by a known transform.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +18,7 @@ from camcmm.host import PluginHost
 from camcmm_plugins.inspection.align import apply, similarity
 from camcmm_plugins.inspection.coverage import sample_surface
 from camcmm_plugins.inspection.report import build_report
+from conftest import cli_json, cli_refused, run_camcmm
 from test_inspection_shapes import Polycube, l_block, rotation
 
 RAISE = 0.03
@@ -53,16 +52,10 @@ def files(tmp_path_factory):
     return {"dir": d, "T": T, "S": S, "truth": truth, "up": up, "pts": pts}
 
 
-def camcmm(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "camcmm", *args], capture_output=True, text=True, timeout=600)
-
-
 def test_cli_json_out_and_report(files):
     d = files["dir"]
-    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--tolerance", "0.05", "--json",
-                 "--out", str(d / "col.ply"), "--report", str(d / "rep"))
-    assert out.returncode == 0, out.stderr
-    r = json.loads(out.stdout)
+    r = cli_json("inspect", d / "scan.ply", "--nominal", d / "block.stl", "--tolerance", "0.05", "--json",
+                 "--out", d / "col.ply", "--report", d / "rep")
     assert r["converged"] is True and r["reason"] == ""
     T = np.array(r["transform"])
     assert T.shape == (4, 4) and np.abs(T - files["T"]).max() < 1e-3
@@ -87,12 +80,9 @@ def test_cli_json_out_and_report(files):
 
 def test_cli_text_and_similarity(files):
     d = files["dir"]
-    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "global+similarity")
-    assert out.returncode == 0, out.stderr
+    out = run_camcmm("inspect", d / "photo.ply", "--nominal", d / "block.stl", "--align", "global+similarity")
     assert "converged" in out.stdout and "Sk" in out.stdout
-    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "global+similarity",
-                 "--json")
-    r = json.loads(out.stdout)
+    r = cli_json("inspect", d / "photo.ply", "--nominal", d / "block.stl", "--align", "global+similarity", "--json")
     assert r["converged"]
     assert r["scale"] == pytest.approx(1 / 0.4, rel=1e-4)  # the factor applied to the measured cloud
     assert np.abs(np.array(r["transform"]) - files["S"]).max() < 1e-2
@@ -100,37 +90,31 @@ def test_cli_text_and_similarity(files):
 
 def test_cli_pairs(files):
     d = files["dir"]
-    out = camcmm("inspect", str(d / "photo.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs+similarity",
-                 "--pairs", str(d / "pairs.json"), "--json")
-    assert out.returncode == 0, out.stderr
-    r = json.loads(out.stdout)
+    r = cli_json("inspect", d / "photo.ply", "--nominal", d / "block.stl", "--align", "pairs+similarity",
+                 "--pairs", d / "pairs.json", "--json")
     assert r["converged"] and r["scale"] == pytest.approx(1 / 0.4, rel=1e-4)
     assert r["alignment"]["stages"][0]["stage"] == "pairs"
 
 
 def test_cli_no_overlap_reports_failure(files):
     d = files["dir"]
-    out = camcmm("inspect", str(d / "far.ply"), "--nominal", str(d / "block.stl"), "--json")
-    assert out.returncode == 0, out.stderr
-    r = json.loads(out.stdout)
+    r = cli_json("inspect", d / "far.ply", "--nominal", d / "block.stl", "--json")
     assert r["converged"] is False and "no overlap" in r["reason"]
     assert any("did not converge" in w for w in r["warnings"])
-    out = camcmm("inspect", str(d / "far.ply"), "--nominal", str(d / "block.stl"))
+    out = run_camcmm("inspect", d / "far.ply", "--nominal", d / "block.stl", ok=False)
     assert "NOT CONVERGED" in out.stdout
 
 
 def test_cli_bad_input(files, tmp_path):
     d = files["dir"]
-    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs")
-    assert out.returncode == 2 and "--pairs" in out.stderr and len(out.stderr.strip().splitlines()) == 1
-    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(tmp_path / "missing.stl"))
-    assert out.returncode == 2 and "missing.stl" in out.stderr and len(out.stderr.strip().splitlines()) == 1
-    out = camcmm("inspect", str(d / "block.stl"), "--nominal", str(d / "block.stl"))
+    assert "--pairs" in cli_refused("inspect", d / "scan.ply", "--nominal", d / "block.stl", "--align", "pairs", code=2)
+    assert "missing.stl" in cli_refused("inspect", d / "scan.ply", "--nominal", tmp_path / "missing.stl", code=2)
+    out = run_camcmm("inspect", d / "block.stl", "--nominal", d / "block.stl", ok=False)
     assert out.returncode == 2 and "point cloud" in out.stderr
     bad = tmp_path / "pairs.json"
     bad.write_text("{not json")
-    out = camcmm("inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs+icp",
-                 "--pairs", str(bad))
+    out = run_camcmm("inspect", d / "scan.ply", "--nominal", d / "block.stl", "--align", "pairs+icp", "--pairs", bad,
+                     ok=False)
     assert out.returncode == 2 and "JSON" in out.stderr
 
 

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
 from camcmm.host import default_host
+from conftest import cli_json, cli_refused, run_camcmm
 
 
 @pytest.fixture(scope="module")
@@ -19,15 +18,8 @@ def plan(tmp_path_factory):
     return d / "plan.yaml"
 
 
-def camcmm(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "camcmm", *map(str, args)], capture_output=True, text=True,
-                          cwd=cwd, timeout=300)
-
-
 def test_verify_json(plan):
-    out = camcmm("verify", plan, "--json")
-    assert out.returncode == 0, out.stderr
-    res = json.loads(out.stdout)
+    res = cli_json("verify", plan, "--json")
     assert res["standard"] == "vdi2634-2" and res["verdict"] == "pass"
     assert set(res["parameters"]) == {"PF", "PS", "SD", "F"}
     for p in res["parameters"].values():
@@ -41,8 +33,7 @@ def test_verify_json(plan):
 
 
 def test_verify_text_and_report(plan, tmp_path):
-    out = camcmm("verify", plan, "--report", tmp_path / "rep", "--workers", 1)
-    assert out.returncode == 0, out.stderr
+    out = run_camcmm("verify", plan, "--report", tmp_path / "rep", "--workers", 1)
     assert out.stdout.startswith("VDI/VDE 2634 part 2: PASS")
     assert "Probing error form P_F" in out.stdout and "report:" in out.stdout
     for ext in ("html", "pdf", "json"):
@@ -62,12 +53,10 @@ def test_verify_text_and_report(plan, tmp_path):
 
 
 def test_verify_errors_are_one_line(tmp_path):
-    out = camcmm("verify", tmp_path / "nothere.yaml")
-    assert out.returncode == 2 and out.stderr.strip().endswith("plan file not found")
-    assert len(out.stderr.strip().splitlines()) == 1
+    assert cli_refused("verify", tmp_path / "nothere.yaml", code=2).strip().endswith("plan file not found")
     (tmp_path / "p.yaml").write_text("standard: vdi2634-2\nsystem: {measuring_volume: [1, 1]}\n")
-    out = camcmm("verify", tmp_path / "p.yaml", "--json")
+    out = run_camcmm("verify", tmp_path / "p.yaml", "--json", ok=False)
     assert out.returncode == 2 and "system.measuring_volume must be [x, y, z]" in out.stderr
     (tmp_path / "q.yaml").write_text("standard: iso9999\n")
-    out = camcmm("verify", tmp_path / "q.yaml")
+    out = run_camcmm("verify", tmp_path / "q.yaml", ok=False)
     assert out.returncode == 2 and "no plugin with id 'iso9999'" in out.stderr
