@@ -140,7 +140,10 @@ def _mc_form(v: Any, html: Any, page: Any) -> None:
                 style="font-family: monospace; font-size: 11px;", disabled=("unc_mc_running",),
                 raw_attrs=tid("unc-mc-spec"))
     with html.Div(classes="mt-2"):
-        param_form("unc_mc_fields", "unc_mc_params", "unc-mc", disabled="unc_mc_running")
+        # no hints or messages under the fields: one appearing on focus and going on blur
+        # moves the Run button under the pointer between mouse down and up (the click is
+        # lost); the server checks the values and names a wrong one in one line
+        param_form("unc_mc_fields", "unc_mc_params", "unc-mc", disabled="unc_mc_running", hide_details=True)
     v.VSelect(v_model=("unc_mc_studies", []), items=("unc_mc_study_options",), label="Studies",
               multiple=True, chips=True, density="compact", variant="outlined", hide_details=True,
               classes="mt-2", disabled=("unc_mc_running",), raw_attrs=tid("unc-mc-studies"))
