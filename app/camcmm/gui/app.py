@@ -18,7 +18,7 @@ import socket
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 from ..errors import CamcmmError
 from . import setup_offscreen
@@ -283,10 +283,35 @@ def add_serve_arguments(ap: Any) -> None:
     ap.add_argument("--keyfile", help="TLS private key (PEM) of --certfile")
 
 
-def serve_from_args(project: str | Path, args: Any, port: int, open_browser: bool = False) -> None:
-    """:func:`camcmm.gui.serve` with the options of :func:`add_serve_arguments`."""
-    from . import serve
+def serve(project_dir: str | Path, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
+          server_name: str = "camcmm", *, data_roots: Iterable[str | Path] = (), no_token: bool = False,
+          token_file: str | Path | None = None, allowed_origins: Iterable[str] = (),
+          certfile: str | None = None, keyfile: str | None = None) -> None:
+    """Open (or create) the project in ``project_dir`` and serve the GUI until stopped.
 
+    Prints ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once the server listens
+    (``port=0`` picks a free port). The token is random per launch, or read from
+    ``token_file`` / ``$CAMCMM_TOKEN``; ``no_token`` only on a loopback ``host``. The
+    browser reaches only the project folder and ``data_roots``. Bad options raise a
+    one-line :class:`~camcmm.errors.CamcmmError` before anything starts.
+    """
+    from .. import worker
+    from .pages import preload
+    from .roots import Roots
+    from .security import choose_token
+
+    token = choose_token(host, no_token=no_token, token_file=token_file)
+    Roots(project_dir, data_roots)  # a missing --data-root is refused before the project is made
+    preload()  # pages registered by the modules of $CAMCMM_GUI_PRELOAD
+    server, session = build(server_name, project_dir, data_roots=data_roots)
+    worker.warm_later(session.host)  # the plugin worker process starts while the page loads
+    start(server, host=host, port=port, open_browser=open_browser, token=token, allowed_origins=allowed_origins,
+          certfile=certfile, keyfile=keyfile)
+
+
+
+def serve_from_args(project: str | Path, args: Any, port: int, open_browser: bool = False) -> None:
+    """:func:`serve` with the options of :func:`add_serve_arguments`."""
     serve(project, host=args.host, port=port, open_browser=open_browser, data_roots=args.data_root,
           no_token=args.no_token, token_file=args.token_file, allowed_origins=args.allow_origin,
           certfile=args.certfile, keyfile=args.keyfile)

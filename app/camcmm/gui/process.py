@@ -27,7 +27,7 @@ class GuiProcess:
     ``data_roots``: folders the browser may reach besides the project; ``args``: more
     options of ``python -m camcmm.gui``; ``preload``: modules (names or ``.py`` paths)
     the server imports before it builds the app, e.g. one that registers a page of a
-    test (``$CAMCMM_GUI_PRELOAD``, see :mod:`camcmm.gui`)."""
+    test (``$CAMCMM_GUI_PRELOAD``, see :func:`camcmm.gui.pages.preload`)."""
 
     def __init__(self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = (),
                  preload: tuple = ()):

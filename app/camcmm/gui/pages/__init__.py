@@ -9,12 +9,19 @@ page touches no other page and not ``app.py``.
 
 The state variable ``page`` holds the key of the page shown; a page draws its content
 inside ``v_if="page === '<key>'"`` (see :func:`shown`).
+
+A page from outside camcmm (a lab's own, a browser test's) is registered by a module
+the server imports before it builds the app: ``$CAMCMM_GUI_PRELOAD`` names such
+modules (:func:`preload`; ``GuiProcess(preload=...)`` sets it).
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import os
 import pkgutil
+from pathlib import Path
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -66,6 +73,7 @@ def register(page: Page) -> Page:
 
 
 def unregister(key: str) -> None:
+    """Remove a :func:`register`-ed page (a test's, after it)."""
     _extra.pop(key, None)
 
 
@@ -82,9 +90,32 @@ def registered() -> list[Page]:
     return sorted(found.values(), key=lambda p: (p.order, p.key))
 
 
+PRELOAD = "CAMCMM_GUI_PRELOAD"
+
+
+def preload(entries: str | None = None) -> list[str]:
+    """Import the modules of ``entries`` (default ``$CAMCMM_GUI_PRELOAD``; names or
+    ``.py`` paths separated by ``os.pathsep``); returns their names. A module that
+    cannot be imported raises (the server must not start without a page it was told of)."""
+    text = os.environ.get(PRELOAD, "") if entries is None else entries
+    names = []
+    for entry in filter(None, (e.strip() for e in text.split(os.pathsep))):
+        if entry.endswith(".py"):
+            path = Path(entry)
+            spec = importlib.util.spec_from_file_location(f"camcmm_preload_{path.stem}", path)
+            if spec is None or spec.loader is None:
+                raise ImportError(f"{PRELOAD}: cannot load {entry}")
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            names.append(spec.name)
+        else:
+            names.append(importlib.import_module(entry).__name__)
+    return names
+
+
 def shown(key: str) -> str:
     """The ``v_if`` expression of a page's content: true while the page is shown."""
     return f"page === '{key}'"
 
 
-__all__ = ["Page", "register", "registered", "shown", "unregister"]
+__all__ = ["PRELOAD", "Page", "preload", "register", "registered", "shown", "unregister"]

@@ -1,28 +1,15 @@
-"""The "Inspect" page: the project's items in the 3D view, any plugin run from its form."""
+"""The "Inspect" page: the project's items in the 3D view, any plugin run from its form.
+
+``page.py`` holds the state and handlers (:class:`~.page.InspectPage`), ``form.py``
+the plugin form's fields, inputs and run arguments, ``results.py`` how a result reads
+(table, JSON, new items), ``layout.py`` the widgets (the drawer; the 3D view with its
+colour field and the result panel, shared with the pages that do not fill the area).
+"""
 
 from __future__ import annotations
 
-from typing import Any
-
 from .. import Page
+from .layout import build, drawer
+from .page import mount
 
-
-def _mount(server: Any, session: Any) -> Any:
-    from .page import mount
-
-    return mount(server, session)
-
-
-def _build(page: Any) -> None:
-    from .layout import build
-
-    build(page)
-
-
-def _drawer(page: Any) -> None:
-    from .layout import drawer
-
-    drawer(page)
-
-
-PAGE = Page("inspect", "Inspect", "mdi-cube-scan", _mount, _build, order=0, full=False, drawer=_drawer)
+PAGE = Page("inspect", "Inspect", "mdi-cube-scan", mount, build, order=0, full=False, drawer=drawer)
