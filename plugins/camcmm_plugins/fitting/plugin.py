@@ -7,6 +7,10 @@ outlier rule removed), for a deviation colour map. A mesh given as the cloud is 
 by its vertices, with a warning (see source.py). Errors are not prefixed with the
 cloud's name here: callers that fit many clouds (vdi2634) name them with their own
 context, and ``camcmm fit`` names its file.
+
+The parameters' defaults are in plugin.yaml only: the host always passes every
+declared parameter, validated, so the entry functions take them keyword-only without
+repeating a default that could drift.
 """
 
 from __future__ import annotations
@@ -60,20 +64,20 @@ def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nomin
     return out
 
 
-def fit_line(ctx, cloud, outliers: str = "none") -> dict[str, Any]:
+def fit_line(ctx, cloud, *, outliers: str) -> dict[str, Any]:
     return _fit(ctx, "line", cloud, outliers)
 
 
-def fit_plane(ctx, cloud, outliers: str = "none", method: str = "ls") -> dict[str, Any]:
+def fit_plane(ctx, cloud, *, outliers: str, method: str) -> dict[str, Any]:
     return _fit(ctx, "plane", cloud, outliers, method)
 
 
-def fit_circle(ctx, cloud, outliers: str = "none", nominal_radius: float | None = None) -> dict[str, Any]:
+def fit_circle(ctx, cloud, *, outliers: str, nominal_radius: float | None) -> dict[str, Any]:
     return _fit(ctx, "circle", cloud, outliers, nominal_radius=nominal_radius)
 
 
-def fit_sphere(ctx, cloud, outliers: str = "none", method: str = "ls", nominal_radius: float | None = None,
-               extract: bool = False) -> dict[str, Any]:
+def fit_sphere(ctx, cloud, *, outliers: str, method: str, nominal_radius: float | None,
+               extract: bool) -> dict[str, Any]:
     if extract:
         ctx.progress(0.02, "extracting the sphere")
         cloud = _input(ctx, cloud, "sphere")
@@ -86,12 +90,12 @@ def fit_sphere(ctx, cloud, outliers: str = "none", method: str = "ls", nominal_r
     return _fit(ctx, "sphere", cloud, outliers, method, nominal_radius)
 
 
-def fit_cylinder(ctx, cloud, outliers: str = "none", nominal_radius: float | None = None) -> dict[str, Any]:
+def fit_cylinder(ctx, cloud, *, outliers: str, nominal_radius: float | None) -> dict[str, Any]:
     return _fit(ctx, "cylinder", cloud, outliers, nominal_radius=nominal_radius)
 
 
-def segment_spheres(ctx, cloud, nominal_radius: float, n_spheres: int | None = None,
-                    tolerance: float | None = None, min_points: int = 30) -> dict[str, Any]:
+def segment_spheres(ctx, cloud, *, nominal_radius: float, n_spheres: int | None,
+                    tolerance: float | None, min_points: int) -> dict[str, Any]:
     """Split a ball-bar or ball-plate cloud into its spheres."""
     ctx.progress(0.05, "detecting spheres")
     cloud = _input(ctx, cloud, "sphere")
@@ -109,8 +113,8 @@ def segment_spheres(ctx, cloud, nominal_radius: float, n_spheres: int | None = N
     return out
 
 
-def segment_sphere(ctx, cloud, nominal_radius: float | None = None, tolerance: float | None = None,
-                   viewpoint: list[float] | None = None, cone_half_angle: float | None = None) -> dict[str, Any]:
+def segment_sphere(ctx, cloud, *, nominal_radius: float | None, tolerance: float | None,
+                   viewpoint: list[float] | None, cone_half_angle: float | None) -> dict[str, Any]:
     """Extract the sphere from a raw scan holding its mount and background."""
     ctx.progress(0.05, "extracting the sphere")
     cloud = _input(ctx, cloud, "sphere")
