@@ -1,5 +1,6 @@
 """Plugin entry points (``fn(ctx, **inputs, **params) -> dict``) of fringe.patterns,
-fringe.decode and fringe.reconstruct."""
+fringe.decode and fringe.reconstruct. The parameters' defaults are in plugin.yaml only
+(the host passes every declared parameter, validated), so they are keyword-only here."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from camcmm.api import RunContext
 from .sequence import load_sequence
 
 
-def patterns(ctx: RunContext, sequence: Any, dtype: str = "uint", out: str = "") -> dict[str, Any]:
+def patterns(ctx: RunContext, sequence: Any, *, dtype: str, out: str) -> dict[str, Any]:
     from .patterns import generate_patterns, save_patterns
 
     seq = load_sequence(sequence)
@@ -26,9 +27,9 @@ def _decode_kw(black_threshold, modulation_threshold, white_threshold, saturatio
                 white_threshold=white_threshold, saturation=saturation, boundary_correction=boundary_correction)
 
 
-def decode(ctx: RunContext, sequence: Any, images: Any, black_threshold: float = 0.0,
-           modulation_threshold: float = 0.0, white_threshold: float = 0.0, saturation: float = 0.0,
-           boundary_correction: str = "auto") -> dict[str, Any]:
+def decode(ctx: RunContext, sequence: Any, images: Any, *, black_threshold: float,
+           modulation_threshold: float, white_threshold: float, saturation: float,
+           boundary_correction: str) -> dict[str, Any]:
     from .decode import decode as run_decode
 
     ctx.progress(0.05, "decoding")
@@ -49,10 +50,10 @@ def _warn_orders(ctx: RunContext, dec, name: str) -> None:
                  "code nor their neighbours settle; a complementary Gray code (stripes of half the period) avoids this")
 
 
-def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, images2: Any = None,
-                black_threshold: float = 0.0, modulation_threshold: float = 0.0, white_threshold: float = 0.0,
-                saturation: float = 0.0, boundary_correction: str = "auto", method: str = "auto",
-                keep_phase: bool = False, triangulation: str = "auto") -> dict[str, Any]:
+def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, images2: Any = None, *,
+                black_threshold: float, modulation_threshold: float, white_threshold: float,
+                saturation: float, boundary_correction: str, method: str,
+                keep_phase: bool, triangulation: str) -> dict[str, Any]:
     from camcmm.api import InputError, PointCloud
 
     from .calib import check_image_size, load_calibration, pick_devices
