@@ -17,8 +17,19 @@ from importlib.util import find_spec
 from pathlib import Path
 from typing import Any
 
-from .blocks import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, FigureRow, KeyValues, Paragraph,
-                     Table, VerdictTable, Warning_, layout, provenance_blocks, text)
+from .blocks import (
+    CONTENT_WIDTH_MM,
+    FIGURE_GAP_MM,
+    FigureRow,
+    KeyValues,
+    Paragraph,
+    Table,
+    VerdictTable,
+    Warning_,
+    layout,
+    provenance_blocks,
+    text,
+)
 from .html import VERDICT_COLOURS
 
 MARGIN_MM = 20.0
@@ -146,7 +157,8 @@ class _Builder:
 
     # ----------------------------------------------------------------- blocks
     def table(self, columns: list[str], rows: list[list[Any]], align: list[str], caption: str = "") -> list:
-        from reportlab.platypus import CondPageBreak, Table as T
+        from reportlab.platypus import CondPageBreak
+        from reportlab.platypus import Table as T
         suffix = {"left": "", "right": "_r", "center": "_c"}
         styles = ["mono" if c.lower() in ("sha256", "sha-256", "hash") else "cell" + suffix[a]
                   for c, a in zip(columns, align)]
@@ -162,7 +174,7 @@ class _Builder:
         return out + [t, self._space(4)]
 
     def keyvalues(self, items: list[tuple[str, Any]], caption: str = "") -> list:
-        from reportlab.platypus import Table as T, TableStyle
+        from reportlab.platypus import Table as T
         data = [[self._p(k, "head"), self._p(v, "cell")] for k, v in items]
         w = self._widths(["", ""], [[k, v] for k, v in items], ["head", "cell"])
         kw = min(w[0], 0.4 * self.width)
@@ -173,7 +185,8 @@ class _Builder:
         return ([self._p(caption, "caption")] if caption else []) + [t, self._space(4)]
 
     def figure_row(self, row: FigureRow) -> list:
-        from reportlab.platypus import Image, Table as T, TableStyle
+        from reportlab.platypus import Image, TableStyle
+        from reportlab.platypus import Table as T
         mm = self.mm
         used = sum(f.width_mm for f in row.figures) + FIGURE_GAP_MM * (len(row.figures) - 1)
         scale = min(1.0, CONTENT_WIDTH_MM / used)
@@ -198,7 +211,9 @@ class _Builder:
 
     def _badge(self, word: str | None):
         """A verdict word on its colour, as a one-cell table (rounded corners)."""
-        from reportlab.platypus import Paragraph as P, Table as T, TableStyle
+        from reportlab.platypus import Paragraph as P
+        from reportlab.platypus import Table as T
+        from reportlab.platypus import TableStyle
         if word is None:  # this rule was not applied to this parameter
             return self._p(None, "cell_c")
         (bg, fg), label = VERDICT_COLOURS[word], word.upper()
@@ -211,7 +226,8 @@ class _Builder:
         return t
 
     def verdicts(self, vt: VerdictTable) -> list:
-        from reportlab.platypus import KeepTogether, Table as T
+        from reportlab.platypus import KeepTogether
+        from reportlab.platypus import Table as T
         mm = self.mm
         cols = vt.columns()
         head = [self._p("<i>U</i>" if c == "U" else html.escape(c),
@@ -248,7 +264,8 @@ class _Builder:
         return [KeepTogether([t]) if len(data) <= 12 else t, self._space(4)]
 
     def warning(self, w: Warning_) -> list:
-        from reportlab.platypus import Table as T, TableStyle
+        from reportlab.platypus import Table as T
+        from reportlab.platypus import TableStyle
         amber = self.colors.HexColor("#f0a500")
         t = T([[self._p(f'<font color="#8a5a00"><b>Warning:</b></font> {_x(w.text)}', "warn", markup=True)]],
               colWidths=[self.width], hAlign="LEFT")
@@ -279,7 +296,8 @@ class _Builder:
 
     # ----------------------------------------------------------------- document
     def story(self) -> list:
-        from reportlab.platypus import HRFlowable, Table as T, TableStyle
+        from reportlab.platypus import HRFlowable, TableStyle
+        from reportlab.platypus import Table as T
         r = self.report
         story: list = [self._p(r.title, "title")]
         if r.subtitle:

@@ -109,8 +109,8 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
     decoded = int(np.count_nonzero(dec1.mask))
     share = len(pts) / max(decoded, 1)
     if share < (0.2 if method == "stereo" else 0.5):
-        ctx.warn(f"only {100 * share:.1f} % of camera 1's {decoded} decoded pixels gave a 3-D point "
-                 f"({'no match on the rectified rows' if method == 'stereo' else 'rays along the stripes or behind a device'}); "
+        why = "no match on the rectified rows" if method == "stereo" else "rays along the stripes or behind a device"
+        ctx.warn(f"only {100 * share:.1f} % of camera 1's {decoded} decoded pixels gave a 3-D point ({why}); "
                  "check that the calibration belongs to these images")
     cloud = PointCloud(pts, fields=fields, field_units={"modulation": "grey levels", "quality": "",
                                                         "x_px": "px", "y_px": "px"},
