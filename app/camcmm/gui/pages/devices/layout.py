@@ -44,14 +44,18 @@ def _add(page: Any) -> None:
 
     v.VAlert(v_if="dev_error", text=("dev_error",), type="error", density="compact", closable=True,
              classes="mb-2", click_close="dev_error = ''", raw_attrs=tid("dev-error"))
-    html.Div("Add a device", classes="text-subtitle-2 mb-1")
+    # the buttons sit above their forms: a field's hint folds away when it loses focus, and a
+    # button below would move from under the pointer between press and release (a lost click)
+    with html.Div(classes="d-flex align-center mb-1"):
+        html.Div("Add a device", classes="text-subtitle-2")
+        v.VSpacer()
+        v.VBtn("Add and connect", prepend_icon="mdi-connection", color="primary", size="small",
+               disabled=("!dev_add_id",), click=(on_add, "[dev_add_id, dev_add_values]"), raw_attrs=tid("dev-add"))
     v.VSelect(model_value=("dev_add_id",), items=("dev_catalogue.filter(d => d.role !== 'sequence')",),
               item_title="title", item_value="id", label="Device plugin", density="compact",
               variant="outlined", hide_details=True, classes="mb-2",
               update_modelValue=(page.choose_plugin, "[$event]"), raw_attrs=tid("dev-add-plugin"))
     param_form("dev_add_fields", "dev_add_values", "dev-add", sync=True)
-    v.VBtn("Add and connect", prepend_icon="mdi-connection", color="primary", size="small", classes="mt-1",
-           disabled=("!dev_add_id",), click=(on_add, "[dev_add_id, dev_add_values]"), raw_attrs=tid("dev-add"))
 
 
 def _list(page: Any) -> None:
@@ -92,10 +96,12 @@ def _detail(page: Any) -> None:
         v.VAlert(v_if="d.state === 'fault'", text=("d.message",), type="error", density="compact",
                  classes="mb-2", raw_attrs=tid("dev-fault"))
         with html.Div(v_if="dev_settings_fields.length", classes="mb-2"):
-            html.Div("Settings", classes="text-subtitle-2 mb-1")
+            with html.Div(classes="d-flex align-center mb-1"):  # Apply above the fields, as Add
+                html.Div("Settings", classes="text-subtitle-2")
+                v.VSpacer()
+                v.VBtn("Apply", size="small", color="primary", variant="tonal",
+                       click=(page.apply_settings, "[d.key, dev_settings_values]"), raw_attrs=tid("dev-apply"))
             param_form("dev_settings_fields", "dev_settings_values", "dev-setting", sync=True)
-            v.VBtn("Apply", size="small", color="primary", variant="tonal",
-                   click=(page.apply_settings, "[d.key, dev_settings_values]"), raw_attrs=tid("dev-apply"))
         _camera(page)
         _stage(page)
         _projector(page)
@@ -176,13 +182,13 @@ def _sequences(page: Any) -> None:
               item_title="title", item_value="id", label="Sequence", density="compact", variant="outlined",
               hide_details=True, classes="mb-2", update_modelValue=(page.choose_sequence, "[$event]"),
               raw_attrs=tid("dev-seq-plugin"))
-    param_form("dev_seq_fields", "dev_seq_values", "dev-seq", sync=True)
-    with html.Div(classes="d-flex flex-wrap ga-1 mt-1"):
+    with html.Div(classes="d-flex flex-wrap ga-1 mb-2"):  # above the form, as Add
         v.VBtn("Start", size="small", color="primary", prepend_icon="mdi-play", disabled=("!dev_seq_id",),
                click=(page.start_sequence, "[dev_seq_id, dev_seq_values]"), raw_attrs=tid("dev-seq-start"))
         for action, icon in (("pause", "mdi-pause"), ("resume", "mdi-play-pause"), ("abort", "mdi-stop")):
             v.VBtn(action.capitalize(), size="small", variant="tonal", prepend_icon=icon, disabled=("!dev_seq",),
                    click=(page.sequence_action, f"['{action}']"), raw_attrs=tid(f"dev-seq-{action}"))
+    param_form("dev_seq_fields", "dev_seq_values", "dev-seq", sync=True)
     with v.VCard(v_if="dev_seq", variant="tonal", classes="mt-2", raw_attrs=tid("dev-seq-status")):
         with v.VCardText(classes="py-2"):
             html.Div("{{ dev_seq.name }}: {{ dev_seq.state }} — {{ dev_seq.label }} · {{ dev_seq.frames }} frames",
