@@ -36,7 +36,7 @@ def parse_options(options: Any) -> dict[str, Any]:
 
 
 class WizardSetup:
-    """The setup steps of :class:`~camcmm.gui.wizard.Wizard`."""
+    """The setup steps of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
 
     # -- standards and catalogue ---------------------------------------------------------
     def standards(self) -> list[dict[str, Any]]:

@@ -10,9 +10,8 @@ from typing import Any
 from camcmm.conformity import combine, simple_verdict
 from camcmm.errors import InputError
 
-#: One logger for the page, under the name it always had (logging set up for
-#: "camcmm.gui.wizard" keeps seeing every message).
-log = logging.getLogger("camcmm.gui.wizard")
+#: One logger for the whole page.
+log = logging.getLogger("camcmm.gui.pages.acceptance")
 
 
 def _blank(value: Any) -> bool:
