@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from camcmm.api import InputError
 
         raise InputError(f"{args.cloud}: not a point cloud")
-    res = gauge_block(None, cloud, args.nominal, ransac_threshold=args.ransac_threshold, up=args.up)
+    res = gauge_block(None, cloud, nominal=args.nominal, ransac_threshold=args.ransac_threshold, up=args.up)
     res.pop("labels")
     return res
 

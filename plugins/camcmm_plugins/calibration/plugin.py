@@ -2,7 +2,9 @@
 
 Outputs are JSON-able; ``calibration`` is the calibration in the layout of camcmm's
 JSON calibration file (cameras as mappings). ``save`` (a .yaml/.yml/.xml/.json path)
-also writes it with camcmm.api.write_calibration.
+also writes it with camcmm.api.write_calibration. Parameters are keyword-only and
+without defaults: plugin.yaml holds each default once, and the host passes every
+declared parameter validated.
 """
 
 from __future__ import annotations
@@ -61,8 +63,8 @@ def _write(path: str, cal: dict[str, Any]) -> str | None:
     return None
 
 
-def camera(ctx: RunContext, images, board: str, model: str = "standard", detector: str = "auto",
-           subpix_window: int = 5, outlier_factor: float = 3.0, save: str = "", max_rms: float = 1.0) -> dict[str, Any]:
+def camera(ctx: RunContext, images, *, board: str, model: str, detector: str,
+           subpix_window: int, outlier_factor: float, save: str, max_rms: float) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibrate_camera, calibration_dict, camera_json
 
@@ -80,9 +82,9 @@ def camera(ctx: RunContext, images, board: str, model: str = "standard", detecto
             "written": written}
 
 
-def stereo(ctx: RunContext, left, right, board: str, model: str = "standard", detector: str = "auto",
-           subpix_window: int = 5, outlier_factor: float = 3.0, fix_intrinsics: bool = False,
-           alpha: float = -1.0, save: str = "", max_rms: float = 1.0) -> dict[str, Any]:
+def stereo(ctx: RunContext, left, right, *, board: str, model: str, detector: str,
+           subpix_window: int, outlier_factor: float, fix_intrinsics: bool,
+           alpha: float, save: str, max_rms: float) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibration_dict as camera_dict
     from .stereo import calibrate_stereo, calibration_dict, stereo_json
@@ -124,8 +126,8 @@ def rectify(ctx: RunContext, calibration, left, right) -> dict[str, Any]:
             "image_size": list(size)}
 
 
-def projection_uncertainty(ctx: RunContext, calibration, distance: float, columns: int = 32, rows: int = 24,
-                           method: str = "mrcal") -> dict[str, Any]:
+def projection_uncertainty(ctx: RunContext, calibration, *, distance: float, columns: int, rows: int,
+                           method: str) -> dict[str, Any]:
     from .projection import projection_uncertainty as pu
 
     out = pu(load_calibration(calibration), distance, grid=(columns, rows), method=method)
@@ -154,8 +156,8 @@ def _pixels(value: Any) -> np.ndarray:
         raise InputError("pixels: expected a (cameras, points, 2) array of numbers") from None
 
 
-def triangulate(ctx: RunContext, calibration, pixels, method: str = "optimal", pixel_sigma: float = 0.0,
-                calibration_covariance: bool = True) -> dict[str, Any]:
+def triangulate(ctx: RunContext, calibration, pixels, *, method: str, pixel_sigma: float,
+                calibration_covariance: bool) -> dict[str, Any]:
     from .triangulation import triangulate as tri
 
     cal = load_calibration(calibration)
@@ -171,8 +173,8 @@ def triangulate(ctx: RunContext, calibration, pixels, method: str = "optimal", p
     return res
 
 
-def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float | None = None,
-          calibration=None, save: str = "") -> dict[str, Any]:
+def scale(ctx: RunContext, interferometer, calibration=None, *, accuracy: float, length: float | None,
+          save: str) -> dict[str, Any]:
     from .scale import apply_scale, read_interferometer_csv, scale_factor
 
     data = read_interferometer_csv(interferometer)
@@ -188,8 +190,8 @@ def scale(ctx: RunContext, interferometer, accuracy: float = 5e-7, length: float
     return res
 
 
-def gauge_block(ctx: RunContext, cloud, nominal: float, ransac_threshold: float | None = None,
-                up: list | None = None) -> dict[str, Any]:
+def gauge_block(ctx: RunContext, cloud, *, nominal: float, ransac_threshold: float | None,
+                up: list | None) -> dict[str, Any]:
     from .gauge import gauge_block as gb
 
     res = gb(cloud.points, nominal, up=up, ransac_threshold=ransac_threshold)

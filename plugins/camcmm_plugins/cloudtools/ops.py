@@ -1,4 +1,5 @@
-"""Entry callables of the cloudtools plugins: thin wrappers over Open3D."""
+"""Entry callables of the cloudtools plugins: thin wrappers over Open3D. Parameters are
+keyword-only without defaults (plugin.yaml holds them; the host passes them all)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import open3d as o3d
 from camcmm.api import GeometryError, PointCloud, RunContext
 
 
-def downsample(ctx: RunContext, cloud: PointCloud, voxel_size: float) -> dict:
+def downsample(ctx: RunContext, cloud: PointCloud, *, voxel_size: float) -> dict:
     """Voxel-grid downsampling: every occupied voxel of edge ``voxel_size`` mm becomes
     the centroid of its points (colours and normals averaged; scalar fields dropped)."""
     out = cloud.to_open3d().voxel_down_sample(voxel_size)
@@ -16,7 +17,7 @@ def downsample(ctx: RunContext, cloud: PointCloud, voxel_size: float) -> dict:
     return {"cloud": result, "n_points": result.n_points}
 
 
-def denoise(ctx: RunContext, cloud: PointCloud, neighbours: int, std_ratio: float) -> dict:
+def denoise(ctx: RunContext, cloud: PointCloud, *, neighbours: int, std_ratio: float) -> dict:
     """Statistical outlier removal; keeps all per-point data of the kept points."""
     if cloud.n_points <= neighbours:
         raise GeometryError(f"{cloud.name}: {cloud.n_points} points, need more than {neighbours} neighbours")
@@ -25,7 +26,7 @@ def denoise(ctx: RunContext, cloud: PointCloud, neighbours: int, std_ratio: floa
     return {"cloud": cloud.subset(kept), "n_removed": cloud.n_points - len(kept)}
 
 
-def normals(ctx: RunContext, cloud: PointCloud, neighbours: int, viewpoint=None) -> dict:
+def normals(ctx: RunContext, cloud: PointCloud, *, neighbours: int, viewpoint) -> dict:
     """Unit normals of the local least-squares plane through the ``neighbours`` nearest
     points, oriented towards ``viewpoint`` (mm) or away from the cloud's centroid."""
     if cloud.n_points < 3:
