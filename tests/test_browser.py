@@ -10,8 +10,8 @@ Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default: the system temp folder).
 from __future__ import annotations
 
 import io
-import sys
 import re
+import sys
 import time
 from pathlib import Path
 

@@ -28,6 +28,7 @@ from camcmm.gui.view import DISPLAY_LIMIT, SOLID  # noqa: E402
 from camcmm.host import PluginHost  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 
+
 def sphere_cloud(n: int = 4000, radius: float = 10.0, seed: int = 0) -> PointCloud:
     """Points on a sphere with a signed ``deviation`` field in mm."""
     rng = np.random.default_rng(seed)

@@ -17,7 +17,6 @@ import subprocess
 import sys
 import urllib.error
 import urllib.request
-from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -356,11 +355,13 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
         (tree.proj / "boards").symlink_to(tree.outside)  # a link in the project to a folder elsewhere
         assert asyncio.run(page.run_async({**req, "folder": str(tree.proj / "boards")})) is None
         assert "outside the folders" in state.cal_error
-        assert asyncio.run(page.run_async({**req, "folder": str(tree.data)})) is None  # allowed, but holds no board images
+        # allowed, but holds no board images
+        assert asyncio.run(page.run_async({**req, "folder": str(tree.data)})) is None
         assert "no image files" in state.cal_error and "outside" not in state.cal_error
 
         # and a device that reads a file (the CSV interferometer): the same folders
-        assert server.pages["devices"].add("devices.interferometer.csv", {"path": str(tree.outside / "secret.xyz")}) is None
+        secret = {"path": str(tree.outside / "secret.xyz")}
+        assert server.pages["devices"].add("devices.interferometer.csv", secret) is None
         assert "parameter 'path'" in state.dev_error and "outside the folders" in state.dev_error, state.dev_error
         assert SECRET not in state.dev_error
     finally:

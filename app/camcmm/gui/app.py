@@ -16,14 +16,16 @@ import asyncio
 import os
 import socket
 import sys
+from collections.abc import Iterable
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from ..errors import CamcmmError
 from . import setup_offscreen
 from .pages import shown
 from .widgets import accepted_extensions, tid
+
 
 def open_project(project_dir: str | Path) -> Any:
     from ..project import Project

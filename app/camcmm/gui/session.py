@@ -24,8 +24,9 @@ import shutil
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -175,7 +176,7 @@ class Session:
         except CamcmmError:
             raise
         except Exception as exc:
-            raise InputError(f"{m.get('name', key)}: cannot load from the project: {type(exc).__name__}: {exc}") from exc
+            raise InputError(one_line(exc, f"{m.get('name', key)}: cannot load from the project")) from exc
         self._objects[key] = obj
         self._summary[key] = f"{kind_of(obj)} · {describe(obj)}"
         return obj

@@ -21,9 +21,10 @@ import importlib
 import importlib.util
 import os
 import pkgutil
-from pathlib import Path
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,8 @@ filled in. Pure functions of a plugin spec and plain data (no state, no widgets)
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from ....errors import PluginError
 from ....host import to_jsonable

@@ -147,7 +147,8 @@ def _result_panel() -> None:
             with v.VExpansionPanels(classes="mt-2"):
                 with v.VExpansionPanel(title="Result JSON (as stored)"):
                     with v.VExpansionPanelText():
-                        html.Pre("{{ JSON.stringify(result, null, 2) }}", style="font-size: 11px; white-space: pre-wrap;")
+                        html.Pre("{{ JSON.stringify(result, null, 2) }}",
+                                 style="font-size: 11px; white-space: pre-wrap;")
 
 
 def build(page: Any) -> None:
