@@ -53,6 +53,10 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             page.wait_for_selector('[data-testid="dev-state-sim-camera"]')
             page.click('[data-testid="dev-grab"]')
             page.wait_for_selector('[data-testid="dev-live-image"]')
+            # a click right after typing reaches the server (the field's hint folds away on blur)
+            page.fill('[data-testid="dev-setting-timeout_s"] input', "3")  # a field with a hint
+            page.click('[data-testid="dev-apply"]')
+            page.locator(".v-snackbar", has_text="sim-camera' on simulated: settings applied").wait_for()
             choose(page, "dev-seq-plugin", "Fringe sequence capture")
             page.click('[data-testid="dev-seq-start"]')
             state = page.locator('[data-testid="dev-seq-state"]')
