@@ -298,8 +298,9 @@ def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", leve
 
 
 # --------------------------------------------------------------------------- what a viewer shows
-def bands(ctx, deviations, tolerance: float | None = None) -> dict[str, Any]:
-    """inspect.bands: each point of a deviations cloud below, within or above ±tolerance."""
+def bands(ctx, deviations, *, tolerance: float | None) -> dict[str, Any]:
+    """inspect.bands: each point of a deviations cloud below, within or above ±tolerance.
+    The parameters' defaults are the manifest's (the host passes every one)."""
     if not tolerance:
         raise ParameterError("tolerance: give the tolerance (mm, > 0) the bands are drawn for")
     codes = disp.band_codes(disp.deviation_field(deviations), tolerance)
@@ -307,9 +308,11 @@ def bands(ctx, deviations, tolerance: float | None = None) -> dict[str, Any]:
     return {"codes": codes, "counts": counts, "within": disp.within_share(counts)}
 
 
-def section(ctx, deviations, nominal=None, axis: str = "z", position: float | None = None,
-            half_width: float | None = None, max_points: int = 6000, seed: int = 0) -> dict[str, Any]:
-    """inspect.section: a plane across an axis cutting the nominal and the deviations cloud."""
+def section(ctx, deviations, nominal=None, *, axis: str, position: float | None, half_width: float | None,
+            max_points: int, seed: int) -> dict[str, Any]:
+    """inspect.section: a plane across an axis cutting the nominal and the deviations cloud
+    (``position`` None: the middle of the cloud; ``half_width`` None: half its median
+    point spacing, returned as ``spacing``)."""
     dev = disp.deviation_field(deviations)
     ax = disp.AXES.index(axis)
     if position is None:
