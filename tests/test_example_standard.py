@@ -21,7 +21,7 @@ import pytest
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 from camcmm.api import Standard, write  # noqa: E402
-from camcmm.host import PluginHost, default_host  # noqa: E402
+from camcmm.host import PluginHost  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,8 +38,11 @@ def _entry_points() -> list[md.EntryPoint]:
 
 @pytest.fixture
 def host(monkeypatch):
+    installed = set(PluginHost().plugins)  # before the folder is on sys.path (a build's egg-info there counts)
     monkeypatch.syspath_prepend(str(EXAMPLE))
-    return PluginHost(entry_points=_entry_points())
+    lab = PluginHost(entry_points=_entry_points())
+    lab.installed_before = installed
+    return lab
 
 
 def block_cloud(direction, length: float) -> PointCloud:
@@ -56,7 +59,7 @@ def block_cloud(direction, length: float) -> PointCloud:
 
 def test_found_only_by_its_entry_point(host):
     assert "lab-1" in host.plugins and host.get("lab-1").kind == "standard"
-    assert "lab-1" not in default_host().plugins  # not installed here: only the entry point above finds it
+    assert "lab-1" not in host.installed_before  # not installed here: only the entry point above finds it
     for path in (ROOT / "app" / "camcmm").rglob("*.py"):  # and camcmm does not name it
         text = path.read_text(errors="replace")
         assert "lab-1" not in text and "camcmm_lab_standard" not in text, path

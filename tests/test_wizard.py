@@ -28,11 +28,9 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 cio = pytest.importorskip("camcmm.io")
 
+from camcmm.api import ArtefactField, ArtefactKind, PositionSpec, QualityParameter, StandardDeclaration, TestDeclaration  # noqa: E402
 from camcmm.errors import GeometryError, InputError  # noqa: E402
-from camcmm.api import (ArtefactField, ArtefactKind, PositionSpec, QualityParameter,  # noqa: E402
-                        StandardDeclaration, TestDeclaration)
-from camcmm.gui.pages.acceptance import (STATE_KEY, Wizard, artefact_plan_fields, load_catalogue,  # noqa: E402
-                                         plan_fields_to_artefact)
+from camcmm.gui.pages.acceptance import STATE_KEY, Wizard, artefact_plan_fields, load_catalogue, plan_fields_to_artefact  # noqa: E402
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 from camcmm.project import Project  # noqa: E402
@@ -392,7 +390,7 @@ def test_full_part2_test_with_redo_bad_file_restart_and_report(tmp_path, kit):
     # the report: one call; its files are in the project
     out = w2.report()
     assert set(out["paths"]) == {"html", "pdf", "json"}
-    for kind, path in out["paths"].items():
+    for _kind, path in out["paths"].items():
         assert Path(path).is_file() and Path(path).stat().st_size > 0
         assert str(path).startswith(str(project2.path))
     res = project2.result(out["summary_result"])
@@ -495,7 +493,7 @@ def test_pictograms_are_svg_for_every_position():
     plan = {"system": {"measuring_volume": VOLUME}, "artefacts": ARTEFACTS}
     svgs = pictograms(reqs, plan)
     assert len(svgs) == 23
-    for key, svg in svgs.items():
+    for _key, svg in svgs.items():
         root = ET.fromstring(svg)
         assert root.tag.endswith("svg") and root.get("viewBox")
         assert any(el.tag.endswith(("circle", "polygon")) for el in root.iter())
@@ -511,7 +509,7 @@ def test_pictograms_are_svg_for_every_position():
     if _real_available():
         for sid in ("vdi2634-2", "vdi2634-3"):
             std = default_host().load(sid)
-            for key, svg in pictograms(std.requirements(None), plan).items():
+            for _key, svg in pictograms(std.requirements(None), plan).items():
                 ET.fromstring(svg)
 
 

@@ -96,7 +96,7 @@ class ParameterResult:
 
     @classmethod
     def judge(cls, parameter: Any, rows: list[dict[str, Any]], mpe: float, U: float = 0.0,
-              required: int = 0) -> "ParameterResult":
+              required: int = 0) -> ParameterResult:
         """Judge ``rows`` (``{"value", ...}``; ``value`` None for a failed measurement) of
         ``parameter`` (a :class:`camcmm.standard.QualityParameter`): the largest value
         (largest magnitude, sign kept, when ``parameter.signed``), both verdicts;

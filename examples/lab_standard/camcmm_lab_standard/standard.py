@@ -7,8 +7,21 @@ from pathlib import Path
 
 import numpy as np
 
-from camcmm.api import (ArtefactField, ArtefactKind, InputError, ParameterResult, PointCloud, PositionEvaluation,
-                        PositionSpec, QualityParameter, Report, StandardDeclaration, TestDeclaration, TestResult, read)
+from camcmm.api import (
+    ArtefactField,
+    ArtefactKind,
+    InputError,
+    ParameterResult,
+    PointCloud,
+    PositionEvaluation,
+    PositionSpec,
+    QualityParameter,
+    Report,
+    StandardDeclaration,
+    TestDeclaration,
+    TestResult,
+    read,
+)
 
 E = QualityParameter("E", "E", "Length error E", signed=True, help="measured minus calibrated length")
 BLOCK = ArtefactKind("gauge_block", "Gauge block", (

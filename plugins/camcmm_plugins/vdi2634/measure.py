@@ -198,7 +198,8 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
     if mpe and np.isfinite(u_len) and u_len > 0.1 * mpe:
         worst = min(range(2), key=lambda k: fits[k]["n_points"])
         warnings.append(f"{name}: the length is uncertain by {u_len:.4f} mm (more than 1/10 of MPE SD): sphere "
-                        f"{worst + 1} is seen on {fits[worst]['n_points']} points only; turn the bar towards the sensor")
+                        f"{worst + 1} is seen on {fits[worst]['n_points']} points only; "
+                        "turn the bar towards the sensor")
     return {"test": "ball_bar", "outliers": rule, "scale": s, "scaling": mode, "n_points": cloud.n_points,
             "n_assigned": int(sum(len(p) for p in parts)), "spheres": [_sphere_summary(f, s) for f in fits],
             "length": l_a, "length_calibrated": l_ref, "u_length": u_len, "values": {"SD": l_a - l_ref},

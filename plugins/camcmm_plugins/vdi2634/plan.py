@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from camcmm.api import Artefact, Certificate, InputError, read_yaml, to_mm_factor
 
 TESTS = ("sphere", "ball_bar", "flat", "ball_plate")
@@ -206,7 +207,8 @@ def _rules(w: _Where, value: Any, tests: list[str]) -> dict[str, str]:
             raise w.fail(f"outliers.{test}", f"is not a test; use {', '.join(TESTS)}")
         text = str(rule).strip().lower()
         if not _RULE.match(text):
-            raise w.fail(f"outliers.{test}", f"{rule!r} is not an outlier rule; use none, vdi2634, percent:P or sigma:K")
+            raise w.fail(f"outliers.{test}",
+                         f"{rule!r} is not an outlier rule; use none, vdi2634, percent:P or sigma:K")
         out[test] = text
     return out
 
@@ -270,7 +272,7 @@ def load(source: Any, standard: str | None = None) -> Plan:
     vol = np.array([_num(w, v, f"system.measuring_volume[{i}]") for i, v in enumerate(vol)])
     mpe_d = _mapping(w, doc.get("mpe") or {}, "mpe")
     mpe = {}
-    for key, v in mpe_d.items():
+    for key in mpe_d:
         if key not in PARAMETERS:
             raise w.fail(f"mpe.{key}", f"is not a quality parameter; use {', '.join(PARAMETERS)}")
         mpe[key] = _number(w, mpe_d, key, "mpe")

@@ -80,7 +80,8 @@ def _system_section(r, result: dict[str, Any]) -> None:
         for name, v in art["nominal"].items():
             if name not in art["certificates"] and isinstance(v, (int, float)) and not isinstance(v, bool):
                 rows.append([test.replace("_", " "), f"{CERT_NAMES.get(name, name)} (nominal)", v, None, None])
-    s.table(["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows, caption="Artefacts and calibration certificates")
+    s.table(["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows,
+            caption="Artefacts and calibration certificates")
     checks = result.get("artefact_checks") or []
     if checks:
         s.table(["Artefact", "Rule", "Value [mm]", "Limit", "Met"],

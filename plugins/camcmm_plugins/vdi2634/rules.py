@@ -51,8 +51,9 @@ def _small(artefact: str, what: str, v: float, mpe: float | None, param: str) ->
     if mpe is None:
         return None
     lim = SUBSTANTIAL * mpe
-    return _check(artefact, f"{what} substantially less than MPE {param}", v, f"<= {SUBSTANTIAL:g} x MPE = {lim:.4g} mm",
-                  v <= lim, f"{artefact}: {what} {v:.4g} mm is not substantially less than MPE {param} = {mpe:g} mm "
+    return _check(artefact, f"{what} substantially less than MPE {param}", v,
+                  f"<= {SUBSTANTIAL:g} x MPE = {lim:.4g} mm", v <= lim,
+                  f"{artefact}: {what} {v:.4g} mm is not substantially less than MPE {param} = {mpe:g} mm "
                   f"(taken as <= {lim:.4g} mm); the artefact takes a large share of the error")
 
 
@@ -71,8 +72,8 @@ def check(plan: Plan, tests: list[str]) -> list[dict[str, Any]]:
         out.append(_at_least("ball bar", "length", length, 0.3 * l0, f"0.3 L0 (L0 = {l0:.4g} mm)"))
         ds = plan.value("ball_bar", "sphere_diameter")
         out.append(_between("ball bar", "sphere diameter", ds, 0.02 * l0, 0.2 * l0, l0, 0.02, 0.2))
-        out.append(_small("ball bar", "length uncertainty U", plan.certificate("ball_bar", "length").expanded_uncertainty,
-                          plan.mpe.get("SD"), "SD"))
+        u_length = plan.certificate("ball_bar", "length").expanded_uncertainty
+        out.append(_small("ball bar", "length uncertainty U", u_length, plan.mpe.get("SD"), "SD"))
     if "flat" in tests and "flat" in plan.artefacts:
         out.append(_at_least("flat", "width", plan.value("flat", "width"), 50.0, "50 mm"))
         out.append(_at_least("flat", "length", plan.value("flat", "length"), 0.5 * l0, f"0.5 L0 (L0 = {l0:.4g} mm)"))

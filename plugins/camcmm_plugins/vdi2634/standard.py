@@ -27,12 +27,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from camcmm.api import (
+    CamcmmError,
+    InputError,
+    PointCloud,
+    RunContext,
+    StandardDeclaration,
+    combine,
+    default_host,
+    guarded_verdict,
+    simple_verdict,
+)
 
-from camcmm.api import (CamcmmError, InputError, PointCloud, RunContext, StandardDeclaration, combine, default_host,
-                        guarded_verdict, simple_verdict)
-
-from . import declaration, describe, measure, pictograms as drawings, plan as plans, positions, report, rules
-from . import uncertainty
+from . import declaration, describe, measure, positions, report, rules, uncertainty
+from . import pictograms as drawings
+from . import plan as plans
 from .plain import plain
 
 INCOMPLETE = "incomplete"
@@ -206,7 +215,7 @@ class Standard:
         checks = rules.check(p, [s.test for s in specs])
         warnings = [c["text"] for c in checks if not c["ok"]]
         per = {s.test: list(per_measurement.get(s.test) or []) for s in specs}
-        for test, evs in per.items():
+        for evs in per.values():
             for ev in evs:
                 warnings += [w for w in ev.get("warnings") or []]
                 if ev.get("error"):

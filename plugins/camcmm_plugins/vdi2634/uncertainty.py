@@ -86,7 +86,8 @@ def spacing(plan: Plan, test: str) -> dict[str, Any]:
         per = [_result(_plate_length(plan, i), "") for i in (1, 2, 3)]
         worst = max(range(3), key=lambda i: per[i]["U"])
         out = per[worst]
-        out["basis"] = f"calibrated lengths and the scaling ({plan.scaling.get('ball_plate', 'none')}); largest of L1-L3"
+        mode = plan.scaling.get('ball_plate', 'none')
+        out["basis"] = f"calibrated lengths and the scaling ({mode}); largest of L1-L3"
         out["per_length"] = [p["U"] for p in per]
         return out
     c = {"L_r": _u(plan.certificate("ball_bar", "length"))}

@@ -72,7 +72,8 @@ class WizardImport:
             raise InputError(f"{position}: repeat {repeat} is outside 1..{len(slots)}")
         return PendingEvaluation(test, position, int(repeat), started=utcnow())
 
-    def evaluate(self, job: PendingEvaluation, source: str | Path | bytes, name: str | None = None) -> PendingEvaluation:
+    def evaluate(self, job: PendingEvaluation, source: str | Path | bytes, name: str | None = None
+                 ) -> PendingEvaluation:
         """Read the file and evaluate it with the standard. Thread-safe: touches neither
         the store nor the wizard's state. Raises a one-line CamcmmError naming the file."""
         if isinstance(source, (bytes, bytearray, memoryview)):

@@ -115,8 +115,9 @@ def _card(v: Any, html: Any, accept: str, on_upload, on_redo, on_show, on_acquir
                          accept=accept, density="compact", variant="outlined", hide_details=True,
                          prepend_icon="", prepend_inner_icon="mdi-file-import",
                          update_modelValue=(on_upload, "[c.test, c.id, $event]"),
-                         raw_attrs=tid("card-file") + [':key="c.key + \'-\' + (c.repeats.map(r => r.measurement).join())'
-                                                        ' + \'-\' + c.error"'])
+                         raw_attrs=tid("card-file") + [':key="c.key + \'-\' + '
+                                                       '(c.repeats.map(r => r.measurement).join())'
+                                                       ' + \'-\' + c.error"'])
         with v.VCardActions(v_if="c.status === 'done' || c.status === 'partial'", classes="py-1"):
             v.VBtn("Show", size="small", variant="text", prepend_icon="mdi-palette",
                    click=(on_show, "[c.test, c.id]"), raw_attrs=tid("card-show"))

@@ -167,7 +167,8 @@ class WizardSetup:
             raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
         with self._lock:
             self._archive()
-            sid = self.project.add_system(plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"],
+            system = plan["system"]
+            sid = self.project.add_system(system["name"], {"measuring_volume": system["measuring_volume"],
                                                                   "standard": standard})
             art_ids = {}
             for test, entry in plan["artefacts"].items():
