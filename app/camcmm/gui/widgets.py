@@ -62,6 +62,10 @@ def param_form(fields: str, values: str, testid: str, *, disabled: str = "false"
     ident = dyn_tid(f"'{testid}-' + {f}.name")
 
     def bind(**kw: Any) -> dict[str, Any]:
+        # A hint shown only while a field has focus folds away on blur and moves what lies
+        # below it: a click on a button there, right after typing, would land on nothing.
+        # Shown always, the form keeps its shape (hide_details=True hides hints entirely).
+        kw.setdefault("persistent_hint", True)
         if sync:
             kw.update(model_value=(f"{values}[{f}.name]",), update_modelValue=assign(values, f"{f}.name"))
         else:
