@@ -85,8 +85,6 @@ def test_schema_absent_is_1_and_a_newer_schema_is_refused():
 def test_builtin_manifests_declare_schema_1_and_no_version():
     # a plugin's version is its distribution's (one number to bump at a release)
     for path in sorted((ROOT / "plugins" / "camcmm_plugins").glob("*/plugin.yaml")):
-        if path.parent.name == "vdi2634":
-            continue  # owned by the standard's rework; follows in its own commit
         doc = yaml.safe_load(path.read_text())
         assert doc.get("schema") == 1, path
         assert not [p["id"] for p in doc["plugins"] if "version" in p], path
