@@ -19,7 +19,7 @@ def test_every_device_entry_loads():
     devices = [s for s in host.all() if s.id.startswith("devices.")]
     assert len(devices) >= 16
     for spec in devices:
-        assert spec.kind == "device" and spec.extra.get("role") in ROLES, spec.id
+        assert spec.kind == "device" and spec.role in ROLES, spec.id
         host.load(spec.id)  # GenICam's module imports without harvesters installed
         assert spec.status == "ok", (spec.id, spec.status)
 

@@ -52,11 +52,6 @@ _ENTRY = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 #: Keys of a plugin entry (docs/manifest.md); others go to ``extra`` with a warning.
 KEYS = ("id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs", "provides",
         "role", "simulated", "acquires", "needs", "report")
-#: Declared keys also kept in ``extra`` while readers move to the attributes (remove
-#: once nothing reads ``spec.extra["role"]`` and friends).
-_ALSO_IN_EXTRA = ("role", "simulated", "acquires", "needs", "report")
-
-
 @dataclass
 class Port:
     """A declared input or output: name, type, unit, help; ``optional`` inputs may be omitted."""
@@ -233,7 +228,7 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
         outputs=[_port(p, where) for p in d.get("outputs") or []],
         distribution=distribution,
         **declared,
-        extra={k: v for k, v in d.items() if k in unknown or k in _ALSO_IN_EXTRA},
+        extra={k: v for k, v in d.items() if k in unknown},
         warnings=warnings,
     )
 

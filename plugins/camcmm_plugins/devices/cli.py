@@ -46,8 +46,8 @@ def run(args: argparse.Namespace) -> dict[str, Any] | None:
     from camcmm.api import default_host
 
     host = default_host()
-    devices = [{"id": s.id, "role": s.extra.get("role", ""), "name": s.name, "status": s.status,
-                "simulated": bool(s.extra.get("simulated", False)), "summary": s.summary}
+    devices = [{"id": s.id, "role": s.role or "", "name": s.name, "status": s.status,
+                "simulated": bool(s.simulated), "summary": s.summary}
                for s in host.all() if s.kind == "device"]
     out: dict[str, Any] = {"devices": devices}
     if args.ports:

@@ -28,7 +28,7 @@ def acquisition_sources(host: Any) -> list[dict[str, Any]]:
     except Exception:
         return out
     for p in specs:
-        if p.kind == "algorithm" and p.extra.get("acquires") == "pointcloud":
+        if p.kind == "algorithm" and p.acquires == "pointcloud":
             out.append({"title": p.name, "value": p.id, "summary": p.summary})
     return out
 

@@ -200,7 +200,7 @@ class Export:
         """The report writer the comparison plugin's manifest declares (``report:
         module:function``)."""
         spec = self._spec_of()
-        declared = getattr(spec, "report", None) or spec.extra.get("report")
+        declared = spec.report
         if not declared:
             raise PluginError(f"plugin {spec.id!r} declares no report writer ('report: module:function')")
         module, _, name = str(declared).partition(":")
