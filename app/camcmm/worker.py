@@ -108,6 +108,7 @@ def _child() -> None:
     sys.path[:] = path
     cancel = threading.Event()
     current = [0]
+    asked = [0]  # the latest run a cancel was asked for: it may overtake the run it names
 
     def listen() -> None:  # cancel requests arrive while the main thread computes
         while True:
@@ -115,6 +116,7 @@ def _child() -> None:
                 n = ctl.recv()
             except (EOFError, OSError):
                 return
+            asked[0] = max(asked[0], n)
             if n == current[0]:
                 cancel.set()
 
@@ -139,6 +141,8 @@ def _child() -> None:
         n, plugin_id, inputs, params = msg
         cancel.clear()
         current[0] = n
+        if asked[0] >= n:  # cancelled before it arrived here (a worker still starting)
+            cancel.set()
         last = [0.0]
         sending = threading.Lock()  # a plugin may report progress from threads of its own
 
