@@ -19,8 +19,18 @@ RIGHT = [str(p) for p in sorted(DATA.glob("right*.jpg"))]
 
 
 def test_calibrate_camera_json_and_file(tmp_path):
-    out = cli_json("calibrate", "camera", *LEFT, "--board", "chessboard:9x6:25", "--detector", "classic",
-                   "--out", tmp_path / "left.yaml", "--json")
+    out = cli_json(
+        "calibrate",
+        "camera",
+        *LEFT,
+        "--board",
+        "chessboard:9x6:25",
+        "--detector",
+        "classic",
+        "--out",
+        tmp_path / "left.yaml",
+        "--json",
+    )
     for key in ("camera_matrix", "dist_coeffs", "rms", "std_intrinsics", "per_view_rms", "image_size", "rejected"):
         assert key in out
     k = np.array(out["camera_matrix"])
@@ -33,14 +43,37 @@ def test_calibrate_camera_json_and_file(tmp_path):
     np.testing.assert_allclose(fs.getNode("camera_matrix").mat(), k)
     fs.release()
     # the heat map from the written file, through the plugin host
-    pu = cli_json("run", "calibration.projection-uncertainty", tmp_path / "left.yaml", "--distance", "400",
-                  "--columns", "8", "--rows", "6", "--json")
+    pu = cli_json(
+        "run",
+        "calibration.projection-uncertainty",
+        tmp_path / "left.yaml",
+        "--distance",
+        "400",
+        "--columns",
+        "8",
+        "--rows",
+        "6",
+        "--json",
+    )
     assert np.array(pu["outputs"]["map"]).shape == (6, 8)
 
 
 def test_calibrate_stereo_json(tmp_path):
-    out = cli_json("calibrate", "stereo", "--left", *LEFT, "--right", *RIGHT, "--board", "chessboard:9x6:25",
-                   "--detector", "classic", "--out", tmp_path / "stereo.json", "--json")
+    out = cli_json(
+        "calibrate",
+        "stereo",
+        "--left",
+        *LEFT,
+        "--right",
+        *RIGHT,
+        "--board",
+        "chessboard:9x6:25",
+        "--detector",
+        "classic",
+        "--out",
+        tmp_path / "stereo.json",
+        "--json",
+    )
     for key in ("left", "right", "R", "T", "E", "F", "rms"):
         assert key in out
     for side in ("left", "right"):
@@ -51,16 +84,27 @@ def test_calibrate_stereo_json(tmp_path):
     assert out["rms"] < 0.3 and np.array(out["R"]).shape == (3, 3)
     cal = read_calibration(tmp_path / "stereo.json")
     np.testing.assert_allclose(cal["cameras"][1].translation, T)
-    text = run_camcmm("calibrate", "stereo", "--left", *LEFT[:4], "--right", *RIGHT[:4], "--board",
-                      "chessboard:9x6:25", "--detector", "classic").stdout
+    text = run_camcmm(
+        "calibrate",
+        "stereo",
+        "--left",
+        *LEFT[:4],
+        "--right",
+        *RIGHT[:4],
+        "--board",
+        "chessboard:9x6:25",
+        "--detector",
+        "classic",
+    ).stdout
     assert "baseline" in text and "epipolar distance" in text
 
 
 def test_scale_and_gauge_block(tmp_path):
     rng = np.random.default_rng(0)
     x = np.linspace(0, 90, 10)
-    rows = ["run,interferometer,camera"] + [f"{r},{a},{1.0001 * a + rng.normal(0, 0.003)}" for r in (1, 2, 3)
-                                           for a in x]
+    rows = ["run,interferometer,camera"] + [
+        f"{r},{a},{1.0001 * a + rng.normal(0, 0.003)}" for r in (1, 2, 3) for a in x
+    ]
     (tmp_path / "scale.csv").write_text("\n".join(rows))
     s = cli_json("scale", "--interferometer", tmp_path / "scale.csv", "--json")
     assert abs(s["slope"] - 1.0001) < 5 * s["u_slope"] and s["n_runs"] == 3
@@ -89,18 +133,24 @@ def test_bad_input(tmp_path):
     assert "mixed sizes: small.png (320x240)" in err
     err = cli_refused("calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6", code=2)
     assert "board 'chessboard:9x6'" in err
-    err = cli_refused("calibrate", "stereo", "--left", *LEFT[:3], "--right", *RIGHT[:2], "--board",
-                      "chessboard:9x6:25", code=2)
+    err = cli_refused(
+        "calibrate", "stereo", "--left", *LEFT[:3], "--right", *RIGHT[:2], "--board", "chessboard:9x6:25", code=2
+    )
     assert "3 left images but 2 right images" in err
-    for opt, val, why in (("--subpix-window", "0", "below its minimum 1 px"), ("--outlier-factor", "nan", "not finite"),
-                          ("--max-rms", "-1", "below its minimum 0"), ("--distance", "0", "must be above 0 mm")):
+    for opt, val, why in (
+        ("--subpix-window", "0", "below its minimum 1 px"),
+        ("--outlier-factor", "nan", "not finite"),
+        ("--max-rms", "-1", "below its minimum 0"),
+        ("--distance", "0", "must be above 0 mm"),
+    ):
         err = cli_refused("calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6:25", opt, val, code=2)
         assert err.startswith(f"camcmm: error: {opt}: parameter '{opt[2:].replace('-', '_')}'") and why in err
 
 
 def test_run_through_the_host(tmp_path):
-    out = cli_json("run", "calibration.camera", *LEFT[:5], "--board", "chessboard:9x6:25", "--save",
-                   tmp_path / "c.json", "--json")
+    out = cli_json(
+        "run", "calibration.camera", *LEFT[:5], "--board", "chessboard:9x6:25", "--save", tmp_path / "c.json", "--json"
+    )
     o = out["outputs"]
     assert len(o["detections"]) == 5 and all(d["found"] for d in o["detections"])
     assert len(o["detections"][0]["corners"]) == 54

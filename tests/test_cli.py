@@ -48,8 +48,18 @@ def test_plugins_json_lists_builtins_with_kind_version_status():
 
 def test_run_a_plugin_with_declared_parameters(cloud_file, tmp_path):
     out = tmp_path / "down.ply"
-    proc = run_camcmm("run", "cloud.downsample", cloud_file, "--voxel-size", "2.5", "--out", out,
-                  "--project", tmp_path / "proj", "--json")
+    proc = run_camcmm(
+        "run",
+        "cloud.downsample",
+        cloud_file,
+        "--voxel-size",
+        "2.5",
+        "--out",
+        out,
+        "--project",
+        tmp_path / "proj",
+        "--json",
+    )
     doc = json.loads(proc.stdout)
     assert doc["plugin"] == "cloud.downsample" and doc["params"] == {"voxel_size": 2.5}
     assert 0 < doc["outputs"]["n_points"] < 2000 and doc["result_id"] >= 1

@@ -18,8 +18,12 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_plugin"
 
 
 def _pip(*args):
-    return subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", "-q", *args],
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +39,12 @@ def installed():
 def test_lab_plugin_is_discovered_and_runs(installed, tmp_path):
     plugins = {p["id"]: p for p in cli_json("plugins", "--json")["plugins"]}
     lab = plugins["lab.centroid"]
-    assert (lab["kind"], lab["version"], lab["status"], lab["distribution"]) == \
-        ("algorithm", "0.3.1", "ok", "camcmm-lab-example")
+    assert (lab["kind"], lab["version"], lab["status"], lab["distribution"]) == (
+        "algorithm",
+        "0.3.1",
+        "ok",
+        "camcmm-lab-example",
+    )
     pts = np.array([[0.0, 0, 0], [2, 0, 0], [2, 4, 0], [0, 4, 6]])
     write(PointCloud(pts), tmp_path / "c.ply")
     doc = cli_json("run", "lab.centroid", tmp_path / "c.ply", "--json")

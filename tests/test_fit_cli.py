@@ -15,8 +15,13 @@ from camcmm_plugins.fitting import cli
 from conftest import cli_json, run_camcmm
 
 KEYS = {"element", "method", "outliers", "n_points", "n_used", "n_removed", "form", "std_uncertainty"}
-PARAMS = {"sphere": ("center", "radius"), "plane": ("point", "normal"), "circle": ("center", "normal", "radius"),
-          "cylinder": ("point", "axis", "radius"), "line": ("point", "direction")}
+PARAMS = {
+    "sphere": ("center", "radius"),
+    "plane": ("point", "normal"),
+    "circle": ("center", "normal", "radius"),
+    "cylinder": ("point", "axis", "radius"),
+    "line": ("point", "direction"),
+}
 FORM = {"range", "max", "min", "std", "rms"}
 NIST = Path(__file__).parent / "data" / "nist_spheres"
 
@@ -99,8 +104,19 @@ def test_camcmm_fit_subprocess_text_and_errors(tmp_path):
 
 
 def test_camcmm_fit_extract_nist_scan():
-    out = cli_json("fit", "sphere", NIST / "SPH102.xyz", "--unit", "m", "--extract", "--nominal-radius", "50",
-                   "--outliers", "vdi2634", "--json")
+    out = cli_json(
+        "fit",
+        "sphere",
+        NIST / "SPH102.xyz",
+        "--unit",
+        "m",
+        "--extract",
+        "--nominal-radius",
+        "50",
+        "--outliers",
+        "vdi2634",
+        "--json",
+    )
     assert abs(out["radius"] - 50) < 0.3 and out["n_points_raw"] == 1893 and out["n_points"] < 1893
 
 

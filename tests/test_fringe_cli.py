@@ -14,13 +14,18 @@ from camcmm_plugins.fringe.synthetic import render_captures
 from camcmm_plugins.fringe.triangulate import camera_rays, project
 from conftest import cli_json, cli_refused, run_camcmm
 
-SEQ = {"projector": {"width": 320, "height": 240}, "frames": [
-    "white", "black",
-    {"type": "phase", "direction": "vertical", "steps": 4, "period": 16},
-    {"type": "gray", "direction": "vertical", "period": 8, "inverse": "interleaved"},
-    # two frequencies, no code: the 241.5 px beat covers the 240 rows
-    {"type": "phase", "direction": "horizontal", "steps": 3, "period": 21, "shifts_deg": [-120, 0, 120]},
-    {"type": "phase", "direction": "horizontal", "steps": 3, "period": 23, "shifts_deg": [-120, 0, 120]}]}
+SEQ = {
+    "projector": {"width": 320, "height": 240},
+    "frames": [
+        "white",
+        "black",
+        {"type": "phase", "direction": "vertical", "steps": 4, "period": 16},
+        {"type": "gray", "direction": "vertical", "period": 8, "inverse": "interleaved"},
+        # two frequencies, no code: the 241.5 px beat covers the 240 rows
+        {"type": "phase", "direction": "horizontal", "steps": 3, "period": 21, "shifts_deg": [-120, 0, 120]},
+        {"type": "phase", "direction": "horizontal", "steps": 3, "period": 23, "shifts_deg": [-120, 0, 120]},
+    ],
+}
 W, H = 200, 150
 
 
@@ -48,8 +53,14 @@ def rig():
     k = np.array([[420.0, 0, W / 2 - 0.5], [0, 420.0, H / 2 - 0.5], [0, 0, 1]])
     cam = CameraModel(k, [-0.05, 0.02, 0, 0, 0], image_size=(W, H), name="cam")
     r, _ = cv2.Rodrigues(np.array([0.0, -0.1, 0.0]))
-    proj = CameraModel([[600.0, 0, 160], [0, 600.0, 120], [0, 0, 1]], [0.01, 0, 0, 0, 0], r,
-                       -r @ np.array([40.0, 0, 0]), (320, 240), name="projector")
+    proj = CameraModel(
+        [[600.0, 0, 160], [0, 600.0, 120], [0, 0, 1]],
+        [0.01, 0, 0, 0, 0],
+        r,
+        -r @ np.array([40.0, 0, 0]),
+        (320, 240),
+        name="projector",
+    )
     return cam, proj
 
 
@@ -63,8 +74,14 @@ def capture_dir(tmp_path):
     uv = project(proj, x)
     u, v = uv[:, 0].reshape(H, W), uv[:, 1].reshape(H, W)
     lit = (u > 0) & (u < 319) & (v > 0) & (v < 239)
-    frames = render_captures(SEQ, u=np.where(lit, u, 0), v=np.where(lit, v, 0), mean=np.where(lit, 90.0, 3.0),
-                             modulation=np.where(lit, 70.0, 0.0), noise=0.5)
+    frames = render_captures(
+        SEQ,
+        u=np.where(lit, u, 0),
+        v=np.where(lit, v, 0),
+        mean=np.where(lit, 90.0, 3.0),
+        modulation=np.where(lit, 70.0, 0.0),
+        noise=0.5,
+    )
     folder = tmp_path / "captures"
     folder.mkdir()
     for i, f in enumerate(frames):
@@ -77,8 +94,7 @@ def capture_dir(tmp_path):
 def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path):
     folder, cal, lit = capture_dir
     out = tmp_path / "cloud.ply"
-    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
-               "--json", "--out", out)
+    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json", "--out", out)
     assert {"n_points", "valid_fraction", "bbox"} <= set(doc)
     assert doc["valid_fraction"] == pytest.approx(lit, abs=0.02)
     assert doc["n_points"] > 0.9 * lit * W * H
@@ -121,8 +137,7 @@ def test_saturated_captures_are_reported_with_their_fraction(seq_file, capture_d
     img = cv2.imread(str(folder / "img2.png"), cv2.IMREAD_UNCHANGED)  # the first phase frame
     img[:30, :50] = 255
     cv2.imwrite(str(folder / "img2.png"), img)
-    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal,
-               "--json")
+    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json")
     assert any(f"{100 * 30 * 50 / (W * H):.2f} % of the pixels are saturated" in w for w in doc["warnings"])
     text = run_camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal).stdout
     assert "points (" in text and "warning: images: 5.00 % of the pixels are saturated" in text

@@ -47,15 +47,27 @@ def files(tmp_path_factory):
     write(PointCloud(apply(np.linalg.inv(S), pts), name="photo"), d / "photo.ply")
     write(PointCloud(pts + 2000.0, name="far"), d / "far.ply")
     picks = [0, 20000, 40000]
-    (d / "pairs.json").write_text(json.dumps({"measured": apply(np.linalg.inv(S), pts[picks]).tolist(),
-                                              "nominal": pts[picks].tolist()}))
+    (d / "pairs.json").write_text(
+        json.dumps({"measured": apply(np.linalg.inv(S), pts[picks]).tolist(), "nominal": pts[picks].tolist()})
+    )
     return {"dir": d, "T": T, "S": S, "truth": truth, "up": up, "pts": pts}
 
 
 def test_cli_json_out_and_report(files):
     d = files["dir"]
-    r = cli_json("inspect", d / "scan.ply", "--nominal", d / "block.stl", "--tolerance", "0.05", "--json",
-                 "--out", d / "col.ply", "--report", d / "rep")
+    r = cli_json(
+        "inspect",
+        d / "scan.ply",
+        "--nominal",
+        d / "block.stl",
+        "--tolerance",
+        "0.05",
+        "--json",
+        "--out",
+        d / "col.ply",
+        "--report",
+        d / "rep",
+    )
     assert r["converged"] is True and r["reason"] == ""
     T = np.array(r["transform"])
     assert T.shape == (4, 4) and np.abs(T - files["T"]).max() < 1e-3
@@ -90,8 +102,17 @@ def test_cli_text_and_similarity(files):
 
 def test_cli_pairs(files):
     d = files["dir"]
-    r = cli_json("inspect", d / "photo.ply", "--nominal", d / "block.stl", "--align", "pairs+similarity",
-                 "--pairs", d / "pairs.json", "--json")
+    r = cli_json(
+        "inspect",
+        d / "photo.ply",
+        "--nominal",
+        d / "block.stl",
+        "--align",
+        "pairs+similarity",
+        "--pairs",
+        d / "pairs.json",
+        "--json",
+    )
     assert r["converged"] and r["scale"] == pytest.approx(1 / 0.4, rel=1e-4)
     assert r["alignment"]["stages"][0]["stage"] == "pairs"
 
@@ -113,26 +134,40 @@ def test_cli_bad_input(files, tmp_path):
     assert out.returncode == 2 and "point cloud" in out.stderr
     bad = tmp_path / "pairs.json"
     bad.write_text("{not json")
-    out = run_camcmm("inspect", d / "scan.ply", "--nominal", d / "block.stl", "--align", "pairs+icp", "--pairs", bad,
-                     ok=False)
+    out = run_camcmm(
+        "inspect", d / "scan.ply", "--nominal", d / "block.stl", "--align", "pairs+icp", "--pairs", bad, ok=False
+    )
     assert out.returncode == 2 and "JSON" in out.stderr
 
 
-@pytest.mark.parametrize("doc,needle", [
-    ('{"measured": [[0,0,0],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,NaN,0]]}', "finite"),
-    ('{"measured": [[0,0,0],[1,0,0]], "nominal": [[0,0,0],[1,0,0]]}', "2 pairs"),
-    ('{"measured": [[0,0,0],[1,0,0],[2,0,0]], "nominal": [[0,0,0],[1,0,0],[2,0,0]]}', "one line"),
-    ('{"measured": [[0,0,"x"],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,1,0]]}', "'measured'"),
-    ('{"measured": [[0,0,0],[1,0,0],[0,1,0]]}', '"nominal"'),
-    ("[1, 2, 3]", '"measured"'),
-])
+@pytest.mark.parametrize(
+    "doc,needle",
+    [
+        ('{"measured": [[0,0,0],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,NaN,0]]}', "finite"),
+        ('{"measured": [[0,0,0],[1,0,0]], "nominal": [[0,0,0],[1,0,0]]}', "2 pairs"),
+        ('{"measured": [[0,0,0],[1,0,0],[2,0,0]], "nominal": [[0,0,0],[1,0,0],[2,0,0]]}', "one line"),
+        ('{"measured": [[0,0,"x"],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,1,0]]}', "'measured'"),
+        ('{"measured": [[0,0,0],[1,0,0],[0,1,0]]}', '"nominal"'),
+        ("[1, 2, 3]", '"measured"'),
+    ],
+)
 def test_cli_pairs_file_errors_name_the_file(files, tmp_path, capsys, doc, needle):
     from camcmm.cli.main import main
 
     d = files["dir"]
     (tmp_path / "p.json").write_text(doc)
-    rc = main(["inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--align", "pairs",
-               "--pairs", str(tmp_path / "p.json")])
+    rc = main(
+        [
+            "inspect",
+            str(d / "scan.ply"),
+            "--nominal",
+            str(d / "block.stl"),
+            "--align",
+            "pairs",
+            "--pairs",
+            str(tmp_path / "p.json"),
+        ]
+    )
     lines = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(lines) == 1 and "p.json" in lines[0] and needle in lines[0], lines
 
@@ -154,8 +189,11 @@ def test_plugins_through_the_host(files):
     a = host.run("inspect.align", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl")}, {})
     n = read(d / "scan.ply").n_points
     assert a.outputs["converged"] and a.outputs["aligned"].n_points == n
-    res = host.run("inspect.deviations", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl"),
-                                          "transform": a.outputs["transform"].tolist()}, {"tolerance": 0.05})
+    res = host.run(
+        "inspect.deviations",
+        {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl"), "transform": a.outputs["transform"].tolist()},
+        {"tolerance": 0.05},
+    )
     o = res.outputs
     cloud = o["deviations"]
     assert cloud.field_units["deviation"] == "mm" and cloud.colors.shape == (n, 3)
@@ -179,8 +217,9 @@ def test_compare_against_a_reference_cloud(files):
     d = files["dir"]
     pc = Polycube(l_block(), 10.0, 4)
     ref, _ = sample_surface(pc.vertices, pc.faces, 150000, seed=9)
-    res = PluginHost().run("inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": PointCloud(ref)},
-                           {"distance": "plane"})
+    res = PluginHost().run(
+        "inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": PointCloud(ref)}, {"distance": "plane"}
+    )
     o = res.outputs
     assert o["converged"], o["reason"]
     assert np.abs(o["transform"] - files["T"]).max() < 5e-3
@@ -192,10 +231,12 @@ def test_compare_against_a_reference_cloud(files):
 
 def test_report_renders(files, tmp_path):
     d = files["dir"]
-    res = PluginHost().run("inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl")},
-                           {"tolerance": 0.05})
-    rep = build_report(res.outputs, cloud_file=str(d / "scan.ply"), nominal_file=str(d / "block.stl"), run=res,
-                       tolerance=0.05)
+    res = PluginHost().run(
+        "inspect.compare", {"cloud": str(d / "scan.ply"), "nominal": str(d / "block.stl")}, {"tolerance": 0.05}
+    )
+    rep = build_report(
+        res.outputs, cloud_file=str(d / "scan.ply"), nominal_file=str(d / "block.stl"), run=res, tolerance=0.05
+    )
     paths = rep.write(tmp_path)
     assert Path(paths["pdf"]).read_bytes()[:4] == b"%PDF"
     data = json.loads(Path(paths["json"]).read_text())

@@ -13,8 +13,11 @@ from conftest import cli_json, cli_refused, run_camcmm
 @pytest.fixture(scope="module")
 def plan(tmp_path_factory):
     d = tmp_path_factory.mktemp("cli")
-    default_host().run("virtuallab.acceptance-set", {}, {"directory": str(d), "n_sphere": 2000, "n_ball_bar": 1500,
-                                                          "n_flat": 2000, "noise": 0.01, "seed": 21})
+    default_host().run(
+        "virtuallab.acceptance-set",
+        {},
+        {"directory": str(d), "n_sphere": 2000, "n_ball_bar": 1500, "n_flat": 2000, "noise": 0.01, "seed": 21},
+    )
     return d / "plan.yaml"
 
 
@@ -46,7 +49,7 @@ def test_verify_text_and_report(plan, tmp_path):
     titles = [s["title"] for s in doc["sections"]]
     assert "Result" in titles and "Uncertainty of the test (for guarded acceptance)" in titles
     figures = [b for s in doc["sections"] for b in s["blocks"] if b["type"] == "figure"]
-    assert len(figures) >= 10 + 6 + 4                  # a map per sphere and flat, a chart per parameter
+    assert len(figures) >= 10 + 6 + 4  # a map per sphere and flat, a chart per parameter
     verdicts = [b for s in doc["sections"] for b in s["blocks"] if b["type"] == "verdict"]
     assert {v["label"] for v in verdicts} == {"P_F", "P_S", "SD", "F"}
     assert all(v["simple"] == "pass" and v["guarded"] == "pass" for v in verdicts)
