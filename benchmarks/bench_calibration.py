@@ -33,26 +33,41 @@ def _cams():
     k1 = np.array([[2000.0, 0, 1000], [0, 2001, 750], [0, 0, 1]])
     k2 = np.array([[1990.0, 0, 1010], [0, 1992, 740], [0, 0, 1]])
     r2 = cv2.Rodrigues(np.array([0, 0.46, 0.01]))[0]
-    return [CameraModel(k1, [-0.1, 0.05, 0.001, 0, 0]), CameraModel(k2, [-0.12, 0.07, 0, 0.001, 0.01], r2,
-                                                                    -r2 @ [200.0, 0, 0])]
+    return [
+        CameraModel(k1, [-0.1, 0.05, 0.001, 0, 0]),
+        CameraModel(k2, [-0.12, 0.07, 0, 0.001, 0.01], r2, -r2 @ [200.0, 0, 0]),
+    ]
 
 
 def bench_triangulation(n: int) -> None:
     cams = _cams()
     rng = np.random.default_rng(0)
     X = rng.uniform([-50, -50, 350], [50, 50, 450], (n, 3))
-    x = np.stack([cv2.projectPoints(X, cv2.Rodrigues(c.rotation)[0], c.translation, c.camera_matrix,
-                                    c.dist_coeffs)[0].reshape(-1, 2) for c in cams]) + rng.normal(0, 0.3, (2, n, 2))
+    x = np.stack(
+        [
+            cv2.projectPoints(X, cv2.Rodrigues(c.rotation)[0], c.translation, c.camera_matrix, c.dist_coeffs)[
+                0
+            ].reshape(-1, 2)
+            for c in cams
+        ]
+    ) + rng.normal(0, 0.3, (2, n, 2))
     t = time.perf_counter()
-    u = [cv2.undistortPoints(x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix,
-                             criteria=(3, 100, 1e-14)).reshape(-1, 2) for k, c in enumerate(cams)]
+    u = [
+        cv2.undistortPoints(
+            x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix, criteria=(3, 100, 1e-14)
+        ).reshape(-1, 2)
+        for k, c in enumerate(cams)
+    ]
     Xh = cv2.triangulatePoints(cams[0].projection_matrix, cams[1].projection_matrix, u[0].T, u[1].T)
     ref = (Xh[:3] / Xh[3]).T
     t_ref = time.perf_counter() - t
     print(f"triangulation of {n} points, 2 cameras with distortion")
     print(f"  reference cv2.undistortPoints + triangulatePoints: {t_ref:.3f} s ({n / t_ref:,.0f} points/s)")
-    for label, kw in (("linear", {"method": "linear"}), ("optimal", {"method": "optimal"}),
-                      ("optimal + covariance", {"method": "optimal", "pixel_sigma": 0.3})):
+    for label, kw in (
+        ("linear", {"method": "linear"}),
+        ("optimal", {"method": "optimal"}),
+        ("optimal + covariance", {"method": "optimal", "pixel_sigma": 0.3}),
+    ):
         t = time.perf_counter()
         res = triangulate(cams, x, **kw)
         dt = time.perf_counter() - t
@@ -93,9 +108,11 @@ def bench_projection_map(n_mc: int) -> None:
     ratio = emp / pred
     print(f"projection-uncertainty map, 64 x 48 grid, 12 views, sigma {sigma} px, z {z:g} mm")
     print(f"  first order (camcmm): {t_first * 1e3:.1f} ms; map {pred.min():.3f} .. {pred.max():.3f} px")
-    print(f"  Monte Carlo of {n_mc} re-calibrations (reference): {t_mc:.2f} s = {t_mc / t_first:,.0f} x; "
-          f"MC / first order: median {np.median(ratio):.3f}, 5-95 % {np.percentile(ratio, 5):.3f} .. "
-          f"{np.percentile(ratio, 95):.3f}")
+    print(
+        f"  Monte Carlo of {n_mc} re-calibrations (reference): {t_mc:.2f} s = {t_mc / t_first:,.0f} x; "
+        f"MC / first order: median {np.median(ratio):.3f}, 5-95 % {np.percentile(ratio, 5):.3f} .. "
+        f"{np.percentile(ratio, 95):.3f}"
+    )
 
 
 def main() -> None:

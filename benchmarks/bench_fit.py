@@ -62,6 +62,7 @@ def sphere_cloud(n, rng):
 
 def scipy_sphere(x):
     """The reference: scipy.optimize.least_squares on the orthogonal residuals."""
+
     def fun(p):
         return np.linalg.norm(x - p[:3], axis=1) - p[3]
 
@@ -84,11 +85,12 @@ def main() -> None:
     rng = np.random.default_rng(0)
     n = args.n
 
-    fit_sphere(sphere_cloud(20_000, rng), "vdi2634")          # warm-up: imports, caches
+    fit_sphere(sphere_cloud(20_000, rng), "vdi2634")  # warm-up: imports, caches
     x = sphere_cloud(n, rng)
     print(f"sphere, {n} points, radius 10 mm, 10 000 mm from the origin, noise 0.01 mm")
     (t_fit, t_scipy, t_vdi), (res, p, vdi) = interleaved(
-        [lambda: fit_sphere(x), lambda: scipy_sphere(x), lambda: fit_sphere(x, "vdi2634")], args.repeat)
+        [lambda: fit_sphere(x), lambda: scipy_sphere(x), lambda: fit_sphere(x, "vdi2634")], args.repeat
+    )
     agree = max(np.abs(res.center - p[:3]).max(), abs(res.radius - p[3]))
     print(f"  camcmm fit_sphere (least squares)   {t_fit:8.3f} s   radius {res.radius:.9f} mm")
     print(f"  scipy.optimize.least_squares        {t_scipy:8.3f} s   radius {p[3]:.9f} mm")
@@ -100,18 +102,22 @@ def main() -> None:
     plane = FAR + np.column_stack([u, rng.normal(scale=0.005, size=n)])
     (t_pl, t_plv, t_mz), (_, pv, mz) = interleaved(
         [lambda: fit_plane(plane), lambda: fit_plane(plane, "vdi2634"), lambda: fit_plane(plane, method="minzone")],
-        args.repeat)
+        args.repeat,
+    )
     print(f"plane, {n} points")
-    print(f"  least squares {t_pl:.3f} s; vdi2634 ({pv.n_removed} removals) {t_plv:.3f} s "
-          f"(ratio {t_plv / t_pl:.2f}); minimum zone {t_mz:.3f} s (flatness {mz.form['range']:.6f} mm)")
+    print(
+        f"  least squares {t_pl:.3f} s; vdi2634 ({pv.n_removed} removals) {t_plv:.3f} s "
+        f"(ratio {t_plv / t_pl:.2f}); minimum zone {t_mz:.3f} s (flatness {mz.form['range']:.6f} mm)"
+    )
     t_smz, smz = best(lambda: fit_sphere(x, method="minzone"), 1)
     print(f"  minimum-zone sphere of the {n} points: {t_smz:.3f} s (form {smz.form['range']:.6f} mm)")
 
     m = min(n, 200_000)
     t = rng.uniform(0, 2 * np.pi, m)
     z = rng.uniform(-30, 30, m)
-    cyl = FAR + np.column_stack([(5 + rng.normal(scale=0.01, size=m)) * np.cos(t),
-                                 (5 + rng.normal(scale=0.01, size=m)) * np.sin(t), z])
+    cyl = FAR + np.column_stack(
+        [(5 + rng.normal(scale=0.01, size=m)) * np.cos(t), (5 + rng.normal(scale=0.01, size=m)) * np.sin(t), z]
+    )
     t_cy, cy = best(lambda: fit_cylinder(cyl), args.repeat)
     print(f"cylinder, {m} points: least squares {t_cy:.3f} s (radius {cy.radius:.9f} mm)")
 

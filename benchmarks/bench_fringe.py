@@ -49,12 +49,20 @@ from camcmm_plugins.fringe.sequence import load_sequence
 from camcmm_plugins.fringe.synthetic import render_captures
 from camcmm_plugins.fringe.triangulate import camera_rays, project
 
-SEQ = {"projector": {"width": 1920, "height": 1080}, "frames": [
-    {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
-    {"type": "gray", "direction": "vertical", "period": 12, "bits": 8}]}
-SEQ_PERIOD = {"projector": {"width": 1920, "height": 1080}, "frames": [
-    {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
-    {"type": "gray", "direction": "vertical", "period": 24}]}
+SEQ = {
+    "projector": {"width": 1920, "height": 1080},
+    "frames": [
+        {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
+        {"type": "gray", "direction": "vertical", "period": 12, "bits": 8},
+    ],
+}
+SEQ_PERIOD = {
+    "projector": {"width": 1920, "height": 1080},
+    "frames": [
+        {"type": "phase", "direction": "vertical", "steps": 8, "period": 24},
+        {"type": "gray", "direction": "vertical", "period": 24},
+    ],
+}
 CENTRE, RADIUS, PLANE_Z = np.array([30.0, 0.0, 400.0]), 20.0, 440.0
 
 
@@ -70,8 +78,14 @@ def rig(w: int, h: int):
     r2, c2 = rot(8.5), np.array([60.0, 0, 0])
     cam2 = CameraModel(k, np.zeros(5), r2, -r2 @ c2, (w, h), name="cam2")
     rp, cp = rot(4.3), np.array([30.0, -20.0, 0])
-    proj = CameraModel([[2400.0, 0, 960], [0, 2400.0, 540], [0, 0, 1]], [0.02, -0.01, 0, 0, 0], rp, -rp @ cp,
-                       (1920, 1080), name="projector")
+    proj = CameraModel(
+        [[2400.0, 0, 960], [0, 2400.0, 540], [0, 0, 1]],
+        [0.02, -0.01, 0, 0, 0],
+        rp,
+        -rp @ cp,
+        (1920, 1080),
+        name="projector",
+    )
     return cam1, cam2, proj
 
 
@@ -82,7 +96,7 @@ def scene_u(cam: CameraModel, proj: CameraModel):
     del xx, yy
     oc = o - CENTRE
     b = d @ oc
-    disc = b * b - (oc @ oc - RADIUS ** 2)
+    disc = b * b - (oc @ oc - RADIUS**2)
     t = np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0)), (PLANE_Z - o[2]) / d[:, 2])
     u = project(proj, o + t[:, None] * d)[:, 0].reshape(h, w)
     return np.clip(u, 0, 1919.0)
@@ -146,8 +160,10 @@ def main() -> None:
         u = scene_u(cam, proj)
         frames.append(render_captures(seq, u=u, mean=110.0, modulation=70.0, noise=1.0, seed=i))
         del u
-    print(f"set-up: 2 x {len(frames[0])} frames of {w}x{h} px ({w * h / 1e6:.1f} MP) rendered in "
-          f"{time.perf_counter() - t0:.1f} s")
+    print(
+        f"set-up: 2 x {len(frames[0])} frames of {w}x{h} px ({w * h / 1e6:.1f} MP) rendered in "
+        f"{time.perf_counter() - t0:.1f} s"
+    )
 
     t0 = time.perf_counter()
     d1 = decode(seq, frames[0])
@@ -156,14 +172,20 @@ def main() -> None:
     pts, fields, _ = stereo_points(d1, d2, cam1, cam2)
     t_all = time.perf_counter() - t0
     e = surface_distance(pts)
-    print(f"camcmm   : decode 2 cameras {t_dec:.2f} s + match/triangulate {t_all - t_dec:.2f} s = {t_all:.2f} s "
-          f"(target <= 15 s); {len(pts):,} points, valid {d1.valid_fraction:.3f}/{d2.valid_fraction:.3f}")
-    print(f"           distance to the true surface: median {np.median(e) * 1e3:.2f} um, "
-          f"95 % {np.percentile(e, 95) * 1e3:.2f} um, beyond 0.1 mm {np.mean(e > 0.1) * 100:.3f} %")
+    print(
+        f"camcmm   : decode 2 cameras {t_dec:.2f} s + match/triangulate {t_all - t_dec:.2f} s = {t_all:.2f} s "
+        f"(target <= 15 s); {len(pts):,} points, valid {d1.valid_fraction:.3f}/{d2.valid_fraction:.3f}"
+    )
+    print(
+        f"           distance to the true surface: median {np.median(e) * 1e3:.2f} um, "
+        f"95 % {np.percentile(e, 95) * 1e3:.2f} um, beyond 0.1 mm {np.mean(e > 0.1) * 100:.3f} %"
+    )
     r = np.linalg.norm(pts - CENTRE, axis=1)
     on = np.abs(r - RADIUS) < 0.1
-    print(f"           sphere ({on.sum():,} points within 0.1 mm of it): mean radial residual "
-          f"{(r[on] - RADIUS).mean() * 1e3:+.3f} um")
+    print(
+        f"           sphere ({on.sum():,} points within 0.1 mm of it): mean radial residual "
+        f"{(r[on] - RADIUS).mean() * 1e3:+.3f} um"
+    )
 
     # the order checks against the plain rounding, alternately on the same frames
     times = {"auto": [t_dec], "none": []}
@@ -175,10 +197,12 @@ def main() -> None:
         times[corr].append(time.perf_counter() - t0)
     t_auto, t_none = min(times["auto"]), min(times["none"])
     orders = {k: d1.orders[k] + d2.orders[k] for k in d1.orders}
-    print(f"order checks ({args.code} code): decode 2 cameras {t_auto:.2f} s, without them "
-          f"(boundary_correction: none) {t_none:.2f} s, ratio {t_auto / t_none:.2f} (best of "
-          f"{len(times['auto'])}/{len(times['none'])}); {orders['corrected']:,} orders corrected, "
-          f"{orders['dropped']:,} pixels dropped")
+    print(
+        f"order checks ({args.code} code): decode 2 cameras {t_auto:.2f} s, without them "
+        f"(boundary_correction: none) {t_none:.2f} s, ratio {t_auto / t_none:.2f} (best of "
+        f"{len(times['auto'])}/{len(times['none'])}); {orders['corrected']:,} orders corrected, "
+        f"{orders['dropped']:,} pixels dropped"
+    )
 
     # reference 1: per-pixel decoding in Python on a sample of pixels
     rng = np.random.default_rng(0)
@@ -191,21 +215,24 @@ def main() -> None:
 
     # reference 2: the thesis's per-pixel row search on rectified rows
     r, t = cam2.rotation, cam2.translation
-    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix,
-                                                cam2.dist_coeffs, (w, h), r, t.reshape(3, 1))
+    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(
+        cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix, cam2.dist_coeffs, (w, h), r, t.reshape(3, 1)
+    )
     m1 = cv2.initUndistortRectifyMap(cam1.camera_matrix, cam1.dist_coeffs, r1, p1, (w, h), cv2.CV_32FC1)
     m2 = cv2.initUndistortRectifyMap(cam2.camera_matrix, cam2.dist_coeffs, r2, p2, (w, h), cv2.CV_32FC1)
     rows = np.linspace(h * 0.3, h * 0.7, args.ref_rows).astype(int)
     t0 = time.perf_counter()
     for y in rows:
-        lrow = cv2.remap(d1.u, m1[0][y:y + 1], m1[1][y:y + 1], cv2.INTER_LINEAR, borderValue=np.nan)[0]
-        rrow = cv2.remap(d2.u, m2[0][y:y + 1], m2[1][y:y + 1], cv2.INTER_LINEAR, borderValue=np.nan)[0]
+        lrow = cv2.remap(d1.u, m1[0][y : y + 1], m1[1][y : y + 1], cv2.INTER_LINEAR, borderValue=np.nan)[0]
+        rrow = cv2.remap(d2.u, m2[0][y : y + 1], m2[1][y : y + 1], cv2.INTER_LINEAR, borderValue=np.nan)[0]
         naive_match_row(lrow, rrow)
     t_ref_match = (time.perf_counter() - t0) / len(rows) * h
     t_ref = t_ref_dec + t_ref_match
-    print(f"reference: per-pixel Python decoding {t_ref_dec:.0f} s (timed on {args.ref_pixels} px, "
-          f"agrees to {agree:.1e} px) + fig. 5.5 row search {t_ref_match:.0f} s (timed on {len(rows)} rows) "
-          f"= {t_ref:.0f} s extrapolated")
+    print(
+        f"reference: per-pixel Python decoding {t_ref_dec:.0f} s (timed on {args.ref_pixels} px, "
+        f"agrees to {agree:.1e} px) + fig. 5.5 row search {t_ref_match:.0f} s (timed on {len(rows)} rows) "
+        f"= {t_ref:.0f} s extrapolated"
+    )
     print(f"ratio reference / camcmm: {t_ref / t_all:.0f}x")
 
 

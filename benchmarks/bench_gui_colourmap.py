@@ -32,14 +32,22 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from camcmm.errors import CamcmmError
 from camcmm.gui.process import GuiProcess
 
-import numpy as np
-
 CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 def box_mesh(lo, hi, n: int = 4):
@@ -91,8 +99,10 @@ def make_project(folder: Path, n: int) -> Path:
     cio.write(PointCloud(P @ R.T + [0.3, -0.2, 0.1], name="scan"), files / "scan.ply")
     proj = folder / "proj"
     with Project.open_or_create(proj) as p:
-        for name, kind, summary in (("box.stl", "mesh", "CAD box 40 × 30 × 20 mm"),
-                                    ("scan.ply", "pointcloud", f"{n} points")):
+        for name, kind, summary in (
+            ("box.stl", "mesh", "CAD box 40 × 30 × 20 mm"),
+            ("scan.ply", "pointcloud", f"{n} points"),
+        ):
             h = p.add_file(files / name)
             p.add_measurement(name, h, kind, meta={"summary": summary})
     return proj
@@ -164,8 +174,11 @@ def run_once(page, frames: ImageFrames, shots: Path, i: int) -> dict[str, float]
     error = page.locator('[data-testid="ins-error"]')
     deadline = time.time() + 600
     while time.time() < deadline:  # no screenshots meanwhile: they would compete for the 2 CPUs
-        if timing.count() and timing.get_attribute("data-result") not in (None, before) and \
-                timing.get_attribute("data-numbers"):
+        if (
+            timing.count()
+            and timing.get_attribute("data-result") not in (None, before)
+            and timing.get_attribute("data-numbers")
+        ):
             break
         if error.count():
             page.screenshot(path=str(shots / "bench-colourmap-error.png"))
@@ -207,8 +220,11 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="bench-gui-colourmap-") as tmp:
         t0 = time.time()
         proj = make_project(Path(tmp), args.points)
-        print(f"project with a {args.points:,}-point cloud and a CAD box made in {time.time() - t0:.1f} s"
-              .replace(",", " "))
+        print(
+            f"project with a {args.points:,}-point cloud and a CAD box made in {time.time() - t0:.1f} s".replace(
+                ",", " "
+            )
+        )
         server = Server(proj)
         try:
             with sync_playwright() as p:
@@ -228,9 +244,13 @@ def main() -> int:
                 for i in range(args.repeats):
                     r = run_once(page, frames, shots, i)
                     results.append(r)
-                    extra = ", ".join(f"{k} +{v:.2f} s" for k, v in r.items() if k in ("loop", "drawn", "numbers", "flushed"))
-                    print(f"run {i + 1}: comparison {r['run']:.1f} s; server after the result: {extra}; "
-                          f"colour map image in the browser {r['shown']:.2f} s after the result")
+                    extra = ", ".join(
+                        f"{k} +{v:.2f} s" for k, v in r.items() if k in ("loop", "drawn", "numbers", "flushed")
+                    )
+                    print(
+                        f"run {i + 1}: comparison {r['run']:.1f} s; server after the result: {extra}; "
+                        f"colour map image in the browser {r['shown']:.2f} s after the result"
+                    )
                 page.screenshot(path=str(shots / "bench-colourmap-page.png"))
                 note = page.locator('[data-testid="ins-note"]').inner_text()
                 browser.close()
@@ -242,8 +262,10 @@ def main() -> int:
     best = min(r["shown"] for r in results)
     worst = max(r["shown"] for r in results)
     n = f"{args.points:,}".replace(",", " ")
-    print(f"colour map of {n} points in the browser: {worst:.2f} s after the result (worst of {len(results)}; "
-          f"best {best:.2f} s; budget 3 s) — {note}")
+    print(
+        f"colour map of {n} points in the browser: {worst:.2f} s after the result (worst of {len(results)}; "
+        f"best {best:.2f} s; budget 3 s) — {note}"
+    )
     print(f"machine: {os.cpu_count()} CPUs, load average {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
     return 0
 

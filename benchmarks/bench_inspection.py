@@ -85,8 +85,7 @@ def bench_distances(repeat: int) -> None:
         scene.add_triangles(tm)
         return scene.compute_distance(o3d.core.Tensor(p.astype(np.float32))).numpy()
 
-    (t_ours, t_query, t_bare, t_unsigned), (o, oq, b, bu) = interleaved([ours, ours_query, bare, bare_unsigned],
-                                                                         repeat)
+    (t_ours, t_query, t_bare, t_unsigned), (o, oq, b, bu) = interleaved([ours, ours_query, bare, bare_unsigned], repeat)
     d, st = o
     print(f"signed distances, 1 000 000 points to {len(F)} triangles (best of {repeat})")
     print(f"  camcmm (prepare + signed + statistics)  {t_ours:6.3f} s   {'OK' if t_ours <= 2 else 'OVER'} (≤ 2 s)")
@@ -98,10 +97,14 @@ def bench_distances(repeat: int) -> None:
     # so points farther than 0.006 mm from the sphere have a sign that cannot be argued
     exact = np.linalg.norm(p, axis=1) - 50.0
     clear = np.abs(exact) > 0.006
-    print(f"  |distance| camcmm vs Open3D unsigned: max difference {np.abs(np.abs(d) - bu).max():.1e} mm; "
-          f"deviation RMS {st['rms'] * 1000:.2f} µm")
-    print(f"  wrong signs (points > 6 µm from the sphere): camcmm {int(np.sum((np.sign(d) != np.sign(exact)) & clear))}, "
-          f"Open3D {int(np.sum((np.sign(b) != np.sign(exact)) & clear))}")
+    print(
+        f"  |distance| camcmm vs Open3D unsigned: max difference {np.abs(np.abs(d) - bu).max():.1e} mm; "
+        f"deviation RMS {st['rms'] * 1000:.2f} µm"
+    )
+    print(
+        f"  wrong signs (points > 6 µm from the sphere): camcmm {int(np.sum((np.sign(d) != np.sign(exact)) & clear))}, "
+        f"Open3D {int(np.sum((np.sign(b) != np.sign(exact)) & clear))}"
+    )
 
 
 def bench_icp(repeat: int) -> None:
@@ -126,14 +129,19 @@ def bench_icp(repeat: int) -> None:
         return icp(meas, nom).transform
 
     def ours_all():
-        return icp(meas, nom, max_points=10 ** 7).transform
+        return icp(meas, nom, max_points=10**7).transform
 
     def open3d():
         # Tukey's k must exceed the start's misalignment (~1 mm here) or Open3D never
         # gets there (k = 0.05 mm: still 0.6 mm off after 100 iterations)
-        r = reg.registration_icp(src, tgt, 0.05 * nom.diag, np.eye(4),
-                                 reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=1.0)),
-                                 reg.ICPConvergenceCriteria(1e-6, 1e-6, 50))
+        r = reg.registration_icp(
+            src,
+            tgt,
+            0.05 * nom.diag,
+            np.eye(4),
+            reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=1.0)),
+            reg.ICPConvergenceCriteria(1e-6, 1e-6, 50),
+        )
         return np.asarray(r.transformation)
 
     def err(T):
@@ -141,12 +149,12 @@ def bench_icp(repeat: int) -> None:
 
     (t_o, t_a, t_3), (To, Ta, T3) = interleaved([ours, ours_all, open3d], repeat)
     print(f"ICP, {len(meas)} points to a {len(F)}-triangle box (best of {repeat})")
-    print(f"  camcmm icp (Tukey, 50 000-point subset, then all)  {t_o:6.3f} s   {'OK' if t_o <= 2 else 'OVER'} (≤ 2 s)"
-          f"   pose error {err(To) * 1000:.2f} µm")
-    print(f"  camcmm icp (all points every iteration)            {t_a:6.3f} s"
-          f"   pose error {err(Ta) * 1000:.2f} µm")
-    print(f"  Open3D registration_icp point-to-plane + Tukey(1)  {t_3:6.3f} s"
-          f"   pose error {err(T3) * 1000:.2f} µm")
+    print(
+        f"  camcmm icp (Tukey, 50 000-point subset, then all)  {t_o:6.3f} s   {'OK' if t_o <= 2 else 'OVER'} (≤ 2 s)"
+        f"   pose error {err(To) * 1000:.2f} µm"
+    )
+    print(f"  camcmm icp (all points every iteration)            {t_a:6.3f} s   pose error {err(Ta) * 1000:.2f} µm")
+    print(f"  Open3D registration_icp point-to-plane + Tukey(1)  {t_3:6.3f} s   pose error {err(T3) * 1000:.2f} µm")
     print(f"  ratio camcmm / Open3D: {t_o / t_3:.2f} (all points: {t_a / t_3:.2f})")
     print("  (pose error: largest distance of a measured point from where the true transform puts it)")
 
@@ -157,7 +165,9 @@ def main() -> None:
     args = ap.parse_args()
     # warm-up: imports, Embree, thread pools
     m = o3d.geometry.TriangleMesh.create_sphere(radius=1.0, resolution=20)
-    MeshDistance((np.asarray(m.vertices), np.asarray(m.triangles))).signed_distance(np.random.default_rng(0).normal(size=(1000, 3)))
+    MeshDistance((np.asarray(m.vertices), np.asarray(m.triangles))).signed_distance(
+        np.random.default_rng(0).normal(size=(1000, 3))
+    )
     bench_distances(args.repeat)
     bench_icp(args.repeat)
 

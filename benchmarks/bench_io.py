@@ -23,8 +23,11 @@ import numpy as np
 
 def make_ply(path: Path, n: int, double: bool, color: bool) -> None:
     ftype, fname = (np.float64, "double") if double else (np.float32, "float")
-    dtype = [("x", "<" + np.dtype(ftype).str[1:]), ("y", "<" + np.dtype(ftype).str[1:]),
-             ("z", "<" + np.dtype(ftype).str[1:])]
+    dtype = [
+        ("x", "<" + np.dtype(ftype).str[1:]),
+        ("y", "<" + np.dtype(ftype).str[1:]),
+        ("z", "<" + np.dtype(ftype).str[1:]),
+    ]
     if color:
         dtype += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
     rng = np.random.default_rng(0)
@@ -70,9 +73,11 @@ def main() -> None:
         t0 = time.perf_counter()
         make_ply(path, args.n, args.double, not args.no_color)
         size = path.stat().st_size
-        print(f"file: {args.n:,} points, {'float64' if args.double else 'float32'} xyz"
-              f"{'' if args.no_color else ' + uchar rgb'}, {size / 1e6:.0f} MB "
-              f"(written in {time.perf_counter() - t0:.1f} s)")
+        print(
+            f"file: {args.n:,} points, {'float64' if args.double else 'float32'} xyz"
+            f"{'' if args.no_color else ' + uchar rgb'}, {size / 1e6:.0f} MB "
+            f"(written in {time.perf_counter() - t0:.1f} s)"
+        )
 
         t_ours, cloud = best_of(lambda: camcmm.io.read(path), args.repeat)
         t_o3d, ref = best_of(lambda: o3d.io.read_point_cloud(str(path)), args.repeat)

@@ -54,7 +54,7 @@ def main() -> None:
     t0 = time.perf_counter()
     E_loop = np.empty((n_ref, P, 3))
     for i in range(n_ref):
-        X = mc.measure(setup, {f: o[i:i + 1] for f, o in off.items()}, 1)
+        X = mc.measure(setup, {f: o[i : i + 1] for f, o in off.items()}, 1)
         E_loop[i] = mc.errors(setup, X)[0]
     t_ref = time.perf_counter() - t0
     E_vec = mc.errors(setup, mc.measure(setup, off, n_ref))
@@ -62,8 +62,10 @@ def main() -> None:
 
     rate_vec, rate_ref = n_vec / t_vec, n_ref * P / t_ref
     print(f"grid {P} points, {len(setup.factors)} factors perturbed together ({', '.join(setup.factors)})")
-    print(f"vectorised: {args.iterations} iterations x {P} points = {n_vec:.2e} triangulations "
-          f"in {t_vec:.2f} s -> {rate_vec:.3e} triangulations/s   (target <= 5 s for 1e7)")
+    print(
+        f"vectorised: {args.iterations} iterations x {P} points = {n_vec:.2e} triangulations "
+        f"in {t_vec:.2f} s -> {rate_vec:.3e} triangulations/s   (target <= 5 s for 1e7)"
+    )
     print(f"loop      : {n_ref} iterations x {P} points in {t_ref:.2f} s -> {rate_ref:.3e} triangulations/s")
     print(f"ratio vectorised / loop: {rate_vec / rate_ref:.1f}x; same offsets agree to {agree:.2e} um")
     print(f"combined (x, y, z) = {np.round(res['u'], 3).tolist()} um")

@@ -28,8 +28,8 @@ import time
 import cv2
 import numpy as np
 
-from camcmm_plugins.virtuallab import imaging, optics, render, rig
 from camcmm_plugins.virtuallab import artefacts as art
+from camcmm_plugins.virtuallab import imaging, optics, render, rig
 from camcmm_plugins.virtuallab.scene import INF, Rectangle
 
 
@@ -72,8 +72,9 @@ def reference_prepare(prims, rho, cam, proj, light, s):
     for p in prims:
         tp = p.intersect(X + 1e-6 * n, L)
         shadow |= tp < dist - 1e-3
-    uv, _ = cv2.projectPoints(X, cv2.Rodrigues(proj.rotation)[0], proj.translation, proj.camera_matrix,
-                              proj.dist_coeffs)
+    uv, _ = cv2.projectPoints(
+        X, cv2.Rodrigues(proj.rotation)[0], proj.translation, proj.camera_matrix, proj.dist_coeffs
+    )
     uv = uv.reshape(-1, 2).astype(np.float32)
     d_ref = abs(proj.translation[2])
     g = np.where(shadow, 0.0, rho * light.projector * cos * (d_ref / dist) ** 2)
@@ -84,11 +85,17 @@ def reference_frame(ref, pattern, s):
     h, w = ref["shape"]
     uv = ref["uv"]
     n = len(uv)
-    cols = 4096                                           # remap wants maps below 32767 rows
+    cols = 4096  # remap wants maps below 32767 rows
     pad = np.zeros((-n % cols, 2), np.float32)
     m = np.vstack([uv, pad]).reshape(-1, cols, 2)
-    val = cv2.remap(pattern.astype(np.float32), m[..., 0], m[..., 1], cv2.INTER_LINEAR,
-                    borderMode=cv2.BORDER_CONSTANT, borderValue=0).ravel()[:n]
+    val = cv2.remap(
+        pattern.astype(np.float32),
+        m[..., 0],
+        m[..., 1],
+        cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=0,
+    ).ravel()[:n]
     sub = np.zeros(ref["hit"].size)
     sub[ref["hit"]] = ref["base"] + ref["g"] * val
     return sub.reshape(h, s, w, s).mean(axis=(1, 3))
@@ -116,12 +123,16 @@ def main() -> None:
     light = render.Lighting(falloff=True)
     pw, ph = proj.image_size
     u = np.arange(pw)
-    patterns = [np.tile(0.5 + 0.5 * np.cos(2 * np.pi * u / 16 + 2 * np.pi * k / args.frames), (ph, 1))
-                for k in range(args.frames)]
-    print(f"{args.width} x {args.height} px ({args.width * args.height / 1e6:.2f} MP), {s} x {s} samples per pixel "
-          f"({args.width * args.height * s * s / 1e6:.1f} M rays), {len(prims)} primitives, {os.cpu_count()} CPUs, "
-          f"load average {os.getloadavg()[0]:.2f}")
-    render.prepare(prims, rho, cam, proj, light, 1)                     # warm-up (imports, caches)
+    patterns = [
+        np.tile(0.5 + 0.5 * np.cos(2 * np.pi * u / 16 + 2 * np.pi * k / args.frames), (ph, 1))
+        for k in range(args.frames)
+    ]
+    print(
+        f"{args.width} x {args.height} px ({args.width * args.height / 1e6:.2f} MP), {s} x {s} samples per pixel "
+        f"({args.width * args.height * s * s / 1e6:.1f} M rays), {len(prims)} primitives, {os.cpu_count()} CPUs, "
+        f"load average {os.getloadavg()[0]:.2f}"
+    )
+    render.prepare(prims, rho, cam, proj, light, 1)  # warm-up (imports, caches)
 
     view, t_prep, c_prep = timed(render.prepare, prims, rho, cam, proj, light, s)
     rng = np.random.default_rng(0)
@@ -131,21 +142,27 @@ def main() -> None:
         L = render.radiance(view, p, light)
         imgs.append(imaging.expose(imaging.optics(L, view.depth, cam, dev.lens), imaging.Sensor(), rng))
     t_fr, c_fr = (time.perf_counter() - t0) / len(patterns), (time.process_time() - c0) / len(patterns)
-    print(f"camcmm   : prepare {t_prep:6.2f} s wall ({c_prep:5.2f} s CPU); per frame {t_fr:5.3f} s wall "
-          f"({c_fr:5.3f} s CPU) incl. defocus, noise, quantisation; first image {t_prep + t_fr:5.2f} s")
+    print(
+        f"camcmm   : prepare {t_prep:6.2f} s wall ({c_prep:5.2f} s CPU); per frame {t_fr:5.3f} s wall "
+        f"({c_fr:5.3f} s CPU) incl. defocus, noise, quantisation; first image {t_prep + t_fr:5.2f} s"
+    )
 
     ref, r_prep, rc_prep = timed(reference_prepare, prims, rho, cam, proj, light, s)
     t0, c0 = time.perf_counter(), time.process_time()
     refs = [reference_frame(ref, p, s) for p in patterns]
     r_fr, rc_fr = (time.perf_counter() - t0) / len(patterns), (time.process_time() - c0) / len(patterns)
-    print(f"reference: prepare {r_prep:6.2f} s wall ({rc_prep:5.2f} s CPU); per frame {r_fr:5.3f} s wall "
-          f"({rc_fr:5.3f} s CPU), radiance only")
+    print(
+        f"reference: prepare {r_prep:6.2f} s wall ({rc_prep:5.2f} s CPU); per frame {r_fr:5.3f} s wall "
+        f"({rc_fr:5.3f} s CPU), radiance only"
+    )
     print(f"ratio reference / camcmm: prepare {r_prep / t_prep:4.1f}x wall, {rc_prep / c_prep:4.1f}x CPU")
     mine = render.radiance(view, patterns[0], light)
     diff = np.abs(mine - refs[0])
-    print(f"agreement of the noise-free radiance (0..1): median |diff| {np.median(diff):.1e}, "
-          f"99.9 % {np.percentile(diff, 99.9):.1e} (cv2.remap quantises weights to 1/32 px; silhouettes and "
-          f"shadow edges differ by the reference's default undistortion)")
+    print(
+        f"agreement of the noise-free radiance (0..1): median |diff| {np.median(diff):.1e}, "
+        f"99.9 % {np.percentile(diff, 99.9):.1e} (cv2.remap quantises weights to 1/32 px; silhouettes and "
+        f"shadow edges differ by the reference's default undistortion)"
+    )
 
 
 if __name__ == "__main__":

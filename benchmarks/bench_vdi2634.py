@@ -39,8 +39,11 @@ def dataset(regenerate: bool) -> Path:
     if plan.is_file() and not regenerate:
         return plan
     t = time.perf_counter()
-    default_host().run("virtuallab.acceptance-set", {}, {"directory": str(CACHE), **SIZES, "noise": 0.02,
-                                                          "scale_error": 2e-4, "amplitude": 0.01})
+    default_host().run(
+        "virtuallab.acceptance-set",
+        {},
+        {"directory": str(CACHE), **SIZES, "noise": 0.02, "scale_error": 2e-4, "amplitude": 0.01},
+    )
     print(f"simulated the data set in {time.perf_counter() - t:.1f} s -> {CACHE}")
     return plan
 
@@ -107,22 +110,30 @@ def main() -> None:
     ref = min(bare_fits(plan) for _ in range(args.repeat))
     best = min(times)
     print(f"cpus: {os.cpu_count()}, workers: {args.workers or 'auto'}, points: {n:,}")
-    print(f"full part-2 evaluation (read + hash + segment + fit with 3/1000 rule + summary): "
-          f"best {best:.2f} s, median {statistics.median(times):.2f} s over {args.repeat} runs "
-          f"({'under' if best < 5 else 'OVER'} the 5 s target)")
-    print(f"CPU time of this process per evaluation (all threads): best {min(CPU[1:]):.2f} s; "
-          f"load average while running: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(
+        f"full part-2 evaluation (read + hash + segment + fit with 3/1000 rule + summary): "
+        f"best {best:.2f} s, median {statistics.median(times):.2f} s over {args.repeat} runs "
+        f"({'under' if best < 5 else 'OVER'} the 5 s target)"
+    )
+    print(
+        f"CPU time of this process per evaluation (all threads): best {min(CPU[1:]):.2f} s; "
+        f"load average while running: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
+    )
     print(f"first (cold) run in this process, plugin imports included: {cold:.2f} s")
-    print(f"reference: bare least-squares fits, no outlier rule, data in memory: {ref:.2f} s "
-          f"-> ratio evaluation / bare fits = {best / ref:.2f}")
+    print(
+        f"reference: bare least-squares fits, no outlier rule, data in memory: {ref:.2f} s "
+        f"-> ratio evaluation / bare fits = {best / ref:.2f}"
+    )
     sphere = read(plan.parent / "sphere_01.ply")
     fs = default_host().algorithm("fit.sphere")
     t = time.perf_counter()
     fs(cloud=sphere, outliers="vdi2634")
     t_plugin = time.perf_counter() - t
     t_scipy = scipy_sphere(sphere.points)
-    print(f"one 200k sphere: fit.sphere with the 3/1000 rule {t_plugin:.3f} s; scipy least_squares (lm), "
-          f"no outlier rule {t_scipy:.3f} s -> ratio {t_plugin / t_scipy:.2f}")
+    print(
+        f"one 200k sphere: fit.sphere with the 3/1000 rule {t_plugin:.3f} s; scipy least_squares (lm), "
+        f"no outlier rule {t_scipy:.3f} s -> ratio {t_plugin / t_scipy:.2f}"
+    )
     print("verdict:", result["verdict"], {k: round(v["value"], 4) for k, v in result["parameters"].items()})
 
 

@@ -27,8 +27,15 @@ from camcmm import worker
 from camcmm.host import PluginHost
 from camcmm.model import PointCloud
 
-BUDGET = {"quantity": "L", "unit": "mm", "contributions": [
-    {"name": "a", "u": 0.001, "c": 1}, {"name": "b", "u": 0.002, "c": 1}, {"name": "c", "u": 0.0005, "c": 2}]}
+BUDGET = {
+    "quantity": "L",
+    "unit": "mm",
+    "contributions": [
+        {"name": "a", "u": 0.001, "c": 1},
+        {"name": "b", "u": 0.002, "c": 1},
+        {"name": "c", "u": 0.0005, "c": 2},
+    ],
+}
 
 
 def median_time(fn, repeat: int) -> float:
@@ -53,15 +60,19 @@ def main() -> None:
 
     here = median_time(lambda: host.run("uncertainty.budget", {"spec": BUDGET}), a.repeat)
     there = median_time(lambda: worker.run(host, "uncertainty.budget", {"spec": BUDGET}), a.repeat)
-    print(f"small plugin (uncertainty.budget): in process {1e3 * here:.1f} ms, in the worker {1e3 * there:.1f} ms "
-          f"(+{1e3 * (there - here):.1f} ms per run)")
+    print(
+        f"small plugin (uncertainty.budget): in process {1e3 * here:.1f} ms, in the worker {1e3 * there:.1f} ms "
+        f"(+{1e3 * (there - here):.1f} ms per run)"
+    )
 
     cloud = PointCloud(np.random.default_rng(0).uniform(0, 100, size=(a.points, 3)), name="bench")
     params = {"voxel_size": 0.5}
     here = median_time(lambda: host.run("cloud.downsample", {"cloud": cloud}, params), a.repeat)
     there = median_time(lambda: worker.run(host, "cloud.downsample", {"cloud": cloud}, params), a.repeat)
-    print(f"cloud.downsample of {a.points} points ({a.points * 24 / 1e6:.0f} MB in): in process {here:.3f} s, "
-          f"in the worker {there:.3f} s, ratio {there / here:.2f} (+{1e3 * (there - here):.0f} ms)")
+    print(
+        f"cloud.downsample of {a.points} points ({a.points * 24 / 1e6:.0f} MB in): in process {here:.3f} s, "
+        f"in the worker {there:.3f} s, ratio {there / here:.2f} (+{1e3 * (there - here):.0f} ms)"
+    )
     worker.shutdown()
 
 

@@ -9,7 +9,7 @@ export VTK_DEFAULT_OPENGL_WINDOW=${VTK_DEFAULT_OPENGL_WINDOW:-vtkEGLRenderWindow
 .venv/bin/ruff check app plugins tests examples benchmarks || exit 1
 # Types of the core (the [tool.mypy] section of pyproject.toml says which files).
 .venv/bin/python -m mypy || exit 1
-# .venv/bin/ruff format --check app plugins tests examples benchmarks || exit 1   # enabled after the one-time format
+.venv/bin/ruff format --check app plugins tests examples benchmarks || exit 1
 .venv/bin/python -m pytest -p no:dash "$@"
 rc=$?
 if [ "$rc" = 5 ]; then

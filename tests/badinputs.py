@@ -44,7 +44,7 @@ class Case:
     id: str
     argv: tuple[str, ...]
     files: dict[str, bytes] = field(default_factory=dict, hash=False)
-    names: tuple[str, ...] = ()       # the error line must contain one of these
+    names: tuple[str, ...] = ()  # the error line must contain one of these
     timeout: float = 40.0
     env: dict[str, str] = field(default_factory=dict, hash=False)
 
@@ -64,8 +64,11 @@ def _xyz_text(p: np.ndarray) -> bytes:
 
 
 def _ply_head(n, fmt="binary_little_endian", props=("x", "y", "z"), ftype="float", extra=""):
-    return (f"ply\nformat {fmt} 1.0\n{extra}element vertex {n}\n"
-            + "".join(f"property {ftype} {c}\n" for c in props) + "end_header\n").encode()
+    return (
+        f"ply\nformat {fmt} 1.0\n{extra}element vertex {n}\n"
+        + "".join(f"property {ftype} {c}\n" for c in props)
+        + "end_header\n"
+    ).encode()
 
 
 def ply_binary(p: np.ndarray, n_header=None) -> bytes:
@@ -77,9 +80,11 @@ def ply_ascii(p: np.ndarray, n_header=None) -> bytes:
 
 
 def ply_mesh(v, f, fmt="binary_little_endian", nf=None) -> bytes:
-    head = (f"ply\nformat {fmt} 1.0\nelement vertex {len(v)}\nproperty float x\nproperty float y\n"
-            f"property float z\nelement face {len(f) if nf is None else nf}\n"
-            "property list uchar int vertex_indices\nend_header\n").encode()
+    head = (
+        f"ply\nformat {fmt} 1.0\nelement vertex {len(v)}\nproperty float x\nproperty float y\n"
+        f"property float z\nelement face {len(f) if nf is None else nf}\n"
+        "property list uchar int vertex_indices\nend_header\n"
+    ).encode()
     if fmt == "ascii":
         return head + _xyz_text(v) + "".join(f"3 {a} {b} {c}\n" for a, b, c in f).encode()
     rec = np.empty(len(f), [("n", "u1"), ("v", "<i4", (3,))])
@@ -89,8 +94,10 @@ def ply_mesh(v, f, fmt="binary_little_endian", nf=None) -> bytes:
 
 def pcd(p: np.ndarray, data="ascii", n_header=None, width=None) -> bytes:
     n = len(p) if n_header is None else n_header
-    head = ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-            f"WIDTH {n if width is None else width}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n")
+    head = (
+        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+        f"WIDTH {n if width is None else width}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n"
+    )
     body = _xyz_text(p) if data == "ascii" else p.astype("<f4").tobytes()
     return head.encode() + body
 
@@ -99,16 +106,17 @@ def pcd_compressed(p: np.ndarray, usize=None, csize=None, blob=None) -> bytes:
     n = len(p)
     raw = b"".join(p[:, j].astype("<f4").tobytes() for j in range(3))
     blob = _lzf_literal(raw) if blob is None else blob
-    head = ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
-            f"WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary_compressed\n").encode()
-    return head + struct.pack("<II", len(blob) if csize is None else csize,
-                              len(raw) if usize is None else usize) + blob
+    head = (
+        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+        f"WIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA binary_compressed\n"
+    ).encode()
+    return head + struct.pack("<II", len(blob) if csize is None else csize, len(raw) if usize is None else usize) + blob
 
 
 def _lzf_literal(raw: bytes) -> bytes:
     out = bytearray()
     for i in range(0, len(raw), 32):
-        chunk = raw[i:i + 32]
+        chunk = raw[i : i + 32]
         out += bytes([len(chunk) - 1]) + chunk
     return bytes(out)
 
@@ -132,14 +140,18 @@ def stl_binary(tri: np.ndarray, n_header=None, header=b"camcmm test") -> bytes:
 def stl_ascii(tri: np.ndarray) -> bytes:
     out = ["solid t"]
     for t in tri:
-        out += ["facet normal 0 0 1", " outer loop"] + [f"  vertex {a!r} {b!r} {c!r}" for a, b, c in t] \
+        out += (
+            ["facet normal 0 0 1", " outer loop"]
+            + [f"  vertex {a!r} {b!r} {c!r}" for a, b, c in t]
             + [" endloop", "endfacet"]
+        )
     return ("\n".join(out + ["endsolid t"]) + "\n").encode()
 
 
 def obj(v, f) -> bytes:
-    return ("".join(f"v {a!r} {b!r} {c!r}\n" for a, b, c in v)
-            + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)).encode()
+    return (
+        "".join(f"v {a!r} {b!r} {c!r}\n" for a, b, c in v) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in f)
+    ).encode()
 
 
 def _png_chunk(kind: bytes, data: bytes) -> bytes:
@@ -153,25 +165,47 @@ def png(w: int, h: int, idat: bytes | None = None, colour=0) -> bytes:
         c = zlib.compressobj(9)
         row = b"\0" * (1 + w * (3 if colour == 2 else 1))
         idat = b"".join(c.compress(row) for _ in range(h)) + c.flush()
-    return (b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
-            + _png_chunk(b"IDAT", idat) + _png_chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + _png_chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, colour, 0, 0, 0))
+        + _png_chunk(b"IDAT", idat)
+        + _png_chunk(b"IEND", b"")
+    )
 
 
 def bmp(w: int, h: int, body: bytes | None = None) -> bytes:
     stride = (w * 3 + 3) // 4 * 4
     body = b"\0" * (stride * abs(h)) if body is None else body
-    return (b"BM" + struct.pack("<IHHI", 54 + len(body), 0, 0, 54)
-            + struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(body), 2835, 2835, 0, 0) + body)
+    return (
+        b"BM"
+        + struct.pack("<IHHI", 54 + len(body), 0, 0, 54)
+        + struct.pack("<IiiHHIIiiII", 40, w, h, 1, 24, 0, len(body), 2835, 2835, 0, 0)
+        + body
+    )
 
 
 def tiff(w: int, h: int, body: bytes | None = None) -> bytes:
     body = b"\0" * (w * h) if body is None else body
-    entries = [(256, 4, 1, w), (257, 4, 1, h), (258, 3, 1, 8), (259, 3, 1, 1), (262, 3, 1, 1),
-               (273, 4, 1, 8), (277, 3, 1, 1), (278, 4, 1, h), (279, 4, 1, len(body))]
+    entries = [
+        (256, 4, 1, w),
+        (257, 4, 1, h),
+        (258, 3, 1, 8),
+        (259, 3, 1, 1),
+        (262, 3, 1, 1),
+        (273, 4, 1, 8),
+        (277, 3, 1, 1),
+        (278, 4, 1, h),
+        (279, 4, 1, len(body)),
+    ]
     ifd_at = 8 + len(body)
-    ifd = struct.pack("<H", len(entries)) + b"".join(
-        struct.pack("<HHI", t, typ, c) + (struct.pack("<H", v) + b"\0\0" if typ == 3 else struct.pack("<I", v))
-        for t, typ, c, v in entries) + b"\0\0\0\0"
+    ifd = (
+        struct.pack("<H", len(entries))
+        + b"".join(
+            struct.pack("<HHI", t, typ, c) + (struct.pack("<H", v) + b"\0\0" if typ == 3 else struct.pack("<I", v))
+            for t, typ, c, v in entries
+        )
+        + b"\0\0\0\0"
+    )
     return b"II*\0" + struct.pack("<I", ifd_at) + body + ifd
 
 
@@ -220,7 +254,7 @@ def chessboard_png() -> bytes:
     for r in range(rows):
         for c in range(cols):
             if (r + c) % 2 == 0:
-                img[40 + r * sq:40 + (r + 1) * sq, 40 + c * sq:40 + (c + 1) * sq] = 0
+                img[40 + r * sq : 40 + (r + 1) * sq, 40 + c * sq : 40 + (c + 1) * sq] = 0
     return cv2.imencode(".png", img)[1].tobytes()
 
 
@@ -233,11 +267,13 @@ def _junk(n: int, seed: int = 1) -> bytes:
 
 
 BAD_UTF8 = b"\xff\xfe\xfa\xc3\x28 \xa0\xa1\n\xe2\x82\n"
-ALIAS_BOMB = ("a: &a [x, x, x, x, x, x, x, x, x]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
-              "c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b]\nd: &d [*c, *c, *c, *c, *c, *c, *c, *c, *c]\n"
-              "e: &e [*d, *d, *d, *d, *d, *d, *d, *d, *d]\nf: &f [*e, *e, *e, *e, *e, *e, *e, *e, *e]\n"
-              "g: &g [*f, *f, *f, *f, *f, *f, *f, *f, *f]\nh: &h [*g, *g, *g, *g, *g, *g, *g, *g, *g]\n"
-              "i: &i [*h, *h, *h, *h, *h, *h, *h, *h, *h]\n").encode()
+ALIAS_BOMB = (
+    b"a: &a [x, x, x, x, x, x, x, x, x]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
+    b"c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b]\nd: &d [*c, *c, *c, *c, *c, *c, *c, *c, *c]\n"
+    b"e: &e [*d, *d, *d, *d, *d, *d, *d, *d, *d]\nf: &f [*e, *e, *e, *e, *e, *e, *e, *e, *e]\n"
+    b"g: &g [*f, *f, *f, *f, *f, *f, *f, *f, *f]\nh: &h [*g, *g, *g, *g, *g, *g, *g, *g, *g]\n"
+    b"i: &i [*h, *h, *h, *h, *h, *h, *h, *h, *h]\n"
+)
 
 
 # -- the cases ---------------------------------------------------------------------------
@@ -289,38 +325,61 @@ def _reader_cases() -> list[Case]:
     add("ply_inf_binary.ply", ply_binary(inf))
     add("ply_inf_ascii.ply", ply_ascii(inf))
     add("ply_no_x.ply", _ply_head(len(P), props=("a", "y", "z")) + P.astype("<f4").tobytes())
-    add("ply_no_vertex.ply", b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
-                             b"end_header\n")
+    add(
+        "ply_no_vertex.ply",
+        b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n",
+    )
     add("ply_no_format.ply", b"ply\nelement vertex 1\nproperty float x\nend_header\n1\n")
-    add("ply_bad_format.ply", b"ply\nformat binary_middle_endian 1.0\nelement vertex 1\nproperty float x\n"
-                              b"end_header\n1\n")
+    add(
+        "ply_bad_format.ply",
+        b"ply\nformat binary_middle_endian 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n",
+    )
     add("ply_bad_type.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n1\n")
     add("ply_no_end_header.ply", _ply_head(3).replace(b"end_header\n", b""))
     add("ply_long_header_line.ply", b"ply\nformat ascii 1.0\ncomment " + b"a" * 100_000 + b"\nend_header\n")
     add("ply_many_header_lines.ply", b"ply\nformat ascii 1.0\n" + b"comment x\n" * 20_000 + b"end_header\n")
-    add("ply_bad_utf8_header.ply", b"ply\nformat ascii 1.0\ncomment \xff\xfe\nelement vertex 1\n"
-                                   b"property float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n")
+    add(
+        "ply_bad_utf8_header.ply",
+        b"ply\nformat ascii 1.0\ncomment \xff\xfe\nelement vertex 1\n"
+        b"property float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n",
+    )
     add("ply_bad_utf8_body.ply", _ply_head(2, "ascii") + b"1 2 3\n\xff\xfe \xc3\x28 4\n")
     add("ply_text_in_body.ply", _ply_head(2, "ascii") + b"1 2 3\nfour five six\n")
     add("ply_face_out_of_range.ply", ply_mesh(v, np.array([[0, 1, 99]])))
     add("ply_face_negative.ply", ply_mesh(v, np.array([[0, -1, 2]])))
     add("ply_face_out_of_range_ascii.ply", ply_mesh(v, np.array([[0, 1, 2**31 - 1]]), "ascii"))
-    add("ply_face_two_corners.ply", _ply_head(4, "ascii").replace(b"end_header\n", b"") +
-        b"element face 1\nproperty list uchar int vertex_indices\nend_header\n" + _xyz_text(v) + b"2 0 1\n")
-    add("ply_face_list_255.ply", _ply_head(4, "ascii").replace(b"end_header\n", b"") +
-        b"element face 1\nproperty list uchar int vertex_indices\nend_header\n" + _xyz_text(v) + b"255 0 1 2\n")
+    add(
+        "ply_face_two_corners.ply",
+        _ply_head(4, "ascii").replace(b"end_header\n", b"")
+        + b"element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        + _xyz_text(v)
+        + b"2 0 1\n",
+    )
+    add(
+        "ply_face_list_255.ply",
+        _ply_head(4, "ascii").replace(b"end_header\n", b"")
+        + b"element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        + _xyz_text(v)
+        + b"255 0 1 2\n",
+    )
     add("ply_ragged_truncated.ply", ply_mesh(v, f)[:-3])
     add("ply_unknown_unit.ply", _ply_head(len(P), extra="comment unit furlong\n") + P.astype("<f4").tobytes())
     add("ply_dup_property.ply", _ply_head(len(P), props=("x", "y", "z", "x")) + P.astype("<f4").tobytes())
-    add("ply_colour_negative.ply", _ply_head(2, "ascii", props=("x", "y", "z", "red", "green", "blue"))
-        + b"1 2 3 -5 0 0\n4 5 6 0 0 0\n")
-    add("ply_colour_nan.ply", _ply_head(2, "ascii", props=("x", "y", "z", "red", "green", "blue"))
-        + b"1 2 3 nan 0 0\n4 5 6 0 0 0\n")
+    add(
+        "ply_colour_negative.ply",
+        _ply_head(2, "ascii", props=("x", "y", "z", "red", "green", "blue")) + b"1 2 3 -5 0 0\n4 5 6 0 0 0\n",
+    )
+    add(
+        "ply_colour_nan.ply",
+        _ply_head(2, "ascii", props=("x", "y", "z", "red", "green", "blue")) + b"1 2 3 nan 0 0\n4 5 6 0 0 0\n",
+    )
     add("ply_big_endian_excess.ply", _ply_head(3).replace(b"little", b"big") + P[:50].astype(">f4").tobytes())
     add("ply_uchar_list_len_huge.ply", ply_mesh(v, f, "ascii").replace(b"3 0 2 1", b"200 0 2 1"))
-    add("ply_element_zero_props.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-        b"property float y\nproperty float z\nelement junk 1000000000000\nend_header\n"
-        + P[:3].astype("<f4").tobytes())
+    add(
+        "ply_element_zero_props.ply",
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        b"property float y\nproperty float z\nelement junk 1000000000000\nend_header\n" + P[:3].astype("<f4").tobytes(),
+    )
     # PCD
     add("pcd_excess_ascii.pcd", pcd(P, n_header=10))
     add("pcd_excess_binary.pcd", pcd(P, "binary", n_header=10))
@@ -338,7 +397,7 @@ def _reader_cases() -> list[Case]:
     add("pcd_size_count_mismatch.pcd", pcd(P).replace(b"COUNT 1 1 1", b"COUNT 1 1"))
     add("pcd_negative_size.pcd", pcd(P, "binary").replace(b"SIZE 4 4 4", b"SIZE -4 4 4"))
     add("pcd_no_z.pcd", pcd(P).replace(b"FIELDS x y z", b"FIELDS x y q"))
-    add("pcd_text_body.pcd", pcd(P[:2]) .replace(_xyz_text(P[:2]), b"one two three\nfour five six\n"))
+    add("pcd_text_body.pcd", pcd(P[:2]).replace(_xyz_text(P[:2]), b"one two three\nfour five six\n"))
     add("pcd_bad_utf8_body.pcd", pcd(P[:2]).replace(_xyz_text(P[:2]), b"1 2 3\n\xff\xfe\xc3\x28 2 3\n"))
     add("pcd_compressed_ok_but_lying.pcd", pcd_compressed(P, usize=2**31))
     add("pcd_compressed_truncated.pcd", pcd_compressed(P)[:-100])
@@ -401,7 +460,7 @@ def _reader_cases() -> list[Case]:
     add("e57_magic_junk.e57", b"ASTM-E57" + _junk(4000, 3))
     add("e57_header_lies.e57", b"ASTM-E57" + struct.pack("<IIQQQ", 1, 0, 2**40, 48, 2**40) + _junk(2000, 4))
     e57 = _e57_bytes()
-    add("e57_truncated_half.e57", e57[:len(e57) // 2])
+    add("e57_truncated_half.e57", e57[: len(e57) // 2])
     add("e57_truncated_last_page.e57", e57[:-1024])
     flipped = bytearray(e57)
     flipped[len(e57) // 2] ^= 0xFF
@@ -428,16 +487,19 @@ def _reader_cases() -> list[Case]:
     add("bmp_negative_width.bmp", bmp(-64, 48))
     add("bmp_zero.bmp", bmp(0, 0))
     add("bmp_topdown_bomb.bmp", bmp(30000, -30000, body=b"\0" * 64))
-    cases = [Case(f"info-{name.replace('.', '-')}", ("info", name, "--json"), {name: data}, (name,))
-             for name, data in out.items()]
+    cases = [
+        Case(f"info-{name.replace('.', '-')}", ("info", name, "--json"), {name: data}, (name,))
+        for name, data in out.items()
+    ]
     # file-system oddities
     cases += [
         Case("info-missing", ("info", "missing.ply"), {}, ("missing.ply",)),
         Case("info-folder", ("info", "folder.ply"), {"folder.ply/": b""}, ("folder.ply",)),
         Case("info-fifo", ("info", "pipe.ply"), {"pipe.ply": b"<fifo>"}, ("pipe.ply",), timeout=20),
         Case("info-dev-zero", ("info", "zero.xyz"), {"zero.xyz": b"->/dev/zero"}, ("zero.xyz",), timeout=20),
-        Case("info-dev-urandom", ("info", "random.stl"), {"random.stl": b"->/dev/urandom"}, ("random.stl",),
-             timeout=20),
+        Case(
+            "info-dev-urandom", ("info", "random.stl"), {"random.stl": b"->/dev/urandom"}, ("random.stl",), timeout=20
+        ),
         Case("info-broken-link", ("info", "gone.ply"), {"gone.ply": b"->nowhere.ply"}, ("gone.ply",)),
         Case("info-unknown-ext", ("info", "scan.las"), {"scan.las": b"LASF"}, ("scan.las",)),
         Case("info-no-ext", ("info", "scan"), {"scan": b"1 2 3\n"}, ("scan",)),
@@ -446,12 +508,27 @@ def _reader_cases() -> list[Case]:
         Case("info-nan-unit", ("info", "ok.xyz", "--unit", "nan"), {"ok.xyz": _xyz_text(P)}, ("nan",)),
         Case("info-no-file", ("info",), {}, ("file", "required")),
         Case("info-two-files", ("info", "a.xyz", "b.xyz"), {}, ("b.xyz", "unrecognized")),
-        Case("info-image-cap-env", ("info", "small.png", "--json"), {"small.png": _encoded(".png")}, ("small.png",),
-             env={"CAMCMM_MAX_IMAGE_PIXELS": "1000"}),
-        Case("info-image-cap-env-bad", ("info", "small.png", "--json"), {"small.png": _encoded(".png")},
-             ("CAMCMM_MAX_IMAGE_PIXELS",), env={"CAMCMM_MAX_IMAGE_PIXELS": "lots"}),
-        Case("info-image-cap-env-negative", ("info", "small.png", "--json"), {"small.png": _encoded(".png")},
-             ("CAMCMM_MAX_IMAGE_PIXELS",), env={"CAMCMM_MAX_IMAGE_PIXELS": "-5"}),
+        Case(
+            "info-image-cap-env",
+            ("info", "small.png", "--json"),
+            {"small.png": _encoded(".png")},
+            ("small.png",),
+            env={"CAMCMM_MAX_IMAGE_PIXELS": "1000"},
+        ),
+        Case(
+            "info-image-cap-env-bad",
+            ("info", "small.png", "--json"),
+            {"small.png": _encoded(".png")},
+            ("CAMCMM_MAX_IMAGE_PIXELS",),
+            env={"CAMCMM_MAX_IMAGE_PIXELS": "lots"},
+        ),
+        Case(
+            "info-image-cap-env-negative",
+            ("info", "small.png", "--json"),
+            {"small.png": _encoded(".png")},
+            ("CAMCMM_MAX_IMAGE_PIXELS",),
+            env={"CAMCMM_MAX_IMAGE_PIXELS": "-5"},
+        ),
     ]
     return cases
 
@@ -464,28 +541,71 @@ def _fit_cases() -> list[Case]:
     cases = []
     for el in ("line", "plane", "circle", "sphere", "cylinder"):
         cases += [
-            Case(f"fit-{el}-two-points", ("fit", el, "two.xyz", "--json"), {"two.xyz": _xyz_text(S[:2])},
-                 ("two.xyz", "point")),
-            Case(f"fit-{el}-identical-points", ("fit", el, "same.xyz", "--json"), {"same.xyz": _xyz_text(same)},
-                 ("same.xyz",)),
-            Case(f"fit-{el}-nan", ("fit", el, "nan.xyz", "--json"), {"nan.xyz": _xyz_text(S) + b"1 nan 2\n"},
-                 ("nan.xyz",)),
-            Case(f"fit-{el}-empty-ply", ("fit", el, "empty.ply", "--json"), {"empty.ply": ply_binary(S[:0])},
-                 ("empty.ply",)),
-            Case(f"fit-{el}-mesh-file", ("fit", el, "m.stl", "--json"), {"m.stl": stl_binary(_tetra()[0][_tetra()[1]])},
-                 ("m.stl",)),
+            Case(
+                f"fit-{el}-two-points",
+                ("fit", el, "two.xyz", "--json"),
+                {"two.xyz": _xyz_text(S[:2])},
+                ("two.xyz", "point"),
+            ),
+            Case(
+                f"fit-{el}-identical-points",
+                ("fit", el, "same.xyz", "--json"),
+                {"same.xyz": _xyz_text(same)},
+                ("same.xyz",),
+            ),
+            Case(
+                f"fit-{el}-nan",
+                ("fit", el, "nan.xyz", "--json"),
+                {"nan.xyz": _xyz_text(S) + b"1 nan 2\n"},
+                ("nan.xyz",),
+            ),
+            Case(
+                f"fit-{el}-empty-ply",
+                ("fit", el, "empty.ply", "--json"),
+                {"empty.ply": ply_binary(S[:0])},
+                ("empty.ply",),
+            ),
+            Case(
+                f"fit-{el}-mesh-file",
+                ("fit", el, "m.stl", "--json"),
+                {"m.stl": stl_binary(_tetra()[0][_tetra()[1]])},
+                ("m.stl",),
+            ),
             Case(f"fit-{el}-image-file", ("fit", el, "i.png", "--json"), {"i.png": _encoded(".png")}, ("i.png",)),
         ]
     for el in ("plane", "circle", "sphere", "cylinder"):
-        cases.append(Case(f"fit-{el}-collinear", ("fit", el, "line.xyz", "--json"), {"line.xyz": _xyz_text(line)},
-                          ("line.xyz",)))
+        cases.append(
+            Case(f"fit-{el}-collinear", ("fit", el, "line.xyz", "--json"), {"line.xyz": _xyz_text(line)}, ("line.xyz",))
+        )
     for val in ("-10", "0", "nan", "inf", "-inf", "ten", "1e400"):
-        cases.append(Case(f"fit-nominal-radius-{val}", ("fit", "sphere", "s.xyz", "--nominal-radius", val, "--json"),
-                          good, ("nominal", "radius", val)))
-    for rule in ("bogus", "percent:-5", "percent:150", "percent:abc", "sigma:0", "sigma:-1", "sigma:nan", "percent:",
-                 "sigma:inf", "percent:nan"):
-        cases.append(Case(f"fit-outliers-{rule.replace(':', '-') or 'empty'}",
-                          ("fit", "sphere", "s.xyz", "--outliers", rule, "--json"), good, ("outlier", rule)))
+        cases.append(
+            Case(
+                f"fit-nominal-radius-{val}",
+                ("fit", "sphere", "s.xyz", "--nominal-radius", val, "--json"),
+                good,
+                ("nominal", "radius", val),
+            )
+        )
+    for rule in (
+        "bogus",
+        "percent:-5",
+        "percent:150",
+        "percent:abc",
+        "sigma:0",
+        "sigma:-1",
+        "sigma:nan",
+        "percent:",
+        "sigma:inf",
+        "percent:nan",
+    ):
+        cases.append(
+            Case(
+                f"fit-outliers-{rule.replace(':', '-') or 'empty'}",
+                ("fit", "sphere", "s.xyz", "--outliers", rule, "--json"),
+                good,
+                ("outlier", rule),
+            )
+        )
     cases += [
         Case("fit-bad-method", ("fit", "sphere", "s.xyz", "--method", "magic"), good, ("magic",)),
         Case("fit-bad-element", ("fit", "cone", "s.xyz"), good, ("cone",)),
@@ -493,8 +613,12 @@ def _fit_cases() -> list[Case]:
         Case("fit-minzone-line", ("fit", "line", "s.xyz", "--method", "minzone", "--json"), good, ("minzone", "line")),
         Case("fit-extract-plane", ("fit", "plane", "s.xyz", "--extract", "--json"), good, ("extract", "plane")),
         Case("fit-missing-file", ("fit", "sphere", "nothere.ply"), {}, ("nothere.ply",)),
-        Case("fit-extract-no-radius-junk", ("fit", "sphere", "j.xyz", "--extract", "--json"),
-             {"j.xyz": _xyz_text(_rng(3).uniform(-50, 50, (300, 3)))}, ("j.xyz", "sphere")),
+        Case(
+            "fit-extract-no-radius-junk",
+            ("fit", "sphere", "j.xyz", "--extract", "--json"),
+            {"j.xyz": _xyz_text(_rng(3).uniform(-50, 50, (300, 3)))},
+            ("j.xyz", "sphere"),
+        ),
     ]
     return cases
 
@@ -502,11 +626,17 @@ def _fit_cases() -> list[Case]:
 def _plan(measurements=None, **over) -> bytes:
     import yaml
 
-    doc = {"standard": "vdi2634-2", "system": {"measuring_volume": [100, 100, 100]},
-           "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
-           "artefacts": {"sphere": {"diameter": 20.0}, "flat": {"length": 150, "width": 60},
-                         "ball_bar": {"length": 49.944, "uncertainty": 0.0008, "sphere_diameter": 20.0}},
-           "measurements": measurements or {"sphere": ["s.ply"]}}
+    doc = {
+        "standard": "vdi2634-2",
+        "system": {"measuring_volume": [100, 100, 100]},
+        "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
+        "artefacts": {
+            "sphere": {"diameter": 20.0},
+            "flat": {"length": 150, "width": 60},
+            "ball_bar": {"length": 49.944, "uncertainty": 0.0008, "sphere_diameter": 20.0},
+        },
+        "measurements": measurements or {"sphere": ["s.ply"]},
+    }
     doc.update(over)
     return yaml.safe_dump(doc, sort_keys=False).encode()
 
@@ -538,14 +668,23 @@ def _verify_cases() -> list[Case]:
     plan_case("no-measurements", _plan(measurements={}), ("plan.yaml", "measurements"))
     plan_case("measurement-missing-file", _plan(measurements={"sphere": ["gone.ply"]}), ("gone.ply",))
     plan_case("measurement-junk-file", _plan(measurements={"sphere": ["j.ply"]}), ("j.ply",), {"j.ply": _junk(500)})
-    plan_case("measurement-nan-file", _plan(measurements={"sphere": ["n.xyz"]}), ("n.xyz",),
-              {"n.xyz": _xyz_text(_sphere(300)) + b"nan 1 2\n"})
+    plan_case(
+        "measurement-nan-file",
+        _plan(measurements={"sphere": ["n.xyz"]}),
+        ("n.xyz",),
+        {"n.xyz": _xyz_text(_sphere(300)) + b"nan 1 2\n"},
+    )
     plan_case("measurement-outside", _plan(measurements={"sphere": ["/etc/passwd.ply"]}), ("passwd.ply",))
     plan_case("unknown-artefact", _plan(measurements={"cube": ["s.ply"]}), ("cube",))
-    plan_case("measurement-unit-bad", _plan(measurements={"sphere": [{"file": "s.ply", "unit": "furlong"}]}),
-              ("furlong",))
-    plan_case("measurement-excess-data", _plan(measurements={"sphere": ["x.ply"]}), ("x.ply",),
-              {"x.ply": ply_binary(_sphere(2000), 100)})
+    plan_case(
+        "measurement-unit-bad", _plan(measurements={"sphere": [{"file": "s.ply", "unit": "furlong"}]}), ("furlong",)
+    )
+    plan_case(
+        "measurement-excess-data",
+        _plan(measurements={"sphere": ["x.ply"]}),
+        ("x.ply",),
+        {"x.ply": ply_binary(_sphere(2000), 100)},
+    )
     plan_case("measurement-image", _plan(measurements={"sphere": ["i.png"]}), ("i.png",), {"i.png": _encoded(".png")})
     plan_case("huge-file", b"# " + b"x" * (20 << 20) + b"\n" + _plan(), ("plan.yaml",))
     for w in ("0", "-1", "abc", "1000000", "nan"):
@@ -565,25 +704,52 @@ def _inspect_cases() -> list[Case]:
     cases = []
 
     def ic(cid, args, names, extra=None, cloud="c.xyz"):
-        cases.append(Case(f"inspect-{cid}", ("inspect", cloud, "--nominal", "n.stl", "--json", *args),
-                          dict(base, **(extra or {})), names, timeout=40))
+        cases.append(
+            Case(
+                f"inspect-{cid}",
+                ("inspect", cloud, "--nominal", "n.stl", "--json", *args),
+                dict(base, **(extra or {})),
+                names,
+                timeout=40,
+            )
+        )
 
-    for opt, vals in {"--tolerance": ("-1", "0", "nan", "inf"), "--max-distance": ("-1", "0", "nan"),
-                      "--inlier-distance": ("-1", "nan"), "--min-overlap": ("2", "-0.5", "nan"),
-                      "--coverage-distance": ("0", "-3", "nan"), "--seed": ("-1", "abc", "1e30")}.items():
+    for opt, vals in {
+        "--tolerance": ("-1", "0", "nan", "inf"),
+        "--max-distance": ("-1", "0", "nan"),
+        "--inlier-distance": ("-1", "nan"),
+        "--min-overlap": ("2", "-0.5", "nan"),
+        "--coverage-distance": ("0", "-3", "nan"),
+        "--seed": ("-1", "abc", "1e30"),
+    }.items():
         for val in vals:
             ic(f"{opt[2:]}-{val}", (opt, val), (opt[2:].replace("-", "_"), opt[2:], val))
     ic("region-inverted", ("--region", "10", "10", "10", "0", "0", "0"), ("region",))
     ic("region-nan", ("--region", "nan", "0", "0", "1", "1", "1"), ("region", "nan"))
     ic("pairs-missing", ("--align", "pairs", "--pairs", "p.json"), ("p.json",))
     ic("pairs-junk", ("--align", "pairs", "--pairs", "p.json"), ("p.json",), {"p.json": _junk(300)})
-    ic("pairs-two", ("--align", "pairs", "--pairs", "p.json"), ("p.json", "pairs", "3"),
-       {"p.json": json.dumps({"measured": [[0, 0, 0], [1, 0, 0]], "nominal": [[0, 0, 0], [1, 0, 0]]}).encode()})
-    ic("pairs-nan", ("--align", "pairs", "--pairs", "p.json"), ("p.json", "nan", "NaN"),
-       {"p.json": b'{"measured": [[0,0,0],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,NaN,0]]}'})
-    ic("pairs-collinear", ("--align", "pairs", "--pairs", "p.json"), ("p.json", "collinear", "pairs"),
-       {"p.json": json.dumps({"measured": [[0, 0, 0], [1, 0, 0], [2, 0, 0]],
-                              "nominal": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]}).encode()})
+    ic(
+        "pairs-two",
+        ("--align", "pairs", "--pairs", "p.json"),
+        ("p.json", "pairs", "3"),
+        {"p.json": json.dumps({"measured": [[0, 0, 0], [1, 0, 0]], "nominal": [[0, 0, 0], [1, 0, 0]]}).encode()},
+    )
+    ic(
+        "pairs-nan",
+        ("--align", "pairs", "--pairs", "p.json"),
+        ("p.json", "nan", "NaN"),
+        {"p.json": b'{"measured": [[0,0,0],[1,0,0],[0,1,0]], "nominal": [[0,0,0],[1,0,0],[0,NaN,0]]}'},
+    )
+    ic(
+        "pairs-collinear",
+        ("--align", "pairs", "--pairs", "p.json"),
+        ("p.json", "collinear", "pairs"),
+        {
+            "p.json": json.dumps(
+                {"measured": [[0, 0, 0], [1, 0, 0], [2, 0, 0]], "nominal": [[0, 0, 0], [1, 0, 0], [2, 0, 0]]}
+            ).encode()
+        },
+    )
     ic("pairs-no-file", ("--align", "pairs"), ("pairs",))
     ic("nominal-junk", (), ("n.stl",), {"n.stl": _junk(1000)})
     ic("nominal-excess", (), ("n.stl",), {"n.stl": stl_binary(np.repeat(tri, 5, axis=0), 4)})
@@ -604,12 +770,15 @@ def _inspect_cases() -> list[Case]:
 
 def _uncertainty_cases() -> list[Case]:
     cases = []
-    budget_ok = (b"quantity: x\nunit: um\ncontributions:\n  - {name: a, u: 3.1, dof: inf}\n"
-                 b"  - {name: b, u: 1.2, c: 1.4, dof: 20, distribution: rectangular}\n")
+    budget_ok = (
+        b"quantity: x\nunit: um\ncontributions:\n  - {name: a, u: 3.1, dof: inf}\n"
+        b"  - {name: b, u: 1.2, c: 1.4, dof: 20, distribution: rectangular}\n"
+    )
 
     def bc(cid, data, names, args=()):
-        cases.append(Case(f"budget-{cid}", ("uncertainty", "budget", "b.yaml", "--json", *args), {"b.yaml": data},
-                          names))
+        cases.append(
+            Case(f"budget-{cid}", ("uncertainty", "budget", "b.yaml", "--json", *args), {"b.yaml": data}, names)
+        )
 
     bc("empty", b"", ("b.yaml",))
     bc("junk", _junk(800), ("b.yaml",))
@@ -619,8 +788,18 @@ def _uncertainty_cases() -> list[Case]:
     bc("no-contributions", b"quantity: x\nunit: um\n", ("b.yaml", "contributions"))
     bc("contributions-empty", b"quantity: x\nunit: um\ncontributions: []\n", ("b.yaml", "contributions"))
     bc("contributions-not-list", b"quantity: x\nunit: um\ncontributions: 5\n", ("b.yaml", "contributions"))
-    for key, val in (("u", "-1"), ("u", ".nan"), ("u", ".inf"), ("u", "abc"), ("dof", "0"), ("dof", "-3"),
-                     ("dof", ".nan"), ("c", ".nan"), ("c", ".inf"), ("distribution", "weird")):
+    for key, val in (
+        ("u", "-1"),
+        ("u", ".nan"),
+        ("u", ".inf"),
+        ("u", "abc"),
+        ("dof", "0"),
+        ("dof", "-3"),
+        ("dof", ".nan"),
+        ("c", ".nan"),
+        ("c", ".inf"),
+        ("distribution", "weird"),
+    ):
         body = f"quantity: x\nunit: um\ncontributions:\n  - {{name: a, u: 3.1, dof: 10, {key}: {val}}}\n".encode()
         if key == "u":
             body = f"quantity: x\nunit: um\ncontributions:\n  - {{name: a, u: {val}, dof: 10}}\n".encode()
@@ -635,8 +814,9 @@ def _uncertainty_cases() -> list[Case]:
     iso_ok = b"calibrated_value: 4.999\nu_cal: 0.0002\nmeasurements: [4.993, 5.003, 5.001]\nu_w: 0.0\nk: 2\n"
 
     def ic(cid, data, names, args=()):
-        cases.append(Case(f"iso15530-{cid}", ("uncertainty", "iso15530-3", "i.yaml", "--json", *args),
-                          {"i.yaml": data}, names))
+        cases.append(
+            Case(f"iso15530-{cid}", ("uncertainty", "iso15530-3", "i.yaml", "--json", *args), {"i.yaml": data}, names)
+        )
 
     ic("empty", b"", ("i.yaml",))
     ic("junk", _junk(600), ("i.yaml",))
@@ -653,22 +833,35 @@ def _uncertainty_cases() -> list[Case]:
     ic("k-negative", iso_ok.replace(b"k: 2", b"k: -2"), ("i.yaml", "k"))
     for k in ("0", "-1", "nan", "inf", "x"):
         ic(f"opt-k-{k}", iso_ok, ("k", k), ("--k", k))
-    ic("project-missing", iso_ok, ("nowhere", "project", "result"), ("--project", "nowhere", "--result", "1",
-                                                                     "--path", "x"))
+    ic(
+        "project-missing",
+        iso_ok,
+        ("nowhere", "project", "result"),
+        ("--project", "nowhere", "--result", "1", "--path", "x"),
+    )
     ic("result-without-project", iso_ok, ("project", "result"), ("--result", "3"))
 
-    mc_ok = (b"unit: um\niterations: 200\nseed: 1\ncameras:\n"
-             b"  - {focal_length: 16.74, pixel_pitch: 0.00185, image_size: [4024, 3036], k: [-0.135, 0.24, 0.0]}\n"
-             b"  - {focal_length: 16.66, pixel_pitch: 0.00185, image_size: [4024, 3036], k: [-0.13, 0.17, 0.0]}\n"
-             b"stereo: {baseline: 199.35, angle_deg: 38.64}\ngrid: {size: [60, 40, 40], n: [2, 2, 2]}\n"
-             b"uncertainties:\n  feature_location: 0.1\n  focal_length: [0.82, 0.84]\n"
-             b"  rotation: [1.84e-4, 1.52e-4, 0.71e-4]\n  translation: [0.013, 0.008, 0.027]\n"
-             b"  radial_distortion: [0.001, 0.0362, 0.0]\n"
-             b"dof: {focal_length: 2244, rotation: 14, translation: 14, radial_distortion: 2244}\n")
+    mc_ok = (
+        b"unit: um\niterations: 200\nseed: 1\ncameras:\n"
+        b"  - {focal_length: 16.74, pixel_pitch: 0.00185, image_size: [4024, 3036], k: [-0.135, 0.24, 0.0]}\n"
+        b"  - {focal_length: 16.66, pixel_pitch: 0.00185, image_size: [4024, 3036], k: [-0.13, 0.17, 0.0]}\n"
+        b"stereo: {baseline: 199.35, angle_deg: 38.64}\ngrid: {size: [60, 40, 40], n: [2, 2, 2]}\n"
+        b"uncertainties:\n  feature_location: 0.1\n  focal_length: [0.82, 0.84]\n"
+        b"  rotation: [1.84e-4, 1.52e-4, 0.71e-4]\n  translation: [0.013, 0.008, 0.027]\n"
+        b"  radial_distortion: [0.001, 0.0362, 0.0]\n"
+        b"dof: {focal_length: 2244, rotation: 14, translation: 14, radial_distortion: 2244}\n"
+    )
 
     def mc(cid, data, names, args=(), timeout=40.0):
-        cases.append(Case(f"montecarlo-{cid}", ("uncertainty", "montecarlo", "m.yaml", "--json", *args),
-                          {"m.yaml": data}, names, timeout=timeout))
+        cases.append(
+            Case(
+                f"montecarlo-{cid}",
+                ("uncertainty", "montecarlo", "m.yaml", "--json", *args),
+                {"m.yaml": data},
+                names,
+                timeout=timeout,
+            )
+        )
 
     mc("empty", b"", ("m.yaml",))
     mc("junk", _junk(700), ("m.yaml",))
@@ -676,27 +869,33 @@ def _uncertainty_cases() -> list[Case]:
     mc("alias-bomb", ALIAS_BOMB, ("m.yaml", "alias"))
     mc("duplicate-key", mc_ok + b"seed: 2\n", ("m.yaml", "seed", "duplicate"))
     for old, new, names in (
-            (b"image_size: [4024, 3036], k: [-0.135", b"image_size: [0, 0], k: [-0.135", ("image_size",)),
-            (b"focal_length: 16.74", b"focal_length: 0", ("focal_length",)),
-            (b"focal_length: 16.74", b"focal_length: -16", ("focal_length",)),
-            (b"focal_length: 16.74", b"focal_length: .nan", ("focal_length",)),
-            (b"pixel_pitch: 0.00185, image_size: [4024", b"pixel_pitch: 0, image_size: [4024", ("pixel_pitch",)),
-            (b"n: [2, 2, 2]", b"n: [0, 0, 0]", ("grid", "n")),
-            (b"n: [2, 2, 2]", b"n: [3000, 3000, 3000]", ("grid", "n", "3000")),
-            (b"n: [2, 2, 2]", b"n: [-2, 2, 2]", ("grid", "n")),
-            (b"size: [60, 40, 40]", b"size: [.nan, 40, 40]", ("grid", "size")),
-            (b"baseline: 199.35", b"baseline: 0", ("baseline",)),
-            (b"baseline: 199.35", b"baseline: -5", ("baseline",)),
-            (b"iterations: 200", b"iterations: 1000000000000", ("iterations",)),
-            (b"iterations: 200", b"iterations: 0", ("iterations",)),
-            (b"seed: 1", b"seed: -1", ("seed",)),
-            (b"feature_location: 0.1", b"feature_location: -0.1", ("feature_location",)),
-            (b"feature_location: 0.1", b"feature_location: .nan", ("feature_location",)),
-            (b"unit: um", b"unit: furlong", ("furlong", "unit")),
-            (b"angle_deg: 38.64", b"angle_deg: 720", ("angle",)),
-            (b"cameras:\n", b"cameras: []\nx:\n", ("cameras",))):
-        mc(f"file-{old.split(b':')[0].decode().strip()}-{new.split(b':')[-1].decode().strip(' []').split(',')[0]}"
-           .replace(" ", "").replace(".", ""), mc_ok.replace(old, new, 1), ("m.yaml", *names))
+        (b"image_size: [4024, 3036], k: [-0.135", b"image_size: [0, 0], k: [-0.135", ("image_size",)),
+        (b"focal_length: 16.74", b"focal_length: 0", ("focal_length",)),
+        (b"focal_length: 16.74", b"focal_length: -16", ("focal_length",)),
+        (b"focal_length: 16.74", b"focal_length: .nan", ("focal_length",)),
+        (b"pixel_pitch: 0.00185, image_size: [4024", b"pixel_pitch: 0, image_size: [4024", ("pixel_pitch",)),
+        (b"n: [2, 2, 2]", b"n: [0, 0, 0]", ("grid", "n")),
+        (b"n: [2, 2, 2]", b"n: [3000, 3000, 3000]", ("grid", "n", "3000")),
+        (b"n: [2, 2, 2]", b"n: [-2, 2, 2]", ("grid", "n")),
+        (b"size: [60, 40, 40]", b"size: [.nan, 40, 40]", ("grid", "size")),
+        (b"baseline: 199.35", b"baseline: 0", ("baseline",)),
+        (b"baseline: 199.35", b"baseline: -5", ("baseline",)),
+        (b"iterations: 200", b"iterations: 1000000000000", ("iterations",)),
+        (b"iterations: 200", b"iterations: 0", ("iterations",)),
+        (b"seed: 1", b"seed: -1", ("seed",)),
+        (b"feature_location: 0.1", b"feature_location: -0.1", ("feature_location",)),
+        (b"feature_location: 0.1", b"feature_location: .nan", ("feature_location",)),
+        (b"unit: um", b"unit: furlong", ("furlong", "unit")),
+        (b"angle_deg: 38.64", b"angle_deg: 720", ("angle",)),
+        (b"cameras:\n", b"cameras: []\nx:\n", ("cameras",)),
+    ):
+        mc(
+            f"file-{old.split(b':')[0].decode().strip()}-{new.split(b':')[-1].decode().strip(' []').split(',')[0]}".replace(  # noqa: E501
+                " ", ""
+            ).replace(".", ""),
+            mc_ok.replace(old, new, 1),
+            ("m.yaml", *names),
+        )
     for it in ("0", "-1", "1000000000000", "abc", "1e3"):
         mc(f"iterations-{it}", mc_ok, ("iterations", it), ("--iterations", it))
     for seed in ("-1", "abc", "1e40"):
@@ -719,69 +918,149 @@ def _calibration_cases() -> list[Case]:
 
     imgs = {f"b{i}.png": board for i in range(3)}
     names3 = tuple(imgs)
-    for spec in ("bogus", "chessboard:0x0:25", "chessboard:9x6:-25", "chessboard:9x6:nan", "chessboard:9x6:0",
-                 "chessboard:100000x100000:1", "charuco:5x5:20:30", "circles:4x11", "chessboard:9x6:inf",
-                 "charuco:5x7:20:10:NODICT"):
+    for spec in (
+        "bogus",
+        "chessboard:0x0:25",
+        "chessboard:9x6:-25",
+        "chessboard:9x6:nan",
+        "chessboard:9x6:0",
+        "chessboard:100000x100000:1",
+        "charuco:5x5:20:30",
+        "circles:4x11",
+        "chessboard:9x6:inf",
+        "charuco:5x7:20:10:NODICT",
+    ):
         cc(f"board-{spec.replace(':', '-')}", (*names3, "--board", spec), imgs, ("board", spec))
     cc("missing-image", ("gone.png", "--board", "chessboard:9x6:20"), {}, ("gone.png",))
     cc("junk-image", ("j.png", "--board", "chessboard:9x6:20"), {"j.png": _junk(3000)}, ("j.png",))
     cc("bomb-image", ("bomb.png", "--board", "chessboard:9x6:20"), {"bomb.png": png_bomb()}, ("bomb.png",))
-    cc("no-board-found", ("blank.png", "blank2.png", "--board", "chessboard:9x6:20"),
-       {"blank.png": blank, "blank2.png": blank}, ("board", "blank.png", "corners", "views"))
+    cc(
+        "no-board-found",
+        ("blank.png", "blank2.png", "--board", "chessboard:9x6:20"),
+        {"blank.png": blank, "blank2.png": blank},
+        ("board", "blank.png", "corners", "views"),
+    )
     cc("cloud-as-image", ("c.ply", "--board", "chessboard:9x6:20"), {"c.ply": ply_binary(_sphere(10))}, ("c.ply",))
-    cc("mixed-sizes", ("b0.png", "small.png", "--board", "chessboard:9x6:20"),
-       {"b0.png": board, "small.png": blank}, ("size", "small.png", "board"))
-    for opt, vals in {"--distance": ("-1", "0", "nan"), "--subpix-window": ("0", "-1", "100000"),
-                      "--outlier-factor": ("-1", "nan")}.items():
+    cc(
+        "mixed-sizes",
+        ("b0.png", "small.png", "--board", "chessboard:9x6:20"),
+        {"b0.png": board, "small.png": blank},
+        ("size", "small.png", "board"),
+    )
+    for opt, vals in {
+        "--distance": ("-1", "0", "nan"),
+        "--subpix-window": ("0", "-1", "100000"),
+        "--outlier-factor": ("-1", "nan"),
+    }.items():
         for val in vals:
-            cc(f"{opt[2:]}-{val}", (*names3, "--board", "chessboard:9x6:20", opt, val), imgs,
-               (opt[2:], opt[2:].replace("-", "_"), val))
+            cc(
+                f"{opt[2:]}-{val}",
+                (*names3, "--board", "chessboard:9x6:20", opt, val),
+                imgs,
+                (opt[2:], opt[2:].replace("-", "_"), val),
+            )
     cc("out-bad-ext", (*names3, "--board", "chessboard:9x6:20", "--out", "cal.txt"), imgs, ("cal.txt",))
-    cases.append(Case("calibrate-stereo-count-mismatch",
-                      ("calibrate", "stereo", "--left", "b0.png", "b1.png", "--right", "b2.png", "--board",
-                       "chessboard:9x6:20", "--json"), imgs, ("left", "right")))
-    cases.append(Case("calibrate-stereo-missing",
-                      ("calibrate", "stereo", "--left", "x.png", "--right", "y.png", "--board", "chessboard:9x6:20"),
-                      {}, ("x.png", "y.png")))
-    for cid, left, names in (("junk", {"l.png": _junk(900)}, ("l.png",)), ("bomb", {"l.png": png_bomb()}, ("l.png",)),
-                             ("misnamed", {"l.png": _encoded(".jpg")}, ("l.png",)),
-                             ("empty", {"l.png": b""}, ("l.png",))):
-        cases.append(Case(f"calibrate-stereo-left-{cid}",
-                          ("calibrate", "stereo", "--left", "l.png", "--right", "b1.png", "--board", "chessboard:9x6:20",
-                           "--json"), {**imgs, **left}, names))
+    cases.append(
+        Case(
+            "calibrate-stereo-count-mismatch",
+            (
+                "calibrate",
+                "stereo",
+                "--left",
+                "b0.png",
+                "b1.png",
+                "--right",
+                "b2.png",
+                "--board",
+                "chessboard:9x6:20",
+                "--json",
+            ),
+            imgs,
+            ("left", "right"),
+        )
+    )
+    cases.append(
+        Case(
+            "calibrate-stereo-missing",
+            ("calibrate", "stereo", "--left", "x.png", "--right", "y.png", "--board", "chessboard:9x6:20"),
+            {},
+            ("x.png", "y.png"),
+        )
+    )
+    for cid, left, names in (
+        ("junk", {"l.png": _junk(900)}, ("l.png",)),
+        ("bomb", {"l.png": png_bomb()}, ("l.png",)),
+        ("misnamed", {"l.png": _encoded(".jpg")}, ("l.png",)),
+        ("empty", {"l.png": b""}, ("l.png",)),
+    ):
+        cases.append(
+            Case(
+                f"calibrate-stereo-left-{cid}",
+                (
+                    "calibrate",
+                    "stereo",
+                    "--left",
+                    "l.png",
+                    "--right",
+                    "b1.png",
+                    "--board",
+                    "chessboard:9x6:20",
+                    "--json",
+                ),
+                {**imgs, **left},
+                names,
+            )
+        )
     for spec in ("chessboard:9x6", "acircles:0x0:5"):
-        cases.append(Case(f"calibrate-stereo-board-{spec.replace(':', '-')}",
-                          ("calibrate", "stereo", "--left", "b0.png", "--right", "b1.png", "--board", spec, "--json"),
-                          imgs, ("board", spec)))
-    cases.append(Case("calibrate-no-images", ("calibrate", "camera", "--board", "chessboard:9x6:20"), {},
-                      ("IMAGES", "required")))
+        cases.append(
+            Case(
+                f"calibrate-stereo-board-{spec.replace(':', '-')}",
+                ("calibrate", "stereo", "--left", "b0.png", "--right", "b1.png", "--board", spec, "--json"),
+                imgs,
+                ("board", spec),
+            )
+        )
+    cases.append(
+        Case("calibrate-no-images", ("calibrate", "camera", "--board", "chessboard:9x6:20"), {}, ("IMAGES", "required"))
+    )
     return cases
 
 
 def _cal_yaml(fx=1000.0, fy=1000.0, baseline=100.0, size=(64, 48)) -> bytes:
-    return (f"%YAML 1.2\n---\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-            f"   data: [ {fx}, 0., 32., 0., {fy}, 24., 0., 0., 1. ]\n"
-            "D1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n"
-            "M2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-            "   data: [ 1000., 0., 640., 0., 1000., 400., 0., 0., 1. ]\n"
-            "D2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n"
-            f"image_size1: !!opencv-matrix\n   rows: 1\n   cols: 2\n   dt: i\n   data: [ {size[0]}, {size[1]} ]\n"
-            "image_size2: !!opencv-matrix\n   rows: 1\n   cols: 2\n   dt: i\n   data: [ 1280, 800 ]\n"
-            "camera_name1: camera\n"
-            "camera_name2: projector\n"
-            "R: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
-            f"T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ {-baseline}, 0., 0. ]\n").encode()
+    return (
+        f"%YAML 1.2\n---\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+        f"   data: [ {fx}, 0., 32., 0., {fy}, 24., 0., 0., 1. ]\n"
+        "D1: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n"
+        "M2: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+        "   data: [ 1000., 0., 640., 0., 1000., 400., 0., 0., 1. ]\n"
+        "D2: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n   data: [ 0., 0., 0., 0., 0. ]\n"
+        f"image_size1: !!opencv-matrix\n   rows: 1\n   cols: 2\n   dt: i\n   data: [ {size[0]}, {size[1]} ]\n"
+        "image_size2: !!opencv-matrix\n   rows: 1\n   cols: 2\n   dt: i\n   data: [ 1280, 800 ]\n"
+        "camera_name1: camera\n"
+        "camera_name2: projector\n"
+        "R: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\n"
+        f"T: !!opencv-matrix\n   rows: 3\n   cols: 1\n   dt: d\n   data: [ {-baseline}, 0., 0. ]\n"
+    ).encode()
 
 
 def _fringe_cases() -> list[Case]:
-    seq_ok = (b"projector: {width: 1280, height: 800}\nbit_depth: 8\nframes:\n  - white\n  - black\n"
-              b"  - {type: phase, direction: vertical, steps: 4, period: 32}\n"
-              b"  - {type: gray, direction: vertical, period: 32}\n")
+    seq_ok = (
+        b"projector: {width: 1280, height: 800}\nbit_depth: 8\nframes:\n  - white\n  - black\n"
+        b"  - {type: phase, direction: vertical, steps: 4, period: 32}\n"
+        b"  - {type: gray, direction: vertical, period: 32}\n"
+    )
     cases = []
 
     def pc(cid, data, names, timeout=30.0):
-        cases.append(Case(f"fringe-patterns-{cid}", ("fringe", "patterns", "s.yaml", "--out", "out", "--json"),
-                          {"s.yaml": data}, names, timeout=timeout))
+        cases.append(
+            Case(
+                f"fringe-patterns-{cid}",
+                ("fringe", "patterns", "s.yaml", "--out", "out", "--json"),
+                {"s.yaml": data},
+                names,
+                timeout=timeout,
+            )
+        )
 
     pc("empty", b"", ("s.yaml",))
     pc("junk", _junk(500), ("s.yaml",))
@@ -789,36 +1068,57 @@ def _fringe_cases() -> list[Case]:
     pc("alias-bomb", ALIAS_BOMB, ("s.yaml", "alias"))
     pc("duplicate-key", seq_ok + b"bit_depth: 16\n", ("s.yaml", "bit_depth", "duplicate"))
     for old, new, names in (
-            (b"width: 1280, height: 800", b"width: 200000, height: 200000", ("width", "200000", "projector")),
-            (b"width: 1280, height: 800", b"width: 0, height: 0", ("width", "projector")),
-            (b"width: 1280, height: 800", b"width: -1280, height: 800", ("width", "projector")),
-            (b"width: 1280, height: 800", b"width: .nan, height: 800", ("width", "projector")),
-            (b"width: 1280, height: 800", b"width: 12.5, height: 800", ("width", "projector")),
-            (b"steps: 4", b"steps: 0", ("steps",)), (b"steps: 4", b"steps: 1", ("steps",)),
-            (b"steps: 4", b"steps: 1000000", ("steps",)), (b"steps: 4", b"steps: -4", ("steps",)),
-            (b"period: 32}\n  - {type: gray", b"period: 0}\n  - {type: gray", ("period",)),
-            (b"period: 32}\n  - {type: gray", b"period: -32}\n  - {type: gray", ("period",)),
-            (b"period: 32}\n  - {type: gray", b"period: .nan}\n  - {type: gray", ("period",)),
-            (b"bit_depth: 8", b"bit_depth: 3", ("bit_depth",)),
-            (b"direction: vertical, steps", b"direction: sideways, steps", ("direction", "sideways")),
-            (b"  - white\n", b"  - {type: ignore, count: 10000000}\n", ("count", "10000000")),
-            (b"  - white\n", b"  - {type: hologram}\n", ("hologram", "type")),
-            (b"frames:\n", b"frames: []\nx:\n", ("frames",))):
-        pc(f"{new.split(b':')[0].decode().strip(' -{')}-{new.split(b':')[1].decode().strip(' ').split(',')[0]}"
-           .replace(" ", "").replace("{", "").replace("}", "").replace("\n-", ""),
-           seq_ok.replace(old, new, 1), ("s.yaml", *names))
-    cases.append(Case("fringe-patterns-out-is-file", ("fringe", "patterns", "s.yaml", "--out", "o.txt", "--json"),
-                      {"s.yaml": seq_ok, "o.txt": b"x"}, ("o.txt",)))
-    cases.append(Case("fringe-patterns-missing", ("fringe", "patterns", "none.yaml", "--out", "o"), {},
-                      ("none.yaml",)))
+        (b"width: 1280, height: 800", b"width: 200000, height: 200000", ("width", "200000", "projector")),
+        (b"width: 1280, height: 800", b"width: 0, height: 0", ("width", "projector")),
+        (b"width: 1280, height: 800", b"width: -1280, height: 800", ("width", "projector")),
+        (b"width: 1280, height: 800", b"width: .nan, height: 800", ("width", "projector")),
+        (b"width: 1280, height: 800", b"width: 12.5, height: 800", ("width", "projector")),
+        (b"steps: 4", b"steps: 0", ("steps",)),
+        (b"steps: 4", b"steps: 1", ("steps",)),
+        (b"steps: 4", b"steps: 1000000", ("steps",)),
+        (b"steps: 4", b"steps: -4", ("steps",)),
+        (b"period: 32}\n  - {type: gray", b"period: 0}\n  - {type: gray", ("period",)),
+        (b"period: 32}\n  - {type: gray", b"period: -32}\n  - {type: gray", ("period",)),
+        (b"period: 32}\n  - {type: gray", b"period: .nan}\n  - {type: gray", ("period",)),
+        (b"bit_depth: 8", b"bit_depth: 3", ("bit_depth",)),
+        (b"direction: vertical, steps", b"direction: sideways, steps", ("direction", "sideways")),
+        (b"  - white\n", b"  - {type: ignore, count: 10000000}\n", ("count", "10000000")),
+        (b"  - white\n", b"  - {type: hologram}\n", ("hologram", "type")),
+        (b"frames:\n", b"frames: []\nx:\n", ("frames",)),
+    ):
+        pc(
+            f"{new.split(b':')[0].decode().strip(' -{')}-{new.split(b':')[1].decode().strip(' ').split(',')[0]}".replace(  # noqa: E501
+                " ", ""
+            )
+            .replace("{", "")
+            .replace("}", "")
+            .replace("\n-", ""),
+            seq_ok.replace(old, new, 1),
+            ("s.yaml", *names),
+        )
+    cases.append(
+        Case(
+            "fringe-patterns-out-is-file",
+            ("fringe", "patterns", "s.yaml", "--out", "o.txt", "--json"),
+            {"s.yaml": seq_ok, "o.txt": b"x"},
+            ("o.txt",),
+        )
+    )
+    cases.append(Case("fringe-patterns-missing", ("fringe", "patterns", "none.yaml", "--out", "o"), {}, ("none.yaml",)))
 
     frames = {f"imgs/f{i:02d}.png": _encoded(".png") for i in range(12)}
 
     def rc(cid, files, names, args=(), cal="cal.yaml"):
         base = {"s.yaml": seq_ok, "cal.yaml": _cal_yaml(), **frames}
         base.update(files)
-        cases.append(Case(f"fringe-reconstruct-{cid}", ("fringe", "reconstruct", "s.yaml", "--images", "imgs",
-                                                        "--calibration", cal, "--json", *args), base, names))
+        cases.append(
+            Case(
+                f"fringe-reconstruct-{cid}",
+                ("fringe", "reconstruct", "s.yaml", "--images", "imgs", "--calibration", cal, "--json", *args),
+                base,
+                names,
+            )
+        )
 
     rc("negative-focal", {"cal.yaml": _cal_yaml(fx=-1000.0)}, ("cal.yaml", "focal"))
     rc("zero-focal", {"cal.yaml": _cal_yaml(fx=0.0, fy=0.0)}, ("cal.yaml", "focal"))
@@ -831,11 +1131,21 @@ def _fringe_cases() -> list[Case]:
     rc("images-empty-dir", {"empty/": b""}, ("empty", "images", "frames"), args=("--images", "empty"))
     rc("images-junk", {f"imgs/f{i:02d}.png": _junk(300, i) for i in range(12)}, ("f00.png", "imgs"))
     rc("images-bomb", {"imgs/f00.png": png_bomb()}, ("f00.png",))
-    rc("images-too-few", {f"imgs/f{i:02d}.png": b"" for i in range(12)} | {"few/a.png": _encoded(".png")},
-       ("few", "frames", "images"), args=("--images", "few"))
+    rc(
+        "images-too-few",
+        {f"imgs/f{i:02d}.png": b"" for i in range(12)} | {"few/a.png": _encoded(".png")},
+        ("few", "frames", "images"),
+        args=("--images", "few"),
+    )
     rc("images-size-mismatch", {"imgs/f03.png": _encoded(".png", (20, 20))}, ("f03.png", "size", "imgs"))
-    for opt, val in (("--black-threshold", "-5"), ("--black-threshold", "nan"), ("--modulation-threshold", "-1"),
-                     ("--white-threshold", "inf"), ("--saturation", "0"), ("--saturation", "-1")):
+    for opt, val in (
+        ("--black-threshold", "-5"),
+        ("--black-threshold", "nan"),
+        ("--modulation-threshold", "-1"),
+        ("--white-threshold", "inf"),
+        ("--saturation", "0"),
+        ("--saturation", "-1"),
+    ):
         rc(f"{opt[2:]}-{val}", {}, (opt[2:], opt[2:].replace("-", "_"), val), args=(opt, val))
     rc("method-bad", {}, ("method", "magic"), args=("--method", "magic"))
     rc("stereo-without-images2", {}, ("images2", "stereo"), args=("--method", "stereo"))
@@ -845,21 +1155,35 @@ def _fringe_cases() -> list[Case]:
 def _simulate_cases() -> list[Case]:
     import yaml
 
-    seq = yaml.safe_dump({"projector": {"width": 1280, "height": 800}, "bit_depth": 8,
-                          "frames": ["white", "black"]}).encode()
+    seq = yaml.safe_dump(
+        {"projector": {"width": 1280, "height": 800}, "bit_depth": 8, "frames": ["white", "black"]}
+    ).encode()
 
     def scene(**over):
-        doc = {"name": "t", "seed": 3, "artefacts": [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0}],
-               "rig": {"preset": "stereo_fringe", "image_size": [64, 48]}, "render": {"supersample": 1},
-               "sequence": "seq.yaml", "patterns": ["white"]}
+        doc = {
+            "name": "t",
+            "seed": 3,
+            "artefacts": [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0}],
+            "rig": {"preset": "stereo_fringe", "image_size": [64, 48]},
+            "render": {"supersample": 1},
+            "sequence": "seq.yaml",
+            "patterns": ["white"],
+        }
         doc.update(over)
         return yaml.safe_dump(doc, sort_keys=False).encode()
 
     cases = []
 
     def sc(cid, data, names, extra=None, timeout=40.0):
-        cases.append(Case(f"simulate-{cid}", ("simulate", "scene.yaml", "--out", "out", "--json"),
-                          {"scene.yaml": data, "seq.yaml": seq, **(extra or {})}, names, timeout=timeout))
+        cases.append(
+            Case(
+                f"simulate-{cid}",
+                ("simulate", "scene.yaml", "--out", "out", "--json"),
+                {"scene.yaml": data, "seq.yaml": seq, **(extra or {})},
+                names,
+                timeout=timeout,
+            )
+        )
 
     sc("empty", b"", ("scene.yaml",))
     sc("junk", _junk(400), ("scene.yaml",))
@@ -867,23 +1191,43 @@ def _simulate_cases() -> list[Case]:
     sc("alias-bomb", ALIAS_BOMB, ("scene.yaml", "alias"))
     sc("duplicate-key", scene() + b"seed: 9\n", ("scene.yaml", "seed", "duplicate"))
     for d in (0, -20, float("nan"), float("inf")):
-        sc(f"sphere-diameter-{d}", scene(artefacts=[{"type": "sphere", "center": [0, 0, 0], "diameter": d}]),
-           ("scene.yaml", "diameter"))
-    sc("sphere-center-nan", scene(artefacts=[{"type": "sphere", "center": [float("nan"), 0, 0], "diameter": 20}]),
-       ("scene.yaml", "center"))
+        sc(
+            f"sphere-diameter-{d}",
+            scene(artefacts=[{"type": "sphere", "center": [0, 0, 0], "diameter": d}]),
+            ("scene.yaml", "diameter"),
+        )
+    sc(
+        "sphere-center-nan",
+        scene(artefacts=[{"type": "sphere", "center": [float("nan"), 0, 0], "diameter": 20}]),
+        ("scene.yaml", "center"),
+    )
     v, f = _tetra()
     for s in (0, -1, float("nan")):
-        sc(f"mesh-scale-{s}", scene(artefacts=[{"type": "mesh", "file": "m.stl", "scale": s}]), ("scene.yaml", "scale"),
-           {"m.stl": stl_binary(v[f])})
+        sc(
+            f"mesh-scale-{s}",
+            scene(artefacts=[{"type": "mesh", "file": "m.stl", "scale": s}]),
+            ("scene.yaml", "scale"),
+            {"m.stl": stl_binary(v[f])},
+        )
     sc("mesh-missing", scene(artefacts=[{"type": "mesh", "file": "gone.stl"}]), ("gone.stl",))
     sc("mesh-junk", scene(artefacts=[{"type": "mesh", "file": "j.stl"}]), ("j.stl",), {"j.stl": _junk(1000)})
-    sc("mesh-excess", scene(artefacts=[{"type": "mesh", "file": "x.stl"}]), ("x.stl",),
-       {"x.stl": stl_binary(np.repeat(v[f], 10, axis=0), 4)})
+    sc(
+        "mesh-excess",
+        scene(artefacts=[{"type": "mesh", "file": "x.stl"}]),
+        ("x.stl",),
+        {"x.stl": stl_binary(np.repeat(v[f], 10, axis=0), 4)},
+    )
     sc("image-size-zero", scene(rig={"preset": "stereo_fringe", "image_size": [0, 0]}), ("scene.yaml", "image_size"))
-    sc("image-size-huge", scene(rig={"preset": "stereo_fringe", "image_size": [200000, 200000]}),
-       ("scene.yaml", "image_size"))
-    sc("image-size-negative", scene(rig={"preset": "stereo_fringe", "image_size": [-64, 48]}),
-       ("scene.yaml", "image_size"))
+    sc(
+        "image-size-huge",
+        scene(rig={"preset": "stereo_fringe", "image_size": [200000, 200000]}),
+        ("scene.yaml", "image_size"),
+    )
+    sc(
+        "image-size-negative",
+        scene(rig={"preset": "stereo_fringe", "image_size": [-64, 48]}),
+        ("scene.yaml", "image_size"),
+    )
     sc("rig-unknown", scene(rig={"preset": "hexapod"}), ("scene.yaml", "hexapod", "preset"))
     for ss in (0, -1, 1000):
         sc(f"supersample-{ss}", scene(render={"supersample": ss}), ("scene.yaml", "supersample"))
@@ -896,8 +1240,14 @@ def _simulate_cases() -> list[Case]:
     sc("sequence-junk", scene(sequence="j.yaml"), ("j.yaml",), {"j.yaml": _junk(300)})
     sc("pattern-unknown", scene(patterns=["plaid"]), ("scene.yaml", "plaid", "patterns"))
     sc("ambient-negative", scene(lighting={"ambient": -1}), ("scene.yaml", "ambient"))
-    cases.append(Case("simulate-out-is-file", ("simulate", "scene.yaml", "--out", "o.txt", "--json"),
-                      {"scene.yaml": scene(), "seq.yaml": seq, "o.txt": b"x"}, ("o.txt",)))
+    cases.append(
+        Case(
+            "simulate-out-is-file",
+            ("simulate", "scene.yaml", "--out", "o.txt", "--json"),
+            {"scene.yaml": scene(), "seq.yaml": seq, "o.txt": b"x"},
+            ("o.txt",),
+        )
+    )
     cases.append(Case("simulate-missing", ("simulate", "none.yaml", "--out", "o"), {}, ("none.yaml",)))
     return cases
 
@@ -908,8 +1258,14 @@ def _scale_gauge_cases() -> list[Case]:
     cases = []
 
     def sc(cid, data, names, args=(), extra=None):
-        cases.append(Case(f"scale-{cid}", ("scale", "--interferometer", "i.csv", "--json", *args),
-                          {"i.csv": data, **(extra or {})}, names))
+        cases.append(
+            Case(
+                f"scale-{cid}",
+                ("scale", "--interferometer", "i.csv", "--json", *args),
+                {"i.csv": data, **(extra or {})},
+                names,
+            )
+        )
 
     sc("empty", b"", ("i.csv",))
     sc("junk", _junk(500), ("i.csv",))
@@ -922,12 +1278,23 @@ def _scale_gauge_cases() -> list[Case]:
     sc("text-value", csv_ok.replace(b"50.0,", b"fifty,"), ("i.csv", "fifty"))
     sc("all-same", b"interferometer,camera\n" + b"5,5\n" * 10, ("i.csv", "travel", "interferometer"))
     sc("huge-row", b"interferometer,camera\n" + b"1," * 200000 + b"1\n2,2\n", ("i.csv",))
-    for opt, val in (("--accuracy", "-1"), ("--accuracy", "nan"), ("--accuracy", "2"), ("--length", "0"),
-                     ("--length", "-5"), ("--length", "nan")):
+    for opt, val in (
+        ("--accuracy", "-1"),
+        ("--accuracy", "nan"),
+        ("--accuracy", "2"),
+        ("--length", "0"),
+        ("--length", "-5"),
+        ("--length", "nan"),
+    ):
         sc(f"{opt[2:]}-{val}", csv_ok, (opt[2:], val), (opt, val))
     sc("calibration-missing", csv_ok, ("none.yaml",), ("--calibration", "none.yaml", "--out", "new.yaml"))
-    sc("calibration-junk", csv_ok, ("c.yaml",), ("--calibration", "c.yaml", "--out", "new.yaml"),
-       {"c.yaml": _junk(400)})
+    sc(
+        "calibration-junk",
+        csv_ok,
+        ("c.yaml",),
+        ("--calibration", "c.yaml", "--out", "new.yaml"),
+        {"c.yaml": _junk(400)},
+    )
     sc("out-without-calibration", csv_ok, ("out", "calibration"), ("--out", "new.yaml"))
     cases.append(Case("scale-missing", ("scale", "--interferometer", "none.csv"), {}, ("none.csv",)))
 
@@ -937,8 +1304,9 @@ def _scale_gauge_cases() -> list[Case]:
     gb = {"g.xyz": _xyz_text(np.vstack([platen, face]))}
 
     def gc(cid, args, names, files=None):
-        cases.append(Case(f"gauge-{cid}", ("gauge-block", "g.xyz", "--json", *args), gb if files is None else files,
-                          names))
+        cases.append(
+            Case(f"gauge-{cid}", ("gauge-block", "g.xyz", "--json", *args), gb if files is None else files, names)
+        )
 
     for val in ("0", "-10", "nan", "inf", "abc"):
         gc(f"nominal-{val}", ("--nominal", val), ("nominal", val))
@@ -958,13 +1326,13 @@ def _run_cases() -> list[Case]:
     cases = []
 
     def rc(cid, args, names, files=None, timeout=40.0):
-        cases.append(Case(f"run-{cid}", ("run", *args, "--json"), good if files is None else files, names,
-                          timeout=timeout))
+        cases.append(
+            Case(f"run-{cid}", ("run", *args, "--json"), good if files is None else files, names, timeout=timeout)
+        )
 
     for val in ("0", "-1", "nan", "inf", "abc", "1e-300"):
         rc(f"downsample-voxel-{val}", ("cloud.downsample", "c.ply", "--voxel-size", val), ("voxel", val))
-    for opt, val in (("--nb-neighbors", "0"), ("--nb-neighbors", "-5"), ("--std-ratio", "-1"),
-                     ("--std-ratio", "nan")):
+    for opt, val in (("--nb-neighbors", "0"), ("--nb-neighbors", "-5"), ("--std-ratio", "-1"), ("--std-ratio", "nan")):
         rc(f"denoise-{opt[2:]}-{val}", ("cloud.denoise", "c.ply", opt, val), (opt[2:].replace("-", "_"), val))
     for opt, val in (("--radius", "0"), ("--radius", "nan"), ("--max-nn", "0"), ("--max-nn", "-1")):
         rc(f"normals-{opt[2:]}-{val}", ("cloud.normals", "c.ply", opt, val), (opt[2:].replace("-", "_"), val))
@@ -974,56 +1342,110 @@ def _run_cases() -> list[Case]:
     rc("extra-input", ("cloud.downsample", "c.ply", "c.ply", "c.ply"), ("input", "c.ply"))
     rc("input-missing-file", ("cloud.downsample", "gone.ply", "--voxel-size", "1"), ("gone.ply",))
     rc("input-junk", ("cloud.downsample", "j.ply", "--voxel-size", "1"), ("j.ply",), {"j.ply": _junk(700)})
-    rc("input-excess", ("cloud.downsample", "x.ply", "--voxel-size", "1"), ("x.ply",),
-       {"x.ply": ply_binary(S, 10)})
+    rc("input-excess", ("cloud.downsample", "x.ply", "--voxel-size", "1"), ("x.ply",), {"x.ply": ply_binary(S, 10)})
     rc("unknown-option", ("cloud.downsample", "c.ply", "--voxl", "1"), ("voxl",))
     rc("fit-sphere-nan", ("fit.sphere", "n.xyz"), ("n.xyz",), {"n.xyz": _xyz_text(S) + b"nan 0 0\n"})
     rc("fit-sphere-mesh", ("fit.sphere", "m.stl"), ("m.stl",), {"m.stl": stl_binary(_tetra()[0][_tetra()[1]])})
-    for opt, val in (("--n-points", "1000000000000"), ("--n-points", "0"), ("--n-points", "-1"),
-                     ("--diameter", "-5"), ("--diameter", "0"), ("--diameter", "nan"), ("--noise", "-1"),
-                     ("--noise", "nan"), ("--seed", "-1")):
-        rc(f"artefact-cloud-{opt[2:]}-{val}", ("virtuallab.artefact-cloud", "--artefact", "sphere", opt, val),
-           (opt[2:].replace("-", "_"), val), {})
+    for opt, val in (
+        ("--n-points", "1000000000000"),
+        ("--n-points", "0"),
+        ("--n-points", "-1"),
+        ("--diameter", "-5"),
+        ("--diameter", "0"),
+        ("--diameter", "nan"),
+        ("--noise", "-1"),
+        ("--noise", "nan"),
+        ("--seed", "-1"),
+    ):
+        rc(
+            f"artefact-cloud-{opt[2:]}-{val}",
+            ("virtuallab.artefact-cloud", "--artefact", "sphere", opt, val),
+            (opt[2:].replace("-", "_"), val),
+            {},
+        )
     rc("artefact-cloud-unknown", ("virtuallab.artefact-cloud", "--artefact", "cone"), ("artefact", "cone"), {})
     rc("uncertainty-budget-junk", ("uncertainty.budget", "b.yaml"), ("b.yaml",), {"b.yaml": _junk(300)})
-    rc("acceptance-set-huge", ("virtuallab.acceptance-set", "--n-sphere", "1000000000000", "--directory", "d"),
-       ("n_sphere", "1000000000000"), {})
-    rc("fringe-patterns-huge", ("fringe.patterns", "s.yaml"), ("s.yaml", "width", "200000"),
-       {"s.yaml": b"projector: {width: 200000, height: 200000}\nbit_depth: 8\nframes: [white]\n"})
-    rc("project-is-file", ("cloud.downsample", "c.ply", "--voxel-size", "1", "--project", "p.txt"),
-       ("p.txt", "project"), dict(good, **{"p.txt": b"x"}))
+    rc(
+        "acceptance-set-huge",
+        ("virtuallab.acceptance-set", "--n-sphere", "1000000000000", "--directory", "d"),
+        ("n_sphere", "1000000000000"),
+        {},
+    )
+    rc(
+        "fringe-patterns-huge",
+        ("fringe.patterns", "s.yaml"),
+        ("s.yaml", "width", "200000"),
+        {"s.yaml": b"projector: {width: 200000, height: 200000}\nbit_depth: 8\nframes: [white]\n"},
+    )
+    rc(
+        "project-is-file",
+        ("cloud.downsample", "c.ply", "--voxel-size", "1", "--project", "p.txt"),
+        ("p.txt", "project"),
+        dict(good, **{"p.txt": b"x"}),
+    )
     return cases
 
 
 def _devices_cases() -> list[Case]:
-    cases = [Case("devices-list-bogus", ("devices", "list", "--bogus"), {}, ("--bogus",)),
-             Case("devices-unknown-sub", ("devices", "explode"), {}, ("explode",))]
+    cases = [
+        Case("devices-list-bogus", ("devices", "list", "--bogus"), {}, ("--bogus",)),
+        Case("devices-unknown-sub", ("devices", "explode"), {}, ("explode",)),
+    ]
     # a value the simulator accepts starts it serving until killed: keep these few and short
-    for opt, val in (("--axes", "0"), ("--axes", "abc"), ("--resolution", "0"), ("--resolution", "nan"),
-                     ("--speed", "-200"), ("--travel", "-5"), ("--address", "1000"), ("--tcp", "not-an-address"),
-                     ("--tcp", "127.0.0.1:99999"), ("--seed", "-1")):
-        cases.append(Case(f"devices-simulate-stage-{opt[2:]}-{val}", ("devices", "simulate-stage", opt, val),
-                          {}, (opt[2:], opt[2:].replace("-", "_"), val), timeout=6.0))
+    for opt, val in (
+        ("--axes", "0"),
+        ("--axes", "abc"),
+        ("--resolution", "0"),
+        ("--resolution", "nan"),
+        ("--speed", "-200"),
+        ("--travel", "-5"),
+        ("--address", "1000"),
+        ("--tcp", "not-an-address"),
+        ("--tcp", "127.0.0.1:99999"),
+        ("--seed", "-1"),
+    ):
+        cases.append(
+            Case(
+                f"devices-simulate-stage-{opt[2:]}-{val}",
+                ("devices", "simulate-stage", opt, val),
+                {},
+                (opt[2:], opt[2:].replace("-", "_"), val),
+                timeout=6.0,
+            )
+        )
     return cases
 
 
 def _top_cases() -> list[Case]:
-    return [Case("top-unknown-command", ("explode",), {}, ("explode",)),
-            Case("top-unknown-option", ("--explode",), {}, ("--explode",)),
-            Case("uncertainty-no-sub", ("uncertainty", "nothing"), {}, ("nothing",)),
-            Case("fringe-no-sub", ("fringe", "nothing"), {}, ("nothing",)),
-            Case("calibrate-no-sub", ("calibrate", "nothing"), {}, ("nothing",)),
-            Case("plugins-bogus", ("plugins", "--bogus"), {}, ("--bogus",)),
-            Case("demo-into-file", ("demo", "f.txt", "--json"), {"f.txt": b"x"}, ("f.txt",)),
-            Case("serve-bad-port", ("serve", "--port", "99999", "--project", "p"), {}, ("port", "99999"), timeout=90),
-            Case("serve-port-text", ("serve", "--port", "http"), {}, ("port", "http"), timeout=60)]
+    return [
+        Case("top-unknown-command", ("explode",), {}, ("explode",)),
+        Case("top-unknown-option", ("--explode",), {}, ("--explode",)),
+        Case("uncertainty-no-sub", ("uncertainty", "nothing"), {}, ("nothing",)),
+        Case("fringe-no-sub", ("fringe", "nothing"), {}, ("nothing",)),
+        Case("calibrate-no-sub", ("calibrate", "nothing"), {}, ("nothing",)),
+        Case("plugins-bogus", ("plugins", "--bogus"), {}, ("--bogus",)),
+        Case("demo-into-file", ("demo", "f.txt", "--json"), {"f.txt": b"x"}, ("f.txt",)),
+        Case("serve-bad-port", ("serve", "--port", "99999", "--project", "p"), {}, ("port", "99999"), timeout=90),
+        Case("serve-port-text", ("serve", "--port", "http"), {}, ("port", "http"), timeout=60),
+    ]
 
 
 @functools.cache
 def all_cases() -> dict[str, Case]:
-    cases = (_reader_cases() + _fit_cases() + _verify_cases() + _inspect_cases() + _uncertainty_cases()
-             + _calibration_cases() + _fringe_cases() + _simulate_cases() + _scale_gauge_cases() + _run_cases()
-             + _devices_cases() + _top_cases())
+    cases = (
+        _reader_cases()
+        + _fit_cases()
+        + _verify_cases()
+        + _inspect_cases()
+        + _uncertainty_cases()
+        + _calibration_cases()
+        + _fringe_cases()
+        + _simulate_cases()
+        + _scale_gauge_cases()
+        + _run_cases()
+        + _devices_cases()
+        + _top_cases()
+    )
     out: dict[str, Case] = {}
     for c in cases:
         assert c.id not in out, f"duplicate case id {c.id}"
@@ -1139,8 +1561,10 @@ def _rss() -> int:
 def _maxrss() -> int:
     import resource
 
-    return max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
-               resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss) * 1024
+    return (
+        max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
+        * 1024
+    )
 
 
 def _run_in_worker(case: Case, root: Path) -> dict:
@@ -1202,8 +1626,13 @@ def _run_in_worker(case: Case, root: Path) -> dict:
         native.append(fh.read().decode("utf-8", "replace"))
         fh.close()
     shutil.rmtree(d, ignore_errors=True)
-    return {"rc": rc, "stdout": py_out.getvalue() + native[0], "stderr": py_err.getvalue() + native[1],
-            "seconds": seconds, "memory": _maxrss() - rss0}
+    return {
+        "rc": rc,
+        "stdout": py_out.getvalue() + native[0],
+        "stderr": py_err.getvalue() + native[1],
+        "seconds": seconds,
+        "memory": _maxrss() - rss0,
+    }
 
 
 def worker_main() -> None:
@@ -1231,8 +1660,7 @@ def worker_main() -> None:
         try:
             res = _run_in_worker(case, root)
         except BaseException as exc:  # the harness itself failed on this case
-            res = {"rc": f"harness {type(exc).__name__}: {exc}", "stdout": "", "stderr": "", "seconds": 0,
-                   "memory": 0}
+            res = {"rc": f"harness {type(exc).__name__}: {exc}", "stdout": "", "stderr": "", "seconds": 0, "memory": 0}
         proto.write(json.dumps(res, default=str) + "\n")
 
 
@@ -1241,12 +1669,22 @@ class Worker:
     with ``rc`` "crash: ..." / "hang: ..." when the process died or overran."""
 
     def __init__(self):
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]),
-                   PYTHONUNBUFFERED="1", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-                   VTK_DEFAULT_OPENGL_WINDOW=os.environ.get("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow"))
-        self.proc = subprocess.Popen([sys.executable, str(HERE / "badinputs.py"), "--worker"],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     env=env, start_new_session=True)
+        env = dict(
+            os.environ,
+            PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]),
+            PYTHONUNBUFFERED="1",
+            OMP_NUM_THREADS="1",
+            OPENBLAS_NUM_THREADS="1",
+            VTK_DEFAULT_OPENGL_WINDOW=os.environ.get("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow"),
+        )
+        self.proc = subprocess.Popen(
+            [sys.executable, str(HERE / "badinputs.py"), "--worker"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            env=env,
+            start_new_session=True,
+        )
         line = self._line(120)
         if not line:
             raise RuntimeError("a bad-input worker did not start")
@@ -1278,13 +1716,23 @@ class Worker:
         line = self._line(case.timeout)
         if line is None:
             self.kill()
-            return {"rc": f"hang: no answer in {case.timeout:g} s", "stdout": "", "stderr": "", "seconds": case.timeout,
-                    "memory": 0}
+            return {
+                "rc": f"hang: no answer in {case.timeout:g} s",
+                "stdout": "",
+                "stderr": "",
+                "seconds": case.timeout,
+                "memory": 0,
+            }
         if not line:
             code = self.proc.wait()
             how = f"signal {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
-            return {"rc": f"crash: the worker died ({how})", "stdout": "", "stderr": "",
-                    "seconds": time.monotonic() - t0, "memory": 0}
+            return {
+                "rc": f"crash: the worker died ({how})",
+                "stdout": "",
+                "stderr": "",
+                "seconds": time.monotonic() - t0,
+                "memory": 0,
+            }
         return json.loads(line)
 
     def alive(self) -> bool:
@@ -1325,8 +1773,13 @@ def run_cases(cases: list[Case], workers: int = 2) -> dict[str, dict]:
                         w = Worker()
                     res = w.run(case)
                 except Exception as exc:  # the harness, not the case: still that case's failure
-                    res = {"rc": f"harness: {type(exc).__name__}: {exc}", "stdout": "", "stderr": "", "seconds": 0,
-                           "memory": 0}
+                    res = {
+                        "rc": f"harness: {type(exc).__name__}: {exc}",
+                        "stdout": "",
+                        "stderr": "",
+                        "seconds": 0,
+                        "memory": 0,
+                    }
                     if w is not None:
                         w.kill()
                     w = None
@@ -1355,7 +1808,17 @@ if __name__ == "__main__":
         res = run_cases(sel, int(os.environ.get("CAMCMM_BADINPUT_WORKERS", "2")))
         for c in sel:
             r = res[c.id]
-            print(json.dumps({"id": c.id, "verdict": verdict(c, r), "rc": r["rc"], "s": round(r["seconds"], 2),
-                              "mb": r["memory"] >> 20, "err": r["stderr"].strip()[-300:],
-                              "out": r["stdout"].strip()[:200] if r["rc"] == 0 else ""}))
+            print(
+                json.dumps(
+                    {
+                        "id": c.id,
+                        "verdict": verdict(c, r),
+                        "rc": r["rc"],
+                        "s": round(r["seconds"], 2),
+                        "mb": r["memory"] >> 20,
+                        "err": r["stderr"].strip()[-300:],
+                        "out": r["stdout"].strip()[:200] if r["rc"] == 0 else "",
+                    }
+                )
+            )
         print(f"# {len(sel)} cases in {time.time() - t0:.0f} s", file=sys.stderr)

@@ -33,8 +33,10 @@ def test_all_is_exactly_the_documented_names():
     documented = stable | provisional
     exported = set(api.__all__)
     assert len(api.__all__) == len(exported), "a name is twice in __all__"
-    assert exported == documented, (f"exported, not in docs/api.md: {sorted(exported - documented)}; "
-                                    f"documented, not exported: {sorted(documented - exported)}")
+    assert exported == documented, (
+        f"exported, not in docs/api.md: {sorted(exported - documented)}; "
+        f"documented, not exported: {sorted(documented - exported)}"
+    )
 
 
 def test_every_exported_name_exists_and_the_version_is_documented():
@@ -48,7 +50,10 @@ def test_every_exported_name_exists_and_the_version_is_documented():
 def test_the_json_cleaner_and_the_clock():
     import numpy as np
 
-    assert api.to_jsonable({"a": np.arange(2), 1: float("nan"), "t": (np.float32(1.5),)}) == \
-        {"a": [0, 1], "1": None, "t": [1.5]}
+    assert api.to_jsonable({"a": np.arange(2), 1: float("nan"), "t": (np.float32(1.5),)}) == {
+        "a": [0, 1],
+        "1": None,
+        "t": [1.5],
+    }
     stamp = api.utc_now(0)
     assert stamp == "1970-01-01T00:00:00.000+00:00"

@@ -40,8 +40,11 @@ def _param(case_id: str):
 def results(request):
     """Run every selected case once, in parallel workers; case id -> result."""
     here = request.node.fspath if hasattr(request.node, "fspath") else None
-    wanted = [item.callspec.params["case_id"] for item in request.session.items
-              if getattr(item, "originalname", None) == "test_bad_input" and item.fspath == here]
+    wanted = [
+        item.callspec.params["case_id"]
+        for item in request.session.items
+        if getattr(item, "originalname", None) == "test_bad_input" and item.fspath == here
+    ]
     workers = int(os.environ.get("CAMCMM_BADINPUT_WORKERS", "0")) or min(2, os.cpu_count() or 1)
     return bi.run_cases([CASES[i] for i in wanted], workers)
 
@@ -49,12 +52,25 @@ def results(request):
 def test_there_are_enough_cases_over_every_reader_and_command():
     firsts = {c.argv[0] for c in CASES.values()}
     assert len(CASES) >= 300
-    assert {"info", "fit", "verify", "inspect", "uncertainty", "calibrate", "scale", "gauge-block", "fringe",
-            "simulate", "run", "devices"} <= firsts
+    assert {
+        "info",
+        "fit",
+        "verify",
+        "inspect",
+        "uncertainty",
+        "calibrate",
+        "scale",
+        "gauge-block",
+        "fringe",
+        "simulate",
+        "run",
+        "devices",
+    } <= firsts
     exts = {Path(c.argv[1]).suffix for c in CASES.values() if c.argv[0] == "info" and len(c.argv) > 1}
     assert {".ply", ".pcd", ".xyz", ".txt", ".csv", ".stl", ".obj", ".e57", ".png", ".jpg", ".tif", ".bmp"} <= exts
-    subs = {c.argv[1] for c in CASES.values()
-            if c.argv[0] in ("uncertainty", "calibrate", "fringe") and len(c.argv) > 1}
+    subs = {
+        c.argv[1] for c in CASES.values() if c.argv[0] in ("uncertainty", "calibrate", "fringe") and len(c.argv) > 1
+    }
     assert {"budget", "iso15530-3", "montecarlo", "camera", "stereo", "patterns", "reconstruct"} <= subs
 
 
@@ -65,16 +81,19 @@ def test_bad_input(case_id, results):
     assert problem is None, f"camcmm {' '.join(case.argv)}: {problem}"
 
 
-@pytest.mark.parametrize("what,expected", [
-    ("segv", "crash: the worker died (signal SIGSEGV)"),
-    ("hang", "hang: no answer in 3 s"),
-    ("alloc", "used 1."),
-    ("traceback", "traceback: "),
-    ("two-lines", "2 lines on stderr"),
-    ("silent", "exit 0 without a warning"),
-    ("native-stderr", "2 lines on stderr"),
-    ("ok-error", None),
-])
+@pytest.mark.parametrize(
+    "what,expected",
+    [
+        ("segv", "crash: the worker died (signal SIGSEGV)"),
+        ("hang", "hang: no answer in 3 s"),
+        ("alloc", "used 1."),
+        ("traceback", "traceback: "),
+        ("two-lines", "2 lines on stderr"),
+        ("silent", "exit 0 without a warning"),
+        ("native-stderr", "2 lines on stderr"),
+        ("ok-error", None),
+    ],
+)
 def test_the_harness_catches_each_misbehaviour(what, expected):
     """The verdicts above can fail: each kind of misbehaviour, done on purpose in a worker."""
     if what == "ok-error":

@@ -59,8 +59,12 @@ def test_import_view_and_run_a_plugin(gui_server, tmp_path):
     t0 = time.monotonic()
     with sync_api.sync_playwright() as p:
         ctx = p.chromium.launch_persistent_context(
-            str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
-            viewport={"width": 1400, "height": 900})
+            str(tmp_path / "chromium-profile"),
+            executable_path=CHROMIUM,
+            headless=True,
+            args=ARGS,
+            viewport={"width": 1400, "height": 900},
+        )
         try:
             page = ctx.new_page()
             page.set_default_timeout(30_000)

@@ -52,7 +52,9 @@ def test_simulated_fringe_system_acquires_a_part2_test_through_the_wizard(gui_se
             page = start_with_simulated_system(browser, url)
             _card(page, "sphere-01").locator('[data-testid="card-acquire"]').click()
             page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("1 of 10")', timeout=60_000)
-            assert _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"
+            assert (
+                _card(page, "sphere-01").locator('[data-testid="card-verdict"]').inner_text().strip().lower() == "pass"
+            )
             page.screenshot(path=str(SHOTS / "acquire-1-first.png"))
             page.click('[data-testid="wz-acquire-all"]')
             deadline = time.monotonic() + 300

@@ -131,8 +131,9 @@ def check_calibration_page(url: str, shots: Path = SHOTS) -> None:
             # uploaded images become the project's image items, chosen for the calibration
             page.click('[data-testid="cal-mode-camera"]')
             page.click('[data-testid="cal-source-upload"]')
-            page.set_input_files('[data-testid="cal-upload-left"] input',
-                                 [str(p) for p in sorted(DATA.glob("left0[1-4]*"))])
+            page.set_input_files(
+                '[data-testid="cal-upload-left"] input', [str(p) for p in sorted(DATA.glob("left0[1-4]*"))]
+            )
             page.wait_for_selector('[data-testid="cal-left-items"]')
             _wait_text(page.locator('[data-testid="cal-left-items"]'), "more", timeout=30)
             page.click('[data-testid="cal-run"]')

@@ -27,7 +27,6 @@ pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 SHOTS = shots("devices-gui")
 
 
-
 def test_devices_page_and_projector_page_in_step(gui_server):
     url, log = gui_server
     with sync_api.sync_playwright() as p:

@@ -45,8 +45,12 @@ def hue_pixels(png: bytes) -> dict[str, int]:
     hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV")).astype(float)
     h, s, v = hsv[..., 0] * 360 / 255, hsv[..., 1] / 255, hsv[..., 2] / 255
     vivid = (s > 0.35) & (v > 0.25)
-    return {"red": int((vivid & ((h < 22) | (h > 335))).sum()), "blue": int((vivid & (h > 190) & (h < 260)).sum()),
-            "green": int((vivid & (h > 100) & (h < 170)).sum()), "orange": int((vivid & (h > 26) & (h < 40)).sum())}
+    return {
+        "red": int((vivid & ((h < 22) | (h > 335))).sum()),
+        "blue": int((vivid & (h > 190) & (h < 260)).sum()),
+        "green": int((vivid & (h > 100) & (h < 170)).sum()),
+        "orange": int((vivid & (h > 26) & (h < 40)).sum()),
+    }
 
 
 def wait_view(view, test, timeout: float = 20.0) -> tuple[bytes, dict[str, int]]:
@@ -79,8 +83,9 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             # the page: its own view shows both inputs
             page.locator('[data-testid="page-compare"]').click()
             page.wait_for_selector('[data-testid="inspect"]')
-            page.wait_for_function("() => document.querySelector('[data-testid=\"items\"]')"
-                                   ".getBoundingClientRect().right <= 0")  # the drawer belongs to Inspect
+            page.wait_for_function(
+                "() => document.querySelector('[data-testid=\"items\"]').getBoundingClientRect().right <= 0"
+            )  # the drawer belongs to Inspect
             assert "scan.ply" in page.locator('[data-testid="ins-measured"]').inner_text()
             assert "box.stl" in page.locator('[data-testid="ins-nominal"]').inner_text()
             view = page.locator('[data-testid="ins-view"]')
@@ -147,10 +152,16 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             title = page.locator('[data-testid="ins-section"] .gtitle').text_content()
             track = page.locator('[data-testid="ins-section-pos"] .v-slider-track').bounding_box()
             page.mouse.click(track["x"] + 0.25 * track["width"], track["y"] + 0.5 * track["height"])
-            page.wait_for_function("t => { const e = document.querySelector('[data-testid=\"ins-section\"] .gtitle');"
-                                   " return e && e.textContent !== t; }", arg=title)
-            x = float(re.search(r"Section x = ([\d.]+) mm", page.locator(
-                '[data-testid="ins-section"] .gtitle').text_content()).group(1))
+            page.wait_for_function(
+                "t => { const e = document.querySelector('[data-testid=\"ins-section\"] .gtitle');"
+                " return e && e.textContent !== t; }",
+                arg=title,
+            )
+            x = float(
+                re.search(
+                    r"Section x = ([\d.]+) mm", page.locator('[data-testid="ins-section"] .gtitle').text_content()
+                ).group(1)
+            )
             assert 5 < x < 15, x  # a quarter of the way along 0 … 40 mm
 
             # tolerance bands
@@ -183,15 +194,21 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
                 href = page.locator(f'[data-testid="ins-report-{kind}"]').get_attribute("href")
                 r = page.request.get(at(url, href))
                 assert r.ok and len(r.body()) > 1000, (kind, r.status)
-            assert b"Inspection against the nominal" in page.request.get(
-                at(url, page.locator('[data-testid="ins-report-html"]').get_attribute("href"))).body()
+            assert (
+                b"Inspection against the nominal"
+                in page.request.get(
+                    at(url, page.locator('[data-testid="ins-report-html"]').get_attribute("href"))
+                ).body()
+            )
             page.screenshot(path=str(SHOTS / "inspect-7-report.png"))
 
             # back on the Inspect page: its drawer and its own view again, the export among the items
             page.locator('[data-testid="page-inspect"]').click()
             page.wait_for_selector('[data-testid="view"]', state="visible")
-            page.wait_for_function("() => { const e = document.querySelector('[data-testid=\"items\"]');"
-                                   " return e && e.getBoundingClientRect().left >= 0; }")  # the drawer slid back
+            page.wait_for_function(
+                "() => { const e = document.querySelector('[data-testid=\"items\"]');"
+                " return e && e.getBoundingClientRect().left >= 0; }"
+            )  # the drawer slid back
             assert not page.locator('[data-testid="inspect"]').count()
             page.wait_for_selector('[data-testid="item"]:has-text("tolerance bands.ply")')
         finally:

@@ -58,8 +58,9 @@ def served(tmp_path):
     outside.mkdir()
     (outside / "secret.xyz").write_text(f"{SECRET} 1 2\n")
     for i in range(3):  # images a calibration would take, were the folder allowed
-        (outside / f"left{i}.png").write_bytes((Path(__file__).parent / "data" / "opencv_stereo_chessboard"
-                                                / f"left0{i + 1}.jpg").read_bytes())
+        (outside / f"left{i}.png").write_bytes(
+            (Path(__file__).parent / "data" / "opencv_stereo_chessboard" / f"left0{i + 1}.jpg").read_bytes()
+        )
     try:
         server = GuiProcess(tmp_path / "proj", data_roots=(data,))
     except CamcmmError as exc:

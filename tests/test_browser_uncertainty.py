@@ -53,11 +53,12 @@ def test_uncertainty_page_in_the_browser(gui_server):
             combined.wait_for()
             # thesis table 3.2, x: sqrt(3.1² + 1.7² + 9.1² + 1.5² + 2.1²) = 10.08 µm
             assert number(combined.inner_text()) == pytest.approx(
-                math.sqrt(3.1 ** 2 + 1.7 ** 2 + 9.1 ** 2 + 1.5 ** 2 + 2.1 ** 2), abs=0.005)
+                math.sqrt(3.1**2 + 1.7**2 + 9.1**2 + 1.5**2 + 2.1**2), abs=0.005
+            )
             cell = page.locator('[data-testid="unc-b-u-2"] input')
             cell.fill("0")
             cell.press("Enter")
-            expect = math.sqrt(3.1 ** 2 + 1.7 ** 2 + 1.5 ** 2 + 2.1 ** 2)
+            expect = math.sqrt(3.1**2 + 1.7**2 + 1.5**2 + 2.1**2)
             deadline = time.monotonic() + 10
             while abs(number(combined.inner_text()) - expect) > 0.005 and time.monotonic() < deadline:
                 time.sleep(0.2)

@@ -15,10 +15,10 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from camcmm.errors import CamcmmError
 from camcmm.gui.process import GuiProcess
-
-import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 from browsing import ARGS, CHROMIUM, MARKS, launch, shots  # noqa: E402
@@ -29,7 +29,6 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python
 cio = pytest.importorskip("camcmm.io")
 
 from camcmm.host import default_host  # noqa: E402
-
 from test_wizard import MPE, write_measurements  # noqa: E402
 
 SHOTS = shots("wizard")
@@ -89,8 +88,13 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
     try:
         with sync_api.sync_playwright() as p:
             ctx = p.chromium.launch_persistent_context(
-                str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
-                viewport={"width": 1400, "height": 900}, accept_downloads=True)
+                str(tmp_path / "chromium-profile"),
+                executable_path=CHROMIUM,
+                headless=True,
+                args=ARGS,
+                viewport={"width": 1400, "height": 900},
+                accept_downloads=True,
+            )
             try:
                 page = ctx.new_page()
                 page.set_default_timeout(30_000)
@@ -148,8 +152,13 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
         server = Server(project)
         with sync_api.sync_playwright() as p:
             ctx = p.chromium.launch_persistent_context(
-                str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True, args=ARGS,
-                viewport={"width": 1400, "height": 900}, accept_downloads=True)
+                str(tmp_path / "chromium-profile"),
+                executable_path=CHROMIUM,
+                headless=True,
+                args=ARGS,
+                viewport={"width": 1400, "height": 900},
+                accept_downloads=True,
+            )
             try:
                 page = ctx.new_page()
                 page.set_default_timeout(30_000)
@@ -157,8 +166,10 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
                 page.wait_for_selector('[data-testid="wz-positions"]')  # resumed on the positions
                 assert _counter(page, "sphere") == "5 of 10 sphere positions"
                 assert _counter(page, "ball_bar") == "0 of 7 ball bar orientations"
-                done = [page.locator(f'[data-testid="card-sphere-{i:02d}"]').get_attribute("data-status")
-                        for i in range(1, 11)]
+                done = [
+                    page.locator(f'[data-testid="card-sphere-{i:02d}"]').get_attribute("data-status")
+                    for i in range(1, 11)
+                ]
                 assert done == ["done"] * 5 + ["error"] + ["pending"] * 4
                 assert "broken.xyz" in _card(page, "sphere-06").inner_text()  # the reason survived too
                 page.screenshot(path=str(SHOTS / "wizard-4-resumed.png"))
@@ -170,8 +181,9 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
                 _card(page, "sphere-02").locator('[data-testid="card-redo"]').click()
                 redo_file = tmp_path / "sphere-02-again.ply"
                 redo_file.write_bytes(files["sphere"][1][1].read_bytes())
-                page.locator('[data-testid="card-sphere-02"] [data-testid="card-file"] input[type="file"]') \
-                    .set_input_files(str(redo_file))
+                page.locator(
+                    '[data-testid="card-sphere-02"] [data-testid="card-file"] input[type="file"]'
+                ).set_input_files(str(redo_file))
                 page.wait_for_selector('[data-testid="wz-detail"]:has-text("sphere-02-again.ply")')
                 assert _card(page, "sphere-02").get_attribute("data-status") == "done"
                 assert _counter(page, "sphere") == "10 of 10 sphere positions"

@@ -28,16 +28,23 @@ def test_board_specs():
     assert c.pattern_size == (7, 5) and c.dictionary == "DICT_5X5_100"
     np.testing.assert_array_equal(c.object_points, np.asarray(c.charuco().getChessboardCorners(), np.float32))
     assert parse_board("circles:7x6:20").spec == "circles:7x6:20"
-    for bad, why in [("chess:9x6:25", "unknown kind"), ("chessboard:9by6:25", "COLSxROWS"),
-                     ("chessboard:9x6", "expected"), ("chessboard:9x6:-1", "positive"),
-                     ("chessboard:1x6:25", "at least"), ("charuco:8x6:20:25", "smaller"),
-                     ("charuco:8x6:20:15:DICT_NOPE", "dictionary")]:
+    for bad, why in [
+        ("chess:9x6:25", "unknown kind"),
+        ("chessboard:9by6:25", "COLSxROWS"),
+        ("chessboard:9x6", "expected"),
+        ("chessboard:9x6:-1", "positive"),
+        ("chessboard:1x6:25", "at least"),
+        ("charuco:8x6:20:25", "smaller"),
+        ("charuco:8x6:20:15:DICT_NOPE", "dictionary"),
+    ]:
         with pytest.raises(InputError, match=why):
             parse_board(bad)
 
 
-@pytest.mark.parametrize("spec,distance", [("chessboard:9x6:20", 450), ("circles:7x6:20", 450),
-                                           ("acircles:4x11:10", 350), ("charuco:8x6:20:15", 450)])
+@pytest.mark.parametrize(
+    "spec,distance",
+    [("chessboard:9x6:20", 450), ("circles:7x6:20", 450), ("acircles:4x11:10", 350), ("charuco:8x6:20:15", 450)],
+)
 def test_detection_matches_exact_projection(spec, distance):
     """Detected points lie within 0.15 px of the exact projections of the board points,
     in the board's own order (ids), on images rendered through a distorted camera."""
@@ -81,8 +88,10 @@ def test_chessboard_order_is_canonical_when_the_board_is_turned():
 def rendered():
     b = parse_board("chessboard:9x6:20")
     poses = look_at_poses(10, 420, b, seed=5, tilt_deg=40)
-    imgs = [(f"view{i:02d}.png", render_view(b, K, D, r, t, SIZE, noise=1.5, blur=0.6, seed=i))
-            for i, (r, t) in enumerate(poses)]
+    imgs = [
+        (f"view{i:02d}.png", render_view(b, K, D, r, t, SIZE, noise=1.5, blur=0.6, seed=i))
+        for i, (r, t) in enumerate(poses)
+    ]
     return b, imgs
 
 
@@ -132,8 +141,9 @@ def _synthetic_views(board, K_, D_, n, sigma, seed):
     dets = []
     for i, (r, t) in enumerate(poses):
         q = project(board, K_, D_, r, t) + rng.normal(0, sigma, (len(board.object_points), 2))
-        dets.append(Detection(f"v{i}", SIZE, q.astype(np.float32), board.object_points,
-                              np.arange(len(q), dtype=np.int32)))
+        dets.append(
+            Detection(f"v{i}", SIZE, q.astype(np.float32), board.object_points, np.arange(len(q), dtype=np.int32))
+        )
     return dets, poses
 
 
@@ -167,19 +177,32 @@ def test_jacobian_against_finite_differences():
     def residuals(theta):
         def intr(p):
             return np.array([[p[0], 0, p[2]], [0, p[1], p[3]], [0, 0, 1]]), p[4:9]
+
         k1, d1 = intr(theta[0:9])
         k2, d2 = intr(theta[9:18])
         rr, tr = theta[18:21], theta[21:24]
         out = []
         for v in range(2):
-            rv, tv = theta[24 + 6 * v:27 + 6 * v], theta[27 + 6 * v:30 + 6 * v]
+            rv, tv = theta[24 + 6 * v : 27 + 6 * v], theta[27 + 6 * v : 30 + 6 * v]
             out.append(project(b, k1, d1, rv, tv).ravel())
             r3, t3 = cv2.composeRT(rv, tv, rr, tr)[:2]
             out.append(project(b, k2, d2, r3, t3).ravel())
         return np.concatenate(out)
 
-    theta = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], D, K2[0, 0], K2[1, 1], K2[0, 2], K2[1, 2], D2, *rel,
-                  *[x for p in poses for x in p]]
+    theta = np.r_[
+        K[0, 0],
+        K[1, 1],
+        K[0, 2],
+        K[1, 2],
+        D,
+        K2[0, 0],
+        K2[1, 1],
+        K2[0, 2],
+        K2[1, 2],
+        D2,
+        *rel,
+        *[x for p in poses for x in p],
+    ]
     J = np.zeros((residuals(theta).size, theta.size))
     for j in range(theta.size):
         h = 1e-6 * max(1.0, abs(theta[j]))

@@ -42,6 +42,7 @@ RMS_REF = 0.196334638034
 @pytest.fixture
 def app(gui_app, tmp_path):
     """``make(project_dir=None) -> (page, session)``: the GUI's Calibration page."""
+
     def make(project_dir=None):
         server, session = gui_app(project_dir, data_roots=[DATA, tmp_path])  # the folders the page may read
         return server.pages["calibration"], session
@@ -59,8 +60,14 @@ def select(page, name):
 
 
 def folder_request(mode="camera", **kw):
-    req = {"mode": mode, "source": "folder", "folder": str(DATA), "left_pattern": "left*", "right_pattern": "right*",
-           "board": BOARD}
+    req = {
+        "mode": mode,
+        "source": "folder",
+        "folder": str(DATA),
+        "left_pattern": "left*",
+        "right_pattern": "right*",
+        "board": BOARD,
+    }
     req.update(kw)
     return req
 
@@ -79,14 +86,15 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     s = page.state
     doc = run(page, folder_request())
     assert doc is not None, s.cal_error
-    direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT]},
-                              params={"board": BOARD}).outputs
+    direct = session.host.run(
+        "calibration.camera", inputs={"images": [str(p) for p in LEFT]}, params={"board": BOARD}
+    ).outputs
     out = doc["outputs"]
     # equal up to OpenCV's run-to-run rounding (its solver is multi-threaded: ~1e-9 relative seen)
     assert np.allclose(out["camera_matrix"], direct["camera_matrix"], rtol=1e-7, atol=0)
     # k2, k3 are ill-conditioned: the same ~1e-9 noise moves them by up to ~3e-7 relative, so
     # they are compared against their own standard deviation (std_intrinsics: fx fy cx cy, then them)
-    dist_std = np.asarray(direct["std_intrinsics"])[4:4 + len(direct["dist_coeffs"])]
+    dist_std = np.asarray(direct["std_intrinsics"])[4 : 4 + len(direct["dist_coeffs"])]
     assert np.all(np.abs(np.subtract(out["dist_coeffs"], direct["dist_coeffs"])) <= 1e-4 * dist_std)
     assert out["rms"] == pytest.approx(direct["rms"], rel=1e-7)
     assert out["per_view_rms"] == pytest.approx(direct["per_view_rms"], rel=1e-7)
@@ -110,16 +118,22 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     z = float(np.median(np.asarray(direct["calibration"]["views"]["tvecs"])[:, 2]))
     assert direct["board_distance"] == pytest.approx(z, rel=1e-12)  # the plugin says where to look first
     assert s.cal_distance == pytest.approx(z, rel=1e-2)
-    pu = session.host.run("calibration.projection-uncertainty", inputs={"calibration": direct["calibration"]},
-                          params={"distance": s.cal_distance, "columns": 48, "rows": 36}).outputs
+    pu = session.host.run(
+        "calibration.projection-uncertainty",
+        inputs={"calibration": direct["calibration"]},
+        params={"distance": s.cal_distance, "columns": 48, "rows": 36},
+    ).outputs
     heat = s.cal_fig_map["data"][0]
     assert np.allclose(heat["customdata"], pu["map"], rtol=1e-6)
     assert heat["x"] == pytest.approx(list(pu["u"])) and len(heat["y"]) == 36
     assert len(s.cal_fig_map["data"][1]["x"]) == 13 * 54  # the corners used, as dots
     asyncio.run(page.set_distance_async(800))
     assert "z = 800 mm" in s.cal_fig_map["layout"]["title"]["text"]
-    far = session.host.run("calibration.projection-uncertainty", inputs={"calibration": direct["calibration"]},
-                           params={"distance": 800, "columns": 48, "rows": 36}).outputs
+    far = session.host.run(
+        "calibration.projection-uncertainty",
+        inputs={"calibration": direct["calibration"]},
+        params={"distance": 800, "columns": 48, "rows": 36},
+    ).outputs
     assert np.allclose(s.cal_fig_map["data"][0]["customdata"], far["map"], rtol=1e-6)
     # the corners drawn where they were detected: saturated colour at each corner, none in the grey image
     select(page, "left12.jpg")
@@ -128,7 +142,7 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     assert pic.shape[:2] == (480, 640)
     corners = np.asarray(next(d for d in direct["detections"] if d["image"] == "left12.jpg")["corners"])
     sat = saturated(pic)
-    near = [sat[int(round(y)) - 2:int(round(y)) + 3, int(round(x)) - 2:int(round(x)) + 3].any() for x, y in corners]
+    near = [sat[int(round(y)) - 2 : int(round(y)) + 3, int(round(x)) - 2 : int(round(x)) + 3].any() for x, y in corners]
     assert all(near)
     assert not saturated(cv2.imread(str(DATA / "left12.jpg"))).any()
 
@@ -166,18 +180,23 @@ def test_stored_downloaded_used_by_a_system_and_restored(app):
         meta = session.project.system(sid)["meta"]
         assert meta["calibration"]["file"] == row["files"]["calibration"]
         assert meta["calibration"]["name"] == "left camera, May" and meta["calibration"]["result"] == rid
-        assert read_calibration(session.project.file_path(meta["calibration"]["file"]))["cameras"][0].image_size \
-            == (640, 480)
+        assert read_calibration(session.project.file_path(meta["calibration"]["file"]))["cameras"][0].image_size == (
+            640,
+            480,
+        )
     assert session.project.system(sid_old)["meta"]["measuring_volume"] == [500, 400, 300]
-    assert [(x["name"], x["calibration"], x["current"]) for x in s.cal_systems] == \
-        [("rig A", "left camera, May", True), ("rig B", "left camera, May", True)]
+    assert [(x["name"], x["calibration"], x["current"]) for x in s.cal_systems] == [
+        ("rig A", "left camera, May", True),
+        ("rig B", "left camera, May", True),
+    ]
     # reopened: the same calibration, list, numbers, chart and heat map; the systems
     select(page, "left03.jpg")
     page2, _ = app(session.project.path)
     s2 = page2.state
     assert s2.cal_summary["result"] == rid and s2.cal_numbers == s.cal_numbers
-    assert [(r["name"], r["status"], r["rms"], r["thumb"]) for r in s2.cal_rows] == \
-        [(r["name"], r["status"], r["rms"], r["thumb"]) for r in s.cal_rows]
+    assert [(r["name"], r["status"], r["rms"], r["thumb"]) for r in s2.cal_rows] == [
+        (r["name"], r["status"], r["rms"], r["thumb"]) for r in s.cal_rows
+    ]
     assert s2.cal_fig_views == s.cal_fig_views
     assert s2.cal_fig_map["data"][0]["customdata"] == s.cal_fig_map["data"][0]["customdata"]
     assert s2.cal_overlay.startswith("data:image/jpeg") and s2.cal_selected == "left01.jpg"
@@ -193,9 +212,11 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     s = page.state
     doc = run(page, folder_request("stereo"))
     assert doc is not None, s.cal_error
-    direct = session.host.run("calibration.stereo", inputs={"left": [str(p) for p in LEFT],
-                                                            "right": [str(p) for p in RIGHT]},
-                              params={"board": BOARD}).outputs
+    direct = session.host.run(
+        "calibration.stereo",
+        inputs={"left": [str(p) for p in LEFT], "right": [str(p) for p in RIGHT]},
+        params={"board": BOARD},
+    ).outputs
     out = doc["outputs"]
     assert out["pairs"] == direct["pairs"]
     for key in ("R", "T", "rms", "baseline", "baseline_std", "std_T"):
@@ -212,22 +233,28 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     assert float(rows["rotation ry (Rodrigues)"]["value"]) == pytest.approx(np.degrees(direct["rvec"][1]), rel=1e-4)
     assert s.cal_summary["views"] == "13 of 13 pairs"
     # each camera's own calibration in 'single' is the camera plugin's on that camera's images
-    cam_r = session.host.run("calibration.camera", inputs={"images": [str(p) for p in RIGHT]},
-                             params={"board": BOARD}).outputs
+    cam_r = session.host.run(
+        "calibration.camera", inputs={"images": [str(p) for p in RIGHT]}, params={"board": BOARD}
+    ).outputs
     assert np.allclose(out["single"]["right"]["cameras"][0]["camera_matrix"], cam_r["camera_matrix"], rtol=1e-7)
     # the right camera's list, numbers (refined jointly) and heat map
     page.show_side("right")
     assert [r["name"] for r in s.cal_rows] == [p.name for p in RIGHT]
-    assert float({n["name"]: n for n in s.cal_numbers}["fx"]["value"]) == \
-        pytest.approx(direct["right"]["camera_matrix"][0][0], rel=1e-5)
-    pu = session.host.run("calibration.projection-uncertainty", inputs={"calibration": cam_r["calibration"]},
-                          params={"distance": s.cal_distance, "columns": 48, "rows": 36}).outputs
+    assert float({n["name"]: n for n in s.cal_numbers}["fx"]["value"]) == pytest.approx(
+        direct["right"]["camera_matrix"][0][0], rel=1e-5
+    )
+    pu = session.host.run(
+        "calibration.projection-uncertainty",
+        inputs={"calibration": cam_r["calibration"]},
+        params={"distance": s.cal_distance, "columns": 48, "rows": 36},
+    ).outputs
     assert np.allclose(s.cal_fig_map["data"][0]["customdata"], pu["map"], rtol=1e-6)
     assert "right01.jpg" in s.cal_overlay_note
     # the rectified pair: the plugin's images equal rectify_images called directly
     cal = direct["calibration"]
-    rect = session.host.run("calibration.rectify", inputs={"calibration": cal, "left": str(LEFT[2]),
-                                                           "right": str(RIGHT[2])}).outputs
+    rect = session.host.run(
+        "calibration.rectify", inputs={"calibration": cal, "left": str(LEFT[2]), "right": str(RIGHT[2])}
+    ).outputs
     l_img, r_img = cv2.imread(str(LEFT[2]), cv2.IMREAD_UNCHANGED), cv2.imread(str(RIGHT[2]), cv2.IMREAD_UNCHANGED)
     ref_l, ref_r = rectify_images(load_calibration(cal), l_img, r_img)
     assert np.array_equal(rect["left"].data, ref_l) and np.array_equal(rect["right"].data, ref_r)
@@ -236,11 +263,17 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     pic = decode(s.cal_rectified)
     assert pic.shape[1] <= 1400 and pic.shape[0] == pytest.approx(480 * pic.shape[1] / (1280 + 6), abs=2)
     assert saturated(pic).any(axis=1).sum() >= 16  # the epipolar lines
-    assert {x["name"].split("-", 2)[-1] for x in s.cal_links} >= {"errors-left.png", "errors-right.png",
-                                                                   "heatmap-left.png", "heatmap-right.png"}
+    assert {x["name"].split("-", 2)[-1] for x in s.cal_links} >= {
+        "errors-left.png",
+        "errors-right.png",
+        "heatmap-left.png",
+        "heatmap-right.png",
+    }
     with pytest.raises(Exception, match="two cameras"):
-        session.host.run("calibration.rectify", inputs={"calibration": cam_r["calibration"], "left": str(LEFT[0]),
-                                                        "right": str(RIGHT[0])})
+        session.host.run(
+            "calibration.rectify",
+            inputs={"calibration": cam_r["calibration"], "left": str(LEFT[0]), "right": str(RIGHT[0])},
+        )
 
 
 def test_images_from_an_upload_and_from_the_project_items(app):
@@ -253,8 +286,9 @@ def test_images_from_an_upload_and_from_the_project_items(app):
     doc = run(page, {"mode": "camera", "source": "items", "left": keys, "board": BOARD})
     assert doc is not None, s.cal_error
     assert [r["name"] for r in s.cal_rows] == [p.name for p in LEFT[:4]]
-    direct = session.host.run("calibration.camera", inputs={"images": [str(p) for p in LEFT[:4]]},
-                              params={"board": BOARD}).outputs
+    direct = session.host.run(
+        "calibration.camera", inputs={"images": [str(p) for p in LEFT[:4]]}, params={"board": BOARD}
+    ).outputs
     assert np.allclose(doc["outputs"]["camera_matrix"], direct["camera_matrix"], rtol=1e-7)
     row = session.project.result(doc["current"]["result"])
     assert sorted(row["measurement_ids"]) == sorted(int(k) for k in keys)
@@ -294,8 +328,10 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
         shutil.copy(p, odd / p.name)
     cv2.imwrite(str(odd / "small.png"), cv2.resize(cv2.imread(str(LEFT[3])), (320, 240)))
     fails(folder_request(folder=str(odd), left_pattern="*"), "mixed sizes", "small.png (320x240)")
-    fails(folder_request("stereo", left_pattern="left0[1-3]*", right_pattern="right0[1-2]*"),
-          "3 left images but 2 right images")
+    fails(
+        folder_request("stereo", left_pattern="left0[1-3]*", right_pattern="right0[1-2]*"),
+        "3 left images but 2 right images",
+    )
     assert s.cal_summary is None  # nothing shown yet, nothing broken
     # cancelled: the run stops, the page says so
     begin = page.job.begin
@@ -304,6 +340,7 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
         ev = begin()
         ev.set()
         return ev
+
     page.job.begin = cancelled_begin
     assert run(page, folder_request()) is None and s.cal_message == "cancelled"
     del page.job.begin
@@ -335,9 +372,11 @@ def test_bad_input_gives_one_line_and_the_page_keeps_working(app, tmp_path):
 
 
 def test_figures_and_pngs():
-    rows = [{"name": "a", "status": "used", "reason": "", "rms": 0.2, "n": 54},
-            {"name": "b", "status": "left out", "reason": "outlier", "rms": 0.9, "n": 54},
-            {"name": "c", "status": "not found", "reason": "chessboard 9x6 not found", "rms": None, "n": 0}]
+    rows = [
+        {"name": "a", "status": "used", "reason": "", "rms": 0.2, "n": 54},
+        {"name": "b", "status": "left out", "reason": "outlier", "rms": 0.9, "n": 54},
+        {"name": "c", "status": "not found", "reason": "chessboard 9x6 not found", "rms": None, "n": 0},
+    ]
     fig = figs.views_figure(rows, 0.21, "t")
     assert [t["name"] for t in fig["data"]] == ["used", "left out", "no board / not used"]
     assert fig["layout"]["xaxis"]["categoryarray"] == ["a", "b", "c"]
@@ -353,8 +392,9 @@ def test_figures_and_pngs():
     assert heat["layout"]["yaxis"]["range"] == [480, 0]
     png = figs.heatmap_png(pu, None, [640, 480], "t")
     assert png[:4] == b"\x89PNG" and len(png) > 5000
-    flat = figs.heatmap_figure({"map": [[1.0, 1.2], [1.1, 1.3]], "u": [0, 9], "v": [0, 9], "min": 1.0, "max": 1.3},
-                               None, [10, 10], "t")
+    flat = figs.heatmap_figure(
+        {"map": [[1.0, 1.2], [1.1, 1.3]], "u": [0, 9], "v": [0, 9], "min": 1.0, "max": 1.3}, None, [10, 10], "t"
+    )
     assert flat["data"][0]["z"] == [[1.0, 1.2], [1.1, 1.3]] and "tickvals" not in flat["data"][0]["colorbar"]
 
 

@@ -20,16 +20,28 @@ def _stereo():
     tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
     e = tx @ r
     f = np.linalg.inv(k2).T @ e @ np.linalg.inv(k1)
-    cams = [CameraModel(k1, [-0.1, 0.05, 1e-4, -2e-4, 0.01], image_size=(1280, 960), name="left"),
-            CameraModel(k2, [-0.12, 0.06, 0, 0, 0, 0, 0, 0, 1e-3, 0, 0, 0], r, t, (1280, 960), 0.0048, "right")]
-    return {"cameras": cams, "rms": 0.123, "R": r, "T": t, "E": e, "F": f,
-            "std_intrinsics": [np.arange(1, 15) * 0.01, np.arange(1, 19) * 0.02],
-            "covariance": [np.diag(np.arange(1, 15) * 1e-4), None],
-            "rectification": {"R1": np.eye(3), "P1": np.arange(12.0).reshape(3, 4)},
-            "board": "chessboard:9x6:25", "per_view_rms": [0.1, 0.2], "rejected": [{"image": "a.png", "reason": "x"}],
-            # longer than FileStorage's string limit, and a big matrix
-            "note": "x" * 5000, "parameter_covariance": np.arange(3600.0).reshape(60, 60) / 7,
-            "views": {"names": ["a", "b"], "rvecs": [[0.1, 0.2, 0.3], [0.0, 0.0, 1.0]]}}
+    cams = [
+        CameraModel(k1, [-0.1, 0.05, 1e-4, -2e-4, 0.01], image_size=(1280, 960), name="left"),
+        CameraModel(k2, [-0.12, 0.06, 0, 0, 0, 0, 0, 0, 1e-3, 0, 0, 0], r, t, (1280, 960), 0.0048, "right"),
+    ]
+    return {
+        "cameras": cams,
+        "rms": 0.123,
+        "R": r,
+        "T": t,
+        "E": e,
+        "F": f,
+        "std_intrinsics": [np.arange(1, 15) * 0.01, np.arange(1, 19) * 0.02],
+        "covariance": [np.diag(np.arange(1, 15) * 1e-4), None],
+        "rectification": {"R1": np.eye(3), "P1": np.arange(12.0).reshape(3, 4)},
+        "board": "chessboard:9x6:25",
+        "per_view_rms": [0.1, 0.2],
+        "rejected": [{"image": "a.png", "reason": "x"}],
+        # longer than FileStorage's string limit, and a big matrix
+        "note": "x" * 5000,
+        "parameter_covariance": np.arange(3600.0).reshape(60, 60) / 7,
+        "views": {"names": ["a", "b"], "rvecs": [[0.1, 0.2, 0.3], [0.0, 0.0, 1.0]]},
+    }
 
 
 def _same(a, b):
@@ -74,8 +86,11 @@ def test_camera_projector_round_trip(tmp_path, ext):
 
 def test_three_cameras_and_a_camera_off_the_origin(tmp_path):
     cal = _stereo()
-    cal["cameras"].append(CameraModel(np.diag([900.0, 900.0, 1.0]), np.zeros(5), _rot(0, 0.3, 0),
-                                      [300.0, 0, 0], (640, 480), None, "third"))
+    cal["cameras"].append(
+        CameraModel(
+            np.diag([900.0, 900.0, 1.0]), np.zeros(5), _rot(0, 0.3, 0), [300.0, 0, 0], (640, 480), None, "third"
+        )
+    )
     cal["cameras"][0].rotation = _rot(0.1, 0, 0)
     cal["cameras"][0].translation = np.array([1.0, 2.0, 3.0])
     for ext in (".yaml", ".json"):
@@ -125,7 +140,7 @@ def test_bad_files(tmp_path):
     (tmp_path / "x.txt").write_text("1")
     with pytest.raises(InputError, match="x.txt.*unknown calibration format"):
         read_calibration(tmp_path / "x.txt")
-    (tmp_path / "bad.json").write_text("{\"cameras\": []}")
+    (tmp_path / "bad.json").write_text('{"cameras": []}')
     with pytest.raises(InputError, match="bad.json"):
         read_calibration(tmp_path / "bad.json")
     (tmp_path / "garbage.yaml").write_text("this: [is not\n  opencv")

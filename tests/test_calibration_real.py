@@ -116,8 +116,10 @@ def test_bouguet_example(shared_data):
     dets = detect_all("chessboard:13x12:30", files)
     assert all(d.found for d in dets)
     res = calibrate_camera(dets, "chessboard:13x12:30")
-    print(f"Bouguet: rms {res['rms']:.4f} px, K {res['camera_matrix'][[0, 1, 0, 1], [0, 1, 2, 2]]}, "
-          f"dist {res['dist_coeffs']}, std {res['std_intrinsics'][:4]}, rejected {res['rejected']}")
+    print(
+        f"Bouguet: rms {res['rms']:.4f} px, K {res['camera_matrix'][[0, 1, 0, 1], [0, 1, 2, 2]]}, "
+        f"dist {res['dist_coeffs']}, std {res['std_intrinsics'][:4]}, rejected {res['rejected']}"
+    )
     assert res["rms"] < 0.3 and len(res["per_view_rms"]) >= 19
     k = res["camera_matrix"]
     assert abs(k[0, 0] / k[1, 1] - 1) < 0.005  # square pixels

@@ -92,10 +92,16 @@ def test_apply_scale_to_a_stereo_calibration():
     size = (640, 480)
     R1, R2, P1, P2, Q, _, _ = cv2.stereoRectify(k, np.zeros(5), k, np.zeros(5), size, r, t.reshape(3, 1))
     tx = np.array([[0, -t[2], t[1]], [t[2], 0, -t[0]], [-t[1], t[0], 0]])
-    cal = {"cameras": [CameraModel(k, image_size=size), CameraModel(k, np.zeros(5), r, t, size)],
-           "R": r, "T": t, "E": tx @ r, "baseline": float(np.linalg.norm(t)),
-           "rectification": {"R1": R1, "R2": R2, "P1": P1, "P2": P2, "Q": Q},
-           "parameter_names": ["a.fx", "b.rx", "b.tx"], "parameter_covariance": np.eye(3)}
+    cal = {
+        "cameras": [CameraModel(k, image_size=size), CameraModel(k, np.zeros(5), r, t, size)],
+        "R": r,
+        "T": t,
+        "E": tx @ r,
+        "baseline": float(np.linalg.norm(t)),
+        "rectification": {"R1": R1, "R2": R2, "P1": P1, "P2": P2, "Q": Q},
+        "parameter_names": ["a.fx", "b.rx", "b.tx"],
+        "parameter_covariance": np.eye(3),
+    }
     s = 1.0002
     out = apply_scale(cal, s)
     np.testing.assert_allclose(out["cameras"][1].translation, s * t)

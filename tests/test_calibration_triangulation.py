@@ -20,9 +20,11 @@ def _rot(*r):
 K1 = np.array([[2000.0, 0, 1000], [0, 2001, 750], [0, 0, 1]])
 K2 = np.array([[1990.0, 0, 1010], [0, 1992, 740], [0, 0, 1]])
 R2, R3 = _rot(0, 0.46, 0.01), _rot(-0.46, 0, 0)
-CAMS = [CameraModel(K1, [-0.1, 0.05, 0.001, 0, 0], image_size=(2000, 1500), name="left"),
-        CameraModel(K2, [-0.12, 0.07, 0, 0.001, 0.01], R2, -R2 @ [200.0, 0, 0], (2000, 1500), name="right"),
-        CameraModel(K2, np.zeros(5), R3, -R3 @ [0.0, 200, 0], (2000, 1500), name="third")]
+CAMS = [
+    CameraModel(K1, [-0.1, 0.05, 0.001, 0, 0], image_size=(2000, 1500), name="left"),
+    CameraModel(K2, [-0.12, 0.07, 0, 0.001, 0.01], R2, -R2 @ [200.0, 0, 0], (2000, 1500), name="right"),
+    CameraModel(K2, np.zeros(5), R3, -R3 @ [0.0, 200, 0], (2000, 1500), name="third"),
+]
 
 
 def _proj(cam, X):
@@ -51,14 +53,22 @@ def test_linear_is_opencv_dlt_and_optimal_is_the_least_squares_point(truth):
     x = np.stack([_proj(c, truth) for c in cams]) + rng.normal(0, 0.5, (2, len(truth), 2))
     lin = triangulate(cams, x, method="linear")["points"]
     # OpenCV's DLT on the same undistorted pixels: a different row weighting, same point to ~um
-    u = [cv2.undistortPoints(x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix,
-                             criteria=(3, 100, 1e-14)).reshape(-1, 2) for k, c in enumerate(cams)]
+    u = [
+        cv2.undistortPoints(
+            x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix, criteria=(3, 100, 1e-14)
+        ).reshape(-1, 2)
+        for k, c in enumerate(cams)
+    ]
     Xh = cv2.triangulatePoints(cams[0].projection_matrix, cams[1].projection_matrix, u[0].T, u[1].T)
     assert np.abs(lin - (Xh[:3] / Xh[3]).T).max() < 0.01
     # two cameras: Hartley-Sturm's optimum (cv2.correctMatches on the epipolar geometry)
     x2 = np.stack([_proj(c, truth[:50]) for c in cams]) + rng.normal(0, 0.5, (2, 50, 2))
-    u2 = [cv2.undistortPoints(x2[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix,
-                              criteria=(3, 100, 1e-14)).reshape(1, -1, 2) for k, c in enumerate(cams)]
+    u2 = [
+        cv2.undistortPoints(
+            x2[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix, criteria=(3, 100, 1e-14)
+        ).reshape(1, -1, 2)
+        for k, c in enumerate(cams)
+    ]
     a, b = cv2.correctMatches(fundamental(cams[0], cams[1]), u2[0], u2[1])
     Xh = cv2.triangulatePoints(cams[0].projection_matrix, cams[1].projection_matrix, a[0].T, b[0].T)
     np.testing.assert_allclose(triangulate(cams, x2)["points"], (Xh[:3] / Xh[3]).T, atol=1e-7)
@@ -68,13 +78,24 @@ def test_linear_is_opencv_dlt_and_optimal_is_the_least_squares_point(truth):
         opt = triangulate(cams, x, method="optimal")
         lin = triangulate(cams, x, method="linear")
         assert np.all(opt["reprojection_rms"] <= lin["reprojection_rms"] + 1e-9)
-        ud = np.stack([cv2.undistortPoints(x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs,
-                                           P=c.camera_matrix, criteria=(3, 100, 1e-14)).reshape(-1, 2)
-                       for k, c in enumerate(cams)])
+        ud = np.stack(
+            [
+                cv2.undistortPoints(
+                    x[k].reshape(-1, 1, 2), c.camera_matrix, c.dist_coeffs, P=c.camera_matrix, criteria=(3, 100, 1e-14)
+                ).reshape(-1, 2)
+                for k, c in enumerate(cams)
+            ]
+        )
         for i in range(20):  # brute force: scipy's least_squares on the undistorted reprojection error
+
             def r(X, i=i):
-                return np.concatenate([(c.projection_matrix @ np.r_[X, 1])[:2] / (c.projection_matrix @ np.r_[X, 1])[2]
-                                       - ud[k, i] for k, c in enumerate(cams)])
+                return np.concatenate(
+                    [
+                        (c.projection_matrix @ np.r_[X, 1])[:2] / (c.projection_matrix @ np.r_[X, 1])[2] - ud[k, i]
+                        for k, c in enumerate(cams)
+                    ]
+                )
+
             ref = least_squares(r, lin["points"][i], xtol=1e-14, ftol=1e-14, gtol=1e-14).x
             assert np.abs(opt["points"][i] - ref).max() < 1e-6
 
@@ -86,7 +107,7 @@ def test_covariance_against_monte_carlo(truth):
     X = truth[:4]
     x = np.stack([_proj(c, X) for c in cams])
     sd = np.r_[[2, 2, 3, 3, 0.005, 0.02, 1e-4, 1e-4, 0.02] * 2, [1e-3] * 3, [0.3] * 3]
-    res = triangulate(cams, x, pixel_sigma=0.3, parameter_covariance=np.diag(sd ** 2))
+    res = triangulate(cams, x, pixel_sigma=0.3, parameter_covariance=np.diag(sd**2))
     rng = np.random.default_rng(3)
     pts = []
     for _ in range(3000):
@@ -99,7 +120,7 @@ def test_covariance_against_monte_carlo(truth):
             if i == 1:
                 R = cv2.Rodrigues(cv2.Rodrigues(R)[0].ravel() + th[18:21])[0]
                 t = t + th[21:24]
-            cs.append(CameraModel(K, c.dist_coeffs + th[o + 4:o + 9], R, t))
+            cs.append(CameraModel(K, c.dist_coeffs + th[o + 4 : o + 9], R, t))
         pts.append(triangulate(cs, x + rng.normal(0, 0.3, x.shape))["points"])
     pts = np.array(pts)
     for m in range(len(X)):

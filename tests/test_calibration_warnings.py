@@ -47,6 +47,7 @@ def right_dets():
 
 # -- good data: no warning ----------------------------------------------------------------------
 
+
 def test_good_real_sets_have_no_warning(left_dets, right_dets):
     for dets in (left_dets, right_dets):
         res = calibrate_camera(dets, BOARD)
@@ -68,8 +69,9 @@ def _synthetic(poses, seed=0, sigma=0.1, board="chessboard:11x8:20"):
     dets = []
     for i, (r, t) in enumerate(poses):
         q = project(b, K, D, r, t) + rng.normal(0, sigma, (len(b.object_points), 2))
-        dets.append(Detection(f"v{i:02d}.png", SIZE, q.astype(np.float32), b.object_points,
-                              np.arange(len(q), dtype=np.int32)))
+        dets.append(
+            Detection(f"v{i:02d}.png", SIZE, q.astype(np.float32), b.object_points, np.arange(len(q), dtype=np.int32))
+        )
     return dets, b
 
 
@@ -82,11 +84,12 @@ def test_synthetic_tilted_views_have_no_warning():
 
 # -- degenerate view sets -----------------------------------------------------------------------
 
+
 def test_same_image_three_times(left_dets):
     """The issue's case: fx 906.6 / fy 828.0 px at RMS 0.16 px and no warning."""
     res = calibrate_camera([left_dets[0]] * 3, BOARD)
     w = res["warnings"]
-    assert res["rms"] < 0.5                                    # the RMS alone says nothing is wrong
+    assert res["rms"] < 0.5  # the RMS alone says nothing is wrong
     assert any(s.startswith("views 1, 2, 3 (left01.jpg) show the board in the same pose") for s in w), w
     assert any("only 1 distinct board pose among 3 views" in s for s in w)
     assert any("large uncertainty" in s and "fx" in s for s in w)
@@ -120,9 +123,18 @@ def test_parallel_board_planes():
     rvec = np.array([np.radians(35.0), 0.0, 0.0])
     R = cv2.Rodrigues(rvec)[0]
     centre = b.object_points.mean(0)
-    poses = [(rvec, np.array([dx, dy, dz]) - R @ centre)
-             for dx, dy, dz in ((-40, -30, 400), (40, -30, 430), (-40, 30, 460), (40, 30, 390), (0, 0, 420),
-                                (20, -10, 480), (-20, 10, 440))]
+    poses = [
+        (rvec, np.array([dx, dy, dz]) - R @ centre)
+        for dx, dy, dz in (
+            (-40, -30, 400),
+            (40, -30, 430),
+            (-40, 30, 460),
+            (40, 30, 390),
+            (0, 0, 420),
+            (20, -10, 480),
+            (-20, 10, 440),
+        )
+    ]
     w = checks.view_warnings([f"v{i}" for i in range(len(poses))], [p[0] for p in poses], [p[1] for p in poses])
     assert len(w) == 1 and "board planes are nearly parallel" in w[0], w
     # calibrated, the poses come out however the nonsense intrinsics need them: those warn
@@ -132,6 +144,7 @@ def test_parallel_board_planes():
 
 
 # -- implausible parameters, large RMS ----------------------------------------------------------
+
 
 def test_wrong_board_size(left_dets):
     """A 5 x 4 spec on the 9 x 6 board is found inside it, at a different place in each
@@ -161,15 +174,16 @@ def test_intrinsic_plausibility_checks():
     k = np.array([[532.8, 0, 342.5], [0, 532.9, 233.9], [0, 0, 1]])
     assert any("folds over" in s for s in checks.intrinsic_warnings(k, [-0.28, 0.03, 0, 0, -363573.0], SIZE))
     assert checks.intrinsic_warnings(k, [-0.281, 0.029, 0.0012, -0.00014, 0.155], SIZE) == []  # its real one
-    k5 = np.array([[3834.0, 0, 320], [0, 3834.0, 240], [0, 0, 1]])              # and the issue's fx 3834 px
+    k5 = np.array([[3834.0, 0, 320], [0, 3834.0, 240], [0, 0, 1]])  # and the issue's fx 3834 px
     assert any("folds over" in s for s in checks.intrinsic_warnings(k5, [0, 0, 0, 0, -363573.0], SIZE))
     # uncertainty: 2 % of fx
-    cov = np.diag([16.0 ** 2, 1.0, 1.0, 1.0] + [0.0] * 5)
+    cov = np.diag([16.0**2, 1.0, 1.0, 1.0] + [0.0] * 5)
     assert any("large uncertainty: fx 800 ± 16 px" in s for s in checks.intrinsic_warnings(K, D, SIZE, cov))
     assert checks.rms_warning(0.9) == [] and checks.rms_warning(1.5, "chessboard:9x6:25")
 
 
 # -- stereo, and where the warnings go ----------------------------------------------------------
+
 
 def test_stereo_same_pair_three_times(left_dets, right_dets):
     res = calibrate_stereo([left_dets[0]] * 3, [right_dets[0]] * 3, BOARD)
@@ -190,19 +204,34 @@ def test_plugin_run_warnings_reach_the_gui(left_dets):
 
 
 def test_cli_json_and_text_carry_the_warnings():
-    p = subprocess.run([CAMCMM, "calibrate", "camera", *map(str, [LEFT[0]] * 3), "--board", BOARD, "--json"],
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [CAMCMM, "calibrate", "camera", *map(str, [LEFT[0]] * 3), "--board", BOARD, "--json"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
     out = json.loads(p.stdout)
     assert any(s.startswith("views 1, 2, 3") for s in out["warnings"])
-    p = subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT), "--board", BOARD],
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [CAMCMM, "calibrate", "camera", *map(str, LEFT), "--board", BOARD], capture_output=True, text=True, timeout=300
+    )
     assert p.returncode == 0 and "warning:" not in p.stdout
-    p = subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT[:4]), "--board", BOARD],
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [CAMCMM, "calibrate", "camera", *map(str, LEFT[:4]), "--board", BOARD],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0 and "warning: only 4 distinct board poses" in p.stdout
-    out = json.loads(subprocess.run([CAMCMM, "calibrate", "camera", *map(str, LEFT), "--board", BOARD, "--max-rms",
-                                     "0.1", "--json"], capture_output=True, text=True, timeout=300).stdout)
+    out = json.loads(
+        subprocess.run(
+            [CAMCMM, "calibrate", "camera", *map(str, LEFT), "--board", BOARD, "--max-rms", "0.1", "--json"],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        ).stdout
+    )
     assert [w for w in out["warnings"] if "RMS reprojection error" in w and "above 0.1 px" in w]
 
 
@@ -219,10 +248,17 @@ def test_calibration_page_shows_the_warnings(gui_app, tmp_path):
         shutil.copy(LEFT[0], tmp_path / name)
     server, _ = gui_app(tmp_path / "proj", data_roots=[DATA, tmp_path])
     page, s = server.pages["calibration"], server.state
-    req = {"mode": "camera", "source": "folder", "folder": str(tmp_path), "left_pattern": "*.jpg",
-           "right_pattern": "", "board": BOARD}
+    req = {
+        "mode": "camera",
+        "source": "folder",
+        "folder": str(tmp_path),
+        "left_pattern": "*.jpg",
+        "right_pattern": "",
+        "board": BOARD,
+    }
     assert asyncio.run(page.run_async(req)) is not None, s.cal_error
-    assert any(w.startswith("views 1, 2, 3 (a.jpg, b.jpg, c.jpg) show the board in the same pose")
-               for w in s.cal_warnings), s.cal_warnings
+    assert any(
+        w.startswith("views 1, 2, 3 (a.jpg, b.jpg, c.jpg) show the board in the same pose") for w in s.cal_warnings
+    ), s.cal_warnings
     assert asyncio.run(page.run_async({**req, "folder": str(DATA), "left_pattern": "left*"})) is not None, s.cal_error
     assert list(s.cal_warnings) == []

@@ -23,8 +23,16 @@ T2 = np.array([-150.0, 1.5, 12.0])
 def _pair(**change):
     """Two cameras as plain numbers; ``change`` overrides fields of camera 1 (``k1``,
     ``d1``, ``size1``) or 2 (``k2``, ``d2``, ``r``, ``t``, ``size2``)."""
-    v = {"k1": K1.copy(), "d1": np.array([-0.1, 0.05, 0, 0, 0.01]), "size1": [640, 480],
-         "k2": K2.copy(), "d2": np.zeros(5), "r": R2.copy(), "t": T2.copy(), "size2": [640, 480]}
+    v = {
+        "k1": K1.copy(),
+        "d1": np.array([-0.1, 0.05, 0, 0, 0.01]),
+        "size1": [640, 480],
+        "k2": K2.copy(),
+        "d2": np.zeros(5),
+        "r": R2.copy(),
+        "t": T2.copy(),
+        "size2": [640, 480],
+    }
     v.update(change)
     return v
 
@@ -45,12 +53,24 @@ def _write_yaml(path, v):
 
 def _write_json(path, v):
     def cam(k, d, r, t, size, name):
-        return {"name": name, "camera_matrix": np.asarray(k, float).tolist(), "dist_coeffs": np.asarray(d).tolist(),
-                "rotation": np.asarray(r, float).tolist(), "translation": np.asarray(t, float).tolist(),
-                "image_size": list(size)}
-    doc = {"format": "camcmm-calibration", "version": 1, "unit": "mm",
-           "cameras": [cam(v["k1"], v["d1"], np.eye(3), np.zeros(3), v["size1"], "left"),
-                       cam(v["k2"], v["d2"], v["r"], v["t"], v["size2"], "right")]}
+        return {
+            "name": name,
+            "camera_matrix": np.asarray(k, float).tolist(),
+            "dist_coeffs": np.asarray(d).tolist(),
+            "rotation": np.asarray(r, float).tolist(),
+            "translation": np.asarray(t, float).tolist(),
+            "image_size": list(size),
+        }
+
+    doc = {
+        "format": "camcmm-calibration",
+        "version": 1,
+        "unit": "mm",
+        "cameras": [
+            cam(v["k1"], v["d1"], np.eye(3), np.zeros(3), v["size1"], "left"),
+            cam(v["k2"], v["d2"], v["r"], v["t"], v["size2"], "right"),
+        ],
+    }
     path.write_text(json.dumps(doc))  # NaN/Infinity as Python's json writes them
 
 
@@ -80,7 +100,7 @@ BAD = [  # (id, change, the words the one-line error must hold)
     ("zero-width", {"size1": [0, 480]}, "image width = 0 px must be a whole number"),
     ("negative-height", {"size2": [640, -480]}, "image height = -480 px"),
     ("fractional-size", {"size1": [640.5, 480]}, "image width = 640.5 px"),
-    ("huge-size", {"size1": [10 ** 7, 480]}, "image width = 1e+07 px"),
+    ("huge-size", {"size1": [10**7, 480]}, "image width = 1e+07 px"),
 ]
 
 
@@ -133,19 +153,36 @@ def test_fringe_reconstruct_with_a_negative_focal_length_is_a_one_line_error(tmp
 
     from camcmm_plugins.fringe.patterns import generate_patterns
 
-    seq = {"projector": {"width": 64, "height": 48}, "frames": [
-        "white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16}]}
+    seq = {
+        "projector": {"width": 64, "height": 48},
+        "frames": ["white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16}],
+    }
     (tmp_path / "seq.yaml").write_text(yaml.safe_dump(seq))
     frames = tmp_path / "frames"
     frames.mkdir()
     for i, f in enumerate(generate_patterns(seq)):
         cv2.imwrite(str(frames / f"img{i:02d}.png"), f)
     cal = tmp_path / "cal.yaml"
-    _write_yaml(cal, _pair(k1=_with(K1, 0, 0, -800), size1=[64, 48], size2=[64, 48],
-                           k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]]))
-    proc = subprocess.run([sys.executable, "-m", "camcmm", "fringe", "reconstruct", str(tmp_path / "seq.yaml"),
-                           "--images", str(frames), "--calibration", str(cal)],
-                          capture_output=True, text=True, timeout=180)
+    _write_yaml(
+        cal, _pair(k1=_with(K1, 0, 0, -800), size1=[64, 48], size2=[64, 48], k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]])
+    )
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "camcmm",
+            "fringe",
+            "reconstruct",
+            str(tmp_path / "seq.yaml"),
+            "--images",
+            str(frames),
+            "--calibration",
+            str(cal),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert proc.returncode == 2, (proc.returncode, proc.stderr)  # the CLI's code for a one-line input error
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("camcmm: error:"), proc.stderr
     assert "cal.yaml: camera 1 (left): focal length fx = -800 px must be positive and finite" in proc.stderr

@@ -19,9 +19,24 @@ from camcmm.project import Project
 
 
 def _run(cloud, project):
-    return subprocess.Popen([sys.executable, "-m", "camcmm", "run", "cloud.downsample", str(cloud),
-                             "--voxel-size", "0.5", "--project", str(project), "--json"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "camcmm",
+            "run",
+            "cloud.downsample",
+            str(cloud),
+            "--voxel-size",
+            "0.5",
+            "--project",
+            str(project),
+            "--json",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def test_sigkill_of_camcmm_run_keeps_completed_results(tmp_path):

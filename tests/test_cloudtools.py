@@ -21,7 +21,7 @@ def test_downsample_gives_each_voxels_centroid():
     pts = np.vstack([c + rng.uniform(-0.3, 0.3, (50, 3)) for c in centres])
     out = run("cloud.downsample", PointCloud(pts), voxel_size=10.0)
     got = out["cloud"].points[np.lexsort(out["cloud"].points.T[::-1])]
-    want = np.array([pts[i * 50:(i + 1) * 50].mean(axis=0) for i in range(3)])
+    want = np.array([pts[i * 50 : (i + 1) * 50].mean(axis=0) for i in range(3)])
     want = want[np.lexsort(want.T[::-1])]
     assert out["n_points"] == 3
     np.testing.assert_allclose(got, want, atol=1e-12)

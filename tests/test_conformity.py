@@ -7,15 +7,26 @@ import pytest
 from camcmm.conformity import combine, guarded_verdict, simple_verdict
 
 
-@pytest.mark.parametrize("value, expected", [(0.1, "pass"), (-0.1, "pass"), (0.186, "pass"), (-0.1861, "fail"),
-                                             (None, "incomplete"), (math.nan, "incomplete")])
+@pytest.mark.parametrize(
+    "value, expected",
+    [(0.1, "pass"), (-0.1, "pass"), (0.186, "pass"), (-0.1861, "fail"), (None, "incomplete"), (math.nan, "incomplete")],
+)
 def test_simple_rule(value, expected):
     assert simple_verdict(value, 0.186) == expected
 
 
-@pytest.mark.parametrize("value, expected", [(0.14, "pass"), (0.15, "pass"), (0.151, "inconclusive"),
-                                             (-0.2, "inconclusive"), (0.25, "inconclusive"), (0.2501, "fail"),
-                                             (None, "incomplete")])
+@pytest.mark.parametrize(
+    "value, expected",
+    [
+        (0.14, "pass"),
+        (0.15, "pass"),
+        (0.151, "inconclusive"),
+        (-0.2, "inconclusive"),
+        (0.25, "inconclusive"),
+        (0.2501, "fail"),
+        (None, "incomplete"),
+    ],
+)
 def test_guarded_rule_shrinks_and_widens_by_U(value, expected):
     assert guarded_verdict(value, mpe=0.2, expanded_uncertainty=0.05) == expected
 

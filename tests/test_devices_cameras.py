@@ -14,8 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from camcmm.api import ParameterError
-from camcmm.api import DeviceError, DeviceTimeout
+from camcmm.api import DeviceError, DeviceTimeout, ParameterError
 from camcmm_plugins.devices.camera import OpenCVCamera
 from camcmm_plugins.devices.genicam import GenICamCamera
 from camcmm_plugins.devices.projector import PatternProjector, SimulatedProjector, SpeckleProjector
@@ -84,7 +83,9 @@ def test_genicam_without_harvesters_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "harvesters", None)
     monkeypatch.setitem(sys.modules, "harvesters.core", None)
     cam = GenICamCamera(cti="/opt/maker/producer.cti", serial="123", name="left")
-    with pytest.raises(DeviceError, match=r"camera 'left' on .*: GenICam cameras need the optional package 'harvesters'"):
+    with pytest.raises(
+        DeviceError, match=r"camera 'left' on .*: GenICam cameras need the optional package 'harvesters'"
+    ):
         cam.connect()
 
 
@@ -108,6 +109,7 @@ class _Node:
 
 class _FakeHarvester:
     """A stand-in for harvesters.core.Harvester with one 32x24 Mono8 camera."""
+
     log: list = []
 
     def __init__(self):
@@ -130,8 +132,16 @@ class _FakeHarvester:
 class _FakeAcquirer:
     def __init__(self, log):
         self.log, self.acq, self.n = log, False, 0
-        names = ("ExposureTime", "Gain", "TriggerMode", "TriggerSource", "TriggerSoftware", "OffsetX", "OffsetY",
-                 "DeviceVendorName")
+        names = (
+            "ExposureTime",
+            "Gain",
+            "TriggerMode",
+            "TriggerSource",
+            "TriggerSoftware",
+            "OffsetX",
+            "OffsetY",
+            "DeviceVendorName",
+        )
         nm = types.SimpleNamespace(**{n: _Node(0, log, n) for n in names})
         nm.Width, nm.Height = _Node(32, log, "Width"), _Node(24, log, "Height")
         nm.WidthMax, nm.HeightMax = _Node(32, log, "WidthMax"), _Node(24, log, "HeightMax")
@@ -164,6 +174,7 @@ class _FakeAcquirer:
 
             def __exit__(self_, *a):
                 return False
+
         return _Ctx()
 
 
@@ -248,8 +259,9 @@ def test_speckle_relay_over_a_serial_line_and_by_hand():
         time.sleep(0.05)
         assert os.read(master, 64) == bytes.fromhex("A00100A1") and sp.is_on is False
         sp.disconnect()
-        text = SpeckleProjector(os.ttyname(slave), on_command="LASER ON", off_command="LASER OFF",
-                                encoding="text", settle_s=0).connect()
+        text = SpeckleProjector(
+            os.ttyname(slave), on_command="LASER ON", off_command="LASER OFF", encoding="text", settle_s=0
+        ).connect()
         text.on()
         time.sleep(0.05)
         assert os.read(master, 64) == b"LASER ON\n"
@@ -288,16 +300,19 @@ def test_capture_replay_feeds_a_fringe_pair_from_a_rendering_plugin(tmp_path):
                 files[cam].append(str(path))
         return {"files": files}
 
-    replay = CaptureReplay("scene.yaml", str(tmp_path / "render"), algorithm=fake_capture,
-                           cameras={"left": "camera1", "right": "camera2"})
+    replay = CaptureReplay(
+        "scene.yaml", str(tmp_path / "render"), algorithm=fake_capture, cameras={"left": "camera1", "right": "camera2"}
+    )
     proj = SimulatedProjector(size=(8, 6)).connect()
     cams = [SimulatedCamera(n, size=(8, 6), projector=proj, renderer=replay).connect() for n in ("left", "right")]
     with Project.create(tmp_path / "p") as p:
         seq = FringeSequence(p, proj, cams, patterns=[np.zeros((6, 8), np.uint8)] * 3)
         seq.start()
         assert seq.wait(timeout=10) == "done", seq.reason
-        got = {(m["meta"]["camera"], m["meta"]["pattern_index"]): int(cv2.imread(str(p.file_path(m["hash"])), 0)[0, 0])
-               for m in p.measurements()}
+        got = {
+            (m["meta"]["camera"], m["meta"]["pattern_index"]): int(cv2.imread(str(p.file_path(m["hash"])), 0)[0, 0])
+            for m in p.measurements()
+        }
     assert got == {(c, k): 10 * k + (c == "right") for c in ("left", "right") for k in range(3)}
     assert calls == ["scene.yaml"]  # rendered once
     bad = SimulatedCamera("middle", projector=proj, renderer=replay).connect()

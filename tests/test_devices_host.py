@@ -47,8 +47,13 @@ def test_host_passes_objects_through(tmp_path):
     host = default_host()
     stage = host.device("devices.stage.simulated", {"unit": "deg"}).connect()
     cam = host.device("devices.camera.simulated", {"size": [16, 12]}, stages=[stage]).connect()
-    seq = host.device("devices.sequence.turntable", {"n_images": 4, "span_deg": 90},
-                      store=lambda img, meta: None, stage=stage, cameras=[cam])
+    seq = host.device(
+        "devices.sequence.turntable",
+        {"n_images": 4, "span_deg": 90},
+        store=lambda img, meta: None,
+        stage=stage,
+        cameras=[cam],
+    )
     assert list(seq.angles) == [0.0, 22.5, 45.0, 67.5]
     seq.start()
     assert seq.wait(timeout=10) == "done"
@@ -63,7 +68,8 @@ def test_a_broken_device_class_is_one_line(tmp_path, monkeypatch):
     (pkg / "__init__.py").write_text("class Bad:\n    def __init__(self, port):\n        raise RuntimeError('boom')\n")
     (pkg / "plugin.yaml").write_text(
         "name: labdev\nplugins:\n  - {id: lab.bad, kind: device, name: Bad, entry: 'labdev:Bad',"
-        " parameters: [{name: port, type: str, default: x}]}\n")
+        " parameters: [{name: port, type: str, default: x}]}\n"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     import importlib.metadata as md
 
@@ -73,8 +79,12 @@ def test_a_broken_device_class_is_one_line(tmp_path, monkeypatch):
 
 
 def test_cli_devices_list():
-    out = subprocess.run([sys.executable, "-m", "camcmm.cli.main", "devices", "list", "--json"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [sys.executable, "-m", "camcmm.cli.main", "devices", "list", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     ids = {d["id"]: d for d in doc["devices"]}
@@ -84,8 +94,11 @@ def test_cli_devices_list():
 
 def test_cli_simulate_stage_serves_the_protocol(tmp_path):
     link = tmp_path / "stage"
-    proc = subprocess.Popen([sys.executable, "-m", "camcmm.cli.main", "devices", "simulate-stage", "--link", str(link)],
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "camcmm.cli.main", "devices", "simulate-stage", "--link", str(link)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().strip() == f"STAGE {link}"
         assert proc.stdout.readline().strip() == "READY"

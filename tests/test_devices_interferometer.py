@@ -11,11 +11,14 @@ import tty
 import numpy as np
 import pytest
 
-from camcmm.api import InputError
-from camcmm.api import DeviceError, DeviceTimeout
-from camcmm_plugins.devices.interferometer import (CsvInterferometer, SerialInterferometer,
-                                                   SimulatedInterferometer, parse_position,
-                                                   read_interferometer_csv)
+from camcmm.api import DeviceError, DeviceTimeout, InputError
+from camcmm_plugins.devices.interferometer import (
+    CsvInterferometer,
+    SerialInterferometer,
+    SimulatedInterferometer,
+    parse_position,
+    read_interferometer_csv,
+)
 from camcmm_plugins.devices.simulator import SimulatorProcess
 from camcmm_plugins.devices.zaber import ZaberLinearStage
 
@@ -35,8 +38,13 @@ def test_parse_position_units():
 
 
 def test_csv_with_report_lines_and_a_header(tmp_path):
-    lines = ["Linear measurement report", "Operator,A. N. Other", "Date,2024-03-01", "",
-             "Target (mm),Run,Reading (mm),Time"]
+    lines = [
+        "Linear measurement report",
+        "Operator,A. N. Other",
+        "Date,2024-03-01",
+        "",
+        "Target (mm),Run,Reading (mm),Time",
+    ]
     lines += [f"{t:.0f},1,{v:.6f},10:00:{k:02d}" for k, (t, v) in enumerate(zip(np.arange(0, 50, 10), TRUE_MM))]
     p = tmp_path / "run.csv"
     p.write_text("\n".join(lines))
@@ -94,8 +102,18 @@ def test_csv_interferometer_hands_out_readings_in_order(tmp_path):
 
 def test_serial_interferometer_against_the_simulator(tmp_path):
     res, ppm, amp = 0.0001, 50.0, 0.4  # periodic lead-screw error of 0.4 um, period 5 mm
-    with SimulatorProcess("--resolution", str(res), "--scale-error", str(ppm), "--periodic-um", str(amp),
-                          "--period-mm", "5", interferometer=True, folder=tmp_path) as sim:
+    with SimulatorProcess(
+        "--resolution",
+        str(res),
+        "--scale-error",
+        str(ppm),
+        "--periodic-um",
+        str(amp),
+        "--period-mm",
+        "5",
+        interferometer=True,
+        folder=tmp_path,
+    ) as sim:
         stage = ZaberLinearStage(sim.stage_port, resolution=res).connect()
         laser = SerialInterferometer(sim.interferometer_port, name="xl80").connect()
         stage.home()

@@ -12,8 +12,7 @@ import pytest
 
 from camcmm.api import read
 from camcmm.project import Project
-from camcmm_plugins.devices.acquisition import (FringeSequence, ScaleRunSequence, TurntableSequence,
-                                                turntable_angles)
+from camcmm_plugins.devices.acquisition import FringeSequence, ScaleRunSequence, TurntableSequence, turntable_angles
 from camcmm_plugins.devices.interferometer import SerialInterferometer, SimulatedInterferometer
 from camcmm_plugins.devices.projector import SimulatedProjector, SpeckleProjector
 from camcmm_plugins.devices.simulated import SimulatedCamera, synthetic_frame
@@ -125,8 +124,9 @@ def test_fringe_sequence_with_two_cameras(project):
     h, w = 80, 128
     x = np.arange(w)
     shifts = [0, np.pi / 2, np.pi, 3 * np.pi / 2]
-    patterns = [np.tile(np.round(127.5 + 127.5 * np.cos(2 * np.pi * x / 32 + d)).astype(np.uint8), (h, 1))
-                for d in shifts]
+    patterns = [
+        np.tile(np.round(127.5 + 127.5 * np.cos(2 * np.pi * x / 32 + d)).astype(np.uint8), (h, 1)) for d in shifts
+    ]
     patterns += [np.zeros((h, w), np.uint8), np.full((h, w), 255, np.uint8)]
     proj = SimulatedProjector(size=(w, h)).connect()
     noiseless = functools.partial(synthetic_frame, noise=0.0)
@@ -146,8 +146,10 @@ def test_fringe_sequence_with_two_cameras(project):
     assert all(m["meta"]["position"] == "P1" for m in ms)
     # the frames show the pattern that was on display: the phase recovered from the
     # four phase-shifted frames (eq. 5.3) is the projected phase (camera = projector grid)
-    frames = {(m["meta"]["pattern_index"], m["meta"]["camera"]): read(project.file_path(m["hash"])).data.astype(float)
-              for m in ms}
+    frames = {
+        (m["meta"]["pattern_index"], m["meta"]["camera"]): read(project.file_path(m["hash"])).data.astype(float)
+        for m in ms
+    }
     I = np.stack([frames[(k, "left")] for k in range(4)])
     num = sum(I[k] * np.sin(shifts[k]) for k in range(4))
     den = sum(I[k] * np.cos(shifts[k]) for k in range(4))
@@ -160,8 +162,16 @@ def test_fringe_sequence_with_two_cameras(project):
 
 def test_scale_run_against_the_simulated_interferometer(tmp_path, project):
     scale_ppm, res = 120.0, 0.0001
-    sim = SimulatorProcess("--resolution", str(res), "--speed", "500", "--scale-error", str(scale_ppm),
-                           folder=tmp_path / "sim", interferometer=True)
+    sim = SimulatorProcess(
+        "--resolution",
+        str(res),
+        "--speed",
+        "500",
+        "--scale-error",
+        str(scale_ppm),
+        folder=tmp_path / "sim",
+        interferometer=True,
+    )
     try:
         stage = ZaberLinearStage(sim.stage_port, name="actuator", resolution=res).connect()
         laser = SerialInterferometer(sim.interferometer_port, name="xl80").connect()
@@ -218,8 +228,9 @@ def test_sink_callable_and_operator_pause(project):
     stage = SimulatedStage("rot", unit="deg", speed=5000.0).connect()
     cam = SimulatedCamera("cam", size=(32, 24), stages=[stage]).connect()
     got = []
-    seq = TurntableSequence(lambda img, meta: got.append((img.data.shape, meta["view"])) or len(got),
-                            stage, [cam], n_images=5, span_deg=100)
+    seq = TurntableSequence(
+        lambda img, meta: got.append((img.data.shape, meta["view"])) or len(got), stage, [cam], n_images=5, span_deg=100
+    )
     seq.start()
     assert seq.wait(timeout=10) == "done"
     assert [v for _, v in got] == [0, 1, 2, 3, 4] and seq.measurement_ids == [1, 2, 3, 4, 5]
@@ -233,8 +244,9 @@ def test_scale_run_with_the_laser_softwares_csv_survives_a_fault(tmp_path, proje
     targets = np.linspace(0, 40, 5)
     readings = np.repeat(targets * (1 + 3e-5), 2) + np.tile([-1e-5, 1e-5], 5)
     csv = tmp_path / "laser.csv"
-    csv.write_text("Target (mm),Reading (mm)\n" + "\n".join(f"{t},{r:.7f}" for t, r in
-                                                         zip(np.repeat(targets, 2), readings)))
+    csv.write_text(
+        "Target (mm),Reading (mm)\n" + "\n".join(f"{t},{r:.7f}" for t, r in zip(np.repeat(targets, 2), readings))
+    )
     from camcmm_plugins.devices.interferometer import CsvInterferometer
 
     sim = SimulatorProcess("--resolution", "0.0001", "--speed", "200", folder=tmp_path / "sim")

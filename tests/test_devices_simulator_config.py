@@ -87,10 +87,19 @@ def test_process_reports_a_port_in_use_in_one_line(tmp_path):
 def test_bad_fault_and_data_values_are_refused_not_fatal():
     linear, rotary = ZaberSim(), ZaberSim(limit_max=None)
     for sim in (linear, rotary):
-        for line in ("/1 0 sim mute abc", "/1 0 sim delay nan", "/1 0 sim delay -1", "/1 0 sim delay 1e9",
-                     "/1 0 sim exit -3", "/1 0 sim garble 99999999999999", "/1 1 move abs " + "9" * 400,
-                     "/1 1 move abs 2147483648", "/1 1 move rel -2147483648", "/1 1 set maxspeed " + "9" * 30,
-                     "/1 1 set maxspeed 0"):
+        for line in (
+            "/1 0 sim mute abc",
+            "/1 0 sim delay nan",
+            "/1 0 sim delay -1",
+            "/1 0 sim delay 1e9",
+            "/1 0 sim exit -3",
+            "/1 0 sim garble 99999999999999",
+            "/1 1 move abs " + "9" * 400,
+            "/1 1 move abs 2147483648",
+            "/1 1 move rel -2147483648",
+            "/1 1 set maxspeed " + "9" * 30,
+            "/1 1 set maxspeed 0",
+        ):
             (reply,) = sim.handle(line)
             assert " RJ " in reply and reply.endswith("BADDATA"), (line, reply)
         assert sim.handle("/1 0 sim explode")[0].endswith("RJ IDLE WR BADCOMMAND")
@@ -100,9 +109,11 @@ def test_bad_fault_and_data_values_are_refused_not_fatal():
 
 def test_junk_on_the_ports_does_not_end_the_simulator(tmp_path):
     with SimulatorProcess(pty=False, interferometer=True, folder=tmp_path) as sim:
-        for port, query, answer in ((sim.stage_port, b"/1 1 get pos\n", b"@01 1 OK"),
-                                    (sim.interferometer_port, b"POS?\n", b"POS ")):
-            host, _, p = port[len("socket://"):].rpartition(":")
+        for port, query, answer in (
+            (sim.stage_port, b"/1 1 get pos\n", b"@01 1 OK"),
+            (sim.interferometer_port, b"POS?\n", b"POS "),
+        ):
+            host, _, p = port[len("socket://") :].rpartition(":")
             with socket.create_connection((host, int(p)), timeout=5) as c:
                 # non-ASCII bytes echoed in an error reply, then 200 kB without a line end
                 c.sendall(b"\xff\xfe junk\n" + b"x" * 200_000 + b"\n" + query)

@@ -9,8 +9,14 @@ import pytest
 
 from camcmm.api import DeviceDisconnected, DeviceError, DeviceMonitor, DeviceTimeout
 from camcmm_plugins.devices.simulator import SimulatorProcess
-from camcmm_plugins.devices.zaber import (ZaberLinearStage, ZaberRotaryStage, ZaberStage, checksum,
-                                          format_command, parse_reply)
+from camcmm_plugins.devices.zaber import (
+    ZaberLinearStage,
+    ZaberRotaryStage,
+    ZaberStage,
+    checksum,
+    format_command,
+    parse_reply,
+)
 
 RES = 0.000047625  # mm per microstep of a Zaber linear stage (data sheet value)
 
@@ -185,8 +191,9 @@ def test_monitor_reports_an_idle_device_that_stops_answering(stage):
 
 
 def test_rotary_stage_over_tcp(tmp_path):
-    with SimulatorProcess("--rotary", "--resolution", "0.000234375", "--speed", "720", pty=False,
-                          folder=tmp_path) as sim:
+    with SimulatorProcess(
+        "--rotary", "--resolution", "0.000234375", "--speed", "720", pty=False, folder=tmp_path
+    ) as sim:
         assert sim.stage_port.startswith("socket://")
         st = ZaberRotaryStage(sim.stage_port, name="turntable").connect()
         try:

@@ -17,8 +17,9 @@ NOT_HOMED = r"not homed since the controller reset; home it first \(or confirm w
 
 @pytest.fixture(params=["pty", "tcp"])
 def sim(request, tmp_path):
-    s = SimulatorProcess("--resolution", str(RES), "--speed", "400", "--travel", "100", folder=tmp_path,
-                         pty=request.param == "pty")
+    s = SimulatorProcess(
+        "--resolution", str(RES), "--speed", "400", "--travel", "100", folder=tmp_path, pty=request.param == "pty"
+    )
     yield s
     s.kill()
 
@@ -135,21 +136,27 @@ def test_devices_page_shows_the_refusal_as_one_line(gui_app):
     assert act("home") == 0.0 and act("abs", "10") == pytest.approx(10.0)
     page.devices[key]._link.request(1, 0, "sim reset")
     assert act("rel", "1") is None
-    assert page.state.dev_error.endswith("not homed since the controller reset; home it first "
-                                         "(or confirm with allow_unhomed=True)")
+    assert page.state.dev_error.endswith(
+        "not homed since the controller reset; home it first (or confirm with allow_unhomed=True)"
+    )
 
 
 def test_a_reply_lost_in_line_noise(stage):
     stage.home()
     stage.request("sim noise 1")
     stage.request("sim mute 1")  # the next command is lost; two unreadable lines arrive instead
-    with pytest.raises(DeviceTimeout, match=r"no reply to 'get pos' within 0.5 s \(2 unreadable lines meanwhile, "
-                                            r"last '\\x00\\x7f~%&\\x15 ='\)$"):
+    with pytest.raises(
+        DeviceTimeout,
+        match=r"no reply to 'get pos' within 0.5 s \(2 unreadable lines meanwhile, "
+        r"last '\\x00\\x7f~%&\\x15 ='\)$",
+    ):
         stage.position()
     # a garbled reply glued to the remains of a truncated alert is still this command's reply:
     # an error for a move (not repeated blindly), not an alert line to skip
     stage.request("sim garble 1 move")
     stage.request("sim noise 1")
-    with pytest.raises(DeviceError, match=r"garbled reply to 'move abs 104987': not a Zaber reply: '@01 1 \d+ O\S*~#~'"):
+    with pytest.raises(
+        DeviceError, match=r"garbled reply to 'move abs 104987': not a Zaber reply: '@01 1 \d+ O\S*~#~'"
+    ):
         stage.request("move abs 104987")  # 5 mm
     assert stage.wait_idle() == pytest.approx(104987 * RES, abs=1e-12)

@@ -25,7 +25,7 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_device"
 def _entry_point() -> md.EntryPoint:
     """The ``camcmm.plugins`` entry point exactly as the example's pyproject.toml declares it."""
     project = tomllib.loads((EXAMPLE / "pyproject.toml").read_text())
-    (name, value), = project["project"]["entry-points"]["camcmm.plugins"].items()
+    ((name, value),) = project["project"]["entry-points"]["camcmm.plugins"].items()
     return md.EntryPoint(name=name, value=value, group="camcmm.plugins")
 
 

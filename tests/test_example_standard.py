@@ -52,8 +52,9 @@ def block_cloud(direction, length: float) -> PointCloud:
     a = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
     a /= np.linalg.norm(a)
     b = np.cross(d, a)
-    t, u, w = np.meshgrid(np.linspace(-length / 2, length / 2, 41), np.linspace(-17.5, 17.5, 7),
-                          np.linspace(-4.5, 4.5, 3), indexing="ij")
+    t, u, w = np.meshgrid(
+        np.linspace(-length / 2, length / 2, 41), np.linspace(-17.5, 17.5, 7), np.linspace(-4.5, 4.5, 3), indexing="ij"
+    )
     return PointCloud(np.outer(t.ravel(), d) + np.outer(u.ravel(), a) + np.outer(w.ravel(), b))
 
 

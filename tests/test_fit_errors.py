@@ -42,7 +42,8 @@ def test_collinear_points_for_plane_and_circle():
 def test_coplanar_points_for_sphere_and_cylinder():
     rng = np.random.default_rng(2)
     pts = FAR + np.column_stack([rng.normal(size=(200, 2)), np.zeros(200)]) @ np.array(
-        [[1, 0, 0], [0, 0.6, 0.8], [0, -0.8, 0.6]])
+        [[1, 0, 0], [0, 0.6, 0.8], [0, -0.8, 0.6]]
+    )
     with pytest.raises(GeometryError, match="coplanar") as exc:
         fit_sphere(pts)
     _one_line(exc)
@@ -103,7 +104,7 @@ def test_fit_that_does_not_converge():
     with pytest.raises(GeometryError, match="did not converge in 1 iterations") as exc:
         fit_sphere(pts, max_iter=1)
     _one_line(exc)
-    assert fit_sphere(pts).radius > 0   # with the default budget it converges
+    assert fit_sphere(pts).radius > 0  # with the default budget it converges
 
 
 def test_two_blobs_are_no_sphere():

@@ -125,9 +125,18 @@ def test_minzone_sphere_is_optimal(seed, cap):
         rho = np.linalg.norm(pts - FAR - c, axis=1)
         return rho.max() - rho.min()
 
-    best = min((minimize(zone, ls.center - FAR + rng.normal(scale=1e-3, size=3), method="Nelder-Mead",
-                         options={"xatol": 1e-10, "fatol": 1e-13, "maxiter": 20000}) for _ in range(3)),
-               key=lambda r: r.fun)
+    best = min(
+        (
+            minimize(
+                zone,
+                ls.center - FAR + rng.normal(scale=1e-3, size=3),
+                method="Nelder-Mead",
+                options={"xatol": 1e-10, "fatol": 1e-13, "maxiter": 20000},
+            )
+            for _ in range(3)
+        ),
+        key=lambda r: r.fun,
+    )
     assert res.form["range"] <= best.fun + 1e-12
     assert res.form["range"] == pytest.approx(zone(res.center - FAR), abs=1e-11)  # centre rounded at 1e4 mm
     rho = np.linalg.norm(pts - res.center, axis=1)

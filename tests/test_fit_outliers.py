@@ -16,8 +16,13 @@ from camcmm_plugins.fitting import outliers as rules
 from camcmm_plugins.fitting.api import fit, parse_rule, vdi2634_count
 
 FAR = np.array([10_000.0, -10_000.0, 10_000.0])
-PARAMS = {"sphere": ("center", "radius"), "plane": ("point", "normal"), "line": ("point", "direction"),
-          "circle": ("center", "radius"), "cylinder": ("point", "axis", "radius")}
+PARAMS = {
+    "sphere": ("center", "radius"),
+    "plane": ("point", "normal"),
+    "line": ("point", "direction"),
+    "circle": ("center", "radius"),
+    "cylinder": ("point", "axis", "radius"),
+}
 
 
 def naive_vdi2634(element, pts):
@@ -39,7 +44,7 @@ def _same_parameters(element, a, b, size):
             vb = vb * np.sign(va @ vb)
             assert np.abs(va - vb).max() <= 1e-12, k
         elif k == "point" and element in ("plane", "line", "cylinder"):
-            d = va - vb   # any point of the element: compare the offset across it
+            d = va - vb  # any point of the element: compare the offset across it
             n = a.params.get("normal", a.params.get("axis", a.params.get("direction")))
             across = d @ n if element == "plane" else np.linalg.norm(d - (d @ n) * n)
             assert abs(across) <= 1e-12 * size, k
@@ -57,7 +62,9 @@ def _sphere(rng, n, radius=10.0, half_angle=None, outliers=0):
         u = np.column_stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z])
     r = radius + rng.normal(scale=0.01, size=len(u))
     if outliers:
-        r[rng.choice(len(u), outliers, replace=False)] += rng.uniform(0.1, 2.0, outliers) * rng.choice([-1, 1], outliers)
+        r[rng.choice(len(u), outliers, replace=False)] += rng.uniform(0.1, 2.0, outliers) * rng.choice(
+            [-1, 1], outliers
+        )
     return FAR + r[:, None] * u
 
 
@@ -157,7 +164,7 @@ def test_percent_rule_removes_the_largest_residuals_then_refits_once():
     rng = np.random.default_rng(9)
     pts = _sphere(rng, 1999, outliers=30)
     full = fit("sphere", pts)
-    k = int(np.floor(5 * 1999 / 100))            # 99
+    k = int(np.floor(5 * 1999 / 100))  # 99
     expect = np.argsort(-np.abs(full.residuals), kind="stable")[:k]
     res = fit("sphere", pts, "percent:5")
     assert res.n_removed == k == 99
@@ -175,7 +182,7 @@ def test_sigma_rule_iterates_until_no_point_is_beyond_k_sigma():
     keep = np.ones(len(pts), bool)
     while True:
         r = fit("sphere", pts[keep])
-        s = np.sqrt(np.sum(r.residuals ** 2) / (keep.sum() - 4))
+        s = np.sqrt(np.sum(r.residuals**2) / (keep.sum() - 4))
         out = np.abs(r.residuals) > 3 * s
         if not out.any():
             break
@@ -183,9 +190,9 @@ def test_sigma_rule_iterates_until_no_point_is_beyond_k_sigma():
     np.testing.assert_array_equal(res.used, keep)
     _same_parameters("sphere", res, r, 10.0)
     used = res.residuals[res.used]
-    s = np.sqrt(np.sum(used ** 2) / (len(used) - 4))
+    s = np.sqrt(np.sum(used**2) / (len(used) - 4))
     assert np.abs(used).max() <= 3 * s
-    assert res.n_removed >= 40   # the gross outliers went
+    assert res.n_removed >= 40  # the gross outliers went
 
 
 def test_rule_parsing_and_errors():

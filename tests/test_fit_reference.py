@@ -35,7 +35,7 @@ def _null_project(e: np.ndarray, *columns: np.ndarray) -> np.ndarray:
     """e minus its projection on span(columns): then Jᵀ e = 0 exactly (to rounding)."""
     q, _ = np.linalg.qr(np.column_stack(columns))
     e = e - q @ (q.T @ e)
-    return e - q @ (q.T @ e)   # a second pass removes the rounding of the first
+    return e - q @ (q.T @ e)  # a second pass removes the rounding of the first
 
 
 def _angle(u, v):
@@ -50,6 +50,7 @@ def _dist_point_line(p, q, a):
 
 
 # -- generators --------------------------------------------------------------------------
+
 
 def sphere_set(rng, n, radius, half_angle_deg=None, sigma=0.01, center=FAR):
     """Points on a sphere (or a cap of the given half-angle about a random axis)."""
@@ -116,6 +117,7 @@ def line_set(rng, n, length, sigma=0.01, point=FAR):
 
 
 # -- tests -------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("half_angle", [None, 90.0, 30.0, 15.0])
 def test_sphere_reference(half_angle):
@@ -224,7 +226,7 @@ def test_gander_golub_strebel_circle():
     res = fit_circle(pts)
     assert np.allclose(res.center, [4.7398, 2.9835], atol=5e-5)
     assert abs(res.radius - 4.7142) <= 5e-5
-    assert np.sum(res.residuals ** 2) == pytest.approx(1.2275990781836557, rel=1e-9)
+    assert np.sum(res.residuals**2) == pytest.approx(1.2275990781836557, rel=1e-9)
     # the same points in space (z = 0) give the same circle
     res3 = fit_circle(np.column_stack([pts, np.zeros(len(pts))]))
     assert np.allclose(res3.center, [*res.center, 0.0], atol=1e-9)

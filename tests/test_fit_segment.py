@@ -17,16 +17,16 @@ SCANS = ("101", "102", "110")
 
 
 def _nist(name):
-    return read(NIST / name, unit="m").points          # metres on file, mm here
+    return read(NIST / name, unit="m").points  # metres on file, mm here
 
 
 @pytest.mark.parametrize("scan", SCANS)
 def test_nist_raw_scan_to_sphere(scan):
     raw = _nist(f"SPH{scan}.xyz")
     truncated = _nist(f"tSPH{scan}.xyz")
-    nist = fit_sphere(truncated)                        # NIST's segmentation, our fit
+    nist = fit_sphere(truncated)  # NIST's segmentation, our fit
     assert abs(nist.radius - 50.0) < 0.25
-    naive = fit_sphere(raw)                             # mount and background included
+    naive = fit_sphere(raw)  # mount and background included
     assert abs(naive.radius - 50.0) > 5.0
     # band extraction with the nominal radius: near 50 mm
     band = extract_sphere(raw, 50.0)

@@ -26,7 +26,7 @@ def _run(argv):
 
 def _icosahedron(radius: float) -> TriangleMesh:
     """12 vertices exactly on the sphere (CENTER, radius) mm, 20 faces."""
-    g = (1 + 5 ** 0.5) / 2
+    g = (1 + 5**0.5) / 2
     v = np.array([[0, s1, s2 * g] for s1 in (-1, 1) for s2 in (-1, 1)], dtype=float)
     v = np.vstack([v, np.roll(v, 1, axis=1), np.roll(v, 2, axis=1)])
     v *= radius / np.linalg.norm(v[0])
@@ -52,7 +52,7 @@ def test_a_fit_through_the_fewest_points_warns(element):
     pts = _minimal(element)
     res = fit(element, pts)
     assert any(NO_REDUNDANCY in w for w in res.warnings), res.warnings
-    assert res.form["rms"] < 1e-6   # it does interpolate them: the warning is the only sign
+    assert res.form["rms"] < 1e-6  # it does interpolate them: the warning is the only sign
 
 
 def test_one_point_more_does_not_warn_of_redundancy():
@@ -80,8 +80,8 @@ def test_the_plugin_fits_a_mesh_by_its_vertices_with_a_warning(tmp_path):
     assert any("ico.stl" in w and "12 vertices" in w for w in run.warnings), run.warnings
     path = tmp_path / "ico.stl"
     write(_icosahedron(10.0), path)
-    run = host.run("fit.sphere", {"cloud": str(path)})       # a path, read by the host
-    assert run.outputs["radius"] == pytest.approx(10.0, abs=3e-4)   # float32 in the STL
+    run = host.run("fit.sphere", {"cloud": str(path)})  # a path, read by the host
+    assert run.outputs["radius"] == pytest.approx(10.0, abs=3e-4)  # float32 in the STL
     assert any("ico.stl" in w for w in run.warnings)
 
 

@@ -23,8 +23,7 @@ from camcmm.api import GeometryError, PointCloud, read
 from camcmm.host import PluginHost
 from camcmm_plugins.fitting.api import fit
 from camcmm_plugins.fitting.checks import local_noise, residual_vectors
-from test_fit_reference import (circle2d_set, circle3d_set, cylinder_set, line_set, plane_set,  # noqa: E402
-                                sphere_set)
+from test_fit_reference import circle2d_set, circle3d_set, cylinder_set, line_set, plane_set, sphere_set  # noqa: E402
 
 NIST = Path(__file__).parent / "data" / "nist_spheres"
 
@@ -48,11 +47,12 @@ def _never_silent(element, pts):
 
 # -- the wrong element ------------------------------------------------------------------------
 
+
 def test_cylinder_on_a_sphere_warns():
     res = fit("cylinder", _sphere_cloud())
-    assert 6 < res.radius < 9.5                       # some cylinder came out ...
+    assert 6 < res.radius < 9.5  # some cylinder came out ...
     text = " ".join(res.warnings)
-    assert "cylinder fit: form rms" in text and "% of the points' extent" in text   # ... with warnings
+    assert "cylinder fit: form rms" in text and "% of the points' extent" in text  # ... with warnings
     assert "axis is ill-determined" in text
 
 
@@ -68,7 +68,7 @@ def test_plane_on_a_sphere_warns():
     pts, _ = sphere_set(rng, 4000, 10.0, None, sigma=0.01)
     w = fit("plane", pts).warnings
     assert any("normal is ill-determined" in s for s in w)
-    cap, _ = sphere_set(rng, 4000, 10.0, 30.0, sigma=0.01)        # a 60° cap: flat-ish, still not a plane
+    cap, _ = sphere_set(rng, 4000, 10.0, 30.0, sigma=0.01)  # a 60° cap: flat-ish, still not a plane
     w = fit("plane", cap).warnings
     assert len(w) == 1 and "residuals are systematic" in w[0]
 
@@ -86,7 +86,7 @@ def test_circle_on_a_line_or_a_flat_patch(sigma):
 @pytest.mark.parametrize("sigma", [0.0, 0.01, 0.05])
 def test_other_wrong_elements_warn(sigma):
     rng = np.random.default_rng(4)
-    arc, _, _ = cylinder_set(rng, 3000, 10.0, 20.0, 60.0, sigma=sigma)   # a 60° arc of a cylinder
+    arc, _, _ = cylinder_set(rng, 3000, 10.0, 20.0, 60.0, sigma=sigma)  # a 60° arc of a cylinder
     assert any("sphere fit: form rms" in s for s in fit("sphere", arc).warnings)
     assert any("plane fit: form rms" in s for s in fit("plane", arc).warnings)
     circ, _, _ = circle3d_set(rng, 800, 20.0, 90.0, sigma=sigma)
@@ -96,6 +96,7 @@ def test_other_wrong_elements_warn(sigma):
 
 
 # -- the right element: no warning ------------------------------------------------------------
+
 
 def _right_sets(rng, sigma):
     yield "sphere", sphere_set(rng, 4000, 12.5, None, sigma=sigma)[0]
@@ -129,7 +130,7 @@ def test_nist_sphere_scans_no_warning():
         for rule in ("none", "vdi2634"):
             assert fit("sphere", pts, rule).warnings == []
         assert fit("sphere", pts, method="minzone").warnings == []
-        assert fit("plane", pts).warnings                      # and a plane through a sphere is not silent
+        assert fit("plane", pts).warnings  # and a plane through a sphere is not silent
 
 
 def test_local_noise_estimate_is_the_noise():
@@ -137,8 +138,10 @@ def test_local_noise_estimate_is_the_noise():
     form rms to it ~1): one component (surfaces) and two (a circle in space)."""
     rng = np.random.default_rng(7)
     for sigma in (0.01, 0.2):
-        for element, pts, m in (("sphere", sphere_set(rng, 4000, 12.5, 15.0, sigma=sigma)[0], 1),
-                                ("circle", circle3d_set(rng, 800, 20.0, 30.0, sigma=sigma)[0], 2)):
+        for element, pts, m in (
+            ("sphere", sphere_set(rng, 4000, 12.5, 15.0, sigma=sigma)[0], 1),
+            ("circle", circle3d_set(rng, 800, 20.0, 30.0, sigma=sigma)[0], 2),
+        ):
             res = fit(element, pts)
             v = residual_vectors(element, res.params, pts, res.residuals)
             noise = local_noise(pts - v, v, m)
@@ -148,12 +151,13 @@ def test_local_noise_estimate_is_the_noise():
 
 # -- the warnings reach the JSON and the host's result (the GUI shows those) -----------------
 
+
 def test_warnings_in_plugin_result_and_cli_json(tmp_path):
     pts = _sphere_cloud()
     host = PluginHost()
     run = host.run("fit.cylinder", {"cloud": PointCloud(pts, name="ball")})
     assert any("cylinder fit: form rms" in w for w in run.warnings)
-    assert "warnings" not in run.outputs                    # once, as the result's warnings
+    assert "warnings" not in run.outputs  # once, as the result's warnings
     assert run.to_json()["warnings"] == run.warnings
     good = host.run("fit.sphere", {"cloud": PointCloud(pts, name="ball")})
     assert good.warnings == []

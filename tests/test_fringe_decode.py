@@ -39,8 +39,9 @@ def predicted_sigma(period, noise, modulation, steps):
 
 
 # -- phase (eq. 5.3) ---------------------------------------------------------------------
-@pytest.mark.parametrize("steps,shifts", [(3, None), (4, None), (5, None), (8, None), (3, [-120, 0, 120]),
-                                          (4, [90, 180, 270, 0])])
+@pytest.mark.parametrize(
+    "steps,shifts", [(3, None), (4, None), (5, None), (8, None), (3, [-120, 0, 120]), (4, [90, 180, 270, 0])]
+)
 def test_wrapped_phase_is_exact_without_noise(steps, shifts):
     entry = {"type": "phase", "direction": "vertical", "steps": steps, "period": 37.5, "offset": 3.0}
     if shifts:
@@ -57,8 +58,9 @@ def test_wrapped_phase_is_exact_without_noise(steps, shifts):
 
 def test_shifts_must_be_even():
     with pytest.raises(InputError, match="evenly spread"):
-        load_sequence(seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": 20,
-                                 "shifts_deg": [0, 90, 180]}]))
+        load_sequence(
+            seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": 20, "shifts_deg": [0, 90, 180]}])
+        )
 
 
 # -- codes ---------------------------------------------------------------------------------
@@ -75,13 +77,16 @@ def test_gray_code_table_and_round_trip():
 def test_generated_patterns_decode_to_their_own_pixel_coordinates():
     """A camera that is the projector (one pixel per projector pixel) must decode every
     pixel to its own column and row, through the 8-bit patterns as written."""
-    seq = seq_with([
-        "white", "black",
-        {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
-        {"type": "gray", "direction": "vertical", "period": 16, "inverse": "after"},
-        {"type": "phase", "direction": "horizontal", "steps": 3, "period": 24, "offset": 5},
-        {"type": "binary", "direction": "horizontal", "period": 24, "bit_order": "lsb_first"},
-    ])
+    seq = seq_with(
+        [
+            "white",
+            "black",
+            {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
+            {"type": "gray", "direction": "vertical", "period": 16, "inverse": "after"},
+            {"type": "phase", "direction": "horizontal", "steps": 3, "period": 24, "offset": 5},
+            {"type": "binary", "direction": "horizontal", "period": 24, "bit_order": "lsb_first"},
+        ]
+    )
     pats = generate_patterns(seq)
     assert pats.shape == (2 + 4 + 2 * 6 + 3 + 5, PH, PW) and pats.dtype == np.uint8
     dec = decode(seq, list(pats), saturation=256)  # the sinusoids' peaks are at 255 by design
@@ -94,15 +99,22 @@ def test_generated_patterns_decode_to_their_own_pixel_coordinates():
 
 
 # -- unwrapping ----------------------------------------------------------------------------
-@pytest.mark.parametrize("kind,inverse,order", [("gray", "none", "msb_first"), ("gray", "interleaved", "msb_first"),
-                                                ("binary", "after", "lsb_first")])
+@pytest.mark.parametrize(
+    "kind,inverse,order",
+    [("gray", "none", "msb_first"), ("gray", "interleaved", "msb_first"), ("binary", "after", "lsb_first")],
+)
 def test_complementary_code_unwraps_without_order_errors(kind, inverse, order):
     """Code stripes of half the fringe period: boundaries shifted by 0.9 px (blur,
     misregistration) still give the right order everywhere, with no correction."""
     period, noise, mod, steps = 32.0, 1.5, 70.0, 4
-    seq = seq_with(["white", "black", {"type": "phase", "direction": "vertical", "steps": steps, "period": period},
-                    {"type": kind, "direction": "vertical", "period": period / 2, "inverse": inverse,
-                     "bit_order": order}])
+    seq = seq_with(
+        [
+            "white",
+            "black",
+            {"type": "phase", "direction": "vertical", "steps": steps, "period": period},
+            {"type": kind, "direction": "vertical", "period": period / 2, "inverse": inverse, "bit_order": order},
+        ]
+    )
     u, _ = true_maps()
     frames = render_captures(seq, u=u, mean=110.0, modulation=mod, noise=noise, code_shift=0.9, seed=3)
     dec = decode(seq, frames, boundary_correction="none")
@@ -117,8 +129,12 @@ def test_code_of_the_fringe_period_needs_the_boundary_correction():
     """Code stripes equal to the period (as most Gray + phase systems): shifted boundaries
     leave strips of +-1 period order error; the median correction removes all of them."""
     period = 20.0
-    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": period},
-                    {"type": "gray", "direction": "vertical", "period": period}])
+    seq = seq_with(
+        [
+            {"type": "phase", "direction": "vertical", "steps": 3, "period": period},
+            {"type": "gray", "direction": "vertical", "period": period},
+        ]
+    )
     u, _ = true_maps()
     for shift in (1.6, -1.6):
         frames = render_captures(seq, u=u, mean=100.0, modulation=80.0, noise=1.0, code_shift=shift, seed=5)
@@ -168,10 +184,19 @@ def test_two_frequencies_whose_beat_is_shorter_than_the_span_are_refused():
 def test_kamino_style_two_frequencies_and_code():
     """Two periods (200/3 and 100 px) and a 100 px Gray code with inverses: the code fixes
     the 200 px beat, the beat the 100 px phase, that one the 66.7 px phase."""
-    ph = [{"type": "phase", "direction": d, "steps": 3, "period": t, "shifts_deg": [-120, 0, 120]}
-          for d in ("vertical", "horizontal") for t in (200 / 3, 100.0)]
-    seq = seq_with(ph + [{"type": "gray", "direction": d, "period": 100, "inverse": "interleaved"}
-                         for d in ("vertical", "horizontal")] + ["white", "black"])
+    ph = [
+        {"type": "phase", "direction": d, "steps": 3, "period": t, "shifts_deg": [-120, 0, 120]}
+        for d in ("vertical", "horizontal")
+        for t in (200 / 3, 100.0)
+    ]
+    seq = seq_with(
+        ph
+        + [
+            {"type": "gray", "direction": d, "period": 100, "inverse": "interleaved"}
+            for d in ("vertical", "horizontal")
+        ]
+        + ["white", "black"]
+    )
     u, v = true_maps()
     frames = render_captures(seq, u=u, v=v, mean=100.0, modulation=70.0, noise=1.0, code_shift=2.0, seed=2)
     dec = decode(seq, frames)
@@ -183,8 +208,14 @@ def test_kamino_style_two_frequencies_and_code():
 
 # -- masks, bad input ----------------------------------------------------------------------
 def test_dark_and_saturated_pixels_are_masked_and_reported():
-    seq = seq_with(["white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
-                    {"type": "gray", "direction": "vertical", "period": 16}])
+    seq = seq_with(
+        [
+            "white",
+            "black",
+            {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
+            {"type": "gray", "direction": "vertical", "period": 16},
+        ]
+    )
     u, _ = true_maps()
     mean = np.full((H, W), 100.0)
     mod = np.full((H, W), 70.0)
@@ -201,16 +232,25 @@ def test_dark_and_saturated_pixels_are_masked_and_reported():
 
 
 def test_all_dark_captures_are_an_input_error():
-    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": 32},
-                    {"type": "gray", "direction": "vertical", "period": 32}])
+    seq = seq_with(
+        [
+            {"type": "phase", "direction": "vertical", "steps": 3, "period": 32},
+            {"type": "gray", "direction": "vertical", "period": 32},
+        ]
+    )
     u, _ = true_maps()
     with pytest.raises(InputError, match="no pixel decodes"):
         decode(seq, render_captures(seq, u=u, mean=3.0, modulation=1.0))
 
 
 def test_frame_count_and_sizes_are_checked():
-    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
-                    {"type": "gray", "direction": "vertical", "period": 32, "inverse": "interleaved"}, "white"])
+    seq = seq_with(
+        [
+            {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
+            {"type": "gray", "direction": "vertical", "period": 32, "inverse": "interleaved"},
+            "white",
+        ]
+    )
     u, _ = true_maps()
     frames = render_captures(seq, u=u)
     assert len(frames) == 4 + 2 * 5 + 1
@@ -224,20 +264,45 @@ def test_frame_count_and_sizes_are_checked():
         decode(seq, bad)
 
 
-@pytest.mark.parametrize("doc,msg", [
-    ({"frames": ["white"]}, "'projector"),
-    ({"projector": {"width": 100, "height": 50}, "frames": []}, "non-empty"),
-    ({"projector": {"width": 100, "height": 50}, "frames": ["grey"]}, "type"),
-    ({"projector": {"width": 100, "height": 50},
-      "frames": [{"type": "phase", "direction": "vertical", "steps": 2, "period": 10}]}, "N >= 3"),
-    ({"projector": {"width": 100, "height": 50},
-      "frames": [{"type": "phase", "direction": "diagonal", "steps": 3, "period": 10}]}, "direction"),
-    ({"projector": {"width": 1000, "height": 50},
-      "frames": [{"type": "phase", "direction": "vertical", "steps": 3, "period": 10},
-                 {"type": "gray", "direction": "vertical", "period": 10, "bits": 6}]}, "needs 7"),
-    ({"projector": {"width": 100, "height": 50},
-      "frames": [{"type": "gray", "direction": "horizontal", "period": 10}]}, "needs a horizontal phase"),
-])
+@pytest.mark.parametrize(
+    "doc,msg",
+    [
+        ({"frames": ["white"]}, "'projector"),
+        ({"projector": {"width": 100, "height": 50}, "frames": []}, "non-empty"),
+        ({"projector": {"width": 100, "height": 50}, "frames": ["grey"]}, "type"),
+        (
+            {
+                "projector": {"width": 100, "height": 50},
+                "frames": [{"type": "phase", "direction": "vertical", "steps": 2, "period": 10}],
+            },
+            "N >= 3",
+        ),
+        (
+            {
+                "projector": {"width": 100, "height": 50},
+                "frames": [{"type": "phase", "direction": "diagonal", "steps": 3, "period": 10}],
+            },
+            "direction",
+        ),
+        (
+            {
+                "projector": {"width": 1000, "height": 50},
+                "frames": [
+                    {"type": "phase", "direction": "vertical", "steps": 3, "period": 10},
+                    {"type": "gray", "direction": "vertical", "period": 10, "bits": 6},
+                ],
+            },
+            "needs 7",
+        ),
+        (
+            {
+                "projector": {"width": 100, "height": 50},
+                "frames": [{"type": "gray", "direction": "horizontal", "period": 10}],
+            },
+            "needs a horizontal phase",
+        ),
+    ],
+)
 def test_bad_sequences_are_refused_with_one_line(doc, msg):
     with pytest.raises(InputError, match=msg) as exc:
         load_sequence(doc)
@@ -247,8 +312,12 @@ def test_bad_sequences_are_refused_with_one_line(doc, msg):
 def test_decode_plugin_by_id():
     from camcmm.api import get_algorithm
 
-    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
-                    {"type": "gray", "direction": "vertical", "period": 16}])
+    seq = seq_with(
+        [
+            {"type": "phase", "direction": "vertical", "steps": 4, "period": 32},
+            {"type": "gray", "direction": "vertical", "period": 16},
+        ]
+    )
     u, _ = true_maps()
     out = get_algorithm("fringe.decode")(sequence=seq, images=render_captures(seq, u=u, noise=0.5))
     assert out["v"] is None and out["mask"].all() and out["valid_fraction"] == 1.0
@@ -258,8 +327,12 @@ def test_decode_plugin_by_id():
 
 
 def test_a_code_coarser_than_the_fringes_is_refused():
-    seq = seq_with([{"type": "phase", "direction": "vertical", "steps": 3, "period": 20},
-                    {"type": "gray", "direction": "vertical", "period": 40}])
+    seq = seq_with(
+        [
+            {"type": "phase", "direction": "vertical", "steps": 3, "period": 20},
+            {"type": "gray", "direction": "vertical", "period": 40},
+        ]
+    )
     u, _ = true_maps()
     with pytest.raises(InputError, match="code's 40 px stripes are wider than the longest .* 20 px"):
         decode(seq, render_captures(seq, u=u))

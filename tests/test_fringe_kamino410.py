@@ -17,7 +17,6 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import pytest
 import yaml
 
 from camcmm_plugins.fringe.decode import decode
@@ -26,18 +25,31 @@ DATA = Path(__file__).parent / "data" / "kamino410"
 
 
 def phase(direction, period):
-    return {"type": "phase", "direction": direction, "steps": 3, "period": period, "shifts_deg": [-120, 0, 120],
-            "mean": 128 / 255, "amplitude": 127 / 255}
+    return {
+        "type": "phase",
+        "direction": direction,
+        "steps": 3,
+        "period": period,
+        "shifts_deg": [-120, 0, 120],
+        "mean": 128 / 255,
+        "amplitude": 127 / 255,
+    }
 
 
 # upstream phase_shifting.py gen 1920 1080 200: S1 = step/3, S2 = step/2, Gray code blocks of step/2
 SEQUENCE = {
     "projector": {"width": 1920, "height": 1080},
-    "frames": [phase("vertical", 200 / 3), phase("vertical", 100), phase("horizontal", 200 / 3),
-               phase("horizontal", 100),
-               {"type": "gray", "direction": "vertical", "period": 100, "bits": 5, "inverse": "interleaved"},
-               {"type": "gray", "direction": "horizontal", "period": 100, "bits": 4, "inverse": "interleaved"},
-               "white", "black"]}
+    "frames": [
+        phase("vertical", 200 / 3),
+        phase("vertical", 100),
+        phase("horizontal", 200 / 3),
+        phase("horizontal", 100),
+        {"type": "gray", "direction": "vertical", "period": 100, "bits": 5, "inverse": "interleaved"},
+        {"type": "gray", "direction": "horizontal", "period": 100, "bits": 4, "inverse": "interleaved"},
+        "white",
+        "black",
+    ],
+}
 
 
 def load(folder: Path):

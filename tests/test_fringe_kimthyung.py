@@ -22,10 +22,14 @@ from camcmm_plugins.fringe.decode import decode
 
 
 def sequence(direction, bits):
-    return {"projector": {"width": 912, "height": 1140, "calibration_scale": [1, 0.5]}, "frames": [
-        {"type": "phase", "direction": direction, "steps": 3, "period": 114},
-        {"type": "gray", "direction": direction, "period": 114, "bits": bits, "bit_order": "lsb_first"},
-        "black"]}
+    return {
+        "projector": {"width": 912, "height": 1140, "calibration_scale": [1, 0.5]},
+        "frames": [
+            {"type": "phase", "direction": direction, "steps": 3, "period": 114},
+            {"type": "gray", "direction": direction, "period": 114, "bits": bits, "bit_order": "lsb_first"},
+            "black",
+        ],
+    }
 
 
 def frames(root, folder, n):
@@ -54,16 +58,17 @@ def test_both_fringe_directions_decode(root):
 
 
 def test_sphere_reconstructs_as_a_sphere(root):
-    res = get_algorithm("fringe.reconstruct")(sequence=sequence("horizontal", 4),
-                                              images=frames(root, "hori_test", 8),
-                                              calibration=root / "CalibrationDataDistortion")
+    res = get_algorithm("fringe.reconstruct")(
+        sequence=sequence("horizontal", 4),
+        images=frames(root, "hori_test", 8),
+        calibration=root / "CalibrationDataDistortion",
+    )
     cloud = res["cloud"]
     assert res["n_points"] > 1_000_000 and res["method"] == "camera-projector"
     # 1. the sphere's image, cropped by pixel (a disc inside its outline), least squares
     #    with the VDI/VDE 2634 outlier rule
     x, y = cloud.fields["x_px"], cloud.fields["y_px"]
-    crop = get_algorithm("fit.sphere")(cloud=cloud.subset((x - 968) ** 2 + (y - 560) ** 2 < 250 ** 2),
-                                       outliers="vdi2634")
+    crop = get_algorithm("fit.sphere")(cloud=cloud.subset((x - 968) ** 2 + (y - 560) ** 2 < 250**2), outliers="vdi2634")
     r, form = crop["radius"], crop["form"]
     # measured: r = 50.12 mm, rms 1.09 mm, range 4.72 mm (a ripple of three cycles per
     # fringe: the captures' strongly non-linear projector response, uncorrected)

@@ -29,9 +29,16 @@ from camcmm_plugins.fringe.synthetic import render_captures
 from camcmm_plugins.virtuallab import capture, render, scene_file
 
 PERIOD = 16
-SEQ = {"projector": {"width": 1280, "height": 800}, "bit_depth": 8,
-       "frames": ["white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": PERIOD},
-                  {"type": "gray", "direction": "vertical", "period": PERIOD}]}
+SEQ = {
+    "projector": {"width": 1280, "height": 800},
+    "bit_depth": 8,
+    "frames": [
+        "white",
+        "black",
+        {"type": "phase", "direction": "vertical", "steps": 4, "period": PERIOD},
+        {"type": "gray", "direction": "vertical", "period": PERIOD},
+    ],
+}
 CENTRES = ([0.0, 0.0, 0.0], [7.0, -5.0, 10.0], [-12.0, 6.0, -15.0])
 
 
@@ -40,9 +47,13 @@ def clean(request, tmp_path_factory):
     """A noise-free capture (written as `camcmm simulate` writes it) and its truth."""
     d = tmp_path_factory.mktemp("orders")
     (d / "seq.yaml").write_text(yaml.safe_dump(SEQ))
-    doc = {"seed": 1, "artefacts": [{"type": "sphere", "center": request.param, "diameter": 20.0, "stem": False}],
-           "rig": {"preset": "camera_projector", "image_size": [640, 480]}, "sequence": "seq.yaml",
-           "sensor": {"read_noise": 0, "shot_noise": False}}
+    doc = {
+        "seed": 1,
+        "artefacts": [{"type": "sphere", "center": request.param, "diameter": 20.0, "stem": False}],
+        "rig": {"preset": "camera_projector", "image_size": [640, 480]},
+        "sequence": "seq.yaml",
+        "sensor": {"read_noise": 0, "shot_noise": False},
+    }
     (d / "scene.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
     scene = scene_file.load_scene(d / "scene.yaml")
     out = d / "out"
@@ -88,8 +99,9 @@ def test_sphere_fit_of_the_clean_cloud(clean):
     truth (measured); 1 um and 3 um allow for that. Order errors moved the centre by
     6-16 um and the form rms to 75-170 um."""
     out, files, truth = clean
-    res = get_algorithm("fringe.reconstruct")(sequence=str(out / "sequence.yaml"), images=files,
-                                              calibration=str(out / "calibration.yaml"))
+    res = get_algorithm("fringe.reconstruct")(
+        sequence=str(out / "sequence.yaml"), images=files, calibration=str(out / "calibration.yaml")
+    )
     assert res["order_errors_dropped"] > 0 and res["order_errors_corrected"] >= 0
     cloud = res["cloud"]
     t = json.loads((out / "truth.json").read_text())["artefacts_calibration"][0]
@@ -123,9 +135,13 @@ def test_code_boundaries_a_fifth_of_a_period_off_are_settled(shift):
     h, w = 180, 240
     y, x = np.mgrid[0:h, 0:w].astype(np.float64)
     u = 7.3 + 2.31 * x + 0.17 * y + 9.0 * np.sin(y / 23.0)
-    seq = {"projector": {"width": 640, "height": 480},
-           "frames": [{"type": "phase", "direction": "vertical", "steps": 3, "period": 20.0},
-                      {"type": "gray", "direction": "vertical", "period": 20.0}]}
+    seq = {
+        "projector": {"width": 640, "height": 480},
+        "frames": [
+            {"type": "phase", "direction": "vertical", "steps": 3, "period": 20.0},
+            {"type": "gray", "direction": "vertical", "period": 20.0},
+        ],
+    }
     frames = render_captures(seq, u=u, mean=100.0, modulation=80.0, noise=1.0, code_shift=shift, seed=5)
     raw = decode(seq, frames, boundary_correction="none").u - u
     assert np.count_nonzero(np.abs(raw) > 10) > 3000

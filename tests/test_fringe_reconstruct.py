@@ -21,12 +21,17 @@ from camcmm_plugins.fringe.triangulate import camera_rays, intersect_stripe, pro
 
 W, H = 800, 600
 CENTRE, RADIUS, PLANE_Z = np.array([25.0, 0.0, 300.0]), 20.0, 330.0
-SEQ = {"projector": {"width": 912, "height": 1140}, "frames": [
-    "white", "black",
-    {"type": "phase", "direction": "vertical", "steps": 4, "period": 24},
-    {"type": "gray", "direction": "vertical", "period": 12},
-    {"type": "phase", "direction": "horizontal", "steps": 4, "period": 24},
-    {"type": "gray", "direction": "horizontal", "period": 12}]}
+SEQ = {
+    "projector": {"width": 912, "height": 1140},
+    "frames": [
+        "white",
+        "black",
+        {"type": "phase", "direction": "vertical", "steps": 4, "period": 24},
+        {"type": "gray", "direction": "vertical", "period": 12},
+        {"type": "phase", "direction": "horizontal", "steps": 4, "period": 24},
+        {"type": "gray", "direction": "horizontal", "period": 12},
+    ],
+}
 
 
 def rot(axis, deg):
@@ -40,8 +45,14 @@ def rig():
     r2, c2 = rot([0, 1, 0], 7), np.array([60.0, 0, 0])
     cam2 = CameraModel(k * [[1.01], [1.01], [1]], [0.05, -0.02, 0, 0.001, 0], r2, -r2 @ c2, (W, H), name="cam2")
     rp, cp = rot([0, 1, 0], -6) @ rot([1, 0, 0], 3), np.array([30.0, -15.0, 0])
-    proj = CameraModel([[1400.0, 0, 456], [0, 1400.0, 570], [0, 0, 1]], [0.03, -0.01, 0.0005, 0, 0], rp, -rp @ cp,
-                       (912, 1140), name="projector")
+    proj = CameraModel(
+        [[1400.0, 0, 456], [0, 1400.0, 570], [0, 0, 1]],
+        [0.03, -0.01, 0.0005, 0, 0],
+        rp,
+        -rp @ cp,
+        (912, 1140),
+        name="projector",
+    )
     return cam1, cam2, proj
 
 
@@ -51,7 +62,7 @@ def scene(cam, proj):
     o, d = camera_rays(cam, np.c_[xx.ravel(), yy.ravel()].astype(float))
     oc = o - CENTRE
     b = d @ oc
-    disc = b * b - (oc @ oc - RADIUS ** 2)
+    disc = b * b - (oc @ oc - RADIUS**2)
     t = np.where(disc > 0, -b - np.sqrt(np.maximum(disc, 0)), (PLANE_Z - o[2]) / d[:, 2])
     x = o + t[:, None] * d
     uv = project(proj, x)
@@ -65,23 +76,40 @@ def surface_distance(p):
 def captures(cam, proj, noise, dtype):
     _, u, v = scene(cam, proj)
     lit = (u >= 0) & (u < 912) & (v >= 0) & (v < 1140)
-    return render_captures(SEQ, u=np.where(lit, u, 0), v=np.where(lit, v, 0), mean=np.where(lit, 100.0, 4.0),
-                           modulation=np.where(lit, 60.0, 0.0), noise=noise, dtype=dtype, seed=7)
+    return render_captures(
+        SEQ,
+        u=np.where(lit, u, 0),
+        v=np.where(lit, v, 0),
+        mean=np.where(lit, 100.0, 4.0),
+        modulation=np.where(lit, 60.0, 0.0),
+        noise=noise,
+        dtype=dtype,
+        seed=7,
+    )
 
 
 @pytest.fixture(scope="module")
 def exact():
     cam1, cam2, proj = rig()
-    return cam1, cam2, proj, decode(SEQ, captures(cam1, proj, 0, np.float64)), \
-        decode(SEQ, captures(cam2, proj, 0, np.float64))
+    return (
+        cam1,
+        cam2,
+        proj,
+        decode(SEQ, captures(cam1, proj, 0, np.float64)),
+        decode(SEQ, captures(cam2, proj, 0, np.float64)),
+    )
 
 
 def test_lens_model_matches_opencv_projectpoints():
     cam1, cam2, proj = rig()
     rng = np.random.default_rng(1)
     pts = rng.uniform([-60, -50, 250], [60, 50, 400], (2000, 3))
-    full = CameraModel(cam1.camera_matrix, [0.1, -0.2, 0.001, 0.002, 0.05, 0.01, 0.02, 0.03, 0.001, 0.002, 0.003,
-                                            0.004], proj.rotation, proj.translation)
+    full = CameraModel(
+        cam1.camera_matrix,
+        [0.1, -0.2, 0.001, 0.002, 0.05, 0.01, 0.02, 0.03, 0.001, 0.002, 0.003, 0.004],
+        proj.rotation,
+        proj.translation,
+    )
     for cam in (cam1, cam2, proj, full):
         rvec, _ = cv2.Rodrigues(cam.rotation)
         ref, _ = cv2.projectPoints(pts.reshape(-1, 1, 3), rvec, cam.translation, cam.camera_matrix, cam.dist_coeffs)
@@ -208,8 +236,9 @@ def test_calibration_that_does_not_fit_the_images_is_refused():
     rec = get_algorithm("fringe.reconstruct")
     with pytest.raises(InputError, match="calibrated for 800x600 px but the images are 800x592 px"):
         rec(sequence=SEQ, images=small, calibration={"cameras": [cam1, proj]})
-    wrong_proj = CameraModel(proj.camera_matrix, proj.dist_coeffs, proj.rotation, proj.translation, (1024, 768),
-                             name="projector")
+    wrong_proj = CameraModel(
+        proj.camera_matrix, proj.dist_coeffs, proj.rotation, proj.translation, (1024, 768), name="projector"
+    )
     with pytest.raises(InputError, match="projector is calibrated for 1024x768 px but the sequence declares 912x1140"):
         rec(sequence=SEQ, images=frames, calibration={"cameras": [cam1, wrong_proj]})
     with pytest.raises(InputError, match="needs a camera named 'projector'"):
@@ -230,7 +259,7 @@ def test_kimthyung_calibration_board_is_planar(shared_data):
     cpts, ppts = np.loadtxt(d / "cameraCirclePointsRight.txt"), np.loadtxt(d / "projectorCirclePoints.txt")
     pts = triangulate_rays(cam, proj, cpts, ppts)
     for k in range(12):
-        p = pts[147 * k:147 * (k + 1)]
+        p = pts[147 * k : 147 * (k + 1)]
         s = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
         assert s[2] / np.sqrt(147) < 0.6  # mm off the plane (rms), at ~300 mm
         dist = np.linalg.norm(p[:, None] - p[None], axis=2) + np.eye(147) * 1e9

@@ -42,6 +42,7 @@ def sphere_cloud(n: int = 4000, radius: float = 10.0, seed: int = 0) -> PointClo
 @pytest.fixture
 def app(gui_app):
     """``make(project_dir=None, **build_kw) -> (server, session, page)``: the Inspect page too."""
+
     def make(project_dir=None, **kw):
         server, session = gui_app(project_dir, **kw)
         return server, session, server.pages["inspect"]
@@ -62,8 +63,7 @@ def cloud_file(tmp_path):
 
 
 def snapshot(project):
-    return ([(m["id"], m["name"], m["hash"]) for m in project.measurements()],
-            [r["id"] for r in project.results()])
+    return ([(m["id"], m["name"], m["hash"]) for m in project.measurements()], [r["id"] for r in project.results()])
 
 
 def test_import_cloud_shows_it_coloured_with_legend(app, cloud_file):
@@ -372,11 +372,22 @@ def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
     s.import_file(cloud_file)
     page.select_plugin("lab.slowstats")
     widgets = {f["name"]: (f["widget"], f["label"]) for f in state.form_fields}
-    assert widgets == {"origin": ("text", "origin [mm]"), "steps": ("number", "steps"),
-                       "scale": ("number", "scale [um]"), "squared": ("switch", "squared"),
-                       "method": ("select", "method"), "note": ("text", "note")}
-    assert state.form_values == {"origin": "0, 0, 0", "steps": 4, "scale": 1000.0, "squared": False,
-                                 "method": "mean", "note": ""}
+    assert widgets == {
+        "origin": ("text", "origin [mm]"),
+        "steps": ("number", "steps"),
+        "scale": ("number", "scale [um]"),
+        "squared": ("switch", "squared"),
+        "method": ("select", "method"),
+        "note": ("text", "note"),
+    }
+    assert state.form_values == {
+        "origin": "0, 0, 0",
+        "steps": 4,
+        "scale": 1000.0,
+        "squared": False,
+        "method": "mean",
+        "note": "",
+    }
     assert [f["choices"] for f in state.form_fields if f["name"] == "method"] == [["mean", "median"]]
     seen = []
     orig = page.show_progress

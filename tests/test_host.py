@@ -72,9 +72,11 @@ def _package(tmp_path, name, manifest, impl=IMPL):
 @pytest.fixture
 def host(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
-    eps = [_package(tmp_path, "pkg_good", GOOD),
-           _package(tmp_path, "pkg_yaml", "plugins: [unclosed"),
-           md.EntryPoint(name="pkg_absent", value="no_such_package:plugin.yaml", group="camcmm.plugins")]
+    eps = [
+        _package(tmp_path, "pkg_good", GOOD),
+        _package(tmp_path, "pkg_yaml", "plugins: [unclosed"),
+        md.EntryPoint(name="pkg_absent", value="no_such_package:plugin.yaml", group="camcmm.plugins"),
+    ]
     yield PluginHost(eps)
     for mod in [m for m in sys.modules if m.startswith("pkg_")]:
         del sys.modules[mod]
@@ -153,6 +155,9 @@ def test_a_file_of_the_wrong_kind_is_refused_naming_it(tmp_path):
 
     mesh = TriangleMesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
     write(mesh, tmp_path / "m.stl")
-    with pytest.raises(InputError, match=r"m\.stl: cloud\.downsample input 'cloud' needs a point cloud; "
-                                         r"this is a triangle mesh"):
+    with pytest.raises(
+        InputError,
+        match=r"m\.stl: cloud\.downsample input 'cloud' needs a point cloud; "
+        r"this is a triangle mesh",
+    ):
         PluginHost().run("cloud.downsample", {"cloud": str(tmp_path / "m.stl")}, {"voxel_size": 1.0})

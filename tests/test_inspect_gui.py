@@ -41,8 +41,14 @@ if "inspect.compare" not in default_host().plugins:
 LO, HI = np.array([0.0, 0.0, 0.0]), np.array([40.0, 30.0, 20.0])
 NOISE, BUMP = 0.005, 0.03
 ANGLE = math.radians(2.0)
-MOTION = np.array([[math.cos(ANGLE), -math.sin(ANGLE), 0, 0.3], [math.sin(ANGLE), math.cos(ANGLE), 0, -0.2],
-                   [0, 0, 1, 0.1], [0, 0, 0, 1.0]])
+MOTION = np.array(
+    [
+        [math.cos(ANGLE), -math.sin(ANGLE), 0, 0.3],
+        [math.sin(ANGLE), math.cos(ANGLE), 0, -0.2],
+        [0, 0, 1, 0.1],
+        [0, 0, 0, 1.0],
+    ]
+)
 
 
 def surface_points(V, F, n, rng):
@@ -121,7 +127,7 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     assert rows["n"] == fmt_count(len(dev))
     assert rows["mean"] == um(dev.mean())
     assert rows["std"] == um(dev.std(ddof=1), False)
-    assert rows["rms"] == um(np.sqrt(np.mean(dev ** 2)), False)
+    assert rows["rms"] == um(np.sqrt(np.mean(dev**2)), False)
     assert rows["min"] == um(dev.min()) and rows["max"] == um(dev.max())
     p25, p975 = np.percentile(dev, [2.5, 97.5], method="hazen")
     assert rows["p2_5"] == um(p25) and rows["p97_5"] == um(p975)
@@ -162,8 +168,15 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     # Abbott-Firestone curve: the plugin's curve, with the construction
     af = s.ins_fig_af
     names = [t["name"] for t in af["data"]]
-    for part in ("material-ratio curve", "40 % secant of least gradient", "equivalent straight line",
-                 "Spk triangle", "Svk triangle", "C1, Smr1", "C2, Smr2"):
+    for part in (
+        "material-ratio curve",
+        "40 % secant of least gradient",
+        "equivalent straight line",
+        "Spk triangle",
+        "Svk triangle",
+        "C1, Smr1",
+        "C2, Smr2",
+    ):
         assert part in names
     curve = af["data"][names.index("material-ratio curve")]
     mr = o["material_ratio"]
@@ -473,8 +486,11 @@ def test_the_section_plugin_cuts_a_mesh_into_closed_polylines():
     rng = np.random.default_rng(0)
     pts = np.column_stack([rng.uniform(-5, 5, 2000), rng.uniform(-5, 5, 2000), rng.uniform(-10, 10, 2000)])
     cloud = PointCloud(pts, fields={"deviation": pts[:, 2] * 1e-3}, name="slab")
-    out = host.run(host.provider("deviation-section").id, {"deviations": cloud, "nominal": mesh},
-                   {"axis": "z", "position": 3.0, "half_width": 0.5}).outputs
+    out = host.run(
+        host.provider("deviation-section").id,
+        {"deviations": cloud, "nominal": mesh},
+        {"axis": "z", "position": 3.0, "half_width": 0.5},
+    ).outputs
     sec = out["section"]
     assert out["spacing"] is None and sec["u"] == "x" and sec["v"] == "y"
     assert len(sec["nominal"]) == 1

@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import GeometryError, InputError, ParameterError, PointCloud, TriangleMesh
-from camcmm_plugins.inspection.align import (Nominal, align, align_point_pairs, apply, icp, similarity,
-                                             umeyama)
+from camcmm_plugins.inspection.align import Nominal, align, align_point_pairs, apply, icp, similarity, umeyama
 from camcmm_plugins.inspection.coverage import sample_surface
 from test_inspection_shapes import Polycube, box_mesh, l_block, rotate, rotation
 
@@ -124,7 +123,7 @@ def test_region_ignores_a_fixture():
     """The scan also holds a clamp plate 3 mm from one face, not in the nominal. Plain
     least squares on everything is pulled towards it; restricted to a box around the
     part (nominal coordinates), the same fit is exact."""
-    pc = Polycube(l_block(), 10.0, 4)           # spans [0, 40] x [0, 30] x [0, 20]
+    pc = Polycube(l_block(), 10.0, 4)  # spans [0, 40] x [0, 30] x [0, 20]
     nom = Nominal(TriangleMesh(pc.vertices, pc.faces))
     pts, _ = sample_surface(pc.vertices, pc.faces, 60000, seed=4)
     rng = np.random.default_rng(8)
@@ -157,8 +156,12 @@ def test_three_point_pairs(part):
     rng = np.random.default_rng(9)
     T_true = similarity(1.0, rotation([60.0, 20.0, -150.0]), np.array([-30.0, 12.0, 400.0]))
     picks = pts[[5, 15000, 40000]]
-    al = align(moved(pts, T_true), nom, "pairs+icp",
-               pairs={"measured": moved(picks, T_true) + rng.normal(0, 1.0, (3, 3)), "nominal": picks})
+    al = align(
+        moved(pts, T_true),
+        nom,
+        "pairs+icp",
+        pairs={"measured": moved(picks, T_true) + rng.normal(0, 1.0, (3, 3)), "nominal": picks},
+    )
     check_recovered(al, T_true)
 
 
@@ -228,12 +231,18 @@ def test_open3d_icp_agrees_on_clouds():
     R = rotation([1.0, -1.5, 0.5])
     T_true = similarity(1.0, R, c - R @ c + np.array([0.3, -0.2, 0.1]))
     meas = moved(src, T_true)
-    ours = icp(meas, nom, kernel="tukey", kernel_k=0.05, max_distance=2.0, max_points=10 ** 6, tolerance=1e-12)
+    ours = icp(meas, nom, kernel="tukey", kernel_k=0.05, max_distance=2.0, max_points=10**6, tolerance=1e-12)
     s = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(meas))
     t = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(ref_pts))
     t.normals = o3d.utility.Vector3dVector(nom._normals)
-    res = reg.registration_icp(s, t, 2.0, np.eye(4), reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=0.05)),
-                               reg.ICPConvergenceCriteria(1e-12, 1e-12, 200))
+    res = reg.registration_icp(
+        s,
+        t,
+        2.0,
+        np.eye(4),
+        reg.TransformationEstimationPointToPlane(reg.TukeyLoss(k=0.05)),
+        reg.ICPConvergenceCriteria(1e-12, 1e-12, 200),
+    )
     T3 = np.asarray(res.transformation)
     assert ours.converged, ours.reason
     assert rot_err_deg(ours.transform, T3) < 2e-4

@@ -16,7 +16,7 @@ from test_inspection_shapes import box_mesh, rotate
 
 
 def test_samples_are_uniform_by_area():
-    V, F = box_mesh([0, 0, 0], [30, 10, 10], 1)   # faces of 300 and 100 mm², two triangles each
+    V, F = box_mesh([0, 0, 0], [30, 10, 10], 1)  # faces of 300 and 100 mm², two triangles each
     pts, tid = sample_surface(V, F, 140000, seed=1)
     assert abs(len(pts) - 140000) < 50
     share_x = np.mean(np.isclose(pts[:, 0], 0) | np.isclose(pts[:, 0], 30))  # the two 10 × 10 ends
@@ -60,7 +60,7 @@ def test_spherical_cap():
     n = 200_000  # Fibonacci points on the cap cos(polar angle) >= cos(theta)
     k = np.arange(n) + 0.5
     z = 1 - (1 - np.cos(theta)) * k / n
-    phi = np.pi * (1 + 5 ** 0.5) * k
+    phi = np.pi * (1 + 5**0.5) * k
     s = np.sqrt(1 - z * z)
     cap = R * np.column_stack([s * np.cos(phi), s * np.sin(phi), z])
     r = 0.1

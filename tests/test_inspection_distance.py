@@ -83,8 +83,9 @@ def test_nearest_triangle_normal_alone_fails_where_we_do_not():
     pc = Polycube(l_block(), 10.0, 2)
     rng = np.random.default_rng(1)
     verts = np.unique(pc.vertices, axis=0)
-    P = np.concatenate([verts[rng.integers(0, len(verts), 100000)] + rng.normal(0, 0.3, (100000, 3)),
-                        rng.uniform(-3, 43, (100000, 3))])
+    P = np.concatenate(
+        [verts[rng.integers(0, len(verts), 100000)] + rng.normal(0, 0.3, (100000, 3)), rng.uniform(-3, 43, (100000, 3))]
+    )
     ref = pc.sdf(P)
     md = D.MeshDistance((rotate(pc.vertices), pc.faces))
     d = md.signed_distance(rotate(P))
@@ -106,14 +107,19 @@ def test_many_coplanar_triangles_and_slivers():
     full = np.linspace(0, 1, 41)
     g, b = full[:-1], full[::-1][:-1]  # the same numbers as box_mesh's grid, so corners weld
     x0, x1, y0, y1, z = LO[0], HI[0], LO[1], HI[1], HI[2]
-    ring = np.concatenate([np.column_stack([x0 + g * (x1 - x0), np.full(40, y0)]),
-                           np.column_stack([np.full(40, x1), y0 + g * (y1 - y0)]),
-                           np.column_stack([x0 + b * (x1 - x0), np.full(40, y1)]),
-                           np.column_stack([np.full(40, x0), y0 + b * (y1 - y0)])])
+    ring = np.concatenate(
+        [
+            np.column_stack([x0 + g * (x1 - x0), np.full(40, y0)]),
+            np.column_stack([np.full(40, x1), y0 + g * (y1 - y0)]),
+            np.column_stack([x0 + b * (x1 - x0), np.full(40, y1)]),
+            np.column_stack([np.full(40, x0), y0 + b * (y1 - y0)]),
+        ]
+    )
     ring = np.column_stack([ring, np.full(len(ring), z)])
     base = len(V)
-    fan = np.array([[base, base + i, base + i + 1] for i in range(1, len(ring) - 1)] +
-                   [[base, base + len(ring) - 1, base]])[:-1]
+    fan = np.array(
+        [[base, base + i, base + i + 1] for i in range(1, len(ring) - 1)] + [[base, base + len(ring) - 1, base]]
+    )[:-1]
     V = np.concatenate([V, ring])
     F = np.concatenate([F, fan])
     rng = np.random.default_rng(2)
@@ -155,10 +161,18 @@ def test_small_hole():
     F3 = np.delete(F, gone, axis=0)
     hole = V[F[gone]].reshape(-1, 3)
     rng = np.random.default_rng(4)
-    P = np.concatenate([hard_points(LO, HI, rng, 10000),
-                        np.column_stack([rng.uniform(mid[0] - 4, mid[0] + 4, 20000),
-                                         rng.uniform(mid[1] - 4, mid[1] + 4, 20000),
-                                         rng.uniform(-5, 17, 20000)])])
+    P = np.concatenate(
+        [
+            hard_points(LO, HI, rng, 10000),
+            np.column_stack(
+                [
+                    rng.uniform(mid[0] - 4, mid[0] + 4, 20000),
+                    rng.uniform(mid[1] - 4, mid[1] + 4, 20000),
+                    rng.uniform(-5, 17, 20000),
+                ]
+            ),
+        ]
+    )
     ref = box_sdf(P, LO, HI)
     md = D.MeshDistance((rotate(V), F3))
     assert md.info.n_boundary_edges in (4, 6) and md.parity_ok
@@ -200,8 +214,14 @@ def test_non_manifold_edge_uses_parity():
     occ[1, 1, :] = True
     pc = Polycube(occ, 10.0, 2)
     rng = np.random.default_rng(5)
-    P = np.concatenate([np.array([10.0, 10.0, 0.0]) + np.outer(rng.uniform(0, 20, 20000), [0, 0, 1])
-                        + rng.normal(0, 0.5, (20000, 3)), rng.uniform(-2, 22, (30000, 3))])
+    P = np.concatenate(
+        [
+            np.array([10.0, 10.0, 0.0])
+            + np.outer(rng.uniform(0, 20, 20000), [0, 0, 1])
+            + rng.normal(0, 0.5, (20000, 3)),
+            rng.uniform(-2, 22, (30000, 3)),
+        ]
+    )
     md = D.MeshDistance((rotate(pc.vertices), pc.faces))
     assert md.info.n_nonmanifold_edges > 0 and not md.info.orientable
     d, det = md.signed_distance(rotate(P), details=True)
@@ -214,7 +234,7 @@ def test_open_surface_sign_follows_normals():
     most of its area faces, distances to the patch exact."""
     V, F = box_mesh([0, 0, 0], [20, 20, 10], 10)
     cen = V[F].mean(axis=1)
-    keep = np.isclose(cen[:, 2], 10.0)          # the top face only: normals +z
+    keep = np.isclose(cen[:, 2], 10.0)  # the top face only: normals +z
     F = F[keep]
     rng = np.random.default_rng(6)
     flip = rng.random(len(F)) < 0.2

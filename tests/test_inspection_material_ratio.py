@@ -67,6 +67,7 @@ def test_piecewise_linear_curve():
     C2 = -1.25, Sk = 2.5; Smr1 = (3 - 1.25) / 0.2 = 8.75 %, Smr2 = 90 + 0.25 / 0.3 =
     90.833 %; peak and valley regions are triangles: Spk = 3 - 1.25 = 1.75,
     Svk = -1.25 - (-4) = 2.75."""
+
     def c(m):
         return np.where(m < 10, 3 - 0.2 * m, np.where(m < 90, 1 - 0.025 * (m - 10), -1 - 0.3 * (m - 90)))
 
@@ -139,8 +140,12 @@ def _fixture_heights() -> np.ndarray:
     period, period_lipss = 20 / step, 1 / step
     x, y = np.meshgrid(np.arange(1000), np.arange(700))
     z = np.sin(x / period * 2 * np.pi) + 10
-    z += 0.5 * (np.sin((x - period / 2) / period * 2 * np.pi) + 1) * 0.3 * \
-        np.sin((np.sin(y / 10) + x) / period_lipss * 2 * np.pi)
+    z += (
+        0.5
+        * (np.sin((x - period / 2) / period * 2 * np.pi) + 1)
+        * 0.3
+        * np.sin((np.sin(y / 10) + x) / period_lipss * 2 * np.pi)
+    )
     z += rs.normal(size=z.shape) / 5
     return z
 
@@ -224,7 +229,7 @@ def test_stats_and_histogram():
     s = deviation_stats(np.append(d, np.nan), tolerance=0.03)
     assert s["n"] == 20000 and s["n_invalid"] == 1
     assert s["mean"] == pytest.approx(d.mean()) and s["std"] == pytest.approx(d.std(ddof=1))
-    assert s["rms"] == pytest.approx(np.sqrt(np.mean(d ** 2)))
+    assert s["rms"] == pytest.approx(np.sqrt(np.mean(d**2)))
     assert s["p2_5"] == pytest.approx(np.percentile(d, 2.5, method="hazen"))
     assert s["within_tolerance"] == pytest.approx(np.mean(np.abs(d) <= 0.03))
     hist = histogram(d, limit=0.05)
@@ -237,8 +242,9 @@ def test_plugin_on_a_height_map(tmp_path):
     f = tmp_path / "map.npy"
     z = _fixture_heights()[:200, :300]
     np.save(f, z)
-    res = PluginHost().run("inspect.material-ratio", {"source": str(f)},
-                           {"unit": "um", "smc_at": [2.5, 97.5], "smr_at": [0.0105]})
+    res = PluginHost().run(
+        "inspect.material-ratio", {"source": str(f)}, {"unit": "um", "smc_at": [2.5, 97.5], "smr_at": [0.0105]}
+    )
     ref = mr.parameters(z)
     assert res.outputs["Smc"]["2.5"] == pytest.approx(np.percentile(z, 97.5, method="hazen") * 1e-3, rel=1e-12)
     assert res.outputs["Smr"]["0.0105"] == pytest.approx(100 * np.mean(z > 10.5), abs=1e-3)

@@ -95,7 +95,7 @@ class Polycube:
 
     @property
     def area(self) -> float:
-        return len(self.rects) * self.cell ** 2
+        return len(self.rects) * self.cell**2
 
 
 def l_block() -> np.ndarray:

@@ -29,11 +29,15 @@ def refused(path, *needles, unit=None):
 
 
 def ply_bytes(n=4, body=None, fmt="binary_little_endian"):
-    head = (f"ply\nformat {fmt} 1.0\nelement vertex {n}\n"
-            "property float x\nproperty float y\nproperty float z\nend_header\n")
+    head = (
+        f"ply\nformat {fmt} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+    )
     if body is None:
-        body = np.arange(n * 3, dtype="<f4").tobytes() if fmt != "ascii" else "".join(
-            f"{i} {i} {i}\n" for i in range(n)).encode()
+        body = (
+            np.arange(n * 3, dtype="<f4").tobytes()
+            if fmt != "ascii"
+            else "".join(f"{i} {i} {i}\n" for i in range(n)).encode()
+        )
     return head.encode() + body
 
 
@@ -81,21 +85,32 @@ def test_truncated_ascii_ply(tmp_path):
     refused(path, "truncated", "10 vertex")
 
 
-@pytest.mark.parametrize("content,needle", [
-    (b"\x00\x01garbage" * 100, "not a PLY file"),
-    (b"ply\nformat binary_little_endian 1.0\nelement vertex many\nend_header\n", "bad PLY header line 3"),
-    (b"ply\nformat wavelet 1.0\nend_header\n", "format"),
-    (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n0\n", "property"),
-    (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header"),
-    (b"ply\nformat ascii 1.0\nmystery line\nend_header\n", "unknown keyword"),
-    (b"ply\nelement vertex 1\nproperty float x\nend_header\n1\n", "no format line"),
-    (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\nend_header\n1 1\n", "twice"),
-    (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n", "no x/y/z"),
-    (b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
-     b"1 2 3\n4 five 6\n", "vertex 1"),
-    (b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
-     b"1 2 3\n4 5\n", "expected 3 values"),
-])
+@pytest.mark.parametrize(
+    "content,needle",
+    [
+        (b"\x00\x01garbage" * 100, "not a PLY file"),
+        (b"ply\nformat binary_little_endian 1.0\nelement vertex many\nend_header\n", "bad PLY header line 3"),
+        (b"ply\nformat wavelet 1.0\nend_header\n", "format"),
+        (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty quaternion x\nend_header\n0\n", "property"),
+        (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "no end_header"),
+        (b"ply\nformat ascii 1.0\nmystery line\nend_header\n", "unknown keyword"),
+        (b"ply\nelement vertex 1\nproperty float x\nend_header\n1\n", "no format line"),
+        (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\nend_header\n1 1\n", "twice"),
+        (b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float a\nend_header\n1\n", "no x/y/z"),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 2\n"
+            b"property float x\nproperty float y\nproperty float z\nend_header\n"
+            b"1 2 3\n4 five 6\n",
+            "vertex 1",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 2\n"
+            b"property float x\nproperty float y\nproperty float z\nend_header\n"
+            b"1 2 3\n4 5\n",
+            "expected 3 values",
+        ),
+    ],
+)
 def test_garbage_ply(tmp_path, content, needle):
     path = tmp_path / "bad.ply"
     path.write_bytes(content)
@@ -104,9 +119,11 @@ def test_garbage_ply(tmp_path, content, needle):
 
 def test_ply_face_index_out_of_range(tmp_path):
     path = tmp_path / "faces.ply"
-    path.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                     b"element face 1\nproperty list uchar int vertex_indices\nend_header\n"
-                     b"0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")
+    path.write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        b"element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        b"0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"
+    )
     refused(path, "face indices")
 
 
@@ -135,16 +152,23 @@ def test_unknown_unit_in_file(tmp_path):
     assert cio.read(path, unit="mm").source_unit == "mm"  # the caller can settle it
 
 
-@pytest.mark.parametrize("name,content,needle", [
-    ("points.csv", "x,y,z\n1,2,3\na;b;c\n", "points.csv line 3: expected 3 numeric columns separated by ','"),
-    ("points.csv", "1;2;3\n4;5;6\n7,8,9\n", "line 3: expected 3 numeric columns separated by ';'"),
-    ("points.xyz", "1 2 3\n4 5 6 7\n", "line 2: expected 3 numeric columns separated by spaces but found '4 5 6 7'"),
-    ("points.txt", "1\t2\t3\n4 5 6\n", "line 2: expected 3 numeric columns separated by tab"),
-    ("points.xyz", "1 2\n3 4\n", "line 1: expected 3 or more numeric columns"),
-    ("points.xyz", "# only a comment\n", "no data lines"),
-    ("points.csv", "x,y\n1,2,3\n", "header names 2 columns"),
-    ("points.xyz", "1 2 3\n4 5 six\n", "line 2"),
-])
+@pytest.mark.parametrize(
+    "name,content,needle",
+    [
+        ("points.csv", "x,y,z\n1,2,3\na;b;c\n", "points.csv line 3: expected 3 numeric columns separated by ','"),
+        ("points.csv", "1;2;3\n4;5;6\n7,8,9\n", "line 3: expected 3 numeric columns separated by ';'"),
+        (
+            "points.xyz",
+            "1 2 3\n4 5 6 7\n",
+            "line 2: expected 3 numeric columns separated by spaces but found '4 5 6 7'",
+        ),
+        ("points.txt", "1\t2\t3\n4 5 6\n", "line 2: expected 3 numeric columns separated by tab"),
+        ("points.xyz", "1 2\n3 4\n", "line 1: expected 3 or more numeric columns"),
+        ("points.xyz", "# only a comment\n", "no data lines"),
+        ("points.csv", "x,y\n1,2,3\n", "header names 2 columns"),
+        ("points.xyz", "1 2 3\n4 5 six\n", "line 2"),
+    ],
+)
 def test_bad_text(tmp_path, name, content, needle):
     path = tmp_path / name
     path.write_text(content)
@@ -223,6 +247,8 @@ def test_write_errors_name_the_file(tmp_path):
 
 def test_bad_ascii_stl_vertex(tmp_path):
     path = tmp_path / "bad_ascii.stl"
-    path.write_text("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 zero\nvertex 0 1 0\n"
-                    "endloop\nendfacet\nendsolid x\n")
+    path.write_text(
+        "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 zero\nvertex 0 1 0\n"
+        "endloop\nendfacet\nendsolid x\n"
+    )
     refused(path, "'1 0 zero' is not three numbers")

@@ -58,8 +58,9 @@ def test_read_open3d_ply_cloud(tmp_path, arrays, ascii_):
 def test_read_open3d_pcd(tmp_path, arrays, mode):
     pts, colors, normals = arrays
     path = tmp_path / "o3d.pcd"
-    assert o3d.io.write_point_cloud(str(path), o3d_cloud(pts, colors, normals), write_ascii=mode == "ascii",
-                                    compressed=mode == "compressed")
+    assert o3d.io.write_point_cloud(
+        str(path), o3d_cloud(pts, colors, normals), write_ascii=mode == "ascii", compressed=mode == "compressed"
+    )
     back = cio.read(path)
     # Open3D stores PCD coordinates as float32
     np.testing.assert_allclose(back.points, pts, rtol=1e-6, atol=1e-5)
@@ -67,8 +68,11 @@ def test_read_open3d_pcd(tmp_path, arrays, mode):
     np.testing.assert_array_equal(back.colors, colors)
 
 
-@pytest.mark.parametrize("ext,ascii_", [(".ply", True), (".ply", False), (".stl", False), (".obj", True)],
-                         ids=["ply-ascii", "ply-binary", "stl-binary", "obj"])  # Open3D writes no ascii STL
+@pytest.mark.parametrize(
+    "ext,ascii_",
+    [(".ply", True), (".ply", False), (".stl", False), (".obj", True)],
+    ids=["ply-ascii", "ply-binary", "stl-binary", "obj"],
+)  # Open3D writes no ascii STL
 def test_read_open3d_mesh(tmp_path, ext, ascii_):
     box = o3d_box()
     path = tmp_path / f"box{ext}"
@@ -85,8 +89,9 @@ def test_read_open3d_mesh(tmp_path, ext, ascii_):
 def test_open3d_reads_our_clouds(tmp_path, arrays, ext, binary):
     pts, colors, normals = arrays
     path = tmp_path / f"ours{ext}"
-    cio.write(PointCloud(pts, colors if ext != ".xyz" else None, normals if ext != ".xyz" else None), path,
-              binary=binary)
+    cio.write(
+        PointCloud(pts, colors if ext != ".xyz" else None, normals if ext != ".xyz" else None), path, binary=binary
+    )
     if ext == ".xyz":  # Open3D's xyz reader wants bare numbers: drop our unit comment and header
         path.write_text("".join(path.read_text().splitlines(keepends=True)[2:]))
     pc = o3d.io.read_point_cloud(str(path))
@@ -106,19 +111,30 @@ def test_open3d_reads_our_meshes(tmp_path, ext, binary):
     cio.write(ours, path, binary=binary)
     m = o3d.io.read_triangle_mesh(str(path))
     assert len(m.triangles) == 12
-    np.testing.assert_allclose(np.asarray(m.vertices)[np.asarray(m.triangles)], ours.vertices[ours.faces],
-                               atol=1e-6)
+    np.testing.assert_allclose(np.asarray(m.vertices)[np.asarray(m.triangles)], ours.vertices[ours.faces], atol=1e-6)
 
 
 # -- plyfile --------------------------------------------------------------------------
-@pytest.mark.parametrize("text,byte_order", [(False, "<"), (False, ">"), (True, "=")],
-                         ids=["binary_le", "binary_be", "ascii"])
+@pytest.mark.parametrize(
+    "text,byte_order", [(False, "<"), (False, ">"), (True, "=")], ids=["binary_le", "binary_be", "ascii"]
+)
 def test_read_plyfile_cloud_with_custom_fields(tmp_path, arrays, text, byte_order):
     plyfile = pytest.importorskip("plyfile")
     pts, colors, _ = arrays
     n = len(pts)
-    vert = np.empty(n, [("x", "f8"), ("y", "f8"), ("z", "f8"), ("red", "u1"), ("green", "u1"), ("blue", "u1"),
-                        ("deviation", "f4"), ("classification", "u2")])
+    vert = np.empty(
+        n,
+        [
+            ("x", "f8"),
+            ("y", "f8"),
+            ("z", "f8"),
+            ("red", "u1"),
+            ("green", "u1"),
+            ("blue", "u1"),
+            ("deviation", "f4"),
+            ("classification", "u2"),
+        ],
+    )
     vert["x"], vert["y"], vert["z"] = pts.T
     vert["red"], vert["green"], vert["blue"] = colors.T
     vert["deviation"] = np.linspace(-0.05, 0.05, n)
@@ -140,14 +156,25 @@ def test_read_plyfile_mesh_with_mixed_polygons(tmp_path, text):
     plyfile = pytest.importorskip("plyfile")
     # a unit cube: two faces as quads, the rest as triangles (ragged lists)
     v = np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)], float)
-    polys = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6],
-             [3, 0, 4], [3, 4, 7]]
+    polys = [
+        [0, 3, 2, 1],
+        [4, 5, 6, 7],
+        [0, 1, 5],
+        [0, 5, 4],
+        [1, 2, 6],
+        [1, 6, 5],
+        [2, 3, 7],
+        [2, 7, 6],
+        [3, 0, 4],
+        [3, 4, 7],
+    ]
     vert = np.array([tuple(p) for p in v], [("x", "f4"), ("y", "f4"), ("z", "f4")])
     face = np.empty(len(polys), [("vertex_indices", object)])
     face["vertex_indices"] = [np.array(p, np.int32) for p in polys]
     path = tmp_path / "cube.ply"
-    plyfile.PlyData([plyfile.PlyElement.describe(vert, "vertex"), plyfile.PlyElement.describe(face, "face")],
-                    text=text).write(str(path))
+    plyfile.PlyData(
+        [plyfile.PlyElement.describe(vert, "vertex"), plyfile.PlyElement.describe(face, "face")], text=text
+    ).write(str(path))
     back = cio.read(path)
     assert isinstance(back, TriangleMesh) and back.n_faces == 12
     assert back.area() == pytest.approx(6.0)
@@ -171,11 +198,15 @@ def test_read_pye57_scan_in_metres(tmp_path):
     rng = np.random.default_rng(5)
     n = 1000
     xyz = rng.uniform(-2.0, 2.0, (n, 3))  # metres
-    data = {"cartesianX": xyz[:, 0], "cartesianY": xyz[:, 1], "cartesianZ": xyz[:, 2],
-            "intensity": rng.uniform(0, 1, n).astype(np.float32),
-            "colorRed": rng.integers(0, 256, n).astype(np.uint8),
-            "colorGreen": rng.integers(0, 256, n).astype(np.uint8),
-            "colorBlue": rng.integers(0, 256, n).astype(np.uint8)}
+    data = {
+        "cartesianX": xyz[:, 0],
+        "cartesianY": xyz[:, 1],
+        "cartesianZ": xyz[:, 2],
+        "intensity": rng.uniform(0, 1, n).astype(np.float32),
+        "colorRed": rng.integers(0, 256, n).astype(np.uint8),
+        "colorGreen": rng.integers(0, 256, n).astype(np.uint8),
+        "colorBlue": rng.integers(0, 256, n).astype(np.uint8),
+    }
     path = tmp_path / "scan.e57"
     e = pye57.E57(str(path), mode="w")
     e.write_scan_raw(data)
@@ -199,8 +230,9 @@ def test_pye57_reads_our_e57(tmp_path, arrays):
     e = pye57.E57(str(tmp_path / "o.e57"))
     d = e.read_scan(0, intensity=True, colors=True, ignore_missing_fields=True)
     e.close()
-    np.testing.assert_allclose(np.column_stack([d["cartesianX"], d["cartesianY"], d["cartesianZ"]]),
-                               pts / 1000.0, rtol=1e-14)
+    np.testing.assert_allclose(
+        np.column_stack([d["cartesianX"], d["cartesianY"], d["cartesianZ"]]), pts / 1000.0, rtol=1e-14
+    )
     np.testing.assert_array_equal(d["colorBlue"], colors[:, 2])
 
 

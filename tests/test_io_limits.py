@@ -59,8 +59,10 @@ def test_ply_mesh_of_mixed_polygons_with_more_faces_than_declared(tmp_path):
     """Triangles and quads (rows of different lengths, read by plyfile) behind a face
     count that is too small; a closing newline alone is still read."""
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], "<f4")
-    head = (b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
-            b"property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    head = (
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+        b"property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+    )
     tri = bytes([3]) + np.array([0, 1, 2], "<i4").tobytes()
     body = head + v.tobytes() + tri + bytes([4]) + np.array([0, 1, 3, 4], "<i4").tobytes()
     p = tmp_path / "mixed.ply"
@@ -98,9 +100,11 @@ def test_pcd_compressed_block_that_claims_another_size(tmp_path):
     refused before it is unpacked, not after."""
     n = 10
     raw = np.arange(3 * n, dtype="<f4").tobytes()
-    blob = b"".join(bytes([len(raw[i:i + 32]) - 1]) + raw[i:i + 32] for i in range(0, len(raw), 32))
-    head = ("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 10\nHEIGHT 1\n"
-            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 10\nDATA binary_compressed\n").encode()
+    blob = b"".join(bytes([len(raw[i : i + 32]) - 1]) + raw[i : i + 32] for i in range(0, len(raw), 32))
+    head = (
+        b"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 10\nHEIGHT 1\n"
+        b"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 10\nDATA binary_compressed\n"
+    )
     ok = tmp_path / "ok.pcd"
     ok.write_bytes(head + struct.pack("<II", len(blob), len(raw)) + blob)
     np.testing.assert_array_equal(cio.read(ok).points[:, 0], np.arange(10))  # stored field by field
@@ -135,8 +139,12 @@ def _png(w: int, h: int) -> bytes:
 
     c = zlib.compressobj(9)
     idat = b"".join(c.compress(b"\0" * (w + 1)) for _ in range(h)) + c.flush()
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
-            + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+        + chunk(b"IDAT", idat)
+        + chunk(b"IEND", b"")
+    )
 
 
 def test_a_png_bomb_is_refused_before_decoding(tmp_path):
@@ -156,7 +164,7 @@ def test_the_pixel_cap_follows_the_environment(tmp_path, monkeypatch):
     assert cio.read(p).data.shape == (48, 64)
     monkeypatch.setenv("CAMCMM_MAX_IMAGE_PIXELS", "3000")
     refused(p, "64 x 48", "0.003 Mpx")
-    monkeypatch.setenv("CAMCMM_MAX_IMAGE_PIXELS", "3072")   # exactly 64 x 48: allowed
+    monkeypatch.setenv("CAMCMM_MAX_IMAGE_PIXELS", "3072")  # exactly 64 x 48: allowed
     assert cio.read(p).data.shape == (48, 64)
     for bad in ("lots", "-5", "0", "1.5"):
         monkeypatch.setenv("CAMCMM_MAX_IMAGE_PIXELS", bad)
@@ -165,8 +173,17 @@ def test_the_pixel_cap_follows_the_environment(tmp_path, monkeypatch):
     assert MAX_IMAGE_PIXELS == 100_000_000
 
 
-@pytest.mark.parametrize("ext,shape", [(".png", (30, 50)), (".jpg", (30, 50, 3)), (".tif", (30, 50)),
-                                       (".tif", (30, 50, 3)), (".bmp", (30, 50, 3)), (".png", (30, 50, 4))])
+@pytest.mark.parametrize(
+    "ext,shape",
+    [
+        (".png", (30, 50)),
+        (".jpg", (30, 50, 3)),
+        (".tif", (30, 50)),
+        (".tif", (30, 50, 3)),
+        (".bmp", (30, 50, 3)),
+        (".png", (30, 50, 4)),
+    ],
+)
 def test_image_size_from_the_header_agrees_with_opencv(ext, shape):
     import cv2
 
@@ -181,9 +198,14 @@ def test_a_big_tiff_whose_directory_is_at_the_end_is_measured(tmp_path):
     w, h = 40000, 40000
     body = b"\0" * 64
     entries = [(256, 4, 1, w), (257, 4, 1, h), (258, 3, 1, 8), (262, 3, 1, 1), (273, 4, 1, 8), (279, 4, 1, 64)]
-    ifd = struct.pack("<H", len(entries)) + b"".join(
-        struct.pack("<HHI", t, typ, c) + (struct.pack("<HH", v, 0) if typ == 3 else struct.pack("<I", v))
-        for t, typ, c, v in entries) + b"\0\0\0\0"
+    ifd = (
+        struct.pack("<H", len(entries))
+        + b"".join(
+            struct.pack("<HHI", t, typ, c) + (struct.pack("<HH", v, 0) if typ == 3 else struct.pack("<I", v))
+            for t, typ, c, v in entries
+        )
+        + b"\0\0\0\0"
+    )
     p = tmp_path / "big.tif"
     p.write_bytes(b"II*\0" + struct.pack("<I", 8 + len(body)) + body + ifd)
     refused(p, "40000 x 40000")
@@ -206,10 +228,10 @@ def test_an_image_with_the_wrong_extension(tmp_path):
 def test_a_corrupt_png_is_one_line_with_the_decoders_reason(tmp_path, capfd):
     good = _png(64, 48)
     p = tmp_path / "corrupt.png"
-    p.write_bytes(good[:-8] + b"\0\0\0\0IEND")   # a broken last chunk
+    p.write_bytes(good[:-8] + b"\0\0\0\0IEND")  # a broken last chunk
     msg = refused(p, "cannot decode")
     assert "libpng" in msg or "PNG" in msg
-    assert capfd.readouterr().err == ""              # nothing of libpng's on stderr
+    assert capfd.readouterr().err == ""  # nothing of libpng's on stderr
 
 
 def test_text_lines_of_more_than_1000_columns(tmp_path):
@@ -220,6 +242,8 @@ def test_text_lines_of_more_than_1000_columns(tmp_path):
 
 def test_ply_element_with_rows_but_no_properties(tmp_path):
     p = tmp_path / "empty_el.ply"
-    p.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
-                  b"element junk 1000000000000\nend_header\n1 2 3\n")
+    p.write_bytes(
+        b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+        b"element junk 1000000000000\nend_header\n1 2 3\n"
+    )
     refused(p, "'junk'", "1000000000000")

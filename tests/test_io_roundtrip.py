@@ -29,8 +29,11 @@ def cloud():
         rng.normal(0.0, 150.0, (n, 3)) + [1000.0, -20.0, 3.0],
         rng.integers(0, 256, (n, 3)).astype(np.uint8),
         unit_vectors(rng, n),
-        {"deviation": rng.normal(0.0, 0.01, n), "label": rng.integers(0, 9, n).astype(np.int32),
-         "quality": rng.uniform(0, 1, n).astype(np.float32)},
+        {
+            "deviation": rng.normal(0.0, 0.01, n),
+            "label": rng.integers(0, 9, n).astype(np.int32),
+            "quality": rng.uniform(0, 1, n).astype(np.float32),
+        },
         {"deviation": "mm"},
         name="scan",
     )
@@ -41,8 +44,9 @@ def mesh():
     rng = np.random.default_rng(3)
     v = rng.uniform(-50.0, 50.0, (40, 3))
     f = np.array([rng.permutation(40)[:3] for _ in range(60)])
-    return TriangleMesh(v, f, unit_vectors(rng, 40), {"deviation": rng.normal(0, 0.02, 40)}, {"deviation": "mm"},
-                        name="part")
+    return TriangleMesh(
+        v, f, unit_vectors(rng, 40), {"deviation": rng.normal(0, 0.02, 40)}, {"deviation": "mm"}, name="part"
+    )
 
 
 def same_triangles(a: TriangleMesh, b: TriangleMesh, atol=0.0):
@@ -185,8 +189,16 @@ def test_write_refuses_a_format_that_cannot_hold_the_object(tmp_path, cloud, mes
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("ext,dtype,channels", [(".png", np.uint16, 1), (".png", np.uint8, 3), (".tif", np.uint16, 1),
-                                                (".tif", np.float32, 1), (".bmp", np.uint8, 3)])
+@pytest.mark.parametrize(
+    "ext,dtype,channels",
+    [
+        (".png", np.uint16, 1),
+        (".png", np.uint8, 3),
+        (".tif", np.uint16, 1),
+        (".tif", np.float32, 1),
+        (".bmp", np.uint8, 3),
+    ],
+)
 def test_image_round_trip_keeps_depth_and_channels(tmp_path, ext, dtype, channels):
     rng = np.random.default_rng(0)
     shape = (48, 64) if channels == 1 else (48, 64, channels)
@@ -247,8 +259,9 @@ def test_extension_is_case_insensitive(tmp_path, cloud):
 
 
 def test_importing_io_loads_no_heavy_library():
-    code = ("import sys, camcmm.io; "
-            "print(','.join(m for m in ('open3d', 'cv2', 'pye57', 'plyfile') if m in sys.modules))")
+    code = (
+        "import sys, camcmm.io; print(','.join(m for m in ('open3d', 'cv2', 'pye57', 'plyfile') if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
 
@@ -256,8 +269,7 @@ def test_importing_io_loads_no_heavy_library():
 def test_binary_ply_mesh_is_read_by_numpy_not_plyfile(tmp_path, mesh):
     path = tmp_path / "part.ply"
     cio.write(mesh, path)
-    code = (f"import sys, camcmm.io; m = camcmm.io.read({str(path)!r}); "
-            "print(m.n_faces, 'plyfile' in sys.modules)")
+    code = f"import sys, camcmm.io; m = camcmm.io.read({str(path)!r}); print(m.n_faces, 'plyfile' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == [str(mesh.n_faces), "False"]
 
@@ -271,9 +283,10 @@ def test_two_million_point_binary_ply_reads_fast(tmp_path):
     rec["x"] = np.arange(n)
     path = tmp_path / "big.ply"
     with open(path, "wb") as fh:
-        fh.write(f"ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n"
-                 "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
-                 .encode())
+        fh.write(
+            f"ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n"
+            "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n".encode()
+        )
         rec.tofile(fh)
     t0 = time.perf_counter()
     cloud = cio.read(path)

@@ -39,18 +39,22 @@ def test_builtin_plugins_use_only_the_public_api():
 
 
 def test_core_and_api_import_without_gui_or_open3d():
-    code = ("import sys, camcmm.api, camcmm.host, camcmm.io, camcmm.project, camcmm.cli.main;"
-            "heavy = [m for m in ('trame', 'vtk', 'pyvista', 'open3d', 'cv2') if m in sys.modules];"
-            "print(','.join(heavy))")
+    code = (
+        "import sys, camcmm.api, camcmm.host, camcmm.io, camcmm.project, camcmm.cli.main;"
+        "heavy = [m for m in ('trame', 'vtk', 'pyvista', 'open3d', 'cv2') if m in sys.modules];"
+        "print(','.join(heavy))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "", f"importing the core loaded {out.stdout.strip()}"
 
 
 def test_every_core_module_imports_on_its_own():
     # A module that only imports after another one is half of a circular import.
-    modules = [".".join(p.relative_to(ROOT / "app").with_suffix("").parts)
-               for p in (ROOT / "app" / "camcmm").rglob("*.py")
-               if "gui" not in p.parts and p.name != "__main__.py"]
+    modules = [
+        ".".join(p.relative_to(ROOT / "app").with_suffix("").parts)
+        for p in (ROOT / "app" / "camcmm").rglob("*.py")
+        if "gui" not in p.parts and p.name != "__main__.py"
+    ]
     code = "import importlib, sys\nfor m in sys.argv[1:]:\n    importlib.import_module(m.removesuffix('.__init__'))"
     for m in modules:
         subprocess.run([sys.executable, "-c", code, m], check=True, capture_output=True)
@@ -79,7 +83,7 @@ def _import_graph() -> dict[str, set[str]]:
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):
-                base = package[:len(package) - node.level + 1] if node.level else []
+                base = package[: len(package) - node.level + 1] if node.level else []
                 mod = ".".join(base + ([node.module] if node.module else []))
                 subs = [f"{mod}.{a.name}" for a in node.names if f"{mod}.{a.name}" in mods]
                 targets = subs + ([mod] if len(subs) < len(node.names) else [])

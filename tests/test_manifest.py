@@ -29,8 +29,13 @@ def refused(**fields) -> str:
 
 
 def test_declared_fields_become_attributes():
-    s = spec(role="sequence", simulated=True, needs={"stage": "stage", "cameras": "camera*", "speckle": "speckle?"},
-             report="lab_thing.report:build", provides=["turning"])
+    s = spec(
+        role="sequence",
+        simulated=True,
+        needs={"stage": "stage", "cameras": "camera*", "speckle": "speckle?"},
+        report="lab_thing.report:build",
+        provides=["turning"],
+    )
     assert (s.role, s.simulated, s.report, s.provides) == ("sequence", True, "lab_thing.report:build", ["turning"])
     assert s.needs == {"stage": "stage", "cameras": "camera*", "speckle": "speckle?"}
     assert s.version == "2.3.4" and not s.warnings
@@ -38,12 +43,25 @@ def test_declared_fields_become_attributes():
     assert a.acquires == "pointcloud" and a.role == "" and a.simulated is False
 
 
-@pytest.mark.parametrize("field, value", [
-    ("role", "Camera!"), ("role", 3), ("simulated", "yes"), ("acquires", "photo"),
-    ("needs", ["stage"]), ("needs", {"Cameras": "camera"}), ("needs", {"cameras": "camera+"}),
-    ("report", "lab_thing.report"), ("report", 5), ("provides", "turning"), ("provides", ["Turning"]),
-    ("kind", "widget"), ("entry", "lab_thing"), ("version", {"major": 1}),
-])
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("role", "Camera!"),
+        ("role", 3),
+        ("simulated", "yes"),
+        ("acquires", "photo"),
+        ("needs", ["stage"]),
+        ("needs", {"Cameras": "camera"}),
+        ("needs", {"cameras": "camera+"}),
+        ("report", "lab_thing.report"),
+        ("report", 5),
+        ("provides", "turning"),
+        ("provides", ["Turning"]),
+        ("kind", "widget"),
+        ("entry", "lab_thing"),
+        ("version", {"major": 1}),
+    ],
+)
 def test_each_field_is_validated_in_one_line_naming_plugin_and_field(field, value):
     assert f"field {field!r}" in refused(**{field: value})
 

@@ -29,8 +29,12 @@ def test_shapes_are_checked():
 
 def test_open3d_and_pyvista_round_trip():
     rng = np.random.default_rng(0)
-    cloud = PointCloud(rng.normal(size=(100, 3)), colors=rng.integers(0, 256, (100, 3)),
-                       fields={"dev": rng.normal(size=100)}, field_units={"dev": "mm"})
+    cloud = PointCloud(
+        rng.normal(size=(100, 3)),
+        colors=rng.integers(0, 256, (100, 3)),
+        fields={"dev": rng.normal(size=100)},
+        field_units={"dev": "mm"},
+    )
     back = PointCloud.from_open3d(cloud.to_open3d())
     np.testing.assert_array_equal(back.points, cloud.points)
     np.testing.assert_array_equal(back.colors, cloud.colors)

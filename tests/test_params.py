@@ -22,19 +22,25 @@ def test_cli_and_json_share_one_set_of_rules():
     args = parser.parse_args(["--voxel-size", "0.5", "--robust", "yes", "--origin", "1,2,3"])
     from_cli = validate(DECL, cli_values(args))
     from_json = validate(DECL, {"voxel_size": 0.5, "robust": True, "origin": [1, 2, 3]})
-    assert from_cli == from_json == {"voxel_size": 0.5, "iterations": 10, "robust": True,
-                                     "method": "ls", "origin": [1.0, 2.0, 3.0]}
+    assert (
+        from_cli
+        == from_json
+        == {"voxel_size": 0.5, "iterations": 10, "robust": True, "method": "ls", "origin": [1.0, 2.0, 3.0]}
+    )
 
 
-@pytest.mark.parametrize("values, message", [
-    ({"voxel_size": 0}, "below its minimum"),
-    ({"voxel_size": "nan"}, "not finite"),
-    ({"iterations": 2.5}, "expected an integer"),
-    ({"iterations": 101}, "above its maximum 100"),
-    ({"robust": "maybe"}, "expected true or false"),
-    ({"method": "cheb"}, "expected one of ls, minzone"),
-    ({"origin": [1, 2]}, "expected 3 numbers"),
-])
+@pytest.mark.parametrize(
+    "values, message",
+    [
+        ({"voxel_size": 0}, "below its minimum"),
+        ({"voxel_size": "nan"}, "not finite"),
+        ({"iterations": 2.5}, "expected an integer"),
+        ({"iterations": 101}, "above its maximum 100"),
+        ({"robust": "maybe"}, "expected true or false"),
+        ({"method": "cheb"}, "expected one of ls, minzone"),
+        ({"origin": [1, 2]}, "expected 3 numbers"),
+    ],
+)
 def test_bad_values_name_the_parameter(values, message):
     with pytest.raises(ParameterError, match=message) as err:
         validate(DECL, values)

@@ -16,8 +16,23 @@ from camcmm.params import INT_LIMIT, MAX_VECTOR, Param, validate
 # Words in a parameter name that say it sizes, counts or repeats work; a float or vector
 # in pixels or without a unit (a count) named so needs a max just as an int does. (A length
 # in mm, e.g. voxel_size, sizes nothing in memory.)
-SIZE_WORDS = {"size", "width", "height", "count", "iterations", "samples", "points", "frames", "steps",
-              "workers", "images", "repeats", "bins", "columns", "rows"}
+SIZE_WORDS = {
+    "size",
+    "width",
+    "height",
+    "count",
+    "iterations",
+    "samples",
+    "points",
+    "frames",
+    "steps",
+    "workers",
+    "images",
+    "repeats",
+    "bins",
+    "columns",
+    "rows",
+}
 
 
 def _sizes_work(p: Param) -> bool:
@@ -32,8 +47,12 @@ def _specs():
 
 
 def test_every_int_and_size_parameter_of_every_manifest_declares_a_max():
-    missing = [f"{spec.id}:{p.name}" for spec in _specs() for p in spec.parameters
-               if p.maximum is None and (p.type == "int" or (p.type in ("float", "vector") and _sizes_work(p)))]
+    missing = [
+        f"{spec.id}:{p.name}"
+        for spec in _specs()
+        for p in spec.parameters
+        if p.maximum is None and (p.type == "int" or (p.type in ("float", "vector") and _sizes_work(p)))
+    ]
     assert not missing, f"declare 'max' for: {', '.join(missing)}"
 
 
@@ -97,10 +116,17 @@ def test_exclusive_minimum():
     assert p.to_dict()["exclusive_min"] == 0 and "min" not in p.to_dict()
 
 
-@pytest.mark.parametrize("value, reason", [
-    ("1e400", "expected an integer"), (float("inf"), "cannot convert"), (2.5, "expected an integer"),
-    (True, "expected an integer"), (str(10**20), "beyond"), ("9" * 5000, "too long"),
-])
+@pytest.mark.parametrize(
+    "value, reason",
+    [
+        ("1e400", "expected an integer"),
+        (float("inf"), "cannot convert"),
+        (2.5, "expected an integer"),
+        (True, "expected an integer"),
+        (str(10**20), "beyond"),
+        ("9" * 5000, "too long"),
+    ],
+)
 def test_int_values_that_are_no_ints(value, reason):
     p = Param.from_dict({"name": "n", "type": "int"})
     with pytest.raises(ParameterError, match=reason) as err:
@@ -124,13 +150,16 @@ def test_unbounded_vectors_and_strings_are_capped():
         s.coerce("x" * 100_000)
 
 
-@pytest.mark.parametrize("decl, reason", [
-    ({"name": "n", "type": "int", "maximum": 5}, "unknown key 'maximum'"),
-    ({"name": "n", "type": "int", "min": 5, "max": 3}, "min 5 is above max 3"),
-    ({"name": "n", "type": "int", "max": float("inf")}, "max must be a finite number"),
-    ({"name": "n", "type": "int", "max": "10"}, "max must be a finite number"),
-    ({"name": "n", "type": "int", "max": 10, "default": 11}, "above its maximum"),
-])
+@pytest.mark.parametrize(
+    "decl, reason",
+    [
+        ({"name": "n", "type": "int", "maximum": 5}, "unknown key 'maximum'"),
+        ({"name": "n", "type": "int", "min": 5, "max": 3}, "min 5 is above max 3"),
+        ({"name": "n", "type": "int", "max": float("inf")}, "max must be a finite number"),
+        ({"name": "n", "type": "int", "max": "10"}, "max must be a finite number"),
+        ({"name": "n", "type": "int", "max": 10, "default": 11}, "above its maximum"),
+    ],
+)
 def test_bad_declarations_are_refused(decl, reason):
     with pytest.raises(ParameterError, match=reason):
         Param.from_dict(decl)
@@ -139,8 +168,10 @@ def test_bad_declarations_are_refused(decl, reason):
 def test_a_manifest_with_a_bad_limit_names_plugin_and_parameter():
     from camcmm.manifest import parse_manifest
 
-    text = ("plugins:\n  - {id: lab.x, kind: algorithm, name: X, entry: 'm:f',\n"
-            "     parameters: [{name: n, type: int, maximum: 3}]}\n")
+    text = (
+        "plugins:\n  - {id: lab.x, kind: algorithm, name: X, entry: 'm:f',\n"
+        "     parameters: [{name: n, type: int, maximum: 3}]}\n"
+    )
     plugins, _, errors = parse_manifest(text, "1.0", "lab", "lab/plugin.yaml")
     assert not plugins and len(errors) == 1
     assert "lab.x" in errors[0][1] and "'n'" in errors[0][1] and "maximum" in errors[0][1]
@@ -151,15 +182,18 @@ def test_cli_help_shows_limits_and_the_refusal_is_one_line():
     helptext = subprocess.run(run + ["--help"], capture_output=True, text=True, timeout=120)
     assert helptext.returncode == 0, helptext.stderr
     assert "2 <= x <= 1000" in " ".join(helptext.stdout.split())
-    bad = subprocess.run(run + ["nothere.ply", "--neighbours", "100000"], capture_output=True, text=True,
-                         timeout=120)
+    bad = subprocess.run(run + ["nothere.ply", "--neighbours", "100000"], capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0
     lines = bad.stderr.strip().splitlines()
     assert len(lines) == 1 and "neighbours" in lines[0] and "maximum 1000" in lines[0], bad.stderr
 
 
 def test_cli_help_with_a_percent_unit_does_not_crash():
-    helptext = subprocess.run([sys.executable, "-m", "camcmm.cli.main", "run", "inspect.material-ratio", "--help"],
-                              capture_output=True, text=True, timeout=120)
+    helptext = subprocess.run(
+        [sys.executable, "-m", "camcmm.cli.main", "run", "inspect.material-ratio", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert helptext.returncode == 0, helptext.stderr
     assert "[%]" in helptext.stdout

@@ -17,13 +17,19 @@ import pytest
 from camcmm.errors import InputError, ProjectError
 from camcmm.host import RunResult
 from camcmm.model import Artefact, Certificate, PointCloud
-from camcmm.project import DB_NAME, MIGRATIONS, SCHEMA_VERSION, Project
-from camcmm.project import schema
+from camcmm.project import DB_NAME, MIGRATIONS, SCHEMA_VERSION, Project, schema
 from camcmm.project.jsonutil import dumps
 
-RUN = {"plugin": "fit.sphere", "version": "1.2.0", "params": {"max_iter": 50}, "input_hashes": {"cloud": "ab" * 32},
-       "outputs": {"radius": 10.01}, "started": "2024-01-01T00:00:00.000+00:00",
-       "finished": "2024-01-01T00:00:01.000+00:00", "warnings": ["few points"]}
+RUN = {
+    "plugin": "fit.sphere",
+    "version": "1.2.0",
+    "params": {"max_iter": 50},
+    "input_hashes": {"cloud": "ab" * 32},
+    "outputs": {"radius": 10.01},
+    "started": "2024-01-01T00:00:00.000+00:00",
+    "finished": "2024-01-01T00:00:01.000+00:00",
+    "warnings": ["few points"],
+}
 
 
 def sha(path: Path) -> str:
@@ -133,7 +139,7 @@ def test_open_damaged_page(proj):
     db = proj.path / DB_NAME
     data = bytearray(db.read_bytes())
     assert len(data) > 3 * 4096
-    data[4096 + 8: 4096 + 400] = b"\xff" * 392  # scribble over the second page
+    data[4096 + 8 : 4096 + 400] = b"\xff" * 392  # scribble over the second page
     db.write_bytes(bytes(data))
     with pytest.raises(ProjectError, match="corrupt database .*project.sqlite"):
         Project.open(proj.path)
@@ -175,12 +181,16 @@ def make_v1_project(root: Path) -> str:
     (root / "data" / h[:2] / f"{h}.xyz").write_bytes(blob)
     c = sqlite3.connect(root / DB_NAME)
     c.executescript(MIGRATIONS[0])
-    c.executemany("INSERT INTO meta VALUES (?, ?)", [("schema_version", "1"), ("name", "old one"),
-                                                     ("created", "2023-05-01T00:00:00+00:00")])
+    c.executemany(
+        "INSERT INTO meta VALUES (?, ?)",
+        [("schema_version", "1"), ("name", "old one"), ("created", "2023-05-01T00:00:00+00:00")],
+    )
     c.execute("INSERT INTO files VALUES (?, '.xyz', ?, 'old.xyz', '2023')", (h, len(blob)))
     c.execute("INSERT INTO measurements(name, kind, hash, created) VALUES ('m', 'pointcloud', ?, '2023')", (h,))
-    c.execute("INSERT INTO results(plugin, version, params, input_hashes, outputs, created) "
-              "VALUES ('fit.plane', '0.9', '{\"k\": 1}', '{}', '{\"flatness\": 0.01}', '2023')")
+    c.execute(
+        "INSERT INTO results(plugin, version, params, input_hashes, outputs, created) "
+        "VALUES ('fit.plane', '0.9', '{\"k\": 1}', '{}', '{\"flatness\": 0.01}', '2023')"
+    )
     c.execute("INSERT INTO result_measurements VALUES (1, 1)")
     c.commit()
     c.close()
@@ -252,7 +262,9 @@ def test_fresh_schema_equals_migrated_schema(tmp_path):
 
 def test_statement_splitter():
     assert schema.statements("CREATE TABLE a (x TEXT DEFAULT ';');\n-- note\nCREATE TABLE b (y);\n") == [
-        "CREATE TABLE a (x TEXT DEFAULT ';');", "-- note\nCREATE TABLE b (y);"]
+        "CREATE TABLE a (x TEXT DEFAULT ';');",
+        "-- note\nCREATE TABLE b (y);",
+    ]
     with pytest.raises(ValueError):
         schema.statements("CREATE TABLE a (x)")
 
@@ -300,8 +312,13 @@ def test_measurements(proj, src):
     h = proj.add_file(src)
     sid = proj.add_system("ATOS-like stereo", {"measuring_volume": [500, 400, 300], "calibration": h})
     proj.add_artefact(Artefact("S1", "sphere", nominal={"diameter": 25.0}))
-    mid = proj.add_measurement("sphere pos 1", h, system_id=sid, artefact_id="S1",
-                               meta={"exposure_ms": np.float32(12.5), "temp": np.nan, "n": np.int64(3)})
+    mid = proj.add_measurement(
+        "sphere pos 1",
+        h,
+        system_id=sid,
+        artefact_id="S1",
+        meta={"exposure_ms": np.float32(12.5), "temp": np.nan, "n": np.int64(3)},
+    )
     (m,) = proj.measurements()
     assert m == proj.measurement(mid)
     assert m["id"] == mid and m["name"] == "sphere pos 1" and m["kind"] == "pointcloud" and m["hash"] == h
@@ -351,18 +368,33 @@ def test_remove_measurement_keeps_results(proj, src):
 def test_results_from_runresult_and_dict(proj, src):
     h = proj.add_file(src)
     mid = proj.add_measurement("m", h)
-    run = RunResult("fit.sphere", "1.2.0", {"tol": np.float64(1e-6), "robust": np.bool_(True)}, {"cloud": h},
-                    {"center": np.array([1.0, 2.0, 3.0]), "radius": np.float32(5.5), "rms": float("nan"),
-                     "cloud": PointCloud(np.zeros((4, 3)), name="c")},
-                    "2024-01-01T00:00:00.000+00:00", "2024-01-01T00:00:02.000+00:00", ["few points"])
+    run = RunResult(
+        "fit.sphere",
+        "1.2.0",
+        {"tol": np.float64(1e-6), "robust": np.bool_(True)},
+        {"cloud": h},
+        {
+            "center": np.array([1.0, 2.0, 3.0]),
+            "radius": np.float32(5.5),
+            "rms": float("nan"),
+            "cloud": PointCloud(np.zeros((4, 3)), name="c"),
+        },
+        "2024-01-01T00:00:00.000+00:00",
+        "2024-01-01T00:00:02.000+00:00",
+        ["few points"],
+    )
     r1 = proj.add_result(run, [mid], {"residuals": h}, label="first")
     r2 = proj.add_result(dict(RUN, plugin="fit.plane"))
     r = proj.result(r1)
     assert r == proj.results()[0]
     assert r["plugin"] == "fit.sphere" and r["version"] == "1.2.0"
     assert r["params"] == {"tol": 1e-6, "robust": True} and r["input_hashes"] == {"cloud": h}
-    assert r["outputs"] == {"center": [1.0, 2.0, 3.0], "radius": 5.5, "rms": None,
-                            "cloud": {"kind": "pointcloud", "name": "c", "n_points": 4}}
+    assert r["outputs"] == {
+        "center": [1.0, 2.0, 3.0],
+        "radius": 5.5,
+        "rms": None,
+        "cloud": {"kind": "pointcloud", "name": "c", "n_points": 4},
+    }
     assert r["started"] == run.started and r["finished"] == run.finished and r["warnings"] == ["few points"]
     assert r["measurement_ids"] == [mid] and r["files"] == {"residuals": h} and r["label"] == "first"
     assert [x["id"] for x in proj.results()] == [r1, r2]
@@ -396,9 +428,17 @@ def test_add_result_bad_run(proj):
 
 
 def test_json_columns():
-    assert json.loads(dumps({"a": np.float64("nan"), "b": [np.int32(2), float("inf")], 3: (1, 2),
-                             "c": np.array([[1, 2]], dtype=np.uint8), "p": Path("/x")})) == \
-        {"a": None, "b": [2, None], "3": [1, 2], "c": [[1, 2]], "p": "/x"}
+    assert json.loads(
+        dumps(
+            {
+                "a": np.float64("nan"),
+                "b": [np.int32(2), float("inf")],
+                3: (1, 2),
+                "c": np.array([[1, 2]], dtype=np.uint8),
+                "p": Path("/x"),
+            }
+        )
+    ) == {"a": None, "b": [2, None], "3": [1, 2], "c": [[1, 2]], "p": "/x"}
 
 
 # -- systems, artefacts, state ---------------------------------------------------------------
@@ -414,8 +454,9 @@ def test_systems(proj):
 
 
 def test_artefacts_upsert(proj):
-    ball = Artefact("BB-1", "ballbar", "Ball bar 1", {"length": 800.0},
-                    {"length": Certificate(800.0123, 0.0015, 2.0)}, "cal. 2024")
+    ball = Artefact(
+        "BB-1", "ballbar", "Ball bar 1", {"length": 800.0}, {"length": Certificate(800.0123, 0.0015, 2.0)}, "cal. 2024"
+    )
     proj.add_artefact(ball)
     proj.add_artefact({"id": "S-25", "kind": "sphere", "nominal": {"diameter": 25.0}})
     ball.notes = "recalibrated"

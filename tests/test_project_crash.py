@@ -61,8 +61,13 @@ def run_and_kill(root: Path, scratch: Path, seed: int, n_lines: int, delay: floa
     """Start the writer; SIGKILL it ``delay`` s after it reported ``n_lines`` results
     (or, for n_lines=0, ``delay`` s after start). Returns every committed triple."""
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-    proc = subprocess.Popen([sys.executable, "-c", CHILD, str(root), str(scratch), str(seed)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(root), str(scratch), str(seed)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     lines: list[str] = []
     watchdog = threading.Timer(30, proc.kill)  # never hang the test suite on a stuck child
     watchdog.start()

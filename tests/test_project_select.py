@@ -12,8 +12,10 @@ from camcmm.errors import InputError
 from camcmm.project import Project
 from camcmm.project.select import project_values, select
 
-DOC = {"parameters": {"PS": {"per_measurement": [{"value": 0.1}, {"value": None}, {"value": -0.2}]}},
-       "lengths": [{"values": [1, 2]}, {"values": [3.5, 4.5, 5.5]}]}
+DOC = {
+    "parameters": {"PS": {"per_measurement": [{"value": 0.1}, {"value": None}, {"value": -0.2}]}},
+    "lengths": [{"values": [1, 2]}, {"values": [3.5, 4.5, 5.5]}],
+}
 
 
 def test_paths_walk_keys_items_and_lists():
@@ -30,9 +32,15 @@ def test_paths_walk_keys_items_and_lists():
 
 def _project_with_result(tmp_path):
     with Project.create(tmp_path / "p") as p:
-        run = {"plugin": "vdi2634-2", "version": "1", "params": {}, "input_hashes": {},
-               "outputs": {"diameters": [20.0031, 19.9987, 20.0012, 20.0004, 19.9995]},
-               "started": "2026-01-01T00:00:00+00:00", "finished": "2026-01-01T00:00:01+00:00"}
+        run = {
+            "plugin": "vdi2634-2",
+            "version": "1",
+            "params": {},
+            "input_hashes": {},
+            "outputs": {"diameters": [20.0031, 19.9987, 20.0012, 20.0004, 19.9995]},
+            "started": "2026-01-01T00:00:00+00:00",
+            "finished": "2026-01-01T00:00:01+00:00",
+        }
         return tmp_path / "p", p.add_result(run)
 
 
@@ -42,9 +50,26 @@ def test_project_values_and_iso15530_3_from_a_project(tmp_path):
     assert values == [20.0031, 19.9987, 20.0012, 20.0004, 19.9995]
     spec = tmp_path / "iso.yaml"
     spec.write_text("measurand: sphere diameter\nunit: mm\ncalibrated_value: 20.001\nu_cal: 0.0005\nk: 2\n")
-    proc = subprocess.run([sys.executable, "-m", "camcmm", "uncertainty", "iso15530-3", str(spec), "--project",
-                           str(project), "--result", str(rid), "--path", "diameters[]", "--json"],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "camcmm",
+            "uncertainty",
+            "iso15530-3",
+            str(spec),
+            "--project",
+            str(project),
+            "--result",
+            str(rid),
+            "--path",
+            "diameters[]",
+            "--json",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)
     mean = sum(values) / 5

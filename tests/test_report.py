@@ -40,23 +40,35 @@ def small_png() -> bytes:
 
 
 def _sample(small_png) -> Report:
-    r = Report("VDI/VDE 2634-2 acceptance test", subtitle="Stereo FP",
-               meta={"date": "2025-06-01", "operator": "A. Müller"})
+    r = Report(
+        "VDI/VDE 2634-2 acceptance test", subtitle="Stereo FP", meta={"date": "2025-06-01", "operator": "A. Müller"}
+    )
     s = r.section("Probing error form P_F")
     s.paragraph("Seven positions in the measuring volume.")
     s.keyvalues({"MPE": "0.186 mm", "Sphere": "S1 (25.0012 mm)"})
-    s.table(columns=["Position", "P_F [mm]", "Points used"],
-            rows=[[1, 0.1234, 18001], [2, "0.0987", 17654], [3, None, 0]],
-            caption="Per position")
+    s.table(
+        columns=["Position", "P_F [mm]", "Points used"],
+        rows=[[1, 0.1234, 18001], [2, "0.0987", 17654], [3, None, 0]],
+        caption="Per position",
+    )
     s.figure(small_png, caption="P_F per position")
-    s.verdict(label="P_F", simple="pass", guarded="inconclusive", value="0.120 mm", limit="0.186 mm",
-              uncertainty="0.020 mm")
+    s.verdict(
+        label="P_F", simple="pass", guarded="inconclusive", value="0.120 mm", limit="0.186 mm", uncertainty="0.020 mm"
+    )
     s.verdict(label="P_S", simple="fail", guarded="fail", value="0.220 mm", limit="0.100 mm")
     s.warning("Position 3 has no points on the sphere.")
-    r.provenance(software="camcmm 0.1.0", plugins=[{"id": "fit.sphere", "version": "0.1.0"}],
-                 inputs=[{"file": "pos1.ply", "sha256": "a" * 64}], extra={"seed": 7})
-    r.data = {"verdict": "fail", "values": np.array([0.1, 0.2]), "undefined": float("nan"),
-              "nested": {"k": [1, 2, {"x": "y"}]}}
+    r.provenance(
+        software="camcmm 0.1.0",
+        plugins=[{"id": "fit.sphere", "version": "0.1.0"}],
+        inputs=[{"file": "pos1.ply", "sha256": "a" * 64}],
+        extra={"seed": 7},
+    )
+    r.data = {
+        "verdict": "fail",
+        "values": np.array([0.1, 0.2]),
+        "undefined": float("nan"),
+        "nested": {"k": [1, 2, {"x": "y"}]},
+    }
     return r
 
 
@@ -81,11 +93,14 @@ def test_json_file_is_to_dict(written):
     doc = json.loads(Path(paths["json"]).read_text(encoding="utf-8"))
     assert doc == r.to_dict()
     assert doc["title"] == "VDI/VDE 2634-2 acceptance test" and doc["meta"]["operator"] == "A. Müller"
-    assert doc["data"] == {"verdict": "fail", "values": [0.1, 0.2], "undefined": None,
-                           "nested": {"k": [1, 2, {"x": "y"}]}}
+    assert doc["data"] == {
+        "verdict": "fail",
+        "values": [0.1, 0.2],
+        "undefined": None,
+        "nested": {"k": [1, 2, {"x": "y"}]},
+    }
     blocks = doc["sections"][0]["blocks"]
-    assert [b["type"] for b in blocks] == ["paragraph", "keyvalues", "table", "figure", "verdict", "verdict",
-                                           "warning"]
+    assert [b["type"] for b in blocks] == ["paragraph", "keyvalues", "table", "figure", "verdict", "verdict", "warning"]
     table = blocks[2]
     assert table["rows"] == [[1, 0.1234, 18001], [2, "0.0987", 17654], [3, None, 0]]
     assert table["align"] == ["right", "right", "right"]
@@ -104,6 +119,7 @@ def test_figure_hash_is_that_of_the_embedded_png(written, small_png):
     assert fig["sha256"] == hashlib.sha256(small_png).hexdigest()
     html_text = Path(paths["html"]).read_text(encoding="utf-8")
     import base64
+
     uris = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html_text)
     assert [hashlib.sha256(base64.b64decode(u)).hexdigest() for u in uris] == [fig["sha256"]]
 
@@ -112,9 +128,27 @@ def test_figure_hash_is_that_of_the_embedded_png(written, small_png):
 def test_html_has_every_cell_and_verdict_and_nothing_external(written):
     r, paths, _ = written
     h = Path(paths["html"]).read_text(encoding="utf-8")
-    for cell in ["Position", "P_F [mm]", "Points used", "1", "0.1234", "18001", "0.0987", "17654", "\u2014",
-                 "Per position", "MPE", "0.186 mm", "S1 (25.0012 mm)", "A. Müller", "pos1.ply", "a" * 64,
-                 "fit.sphere", "Seven positions in the measuring volume.", "Position 3 has no points on the sphere."]:
+    for cell in [
+        "Position",
+        "P_F [mm]",
+        "Points used",
+        "1",
+        "0.1234",
+        "18001",
+        "0.0987",
+        "17654",
+        "\u2014",
+        "Per position",
+        "MPE",
+        "0.186 mm",
+        "S1 (25.0012 mm)",
+        "A. Müller",
+        "pos1.ply",
+        "a" * 64,
+        "fit.sphere",
+        "Seven positions in the measuring volume.",
+        "Position 3 has no points on the sphere.",
+    ]:
         assert cell in h, cell
     for word in ("pass", "inconclusive", "fail", "0.120 mm", "0.020 mm", "0.220 mm"):
         assert word in h
@@ -169,6 +203,7 @@ def test_figures_side_by_side_when_they_fit(small_png):
 
 def test_matplotlib_figure_and_png_file_are_accepted(tmp_path, small_png):
     from matplotlib.figure import Figure
+
     fig = Figure(figsize=(3, 2))
     fig.add_subplot().plot([0, 1], [1, 0])
     (tmp_path / "f.png").write_bytes(small_png)
@@ -185,10 +220,26 @@ def test_pdf_is_valid_and_has_the_table_values(written):
     pdf = Path(paths["pdf"]).read_bytes()
     assert pdf.startswith(b"%PDF-") and pdf.rstrip().endswith(b"%%EOF")
     text = _pdf_text(paths["pdf"])
-    for cell in ["VDI/VDE 2634-2 acceptance test", "Probing error form P_F", "Per position", "0.1234",
-                 "18001", "0.0987", "17654", "0.186 mm", "A. Müller", "P_F per position", "PASS",
-                 "INCONCLUSIVE", "FAIL", "0.020 mm", "Position 3 has no points on the sphere.", "a" * 64,
-                 "fit.sphere", "page 1 of"]:
+    for cell in [
+        "VDI/VDE 2634-2 acceptance test",
+        "Probing error form P_F",
+        "Per position",
+        "0.1234",
+        "18001",
+        "0.0987",
+        "17654",
+        "0.186 mm",
+        "A. Müller",
+        "P_F per position",
+        "PASS",
+        "INCONCLUSIVE",
+        "FAIL",
+        "0.020 mm",
+        "Position 3 has no points on the sphere.",
+        "a" * 64,
+        "fit.sphere",
+        "page 1 of",
+    ]:
         assert cell in text, cell
 
 
@@ -240,7 +291,9 @@ def test_input_hash_is_computed_from_the_file(tmp_path):
     f = tmp_path / "scan.ply"
     f.write_bytes(b"ply\nformat ascii 1.0\n")
     r = Report("t").provenance(inputs=[{"file": str(f)}, {"file": str(f)}])
-    assert r.to_dict()["provenance"]["inputs"] == [{"file": str(f), "sha256": hashlib.sha256(f.read_bytes()).hexdigest()}]
+    assert r.to_dict()["provenance"]["inputs"] == [
+        {"file": str(f), "sha256": hashlib.sha256(f.read_bytes()).hexdigest()}
+    ]
 
 
 def test_failed_render_writes_nothing(tmp_path, small_png, monkeypatch):
@@ -251,6 +304,7 @@ def test_failed_render_writes_nothing(tmp_path, small_png, monkeypatch):
 
     def boom(self):
         raise RuntimeError("disk full")
+
     monkeypatch.setattr(Report, "render_pdf", boom)
     with pytest.raises(RuntimeError):
         r.write(tmp_path)
@@ -259,15 +313,18 @@ def test_failed_render_writes_nothing(tmp_path, small_png, monkeypatch):
 
 
 def test_importing_report_loads_no_plotting_or_pdf_library():
-    code = ("import sys, camcmm.report; r = camcmm.report.Report('t'); r.section('s').table(['a'], [[1]]);"
-            "r.to_dict(); r.render_html();"
-            "print(','.join(m for m in ('matplotlib', 'reportlab') if m in sys.modules))")
+    code = (
+        "import sys, camcmm.report; r = camcmm.report.Report('t'); r.section('s').table(['a'], [[1]]);"
+        "r.to_dict(); r.render_html();"
+        "print(','.join(m for m in ('matplotlib', 'reportlab') if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
 
 
 def test_cell_text_keeps_certified_digits_and_shortens_computed_ones():
     from camcmm.report.blocks import text
+
     assert text(300.0451) == "300.0451"  # a certified length keeps its 0.1 µm digit
     assert text(0.1 + 0.2) == "0.3" and text(0.189432123456) == "0.1894321"
     assert text(np.int64(12345678)) == "12345678" and text(np.float32(0.1)) == "0.1"
@@ -277,6 +334,7 @@ def test_cell_text_keeps_certified_digits_and_shortens_computed_ones():
 
 def test_unwritable_directory_is_a_one_line_error(tmp_path):
     from camcmm.errors import CamcmmError
+
     blocker = tmp_path / "file"
     blocker.write_text("x")
     with pytest.raises(CamcmmError, match="cannot write the report into"):

@@ -12,8 +12,8 @@ import pytest
 
 from camcmm.errors import InputError
 from camcmm.report import charts
-from camcmm.report.charts import _subsample
 from camcmm.report.blocks import PNG_SIGNATURE, png_size
+from camcmm.report.charts import _subsample
 
 
 def _cap(n: int, radius: float = 12.5, cap_deg: float = 70.0, centre=(10.0, -5.0, 30.0), seed: int = 0):
@@ -115,8 +115,14 @@ def test_same_input_same_png():
 
 
 def test_bar_chart_and_histogram():
-    png = charts.bar_chart([f"pos {i}" for i in range(1, 8)], [0.1, -0.05, 0.2, None, 0.12, 0.18, 0.01],
-                           limit=0.186, unit="mm", title="P_F", errors=[0.01] * 7)
+    png = charts.bar_chart(
+        [f"pos {i}" for i in range(1, 8)],
+        [0.1, -0.05, 0.2, None, 0.12, 0.18, 0.01],
+        limit=0.186,
+        unit="mm",
+        title="P_F",
+        errors=[0.01] * 7,
+    )
     _assert_png(png)
     assert png.info["n_missing"] == 1 and png.info["n_beyond_limit"] == 1
     png = charts.bar_chart(["a", "b"], [1.0, 2.0], limit=[1.5, 2.5])
@@ -162,10 +168,12 @@ def test_charts_work_headless_without_pyplot():
     # backend, so they still work (as on a server or in a worker thread).
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["MPLBACKEND"] = "TkAgg"
-    code = ("import sys, numpy as np; from camcmm.report import charts;"
-            "png = charts.histogram(np.arange(10.0));"
-            "assert png[:8] == b'\\x89PNG\\r\\n\\x1a\\n';"
-            "print('pyplot' if 'matplotlib.pyplot' in sys.modules else 'ok')")
+    code = (
+        "import sys, numpy as np; from camcmm.report import charts;"
+        "png = charts.histogram(np.arange(10.0));"
+        "assert png[:8] == b'\\x89PNG\\r\\n\\x1a\\n';"
+        "print('pyplot' if 'matplotlib.pyplot' in sys.modules else 'ok')"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"

@@ -45,8 +45,15 @@ def test_roots_allow_the_project_and_the_data_roots_only(tree):
     assert r.check(tree.proj / "new" / "folder") == (tree.proj / "new" / "folder").resolve()  # not there yet
     assert r.check("sub/out") == (tree.proj / "sub" / "out").resolve()  # relative: from the project folder
     assert r.check(str(tree.proj)) == tree.proj.resolve()
-    for bad in (tree.outside / "secret.xyz", tree.proj / ".." / "outside" / "secret.xyz", "../outside",
-                "/etc/passwd", "~", str(tree.outside) + "/", f'"{tree.outside}"'):
+    for bad in (
+        tree.outside / "secret.xyz",
+        tree.proj / ".." / "outside" / "secret.xyz",
+        "../outside",
+        "/etc/passwd",
+        "~",
+        str(tree.outside) + "/",
+        f'"{tree.outside}"',
+    ):
         with pytest.raises(InputError) as e:
             r.check(bad)
         msg = str(e.value)
@@ -74,20 +81,32 @@ def test_a_missing_data_root_is_refused(tmp_path):
 
 def test_plugin_path_parameters_and_inputs_are_confined(tree):
     P = SimpleNamespace
-    spec = P(parameters=[P(name="out", type="str"), P(name="save", type="str"), P(name="outliers", type="str"),
-                         P(name="voxel", type="float"), P(name="cti", type="str", path=True)],
-             inputs=[P(name="cloud", type="pointcloud"), P(name="sequence", type="json"), P(name="csv", type="file")])
+    spec = P(
+        parameters=[
+            P(name="out", type="str"),
+            P(name="save", type="str"),
+            P(name="outliers", type="str"),
+            P(name="voxel", type="float"),
+            P(name="cti", type="str", path=True),
+        ],
+        inputs=[P(name="cloud", type="pointcloud"), P(name="sequence", type="json"), P(name="csv", type="file")],
+    )
     assert [is_path_param(p) for p in spec.parameters] == [True, True, False, False, True]
     params, inputs = tree.roots.check_run(
-        spec, {"out": "patterns", "save": "", "outliers": "/etc/passwd", "voxel": 2},
-        {"cloud": "7", "sequence": "[1, 2]", "csv": str(tree.data / "scan.xyz")}, item_types=("pointcloud",))
+        spec,
+        {"out": "patterns", "save": "", "outliers": "/etc/passwd", "voxel": 2},
+        {"cloud": "7", "sequence": "[1, 2]", "csv": str(tree.data / "scan.xyz")},
+        item_types=("pointcloud",),
+    )
     assert params["out"] == str((tree.proj / "patterns").resolve())  # written into the project, not the cwd
     assert params["outliers"] == "/etc/passwd" and params["save"] == ""  # not paths: left alone
     assert inputs == {"cloud": "7", "sequence": "[1, 2]", "csv": str((tree.data / "scan.xyz").resolve())}
-    for params, inputs, culprit in (({"out": str(tree.outside)}, {}, "parameter 'out'"),
-                                    ({"cti": "/usr/lib/x.cti"}, {}, "parameter 'cti'"),
-                                    ({}, {"csv": str(tree.outside / "secret.xyz")}, "input 'csv'"),
-                                    ({}, {"sequence": "../outside/secret.xyz"}, "input 'sequence'")):
+    for params, inputs, culprit in (
+        ({"out": str(tree.outside)}, {}, "parameter 'out'"),
+        ({"cti": "/usr/lib/x.cti"}, {}, "parameter 'cti'"),
+        ({}, {"csv": str(tree.outside / "secret.xyz")}, "input 'csv'"),
+        ({}, {"sequence": "../outside/secret.xyz"}, "input 'sequence'"),
+    ):
         with pytest.raises(InputError) as e:
             tree.roots.check_run(spec, params, inputs, item_types=("pointcloud",))
         assert str(e.value).startswith(culprit) and "outside the folders" in str(e.value)
@@ -97,7 +116,7 @@ def test_redact_removes_quoted_content_and_keeps_the_name():
     msg = "secret.xyz line 1: expected 3 numeric columns separated by spaces but found 'TOPSECRET-9f3a 1 2'"
     out = redact(msg, keep=("secret.xyz",))
     assert SECRET not in out and out.startswith("secret.xyz line 1") and "'…'" in out
-    assert redact("PLY: unknown keyword \"root:x:0:0\"") == "PLY: unknown keyword '…'"
+    assert redact('PLY: unknown keyword "root:x:0:0"') == "PLY: unknown keyword '…'"
     assert redact("'scan.xyz' is empty", keep=("scan.xyz",)) == "'scan.xyz' is empty"
 
 
@@ -128,11 +147,18 @@ def test_serve_refuses_bad_options_in_one_line(tmp_path):
     """One line on stderr and a non-zero exit, before any project or server is made."""
     env = dict(os.environ)
     env.pop("CAMCMM_TOKEN", None)
-    for args, words in ((["--port", "0", "--host", "0.0.0.0", "--no-token"], "--no-token: refused"),
-                        (["--port", "0", "--data-root", str(tmp_path / "nowhere")], "no such folder"),
-                        (["--port", "99999"], "99999: a port is 0")):
-        r = subprocess.run([sys.executable, "-m", "camcmm.cli.main", "serve", "--project", str(tmp_path / "p"), *args],
-                           capture_output=True, text=True, timeout=60, env=env)
+    for args, words in (
+        (["--port", "0", "--host", "0.0.0.0", "--no-token"], "--no-token: refused"),
+        (["--port", "0", "--data-root", str(tmp_path / "nowhere")], "no such folder"),
+        (["--port", "99999"], "99999: a port is 0"),
+    ):
+        r = subprocess.run(
+            [sys.executable, "-m", "camcmm.cli.main", "serve", "--project", str(tmp_path / "p"), *args],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            env=env,
+        )
         assert r.returncode != 0 and words in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1, r.stderr
         assert not (tmp_path / "p").exists()
@@ -184,8 +210,14 @@ def test_guard_refuses_other_origins_even_with_the_token():
     g = Guard(token, allowed_origins=["https://lab.example"])
     ok = {"Cookie": f"{g.cookie_name}={token}", "Upgrade": "websocket"}
     assert _check(g, "/ws", {**ok, "Origin": "http://127.0.0.1:8080"}) is None
-    for origin in ("http://127.0.0.1:8081", "http://localhost:8080", "https://evil.example", "null",
-                   "http://127.0.0.1.evil.example:8080", "file://"):
+    for origin in (
+        "http://127.0.0.1:8081",
+        "http://localhost:8080",
+        "https://evil.example",
+        "null",
+        "http://127.0.0.1.evil.example:8080",
+        "file://",
+    ):
         r = _check(g, "/ws", {**ok, "Origin": origin})
         assert r.status == 403 and b"another origin" in r.body, origin
         assert _check(g, "/projector/ack?v=1", {**ok, "Origin": origin}, method="POST").status == 403
@@ -238,8 +270,16 @@ def _http(url, method="GET", headers=None):
 
 def test_the_server_answers_nothing_without_its_token(server):
     assert server.token and len(server.token) >= 43 and server.url == f"{server.base}?token={server.token}"
-    for path in ("", "index.html", "projector", "projector/state", "projector/pattern.png", "ws",
-                 "wz-downloads/report.html", "assets/x.js"):
+    for path in (
+        "",
+        "index.html",
+        "projector",
+        "projector/state",
+        "projector/pattern.png",
+        "ws",
+        "wz-downloads/report.html",
+        "assets/x.js",
+    ):
         status, _, body = _http(server.base + path)
         assert status == 403 and b"token" in body and len(body) < 200, (path, status, body)
     assert _http(server.base + "projector/ack?v=1", "POST")[0] == 403
@@ -259,9 +299,10 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server):
         own = server.base.rstrip("/")
         results = {}
         async with aiohttp.ClientSession() as http:
-            for name, headers in (("no token", {"Origin": own}),
-                                  ("other origin", {"Origin": "http://127.0.0.1:1",
-                                                    "Authorization": f"token {server.token}"})):
+            for name, headers in (
+                ("no token", {"Origin": own}),
+                ("other origin", {"Origin": "http://127.0.0.1:1", "Authorization": f"token {server.token}"}),
+            ):
                 try:
                     async with http.ws_connect(ws_url, headers=headers):
                         results[name] = "open"
@@ -272,8 +313,13 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server):
             hdr = {"Origin": own, "Authorization": f"token {server.token}"}
             for name, secret in (("default secret", "wslink-secret"), ("token", server.token)):
                 async with http.ws_connect(ws_url, headers=hdr) as ws:
-                    hello = {"wslink": "1.0", "id": "system:c0:0", "method": "wslink.hello",
-                             "args": [{"secret": secret}], "kwargs": {}}
+                    hello = {
+                        "wslink": "1.0",
+                        "id": "system:c0:0",
+                        "method": "wslink.hello",
+                        "args": [{"secret": secret}],
+                        "kwargs": {},
+                    }
                     await ws.send_bytes(_wslink_frame(hello))
                     msg = await ws.receive(timeout=20)
                     results[name] = _wslink_reply(msg)
@@ -314,10 +360,14 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
     server.state.ready()
     state, ctrl = server.state, server.controller
     try:
+
         async def steps():
             out = {}
-            for name, path in (("outside", tree.outside / "secret.xyz"), ("dotdot", "../outside/secret.xyz"),
-                               ("passwd", "/etc/passwd")):
+            for name, path in (
+                ("outside", tree.outside / "secret.xyz"),
+                ("dotdot", "../outside/secret.xyz"),
+                ("passwd", "/etc/passwd"),
+            ):
                 state.error_message = ""
                 await ctrl.import_server_path(str(path))
                 out[name] = state.error_message
@@ -332,8 +382,9 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
             # a plugin form: an output folder outside is refused before the plugin runs
             state.error_message = ""
             n_results = len(state.results)
-            await ctrl.run_plugin_form("fringe.patterns", {"out": str(tree.outside / "patterns")},
-                                       {"sequence": "seq.yaml"})
+            await ctrl.run_plugin_form(
+                "fringe.patterns", {"out": str(tree.outside / "patterns")}, {"sequence": "seq.yaml"}
+            )
             out["plugin"], out["ran"] = state.error_message, len(state.results) - n_results
             return out
 
@@ -348,8 +399,13 @@ def test_the_page_reaches_only_the_roots_in_each_of_the_three_places(tree):
 
         # the Calibration page's folder on the server
         page = server.pages["calibration"]
-        req = {"mode": "camera", "source": "folder", "folder": str(tree.outside), "left_pattern": "*",
-               "board": "chessboard:9x6:25"}
+        req = {
+            "mode": "camera",
+            "source": "folder",
+            "folder": str(tree.outside),
+            "left_pattern": "*",
+            "board": "chessboard:9x6:25",
+        }
         assert asyncio.run(page.run_async(req)) is None
         assert "server folder" in state.cal_error and "outside the folders" in state.cal_error, state.cal_error
         (tree.proj / "boards").symlink_to(tree.outside)  # a link in the project to a folder elsewhere
@@ -377,8 +433,27 @@ def test_https_with_certfile_and_keyfile(tmp_path):
     if not shutil.which("openssl"):
         pytest.skip("openssl is absent: no certificate to make")
     cert, key = tmp_path / "c.pem", tmp_path / "k.pem"
-    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", str(key), "-out", str(cert),
-                    "-days", "1", "-subj", "/CN=127.0.0.1"], check=True, capture_output=True, timeout=60)
+    subprocess.run(
+        [
+            "openssl",
+            "req",
+            "-x509",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            str(key),
+            "-out",
+            str(cert),
+            "-days",
+            "1",
+            "-subj",
+            "/CN=127.0.0.1",
+        ],
+        check=True,
+        capture_output=True,
+        timeout=60,
+    )
     from camcmm.gui.process import GuiProcess
 
     s = GuiProcess(tmp_path / "proj", args=("--certfile", cert, "--keyfile", key))

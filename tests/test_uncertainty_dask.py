@@ -18,8 +18,9 @@ DATA = Path(__file__).parent / "data" / "uncertainty"
 
 @pytest.fixture(scope="module")
 def cluster():
-    cl = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None, silence_logs=40)
+    cl = distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None, silence_logs=40
+    )
     yield cl
     cl.close()
 
@@ -33,8 +34,9 @@ def _doc():
 
 def test_dask_and_local_give_identical_results(cluster):
     local = mc.run_study(_doc(), iterations=230, seed=7, studies=["convergence", "joint"])
-    remote = mc.run_study(_doc(), iterations=230, seed=7, studies=["convergence", "joint"],
-                          scheduler=cluster.scheduler_address)
+    remote = mc.run_study(
+        _doc(), iterations=230, seed=7, studies=["convergence", "joint"], scheduler=cluster.scheduler_address
+    )
     assert remote["executor"] == "dask" and local["executor"] == "local"
     assert remote["contributions"] == local["contributions"]
     assert remote["combined"] == local["combined"] and remote["expanded"] == local["expanded"]
@@ -50,8 +52,23 @@ def test_cli_with_scheduler(cluster, tmp_path, capsys):
 
     f = tmp_path / "mc.yaml"
     f.write_text(yaml.safe_dump(_doc()))
-    assert main(["uncertainty", "montecarlo", str(f), "--iterations", "80", "--seed", "3",
-                 "--scheduler", cluster.scheduler_address, "--json"]) == 0
+    assert (
+        main(
+            [
+                "uncertainty",
+                "montecarlo",
+                str(f),
+                "--iterations",
+                "80",
+                "--seed",
+                "3",
+                "--scheduler",
+                cluster.scheduler_address,
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     local = mc.run_study(_doc(), iterations=80, seed=3)
     assert out["combined"] == local["combined"] and out["iterations"] == 80

@@ -56,8 +56,10 @@ def test_budget_editor_reproduces_gum_h1_and_the_cli(gui_app):
 def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(gui_app, tmp_path):
     server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
-    rows = [{"name": "a", "u": "3", "c": "1", "dof": "inf", "distribution": "normal"},
-            {"name": "b", "u": "4", "c": "1", "dof": "inf", "distribution": "rectangular"}]
+    rows = [
+        {"name": "a", "u": "3", "c": "1", "dof": "inf", "distribution": "normal"},
+        {"name": "b", "u": "4", "c": "1", "dof": "inf", "distribution": "rectangular"},
+    ]
     page.set_budget("length", "um", 0.95, rows)
     assert page.budget["combined"] == pytest.approx(5.0)
     assert page.budget["k"] == pytest.approx(1.959964, abs=1e-5) and s.unc_b_result["k"] == "1.96"
@@ -90,8 +92,9 @@ def test_budget_store_and_export(gui_app):
     folder = page.offered.folder
     assert (folder / f"budget-{rid}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     again = yaml.safe_load((folder / f"budget-{rid}.yaml").read_text())
-    assert cli_json("uncertainty", "budget", str(folder / f"budget-{rid}.yaml"))["combined"] == \
-        pytest.approx(page.budget["combined"])
+    assert cli_json("uncertainty", "budget", str(folder / f"budget-{rid}.yaml"))["combined"] == pytest.approx(
+        page.budget["combined"]
+    )
     assert len(again["contributions"]) == 3
 
 
@@ -109,8 +112,11 @@ def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(gui_app)
     full = run_mc(page, spec, params)
     assert full is not None, s.unc_error
     # the same numbers as the plugin called directly with the same seed
-    direct = session.host.run(session.host.provider("monte-carlo-uncertainty").id, {"spec": yaml.safe_load(spec)},
-                              {"iterations": 500, "seed": 3, "method": "linear", "studies": ""}).outputs
+    direct = session.host.run(
+        session.host.provider("monte-carlo-uncertainty").id,
+        {"spec": yaml.safe_load(spec)},
+        {"iterations": 500, "seed": 3, "method": "linear", "studies": ""},
+    ).outputs
     for f, u in direct["contributions"].items():
         assert np.allclose(full["contributions"][f], u, rtol=1e-12)
     table = {r["factor"]: r for r in s.unc_mc_rows}
@@ -134,8 +140,13 @@ def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(gui_app)
     # exports: CSV, JSON, PNGs
     names = {l["name"] for l in s.unc_mc_links}
     rid = s.unc_mc_summary["result_id"]
-    assert {f"montecarlo-{rid}.csv", f"montecarlo-{rid}.json", f"montecarlo-{rid}-contributions.png",
-            f"montecarlo-{rid}-convergence.png", f"montecarlo-{rid}-sweep.png"} <= names
+    assert {
+        f"montecarlo-{rid}.csv",
+        f"montecarlo-{rid}.json",
+        f"montecarlo-{rid}-contributions.png",
+        f"montecarlo-{rid}-convergence.png",
+        f"montecarlo-{rid}-sweep.png",
+    } <= names
     csv = (page.offered.folder / f"montecarlo-{rid}.csv").read_text().splitlines()
     assert csv[0].startswith("factor,u_x (um)") and len(csv) == len(s.unc_mc_rows) + 1
     # stored: the row holds the summary, the file every array; a new page shows it again
@@ -163,8 +174,13 @@ def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(gui_app):
 
 
 def test_png_export_draws_the_figure():
-    fig = figs.contributions_figure({"contributions": {"rotation": [9.1, 3.0, 4.0], "focal_length": [1.7, 1, 2]},
-                                     "combined": [9.3, 3.2, 4.5], "unit": "um"})
+    fig = figs.contributions_figure(
+        {
+            "contributions": {"rotation": [9.1, 3.0, 4.0], "focal_length": [1.7, 1, 2]},
+            "combined": [9.3, 3.2, 4.5],
+            "unit": "um",
+        }
+    )
     png = figs.figure_png(fig)
     assert png[:4] == b"\x89PNG" and len(png) > 5000
     assert math.isclose(fig["data"][0]["y"][0], 9.1)

@@ -70,8 +70,13 @@ def test_gum_h1_measured_difference_sub_budget():
     """GUM H.1.3.2: d combines the repeated observations (5.8 nm, 24 dof), the comparator's
     random (3.9 nm, 5 dof) and systematic effects (6.7 nm, 8 dof) to u(d) = 9.7 nm with
     nu(d) = 25.6. From the rounded published components we get 9.68 nm and 25.4 dof."""
-    b = gum.evaluate([{"name": "d_mean", "u": 5.8, "dof": 24}, {"name": "d1", "u": 3.9, "dof": 5},
-                      {"name": "d2", "u": 6.7, "dof": 8}])
+    b = gum.evaluate(
+        [
+            {"name": "d_mean", "u": 5.8, "dof": 24},
+            {"name": "d1", "u": 3.9, "dof": 5},
+            {"name": "d2", "u": 6.7, "dof": 8},
+        ]
+    )
     assert round(b.combined, 1) == 9.7
     assert abs(b.dof_eff - 25.6) < 0.3
 
@@ -89,9 +94,9 @@ def test_thesis_table_32_x_column_does_not_check():
     """u_c(x) = 10.1 um checks; nu_eff = 3 (hence k = 3.18, U = 32.1 um) does not."""
     b = _budget("x")
     assert round(b.combined, 1) == 10.1
-    assert 21 < b.dof_eff < 21.5          # thesis: 3
-    assert round(b.k, 2) == 2.08          # thesis: 3.18
-    assert round(b.expanded, 1) == 21.0   # thesis: 32.1
+    assert 21 < b.dof_eff < 21.5  # thesis: 3
+    assert round(b.k, 2) == 2.08  # thesis: 3.18
+    assert round(b.expanded, 1) == 21.0  # thesis: 32.1
     assert round(gum.coverage_factor(3), 2) == 3.18 and round(3.18 * b.combined, 1) == 32.1
     # the stated dof of 3 would follow if the rotation had 2 dof instead of 14
     dofs = list(DOF_32)
@@ -100,9 +105,13 @@ def test_thesis_table_32_x_column_does_not_check():
 
 
 def test_half_width_and_distributions():
-    b = gum.evaluate([{"name": "r", "a": math.sqrt(3), "distribution": "rectangular"},
-                      {"name": "t", "a": math.sqrt(6), "distribution": "triangular"},
-                      {"name": "n", "a": 2.0, "k_a": 2.0}])
+    b = gum.evaluate(
+        [
+            {"name": "r", "a": math.sqrt(3), "distribution": "rectangular"},
+            {"name": "t", "a": math.sqrt(6), "distribution": "triangular"},
+            {"name": "n", "a": 2.0, "k_a": 2.0},
+        ]
+    )
     assert [c.u for c in b.contributions] == pytest.approx([1.0, 1.0, 1.0])
     assert b.dof_eff == math.inf and b.k == pytest.approx(1.959964, abs=1e-6)
     d = b.to_dict()
@@ -118,14 +127,17 @@ def test_welch_satterthwaite_vectorised():
     assert out == pytest.approx([8.0, 4.0])
 
 
-@pytest.mark.parametrize("entry,needle", [
-    ({"name": "focal", "u": -1.0}, "'focal'"),
-    ({"name": "focal"}, "missing standard uncertainty"),
-    ({"name": "rot", "u": 1.0, "dof": 0}, "dof = 0"),
-    ({"name": "rot", "u": 1.0, "dof": -3}, "must be > 0"),
-    ({"name": "p", "u": "abc"}, "not a number"),
-    ({"name": "p", "u": 1.0, "distribution": "cauchy"}, "unknown distribution"),
-])
+@pytest.mark.parametrize(
+    "entry,needle",
+    [
+        ({"name": "focal", "u": -1.0}, "'focal'"),
+        ({"name": "focal"}, "missing standard uncertainty"),
+        ({"name": "rot", "u": 1.0, "dof": 0}, "dof = 0"),
+        ({"name": "rot", "u": 1.0, "dof": -3}, "must be > 0"),
+        ({"name": "p", "u": "abc"}, "not a number"),
+        ({"name": "p", "u": 1.0, "distribution": "cauchy"}, "unknown distribution"),
+    ],
+)
 def test_budget_bad_input_names_the_entry(entry, needle):
     with pytest.raises(InputError) as err:
         gum.evaluate([{"name": "ok", "u": 1.0}, entry])
@@ -139,7 +151,7 @@ def test_budget_cli_json(capsys):
     out = json.loads(capsys.readouterr().out)
     assert {"combined", "dof_eff", "k", "expanded", "coverage_probability", "contributions"} <= set(out)
     assert out["contributions"][0]["dof"] is None and out["contributions"][0]["dof_infinite"] is True
-    uc = math.sqrt(3.1 ** 2 + (1.2 * 1.4) ** 2 + 9.1 ** 2)
+    uc = math.sqrt(3.1**2 + (1.2 * 1.4) ** 2 + 9.1**2)
     assert out["combined"] == pytest.approx(uc)
     assert out["expanded"] == pytest.approx(out["k"] * uc)
     assert out["coverage_probability"] == 0.95
@@ -150,8 +162,11 @@ def test_budget_through_the_host():
     host = PluginHost()
     res = host.run("uncertainty.budget", {"spec": DATA / "budget_thesis_table32_x.yaml"}, {"dof_rounding": "none"})
     assert round(res.outputs["combined"], 1) == 10.1
-    res = host.run("uncertainty.budget", {"spec": {"contributions": [{"name": "a", "u": 1, "dof": 10}]}},
-                   {"coverage_probability": 0.99})
+    res = host.run(
+        "uncertainty.budget",
+        {"spec": {"contributions": [{"name": "a", "u": 1, "dof": 10}]}},
+        {"coverage_probability": 0.99},
+    )
     assert res.outputs["k"] == pytest.approx(3.169, abs=1e-3)
 
 
@@ -173,8 +188,11 @@ def test_budget_of_zeros_warns_that_the_combined_uncertainty_is_zero(tmp_path, c
 
 
 def test_budget_cli_subprocess_text():
-    out = subprocess.run([sys.executable, "-m", "camcmm", "uncertainty", "budget", str(DATA / "budget_gum_h1.yaml")],
-                         capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "camcmm", "uncertainty", "budget", str(DATA / "budget_gum_h1.yaml")],
+        capture_output=True,
+        text=True,
+    )
     assert out.returncode == 0, out.stderr
     assert "U = 92.6" in out.stdout
 
@@ -184,9 +202,9 @@ def test_iso15530_position_a_eq_41():
     r = iso15530.from_dict(yaml.safe_load((DATA / "iso15530_example.yaml").read_text()))
     assert r["n"] == 3 and r["mean"] == pytest.approx(4.999, abs=1e-12)
     assert r["bias"] == pytest.approx(0.0, abs=1e-12)
-    assert r["u_p"] == pytest.approx(math.sqrt(28) * 1e-3)   # s of 4.993, 5.003, 5.001 = 5.29 um
+    assert r["u_p"] == pytest.approx(math.sqrt(28) * 1e-3)  # s of 4.993, 5.003, 5.001 = 5.29 um
     assert r["u_b"] == pytest.approx(r["u_p"] / math.sqrt(3))  # default: standard error of the mean
-    assert r["U"] == pytest.approx(2 * math.sqrt(0.0002 ** 2 + r["u_p"] ** 2 + r["u_b"] ** 2))
+    assert r["U"] == pytest.approx(2 * math.sqrt(0.0002**2 + r["u_p"] ** 2 + r["u_b"] ** 2))
     assert "note" in r  # fewer than the 20 measurements ISO 15530-3 asks for
 
 
@@ -199,12 +217,17 @@ def test_iso15530_thesis_table_41_all_positions(tmp_path):
     assert r["u_cal"] == pytest.approx(0.0002)
     assert round(r["U"] * 1000) == 8
     assert r["mean"] == pytest.approx(5.0016)
-    assert r["U_uncorrected_bias"] == pytest.approx(2 * math.sqrt(0.0002 ** 2 + r["u_p"] ** 2) + abs(r["bias"]))
+    assert r["U_uncorrected_bias"] == pytest.approx(2 * math.sqrt(0.0002**2 + r["u_p"] ** 2) + abs(r["bias"]))
 
 
 def test_iso15530_thermal_u_w():
-    doc = {"calibrated_value": 100.0, "u_cal": 0.0, "measurements": [100.0, 100.0], "u_b": 0,
-           "thermal": {"length": 100.0, "cte": 11.5e-6, "u_cte": 1e-6, "temperature": 21.0, "u_temperature": 0.5}}
+    doc = {
+        "calibrated_value": 100.0,
+        "u_cal": 0.0,
+        "measurements": [100.0, 100.0],
+        "u_b": 0,
+        "thermal": {"length": 100.0, "cte": 11.5e-6, "u_cte": 1e-6, "temperature": 21.0, "u_temperature": 0.5},
+    }
     r = iso15530.from_dict(doc)
     assert r["u_w"] == pytest.approx(100 * math.hypot(1.0 * 1e-6, 11.5e-6 * 0.5))
     assert r["U"] == pytest.approx(2 * r["u_w"])
@@ -218,15 +241,18 @@ def test_iso15530_cli_json(capsys):
     assert {"mean", "bias", "u_cal", "u_p", "u_b", "u_w", "k", "U", "n"} <= set(out)
 
 
-@pytest.mark.parametrize("doc,needle", [
-    ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0]}, "at least two"),
-    ({"calibrated_value": 5, "u_cal": -0.1, "measurements": [5.0, 5.1]}, "u_cal"),
-    ({"calibrated_value": 5, "measurements": [5.0, 5.1]}, "u_cal: missing"),
-    ({"u_cal": 0.1, "measurements": [5.0, 5.1]}, "calibrated_value"),
-    ({"calibrated_value": 5, "u_cal": 0.1}, "measurements: missing"),
-    ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0, 5.1], "u_w": -1}, "u_w"),
-    ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0, 5.1], "k": 0}, "k = 0"),
-])
+@pytest.mark.parametrize(
+    "doc,needle",
+    [
+        ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0]}, "at least two"),
+        ({"calibrated_value": 5, "u_cal": -0.1, "measurements": [5.0, 5.1]}, "u_cal"),
+        ({"calibrated_value": 5, "measurements": [5.0, 5.1]}, "u_cal: missing"),
+        ({"u_cal": 0.1, "measurements": [5.0, 5.1]}, "calibrated_value"),
+        ({"calibrated_value": 5, "u_cal": 0.1}, "measurements: missing"),
+        ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0, 5.1], "u_w": -1}, "u_w"),
+        ({"calibrated_value": 5, "u_cal": 0.1, "measurements": [5.0, 5.1], "k": 0}, "k = 0"),
+    ],
+)
 def test_iso15530_bad_input(doc, needle):
     with pytest.raises(InputError) as err:
         iso15530.from_dict(doc)

@@ -50,13 +50,15 @@ def test_linear_triangulation_matches_opencv_and_svd():
     X_svd = tri.linear_svd(np.stack([P1, P2]), x)
     # normalised coordinates for the fast solver, as the Monte Carlo uses it
     K1, K2 = P1[:, :3], None
-    Kinv = [np.linalg.inv(np.array([[9000, 0, 2012], [0, 9000, 1518], [0, 0, 1.0]])),
-            np.linalg.inv(np.array([[8900, 0, 2000], [0, 8950, 1500], [0, 0, 1.0]]))]
+    Kinv = [
+        np.linalg.inv(np.array([[9000, 0, 2012], [0, 9000, 1518], [0, 0, 1.0]])),
+        np.linalg.inv(np.array([[8900, 0, 2000], [0, 8950, 1500], [0, 0, 1.0]])),
+    ]
     xn = np.stack([(np.c_[x[:, v], np.ones(len(x))] @ Kinv[v].T)[:, :2] for v in range(2)], axis=1)
     Pn = np.stack([Kinv[0] @ P1, Kinv[1] @ P2])
     X_fast = tri.linear(Pn, xn)
     X_svd_n = tri.linear_svd(Pn, xn)
-    assert np.max(np.abs(X_svd - X_cv)) < 1e-6              # eq. 3.2 by SVD = OpenCV's DLT
+    assert np.max(np.abs(X_svd - X_cv)) < 1e-6  # eq. 3.2 by SVD = OpenCV's DLT
     # W = 1 (inhomogeneous) and the homogeneous DLT are different linear estimators: with
     # 0.5 px noise they are at most 0.3 um apart at 300 mm, against a scatter of ~20 um,
     # and the spread of their errors (what the Monte Carlo measures) agrees to 1 %
@@ -95,7 +97,7 @@ def test_inverse_distortion_series_against_opencv():
     pix = np.c_[K[0, 0] * xd + K[0, 2], K[1, 1] * yd + K[1, 2]].reshape(-1, 1, 2)
     cv = cv2.undistortPoints(pix, K, np.array([k[0], k[1], 0, 0, k[2]])).reshape(-1, 2)
     xs, ys = sm.undistort_series(xd, yd, sm.inverse_coefficients(k))
-    assert np.max(np.abs(cv[:, 0] - xs)) * 9049 < 0.01   # px
+    assert np.max(np.abs(cv[:, 0] - xs)) * 9049 < 0.01  # px
     assert np.max(np.abs(cv[:, 0] - xx.ravel())) * 9049 < 1e-3
 
 
@@ -113,7 +115,7 @@ def test_rotation_and_polar_helpers():
         d[i] = 1e-6
         a, b = sm.to_polar(T + d), sm.to_polar(T - d)
         J[:, i] = [(a[1] - b[1]) / 2e-6, (a[2] - b[2]) / 2e-6]
-    assert np.allclose(sm.polar_uncertainty(T, uT), np.sqrt((J ** 2) @ uT ** 2), rtol=1e-6)
+    assert np.allclose(sm.polar_uncertainty(T, uT), np.sqrt((J**2) @ uT**2), rtol=1e-6)
 
 
 def test_analytic_case_monte_carlo_agrees_with_first_order_propagation():
@@ -127,7 +129,7 @@ def test_analytic_case_monte_carlo_agrees_with_first_order_propagation():
     for c in doc["cameras"]:
         c["k"] = [0, 0, 0]
     doc["distributions"] = {f: "normal" for f in mc.FACTORS}
-    doc["uncertainties"]["principal_point"] = [0.5, 0.5]   # no distortion: no effect at all
+    doc["uncertainties"]["principal_point"] = [0.5, 0.5]  # no distortion: no effect at all
     s = mc.setup_from_dict(doc)
     N = 3000
     res = mc.run_factors(s, mc.group_names(s), N, 11)
@@ -170,10 +172,10 @@ def test_studies_outputs():
     assert conv["u"].shape == (len(conv["iterations"]), 3) and conv["iterations"][-1] == 200
     sw = st["sweep"]
     assert sw["u"].shape == (3, 3) and np.allclose(sw["u"][0], 0)
-    assert np.allclose(sw["u"][2], 2 * sw["u"][1], rtol=1e-3)       # linear in the pixel noise (fig. 3.4)
+    assert np.allclose(sw["u"][2], 2 * sw["u"][1], rtol=1e-3)  # linear in the pixel noise (fig. 3.4)
     vm = st["volume_maps"]
     assert vm["points"].shape == (125, 3) and set(vm["factors"]) == set(r["contributions"]) - {"feature_location"}
-    for f, m in vm["factors"].items():
+    for m in vm["factors"].values():
         assert m["errors"].shape == (125, 3) and np.allclose(m["errors"].mean(axis=0), 0, atol=1e-9)
     sp = st["spatial"]
     assert sp["std"].shape == (7, 3) and np.all(np.diff(sp["position"]) > 0)
@@ -187,8 +189,23 @@ def test_cli_json_and_out(tmp_path, capsys):
 
     f = tmp_path / "mc.yaml"
     f.write_text(yaml.safe_dump(_doc()))
-    assert main(["uncertainty", "montecarlo", str(f), "--iterations", "100", "--json",
-                 "--out", str(tmp_path / "out"), "--studies", "volume_maps"]) == 0
+    assert (
+        main(
+            [
+                "uncertainty",
+                "montecarlo",
+                str(f),
+                "--iterations",
+                "100",
+                "--json",
+                "--out",
+                str(tmp_path / "out"),
+                "--studies",
+                "volume_maps",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert {"contributions", "combined", "dof_eff", "k", "expanded", "iterations"} <= set(out)
     assert out["iterations"] == 100 and len(out["combined"]) == 3
@@ -218,16 +235,19 @@ def test_through_the_host():
     assert res.outputs["method"] == "optimal" and len(res.outputs["expanded"]) == 3
 
 
-@pytest.mark.parametrize("change,needle", [
-    ({"stereo": {"baseline": 199.35, "angle_deg": -60}}, "do not overlap"),
-    ({"grid": {"center": [0, 0, -300], "size": 10, "n": 2}}, "behind the camera"),
-    ({"grid": {"size": [2000, 10, 10], "n": [3, 2, 2]}}, "outside its"),
-    ({"uncertainties": {"rotation": [-1e-4, 0, 0]}}, "uncertainties.rotation"),
-    ({"uncertainties": {"rotation": None}}, "uncertainties.rotation: missing"),
-    ({"uncertainties": {"zoom": 1}}, "uncertainties.zoom"),
-    ({"dof": {"rotation": 0}}, "dof.rotation"),
-    ({"uncertainties": {}}, "uncertainties: missing"),
-])
+@pytest.mark.parametrize(
+    "change,needle",
+    [
+        ({"stereo": {"baseline": 199.35, "angle_deg": -60}}, "do not overlap"),
+        ({"grid": {"center": [0, 0, -300], "size": 10, "n": 2}}, "behind the camera"),
+        ({"grid": {"size": [2000, 10, 10], "n": [3, 2, 2]}}, "outside its"),
+        ({"uncertainties": {"rotation": [-1e-4, 0, 0]}}, "uncertainties.rotation"),
+        ({"uncertainties": {"rotation": None}}, "uncertainties.rotation: missing"),
+        ({"uncertainties": {"zoom": 1}}, "uncertainties.zoom"),
+        ({"dof": {"rotation": 0}}, "dof.rotation"),
+        ({"uncertainties": {}}, "uncertainties: missing"),
+    ],
+)
 def test_bad_input(change, needle):
     doc = _doc(**change)
     with pytest.raises(InputError) as err:
@@ -237,12 +257,25 @@ def test_bad_input(change, needle):
 
 def test_calibration_result_as_input():
     K = [[9049.0, 0, 2012], [0, 9049.0, 1518], [0, 0, 1]]
-    sysm = sm.StereoSystem.from_baseline_angle(sm.Camera(9049, 9049, 2012, 1518), sm.Camera(9049, 9049, 2012, 1518),
-                                               199.35, 38.64)
-    cal = {"cameras": [{"camera_matrix": K, "dist_coeffs": [-0.13, 0.2, 0, 0, 0], "image_size": [4024, 3036],
-                        "std_intrinsics": [0.82, 0.84, 1.0, 1.0, 0.001, 0.03, 1e-5, 1e-5, 0]}] * 2,
-           "R": sysm.R.tolist(), "T": sysm.T.tolist(), "std_extrinsics": [1.8e-4, 1.5e-4, 0.7e-4, 0.013, 0.008, 0.027],
-           "dof": 2244, "feature_location": 0.1}
+    sysm = sm.StereoSystem.from_baseline_angle(
+        sm.Camera(9049, 9049, 2012, 1518), sm.Camera(9049, 9049, 2012, 1518), 199.35, 38.64
+    )
+    cal = {
+        "cameras": [
+            {
+                "camera_matrix": K,
+                "dist_coeffs": [-0.13, 0.2, 0, 0, 0],
+                "image_size": [4024, 3036],
+                "std_intrinsics": [0.82, 0.84, 1.0, 1.0, 0.001, 0.03, 1e-5, 1e-5, 0],
+            }
+        ]
+        * 2,
+        "R": sysm.R.tolist(),
+        "T": sysm.T.tolist(),
+        "std_extrinsics": [1.8e-4, 1.5e-4, 0.7e-4, 0.013, 0.008, 0.027],
+        "dof": 2244,
+        "feature_location": 0.1,
+    }
     r = mc.run_study({"calibration": cal, "grid": {"size": 40, "n": 4}}, iterations=60, seed=0)
     assert set(r["contributions"]) == set(mc.FACTORS)
     assert r["factor_dof"]["rotation"] == 2244 and r["factor_dof"]["feature_location"] == math.inf

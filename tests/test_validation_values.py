@@ -25,6 +25,7 @@ from cliasserts import refused
 def _no_nan(text: str):
     def refuse(name):
         raise ValueError(f"{name} is not JSON")
+
     return json.loads(text, parse_constant=refuse)
 
 
@@ -34,47 +35,59 @@ MESH = {"type": "mesh", "vertices": [[0, 0, 0], [10, 0, 0], [0, 10, 0]], "faces"
 
 
 def _scene(tmp_path, **changes):
-    doc = {"name": "validation", "seed": 3,
-           "artefacts": [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0}],
-           "rig": {"preset": "stereo_fringe", "image_size": [64, 48]}, "render": {"supersample": 1},
-           "sequence": SEQ, **changes}
+    doc = {
+        "name": "validation",
+        "seed": 3,
+        "artefacts": [{"type": "sphere", "center": [0, 0, 0], "diameter": 20.0}],
+        "rig": {"preset": "stereo_fringe", "image_size": [64, 48]},
+        "render": {"supersample": 1},
+        "sequence": SEQ,
+        **changes,
+    }
     p = tmp_path / "scene.yaml"
     p.write_text(yaml.safe_dump(doc, sort_keys=False))
     return p
 
 
-@pytest.mark.parametrize("changes,needle", [
-    ({"artefacts": [{"type": "sphere", "diameter": 0}]}, "artefacts[0].diameter 0 must be a finite number > 0"),
-    ({"artefacts": [{"type": "sphere", "diameter": -20}]}, "artefacts[0].diameter -20 must be"),
-    ({"artefacts": [{"type": "sphere", "diameter": math.nan}]}, "artefacts[0].diameter nan is not a finite number"),
-    ({"artefacts": [{"type": "ball_bar", "length": 50, "sphere_diameter": 0}]}, "artefacts[0].sphere_diameter 0"),
-    ({"artefacts": [{"type": "flat", "length": 150, "width": -60}]}, "artefacts[0].width -60"),
-    ({"artefacts": [{**MESH, "scale": 0}]}, "artefacts[0].scale 0 must be a finite number > 0"),
-    ({"artefacts": [{"type": "sphere", "diameter": 20, "center": [0, math.inf, 0]}]},
-     "artefacts[0].center[1] inf is not a finite number"),
-    ({"sensor": {"read_noise": -10}}, "sensor.read_noise -10 must be >= 0"),
-    ({"sensor": {"full_well": 0}}, "sensor.full_well 0 must be > 0"),
-    ({"sensor": {"bits": 2.5}}, "sensor.bits 2.5"),
-    ({"lighting": {"ambient": -0.1}}, "lighting.ambient -0.1 must be >= 0"),
-    ({"errors": {"projector_gamma": 0}}, "errors.projector_gamma 0 must be a finite number > 0"),
-    ({"errors": {"baseline": {"relative": math.nan}}}, "errors.baseline.relative nan is not a finite number"),
-    ({"seed": -1}, "seed -1 must be a whole number >= 0"),
-    ({"render": {"supersample": 0}}, "render.supersample 0"),
-    ({"rig": {"preset": "stereo_fringe", "image_size": [0, 0]}}, "rig.image_size [0, 0] must be"),
-    ({"rig": {"preset": "stereo_fringe", "image_size": [64, 48], "distance": 0}}, "rig.distance 0"),
-    ({"rig": {"preset": "stereo_fringe", "image_size": [64, 48], "projector_size": [0, 0]}}, "rig.projector_size"),
-    ({"rig": {"preset": "stereo_fringe", "image_size": [16000, 16000]}},
-     "rendering camera1 16000 x 16000 px, camera2 16000 x 16000 px at supersample 1 needs ~"),
-    ({"patterns": ["white"] * 5000}, "patterns: the number of entries = 5000 is more than the limit of 4096"),
-    # wrong types and magnitudes that overflowed inside the renderer
-    ({"artefacts": [{"type": "sphere", "diameter": 1e308}]}, "artefacts[0].diameter 1e+308 is not a finite number"),
-    ({"sensor": {"exposure": 1e6}}, "sensor.exposure 1000000.0 must be >= 0 and <= 1000"),
-    ({"render": "abc"}, "render: expected a mapping"),
-    ({"sensor": [8]}, "sensor: expected a mapping"),
-    ({"errors": {"focal_length": 2.5}}, "errors.focal_length: expected a mapping with relative"),
-    ({"errors": {"focal_length": {"relative": "abc"}}}, "errors.focal_length.relative 'abc'"),
-    ({"errors": {"baseline": {"relative": -1}}}, "errors.baseline.relative -1 must lie between -1 and 1"),
-])
+@pytest.mark.parametrize(
+    "changes,needle",
+    [
+        ({"artefacts": [{"type": "sphere", "diameter": 0}]}, "artefacts[0].diameter 0 must be a finite number > 0"),
+        ({"artefacts": [{"type": "sphere", "diameter": -20}]}, "artefacts[0].diameter -20 must be"),
+        ({"artefacts": [{"type": "sphere", "diameter": math.nan}]}, "artefacts[0].diameter nan is not a finite number"),
+        ({"artefacts": [{"type": "ball_bar", "length": 50, "sphere_diameter": 0}]}, "artefacts[0].sphere_diameter 0"),
+        ({"artefacts": [{"type": "flat", "length": 150, "width": -60}]}, "artefacts[0].width -60"),
+        ({"artefacts": [{**MESH, "scale": 0}]}, "artefacts[0].scale 0 must be a finite number > 0"),
+        (
+            {"artefacts": [{"type": "sphere", "diameter": 20, "center": [0, math.inf, 0]}]},
+            "artefacts[0].center[1] inf is not a finite number",
+        ),
+        ({"sensor": {"read_noise": -10}}, "sensor.read_noise -10 must be >= 0"),
+        ({"sensor": {"full_well": 0}}, "sensor.full_well 0 must be > 0"),
+        ({"sensor": {"bits": 2.5}}, "sensor.bits 2.5"),
+        ({"lighting": {"ambient": -0.1}}, "lighting.ambient -0.1 must be >= 0"),
+        ({"errors": {"projector_gamma": 0}}, "errors.projector_gamma 0 must be a finite number > 0"),
+        ({"errors": {"baseline": {"relative": math.nan}}}, "errors.baseline.relative nan is not a finite number"),
+        ({"seed": -1}, "seed -1 must be a whole number >= 0"),
+        ({"render": {"supersample": 0}}, "render.supersample 0"),
+        ({"rig": {"preset": "stereo_fringe", "image_size": [0, 0]}}, "rig.image_size [0, 0] must be"),
+        ({"rig": {"preset": "stereo_fringe", "image_size": [64, 48], "distance": 0}}, "rig.distance 0"),
+        ({"rig": {"preset": "stereo_fringe", "image_size": [64, 48], "projector_size": [0, 0]}}, "rig.projector_size"),
+        (
+            {"rig": {"preset": "stereo_fringe", "image_size": [16000, 16000]}},
+            "rendering camera1 16000 x 16000 px, camera2 16000 x 16000 px at supersample 1 needs ~",
+        ),
+        ({"patterns": ["white"] * 5000}, "patterns: the number of entries = 5000 is more than the limit of 4096"),
+        # wrong types and magnitudes that overflowed inside the renderer
+        ({"artefacts": [{"type": "sphere", "diameter": 1e308}]}, "artefacts[0].diameter 1e+308 is not a finite number"),
+        ({"sensor": {"exposure": 1e6}}, "sensor.exposure 1000000.0 must be >= 0 and <= 1000"),
+        ({"render": "abc"}, "render: expected a mapping"),
+        ({"sensor": [8]}, "sensor: expected a mapping"),
+        ({"errors": {"focal_length": 2.5}}, "errors.focal_length: expected a mapping with relative"),
+        ({"errors": {"focal_length": {"relative": "abc"}}}, "errors.focal_length.relative 'abc'"),
+        ({"errors": {"baseline": {"relative": -1}}}, "errors.baseline.relative -1 must lie between -1 and 1"),
+    ],
+)
 def test_simulate_refuses_bad_scene_values(tmp_path, capsys, changes, needle):
     out = tmp_path / "out"
     line = refused(capsys, ["simulate", _scene(tmp_path, **changes), "--out", out], needle)
@@ -85,8 +98,11 @@ def test_simulate_refuses_bad_scene_values(tmp_path, capsys, changes, needle):
 def test_simulate_memory_estimate_follows_the_limit(tmp_path, capsys, monkeypatch):
     # 2 x 64 x 48 px at supersample 4: 6144 px x 16 rays x 130 B = 12.8 MB
     monkeypatch.setenv("CAMCMM_MAX_MEMORY_MB", "5")
-    refused(capsys, ["simulate", _scene(tmp_path, render={"supersample": 4}), "--out", tmp_path / "out"],
-            "at supersample 4 needs ~")
+    refused(
+        capsys,
+        ["simulate", _scene(tmp_path, render={"supersample": 4}), "--out", tmp_path / "out"],
+        "at supersample 4 needs ~",
+    )
 
 
 def test_simulate_writes_valid_json_truth(tmp_path, capsys):
@@ -116,12 +132,15 @@ def sphere_file(tmp_path):
     return path
 
 
-@pytest.mark.parametrize("value,needle", [
-    ("-10", "--nominal-radius: parameter 'nominal_radius' = -10.0"),
-    ("0", "--nominal-radius: parameter 'nominal_radius' = 0.0"),
-    ("nan", "--nominal-radius: parameter 'nominal_radius': nan is not finite"),
-    ("inf", "--nominal-radius: parameter 'nominal_radius': inf is not finite"),
-])
+@pytest.mark.parametrize(
+    "value,needle",
+    [
+        ("-10", "--nominal-radius: parameter 'nominal_radius' = -10.0"),
+        ("0", "--nominal-radius: parameter 'nominal_radius' = 0.0"),
+        ("nan", "--nominal-radius: parameter 'nominal_radius': nan is not finite"),
+        ("inf", "--nominal-radius: parameter 'nominal_radius': inf is not finite"),
+    ],
+)
 def test_fit_nominal_radius_through_the_declaration(sphere_file, capsys, value, needle):
     refused(capsys, ["fit", "sphere", sphere_file, f"--nominal-radius={value}"], needle)
     refused(capsys, ["fit", "sphere", sphere_file, "--extract", f"--nominal-radius={value}"], needle)
@@ -130,7 +149,7 @@ def test_fit_nominal_radius_through_the_declaration(sphere_file, capsys, value, 
 def test_fit_nominal_radius_still_works(sphere_file, capsys):
     assert main(["fit", "sphere", str(sphere_file), "--nominal-radius", "24.9", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["radius"] == pytest.approx(25.0, abs=1e-9)   # exact points on the sphere
+    assert out["radius"] == pytest.approx(25.0, abs=1e-9)  # exact points on the sphere
     assert out["radius_deviation"] == pytest.approx(0.1, abs=1e-9)
     refused(capsys, ["fit", "plane", sphere_file, "--nominal-radius", "3"], "fit.plane has no nominal radius")
 
@@ -158,14 +177,17 @@ def acceptance_set(tmp_path_factory):
     from camcmm.host import default_host
 
     d = tmp_path_factory.mktemp("accept")
-    default_host().run("virtuallab.acceptance-set", {}, {"directory": str(d), "n_sphere": 2000, "n_ball_bar": 2000,
-                                                          "n_flat": 2000, "noise": 0.01, "seed": 13})
+    default_host().run(
+        "virtuallab.acceptance-set",
+        {},
+        {"directory": str(d), "n_sphere": 2000, "n_ball_bar": 2000, "n_flat": 2000, "noise": 0.01, "seed": 13},
+    )
     return d
 
 
 def test_plan_in_metres_on_mm_files_is_caught_for_the_flat(acceptance_set, capsys):
     plan = yaml.safe_load((acceptance_set / "plan.yaml").read_text())
-    plan["unit"] = "m"                                   # the files are in mm
+    plan["unit"] = "m"  # the files are in mm
     plan["measurements"] = {k: v[:2] for k, v in plan["measurements"].items()}
     path = acceptance_set / "plan_in_metres.yaml"
     path.write_text(yaml.safe_dump(plan))
@@ -180,13 +202,16 @@ def test_plan_in_metres_on_mm_files_is_caught_for_the_flat(acceptance_set, capsy
 
 
 # ---------------------------------------------------------------- board specs
-@pytest.mark.parametrize("spec,needle", [
-    ("chessboard:100000x100000:25", "100000x100000 is more than a board holds"),
-    ("chessboard:0x6:25", "needs at least 2x2 points"),
-    ("circles:7x6:1e9", "1e+09 mm is more than 10000 mm"),
-    ("chessboard:9x6:nan", "must be positive numbers"),
-    ("charuco:30x30:15:11", "30x30 squares hold 450 markers; DICT_5X5_100 has only 100"),
-])
+@pytest.mark.parametrize(
+    "spec,needle",
+    [
+        ("chessboard:100000x100000:25", "100000x100000 is more than a board holds"),
+        ("chessboard:0x6:25", "needs at least 2x2 points"),
+        ("circles:7x6:1e9", "1e+09 mm is more than 10000 mm"),
+        ("chessboard:9x6:nan", "must be positive numbers"),
+        ("charuco:30x30:15:11", "30x30 squares hold 450 markers; DICT_5X5_100 has only 100"),
+    ],
+)
 def test_board_specs_of_impossible_sizes(tmp_path, capsys, spec, needle):
     refused(capsys, ["calibrate", "camera", tmp_path / "none.png", "--board", spec], needle)
 
@@ -207,14 +232,23 @@ def test_budget_dof_does_not_depend_on_the_scale(tmp_path, capsys):
     assert b["combined"] == pytest.approx(a["combined"] * 1e200, rel=1e-12)
 
 
-@pytest.mark.parametrize("command,doc,needle", [
-    ("budget", {"contributions": [{"name": "a", "u": 1e308, "dof": 14}]}, "U = k u_c overflows"),
-    ("iso15530-3", {"calibrated_value": 5, "u_cal": 1e308, "measurements": [5.0, 5.1]}, "U = k u_c overflows"),
-    ("iso15530-3", {"calibrated_value": 5, "u_cal": 0.001, "measurements": [5.0, 5.1], "k": None},
-     "k = None must be a finite number > 0"),
-    ("iso15530-3", {"calibrated_value": 5, "u_cal": 0.001, "measurements": [1e308, -1e308]},
-     "measurements: their mean or spread overflows"),
-])
+@pytest.mark.parametrize(
+    "command,doc,needle",
+    [
+        ("budget", {"contributions": [{"name": "a", "u": 1e308, "dof": 14}]}, "U = k u_c overflows"),
+        ("iso15530-3", {"calibrated_value": 5, "u_cal": 1e308, "measurements": [5.0, 5.1]}, "U = k u_c overflows"),
+        (
+            "iso15530-3",
+            {"calibrated_value": 5, "u_cal": 0.001, "measurements": [5.0, 5.1], "k": None},
+            "k = None must be a finite number > 0",
+        ),
+        (
+            "iso15530-3",
+            {"calibrated_value": 5, "u_cal": 0.001, "measurements": [1e308, -1e308]},
+            "measurements: their mean or spread overflows",
+        ),
+    ],
+)
 def test_uncertainty_overflow_is_one_line(tmp_path, capsys, command, doc, needle):
     (tmp_path / "u.yaml").write_text(yaml.safe_dump(doc))
     refused(capsys, ["uncertainty", command, tmp_path / "u.yaml"], needle)

@@ -17,8 +17,11 @@ from camcmm.host import default_host
 def bad_set(tmp_path_factory):
     d = tmp_path_factory.mktemp("bad")
     host = default_host()
-    host.run("virtuallab.acceptance-set", {}, {"directory": str(d), "n_sphere": 3000, "n_ball_bar": 2500,
-                                                "n_flat": 3000, "noise": 0.01, "seed": 5})
+    host.run(
+        "virtuallab.acceptance-set",
+        {},
+        {"directory": str(d), "n_sphere": 3000, "n_ball_bar": 2500, "n_flat": 3000, "noise": 0.01, "seed": 5},
+    )
     sim = host.algorithm("virtuallab.artefact-cloud")
     # a "sphere" file that holds a flat
     shutil.copy(d / "flat_01.ply", d / "not_a_sphere.ply")
@@ -32,7 +35,7 @@ def bad_set(tmp_path_factory):
     plan["measurements"]["sphere"][2] = "missing_sphere.ply"
     plan["measurements"]["sphere"][4] = "not_a_sphere.ply"
     plan["measurements"]["sphere"][6] = "sphere_in_metres.ply"
-    plan["measurements"]["sphere"][7] = {"file": "sphere_in_metres.ply", "unit": "m"}   # told: fine
+    plan["measurements"]["sphere"][7] = {"file": "sphere_in_metres.ply", "unit": "m"}  # told: fine
     plan["measurements"]["ball_bar"][3] = "one_sphere.ply"
     (d / "bad_plan.yaml").write_text(yaml.safe_dump(plan))
     res = host.run("vdi2634-2", {"plan": d / "bad_plan.yaml"}).outputs
@@ -63,11 +66,14 @@ def test_each_bad_measurement_has_a_clear_one_line_message(bad_set):
 def test_the_others_are_still_evaluated(bad_set):
     _, res = bad_set
     ok = [r for r in res["parameters"]["PS"]["per_measurement"] if r["value"] is not None]
-    assert len(ok) == 7                                # 10 planned, 3 bad (metres with unit: m is fine)
+    assert len(ok) == 7  # 10 planned, 3 bad (metres with unit: m is fine)
     assert len([r for r in res["parameters"]["SD"]["per_measurement"] if r["value"] is not None]) == 6
     assert res["parameters"]["F"]["verdict"] == "pass"
-    told = [r for r in res["parameters"]["PS"]["per_measurement"]
-            if r["file"] == "sphere_in_metres.ply" and r["value"] is not None]
+    told = [
+        r
+        for r in res["parameters"]["PS"]["per_measurement"]
+        if r["file"] == "sphere_in_metres.ply" and r["value"] is not None
+    ]
     assert len(told) == 1 and abs(told[0]["value"]) < 0.02
 
 
@@ -125,12 +131,19 @@ def test_a_ball_bar_sphere_seen_as_a_small_cap_is_flagged():
     """Nearly upright, the upper sphere hides most of the lower one from the sensor: the
     length is still evaluated, with a warning that it is uncertain and why."""
     host = default_host()
-    cloud = host.algorithm("virtuallab.artefact-cloud")(artefact="ball_bar", direction=[0.15, 0, 1], length=49.944,
-                                                         diameter=20.0, noise=0.03, n_points=20000, seed=1)["cloud"]
-    plan = {"standard": "vdi2634-2", "system": {"measuring_volume": [100, 100, 100]},
-            "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
-            "artefacts": {"sphere": {"diameter": 20.001}, "flat": {"length": 150, "width": 60},
-                          "ball_bar": {"length": 49.944, "uncertainty": 0.0008, "sphere_diameter": 20.0}}}
+    cloud = host.algorithm("virtuallab.artefact-cloud")(
+        artefact="ball_bar", direction=[0.15, 0, 1], length=49.944, diameter=20.0, noise=0.03, n_points=20000, seed=1
+    )["cloud"]
+    plan = {
+        "standard": "vdi2634-2",
+        "system": {"measuring_volume": [100, 100, 100]},
+        "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
+        "artefacts": {
+            "sphere": {"diameter": 20.001},
+            "flat": {"length": 150, "width": 60},
+            "ball_bar": {"length": 49.944, "uncertainty": 0.0008, "sphere_diameter": 20.0},
+        },
+    }
     ev = host.load("vdi2634-2").evaluate_measurement(None, "ball_bar", cloud, plan)
     assert ev["u_length"] > 0.0096
     assert "sphere 1 is seen on" in ev["warnings"][0] and "turn the bar towards the sensor" in ev["warnings"][0]

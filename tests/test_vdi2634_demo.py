@@ -46,7 +46,7 @@ def test_demo_contains_a_finished_test(made):
         assert max(ps) - min(ps) > 0.02
         assert [a.id for a in p.artefacts()] == ["vdi2634-2:ball_bar", "vdi2634-2:flat", "vdi2634-2:sphere"]
     names = [m["name"] for m in summary["measurements"]]
-    assert "sphere scan (20 mm ball)" in names          # the original demo clouds are kept
+    assert "sphere scan (20 mm ball)" in names  # the original demo clouds are kept
 
 
 def test_demo_is_not_made_twice(made):

@@ -22,8 +22,15 @@ SIGMA = 0.01
 
 
 def make_set(directory, **kw):
-    params = {"directory": str(directory), "standard": "vdi2634-2", "n_sphere": N_SPHERE, "n_ball_bar": N_BAR,
-              "n_flat": N_FLAT, "noise": SIGMA, **kw}
+    params = {
+        "directory": str(directory),
+        "standard": "vdi2634-2",
+        "n_sphere": N_SPHERE,
+        "n_ball_bar": N_BAR,
+        "n_flat": N_FLAT,
+        "noise": SIGMA,
+        **kw,
+    }
     return default_host().run("virtuallab.acceptance-set", {}, params).outputs
 
 
@@ -51,7 +58,7 @@ def expected_range(n: int, sigma: float, trials: int = 400, seed: int = 0) -> fl
     rng = np.random.default_rng(seed)
     m = (3 * n) // 1000
     x = rng.normal(0, sigma, (trials, n))
-    keep = np.sort(np.abs(x), axis=1)[:, n - m - 1:n - m]      # |x| threshold per trial
+    keep = np.sort(np.abs(x), axis=1)[:, n - m - 1 : n - m]  # |x| threshold per trial
     x = np.where(np.abs(x) <= keep, x, np.nan)
     return float(np.mean(np.nanmax(x, axis=1) - np.nanmin(x, axis=1)))
 
@@ -61,7 +68,7 @@ def test_good_system_passes_with_values_at_the_noise_level(good):
     assert res["standard"] == "vdi2634-2"
     assert res["verdict"] == "pass" and res["verdict_guarded"] == "pass"
     p = res["parameters"]
-    assert abs(p["PS"]["value"]) < 0.01            # u(D) of a partial sphere at 4000 points, sigma 10 um: ~2 um
+    assert abs(p["PS"]["value"]) < 0.01  # u(D) of a partial sphere at 4000 points, sigma 10 um: ~2 um
     assert abs(p["SD"]["value"]) < 0.005
     assert all(len(p[k]["per_measurement"]) == n for k, n in (("PF", 10), ("PS", 10), ("SD", 7), ("F", 6)))
 
@@ -85,7 +92,7 @@ def test_scale_error_shows_in_SD_and_PS_by_the_expected_amounts(scaled):
     for row in p["PS"]["per_measurement"]:
         assert row["value"] == pytest.approx(s * d_r, abs=0.01)
     assert p["SD"]["verdict"] == "fail" and p["PS"]["verdict"] == "fail"
-    assert p["PF"]["verdict"] == "pass" and p["F"]["verdict"] == "pass"   # a scale error leaves form alone
+    assert p["PF"]["verdict"] == "pass" and p["F"]["verdict"] == "pass"  # a scale error leaves form alone
     assert res["verdict"] == "fail" and res["verdict_guarded"] == "fail"
 
 
@@ -135,10 +142,10 @@ def test_guarded_acceptance_beside_the_simple_rule(good):
 def test_test_uncertainty_comes_from_the_certificates(good):
     _, res = good
     p = res["parameters"]
-    assert p["PS"]["U"] == pytest.approx(0.001)        # U(D_r), k = 2
-    assert p["SD"]["U"] == pytest.approx(0.0008)       # U(L_r)
-    assert p["F"]["U"] == pytest.approx(0.0026)        # certified flatness, no U given
-    assert p["PF"]["U"] == 0.0                         # sphere form not certified
+    assert p["PS"]["U"] == pytest.approx(0.001)  # U(D_r), k = 2
+    assert p["SD"]["U"] == pytest.approx(0.0008)  # U(L_r)
+    assert p["F"]["U"] == pytest.approx(0.0026)  # certified flatness, no U given
+    assert p["PF"]["U"] == 0.0  # sphere form not certified
     assert "not certified" in p["PF"]["uncertainty"]["basis"]
 
 
@@ -156,7 +163,7 @@ def test_artefact_rules_are_stated_but_the_evaluation_runs(good, tmp_path):
     res2 = default_host().load("vdi2634-2").summarize(None, plan, res["measurements"])
     failed = {(c["artefact"], c["rule"].split()[0]) for c in res2["artefact_checks"] if not c["ok"]}
     assert ("sphere", "diameter") in failed and ("flat", "length") in failed
-    assert res2["verdict"] == "pass"                    # a broken artefact rule is no verdict
+    assert res2["verdict"] == "pass"  # a broken artefact rule is no verdict
 
 
 def test_plan_errors_name_the_key(good):

@@ -14,13 +14,23 @@ from camcmm.api import RunContext
 from camcmm.host import default_host
 from camcmm_plugins.vdi2634.scaling import ball_plate_lengths, by_radii
 
-L_CAL = [5.942, 7.956, 9.957]      # thesis ch. 4.3, calibrated on a Zeiss F25
-PLAN = {"standard": "vdi2634-3", "system": {"name": "turntable", "measuring_volume": [30, 30, 30]},
-        "mpe": {"PF": 0.06, "PS": 0.03, "SD": 0.04},
-        "artefacts": {"sphere": {"diameter": 10.0, "uncertainty": 0.0008, "k": 2},
-                      "ball_plate": {"sphere_diameter": 5.0, "sphere_diameter_uncertainty": 0.0008,
-                                     "lengths": L_CAL, "uncertainty": 0.0003, "k": 2}},
-        "scaling": {"sphere": "radii", "ball_plate": "lengths"}}
+L_CAL = [5.942, 7.956, 9.957]  # thesis ch. 4.3, calibrated on a Zeiss F25
+PLAN = {
+    "standard": "vdi2634-3",
+    "system": {"name": "turntable", "measuring_volume": [30, 30, 30]},
+    "mpe": {"PF": 0.06, "PS": 0.03, "SD": 0.04},
+    "artefacts": {
+        "sphere": {"diameter": 10.0, "uncertainty": 0.0008, "k": 2},
+        "ball_plate": {
+            "sphere_diameter": 5.0,
+            "sphere_diameter_uncertainty": 0.0008,
+            "lengths": L_CAL,
+            "uncertainty": 0.0003,
+            "k": 2,
+        },
+    },
+    "scaling": {"sphere": "radii", "ball_plate": "lengths"},
+}
 
 
 def test_eqs_4_10_to_4_12_by_hand():
@@ -49,8 +59,17 @@ def test_noise_free_ball_plate_at_scale_037_recovers_the_metric_lengths(ctx):
     sim = default_host().algorithm("virtuallab.artefact-cloud")
     std = default_host().load("vdi2634-3")
     for rotation, tilt in ((0, 0), (135, 0), (0, 30)):
-        cloud = sim(artefact="ball_plate", sensor="turntable", noise=0.0, reconstruction_scale=0.37,
-                    n_points=4000, diameter=5.0, lengths=L_CAL, rotation=rotation, tilt=tilt)["cloud"]
+        cloud = sim(
+            artefact="ball_plate",
+            sensor="turntable",
+            noise=0.0,
+            reconstruction_scale=0.37,
+            n_points=4000,
+            diameter=5.0,
+            lengths=L_CAL,
+            rotation=rotation,
+            tilt=tilt,
+        )["cloud"]
         ev = std.evaluate_measurement(ctx, "ball_plate", cloud, PLAN)
         assert ev["lengths_reconstructed"] == pytest.approx([0.37 * x for x in L_CAL], abs=1e-9)
         assert ev["lengths"] == pytest.approx(L_CAL, abs=1e-9)
@@ -61,8 +80,15 @@ def test_noise_free_ball_plate_at_scale_037_recovers_the_metric_lengths(ctx):
 def test_noise_free_sphere_scaled_by_calibrated_radii(ctx):
     sim = default_host().algorithm("virtuallab.artefact-cloud")
     std = default_host().load("vdi2634-3")
-    cloud = sim(artefact="sphere_with_scale", sensor="turntable", noise=0.0, reconstruction_scale=0.37,
-                n_points=5000, diameter=10.0, scale_diameter=5.0)["cloud"]
+    cloud = sim(
+        artefact="sphere_with_scale",
+        sensor="turntable",
+        noise=0.0,
+        reconstruction_scale=0.37,
+        n_points=5000,
+        diameter=10.0,
+        scale_diameter=5.0,
+    )["cloud"]
     ev = std.evaluate_measurement(ctx, "sphere", cloud, PLAN)
     assert ev["diameter"] == pytest.approx(10.0, abs=1e-9)
     assert ev["values"]["PS"] == pytest.approx(0.0, abs=1e-9)
@@ -73,9 +99,18 @@ def test_noise_free_sphere_scaled_by_calibrated_radii(ctx):
 @pytest.fixture(scope="module")
 def part3(tmp_path_factory):
     d = tmp_path_factory.mktemp("part3")
-    default_host().run("virtuallab.acceptance-set", {}, {"directory": str(d), "standard": "vdi2634-3",
-                                                          "n_sphere": 2500, "n_ball_plate": 2500,
-                                                          "random_scale": True, "seed": 3})
+    default_host().run(
+        "virtuallab.acceptance-set",
+        {},
+        {
+            "directory": str(d),
+            "standard": "vdi2634-3",
+            "n_sphere": 2500,
+            "n_ball_plate": 2500,
+            "random_scale": True,
+            "seed": 3,
+        },
+    )
     return d, default_host().run("vdi2634-3", {"plan": d / "plan.yaml"}).outputs
 
 
@@ -83,16 +118,16 @@ def test_full_part3_set_with_three_repeats(part3):
     d, res = part3
     assert res["standard"] == "vdi2634-3"
     assert res["verdict"] == "pass", res["warnings"]
-    assert set(res["parameters"]) == {"PF", "PS", "SD"}          # no flat planned: no F
+    assert set(res["parameters"]) == {"PF", "PS", "SD"}  # no flat planned: no F
     assert res["repeats"] == 3
     rows = res["parameters"]["SD"]["per_measurement"]
-    assert len(rows) == 7 * 3 * 3                                # 7 orientations x 3 repeats x 3 lengths
+    assert len(rows) == 7 * 3 * 3  # 7 orientations x 3 repeats x 3 lengths
     assert {r["repeat"] for r in rows} == {1, 2, 3}
     assert {r["item"] for r in rows} == {"L1", "L2", "L3"}
     assert len(res["parameters"]["PS"]["per_measurement"]) == 5 * 3
     for length, cal in zip(res["lengths"], L_CAL):
         assert length["n"] == 21 and length["calibrated"] == cal
-        assert abs(length["mean_deviation"]) < 0.002               # noise 8 um, no distortion
+        assert abs(length["mean_deviation"]) < 0.002  # noise 8 um, no distortion
         assert length["U_iso15530_3"] == pytest.approx(2 * math.sqrt((0.0003 / 2) ** 2 + length["std"] ** 2))
     groups = res["repeat_values"]["ball_plate"]
     assert len(groups) == 7 and all(len(g["repeats"]) == 3 for g in groups)
@@ -103,7 +138,7 @@ def test_outlier_rule_is_the_plans(part3):
     d, res = part3
     ev = res["measurements"]["sphere"][0]
     n = ev["n_points"]
-    assert ev["outliers"] == "percent:5"                         # as the thesis, ch. 4.5.1
+    assert ev["outliers"] == "percent:5"  # as the thesis, ch. 4.5.1
     assert ev["n_removed"] == math.floor(5 * n / 100)
     plan = yaml.safe_load((d / "plan.yaml").read_text())
     plan["base_dir"] = str(d)
@@ -150,11 +185,23 @@ def test_scaling_uncertainty_enters_U(part3):
 def test_ball_bar_scaled_by_its_calibrated_spheres(ctx):
     sim = default_host().algorithm("virtuallab.artefact-cloud")
     plan = copy.deepcopy(PLAN)
-    plan["artefacts"]["ball_bar"] = {"length": 20.0, "uncertainty": 0.0005, "sphere_diameter": 5.0,
-                                     "sphere_diameter_uncertainty": 0.0008}
+    plan["artefacts"]["ball_bar"] = {
+        "length": 20.0,
+        "uncertainty": 0.0005,
+        "sphere_diameter": 5.0,
+        "sphere_diameter_uncertainty": 0.0008,
+    }
     plan["scaling"]["ball_bar"] = "radii"
-    cloud = sim(artefact="ball_bar", sensor="turntable", noise=0.0, reconstruction_scale=0.37, n_points=4000,
-                diameter=5.0, length=20.0, direction=[1, 1, 0])["cloud"]
+    cloud = sim(
+        artefact="ball_bar",
+        sensor="turntable",
+        noise=0.0,
+        reconstruction_scale=0.37,
+        n_points=4000,
+        diameter=5.0,
+        length=20.0,
+        direction=[1, 1, 0],
+    )["cloud"]
     ev = default_host().load("vdi2634-3").evaluate_measurement(ctx, "ball_bar", cloud, plan)
     assert ev["length"] == pytest.approx(20.0, abs=1e-9) and ev["scale"] == pytest.approx(1 / 0.37)
 
@@ -177,7 +224,14 @@ def test_part3_plan_errors():
         std.requirements(plan)
     plan2 = {**copy.deepcopy(PLAN), "standard": "vdi2634-2"}
     with pytest.raises(InputError, match="scaling.sphere is 'radii'; part 2 systems measure in mm"):
-        default_host().load("vdi2634-2").requirements({**plan2, "mpe": {"PF": 1, "PS": 1, "SD": 1, "F": 1},
-                                                       "artefacts": {**plan2["artefacts"], "ball_bar": {
-                                                           "length": 50, "uncertainty": 0, "sphere_diameter": 20},
-                                                           "flat": {"length": 100, "width": 50}}})
+        default_host().load("vdi2634-2").requirements(
+            {
+                **plan2,
+                "mpe": {"PF": 1, "PS": 1, "SD": 1, "F": 1},
+                "artefacts": {
+                    **plan2["artefacts"],
+                    "ball_bar": {"length": 50, "uncertainty": 0, "sphere_diameter": 20},
+                    "flat": {"length": 100, "width": 50},
+                },
+            }
+        )

@@ -4,11 +4,10 @@ numbers as the batch run."""
 
 from __future__ import annotations
 
-import camcmm
-
 import pytest
 import yaml
 
+import camcmm
 from camcmm.api import PointCloud, RunContext
 from camcmm.host import default_host
 
@@ -16,9 +15,19 @@ from camcmm.host import default_host
 @pytest.fixture(scope="module")
 def plan_path(tmp_path_factory):
     d = tmp_path_factory.mktemp("protocol")
-    default_host().run("virtuallab.acceptance-set", {}, {"directory": str(d), "n_sphere": 1500, "n_ball_bar": 1500,
-                                                          "n_flat": 2000, "noise": 0.01, "seed": 31,
-                                                          "amplitude": 0.01})
+    default_host().run(
+        "virtuallab.acceptance-set",
+        {},
+        {
+            "directory": str(d),
+            "n_sphere": 1500,
+            "n_ball_bar": 1500,
+            "n_flat": 2000,
+            "noise": 0.01,
+            "seed": 31,
+            "amplitude": 0.01,
+        },
+    )
     return d / "plan.yaml"
 
 
@@ -64,8 +73,9 @@ def test_summarize_accepts_stored_json_evaluations(plan_path):
     res = host.run("vdi2634-2", {"plan": plan_path}).outputs
     stored = to_jsonable(res["measurements"])
     again = host.load("vdi2634-2").summarize(None, plan_path, stored)
-    assert {k: p["value"] for k, p in again["parameters"].items()} == \
-           {k: p["value"] for k, p in res["parameters"].items()}
+    assert {k: p["value"] for k, p in again["parameters"].items()} == {
+        k: p["value"] for k, p in res["parameters"].items()
+    }
 
 
 def test_a_cancelled_run_stops(plan_path):

@@ -39,13 +39,13 @@ def test_noise_free_sphere_lies_exactly_on_its_surface(cloud):
 def test_scanner_sees_only_the_side_facing_all_three_viewpoints(cloud):
     out = cloud(artefact="sphere", diameter=20.0, noise=0.0, n_points=4000)
     pts = out["cloud"].points
-    n = pts / 10.0                                    # unit normals of a sphere at the origin
+    n = pts / 10.0  # unit normals of a sphere at the origin
     for vp in stereo_fringe().viewpoints:
         d = vp - pts
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         assert (np.einsum("ij,ij->i", n, d) >= np.cos(np.radians(75)) - 1e-9).all()
-    assert pts[:, 2].min() > -5.0                      # nothing of the lower half is seen
-    assert pts[:, 2].max() > 9.9                       # the top is
+    assert pts[:, 2].min() > -5.0  # nothing of the lower half is seen
+    assert pts[:, 2].max() > 9.9  # the top is
 
 
 def _blocked_by(points, target, sphere_centre, radius):
@@ -62,14 +62,15 @@ def _blocked_by(points, target, sphere_centre, radius):
 
 
 def test_ball_bar_self_occlusion(cloud):
-    out = cloud(artefact="ball_bar", direction=[0, 0.5, 0.866], length=49.944, diameter=20.0, noise=0.0,
-                n_points=20000, seed=3)
+    out = cloud(
+        artefact="ball_bar", direction=[0, 0.5, 0.866], length=49.944, diameter=20.0, noise=0.0, n_points=20000, seed=3
+    )
     pts, lab = out["cloud"].points, out["cloud"].fields["primitive"]
     s1, s2 = (np.array(s["center"]) for s in out["truth"]["spheres"])
     assert np.abs(_dist(pts[lab == 0], s1) - 10).max() < 1e-9
     assert np.abs(_dist(pts[lab == 1], s2) - 10).max() < 1e-9
-    assert (lab == 2).any()                            # bar points are part of the cloud
-    lower = pts[lab == 0]                              # s1 is the lower sphere
+    assert (lab == 2).any()  # bar points are part of the cloud
+    lower = pts[lab == 0]  # s1 is the lower sphere
     for vp in stereo_fringe().viewpoints:
         assert not _blocked_by(lower, vp, s2, 10.0).any()
     # the upper sphere hides part of the lower one: fewer points on it
@@ -93,8 +94,16 @@ def test_normal_noise_gives_radial_residuals_of_sigma(cloud):
 
 def test_scale_error_scales_everything_about_the_volume_centre(cloud):
     s = 0.003
-    out = cloud(artefact="ball_bar", center=[10, 5, 0], direction=[1, 1, 0], length=50.0, diameter=20.0,
-                noise=0.0, scale_error=s, n_points=5000)
+    out = cloud(
+        artefact="ball_bar",
+        center=[10, 5, 0],
+        direction=[1, 1, 0],
+        length=50.0,
+        diameter=20.0,
+        noise=0.0,
+        scale_error=s,
+        n_points=5000,
+    )
     truth = out["truth"]
     assert truth["length_distorted"] == pytest.approx(50.0 * (1 + s), abs=1e-12)
     pts, lab = out["cloud"].points, out["cloud"].fields["primitive"]
@@ -109,7 +118,7 @@ def test_nonlinear_distortion_varies_the_local_scale():
     x = np.array([[0.0, 0, 0], [1.0, 0, 0], [50.0, 0, 0], [51.0, 0, 0]])
     y = d.apply(x)
     local = [np.linalg.norm(y[1] - y[0]), np.linalg.norm(y[3] - y[2])]
-    assert abs(local[0] - local[1]) > 1e-4            # the local scale differs across the volume
+    assert abs(local[0] - local[1]) > 1e-4  # the local scale differs across the volume
     assert np.array_equal(VolumeDistortion().apply(x), x)
 
 
@@ -126,7 +135,7 @@ def test_primitive_intersections_are_exact():
     d = np.tile([0.0, 0, -1], (3, 1))
     t = Sphere([0, 0, 0], 5.0).intersect(o, d)
     assert t[0] == pytest.approx(5.0) and t[1] == pytest.approx(10 - 4.0) and np.isinf(t[2])
-    cyl = Cylinder([0, -10, 0], [0, 10, 0], 2.0)      # axis along y
+    cyl = Cylinder([0, -10, 0], [0, 10, 0], 2.0)  # axis along y
     t = cyl.intersect(o, d)
     assert t[0] == pytest.approx(8.0) and np.isinf(t[1]) and np.isinf(t[2])
     rect = Rectangle([0, 0, 0], [1, 0, 0], [0, 0, 1], 10.0, 4.0)
@@ -139,12 +148,29 @@ def test_bad_ball_plate_lengths_are_a_parameter_error(cloud):
         cloud(artefact="ball_plate", lengths=[1, 2, 10])
 
 
-@pytest.mark.parametrize("standard,counts", [("vdi2634-2", {"sphere": 10, "ball_bar": 7, "flat": 6}),
-                                             ("vdi2634-3", {"sphere": 5, "ball_plate": 7})])
+@pytest.mark.parametrize(
+    "standard,counts",
+    [("vdi2634-2", {"sphere": 10, "ball_bar": 7, "flat": 6}), ("vdi2634-3", {"sphere": 5, "ball_plate": 7})],
+)
 def test_acceptance_set_writes_plan_files_and_truth(tmp_path, standard, counts):
-    out = default_host().run("virtuallab.acceptance-set", {}, {
-        "directory": str(tmp_path), "standard": standard, "n_sphere": 500, "n_ball_bar": 500, "n_flat": 500,
-        "n_ball_plate": 600, "repeats": 2, "random_scale": True}).outputs
+    out = (
+        default_host()
+        .run(
+            "virtuallab.acceptance-set",
+            {},
+            {
+                "directory": str(tmp_path),
+                "standard": standard,
+                "n_sphere": 500,
+                "n_ball_bar": 500,
+                "n_flat": 500,
+                "n_ball_plate": 600,
+                "repeats": 2,
+                "random_scale": True,
+            },
+        )
+        .outputs
+    )
     plan = yaml.safe_load((tmp_path / "plan.yaml").read_text())
     truth = json.loads((tmp_path / "truth.json").read_text())
     assert plan["standard"] == standard
@@ -162,4 +188,4 @@ def test_acceptance_set_writes_plan_files_and_truth(tmp_path, standard, counts):
     assert read(tmp_path / first).n_points == truth[first]["n_points"]
     if standard == "vdi2634-3":
         assert plan["scaling"] == {"sphere": "radii", "ball_plate": "lengths"}
-        assert len({t["reconstruction_scale"] for t in truth.values()}) > 1   # arbitrary scale per reconstruction
+        assert len({t["reconstruction_scale"] for t in truth.values()}) > 1  # arbitrary scale per reconstruction

@@ -39,9 +39,11 @@ from camcmm_plugins.vdi2634.pictograms import pictogram, pictograms  # noqa: E40
 MPE = {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243}
 VOLUME = [100.0, 100.0, 100.0]
 SPHERE_D, BAR_L, BAR_D, FLAT_L, FLAT_W = 20.001, 49.944, 20.0, 150.0, 60.0
-ARTEFACTS = {"sphere": {"diameter": SPHERE_D, "uncertainty": 0.001, "k": 2},
-             "ball_bar": {"length": BAR_L, "uncertainty": 0.0008, "k": 2, "sphere_diameter": BAR_D},
-             "flat": {"length": FLAT_L, "width": FLAT_W, "flatness": 0.0026}}
+ARTEFACTS = {
+    "sphere": {"diameter": SPHERE_D, "uncertainty": 0.001, "k": 2},
+    "ball_bar": {"length": BAR_L, "uncertainty": 0.0008, "k": 2, "sphere_diameter": BAR_D},
+    "flat": {"length": FLAT_L, "width": FLAT_W, "flatness": 0.0026},
+}
 
 
 # -- measurements generated here ------------------------------------------------------------------
@@ -91,8 +93,9 @@ def make_cloud(test: str, position: dict, seed: int = 0, n: int | None = None) -
     raise ValueError(test)
 
 
-def write_measurements(folder: Path, requirements: list[dict], n: int | None = None, ext: str = "ply"
-                       ) -> dict[str, list[tuple[str, Path]]]:
+def write_measurements(
+    folder: Path, requirements: list[dict], n: int | None = None, ext: str = "ply"
+) -> dict[str, list[tuple[str, Path]]]:
     """One file per position of every test: ``{test: [(position id, path), ...]}``."""
     folder.mkdir(parents=True, exist_ok=True)
     out: dict[str, list[tuple[str, Path]]] = {}
@@ -107,18 +110,51 @@ def write_measurements(folder: Path, requirements: list[dict], n: int | None = N
 
 # -- a fake standard speaking the protocol (independent of the real plugin) ---------------------
 _POS = {
-    "sphere": [{"id": f"sphere-{i + 1:02d}", "label": f"Sphere position {i + 1}", "hint": "somewhere",
-                "where": [(-0.3 + 0.06 * i), 0.2 * ((-1) ** i), 0.1 * (i % 3)]} for i in range(10)],
-    "ball_bar": [{"id": f"ball-bar-{i + 1:02d}", "label": f"Ball bar orientation {i + 1}", "hint": "a direction",
-                  "where": [0, 0, 0], "direction": d} for i, d in enumerate(
-                      [[0, 0.5, 0.866], [1, 1, 1], [-1, 1, 1], [1, -1, 1], [-1, -1, 1], [1, 0, 0], [0, 1, 0]])],
-    "flat": [{"id": f"flat-{i + 1:02d}", "label": f"Flat orientation {i + 1}", "hint": "an orientation",
-              "where": [0, 0, 0], "direction": d, "normal": nn} for i, (d, nn) in enumerate(
-                  [([1, 1, 0], [0, 0, 1]), ([1, -1, 0], [0, 0, 1]), ([1, 0, 1], [-1, 0, 1]),
-                   ([-1, 0, 1], [1, 0, 1]), ([0, 1, 1], [0, -1, 1]), ([0, -1, 1], [0, 1, 1])])],
+    "sphere": [
+        {
+            "id": f"sphere-{i + 1:02d}",
+            "label": f"Sphere position {i + 1}",
+            "hint": "somewhere",
+            "where": [(-0.3 + 0.06 * i), 0.2 * ((-1) ** i), 0.1 * (i % 3)],
+        }
+        for i in range(10)
+    ],
+    "ball_bar": [
+        {
+            "id": f"ball-bar-{i + 1:02d}",
+            "label": f"Ball bar orientation {i + 1}",
+            "hint": "a direction",
+            "where": [0, 0, 0],
+            "direction": d,
+        }
+        for i, d in enumerate([[0, 0.5, 0.866], [1, 1, 1], [-1, 1, 1], [1, -1, 1], [-1, -1, 1], [1, 0, 0], [0, 1, 0]])
+    ],
+    "flat": [
+        {
+            "id": f"flat-{i + 1:02d}",
+            "label": f"Flat orientation {i + 1}",
+            "hint": "an orientation",
+            "where": [0, 0, 0],
+            "direction": d,
+            "normal": nn,
+        }
+        for i, (d, nn) in enumerate(
+            [
+                ([1, 1, 0], [0, 0, 1]),
+                ([1, -1, 0], [0, 0, 1]),
+                ([1, 0, 1], [-1, 0, 1]),
+                ([-1, 0, 1], [1, 0, 1]),
+                ([0, 1, 1], [0, -1, 1]),
+                ([0, -1, 1], [0, 1, 1]),
+            ]
+        )
+    ],
 }
-_TESTS = [("sphere", "Sphere positions", ["PF", "PS"], 10), ("ball_bar", "Ball bar orientations", ["SD"], 7),
-          ("flat", "Flat orientations", ["F"], 6)]
+_TESTS = [
+    ("sphere", "Sphere positions", ["PF", "PS"], 10),
+    ("ball_bar", "Ball bar orientations", ["SD"], 7),
+    ("flat", "Flat orientations", ["F"], 6),
+]
 
 
 def _fit_sphere(p):
@@ -129,20 +165,36 @@ def _fit_sphere(p):
     return c, r, np.linalg.norm(p - c, axis=1) - r
 
 
-_FIELDS = {"sphere": (ArtefactField("diameter", "Diameter (calibrated)", certificate="diameter",
-                                    uncertainty="uncertainty"), ArtefactField("uncertainty", "Its uncertainty U"),
-                      ArtefactField("k", "Coverage factor k", unit="")),
-           "ball_bar": (ArtefactField("length", "Length (calibrated)", certificate="length", uncertainty="uncertainty"),
-                        ArtefactField("uncertainty", "Its uncertainty U"), ArtefactField("sphere_diameter", "Sphere")),
-           "flat": (ArtefactField("length", "Length"), ArtefactField("width", "Width"),
-                    ArtefactField("flatness", "Flatness", certificate="flatness"))}
+_FIELDS = {
+    "sphere": (
+        ArtefactField("diameter", "Diameter (calibrated)", certificate="diameter", uncertainty="uncertainty"),
+        ArtefactField("uncertainty", "Its uncertainty U"),
+        ArtefactField("k", "Coverage factor k", unit=""),
+    ),
+    "ball_bar": (
+        ArtefactField("length", "Length (calibrated)", certificate="length", uncertainty="uncertainty"),
+        ArtefactField("uncertainty", "Its uncertainty U"),
+        ArtefactField("sphere_diameter", "Sphere"),
+    ),
+    "flat": (
+        ArtefactField("length", "Length"),
+        ArtefactField("width", "Width"),
+        ArtefactField("flatness", "Flatness", certificate="flatness"),
+    ),
+}
 _DECLARATION = StandardDeclaration(
-    "fake-2", "Fake standard part 2",
-    (QualityParameter("PF", "P_F", "form"), QualityParameter("PS", "P_S", "size", signed=True),
-     QualityParameter("SD", "SD", "spacing", signed=True), QualityParameter("F", "F", "flatness")),
+    "fake-2",
+    "Fake standard part 2",
+    (
+        QualityParameter("PF", "P_F", "form"),
+        QualityParameter("PS", "P_S", "size", signed=True),
+        QualityParameter("SD", "SD", "spacing", signed=True),
+        QualityParameter("F", "F", "flatness"),
+    ),
     tuple(ArtefactKind(t, t, f) for t, f in _FIELDS.items()),
     tuple(TestDeclaration(t, label, t, tuple(params), n) for t, label, params, n in _TESTS),
-    tuple(PositionSpec(t, p["id"], p["label"], t, p["hint"]) for t, ps in _POS.items() for p in ps))
+    tuple(PositionSpec(t, p["id"], p["label"], t, p["hint"]) for t, ps in _POS.items() for p in ps),
+)
 
 
 class FakeStandard:
@@ -167,9 +219,19 @@ class FakeStandard:
 
     def requirements(self, plan=None):
         self._plan(plan)
-        return [{"test": t, "label": label, "parameters": params, "min_count": n, "repeats": 1, "required": True,
-                 "artefact": (plan or {}).get("artefacts", {}).get(t), "positions": [dict(p) for p in _POS[t]]}
-                for t, label, params, n in _TESTS]
+        return [
+            {
+                "test": t,
+                "label": label,
+                "parameters": params,
+                "min_count": n,
+                "repeats": 1,
+                "required": True,
+                "artefact": (plan or {}).get("artefacts", {}).get(t),
+                "positions": [dict(p) for p in _POS[t]],
+            }
+            for t, label, params, n in _TESTS
+        ]
 
     def evaluate_measurement(self, ctx, test, cloud, plan, file=None, position=None, repeat=None):
         plan = self._plan(plan)
@@ -216,13 +278,26 @@ class FakeStandard:
                 value = max(vals, key=abs) if vals else None
                 ok = len(evs) >= n
                 verdict = "incomplete" if not ok else ("pass" if abs(value) <= plan["mpe"][key] else "fail")
-                params[key] = {"name": key, "value": value, "mpe": plan["mpe"][key], "verdict": verdict,
-                               "verdict_guarded": verdict, "U": 0.0, "n_evaluated": len(vals),
-                               "per_measurement": [{"file": e.get("file"), "value": e["values"][key]} for e in evs]}
+                params[key] = {
+                    "name": key,
+                    "value": value,
+                    "mpe": plan["mpe"][key],
+                    "verdict": verdict,
+                    "verdict_guarded": verdict,
+                    "U": 0.0,
+                    "n_evaluated": len(vals),
+                    "per_measurement": [{"file": e.get("file"), "value": e["values"][key]} for e in evs],
+                }
         verdicts = [p["verdict"] for p in params.values()]
         verdict = "incomplete" if "incomplete" in verdicts else ("fail" if "fail" in verdicts else "pass")
-        return {"standard": "fake-2", "verdict": verdict, "verdict_guarded": verdict, "parameters": params,
-                "warnings": [], "measurements": per_measurement}
+        return {
+            "standard": "fake-2",
+            "verdict": verdict,
+            "verdict_guarded": verdict,
+            "parameters": params,
+            "warnings": [],
+            "measurements": per_measurement,
+        }
 
     def write_report(self, result, directory, plan=None):
         d = Path(directory)
@@ -348,16 +423,21 @@ def test_full_part2_test_with_redo_bad_file_restart_and_report(tmp_path, kit):
         for pos, path in files[test]:
             card = w.import_measurement(test, pos, path)
             assert card["status"] == "done" and card["verdict"] == "pass", card
-    assert [p["text"] for p in w.progress()] == ["10 of 10 sphere positions", "7 of 7 ball bar orientations",
-                                                 "6 of 6 flat orientations"]
+    assert [p["text"] for p in w.progress()] == [
+        "10 of 10 sphere positions",
+        "7 of 7 ball bar orientations",
+        "6 of 6 flat orientations",
+    ]
     assert w.complete
 
     # redo: a new measurement replaces the evaluation of that position
     mid_old = w.state["positions"]["sphere"]["sphere-03"][0]
     pf_old = w.evaluation(mid_old)["values"]["PF"]
     noisy = tmp_path / "sphere-03-again.ply"
-    cio.write(sphere_cloud(np.asarray(w.requirements()[0]["positions"][2]["where"]) * VOLUME, 4000, noise=0.015,
-                           seed=1234), noisy)
+    cio.write(
+        sphere_cloud(np.asarray(w.requirements()[0]["positions"][2]["where"]) * VOLUME, 4000, noise=0.015, seed=1234),
+        noisy,
+    )
     card = w.redo("sphere", "sphere-03", noisy)
     mid_new = w.state["positions"]["sphere"]["sphere-03"][0]
     assert mid_new != mid_old and card["status"] == "done"
@@ -474,14 +554,20 @@ def test_catalogue_round_trip_and_own_artefacts(tmp_path):
     assert f["diameter"] == 20.001 and f["uncertainty"] == 0.001 and f["k"] == 2
     flat = artefact_plan_fields(next(a for a in cat if a["kind"] == "flat"))
     assert flat["length"] == 150.0 and flat["flatness_uncertainty"] == 0.0005
-    back = plan_fields_to_artefact("ball_bar", {"length": 49.9, "uncertainty": 0.001, "k": 2, "sphere_diameter": 20},
-                                   "bb-own", "own bar", _DECLARATION.artefact("ball_bar"))
+    back = plan_fields_to_artefact(
+        "ball_bar",
+        {"length": 49.9, "uncertainty": 0.001, "k": 2, "sphere_diameter": 20},
+        "bb-own",
+        "own bar",
+        _DECLARATION.artefact("ball_bar"),
+    )
     assert back["certificates"]["length"]["value"] == 49.9 and back["nominal"]["sphere_diameter"] == 20
     host = FakeHost()
     with Project.create(tmp_path / "proj") as project:
         w = Wizard(project, host)
-        w.setup("fake-2", "S", VOLUME, MPE, {t: {**a, "_id": f"{t}-lab", "_name": f"lab {t}"}
-                                            for t, a in ARTEFACTS.items()})
+        w.setup(
+            "fake-2", "S", VOLUME, MPE, {t: {**a, "_id": f"{t}-lab", "_name": f"lab {t}"} for t, a in ARTEFACTS.items()}
+        )
         own = {a["id"]: a for a in w.catalogue() if a.get("source") == "project"}
         assert {"sphere-lab", "ball_bar-lab", "flat-lab"} <= set(own)
         assert artefact_plan_fields(own["sphere-lab"])["diameter"] == SPHERE_D
@@ -608,8 +694,11 @@ def test_demo_project_opens_with_a_finished_test(tmp_path):
     with Project.open(tmp_path / "demo") as project:
         w = Wizard(project)
         assert w.active and w.complete
-        assert [p["text"] for p in w.progress()] == ["10 of 10 sphere positions", "7 of 7 ball bar orientations",
-                                                     "6 of 6 flat orientations"]
+        assert [p["text"] for p in w.progress()] == [
+            "10 of 10 sphere positions",
+            "7 of 7 ball bar orientations",
+            "6 of 6 flat orientations",
+        ]
         assert all(c["status"] == "done" for b in w.cards() for c in b["cards"])
         assert w.summarize()["verdict"] == summary["acceptance"]["verdict"]
         assert set(w.report_paths()) == {"html", "pdf", "json"}
@@ -623,21 +712,43 @@ def test_part3_repeats_and_plan_options(tmp_path):
     host = default_host()
     if not _real_available() or "vdi2634-3" not in host.plugins or "virtuallab.acceptance-set" not in host.plugins:
         pytest.skip("needs the vdi2634-3 and virtual-lab plugins")
-    gen = host.run("virtuallab.acceptance-set", {}, {"directory": str(tmp_path / "set"), "standard": "vdi2634-3",
-                                                       "n_sphere": 2000, "n_ball_plate": 2000, "random_scale": True})
+    gen = host.run(
+        "virtuallab.acceptance-set",
+        {},
+        {
+            "directory": str(tmp_path / "set"),
+            "standard": "vdi2634-3",
+            "n_sphere": 2000,
+            "n_ball_plate": 2000,
+            "random_scale": True,
+        },
+    )
     plan = gen.outputs["plan_dict"]
     options = "scaling: {sphere: radii, ball_plate: lengths}\noutliers: {sphere: 'percent:5', ball_plate: 'percent:5'}"
     with Project.create(tmp_path / "proj") as project:
         w = Wizard(project, host)
         with pytest.raises(InputError, match="'mpe' is set by the form"):
-            w.setup("vdi2634-3", "Turntable", plan["system"]["measuring_volume"], plan["mpe"], plan["artefacts"],
-                    options="mpe: {PF: 1}")
-        w.setup("vdi2634-3", "Turntable", plan["system"]["measuring_volume"], plan["mpe"], plan["artefacts"],
-                options=options)
+            w.setup(
+                "vdi2634-3",
+                "Turntable",
+                plan["system"]["measuring_volume"],
+                plan["mpe"],
+                plan["artefacts"],
+                options="mpe: {PF: 1}",
+            )
+        w.setup(
+            "vdi2634-3",
+            "Turntable",
+            plan["system"]["measuring_volume"],
+            plan["mpe"],
+            plan["artefacts"],
+            options=options,
+        )
         assert w.plan["scaling"] == {"sphere": "radii", "ball_plate": "lengths"}
         assert [p["text"] for p in w.progress()] == [
             "0 of 15 measurements of sphere positions (5 × 3 repeats)",
-            "0 of 21 measurements of ball plate orientations (7 × 3 repeats)"]
+            "0 of 21 measurements of ball plate orientations (7 × 3 repeats)",
+        ]
         folder = tmp_path / "set"
         for r, name in enumerate(plan["measurements"]["sphere"][0]):
             card = w.import_measurement("sphere", "sphere-01", folder / name)

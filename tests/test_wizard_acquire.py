@@ -35,8 +35,10 @@ def wizard(tmp_path, gui_app):
 
 def test_the_simulated_fringe_system_is_offered(wizard):
     page, state = wizard("offer")
-    assert {"title": "Simulated stereo fringe-projection system", "value": "virtuallab.fringe-system"} \
-        .items() <= state.wz_sources[0].items()
+    assert {
+        "title": "Simulated stereo fringe-projection system",
+        "value": "virtuallab.fringe-system",
+    }.items() <= state.wz_sources[0].items()
     assert asyncio.run(page.acquire_async("sphere", "sphere-01")) is None  # no system chosen yet
     assert "Measure with" in state.error_message
 
@@ -55,8 +57,9 @@ def test_acquire_all_positions_passes_and_a_baseline_error_fails(wizard):
     assert sd["verdict"] == "pass"
 
     page, state = wizard("bad")
-    page.set_source("virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector",
-                                                 "baseline_error": 0.01})
+    page.set_source(
+        "virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector", "baseline_error": 0.01}
+    )
     card = asyncio.run(page.acquire_async("ball_bar", "ball-bar-01"))
     assert card["status"] == "done" and card["verdict"] == "fail"
     sd = next(x for x in card["repeats"][0]["values"] if x["param"] == "SD")

@@ -118,8 +118,9 @@ def _lab(tmp_path):
 def crash_host(tmp_path, monkeypatch):
     pkg = _lab(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path / "labsrc"))
-    return PluginHost(entry_points=[md.EntryPoint(name="crash-lab", value=f"{pkg}:plugin.yaml",
-                                                  group="camcmm.plugins")])
+    return PluginHost(
+        entry_points=[md.EntryPoint(name="crash-lab", value=f"{pkg}:plugin.yaml", group="camcmm.plugins")]
+    )
 
 
 def test_native_crash_is_one_line_and_the_next_run_gets_a_fresh_worker(crash_host):
@@ -142,16 +143,23 @@ def test_native_crash_is_one_line_and_the_next_run_gets_a_fresh_worker(crash_hos
 def test_outputs_warnings_progress_and_errors_cross_the_boundary(crash_host):
     pts = np.random.default_rng(1).normal(size=(5000, 3))
     seen = []
-    res = worker.run(crash_host, "crash.good", {"cloud": PointCloud(pts, name="in")}, {"factor": 3.0},
-                     progress=lambda f, m: seen.append((f, m)))
+    res = worker.run(
+        crash_host,
+        "crash.good",
+        {"cloud": PointCloud(pts, name="in")},
+        {"factor": 3.0},
+        progress=lambda f, m: seen.append((f, m)),
+    )
     assert isinstance(res.outputs["cloud"], PointCloud) and res.outputs["cloud"].name == "scaled"
     np.testing.assert_array_equal(res.outputs["cloud"].points, pts * 3.0)
     assert res.warnings == ["a warning from the worker"] and res.params == {"factor": 3.0}
     assert res.plugin_id == "crash.good" and set(res.input_hashes) == {"cloud"}
     assert seen[0] == (0.5, "half way") and seen[-1] == (1.0, "done")
     # the same provenance as a run in this process
-    assert res.input_hashes == crash_host.run("crash.good", {"cloud": PointCloud(pts, name="in")},
-                                              {"factor": 3.0}).input_hashes
+    assert (
+        res.input_hashes
+        == crash_host.run("crash.good", {"cloud": PointCloud(pts, name="in")}, {"factor": 3.0}).input_hashes
+    )
     with pytest.raises(InputError, match="^cal.yaml: camera 1 .left.: focal length fx = -800 px"):
         worker.run(crash_host, "crash.bad-input")
     with pytest.raises(ParameterError, match="factor"):
@@ -222,7 +230,8 @@ def test_a_worker_whose_server_was_killed_mid_run_exits(tmp_path):
         "from camcmm import worker\n"
         "from camcmm.host import PluginHost\n"
         f"host = PluginHost([md.EntryPoint('crash-lab', '{pkg}:plugin.yaml', 'camcmm.plugins')])\n"
-        f"worker.run(host, 'crash.pidfile', params={{'path': {str(pid_file)!r}}})\n")
+        f"worker.run(host, 'crash.pidfile', params={{'path': {str(pid_file)!r}}})\n"
+    )
     server = subprocess.Popen([sys.executable, "-c", script])
     try:
         deadline = time.monotonic() + 120

@@ -37,8 +37,9 @@ def wizard(tmp_path):
 
 def test_negative_focal_length_is_one_line_and_the_next_measurement_works(wizard):
     page, state = wizard
-    page.set_source("virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector",
-                                                 "focal_error": -2.0})
+    page.set_source(
+        "virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector", "focal_error": -2.0}
+    )
     assert asyncio.run(page.acquire_async("sphere", "sphere-01")) is None
     line = state.error_message
     assert "\n" not in line and "sphere-01: virtuallab.fringe-system could not measure" in line, line
@@ -137,16 +138,23 @@ def test_a_negative_focal_length_calibration_file_through_the_inspect_form(tmp_p
         folder = tmp_path / "proj" / "capture"  # inside the project: the page may read it
         frames = folder / "frames"
         frames.mkdir(parents=True)
-        seq = {"projector": {"width": 64, "height": 48}, "frames": [
-            "white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16}]}
+        seq = {
+            "projector": {"width": 64, "height": 48},
+            "frames": ["white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16}],
+        }
         (folder / "seq.yaml").write_text(yaml.safe_dump(seq))
         for i, f in enumerate(generate_patterns(seq)):
             cv2.imwrite(str(frames / f"img{i:02d}.png"), f)
         cal = folder / "cal.yaml"
-        _write_yaml(cal, _pair(k1=_with(K1, 0, 0, -800), size1=[64, 48], size2=[64, 48],
-                               k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]]))
-        inputs = {"sequence": str(folder / "seq.yaml"), "images": sorted(str(p) for p in frames.iterdir()),
-                  "calibration": str(cal)}
+        _write_yaml(
+            cal,
+            _pair(k1=_with(K1, 0, 0, -800), size1=[64, 48], size2=[64, 48], k2=[[80.0, 0, 32], [0, 80, 24], [0, 0, 1]]),
+        )
+        inputs = {
+            "sequence": str(folder / "seq.yaml"),
+            "images": sorted(str(p) for p in frames.iterdir()),
+            "calibration": str(cal),
+        }
         page = server.pages["inspect"]
         assert asyncio.run(page.run_plugin("fringe.reconstruct", {}, inputs)) is None
         line = server.state.error_message

@@ -48,7 +48,8 @@ def test_alias_limit_is_a_count_of_expanded_nodes():
 
 def test_merge_key_bomb_refused():
     text = "a: &a {x: 1, y: 2}\n" + "".join(
-        f"{c}: &{c} {{<<: [{', '.join(['*' + p] * 8)}]}}\n" for p, c in zip("abcdefgh", "bcdefghi"))
+        f"{c}: &{c} {{<<: [{', '.join(['*' + p] * 8)}]}}\n" for p, c in zip("abcdefgh", "bcdefghi")
+    )
     with pytest.raises(YamlError, match="alias"):
         load_yaml(text, name="merge.yaml")
 
@@ -61,14 +62,18 @@ def test_recursive_alias_refused():
 
 def test_ordinary_anchors_and_merge_keys_still_work():
     text = "base: &b {speed: 2, axis: x}\nfast:\n  <<: *b\n  speed: 5\nsame: *b\n"
-    assert load_yaml(text) == {"base": {"speed": 2, "axis": "x"}, "fast": {"speed": 5, "axis": "x"},
-                               "same": {"speed": 2, "axis": "x"}}
+    assert load_yaml(text) == {
+        "base": {"speed": 2, "axis": "x"},
+        "fast": {"speed": 5, "axis": "x"},
+        "same": {"speed": 2, "axis": "x"},
+    }
 
 
 def test_duplicate_mpe_in_a_vdi_plan_refused_naming_key_and_line(tmp_path):
     plan = tmp_path / "plan.yaml"
-    plan.write_text("standard: vdi2634-2\nmpe:\n  PF: 0.05\n  SD: 0.1\nsystem: s\nmpe:\n  PF: 5\n  SD: 5\n",
-                    encoding="utf-8")
+    plan.write_text(
+        "standard: vdi2634-2\nmpe:\n  PF: 0.05\n  SD: 0.1\nsystem: s\nmpe:\n  PF: 5\n  SD: 5\n", encoding="utf-8"
+    )
     with pytest.raises(InputError) as err:
         read_yaml(plan)
     msg = str(err.value)
@@ -147,9 +152,14 @@ def test_no_raw_yaml_loading_left_in_the_code():
 
     root = Path(__file__).resolve().parents[1]
     pattern = re.compile(r"\byaml\.(safe_load|load|full_load|unsafe_load|load_all|safe_load_all|compose)\(")
-    hits = [f"{p.relative_to(root)}:{i}" for base in ("app", "plugins") for p in (root / base).rglob("*.py")
-            if p.name != "yamlfile.py"
-            for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1) if pattern.search(line)]
+    hits = [
+        f"{p.relative_to(root)}:{i}"
+        for base in ("app", "plugins")
+        for p in (root / base).rglob("*.py")
+        if p.name != "yamlfile.py"
+        for i, line in enumerate(p.read_text(encoding="utf-8").splitlines(), 1)
+        if pattern.search(line)
+    ]
     assert not hits, hits
 
 

@@ -15,7 +15,7 @@ evaluate — never ``pass``.
 from __future__ import annotations
 
 import math
-from typing import Iterable
+from collections.abc import Iterable
 
 PASS, FAIL, INCOMPLETE, INCONCLUSIVE = "pass", "fail", "incomplete", "inconclusive"
 

@@ -38,8 +38,17 @@ SIMULATOR = "virtuallab.acceptance-set"
 #: 20-30 um standard deviation of the radial deviations), a small global scale error,
 #: a radial term and a repeatable periodic pattern (ch. 3.3.1, 3.3.2: local scale that
 #: varies through the volume, so sphere sizes vary more than ball-bar lengths).
-SIMULATION = {"n_sphere": 20_000, "n_ball_bar": 15_000, "n_flat": 40_000, "noise": 0.02,
-              "scale_error": 1e-4, "quadratic": 5e-4, "amplitude": 0.012, "wavelength": 40.0, "seed": SEED}
+SIMULATION = {
+    "n_sphere": 20_000,
+    "n_ball_bar": 15_000,
+    "n_flat": 40_000,
+    "noise": 0.02,
+    "scale_error": 1e-4,
+    "quadratic": 5e-4,
+    "amplitude": 0.012,
+    "wavelength": 40.0,
+    "seed": SEED,
+}
 
 
 def _sphere_scan(rng: np.random.Generator, center, radius: float, n: int, noise: float, cap_deg: float = 120.0):
@@ -65,11 +74,47 @@ def _flat(rng: np.random.Generator, length: float, width: float, n: int, noise: 
 def _icosphere(radius: float, subdivisions: int = 4) -> TriangleMesh:
     """A sphere mesh by subdividing an icosahedron (exact vertices on the sphere)."""
     t = (1 + 5**0.5) / 2
-    v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
-                  [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], float)
-    f = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
-                  [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
-                  [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]])
+    v = np.array(
+        [
+            [-1, t, 0],
+            [1, t, 0],
+            [-1, -t, 0],
+            [1, -t, 0],
+            [0, -1, t],
+            [0, 1, t],
+            [0, -1, -t],
+            [0, 1, -t],
+            [t, 0, -1],
+            [t, 0, 1],
+            [-t, 0, -1],
+            [-t, 0, 1],
+        ],
+        float,
+    )
+    f = np.array(
+        [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ]
+    )
     for _ in range(subdivisions):
         edges = np.sort(np.vstack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
         unique, inverse = np.unique(edges, axis=0, return_inverse=True)
@@ -99,14 +144,19 @@ def create_demo(directory: str | Path, acceptance: bool = True) -> dict[str, Any
 def _clouds(project: Project) -> None:
     rng = np.random.default_rng(SEED)
     pts, dev = _sphere_scan(rng, (10.0, -5.0, 40.0), 10.0, 60_000, 0.004)
-    sphere = PointCloud(pts, fields={"radial_deviation": dev}, field_units={"radial_deviation": "mm"},
-                        name="sphere scan (20 mm ball)")
+    sphere = PointCloud(
+        pts, fields={"radial_deviation": dev}, field_units={"radial_deviation": "mm"}, name="sphere scan (20 mm ball)"
+    )
     a, _ = _sphere_scan(rng, (-25.0, 0.0, 0.0), 10.0, 40_000, 0.005)
     b, _ = _sphere_scan(rng, (24.944, 0.0, 0.0), 10.0, 40_000, 0.005)
     ballbar = PointCloud(np.vstack([a, b]), name="ball bar (49.944 mm)")
     flat = PointCloud(_flat(rng, 150.0, 60.0, 80_000, 0.003, 0.010), name="flat (150 x 60 mm)")
-    for cloud, kind in ((sphere, "pointcloud"), (ballbar, "pointcloud"), (flat, "pointcloud"),
-                        (_icosphere(10.0), "mesh")):
+    for cloud, kind in (
+        (sphere, "pointcloud"),
+        (ballbar, "pointcloud"),
+        (flat, "pointcloud"),
+        (_icosphere(10.0), "mesh"),
+    ):
         project.add_measurement(cloud.name, project.add_object(cloud, cloud.name), kind=kind)
 
 
@@ -119,11 +169,16 @@ def _summary(project: Project, notes: list[str] | None = None) -> dict[str, Any]
     state = project.get_state(ACCEPTANCE_STATE)
     if state:
         summary = project.result(state["summary_result"])
-        out["acceptance"] = {"standard": state["standard"], "summary_result": state["summary_result"],
-                             "verdict": summary["outputs"].get("verdict"),
-                             "verdict_guarded": summary["outputs"].get("verdict_guarded"),
-                             "parameters": {k: {"value": v.get("value"), "mpe": v.get("mpe"), "verdict": v.get("verdict")}
-                                            for k, v in summary["outputs"].get("parameters", {}).items()}}
+        out["acceptance"] = {
+            "standard": state["standard"],
+            "summary_result": state["summary_result"],
+            "verdict": summary["outputs"].get("verdict"),
+            "verdict_guarded": summary["outputs"].get("verdict_guarded"),
+            "parameters": {
+                k: {"value": v.get("value"), "mpe": v.get("mpe"), "verdict": v.get("verdict")}
+                for k, v in summary["outputs"].get("parameters", {}).items()
+            },
+        }
     out["notes"] = list(notes or [])
     return out
 
@@ -140,19 +195,30 @@ def _acceptance_test(project: Project) -> list[str]:
     try:
         std = host.load(STANDARD)
         with tempfile.TemporaryDirectory(prefix="camcmm-demo-") as tmp:
-            gen = host.run(SIMULATOR, {}, {"directory": str(Path(tmp) / "measurements"), "standard": STANDARD,
-                                           **SIMULATION})
-            _record_test(project, host, std, gen.outputs["plan_dict"], Path(gen.outputs["plan"]).parent,
-                         Path(tmp) / "report")
+            gen = host.run(
+                SIMULATOR, {}, {"directory": str(Path(tmp) / "measurements"), "standard": STANDARD, **SIMULATION}
+            )
+            _record_test(
+                project, host, std, gen.outputs["plan_dict"], Path(gen.outputs["plan"]).parent, Path(tmp) / "report"
+            )
     except CamcmmError as exc:
         return [f"no acceptance test in the demo: {exc}"]
     return []
 
 
-def _run_dict(plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str,
-              warnings: list[str]) -> dict[str, Any]:
-    return {"plugin": plugin, "version": version, "params": params, "input_hashes": hashes,
-            "outputs": to_jsonable(outputs), "started": started, "finished": utcnow(), "warnings": warnings}
+def _run_dict(
+    plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str, warnings: list[str]
+) -> dict[str, Any]:
+    return {
+        "plugin": plugin,
+        "version": version,
+        "params": params,
+        "input_hashes": hashes,
+        "outputs": to_jsonable(outputs),
+        "started": started,
+        "finished": utcnow(),
+        "warnings": warnings,
+    }
 
 
 def _record_test(project: Project, host, std, plan: dict, folder: Path, report_dir: Path) -> None:
@@ -160,12 +226,22 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
     version = host.get(STANDARD).version
     ctx = RunContext(host, STANDARD)
     reqs = {r["test"]: r for r in std.requirements(plan)}
-    sid = project.add_system(plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"],
-                                                      "simulated_by": SIMULATOR})
+    sid = project.add_system(
+        plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"], "simulated_by": SIMULATOR}
+    )
     per: dict[str, list[dict[str, Any]]] = {}
-    state: dict[str, Any] = {"standard": STANDARD, "plan": plan, "measurements": {}, "evaluations": {},
-                             "positions": {}, "tests": list(plan["measurements"]), "system_id": sid,
-                             "artefact_ids": {}, "errors": {}, "superseded": []}
+    state: dict[str, Any] = {
+        "standard": STANDARD,
+        "plan": plan,
+        "measurements": {},
+        "evaluations": {},
+        "positions": {},
+        "tests": list(plan["measurements"]),
+        "system_id": sid,
+        "artefact_ids": {},
+        "errors": {},
+        "superseded": [],
+    }
     for test, files in plan["measurements"].items():
         art = reqs[test]["artefact"]
         aid = project.add_artefact({**art, "id": f"{STANDARD}:{art['id']}"})
@@ -174,9 +250,14 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
         for i, name in enumerate(files):
             pos = positions[i]["id"] if i < len(positions) else f"{test}-{i + 1:02d}"
             h = project.add_file(folder / name)
-            mid = project.add_measurement(f"{pos} ({name})", h, kind="pointcloud", system_id=sid, artefact_id=aid,
-                                          meta={"standard": STANDARD, "test": test, "position": pos, "repeat": 1,
-                                                "file": name})
+            mid = project.add_measurement(
+                f"{pos} ({name})",
+                h,
+                kind="pointcloud",
+                system_id=sid,
+                artefact_id=aid,
+                meta={"standard": STANDARD, "test": test, "position": pos, "repeat": 1, "file": name},
+            )
             started = utcnow()
             try:
                 ev = std.evaluate_measurement(ctx, test, project.load_measurement(mid), plan, file=name, position=pos)
@@ -186,10 +267,20 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
             files_out = {}
             if ev.get("deviations") is not None:
                 files_out["deviations"] = project.add_object(ev["deviations"], f"{pos} deviations")
-            rid = project.add_result(_run_dict(STANDARD, version, {"test": test, "position": pos}, {"cloud": h},
-                                               {k: v for k, v in ev.items() if k != "deviations"}, started,
-                                               list(ev.get("warnings") or [])),
-                                     [mid], files_out, label=f"{STANDARD} {pos}")
+            rid = project.add_result(
+                _run_dict(
+                    STANDARD,
+                    version,
+                    {"test": test, "position": pos},
+                    {"cloud": h},
+                    {k: v for k, v in ev.items() if k != "deviations"},
+                    started,
+                    list(ev.get("warnings") or []),
+                ),
+                [mid],
+                files_out,
+                label=f"{STANDARD} {pos}",
+            )
             per.setdefault(test, []).append(ev)
             state["measurements"].setdefault(test, []).append(mid)
             state["evaluations"][str(mid)] = rid
@@ -199,9 +290,26 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
     paths = std.write_report(summary, report_dir, plan)
     report_files = {f"report_{k}": project.add_file(v) for k, v in paths.items()}
     mids = [m for ms in state["measurements"].values() for m in ms]
-    rid = project.add_result(_run_dict(STANDARD, version, {}, {e["file"]: e["sha256"] for es in per.values()
-                                                               for e in es}, summary, started, summary["warnings"]),
-                             mids, report_files, label=f"{STANDARD} acceptance test")
-    state.update({"summary_result": rid, "report": report_files, "verdict": summary["verdict"],
-                  "verdict_guarded": summary["verdict_guarded"]})
+    rid = project.add_result(
+        _run_dict(
+            STANDARD,
+            version,
+            {},
+            {e["file"]: e["sha256"] for es in per.values() for e in es},
+            summary,
+            started,
+            summary["warnings"],
+        ),
+        mids,
+        report_files,
+        label=f"{STANDARD} acceptance test",
+    )
+    state.update(
+        {
+            "summary_result": rid,
+            "report": report_files,
+            "verdict": summary["verdict"],
+            "verdict_guarded": summary["verdict_guarded"],
+        }
+    )
     project.set_state(ACCEPTANCE_STATE, state)

@@ -42,8 +42,13 @@ class RunContext:
     true once the operator asked to stop (long loops should check it).
     """
 
-    def __init__(self, host: PluginHost, plugin_id: str, progress: ProgressCallback | None = None,
-                 cancel: threading.Event | None = None):
+    def __init__(
+        self,
+        host: PluginHost,
+        plugin_id: str,
+        progress: ProgressCallback | None = None,
+        cancel: threading.Event | None = None,
+    ):
         self.host = host
         self.plugin_id = plugin_id
         self.warnings: list[str] = []
@@ -130,8 +135,18 @@ class PluginHost:
             plugins, commands, errors = parse_manifest(text, version, dist, where)
         except Exception as exc:  # a broken package must not stop the host
             reason = str(exc) if isinstance(exc, CamcmmError) else f"{where}: {type(exc).__name__}: {exc}"
-            self.errors.append(PluginSpec(ep.name, "unknown", ep.name, version, "", ep.value,
-                                          distribution=dist, status=" ".join(reason.split())))
+            self.errors.append(
+                PluginSpec(
+                    ep.name,
+                    "unknown",
+                    ep.name,
+                    version,
+                    "",
+                    ep.value,
+                    distribution=dist,
+                    status=" ".join(reason.split()),
+                )
+            )
             return
         for spec in plugins:
             if spec.id in self.plugins:
@@ -167,8 +182,9 @@ class PluginHost:
         (a lab's own replaces camcmm's). PluginError when none is installed."""
         found = self.providing(task)
         if not found:
-            raise PluginError(f"no plugin provides {task!r}: install one that declares it "
-                              "(`camcmm plugins` lists what is installed)")
+            raise PluginError(
+                f"no plugin provides {task!r}: install one that declares it (`camcmm plugins` lists what is installed)"
+            )
         own = [s for s in found if s.distribution != "camcmm"]
         return (own or found)[0]
 
@@ -197,9 +213,15 @@ class PluginHost:
         return self.all()
 
     # -- running ---------------------------------------------------------------------
-    def run(self, plugin_id: str, inputs: dict[str, Any] | None = None, params: dict[str, Any] | None = None,
-            progress: ProgressCallback | None = None, cancel: threading.Event | None = None,
-            context: RunContext | None = None) -> RunResult:
+    def run(
+        self,
+        plugin_id: str,
+        inputs: dict[str, Any] | None = None,
+        params: dict[str, Any] | None = None,
+        progress: ProgressCallback | None = None,
+        cancel: threading.Event | None = None,
+        context: RunContext | None = None,
+    ) -> RunResult:
         """Run an algorithm (or standard) plugin with validated parameters.
 
         ``inputs`` map declared input names to objects (PointCloud, TriangleMesh, ...)
@@ -221,8 +243,9 @@ class PluginHost:
             # A plugin bug must reach the operator as one line naming the plugin; the
             # traceback goes to the log for the plugin's author.
             last = traceback.extract_tb(exc.__traceback__)[-1]
-            raise PluginError(f"plugin {plugin_id!r} failed: {type(exc).__name__}: {exc} "
-                              f"({Path(last.filename).name}:{last.lineno})") from exc
+            raise PluginError(
+                f"plugin {plugin_id!r} failed: {type(exc).__name__}: {exc} ({Path(last.filename).name}:{last.lineno})"
+            ) from exc
         if not isinstance(outputs, dict):
             raise PluginError(f"plugin {plugin_id!r} returned {type(outputs).__name__}, expected a dict of outputs")
         if context is None:
@@ -275,7 +298,9 @@ class PluginHost:
         declared = {p.name: p for p in spec.inputs}
         unknown = sorted(set(given) - set(declared))
         if unknown:
-            raise PluginError(f"plugin {spec.id!r} has no input {unknown[0]!r}; inputs: {', '.join(declared) or 'none'}")
+            raise PluginError(
+                f"plugin {spec.id!r} has no input {unknown[0]!r}; inputs: {', '.join(declared) or 'none'}"
+            )
         loaded, hashes = {}, {}
         for name, port in declared.items():
             if name not in given or given[name] is None:
@@ -287,8 +312,12 @@ class PluginHost:
                 read_value = read(value)  # first: a missing or bad file is its one-line InputError
                 hashes[name] = file_hash(value)
                 value = read_value
-            elif isinstance(value, (list, tuple)) and port.type in ("images", "files") and value and \
-                    isinstance(value[0], (str, Path)):
+            elif (
+                isinstance(value, (list, tuple))
+                and port.type in ("images", "files")
+                and value
+                and isinstance(value[0], (str, Path))
+            ):
                 read_value = [read(v) for v in value] if port.type == "images" else [_existing(v) for v in value]
                 hashes[name] = object_hash([file_hash(v) for v in value])
                 value = read_value
@@ -304,8 +333,12 @@ class PluginHost:
 
 
 #: what each geometry or image port accepts (class names of camcmm.model)
-_PORT_KINDS = {"pointcloud": ("PointCloud",), "mesh": ("TriangleMesh",),
-               "geometry": ("PointCloud", "TriangleMesh"), "image": ("Image",)}
+_PORT_KINDS = {
+    "pointcloud": ("PointCloud",),
+    "mesh": ("TriangleMesh",),
+    "geometry": ("PointCloud", "TriangleMesh"),
+    "image": ("Image",),
+}
 _KIND_WORDS = {"PointCloud": "a point cloud", "TriangleMesh": "a triangle mesh", "Image": "an image"}
 
 

@@ -55,6 +55,7 @@ def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: 
     name for ``x``, e.g. ``"table rows"``), so that the caller learns which key to fix.
     numpy is recognised by its module name: importing this module does not import numpy.
     """
+
     def sub(v: Any, at: str) -> Any:
         return to_jsonable(v, strict=strict, where=at, keep_nan=keep_nan)
 
@@ -81,8 +82,12 @@ def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: 
     if hasattr(x, "n_points") and hasattr(x, "points"):
         return {"kind": "pointcloud", "name": getattr(x, "name", ""), "n_points": int(x.n_points)}
     if hasattr(x, "n_faces") and hasattr(x, "n_vertices"):
-        return {"kind": "mesh", "name": getattr(x, "name", ""), "n_vertices": int(x.n_vertices),
-                "n_faces": int(x.n_faces)}
+        return {
+            "kind": "mesh",
+            "name": getattr(x, "name", ""),
+            "n_vertices": int(x.n_vertices),
+            "n_faces": int(x.n_faces),
+        }
     if callable(getattr(x, "to_dict", None)):  # Artefact, PluginSpec, Certificate-like records ...
         return sub(x.to_dict(), where)
     if hasattr(x, "__dataclass_fields__") and not isinstance(x, type):

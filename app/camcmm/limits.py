@@ -49,7 +49,7 @@ def human_bytes(n: float) -> str:
 def _physical_memory() -> int | None:
     try:
         return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, ValueError, OSError):   # not a POSIX system
+    except (AttributeError, ValueError, OSError):  # not a POSIX system
         return None
 
 
@@ -81,8 +81,9 @@ def check_budget(what: str, bytes_needed: float, limit: float | None = None) -> 
     cap = memory_limit() if limit is None else limit
     if bytes_needed > cap:
         src = f" ({ENV_MEMORY})" if limit is None else ""
-        raise ParameterError(f"{what} needs ~{human_bytes(bytes_needed)} of memory; the limit is "
-                             f"{human_bytes(cap)}{src}")
+        raise ParameterError(
+            f"{what} needs ~{human_bytes(bytes_needed)} of memory; the limit is {human_bytes(cap)}{src}"
+        )
 
 
 def _existing(folder: Path) -> Path:
@@ -98,15 +99,17 @@ def check_disk(what: str, bytes_needed: float, folder: str | Path) -> None:
     or when it exceeds ``CAMCMM_MAX_DISK_MB``."""
     cap = _env_mb(ENV_DISK)
     if cap is not None and bytes_needed > cap:
-        raise ParameterError(f"{what} needs ~{human_bytes(bytes_needed)} on disk; the limit is "
-                             f"{human_bytes(cap)} ({ENV_DISK})")
+        raise ParameterError(
+            f"{what} needs ~{human_bytes(bytes_needed)} on disk; the limit is {human_bytes(cap)} ({ENV_DISK})"
+        )
     try:
         free = shutil.disk_usage(_existing(Path(folder))).free
     except OSError:
-        return                                  # the write itself will then say why
+        return  # the write itself will then say why
     if bytes_needed > free:
-        raise ParameterError(f"{what} needs ~{human_bytes(bytes_needed)} on disk; only {human_bytes(free)} "
-                             f"free for {folder}")
+        raise ParameterError(
+            f"{what} needs ~{human_bytes(bytes_needed)} on disk; only {human_bytes(free)} free for {folder}"
+        )
 
 
 def check_count(what: str, n: float, maximum: float) -> None:

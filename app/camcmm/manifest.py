@@ -50,8 +50,25 @@ _SLOT = re.compile(r"^[a-z_][a-z0-9_]*$")
 _NEED = re.compile(r"^([a-z0-9][a-z0-9_.-]*)(\*?)(\??)$")
 _ENTRY = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 #: Keys of a plugin entry (docs/manifest.md); others go to ``extra`` with a warning.
-KEYS = ("id", "kind", "name", "version", "summary", "entry", "parameters", "inputs", "outputs", "provides",
-        "role", "simulated", "acquires", "needs", "report")
+KEYS = (
+    "id",
+    "kind",
+    "name",
+    "version",
+    "summary",
+    "entry",
+    "parameters",
+    "inputs",
+    "outputs",
+    "provides",
+    "role",
+    "simulated",
+    "acquires",
+    "needs",
+    "report",
+)
+
+
 @dataclass
 class Port:
     """A declared input or output: name, type, unit, help; ``optional`` inputs may be omitted."""
@@ -96,9 +113,15 @@ class PluginSpec:
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
-        declared = {"provides": self.provides, "role": self.role, "simulated": self.simulated,
-                    "acquires": self.acquires, "needs": self.needs, "report": self.report,
-                    "warnings": self.warnings}
+        declared = {
+            "provides": self.provides,
+            "role": self.role,
+            "simulated": self.simulated,
+            "acquires": self.acquires,
+            "needs": self.needs,
+            "report": self.report,
+            "warnings": self.warnings,
+        }
         return {
             "id": self.id,
             "kind": self.kind,
@@ -148,21 +171,27 @@ class CommandSpec:
 def _port(d: Any, where: str) -> Port:
     if not isinstance(d, dict) or "name" not in d or "type" not in d:
         raise PluginError(f"{where}: each input/output needs a name and a type, got {d!r}")
-    return Port(str(d["name"]), str(d["type"]), str(d.get("unit", "")), str(d.get("help", "")),
-                bool(d.get("optional", False)))
+    return Port(
+        str(d["name"]), str(d["type"]), str(d.get("unit", "")), str(d.get("help", "")), bool(d.get("optional", False))
+    )
 
 
 def _declared(d: dict[str, Any], kind: str, fail: Any) -> dict[str, Any]:
     """The optional schema-1 fields of one entry, checked; ``fail(key, reason)`` raises."""
     provides = d.get("provides") or []
-    if isinstance(provides, str) or not isinstance(provides, list) or \
-            not all(isinstance(t, str) and _ID.match(t) for t in provides):
-        fail("provides", f"must be a list of task names (lower-case letters, digits, '.', '_', '-'), "
-                         f"got {provides!r}")
+    if (
+        isinstance(provides, str)
+        or not isinstance(provides, list)
+        or not all(isinstance(t, str) and _ID.match(t) for t in provides)
+    ):
+        fail("provides", f"must be a list of task names (lower-case letters, digits, '.', '_', '-'), got {provides!r}")
     role = d.get("role", "")
     if role != "" and (kind != "device" or not isinstance(role, str) or not _ID.match(role)):
-        fail("role", f"must be a lower-case name ({', '.join(ROLES)}, ...) on a device, got {role!r}"
-             + (f" on a {kind}" if kind != "device" else ""))
+        fail(
+            "role",
+            f"must be a lower-case name ({', '.join(ROLES)}, ...) on a device, got {role!r}"
+            + (f" on a {kind}" if kind != "device" else ""),
+        )
     simulated = d.get("simulated", False)
     if not isinstance(simulated, bool):
         fail("simulated", f"must be true or false, got {simulated!r}")
@@ -185,8 +214,14 @@ def _declared(d: dict[str, Any], kind: str, fail: Any) -> dict[str, Any]:
     version = d.get("version")
     if version is not None and not isinstance(version, (str, int, float)):
         fail("version", f"must be a version string, got {version!r}")
-    return {"provides": list(provides), "role": role, "simulated": simulated, "acquires": acquires,
-            "needs": {str(k): str(v) for k, v in needs.items()}, "report": report}
+    return {
+        "provides": list(provides),
+        "role": role,
+        "simulated": simulated,
+        "acquires": acquires,
+        "needs": {str(k): str(v) for k, v in needs.items()},
+        "report": report,
+    }
 
 
 def parse_plugin(d: Any, default_version: str, distribution: str, where: str) -> PluginSpec:
@@ -214,8 +249,11 @@ def parse_plugin(d: Any, default_version: str, distribution: str, where: str) ->
         raise PluginError(f"{where}: plugin {pid!r}: {exc}") from None
     declared = _declared(d, str(d["kind"]), fail)
     unknown = [k for k in d if k not in KEYS]
-    warnings = [f"{where}: plugin {pid!r}: unknown key {k!r} (kept in extra; see docs/manifest.md)"
-                for k in unknown if not str(k).startswith(("x-", "x_"))]
+    warnings = [
+        f"{where}: plugin {pid!r}: unknown key {k!r} (kept in extra; see docs/manifest.md)"
+        for k in unknown
+        if not str(k).startswith(("x-", "x_"))
+    ]
     return PluginSpec(
         id=pid,
         kind=str(d["kind"]),
@@ -246,8 +284,9 @@ def parse_manifest(text: str, default_version: str, distribution: str, where: st
     if not isinstance(schema, int) or isinstance(schema, bool) or schema < 1:
         raise PluginError(f"{where}: field 'schema' must be a whole number (1), got {schema!r}")
     if schema > SCHEMA:
-        raise PluginError(f"{where}: manifest schema {schema} is newer than this camcmm reads ({SCHEMA}); "
-                          "update camcmm")
+        raise PluginError(
+            f"{where}: manifest schema {schema} is newer than this camcmm reads ({SCHEMA}); update camcmm"
+        )
     plugins: list[PluginSpec] = []
     errors: list[tuple[str, str]] = []
     for i, entry in enumerate(doc.get("plugins") or []):

@@ -83,7 +83,7 @@ class PointCloud:
             return np.zeros((2, 3))
         return np.vstack([self.points.min(axis=0), self.points.max(axis=0)])
 
-    def subset(self, index: np.ndarray) -> "PointCloud":
+    def subset(self, index: np.ndarray) -> PointCloud:
         """A new cloud with the points selected by a boolean mask or index array."""
         return PointCloud(
             self.points[index],
@@ -106,7 +106,7 @@ class PointCloud:
         return pc
 
     @classmethod
-    def from_open3d(cls, pc, name: str = "cloud") -> "PointCloud":
+    def from_open3d(cls, pc, name: str = "cloud") -> PointCloud:
         return cls(
             np.asarray(pc.points),
             np.asarray(pc.colors) if pc.has_colors() else None,
@@ -188,7 +188,7 @@ class TriangleMesh:
         return m
 
     @classmethod
-    def from_open3d(cls, m, name: str = "mesh") -> "TriangleMesh":
+    def from_open3d(cls, m, name: str = "mesh") -> TriangleMesh:
         return cls(
             np.asarray(m.vertices),
             np.asarray(m.triangles),
@@ -235,8 +235,14 @@ def _num(v: float) -> str:
     return f"{v:.6g}"
 
 
-def camera_problem(camera_matrix: Any, dist_coeffs: Any = (), rotation: Any = None, translation: Any = None,
-                   image_size: Any = (0, 0), pixel_pitch: Any = None) -> str | None:
+def camera_problem(
+    camera_matrix: Any,
+    dist_coeffs: Any = (),
+    rotation: Any = None,
+    translation: Any = None,
+    image_size: Any = (0, 0),
+    pixel_pitch: Any = None,
+) -> str | None:
     """The first reason (one line, no culprit prefix) why these cannot describe a camera,
     or None: positive finite focal lengths (px), a finite principal point inside or near
     the image when its size is known, K's last row (0, 0, 1), finite distortion with an
@@ -256,8 +262,11 @@ def camera_problem(camera_matrix: Any, dist_coeffs: Any = (), rotation: Any = No
             return f"focal length {what} = {_num(v)} px must be positive and finite"
     for what, v in (("cx", K[0, 2]), ("cy", K[1, 2]), ("skew", K[0, 1])):
         if not np.isfinite(v):
-            return f"principal point {what} = {_num(v)} px must be finite" if what != "skew" \
+            return (
+                f"principal point {what} = {_num(v)} px must be finite"
+                if what != "skew"
                 else f"skew = {_num(v)} must be finite"
+            )
     if not np.allclose(K[2], (0.0, 0.0, 1.0), rtol=0, atol=1e-9) or abs(K[1, 0]) > 1e-9:
         return f"camera_matrix last row must be (0, 0, 1) and K[1,0] = 0, got {K[2].tolist()} and {_num(K[1, 0])}"
     try:
@@ -265,8 +274,7 @@ def camera_problem(camera_matrix: Any, dist_coeffs: Any = (), rotation: Any = No
     except (TypeError, ValueError):
         return "distortion coefficients are not numbers"
     if d.size not in DIST_COUNTS:
-        return (f"{d.size} distortion coefficients; OpenCV's models have "
-                f"{', '.join(str(n) for n in DIST_COUNTS[1:])}")
+        return f"{d.size} distortion coefficients; OpenCV's models have {', '.join(str(n) for n in DIST_COUNTS[1:])}"
     if not np.all(np.isfinite(d)):
         i = int(np.flatnonzero(~np.isfinite(d))[0])
         return f"distortion coefficient {i + 1} = {_num(d[i])} must be finite"
@@ -345,8 +353,9 @@ class CameraModel:
             self.rotation = np.eye(3)
         if self.translation is None:
             self.translation = np.zeros(3)
-        why = camera_problem(self.camera_matrix, self.dist_coeffs, self.rotation, self.translation,
-                             self.image_size, self.pixel_pitch)
+        why = camera_problem(
+            self.camera_matrix, self.dist_coeffs, self.rotation, self.translation, self.image_size, self.pixel_pitch
+        )
         if why is not None:
             raise InputError(f"camera {self.name!r}: {why}")
         self.camera_matrix = np.asarray(self.camera_matrix, dtype=np.float64).reshape(3, 3)
@@ -355,11 +364,12 @@ class CameraModel:
         self.translation = np.asarray(self.translation, dtype=np.float64).reshape(3)
         self.image_size = (int(self.image_size[0]), int(self.image_size[1]))
 
-    def check(self) -> "CameraModel":
+    def check(self) -> CameraModel:
         """The camera itself, after checking it again (for a model whose arrays were
         changed after it was made); InputError naming the camera otherwise."""
-        why = camera_problem(self.camera_matrix, self.dist_coeffs, self.rotation, self.translation,
-                             self.image_size, self.pixel_pitch)
+        why = camera_problem(
+            self.camera_matrix, self.dist_coeffs, self.rotation, self.translation, self.image_size, self.pixel_pitch
+        )
         if why is not None:
             raise InputError(f"camera {self.name!r}: {why}")
         return self
@@ -426,9 +436,11 @@ class Artefact:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Artefact":
+    def from_dict(cls, d: dict[str, Any]) -> Artefact:
         certs = {
-            k: Certificate(float(c["value"]), float(c.get("uncertainty", 0.0)), float(c.get("k", 2.0)), c.get("unit", "mm"))
+            k: Certificate(
+                float(c["value"]), float(c.get("uncertainty", 0.0)), float(c.get("k", 2.0)), c.get("unit", "mm")
+            )
             for k, c in (d.get("certificates") or {}).items()
         }
         return cls(d["id"], d["kind"], d.get("name", ""), dict(d.get("nominal") or {}), certs, d.get("notes", ""))

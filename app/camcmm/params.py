@@ -17,8 +17,20 @@ from .errors import ParameterError
 TYPES = ("float", "int", "bool", "str", "choice", "vector")
 #: The keys a declaration may have; another key is a typo (``maximum:`` for ``max:``) that
 #: would silently drop a limit.
-KEYS = ("name", "type", "default", "unit", "min", "max", "exclusive_min", "finite", "choices", "length",
-        "required", "help")
+KEYS = (
+    "name",
+    "type",
+    "default",
+    "unit",
+    "min",
+    "max",
+    "exclusive_min",
+    "finite",
+    "choices",
+    "length",
+    "required",
+    "help",
+)
 #: Largest integer any int parameter takes, declared max or not: beyond it JSON (a double)
 #: no longer holds integers exactly.
 INT_LIMIT = 2**53
@@ -55,7 +67,7 @@ class Param:
     help: str = ""
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Param":
+    def from_dict(cls, d: dict[str, Any]) -> Param:
         if not isinstance(d, dict) or "name" not in d:
             raise ParameterError(f"parameter declaration without a name: {d!r}")
         unknown = [k for k in d if k not in KEYS]
@@ -90,8 +102,14 @@ class Param:
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": self.type, "default": self.default}
-        for key, value in (("unit", self.unit), ("min", self.minimum), ("max", self.maximum),
-                           ("exclusive_min", self.exclusive_minimum), ("length", self.length), ("help", self.help)):
+        for key, value in (
+            ("unit", self.unit),
+            ("min", self.minimum),
+            ("max", self.maximum),
+            ("exclusive_min", self.exclusive_minimum),
+            ("length", self.length),
+            ("help", self.help),
+        ):
             if value not in (None, ""):
                 d[key] = value
         if not self.finite:
@@ -112,8 +130,9 @@ class Param:
         try:
             out = _COERCE[self.type](self, value)
         except (TypeError, ValueError, OverflowError) as exc:
-            raise ParameterError(f"parameter {self.name!r}: {_short(value)} is not a valid {self.type} "
-                                 f"({_short(str(exc), quote=False)})") from None
+            raise ParameterError(
+                f"parameter {self.name!r}: {_short(value)} is not a valid {self.type} ({_short(str(exc), quote=False)})"
+            ) from None
         unit = f" {self.unit}" if self.unit else ""
         for x in out if isinstance(out, list) else [out]:
             if isinstance(x, float) and not math.isfinite(x):
@@ -131,8 +150,13 @@ class Param:
 
     def limits_text(self) -> str:
         """The declared limits as one short phrase (``1 <= x <= 64``), '' when none."""
-        lo = (f"{_num(self.minimum)} <= " if self.minimum is not None
-              else f"{_num(self.exclusive_minimum)} < " if self.exclusive_minimum is not None else "")
+        lo = (
+            f"{_num(self.minimum)} <= "
+            if self.minimum is not None
+            else f"{_num(self.exclusive_minimum)} < "
+            if self.exclusive_minimum is not None
+            else ""
+        )
         hi = f" <= {_num(self.maximum)}" if self.maximum is not None else ""
         return f"{lo}x{hi}" if lo or hi else ""
 
@@ -260,13 +284,12 @@ def add_cli_options(parser: argparse.ArgumentParser, params: list[Param]) -> Non
         default = f" (default: {p.default})" if p.default is not None else ""
         # '%' in help text is argparse's format character
         text = f"{p.help}{unit}{extra}{limits}{default}".replace("%", "%%")
-        parser.add_argument(cli_flag(p.name), dest=f"param__{p.name}", metavar=p.type.upper(),
-                            default=None, help=text)
+        parser.add_argument(cli_flag(p.name), dest=f"param__{p.name}", metavar=p.type.upper(), default=None, help=text)
 
 
 def cli_values(args: argparse.Namespace) -> dict[str, Any]:
     """The parameter values given on the command line (not the defaults)."""
-    return {k[len("param__"):]: v for k, v in vars(args).items() if k.startswith("param__") and v is not None}
+    return {k[len("param__") :]: v for k, v in vars(args).items() if k.startswith("param__") and v is not None}
 
 
 def form_schema(params: list[Param]) -> list[dict[str, Any]]:

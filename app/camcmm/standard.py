@@ -22,8 +22,19 @@ from typing import Any, Protocol, runtime_checkable
 
 from .standard_results import ParameterResult, PositionEvaluation, TestResult, as_dict
 
-__all__ = ["ArtefactField", "ArtefactKind", "ParameterResult", "PositionEvaluation", "PositionSpec",
-           "QualityParameter", "Standard", "StandardDeclaration", "TestDeclaration", "TestResult", "as_dict"]
+__all__ = [
+    "ArtefactField",
+    "ArtefactKind",
+    "ParameterResult",
+    "PositionEvaluation",
+    "PositionSpec",
+    "QualityParameter",
+    "Standard",
+    "StandardDeclaration",
+    "TestDeclaration",
+    "TestResult",
+    "as_dict",
+]
 
 
 # -- what a standard declares ---------------------------------------------------------------
@@ -194,8 +205,7 @@ class PositionSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """As ``requirements()`` lists it: ``{"id", "label", "hint", "where", ...placement}``."""
-        out = {"id": self.id, "label": self.title, "hint": self.hint, "where": list(self.where),
-               **self.placement}
+        out = {"id": self.id, "label": self.title, "hint": self.hint, "where": list(self.where), **self.placement}
         if self.pictogram:
             out["pictogram"] = self.pictogram
         return out
@@ -244,9 +254,19 @@ class StandardDeclaration:
         """The declared tests as ``requirements()`` returns them (a standard whose
         positions do not depend on the plan can return this)."""
         arts = plan_artefacts or {}
-        return [{"test": t.test, "label": t.title, "parameters": list(t.parameters), "min_count": t.min_count,
-                 "repeats": t.repeats, "required": t.required, "artefact": arts.get(t.test),
-                 "positions": [p.to_dict() for p in self.positions_of(t.test)]} for t in self.tests]
+        return [
+            {
+                "test": t.test,
+                "label": t.title,
+                "parameters": list(t.parameters),
+                "min_count": t.min_count,
+                "repeats": t.repeats,
+                "required": t.required,
+                "artefact": arts.get(t.test),
+                "positions": [p.to_dict() for p in self.positions_of(t.test)],
+            }
+            for t in self.tests
+        ]
 
 
 # -- the protocol ----------------------------------------------------------------------------
@@ -270,13 +290,22 @@ class Standard(Protocol):
         "parameters", "min_count", "repeats", "required", "artefact", "positions"}``;
         checks the plan (one-line InputError naming the key)."""
 
-    def evaluate_measurement(self, ctx: Any, test: str, cloud: Any, plan: Any, *, file: str | None = None,
-                             position: str | None = None, repeat: int | None = None
-                             ) -> PositionEvaluation | dict[str, Any]:
+    def evaluate_measurement(
+        self,
+        ctx: Any,
+        test: str,
+        cloud: Any,
+        plan: Any,
+        *,
+        file: str | None = None,
+        position: str | None = None,
+        repeat: int | None = None,
+    ) -> PositionEvaluation | dict[str, Any]:
         """One measurement (a PointCloud or a path) at once."""
 
-    def summarize(self, ctx: Any, plan: Any, per_measurement: dict[str, list[dict[str, Any]]]
-                  ) -> TestResult | dict[str, Any]:
+    def summarize(
+        self, ctx: Any, plan: Any, per_measurement: dict[str, list[dict[str, Any]]]
+    ) -> TestResult | dict[str, Any]:
         """The result from evaluations already made (``{test: [evaluation dict, ...]}``;
         an evaluation may be ``{"file", "position", "error"}``)."""
 

@@ -51,9 +51,18 @@ class PositionEvaluation:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        out = {**self.extra, "test": self.test, "values": dict(self.values), "file": self.file,
-               "position": self.position, "repeat": self.repeat, "fit": list(self.fit), "fit_text": self.fit_text,
-               "warnings": list(self.warnings), "deviations": self.deviations}
+        out = {
+            **self.extra,
+            "test": self.test,
+            "values": dict(self.values),
+            "file": self.file,
+            "position": self.position,
+            "repeat": self.repeat,
+            "fit": list(self.fit),
+            "fit_text": self.fit_text,
+            "warnings": list(self.warnings),
+            "deviations": self.deviations,
+        }
         if self.view is not None:
             out["view"] = self.view
         return out
@@ -95,8 +104,9 @@ class ParameterResult:
     per_measurement: list[dict[str, Any]] = field(default_factory=list)
 
     @classmethod
-    def judge(cls, parameter: Any, rows: list[dict[str, Any]], mpe: float, U: float = 0.0,
-              required: int = 0) -> ParameterResult:
+    def judge(
+        cls, parameter: Any, rows: list[dict[str, Any]], mpe: float, U: float = 0.0, required: int = 0
+    ) -> ParameterResult:
         """Judge ``rows`` (``{"value", ...}``; ``value`` None for a failed measurement) of
         ``parameter`` (a :class:`camcmm.standard.QualityParameter`): the largest value
         (largest magnitude, sign kept, when ``parameter.signed``), both verdicts;
@@ -108,18 +118,35 @@ class ParameterResult:
         if len(values) < required:
             reasons.append(f"{len(values)} of the {required} measurements required were evaluated")
         value = (max(values, key=abs) if parameter.signed else max(values)) if values else None
-        out = cls(parameter.key, parameter.name, value, float(mpe), float(U), unit=parameter.unit,
-                  n_evaluated=len(values), incomplete_reasons=reasons, per_measurement=list(rows))
+        out = cls(
+            parameter.key,
+            parameter.name,
+            value,
+            float(mpe),
+            float(U),
+            unit=parameter.unit,
+            n_evaluated=len(values),
+            incomplete_reasons=reasons,
+            per_measurement=list(rows),
+        )
         if not reasons:
             out.verdict = simple_verdict(value, mpe)
             out.verdict_guarded = guarded_verdict(value, mpe, U)
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "value": self.value, "mpe": self.mpe, "verdict": self.verdict,
-                "verdict_guarded": self.verdict_guarded, "U": self.U, "unit": self.unit,
-                "n_evaluated": self.n_evaluated, "incomplete_reasons": list(self.incomplete_reasons),
-                "per_measurement": list(self.per_measurement)}
+        return {
+            "name": self.name,
+            "value": self.value,
+            "mpe": self.mpe,
+            "verdict": self.verdict,
+            "verdict_guarded": self.verdict_guarded,
+            "U": self.U,
+            "unit": self.unit,
+            "n_evaluated": self.n_evaluated,
+            "incomplete_reasons": list(self.incomplete_reasons),
+            "per_measurement": list(self.per_measurement),
+        }
 
 
 @dataclass
@@ -155,11 +182,16 @@ class TestResult:
 
     def to_dict(self) -> dict[str, Any]:
         params = self.parameters.values()
-        out = {**self.extra, "standard": self.standard, "standard_name": self.standard_name,
-               "verdict": self.verdict or combine(p.verdict for p in params),
-               "verdict_guarded": self.verdict_guarded or combine(p.verdict_guarded for p in params),
-               "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
-               "warnings": list(self.warnings), "measurements": self.measurements}
+        out = {
+            **self.extra,
+            "standard": self.standard,
+            "standard_name": self.standard_name,
+            "verdict": self.verdict or combine(p.verdict for p in params),
+            "verdict_guarded": self.verdict_guarded or combine(p.verdict_guarded for p in params),
+            "parameters": {k: p.to_dict() for k, p in self.parameters.items()},
+            "warnings": list(self.warnings),
+            "measurements": self.measurements,
+        }
         if self.report:
             out["report"] = dict(self.report)
         return out

@@ -41,20 +41,21 @@ import subprocess
 import sys
 import threading
 import time
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from .errors import CamcmmError, PluginError
 
 log = logging.getLogger(__name__)
 
-KEEP_IDLE = 2          # idle workers kept warm (over every host)
+KEEP_IDLE = 2  # idle workers kept warm (over every host)
 CANCEL_GRACE_S = 10.0  # after a cancel, how long a plugin may take to notice before its worker is stopped
 _POLL_S = 0.05
 _PROGRESS_EVERY_S = 0.02
 
 _lock = threading.Lock()
-_idle: list["_Worker"] = []
-_all: set["_Worker"] = set()
+_idle: list[_Worker] = []
+_all: set[_Worker] = set()
 _spawn_seconds: list[float] = []
 
 
@@ -90,8 +91,10 @@ def _answer(result: Any, plugin_id: str) -> bytes:
             except Exception:
                 bad = f"{name!r} ({type(value).__name__})"
                 break
-        err = PluginError(f"plugin {plugin_id!r}: output {bad} cannot be passed back from the worker process "
-                          f"({type(exc).__name__}: {' '.join(str(exc).split())[:120]})")
+        err = PluginError(
+            f"plugin {plugin_id!r}: output {bad} cannot be passed back from the worker process "
+            f"({type(exc).__name__}: {' '.join(str(exc).split())[:120]})"
+        )
         return pickle.dumps(("error", err))
 
 
@@ -191,7 +194,10 @@ class _Worker:
         try:
             self.proc = subprocess.Popen(
                 [sys.executable, "-c", "from camcmm.worker import _child; _child()", *map(str, fds)],
-                pass_fds=fds, stdin=subprocess.DEVNULL, close_fds=True)
+                pass_fds=fds,
+                stdin=subprocess.DEVNULL,
+                close_fds=True,
+            )
         finally:
             child.close()
             child_ctl.close()
@@ -278,9 +284,14 @@ def _give(w: _Worker) -> None:
         old.stop()
 
 
-def run_isolated(host: Any, plugin_id: str, inputs: dict[str, Any] | None = None,
-                 params: dict[str, Any] | None = None, progress: Callable[[float, str], None] | None = None,
-                 cancel: threading.Event | None = None) -> Any:
+def run_isolated(
+    host: Any,
+    plugin_id: str,
+    inputs: dict[str, Any] | None = None,
+    params: dict[str, Any] | None = None,
+    progress: Callable[[float, str], None] | None = None,
+    cancel: threading.Event | None = None,
+) -> Any:
     """``host.run(plugin_id, inputs, params, progress, cancel)`` in a worker process.
 
     Returns the RunResult (outputs pickled back); raises what the run raised, a
@@ -297,8 +308,10 @@ def run_isolated(host: Any, plugin_id: str, inputs: dict[str, Any] | None = None
             w.conn.send((w.runs, plugin_id, inputs or {}, params or {}))
         except (pickle.PicklingError, TypeError, AttributeError) as exc:
             done = True  # nothing reached the worker: it stays good
-            raise PluginError(f"plugin {plugin_id!r}: an input cannot be passed to the worker process "
-                              f"({type(exc).__name__}: {' '.join(str(exc).split())[:160]})") from None
+            raise PluginError(
+                f"plugin {plugin_id!r}: an input cannot be passed to the worker process "
+                f"({type(exc).__name__}: {' '.join(str(exc).split())[:160]})"
+            ) from None
         asked = None
         while True:
             if w.conn.poll(_POLL_S):
@@ -329,15 +342,19 @@ def run_isolated(host: Any, plugin_id: str, inputs: dict[str, Any] | None = None
                     asked = time.monotonic()
                 elif time.monotonic() - asked > CANCEL_GRACE_S:
                     w.kill()
-                    raise Cancelled(f"{plugin_id}: cancelled (the plugin did not stop by itself within "
-                                    f"{CANCEL_GRACE_S:g} s; its worker process was stopped)")
+                    raise Cancelled(
+                        f"{plugin_id}: cancelled (the plugin did not stop by itself within "
+                        f"{CANCEL_GRACE_S:g} s; its worker process was stopped)"
+                    )
         try:
             code = w.proc.wait(5)
         except subprocess.TimeoutExpired:
             code = None
         w.kill()
-        raise PluginError(f"{plugin_id}: the worker process died ({_death(code)}); the server keeps running "
-                          f"— check the inputs (a calibration or a file with impossible values?)")
+        raise PluginError(
+            f"{plugin_id}: the worker process died ({_death(code)}); the server keeps running "
+            f"— check the inputs (a calibration or a file with impossible values?)"
+        )
     finally:
         if done:
             _give(w)
@@ -345,8 +362,14 @@ def run_isolated(host: Any, plugin_id: str, inputs: dict[str, Any] | None = None
             w.kill()
 
 
-def run(host: Any, plugin_id: str, inputs: dict[str, Any] | None = None, params: dict[str, Any] | None = None,
-        progress: Callable[[float, str], None] | None = None, cancel: threading.Event | None = None) -> Any:
+def run(
+    host: Any,
+    plugin_id: str,
+    inputs: dict[str, Any] | None = None,
+    params: dict[str, Any] | None = None,
+    progress: Callable[[float, str], None] | None = None,
+    cancel: threading.Event | None = None,
+) -> Any:
     """A plugin run in a worker process when ``host`` can be rebuilt there (see
     :func:`isolatable`), else ``host.run`` in the calling thread."""
     if isolatable(host):
@@ -363,6 +386,7 @@ def warm(host: Any) -> None:
 def warm_later(host: Any) -> threading.Thread:
     """:func:`warm` in a background thread (at server start: the first run then finds its
     worker ready); a failure is logged as one line, the first run will try again."""
+
     def go() -> None:
         try:
             warm(host)

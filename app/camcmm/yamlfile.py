@@ -50,8 +50,14 @@ class YamlError(InputError):
     """A YAML document refused: one line naming the file (and line) at fault."""
 
 
-def read_yaml(path: str | Path, *, name: str | None = None, max_bytes: int = MAX_BYTES,
-              max_alias_nodes: int = MAX_ALIAS_NODES, max_depth: int = MAX_DEPTH) -> Any:
+def read_yaml(
+    path: str | Path,
+    *,
+    name: str | None = None,
+    max_bytes: int = MAX_BYTES,
+    max_alias_nodes: int = MAX_ALIAS_NODES,
+    max_depth: int = MAX_DEPTH,
+) -> Any:
     """Load the one YAML (or JSON) document in file ``path``; see :func:`load_yaml`.
 
     The size is checked before reading, and a file that cannot be read is a YamlError
@@ -64,19 +70,27 @@ def read_yaml(path: str | Path, *, name: str | None = None, max_bytes: int = MAX
             data = fh.read(max_bytes + 1)  # one byte over tells "too large" without reading it all
     except OSError as exc:
         raise YamlError(f"{name}: cannot read the file ({exc.strerror or exc})") from None
-    return load_yaml(data, name=name, max_bytes=max_bytes, max_alias_nodes=max_alias_nodes,
-                     max_depth=max_depth)
+    return load_yaml(data, name=name, max_bytes=max_bytes, max_alias_nodes=max_alias_nodes, max_depth=max_depth)
 
 
-def load_yaml(text: str | bytes, *, name: str = "YAML text", max_bytes: int = MAX_BYTES,
-              max_alias_nodes: int = MAX_ALIAS_NODES, max_depth: int = MAX_DEPTH) -> Any:
+def load_yaml(
+    text: str | bytes,
+    *,
+    name: str = "YAML text",
+    max_bytes: int = MAX_BYTES,
+    max_alias_nodes: int = MAX_ALIAS_NODES,
+    max_depth: int = MAX_DEPTH,
+) -> Any:
     """Load one YAML (or JSON) document from ``text`` with the limits of this module.
 
     Returns what ``yaml.safe_load`` would (``None`` for an empty document); raises
     :class:`YamlError` with one line starting with ``name`` otherwise.
     """
-    size = len(text) if isinstance(text, (bytes, bytearray)) else (
-        len(text) if len(text) > max_bytes else len(text.encode("utf-8", "surrogatepass")))
+    size = (
+        len(text)
+        if isinstance(text, (bytes, bytearray))
+        else (len(text) if len(text) > max_bytes else len(text.encode("utf-8", "surrogatepass")))
+    )
     if size > max_bytes:
         raise YamlError(f"{name}: larger than the {_mib(max_bytes)} a YAML file may have")
     if isinstance(text, (bytes, bytearray)):
@@ -93,8 +107,7 @@ def load_yaml(text: str | bytes, *, name: str = "YAML text", max_bytes: int = MA
         raise YamlError(f"{name}: not valid YAML{_where(exc.problem_mark)}: {_short(what)}") from None
     except yaml.reader.ReaderError as exc:  # a control character; position counts characters
         line = text.count("\n", 0, exc.position) + 1
-        raise YamlError(f"{name}: not valid YAML at line {line}: character {exc.character!r} is not allowed") \
-            from None
+        raise YamlError(f"{name}: not valid YAML at line {line}: character {exc.character!r} is not allowed") from None
     except yaml.YAMLError as exc:
         raise YamlError(f"{name}: not valid YAML: {_short(str(exc))}") from None
     except RecursionError:  # the pure-Python composer recurses per level
@@ -107,8 +120,12 @@ def load_yaml(text: str | bytes, *, name: str = "YAML text", max_bytes: int = MA
 
 def _decode(data: bytes, name: str) -> str:
     # YAML 1.1 allows UTF-16/32 with a BOM; anything else must be UTF-8.
-    for bom, codec in ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
-                       (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16")):
+    for bom, codec in (
+        (codecs.BOM_UTF32_LE, "utf-32"),
+        (codecs.BOM_UTF32_BE, "utf-32"),
+        (codecs.BOM_UTF16_LE, "utf-16"),
+        (codecs.BOM_UTF16_BE, "utf-16"),
+    ):
         if data.startswith(bom):
             try:
                 return data.decode(codec)
@@ -135,8 +152,10 @@ def _check(loader: Any, root: Node, name: str, max_alias_nodes: int, max_depth: 
             on_path.discard(key)
             expanded[key] = 1 + sum(expanded[id(c)] for c in _children(node))
             if expanded[key] - distinct > max_alias_nodes:
-                raise YamlError(f"{name}: anchors and aliases{_where(node.start_mark)} expand to more than "
-                                f"{max_alias_nodes} extra nodes; write the values out or use fewer aliases")
+                raise YamlError(
+                    f"{name}: anchors and aliases{_where(node.start_mark)} expand to more than "
+                    f"{max_alias_nodes} extra nodes; write the values out or use fewer aliases"
+                )
             continue
         if key in expanded:
             continue
@@ -175,8 +194,10 @@ def _no_duplicate_keys(loader: Any, node: MappingNode, name: str) -> None:
             continue
         k = loader.construct_object(key_node)
         if k in seen:
-            raise YamlError(f"{name}: duplicate key {key_node.value!r}{_where(key_node.start_mark)} "
-                            f"(first{_where(seen[k])}); each key may appear once")
+            raise YamlError(
+                f"{name}: duplicate key {key_node.value!r}{_where(key_node.start_mark)} "
+                f"(first{_where(seen[k])}); each key may appear once"
+            )
         seen[k] = key_node.start_mark
 
 

@@ -44,12 +44,17 @@ def _plugins(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     return {
         "plugins": [
-            {k: v for k, v in s.to_dict().items()
-             if k in ("id", "kind", "name", "version", "status", "distribution", "summary", "warnings")}
+            {
+                k: v
+                for k, v in s.to_dict().items()
+                if k in ("id", "kind", "name", "version", "status", "distribution", "summary", "warnings")
+            }
             for s in host.check()
         ],
-        "commands": [{"name": c.name, "summary": c.summary, "distribution": c.distribution}
-                     for c in sorted(host.commands.values(), key=lambda c: c.name)],
+        "commands": [
+            {"name": c.name, "summary": c.summary, "distribution": c.distribution}
+            for c in sorted(host.commands.values(), key=lambda c: c.name)
+        ],
     }
 
 
@@ -113,10 +118,20 @@ class _Prefixed:
 
 def _plugin_parser(spec) -> argparse.ArgumentParser:
     clash = [q for q in spec.parameters if q.name in _RUN_OPTIONS]
-    epilog = ("The plugin's parameter" + ("s " if len(clash) > 1 else " ")
-              + ", ".join(f"'{q.name}'" for q in clash) + " " + ("are" if len(clash) > 1 else "is")
-              + " given as " + ", ".join(f"--param-{q.name}" for q in clash)
-              + ": --project, --out and --json are camcmm run's own options.") if clash else None
+    epilog = (
+        (
+            "The plugin's parameter"
+            + ("s " if len(clash) > 1 else " ")
+            + ", ".join(f"'{q.name}'" for q in clash)
+            + " "
+            + ("are" if len(clash) > 1 else "is")
+            + " given as "
+            + ", ".join(f"--param-{q.name}" for q in clash)
+            + ": --project, --out and --json are camcmm run's own options."
+        )
+        if clash
+        else None
+    )
     p = Parser(prog=f"camcmm run {spec.id}", description=spec.summary, epilog=epilog)
     for port in spec.inputs:
         nargs = "+" if port.type in ("images", "files") else ("?" if port.optional else None)
@@ -143,8 +158,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     geometry = [(k, v) for k, v in result.outputs.items() if hasattr(v, "n_points") or hasattr(v, "n_faces")]
     if pa.out:
         if not geometry:
-            hint = ("; its own parameter 'out' is --param-out" if any(q.name == "out" for q in spec.parameters)
-                    else "")
+            hint = "; its own parameter 'out' is --param-out" if any(q.name == "out" for q in spec.parameters) else ""
             raise CamcmmError(f"plugin {spec.id!r} produced no cloud or mesh to write to {pa.out}{hint}")
         from ..io import write
 
@@ -175,8 +189,10 @@ def _demo_text(d: dict[str, Any]) -> str:
     lines = [f"demo project at {d['project']} with {len(d['measurements'])} measurements"]
     test = d.get("acceptance")
     if test:
-        lines.append(f"finished {test['standard']} acceptance test: {test['verdict']}"
-                     f" (guarded acceptance: {test.get('verdict_guarded', '-')})")
+        lines.append(
+            f"finished {test['standard']} acceptance test: {test['verdict']}"
+            f" (guarded acceptance: {test.get('verdict_guarded', '-')})"
+        )
     lines += [f"note: {n}" for n in d.get("notes", [])]
     lines.append(f"open it with: camcmm serve --project {d['project']}")
     return "\n".join(lines)

@@ -58,8 +58,9 @@ def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable 
     try:
         module = importlib.import_module(spec.entry)
     except Exception as exc:
-        raise CamcmmError(f"command {name!r} from {spec.distribution} cannot be loaded: "
-                          f"{type(exc).__name__}: {exc}") from exc
+        raise CamcmmError(
+            f"command {name!r} from {spec.distribution} cannot be loaded: {type(exc).__name__}: {exc}"
+        ) from exc
     p = Parser(prog=f"camcmm {name}", description=spec.summary)
     module.configure(p)
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         first = next((a for a in argv if not a.startswith("-")), None)
         if first in handlers and not isinstance(handlers[first], tuple):
             i = argv.index(first)
-            result, as_json, text = _contributed(first, handlers[first], argv[i + 1:])
+            result, as_json, text = _contributed(first, handlers[first], argv[i + 1 :])
         else:
             args = parser.parse_args(argv)
             if not args.command:

@@ -21,10 +21,11 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from datetime import datetime, timezone
-from typing import Any, Callable, Iterator
+from datetime import UTC, datetime
+from typing import Any
 
 from ..errors import InputError, ParameterError
 from ..params import Param
@@ -48,7 +49,7 @@ class DeviceDisconnected(DeviceError):
 
 def utc_iso(t: float | None = None) -> str:
     """Wall-clock time ``t`` (epoch seconds; now if None) as UTC ISO 8601 with ms."""
-    return datetime.fromtimestamp(time.time() if t is None else t, timezone.utc).isoformat(timespec="milliseconds")
+    return datetime.fromtimestamp(time.time() if t is None else t, UTC).isoformat(timespec="milliseconds")
 
 
 @dataclass(frozen=True)
@@ -66,8 +67,15 @@ class DeviceStatus:
     health: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"device": self.device, "kind": self.kind, "state": self.state, "port": self.port,
-                "message": self.message, "time": utc_iso(self.time), "health": dict(self.health)}
+        return {
+            "device": self.device,
+            "kind": self.kind,
+            "state": self.state,
+            "port": self.port,
+            "message": self.message,
+            "time": utc_iso(self.time),
+            "health": dict(self.health),
+        }
 
 
 class Events:
@@ -87,6 +95,7 @@ class Events:
             with self._lock:
                 if callback in self._subs.get(name, []):
                     self._subs[name].remove(callback)
+
         return off
 
     def emit(self, name: str, *args: Any) -> None:
@@ -153,8 +162,14 @@ class Device:
         merged = {**old.health, **health}
         if state == old.state and message == old.message and merged == old.health:
             return
-        self._status = replace(old, state=state, message=message, port=self.port,
-                               time=time.time() if state != old.state else old.time, health=merged)
+        self._status = replace(
+            old,
+            state=state,
+            message=message,
+            port=self.port,
+            time=time.time() if state != old.state else old.time,
+            health=merged,
+        )
         self.events.emit("status", self._status)
 
     # -- life cycle -----------------------------------------------------------------------
@@ -162,7 +177,7 @@ class Device:
     def connected(self) -> bool:
         return self._connected
 
-    def connect(self) -> "Device":
+    def connect(self) -> Device:
         """Open the port and apply the settings; returns self. Idempotent."""
         with self.guard("connecting"):
             if not self._connected:
@@ -183,14 +198,14 @@ class Device:
             self._connected = False
             self._set_status("disconnected", self._status.message if self._status.state == "fault" else "")
 
-    def reconnect(self, port: str | None = None) -> "Device":
+    def reconnect(self, port: str | None = None) -> Device:
         """Close and open again (after a fault), optionally on another port."""
         self.disconnect()
         if port is not None:
             self.port = str(port)
         return self.connect()
 
-    def __enter__(self) -> "Device":
+    def __enter__(self) -> Device:
         return self.connect()
 
     def __exit__(self, *exc: Any) -> None:
@@ -227,8 +242,12 @@ class Device:
     def capabilities(self) -> dict[str, Any]:
         """What the device offers: kind, settings (as parameter declarations for a
         form), and subclass specifics (units, travel range, image size ...)."""
-        return {"kind": self.kind, "name": self.name, "port": self.port,
-                "settings": [p.to_dict() for p in self.settings_schema]}
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "port": self.port,
+            "settings": [p.to_dict() for p in self.settings_schema],
+        }
 
     # -- status and health --------------------------------------------------------------
     def status(self) -> DeviceStatus:

@@ -52,21 +52,26 @@ class Camera(Device):
     def _check(self, new: dict[str, Any]) -> None:
         trig = new.get("trigger")
         if trig is not None and trig not in self.trigger_modes:
-            raise ParameterError(f"{self.label}: trigger {trig!r} is not supported; "
-                                 f"this camera offers {', '.join(self.trigger_modes)}")
+            raise ParameterError(
+                f"{self.label}: trigger {trig!r} is not supported; this camera offers {', '.join(self.trigger_modes)}"
+            )
         roi = new.get("roi")
         if roi is not None:
             x, y, w, h = (int(v) for v in roi)
             if min(x, y, w, h) < 0:
                 raise ParameterError(f"{self.label}: roi {roi} has a negative entry")
             if self.sensor_size and (w or h) and (x + w > self.sensor_size[0] or y + h > self.sensor_size[1]):
-                raise ParameterError(f"{self.label}: roi {roi} exceeds the sensor "
-                                     f"{self.sensor_size[0]}x{self.sensor_size[1]} px")
+                raise ParameterError(
+                    f"{self.label}: roi {roi} exceeds the sensor {self.sensor_size[0]}x{self.sensor_size[1]} px"
+                )
 
     def capabilities(self) -> dict[str, Any]:
-        return {**super().capabilities(), "trigger_modes": list(self.trigger_modes),
-                "sensor_size": list(self.sensor_size) if self.sensor_size else None,
-                "hardware_roi": self.hardware_roi}
+        return {
+            **super().capabilities(),
+            "trigger_modes": list(self.trigger_modes),
+            "sensor_size": list(self.sensor_size) if self.sensor_size else None,
+            "hardware_roi": self.hardware_roi,
+        }
 
     def temperature(self) -> float | None:
         """Sensor temperature in °C when the camera reports one."""
@@ -83,11 +88,18 @@ class Camera(Device):
             data = np.asarray(data)
             roi = [int(v) for v in s["roi"]]
             if not self.hardware_roi and roi[2] and roi[3]:
-                data = data[roi[1]:roi[1] + roi[3], roi[0]:roi[0] + roi[2]]
+                data = data[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]]
             self._count += 1
-            meta = {"camera": self.name, "frame": self._count, "time": utc_iso(t), "time_s": t,
-                    "exposure_ms": float(s["exposure_ms"]), "gain_db": float(s["gain_db"]),
-                    "trigger": s["trigger"], "roi": roi if roi[2] and roi[3] else [0, 0, data.shape[1], data.shape[0]]}
+            meta = {
+                "camera": self.name,
+                "frame": self._count,
+                "time": utc_iso(t),
+                "time_s": t,
+                "exposure_ms": float(s["exposure_ms"]),
+                "gain_db": float(s["gain_db"]),
+                "trigger": s["trigger"],
+                "roi": roi if roi[2] and roi[3] else [0, 0, data.shape[1], data.shape[0]],
+            }
             temp = extra.pop("temperature_c", None)
             if temp is None:
                 temp = self.temperature()

@@ -83,8 +83,10 @@ class Stage(Device):
         if not math.isfinite(value):
             raise self.error(f"target position {position!r} is not a finite number")
         if self.limits is not None and not (self.limits[0] - 1e-9 <= value <= self.limits[1] + 1e-9):
-            raise self.error(f"target {value:g} {self.unit} is outside the travel "
-                             f"{self.limits[0]:g} .. {self.limits[1]:g} {self.unit}")
+            raise self.error(
+                f"target {value:g} {self.unit} is outside the travel "
+                f"{self.limits[0]:g} .. {self.limits[1]:g} {self.unit}"
+            )
         if not allow_unhomed:
             self.require_homed()
         with self.guard(f"moving to {value:g} {self.unit}"):
@@ -147,8 +149,9 @@ class Stage(Device):
         if was_homed and not self.homed:
             # the controller reset mid-move: it stopped and counts from 0, so the end
             # position is no answer to the move
-            err = self.error(f"lost its reference during the motion (the controller reset) at {pos:g} {self.unit};"
-                             " home it again")
+            err = self.error(
+                f"lost its reference during the motion (the controller reset) at {pos:g} {self.unit}; home it again"
+            )
             self._fault(err)
             raise err
         settle = float(self._settings.get("settle_s") or 0.0)
@@ -163,9 +166,12 @@ class Stage(Device):
             self._stop()
 
     def capabilities(self) -> dict[str, Any]:
-        return {**super().capabilities(), "unit": self.unit,
-                "limits": list(self.limits) if self.limits is not None else None,
-                "homed": self.homed}
+        return {
+            **super().capabilities(),
+            "unit": self.unit,
+            "limits": list(self.limits) if self.limits is not None else None,
+            "homed": self.homed,
+        }
 
     def _ping(self) -> None:
         busy, pos = self._poll()

@@ -33,8 +33,14 @@ def open_project(project_dir: str | Path) -> Any:
     return Project.open_or_create(Path(project_dir))
 
 
-def build(server_name: str, project_dir: str | Path, project: Any = None, host: Any = None,
-          display_limit: int | None = None, data_roots: Any = ()) -> tuple[Any, Any]:
+def build(
+    server_name: str,
+    project_dir: str | Path,
+    project: Any = None,
+    host: Any = None,
+    display_limit: int | None = None,
+    data_roots: Any = (),
+) -> tuple[Any, Any]:
     """Build the trame server and the session on a project folder (created if new).
 
     Every registered page (:func:`camcmm.gui.pages.registered`) is mounted, gets a
@@ -80,9 +86,17 @@ def _page_switch(pages: list[Any], first: str) -> None:
     """The toolbar's page toggle: one button per page; the drawer opens on pages that have one."""
     from trame.widgets import vuetify3 as v
 
-    with v.VBtnToggle(v_model=("page", first), mandatory=True, density="compact", variant="outlined",
-                      divided=True, color="primary", classes="ml-4",
-                      update_modelValue="main_drawer = drawer_pages.includes($event)", raw_attrs=tid("page-switch")):
+    with v.VBtnToggle(
+        v_model=("page", first),
+        mandatory=True,
+        density="compact",
+        variant="outlined",
+        divided=True,
+        color="primary",
+        classes="ml-4",
+        update_modelValue="main_drawer = drawer_pages.includes($event)",
+        raw_attrs=tid("page-switch"),
+    ):
         for p in pages:
             v.VBtn(p.title, value=p.key, prepend_icon=p.icon, raw_attrs=tid(f"page-{p.key}"))
 
@@ -120,34 +134,71 @@ def _import_controls(session: Any) -> None:
             await session.import_file_async(str(allowed), Path(str(path).strip().strip('"')).name)
 
     session.ctrl.import_server_path = on_import_path  # for tests
-    v.VFileInput(v_model=("upload", None), label="Import cloud / mesh / image", accept=accepted_extensions(),
-                 prepend_icon="mdi-file-import", density="compact", variant="outlined", hide_details=True,
-                 show_size=True, loading=("importing",), disabled=("importing",), style="max-width: 380px;",
-                 classes="mr-4", raw_attrs=tid("import-file"))
+    v.VFileInput(
+        v_model=("upload", None),
+        label="Import cloud / mesh / image",
+        accept=accepted_extensions(),
+        prepend_icon="mdi-file-import",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        show_size=True,
+        loading=("importing",),
+        disabled=("importing",),
+        style="max-width: 380px;",
+        classes="mr-4",
+        raw_attrs=tid("import-file"),
+    )
     with v.VDialog(v_model=("path_dialog", False), max_width=640):
         with v.VCard(title="Import a file on the server", raw_attrs=tid("path-dialog")):
             with v.VCardText():
-                html.Div("For files too large to upload through the browser: give their path on the "
-                         "machine that runs camcmm.", classes="text-caption mb-2")
-                v.VTextField(v_model=("server_path", ""), label="Path", density="compact", variant="outlined",
-                             autofocus=True, raw_attrs=tid("server-path"))
+                html.Div(
+                    "For files too large to upload through the browser: give their path on the "
+                    "machine that runs camcmm.",
+                    classes="text-caption mb-2",
+                )
+                v.VTextField(
+                    v_model=("server_path", ""),
+                    label="Path",
+                    density="compact",
+                    variant="outlined",
+                    autofocus=True,
+                    raw_attrs=tid("server-path"),
+                )
             with v.VCardActions():
                 v.VSpacer()
                 v.VBtn("Cancel", variant="text", click="path_dialog = false")
-                v.VBtn("Import", color="primary", click=(on_import_path, "[server_path]"),
-                       raw_attrs=tid("server-path-import"))
-    with v.VBtn(icon=True, click="path_dialog = true", title="Import a file on the server",
-                raw_attrs=tid("open-path-dialog")):
+                v.VBtn(
+                    "Import",
+                    color="primary",
+                    click=(on_import_path, "[server_path]"),
+                    raw_attrs=tid("server-path-import"),
+                )
+    with v.VBtn(
+        icon=True, click="path_dialog = true", title="Import a file on the server", raw_attrs=tid("open-path-dialog")
+    ):
         v.VIcon("mdi-folder-open-outline")
 
 
 def _snackbars() -> None:
     from trame.widgets import vuetify3 as v
 
-    v.VSnackbar(v_model=("error_visible", False), text=("error_message",), color="error", timeout=8000,
-                location="bottom", raw_attrs=tid("error-snackbar"))
-    v.VSnackbar(v_model=("info_visible", False), text=("info_message",), color="success", timeout=3000,
-                location="bottom right", raw_attrs=tid("info-snackbar"))
+    v.VSnackbar(
+        v_model=("error_visible", False),
+        text=("error_message",),
+        color="error",
+        timeout=8000,
+        location="bottom",
+        raw_attrs=tid("error-snackbar"),
+    )
+    v.VSnackbar(
+        v_model=("info_visible", False),
+        text=("info_message",),
+        color="success",
+        timeout=3000,
+        location="bottom right",
+        raw_attrs=tid("info-snackbar"),
+    )
 
 
 def _layout(server: Any, session: Any, pages: list[Any]) -> None:
@@ -165,15 +216,24 @@ def _layout(server: Any, session: Any, pages: list[Any]) -> None:
         with layout.toolbar:
             layout.toolbar.density = "compact"
             v.VIcon("mdi-folder-outline", size="small", classes="ml-4 mr-1")
-            html.Span("{{ project_name }}", classes="text-subtitle-1", raw_attrs=tid("project-name"),
-                      title=("project_path",))
+            html.Span(
+                "{{ project_name }}", classes="text-subtitle-1", raw_attrs=tid("project-name"), title=("project_path",)
+            )
             _page_switch(pages, first)
             v.VSpacer()
             _import_controls(session)
         with layout.drawer as drawer:
             drawer.raw_attrs = tid("drawer")
-            v.VAlert(v_if="error_message", text=("error_message",), type="error", density="compact", closable=True,
-                     classes="ma-2", click_close="error_message = ''", raw_attrs=tid("error-alert"))
+            v.VAlert(
+                v_if="error_message",
+                text=("error_message",),
+                type="error",
+                density="compact",
+                closable=True,
+                classes="ma-2",
+                click_close="error_message = ''",
+                raw_attrs=tid("error-alert"),
+            )
             for p in pages:
                 if p.drawer is not None:
                     with html.Div(v_show=shown(p.key)):  # kept in the page, as the drawer is
@@ -197,9 +257,16 @@ def _bare_argv(extra: list[str] | None = None):
         sys.argv = saved
 
 
-def start(server: Any, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
-          token: str | None = "auto", allowed_origins: Any = (), certfile: str | None = None,
-          keyfile: str | None = None) -> None:
+def start(
+    server: Any,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    open_browser: bool = False,
+    token: str | None = "auto",
+    allowed_origins: Any = (),
+    certfile: str | None = None,
+    keyfile: str | None = None,
+) -> None:
     """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once
     listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`):
     ``"auto"`` makes a random one, ``None`` (no token) is refused beyond loopback.
@@ -270,25 +337,53 @@ def port_number(text: str) -> int:
 def add_serve_arguments(ap: Any) -> None:
     """The options ``camcmm serve`` and ``python -m camcmm.gui`` share (besides the
     project and the port): data roots, token, origins, TLS."""
-    ap.add_argument("--host", default="127.0.0.1",
-                    help="address to bind (default 127.0.0.1: this machine only; see docs/security.md)")
-    ap.add_argument("--data-root", action="append", default=[], metavar="DIR",
-                    help="a folder the browser may read and write besides the project folder (repeatable)")
-    ap.add_argument("--token-file", metavar="FILE",
-                    help="a fixed token (password) read from FILE instead of a random one per launch "
-                         "(also: $CAMCMM_TOKEN)")
-    ap.add_argument("--no-token", action="store_true",
-                    help="no token (only with a loopback --host): any local program may drive the app")
-    ap.add_argument("--allow-origin", action="append", default=[], metavar="URL",
-                    help="another origin the browser may use, e.g. a reverse proxy's https://lab.example (repeatable)")
+    ap.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to bind (default 127.0.0.1: this machine only; see docs/security.md)",
+    )
+    ap.add_argument(
+        "--data-root",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder the browser may read and write besides the project folder (repeatable)",
+    )
+    ap.add_argument(
+        "--token-file",
+        metavar="FILE",
+        help="a fixed token (password) read from FILE instead of a random one per launch (also: $CAMCMM_TOKEN)",
+    )
+    ap.add_argument(
+        "--no-token",
+        action="store_true",
+        help="no token (only with a loopback --host): any local program may drive the app",
+    )
+    ap.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="URL",
+        help="another origin the browser may use, e.g. a reverse proxy's https://lab.example (repeatable)",
+    )
     ap.add_argument("--certfile", help="TLS certificate (PEM): serve HTTPS")
     ap.add_argument("--keyfile", help="TLS private key (PEM) of --certfile")
 
 
-def serve(project_dir: str | Path, host: str = "127.0.0.1", port: int = 0, open_browser: bool = False,
-          server_name: str = "camcmm", *, data_roots: Iterable[str | Path] = (), no_token: bool = False,
-          token_file: str | Path | None = None, allowed_origins: Iterable[str] = (),
-          certfile: str | None = None, keyfile: str | None = None) -> None:
+def serve(
+    project_dir: str | Path,
+    host: str = "127.0.0.1",
+    port: int = 0,
+    open_browser: bool = False,
+    server_name: str = "camcmm",
+    *,
+    data_roots: Iterable[str | Path] = (),
+    no_token: bool = False,
+    token_file: str | Path | None = None,
+    allowed_origins: Iterable[str] = (),
+    certfile: str | None = None,
+    keyfile: str | None = None,
+) -> None:
     """Open (or create) the project in ``project_dir`` and serve the GUI until stopped.
 
     Prints ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once the server listens
@@ -307,16 +402,32 @@ def serve(project_dir: str | Path, host: str = "127.0.0.1", port: int = 0, open_
     preload()  # pages registered by the modules of $CAMCMM_GUI_PRELOAD
     server, session = build(server_name, project_dir, data_roots=data_roots)
     worker.warm_later(session.host)  # the plugin worker process starts while the page loads
-    start(server, host=host, port=port, open_browser=open_browser, token=token, allowed_origins=allowed_origins,
-          certfile=certfile, keyfile=keyfile)
-
+    start(
+        server,
+        host=host,
+        port=port,
+        open_browser=open_browser,
+        token=token,
+        allowed_origins=allowed_origins,
+        certfile=certfile,
+        keyfile=keyfile,
+    )
 
 
 def serve_from_args(project: str | Path, args: Any, port: int, open_browser: bool = False) -> None:
     """:func:`serve` with the options of :func:`add_serve_arguments`."""
-    serve(project, host=args.host, port=port, open_browser=open_browser, data_roots=args.data_root,
-          no_token=args.no_token, token_file=args.token_file, allowed_origins=args.allow_origin,
-          certfile=args.certfile, keyfile=args.keyfile)
+    serve(
+        project,
+        host=args.host,
+        port=port,
+        open_browser=open_browser,
+        data_roots=args.data_root,
+        no_token=args.no_token,
+        token_file=args.token_file,
+        allowed_origins=args.allow_origin,
+        certfile=args.certfile,
+        keyfile=args.keyfile,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

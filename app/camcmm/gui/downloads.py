@@ -58,8 +58,15 @@ class Downloads:
     def mount(self, server: Any) -> None:
         server.enable_module({"serve": {self.route: str(self.folder)}})
 
-    def offer(self, name: str, src: str | Path | None = None, data: bytes | None = None,
-              title: str | None = None, kind: str | None = None, replace: bool = False) -> dict[str, str] | None:
+    def offer(
+        self,
+        name: str,
+        src: str | Path | None = None,
+        data: bytes | None = None,
+        title: str | None = None,
+        kind: str | None = None,
+        replace: bool = False,
+    ) -> dict[str, str] | None:
         """Copy ``src`` (or write ``data``) to the folder as ``name``; ``None`` (logged)
         when that fails — a missing download must not break the page."""
         fname = safe_file_name(name)
@@ -78,8 +85,7 @@ class Downloads:
             log.warning("cannot offer %s for download: %s", src or name, exc)
             return None
         kind = kind or Path(fname).suffix.lstrip(".")
-        return {"kind": kind, "name": fname, "url": f"{self.route}/{fname}",
-                "title": title or f"Download {fname}"}
+        return {"kind": kind, "name": fname, "url": f"{self.route}/{fname}", "title": title or f"Download {fname}"}
 
     def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)

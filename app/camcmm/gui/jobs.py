@@ -25,8 +25,9 @@ import asyncio
 import functools
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable
+from typing import Any
 
 from ..errors import CamcmmError, one_line
 from ..host import Cancelled
@@ -58,8 +59,15 @@ class Job:
         Least time between two progress updates in s (the final 1.0 always passes).
     """
 
-    def __init__(self, name: str, *, state: Any = None, on_progress: Callable[[float, str], Any] | None = None,
-                 workers: int = 1, interval: float = 0.1):
+    def __init__(
+        self,
+        name: str,
+        *,
+        state: Any = None,
+        on_progress: Callable[[float, str], Any] | None = None,
+        workers: int = 1,
+        interval: float = 0.1,
+    ):
         self.name = name
         self.state = state
         self._on_progress = on_progress
@@ -139,12 +147,14 @@ class Job:
         """Run ``fn(*args)`` on the loop thread (at once when already on it, or no loop)."""
         loop = self._loop
         if loop is not None and threading.get_ident() != self._loop_thread and not loop.is_closed():
+
             def call() -> None:
                 if self.state is None:
                     fn(*args)
                     return
                 with self.state:  # leaving the block pushes the changes to the browser
                     fn(*args)
+
             loop.call_soon_threadsafe(call)
         else:
             fn(*args)

@@ -11,22 +11,35 @@ from typing import Any
 
 FONT = {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}
 LEGEND_BELOW = {"orientation": "h", "y": -0.25}
-LEGEND_TOP_RIGHT = {"orientation": "h", "y": 1.0, "yanchor": "bottom", "x": 1, "xanchor": "right",
-                    "bgcolor": "rgba(0,0,0,0)"}
+LEGEND_TOP_RIGHT = {
+    "orientation": "h",
+    "y": 1.0,
+    "yanchor": "bottom",
+    "x": 1,
+    "xanchor": "right",
+    "bgcolor": "rgba(0,0,0,0)",
+}
 
 
-def layout(title: str, xtitle: str, ytitle: str, legend: dict[str, Any] | None = None, y_from_zero: bool = False,
-           **extra: Any) -> dict[str, Any]:
+def layout(
+    title: str, xtitle: str, ytitle: str, legend: dict[str, Any] | None = None, y_from_zero: bool = False, **extra: Any
+) -> dict[str, Any]:
     """A figure layout: title at the left, axis titles, white background. ``legend``
     places the legend (``LEGEND_BELOW``, ``LEGEND_TOP_RIGHT``); None hides it."""
     yaxis = {"title": {"text": ytitle}, "zeroline": False, "automargin": True}
     if y_from_zero:
         yaxis["rangemode"] = "tozero"
-    lay = {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
-           "margin": {"l": 58, "r": 14, "t": 36, "b": 44},
-           "xaxis": {"title": {"text": xtitle}, "zeroline": False, "automargin": True}, "yaxis": yaxis,
-           "showlegend": legend is not None, "paper_bgcolor": "white", "plot_bgcolor": "white",
-           "hovermode": "closest", "font": FONT}
+    lay = {
+        "title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
+        "margin": {"l": 58, "r": 14, "t": 36, "b": 44},
+        "xaxis": {"title": {"text": xtitle}, "zeroline": False, "automargin": True},
+        "yaxis": yaxis,
+        "showlegend": legend is not None,
+        "paper_bgcolor": "white",
+        "plot_bgcolor": "white",
+        "hovermode": "closest",
+        "font": FONT,
+    }
     if legend is not None:
         lay["legend"] = legend
     lay.update(extra)
@@ -38,6 +51,15 @@ def empty(text: str) -> dict[str, Any]:
     lay = layout("", "", "")
     lay["xaxis"] = {"visible": False}
     lay["yaxis"] = {"visible": False}
-    lay["annotations"] = [{"text": text, "showarrow": False, "font": {"size": 12, "color": "#777"},
-                           "xref": "paper", "yref": "paper", "x": 0.5, "y": 0.5}]
+    lay["annotations"] = [
+        {
+            "text": text,
+            "showarrow": False,
+            "font": {"size": 12, "color": "#777"},
+            "xref": "paper",
+            "yref": "paper",
+            "x": 0.5,
+            "y": 0.5,
+        }
+    ]
     return {"data": [], "layout": lay}

@@ -29,16 +29,18 @@ class GuiProcess:
     the server imports before it builds the app, e.g. one that registers a page of a
     test (``$CAMCMM_GUI_PRELOAD``, see :func:`camcmm.gui.pages.preload`)."""
 
-    def __init__(self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = (),
-                 preload: tuple = ()):
+    def __init__(
+        self, project: str | Path, timeout: float = 60.0, data_roots: tuple = (), args: tuple = (), preload: tuple = ()
+    ):
         env = dict(os.environ, PYTHONUNBUFFERED="1", VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
         env.pop("CAMCMM_TOKEN", None)  # a fresh random token per launch, whatever the caller's shell holds
         env["CAMCMM_GUI_PRELOAD"] = os.pathsep.join(str(m) for m in preload)  # never the caller's
         cmd = [sys.executable, "-m", "camcmm.gui", str(project), "--port", "0"]
         for d in data_roots:
             cmd += ["--data-root", str(d)]
-        self.proc = subprocess.Popen(cmd + [str(a) for a in args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+        self.proc = subprocess.Popen(
+            cmd + [str(a) for a in args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+        )
         self.log: list[str] = []
         lines: queue.Queue[str] = queue.Queue()
 

@@ -13,14 +13,14 @@ byte of it. A relative path is taken from the project folder.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from ..errors import InputError
 
 #: parameter names that name a file or a folder when a manifest does not say so (``path: true``)
-PATH_NAMES = frozenset({"save", "out", "output", "outdir", "directory", "dir", "folder", "path", "file",
-                        "plan", "cti"})
+PATH_NAMES = frozenset({"save", "out", "output", "outdir", "directory", "dir", "folder", "path", "file", "plan", "cti"})
 PATH_SUFFIXES = ("_path", "_dir", "_file", "_folder", "_directory")
 
 
@@ -65,11 +65,14 @@ class Roots:
             raise InputError(f"{label}: cannot be resolved ({type(exc).__name__})") from None
         if any(r == f or r.is_relative_to(f) for f in self.folders):
             return r
-        raise InputError(f"{label}: outside the folders this server may read (project folder and --data-root); "
-                         "start camcmm serve with --data-root FOLDER to allow another folder")
+        raise InputError(
+            f"{label}: outside the folders this server may read (project folder and --data-root); "
+            "start camcmm serve with --data-root FOLDER to allow another folder"
+        )
 
-    def check_run(self, spec: Any, params: dict[str, Any] | None, inputs: dict[str, Any] | None,
-                  item_types: Iterable[str] = ()) -> tuple[dict[str, Any], dict[str, Any]]:
+    def check_run(
+        self, spec: Any, params: dict[str, Any] | None, inputs: dict[str, Any] | None, item_types: Iterable[str] = ()
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """The form's ``params`` and ``inputs`` for plugin ``spec`` with every path
         checked and made absolute (``(params, inputs)`` copies); InputError for the first
         one outside the roots. An input whose type the form offers as a project item

@@ -27,8 +27,9 @@ import hmac
 import ipaddress
 import os
 import secrets
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 from urllib.parse import urlencode, urlsplit
 
 from ..errors import CamcmmError
@@ -40,8 +41,11 @@ SECURITY_DOC = "docs/security.md"
 APP_PAGES = ("/", "/index.html")
 #: on every response: no page of another origin frames the app (clicks through a
 #: transparent frame), and no address with the secret leaves in a Referer
-HEADERS = {"X-Frame-Options": "SAMEORIGIN", "Content-Security-Policy": "frame-ancestors 'self'",
-           "Referrer-Policy": "same-origin"}
+HEADERS = {
+    "X-Frame-Options": "SAMEORIGIN",
+    "Content-Security-Policy": "frame-ancestors 'self'",
+    "Referrer-Policy": "same-origin",
+}
 
 
 def new_token() -> str:
@@ -60,16 +64,19 @@ def is_loopback(host: str) -> bool:
         return False  # a name: it may resolve to any interface
 
 
-def choose_token(host: str, no_token: bool = False, token_file: str | Path | None = None,
-                 env: dict[str, str] | None = None) -> str | None:
+def choose_token(
+    host: str, no_token: bool = False, token_file: str | Path | None = None, env: dict[str, str] | None = None
+) -> str | None:
     """The token for this launch: from ``token_file``, else ``$CAMCMM_TOKEN``, else a
     new random one; ``None`` with ``no_token``, which only a loopback address allows.
     Raises CamcmmError (one line) for a refused combination or a weak password."""
     env = os.environ if env is None else env
     if no_token:
         if not is_loopback(host):
-            raise CamcmmError(f"--no-token: refused for --host {host}: beyond this machine every client needs "
-                              f"the token (see {SECURITY_DOC})")
+            raise CamcmmError(
+                f"--no-token: refused for --host {host}: beyond this machine every client needs "
+                f"the token (see {SECURITY_DOC})"
+            )
         return None
     if token_file:
         try:
@@ -90,8 +97,10 @@ def binding_warning(host: str, tls: bool) -> str | None:
     """A one-line warning for a server reachable from the network without TLS."""
     if is_loopback(host) or tls:
         return None
-    return (f"camcmm: warning: serving on {host} without TLS: the token and all data cross the network in "
-            f"clear text; run behind a TLS reverse proxy or give --certfile/--keyfile (see {SECURITY_DOC})")
+    return (
+        f"camcmm: warning: serving on {host} without TLS: the token and all data cross the network in "
+        f"clear text; run behind a TLS reverse proxy or give --certfile/--keyfile (see {SECURITY_DOC})"
+    )
 
 
 def _netloc(scheme: str, netloc: str) -> tuple[str, int | None] | None:
@@ -157,14 +166,17 @@ class Guard:
         return mine is not None and _netloc(u.scheme, u.netloc) == mine
 
     def token_ok(self, supplied: str | None) -> bool:
-        return bool(self.token) and supplied is not None and hmac.compare_digest(
-            str(supplied).encode("utf-8", "replace"), self.token.encode("utf-8"))
+        return (
+            bool(self.token)
+            and supplied is not None
+            and hmac.compare_digest(str(supplied).encode("utf-8", "replace"), self.token.encode("utf-8"))
+        )
 
     def _header_token(self, request: Any) -> str | None:
         auth = request.headers.get("Authorization", "")
         for scheme in ("token ", "bearer "):
             if auth.lower().startswith(scheme):
-                return auth[len(scheme):].strip()
+                return auth[len(scheme) :].strip()
         return None
 
     def _refuse(self, why: str) -> Any:
@@ -182,12 +194,17 @@ class Guard:
             name = "index.html"
         else:
             name = request.path.rsplit("/", 1)[-1] or "./"
-        resp = web.Response(status=302, headers={"Location": name + (f"?{urlencode(query)}" if query else ""),
-                                                 "Cache-Control": "no-store", "Referrer-Policy": "no-referrer"})
+        resp = web.Response(
+            status=302,
+            headers={
+                "Location": name + (f"?{urlencode(query)}" if query else ""),
+                "Cache-Control": "no-store",
+                "Referrer-Policy": "no-referrer",
+            },
+        )
         if set_cookie:
             secure = request.secure or request.headers.get("X-Forwarded-Proto", "").lower() == "https"
-            resp.set_cookie(self.cookie_name, self.token, httponly=True, samesite="Strict", path="/",
-                            secure=secure)
+            resp.set_cookie(self.cookie_name, self.token, httponly=True, samesite="Strict", path="/", secure=secure)
         return resp
 
     async def check(self, request: Any) -> Any | None:
@@ -196,8 +213,10 @@ class Guard:
         if origin is not None and not self.origin_ok(origin, request):
             return self._refuse("refused: a page from another origin may not use this server")
         site = request.headers.get("Sec-Fetch-Site", "")
-        top_level = request.headers.get("Sec-Fetch-Mode", "") == "navigate" and \
-            request.headers.get("Sec-Fetch-Dest", "document") == "document"
+        top_level = (
+            request.headers.get("Sec-Fetch-Mode", "") == "navigate"
+            and request.headers.get("Sec-Fetch-Dest", "document") == "document"
+        )
         if site in ("cross-site", "same-site") and not top_level:  # an <img>, a fetch, a frame
             return self._refuse("refused: a request started by another site")
         if not self.token:
@@ -215,13 +234,18 @@ class Guard:
         if self.token_ok(self._header_token(request)):
             return None
         if self.token_ok(request.cookies.get(self.cookie_name)):
-            if request.method == "GET" and request.path in APP_PAGES and not upgrade \
-                    and not self.token_ok(query.get("secret")):
+            if (
+                request.method == "GET"
+                and request.path in APP_PAGES
+                and not upgrade
+                and not self.token_ok(query.get("secret"))
+            ):
                 query["secret"] = self.token  # a reload: the client removed it from the address
                 return self._redirect(request, query, set_cookie=False)
             return None
-        return self._refuse("this server needs its token: open the address camcmm serve printed "
-                            "(it ends in ?token=...)")
+        return self._refuse(
+            "this server needs its token: open the address camcmm serve printed (it ends in ?token=...)"
+        )
 
     @property
     def middleware(self) -> Any:

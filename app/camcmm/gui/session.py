@@ -70,15 +70,21 @@ def safe_name(name: str) -> str:
 class Session:
     """The project, its items, the 3D view, the messages and the loop, shared by the pages."""
 
-    def __init__(self, server: Any, project: Any, host: Any = None, view: SceneView | None = None,
-                 display_limit: int = DISPLAY_LIMIT):
+    def __init__(
+        self,
+        server: Any,
+        project: Any,
+        host: Any = None,
+        view: SceneView | None = None,
+        display_limit: int = DISPLAY_LIMIT,
+    ):
         self.server = server
         self.state = server.state
         self.ctrl = server.controller
         self.project = project
         self.host = host if host is not None else default_host()
         self.view = view if view is not None else SceneView(display_limit)
-        self._objects: dict[str, Any] = {}      # item key -> loaded model object
+        self._objects: dict[str, Any] = {}  # item key -> loaded model object
         self._measurements: dict[str, dict] = {}  # item key -> project measurement record
         self._summary: dict[str, str] = {}
         self._item_watchers: list[Callable[[], Any]] = []
@@ -97,9 +103,22 @@ class Session:
         s = self.state
         s.project_name = str(getattr(self.project, "name", "") or "project")
         s.project_path = str(getattr(self.project, "path", getattr(self.project, "root", "")) or "")
-        s.update({"items": [], "selected_item": None, "color_fields": [], "color_field": None, "legend_title": "",
-                  "display_note": "", "results": [], "error_message": "", "error_visible": False,
-                  "info_message": "", "info_visible": False, "importing": False})
+        s.update(
+            {
+                "items": [],
+                "selected_item": None,
+                "color_fields": [],
+                "color_field": None,
+                "legend_title": "",
+                "display_note": "",
+                "results": [],
+                "error_message": "",
+                "error_visible": False,
+                "info_message": "",
+                "info_visible": False,
+                "importing": False,
+            }
+        )
 
     def flush(self) -> None:
         try:
@@ -115,9 +134,11 @@ class Session:
     def post(self, fn: Callable[..., None], *args: Any) -> None:
         """Run ``fn`` on the loop thread (now, if we are on it or there is no loop)."""
         if self._loop is not None and threading.get_ident() != self._loop_thread and not self._loop.is_closed():
+
             def call() -> None:
                 with self.state:
                     fn(*args)
+
             self._loop.call_soon_threadsafe(call)
         else:
             fn(*args)
@@ -368,8 +389,13 @@ class Session:
         out = []
         for r in rows[-50:]:
             d = r if isinstance(r, dict) else {}
-            out.append({"id": str(d.get("id", "")), "plugin": str(d.get("plugin", d.get("plugin_id", ""))),
-                        "time": str(d.get("finished", d.get("created", "")))})
+            out.append(
+                {
+                    "id": str(d.get("id", "")),
+                    "plugin": str(d.get("plugin", d.get("plugin_id", ""))),
+                    "time": str(d.get("finished", d.get("created", ""))),
+                }
+            )
         self.state.results = list(reversed(out))
 
     # -- shutdown -----------------------------------------------------------------------

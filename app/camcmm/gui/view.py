@@ -167,8 +167,10 @@ class SceneView:
         self.shown = shown
         self.field = field_name or default_field(obj)
         if shown.n_shown < shown.n_total:
-            self.note = (f"showing {fmt_count(shown.n_shown)} of {fmt_count(shown.n_total)} points "
-                         "(random subset for display; computations use all points)")
+            self.note = (
+                f"showing {fmt_count(shown.n_shown)} of {fmt_count(shown.n_total)} points "
+                "(random subset for display; computations use all points)"
+            )
         else:
             what = "points" if shown.kind == "pointcloud" else "vertices"
             self.note = f"showing all {fmt_count(shown.n_total)} {what}"
@@ -201,8 +203,11 @@ class SceneView:
         poly = shown.poly
         style: dict[str, Any] = {}
         if shown.kind == "pointcloud":
-            style = {"style": "points", "point_size": 3 if shown.n_shown > 100_000 else 5,
-                     "render_points_as_spheres": False}
+            style = {
+                "style": "points",
+                "point_size": 3 if shown.n_shown > 100_000 else 5,
+                "render_points_as_spheres": False,
+            }
         else:
             style = {"smooth_shading": True, "show_edges": False}
         name = self.field
@@ -222,10 +227,24 @@ class SceneView:
             if hi <= lo:
                 hi = lo + 1.0
             self.actor = self.plotter.add_mesh(
-                poly, scalars=name, cmap=cmap, clim=[lo, hi], reset_camera=False, nan_color="#888888",
-                scalar_bar_args={"title": self.scalar_bar_title, "color": "black", "vertical": True,
-                                 "position_x": 0.80, "position_y": 0.12, "height": 0.75, "width": 0.08,
-                                 "fmt": "%.4g", "title_font_size": 16, "label_font_size": 13},
+                poly,
+                scalars=name,
+                cmap=cmap,
+                clim=[lo, hi],
+                reset_camera=False,
+                nan_color="#888888",
+                scalar_bar_args={
+                    "title": self.scalar_bar_title,
+                    "color": "black",
+                    "vertical": True,
+                    "position_x": 0.80,
+                    "position_y": 0.12,
+                    "height": 0.75,
+                    "width": 0.08,
+                    "fmt": "%.4g",
+                    "title_font_size": 16,
+                    "label_font_size": 13,
+                },
                 **style,
             )
             bars = self.plotter.scalar_bars

@@ -45,8 +45,16 @@ _NUMBER_RULE = (
 )
 
 
-def param_form(fields: str, values: str, testid: str, *, disabled: str = "false", numbers: bool = True,
-               sync: bool = False, hide_details: str | bool = "auto") -> None:
+def param_form(
+    fields: str,
+    values: str,
+    testid: str,
+    *,
+    disabled: str = "false",
+    numbers: bool = True,
+    sync: bool = False,
+    hide_details: str | bool = "auto",
+) -> None:
     """Draw the fields of the state list ``fields`` bound to the state dict ``values``.
 
     Each widget has ``data-testid`` ``<testid>-<name>``. ``numbers``: a number widget
@@ -74,15 +82,54 @@ def param_form(fields: str, values: str, testid: str, *, disabled: str = "false"
 
     with html.Template(v_for=f"{f} in {fields}", key=f"{f}.name"):
         if numbers:
-            v.VTextField(**bind(v_if=f"{f}.widget === 'number'", type="number", label=(f"{f}.label",),
-                                suffix=(f"{f}.unit",), hint=(f"{f}.help",), min=(f"{f}.min",), max=(f"{f}.max",),
-                                step="any", rules=(_NUMBER_RULE.format(f=f),), density="compact",
-                                variant="outlined", hide_details=hide_details, classes="mb-1"))
-        v.VSwitch(**bind(**{"v_else_if" if numbers else "v_if": f"{f}.widget === 'switch'"},
-                         label=(f"{f}.label",), hint=(f"{f}.help",), color="primary", density="compact",
-                         hide_details=hide_details))
-        v.VSelect(**bind(v_else_if=f"{f}.widget === 'select'", items=(f"{f}.choices",), label=(f"{f}.label",),
-                         hint=(f"{f}.help",), density="compact", variant="outlined", hide_details=hide_details,
-                         classes="mb-1"))
-        v.VTextField(**bind(v_else=True, label=(f"{f}.label",), suffix=(f"{f}.unit",), hint=(f"{f}.help",),
-                            density="compact", variant="outlined", hide_details=hide_details, classes="mb-1"))
+            v.VTextField(
+                **bind(
+                    v_if=f"{f}.widget === 'number'",
+                    type="number",
+                    label=(f"{f}.label",),
+                    suffix=(f"{f}.unit",),
+                    hint=(f"{f}.help",),
+                    min=(f"{f}.min",),
+                    max=(f"{f}.max",),
+                    step="any",
+                    rules=(_NUMBER_RULE.format(f=f),),
+                    density="compact",
+                    variant="outlined",
+                    hide_details=hide_details,
+                    classes="mb-1",
+                )
+            )
+        v.VSwitch(
+            **bind(
+                **{"v_else_if" if numbers else "v_if": f"{f}.widget === 'switch'"},
+                label=(f"{f}.label",),
+                hint=(f"{f}.help",),
+                color="primary",
+                density="compact",
+                hide_details=hide_details,
+            )
+        )
+        v.VSelect(
+            **bind(
+                v_else_if=f"{f}.widget === 'select'",
+                items=(f"{f}.choices",),
+                label=(f"{f}.label",),
+                hint=(f"{f}.help",),
+                density="compact",
+                variant="outlined",
+                hide_details=hide_details,
+                classes="mb-1",
+            )
+        )
+        v.VTextField(
+            **bind(
+                v_else=True,
+                label=(f"{f}.label",),
+                suffix=(f"{f}.unit",),
+                hint=(f"{f}.help",),
+                density="compact",
+                variant="outlined",
+                hide_details=hide_details,
+                classes="mb-1",
+            )
+        )

@@ -35,11 +35,30 @@ from .calibration import check_calibration, read_calibration, write_calibration
 _CLOUD, _MESH, _IMAGE = "pointcloud", "mesh", "image"
 
 
-def _fmt(name: str, kinds: list[str], writable: bool, description: str, *, binary: bool = False,
-         colors: bool = False, normals: bool = False, fields: bool = False, unit: str = "mm") -> dict[str, Any]:
-    return {"name": name, "description": description, "readable": True,
-            "writable": writable, "kinds": kinds, "binary": binary, "colors": colors, "normals": normals,
-            "fields": fields, "default_unit": unit}
+def _fmt(
+    name: str,
+    kinds: list[str],
+    writable: bool,
+    description: str,
+    *,
+    binary: bool = False,
+    colors: bool = False,
+    normals: bool = False,
+    fields: bool = False,
+    unit: str = "mm",
+) -> dict[str, Any]:
+    return {
+        "name": name,
+        "description": description,
+        "readable": True,
+        "writable": writable,
+        "kinds": kinds,
+        "binary": binary,
+        "colors": colors,
+        "normals": normals,
+        "fields": fields,
+        "default_unit": unit,
+    }
 
 
 _TEXT = "point list as text (x y z [r g b] [nx ny nz] [more columns]), ',' ';' tab or space separated"
@@ -51,28 +70,60 @@ _IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: ``colors``/``normals``/``fields``: what the format keeps besides the coordinates;
 #: ``default_unit``: the unit assumed when neither the file nor the caller says.
 FORMATS: dict[str, dict[str, Any]] = {
-    ".ply": _fmt("PLY", [_CLOUD, _MESH], True, "Stanford polygon file, ascii or binary",
-                 binary=True, colors=True, normals=True, fields=True),
-    ".pcd": _fmt("PCD", [_CLOUD], True, "Point Cloud Library file, ascii, binary or binary_compressed "
-                 "(writes float32 coordinates, as PCL and Open3D expect)",
-                 binary=True, colors=True, normals=True, fields=True),
+    ".ply": _fmt(
+        "PLY",
+        [_CLOUD, _MESH],
+        True,
+        "Stanford polygon file, ascii or binary",
+        binary=True,
+        colors=True,
+        normals=True,
+        fields=True,
+    ),
+    ".pcd": _fmt(
+        "PCD",
+        [_CLOUD],
+        True,
+        "Point Cloud Library file, ascii, binary or binary_compressed "
+        "(writes float32 coordinates, as PCL and Open3D expect)",
+        binary=True,
+        colors=True,
+        normals=True,
+        fields=True,
+    ),
     ".xyz": _fmt("XYZ", [_CLOUD], True, _TEXT, colors=True, normals=True, fields=True),
     ".txt": _fmt("TXT", [_CLOUD], True, _TEXT, colors=True, normals=True, fields=True),
     ".csv": _fmt("CSV", [_CLOUD], True, _TEXT, colors=True, normals=True, fields=True),
-    ".e57": _fmt("E57", [_CLOUD], True, "ASTM E57 scanner file (metres by definition; colours and "
-                 "intensity kept)", colors=True, fields=True, unit="m"),
-    ".stl": _fmt("STL", [_MESH], True, "STL triangle mesh, ascii or binary (binary stores float32)",
-                 binary=True),
-    ".obj": _fmt("OBJ", [_MESH], True, "Wavefront OBJ mesh (vertices, faces, vertex normals)",
-                 normals=True),
-    **{ext: _fmt(ext[1:].upper().replace("JPEG", "JPG").replace("TIFF", "TIF"), [_IMAGE], True, _IMG)
-       for ext in _IMAGE_EXTS},
+    ".e57": _fmt(
+        "E57",
+        [_CLOUD],
+        True,
+        "ASTM E57 scanner file (metres by definition; colours and intensity kept)",
+        colors=True,
+        fields=True,
+        unit="m",
+    ),
+    ".stl": _fmt("STL", [_MESH], True, "STL triangle mesh, ascii or binary (binary stores float32)", binary=True),
+    ".obj": _fmt("OBJ", [_MESH], True, "Wavefront OBJ mesh (vertices, faces, vertex normals)", normals=True),
+    **{
+        ext: _fmt(ext[1:].upper().replace("JPEG", "JPG").replace("TIFF", "TIF"), [_IMAGE], True, _IMG)
+        for ext in _IMAGE_EXTS
+    },
 }
 
 
 #: Extension -> the module of this package that reads and writes it.
-_MODULES = {".ply": "ply", ".pcd": "pcd", ".xyz": "text", ".txt": "text", ".csv": "text", ".e57": "e57",
-            ".stl": "stl", ".obj": "obj", **{ext: "image" for ext in _IMAGE_EXTS}}
+_MODULES = {
+    ".ply": "ply",
+    ".pcd": "pcd",
+    ".xyz": "text",
+    ".txt": "text",
+    ".csv": "text",
+    ".e57": "e57",
+    ".stl": "stl",
+    ".obj": "obj",
+    **{ext: "image" for ext in _IMAGE_EXTS},
+}
 
 
 def _format(path: Path) -> dict[str, Any]:
@@ -133,8 +184,10 @@ def _build(raw: Raw, name: str, fmt: dict[str, Any], unit: str | None, factor: f
     elif raw.unit is not None:
         source = canonical_unit(raw.unit)
         if source is None:
-            raise InputError(f"{name}: the file declares the unit {raw.unit!r}, which camcmm does not know; "
-                             f"pass unit= (m, mm, um, ...) to say what it is")
+            raise InputError(
+                f"{name}: the file declares the unit {raw.unit!r}, which camcmm does not know; "
+                f"pass unit= (m, mm, um, ...) to say what it is"
+            )
         factor = to_mm_factor(source)
     else:
         source = fmt["default_unit"]
@@ -198,8 +251,12 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
         out["encoding"] = raw.encoding
     if isinstance(obj, Image):
         d = obj.data
-        out.update(width=int(d.shape[1]), height=int(d.shape[0]), channels=1 if d.ndim == 2 else int(d.shape[2]),
-                   dtype=str(d.dtype))
+        out.update(
+            width=int(d.shape[1]),
+            height=int(d.shape[0]),
+            channels=1 if d.ndim == 2 else int(d.shape[2]),
+            dtype=str(d.dtype),
+        )
     else:
         if isinstance(obj, PointCloud):
             out["n_points"] = obj.n_points
@@ -210,10 +267,17 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
             has_colors, has_normals = False, obj.vertex_normals is not None
             empty = obj.n_vertices == 0
         lo, hi = (np.full(3, np.nan), np.full(3, np.nan)) if empty else obj.bounds
-        out["bbox"] = {"min": [None if empty else float(v) for v in lo],
-                       "max": [None if empty else float(v) for v in hi]}
-        out.update(unit="mm", source_unit=obj.source_unit, fields=list(obj.fields),
-                   has_colors=has_colors, has_normals=has_normals)
+        out["bbox"] = {
+            "min": [None if empty else float(v) for v in lo],
+            "max": [None if empty else float(v) for v in hi],
+        }
+        out.update(
+            unit="mm",
+            source_unit=obj.source_unit,
+            fields=list(obj.fields),
+            has_colors=has_colors,
+            has_normals=has_normals,
+        )
     out["bytes"] = p.stat().st_size
     return out
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import os
 import re
 import secrets
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -22,13 +22,37 @@ from ..errors import InputError
 
 #: Words files use for their length unit -> camcmm unit keys (see camcmm.units).
 _UNIT_WORDS = {
-    "m": "m", "meter": "m", "meters": "m", "metre": "m", "metres": "m",
-    "mm": "mm", "millimeter": "mm", "millimeters": "mm", "millimetre": "mm", "millimetres": "mm",
-    "cm": "cm", "centimeter": "cm", "centimeters": "cm", "centimetre": "cm", "centimetres": "cm",
-    "um": "um", "µm": "um", "micron": "um", "microns": "um", "micrometer": "um", "micrometers": "um",
-    "micrometre": "um", "micrometres": "um",
-    "nm": "nm", "nanometer": "nm", "nanometers": "nm", "nanometre": "nm", "nanometres": "nm",
-    "in": "in", "inch": "in", "inches": "in",
+    "m": "m",
+    "meter": "m",
+    "meters": "m",
+    "metre": "m",
+    "metres": "m",
+    "mm": "mm",
+    "millimeter": "mm",
+    "millimeters": "mm",
+    "millimetre": "mm",
+    "millimetres": "mm",
+    "cm": "cm",
+    "centimeter": "cm",
+    "centimeters": "cm",
+    "centimetre": "cm",
+    "centimetres": "cm",
+    "um": "um",
+    "µm": "um",
+    "micron": "um",
+    "microns": "um",
+    "micrometer": "um",
+    "micrometers": "um",
+    "micrometre": "um",
+    "micrometres": "um",
+    "nm": "nm",
+    "nanometer": "nm",
+    "nanometers": "nm",
+    "nanometre": "nm",
+    "nanometres": "nm",
+    "in": "in",
+    "inch": "in",
+    "inches": "in",
 }
 
 _UNIT_COMMENT = re.compile(r"^\s*(?:length[ _]?)?units?\s*[:=]?\s*([a-zµ]+)\s*$", re.IGNORECASE)
@@ -69,8 +93,11 @@ def field_unit_from_comment(text: str) -> tuple[str, str] | None:
 
 def field_unit_comments(obj, fields: dict) -> list[str]:
     """``field_unit <name> <unit>`` comment texts for the written fields that have one."""
-    return [f"field_unit {k} {u}" for k, u in getattr(obj, "field_units", {}).items()
-            if k in fields and u and not any(ch.isspace() for ch in u)]
+    return [
+        f"field_unit {k} {u}"
+        for k, u in getattr(obj, "field_units", {}).items()
+        if k in fields and u and not any(ch.isspace() for ch in u)
+    ]
 
 
 def canonical_unit(word: str) -> str | None:
@@ -164,7 +191,7 @@ def text_rows(columns: list[np.ndarray], delimiter: str = " ", prefix: str = "")
     fmt = prefix + delimiter.join(_fmt(np.asarray(c).dtype) for c in columns) + "\n"
     n = len(columns[0])
     for start in range(0, n, _CHUNK):
-        cols = [np.asarray(c[start:start + _CHUNK]).tolist() for c in columns]
+        cols = [np.asarray(c[start : start + _CHUNK]).tolist() for c in columns]
         yield "".join([fmt % row for row in zip(*cols)])
 
 

@@ -33,7 +33,8 @@ One camera: ``camera_matrix``, ``dist_coeffs``, ``image_size`` (1x2: width, heig
 frame; a third or later camera k has ``R<k>`` ``T<k>`` (its pose in camera 1's frame).
 ``rms``, ``board``, ``R1 R2 P1 P2 Q`` (rectification); every other numeric 1-D/2-D array is
 written as a matrix under its own key (listed in ``camcmm_arrays``; a 1-D array comes back
-1-D), everything else as JSON text in the string sequence ``camcmm_extra``. ``dist_coeffs`` is also read as ``distortion_coefficients``,
+1-D), everything else as JSON text in the string sequence ``camcmm_extra``. ``dist_coeffs``
+is also read as ``distortion_coefficients``,
 ``image_size`` also from ``image_width``/``image_height``; a camera of unknown size has none
 (an ``image_size`` of [0, 0] also means unknown).
 
@@ -54,8 +55,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import CamcmmError, InputError
-from ..model import ROTATION_TOL, CameraModel, camera_problem
 from ..jsonable import to_jsonable
+from ..model import ROTATION_TOL, CameraModel, camera_problem
 from ._common import atomic_path
 
 _YAML_EXTS = (".yaml", ".yml", ".xml")
@@ -72,14 +73,22 @@ def _kind(path: Path) -> str:
         return "yaml"
     if ext == ".json":
         return "json"
-    raise InputError(f"{path.name}: unknown calibration format (extension {path.suffix!r}); "
-                     f"use .yaml, .yml, .xml (OpenCV FileStorage) or .json")
+    raise InputError(
+        f"{path.name}: unknown calibration format (extension {path.suffix!r}); "
+        f"use .yaml, .yml, .xml (OpenCV FileStorage) or .json"
+    )
 
 
 def _camera_to_json(cam: CameraModel) -> dict[str, Any]:
-    return {"name": cam.name, "camera_matrix": cam.camera_matrix.tolist(), "dist_coeffs": cam.dist_coeffs.tolist(),
-            "rotation": cam.rotation.tolist(), "translation": cam.translation.tolist(),
-            "image_size": list(cam.image_size), "pixel_pitch": cam.pixel_pitch}
+    return {
+        "name": cam.name,
+        "camera_matrix": cam.camera_matrix.tolist(),
+        "dist_coeffs": cam.dist_coeffs.tolist(),
+        "rotation": cam.rotation.tolist(),
+        "translation": cam.translation.tolist(),
+        "image_size": list(cam.image_size),
+        "pixel_pitch": cam.pixel_pitch,
+    }
 
 
 def _check(cal: dict[str, Any], name: str) -> list[CameraModel]:
@@ -124,16 +133,19 @@ def check_calibration(cal: dict[str, Any], fname: str = "calibration") -> dict[s
     if not cams or not all(isinstance(c, CameraModel) for c in cams):
         raise InputError(f"{fname}: a calibration needs 'cameras', a non-empty list of CameraModel")
     for k, cam in enumerate(cams, start=1):
-        why = camera_problem(cam.camera_matrix, cam.dist_coeffs, cam.rotation, cam.translation,
-                             cam.image_size, cam.pixel_pitch)
+        why = camera_problem(
+            cam.camera_matrix, cam.dist_coeffs, cam.rotation, cam.translation, cam.image_size, cam.pixel_pitch
+        )
         if why is not None:
             raise InputError(f"{fname}: camera {k} ({cam.name}): {why}")
     c1 = cams[0].centre
     for k, cam in enumerate(cams[1:], start=2):
         b = float(np.linalg.norm(cam.centre - c1))
         if not b > 1e-6:
-            raise InputError(f"{fname}: camera {k} ({cam.name}) has a zero baseline: its centre coincides with "
-                             f"camera 1's (distance {b:.3g} mm); a stereo or camera-projector pair needs one")
+            raise InputError(
+                f"{fname}: camera {k} ({cam.name}) has a zero baseline: its centre coincides with "
+                f"camera 1's (distance {b:.3g} mm); a stereo or camera-projector pair needs one"
+            )
     if cal.get("R") is not None:
         R = _finite_matrix(fname, "R", cal["R"])
         if R.size != 9:
@@ -141,8 +153,10 @@ def check_calibration(cal: dict[str, Any], fname: str = "calibration") -> dict[s
         R = R.reshape(3, 3)
         off, det = float(np.abs(R @ R.T - np.eye(3)).max()), float(np.linalg.det(R))
         if off > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
-            raise InputError(f"{fname}: R is {'a reflection' if det < 0 else 'not a rotation'} "
-                             f"(max |R R^T - I| = {off:.2g}, det R = {det:.6g}; need det +1)")
+            raise InputError(
+                f"{fname}: R is {'a reflection' if det < 0 else 'not a rotation'} "
+                f"(max |R R^T - I| = {off:.2g}, det R = {det:.6g}; need det +1)"
+            )
     if cal.get("T") is not None:
         T = _finite_matrix(fname, "T", cal["T"]).ravel()
         if T.size != 3:
@@ -175,9 +189,13 @@ def write_calibration(path: str | Path, cal: dict[str, Any]) -> None:
     try:
         with atomic_path(p) as tmp:
             if kind == "json":
-                doc = {"format": "camcmm-calibration", "version": 1, "unit": "mm",
-                       **{k: to_jsonable(v, keep_nan=True) for k, v in cal.items() if k != "cameras"},
-                       "cameras": [_camera_to_json(c) for c in cams]}
+                doc = {
+                    "format": "camcmm-calibration",
+                    "version": 1,
+                    "unit": "mm",
+                    **{k: to_jsonable(v, keep_nan=True) for k, v in cal.items() if k != "cameras"},
+                    "cameras": [_camera_to_json(c) for c in cams],
+                }
                 tmp.write_text(json.dumps(doc, indent=1, allow_nan=True))
             else:
                 _write_yaml(tmp, cal, cams)
@@ -255,7 +273,7 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
             text = json.dumps(extra)
             fs.startWriteStruct("camcmm_extra", cv2.FileNode_SEQ)
             for i in range(0, len(text), _PIECE):
-                fs.write("", text[i:i + _PIECE])
+                fs.write("", text[i : i + _PIECE])
             fs.endWriteStruct()
     finally:
         fs.release()
@@ -290,10 +308,19 @@ def _read_json(p: Path) -> dict[str, Any]:
         if not isinstance(c, dict) or "camera_matrix" not in c:
             raise InputError(f"{p.name}: camera {i + 1} has no camera_matrix")
         size = c.get("image_size")
-        cams.append(_camera(p.name, i + 1, c["camera_matrix"], c.get("dist_coeffs", np.zeros(5)),
-                            c.get("rotation", np.eye(3)), c.get("translation", np.zeros(3)),
-                            (0, 0) if size is None else size, c.get("pixel_pitch"),
-                            str(c.get("name", f"camera{i + 1}"))))
+        cams.append(
+            _camera(
+                p.name,
+                i + 1,
+                c["camera_matrix"],
+                c.get("dist_coeffs", np.zeros(5)),
+                c.get("rotation", np.eye(3)),
+                c.get("translation", np.zeros(3)),
+                (0, 0) if size is None else size,
+                c.get("pixel_pitch"),
+                str(c.get("name", f"camera{i + 1}")),
+            )
+        )
     cal = {k: v for k, v in doc.items() if k not in ("format", "version", "unit", "cameras")}
     cal["cameras"] = cams
     for key in _ARRAY_KEYS:
@@ -314,6 +341,7 @@ def _read_yaml(p: Path) -> dict[str, Any]:
     if not fs.isOpened():
         raise InputError(f"{p.name}: OpenCV cannot open it as a FileStorage (YAML/XML) file")
     try:
+
         def node(key):
             n = fs.getNode(key)
             return None if n.empty() or n.isNone() else n
@@ -342,10 +370,19 @@ def _read_yaml(p: Path) -> dict[str, Any]:
             dist = mat("dist_coeffs")
             dist = mat("distortion_coefficients") if dist is None else dist
             pose = (mat("R_world"), mat("T_world"))
-            cams.append(_camera(p.name, 1, mat("camera_matrix"), np.zeros(5) if dist is None else dist,
-                                np.eye(3) if pose[0] is None else pose[0],
-                                np.zeros(3) if pose[1] is None else pose[1], size(""),
-                                real("pixel_pitch"), text("camera_name", "camera")))
+            cams.append(
+                _camera(
+                    p.name,
+                    1,
+                    mat("camera_matrix"),
+                    np.zeros(5) if dist is None else dist,
+                    np.eye(3) if pose[0] is None else pose[0],
+                    np.zeros(3) if pose[1] is None else pose[1],
+                    size(""),
+                    real("pixel_pitch"),
+                    text("camera_name", "camera"),
+                )
+            )
             std.append(mat("std_intrinsics"))
             cov.append(mat("covariance"))
         else:
@@ -361,13 +398,25 @@ def _read_yaml(p: Path) -> dict[str, Any]:
                     if k == 1:
                         r, t = np.eye(3), np.zeros(3)
                     else:
-                        raise InputError(f"{p.name}: camera {k} (M{k}) has no pose "
-                                         f"({'R, T' if k == 2 else f'R{k}, T{k}'} missing; OpenCV's stereo_calib "
-                                         f"sample writes them to a separate extrinsics.yml)")
+                        raise InputError(
+                            f"{p.name}: camera {k} (M{k}) has no pose "
+                            f"({'R, T' if k == 2 else f'R{k}, T{k}'} missing; OpenCV's stereo_calib "
+                            f"sample writes them to a separate extrinsics.yml)"
+                        )
                 d = mat(f"D{k}")
-                cams.append(_camera(p.name, k, mat(f"M{k}"), np.zeros(5) if d is None else d, r, t, size(str(k)),
-                                    real(f"pixel_pitch{k}"),
-                                    text(f"camera_name{k}", "left" if k == 1 else "right" if k == 2 else f"camera{k}")))
+                cams.append(
+                    _camera(
+                        p.name,
+                        k,
+                        mat(f"M{k}"),
+                        np.zeros(5) if d is None else d,
+                        r,
+                        t,
+                        size(str(k)),
+                        real(f"pixel_pitch{k}"),
+                        text(f"camera_name{k}", "left" if k == 1 else "right" if k == 2 else f"camera{k}"),
+                    )
+                )
                 std.append(mat(f"std_intrinsics{k}"))
                 cov.append(mat(f"covariance{k}"))
                 k += 1
@@ -379,7 +428,7 @@ def _read_yaml(p: Path) -> dict[str, Any]:
             doc = extra.string() if extra.isString() else "".join(extra.at(i).string() for i in range(extra.size()))
             cal.update(json.loads(doc))
         names = node("camcmm_arrays")
-        for key in ([] if names is None else names.string().split(",")):
+        for key in [] if names is None else names.string().split(","):
             a = mat(key)
             if a is not None:
                 cal[key] = a.ravel() if a.shape[0] == 1 else a

@@ -35,8 +35,11 @@ def read(path: Path, name: str) -> Raw:
         raise fail(name, f"not a readable E57 file ({_reason(exc)})") from exc
     try:
         # pye57 cannot make buffers for a scan without points; such scans add nothing anyway
-        scans = [e57.read_scan(i, intensity=True, colors=True, ignore_missing_fields=True, transform=True)
-                 for i in range(e57.scan_count) if e57.get_header(i).point_count > 0]
+        scans = [
+            e57.read_scan(i, intensity=True, colors=True, ignore_missing_fields=True, transform=True)
+            for i in range(e57.scan_count)
+            if e57.get_header(i).point_count > 0
+        ]
     except Exception as exc:
         raise fail(name, f"cannot read the E57 scans ({_reason(exc)})") from exc
     finally:
@@ -71,7 +74,7 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
     try:
         imf = e57.image_file
         scan = libe57.StructureNode(imf)
-        scan.set("guid", libe57.StringNode(imf, "{%s}" % uuid.uuid4()))
+        scan.set("guid", libe57.StringNode(imf, f"{{{uuid.uuid4()}}}"))
         scan.set("name", libe57.StringNode(imf, str(obj.name)))
         scan.set("description", libe57.StringNode(imf, f"written by camcmm {__version__}"))
         lo = pts.min(axis=0) if n else np.zeros(3)
@@ -94,8 +97,9 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
         proto = libe57.StructureNode(imf)
         columns: dict[str, np.ndarray] = {}
         for j, c in enumerate("XYZ"):
-            proto.set(f"cartesian{c}", libe57.FloatNode(imf, float(lo[j]), libe57.E57_DOUBLE, float(lo[j]),
-                                                        float(hi[j])))
+            proto.set(
+                f"cartesian{c}", libe57.FloatNode(imf, float(lo[j]), libe57.E57_DOUBLE, float(lo[j]), float(hi[j]))
+            )
             columns[f"cartesian{c}"] = pts[:, j]
         if intensity is not None:
             values = np.asarray(intensity, dtype=np.float64)
@@ -121,14 +125,14 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
         capacity = max(1, min(n, _CHUNK))
         buffers = libe57.VectorSourceDestBuffer()
         staging = {}
-        for key, col in columns.items():
+        for key in columns:
             staging[key] = np.empty(capacity, np.uint8 if key.startswith("color") else np.float64)
             buffers.append(libe57.SourceDestBuffer(imf, key, staging[key], capacity, True, True))
         writer = points.writer(buffers)
         for start in range(0, n, capacity):
             count = min(capacity, n - start)
             for key, col in columns.items():
-                staging[key][:count] = col[start:start + count]
+                staging[key][:count] = col[start : start + count]
             writer.write(count)
         writer.close()
     finally:

@@ -57,8 +57,10 @@ def read(path: Path, name: str) -> Image:
     head = memoryview(buf.data)  # the whole file: a TIFF may keep its IFD at the end
     kind, expected = image_kind(head), _KIND_OF_EXT.get(path.suffix.lower())
     if kind is not None and expected is not None and kind != expected:
-        raise fail(name, f"the file holds a {kind} image, not {expected} as its extension says; rename it "
-                         f"to {_EXT_OF_KIND[kind]}")
+        raise fail(
+            name,
+            f"the file holds a {kind} image, not {expected} as its extension says; rename it to {_EXT_OF_KIND[kind]}",
+        )
     size = image_size(head)
     if size is not None:
         check_image_size(size, name)
@@ -74,8 +76,11 @@ def read(path: Path, name: str) -> Image:
             error = None
     if data is None:
         why = error or _reason(said[0])
-        raise fail(name, f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file"
-                         + (f" ({why})" if why else ""))
+        raise fail(
+            name,
+            f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file"
+            + (f" ({why})" if why else ""),
+        )
     if said[0]:  # a decoder's warnings about an image it could read: pass them on
         os.write(2, said[0].encode())
     if data.size == 0:
@@ -91,7 +96,7 @@ _LOG_PREFIX = re.compile(r"^\[\s*\w+:\d+@[\d.]+\]\s+global\s+\S+\s+(\S+\s+)?")
 
 
 def image_kind(head: bytes | memoryview) -> str | None:
-    """"PNG", "JPEG", "TIFF" or "BMP" from the file's first bytes, None for anything else."""
+    """ "PNG", "JPEG", "TIFF" or "BMP" from the file's first bytes, None for anything else."""
     if bytes(head[:8]) == b"\x89PNG\r\n\x1a\n":
         return "PNG"
     if bytes(head[:3]) == b"\xff\xd8\xff":
@@ -143,8 +148,11 @@ def check_image_size(size: tuple[int, int], name: str) -> None:
         raise fail(name, f"the image header declares {w} x {h} px; an image needs at least 1 x 1")
     cap = max_image_pixels()
     if w * h > cap:
-        raise fail(name, f"the image header declares {w} x {h} px ({w * h / 1e6:.0f} Mpx), more than the "
-                         f"{cap / 1e6:g} Mpx camcmm decodes (set CAMCMM_MAX_IMAGE_PIXELS to allow more)")
+        raise fail(
+            name,
+            f"the image header declares {w} x {h} px ({w * h / 1e6:.0f} Mpx), more than the "
+            f"{cap / 1e6:g} Mpx camcmm decodes (set CAMCMM_MAX_IMAGE_PIXELS to allow more)",
+        )
 
 
 def image_size(head: bytes | memoryview) -> tuple[int, int] | None:
@@ -183,9 +191,9 @@ def _jpeg_size(head) -> tuple[int, int] | None:
         if marker in (0x01, 0xD8) or 0xD0 <= marker <= 0xD7:  # no length
             i += 2
             continue
-        length = struct.unpack(">H", head[i + 2:i + 4])[0]
+        length = struct.unpack(">H", head[i + 2 : i + 4])[0]
         if marker in _SOF:
-            h, w = struct.unpack(">HH", head[i + 5:i + 9])
+            h, w = struct.unpack(">HH", head[i + 5 : i + 9])
             return w, h
         if marker in (0xD9, 0xDA) or length < 2:  # end of image or scan data before any frame
             return None
@@ -198,15 +206,15 @@ def _tiff_size(head) -> tuple[int, int] | None:
     big = head[2:4] in (b"+\0", b"\0+")
     if big:
         offset = struct.unpack(bo + "Q", head[8:16])[0]
-        count = struct.unpack(bo + "Q", head[offset:offset + 8])[0]
+        count = struct.unpack(bo + "Q", head[offset : offset + 8])[0]
         entry, first, value_at = 20, offset + 8, 12
     else:
         offset = struct.unpack(bo + "I", head[4:8])[0]
-        count = struct.unpack(bo + "H", head[offset:offset + 2])[0]
+        count = struct.unpack(bo + "H", head[offset : offset + 2])[0]
         entry, first, value_at = 12, offset + 2, 8
     found: dict[int, int] = {}
     for k in range(min(count, 4096)):
-        e = head[first + k * entry:first + (k + 1) * entry]
+        e = head[first + k * entry : first + (k + 1) * entry]
         if len(e) < entry:
             break
         tag, typ = struct.unpack(bo + "HH", e[:4])
@@ -214,7 +222,7 @@ def _tiff_size(head) -> tuple[int, int] | None:
             code = {3: "H", 4: "I", 16: "Q"}.get(typ)
             if code is None:
                 return None
-            found[tag] = struct.unpack(bo + code, e[value_at:value_at + struct.calcsize(code)])[0]
+            found[tag] = struct.unpack(bo + code, e[value_at : value_at + struct.calcsize(code)])[0]
     if 256 in found and 257 in found:
         return found[256], found[257]
     return None

@@ -58,8 +58,9 @@ def read(path: Path, name: str) -> Raw:
             elif key.startswith("#"):
                 unit = unit or unit_from_comment(line.strip().lstrip("#").strip())
         except ValueError:
-            raise InputError(f"{name} line {lineno}: cannot read {line.strip()[:60]!r} as an OBJ {key!r} line") \
-                from None
+            raise InputError(
+                f"{name} line {lineno}: cannot read {line.strip()[:60]!r} as an OBJ {key!r} line"
+            ) from None
     if not verts:
         raise fail(name, "no vertices ('v' lines) found; is this an OBJ file?")
     vertices = _floats(verts, name, "vertex", linenos["vertex"])
@@ -105,4 +106,4 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
         fmt = "f %d//%d %d//%d %d//%d\n" if with_normals else "f %d %d %d\n"
         corners = np.repeat(f, 2, axis=1) if with_normals else f
         for start in range(0, len(corners), 200_000):
-            fh.write("".join([fmt % tuple(r) for r in corners[start:start + 200_000].tolist()]))
+            fh.write("".join([fmt % tuple(r) for r in corners[start : start + 200_000].tolist()]))

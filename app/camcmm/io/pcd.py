@@ -23,11 +23,29 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import Raw, check_name, cloud_columns, fail, field_unit_comments, field_unit_from_comment, \
-    text_rows, unit_from_comment
+from ._common import (
+    Raw,
+    check_name,
+    cloud_columns,
+    fail,
+    field_unit_comments,
+    field_unit_from_comment,
+    text_rows,
+    unit_from_comment,
+)
 
-_CODES = {("F", 4): "f4", ("F", 8): "f8", ("I", 1): "i1", ("I", 2): "i2", ("I", 4): "i4", ("I", 8): "i8",
-          ("U", 1): "u1", ("U", 2): "u2", ("U", 4): "u4", ("U", 8): "u8"}
+_CODES = {
+    ("F", 4): "f4",
+    ("F", 8): "f8",
+    ("I", 1): "i1",
+    ("I", 2): "i2",
+    ("I", 4): "i4",
+    ("I", 8): "i8",
+    ("U", 1): "u1",
+    ("U", 2): "u2",
+    ("U", 4): "u4",
+    ("U", 8): "u8",
+}
 _TYPES = {v: k for k, v in _CODES.items()}
 _NORMALS = ("normal_x", "normal_y", "normal_z")
 _MAX_HEADER_LINES = 1000
@@ -54,18 +72,24 @@ def read(path: Path, name: str) -> Raw:
     if data == "ascii":
         table = _ascii(path, offset, sum(counts), n, name)
         arrays, k = {}, 0
-        for (f, code, (c,)), t in zip(cols, types):
-            block = table[:, k:k + c]
+        for (f, code, (c,)), _t in zip(cols, types):
+            block = table[:, k : k + c]
             k += c
             arrays[f] = _ascii_rgb(block) if f in ("rgb", "rgba") else block.astype(code)
     elif data == "binary":
         if offset + n * dt.itemsize > size:
-            raise fail(name, f"truncated PCD: the header promises {n} points of {dt.itemsize} bytes "
-                             f"({offset + n * dt.itemsize} bytes in all) but the file has {size}")
+            raise fail(
+                name,
+                f"truncated PCD: the header promises {n} points of {dt.itemsize} bytes "
+                f"({offset + n * dt.itemsize} bytes in all) but the file has {size}",
+            )
         extra = size - offset - n * dt.itemsize
         if dt.itemsize and extra >= dt.itemsize:
-            raise fail(name, f"PCD declares {n} points of {dt.itemsize} bytes but the file has {extra} bytes more, "
-                             f"room for {extra // dt.itemsize} more points: POINTS is wrong or data was appended")
+            raise fail(
+                name,
+                f"PCD declares {n} points of {dt.itemsize} bytes but the file has {extra} bytes more, "
+                f"room for {extra // dt.itemsize} more points: POINTS is wrong or data was appended",
+            )
         arr = np.fromfile(path, dt, n, offset=offset) if n else np.zeros(0, dt)
         arrays = {f: arr[f].reshape(n, c) for f, _, (c,) in cols}
     elif data == "binary_compressed":
@@ -95,8 +119,7 @@ def _header(fh, name: str) -> tuple[dict, list[str], int]:
             continue
         word, *values = line.split()
         key = word.upper()
-        if key not in ("VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS",
-                       "DATA"):
+        if key not in ("VERSION", "FIELDS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"):
             raise fail(name, f"not a PCD file: header line {lineno} starts with {word[:40]!r}")
         hdr[key] = values
         if key == "DATA":
@@ -133,8 +156,10 @@ def _ascii(path: Path, offset: int, ncols: int, n: int, name: str) -> np.ndarray
     if len(lines) < n:
         raise fail(name, f"truncated PCD: the header promises {n} points but the file has {len(lines)} lines")
     if len(lines) > n:
-        raise fail(name, f"PCD declares {n} points but the file has {len(lines)} data lines: "
-                         f"POINTS is wrong or data was appended")
+        raise fail(
+            name,
+            f"PCD declares {n} points but the file has {len(lines)} data lines: POINTS is wrong or data was appended",
+        )
     try:
         table = np.loadtxt(lines, dtype=np.float64, ndmin=2, comments=None) if n else np.zeros((0, ncols))
     except ValueError:
@@ -202,7 +227,7 @@ def _lzf_decompress(data: bytes, size: int, name: str) -> bytes:
             if ctrl < 32:  # a literal run of ctrl + 1 bytes
                 if len(out) + ctrl + 1 > size:
                     raise ValueError(f"more than the declared {size} bytes")
-                out += data[ip:ip + ctrl + 1]
+                out += data[ip : ip + ctrl + 1]
                 ip += ctrl + 1
                 continue
             length = ctrl >> 5
@@ -217,7 +242,7 @@ def _lzf_decompress(data: bytes, size: int, name: str) -> bytes:
             if ref < 0:
                 raise ValueError("back reference before the start")
             if ref + length <= len(out):
-                out += out[ref:ref + length]
+                out += out[ref : ref + length]
             else:  # the copy overlaps what it writes: a repeated pattern
                 pattern = bytes(out[ref:])
                 out += (pattern * (length // len(pattern) + 1))[:length]

@@ -29,17 +29,47 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ._common import Raw, check_name, cloud_columns, colors_to_uint8, fail, field_unit_comments, \
-    field_unit_from_comment, text_rows, triangulate, unit_from_comment
+from ._common import (
+    Raw,
+    check_name,
+    cloud_columns,
+    colors_to_uint8,
+    fail,
+    field_unit_comments,
+    field_unit_from_comment,
+    text_rows,
+    triangulate,
+    unit_from_comment,
+)
 
 _TYPES = {
-    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
-    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
-    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+    "char": "i1",
+    "int8": "i1",
+    "uchar": "u1",
+    "uint8": "u1",
+    "short": "i2",
+    "int16": "i2",
+    "ushort": "u2",
+    "uint16": "u2",
+    "int": "i4",
+    "int32": "i4",
+    "uint": "u4",
+    "uint32": "u4",
+    "float": "f4",
+    "float32": "f4",
+    "double": "f8",
+    "float64": "f8",
 }
-_NAMES = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int", "u4": "uint",
-          "f4": "float", "f8": "double"}
+_NAMES = {
+    "i1": "char",
+    "u1": "uchar",
+    "i2": "short",
+    "u2": "ushort",
+    "i4": "int",
+    "u4": "uint",
+    "f4": "float",
+    "f8": "double",
+}
 _ENCODINGS = ("ascii", "binary_little_endian", "binary_big_endian")
 _COLORS = (("red", "green", "blue"), ("r", "g", "b"), ("diffuse_red", "diffuse_green", "diffuse_blue"))
 _NORMALS = (("nx", "ny", "nz"), ("normal_x", "normal_y", "normal_z"))
@@ -113,7 +143,7 @@ def _header(fh, name: str) -> _Header:
         if word == "end_header":
             break
         if word in ("comment", "obj_info"):
-            comments.append(line[len(word):].strip())
+            comments.append(line[len(word) :].strip())
         elif word == "format":
             if len(tokens) != 3 or tokens[1] not in _ENCODINGS:
                 raise bad(f"expected 'format <{'|'.join(_ENCODINGS)}> 1.0'")
@@ -127,8 +157,12 @@ def _header(fh, name: str) -> _Header:
                 raise bad("property before any element")
             if len(tokens) == 3 and tokens[1] in _TYPES:
                 prop = _Prop(tokens[2], _TYPES[tokens[1]])
-            elif (len(tokens) == 5 and tokens[1] == "list" and tokens[3] in _TYPES
-                  and _TYPES.get(tokens[2], "f")[0] in "iu"):
+            elif (
+                len(tokens) == 5
+                and tokens[1] == "list"
+                and tokens[3] in _TYPES
+                and _TYPES.get(tokens[2], "f")[0] in "iu"
+            ):
                 prop = _Prop(tokens[4], _TYPES[tokens[3]], _TYPES[tokens[2]])
             else:
                 raise bad("expected 'property <type> <name>' or 'property list <int type> <type> <name>'")
@@ -148,8 +182,11 @@ def _header(fh, name: str) -> _Header:
 
 
 def _truncated(name: str, el: _Element, need: int, size: int) -> Exception:
-    return fail(name, f"truncated binary PLY: the header promises {el.count} {el.name} rows, "
-                      f"which need {need} bytes, but the file has {size} bytes")
+    return fail(
+        name,
+        f"truncated binary PLY: the header promises {el.count} {el.name} rows, "
+        f"which need {need} bytes, but the file has {size} bytes",
+    )
 
 
 def _read_binary(path: Path, hdr: _Header, name: str, size: int):
@@ -191,9 +228,12 @@ def _excess_binary(name: str, hdr: _Header, last: tuple[_Element, int], extra: i
     if row and extra >= row:
         counts = ", ".join(f"{e.count} {e.name}" for e in hdr.elements)
         room = f"{'up to ' if not el.fixed else ''}{extra // row}"
-        raise fail(name, f"binary PLY has {extra} bytes after the rows its header declares ({counts}); "
-                         f"that is room for {room} more {el.name} rows: the header's counts are wrong "
-                         f"or data was appended ({size} bytes in all)")
+        raise fail(
+            name,
+            f"binary PLY has {extra} bytes after the rows its header declares ({counts}); "
+            f"that is room for {room} more {el.name} rows: the header's counts are wrong "
+            f"or data was appended ({size} bytes in all)",
+        )
 
 
 def _native(a: np.ndarray) -> np.ndarray:
@@ -240,12 +280,20 @@ def _read_with_plyfile(path: Path, hdr: _Header, name: str, size: int) -> dict:
         last = hdr.elements[-1]
         # the shortest row the last element can have: its scalars, its lists empty but
         # a face's corners, which are at least three
-        row = sum(np.dtype(p.dtype).itemsize * (3 if p.name in _FACE_LISTS else 0) + np.dtype(p.count).itemsize
-                  if p.count else np.dtype(p.dtype).itemsize for p in last.props)
+        row = sum(
+            np.dtype(p.dtype).itemsize * (3 if p.name in _FACE_LISTS else 0) + np.dtype(p.count).itemsize
+            if p.count
+            else np.dtype(p.dtype).itemsize
+            for p in last.props
+        )
         _excess_binary(name, hdr, (last, row), size - end, size)
-    return {el.name: {p.name: (list(el.data[p.name]) if isinstance(p, plyfile.PlyListProperty)
-                               else el.data[p.name]) for p in el.properties}
-            for el in data.elements}
+    return {
+        el.name: {
+            p.name: (list(el.data[p.name]) if isinstance(p, plyfile.PlyListProperty) else el.data[p.name])
+            for p in el.properties
+        }
+        for el in data.elements
+    }
 
 
 def _read_ascii(path: Path, hdr: _Header, name: str) -> dict:
@@ -255,16 +303,21 @@ def _read_ascii(path: Path, hdr: _Header, name: str) -> dict:
     lines = [ln for ln in body.splitlines() if ln.strip()]
     pos, out = 0, {}
     for el in hdr.elements:
-        block = lines[pos:pos + el.count]
+        block = lines[pos : pos + el.count]
         if len(block) < el.count:
-            raise fail(name, f"truncated PLY: the header promises {el.count} {el.name} lines "
-                             f"but the file has only {len(block)}")
+            raise fail(
+                name,
+                f"truncated PLY: the header promises {el.count} {el.name} lines but the file has only {len(block)}",
+            )
         pos += el.count
         out[el.name] = _ascii_element(block, el, name)
     if len(lines) > pos:
         counts = ", ".join(f"{e.count} {e.name}" for e in hdr.elements)
-        raise fail(name, f"ascii PLY has {len(lines) - pos} more lines than its header declares ({counts}; "
-                         f"{len(lines)} data lines): the header's counts are wrong or data was appended")
+        raise fail(
+            name,
+            f"ascii PLY has {len(lines) - pos} more lines than its header declares ({counts}; "
+            f"{len(lines)} data lines): the header's counts are wrong or data was appended",
+        )
     return out
 
 
@@ -293,7 +346,7 @@ def _ascii_element(block: list[str], el: _Element, name: str) -> dict:
             if k < 0 or j + 1 + k > table.shape[1] or not (table[:, j] == k).all():
                 ok = False
                 break
-            cols[p.name] = table[:, j + 1:j + 1 + k]
+            cols[p.name] = table[:, j + 1 : j + 1 + k]
             j += 1 + k
         if ok and j == table.shape[1]:
             return {p.name: _as_type(cols[p.name], p.dtype, el.name, p.name, name) for p in el.props}
@@ -308,17 +361,20 @@ def _ascii_element(block: list[str], el: _Element, name: str) -> dict:
                 else:
                     k = int(tokens[j])
                     conv = int if p.dtype[0] in "iu" else float
-                    values[p.name].append([conv(t) for t in tokens[j + 1:j + 1 + k]])
+                    values[p.name].append([conv(t) for t in tokens[j + 1 : j + 1 + k]])
                     if len(values[p.name][-1]) != k:
                         raise IndexError
                     j += 1 + k
             if j != len(tokens):
                 raise IndexError
         except (IndexError, ValueError):
-            raise fail(name, f"{el.name} {i}: cannot parse {line[:60]!r} as "
-                             f"{' '.join(p.name for p in el.props)}") from None
-    return {p.name: (values[p.name] if p.count else _as_type(np.array(values[p.name]), p.dtype, el.name,
-                                                            p.name, name)) for p in el.props}
+            raise fail(
+                name, f"{el.name} {i}: cannot parse {line[:60]!r} as {' '.join(p.name for p in el.props)}"
+            ) from None
+    return {
+        p.name: (values[p.name] if p.count else _as_type(np.array(values[p.name]), p.dtype, el.name, p.name, name))
+        for p in el.props
+    }
 
 
 def _numbers(block: list[str], ncols: int, what: str, name: str) -> np.ndarray:
@@ -406,8 +462,12 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
             raise fail(name, f"cannot write field {k!r}: the name is taken by the coordinates, normals or colours")
         cols.append((k, _ply_array(a, k, name)))
     faces = getattr(obj, "faces", None)
-    head = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
-            f"comment written by camcmm {__version__}", f"comment unit {unit}"]
+    head = [
+        "ply",
+        f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
+        f"comment written by camcmm {__version__}",
+        f"comment unit {unit}",
+    ]
     head += [f"comment {c}" for c in field_unit_comments(obj, fields)]
     head.append(f"element vertex {len(pts)}")
     head += [f"property {_NAMES[a.dtype.str[1:]]} {k}" for k, a in cols]

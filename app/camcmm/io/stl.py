@@ -36,12 +36,18 @@ def read(path: Path, name: str) -> Raw:
     if n < 0:
         raise fail(name, f"not an STL file: {len(data)} bytes, too short for a binary STL and not ascii 'solid'")
     if len(data) < 84 + 50 * n:
-        raise fail(name, f"truncated binary STL: the header promises {n} triangles ({84 + 50 * n} bytes) "
-                         f"but the file has {len(data)} bytes")
+        raise fail(
+            name,
+            f"truncated binary STL: the header promises {n} triangles ({84 + 50 * n} bytes) "
+            f"but the file has {len(data)} bytes",
+        )
     extra = len(data) - 84 - 50 * n
     if extra >= 50:  # room for more triangles than the header counts: refuse rather than drop them
-        raise fail(name, f"binary STL declares {n} triangles ({84 + 50 * n} bytes) but the file has {len(data)} "
-                         f"bytes, room for {extra // 50} more: the triangle count is wrong or data was appended")
+        raise fail(
+            name,
+            f"binary STL declares {n} triangles ({84 + 50 * n} bytes) but the file has {len(data)} "
+            f"bytes, room for {extra // 50} more: the triangle count is wrong or data was appended",
+        )
     # a few bytes of padding, which some exporters add, hold no triangle: nothing is lost
     return _binary(data, n, name)
 
@@ -64,8 +70,7 @@ def _binary(data: bytes, n: int, name: str) -> Raw:
 def _ascii(data: bytes, name: str) -> Raw:
     found = [v.decode("latin-1") for v in _VERTEX.findall(data)]
     if not found and b"\0" in data:
-        raise fail(name, f"binary STL whose size ({len(data)} bytes) does not match its triangle count "
-                         f"(truncated?)")
+        raise fail(name, f"binary STL whose size ({len(data)} bytes) does not match its triangle count (truncated?)")
     if len(found) % 3:
         raise fail(name, f"ascii STL has {len(found)} vertex lines, not a multiple of 3 (truncated?)")
     corners: np.ndarray | None = np.zeros((0, 3))
@@ -129,9 +134,11 @@ def write(obj, path: Path, *, binary: bool, unit: str, factor: float, name: str)
             rec.tofile(fh)
             return
         fh.write(f"solid camcmm unit {unit}\n".encode("ascii"))
-        facet = ("facet normal %r %r %r\n outer loop\n  vertex %r %r %r\n  vertex %r %r %r\n"
-                 "  vertex %r %r %r\n endloop\nendfacet\n")
+        facet = (
+            "facet normal %r %r %r\n outer loop\n  vertex %r %r %r\n  vertex %r %r %r\n"
+            "  vertex %r %r %r\n endloop\nendfacet\n"
+        )
         rows = np.hstack([normal, tri.reshape(-1, 9)])
         for start in range(0, len(rows), 100_000):
-            fh.write("".join([facet % tuple(r) for r in rows[start:start + 100_000].tolist()]).encode("ascii"))
+            fh.write("".join([facet % tuple(r) for r in rows[start : start + 100_000].tolist()]).encode("ascii"))
         fh.write(b"endsolid camcmm\n")

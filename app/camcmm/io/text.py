@@ -30,8 +30,17 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ._common import Raw, check_name, cloud_columns, colors_to_uint8, fail, field_unit_comments, \
-    field_unit_from_comment, text_rows, unit_from_comment
+from ._common import (
+    Raw,
+    check_name,
+    cloud_columns,
+    colors_to_uint8,
+    fail,
+    field_unit_comments,
+    field_unit_from_comment,
+    text_rows,
+    unit_from_comment,
+)
 
 _NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$|^[+-]?(nan|inf|infinity)$", re.IGNORECASE)
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+$")
@@ -101,16 +110,20 @@ def read(path: Path, name: str) -> Raw:
         data = [ln.replace(",", ".") for ln in data]
     ncol = len(_split(data[0].strip(), delim))
     if ncol > MAX_COLUMNS:
-        raise InputError(f"{name} line {start + 1}: {ncol} columns, more than the {MAX_COLUMNS} a point list "
-                         f"may have; is this a point list (x y z per line)?")
+        raise InputError(
+            f"{name} line {start + 1}: {ncol} columns, more than the {MAX_COLUMNS} a point list "
+            f"may have; is this a point list (x y z per line)?"
+        )
     table = _parse(data, delim, ncol, start, name, lines)
     names = None
     if header is not None:
         text = header[1]
         names = [t.strip("\"' ") for t in _split(text, delim if (delim and delim in text) else _delimiter(text))]
         if len(names) != table.shape[1]:
-            raise InputError(f"{name} line {header[0] + 1}: the header names {len(names)} columns "
-                             f"but the data lines have {table.shape[1]}")
+            raise InputError(
+                f"{name} line {header[0] + 1}: the header names {len(names)} columns "
+                f"but the data lines have {table.shape[1]}"
+            )
     raw = _columns(table, names, unit, name)
     raw.field_units = {k: u for k, u in field_units.items() if k in raw.fields}
     return raw
@@ -122,8 +135,14 @@ def _parse(data: list[str], delim: str | None, ncol: int, start: int, name: str,
         try:
             # numpy takes quoted values only with a single one-character comment marker
             quoted = bool(delim) and '"' in data[0]
-            table = np.loadtxt(data, dtype=np.float64, delimiter=delim, ndmin=2,
-                               comments="#" if quoted else ("#", "//"), quotechar='"' if quoted else None)
+            table = np.loadtxt(
+                data,
+                dtype=np.float64,
+                delimiter=delim,
+                ndmin=2,
+                comments="#" if quoted else ("#", "//"),
+                quotechar='"' if quoted else None,
+            )
             if table.shape[1] == ncol:
                 return table
         except ValueError:
@@ -139,8 +158,7 @@ def _parse(data: list[str], delim: str | None, ncol: int, start: int, name: str,
         if len(tokens) != max(ncol, 3) or not all(_is_number(t) for t in tokens):
             bad = start + k
             break
-    raise InputError(f"{name} line {bad + 1}: expected {want} separated by {sep} "
-                     f"but found {lines[bad].strip()[:80]!r}")
+    raise InputError(f"{name} line {bad + 1}: expected {want} separated by {sep} but found {lines[bad].strip()[:80]!r}")
 
 
 def _find(names_lower: list[str], options) -> list[int] | None:
@@ -182,7 +200,7 @@ def _columns(table: np.ndarray, names: list[str] | None, unit: str | None, name:
     else:
         xyz = [0, 1, 2]
         for lo in (3, 6):
-            block = table[:, lo:lo + 3]
+            block = table[:, lo : lo + 3]
             if block.shape[1] < 3:
                 break
             if colors is None and _color_like(block) and not (block.max() <= 1.0 and _unit_vectors(block)):

@@ -204,7 +204,7 @@ def _proc_stat(pid: int) -> tuple[str | None, float | None]:
     """(state letter, start time in epoch seconds) of ``pid`` from Linux's /proc, or Nones."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text()
-        fields = stat[stat.rindex(")") + 2:].split()  # the command name may hold spaces
+        fields = stat[stat.rindex(")") + 2 :].split()  # the command name may hold spaces
         with open("/proc/stat") as fh:
             btime = next(int(line.split()[1]) for line in fh if line.startswith("btime "))
         # fields[0] is field 3 (state) of proc(5); starttime is field 22, in clock ticks after boot

@@ -22,8 +22,9 @@ def clean(x: Any, where: str = "value") -> Any:
     try:
         return to_jsonable(x, strict=True, where=where)
     except NotJsonable as exc:
-        raise ProjectError(f"cannot store {exc.where} of type {exc.type_name} in the project; "
-                           "give numbers, strings, lists or dicts") from None
+        raise ProjectError(
+            f"cannot store {exc.where} of type {exc.type_name} in the project; give numbers, strings, lists or dicts"
+        ) from None
 
 
 def dumps(x: Any, where: str = "value") -> str:

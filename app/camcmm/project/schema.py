@@ -13,9 +13,9 @@ migration leaves the project at the previous version, never half-migrated.
 from __future__ import annotations
 
 import sqlite3
-from typing import Callable, Union
+from collections.abc import Callable
 
-Migration = Union[str, Callable[[sqlite3.Connection], None]]
+Migration = str | Callable[[sqlite3.Connection], None]
 
 # Version 1, frozen. Notes on choices:
 # * AUTOINCREMENT on measurements/results: ids are never reused, so an id recorded in
@@ -142,7 +142,8 @@ def apply(conn: sqlite3.Connection, step: int) -> None:
 
     ``conn`` must be in autocommit mode (``isolation_level=None``) with no open
     transaction and, as SQLite advises for schema changes, ``foreign_keys`` off; the
-    keys are checked with ``PRAGMA foreign_key_check`` before the commit instead. On any error the transaction is rolled back and the error re-raised.
+    keys are checked with ``PRAGMA foreign_key_check`` before the commit instead. On any error
+    the transaction is rolled back and the error re-raised.
     """
     migration = MIGRATIONS[step]
     conn.execute("BEGIN IMMEDIATE")
@@ -154,18 +155,23 @@ def apply(conn: sqlite3.Connection, step: int) -> None:
                 conn.execute(sql)
         broken = conn.execute("PRAGMA foreign_key_check").fetchone()
         if broken is not None:  # migrations run with foreign_keys off, so check here
-            raise sqlite3.IntegrityError(f"migration to schema {step + 1} broke a foreign key: "
-                                         f"table {broken[0]} row {broken[1]} -> {broken[2]}")
-        conn.execute("INSERT INTO meta(key, value) VALUES ('schema_version', ?) "
-                     "ON CONFLICT(key) DO UPDATE SET value = excluded.value", (str(step + 1),))
+            raise sqlite3.IntegrityError(
+                f"migration to schema {step + 1} broke a foreign key: table {broken[0]} row {broken[1]} -> {broken[2]}"
+            )
+        conn.execute(
+            "INSERT INTO meta(key, value) VALUES ('schema_version', ?) "
+            "ON CONFLICT(key) DO UPDATE SET value = excluded.value",
+            (str(step + 1),),
+        )
         conn.execute("COMMIT")
     except BaseException:
         conn.execute("ROLLBACK")
         raise
 
 
-def migrate(conn: sqlite3.Connection, current: int, target: int | None = None,
-            before_step: Callable[[int], None] | None = None) -> int:
+def migrate(
+    conn: sqlite3.Connection, current: int, target: int | None = None, before_step: Callable[[int], None] | None = None
+) -> int:
     """Migrate from ``current`` up to ``target`` (default: the newest); returns the
     version reached. ``before_step(n)`` is called before step n -> n+1."""
     target = len(MIGRATIONS) if target is None else target

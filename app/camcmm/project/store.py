@@ -33,14 +33,15 @@ import re
 import sqlite3
 import threading
 import time
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 from ..errors import CamcmmError, InputError, ProjectError
-from . import schema
 from ..hashing import file_hash
 from ..jsonable import utc_now
+from . import schema
 from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext, orphaned
 from .jsonutil import dumps, loads
 
@@ -61,8 +62,7 @@ def _connect(db: Path, create: bool = False) -> sqlite3.Connection:
     # creating an empty database. isolation_level=None: we issue BEGIN IMMEDIATE/COMMIT
     # ourselves (see Project._tx).
     uri = db.absolute().as_uri() + ("?mode=rwc" if create else "?mode=rw")
-    conn = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None,
-                           check_same_thread=False)
+    conn = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None, check_same_thread=False)
     conn.row_factory = sqlite3.Row
     return conn
 
@@ -129,7 +129,7 @@ class Project:
         return n
 
     @classmethod
-    def open(cls, path: str | os.PathLike) -> "Project":
+    def open(cls, path: str | os.PathLike) -> Project:
         """Open an existing project, migrating an older schema (after a backup copy
         ``project.sqlite.schema<N>.bak``). Raises ProjectError if the folder does not
         exist, is not a project, is from a newer camcmm, or its database is corrupt."""
@@ -174,8 +174,10 @@ class Project:
             what = "is an empty database" if version == 0 else "has no camcmm meta table"
             raise ProjectError(f"{db.parent} is not a camcmm project: {db.name} {what}")
         if version > latest:
-            raise ProjectError(f"project {db.parent} was written by camcmm schema {version}; "
-                               f"this version reads up to {latest}; update camcmm to open it")
+            raise ProjectError(
+                f"project {db.parent} was written by camcmm schema {version}; "
+                f"this version reads up to {latest}; update camcmm to open it"
+            )
         try:
             _set_pragmas(conn)
         except sqlite3.Error as exc:
@@ -186,9 +188,11 @@ class Project:
                 version = schema.migrate(conn, version, latest)
             except Exception as exc:
                 reached = schema.read_version(conn) or 0
-                raise ProjectError(f"migrating {db} from schema {reached} to {reached + 1} failed "
-                                   f"({type(exc).__name__}: {exc}); the project was left at schema "
-                                   f"{reached}") from exc
+                raise ProjectError(
+                    f"migrating {db} from schema {reached} to {reached + 1} failed "
+                    f"({type(exc).__name__}: {exc}); the project was left at schema "
+                    f"{reached}"
+                ) from exc
         _enforce_foreign_keys(conn)
         return version
 
@@ -211,7 +215,7 @@ class Project:
             raise ProjectError(f"cannot back up {db} before migrating it: {exc}") from exc
 
     @classmethod
-    def create(cls, path: str | os.PathLike, name: str | None = None) -> "Project":
+    def create(cls, path: str | os.PathLike, name: str | None = None) -> Project:
         """Create a new project folder (and its parents). The folder may exist if it is
         empty. The database is built under a temp name and linked into place, so a
         crash never leaves a half-made ``project.sqlite``."""
@@ -223,8 +227,9 @@ class Project:
             if db.exists():
                 raise ProjectError(f"{root} is already a camcmm project; open it instead")
             if not _only_leftovers(root):
-                raise ProjectError(f"cannot create a project in {root}: the folder is not empty "
-                                   "and is not a camcmm project")
+                raise ProjectError(
+                    f"cannot create a project in {root}: the folder is not empty and is not a camcmm project"
+                )
         if not cls._create_db(root, name or root.name):
             raise ProjectError(f"{root} is already a camcmm project; open it instead")
         return cls.open(root)
@@ -271,7 +276,7 @@ class Project:
                     pass
 
     @classmethod
-    def open_or_create(cls, path: str | os.PathLike, name: str | None = None) -> "Project":
+    def open_or_create(cls, path: str | os.PathLike, name: str | None = None) -> Project:
         """Open the project at ``path``, creating it if the folder is missing or empty."""
         root = Path(path).expanduser().absolute()
         if (root / DB_NAME).exists() or (root.name == DB_NAME and root.is_file()):
@@ -292,7 +297,7 @@ class Project:
                 finally:
                     self._conn = None
 
-    def __enter__(self) -> "Project":
+    def __enter__(self) -> Project:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -369,8 +374,11 @@ class Project:
         self._blobs.place(tmp, h, ext, size)  # durable on disk ...
         if row is None:
             with self._tx(f"adding file {original_name}") as conn:  # ... before the row commits
-                conn.execute("INSERT INTO files(hash, ext, size, original_name, added) VALUES (?, ?, ?, ?, ?) "
-                             "ON CONFLICT(hash) DO NOTHING", (h, ext, size, original_name, utcnow()))
+                conn.execute(
+                    "INSERT INTO files(hash, ext, size, original_name, added) VALUES (?, ?, ?, ?, ?) "
+                    "ON CONFLICT(hash) DO NOTHING",
+                    (h, ext, size, original_name, utcnow()),
+                )
         return h
 
     def has_file(self, h: str) -> bool:
@@ -394,8 +402,16 @@ class Project:
         """Every data file: hash, path, size, original_name, added."""
         with self._read("listing files") as conn:
             rows = conn.execute("SELECT * FROM files ORDER BY added, hash").fetchall()
-        return [{"hash": r["hash"], "path": str(self._blobs.path(r["hash"], r["ext"])), "size": r["size"],
-                 "original_name": r["original_name"], "added": r["added"]} for r in rows]
+        return [
+            {
+                "hash": r["hash"],
+                "path": str(self._blobs.path(r["hash"], r["ext"])),
+                "size": r["size"],
+                "original_name": r["original_name"],
+                "added": r["added"],
+            }
+            for r in rows
+        ]
 
     # -- measuring systems and artefacts ------------------------------------------------
     def add_system(self, name: str, meta: dict[str, Any] | None = None) -> int:
@@ -404,8 +420,7 @@ class Project:
         name = _text(name, "system name")
         meta_json = dumps(meta or {}, f"system {name!r} meta")
         with self._tx(f"adding system {name!r}") as conn:
-            cur = conn.execute("INSERT INTO systems(name, meta, created) VALUES (?, ?, ?)",
-                               (name, meta_json, utcnow()))
+            cur = conn.execute("INSERT INTO systems(name, meta, created) VALUES (?, ?, ?)", (name, meta_json, utcnow()))
             return int(cur.lastrowid or 0)
 
     def update_system(self, sid: int, name: str | None = None, meta: dict[str, Any] | None = None) -> None:
@@ -451,9 +466,12 @@ class Project:
         aid = _text(artefact.id, "artefact id")
         data = dumps(artefact.to_dict(), f"artefact {aid!r}")
         with self._tx(f"saving artefact {aid!r}") as conn:
-            conn.execute("INSERT INTO artefacts(id, kind, data, updated) VALUES (?, ?, ?, ?) "
-                         "ON CONFLICT(id) DO UPDATE SET kind = excluded.kind, data = excluded.data, "
-                         "updated = excluded.updated", (aid, artefact.kind, data, utcnow()))
+            conn.execute(
+                "INSERT INTO artefacts(id, kind, data, updated) VALUES (?, ?, ?, ?) "
+                "ON CONFLICT(id) DO UPDATE SET kind = excluded.kind, data = excluded.data, "
+                "updated = excluded.updated",
+                (aid, artefact.kind, data, utcnow()),
+            )
         return aid
 
     def artefacts(self) -> list[Any]:
@@ -474,8 +492,15 @@ class Project:
         return Artefact.from_dict(loads(row["data"]))
 
     # -- measurements ----------------------------------------------------------------------
-    def add_measurement(self, name: str, file_hash: str, kind: str = "pointcloud", system_id: int | None = None,
-                        artefact_id: str | None = None, meta: dict[str, Any] | None = None) -> int:
+    def add_measurement(
+        self,
+        name: str,
+        file_hash: str,
+        kind: str = "pointcloud",
+        system_id: int | None = None,
+        artefact_id: str | None = None,
+        meta: dict[str, Any] | None = None,
+    ) -> int:
         """Record a measurement whose data is the project file ``file_hash`` (from
         :meth:`add_file`/:meth:`add_object`). Returns its id."""
         name = _text(name, "measurement name")
@@ -484,19 +509,32 @@ class Project:
         meta_json = dumps(meta or {}, f"measurement {name!r} meta")
         with self._tx(f"adding measurement {name!r}") as conn:
             if conn.execute("SELECT 1 FROM files WHERE hash = ?", (file_hash,)).fetchone() is None:
-                raise ProjectError(f"measurement {name!r}: file {file_hash} is not in the project; "
-                                   "add it with add_file first")
-            if system_id is not None and conn.execute(
-                    "SELECT 1 FROM systems WHERE id = ?", (int(system_id),)).fetchone() is None:
+                raise ProjectError(
+                    f"measurement {name!r}: file {file_hash} is not in the project; add it with add_file first"
+                )
+            if (
+                system_id is not None
+                and conn.execute("SELECT 1 FROM systems WHERE id = ?", (int(system_id),)).fetchone() is None
+            ):
                 raise ProjectError(f"measurement {name!r}: no measuring system with id {system_id}")
-            if artefact_id is not None and conn.execute(
-                    "SELECT 1 FROM artefacts WHERE id = ?", (artefact_id,)).fetchone() is None:
+            if (
+                artefact_id is not None
+                and conn.execute("SELECT 1 FROM artefacts WHERE id = ?", (artefact_id,)).fetchone() is None
+            ):
                 raise ProjectError(f"measurement {name!r}: no artefact with id {artefact_id!r}")
             cur = conn.execute(
                 "INSERT INTO measurements(name, kind, hash, system_id, artefact_id, meta, created) "
                 "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (name, kind, file_hash, None if system_id is None else int(system_id), artefact_id,
-                 meta_json, utcnow()))
+                (
+                    name,
+                    kind,
+                    file_hash,
+                    None if system_id is None else int(system_id),
+                    artefact_id,
+                    meta_json,
+                    utcnow(),
+                ),
+            )
             return int(cur.lastrowid or 0)
 
     _MEASUREMENT_SQL = "SELECT m.*, f.ext FROM measurements m JOIN files f ON f.hash = m.hash"
@@ -520,10 +558,18 @@ class Project:
         return self._measurement(row)
 
     def _measurement(self, r: sqlite3.Row) -> dict[str, Any]:
-        return {"id": r["id"], "name": r["name"], "kind": r["kind"], "hash": r["hash"],
-                "path": str(self._blobs.path(r["hash"], r["ext"])), "created": r["created"],
-                "meta": loads(r["meta"], {}), "system_id": r["system_id"], "artefact_id": r["artefact_id"],
-                "removed": r["removed"]}
+        return {
+            "id": r["id"],
+            "name": r["name"],
+            "kind": r["kind"],
+            "hash": r["hash"],
+            "path": str(self._blobs.path(r["hash"], r["ext"])),
+            "created": r["created"],
+            "meta": loads(r["meta"], {}),
+            "system_id": r["system_id"],
+            "artefact_id": r["artefact_id"],
+            "removed": r["removed"],
+        }
 
     def load_measurement(self, mid: int) -> Any:
         """The measurement's data read with :func:`camcmm.io.read` (PointCloud or
@@ -543,47 +589,70 @@ class Project:
         """Hide a measurement from :meth:`measurements`. Nothing is deleted: its file
         stays, results that used it keep their ids and input hashes."""
         with self._tx(f"removing measurement {mid}") as conn:
-            cur = conn.execute("UPDATE measurements SET removed = ? WHERE id = ? AND removed IS NULL",
-                               (utcnow(), int(mid)))
-            if cur.rowcount == 0 and conn.execute(
-                    "SELECT 1 FROM measurements WHERE id = ?", (int(mid),)).fetchone() is None:
+            cur = conn.execute(
+                "UPDATE measurements SET removed = ? WHERE id = ? AND removed IS NULL", (utcnow(), int(mid))
+            )
+            if (
+                cur.rowcount == 0
+                and conn.execute("SELECT 1 FROM measurements WHERE id = ?", (int(mid),)).fetchone() is None
+            ):
                 raise ProjectError(f"no measurement with id {mid} in project {self.path}")
 
     # -- results ---------------------------------------------------------------------------
-    def add_result(self, run: Any, measurement_ids: Iterable[int] = (), files: dict[str, str] | None = None,
-                   label: str = "") -> int:
+    def add_result(
+        self, run: Any, measurement_ids: Iterable[int] = (), files: dict[str, str] | None = None, label: str = ""
+    ) -> int:
         """Record a plugin run: a :class:`camcmm.host.RunResult` or a dict like
         ``RunResult.to_json()``. ``files`` maps output names to hashes of data files
         already added for it (write them with add_file/add_object first). Returns its id."""
         d = _run_dict(run)
         plugin = d["plugin"]
-        cols = (plugin, d["version"], dumps(d.get("params") or {}, f"{plugin} params"),
-                dumps(d.get("input_hashes") or {}, f"{plugin} input_hashes"),
-                dumps(d.get("outputs") or {}, f"{plugin} outputs"), d.get("started"), d.get("finished"),
-                dumps(list(d.get("warnings") or []), f"{plugin} warnings"), utcnow(), str(label or ""))
+        cols = (
+            plugin,
+            d["version"],
+            dumps(d.get("params") or {}, f"{plugin} params"),
+            dumps(d.get("input_hashes") or {}, f"{plugin} input_hashes"),
+            dumps(d.get("outputs") or {}, f"{plugin} outputs"),
+            d.get("started"),
+            d.get("finished"),
+            dumps(list(d.get("warnings") or []), f"{plugin} warnings"),
+            utcnow(),
+            str(label or ""),
+        )
         mids = sorted({int(m) for m in measurement_ids})
         files = dict(files or {})
-        for out, h in files.items():
+        for h in files.values():
             check_hash(h)
         with self._tx(f"saving result of {plugin}") as conn:
             if mids:
-                found = {r[0] for r in conn.execute(
-                    f"SELECT id FROM measurements WHERE id IN ({','.join('?' * len(mids))})", mids)}
+                found = {
+                    r[0]
+                    for r in conn.execute(
+                        f"SELECT id FROM measurements WHERE id IN ({','.join('?' * len(mids))})", mids
+                    )
+                }
                 missing = [m for m in mids if m not in found]
                 if missing:
                     raise ProjectError(f"result of {plugin}: no measurement with id {missing[0]}")
             for out, h in files.items():
                 if conn.execute("SELECT 1 FROM files WHERE hash = ?", (h,)).fetchone() is None:
-                    raise ProjectError(f"result of {plugin}: output file {out!r} ({h}) is not in the project; "
-                                       "add it with add_file first")
+                    raise ProjectError(
+                        f"result of {plugin}: output file {out!r} ({h}) is not in the project; "
+                        "add it with add_file first"
+                    )
             cur = conn.execute(
                 "INSERT INTO results(plugin, version, params, input_hashes, outputs, started, finished, "
-                "warnings, created, label) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", cols)
+                "warnings, created, label) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                cols,
+            )
             rid = int(cur.lastrowid or 0)
-            conn.executemany("INSERT INTO result_measurements(result_id, measurement_id) VALUES (?, ?)",
-                             [(rid, m) for m in mids])
-            conn.executemany("INSERT INTO result_files(result_id, name, hash) VALUES (?, ?, ?)",
-                             [(rid, str(k), h) for k, h in files.items()])
+            conn.executemany(
+                "INSERT INTO result_measurements(result_id, measurement_id) VALUES (?, ?)", [(rid, m) for m in mids]
+            )
+            conn.executemany(
+                "INSERT INTO result_files(result_id, name, hash) VALUES (?, ?, ?)",
+                [(rid, str(k), h) for k, h in files.items()],
+            )
             return rid
 
     def results(self, plugin_id: str | None = None) -> list[dict[str, Any]]:
@@ -593,19 +662,23 @@ class Project:
         where, args = ("WHERE r.plugin = ?", (plugin_id,)) if plugin_id is not None else ("", ())
         with self._read("listing results") as conn:
             rows = conn.execute(f"SELECT r.* FROM results r {where} ORDER BY r.id", args).fetchall()
-            links = conn.execute(f"SELECT x.* FROM result_measurements x JOIN results r ON r.id = x.result_id "
-                                 f"{where} ORDER BY x.measurement_id", args).fetchall()
-            outs = conn.execute(f"SELECT x.* FROM result_files x JOIN results r ON r.id = x.result_id "
-                                f"{where} ORDER BY x.name", args).fetchall()
+            links = conn.execute(
+                f"SELECT x.* FROM result_measurements x JOIN results r ON r.id = x.result_id "
+                f"{where} ORDER BY x.measurement_id",
+                args,
+            ).fetchall()
+            outs = conn.execute(
+                f"SELECT x.* FROM result_files x JOIN results r ON r.id = x.result_id {where} ORDER BY x.name", args
+            ).fetchall()
         return _assemble(rows, links, outs)
 
     def result(self, rid: int) -> dict[str, Any]:
         with self._read("reading a result") as conn:
             rows = conn.execute("SELECT * FROM results WHERE id = ?", (int(rid),)).fetchall()
-            links = conn.execute("SELECT * FROM result_measurements WHERE result_id = ? ORDER BY measurement_id",
-                                 (int(rid),)).fetchall()
-            outs = conn.execute("SELECT * FROM result_files WHERE result_id = ? ORDER BY name",
-                                (int(rid),)).fetchall()
+            links = conn.execute(
+                "SELECT * FROM result_measurements WHERE result_id = ? ORDER BY measurement_id", (int(rid),)
+            ).fetchall()
+            outs = conn.execute("SELECT * FROM result_files WHERE result_id = ? ORDER BY name", (int(rid),)).fetchall()
         if not rows:
             raise ProjectError(f"no result with id {rid} in project {self.path}")
         return _assemble(rows, links, outs)[0]
@@ -615,8 +688,11 @@ class Project:
         key = _text(key, "state key")
         text = dumps(value, f"state {key!r}")
         with self._tx(f"saving state {key!r}") as conn:
-            conn.execute("INSERT INTO state(key, value, updated) VALUES (?, ?, ?) ON CONFLICT(key) DO UPDATE "
-                         "SET value = excluded.value, updated = excluded.updated", (key, text, utcnow()))
+            conn.execute(
+                "INSERT INTO state(key, value, updated) VALUES (?, ?, ?) ON CONFLICT(key) DO UPDATE "
+                "SET value = excluded.value, updated = excluded.updated",
+                (key, text, utcnow()),
+            )
 
     def get_state(self, key: str, default: Any = None) -> Any:
         with self._read(f"reading state {key!r}") as conn:
@@ -662,8 +738,10 @@ def _run_dict(run: Any) -> dict[str, Any]:
         raise ProjectError(f"add_result needs a RunResult or its dict, got {type(run).__name__}")
     for key in ("plugin", "version"):
         if not isinstance(d.get(key), str) or not d[key]:
-            raise ProjectError(f"result has no {key!r} (got {d.get(key)!r}); every result records "
-                               "the plugin id and version that made it")
+            raise ProjectError(
+                f"result has no {key!r} (got {d.get(key)!r}); every result records "
+                "the plugin id and version that made it"
+            )
     return d
 
 
@@ -678,10 +756,21 @@ def _assemble(rows: list[sqlite3.Row], links: list[sqlite3.Row], outs: list[sqli
     files: dict[int, dict[str, str]] = {}
     for x in outs:
         files.setdefault(x["result_id"], {})[x["name"]] = x["hash"]
-    return [{
-        "id": r["id"], "plugin": r["plugin"], "version": r["version"], "params": loads(r["params"], {}),
-        "input_hashes": loads(r["input_hashes"], {}), "outputs": loads(r["outputs"], {}),
-        "started": r["started"], "finished": r["finished"], "warnings": loads(r["warnings"], []),
-        "measurement_ids": mids.get(r["id"], []), "files": files.get(r["id"], {}), "label": r["label"],
-        "created": r["created"],
-    } for r in rows]
+    return [
+        {
+            "id": r["id"],
+            "plugin": r["plugin"],
+            "version": r["version"],
+            "params": loads(r["params"], {}),
+            "input_hashes": loads(r["input_hashes"], {}),
+            "outputs": loads(r["outputs"], {}),
+            "started": r["started"],
+            "finished": r["finished"],
+            "warnings": loads(r["warnings"], []),
+            "measurement_ids": mids.get(r["id"], []),
+            "files": files.get(r["id"], {}),
+            "label": r["label"],
+            "created": r["created"],
+        }
+        for r in rows
+    ]

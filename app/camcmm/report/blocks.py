@@ -86,9 +86,9 @@ def png_size(png: bytes) -> tuple[int, int, float | None]:
     dpi = None
     pos = 8
     while pos + 8 <= len(png):
-        length, kind = struct.unpack(">I4s", png[pos:pos + 8])
+        length, kind = struct.unpack(">I4s", png[pos : pos + 8])
         if kind == b"pHYs" and length == 9:
-            ppu_x, _ppu_y, unit = struct.unpack(">IIB", png[pos + 8:pos + 17])
+            ppu_x, _ppu_y, unit = struct.unpack(">IIB", png[pos + 8 : pos + 17])
             if unit == 1 and ppu_x > 0:  # pixels per metre
                 dpi = ppu_x * 0.0254
             break
@@ -113,8 +113,9 @@ def _png_from(image: Any, dpi: float) -> bytes:
         # the report differ from what was hashed.
         image.savefig(buf, format="png", dpi=dpi)
         return buf.getvalue()
-    raise InputError(f"report figure: cannot use a {type(image).__name__}; "
-                     "give PNG bytes, a PNG file or a matplotlib figure")
+    raise InputError(
+        f"report figure: cannot use a {type(image).__name__}; give PNG bytes, a PNG file or a matplotlib figure"
+    )
 
 
 # --------------------------------------------------------------------------- blocks
@@ -146,8 +147,13 @@ class Table:
     align: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"type": "table", "columns": self.columns, "rows": jsonable(self.rows, "table rows"),
-                "caption": self.caption, "align": self.align}
+        return {
+            "type": "table",
+            "columns": self.columns,
+            "rows": jsonable(self.rows, "table rows"),
+            "caption": self.caption,
+            "align": self.align,
+        }
 
 
 @dataclass
@@ -168,8 +174,13 @@ class Figure:
         return self.width_mm * self.pixels[1] / self.pixels[0]
 
     def to_dict(self) -> dict:
-        d = {"type": "figure", "caption": self.caption, "sha256": self.sha256,
-             "width_mm": round(self.width_mm, 2), "pixels": list(self.pixels)}
+        d = {
+            "type": "figure",
+            "caption": self.caption,
+            "sha256": self.sha256,
+            "width_mm": round(self.width_mm, 2),
+            "pixels": list(self.pixels),
+        }
         if self.info:
             d["info"] = jsonable(self.info, "figure info")
         if self.data is not None:
@@ -188,9 +199,16 @@ class Verdict:
     note: str = ""
 
     def to_dict(self) -> dict:
-        return {"type": "verdict", "label": self.label, "simple": self.simple, "guarded": self.guarded,
-                "value": jsonable(self.value), "limit": jsonable(self.limit),
-                "uncertainty": jsonable(self.uncertainty), "note": self.note}
+        return {
+            "type": "verdict",
+            "label": self.label,
+            "simple": self.simple,
+            "guarded": self.guarded,
+            "value": jsonable(self.value),
+            "limit": jsonable(self.limit),
+            "uncertainty": jsonable(self.uncertainty),
+            "note": self.note,
+        }
 
 
 @dataclass
@@ -204,12 +222,14 @@ class Warning_:
 @dataclass
 class FigureRow:
     """Consecutive figures that fit side by side on one line (layout only, not content)."""
+
     figures: list[Figure]
 
 
 @dataclass
 class VerdictTable:
     """Consecutive verdicts shown as one table, so their badges line up (layout only)."""
+
     verdicts: list[Verdict]
 
     def columns(self) -> list[str]:
@@ -226,8 +246,15 @@ class VerdictTable:
 
     @staticmethod
     def cell(v: Verdict, column: str) -> Any:
-        return {"Parameter": v.label, "Value": v.value, "Limit": v.limit, "U": v.uncertainty,
-                "Simple rule": v.simple, "Guarded rule": v.guarded, "Note": v.note}[column]
+        return {
+            "Parameter": v.label,
+            "Value": v.value,
+            "Limit": v.limit,
+            "U": v.uncertainty,
+            "Simple rule": v.simple,
+            "Guarded rule": v.guarded,
+            "Note": v.note,
+        }[column]
 
 
 def layout(blocks: Iterable[Any]) -> list[Any]:
@@ -264,9 +291,13 @@ def provenance_blocks(prov: dict) -> list[Any]:
     Plugins and inputs become tables whose columns are the union of their keys, so
     whatever a standard records (id, version, role, size ...) is shown.
     """
-    blocks: list[Any] = [KeyValues([("Software", prov["software"])]
-                                   + [(k.replace("_", " ").capitalize(), v) for k, v in prov["environment"].items()],
-                                   "Software and environment")]
+    blocks: list[Any] = [
+        KeyValues(
+            [("Software", prov["software"])]
+            + [(k.replace("_", " ").capitalize(), v) for k, v in prov["environment"].items()],
+            "Software and environment",
+        )
+    ]
     for caption, rows in (("Plugins", prov["plugins"]), ("Input files", prov["inputs"])):
         if rows:
             cols: list[str] = []
@@ -280,6 +311,7 @@ def provenance_blocks(prov: dict) -> list[Any]:
 
 def _align_for(rows: list[list[Any]], n_cols: int) -> list[str]:
     """Right-align columns of numbers (so digits line up), left-align the rest."""
+
     def numeric(c: Any) -> bool:
         if c is None or isinstance(c, bool):
             return c is None
@@ -287,6 +319,7 @@ def _align_for(rows: list[list[Any]], n_cols: int) -> list[str]:
             return True
         s = str(c).strip().lstrip("+-\u2212\u00b1")
         return s[:1].isdigit() or s in ("", "\u2014")
+
     out = []
     for j in range(n_cols):
         cells = [r[j] for r in rows if j < len(r)]

@@ -69,8 +69,9 @@ def _display_unit(max_abs_mm: float) -> str:
 
 def _values(values: Any, what: str, allow_missing: bool = False) -> np.ndarray:
     try:
-        a = np.asarray([np.nan if v is None else v for v in values] if allow_missing else values,
-                       dtype=np.float64).ravel()
+        a = np.asarray(
+            [np.nan if v is None else v for v in values] if allow_missing else values, dtype=np.float64
+        ).ravel()
     except (TypeError, ValueError) as exc:
         raise InputError(f"{what}: values must be numbers ({exc})") from None
     if a.size == 0:
@@ -78,8 +79,10 @@ def _values(values: Any, what: str, allow_missing: bool = False) -> np.ndarray:
     if not allow_missing:
         bad = ~np.isfinite(a)
         if bad.any():
-            raise InputError(f"{what}: {int(bad.sum())} of {a.size} values are NaN or Inf "
-                             f"(first at index {int(np.flatnonzero(bad)[0])}); remove them first")
+            raise InputError(
+                f"{what}: {int(bad.sum())} of {a.size} values are NaN or Inf "
+                f"(first at index {int(np.flatnonzero(bad)[0])}); remove them first"
+            )
     return a
 
 
@@ -88,9 +91,18 @@ def _new_figure(width_mm: float, height_mm: float):
     import matplotlib as mpl
     from matplotlib.figure import Figure
 
-    rc: dict[str, Any] = {"font.size": 7.5, "axes.titlesize": 8.5, "axes.labelsize": 7.5, "xtick.labelsize": 7,
-          "ytick.labelsize": 7, "legend.fontsize": 7, "axes.linewidth": 0.6,
-          "xtick.major.width": 0.6, "ytick.major.width": 0.6, "svg.fonttype": "none"}
+    rc: dict[str, Any] = {
+        "font.size": 7.5,
+        "axes.titlesize": 8.5,
+        "axes.labelsize": 7.5,
+        "xtick.labelsize": 7,
+        "ytick.labelsize": 7,
+        "legend.fontsize": 7,
+        "axes.linewidth": 0.6,
+        "xtick.major.width": 0.6,
+        "ytick.major.width": 0.6,
+        "svg.fonttype": "none",
+    }
     with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         fig = Figure(figsize=(width_mm * _MM, height_mm * _MM), dpi=DPI)
     return fig, rc
@@ -103,8 +115,9 @@ def _axes(fig, width_mm: float, height_mm: float, left: float, bottom: float, ri
     ~0.1 s per chart (half the time of a report with 25 maps), and fixed margins also
     give every chart of a kind the same plot area, so a page of maps lines up.
     """
-    return fig.add_axes((left / width_mm, bottom / height_mm, 1 - (left + right) / width_mm,
-                         1 - (bottom + top) / height_mm))
+    return fig.add_axes(
+        (left / width_mm, bottom / height_mm, 1 - (left + right) / width_mm, 1 - (bottom + top) / height_mm)
+    )
 
 
 def _heading(fig, height_mm: float, title: str | None, stats: str) -> None:
@@ -145,10 +158,18 @@ def _png(fig, dpi: float) -> bytes:
 
 
 # --------------------------------------------------------------------------- bar chart
-def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: float | Sequence[float] | None = None,
-              unit: str = "mm", title: str | None = None, ylabel: str | None = None,
-              errors: Sequence[float] | None = None, width_mm: float = 160, height_mm: float = 65,
-              dpi: float = DPI) -> ChartPNG:
+def bar_chart(
+    labels: Sequence[Any],
+    values: Sequence[float | None],
+    limit: float | Sequence[float] | None = None,
+    unit: str = "mm",
+    title: str | None = None,
+    ylabel: str | None = None,
+    errors: Sequence[float] | None = None,
+    width_mm: float = 160,
+    height_mm: float = 65,
+    dpi: float = DPI,
+) -> ChartPNG:
     """Per-position values as bars, with the limit (e.g. the MPE) as dashed lines at ±limit.
 
     ``limit`` is one number or one per position (an MPE that grows with length);
@@ -190,9 +211,15 @@ def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: floa
         ax = _axes(fig, width_mm, height_mm, left=14, bottom=bottom, right=3, top=_top_mm(title))
         x = np.arange(v.size)
         colours = np.where(beyond, _COLOURS["bad"], _COLOURS["ok"] if lim is not None else _COLOURS["plain"])
-        ax.bar(x[ok], heights[ok], color=colours[ok], width=0.65, zorder=2,
-               yerr=None if err is None else err[ok],
-               error_kw={"elinewidth": 0.7, "capsize": 2, "ecolor": "#333"})
+        ax.bar(
+            x[ok],
+            heights[ok],
+            color=colours[ok],
+            width=0.65,
+            zorder=2,
+            yerr=None if err is None else err[ok],
+            error_kw={"elinewidth": 0.7, "capsize": 2, "ecolor": "#333"},
+        )
         ax.axhline(0, color="#333", lw=0.6, zorder=3)
         if lim is not None:
             xs = np.concatenate([[x[0] - 0.5], x + 0.5])
@@ -209,11 +236,20 @@ def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: floa
             ax.text(xi, 0.03 * top, "n/a", ha="center", va="bottom", fontsize=6.5, color=_COLOURS["missing"])
         if v.size <= 16:  # value labels only where they do not crowd each other
             for xi, h in zip(x[ok], heights[ok]):
-                ax.text(xi, h + (0.02 if h >= 0 else -0.02) * top, _num(h), ha="center",
-                        va="bottom" if h >= 0 else "top", fontsize=6, color="#333", zorder=5)
+                ax.text(
+                    xi,
+                    h + (0.02 if h >= 0 else -0.02) * top,
+                    _num(h),
+                    ha="center",
+                    va="bottom" if h >= 0 else "top",
+                    fontsize=6,
+                    color="#333",
+                    zorder=5,
+                )
         ax.set_xticks(x)
-        ax.set_xticklabels(labels, rotation=45 if long_labels else 0, ha="right" if long_labels else "center",
-                           rotation_mode="anchor")
+        ax.set_xticklabels(
+            labels, rotation=45 if long_labels else 0, ha="right" if long_labels else "center", rotation_mode="anchor"
+        )
         ax.set_xlim(-0.6, v.size - 0.4)
         ax.set_ylabel(ylabel or f"value [{unit}]")
         ax.grid(axis="y", color="#e3e6ea", lw=0.5, zorder=0)
@@ -227,9 +263,14 @@ def bar_chart(labels: Sequence[Any], values: Sequence[float | None], limit: floa
             stats += f"   dashed: \u00b1limit {lim_txt} {unit}   beyond limit: {int(beyond.sum())}"
         _heading(fig, height_mm, title, stats)
         png = _png(fig, dpi)
-    info = {"chart": "bar", "unit": unit, "n": int(v.size), "n_missing": int((~ok).sum()),
-            "limit": None if lim is None else [float(l) for l in lim],
-            "n_beyond_limit": None if lim is None else int(beyond.sum())}
+    info = {
+        "chart": "bar",
+        "unit": unit,
+        "n": int(v.size),
+        "n_missing": int((~ok).sum()),
+        "limit": None if lim is None else [float(l) for l in lim],
+        "n_beyond_limit": None if lim is None else int(beyond.sum()),
+    }
     return ChartPNG(png, info)
 
 
@@ -250,7 +291,7 @@ def _fitted(element: str, p: np.ndarray) -> dict[str, Any]:
 
 
 def _guess_kind(p: np.ndarray) -> str:
-    """"sphere" or "plane" for points with no centre or normal given.
+    """ "sphere" or "plane" for points with no centre or normal given.
 
     Both are fitted by the plugins; a sphere is chosen only if its form RMS is less than
     half the plane's and its radius is not huge against the patch (a nearly flat patch
@@ -311,19 +352,29 @@ def _sphere_xy(p: np.ndarray, centre: np.ndarray) -> tuple[np.ndarray, np.ndarra
         e1 = np.cross(e2, m)
         k = np.sqrt(2.0 / (1.0 + np.maximum(cosc, -1 + 1e-12)))
         x, y = R * k * (u @ e1), R * k * (u @ e2)
-        info = {"projection": "Lambert azimuthal equal-area", "view_direction": m.tolist(),
-                "max_angle_deg": round(max_angle, 2), "radius": R,
-                "xlabel": "x on map [mm] (equal-area)", "ylabel": "y on map [mm] (equal-area)"}
+        info = {
+            "projection": "Lambert azimuthal equal-area",
+            "view_direction": m.tolist(),
+            "max_angle_deg": round(max_angle, 2),
+            "radius": R,
+            "xlabel": "x on map [mm] (equal-area)",
+            "ylabel": "y on map [mm] (equal-area)",
+        }
     else:
         az = np.degrees(np.arctan2(u[:, 1], u[:, 0]))
         x, y = az, np.clip(u[:, 2], -1, 1)
-        info = {"projection": "cylindrical equal-area (azimuth, sin elevation about z)", "radius": R,
-                "xlabel": "azimuth [°]", "ylabel": "elevation [°]"}
+        info = {
+            "projection": "cylindrical equal-area (azimuth, sin elevation about z)",
+            "radius": R,
+            "xlabel": "azimuth [°]",
+            "ylabel": "elevation [°]",
+        }
     return x, y, info
 
 
-def _plane_xy(p: np.ndarray, centre: np.ndarray | None,
-              normal: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, dict]:
+def _plane_xy(
+    p: np.ndarray, centre: np.ndarray | None, normal: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, dict]:
     """In-plane coordinates: origin at ``centre`` (default the fitted plane's point), the u axis
     along the longest extent of the points, so a long flat lies across the page.
 
@@ -349,8 +400,19 @@ def _plane_xy(p: np.ndarray, centre: np.ndarray | None,
     if u[np.argmax(np.abs(u))] < 0:
         u = -u
     v = np.cross(n, u)
-    return q @ u, q @ v, {"projection": "in-plane coordinates", "centre": c.tolist(), "normal": n.tolist(),
-                          "u_axis": u.tolist(), "v_axis": v.tolist(), "xlabel": "u [mm]", "ylabel": "v [mm]"}
+    return (
+        q @ u,
+        q @ v,
+        {
+            "projection": "in-plane coordinates",
+            "centre": c.tolist(),
+            "normal": n.tolist(),
+            "u_axis": u.tolist(),
+            "v_axis": v.tolist(),
+            "xlabel": "u [mm]",
+            "ylabel": "v [mm]",
+        },
+    )
 
 
 def _subsample(dev: np.ndarray, max_points: int) -> np.ndarray:
@@ -364,18 +426,29 @@ def _subsample(dev: np.ndarray, max_points: int) -> np.ndarray:
     order = np.argsort(np.abs(dev), kind="stable")
     if n > max_points:
         n_top = max_points // 10
-        top = order[n - n_top:]
-        rest = np.random.default_rng(0).choice(order[:n - n_top], max_points - n_top, replace=False)
+        top = order[n - n_top :]
+        rest = np.random.default_rng(0).choice(order[: n - n_top], max_points - n_top, replace=False)
         idx = np.concatenate([rest, top])
         return idx[np.argsort(np.abs(dev[idx]), kind="stable")]
     return order
 
 
 # --------------------------------------------------------------------------- deviation map
-def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequence[float] | None = None,
-                  normal: Sequence[float] | None = None, unit: str = "mm", limit: float | None = None,
-                  title: str | None = None, display_unit: str | None = None, max_points: int = MAX_DRAWN,
-                  width_mm: float | None = None, height_mm: float | None = None, dpi: float = DPI) -> ChartPNG:
+def deviation_map(
+    points: Any,
+    deviations: Any,
+    kind: str = "auto",
+    center: Sequence[float] | None = None,
+    normal: Sequence[float] | None = None,
+    unit: str = "mm",
+    limit: float | None = None,
+    title: str | None = None,
+    display_unit: str | None = None,
+    max_points: int = MAX_DRAWN,
+    width_mm: float | None = None,
+    height_mm: float | None = None,
+    dpi: float = DPI,
+) -> ChartPNG:
     """The deviation colour map of a sphere or a flat.
 
     ``points`` (N, 3) in mm, ``deviations`` (N,) signed, in ``unit``: radial for a
@@ -407,8 +480,10 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
         raise InputError(f"{what}: points must have shape (N, 3), got {p.shape}")
     bad = ~np.isfinite(p).all(axis=1)
     if bad.any():
-        raise InputError(f"{what}: {int(bad.sum())} of {len(p)} points have NaN or Inf coordinates "
-                         f"(first at index {int(np.flatnonzero(bad)[0])}); remove them first")
+        raise InputError(
+            f"{what}: {int(bad.sum())} of {len(p)} points have NaN or Inf coordinates "
+            f"(first at index {int(np.flatnonzero(bad)[0])}); remove them first"
+        )
     dev = _values(deviations, what)
     if dev.size != len(p):
         raise InputError(f"{what}: {dev.size} deviations for {len(p)} points")
@@ -488,8 +563,7 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
         # dense clouds: squares, which tile like the pixels of a map and draw ~30 % faster
         # than discs; sparse ones: discs, which read as individual points
         marker = "s" if idx.size > 5000 else "o"
-        sc = ax.scatter(x[idx], y[idx], c=d[idx], s=s, marker=marker, cmap=_CMAP, vmin=vmin, vmax=vmax,
-                        linewidths=0)
+        sc = ax.scatter(x[idx], y[idx], c=d[idx], s=s, marker=marker, cmap=_CMAP, vmin=vmin, vmax=vmax, linewidths=0)
         if cylindrical:
             ticks = np.array([-90, -45, -20, 0, 20, 45, 90])  # evenly spread in sin(elevation)
             ax.set_yticks(np.sin(np.radians(ticks)), [f"{t}" for t in ticks])
@@ -521,17 +595,37 @@ def deviation_map(points: Any, deviations: Any, kind: str = "auto", center: Sequ
             n_txt += f" ({idx.size:,} drawn)".replace(",", "\u2009")
         _heading(fig, height_mm, title, f"{n_txt}  min {_num(d.min())}  max {_num(d.max())}  RMS {_num(rms)} {du}")
         png = _png(fig, dpi)
-    info = {"chart": "deviation_map", "kind": kind, **{k: v for k, v in geo.items() if k not in ("xlabel", "ylabel")},
-            "display_unit": du, "vmin": vmin, "vmax": vmax, "colormap": _CMAP, "n_points": int(len(p)),
-            "n_drawn": int(idx.size), "min": float(d.min()), "max": float(d.max()), "rms": rms,
-            "limit": None if lim_mm is None else lim_mm * scale}
+    info = {
+        "chart": "deviation_map",
+        "kind": kind,
+        **{k: v for k, v in geo.items() if k not in ("xlabel", "ylabel")},
+        "display_unit": du,
+        "vmin": vmin,
+        "vmax": vmax,
+        "colormap": _CMAP,
+        "n_points": int(len(p)),
+        "n_drawn": int(idx.size),
+        "min": float(d.min()),
+        "max": float(d.max()),
+        "rms": rms,
+        "limit": None if lim_mm is None else lim_mm * scale,
+    }
     return ChartPNG(png, info)
 
 
 # --------------------------------------------------------------------------- histogram
-def histogram(values: Any, unit: str = "mm", bins: int | str = "auto", limit: float | None = None,
-              title: str | None = None, xlabel: str = "deviation", display_unit: str | None = None,
-              width_mm: float = 82, height_mm: float = 58, dpi: float = DPI) -> ChartPNG:
+def histogram(
+    values: Any,
+    unit: str = "mm",
+    bins: int | str = "auto",
+    limit: float | None = None,
+    title: str | None = None,
+    xlabel: str = "deviation",
+    display_unit: str | None = None,
+    width_mm: float = 82,
+    height_mm: float = 58,
+    dpi: float = DPI,
+) -> ChartPNG:
     """Histogram of (signed) values, bars coloured with the deviation maps' colour scale
     (same range rule: ±limit or ±max|value|), so it doubles as the map's legend.
 
@@ -559,6 +653,7 @@ def histogram(values: Any, unit: str = "mm", bins: int | str = "auto", limit: fl
     with mpl.rc_context(rc):  # type: ignore[arg-type]  # matplotlib types the keys as literals
         from matplotlib import colormaps
         from matplotlib.colors import Normalize
+
         ax = _axes(fig, width_mm, height_mm, left=13, bottom=10, right=3, top=_top_mm(title))
         centres = 0.5 * (edges[:-1] + edges[1:])
         colours = colormaps[_CMAP](Normalize(-vmax, vmax)(centres))
@@ -579,7 +674,15 @@ def histogram(values: Any, unit: str = "mm", bins: int | str = "auto", limit: fl
             stats += f"  dashed: \u00b1limit {_num(vmax)} {du}"
         _heading(fig, height_mm, title, stats)
         png = _png(fig, dpi)
-    info = {"chart": "histogram", "display_unit": du, "n": int(v.size), "bins": int(counts.size),
-            "mean": mean, "std": sd, "min": float(v.min()), "max": float(v.max()),
-            "limit": None if lim_mm is None else lim_mm / _factor(du)}
+    info = {
+        "chart": "histogram",
+        "display_unit": du,
+        "n": int(v.size),
+        "bins": int(counts.size),
+        "mean": mean,
+        "std": sd,
+        "min": float(v.min()),
+        "max": float(v.max()),
+        "limit": None if lim_mm is None else lim_mm / _factor(du),
+    }
     return ChartPNG(png, info)

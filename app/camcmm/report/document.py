@@ -58,8 +58,13 @@ class Section:
         self.blocks.append(KeyValues([(str(k), v) for k, v in pairs], str(caption)))
         return self
 
-    def table(self, columns: Sequence[str], rows: Iterable[Sequence[Any]], caption: str = "",
-              align: Sequence[str] | None = None) -> Section:
+    def table(
+        self,
+        columns: Sequence[str],
+        rows: Iterable[Sequence[Any]],
+        caption: str = "",
+        align: Sequence[str] | None = None,
+    ) -> Section:
         """A table; long ones split across PDF pages with the header row repeated.
 
         Cells may be numbers, strings or None (shown as a dash). ``align`` is one of
@@ -71,20 +76,22 @@ class Section:
         rows = table_rows
         for i, r in enumerate(rows):
             if len(r) != len(columns):
-                raise InputError(f"report table {caption or columns!r}: row {i} has {len(r)} cells "
-                                 f"for {len(columns)} columns")
+                raise InputError(
+                    f"report table {caption or columns!r}: row {i} has {len(r)} cells for {len(columns)} columns"
+                )
         if align is None:
             align_list = _align_for(rows, len(columns))
         else:
             align_list = [str(a) for a in align]
             if len(align_list) != len(columns) or not set(align_list) <= {"left", "right", "center"}:
-                raise InputError(f"report table: align must give left/right/center for each of "
-                                 f"{len(columns)} columns, got {align_list}")
+                raise InputError(
+                    f"report table: align must give left/right/center for each of "
+                    f"{len(columns)} columns, got {align_list}"
+                )
         self.blocks.append(Table(columns, rows, str(caption), align_list))
         return self
 
-    def figure(self, image: Any, caption: str = "", width_mm: float | None = None,
-               data: Any = None) -> Section:
+    def figure(self, image: Any, caption: str = "", width_mm: float | None = None, data: Any = None) -> Section:
         """A figure from PNG bytes (e.g. from :mod:`camcmm.report.charts`), a PNG file
         or a matplotlib figure.
 
@@ -102,8 +109,16 @@ class Section:
         self.blocks.append(Figure(png, str(caption), width_mm, (w_px, h_px), info, data))
         return self
 
-    def verdict(self, label: str, simple: str, guarded: str | None = None, value: Any = None,
-                limit: Any = None, uncertainty: Any = None, note: str = "") -> Section:
+    def verdict(
+        self,
+        label: str,
+        simple: str,
+        guarded: str | None = None,
+        value: Any = None,
+        limit: Any = None,
+        uncertainty: Any = None,
+        note: str = "",
+    ) -> Section:
         """A verdict line with coloured badges under the simple and guarded decision rules.
 
         Verdict words are those of :mod:`camcmm.conformity`: pass, fail, inconclusive,
@@ -113,8 +128,9 @@ class Section:
             if word is None and rule == "guarded":
                 continue
             if word not in VERDICTS:
-                raise InputError(f"report verdict {label!r}: {rule} verdict {word!r} is not one of "
-                                 f"{', '.join(VERDICTS)}")
+                raise InputError(
+                    f"report verdict {label!r}: {rule} verdict {word!r} is not one of {', '.join(VERDICTS)}"
+                )
         self.blocks.append(Verdict(str(label), simple, guarded, value, limit, uncertainty, str(note)))
         return self
 
@@ -137,8 +153,7 @@ class Report:
     >>> r.write("out")  # doctest: +SKIP
     """
 
-    def __init__(self, title: str, subtitle: str = "", meta: dict[str, Any] | None = None,
-                 dpi: float = 150.0) -> None:
+    def __init__(self, title: str, subtitle: str = "", meta: dict[str, Any] | None = None, dpi: float = 150.0) -> None:
         self.title = str(title)
         self.subtitle = str(subtitle)
         self.meta: dict[str, Any] = dict(meta or {})
@@ -154,8 +169,13 @@ class Report:
         self.sections.append(s)
         return s
 
-    def provenance(self, software: str | None = None, plugins: Iterable[dict] = (),
-                   inputs: Iterable[dict] = (), extra: dict[str, Any] | None = None) -> Report:
+    def provenance(
+        self,
+        software: str | None = None,
+        plugins: Iterable[dict] = (),
+        inputs: Iterable[dict] = (),
+        extra: dict[str, Any] | None = None,
+    ) -> Report:
         """Record what produced the report; may be called more than once (lists add up).
 
         ``inputs`` are dicts with at least ``file``; a missing ``sha256`` is computed
@@ -187,10 +207,14 @@ class Report:
     def provenance_dict(self) -> dict:
         """The provenance as recorded, plus the environment the report was made in."""
         from .. import __version__
+
         p = dict(self._provenance)
         p["software"] = p["software"] or f"camcmm {__version__}"
-        p["environment"] = {"python": platform.python_version(), "platform": platform.platform(),
-                            "report_generator": f"camcmm.report {__version__}"}
+        p["environment"] = {
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "report_generator": f"camcmm.report {__version__}",
+        }
         return p
 
     def to_dict(self) -> dict:
@@ -215,15 +239,18 @@ class Report:
 
     def render_html(self) -> str:
         from .html import render_html
+
         return render_html(self)
 
     def render_pdf(self) -> bytes:
         from .pdf import render_pdf
+
         return render_pdf(self)
 
     # ------------------------------------------------------------------ output
-    def write(self, directory: str | os.PathLike, basename: str = "report",
-              formats: Sequence[str] = ("html", "pdf", "json")) -> dict[str, str]:
+    def write(
+        self, directory: str | os.PathLike, basename: str = "report", formats: Sequence[str] = ("html", "pdf", "json")
+    ) -> dict[str, str]:
         """Write ``<basename>.html``, ``.pdf`` and ``.json`` into ``directory``.
 
         Everything is rendered in memory first, so a failure writes nothing; each file
@@ -251,8 +278,7 @@ class Report:
                 _atomic_write(target, content)
                 paths[ext] = str(target)
         except OSError as exc:
-            raise CamcmmError(f"cannot write the report into {str(out_dir)!r}: "
-                              f"{exc.strerror or exc}") from None
+            raise CamcmmError(f"cannot write the report into {str(out_dir)!r}: {exc.strerror or exc}") from None
         return paths
 
 

@@ -14,15 +14,28 @@ import html
 import json
 from typing import Any
 
-from .blocks import (CONTENT_WIDTH_MM, FIGURE_GAP_MM, Figure, FigureRow, KeyValues, Paragraph,
-                     Table, VerdictTable, Warning_, jsonable, layout, provenance_blocks, text)
+from .blocks import (
+    CONTENT_WIDTH_MM,
+    FIGURE_GAP_MM,
+    Figure,
+    FigureRow,
+    KeyValues,
+    Paragraph,
+    Table,
+    VerdictTable,
+    Warning_,
+    jsonable,
+    layout,
+    provenance_blocks,
+    text,
+)
 
 # Badge colours; the PDF uses the same ones (pdf.py imports them).
 VERDICT_COLOURS = {
-    "pass": ("#1e7b34", "#ffffff"),          # green
-    "fail": ("#c62828", "#ffffff"),          # red
+    "pass": ("#1e7b34", "#ffffff"),  # green
+    "fail": ("#c62828", "#ffffff"),  # red
     "inconclusive": ("#f0a500", "#1a1a1a"),  # amber
-    "incomplete": ("#6b7280", "#ffffff"),    # grey: not evaluated, neither good nor bad
+    "incomplete": ("#6b7280", "#ffffff"),  # grey: not evaluated, neither good nor bad
 }
 
 _CSS = """
@@ -99,14 +112,16 @@ def _is_hash(col: str) -> bool:
     return col.lower() in ("sha256", "sha-256", "hash")
 
 
-def _table(columns: list[str], rows: list[list[Any]], align: list[str], caption: str = "",
-           cls: str = "data") -> str:
+def _table(columns: list[str], rows: list[list[Any]], align: list[str], caption: str = "", cls: str = "data") -> str:
     a = {"left": "", "right": "r", "center": "c"}
     out = [f'<table class="{cls}">']
     if caption:
         out.append(f"<caption>{html.escape(caption)}</caption>")
-    out.append("<thead><tr>" + "".join(f'<th class="{a[al]}">{html.escape(c)}</th>'
-                                         for c, al in zip(columns, align)) + "</tr></thead><tbody>")
+    out.append(
+        "<thead><tr>"
+        + "".join(f'<th class="{a[al]}">{html.escape(c)}</th>' for c, al in zip(columns, align))
+        + "</tr></thead><tbody>"
+    )
     # hashes in a monospace face that may break anywhere (64 hex digits fit no column)
     classes = [" ".join(filter(None, (a[al], "mono" if _is_hash(c) else ""))) for c, al in zip(columns, align)]
     for r in rows:
@@ -126,14 +141,15 @@ def _figure(f: Figure, scale: float) -> str:
     uri = "data:image/png;base64," + base64.b64encode(f.png).decode("ascii")
     cap = f"<figcaption>{html.escape(f.caption)}</figcaption>" if f.caption else ""
     alt = html.escape(f.caption or "figure", quote=True)
-    return (f'<figure style="width:{pct:.2f}%" data-sha256="{f.sha256}">'
-            f'<img src="{uri}" alt="{alt}">{cap}</figure>')
+    return f'<figure style="width:{pct:.2f}%" data-sha256="{f.sha256}"><img src="{uri}" alt="{alt}">{cap}</figure>'
 
 
 def _verdicts(t: VerdictTable) -> str:
     cols = t.columns()
-    head = "".join(("<th class=\"c\">" if c.endswith("rule") else "<th>")
-                   + ("<i>U</i>" if c == "U" else html.escape(c)) + "</th>" for c in cols)
+    head = "".join(
+        ('<th class="c">' if c.endswith("rule") else "<th>") + ("<i>U</i>" if c == "U" else html.escape(c)) + "</th>"
+        for c in cols
+    )
     rows = []
     for v in t.verdicts:
         cells = []
@@ -144,7 +160,9 @@ def _verdicts(t: VerdictTable) -> str:
             elif c == "Parameter":
                 cells.append(f"<th>{html.escape(x)}</th>")
             else:
-                cells.append(f'<td class="note">{html.escape(x)}</td>' if c == "Note" else f'<td class="r">{_e(x)}</td>')
+                cells.append(
+                    f'<td class="note">{html.escape(x)}</td>' if c == "Note" else f'<td class="r">{_e(x)}</td>'
+                )
         rows.append("<tr>" + "".join(cells) + "</tr>")
     return f'<table class="verdicts"><thead><tr>{head}</tr></thead><tbody>{"".join(rows)}</tbody></table>'
 
@@ -177,11 +195,16 @@ def _script_json(data: Any) -> str:
 def render_html(report) -> str:
     """The whole report as an HTML document (str)."""
     prov = report.provenance_dict()
-    out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-           '<meta name="viewport" content="width=device-width, initial-scale=1">',
-           f'<meta name="generator" content="{html.escape(prov["environment"]["report_generator"], quote=True)}">',
-           f"<title>{html.escape(report.title)}</title>", f"<style>{_CSS}</style></head><body><main>",
-           '<header class="title">', f"<h1>{html.escape(report.title)}</h1>"]
+    out = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f'<meta name="generator" content="{html.escape(prov["environment"]["report_generator"], quote=True)}">',
+        f"<title>{html.escape(report.title)}</title>",
+        f"<style>{_CSS}</style></head><body><main>",
+        '<header class="title">',
+        f"<h1>{html.escape(report.title)}</h1>",
+    ]
     if report.subtitle:
         out.append(f'<p class="subtitle">{html.escape(report.subtitle)}</p>')
     if report.meta:
@@ -194,9 +217,12 @@ def render_html(report) -> str:
     out.append('<section class="provenance"><h2>Provenance</h2>')
     out.extend(_block(b) for b in provenance_blocks(prov))
     out.append("</section>")
-    out.append(f"<footer>{html.escape(report.title)} &middot; generated {html.escape(report.created)} by "
-               f"{html.escape(prov['software'])} &middot; the machine-readable result is embedded in this "
-               f"file (script id &quot;camcmm-data&quot;) and in the JSON file beside it.</footer>")
-    out.append('</main><script type="application/json" id="camcmm-data">'
-               f"{_script_json(report.data)}</script></body></html>")
+    out.append(
+        f"<footer>{html.escape(report.title)} &middot; generated {html.escape(report.created)} by "
+        f"{html.escape(prov['software'])} &middot; the machine-readable result is embedded in this "
+        f"file (script id &quot;camcmm-data&quot;) and in the JSON file beside it.</footer>"
+    )
+    out.append(
+        f'</main><script type="application/json" id="camcmm-data">{_script_json(report.data)}</script></body></html>'
+    )
     return "\n".join(out)

@@ -50,8 +50,12 @@ def _fonts() -> dict[str, str]:
     spec = find_spec("matplotlib")
     if spec and spec.submodule_search_locations:
         ttf = Path(list(spec.submodule_search_locations)[0]) / "mpl-data" / "fonts" / "ttf"
-        files = {"regular": "DejaVuSans.ttf", "bold": "DejaVuSans-Bold.ttf", "italic": "DejaVuSans-Oblique.ttf",
-                 "mono": "DejaVuSansMono.ttf"}
+        files = {
+            "regular": "DejaVuSans.ttf",
+            "bold": "DejaVuSans-Bold.ttf",
+            "italic": "DejaVuSans-Oblique.ttf",
+            "mono": "DejaVuSansMono.ttf",
+        }
         if all((ttf / f).is_file() for f in files.values()):
             names = {"regular": "CamSans", "bold": "CamSans-Bold", "italic": "CamSans-Italic", "mono": "CamMono"}
             for key, f in files.items():
@@ -93,8 +97,7 @@ class _Builder:
         self.st = {
             "title": P("title", fontName=f["bold"], fontSize=19, leading=23, textColor=ink, spaceAfter=3),
             "subtitle": P("subtitle", fontName=f["regular"], fontSize=12.5, leading=16, textColor=muted),
-            "h2": P("h2", fontName=f["bold"], fontSize=13, leading=16, textColor=ink, spaceBefore=12,
-                    spaceAfter=6),
+            "h2": P("h2", fontName=f["bold"], fontSize=13, leading=16, textColor=ink, spaceBefore=12, spaceAfter=6),
             "body": P("body", fontName=f["regular"], fontSize=9.5, leading=13, textColor=ink, spaceAfter=5),
             "cell": P("cell", fontName=f["regular"], fontSize=8.5, leading=10.5, textColor=ink),
             "cell_r": P("cell_r", fontName=f["regular"], fontSize=8.5, leading=10.5, alignment=TA_RIGHT),
@@ -103,20 +106,19 @@ class _Builder:
             "head": P("head", fontName=f["bold"], fontSize=8.5, leading=10.5, alignment=TA_LEFT),
             "head_r": P("head_r", fontName=f["bold"], fontSize=8.5, leading=10.5, alignment=TA_RIGHT),
             "head_c": P("head_c", fontName=f["bold"], fontSize=8.5, leading=10.5, alignment=TA_CENTER),
-            "caption": P("caption", fontName=f["bold"], fontSize=9, leading=11.5, spaceBefore=4,
-                         spaceAfter=3),
+            "caption": P("caption", fontName=f["bold"], fontSize=9, leading=11.5, spaceBefore=4, spaceAfter=3),
             "figcap": P("figcap", fontName=f["regular"], fontSize=8, leading=10, textColor=muted),
             "meta_k": P("meta_k", fontName=f["regular"], fontSize=9, leading=11.5, textColor=muted),
             "meta_v": P("meta_v", fontName=f["regular"], fontSize=9, leading=11.5, textColor=ink),
             "badge": P("badge", fontName=f["bold"], fontSize=8, leading=10, alignment=TA_CENTER),
-            "rule": P("rule", fontName=f["regular"], fontSize=7.5, leading=9.5, textColor=muted,
-                      alignment=TA_RIGHT),
+            "rule": P("rule", fontName=f["regular"], fontSize=7.5, leading=9.5, textColor=muted, alignment=TA_RIGHT),
             "warn": P("warn", fontName=f["regular"], fontSize=9.5, leading=13),
         }
 
     # ----------------------------------------------------------------- helpers
     def _p(self, s: Any, style: str, markup: bool = False):
         from reportlab.platypus import Paragraph as P
+
         return P(s if markup else _x(s), self.st[style])
 
     def _widths(self, columns: list[str], rows: list[list[Any]], styles: list[str]) -> list[float]:
@@ -126,6 +128,7 @@ class _Builder:
         proportion to their natural widths, and their Paragraph cells wrap.
         """
         from reportlab.pdfbase.pdfmetrics import stringWidth
+
         pad = 12.0
         nat = []
         for j, c in enumerate(columns):
@@ -146,9 +149,15 @@ class _Builder:
 
     def _table_style(self, n_rows: int, header: bool = True, zebra: bool = True):
         from reportlab.platypus import TableStyle
-        cmds = [("GRID", (0, 0), (-1, -1), 0.5, self.rule), ("VALIGN", (0, 0), (-1, -1), "TOP"),
-                ("TOPPADDING", (0, 0), (-1, -1), 2.5), ("BOTTOMPADDING", (0, 0), (-1, -1), 3),
-                ("LEFTPADDING", (0, 0), (-1, -1), 5), ("RIGHTPADDING", (0, 0), (-1, -1), 5)]
+
+        cmds = [
+            ("GRID", (0, 0), (-1, -1), 0.5, self.rule),
+            ("VALIGN", (0, 0), (-1, -1), "TOP"),
+            ("TOPPADDING", (0, 0), (-1, -1), 2.5),
+            ("BOTTOMPADDING", (0, 0), (-1, -1), 3),
+            ("LEFTPADDING", (0, 0), (-1, -1), 5),
+            ("RIGHTPADDING", (0, 0), (-1, -1), 5),
+        ]
         if header:
             cmds.append(("BACKGROUND", (0, 0), (-1, 0), self.head_bg))
         if header and zebra:  # every second body row, as in the HTML
@@ -159,9 +168,11 @@ class _Builder:
     def table(self, columns: list[str], rows: list[list[Any]], align: list[str], caption: str = "") -> list:
         from reportlab.platypus import CondPageBreak
         from reportlab.platypus import Table as T
+
         suffix = {"left": "", "right": "_r", "center": "_c"}
-        styles = ["mono" if c.lower() in ("sha256", "sha-256", "hash") else "cell" + suffix[a]
-                  for c, a in zip(columns, align)]
+        styles = [
+            "mono" if c.lower() in ("sha256", "sha-256", "hash") else "cell" + suffix[a] for c, a in zip(columns, align)
+        ]
         data = [[self._p(c, "head" + suffix[a]) for c, a in zip(columns, align)]]
         data += [[self._p(v, s) for v, s in zip(r, styles)] for r in rows]
         t = T(data, colWidths=self._widths(columns, rows, styles), repeatRows=1, hAlign="LEFT")
@@ -175,6 +186,7 @@ class _Builder:
 
     def keyvalues(self, items: list[tuple[str, Any]], caption: str = "") -> list:
         from reportlab.platypus import Table as T
+
         data = [[self._p(k, "head"), self._p(v, "cell")] for k, v in items]
         w = self._widths(["", ""], [[k, v] for k, v in items], ["head", "cell"])
         kw = min(w[0], 0.4 * self.width)
@@ -187,6 +199,7 @@ class _Builder:
     def figure_row(self, row: FigureRow) -> list:
         from reportlab.platypus import Image, TableStyle
         from reportlab.platypus import Table as T
+
         mm = self.mm
         used = sum(f.width_mm for f in row.figures) + FIGURE_GAP_MM * (len(row.figures) - 1)
         scale = min(1.0, CONTENT_WIDTH_MM / used)
@@ -204,9 +217,17 @@ class _Builder:
             widths.append(w * mm + FIGURE_GAP_MM * mm)
         widths[-1] -= FIGURE_GAP_MM * mm
         t = T([cells], colWidths=widths, hAlign="LEFT")
-        t.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
-                               ("RIGHTPADDING", (0, 0), (-1, -1), 0), ("TOPPADDING", (0, 0), (-1, -1), 0),
-                               ("BOTTOMPADDING", (0, 0), (-1, -1), 0)]))
+        t.setStyle(
+            TableStyle(
+                [
+                    ("VALIGN", (0, 0), (-1, -1), "TOP"),
+                    ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                    ("RIGHTPADDING", (0, 0), (-1, -1), 0),
+                    ("TOPPADDING", (0, 0), (-1, -1), 0),
+                    ("BOTTOMPADDING", (0, 0), (-1, -1), 0),
+                ]
+            )
+        )
         return [self._space(4), t, self._space(8)]
 
     def _badge(self, word: str | None):
@@ -214,25 +235,40 @@ class _Builder:
         from reportlab.platypus import Paragraph as P
         from reportlab.platypus import Table as T
         from reportlab.platypus import TableStyle
+
         if word is None:  # this rule was not applied to this parameter
             return self._p(None, "cell_c")
         (bg, fg), label = VERDICT_COLOURS[word], word.upper()
         st = self.st["badge"].clone("badge_" + word, textColor=self.colors.HexColor(fg))
         t = T([[P(html.escape(label), st)]], colWidths=[BADGE_MM * self.mm])
-        t.setStyle(TableStyle([("BACKGROUND", (0, 0), (-1, -1), self.colors.HexColor(bg)),
-                               ("ROUNDEDCORNERS", [5, 5, 5, 5]),
-                               ("TOPPADDING", (0, 0), (-1, -1), 1.5), ("BOTTOMPADDING", (0, 0), (-1, -1), 2.5),
-                               ("LEFTPADDING", (0, 0), (-1, -1), 2), ("RIGHTPADDING", (0, 0), (-1, -1), 2)]))
+        t.setStyle(
+            TableStyle(
+                [
+                    ("BACKGROUND", (0, 0), (-1, -1), self.colors.HexColor(bg)),
+                    ("ROUNDEDCORNERS", [5, 5, 5, 5]),
+                    ("TOPPADDING", (0, 0), (-1, -1), 1.5),
+                    ("BOTTOMPADDING", (0, 0), (-1, -1), 2.5),
+                    ("LEFTPADDING", (0, 0), (-1, -1), 2),
+                    ("RIGHTPADDING", (0, 0), (-1, -1), 2),
+                ]
+            )
+        )
         return t
 
     def verdicts(self, vt: VerdictTable) -> list:
         from reportlab.platypus import KeepTogether
         from reportlab.platypus import Table as T
+
         mm = self.mm
         cols = vt.columns()
-        head = [self._p("<i>U</i>" if c == "U" else html.escape(c),
-                        "head_c" if c.endswith("rule") else ("head_r" if c in ("Value", "Limit", "U") else "head"),
-                        markup=True) for c in cols]
+        head = [
+            self._p(
+                "<i>U</i>" if c == "U" else html.escape(c),
+                "head_c" if c.endswith("rule") else ("head_r" if c in ("Value", "Limit", "U") else "head"),
+                markup=True,
+            )
+            for c in cols
+        ]
         data = [head]
         for v in vt.verdicts:
             row = []
@@ -248,8 +284,11 @@ class _Builder:
                     row.append(self._p(x, "cell_r"))
             data.append(row)
         fixed = {"Simple rule": (BADGE_MM + 4) * mm, "Guarded rule": (BADGE_MM + 4) * mm}
-        nat = self._widths(cols, [[vt.cell(v, c) if not c.endswith("rule") else "" for c in cols]
-                                  for v in vt.verdicts], ["cell"] * len(cols))
+        nat = self._widths(
+            cols,
+            [[vt.cell(v, c) if not c.endswith("rule") else "" for c in cols] for v in vt.verdicts],
+            ["cell"] * len(cols),
+        )
         widths = [fixed.get(c, w) for c, w in zip(cols, nat)]
         if "Note" in cols:  # the note takes what is left, up to the text width
             i = cols.index("Note")
@@ -266,17 +305,29 @@ class _Builder:
     def warning(self, w: Warning_) -> list:
         from reportlab.platypus import Table as T
         from reportlab.platypus import TableStyle
+
         amber = self.colors.HexColor("#f0a500")
-        t = T([[self._p(f'<font color="#8a5a00"><b>Warning:</b></font> {_x(w.text)}', "warn", markup=True)]],
-              colWidths=[self.width], hAlign="LEFT")
-        t.setStyle(TableStyle([("BACKGROUND", (0, 0), (-1, -1), self.colors.HexColor("#fff4d6")),
-                               ("LINEBEFORE", (0, 0), (0, -1), 4, amber),
-                               ("LEFTPADDING", (0, 0), (-1, -1), 9), ("TOPPADDING", (0, 0), (-1, -1), 5),
-                               ("BOTTOMPADDING", (0, 0), (-1, -1), 6)]))
+        t = T(
+            [[self._p(f'<font color="#8a5a00"><b>Warning:</b></font> {_x(w.text)}', "warn", markup=True)]],
+            colWidths=[self.width],
+            hAlign="LEFT",
+        )
+        t.setStyle(
+            TableStyle(
+                [
+                    ("BACKGROUND", (0, 0), (-1, -1), self.colors.HexColor("#fff4d6")),
+                    ("LINEBEFORE", (0, 0), (0, -1), 4, amber),
+                    ("LEFTPADDING", (0, 0), (-1, -1), 9),
+                    ("TOPPADDING", (0, 0), (-1, -1), 5),
+                    ("BOTTOMPADDING", (0, 0), (-1, -1), 6),
+                ]
+            )
+        )
         return [t, self._space(5)]
 
     def _space(self, pt: float):
         from reportlab.platypus import Spacer
+
         return Spacer(1, pt)
 
     def block(self, b: Any) -> list:
@@ -298,17 +349,26 @@ class _Builder:
     def story(self) -> list:
         from reportlab.platypus import HRFlowable, TableStyle
         from reportlab.platypus import Table as T
+
         r = self.report
         story: list = [self._p(r.title, "title")]
         if r.subtitle:
             story.append(self._p(r.subtitle, "subtitle"))
-        story.append(HRFlowable(width="100%", thickness=1.5, color=self.colors.HexColor("#1a1a1a"),
-                                spaceBefore=6, spaceAfter=4))
+        story.append(
+            HRFlowable(width="100%", thickness=1.5, color=self.colors.HexColor("#1a1a1a"), spaceBefore=6, spaceAfter=4)
+        )
         if r.meta:
             data = [[self._p(k, "meta_k"), self._p(v, "meta_v")] for k, v in r.meta.items()]
             t = T(data, colWidths=[40 * self.mm, self.width - 40 * self.mm], hAlign="LEFT")
-            t.setStyle(TableStyle([("LEFTPADDING", (0, 0), (-1, -1), 0), ("TOPPADDING", (0, 0), (-1, -1), 0.5),
-                                   ("BOTTOMPADDING", (0, 0), (-1, -1), 0.5)]))
+            t.setStyle(
+                TableStyle(
+                    [
+                        ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                        ("TOPPADDING", (0, 0), (-1, -1), 0.5),
+                        ("BOTTOMPADDING", (0, 0), (-1, -1), 0.5),
+                    ]
+                )
+            )
             story.append(t)
         for i, sec in enumerate(r.sections, 1):
             story += self.section(f"{i}\u2002{sec.title}", layout(sec.blocks))
@@ -323,6 +383,7 @@ class _Builder:
         the heading, caption and a few rows fit.
         """
         from reportlab.platypus import CondPageBreak, KeepTogether
+
         heading = self._p(title, "h2")
         if not blocks:
             return [CondPageBreak(30 * self.mm), heading]
@@ -334,6 +395,7 @@ class _Builder:
         for b in blocks[1:]:
             out += self.block(b)
         return out
+
 
 def _canvas_class(title: str, font: str):
     """A canvas that knows the page count when it draws each footer ("page i of n")."""
@@ -382,10 +444,18 @@ def render_pdf(report) -> bytes:
     b = _Builder(report)
     prov = report.provenance_dict()
     buf = io.BytesIO()
-    doc = SimpleDocTemplate(buf, pagesize=A4, leftMargin=MARGIN_MM * mm, rightMargin=MARGIN_MM * mm,
-                            topMargin=18 * mm, bottomMargin=22 * mm, title=report.title,
-                            subject=report.subtitle, author=prov["software"],
-                            creator=prov["environment"]["report_generator"])
+    doc = SimpleDocTemplate(
+        buf,
+        pagesize=A4,
+        leftMargin=MARGIN_MM * mm,
+        rightMargin=MARGIN_MM * mm,
+        topMargin=18 * mm,
+        bottomMargin=22 * mm,
+        title=report.title,
+        subject=report.subtitle,
+        author=prov["software"],
+        creator=prov["environment"]["report_generator"],
+    )
     # ASCII85 makes every image stream 25 % larger and, without reportlab's C
     # accelerator, takes most of the time of a report with figures; PDF streams are
     # binary-safe, so it is switched off while this PDF is made.

@@ -25,7 +25,7 @@ class LabLift(Stage):
     def __init__(self, name: str = "lab-lift", step_um: float = 2.5, travel_mm: float = 50.0, **settings: Any):
         self.step_mm = float(step_um) / 1000.0
         self._from = self._to = 0.0  # the move under way: from, to (mm)
-        self._t0 = 0.0               # when it began (time.monotonic(), s)
+        self._t0 = 0.0  # when it began (time.monotonic(), s)
         super().__init__(name, "", (0.0, float(travel_mm)), **settings)
 
     def _where(self) -> tuple[bool, float]:

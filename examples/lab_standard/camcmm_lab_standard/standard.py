@@ -24,15 +24,36 @@ from camcmm.api import (
 )
 
 E = QualityParameter("E", "E", "Length error E", signed=True, help="measured minus calibrated length")
-BLOCK = ArtefactKind("gauge_block", "Gauge block", (
-    ArtefactField("length", "Length (calibrated)", min=0.5, max=1000, certificate="length", uncertainty="uncertainty"),
-    ArtefactField("uncertainty", "Its uncertainty U", min=0), ArtefactField("k", "Coverage factor k", unit="", min=1)))
+BLOCK = ArtefactKind(
+    "gauge_block",
+    "Gauge block",
+    (
+        ArtefactField(
+            "length", "Length (calibrated)", min=0.5, max=1000, certificate="length", uncertainty="uncertainty"
+        ),
+        ArtefactField("uncertainty", "Its uncertainty U", min=0),
+        ArtefactField("k", "Coverage factor k", unit="", min=1),
+    ),
+)
 AXES = {"x": [1, 0, 0], "y": [0, 1, 0], "diagonal": [1, 1, 1]}
-DECLARATION = StandardDeclaration("lab-1", "LAB-1 length check", (E,), (BLOCK,),
-                                  (TestDeclaration("gauge_block", "Gauge block positions", "gauge_block", ("E",), 3),),
-                                  tuple(PositionSpec("gauge_block", f"block-{a}", f"Block along {a}", "gauge_block",
-                                                     f"long axis along {a}, in the centre", placement={"direction": d})
-                                        for a, d in AXES.items()))
+DECLARATION = StandardDeclaration(
+    "lab-1",
+    "LAB-1 length check",
+    (E,),
+    (BLOCK,),
+    (TestDeclaration("gauge_block", "Gauge block positions", "gauge_block", ("E",), 3),),
+    tuple(
+        PositionSpec(
+            "gauge_block",
+            f"block-{a}",
+            f"Block along {a}",
+            "gauge_block",
+            f"long axis along {a}, in the centre",
+            placement={"direction": d},
+        )
+        for a, d in AXES.items()
+    ),
+)
 
 
 class Lab1:
@@ -52,21 +73,44 @@ class Lab1:
         t = x @ np.linalg.svd(x, full_matrices=False)[2][0]
         length = float(np.ptp(t))
         e = length - float(plan["artefacts"]["gauge_block"]["length"])
-        dev = PointCloud(cloud.points, fields={"deviation": np.full(cloud.n_points, e)},
-                         field_units={"deviation": "mm"}, name=f"{file} deviations")
-        return PositionEvaluation(test, {"E": e}, file, position, repeat or 1,
-                                  fit=[{"name": "length", "value": f"{length:.4f} mm"}],
-                                  fit_text=f"L {length:.4f} mm · {cloud.n_points} pts", deviations=dev,
-                                  extra={"length": length})
+        dev = PointCloud(
+            cloud.points,
+            fields={"deviation": np.full(cloud.n_points, e)},
+            field_units={"deviation": "mm"},
+            name=f"{file} deviations",
+        )
+        return PositionEvaluation(
+            test,
+            {"E": e},
+            file,
+            position,
+            repeat or 1,
+            fit=[{"name": "length", "value": f"{length:.4f} mm"}],
+            fit_text=f"L {length:.4f} mm · {cloud.n_points} pts",
+            deviations=dev,
+            extra={"length": length},
+        )
 
     def summarize(self, ctx, plan, per_measurement):
         evs = per_measurement.get("gauge_block") or []
-        rows = [{"file": e.get("file"), "position": e.get("position"), "repeat": e.get("repeat", 1),
-                 "value": None if e.get("error") else e["values"]["E"]} for e in evs]
+        rows = [
+            {
+                "file": e.get("file"),
+                "position": e.get("position"),
+                "repeat": e.get("repeat", 1),
+                "value": None if e.get("error") else e["values"]["E"],
+            }
+            for e in evs
+        ]
         art = plan["artefacts"]["gauge_block"]
         e = ParameterResult.judge(E, rows, plan["mpe"]["E"], float(art.get("uncertainty") or 0.0), required=3)
-        return TestResult("lab-1", DECLARATION.title, {"E": e}, measurements=per_measurement,
-                          warnings=[x["error"] for x in evs if x.get("error")])
+        return TestResult(
+            "lab-1",
+            DECLARATION.title,
+            {"E": e},
+            measurements=per_measurement,
+            warnings=[x["error"] for x in evs if x.get("error")],
+        )
 
     def write_report(self, result, directory, plan=None):
         r = Report(DECLARATION.title, subtitle=(plan or {}).get("system", {}).get("name", ""))

@@ -18,8 +18,9 @@ the full board (a ChArUco view may show part of the board; stereo matches views 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -79,8 +80,9 @@ class Board:
         import cv2
 
         d = getattr(cv2.aruco, self.dictionary)
-        return cv2.aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker,
-                                      cv2.aruco.getPredefinedDictionary(d))
+        return cv2.aruco.CharucoBoard(
+            (self.cols, self.rows), self.square, self.marker, cv2.aruco.getPredefinedDictionary(d)
+        )
 
 
 def parse_board(spec: str) -> Board:
@@ -89,10 +91,12 @@ def parse_board(spec: str) -> Board:
         return spec
     parts = [p.strip() for p in str(spec).split(":")]
     kind = parts[0].lower()
-    usage = {"chessboard": "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25)",
-             "charuco": "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, e.g. charuco:11x8:15:11)",
-             "circles": "circles:COLSxROWS:SPACING_MM (e.g. circles:7x6:20)",
-             "acircles": "acircles:COLSxROWS:SPACING_MM (e.g. acircles:4x11:10)"}
+    usage = {
+        "chessboard": "chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25)",
+        "charuco": "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, e.g. charuco:11x8:15:11)",
+        "circles": "circles:COLSxROWS:SPACING_MM (e.g. circles:7x6:20)",
+        "acircles": "acircles:COLSxROWS:SPACING_MM (e.g. acircles:4x11:10)",
+    }
     if kind not in KINDS:
         raise InputError(f"board {spec!r}: unknown kind {parts[0]!r}; use one of " + "; ".join(usage.values()))
     n = 4 if kind == "charuco" else 3
@@ -110,14 +114,18 @@ def parse_board(spec: str) -> Board:
         raise InputError(f"board {spec!r}: square size and spacing must be positive numbers (mm)")
     least = 3 if kind == "charuco" else 2
     if cols < least or rows < least:
-        raise InputError(f"board {spec!r}: needs at least {least}x{least} "
-                         f"{'squares' if kind == 'charuco' else 'points'}")
+        raise InputError(
+            f"board {spec!r}: needs at least {least}x{least} {'squares' if kind == 'charuco' else 'points'}"
+        )
     if cols > MAX_SIDE or rows > MAX_SIDE or cols * rows > MAX_POINTS:
-        raise InputError(f"board {spec!r}: {cols}x{rows} is more than a board holds "
-                         f"(at most {MAX_SIDE} along a side and {MAX_POINTS} points)")
+        raise InputError(
+            f"board {spec!r}: {cols}x{rows} is more than a board holds "
+            f"(at most {MAX_SIDE} along a side and {MAX_POINTS} points)"
+        )
     if max(nums) > MAX_LENGTH:
-        raise InputError(f"board {spec!r}: {max(nums):g} mm is more than {MAX_LENGTH:g} mm; "
-                         "square size and spacing are in mm")
+        raise InputError(
+            f"board {spec!r}: {max(nums):g} mm is more than {MAX_LENGTH:g} mm; square size and spacing are in mm"
+        )
     if kind == "charuco":
         import cv2
 
@@ -126,8 +134,10 @@ def parse_board(spec: str) -> Board:
             raise InputError(f"board {spec!r}: unknown ArUco dictionary {dictionary!r} (e.g. DICT_5X5_100)")
         m = re.match(r"^DICT_\dX\d_(\d+)$", dictionary)
         if m and cols * rows // 2 > int(m.group(1)):
-            raise InputError(f"board {spec!r}: {cols}x{rows} squares hold {cols * rows // 2} markers; "
-                             f"{dictionary} has only {m.group(1)}")
+            raise InputError(
+                f"board {spec!r}: {cols}x{rows} squares hold {cols * rows // 2} markers; "
+                f"{dictionary} has only {m.group(1)}"
+            )
         if nums[1] >= nums[0]:
             raise InputError(f"board {spec!r}: the marker ({nums[1]:g} mm) must be smaller than the square")
         return Board(kind, cols, rows, nums[0], nums[1], dictionary)
@@ -150,8 +160,14 @@ class Detection:
         return not self.reason
 
     def to_dict(self) -> dict[str, Any]:
-        return {"image": self.name, "found": self.found, "reason": self.reason, "image_size": list(self.image_size),
-                "corners": self.image_points.tolist(), "ids": self.ids.tolist()}
+        return {
+            "image": self.name,
+            "found": self.found,
+            "reason": self.reason,
+            "image_size": list(self.image_size),
+            "corners": self.image_points.tolist(),
+            "ids": self.ids.tolist(),
+        }
 
 
 def grey(data: np.ndarray) -> np.ndarray:
@@ -190,8 +206,9 @@ def load_images(images: Iterable[Any]) -> list[tuple[str, np.ndarray]]:
     return out
 
 
-def detect(board: Board | str, name: str, image: np.ndarray, *, detector: str = "auto",
-           subpix_window: int = 5) -> Detection:
+def detect(
+    board: Board | str, name: str, image: np.ndarray, *, detector: str = "auto", subpix_window: int = 5
+) -> Detection:
     """Find ``board`` in one grey image.
 
     Chessboard: ``detector`` "classic" is cv2.findChessboardCorners followed by
@@ -225,13 +242,16 @@ def detect(board: Board | str, name: str, image: np.ndarray, *, detector: str = 
                     corners = c
                     break
         if corners is None and detector in ("auto", "classic"):
-            ok, c = cv2.findChessboardCorners(img, board.pattern_size,
-                                              flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE)
+            ok, c = cv2.findChessboardCorners(
+                img, board.pattern_size, flags=cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+            )
             corners = c if ok else None
         if corners is not None and detector != "sb":
             if 2 * subpix_window + 5 > min(size):  # cornerSubPix's own limit (it asserts)
-                raise ParameterError(f"{name}: subpix window {subpix_window} px is too large for a "
-                                     f"{size[0]}x{size[1]} px image (at most {(min(size) - 5) // 2} px)")
+                raise ParameterError(
+                    f"{name}: subpix window {subpix_window} px is too large for a "
+                    f"{size[0]}x{size[1]} px image (at most {(min(size) - 5) // 2} px)"
+                )
             corners = cv2.cornerSubPix(img, corners, (subpix_window, subpix_window), (-1, -1), term)
         if corners is None:
             det.reason = f"chessboard {board.cols}x{board.rows} not found"
@@ -289,8 +309,9 @@ def _canonical_order(img: np.ndarray, pts: np.ndarray, board: Board) -> np.ndarr
     return pts
 
 
-def detect_all(board: Board | str, images: Iterable[Any], *, detector: str = "auto",
-               subpix_window: int = 5, progress=None) -> list[Detection]:
+def detect_all(
+    board: Board | str, images: Iterable[Any], *, detector: str = "auto", subpix_window: int = 5, progress=None
+) -> list[Detection]:
     """Detect the board in every image; InputError naming the images when their sizes
     differ (a calibration holds for one sensor format)."""
     board = parse_board(board)
@@ -301,8 +322,10 @@ def detect_all(board: Board | str, images: Iterable[Any], *, detector: str = "au
     if len(sizes) > 1:
         common = max(sizes, key=lambda s: len(sizes[s]))
         odd = [f"{n} ({w}x{h})" for (w, h), names in sizes.items() if (w, h) != common for n in names]
-        raise InputError(f"images of mixed sizes: {', '.join(odd[:8])}{' ...' if len(odd) > 8 else ''} "
-                         f"differ from {common[0]}x{common[1]} px of the others")
+        raise InputError(
+            f"images of mixed sizes: {', '.join(odd[:8])}{' ...' if len(odd) > 8 else ''} "
+            f"differ from {common[0]}x{common[1]} px of the others"
+        )
     out = []
     for k, (name, img) in enumerate(loaded):
         out.append(detect(board, name, img, detector=detector, subpix_window=subpix_window))
@@ -318,5 +341,6 @@ def require_found(board: Board, detections: list[Detection], what: str = "images
     names = [d.name for d in detections]
     shown = ", ".join(names[:6]) + (" ..." if len(names) > 6 else "")
     hint = " (COLSxROWS counts inner corners)" if board.kind == "chessboard" else ""
-    raise InputError(f"board {board.spec} not found in any of the {len(names)} {what} ({shown}); "
-                     f"check the board size{hint}")
+    raise InputError(
+        f"board {board.spec} not found in any of the {len(names)} {what} ({shown}); check the board size{hint}"
+    )

@@ -29,8 +29,12 @@ def model_flags(model: str = "standard", flags: int = 0) -> int:
     (+ s1-s4), "rational" (+ k4-k6), "rational-thin-prism"; ``flags`` are OR-ed in."""
     import cv2
 
-    extra = {"standard": 0, "thin-prism": cv2.CALIB_THIN_PRISM_MODEL, "rational": cv2.CALIB_RATIONAL_MODEL,
-             "rational-thin-prism": cv2.CALIB_RATIONAL_MODEL | cv2.CALIB_THIN_PRISM_MODEL}
+    extra = {
+        "standard": 0,
+        "thin-prism": cv2.CALIB_THIN_PRISM_MODEL,
+        "rational": cv2.CALIB_RATIONAL_MODEL,
+        "rational-thin-prism": cv2.CALIB_RATIONAL_MODEL | cv2.CALIB_THIN_PRISM_MODEL,
+    }
     if model not in extra:
         raise InputError(f"distortion model {model!r}: use one of {', '.join(extra)}")
     return int(flags) | extra[model]
@@ -43,14 +47,22 @@ def _calibrate(dets: list[Detection], size, flags, K0=None, D0=None):
     obj = [d.object_points for d in dets]
     img = [d.image_points for d in dets]
     rms, K, D, rv, tv, std_i, _std_e, per_view = cv2.calibrateCameraExtended(
-        obj, img, size, K0, D0, flags=flags, criteria=crit)
-    return float(rms), K, D.ravel(), [r.ravel() for r in rv], [t.ravel() for t in tv], std_i.ravel(), \
-        per_view.ravel()
+        obj, img, size, K0, D0, flags=flags, criteria=crit
+    )
+    return float(rms), K, D.ravel(), [r.ravel() for r in rv], [t.ravel() for t in tv], std_i.ravel(), per_view.ravel()
 
 
-def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, model: str = "standard",
-                     flags: int = 0, outlier_factor: float = 3.0, name: str = "camera",
-                     progress=None, max_rms: float = MAX_RMS_PX) -> dict[str, Any]:
+def calibrate_camera(
+    detections: Sequence[Detection],
+    board: Board | str,
+    *,
+    model: str = "standard",
+    flags: int = 0,
+    outlier_factor: float = 3.0,
+    name: str = "camera",
+    progress=None,
+    max_rms: float = MAX_RMS_PX,
+) -> dict[str, Any]:
     """Calibrate one camera from board detections (see :func:`boards.detect_all`).
 
     Parameters
@@ -97,8 +109,10 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
     rejected = [{"image": d.name, "reason": d.reason} for d in dets if not d.found]
     used = [d for d in dets if d.found]
     if len(used) < MIN_VIEWS:
-        raise InputError(f"board {board.spec} found in only {len(used)} image(s) "
-                         f"({', '.join(d.name for d in used)}); calibration needs at least {MIN_VIEWS} views")
+        raise InputError(
+            f"board {board.spec} found in only {len(used)} image(s) "
+            f"({', '.join(d.name for d in used)}); calibration needs at least {MIN_VIEWS} views"
+        )
     size = used[0].image_size
     while True:
         if progress is not None:
@@ -108,9 +122,13 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
         worst = int(np.argmax(per_view))
         if outlier_factor <= 0 or len(used) <= MIN_VIEWS or per_view[worst] <= outlier_factor * med:
             break
-        rejected.append({"image": used[worst].name,
-                         "reason": f"outlier: view RMS {per_view[worst]:.3g} px > {outlier_factor:g} x median "
-                                   f"{med:.3g} px", "rms": float(per_view[worst])})
+        rejected.append(
+            {
+                "image": used[worst].name,
+                "reason": f"outlier: view RMS {per_view[worst]:.3g} px > {outlier_factor:g} x median {med:.3g} px",
+                "rms": float(per_view[worst]),
+            }
+        )
         used.pop(worst)
     cam = CameraModel(K, D, image_size=size, name=name)
     obs = [Observation(v, 0, d.object_points, d.image_points) for v, d in enumerate(used)]
@@ -131,7 +149,7 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
         "camera_matrix": K,
         "dist_coeffs": D,
         "rms": rms,
-        "std_intrinsics": std_i[:4 + D.size],
+        "std_intrinsics": std_i[: 4 + D.size],
         "covariance": cov[np.ix_(ii, ii)],
         "per_view_rms": {n: float(e) for n, e in zip(names, per_view)},
         "image_size": [int(size[0]), int(size[1])],
@@ -150,10 +168,22 @@ def calibrate_camera(detections: Sequence[Detection], board: Board | str, *, mod
 
 def calibration_dict(result: dict[str, Any]) -> dict[str, Any]:
     """The calibration file dict (camcmm.api.write_calibration) of a camera result."""
-    keep = ("rms", "per_view_rms", "rejected", "views", "parameter_covariance", "parameter_names",
-            "residual_sigma", "flags", "board")
-    out = {"cameras": [result["camera"]], "std_intrinsics": [result["std_intrinsics"]],
-           "covariance": [result["covariance"]]}
+    keep = (
+        "rms",
+        "per_view_rms",
+        "rejected",
+        "views",
+        "parameter_covariance",
+        "parameter_names",
+        "residual_sigma",
+        "flags",
+        "board",
+    )
+    out = {
+        "cameras": [result["camera"]],
+        "std_intrinsics": [result["std_intrinsics"]],
+        "covariance": [result["covariance"]],
+    }
     out.update({k: result[k] for k in keep if k in result})
     return out
 

@@ -11,7 +11,8 @@ the result looks like a lens. Every threshold is a named constant with the reaso
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -91,8 +92,9 @@ def view_warnings(names: Sequence[str], rvecs, tvecs, what: str = "views") -> li
     for i in range(n):
         for j in range(i + 1, n):
             dist = 0.5 * (np.linalg.norm(t[i]) + np.linalg.norm(t[j]))
-            if (_angle(rots[i], rots[j]) < SAME_POSE_DEG
-                    and np.linalg.norm(t[i] - t[j]) < SAME_POSE_FRACTION * max(dist, 1e-300)):
+            if _angle(rots[i], rots[j]) < SAME_POSE_DEG and np.linalg.norm(t[i] - t[j]) < SAME_POSE_FRACTION * max(
+                dist, 1e-300
+            ):
                 parent[root(j)] = root(i)
     groups: dict[int, list[int]] = {}
     for i in range(n):
@@ -101,26 +103,37 @@ def view_warnings(names: Sequence[str], rvecs, tvecs, what: str = "views") -> li
     for g in groups.values():
         if len(g) > 1:
             files = sorted({names[i] for i in g})
-            out.append(f"{what} {_list(g)} ({', '.join(files)}) show the board in the same pose "
-                       f"(within {SAME_POSE_DEG:g}° and {100 * SAME_POSE_FRACTION:g} % of the distance): "
-                       f"they add no information; move and tilt the board between views")
+            out.append(
+                f"{what} {_list(g)} ({', '.join(files)}) show the board in the same pose "
+                f"(within {SAME_POSE_DEG:g}° and {100 * SAME_POSE_FRACTION:g} % of the distance): "
+                f"they add no information; move and tilt the board between views"
+            )
     if distinct < MIN_GOOD_VIEWS:
         among = f" among {n} {what}" if distinct < n else ""
-        out.append(f"only {distinct} distinct board pose{'s' if distinct != 1 else ''}{among}: the intrinsics and "
-                   f"the distortion are poorly determined; use at least {MIN_GOOD_VIEWS} views (10-20 is usual)")
+        out.append(
+            f"only {distinct} distinct board pose{'s' if distinct != 1 else ''}{among}: the intrinsics and "
+            f"the distortion are poorly determined; use at least {MIN_GOOD_VIEWS} views (10-20 is usual)"
+        )
     # tilt: board normal (third column of R) against the optical axis
     normals = np.array([r[:, 2] for r in rots])
     tilt = np.degrees(np.arctan2(np.hypot(normals[:, 0], normals[:, 1]), np.abs(normals[:, 2])))
     if n and tilt.max() < MIN_TILT_DEG:
-        out.append(f"the board faces the camera in every view (largest tilt {tilt.max():.3g}° < {MIN_TILT_DEG:g}°): "
-                   f"the focal length is ill-determined; tilt the board by 20-45° in some views")
+        out.append(
+            f"the board faces the camera in every view (largest tilt {tilt.max():.3g}° < {MIN_TILT_DEG:g}°): "
+            f"the focal length is ill-determined; tilt the board by 20-45° in some views"
+        )
     elif distinct > 1:
         nz = normals * np.where(normals[:, 2:] < 0, -1.0, 1.0)
-        spread = max(np.degrees(np.arctan2(np.linalg.norm(np.cross(nz[i], nz[j])), nz[i] @ nz[j]))
-                     for i in range(n) for j in range(i + 1, n))
+        spread = max(
+            np.degrees(np.arctan2(np.linalg.norm(np.cross(nz[i], nz[j])), nz[i] @ nz[j]))
+            for i in range(n)
+            for j in range(i + 1, n)
+        )
         if spread < MIN_NORMAL_SPREAD_DEG:
-            out.append(f"the board planes are nearly parallel in all views (normals within {spread:.3g}° of each "
-                       f"other): the focal length is ill-determined; tilt the board in different directions")
+            out.append(
+                f"the board planes are nearly parallel in all views (normals within {spread:.3g}° of each "
+                f"other): the focal length is ill-determined; tilt the board in different directions"
+            )
     return out
 
 
@@ -142,14 +155,13 @@ def _radial_factor(dist: np.ndarray, image_size, K: np.ndarray) -> tuple[float, 
     # undistorted radii out to MAX_DISTORTION_FACTOR times the corner's distorted radius
     t = np.linspace(0.0, MAX_DISTORTION_FACTOR * rc, 2001)[1:]
     obj = np.column_stack([t * d[0], t * d[1], np.ones_like(t)])
-    q, _ = cv2.projectPoints(obj.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), np.eye(3),
-                             np.asarray(dist, np.float64))
+    q, _ = cv2.projectPoints(obj.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), np.eye(3), np.asarray(dist, np.float64))
     rd = np.hypot(q[:, 0, 0], q[:, 0, 1])
     reach = np.flatnonzero(rd >= rc)
     end = int(reach[0]) if reach.size else len(t)
-    folds = bool(np.any(np.diff(rd[:end + 1]) <= 0)) if end > 0 else False
+    folds = bool(np.any(np.diff(rd[: end + 1]) <= 0)) if end > 0 else False
     if not reach.size:
-        return float(rc / t[-1]), folds   # the corner lies beyond: the factor is below 1/MAX
+        return float(rc / t[-1]), folds  # the corner lies beyond: the factor is below 1/MAX
     return float(rc / t[end]), folds
 
 
@@ -166,24 +178,35 @@ def intrinsic_warnings(K, dist, image_size, cov=None, camera: str = "") -> list[
     if not (fx > 0 and fy > 0 and np.all(np.isfinite(K)) and np.all(np.isfinite(dist))):
         return [f"{p}implausible intrinsics: fx {fx:.4g}, fy {fy:.4g} px, distortion {dist.tolist()}"]
     if abs(fx / fy - 1.0) > MAX_ASPECT_DEVIATION:
-        out.append(f"{p}fx {fx:.4g} px and fy {fy:.4g} px differ by {100 * abs(fx / fy - 1):.3g} %: implausible "
-                   f"for a camera with square pixels (> {100 * MAX_ASPECT_DEVIATION:g} %)")
+        out.append(
+            f"{p}fx {fx:.4g} px and fy {fy:.4g} px differ by {100 * abs(fx / fy - 1):.3g} %: implausible "
+            f"for a camera with square pixels (> {100 * MAX_ASPECT_DEVIATION:g} %)"
+        )
     if w > 0 and h > 0:
         if abs(cx - w / 2) > MAX_PP_OFFSET * w or abs(cy - h / 2) > MAX_PP_OFFSET * h:
             where = "outside the image" if not (0 <= cx <= w and 0 <= cy <= h) else "far from the image centre"
-            out.append(f"{p}principal point ({cx:.4g}, {cy:.4g}) px is {where} ({w:.0f} x {h:.0f} px): "
-                       f"implausible for a lens centred on the sensor")
+            out.append(
+                f"{p}principal point ({cx:.4g}, {cy:.4g}) px is {where} ({w:.0f} x {h:.0f} px): "
+                f"implausible for a lens centred on the sensor"
+            )
         lo, hi = FOCAL_TO_WIDTH
         if not lo * w <= fx <= hi * w:
             fov = np.degrees(2 * np.arctan(w / 2 / fx))
-            out.append(f"{p}focal length {fx:.4g} px for an image {w:.0f} px wide (horizontal field of view "
-                       f"{fov:.3g}°) is implausible")
+            out.append(
+                f"{p}focal length {fx:.4g} px for an image {w:.0f} px wide (horizontal field of view "
+                f"{fov:.3g}°) is implausible"
+            )
         factor, folds = _radial_factor(dist, (w, h), K)
         if folds or not 1 / MAX_DISTORTION_FACTOR <= factor <= MAX_DISTORTION_FACTOR:
-            what = ("folds over inside the image (the mapping is not one-to-one towards the corners)" if folds
-                    else f"moves the image corner by a factor {factor:.3g}")
-            out.append(f"{p}the distortion ({', '.join(f'{v:.4g}' for v in dist)}) {what}: implausible for a "
-                       f"lens; the views may not cover the image corners, or the board spec is wrong")
+            what = (
+                "folds over inside the image (the mapping is not one-to-one towards the corners)"
+                if folds
+                else f"moves the image corner by a factor {factor:.3g}"
+            )
+            out.append(
+                f"{p}the distortion ({', '.join(f'{v:.4g}' for v in dist)}) {what}: implausible for a "
+                f"lens; the views may not cover the image corners, or the board spec is wrong"
+            )
     if cov is not None:
         sd = np.sqrt(np.clip(np.diag(np.asarray(cov, np.float64))[:4], 0.0, None))
         vals = dict(zip(("fx", "fy", "cx", "cy"), (fx, fy, cx, cy)))
@@ -194,9 +217,11 @@ def intrinsic_warnings(K, dist, image_size, cov=None, camera: str = "") -> list[
         bad = [k for k, v in rel.items() if v > MAX_REL_SIGMA]
         if bad:
             parts = [f"{k} {vals[k]:.4g} ± {sig[k]:.3g} px" for k in bad]
-            out.append(f"{p}large uncertainty: {', '.join(parts)} (over {100 * MAX_REL_SIGMA:g} % of the "
-                       f"{'focal length' if set(bad) <= {'fx', 'fy'} else 'focal length or image size'}): "
-                       f"the views do not determine the intrinsics")
+            out.append(
+                f"{p}large uncertainty: {', '.join(parts)} (over {100 * MAX_REL_SIGMA:g} % of the "
+                f"{'focal length' if set(bad) <= {'fx', 'fy'} else 'focal length or image size'}): "
+                f"the views do not determine the intrinsics"
+            )
     return out
 
 
@@ -205,23 +230,39 @@ def rms_warning(rms: float, board: str = "", limit: float = MAX_RMS_PX, what: st
     if not float(rms) > limit:
         return []
     spec = f"the board spec {board} (COLSxROWS counts inner corners), " if board else ""
-    return [f"{what}RMS reprojection error {float(rms):.3g} px is above {limit:g} px (corners are found to a few "
-            f"tenths of a pixel): check {spec}the images with the largest errors and that the board is flat and "
-            f"still"]
+    return [
+        f"{what}RMS reprojection error {float(rms):.3g} px is above {limit:g} px (corners are found to a few "
+        f"tenths of a pixel): check {spec}the images with the largest errors and that the board is flat and "
+        f"still"
+    ]
 
 
 def camera_warnings(result: dict[str, Any], max_rms: float = MAX_RMS_PX) -> list[str]:
     """Every check on a :func:`camera.calibrate_camera` result (its ``views``,
     ``camera_matrix``, ``dist_coeffs``, ``image_size``, ``covariance``, ``rms``)."""
     v = result["views"]
-    return (view_warnings(v["names"], v["rvecs"], v["tvecs"])
-            + intrinsic_warnings(result["camera_matrix"], result["dist_coeffs"], result["image_size"],
-                                 result.get("covariance"))
-            + rms_warning(result["rms"], result.get("board", ""), max_rms))
+    return (
+        view_warnings(v["names"], v["rvecs"], v["tvecs"])
+        + intrinsic_warnings(
+            result["camera_matrix"], result["dist_coeffs"], result["image_size"], result.get("covariance")
+        )
+        + rms_warning(result["rms"], result.get("board", ""), max_rms)
+    )
 
 
-def stereo_warnings(pairs: Sequence[tuple[str, str]], rvecs, tvecs, cameras, covs, image_size, rms: float,
-                    baseline: float, baseline_std: float, board: str = "", max_rms: float = MAX_RMS_PX) -> list[str]:
+def stereo_warnings(
+    pairs: Sequence[tuple[str, str]],
+    rvecs,
+    tvecs,
+    cameras,
+    covs,
+    image_size,
+    rms: float,
+    baseline: float,
+    baseline_std: float,
+    board: str = "",
+    max_rms: float = MAX_RMS_PX,
+) -> list[str]:
     """Every check on a stereo calibration: the board poses of the pairs (in the left
     camera), each camera's intrinsics ((K, dist) and the covariance block of its fx fy cx
     cy dist...), the joint RMS and the baseline's relative uncertainty."""
@@ -230,6 +271,8 @@ def stereo_warnings(pairs: Sequence[tuple[str, str]], rvecs, tvecs, cameras, cov
         out += intrinsic_warnings(K, dist, image_size, cov, camera=f"{side} camera: ")
     out += rms_warning(rms, board, max_rms, what="stereo: ")
     if baseline > 0 and baseline_std > MAX_REL_SIGMA * baseline:
-        out.append(f"stereo: the baseline {baseline:.4g} ± {baseline_std:.2g} mm is uncertain by more than "
-                   f"{100 * MAX_REL_SIGMA:g} %: the pairs do not determine the relative pose")
+        out.append(
+            f"stereo: the baseline {baseline:.4g} ± {baseline_std:.2g} mm is uncertain by more than "
+            f"{100 * MAX_REL_SIGMA:g} %: the pairs do not determine the relative pose"
+        )
     return out

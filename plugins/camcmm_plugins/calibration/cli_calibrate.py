@@ -20,20 +20,42 @@ from typing import Any
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--board", required=True, metavar="SPEC",
-                   help="board: chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25), "
-                        "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT], circles:COLSxROWS:SPACING_MM, "
-                        "acircles:COLSxROWS:SPACING_MM")
+    p.add_argument(
+        "--board",
+        required=True,
+        metavar="SPEC",
+        help="board: chessboard:COLSxROWS:SQUARE_MM (inner corners, e.g. chessboard:9x6:25), "
+        "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT], circles:COLSxROWS:SPACING_MM, "
+        "acircles:COLSxROWS:SPACING_MM",
+    )
     p.add_argument("--out", default=None, metavar="CAL.yaml", help="write the calibration (.yaml/.yml/.xml/.json)")
-    p.add_argument("--model", default="standard", choices=("standard", "thin-prism", "rational", "rational-thin-prism"),
-                   help="distortion model (default standard: k1 k2 p1 p2 k3)")
-    p.add_argument("--detector", default="auto", choices=("auto", "classic", "sb"),
-                   help="chessboard detector (default auto: SB, else classic, then cornerSubPix)")
+    p.add_argument(
+        "--model",
+        default="standard",
+        choices=("standard", "thin-prism", "rational", "rational-thin-prism"),
+        help="distortion model (default standard: k1 k2 p1 p2 k3)",
+    )
+    p.add_argument(
+        "--detector",
+        default="auto",
+        choices=("auto", "classic", "sb"),
+        help="chessboard detector (default auto: SB, else classic, then cornerSubPix)",
+    )
     p.add_argument("--subpix-window", type=int, default=5, metavar="W", help="cornerSubPix half window, px (default 5)")
-    p.add_argument("--outlier-factor", type=float, default=3.0, metavar="F",
-                   help="leave out views whose RMS exceeds F x the median (default 3; 0 keeps all)")
-    p.add_argument("--max-rms", type=float, default=1.0, metavar="PX",
-                   help="warn when the RMS reprojection error is above PX (default 1)")
+    p.add_argument(
+        "--outlier-factor",
+        type=float,
+        default=3.0,
+        metavar="F",
+        help="leave out views whose RMS exceeds F x the median (default 3; 0 keeps all)",
+    )
+    p.add_argument(
+        "--max-rms",
+        type=float,
+        default=1.0,
+        metavar="PX",
+        help="warn when the RMS reprojection error is above PX (default 1)",
+    )
     # the core adds --json to the command's parser; accept it after the subcommand too
     p.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
@@ -42,8 +64,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="what", required=True, metavar="{camera,stereo}")
     c = sub.add_parser("camera", help="calibrate one camera from board images")
     c.add_argument("images", nargs="+", metavar="IMAGES", help="board images (one camera, one size)")
-    c.add_argument("--distance", type=float, default=None, metavar="MM",
-                   help="also give the projection uncertainty (px) over the image at this working distance")
+    c.add_argument(
+        "--distance",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="also give the projection uncertainty (px) over the image at this working distance",
+    )
     _common(c)
     s = sub.add_parser("stereo", help="calibrate a stereo pair from board image pairs")
     s.add_argument("--left", nargs="+", required=True, metavar="IMAGES", help="left camera images")
@@ -67,8 +94,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .camera import calibrate_camera, calibration_dict, camera_json
 
         dets = detect_all(board, args.images, detector=args.detector, subpix_window=args.subpix_window)
-        res = calibrate_camera(dets, board, model=args.model, outlier_factor=args.outlier_factor,
-                               max_rms=args.max_rms)
+        res = calibrate_camera(dets, board, model=args.model, outlier_factor=args.outlier_factor, max_rms=args.max_rms)
         out = camera_json(res)
         if args.distance is not None:
             from .projection import projection_uncertainty
@@ -83,8 +109,15 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
     dl = detect_all(board, args.left, detector=args.detector, subpix_window=args.subpix_window)
     dr = detect_all(board, args.right, detector=args.detector, subpix_window=args.subpix_window)
-    res = calibrate_stereo(dl, dr, board, model=args.model, outlier_factor=args.outlier_factor,
-                           fix_intrinsics=args.fix_intrinsics, max_rms=args.max_rms)
+    res = calibrate_stereo(
+        dl,
+        dr,
+        board,
+        model=args.model,
+        outlier_factor=args.outlier_factor,
+        fix_intrinsics=args.fix_intrinsics,
+        max_rms=args.max_rms,
+    )
     out = stereo_json(res)
     if args.out:
         write_calibration(args.out, calibration_dict(res))
@@ -94,11 +127,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def _cam_text(name: str, c: dict[str, Any]) -> list[str]:
     k = c["camera_matrix"]
-    lines = [f"{name}: RMS {c['rms']:.4f} px over {len(c['per_view_rms'])} views, image {c['image_size'][0]}x"
-             f"{c['image_size'][1]} px",
-             f"  fx {k[0][0]:.3f}  fy {k[1][1]:.3f}  cx {k[0][2]:.3f}  cy {k[1][2]:.3f} px",
-             "  dist " + " ".join(f"{v:.6g}" for v in c["dist_coeffs"]),
-             "  std  " + " ".join(f"{v:.3g}" for v in c["std_intrinsics"])]
+    lines = [
+        f"{name}: RMS {c['rms']:.4f} px over {len(c['per_view_rms'])} views, image {c['image_size'][0]}x"
+        f"{c['image_size'][1]} px",
+        f"  fx {k[0][0]:.3f}  fy {k[1][1]:.3f}  cx {k[0][2]:.3f}  cy {k[1][2]:.3f} px",
+        "  dist " + " ".join(f"{v:.6g}" for v in c["dist_coeffs"]),
+        "  std  " + " ".join(f"{v:.3g}" for v in c["std_intrinsics"]),
+    ]
     lines += [f"  left out: {r['image']}: {r['reason']}" for r in c.get("rejected", [])]
     return lines
 
@@ -108,14 +143,18 @@ def text(result: dict[str, Any]) -> str:
         lines = _cam_text("camera", result)
         if "projection_uncertainty" in result:
             pu = result["projection_uncertainty"]
-            lines.append(f"  projection uncertainty at {pu['distance']:g} mm: centre {pu['centre']:.3g} px, "
-                         f"max {pu['max']:.3g} px")
+            lines.append(
+                f"  projection uncertainty at {pu['distance']:g} mm: centre {pu['centre']:.3g} px, "
+                f"max {pu['max']:.3g} px"
+            )
     else:
         t = result["T"]
         lines = _cam_text("left", result["left"]) + _cam_text("right", result["right"])
-        lines += [f"stereo: RMS {result['rms']:.4f} px, baseline {result['baseline']:.4f} +- "
-                  f"{result['baseline_std']:.2g} mm, T = ({t[0]:.4f}, {t[1]:.4f}, {t[2]:.4f}) mm",
-                  f"  epipolar distance RMS {result['epipolar']['rms']:.3f} px, max {result['epipolar']['max']:.3f} px"]
+        lines += [
+            f"stereo: RMS {result['rms']:.4f} px, baseline {result['baseline']:.4f} +- "
+            f"{result['baseline_std']:.2g} mm, T = ({t[0]:.4f}, {t[1]:.4f}, {t[2]:.4f}) mm",
+            f"  epipolar distance RMS {result['epipolar']['rms']:.3f} px, max {result['epipolar']['max']:.3f} px",
+        ]
         lines += [f"  pair left out: {r['left']} / {r['right']}: {r['reason']}" for r in result["rejected"]]
     lines += [f"warning: {w}" for w in result.get("warnings", [])]
     if result.get("written"):

@@ -13,14 +13,26 @@ from typing import Any
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("cloud", metavar="CLOUD", help="point cloud of the block's face and the platen (mm)")
     parser.add_argument("--nominal", type=float, required=True, metavar="L", help="calibrated length, mm")
-    parser.add_argument("--ransac-threshold", type=float, default=None, metavar="MM",
-                        help="inlier band of the first plane (default nominal / 10)")
-    parser.add_argument("--up", type=float, nargs=3, default=None, metavar=("X", "Y", "Z"),
-                        help="direction from the platen to the block's face (default: the platen is the larger surface)")
+    parser.add_argument(
+        "--ransac-threshold",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="inlier band of the first plane (default nominal / 10)",
+    )
+    parser.add_argument(
+        "--up",
+        type=float,
+        nargs=3,
+        default=None,
+        metavar=("X", "Y", "Z"),
+        help="direction from the platen to the block's face (default: the platen is the larger surface)",
+    )
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from camcmm.api import PointCloud, declared_value, read
+
     from .plugin import gauge_block
 
     for name in ("nominal", "ransac_threshold", "up"):
@@ -37,9 +49,12 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def text(result: dict[str, Any]) -> str:
     p, t = result["platen"], result["top"]
-    return "\n".join([
-        f"{result['cloud']}: height {result['height']:.4f} mm, nominal {result['nominal']:.4f} mm, "
-        f"error {result['error'] * 1e3:+.1f} um",
-        f"  platen: {p['n_points']} points, std {p['std'] * 1e3:.1f} um, flatness {p['flatness'] * 1e3:.1f} um",
-        f"  top:    {t['n_points']} points, std {t['std'] * 1e3:.1f} um, flatness {t['flatness'] * 1e3:.1f} um",
-        f"  parallelism {result['parallelism']:.4f} deg"])
+    return "\n".join(
+        [
+            f"{result['cloud']}: height {result['height']:.4f} mm, nominal {result['nominal']:.4f} mm, "
+            f"error {result['error'] * 1e3:+.1f} um",
+            f"  platen: {p['n_points']} points, std {p['std'] * 1e3:.1f} um, flatness {p['flatness'] * 1e3:.1f} um",
+            f"  top:    {t['n_points']} points, std {t['std'] * 1e3:.1f} um, flatness {t['flatness'] * 1e3:.1f} um",
+            f"  parallelism {result['parallelism']:.4f} deg",
+        ]
+    )

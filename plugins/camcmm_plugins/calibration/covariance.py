@@ -70,8 +70,13 @@ class Observation:
 def _proj(obj, rvec, tvec, K, dist):
     import cv2
 
-    q, jac = cv2.projectPoints(np.asarray(obj, np.float64).reshape(-1, 1, 3), np.asarray(rvec, np.float64).ravel(),
-                               np.asarray(tvec, np.float64).ravel(), K, dist)
+    q, jac = cv2.projectPoints(
+        np.asarray(obj, np.float64).reshape(-1, 1, 3),
+        np.asarray(rvec, np.float64).ravel(),
+        np.asarray(tvec, np.float64).ravel(),
+        K,
+        dist,
+    )
     return q.reshape(-1, 2), jac
 
 
@@ -114,13 +119,16 @@ def assemble(cameras, rel_poses, view_poses, observations, free_masks, aspect=No
             jr, jt = jac[:, :3], jac[:, 3:6]
             dpose_v = np.hstack([jr @ dr3dr1 + jt @ dt3dr1, jr @ dr3dt1 + jt @ dt3dt1])
             drel = np.hstack([jr @ dr3dr2 + jt @ dt3dr2, jr @ dr3dt2 + jt @ dt3dt2])
-            blocks = [(np.arange(off_i[k], off_i[k + 1]), _intr_jac(jac, K)),
-                      (off_rel + 6 * (k - 1) + np.arange(6), drel), (off_v + 6 * v + np.arange(6), dpose_v)]
+            blocks = [
+                (np.arange(off_i[k], off_i[k + 1]), _intr_jac(jac, K)),
+                (off_rel + 6 * (k - 1) + np.arange(6), drel),
+                (off_v + 6 * v + np.arange(6), dpose_v),
+            ]
         # residual convention r = observed - projected; J = d(projected)/d(theta)
         r = (np.asarray(ob.image_points, np.float64).reshape(-1, 2) - q).ravel()
         idx = np.concatenate([b[0] for b in blocks])
         jl = np.hstack([b[1] for b in blocks])
-        intr = jl[:, :sizes[k]]
+        intr = jl[:, : sizes[k]]
         if aspect is not None and aspect[k] is not None:
             intr[:, 1] += aspect[k] * intr[:, 0]  # fx = a fy: fy's column carries fx's
             intr[:, 0] = 0.0
@@ -129,9 +137,12 @@ def assemble(cameras, rel_poses, view_poses, observations, free_masks, aspect=No
         jtr[idx] += jl.T @ r
         sse += float(r @ r)
         rows += r.size
-    layout = {"intrinsics": [np.arange(off_i[k], off_i[k + 1]) for k in range(nc)],
-              "relative": [off_rel + 6 * (k - 1) + np.arange(6) for k in range(1, nc)],
-              "views": [off_v + 6 * v + np.arange(6) for v in range(nv)], "n": n}
+    layout = {
+        "intrinsics": [np.arange(off_i[k], off_i[k + 1]) for k in range(nc)],
+        "relative": [off_rel + 6 * (k - 1) + np.arange(6) for k in range(1, nc)],
+        "views": [off_v + 6 * v + np.arange(6) for v in range(nv)],
+        "n": n,
+    }
     return jtj, jtr, sse, rows, layout
 
 

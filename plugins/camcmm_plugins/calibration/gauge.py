@@ -54,14 +54,15 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b)), abs(float(np.dot(a, b))))))
 
 
-def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | None = None,
-                seed: int = 0) -> dict[str, Any]:
+def gauge_block(
+    points, nominal: float, *, up=None, ransac_threshold: float | None = None, seed: int = 0
+) -> dict[str, Any]:
     """Height of a gauge block over its platen from an (N, 3) cloud in mm.
 
     ``nominal``: calibrated (or nominal) length, mm; ``up``: optional (3,) direction
     from the platen towards the block's face (within MAX_UP_ANGLE_DEG of the normal);
-    ``ransac_threshold``: inlier band of the first plane, mm (default nominal / 10). Returns ``height``, ``error`` (height -
-    nominal), ``nominal``, ``platen`` and ``top`` ({point, normal, n_points, flatness,
+    ``ransac_threshold``: inlier band of the first plane, mm (default nominal / 10). Returns
+    ``height``, ``error`` (height - nominal), ``nominal``, ``platen`` and ``top`` ({point, normal, n_points, flatness,
     std}), ``parallelism`` (angle between the normals, deg), ``labels`` (N,) 0 platen,
     1 top, -1 neither.
     """
@@ -103,8 +104,10 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
         side = np.sign(np.median(h[far])) if far.any() else 1.0
         b = far & (np.sign(h) == side)
         if a.sum() < 3 or b.sum() < 3:
-            raise GeometryError(f"gauge block: found only one surface ({int(a.sum())} and {int(b.sum())} points "
-                                f"within +-{nominal / 2:g} mm of two planes {nominal:g} mm apart)")
+            raise GeometryError(
+                f"gauge block: found only one surface ({int(a.sum())} and {int(b.sum())} points "
+                f"within +-{nominal / 2:g} mm of two planes {nominal:g} mm apart)"
+            )
         new = np.where(a, 0, np.where(b, 1, -1))
         c, n = fit_plane(pts[a])
         if np.array_equal(new, labels):
@@ -126,8 +129,10 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
     if u is not None:
         off = _angle_deg(na, u)
         if off > MAX_UP_ANGLE_DEG:
-            raise GeometryError(f"gauge block: up {up!r} is {off:.0f} deg from the surfaces' normal (at most "
-                                f"{MAX_UP_ANGLE_DEG:g}); it must point from the platen to the block's face")
+            raise GeometryError(
+                f"gauge block: up {up!r} is {off:.0f} deg from the surfaces' normal (at most "
+                f"{MAX_UP_ANGLE_DEG:g}); it must point from the platen to the block's face"
+            )
         platen_is_a = np.dot(cb - ca, u) > 0
     else:
         platen_is_a = _extent(pts[labels == 0], na) >= _extent(pts[labels == 1], nb)
@@ -141,11 +146,22 @@ def gauge_block(points, nominal: float, *, up=None, ransac_threshold: float | No
 
     def surface(c0, n0, mask):
         r = (pts[mask] - c0) @ n0
-        return {"point": c0, "normal": n0, "n_points": int(mask.sum()), "flatness": float(np.ptp(r)),
-                "std": float(r.std(ddof=3)) if mask.sum() > 3 else float("nan")}
+        return {
+            "point": c0,
+            "normal": n0,
+            "n_points": int(mask.sum()),
+            "flatness": float(np.ptp(r)),
+            "std": float(r.std(ddof=3)) if mask.sum() > 3 else float("nan"),
+        }
 
     height = float(np.dot(cb - ca, na))
-    return {"height": height, "error": height - float(nominal), "nominal": float(nominal),
-            "platen": surface(ca, na, labels == 0), "top": surface(cb, nb, labels == 1),
-            "parallelism": _angle_deg(na, nb),
-            "labels": labels, "unit": "mm"}
+    return {
+        "height": height,
+        "error": height - float(nominal),
+        "nominal": float(nominal),
+        "platen": surface(ca, na, labels == 0),
+        "top": surface(cb, nb, labels == 1),
+        "parallelism": _angle_deg(na, nb),
+        "labels": labels,
+        "unit": "mm",
+    }

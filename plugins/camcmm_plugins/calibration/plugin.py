@@ -9,22 +9,37 @@ declared parameter validated.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-from camcmm.api import (CameraModel, Image, InputError, RunContext, check_calibration, read_calibration,
-                        write_calibration)
+from camcmm.api import (
+    CameraModel,
+    Image,
+    InputError,
+    RunContext,
+    check_calibration,
+    read_calibration,
+    write_calibration,
+)
 
 
 def cal_json(cal: Mapping[str, Any]) -> dict[str, Any]:
     """A calibration dict with its CameraModels as mappings and arrays as lists."""
+
     def conv(v):
         if isinstance(v, CameraModel):
-            return {"name": v.name, "camera_matrix": v.camera_matrix.tolist(), "dist_coeffs": v.dist_coeffs.tolist(),
-                    "rotation": v.rotation.tolist(), "translation": v.translation.tolist(),
-                    "image_size": list(v.image_size), "pixel_pitch": v.pixel_pitch}
+            return {
+                "name": v.name,
+                "camera_matrix": v.camera_matrix.tolist(),
+                "dist_coeffs": v.dist_coeffs.tolist(),
+                "rotation": v.rotation.tolist(),
+                "translation": v.translation.tolist(),
+                "image_size": list(v.image_size),
+                "pixel_pitch": v.pixel_pitch,
+            }
         if isinstance(v, np.ndarray):
             return v.tolist()
         if isinstance(v, Mapping):
@@ -34,6 +49,7 @@ def cal_json(cal: Mapping[str, Any]) -> dict[str, Any]:
         if isinstance(v, np.generic):
             return v.item()
         return v
+
     return conv(dict(cal))
 
 
@@ -44,10 +60,18 @@ def load_calibration(value: Any) -> dict[str, Any]:
     if isinstance(value, Mapping):
         d = dict(value)
         if "cameras" in d and d["cameras"] and isinstance(d["cameras"][0], Mapping):
-            d["cameras"] = [CameraModel(c["camera_matrix"], c.get("dist_coeffs", np.zeros(5)),
-                                        c.get("rotation", np.eye(3)), c.get("translation", np.zeros(3)),
-                                        tuple(c.get("image_size", (0, 0))), c.get("pixel_pitch"),
-                                        c.get("name", "camera")) for c in d["cameras"]]
+            d["cameras"] = [
+                CameraModel(
+                    c["camera_matrix"],
+                    c.get("dist_coeffs", np.zeros(5)),
+                    c.get("rotation", np.eye(3)),
+                    c.get("translation", np.zeros(3)),
+                    tuple(c.get("image_size", (0, 0))),
+                    c.get("pixel_pitch"),
+                    c.get("name", "camera"),
+                )
+                for c in d["cameras"]
+            ]
         if "camera" in d and "cameras" not in d:
             from .camera import calibration_dict
 
@@ -63,38 +87,86 @@ def _write(path: str, cal: dict[str, Any]) -> str | None:
     return None
 
 
-def camera(ctx: RunContext, images, *, board: str, model: str, detector: str,
-           subpix_window: int, outlier_factor: float, save: str, max_rms: float) -> dict[str, Any]:
+def camera(
+    ctx: RunContext,
+    images,
+    *,
+    board: str,
+    model: str,
+    detector: str,
+    subpix_window: int,
+    outlier_factor: float,
+    save: str,
+    max_rms: float,
+) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibrate_camera, calibration_dict, camera_json
 
-    dets = detect_all(board, images, detector=detector, subpix_window=subpix_window,
-                      progress=lambda f, m: ctx.progress(0.6 * f, m))
-    res = calibrate_camera(dets, board, model=model, outlier_factor=outlier_factor, max_rms=max_rms,
-                           progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
+    dets = detect_all(
+        board, images, detector=detector, subpix_window=subpix_window, progress=lambda f, m: ctx.progress(0.6 * f, m)
+    )
+    res = calibrate_camera(
+        dets,
+        board,
+        model=model,
+        outlier_factor=outlier_factor,
+        max_rms=max_rms,
+        progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m),
+    )
     for r in res["rejected"]:
         ctx.warn(f"{r['image']} left out: {r['reason']}")
     for w in res["warnings"]:
         ctx.warn(w)
     cal = calibration_dict(res)
     written = _write(save, cal)
-    return {**camera_json(res), "detections": [d.to_dict() for d in dets], "calibration": cal_json(cal),
-            "written": written}
+    return {
+        **camera_json(res),
+        "detections": [d.to_dict() for d in dets],
+        "calibration": cal_json(cal),
+        "written": written,
+    }
 
 
-def stereo(ctx: RunContext, left, right, *, board: str, model: str, detector: str,
-           subpix_window: int, outlier_factor: float, fix_intrinsics: bool,
-           alpha: float, save: str, max_rms: float) -> dict[str, Any]:
+def stereo(
+    ctx: RunContext,
+    left,
+    right,
+    *,
+    board: str,
+    model: str,
+    detector: str,
+    subpix_window: int,
+    outlier_factor: float,
+    fix_intrinsics: bool,
+    alpha: float,
+    save: str,
+    max_rms: float,
+) -> dict[str, Any]:
     from .boards import detect_all
     from .camera import calibration_dict as camera_dict
     from .stereo import calibrate_stereo, calibration_dict, stereo_json
 
-    dl = detect_all(board, left, detector=detector, subpix_window=subpix_window,
-                    progress=lambda f, m: ctx.progress(0.3 * f, m))
-    dr = detect_all(board, right, detector=detector, subpix_window=subpix_window,
-                    progress=lambda f, m: ctx.progress(0.3 + 0.3 * f, m))
-    res = calibrate_stereo(dl, dr, board, model=model, outlier_factor=outlier_factor, fix_intrinsics=fix_intrinsics,
-                           alpha=alpha, max_rms=max_rms, progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m))
+    dl = detect_all(
+        board, left, detector=detector, subpix_window=subpix_window, progress=lambda f, m: ctx.progress(0.3 * f, m)
+    )
+    dr = detect_all(
+        board,
+        right,
+        detector=detector,
+        subpix_window=subpix_window,
+        progress=lambda f, m: ctx.progress(0.3 + 0.3 * f, m),
+    )
+    res = calibrate_stereo(
+        dl,
+        dr,
+        board,
+        model=model,
+        outlier_factor=outlier_factor,
+        fix_intrinsics=fix_intrinsics,
+        alpha=alpha,
+        max_rms=max_rms,
+        progress=lambda f, m: ctx.progress(0.6 + 0.4 * f, m),
+    )
     for r in res["rejected"]:
         ctx.warn(f"pair {r['left']} / {r['right']} left out: {r['reason']}")
     for w in res["warnings"]:
@@ -104,8 +176,13 @@ def stereo(ctx: RunContext, left, right, *, board: str, model: str, detector: st
     # each camera's own calibration keeps its board poses and their covariance, which the
     # projection-uncertainty map needs (the joint stereo covariance has no board poses)
     single = {k: cal_json(camera_dict(res["single"][k])) for k in ("left", "right")}
-    return {**stereo_json(res), "detections": {"left": [d.to_dict() for d in dl], "right": [d.to_dict() for d in dr]},
-            "calibration": cal_json(cal), "single": single, "written": written}
+    return {
+        **stereo_json(res),
+        "detections": {"left": [d.to_dict() for d in dl], "right": [d.to_dict() for d in dr]},
+        "calibration": cal_json(cal),
+        "single": single,
+        "written": written,
+    }
 
 
 def rectify(ctx: RunContext, calibration, left, right) -> dict[str, Any]:
@@ -119,15 +196,21 @@ def rectify(ctx: RunContext, calibration, left, right) -> dict[str, Any]:
     for img, cam in ((left, cams[0]), (right, cams[1])):
         w, h = img.size
         if cam.image_size[0] and (w, h) != tuple(cam.image_size):
-            raise InputError(f"{img.name}: {w}x{h} px, but camera {cam.name!r} was calibrated at "
-                             f"{cam.image_size[0]}x{cam.image_size[1]} px")
+            raise InputError(
+                f"{img.name}: {w}x{h} px, but camera {cam.name!r} was calibrated at "
+                f"{cam.image_size[0]}x{cam.image_size[1]} px"
+            )
     rl, rr = rectify_images(cal, np.asarray(left.data), np.asarray(right.data))
-    return {"left": Image(rl, name=f"{left.name} (rectified)"), "right": Image(rr, name=f"{right.name} (rectified)"),
-            "image_size": list(size)}
+    return {
+        "left": Image(rl, name=f"{left.name} (rectified)"),
+        "right": Image(rr, name=f"{right.name} (rectified)"),
+        "image_size": list(size),
+    }
 
 
-def projection_uncertainty(ctx: RunContext, calibration, *, distance: float, columns: int, rows: int,
-                           method: str) -> dict[str, Any]:
+def projection_uncertainty(
+    ctx: RunContext, calibration, *, distance: float, columns: int, rows: int, method: str
+) -> dict[str, Any]:
     from .projection import projection_uncertainty as pu
 
     out = pu(load_calibration(calibration), distance, grid=(columns, rows), method=method)
@@ -156,8 +239,9 @@ def _pixels(value: Any) -> np.ndarray:
         raise InputError("pixels: expected a (cameras, points, 2) array of numbers") from None
 
 
-def triangulate(ctx: RunContext, calibration, pixels, *, method: str, pixel_sigma: float,
-                calibration_covariance: bool) -> dict[str, Any]:
+def triangulate(
+    ctx: RunContext, calibration, pixels, *, method: str, pixel_sigma: float, calibration_covariance: bool
+) -> dict[str, Any]:
     from .triangulation import triangulate as tri
 
     cal = load_calibration(calibration)
@@ -168,18 +252,19 @@ def triangulate(ctx: RunContext, calibration, pixels, *, method: str, pixel_sigm
             ctx.warn("the calibration's covariance holds board poses (a single camera): not used")
         else:
             cov = np.asarray(cal["parameter_covariance"], np.float64)
-    res = tri(cal["cameras"], _pixels(pixels), method=method, pixel_sigma=pixel_sigma or None,
-              parameter_covariance=cov)
+    res = tri(cal["cameras"], _pixels(pixels), method=method, pixel_sigma=pixel_sigma or None, parameter_covariance=cov)
     return res
 
 
-def scale(ctx: RunContext, interferometer, calibration=None, *, accuracy: float, length: float | None,
-          save: str) -> dict[str, Any]:
+def scale(
+    ctx: RunContext, interferometer, calibration=None, *, accuracy: float, length: float | None, save: str
+) -> dict[str, Any]:
     from .scale import apply_scale, read_interferometer_csv, scale_factor
 
     data = read_interferometer_csv(interferometer)
-    res = scale_factor(data["interferometer"], data["camera"], data["run"], accuracy=accuracy, length=length,
-                       source=data["file"])
+    res = scale_factor(
+        data["interferometer"], data["camera"], data["run"], accuracy=accuracy, length=length, source=data["file"]
+    )
     res["file"] = data["file"]
     if calibration is not None:
         scaled = apply_scale(load_calibration(calibration), res["scale_factor"])
@@ -190,8 +275,9 @@ def scale(ctx: RunContext, interferometer, calibration=None, *, accuracy: float,
     return res
 
 
-def gauge_block(ctx: RunContext, cloud, *, nominal: float, ransac_threshold: float | None,
-                up: list | None) -> dict[str, Any]:
+def gauge_block(
+    ctx: RunContext, cloud, *, nominal: float, ransac_threshold: float | None, up: list | None
+) -> dict[str, Any]:
     from .gauge import gauge_block as gb
 
     res = gb(cloud.points, nominal, up=up, ransac_threshold=ransac_threshold)

@@ -33,20 +33,25 @@ def _pieces(cal: dict[str, Any]):
         raise InputError("projection uncertainty needs a camera calibration (a 'camera' or 'cameras' entry)")
     views, cov = cal.get("views"), cal.get("parameter_covariance")
     if views is None or cov is None:
-        raise InputError("projection uncertainty needs the calibration's board poses ('views') and "
-                         "'parameter_covariance' (a single-camera calibration made by camcmm)")
+        raise InputError(
+            "projection uncertainty needs the calibration's board poses ('views') and "
+            "'parameter_covariance' (a single-camera calibration made by camcmm)"
+        )
     rv = np.asarray(views["rvecs"], np.float64).reshape(-1, 3)
     tv = np.asarray(views["tvecs"], np.float64).reshape(-1, 3)
     cov = np.asarray(cov, np.float64)
     n_i = 4 + np.ravel(D).size
     if cov.shape != (n_i + 6 * len(rv),) * 2:
-        raise InputError(f"parameter_covariance is {cov.shape}, expected {(n_i + 6 * len(rv),) * 2} "
-                         f"for {n_i} intrinsics and {len(rv)} views")
+        raise InputError(
+            f"parameter_covariance is {cov.shape}, expected {(n_i + 6 * len(rv),) * 2} "
+            f"for {n_i} intrinsics and {len(rv)} views"
+        )
     return np.asarray(K, np.float64), np.asarray(D, np.float64).ravel(), tuple(size), rv, tv, cov
 
 
-def projection_gradient(K, D, rvecs, tvecs, pixels: np.ndarray, distance: float,
-                        method: str = "mrcal") -> tuple[np.ndarray, np.ndarray]:
+def projection_gradient(
+    K, D, rvecs, tvecs, pixels: np.ndarray, distance: float, method: str = "mrcal"
+) -> tuple[np.ndarray, np.ndarray]:
     """(G (M, 2, P), p (M, 3)): gradients of the re-projected pixels with respect to
     (intrinsics, view poses), and the camera-frame points, for pixels (M, 2) at depth z."""
     import cv2
@@ -69,13 +74,14 @@ def projection_gradient(K, D, rvecs, tvecs, pixels: np.ndarray, distance: float,
         pv = (p - tvecs[v]) @ R  # R^T (p - t), row-wise
         dR = dRdr.reshape(3, 3, 3)  # [j] = d R / d r_j
         dp_dr = np.einsum("jab,mb->maj", dR, pv) / nv  # (M, 3, 3): d p' / d r_v
-        G[:, :, ni + 6 * v:ni + 6 * v + 3] = np.einsum("mia,maj->mij", dq_dp, dp_dr)
-        G[:, :, ni + 6 * v + 3:ni + 6 * v + 6] = dq_dp / nv
+        G[:, :, ni + 6 * v : ni + 6 * v + 3] = np.einsum("mia,maj->mij", dq_dp, dp_dr)
+        G[:, :, ni + 6 * v + 3 : ni + 6 * v + 6] = dq_dp / nv
     return G, p
 
 
-def projection_uncertainty(cal: dict[str, Any], distance: float, *, grid: tuple[int, int] = (32, 24),
-                           method: str = "mrcal") -> dict[str, Any]:
+def projection_uncertainty(
+    cal: dict[str, Any], distance: float, *, grid: tuple[int, int] = (32, 24), method: str = "mrcal"
+) -> dict[str, Any]:
     """Worst-direction projection standard deviation (px) on a grid over the image.
 
     ``cal``: a single-camera result of :func:`camera.calibrate_camera` or a calibration
@@ -102,8 +108,18 @@ def projection_uncertainty(cal: dict[str, Any], distance: float, *, grid: tuple[
     S = np.einsum("mip,pq,mjq->mij", G, cov, G)
     worst = np.sqrt(np.maximum(np.linalg.eigvalsh(S)[:, 1], 0.0)).reshape(ny, nx)
     centre = float(projection_at(cal, [(w - 1) / 2, (h - 1) / 2], distance, method)[0])
-    return {"map": worst, "u": u, "v": v, "distance": float(distance), "covariance": S.reshape(ny, nx, 2, 2),
-            "min": float(worst.min()), "max": float(worst.max()), "centre": centre, "unit": "px", "method": method}
+    return {
+        "map": worst,
+        "u": u,
+        "v": v,
+        "distance": float(distance),
+        "covariance": S.reshape(ny, nx, 2, 2),
+        "min": float(worst.min()),
+        "max": float(worst.max()),
+        "centre": centre,
+        "unit": "px",
+        "method": method,
+    }
 
 
 def projection_at(cal: dict[str, Any], pixels, distance: float, method: str = "mrcal") -> np.ndarray:

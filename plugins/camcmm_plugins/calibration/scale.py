@@ -32,8 +32,14 @@ import numpy as np
 
 from camcmm.api import InputError, ParameterError
 
-_ALIASES = {"interferometer": ("interferometer", "laser", "reference"),
-            "camera": ("camera", "position", "measured"), "x": ("x",), "y": ("y",), "z": ("z",), "run": ("run",)}
+_ALIASES = {
+    "interferometer": ("interferometer", "laser", "reference"),
+    "camera": ("camera", "position", "measured"),
+    "x": ("x",),
+    "y": ("y",),
+    "z": ("z",),
+    "run": ("run",),
+}
 
 
 def read_interferometer_csv(path: str | Path) -> dict[str, Any]:
@@ -62,16 +68,18 @@ def read_interferometer_csv(path: str | Path) -> dict[str, Any]:
         raise InputError(f"{p.name}: no 'interferometer' column (header: {', '.join(header)})")
     three = all(k in col for k in ("x", "y", "z"))
     if "camera" not in col and not three:
-        raise InputError(f"{p.name}: needs a 'camera' column (1-D positions) or 'x', 'y', 'z' columns "
-                         f"(header: {', '.join(header)})")
+        raise InputError(
+            f"{p.name}: needs a 'camera' column (1-D positions) or 'x', 'y', 'z' columns (header: {', '.join(header)})"
+        )
     keys = ["x", "y", "z"] if "camera" not in col else ["camera"]
     vals, runs = [], []
     for i, row in enumerate(rows[1:], start=2):
         try:
             vals.append([float(row[col["interferometer"]])] + [float(row[col[k]]) for k in keys])
         except (ValueError, IndexError):
-            raise InputError(f"{p.name}: row {i} is not numeric in the interferometer/camera columns: "
-                             f"{','.join(row)[:80]}") from None
+            raise InputError(
+                f"{p.name}: row {i} is not numeric in the interferometer/camera columns: {','.join(row)[:80]}"
+            ) from None
         runs.append(row[col["run"]].strip() if "run" in col and col["run"] < len(row) else "1")
     a = np.array(vals)
     if not np.all(np.isfinite(a)):
@@ -90,8 +98,9 @@ def _displacement(cam: np.ndarray, d_int: np.ndarray) -> np.ndarray:
     return d if np.dot(d, d_int) >= 0 else -d
 
 
-def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
-                 length: float | None = None, source: str = "") -> dict[str, Any]:
+def scale_factor(
+    interferometer, camera, run=None, *, accuracy: float = 5e-7, length: float | None = None, source: str = ""
+) -> dict[str, Any]:
     """Scale factor by linear regression per run (module docstring).
 
     Parameters
@@ -122,8 +131,9 @@ def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
     from scipy import stats
 
     if not (np.isfinite(accuracy) and 0 <= accuracy < 1):
-        raise ParameterError(f"accuracy {accuracy!r}: the interferometer's relative accuracy must be a finite "
-                             "number from 0 to below 1")
+        raise ParameterError(
+            f"accuracy {accuracy!r}: the interferometer's relative accuracy must be a finite number from 0 to below 1"
+        )
     if length is not None and not (np.isfinite(length) and length > 0):
         raise ParameterError(f"length {length!r} must be a positive number of mm")
     where = f"{source}: " if source else ""
@@ -144,9 +154,17 @@ def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
         d_cam = _displacement(c_all[m], d_int)
         fit = stats.linregress(d_int, d_cam)
         res = d_cam - (fit.slope * d_int + fit.intercept)
-        runs.append({"run": r, "slope": float(fit.slope), "intercept": float(fit.intercept),
-                     "stderr": float(fit.stderr), "rms_residual": float(np.sqrt(np.mean(res ** 2))),
-                     "n": int(m.sum()), "travel": float(np.ptp(d_int))})
+        runs.append(
+            {
+                "run": r,
+                "slope": float(fit.slope),
+                "intercept": float(fit.intercept),
+                "stderr": float(fit.stderr),
+                "rms_residual": float(np.sqrt(np.mean(res**2))),
+                "n": int(m.sum()),
+                "travel": float(np.ptp(d_int)),
+            }
+        )
         residuals[r], displ[r] = res, d_int
     slopes = np.array([r["slope"] for r in runs])
     slope = float(slopes.mean())
@@ -161,16 +179,23 @@ def scale_factor(interferometer, camera, run=None, *, accuracy: float = 5e-7,
         u_p = u_slope * L
     u_cal = accuracy * L / np.sqrt(3.0)
     counts = {len(v) for v in residuals.values()}
-    per_pos = np.std(np.array(list(residuals.values())), axis=0, ddof=1) if len(runs) > 1 and len(counts) == 1 \
-        else None
+    per_pos = np.std(np.array(list(residuals.values())), axis=0, ddof=1) if len(runs) > 1 and len(counts) == 1 else None
     return {
-        "slope": slope, "u_slope": float(u_slope),
-        "scale_factor": 1.0 / slope, "u_scale_factor": float(u_slope / slope ** 2),
-        "runs": runs, "n_runs": len(runs),
-        "repeatability": rep, "repeatability_ppm": rep * 1e6 if np.isfinite(rep) else None,
-        "residuals": residuals, "displacement": displ,
+        "slope": slope,
+        "u_slope": float(u_slope),
+        "scale_factor": 1.0 / slope,
+        "u_scale_factor": float(u_slope / slope**2),
+        "runs": runs,
+        "n_runs": len(runs),
+        "repeatability": rep,
+        "repeatability_ppm": rep * 1e6 if np.isfinite(rep) else None,
+        "residuals": residuals,
+        "displacement": displ,
         "residual_std_per_position": per_pos,
-        "length": L, "u_cal": float(u_cal), "u_p": float(u_p), "u_length": float(np.hypot(u_cal, u_p)),
+        "length": L,
+        "u_cal": float(u_cal),
+        "u_p": float(u_p),
+        "u_length": float(np.hypot(u_cal, u_p)),
         "unit": "mm",
     }
 
@@ -209,4 +234,3 @@ def apply_scale(cal: dict[str, Any], factor: float) -> dict[str, Any]:
         out["parameter_covariance"] = np.asarray(cov, np.float64) * np.outer(s, s)
     out["scale_factor"] = float(factor) * float(cal.get("scale_factor", 1.0))
     return out
-

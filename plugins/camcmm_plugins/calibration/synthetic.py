@@ -54,18 +54,34 @@ def _rays(K: tuple, dist: tuple, size: tuple[int, int], ss: int) -> np.ndarray:
 
     w, h = size
     off = (np.arange(ss) + 0.5) / ss - 0.5
-    ys, xs = np.mgrid[0:h * ss, 0:w * ss].astype(np.float64)
+    ys, xs = np.mgrid[0 : h * ss, 0 : w * ss].astype(np.float64)
     u = np.floor(xs / ss) + off[(xs % ss).astype(int)]
     v = np.floor(ys / ss) + off[(ys % ss).astype(int)]
     pts = np.stack([u.ravel(), v.ravel()], 1).reshape(-1, 1, 2)
-    n = cv2.undistortPoints(pts, np.array(K).reshape(3, 3), np.array(dist),
-                            criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 50, 1e-12))
+    n = cv2.undistortPoints(
+        pts,
+        np.array(K).reshape(3, 3),
+        np.array(dist),
+        criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 50, 1e-12),
+    )
     return n.reshape(h * ss, w * ss, 2)
 
 
-def render_view(board: Board | str, camera_matrix, dist_coeffs, rvec, tvec, image_size: tuple[int, int], *,
-                supersample: int = 4, blur: float = 0.0, noise: float = 0.0, background: int = 128,
-                seed: int | None = None, px_per_mm: float | None = None) -> np.ndarray:
+def render_view(
+    board: Board | str,
+    camera_matrix,
+    dist_coeffs,
+    rvec,
+    tvec,
+    image_size: tuple[int, int],
+    *,
+    supersample: int = 4,
+    blur: float = 0.0,
+    noise: float = 0.0,
+    background: int = 128,
+    seed: int | None = None,
+    px_per_mm: float | None = None,
+) -> np.ndarray:
     """A grey uint8 (H, W) image of ``board`` at pose (rvec, tvec: board -> camera, mm)
     seen by the camera (K, dist); ``blur``: Gaussian sigma px; ``noise``: grey-level sigma."""
     import cv2
@@ -100,8 +116,9 @@ def render_view(board: Board | str, camera_matrix, dist_coeffs, rvec, tvec, imag
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
-def look_at_poses(n: int, distance: float, board: Board | str, *, tilt_deg: float = 30.0,
-                  seed: int = 0) -> list[tuple[np.ndarray, np.ndarray]]:
+def look_at_poses(
+    n: int, distance: float, board: Board | str, *, tilt_deg: float = 30.0, seed: int = 0
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """``n`` board poses (rvec, tvec) with the board centre about ``distance`` mm in
     front of the camera, tilted up to ``tilt_deg`` about random in-plane axes."""
     import cv2
@@ -127,7 +144,11 @@ def project(board: Board | str, camera_matrix, dist_coeffs, rvec, tvec) -> np.nd
     import cv2
 
     board = parse_board(board)
-    q, _ = cv2.projectPoints(board.object_points.astype(np.float64), np.asarray(rvec, float).ravel(),
-                             np.asarray(tvec, float).ravel(), np.asarray(camera_matrix, float),
-                             np.asarray(dist_coeffs, float).ravel())
+    q, _ = cv2.projectPoints(
+        board.object_points.astype(np.float64),
+        np.asarray(rvec, float).ravel(),
+        np.asarray(tvec, float).ravel(),
+        np.asarray(camera_matrix, float),
+        np.asarray(dist_coeffs, float).ravel(),
+    )
     return q.reshape(-1, 2)

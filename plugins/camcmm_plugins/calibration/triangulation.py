@@ -34,15 +34,17 @@ def _undistort(cam: CameraModel, px: np.ndarray) -> np.ndarray:
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-14)
     if not np.any(cam.dist_coeffs):
         return px.astype(np.float64)
-    return cv2.undistortPoints(px.reshape(-1, 1, 2).astype(np.float64), cam.camera_matrix, cam.dist_coeffs,
-                               P=cam.camera_matrix, criteria=crit).reshape(-1, 2)
+    return cv2.undistortPoints(
+        px.reshape(-1, 1, 2).astype(np.float64), cam.camera_matrix, cam.dist_coeffs, P=cam.camera_matrix, criteria=crit
+    ).reshape(-1, 2)
 
 
 def _linear(P: np.ndarray, x: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Eq. 3.2 for N points: P (V, 3, 4), x (V, N, 2) undistorted px, f (V,) focal
     lengths px -> (N, 3)."""
-    rows = np.concatenate([x[:, :, :1] * P[:, None, 2, :] - P[:, None, 0, :],
-                           x[:, :, 1:] * P[:, None, 2, :] - P[:, None, 1, :]], axis=0)  # (2V, N, 4)
+    rows = np.concatenate(
+        [x[:, :, :1] * P[:, None, 2, :] - P[:, None, 0, :], x[:, :, 1:] * P[:, None, 2, :] - P[:, None, 1, :]], axis=0
+    )  # (2V, N, 4)
     # Each row's residual is depth x pixel error; dividing by the camera's focal length
     # makes it depth x angle, alike for all cameras. (Rows scaled to unit norm would not
     # do: a camera far from the world origin has large P entries and would be ignored.)
@@ -61,7 +63,7 @@ def _gauss_newton(P: np.ndarray, x: np.ndarray, X: np.ndarray, iterations: int =
     for _ in range(iterations):
         h = np.einsum("vij,nj->vni", P[:, :, :3], X) + P[:, None, :, 3]  # (V, N, 3)
         w = h[..., 2:]
-        r = (x - h[..., :2] / w)  # (V, N, 2)
+        r = x - h[..., :2] / w  # (V, N, 2)
         # d(h_xy / w)/dX = (P_xy - (h_xy / w) P_z) / w
         J = (P[:, None, :2, :3] - (h[..., :2] / w)[..., None] * P[:, None, 2:3, :3]) / w[..., None]  # (V,N,2,3)
         J = np.transpose(J, (1, 0, 2, 3)).reshape(len(X), -1, 3)
@@ -81,8 +83,14 @@ def fundamental(c1: CameraModel, c2: CameraModel) -> np.ndarray:
     return np.linalg.inv(c2.camera_matrix).T @ tx @ R @ np.linalg.inv(c1.camera_matrix)
 
 
-def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optimal",
-                pixel_sigma: float | None = None, parameter_covariance: np.ndarray | None = None) -> dict[str, Any]:
+def triangulate(
+    cameras: Sequence[CameraModel],
+    pixels,
+    *,
+    method: str = "optimal",
+    pixel_sigma: float | None = None,
+    parameter_covariance: np.ndarray | None = None,
+) -> dict[str, Any]:
     """Triangulate N points seen by V >= 2 cameras.
 
     Parameters
@@ -123,7 +131,7 @@ def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optima
     else:
         X = _gauss_newton(P, u, _linear(P, u, f))
     rep = _project(P, X) - u
-    out = {"points": X, "reprojection_rms": np.sqrt(np.mean(np.sum(rep ** 2, 2), 0)), "method": method}
+    out = {"points": X, "reprojection_rms": np.sqrt(np.mean(np.sum(rep**2, 2), 0)), "method": method}
     if pixel_sigma is not None or parameter_covariance is not None:
         cov = point_covariance(cams, X, pixel_sigma or 0.0, parameter_covariance)
         out["covariance"] = cov
@@ -131,8 +139,9 @@ def triangulate(cameras: Sequence[CameraModel], pixels, *, method: str = "optima
     return out
 
 
-def point_covariance(cameras: Sequence[CameraModel], X: np.ndarray, pixel_sigma: float,
-                     parameter_covariance: np.ndarray | None) -> np.ndarray:
+def point_covariance(
+    cameras: Sequence[CameraModel], X: np.ndarray, pixel_sigma: float, parameter_covariance: np.ndarray | None
+) -> np.ndarray:
     """(N, 3, 3) first-order covariance of triangulated points X (N, 3) (module docstring)."""
     import cv2
 
@@ -147,17 +156,19 @@ def point_covariance(cameras: Sequence[CameraModel], X: np.ndarray, pixel_sigma:
         rvec = cv2.Rodrigues(c.rotation)[0]
         _, jac = cv2.projectPoints(X.reshape(-1, 1, 3), rvec, c.translation, c.camera_matrix, c.dist_coeffs)
         jac = jac.reshape(n, 2, -1)
-        A[:, 2 * k:2 * k + 2] = jac[:, :, 3:6] @ c.rotation  # d q / d X = d q / d x_cam R
-        B[:, 2 * k:2 * k + 2, off[k]:off[k + 1]] = jac[:, :, 6:]
+        A[:, 2 * k : 2 * k + 2] = jac[:, :, 3:6] @ c.rotation  # d q / d X = d q / d x_cam R
+        B[:, 2 * k : 2 * k + 2, off[k] : off[k + 1]] = jac[:, :, 6:]
         if k >= 1:
             p0 = off[-1] + 6 * (k - 1)
-            B[:, 2 * k:2 * k + 2, p0:p0 + 6] = jac[:, :, :6]
+            B[:, 2 * k : 2 * k + 2, p0 : p0 + 6] = jac[:, :, :6]
     H = np.linalg.solve(np.einsum("nki,nkj->nij", A, A), np.transpose(A, (0, 2, 1)))  # (N, 3, 2V)
     S = np.broadcast_to(np.eye(2 * len(cams)) * float(pixel_sigma) ** 2, (n, 2 * len(cams), 2 * len(cams)))
     if parameter_covariance is not None:
         C = np.asarray(parameter_covariance, np.float64)
         if C.shape != (n_theta, n_theta):
-            raise InputError(f"parameter_covariance is {C.shape}, expected {(n_theta, n_theta)} "
-                             f"(intrinsics of {len(cams)} cameras, then the poses of cameras 2..)")
+            raise InputError(
+                f"parameter_covariance is {C.shape}, expected {(n_theta, n_theta)} "
+                f"(intrinsics of {len(cams)} cameras, then the poses of cameras 2..)"
+            )
         S = S + np.einsum("nkp,pq,nlq->nkl", B, C, B)
     return np.einsum("nik,nkl,njl->nij", H, S, H)

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Sequence as Seq
+from collections.abc import Sequence as Seq
+from typing import Any
 
 import numpy as np
 
@@ -25,8 +26,9 @@ from camcmm.api import InputError
 from .sequence import Sequence, grab_all, jsonable
 
 
-def turntable_angles(n_images: int, span_deg: float = 180.0, start_deg: float = 0.0,
-                     endpoint: bool = False) -> np.ndarray:
+def turntable_angles(
+    n_images: int, span_deg: float = 180.0, start_deg: float = 0.0, endpoint: bool = False
+) -> np.ndarray:
     """The ``n_images`` stage angles (deg): ``start + k * span / n`` for k < n, or with
     ``endpoint`` ``span / (n - 1)`` steps so that the last image is at ``start + span``.
     30 images through 180 deg are 6 deg apart (0 .. 174) without endpoint."""
@@ -49,9 +51,19 @@ class TurntableSequence(Sequence):
 
     kind = "turntable"
 
-    def __init__(self, store: Any, stage: Any, cameras: Seq[Any], n_images: int = 30, span_deg: float = 180.0,
-                 start_deg: float = 0.0, endpoint: bool = False, speckle: Any = None, name: str = "turntable",
-                 restore: bool = True):
+    def __init__(
+        self,
+        store: Any,
+        stage: Any,
+        cameras: Seq[Any],
+        n_images: int = 30,
+        span_deg: float = 180.0,
+        start_deg: float = 0.0,
+        endpoint: bool = False,
+        speckle: Any = None,
+        name: str = "turntable",
+        restore: bool = True,
+    ):
         self.stage, self.cameras, self.speckle = stage, list(cameras), speckle
         if not self.cameras:
             raise InputError(f"sequence {name!r}: needs at least one camera")
@@ -62,8 +74,10 @@ class TurntableSequence(Sequence):
     def plan(self) -> list[dict[str, Any]]:
         steps = [{"label": "setup", "kind": "setup"}]
         width = len(str(len(self.angles)))
-        steps += [{"label": f"view {k:0{width}d}", "kind": "view", "view": k, "angle": float(a)}
-                  for k, a in enumerate(self.angles)]
+        steps += [
+            {"label": f"view {k:0{width}d}", "kind": "view", "view": k, "angle": float(a)}
+            for k, a in enumerate(self.angles)
+        ]
         return steps
 
     def run_step(self, i: int, step: dict[str, Any]) -> None:
@@ -74,8 +88,12 @@ class TurntableSequence(Sequence):
             return
         _ensure_homed(self.stage)
         pos = self.stage.move_abs(step["angle"])
-        grab_all(self, self.cameras, i, {"view": step["view"], "angle_target_deg": step["angle"],
-                                         "angle_deg": pos, "n_views": len(self.angles)})
+        grab_all(
+            self,
+            self.cameras,
+            i,
+            {"view": step["view"], "angle_target_deg": step["angle"], "angle_deg": pos, "n_views": len(self.angles)},
+        )
 
     def finish(self) -> None:
         if self.speckle is not None:
@@ -89,8 +107,16 @@ class FringeSequence(Sequence):
 
     kind = "fringe"
 
-    def __init__(self, store: Any, projector: Any, cameras: Seq[Any], patterns: Any = None,
-                 position: str = "", name: str = "fringe", restore: bool = True):
+    def __init__(
+        self,
+        store: Any,
+        projector: Any,
+        cameras: Seq[Any],
+        patterns: Any = None,
+        position: str = "",
+        name: str = "fringe",
+        restore: bool = True,
+    ):
         self.projector, self.cameras, self.position = projector, list(cameras), position
         if not 1 <= len(self.cameras) <= 2:
             raise InputError(f"sequence {name!r}: a fringe sequence takes one or two cameras, got {len(self.cameras)}")
@@ -102,16 +128,22 @@ class FringeSequence(Sequence):
 
     def plan(self) -> list[dict[str, Any]]:
         width = len(str(len(self.projector.patterns)))
-        return [{"label": f"pattern {k:0{width}d}", "pattern": k, "pattern_name": self.projector.names[k]}
-                for k in range(len(self.projector.patterns))]
+        return [
+            {"label": f"pattern {k:0{width}d}", "pattern": k, "pattern_name": self.projector.names[k]}
+            for k in range(len(self.projector.patterns))
+        ]
 
     def run_step(self, i: int, step: dict[str, Any]) -> None:
         keys = {f"{i}:{c.name}" for c in self.cameras}
         if keys <= self.done_keys:
             return
         self.projector.show(step["pattern"])
-        meta = {"pattern_index": step["pattern"], "pattern_name": step["pattern_name"],
-                "n_patterns": len(self.steps), "cameras": [c.name for c in self.cameras]}
+        meta = {
+            "pattern_index": step["pattern"],
+            "pattern_name": step["pattern_name"],
+            "n_patterns": len(self.steps),
+            "cameras": [c.name for c in self.cameras],
+        }
         if self.position:
             meta["position"] = self.position
         grab_all(self, self.cameras, i, meta)
@@ -129,9 +161,21 @@ class ScaleRunSequence(Sequence):
 
     kind = "scale-run"
 
-    def __init__(self, store: Any, stage: Any, interferometer: Any, cameras: Seq[Any] = (),
-                 targets: Seq[float] | None = None, start_mm: float = 0.0, stop_mm: float = 90.0, n_steps: int = 10,
-                 samples: int = 5, zero_interferometer: bool = True, name: str = "scale-run", restore: bool = True):
+    def __init__(
+        self,
+        store: Any,
+        stage: Any,
+        interferometer: Any,
+        cameras: Seq[Any] = (),
+        targets: Seq[float] | None = None,
+        start_mm: float = 0.0,
+        stop_mm: float = 90.0,
+        n_steps: int = 10,
+        samples: int = 5,
+        zero_interferometer: bool = True,
+        name: str = "scale-run",
+        restore: bool = True,
+    ):
         self.stage, self.interferometer, self.cameras = stage, interferometer, list(cameras)
         if targets is None:
             if int(n_steps) < 2:
@@ -148,8 +192,10 @@ class ScaleRunSequence(Sequence):
     def plan(self) -> list[dict[str, Any]]:
         steps = [{"label": "setup", "kind": "setup"}]
         width = len(str(len(self.targets)))
-        steps += [{"label": f"target {k:0{width}d}", "kind": "target", "index": k, "target_mm": t}
-                  for k, t in enumerate(self.targets)]
+        steps += [
+            {"label": f"target {k:0{width}d}", "kind": "target", "index": k, "target_mm": t}
+            for k, t in enumerate(self.targets)
+        ]
         return steps
 
     def run_step(self, i: int, step: dict[str, Any]) -> None:
@@ -165,9 +211,15 @@ class ScaleRunSequence(Sequence):
             # again after a fault must take the same ones
             self.interferometer.seek(step["index"] * self.samples)
         reading = self.interferometer.read_mean(self.samples)
-        row = {"index": step["index"], "target_mm": step["target_mm"], "stage_mm": stage_mm,
-               "interferometer_mm": reading["mean"], "interferometer_std_mm": reading["std"],
-               "samples": reading["n"], "measurement_ids": []}
+        row = {
+            "index": step["index"],
+            "target_mm": step["target_mm"],
+            "stage_mm": stage_mm,
+            "interferometer_mm": reading["mean"],
+            "interferometer_std_mm": reading["std"],
+            "samples": reading["n"],
+            "measurement_ids": [],
+        }
         meta = {k: v for k, v in row.items() if k != "measurement_ids"}
         for cam in self.cameras:
             mid = self.capture(cam, i, meta)
@@ -200,7 +252,10 @@ class ScaleRunSequence(Sequence):
         try:
             h = self.store.add_file(path)
             self.table_measurement = self.store.add_measurement(
-                f"{self.name} table", h, kind="table", meta={"sequence": self.name, "run_id": self.run_id,
-                                                             "rows": len(self.rows)})
+                f"{self.name} table",
+                h,
+                kind="table",
+                meta={"sequence": self.name, "run_id": self.run_id, "rows": len(self.rows)},
+            )
         finally:
             path.unlink(missing_ok=True)

@@ -24,8 +24,17 @@ class OpenCVCamera(Camera):
 
     trigger_modes = ("free-run",)
 
-    def __init__(self, source: int | str = 0, name: str = "", backend: str = "", exposure_scale: float = 10.0,
-                 loop: bool = False, width: int = 0, height: int = 0, **settings: Any):
+    def __init__(
+        self,
+        source: int | str = 0,
+        name: str = "",
+        backend: str = "",
+        exposure_scale: float = 10.0,
+        loop: bool = False,
+        width: int = 0,
+        height: int = 0,
+        **settings: Any,
+    ):
         self.source = int(source) if isinstance(source, str) and source.strip().isdigit() else source
         self.backend, self.exposure_scale, self.loop = backend, float(exposure_scale), bool(loop)
         self.width, self.height = int(width), int(height)

@@ -46,21 +46,35 @@ def run(args: argparse.Namespace) -> dict[str, Any] | None:
     from camcmm.api import default_host
 
     host = default_host()
-    devices = [{"id": s.id, "role": s.role or "", "name": s.name, "status": s.status,
-                "simulated": bool(s.simulated), "summary": s.summary}
-               for s in host.all() if s.kind == "device"]
+    devices = [
+        {
+            "id": s.id,
+            "role": s.role or "",
+            "name": s.name,
+            "status": s.status,
+            "simulated": bool(s.simulated),
+            "summary": s.summary,
+        }
+        for s in host.all()
+        if s.kind == "device"
+    ]
     out: dict[str, Any] = {"devices": devices}
     if args.ports:
         from serial.tools import list_ports
 
-        out["ports"] = [{"port": p.device, "description": p.description, "hwid": p.hwid}
-                        for p in sorted(list_ports.comports(), key=lambda p: p.device)]
+        out["ports"] = [
+            {"port": p.device, "description": p.description, "hwid": p.hwid}
+            for p in sorted(list_ports.comports(), key=lambda p: p.device)
+        ]
     return out
 
 
 def text(result: dict[str, Any]) -> str:
-    lines = [f"{d['id']:34s} {d['role']:14s} {'(sim) ' if d['simulated'] else ''}{d['name']}"
-             + ("" if d["status"] == "ok" else f"  [{d['status']}]") for d in result["devices"]]
+    lines = [
+        f"{d['id']:34s} {d['role']:14s} {'(sim) ' if d['simulated'] else ''}{d['name']}"
+        + ("" if d["status"] == "ok" else f"  [{d['status']}]")
+        for d in result["devices"]
+    ]
     if "ports" in result:
         lines.append("")
         lines += [f"{p['port']:20s} {p['description']}" for p in result["ports"]] or ["no serial ports found"]

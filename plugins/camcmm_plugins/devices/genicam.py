@@ -14,10 +14,13 @@ from typing import Any
 import numpy as np
 
 from camcmm.api import DeviceDisconnected, DeviceTimeout
+
 from .camera import Camera
 
-INSTALL_HINT = ("GenICam cameras need the optional package 'harvesters' (pip install harvesters) "
-                "and the camera maker's GenTL producer (.cti file)")
+INSTALL_HINT = (
+    "GenICam cameras need the optional package 'harvesters' (pip install harvesters) "
+    "and the camera maker's GenTL producer (.cti file)"
+)
 
 
 class GenICamCamera(Camera):
@@ -27,8 +30,15 @@ class GenICamCamera(Camera):
     trigger_modes = ("software", "free-run", "hardware")
     hardware_roi = True
 
-    def __init__(self, cti: str = "", name: str = "", serial: str = "", index: int = 0,
-                 trigger_line: str = "Line1", **settings: Any):
+    def __init__(
+        self,
+        cti: str = "",
+        name: str = "",
+        serial: str = "",
+        index: int = 0,
+        trigger_line: str = "Line1",
+        **settings: Any,
+    ):
         self.cti, self.serial, self.index, self.trigger_line = str(cti), str(serial or ""), int(index), trigger_line
         self._h: Any = None
         self._ia: Any = None
@@ -106,8 +116,11 @@ class GenICamCamera(Camera):
         try:
             with self._ia.fetch(timeout=timeout) as buffer:
                 c = buffer.payload.components[0]
-                shape = (c.height, c.width) if c.num_components_per_pixel <= 1 else \
-                    (c.height, c.width, int(c.num_components_per_pixel))
+                shape = (
+                    (c.height, c.width)
+                    if c.num_components_per_pixel <= 1
+                    else (c.height, c.width, int(c.num_components_per_pixel))
+                )
                 data = np.array(c.data, copy=True).reshape(shape)
                 extra = {"device_timestamp": int(buffer.timestamp)} if hasattr(buffer, "timestamp") else {}
         except Exception as exc:

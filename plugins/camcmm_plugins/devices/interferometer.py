@@ -18,16 +18,27 @@ import math
 import random
 import re
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from camcmm.api import Device, device_param as param, DeviceDisconnected, DeviceTimeout, InputError, port_errors
+from camcmm.api import Device, DeviceDisconnected, DeviceTimeout, InputError, port_errors
+from camcmm.api import device_param as param
 
-
-UNITS = {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "micron": 1e-3, "microns": 1e-3, "nm": 1e-6,
-         "m": 1e3, "in": 25.4, "inch": 25.4}
+UNITS = {
+    "mm": 1.0,
+    "um": 1e-3,
+    "µm": 1e-3,
+    "μm": 1e-3,
+    "micron": 1e-3,
+    "microns": 1e-3,
+    "nm": 1e-6,
+    "m": 1e3,
+    "in": 25.4,
+    "inch": 25.4,
+}
 _VALUE = re.compile(r"^(?:POS\s+)?([-+]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-zµμ]+)?\s*$")
 
 
@@ -36,7 +47,7 @@ def parse_position(line: str) -> float:
     m = _VALUE.match(line.strip())
     if not m:
         raise ValueError(f"not a position: {line.strip()[:60]!r}")
-    unit = (m.group(2) or "mm")
+    unit = m.group(2) or "mm"
     if unit.lower() not in UNITS and unit not in UNITS:
         raise ValueError(f"unknown unit {unit!r} in {line.strip()[:60]!r}")
     return float(m.group(1).replace(",", ".")) * UNITS.get(unit, UNITS.get(unit.lower(), 1.0))
@@ -61,8 +72,13 @@ class Interferometer(Device):
     def read_mean(self, n: int | None = None) -> dict[str, Any]:
         n = int(n or self._settings["samples"])
         values = [self.read() for _ in range(n)]
-        return {"mean": float(np.mean(values)), "std": float(np.std(values, ddof=1)) if n > 1 else 0.0,
-                "n": n, "values": values, "unit": "mm"}
+        return {
+            "mean": float(np.mean(values)),
+            "std": float(np.std(values, ddof=1)) if n > 1 else 0.0,
+            "n": n,
+            "values": values,
+            "unit": "mm",
+        }
 
     def zero(self) -> None:
         with self.guard("setting the datum"):
@@ -82,8 +98,16 @@ class Interferometer(Device):
 class SerialInterferometer(Interferometer):
     """The line protocol above over pyserial (``port`` may be ``socket://host:port``)."""
 
-    def __init__(self, port: str, name: str = "interferometer", baudrate: int = 115200, timeout: float = 1.0,
-                 mode: str = "query", query: str = "POS?", **settings: Any):
+    def __init__(
+        self,
+        port: str,
+        name: str = "interferometer",
+        baudrate: int = 115200,
+        timeout: float = 1.0,
+        mode: str = "query",
+        query: str = "POS?",
+        **settings: Any,
+    ):
         if mode not in ("query", "stream"):
             raise ValueError(f"interferometer {name!r}: mode must be query or stream, got {mode!r}")
         self.baudrate, self.timeout, self.mode, self.query = int(baudrate), float(timeout), mode, query
@@ -163,8 +187,15 @@ class SimulatedInterferometer(Interferometer):
     normal noise ``noise`` (mm, 1 sigma) from ``seed``. For the real serial code against
     a simulated laser use the stage simulator's interferometer port instead."""
 
-    def __init__(self, source: Callable[[], float] | None = None, name: str = "sim-interferometer",
-                 noise: float = 0.0, seed: int = 0, follow: Any = None, **settings: Any):
+    def __init__(
+        self,
+        source: Callable[[], float] | None = None,
+        name: str = "sim-interferometer",
+        noise: float = 0.0,
+        seed: int = 0,
+        follow: Any = None,
+        **settings: Any,
+    ):
         if source is None:
             if follow is None:
                 raise ValueError(f"interferometer {name!r}: give a source or a stage to follow")
@@ -187,7 +218,9 @@ class SimulatedInterferometer(Interferometer):
 _POS_WORDS = ("position", "reading", "measured", "displacement", "distance", "laser", "value", "actual")
 
 
-def read_interferometer_csv(path: str | Path, column: str | int | None = None, unit: str | None = None) -> dict[str, Any]:
+def read_interferometer_csv(
+    path: str | Path, column: str | int | None = None, unit: str | None = None
+) -> dict[str, Any]:
     """Read readings from a CSV export: leading report lines are skipped, the delimiter
     (``,`` ``;`` tab) and a decimal comma are detected, the column is ``column`` (name,
     case-insensitive, or 0-based index) or else the first whose header names a
@@ -213,8 +246,9 @@ def read_interferometer_csv(path: str | Path, column: str | int | None = None, u
             return None
         return v if math.isfinite(v) else None
 
-    first = next((i for i, r in enumerate(rows) if sum(num(c) is not None for c in r) >= 1
-                  and len(r) == len(rows[-1])), None)
+    first = next(
+        (i for i, r in enumerate(rows) if sum(num(c) is not None for c in r) >= 1 and len(r) == len(rows[-1])), None
+    )
     if first is None:
         raise InputError(f"{path}: no numeric rows found; is this the laser software's CSV export?")
     header = [h.strip() for h in rows[first - 1]] if first > 0 and len(rows[first - 1]) == len(rows[first]) else []
@@ -229,8 +263,12 @@ def read_interferometer_csv(path: str | Path, column: str | int | None = None, u
             raise InputError(f"{path}: no column named {column!r}; columns: {', '.join(header) or 'none (no header)'}")
         idx = matches[0]
     else:
-        cand = [i for i, h in enumerate(lower) if any(w in h for w in _POS_WORDS)
-                and not any(w in h for w in ("target", "time", "date", "nominal", "index", "error"))]
+        cand = [
+            i
+            for i, h in enumerate(lower)
+            if any(w in h for w in _POS_WORDS)
+            and not any(w in h for w in ("target", "time", "date", "nominal", "index", "error"))
+        ]
         numeric = [i for i in range(ncol) if all(num(r[i]) is not None for r in data)]
         cand = [i for i in cand if i in numeric]
         if not cand and not numeric:
@@ -246,11 +284,18 @@ def read_interferometer_csv(path: str | Path, column: str | int | None = None, u
     bad = [k for k, v in enumerate(values) if v is None]
     if bad:
         raise InputError(f"{path}: row {first + bad[0] + 1}, column {name!r}: {data[bad[0]][idx]!r} is not a number")
-    out: dict[str, Any] = {"positions": np.asarray(values, float) * UNITS[unit_text], "column": name,
-                           "unit": unit_text, "header": header, "path": str(path)}
+    out: dict[str, Any] = {
+        "positions": np.asarray(values, float) * UNITS[unit_text],
+        "column": name,
+        "unit": unit_text,
+        "header": header,
+        "path": str(path),
+    }
     tcol = next((i for i, h in enumerate(lower) if "target" in h or "nominal" in h), None)
     if tcol is not None and all(num(r[tcol]) is not None for r in data):
-        out["targets"] = np.asarray([num(r[tcol]) for r in data], float) * UNITS.get(_unit_of(header[tcol]) or unit_text, 1.0)
+        out["targets"] = np.asarray([num(r[tcol]) for r in data], float) * UNITS.get(
+            _unit_of(header[tcol]) or unit_text, 1.0
+        )
     time_col = next((i for i, h in enumerate(lower) if "time" in h or "date" in h), None)
     if time_col is not None:
         out["times"] = [r[time_col].strip() for r in data]
@@ -267,8 +312,14 @@ class CsvInterferometer(Interferometer):
     n-th ``read()`` returns the n-th reading (a scale run taken with the laser software
     recording one reading per stage target). ``reset()`` starts again."""
 
-    def __init__(self, path: str, name: str = "interferometer-csv", column: str | int | None = None,
-                 unit: str | None = None, **settings: Any):
+    def __init__(
+        self,
+        path: str,
+        name: str = "interferometer-csv",
+        column: str | int | None = None,
+        unit: str | None = None,
+        **settings: Any,
+    ):
         self.path, self.column, self.csv_unit = str(path), column, unit
         self.table: dict[str, Any] = {}
         self._next = 0

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from camcmm.api import Device, device_param as param, DeviceError, DeviceTimeout, get_algorithm
+from camcmm.api import Device, DeviceError, DeviceTimeout, get_algorithm
+from camcmm.api import device_param as param
 
 
 class PatternProjector(Device):
@@ -32,8 +34,14 @@ class PatternProjector(Device):
         param("ack_timeout_s", "float", 2.0, unit="s", min=0.05, help="Longest wait for the page to show a pattern."),
     )
 
-    def __init__(self, name: str = "projector", size: Sequence[int] = (1920, 1080), display: str = "",
-                 require_ack: bool = True, **settings: Any):
+    def __init__(
+        self,
+        name: str = "projector",
+        size: Sequence[int] = (1920, 1080),
+        display: str = "",
+        require_ack: bool = True,
+        **settings: Any,
+    ):
         self.size = (int(size[0]), int(size[1]))
         self.require_ack = bool(require_ack)
         self.patterns: list[np.ndarray] = []
@@ -64,8 +72,10 @@ class PatternProjector(Device):
         plugin's ``fringe.patterns``, or a callable with the same contract)."""
         fn = get_algorithm(algorithm) if isinstance(algorithm, str) else algorithm
         out = fn(sequence=sequence)
-        names = [f.get("name", f"pattern {k}") if isinstance(f, dict) else str(f)
-                 for k, f in enumerate(out.get("frames") or [])] or None
+        names = [
+            f.get("name", f"pattern {k}") if isinstance(f, dict) else str(f)
+            for k, f in enumerate(out.get("frames") or [])
+        ] or None
         return self.load(out["patterns"], names)
 
     def current(self) -> np.ndarray | None:
@@ -103,8 +113,11 @@ class PatternProjector(Device):
                 timeout = float(self._settings["ack_timeout_s"])
                 with self._cond:
                     if not self._cond.wait_for(lambda: self._acked >= version, timeout):
-                        raise self.error(f"the projector page did not show pattern {i} within {timeout:g} s "
-                                         "(is it open on the projector's display?)", DeviceTimeout)
+                        raise self.error(
+                            f"the projector page did not show pattern {i} within {timeout:g} s "
+                            "(is it open on the projector's display?)",
+                            DeviceTimeout,
+                        )
             else:
                 self.acknowledge(version)
             settle = float(self._settings["settle_s"])
@@ -123,8 +136,12 @@ class PatternProjector(Device):
             self._cond.notify_all()
 
     def capabilities(self) -> dict[str, Any]:
-        return {**super().capabilities(), "size": list(self.size), "patterns": len(self.patterns),
-                "require_ack": self.require_ack}
+        return {
+            **super().capabilities(),
+            "size": list(self.size),
+            "patterns": len(self.patterns),
+            "require_ack": self.require_ack,
+        }
 
 
 class SimulatedProjector(PatternProjector):
@@ -147,9 +164,17 @@ class SpeckleProjector(Device):
     kind = "speckle"
     settings_schema = (param("settle_s", "float", 0.5, unit="s", min=0, help="Wait after switching (laser warm-up)."),)
 
-    def __init__(self, port: str = "", name: str = "speckle", baudrate: int = 9600, on_command: str = "A00101A2",
-                 off_command: str = "A00100A1", encoding: str = "hex",
-                 prompt: Callable[[str], bool] | None = None, **settings: Any):
+    def __init__(
+        self,
+        port: str = "",
+        name: str = "speckle",
+        baudrate: int = 9600,
+        on_command: str = "A00101A2",
+        off_command: str = "A00100A1",
+        encoding: str = "hex",
+        prompt: Callable[[str], bool] | None = None,
+        **settings: Any,
+    ):
         if encoding not in ("hex", "text"):
             raise DeviceError(f"speckle {name!r}: encoding must be hex or text, got {encoding!r}")
         self.baudrate, self.encoding, self.prompt = int(baudrate), encoding, prompt

@@ -25,13 +25,13 @@ import tempfile
 import threading
 import time
 import uuid
+from collections.abc import Sequence as Seq
 from pathlib import Path
-from typing import Any, Sequence as Seq
+from typing import Any
 
 import numpy as np
 
 from camcmm.api import Device, DeviceError, Events, Image, utc_iso, write
-
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ class Sequence:
         self._restore = restore
 
     # -- operator API -------------------------------------------------------------------------
-    def start(self) -> "Sequence":
+    def start(self) -> Sequence:
         if self._thread is not None:
             raise DeviceError(f"sequence {self.name!r} was already started")
         self.steps = self.plan()
@@ -125,12 +125,22 @@ class Sequence:
             return self.state
 
     def snapshot(self) -> dict[str, Any]:
-        return {"name": self.name, "kind": self.kind, "run_id": self.run_id, "state": self.state,
-                "reason": self.reason, "step": self.step, "steps": len(self.steps),
-                "label": self.steps[self.step]["label"] if self.step < len(self.steps) else "",
-                "frames": self.frames, "measurement_ids": list(self.measurement_ids),
-                "done": sorted(self.done_keys), "started": self.started, "finished": self.finished,
-                "plan": self._plan_key()}
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "run_id": self.run_id,
+            "state": self.state,
+            "reason": self.reason,
+            "step": self.step,
+            "steps": len(self.steps),
+            "label": self.steps[self.step]["label"] if self.step < len(self.steps) else "",
+            "frames": self.frames,
+            "measurement_ids": list(self.measurement_ids),
+            "done": sorted(self.done_keys),
+            "started": self.started,
+            "finished": self.finished,
+            "plan": self._plan_key(),
+        }
 
     def _plan_key(self) -> str:
         """A digest of the plan: progress saved for another plan is not taken over."""
@@ -158,8 +168,17 @@ class Sequence:
 
     def store_frame(self, frame: Image, i: int, key: str, meta: dict[str, Any] | None = None) -> int | None:
         step = self.steps[i]
-        info = jsonable({**frame.metadata, **(meta or {}), "sequence": self.name, "sequence_kind": self.kind,
-                         "run_id": self.run_id, "step": i, "label": step["label"]})
+        info = jsonable(
+            {
+                **frame.metadata,
+                **(meta or {}),
+                "sequence": self.name,
+                "sequence_kind": self.kind,
+                "run_id": self.run_id,
+                "step": i,
+                "label": step["label"],
+            }
+        )
         name = f"{self.name} {step['label']} {frame.metadata.get('camera', '')}".strip()
         if hasattr(self.store, "add_file"):
             ext = ".tif" if frame.data.dtype.kind == "f" else ".png"
@@ -305,4 +324,3 @@ def grab_all(seq: Sequence, cameras: Seq[Any], i: int, meta: dict[str, Any]) -> 
         if isinstance(r, BaseException):
             raise r
     return out
-

@@ -17,7 +17,8 @@ Without a renderer :func:`synthetic_frame` draws a deterministic test scene;
 from __future__ import annotations
 
 import threading
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -28,10 +29,20 @@ from .simulator import SimulatorProcess
 from .zaber import ZaberStage
 
 
-def synthetic_frame(size: Sequence[int] = (640, 480), exposure_ms: float = 10.0, gain_db: float = 0.0,
-                    pattern: np.ndarray | None = None, stage_positions: dict[str, float] | None = None,
-                    stage_units: dict[str, str] | None = None, speckle: bool = False, frame: int = 0, seed: int = 0,
-                    px_per_mm: float = 10.0, noise: float = 2.0, **_: Any) -> np.ndarray:
+def synthetic_frame(
+    size: Sequence[int] = (640, 480),
+    exposure_ms: float = 10.0,
+    gain_db: float = 0.0,
+    pattern: np.ndarray | None = None,
+    stage_positions: dict[str, float] | None = None,
+    stage_units: dict[str, str] | None = None,
+    speckle: bool = False,
+    frame: int = 0,
+    seed: int = 0,
+    px_per_mm: float = 10.0,
+    noise: float = 2.0,
+    **_: Any,
+) -> np.ndarray:
     """A uint8 (H, W) frame: a 16-px checkerboard moved ``px_per_mm`` px per mm of every
     linear stage along x and turned by every rotary stage's angle about the image
     centre, lit by the projector pattern (stretched over the frame) and the speckle
@@ -79,10 +90,19 @@ class SimulatedCamera(Camera):
 
     trigger_modes = ("software", "free-run", "hardware")
 
-    def __init__(self, name: str = "sim-camera", size: Sequence[int] = (640, 480),
-                 renderer: Callable[..., np.ndarray] | str | None = None, projector: Any = None,
-                 stages: Sequence[Any] = (), speckle: Any = None, camera_model: Any = None, seed: int = 0,
-                 px_per_mm: float = 10.0, **settings: Any):
+    def __init__(
+        self,
+        name: str = "sim-camera",
+        size: Sequence[int] = (640, 480),
+        renderer: Callable[..., np.ndarray] | str | None = None,
+        projector: Any = None,
+        stages: Sequence[Any] = (),
+        speckle: Any = None,
+        camera_model: Any = None,
+        seed: int = 0,
+        px_per_mm: float = 10.0,
+        **settings: Any,
+    ):
         self.size = (int(size[0]), int(size[1]))
         self.renderer, self.projector, self.speckle = renderer, projector, speckle
         self.camera_model, self.seed, self.px_per_mm = camera_model, int(seed), float(px_per_mm)
@@ -111,11 +131,20 @@ class SimulatedCamera(Camera):
         s = self._settings
         pattern = self.projector.current() if self.projector is not None else None
         index = self.projector.index if self.projector is not None else None
-        state = {"camera": self.name, "camera_model": self.camera_model, "size": self.size,
-                 "exposure_ms": s["exposure_ms"], "gain_db": s["gain_db"], "pattern": pattern,
-                 "pattern_index": index, "stage_positions": dict(self.positions), "stage_units": dict(self.units),
-                 "speckle": bool(self.speckle is not None and self.speckle.is_on), "frame": self._count + 1,
-                 "seed": self.seed}
+        state = {
+            "camera": self.name,
+            "camera_model": self.camera_model,
+            "size": self.size,
+            "exposure_ms": s["exposure_ms"],
+            "gain_db": s["gain_db"],
+            "pattern": pattern,
+            "pattern_index": index,
+            "stage_positions": dict(self.positions),
+            "stage_units": dict(self.units),
+            "speckle": bool(self.speckle is not None and self.speckle.is_on),
+            "frame": self._count + 1,
+            "seed": self.seed,
+        }
         if not self.renderer:
             state["px_per_mm"] = self.px_per_mm
         img = np.asarray(self._render()(**state))
@@ -134,8 +163,13 @@ class CaptureReplay:
     on the first frame asked for, or at :meth:`prepare`.
     """
 
-    def __init__(self, scene: Any, out: str, algorithm: str | Callable[..., dict] = "virtuallab.capture",
-                 cameras: dict[str, str] | None = None):
+    def __init__(
+        self,
+        scene: Any,
+        out: str,
+        algorithm: str | Callable[..., dict] = "virtuallab.capture",
+        cameras: dict[str, str] | None = None,
+    ):
         self.scene, self.out, self.algorithm = scene, str(out), algorithm
         self.cameras = dict(cameras or {})
         self.files: dict[str, list[str]] | None = None
@@ -172,18 +206,37 @@ class SimulatedZaberStage(ZaberStage):
     pseudo-terminal when the stage first connects (``rotary`` for a turntable). The
     process lives until :meth:`close_simulator` (or the app's exit)."""
 
-    def __init__(self, name: str = "", rotary: bool = False, speed: float = 100.0, travel_mm: float = 150.0,
-                 interferometer: bool = True, resolution: float = 0.001, **kw: Any):
+    def __init__(
+        self,
+        name: str = "",
+        rotary: bool = False,
+        speed: float = 100.0,
+        travel_mm: float = 150.0,
+        interferometer: bool = True,
+        resolution: float = 0.001,
+        **kw: Any,
+    ):
         self.rotary, self.sim_speed, self.travel_mm = bool(rotary), float(speed), float(travel_mm)
         self.with_interferometer = bool(interferometer)
         self.simulator: SimulatorProcess | None = None
-        super().__init__("", name=name or ("sim-rotary" if rotary else "sim-linear"), resolution=resolution,
-                         unit="deg" if rotary else "mm", **kw)
+        super().__init__(
+            "",
+            name=name or ("sim-rotary" if rotary else "sim-linear"),
+            resolution=resolution,
+            unit="deg" if rotary else "mm",
+            **kw,
+        )
 
     def _open(self) -> None:
         if self.simulator is None or self.simulator.proc is None or self.simulator.proc.poll() is not None:
-            args = ["--speed", str(self.sim_speed), "--resolution", str(self.resolution),
-                    "--travel", str(self.travel_mm)] + (["--rotary"] if self.rotary else [])
+            args = [
+                "--speed",
+                str(self.sim_speed),
+                "--resolution",
+                str(self.resolution),
+                "--travel",
+                str(self.travel_mm),
+            ] + (["--rotary"] if self.rotary else [])
             if self.simulator is None:
                 self.simulator = SimulatorProcess(*args, interferometer=self.with_interferometer)
             else:

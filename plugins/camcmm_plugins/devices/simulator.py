@@ -113,8 +113,9 @@ class SimAxis:
 class ZaberSim:
     """The protocol state machine of one device with ``axes`` axes."""
 
-    def __init__(self, address: int = 1, axes: int = 1, speed_steps: float = 2_000_000.0,
-                 limit_max: int | None = 4_200_000):
+    def __init__(
+        self, address: int = 1, axes: int = 1, speed_steps: float = 2_000_000.0, limit_max: int | None = 4_200_000
+    ):
         self.address = address
         lim = (0, int(limit_max)) if limit_max is not None else None
         self.axes = [SimAxis(speed_steps, lim) for _ in range(axes)]
@@ -234,16 +235,20 @@ class ZaberSim:
         cmd = " ".join(t[:2])
         try:
             if t[0] == "home" and len(t) == 1:
-                for a in ([ax] if ax else self.axes):
+                for a in [ax] if ax else self.axes:
                     a.move_to(0)
                     a.homed = True
                 return True, "0"
             if t[0] == "stop":
-                for a in ([ax] if ax else self.axes):
+                for a in [ax] if ax else self.axes:
                     a.stop()
                 return True, "0"
             if ax is None:
-                return (True, "50081") if cmd == "get device.id" else (False, "BADAXIS" if t[0] in ("move", "get", "set") else "BADCOMMAND")
+                return (
+                    (True, "50081")
+                    if cmd == "get device.id"
+                    else (False, "BADAXIS" if t[0] in ("move", "get", "set") else "BADCOMMAND")
+                )
             if cmd in ("move abs", "move rel") and len(t) == 3:
                 target = _data(t[2]) + (round(ax.pos()) if t[1] == "rel" else 0)
                 lo, hi = ax.limits or (-MAX_DATA, MAX_DATA)
@@ -276,8 +281,16 @@ class ZaberSim:
 class InterferometerSim:
     """Watches axis 1 of ``stage``: true position in mm, noise, datum (``ZERO``)."""
 
-    def __init__(self, stage: ZaberSim, resolution: float, scale_ppm: float, periodic_um: float,
-                 period_mm: float, noise_um: float, seed: int):
+    def __init__(
+        self,
+        stage: ZaberSim,
+        resolution: float,
+        scale_ppm: float,
+        periodic_um: float,
+        period_mm: float,
+        noise_um: float,
+        seed: int,
+    ):
         self.stage, self.resolution = stage, resolution
         self.scale, self.periodic, self.period = scale_ppm * 1e-6, periodic_um * 1e-3, period_mm
         self.noise = noise_um * 1e-3
@@ -363,11 +376,15 @@ def check(args: argparse.Namespace) -> None:
             raise ConfigError(f"{_opt(name)} {_num(v)}: {what} must be {low} and <= {_num(hi)}")
     steps_per_s = args.speed / args.resolution * VELOCITY_UNIT
     if not 0.5 <= steps_per_s < MAX_DATA + 0.5:  # rounds to 1 .. MAX_DATA (inf is refused too)
-        raise ConfigError(f"--speed {args.speed:g} with --resolution {args.resolution:g}: {steps_per_s:.6g} speed units "
-                          f"(microsteps/s x {VELOCITY_UNIT}); the device takes 1 to {MAX_DATA}")
+        raise ConfigError(
+            f"--speed {args.speed:g} with --resolution {args.resolution:g}: {steps_per_s:.6g} speed units "
+            f"(microsteps/s x {VELOCITY_UNIT}); the device takes 1 to {MAX_DATA}"
+        )
     if not args.rotary and not 0.5 <= args.travel / args.resolution < MAX_DATA + 0.5:
-        raise ConfigError(f"--travel {args.travel:g} with --resolution {args.resolution:g}: "
-                          f"{args.travel / args.resolution:.6g} microsteps; the device counts 1 to {MAX_DATA}")
+        raise ConfigError(
+            f"--travel {args.travel:g} with --resolution {args.resolution:g}: "
+            f"{args.travel / args.resolution:.6g} microsteps; the device counts 1 to {MAX_DATA}"
+        )
     if args.tcp is not None:
         parse_hostport(args.tcp)
         if args.link:
@@ -385,8 +402,10 @@ def check(args: argparse.Namespace) -> None:
         parse_hostport(args.interferometer_tcp, "--interferometer-tcp")
     if args.interferometer_link:
         if args.tcp is not None:
-            raise ConfigError(f"--interferometer-link {args.interferometer_link}: a link is for the pty; "
-                              "with --tcp use --interferometer-tcp")
+            raise ConfigError(
+                f"--interferometer-link {args.interferometer_link}: a link is for the pty; "
+                "with --tcp use --interferometer-tcp"
+            )
         _check_link(args.interferometer_link, "--interferometer-link")
         if args.link and os.path.abspath(args.link) == os.path.abspath(args.interferometer_link):
             raise ConfigError(f"--interferometer-link {args.interferometer_link}: the same path as --link")
@@ -463,11 +482,11 @@ class _Endpoint:
             if cut < 0:
                 self.buf = self.buf[-MAX_LINE:] if len(self.buf) > MAX_LINE else self.buf
                 break
-            line, self.buf = self.buf[:cut], self.buf[cut + 1:]
+            line, self.buf = self.buf[:cut], self.buf[cut + 1 :]
             try:
                 out = self.handler(line[:MAX_LINE].decode("ascii", "replace"))
             except Exception as exc:  # a simulator bug: say so (a few times: stderr may be an undrained pipe),
-                _Endpoint.bugs += 1     # keep serving as a device would
+                _Endpoint.bugs += 1  # keep serving as a device would
                 if _Endpoint.bugs <= 10:
                     print(f"simulator: {type(exc).__name__}: {exc} on {line[:80]!r}", file=sys.stderr, flush=True)
                 out = []
@@ -492,16 +511,33 @@ class Simulator:
 
     def __init__(self, args: argparse.Namespace):
         check(args)
-        self.stage = ZaberSim(args.address, args.axes, args.speed / args.resolution,
-                              None if args.rotary else int(round(args.travel / args.resolution)))
+        self.stage = ZaberSim(
+            args.address,
+            args.axes,
+            args.speed / args.resolution,
+            None if args.rotary else int(round(args.travel / args.resolution)),
+        )
         self.endpoints = [_Endpoint(self.stage.handle, args.link, args.tcp, "--tcp" if args.tcp else "--link")]
         if args.interferometer:
-            ifm = InterferometerSim(self.stage, args.resolution, args.scale_error, args.periodic_um, args.period_mm,
-                                    args.noise_um, args.seed)
+            ifm = InterferometerSim(
+                self.stage,
+                args.resolution,
+                args.scale_error,
+                args.periodic_um,
+                args.period_mm,
+                args.noise_um,
+                args.seed,
+            )
             tcp = None if args.tcp is None else args.interferometer_tcp or parse_hostport(args.tcp)[0] + ":0"
             try:
-                self.endpoints.append(_Endpoint(ifm.handle, args.interferometer_link, tcp,
-                                                "--interferometer-tcp" if tcp else "--interferometer-link"))
+                self.endpoints.append(
+                    _Endpoint(
+                        ifm.handle,
+                        args.interferometer_link,
+                        tcp,
+                        "--interferometer-tcp" if tcp else "--interferometer-link",
+                    )
+                )
             except ConfigError:
                 self.close()
                 raise
@@ -580,8 +616,14 @@ class SimulatorProcess:
     """Start the simulator as a child process and read its ports. ``restart()`` starts
     it again on the same ports (pty links or TCP port), as a power-cycled device."""
 
-    def __init__(self, *args: str, folder: str | os.PathLike | None = None, pty: bool = True,
-                 interferometer: bool = False, timeout: float = 20.0):
+    def __init__(
+        self,
+        *args: str,
+        folder: str | os.PathLike | None = None,
+        pty: bool = True,
+        interferometer: bool = False,
+        timeout: float = 20.0,
+    ):
         self.folder = Path(folder or tempfile.mkdtemp(prefix="camcmm-sim-"))
         self.folder.mkdir(parents=True, exist_ok=True)
         self.args = [str(a) for a in args]
@@ -600,8 +642,12 @@ class SimulatorProcess:
         self.start()
 
     def start(self) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "camcmm_plugins.devices.simulator", *self.args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "camcmm_plugins.devices.simulator", *self.args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + self.timeout
         while time.monotonic() < deadline:
             line = self.proc.stdout.readline()
@@ -610,17 +656,18 @@ class SimulatorProcess:
                 self.proc.wait()
                 if self.proc.returncode == 2 and why:  # refused its configuration (e.g. a TCP port in use)
                     raise ConfigError(why[-1].strip().removeprefix("camcmm-stage-simulator: error: "))
-                raise RuntimeError(f"stage simulator ended (exit {self.proc.returncode}): "
-                                   f"{why[-1].strip() if why else 'no message'}")
+                raise RuntimeError(
+                    f"stage simulator ended (exit {self.proc.returncode}): {why[-1].strip() if why else 'no message'}"
+                )
             word, _, rest = line.strip().partition(" ")
             if word == "STAGE":
                 self.stage_port = rest
                 if rest.startswith("socket://") and "--tcp" in self.args:
-                    self.args[self.args.index("--tcp") + 1] = rest[len("socket://"):]
+                    self.args[self.args.index("--tcp") + 1] = rest[len("socket://") :]
             elif word == "INTERFEROMETER":
                 self.interferometer_port = rest
                 if rest.startswith("socket://") and "--interferometer-tcp" not in self.args:
-                    self.args += ["--interferometer-tcp", rest[len("socket://"):]]
+                    self.args += ["--interferometer-tcp", rest[len("socket://") :]]
             elif word == "READY":
                 return
         raise RuntimeError("stage simulator did not start in time")
@@ -637,7 +684,7 @@ class SimulatorProcess:
 
     stop = kill
 
-    def __enter__(self) -> "SimulatorProcess":
+    def __enter__(self) -> SimulatorProcess:
         return self
 
     def __exit__(self, *exc) -> None:

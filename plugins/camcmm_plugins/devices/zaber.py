@@ -31,10 +31,12 @@ from __future__ import annotations
 import logging
 import re
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 from camcmm.api import DeviceDisconnected, DeviceError, DeviceTimeout, port_errors
+
 from .stage import Stage
 
 VELOCITY_UNIT = 1.6384  # Zaber: speed data = microsteps per second x 1.6384
@@ -50,8 +52,9 @@ def checksum(body: str) -> str:
     return f"{(-sum(body.encode('ascii'))) & 0xFF:02X}"
 
 
-def format_command(device: int, axis: int, command: str, msg_id: int | None = None,
-                   with_checksum: bool = False) -> bytes:
+def format_command(
+    device: int, axis: int, command: str, msg_id: int | None = None, with_checksum: bool = False
+) -> bytes:
     """One command line, e.g. ``format_command(1, 1, 'move abs 1000', 7)`` ->
     ``b'/1 1 7 move abs 1000\\n'``."""
     parts = [str(int(device)), str(int(axis))]
@@ -98,8 +101,9 @@ def parse_reply(line: str) -> Reply | None:
     if not m:
         raise ValueError(f"not a Zaber reply: {line.strip()!r}")
     dev, axis, mid, flag, state, warn, data = m.groups()
-    return Reply(int(dev), int(axis), None if mid is None else int(mid), flag == "OK", state == "BUSY",
-                 warn, data.strip())
+    return Reply(
+        int(dev), int(axis), None if mid is None else int(mid), flag == "OK", state == "BUSY", warn, data.strip()
+    )
 
 
 class ZaberLink:
@@ -107,8 +111,15 @@ class ZaberLink:
     id. ``url`` is anything ``serial.serial_for_url`` opens (``/dev/ttyUSB0``, ``COM3``,
     ``socket://host:port``, a pseudo-terminal). ``error`` builds the device's errors."""
 
-    def __init__(self, url: str, baudrate: int, timeout: float, error: Callable[..., DeviceError],
-                 message_ids: bool = True, checksums: bool = False):
+    def __init__(
+        self,
+        url: str,
+        baudrate: int,
+        timeout: float,
+        error: Callable[..., DeviceError],
+        message_ids: bool = True,
+        checksums: bool = False,
+    ):
         self.url, self.baudrate, self.timeout = url, int(baudrate), float(timeout)
         self.error, self.message_ids, self.checksums = error, message_ids, checksums
         self._ser: Any = None
@@ -122,7 +133,9 @@ class ZaberLink:
         import serial  # pyserial; imported here so that the manifest loads without it
 
         try:
-            self._ser = serial.serial_for_url(self.url, baudrate=self.baudrate, timeout=0.05, write_timeout=self.timeout)
+            self._ser = serial.serial_for_url(
+                self.url, baudrate=self.baudrate, timeout=0.05, write_timeout=self.timeout
+            )
         except (serial.SerialException, OSError, ValueError) as exc:
             raise self.error(f"cannot open the port ({_short(exc)})", DeviceDisconnected) from None
         try:
@@ -138,8 +151,7 @@ class ZaberLink:
             finally:
                 self._ser = None
 
-    def request(self, device: int, axis: int, command: str, timeout: float | None = None,
-                retries: int = 0) -> Reply:
+    def request(self, device: int, axis: int, command: str, timeout: float | None = None, retries: int = 0) -> Reply:
         """Send one command; return its reply. A garbled reply is retried ``retries``
         times (give retries only for commands that are safe to repeat); no reply within
         ``timeout`` raises DeviceTimeout, a vanished port DeviceDisconnected."""
@@ -174,7 +186,7 @@ class ZaberLink:
                 try:
                     reply, junk = _salvage(text)
                 except ValueError as exc:
-                    if _is_reply_to(text[max(text.rfind("@"), 0):], device, axis, mid):
+                    if _is_reply_to(text[max(text.rfind("@"), 0) :], device, axis, mid):
                         raise _Garbled(str(exc)) from None
                     self._skip_garbled(text)
                     continue
@@ -253,10 +265,22 @@ class ZaberStage(Stage):
     promised. ``travel`` (lo, hi) limits moves in ``unit``; by default the device's
     ``limit.min``/``limit.max`` are read on connect (none for a rotary axis)."""
 
-    def __init__(self, port: str, name: str = "", address: int = 1, axis: int = 1, resolution: float = 0.001,
-                 unit: str = "mm", baudrate: int = 115200, timeout: float = 1.0, message_ids: bool = True,
-                 checksums: bool = False, travel: tuple[float, float] | list[float] | None = None,
-                 position_setting: str = "pos", **settings: Any):
+    def __init__(
+        self,
+        port: str,
+        name: str = "",
+        address: int = 1,
+        axis: int = 1,
+        resolution: float = 0.001,
+        unit: str = "mm",
+        baudrate: int = 115200,
+        timeout: float = 1.0,
+        message_ids: bool = True,
+        checksums: bool = False,
+        travel: tuple[float, float] | list[float] | None = None,
+        position_setting: str = "pos",
+        **settings: Any,
+    ):
         if not resolution or resolution <= 0:
             raise DeviceError(f"stage {name or port!r}: resolution must be > 0, got {resolution!r}")
         if unit not in ("mm", "deg"):
@@ -266,8 +290,12 @@ class ZaberStage(Stage):
         self.position_setting = position_setting
         self._travel_given = travel is not None and len(travel) == 2 and travel[0] != travel[1]
         self._link = ZaberLink(port, baudrate, timeout, self.error, message_ids, checksums)
-        super().__init__(name or f"zaber-{address}-{axis}", port,
-                         tuple(sorted(map(float, travel))) if self._travel_given else None, **settings)
+        super().__init__(
+            name or f"zaber-{address}-{axis}",
+            port,
+            tuple(sorted(map(float, travel))) if self._travel_given else None,
+            **settings,
+        )
 
     # -- protocol helpers ---------------------------------------------------------------
     def request(self, command: str, retries: int = 0, timeout: float | None = None) -> Reply:
@@ -297,8 +325,12 @@ class ZaberStage(Stage):
         # line noise and alerts are skipped, not hidden: the counts go into the health
         link, health = self._link, self._status.health
         if link.garbled != health.get("garbled_lines", 0) or link.alerts != health.get("alerts", 0):
-            self._status_health(garbled_lines=link.garbled, last_garbled=link.last_garbled,
-                                alerts=link.alerts, last_alert=link.last_alert)
+            self._status_health(
+                garbled_lines=link.garbled,
+                last_garbled=link.last_garbled,
+                alerts=link.alerts,
+                last_alert=link.last_alert,
+            )
 
     def _status_health(self, **health: Any) -> None:
         self._set_status(self._status.state, self._status.message, **health)
@@ -350,8 +382,13 @@ class ZaberStage(Stage):
         return "WR" not in (reply.data.split()[1:] if reply.ok else [reply.warning])
 
     def capabilities(self) -> dict[str, Any]:
-        return {**super().capabilities(), "protocol": "zaber-ascii", "address": self.address, "axis": self.axis,
-                "resolution": self.resolution}
+        return {
+            **super().capabilities(),
+            "protocol": "zaber-ascii",
+            "address": self.address,
+            "axis": self.axis,
+            "resolution": self.resolution,
+        }
 
 
 class ZaberLinearStage(ZaberStage):

@@ -10,8 +10,9 @@ Results are converted back to mm at the very end.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -43,8 +44,10 @@ def as_points(points: Any, element: str, dims: tuple[int, ...] = (3,)) -> np.nda
         raise InputError(f"{element} fit: points must have shape {want}, got {x.shape}")
     bad = ~np.isfinite(x).all(axis=1)
     if bad.any():
-        raise InputError(f"{element} fit: {int(bad.sum())} points have NaN or Inf coordinates "
-                         f"(first at index {int(np.flatnonzero(bad)[0])})")
+        raise InputError(
+            f"{element} fit: {int(bad.sum())} points have NaN or Inf coordinates "
+            f"(first at index {int(np.flatnonzero(bad)[0])})"
+        )
     need = N_MIN[element]
     if len(x) < need:
         raise GeometryError(f"{element} fit needs at least {need} points, got {len(x)}")
@@ -64,7 +67,7 @@ class Frame:
     scale: float
 
     @classmethod
-    def normalise(cls, x: np.ndarray, element: str) -> tuple["Frame", np.ndarray]:
+    def normalise(cls, x: np.ndarray, element: str) -> tuple[Frame, np.ndarray]:
         """The frame of points x (N, d) mm and the normalised points (d, N)."""
         yt = np.ascontiguousarray(x.T)
         o = yt.mean(axis=1)
@@ -78,8 +81,10 @@ class Frame:
         if not scale > 0:
             raise GeometryError(f"{element} fit: all {len(x)} points coincide")
         if scale < 1e3 * EPS * max(1.0, float(np.abs(o).max())):
-            raise GeometryError(f"{element} fit: the points spread {scale:.3g} mm, too little to be "
-                                f"resolved at their distance from the origin")
+            raise GeometryError(
+                f"{element} fit: the points spread {scale:.3g} mm, too little to be "
+                f"resolved at their distance from the origin"
+            )
         yt /= scale
         return cls(o, scale), yt
 
@@ -192,12 +197,14 @@ def gn_step(jt: np.ndarray, r: np.ndarray, lam: float = 0.0, what: str = "fit") 
         rr = r
     ds, _, rank, sv = sla.lstsq(js, -rr, check_finite=False)
     if sv[-1] <= 1e-13 * sv[0]:
-        raise GeometryError(f"{what}: the points do not determine the element "
-                            f"(rank-deficient Jacobian, condition {sv[0] / max(sv[-1], 1e-300):.1e})")
+        raise GeometryError(
+            f"{what}: the points do not determine the element "
+            f"(rank-deficient Jacobian, condition {sv[0] / max(sv[-1], 1e-300):.1e})"
+        )
     return ds / d
 
 
-def fit_covariance(res: "LMResult") -> np.ndarray:
+def fit_covariance(res: LMResult) -> np.ndarray:
     """Covariance of a fit's local parameters (normalised units), from its Jacobian or,
     for the closed-form fits, from its JᵀJ."""
     ssr = float(res.r @ res.r)
@@ -266,11 +273,17 @@ class LMResult:
     rate: float | None = None
 
 
-def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]], state: Any,
-                        update: Callable[[Any, np.ndarray], Any], *, max_iter: int = 100,
-                        xtol: float = 1e-13, what: str = "fit",
-                        check: Callable[[Any], None] | None = None,
-                        rate_hint: float | None = None) -> LMResult:
+def levenberg_marquardt(
+    evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]],
+    state: Any,
+    update: Callable[[Any, np.ndarray], Any],
+    *,
+    max_iter: int = 100,
+    xtol: float = 1e-13,
+    what: str = "fit",
+    check: Callable[[Any], None] | None = None,
+    rate_hint: float | None = None,
+) -> LMResult:
     """Damped Gauss-Newton on orthogonal residuals.
 
     ``evaluate(state) -> (r, Jᵀ)`` gives the residuals and their (transposed, (p, n))
@@ -318,8 +331,9 @@ def levenberg_marquardt(evaluate: Callable[[Any], tuple[np.ndarray, np.ndarray]]
             prev = None
             if lam > 1e12:
                 raise GeometryError(f"{what}: no step decreases the sum of squares (the iteration stalled)")
-    raise GeometryError(f"{what} did not converge in {max_iter} iterations (last step {step:.2g} "
-                        f"in units of the point spread)")
+    raise GeometryError(
+        f"{what} did not converge in {max_iter} iterations (last step {step:.2g} in units of the point spread)"
+    )
 
 
 def form_figures(residuals: np.ndarray) -> dict[str, float]:

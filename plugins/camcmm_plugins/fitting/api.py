@@ -51,5 +51,20 @@ from .outliers import Rule, parse_rule, vdi2634_count
 from .result import FitResult
 from .segment import extract_sphere, segment_spheres
 
-__all__ = ["ELEMENTS", "FitResult", "METHODS", "MINZONE", "Rule", "extract_sphere", "fit", "fit_circle",
-           "fit_cylinder", "fit_line", "fit_plane", "fit_sphere", "parse_rule", "segment_spheres", "vdi2634_count"]
+__all__ = [
+    "ELEMENTS",
+    "FitResult",
+    "METHODS",
+    "MINZONE",
+    "Rule",
+    "extract_sphere",
+    "fit",
+    "fit_circle",
+    "fit_cylinder",
+    "fit_line",
+    "fit_plane",
+    "fit_sphere",
+    "parse_rule",
+    "segment_spheres",
+    "vdi2634_count",
+]

@@ -111,8 +111,9 @@ def _fmt(v: float) -> str:
     return f"{v:.3g}"
 
 
-def fit_warnings(element: str, params: dict[str, Any], std: dict[str, Any], x: np.ndarray,
-                 r: np.ndarray, method: str = "ls") -> list[str]:
+def fit_warnings(
+    element: str, params: dict[str, Any], std: dict[str, Any], x: np.ndarray, r: np.ndarray, method: str = "ls"
+) -> list[str]:
     """Warnings for the element ``params`` fitted to the points ``x`` (N, d) mm it used,
     with residuals ``r`` (N,) mm (distances from the element, signed or not) and standard
     uncertainties ``std`` (see the module docstring). Empty when the element describes
@@ -122,23 +123,29 @@ def fit_warnings(element: str, params: dict[str, Any], std: dict[str, Any], x: n
     if n <= N_MIN[element]:
         # the element (generically) passes through that few points: its zero form and
         # undefined uncertainties would read as a perfect part
-        out.append(f"{element} fit: only {n} points, the fewest a {element} needs: no redundancy, so the form "
-                   f"and the uncertainties say nothing about the part; measure more points")
+        out.append(
+            f"{element} fit: only {n} points, the fewest a {element} needs: no redundancy, so the form "
+            f"and the uncertainties say nothing about the part; measure more points"
+        )
     if n < 3:
         return out
     xc = x - x.mean(axis=0)
     # RMS spread along the principal axes (mm), largest first; only ratios of them are
     # used, so the 3x3 scatter matrix is accurate enough
     sv = np.sqrt(np.clip(np.linalg.eigvalsh(xc.T @ xc / n), 0.0, None))[::-1]
-    spread = float(np.sqrt(np.sum(sv ** 2)))
+    spread = float(np.sqrt(np.sum(sv**2)))
     if not spread > 0:
         return out
     if element == "line" and sv[1] > SPREAD_RATIO * sv[0]:
-        out.append(f"line fit: the points spread {_fmt(sv[1])} mm across against {_fmt(sv[0])} mm along the "
-                   f"line (RMS): the direction is ill-determined; the points do not look like a line")
+        out.append(
+            f"line fit: the points spread {_fmt(sv[1])} mm across against {_fmt(sv[0])} mm along the "
+            f"line (RMS): the direction is ill-determined; the points do not look like a line"
+        )
     if element == "plane" and sv[2] > SPREAD_RATIO * sv[1]:
-        out.append(f"plane fit: the points are {_fmt(sv[2])} mm thick against {_fmt(sv[1])} mm wide (RMS): the "
-                   f"normal is ill-determined; the points do not look like a plane")
+        out.append(
+            f"plane fit: the points are {_fmt(sv[2])} mm thick against {_fmt(sv[1])} mm wide (RMS): the "
+            f"normal is ill-determined; the points do not look like a plane"
+        )
     rms = float(np.sqrt(np.mean(r * r)))
     if rms > FORM_FRACTION * spread:
         ratio = None
@@ -153,23 +160,28 @@ def fit_warnings(element: str, params: dict[str, Any], std: dict[str, Any], x: n
         if systematic or rms > GROSS_FRACTION * spread:
             head = f"{element} fit: form rms {_fmt(rms)} mm is {_fmt(100 * rms / spread)} % of the points' extent"
             if systematic:
-                out.append(f"{head} and {_fmt(ratio)} times the point-to-point noise ({_fmt(noise)} mm): the "
-                           f"residuals are systematic; the points may not be a {element}")
+                out.append(
+                    f"{head} and {_fmt(ratio)} times the point-to-point noise ({_fmt(noise)} mm): the "
+                    f"residuals are systematic; the points may not be a {element}"
+                )
             else:
-                out.append(f"{head}: the {element} describes the points poorly (the wrong element, or noise "
-                           f"as large as the part)")
+                out.append(
+                    f"{head}: the {element} describes the points poorly (the wrong element, or noise "
+                    f"as large as the part)"
+                )
     if method == "ls":
         u_r = std.get("radius")
         rad = params.get("radius")
         if u_r is not None and rad and np.isfinite(u_r) and u_r > MAX_REL_U_RADIUS * abs(rad):
-            out.append(f"{element} fit: the radius {_fmt(rad)} mm is ill-determined (standard uncertainty "
-                       f"{_fmt(u_r)} mm, {_fmt(100 * u_r / abs(rad))} %)")
+            out.append(
+                f"{element} fit: the radius {_fmt(rad)} mm is ill-determined (standard uncertainty "
+                f"{_fmt(u_r)} mm, {_fmt(100 * u_r / abs(rad))} %)"
+            )
         for key in ("direction", "axis", "normal"):
             u = std.get(key)
             if u is None:
                 continue
             u = float(np.linalg.norm(np.asarray(u, dtype=float)))
             if np.isfinite(u) and np.degrees(u) > MAX_U_DIRECTION_DEG:
-                out.append(f"{element} fit: the {key} is ill-determined (standard uncertainty "
-                           f"{_fmt(np.degrees(u))}°)")
+                out.append(f"{element} fit: the {key} is ill-determined (standard uncertainty {_fmt(np.degrees(u))}°)")
     return out

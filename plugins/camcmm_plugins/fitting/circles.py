@@ -22,8 +22,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._geometry import (FLAT, Frame, GeometryError, LMResult, complement, covariance, levenberg_marquardt,
-                        orient, principal_axes, propagate, subsample)
+from ._geometry import (
+    FLAT,
+    Frame,
+    GeometryError,
+    LMResult,
+    complement,
+    covariance,
+    levenberg_marquardt,
+    orient,
+    principal_axes,
+    propagate,
+    subsample,
+)
 from .spheres import DIVERGED, SUBSET, HypersphereModel
 
 _PLANAR = HypersphereModel(2)
@@ -51,7 +62,7 @@ class Circle3DModel:
         b = complement(n)
         yc = yt - c[:, None]
         h = n @ yc
-        uv = b @ yc                                     # in-plane components (2, n)
+        uv = b @ yc  # in-plane components (2, n)
         rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
         return h, uv, rho
 
@@ -99,8 +110,14 @@ class Circle3DModel:
         if not abs(state[6]) < DIVERGED:
             raise GeometryError("circle fit: the radius diverges; the points lie nearly on a line")
 
-    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
+    def fit(
+        self,
+        yt: np.ndarray,
+        start: np.ndarray | None = None,
+        max_iter: int = 100,
+        xtol: float = 1e-13,
+        rate_hint: float | None = None,
+    ) -> LMResult:
         if start is None:
             sub = subsample(yt, SUBSET)
             start = self.start(sub)
@@ -109,9 +126,16 @@ class Circle3DModel:
         return self._lm(yt, start, max_iter, xtol, rate_hint)
 
     def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
-        return levenberg_marquardt(lambda s: self.evaluate(s, yt), np.asarray(state, float), self.update,
-                                   max_iter=max_iter, xtol=xtol, what="circle fit", check=self._check,
-                                   rate_hint=rate_hint)
+        return levenberg_marquardt(
+            lambda s: self.evaluate(s, yt),
+            np.asarray(state, float),
+            self.update,
+            max_iter=max_iter,
+            xtol=xtol,
+            what="circle fit",
+            check=self._check,
+            rate_hint=rate_hint,
+        )
 
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale
@@ -125,8 +149,11 @@ class Circle3DModel:
         dnormal = np.hstack([z3, np.column_stack([b[0], b[1], np.zeros(3)])])
         var_r = cov[5, 5]
         params = {"center": c * s + frame.origin, "normal": orient(n), "radius": float(r * s)}
-        std = {"center": propagate(cov, dcenter), "normal": propagate(cov, dnormal),
-               "radius": float(np.sqrt(var_r)) if var_r >= 0 else float("nan")}
+        std = {
+            "center": propagate(cov, dcenter),
+            "normal": propagate(cov, dnormal),
+            "radius": float(np.sqrt(var_r)) if var_r >= 0 else float("nan"),
+        }
         return params, std, cov, ("center_b1", "center_b2", "center_n", "tilt_b1", "tilt_b2", "radius")
 
 

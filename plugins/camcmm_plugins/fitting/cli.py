@@ -27,15 +27,28 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("element", choices=ELEMENTS, help="the geometric element")
     parser.add_argument("file", help="point cloud file (.xyz .csv .txt .ply .pcd .e57)")
     parser.add_argument("--outliers", default="none", metavar="RULE", help=f"outlier rule: {RULES} (default none)")
-    parser.add_argument("--method", default="ls", choices=("ls", "minzone"),
-                        help="ls: least squares (Gaussian); minzone: minimum zone (Chebyshev), plane and sphere")
-    parser.add_argument("--nominal-radius", type=float, default=None, metavar="R",
-                        help="nominal radius in mm: reports radius_deviation; with --extract finds the sphere")
-    parser.add_argument("--extract", action="store_true",
-                        help="sphere only: first extract the sphere from a raw scan with mount and background")
+    parser.add_argument(
+        "--method",
+        default="ls",
+        choices=("ls", "minzone"),
+        help="ls: least squares (Gaussian); minzone: minimum zone (Chebyshev), plane and sphere",
+    )
+    parser.add_argument(
+        "--nominal-radius",
+        type=float,
+        default=None,
+        metavar="R",
+        help="nominal radius in mm: reports radius_deviation; with --extract finds the sphere",
+    )
+    parser.add_argument(
+        "--extract",
+        action="store_true",
+        help="sphere only: first extract the sphere from a raw scan with mount and background",
+    )
     parser.add_argument("--unit", default=None, help="length unit of the file when it does not say (default mm)")
-    parser.add_argument("--residuals", action="store_true",
-                        help="include every point's residual and the removed indices in the JSON")
+    parser.add_argument(
+        "--residuals", action="store_true", help="include every point's residual and the removed indices in the JSON"
+    )
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
@@ -71,8 +84,10 @@ def _vec(v: Any) -> str:
 
 def text(result: dict[str, Any]) -> str:
     """Human-readable output of :func:`run`."""
-    lines = [f"{result['element']} ({result['method']}, outliers {result['outliers']}): "
-             f"{result['n_used']} of {result['n_points']} points used, {result['n_removed']} removed"]
+    lines = [
+        f"{result['element']} ({result['method']}, outliers {result['outliers']}): "
+        f"{result['n_used']} of {result['n_points']} points used, {result['n_removed']} removed"
+    ]
     unc = result.get("std_uncertainty", {})
     for key in ("center", "point", "normal", "axis", "direction", "radius"):
         if key in result:
@@ -89,7 +104,10 @@ def text(result: dict[str, Any]) -> str:
     if "radius_deviation" in result:
         lines.append(f"  {'radius - nominal':10} {result['radius_deviation']:.6f} mm")
     f = result["form"]
-    lines.append("  form       range {range:.6f}  max {max:.6f}  min {min:.6f}  std {std:.6f}  rms {rms:.6f} mm"
-                 .format(**{k: (v if v is not None else float('nan')) for k, v in f.items()}))
+    lines.append(
+        "  form       range {range:.6f}  max {max:.6f}  min {min:.6f}  std {std:.6f}  rms {rms:.6f} mm".format(
+            **{k: (v if v is not None else float("nan")) for k, v in f.items()}
+        )
+    )
     lines += [f"warning: {w}" for w in result.get("warnings", [])]
     return "\n".join(lines)

@@ -28,8 +28,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._geometry import (FLAT, Frame, GeometryError, LMResult, complement, covariance, levenberg_marquardt,
-                        orient, principal_axes, propagate, subsample)
+from ._geometry import (
+    FLAT,
+    Frame,
+    GeometryError,
+    LMResult,
+    complement,
+    covariance,
+    levenberg_marquardt,
+    orient,
+    principal_axes,
+    propagate,
+    subsample,
+)
 from .spheres import DIVERGED, SUBSET, HypersphereModel
 
 _PLANAR = HypersphereModel(2)
@@ -75,7 +86,7 @@ class CylinderModel:
         b = complement(a)
         yc = yt - p[:, None]
         z = a @ yc
-        uv = b @ yc                                    # components across the axis (2, n)
+        uv = b @ yc  # components across the axis (2, n)
         rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
         return z, uv, rho
 
@@ -110,10 +121,16 @@ class CylinderModel:
 
     def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
         centroid = yt.mean(axis=1)
-        return levenberg_marquardt(lambda s: self.evaluate(s, yt), np.asarray(state, float),
-                                   lambda s, dp: self.update(s, dp, centroid), max_iter=max_iter,
-                                   xtol=xtol, what="cylinder fit", check=self._check,
-                                   rate_hint=rate_hint)
+        return levenberg_marquardt(
+            lambda s: self.evaluate(s, yt),
+            np.asarray(state, float),
+            lambda s, dp: self.update(s, dp, centroid),
+            max_iter=max_iter,
+            xtol=xtol,
+            what="cylinder fit",
+            check=self._check,
+            rate_hint=rate_hint,
+        )
 
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (see the module docstring) on up to SCREEN points."""
@@ -139,8 +156,14 @@ class CylinderModel:
             raise GeometryError("cylinder fit: no start value converged; the points do not look like a cylinder")
         return best
 
-    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
+    def fit(
+        self,
+        yt: np.ndarray,
+        start: np.ndarray | None = None,
+        max_iter: int = 100,
+        xtol: float = 1e-13,
+        rate_hint: float | None = None,
+    ) -> LMResult:
         if start is None:
             start = self.start(yt)
             sub = subsample(yt, SUBSET)
@@ -159,8 +182,11 @@ class CylinderModel:
         daxis = np.hstack([np.zeros((3, 2)), b.T, np.zeros((3, 1))])
         var_r = cov[4, 4]
         params = {"point": p * s + frame.origin, "axis": orient(a), "radius": float(r * s)}
-        std = {"point": propagate(cov, dpoint), "axis": propagate(cov, daxis),
-               "radius": float(np.sqrt(var_r)) if var_r >= 0 else float("nan")}
+        std = {
+            "point": propagate(cov, dpoint),
+            "axis": propagate(cov, daxis),
+            "radius": float(np.sqrt(var_r)) if var_r >= 0 else float("nan"),
+        }
         return params, std, cov, ("shift_b1", "shift_b2", "tilt_b1", "tilt_b2", "radius")
 
 

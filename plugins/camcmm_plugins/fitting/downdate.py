@@ -64,7 +64,7 @@ class MomentsDowndater:
     """Line (largest principal direction) or plane (smallest) from running moments."""
 
     def __init__(self, kind: str, yt: np.ndarray, state: np.ndarray, cand: np.ndarray):
-        self.kind = kind                         # "plane", "line3", "line2"
+        self.kind = kind  # "plane", "line3", "line2"
         d = yt.shape[0]
         self.d = d
         self.m0 = state[:d].copy()
@@ -75,7 +75,7 @@ class MomentsDowndater:
         self.zc = zc
         self.terms = np.hstack([np.ones((len(cand), 1)), zc, (zc[:, :, None] * zc[:, None, :]).reshape(len(cand), -1)])
         self.r0 = float(np.sqrt(np.einsum("ij,ij->j", z, z).max()))
-        self.v0 = state[d:].copy()               # normal (plane) or direction (line)
+        self.v0 = state[d:].copy()  # normal (plane) or direction (line)
         self.solve()
         self.mu_anchor, self.v_anchor = self.mu.copy(), self.v.copy()
         self.set_reference()
@@ -86,7 +86,7 @@ class MomentsDowndater:
         the moments (JᵀJ of the plane's offset and tilts, or of a line's shift and tilt)."""
         d = self.d
         n = self.sums[0]
-        cov = self.sums[d + 1:].reshape(d, d) - n * np.outer(self.mu, self.mu)   # scatter about μ
+        cov = self.sums[d + 1 :].reshape(d, d) - n * np.outer(self.mu, self.mu)  # scatter about μ
         lever = self.r0 + float(np.linalg.norm(self.mu))
         zc = self.zc - self.mu
         if self.kind == "plane":
@@ -98,7 +98,7 @@ class MomentsDowndater:
         else:
             gram = np.diag([n, float(self.v @ cov @ self.v)])
             g = np.vstack([np.ones(len(zc)), zc @ self.v])
-        q = np.linalg.solve(gram, g)                             # H⁻¹ ∇f_j per unit residual
+        q = np.linalg.solve(gram, g)  # H⁻¹ ∇f_j per unit residual
         k = 2.0 if self.kind == "line3" else 1.0
         self.beta = (np.abs(q[0]) + k * lever * np.linalg.norm(q[1:], axis=0)) * SAFETY
         self.n_beta = n
@@ -107,14 +107,14 @@ class MomentsDowndater:
         self.lazy = 0
         d = self.d
         n = self.sums[0]
-        mean = self.sums[1:d + 1] / n
-        cov = self.sums[d + 1:].reshape(d, d) / n - np.outer(mean, mean)
+        mean = self.sums[1 : d + 1] / n
+        cov = self.sums[d + 1 :].reshape(d, d) / n - np.outer(mean, mean)
         w, vec = np.linalg.eigh(cov)
         gap = (w[1] - w[0]) if self.kind == "plane" else (w[-1] - w[-2])
         self.rounding = ROUNDING * (1.0 + self.r0) * max(1.0, w[-1] / max(gap, 1e-300))
         v = vec[:, 0] if self.kind == "plane" else vec[:, -1]
         self.v = -v if v @ self.v0 < 0 else v
-        self.mu = mean                            # relative to m0
+        self.mu = mean  # relative to m0
 
     def set_reference(self) -> None:
         self.mu_ref, self.v_ref = self.mu.copy(), self.v.copy()
@@ -167,8 +167,9 @@ class HypersphereDowndater:
     """Sphere (d = 3) or planar circle (d = 2) from a third-order model of Φ (see the
     module docstring)."""
 
-    def __init__(self, yt: np.ndarray, state: np.ndarray, cand: np.ndarray,
-                 pre: tuple[np.ndarray, np.ndarray] | None = None):
+    def __init__(
+        self, yt: np.ndarray, state: np.ndarray, cand: np.ndarray, pre: tuple[np.ndarray, np.ndarray] | None = None
+    ):
         """Anchor at ``state`` = [c0, r0]; ``pre`` = (−u, ρ) of the points at c0 when the
         caller has them (the last Gauss-Newton evaluation: −u are the Jacobian's rows)."""
         d = yt.shape[0]
@@ -176,22 +177,22 @@ class HypersphereDowndater:
         self.c0 = state[:d].copy()
         self.rad0 = float(state[d])
         if pre is None:
-            v = self.c0[:, None] - yt             # −a: the anchor centre relative to the points
+            v = self.c0[:, None] - yt  # −a: the anchor centre relative to the points
             rho = np.sqrt(np.einsum("ij,ij->j", v, v))
         else:
-            v, rho = pre                         # −u, ρ
+            v, rho = pre  # −u, ρ
         if rho.min() <= 0:
             raise ZeroDivisionError("a point at the centre")
         inv = np.divide(1.0, rho)
         if pre is None:
-            v *= inv                             # now −u
+            v *= inv  # now −u
         # v = −u below: odd powers of u change sign, even ones do not
         n = yt.shape[1]
         self.rho_min = float(rho.min())
-        vi = v * inv                             # −u/ρ
-        hsum = -(vi @ v.T)                       # −Σ u uᵀ/ρ
-        vi *= inv                                # −u/ρ²
-        u3 = np.empty((d, d, d))                 # Σ u⊗u⊗u/ρ² = −Σ v⊗v⊗v/ρ², d(d+1)/2 passes
+        vi = v * inv  # −u/ρ
+        hsum = -(vi @ v.T)  # −Σ u uᵀ/ρ
+        vi *= inv  # −u/ρ²
+        u3 = np.empty((d, d, d))  # Σ u⊗u⊗u/ρ² = −Σ v⊗v⊗v/ρ², d(d+1)/2 passes
         for i in range(d):
             for j in range(i, d):
                 col = -((vi[i] * v[j]) @ v.T)
@@ -199,16 +200,23 @@ class HypersphereDowndater:
                     for perm in {(i, j, k), (i, k, j), (j, i, k), (j, k, i), (k, i, j), (k, j, i)}:
                         u3[perm] = col[k]
         # flat sums: [n, Σ(ρ−r0), Σa (d), ∇Φ = −Σu (d), H = Σ(I−uuᵀ)/ρ (d·d), Σu/ρ² (d), U3 (d³), Σρ⁻³]
-        self.sums = np.concatenate([
-            [n, float(rho.sum() - n * self.rad0)], -(v @ rho), v.sum(axis=1),
-            (inv.sum() * np.eye(d) + hsum).ravel(), -vi.sum(axis=1), u3.ravel(),
-            [float(inv @ (inv * inv))]])
-        u = v                                    # for the candidates below: u = −v
-        o = np.cumsum([0, 1, 1, d, d, d * d, d, d ** 3, 1])
+        self.sums = np.concatenate(
+            [
+                [n, float(rho.sum() - n * self.rad0)],
+                -(v @ rho),
+                v.sum(axis=1),
+                (inv.sum() * np.eye(d) + hsum).ravel(),
+                -vi.sum(axis=1),
+                u3.ravel(),
+                [float(inv @ (inv * inv))],
+            ]
+        )
+        u = v  # for the candidates below: u = −v
+        o = np.cumsum([0, 1, 1, d, d, d * d, d, d**3, 1])
         s = self.sums
-        self.a1, self.g = s[o[2]:o[3]], s[o[3]:o[4]]          # views: downdated in place
-        self.h, self.w = s[o[4]:o[5]].reshape(d, d), s[o[5]:o[6]]
-        self.u3 = s[o[6]:o[7]].reshape(d, d, d)
+        self.a1, self.g = s[o[2] : o[3]], s[o[3] : o[4]]  # views: downdated in place
+        self.h, self.w = s[o[4] : o[5]].reshape(d, d), s[o[5] : o[6]]
+        self.u3 = s[o[6] : o[7]].reshape(d, d, d)
         # candidates: their points relative to c0 and their terms of every sum
         uc = -np.ascontiguousarray(u[:, cand].T)
         rc = rho[cand]
@@ -216,17 +224,25 @@ class HypersphereDowndater:
         self.ac = uc * rc[:, None]
         self._ac = self.ac.tolist()
         r2 = rc * rc
-        self.terms = np.hstack([
-            np.ones((k, 1)), (rc - self.rad0)[:, None], self.ac, -uc,
-            ((np.eye(d) - uc[:, :, None] * uc[:, None, :]) / rc[:, None, None]).reshape(k, -1),
-            uc / r2[:, None],
-            (uc[:, :, None, None] * uc[:, None, :, None] * uc[:, None, None, :] / r2[:, None, None, None]).reshape(k, -1),
-            (1.0 / (r2 * rc))[:, None]])
+        self.terms = np.hstack(
+            [
+                np.ones((k, 1)),
+                (rc - self.rad0)[:, None],
+                self.ac,
+                -uc,
+                ((np.eye(d) - uc[:, :, None] * uc[:, None, :]) / rc[:, None, None]).reshape(k, -1),
+                uc / r2[:, None],
+                (uc[:, :, None, None] * uc[:, None, :, None] * uc[:, None, None, :] / r2[:, None, None, None]).reshape(
+                    k, -1
+                ),
+                (1.0 / (r2 * rc))[:, None],
+            ]
+        )
         self.eye = np.eye(d)
         self.delta = np.zeros(d)
         self.newton_step = 0.0
         hess = self.solve()
-        self.kappa = 1.0 / (np.linalg.eigvalsh(hess)[0] / n)    # ‖(F''/n)⁻¹‖, nearly constant
+        self.kappa = 1.0 / (np.linalg.eigvalsh(hess)[0] / n)  # ‖(F''/n)⁻¹‖, nearly constant
         self.set_reference()
 
     def solve(self) -> np.ndarray:
@@ -252,7 +268,7 @@ class HypersphereDowndater:
                 break
         self.delta = dl
         self.newton_step = st
-        td_dl = 3.0 * (self.w @ dl) * dl - 3.0 * (self.u3 @ dl) @ dl       # T[δ, δ]
+        td_dl = 3.0 * (self.w @ dl) * dl - 3.0 * (self.u3 @ dl) @ dl  # T[δ, δ]
         self.rad = self.rad0 + float(e0 + self.g @ dl + 0.5 * (dl @ self.h @ dl) + (dl @ td_dl) / 6.0) / n
         # Hessian of ½Σ(ρ_i − r)² in (c, r): [[n I − r ∇²Φ, −∇Φ], [−∇Φᵀ, n]]
         hf = np.empty((d + 1, d + 1))
@@ -260,7 +276,7 @@ class HypersphereDowndater:
         hf[:d, d] = hf[d, :d] = -dphi
         hf[d, d] = n
         self.hinv = np.linalg.inv(hf)
-        self._hinv = self.hinv.tolist()          # for the pure-Python update in remove()
+        self._hinv = self.hinv.tolist()  # for the pure-Python update in remove()
         self.kappa_f = float(np.linalg.norm(self.hinv, 2)) * n
         self.lazy = 0
         self.disp = 0.0
@@ -293,12 +309,15 @@ class HypersphereDowndater:
             return np.inf, drift, drift0
         n, s3 = self.sums[0], self.sums[-1]
         f = (1.0 - nd / self.rho_min) ** -3
-        e_grad = 0.5 * f * s3 * nd ** 3
-        e_phi = 0.125 * f * s3 * nd ** 4
+        e_grad = 0.5 * f * s3 * nd**3
+        e_phi = 0.125 * f * s3 * nd**4
         e_delta = self.kappa / n * (abs(self.rad) * e_grad + e_phi)
         e_rad = e_phi / n + e_delta
-        eb = (4.0 * (e_delta + e_rad) + 10.0 * self.newton_step ** 2 * self.kappa
-              + ROUNDING * self.kappa * (1.0 + abs(self.rad)))
+        eb = (
+            4.0 * (e_delta + e_rad)
+            + 10.0 * self.newton_step**2 * self.kappa
+            + ROUNDING * self.kappa * (1.0 + abs(self.rad))
+        )
         if self.lazy:
             # first-order prediction of the optimum after `lazy` removals: its error is
             # at most ‖H⁻¹‖ (‖ΔH‖ D + ½ L D²) with D the distance moved, ‖ΔH‖ ≤ 3 per removed

@@ -26,12 +26,27 @@ MINZONE = ("plane", "sphere")
 
 
 def _model(element: str, dim: int):
-    return {("line", 3): LINE3D, ("line", 2): LINE2D, ("plane", 3): PLANE, ("circle", 3): CIRCLE3D,
-            ("circle", 2): CIRCLE2D, ("sphere", 3): SPHERE, ("cylinder", 3): CYLINDER}[(element, dim)]
+    return {
+        ("line", 3): LINE3D,
+        ("line", 2): LINE2D,
+        ("plane", 3): PLANE,
+        ("circle", 3): CIRCLE3D,
+        ("circle", 2): CIRCLE2D,
+        ("sphere", 3): SPHERE,
+        ("cylinder", 3): CYLINDER,
+    }[(element, dim)]
 
 
-def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = "ls", *,
-        max_iter: int = 100, nominal_radius: float | None = None, fast: bool = True) -> FitResult:
+def fit(
+    element: str,
+    points: Any,
+    outliers: str | Rule = "none",
+    method: str = "ls",
+    *,
+    max_iter: int = 100,
+    nominal_radius: float | None = None,
+    fast: bool = True,
+) -> FitResult:
     """Fit a geometric element to points in mm (conventions: :mod:`.api`).
 
     Least squares in the orthogonal sense, or minimum zone (Chebyshev) for a plane or a
@@ -81,7 +96,7 @@ def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = 
     rule = parse_rule(outliers)
     dims = (2, 3) if element in ("line", "circle") else (3,)
     x = as_points(points, element, dims)
-    frame, y = Frame.normalise(x, element)          # y: normalised points as columns (d, N)
+    frame, y = Frame.normalise(x, element)  # y: normalised points as columns (d, N)
     model = _model(element, x.shape[1])
     model.check(y)
     used, removed, res = apply(model, y, rule, max_iter=max_iter, fast=fast)
@@ -111,10 +126,21 @@ def fit(element: str, points: Any, outliers: str | Rule = "none", method: str = 
     if nominal_radius is not None and "radius" in params:
         extra["nominal_radius"] = float(nominal_radius)
         extra["radius_deviation"] = float(params["radius"] - nominal_radius)
-    return FitResult(element=element, method=method, outliers=str(rule), params=params,
-                     std_uncertainty=std, residuals=residuals, used=used, removed=removed,
-                     iterations=res.iterations, covariance=cov, covariance_names=names, extra=extra,
-                     warnings=warnings)
+    return FitResult(
+        element=element,
+        method=method,
+        outliers=str(rule),
+        params=params,
+        std_uncertainty=std,
+        residuals=residuals,
+        used=used,
+        removed=removed,
+        iterations=res.iterations,
+        covariance=cov,
+        covariance_names=names,
+        extra=extra,
+        warnings=warnings,
+    )
 
 
 def fit_line(points: Any, outliers: str = "none", **kw) -> FitResult:

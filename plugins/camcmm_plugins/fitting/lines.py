@@ -42,8 +42,7 @@ class LineModel:
     def check(self, yt: np.ndarray) -> None:
         pass  # two distinct points define a line; coincident points are caught earlier
 
-    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 0.0) -> LMResult:
+    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100, xtol: float = 0.0) -> LMResult:
         m, sv, vt = principal_axes(yt)
         a = vt[0]
         d = self.dim

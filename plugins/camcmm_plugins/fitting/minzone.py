@@ -33,8 +33,8 @@ from scipy.optimize import linprog
 from ._geometry import GeometryError, complement
 
 _OPTS = {"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10}
-_START = 40     # points per side in the first active set
-_GROW = 20      # violators added per side and round
+_START = 40  # points per side in the first active set
+_GROW = 20  # violators added per side and round
 
 
 def _chebyshev_lp(a: np.ndarray, b: np.ndarray, bounds: list, what: str) -> np.ndarray:
@@ -60,7 +60,9 @@ def _chebyshev_lp(a: np.ndarray, b: np.ndarray, bounds: list, what: str) -> np.n
         eq = aub[act]
         rhs = bub[act]
         polished, *_ = np.linalg.lstsq(eq, rhs, rcond=None)
-        if np.all(aub @ polished <= bub + 1e-9 * max(1.0, sol[-1])) and abs(polished[-1] - sol[-1]) <= 1e-6 * max(1.0, sol[-1]):
+        if np.all(aub @ polished <= bub + 1e-9 * max(1.0, sol[-1])) and abs(polished[-1] - sol[-1]) <= 1e-6 * max(
+            1.0, sol[-1]
+        ):
             sol = polished
     return sol
 
@@ -84,7 +86,7 @@ def _active_lp(a_all, b_all, bounds, what):
         hi = hi[~np.isin(hi, act)]
         lo = lo[~np.isin(lo, act)]
         if len(hi) == 0 and len(lo) == 0:
-            return sol   # only rows of the active set, off by the LP's own tolerance
+            return sol  # only rows of the active set, off by the LP's own tolerance
         add = []
         if len(hi):
             add.append(hi[np.argsort(-e[hi])[:_GROW]])
@@ -103,6 +105,7 @@ def plane(yt: np.ndarray, state: np.ndarray, max_iter: int = 50) -> tuple[np.nda
     the vertical one divided by sqrt(1 + α² + β²)); the iteration stops when the tilt
     vanishes or the width no longer decreases.
     """
+
     def width(m, n):
         r = n @ yt - n @ m
         return float(r.max() - r.min())
@@ -121,7 +124,7 @@ def plane(yt: np.ndarray, state: np.ndarray, max_iter: int = 50) -> tuple[np.nda
         mm = m + c * n
         w_new = width(mm, nn)
         if w_new > w * (1 - 1e-15) and abs(al) + abs(be) > 1e-15:
-            break          # no further decrease: a stationary tilt (or a degenerate zone)
+            break  # no further decrease: a stationary tilt (or a degenerate zone)
         m, n, w = mm, nn, min(w, w_new)
         if abs(al) + abs(be) <= 1e-15:
             break

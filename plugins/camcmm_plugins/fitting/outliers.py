@@ -82,12 +82,15 @@ def _abs_residuals(model, res: LMResult, yt: np.ndarray) -> np.ndarray:
 
 def _left(model, n_left: int, rule: str) -> None:
     if n_left <= model.n_params:
-        raise GeometryError(f"outlier rule {rule} would leave {n_left} points, too few for a {model.element} "
-                            f"with {model.n_params} parameters")
+        raise GeometryError(
+            f"outlier rule {rule} would leave {n_left} points, too few for a {model.element} "
+            f"with {model.n_params} parameters"
+        )
 
 
-def apply(model, y: np.ndarray, rule: Rule, max_iter: int = 100, fast: bool = True
-          ) -> tuple[np.ndarray, np.ndarray, LMResult]:
+def apply(
+    model, y: np.ndarray, rule: Rule, max_iter: int = 100, fast: bool = True
+) -> tuple[np.ndarray, np.ndarray, LMResult]:
     """Fit ``model`` to normalised points y (columns, (d, N)) with the outlier rule.
 
     Returns (used mask, removed indices in removal order, final least-squares fit of
@@ -130,8 +133,9 @@ def apply(model, y: np.ndarray, rule: Rule, max_iter: int = 100, fast: bool = Tr
     return fn(model, y, res, m, max_iter)
 
 
-def vdi2634_naive(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
-                  ) -> tuple[np.ndarray, np.ndarray, LMResult]:
+def vdi2634_naive(
+    model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
+) -> tuple[np.ndarray, np.ndarray, LMResult]:
     """The reference loop: m times, remove the point with the largest absolute
     residual and refit from scratch. O(m N); for tests and small clouds."""
     used = np.ones(y.shape[1], dtype=bool)
@@ -168,8 +172,9 @@ def _downdater(model, y_used: np.ndarray, res: LMResult, cand: np.ndarray):
 _CAND_FACTOR, _CAND_EXTRA, _REFRESH = 2, 64, 256
 
 
-def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
-            ) -> tuple[np.ndarray, np.ndarray, LMResult]:
+def vdi2634(
+    model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
+) -> tuple[np.ndarray, np.ndarray, LMResult]:
     """The vdi2634 rule, fast: the same removed points as :func:`vdi2634_naive`.
 
     Only the ``2 m + 64`` points with the largest absolute residuals are candidates.
@@ -192,8 +197,8 @@ def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
         idx = np.flatnonzero(used)
         yu = y[:, idx] if len(idx) < n else y
         if res.eval_r is not None and res.jt is not None and len(res.eval_r) == len(idx):
-            absr = np.abs(res.eval_r)        # at the last evaluated state: the engine's anchor
-        elif len(res.r) == len(idx):         # residuals of the fit, at its solution
+            absr = np.abs(res.eval_r)  # at the last evaluated state: the engine's anchor
+        elif len(res.r) == len(idx):  # residuals of the fit, at its solution
             absr = np.abs(res.r)
         else:
             absr = _abs_residuals(model, res, yu)
@@ -216,8 +221,9 @@ def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
             i = int(np.argmax(_abs_residuals(model, res, y[:, idx])))
             used[idx[i]] = False
             removed.append(int(idx[i]))
-            res = dataclasses.replace(res, r=np.delete(res.r, i) if len(res.r) == len(idx) else res.r,
-                                      jt=None, eval_state=None, eval_r=None)
+            res = dataclasses.replace(
+                res, r=np.delete(res.r, i) if len(res.r) == len(idx) else res.r, jt=None, eval_state=None, eval_r=None
+            )
             if len(removed) == m:
                 res = model.fit(y[:, used], start=res.state, max_iter=max_iter)
             continue
@@ -225,8 +231,9 @@ def vdi2634(model, y: np.ndarray, res: LMResult, m: int, max_iter: int = 100
     return used, np.array(removed, dtype=np.int64), res
 
 
-def _vdi2634_refits(model, y: np.ndarray, res: LMResult, m: int, max_iter: int
-                    ) -> tuple[np.ndarray, np.ndarray, LMResult]:
+def _vdi2634_refits(
+    model, y: np.ndarray, res: LMResult, m: int, max_iter: int
+) -> tuple[np.ndarray, np.ndarray, LMResult]:
     """One exact refit per removal, warm started from the first-order prediction."""
     used = np.ones(y.shape[1], dtype=bool)
     removed: list[int] = []
@@ -234,7 +241,7 @@ def _vdi2634_refits(model, y: np.ndarray, res: LMResult, m: int, max_iter: int
     for _ in range(m):
         idx = np.flatnonzero(used)
         k = len(idx)
-        if len(res.r) == 2 * k:              # circle in space: components (ρ − r, h)
+        if len(res.r) == 2 * k:  # circle in space: components (ρ − r, h)
             absr = np.hypot(res.r[:k], res.r[k:])
         elif len(res.r) == k:
             absr = np.abs(res.r)
@@ -275,10 +282,10 @@ def _fast_steps(eng, idx, cand, ref_abs, tau_out, steps, used, removed) -> None:
     queue is re-evaluated, then the engine re-solved; only if it is still not certain
     at a solved state does _Undecided send the driver to an exact refit.
     """
-    alive = list(range(len(cand)))       # candidate positions, by decreasing reference |r|
-    ref = ref_abs.tolist()               # reference |r| by candidate position
-    order_key = cand.tolist()            # ties are broken by the lower index
-    gidx = idx[cand].tolist()            # global index of each candidate
+    alive = list(range(len(cand)))  # candidate positions, by decreasing reference |r|
+    ref = ref_abs.tolist()  # reference |r| by candidate position
+    order_key = cand.tolist()  # ties are broken by the lower index
+    gidx = idx[cand].tolist()  # global index of each candidate
     inf = float("inf")
     queue: list = []
     limit = eb = pending = 0.0
@@ -290,7 +297,7 @@ def _fast_steps(eng, idx, cand, ref_abs, tau_out, steps, used, removed) -> None:
             if solve or eng.must_solve():
                 eng.solve()
             exact = eng.lazy == 0
-            if since >= _REFRESH:         # re-sort the candidates at the current state
+            if since >= _REFRESH:  # re-sort the candidates at the current state
                 arr = np.array(alive)
                 cur = eng.absres(arr)
                 order = np.lexsort((cand[arr], -cur))
@@ -317,7 +324,7 @@ def _fast_steps(eng, idx, cand, ref_abs, tau_out, steps, used, removed) -> None:
                     break
                 w *= 4
             if exact:
-                raise _Undecided          # a point outside the candidates may be next
+                raise _Undecided  # a point outside the candidates may be next
             solve = True
 
     exact = False
@@ -330,7 +337,7 @@ def _fast_steps(eng, idx, cand, ref_abs, tau_out, steps, used, removed) -> None:
         margin = pending + eb
         if v1 - margin <= max(queue[1][0], limit) + margin:
             if exact:
-                raise _Undecided          # too close to call even at a solved state
+                raise _Undecided  # too close to call even at a solved state
             exact = refill(not (eng.predictive and pending > 0))
             continue
         queue.pop(0)

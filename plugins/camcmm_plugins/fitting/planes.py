@@ -15,7 +15,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._geometry import FLAT, Frame, GeometryError, LMResult, complement, fit_covariance, orient, principal_axes, propagate
+from ._geometry import (
+    FLAT,
+    Frame,
+    GeometryError,
+    LMResult,
+    complement,
+    fit_covariance,
+    orient,
+    principal_axes,
+    propagate,
+)
 
 
 @dataclass
@@ -32,8 +42,7 @@ class PlaneModel:
         if s[1] <= FLAT * s[0]:
             raise GeometryError("plane fit: the points are collinear; a plane needs points off a line")
 
-    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 0.0) -> LMResult:
+    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100, xtol: float = 0.0) -> LMResult:
         m, sv, vt = principal_axes(yt)
         n = vt[2]
         if start is not None and n @ start[3:] < 0:
@@ -45,7 +54,7 @@ class PlaneModel:
         # rows are [−1, ξ, η] with in-plane coordinates of zero mean, so JᵀJ is
         # diag(N, B S Bᵀ) with S the scatter matrix (from the singular values).
         b = complement(n)
-        scatter = (vt.T * sv ** 2) @ vt
+        scatter = (vt.T * sv**2) @ vt
         gram = np.zeros((3, 3))
         gram[0, 0] = yt.shape[1]
         gram[1:, 1:] = b @ scatter @ b.T

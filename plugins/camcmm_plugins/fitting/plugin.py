@@ -45,17 +45,19 @@ def _deviations(cloud: Any, res: api.FitResult) -> PointCloud | None:
     fields["outlier"] = (~res.used).astype(np.uint8)
     units = dict(cloud.field_units)
     units["deviation"] = "mm"
-    return PointCloud(cloud.points, cloud.colors, cloud.normals, fields, units,
-                      f"{cloud.name} deviations", cloud.source_unit)
+    return PointCloud(
+        cloud.points, cloud.colors, cloud.normals, fields, units, f"{cloud.name} deviations", cloud.source_unit
+    )
 
 
-def _fit(ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nominal_radius: float | None = None,
-         **kw: Any) -> dict[str, Any]:
+def _fit(
+    ctx, element: str, cloud: Any, outliers: str, method: str = "ls", nominal_radius: float | None = None, **kw: Any
+) -> dict[str, Any]:
     ctx.progress(0.05, f"{element} fit")
     cloud = _input(ctx, cloud, element)
     res = api.fit(element, _points(cloud), outliers, method, nominal_radius=nominal_radius, **kw)
     out = res.to_dict()
-    for w in out.pop("warnings", []):   # the host's result warnings: CLI JSON and GUI
+    for w in out.pop("warnings", []):  # the host's result warnings: CLI JSON and GUI
         ctx.warn(w)
     out["removed_indices"] = res.removed
     dev = _deviations(cloud, res)
@@ -76,8 +78,9 @@ def fit_circle(ctx, cloud, *, outliers: str, nominal_radius: float | None) -> di
     return _fit(ctx, "circle", cloud, outliers, nominal_radius=nominal_radius)
 
 
-def fit_sphere(ctx, cloud, *, outliers: str, method: str, nominal_radius: float | None,
-               extract: bool) -> dict[str, Any]:
+def fit_sphere(
+    ctx, cloud, *, outliers: str, method: str, nominal_radius: float | None, extract: bool
+) -> dict[str, Any]:
     if extract:
         ctx.progress(0.02, "extracting the sphere")
         cloud = _input(ctx, cloud, "sphere")
@@ -94,13 +97,15 @@ def fit_cylinder(ctx, cloud, *, outliers: str, nominal_radius: float | None) -> 
     return _fit(ctx, "cylinder", cloud, outliers, nominal_radius=nominal_radius)
 
 
-def segment_spheres(ctx, cloud, *, nominal_radius: float, n_spheres: int | None,
-                    tolerance: float | None, min_points: int) -> dict[str, Any]:
+def segment_spheres(
+    ctx, cloud, *, nominal_radius: float, n_spheres: int | None, tolerance: float | None, min_points: int
+) -> dict[str, Any]:
     """Split a ball-bar or ball-plate cloud into its spheres."""
     ctx.progress(0.05, "detecting spheres")
     cloud = _input(ctx, cloud, "sphere")
-    seg = api.segment_spheres(_points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance,
-                              min_points=min_points)
+    seg = api.segment_spheres(
+        _points(cloud), nominal_radius, n_spheres=n_spheres, tolerance=tolerance, min_points=min_points
+    )
     for note in seg.notes:
         ctx.warn(note)
     out: dict[str, Any] = {
@@ -113,13 +118,21 @@ def segment_spheres(ctx, cloud, *, nominal_radius: float, n_spheres: int | None,
     return out
 
 
-def segment_sphere(ctx, cloud, *, nominal_radius: float | None, tolerance: float | None,
-                   viewpoint: list[float] | None, cone_half_angle: float | None) -> dict[str, Any]:
+def segment_sphere(
+    ctx,
+    cloud,
+    *,
+    nominal_radius: float | None,
+    tolerance: float | None,
+    viewpoint: list[float] | None,
+    cone_half_angle: float | None,
+) -> dict[str, Any]:
     """Extract the sphere from a raw scan holding its mount and background."""
     ctx.progress(0.05, "extracting the sphere")
     cloud = _input(ctx, cloud, "sphere")
-    seg = api.extract_sphere(_points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint,
-                             cone_half_angle=cone_half_angle)
+    seg = api.extract_sphere(
+        _points(cloud), nominal_radius, tolerance=tolerance, viewpoint=viewpoint, cone_half_angle=cone_half_angle
+    )
     out = seg.to_dict()
     out["n_points_raw"] = len(_points(cloud))
     if isinstance(cloud, PointCloud):

@@ -89,7 +89,7 @@ def _detect(x: np.ndarray, radius: float, n_max: int | None, min_votes: int) -> 
     centres: list[np.ndarray] = []
     cells = np.floor((votes - votes.min(axis=0)) / cell).astype(np.int64)
     dims = cells.max(axis=0) + 1
-    keys_all = (cells[:, 0] * dims[1] + cells[:, 1]) * dims[2] + cells[:, 2]   # one integer per cell
+    keys_all = (cells[:, 0] * dims[1] + cells[:, 1]) * dims[2] + cells[:, 2]  # one integer per cell
     origin = votes.min(axis=0)
     while n_max is None or len(centres) < n_max:
         keys = keys_all[alive]
@@ -135,7 +135,7 @@ def _ransac(x: np.ndarray, trials: int = 4000, seed: int = 0) -> np.ndarray:
     k = min(len(sub), 300)
     _, nb = tree.query(sub[first], k=k)
     pick = nb[np.arange(trials)[:, None], rng.integers(1, k, (trials, 3))]
-    quad = np.concatenate([sub[first][:, None, :], sub[pick]], axis=1)        # (T, 4, 3)
+    quad = np.concatenate([sub[first][:, None, :], sub[pick]], axis=1)  # (T, 4, 3)
     a = np.concatenate([2 * quad, np.ones((trials, 4, 1))], axis=2)
     b = np.einsum("tij,tij->ti", quad, quad)
     span = np.ptp(quad, axis=1).max(axis=1)
@@ -150,15 +150,14 @@ def _ransac(x: np.ndarray, trials: int = 4000, seed: int = 0) -> np.ndarray:
     if len(c) == 0:
         raise GeometryError("sphere extraction: no sphere hypothesis could be formed")
     score = np.zeros(len(c), dtype=np.int64)
-    for s0 in range(0, len(c), 500):        # blocks of hypotheses x all subset points
-        d = np.linalg.norm(sub[None, :, :] - c[s0:s0 + 500, None, :], axis=2)
-        score[s0:s0 + 500] = (np.abs(d - r[s0:s0 + 500, None]) < spacing).sum(axis=1)
+    for s0 in range(0, len(c), 500):  # blocks of hypotheses x all subset points
+        d = np.linalg.norm(sub[None, :, :] - c[s0 : s0 + 500, None, :], axis=2)
+        score[s0 : s0 + 500] = (np.abs(d - r[s0 : s0 + 500, None]) < spacing).sum(axis=1)
     best = int(np.argmax(score))
     return np.append(c[best] + origin, r[best])
 
 
-def _refine(x: np.ndarray, center: np.ndarray, radius: float, tolerance: float | None,
-            rounds: int = 8):
+def _refine(x: np.ndarray, center: np.ndarray, radius: float, tolerance: float | None, rounds: int = 8):
     """Least-squares sphere of the points near (center, radius); returns (indices, fit).
 
     Only the points in a box of half-width 1.5 R about the detected centre are looked
@@ -180,8 +179,10 @@ def _refine_rounds(x, center, radius, tolerance, rounds, fit_sphere):
         dist = np.linalg.norm(x - c, axis=1) - r
         new = np.abs(dist) <= band
         if new.sum() < 4:
-            raise GeometryError(f"sphere near {np.round(c, 3).tolist()} mm: only {int(new.sum())} points "
-                                f"within {band:.3g} mm of its surface")
+            raise GeometryError(
+                f"sphere near {np.round(c, 3).tolist()} mm: only {int(new.sum())} points "
+                f"within {band:.3g} mm of its surface"
+            )
         if mask is not None and np.array_equal(new, mask):
             break
         mask = new
@@ -209,9 +210,15 @@ def _positive(r: Any) -> bool:
         return False
 
 
-def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None = None,
-                    tolerance: float | None = None, min_points: int = 30,
-                    radius_tolerance: float = 0.2) -> Segmentation:
+def segment_spheres(
+    points: Any,
+    nominal_radius: float,
+    *,
+    n_spheres: int | None = None,
+    tolerance: float | None = None,
+    min_points: int = 30,
+    radius_tolerance: float = 0.2,
+) -> Segmentation:
     """Split a cloud (N, 3) mm holding several spheres of ``nominal_radius`` (mm) into
     its spheres.
 
@@ -236,8 +243,10 @@ def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None
             continue
         r = res.params["radius"]
         if abs(r - nominal_radius) > radius_tolerance * nominal_radius or len(idx) < min_points:
-            notes.append(f"candidate at {np.round(res.params['center'], 3).tolist()} mm dropped "
-                         f"(radius {r:.4g} mm, {len(idx)} points)")
+            notes.append(
+                f"candidate at {np.round(res.params['center'], 3).tolist()} mm dropped "
+                f"(radius {r:.4g} mm, {len(idx)} points)"
+            )
             continue
         if any(np.linalg.norm(res.params["center"] - f.params["center"]) < nominal_radius for _, f in found):
             continue  # the same sphere found twice
@@ -264,8 +273,14 @@ def segment_spheres(points: Any, nominal_radius: float, *, n_spheres: int | None
     return Segmentation(spheres, labels, notes)
 
 
-def extract_sphere(points: Any, nominal_radius: float | None = None, *, tolerance: float | None = None,
-                   viewpoint: Any = None, cone_half_angle: float | None = None) -> SphereSegment:
+def extract_sphere(
+    points: Any,
+    nominal_radius: float | None = None,
+    *,
+    tolerance: float | None = None,
+    viewpoint: Any = None,
+    cone_half_angle: float | None = None,
+) -> SphereSegment:
     """The sphere in a raw scan (N, 3) mm that also holds its mount and background.
 
     With ``nominal_radius`` (mm) the sphere is detected from normal votes, without it

@@ -13,8 +13,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -42,8 +43,10 @@ def as_cloud(obj: Any, element: str, name: str = "") -> tuple[Any, str | None]:
     name = name or source_name(obj)
     if isinstance(obj, TriangleMesh):
         cloud = PointCloud(obj.vertices, normals=obj.vertex_normals, name=obj.name, source_unit=obj.source_unit)
-        note = (f"{name or 'the input'} is a triangle mesh: the {element} fit uses its {len(obj.vertices)} "
-                f"vertices; its faces are ignored and each vertex counts the same whatever the area around it")
+        note = (
+            f"{name or 'the input'} is a triangle mesh: the {element} fit uses its {len(obj.vertices)} "
+            f"vertices; its faces are ignored and each vertex counts the same whatever the area around it"
+        )
         return cloud, note
     if hasattr(obj, "points") or isinstance(obj, (np.ndarray, list, tuple)):
         return obj, None
@@ -62,6 +65,6 @@ def naming(name: str) -> Iterator[None]:
             raise
         try:
             renamed = type(exc)(f"{name}: {msg}")
-        except TypeError:   # a subclass with its own constructor: keep it as it is
+        except TypeError:  # a subclass with its own constructor: keep it as it is
             raise exc from None
         raise renamed from None

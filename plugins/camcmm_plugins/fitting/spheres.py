@@ -19,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ._geometry import (FLAT, Frame, GeometryError, LMResult, covariance, levenberg_marquardt,
-                        principal_axes, subsample)
+from ._geometry import FLAT, Frame, GeometryError, LMResult, covariance, levenberg_marquardt, principal_axes, subsample
 
 #: Above this many points the start values come from a strided subset.
 SUBSET = 10_000
@@ -78,14 +77,13 @@ class HypersphereModel:
         flat = "a plane (coplanar)" if self.dim == 3 else "a straight line (collinear)"
         if self.dim == 3 and s[1] <= FLAT * s[0]:
             flat = "a straight line (collinear)"
-        raise GeometryError(f"{self.element} fit: the points lie on {flat}; "
-                            f"a {self.element} needs points off it")
+        raise GeometryError(f"{self.element} fit: the points lie on {flat}; a {self.element} needs points off it")
 
     def evaluate(self, p: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         d = self.dim
         jt = np.empty((d + 1, yt.shape[1]))
         diff, rho = _distances(p[:d], yt, out=jt[:d])
-        diff /= np.where(rho > 0, rho, 1.0)              # rows 0..d-1: −u
+        diff /= np.where(rho > 0, rho, 1.0)  # rows 0..d-1: −u
         jt[d] = -1.0
         return rho - p[d], jt
 
@@ -97,8 +95,14 @@ class HypersphereModel:
             flat = "a plane" if self.dim == 3 else "a line"
             raise GeometryError(f"{self.element} fit: the radius diverges; the points lie nearly on {flat}")
 
-    def fit(self, yt: np.ndarray, start: np.ndarray | None = None, max_iter: int = 100,
-            xtol: float = 1e-13, rate_hint: float | None = None) -> LMResult:
+    def fit(
+        self,
+        yt: np.ndarray,
+        start: np.ndarray | None = None,
+        max_iter: int = 100,
+        xtol: float = 1e-13,
+        rate_hint: float | None = None,
+    ) -> LMResult:
         """Least-squares fit to normalised points (d, n); ``start`` a previous state."""
         if start is None:
             sub = subsample(yt, SUBSET)
@@ -109,16 +113,25 @@ class HypersphereModel:
 
     def _lm(self, yt, p0, max_iter, xtol, rate_hint=None) -> LMResult:
         try:
-            res = levenberg_marquardt(lambda p: self.evaluate(p, yt), p0, lambda p, dp: p + dp,
-                                      max_iter=max_iter, xtol=xtol, what=f"{self.element} fit",
-                                      check=self._check_radius, rate_hint=rate_hint)
+            res = levenberg_marquardt(
+                lambda p: self.evaluate(p, yt),
+                p0,
+                lambda p, dp: p + dp,
+                max_iter=max_iter,
+                xtol=xtol,
+                what=f"{self.element} fit",
+                check=self._check_radius,
+                rate_hint=rate_hint,
+            )
         except GeometryError as exc:
             s = principal_axes(subsample(yt, SUBSET))[1]
             if s[-1] < 0.02 * s[0] and "diverges" not in str(exc):
                 flat = "a plane" if self.dim == 3 else "a line"
-                raise GeometryError(f"{self.element} fit: the points lie nearly on {flat} (thickness "
-                                    f"{s[-1] / s[0]:.1e} of their spread), which determines no {self.element}: "
-                                    f"{exc}") from None
+                raise GeometryError(
+                    f"{self.element} fit: the points lie nearly on {flat} (thickness "
+                    f"{s[-1] / s[0]:.1e} of their spread), which determines no {self.element}: "
+                    f"{exc}"
+                ) from None
             raise
         if res.state[self.dim] < 0:
             raise GeometryError(f"{self.element} fit converged to a negative radius")

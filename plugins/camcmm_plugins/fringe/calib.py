@@ -21,8 +21,9 @@ That layout does not state the image sizes; they are taken from the captures.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -59,8 +60,13 @@ def read_text_folder(folder: str | Path) -> dict[str, Any]:
         if r is not None and (abs(np.linalg.det(r) - 1) > 1e-3 or np.abs(r @ r.T - np.eye(3)).max() > 1e-3):
             raise InputError(f"{name}: not a rotation matrix (R R^T != I or det != 1)")
     try:
-        cam = CameraModel(k_cam, dist_cam, np.eye(3) if r_cam is None else r_cam,
-                          np.zeros(3) if t_cam is None else t_cam, name="camera")
+        cam = CameraModel(
+            k_cam,
+            dist_cam,
+            np.eye(3) if r_cam is None else r_cam,
+            np.zeros(3) if t_cam is None else t_cam,
+            name="camera",
+        )
         proj = CameraModel(k_p, dist_p, r_p, t_p, name="projector")
         moved = (r_cam is not None and not np.allclose(r_cam, np.eye(3))) or (t_cam is not None and np.any(t_cam))
         if moved:
@@ -99,9 +105,12 @@ def check_image_size(cam: CameraModel, shape: tuple[int, ...], what: str) -> Cam
     """The camera with its image size; InputError when the calibration's size differs."""
     h, w = shape[:2]
     if cam.image_size == (0, 0):
-        return CameraModel(cam.camera_matrix, cam.dist_coeffs, cam.rotation, cam.translation, (w, h),
-                           cam.pixel_pitch, cam.name)
+        return CameraModel(
+            cam.camera_matrix, cam.dist_coeffs, cam.rotation, cam.translation, (w, h), cam.pixel_pitch, cam.name
+        )
     if tuple(cam.image_size) != (w, h):
-        raise InputError(f"calibration: camera {cam.name!r} is calibrated for {cam.image_size[0]}x"
-                         f"{cam.image_size[1]} px but {what} are {w}x{h} px")
+        raise InputError(
+            f"calibration: camera {cam.name!r} is calibrated for {cam.image_size[0]}x"
+            f"{cam.image_size[1]} px but {what} are {w}x{h} px"
+        )
     return cam

@@ -19,8 +19,12 @@ from camcmm.api import InputError
 
 IMAGE_EXTS = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm")
 #: fringe.decode's thresholds (grey levels) and what their default 0 means
-THRESHOLDS = {"black_threshold": "5 % of full scale", "modulation_threshold": "2 % of full scale",
-              "white_threshold": "no such rule", "saturation": "the image type's maximum"}
+THRESHOLDS = {
+    "black_threshold": "5 % of full scale",
+    "modulation_threshold": "2 % of full scale",
+    "white_threshold": "no such rule",
+    "saturation": "the image type's maximum",
+}
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -32,17 +36,27 @@ def configure(parser: argparse.ArgumentParser) -> None:
     r.add_argument("sequence", help="sequence file (YAML) the captures follow")
     r.add_argument("--images", required=True, metavar="DIR", help="camera 1's captures, one file per frame")
     r.add_argument("--images2", metavar="DIR", help="camera 2's captures (camera-camera matching)")
-    r.add_argument("--calibration", required=True, metavar="CAL",
-                   help="calibration file (.yaml/.xml/.json) or a CalibrationDataDistortion-style folder")
+    r.add_argument(
+        "--calibration",
+        required=True,
+        metavar="CAL",
+        help="calibration file (.yaml/.xml/.json) or a CalibrationDataDistortion-style folder",
+    )
     r.add_argument("--out", metavar="cloud.ply", help="write the point cloud here")
     r.add_argument("--method", choices=("auto", "projector", "stereo"), default="auto")
     # None: not given, the plugin's declared default applies
     for opt, zero in THRESHOLDS.items():
-        r.add_argument("--" + opt.replace("_", "-"), type=float, default=None, metavar="GREY",
-                       help=f"fringe.decode's {opt} (default 0: {zero})".replace("%", "%%"))
+        r.add_argument(
+            "--" + opt.replace("_", "-"),
+            type=float,
+            default=None,
+            metavar="GREY",
+            help=f"fringe.decode's {opt} (default 0: {zero})".replace("%", "%%"),
+        )
     for sp in (p, r):
-        sp.add_argument("--json", action="store_true", default=argparse.SUPPRESS,
-                        help="print one JSON document on stdout")
+        sp.add_argument(
+            "--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout"
+        )
 
 
 def image_files(folder: str | Path) -> list[Path]:
@@ -68,13 +82,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .patterns import save_patterns
 
         files = save_patterns(seq, args.out)
-        return {"n_frames": seq.n_frames, "projector_size": list(seq.projector_size), "out": str(args.out),
-                "files": [str(f) for f in files], "frames": seq.describe()}
+        return {
+            "n_frames": seq.n_frames,
+            "projector_size": list(seq.projector_size),
+            "out": str(args.out),
+            "files": [str(f) for f in files],
+            "frames": seq.describe(),
+        }
     from camcmm.api import default_host, write
 
     files = image_files(args.images)
-    inputs = {"sequence": str(args.sequence), "images": [str(f) for f in files],
-              "calibration": str(args.calibration)}
+    inputs = {"sequence": str(args.sequence), "images": [str(f) for f in files], "calibration": str(args.calibration)}
     if args.images2:
         inputs["images2"] = [str(f) for f in image_files(args.images2)]
     given = {k: getattr(args, k) for k in THRESHOLDS if getattr(args, k) is not None}
@@ -84,13 +102,20 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if "no pixel decodes" not in str(exc) or not given:
             raise
         # the thresholds the operator set are the first suspects: name them
-        named = ", ".join(f"--{k.replace('_', '-')} {v:g}" + (f" (0: {THRESHOLDS[k]})" if v == 0 else "")
-                          for k, v in given.items())
+        named = ", ".join(
+            f"--{k.replace('_', '-')} {v:g}" + (f" (0: {THRESHOLDS[k]})" if v == 0 else "") for k, v in given.items()
+        )
         raise InputError(f"{exc} (given: {named})") from None
     o = res.outputs
-    out = {"n_points": o["n_points"], "valid_fraction": o["valid_fraction"], "bbox": o["bbox"],
-           "method": o.get("method", ""), "order_errors_corrected": o.get("order_errors_corrected", 0),
-           "order_errors_dropped": o.get("order_errors_dropped", 0), "warnings": res.warnings}
+    out = {
+        "n_points": o["n_points"],
+        "valid_fraction": o["valid_fraction"],
+        "bbox": o["bbox"],
+        "method": o.get("method", ""),
+        "order_errors_corrected": o.get("order_errors_corrected", 0),
+        "order_errors_dropped": o.get("order_errors_dropped", 0),
+        "warnings": res.warnings,
+    }
     if args.out:
         write(o["cloud"], args.out)
         out["out"] = str(args.out)
@@ -102,8 +127,10 @@ def text(result: dict[str, Any]) -> str:
         w, h = result["projector_size"]
         return f"{result['n_frames']} frames of {w}x{h} px written to {result['out']}"
     bb = result["bbox"]
-    s = (f"{result['n_points']} points ({100 * result['valid_fraction']:.1f} % of the pixels valid, "
-         f"{result.get('method', '')})")
+    s = (
+        f"{result['n_points']} points ({100 * result['valid_fraction']:.1f} % of the pixels valid, "
+        f"{result.get('method', '')})"
+    )
     if bb:
         s += "\n  bbox mm: " + " .. ".join("(" + ", ".join(f"{x:.3f}" for x in c) + ")" for c in bb)
     if result.get("out"):

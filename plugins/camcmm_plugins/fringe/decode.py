@@ -26,8 +26,9 @@ fraction of all pixels):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -110,21 +111,33 @@ def _full_scale(frames: list[np.ndarray]) -> float:
 def check_frames(seq: Sequence, frames: list[np.ndarray], name: str = "images") -> None:
     if len(frames) != seq.n_frames:
         few = "too few" if len(frames) < seq.n_frames else "too many"
-        raise InputError(f"{name}: {len(frames)} frames given, {few} for the sequence {seq.name!r} "
-                         f"which declares {seq.n_frames}")
+        raise InputError(
+            f"{name}: {len(frames)} frames given, {few} for the sequence {seq.name!r} which declares {seq.n_frames}"
+        )
     shape = frames[0].shape
     for i, f in enumerate(frames):
         if f.shape != shape:
-            raise InputError(f"{name}[{i}]: frame of {f.shape[1]}x{f.shape[0]} px, frame 0 has "
-                             f"{shape[1]}x{shape[0]} px (all frames must be the same size)")
+            raise InputError(
+                f"{name}[{i}]: frame of {f.shape[1]}x{f.shape[0]} px, frame 0 has "
+                f"{shape[1]}x{shape[0]} px (all frames must be the same size)"
+            )
         if f.dtype != frames[0].dtype:
             raise InputError(f"{name}[{i}]: {f.dtype} frame among {frames[0].dtype} frames")
 
 
-def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulation_threshold: float = 0.0,
-           white_threshold: float = 0.0, saturation: float = 0.0, boundary_correction: str = "auto",
-           keep_wrapped: bool = False, warn: Callable[[str], None] | None = None,
-           name: str = "images") -> Decoded:
+def decode(
+    sequence: Any,
+    images: Any,
+    *,
+    black_threshold: float = 0.0,
+    modulation_threshold: float = 0.0,
+    white_threshold: float = 0.0,
+    saturation: float = 0.0,
+    boundary_correction: str = "auto",
+    keep_wrapped: bool = False,
+    warn: Callable[[str], None] | None = None,
+    name: str = "images",
+) -> Decoded:
     """Decode one camera's captured frames (sequence order) into projector coordinates.
 
     Thresholds are in the images' grey levels; 0 selects the defaults listed in the
@@ -205,10 +218,18 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
             code_bad |= (word * cg.period + cg.offset) >= span
             code_est, code_half = stripe_centres(word, cg.period, cg.offset)
             del word
-        x, unreliable, st, stats = unwrap(levels[d], span, code_est, cg.period if cg else 0.0,
-                                          cg.offset if cg else 0.0, valid=pre_valid & ~code_bad,
-                                          correction=boundary_correction, direction=d,
-                                          code_half=code_half, modulation=modulation)
+        x, unreliable, st, stats = unwrap(
+            levels[d],
+            span,
+            code_est,
+            cg.period if cg else 0.0,
+            cg.offset if cg else 0.0,
+            valid=pre_valid & ~code_bad,
+            correction=boundary_correction,
+            direction=d,
+            code_half=code_half,
+            modulation=modulation,
+        )
         order_bad |= unreliable
         for k in orders:
             orders[k] += stats[k]
@@ -228,8 +249,10 @@ def decode(sequence: Any, images: Any, *, black_threshold: float = 0.0, modulati
             warn(f"{name}: {100 * fractions['dark']:.1f} % of the pixels are dark (white - black < {black_thr:g})")
     if not mask.any():
         worst = max(fractions, key=fractions.get)
-        raise InputError(f"{name}: no pixel decodes ({worst}: {100 * fractions[worst]:.1f} % of the pixels); "
-                         "check exposure, the thresholds and that the frames follow the sequence")
+        raise InputError(
+            f"{name}: no pixel decodes ({worst}: {100 * fractions[worst]:.1f} % of the pixels); "
+            "check exposure, the thresholds and that the frames follow the sequence"
+        )
     return Decoded(coords, mask, modulation, mean, fractions, full, steps, wrapped, orders)
 
 
@@ -264,4 +287,3 @@ def _mean_of(frames: list[np.ndarray]) -> np.ndarray:
     if len(frames) > 1:
         acc *= np.float32(1.0 / len(frames))
     return acc
-

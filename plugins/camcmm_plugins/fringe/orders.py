@@ -101,16 +101,16 @@ def _footprint_rows(frac: np.ndarray, valid: np.ndarray, a: int, b: int) -> np.n
     # all pixels valid (most blocks): no pair to mask, and with two rows / columns or
     # more every pixel has a pair, so no "none tells" either
     every = bool(valid[e0:e1].all())
-    d = _wrap(np.subtract(frac[e0 + 1:e1], frac[e0:e1 - 1]))
+    d = _wrap(np.subtract(frac[e0 + 1 : e1], frac[e0 : e1 - 1]))
     np.abs(d, out=d)
     if not every:
-        pair = valid[e0 + 1:e1] & valid[e0:e1 - 1]
+        pair = valid[e0 + 1 : e1] & valid[e0 : e1 - 1]
         np.invert(pair, out=pair)
         np.copyto(d, np.float32(-1.0), where=pair)
     best.fill(-1.0)
     lo, hi = max(a, 1), min(b, h - 1)  # rows with a pair above / below
-    np.maximum(best[lo - a:], d[lo - 1 - e0:b - 1 - e0], out=best[lo - a:])
-    np.maximum(best[:hi - a], d[a - e0:hi - e0], out=best[:hi - a])
+    np.maximum(best[lo - a :], d[lo - 1 - e0 : b - 1 - e0], out=best[lo - a :])
+    np.maximum(best[: hi - a], d[a - e0 : hi - e0], out=best[: hi - a])
     if not every or h < 2:
         np.copyto(best, np.float32(0.5), where=best < 0)
     g += best
@@ -151,13 +151,19 @@ def unmixed(modulation: np.ndarray, a: int = 0, b: int | None = None) -> np.ndar
     h = modulation.shape[0]
     b = h if b is None else b
     e0, e1 = max(a - 1, 0), min(b + 1, h)
-    top = cv2.dilate(modulation[e0:e1], np.ones((3, 3), np.uint8))[a - e0:b - e0]
+    top = cv2.dilate(modulation[e0:e1], np.ones((3, 3), np.uint8))[a - e0 : b - e0]
     top *= np.float32(MIXED_SHARE)
     return modulation[a:b] >= top
 
 
-def local_checks(frac: np.ndarray, valid: np.ndarray, period: float, r: np.ndarray | None = None,
-                 code_half: float = 0.0, modulation: np.ndarray | None = None):
+def local_checks(
+    frac: np.ndarray,
+    valid: np.ndarray,
+    period: float,
+    r: np.ndarray | None = None,
+    code_half: float = 0.0,
+    modulation: np.ndarray | None = None,
+):
     """The per-pixel maps of the order checks in one pass of cache-sized row blocks
     (no full-image float temporaries): ``doubt`` = valid & :func:`doubtful` (None
     without r) and ``smooth`` = footprint < CONTINUITY, and with ``modulation`` also
@@ -226,15 +232,14 @@ def _bands(members: np.ndarray, mask: np.ndarray, ff, phi, kmem, shape):
     from scipy.sparse.csgraph import connected_components
 
     h, w = shape
-    node = np.full(h * w, -1, np.int32 if members.size < 2 ** 31 else np.int64)
+    node = np.full(h * w, -1, np.int32 if members.size < 2**31 else np.int64)
     node[members] = np.arange(members.size)
     rows, cols = [], []
     for step in (1, w):
         first = members[(members % w < w - 1) if step == 1 else (members < (h - 1) * w)]
         first = first[mask.ravel()[first + step]]
         second = first + step
-        keep = (np.abs(_wrap(ff[first] - ff[second])) < CONTINUITY) & \
-            (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
+        keep = (np.abs(_wrap(ff[first] - ff[second])) < CONTINUITY) & (np.abs(_wrap(phi[first] - phi[second])) < 1e-3)
         n1, n2 = node[first], node[second]
         if kmem is not None:
             keep &= kmem[n1] == kmem[n2]
@@ -297,8 +302,18 @@ def _leading(p, group, n_groups, source, xf, ff, phi, period, offset, shape, lab
     return k_group, clear
 
 
-def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: np.ndarray, valid: np.ndarray,
-           doubt: np.ndarray, alt: np.ndarray, smooth: np.ndarray, rounds: int = 32):
+def settle(
+    x: np.ndarray,
+    frac: np.ndarray,
+    period: float,
+    offset: float,
+    flip: np.ndarray,
+    valid: np.ndarray,
+    doubt: np.ndarray,
+    alt: np.ndarray,
+    smooth: np.ndarray,
+    rounds: int = 32,
+):
     """Settle the doubtful pixels band by band (in place on x, px); see the module docstring.
 
     flip   : (H, W) float32, the phase (periods, [0, 1)) at which each pixel's code
@@ -385,14 +400,15 @@ def settle(x: np.ndarray, frac: np.ndarray, period: float, offset: float, flip: 
         mask = np.zeros(shape, bool)
         mask.ravel()[rest] = True
         n_parts, part = _bands(rest, mask, ff, phi, k_rest, shape)
-        labels = np.zeros(x.size, np.int32 if n_parts < 2 ** 31 - 1 else np.int64)
+        labels = np.zeros(x.size, np.int32 if n_parts < 2**31 - 1 else np.int64)
         labels[rest] = part + 1
         todo = np.arange(rest.size)
         for _ in range(rounds):
             if not todo.size:
                 break
-            k_part, clear = _leading(rest[todo], part[todo], n_parts, source, xf, ff, phi, period, offset, shape,
-                                     labels)
+            k_part, clear = _leading(
+                rest[todo], part[todo], n_parts, source, xf, ff, phi, period, offset, shape, labels
+            )
             if not clear.any():
                 break
             now = clear[part[todo]]

@@ -89,8 +89,10 @@ def generate_patterns(sequence, dtype=None) -> np.ndarray:
     if dtype is None:
         dtype = np.uint8 if seq.bit_depth == 8 else np.uint16
     dtype = np.dtype(dtype)
-    check_budget(f"{seq.name}: {seq.n_frames} frames of {seq.width} x {seq.height} px ({dtype.name})",
-                 float(seq.n_frames) * seq.width * seq.height * dtype.itemsize)
+    check_budget(
+        f"{seq.name}: {seq.n_frames} frames of {seq.width} x {seq.height} px ({dtype.name})",
+        float(seq.n_frames) * seq.width * seq.height * dtype.itemsize,
+    )
     out = np.empty((seq.n_frames, seq.height, seq.width), dtype=dtype)
     for i in range(seq.n_frames):
         p = pattern_profile(seq, i)

@@ -23,22 +23,46 @@ def patterns(ctx: RunContext, sequence: Any, *, dtype: str, out: str) -> dict[st
 
 
 def _decode_kw(black_threshold, modulation_threshold, white_threshold, saturation, boundary_correction):
-    return dict(black_threshold=black_threshold, modulation_threshold=modulation_threshold,
-                white_threshold=white_threshold, saturation=saturation, boundary_correction=boundary_correction)
+    return dict(
+        black_threshold=black_threshold,
+        modulation_threshold=modulation_threshold,
+        white_threshold=white_threshold,
+        saturation=saturation,
+        boundary_correction=boundary_correction,
+    )
 
 
-def decode(ctx: RunContext, sequence: Any, images: Any, *, black_threshold: float,
-           modulation_threshold: float, white_threshold: float, saturation: float,
-           boundary_correction: str) -> dict[str, Any]:
+def decode(
+    ctx: RunContext,
+    sequence: Any,
+    images: Any,
+    *,
+    black_threshold: float,
+    modulation_threshold: float,
+    white_threshold: float,
+    saturation: float,
+    boundary_correction: str,
+) -> dict[str, Any]:
     from .decode import decode as run_decode
 
     ctx.progress(0.05, "decoding")
-    dec = run_decode(sequence, images, warn=ctx.warn, **_decode_kw(
-        black_threshold, modulation_threshold, white_threshold, saturation, boundary_correction))
+    dec = run_decode(
+        sequence,
+        images,
+        warn=ctx.warn,
+        **_decode_kw(black_threshold, modulation_threshold, white_threshold, saturation, boundary_correction),
+    )
     _warn_orders(ctx, dec, "images")
-    return {"u": dec.u, "v": dec.v, "modulation": dec.modulation, "mask": dec.mask,
-            "valid_fraction": dec.valid_fraction, "masks": dec.rejected,
-            "order_errors_corrected": dec.orders["corrected"], "order_errors_dropped": dec.orders["dropped"]}
+    return {
+        "u": dec.u,
+        "v": dec.v,
+        "modulation": dec.modulation,
+        "mask": dec.mask,
+        "valid_fraction": dec.valid_fraction,
+        "masks": dec.rejected,
+        "order_errors_corrected": dec.orders["corrected"],
+        "order_errors_dropped": dec.orders["dropped"],
+    }
 
 
 def _warn_orders(ctx: RunContext, dec, name: str) -> None:
@@ -46,14 +70,28 @@ def _warn_orders(ctx: RunContext, dec, name: str) -> None:
     kept = int(np.count_nonzero(dec.mask))
     n = dec.orders["dropped"]
     if n > 0.01 * max(kept, 1):
-        ctx.warn(f"{name}: {n} pixels ({100 * n / max(kept + n, 1):.1f} %) dropped whose fringe order neither the "
-                 "code nor their neighbours settle; a complementary Gray code (stripes of half the period) avoids this")
+        ctx.warn(
+            f"{name}: {n} pixels ({100 * n / max(kept + n, 1):.1f} %) dropped whose fringe order neither the "
+            "code nor their neighbours settle; a complementary Gray code (stripes of half the period) avoids this"
+        )
 
 
-def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, images2: Any = None, *,
-                black_threshold: float, modulation_threshold: float, white_threshold: float,
-                saturation: float, boundary_correction: str, method: str,
-                keep_phase: bool, triangulation: str) -> dict[str, Any]:
+def reconstruct(
+    ctx: RunContext,
+    sequence: Any,
+    images: Any,
+    calibration: Any,
+    images2: Any = None,
+    *,
+    black_threshold: float,
+    modulation_threshold: float,
+    white_threshold: float,
+    saturation: float,
+    boundary_correction: str,
+    method: str,
+    keep_phase: bool,
+    triangulation: str,
+) -> dict[str, Any]:
     from camcmm.api import InputError, PointCloud
 
     from .calib import check_image_size, load_calibration, pick_devices
@@ -69,8 +107,7 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
     if method == "stereo" and images2 is None:
         raise InputError("method 'stereo' needs the second camera's images (images2)")
     if method == "stereo" and len(cams) < 2:
-        raise InputError("calibration: camera-camera matching needs two cameras, the calibration has "
-                         f"{len(cams)}")
+        raise InputError(f"calibration: camera-camera matching needs two cameras, the calibration has {len(cams)}")
     if method == "projector" and proj is None:
         raise InputError("calibration: camera-projector triangulation needs a camera named 'projector'")
     if not cams:
@@ -94,14 +131,19 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
     else:
         cal_size = tuple(round(s * n) for s, n in zip(seq.calibration_scale, seq.projector_size))
         if proj.image_size != (0, 0) and tuple(proj.image_size) != cal_size:
-            raise InputError(f"calibration: the projector is calibrated for {proj.image_size[0]}x"
-                             f"{proj.image_size[1]} px but the sequence declares {cal_size[0]}x{cal_size[1]} px")
+            raise InputError(
+                f"calibration: the projector is calibrated for {proj.image_size[0]}x"
+                f"{proj.image_size[1]} px but the sequence declares {cal_size[0]}x{cal_size[1]} px"
+            )
         ctx.progress(0.6, "triangulating against the projector")
         pts, idx = projector_points(dec1, cam1, proj, triangulation, seq.to_calibration_px)
         w = dec1.mask.shape[1]
-        fields = {"modulation": dec1.modulation.ravel()[idx].astype(np.float64),
-                  "quality": dec1.quality.ravel()[idx].astype(np.float64),
-                  "x_px": (idx % w).astype(np.float64), "y_px": (idx // w).astype(np.float64)}
+        fields = {
+            "modulation": dec1.modulation.ravel()[idx].astype(np.float64),
+            "quality": dec1.quality.ravel()[idx].astype(np.float64),
+            "x_px": (idx % w).astype(np.float64),
+            "y_px": (idx // w).astype(np.float64),
+        }
         valid = dec1.valid_fraction
         out["method"] = "camera-projector"
     if len(pts) == 0:
@@ -110,13 +152,17 @@ def reconstruct(ctx: RunContext, sequence: Any, images: Any, calibration: Any, i
     share = len(pts) / max(decoded, 1)
     if share < (0.2 if method == "stereo" else 0.5):
         why = "no match on the rectified rows" if method == "stereo" else "rays along the stripes or behind a device"
-        ctx.warn(f"only {100 * share:.1f} % of camera 1's {decoded} decoded pixels gave a 3-D point ({why}); "
-                 "check that the calibration belongs to these images")
-    cloud = PointCloud(pts, fields=fields, field_units={"modulation": "grey levels", "quality": "",
-                                                        "x_px": "px", "y_px": "px"},
-                       name="fringe")
-    out.update({"cloud": cloud, "n_points": cloud.n_points, "valid_fraction": valid,
-                "bbox": cloud.bounds.tolist()})
+        ctx.warn(
+            f"only {100 * share:.1f} % of camera 1's {decoded} decoded pixels gave a 3-D point ({why}); "
+            "check that the calibration belongs to these images"
+        )
+    cloud = PointCloud(
+        pts,
+        fields=fields,
+        field_units={"modulation": "grey levels", "quality": "", "x_px": "px", "y_px": "px"},
+        name="fringe",
+    )
+    out.update({"cloud": cloud, "n_points": cloud.n_points, "valid_fraction": valid, "bbox": cloud.bounds.tolist()})
     decs = [dec1] + ([dec2] if method == "stereo" else [])
     out["order_errors_corrected"] = sum(d.orders["corrected"] for d in decs)
     out["order_errors_dropped"] = sum(d.orders["dropped"] for d in decs)

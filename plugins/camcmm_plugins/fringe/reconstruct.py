@@ -63,16 +63,22 @@ def projector_points(dec: Decoded, cam: CameraModel, proj: CameraModel, axis: st
     (:meth:`.sequence.Sequence.to_calibration_px`); default identity.
     """
     if to_cal is None:
+
         def to_cal(direction, x):
             return x
+
     idx = np.flatnonzero(dec.mask)
     h, w = dec.mask.shape
     pix = np.column_stack([idx % w, idx // w]).astype(np.float64)
     if axis == "rays":
         if dec.u is None or dec.v is None:
             raise InputError("triangulation 'rays' needs both vertical and horizontal fringes")
-        uv = np.column_stack([to_cal("vertical", dec.u.ravel()[idx].astype(np.float64)),
-                              to_cal("horizontal", dec.v.ravel()[idx].astype(np.float64))])
+        uv = np.column_stack(
+            [
+                to_cal("vertical", dec.u.ravel()[idx].astype(np.float64)),
+                to_cal("horizontal", dec.v.ravel()[idx].astype(np.float64)),
+            ]
+        )
         pts = triangulate_rays(cam, proj, pix, uv)
     else:
         d = _best_axis(dec, cam, proj) if axis == "auto" else axis
@@ -84,8 +90,7 @@ def projector_points(dec: Decoded, cam: CameraModel, proj: CameraModel, axis: st
     return pts[ok], idx[ok]
 
 
-def match_rows(left: np.ndarray, right: np.ndarray, max_step: float | None = None,
-               refine: bool = True) -> np.ndarray:
+def match_rows(left: np.ndarray, right: np.ndarray, max_step: float | None = None, refine: bool = True) -> np.ndarray:
     """Sub-pixel right x of every left sample on the same row (NaN where none).
 
     left, right : (H, W) float32 maps increasing along x (NaN invalid).
@@ -181,17 +186,25 @@ def rectification(cam1: CameraModel, cam2: CameraModel, size: tuple[int, int], m
 
     w, h = size
     r, t = _pose_between(cam1, cam2)
-    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix,
-                                                cam2.dist_coeffs, (w, h), r, t.reshape(3, 1), alpha=-1)
+    r1, r2, p1, p2, _, _, _ = cv2.stereoRectify(
+        cam1.camera_matrix, cam1.dist_coeffs, cam2.camera_matrix, cam2.dist_coeffs, (w, h), r, t.reshape(3, 1), alpha=-1
+    )
     if abs(p2[1, 3]) > abs(p2[0, 3]):
-        raise InputError("calibration: the cameras are displaced vertically; rectified rows would be columns "
-                         "(turn the images or use camera-projector triangulation)")
+        raise InputError(
+            "calibration: the cameras are displaced vertically; rectified rows would be columns "
+            "(turn the images or use camera-projector triangulation)"
+        )
     baseline = p2[0, 3] / p2[0, 0]  # Tx in mm: x2_rect = x1_rect + Tx (rectified frame)
     # the outline of each image in normalised rectified coordinates
     n = 256
-    edge = np.concatenate([np.c_[np.linspace(0, w - 1, n), np.zeros(n)], np.c_[np.linspace(0, w - 1, n),
-                           np.full(n, h - 1.0)], np.c_[np.zeros(n), np.linspace(0, h - 1, n)],
-                           np.c_[np.full(n, w - 1.0), np.linspace(0, h - 1, n)]])
+    edge = np.concatenate(
+        [
+            np.c_[np.linspace(0, w - 1, n), np.zeros(n)],
+            np.c_[np.linspace(0, w - 1, n), np.full(n, h - 1.0)],
+            np.c_[np.zeros(n), np.linspace(0, h - 1, n)],
+            np.c_[np.full(n, w - 1.0), np.linspace(0, h - 1, n)],
+        ]
+    )
     boxes = []
     for cam, rr in ((cam1, r1), (cam2, r2)):
         xy = cv2.undistortPoints(edge.reshape(-1, 1, 2), cam.camera_matrix, cam.dist_coeffs, R=rr).reshape(-1, 2)
@@ -219,8 +232,9 @@ def _pose_between(cam1: CameraModel, cam2: CameraModel):
     return r, t
 
 
-def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraModel, direction: str = "auto",
-                  block_rows: int = 64):
+def stereo_points(
+    dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraModel, direction: str = "auto", block_rows: int = 64
+):
     """Camera-camera matching of absolute phase along rectified rows, then triangulation.
 
     Works through blocks of ``block_rows`` rectified rows, on threads, so that each
@@ -232,15 +246,16 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
 
     h, w = dec1.mask.shape
     if dec2.mask.shape != (h, w):
-        raise InputError(f"images2: {dec2.mask.shape[1]}x{dec2.mask.shape[0]} px, camera 1's are {w}x{h} px; "
-                         "camera-camera matching needs equal sizes")
+        raise InputError(
+            f"images2: {dec2.mask.shape[1]}x{dec2.mask.shape[0]} px, camera 1's are {w}x{h} px; "
+            "camera-camera matching needs equal sizes"
+        )
     r, t = _pose_between(cam1, cam2)
     r1, r2, p1, p2, q, size = rectification(cam1, cam2, (w, h))
     m1 = cv2.initUndistortRectifyMap(cam1.camera_matrix, cam1.dist_coeffs, r1, p1, size, cv2.CV_32FC1)
     m2 = cv2.initUndistortRectifyMap(cam2.camera_matrix, cam2.dist_coeffs, r2, p2, size, cv2.CV_32FC1)
     hr, wr = size[1], size[0]
-    have = [d for d in ("vertical", "horizontal") if dec1.coords.get(d) is not None
-            and dec2.coords.get(d) is not None]
+    have = [d for d in ("vertical", "horizontal") if dec1.coords.get(d) is not None and dec2.coords.get(d) is not None]
     if not have:
         raise InputError("stereo: the two cameras share no decoded fringe direction")
 
@@ -317,7 +332,11 @@ def stereo_points(dec1: Decoded, dec2: Decoded, cam1: CameraModel, cam2: CameraM
         return np.zeros((0, 3)), {k: np.zeros(0) for k in ("modulation", "quality", "x_px", "y_px")}, direction
     pts, mod, mean, xp, yp = (np.concatenate(c) for c in zip(*parts))
     quality = np.clip(mod / np.maximum(mean, 1e-6), 0, 1)
-    fields = {"modulation": mod.astype(np.float64), "quality": quality.astype(np.float64),
-              # where the point is in camera 1's (distorted) image
-              "x_px": xp.astype(np.float64), "y_px": yp.astype(np.float64)}
+    fields = {
+        "modulation": mod.astype(np.float64),
+        "quality": quality.astype(np.float64),
+        # where the point is in camera 1's (distorted) image
+        "x_px": xp.astype(np.float64),
+        "y_px": yp.astype(np.float64),
+    }
     return pts, fields, direction

@@ -105,8 +105,10 @@ def gradient_scale(img: np.ndarray, every: int = 16) -> float:
 
     with warnings.catch_warnings(), np.errstate(invalid="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN map has no scale (0)
-        steps = [np.nanmedian(np.abs(np.diff(img[::every], axis=1))),
-                 np.nanmedian(np.abs(np.diff(img[:, ::every], axis=0)))]
+        steps = [
+            np.nanmedian(np.abs(np.diff(img[::every], axis=1))),
+            np.nanmedian(np.abs(np.diff(img[:, ::every], axis=0))),
+        ]
     return float(np.nan_to_num(max(steps)))
 
 

@@ -58,9 +58,10 @@ is the complementary Gray code: its boundaries fall mid-fringe and no order erro
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -173,12 +174,23 @@ class Sequence:
 
     def describe(self) -> list[dict[str, Any]]:
         """One JSON-able dict per frame (index, name, kind, direction, group, index, inverse)."""
-        return [{"frame": i, "name": f.name, "kind": f.kind, "direction": f.direction, "group": f.group,
-                 "index": f.index, "inverse": f.inverse} for i, f in enumerate(self.frames)]
+        return [
+            {
+                "frame": i,
+                "name": f.name,
+                "kind": f.kind,
+                "direction": f.direction,
+                "group": f.group,
+                "index": f.index,
+                "inverse": f.inverse,
+            }
+            for i, f in enumerate(self.frames)
+        ]
 
 
-def _num(entry: Mapping[str, Any], key: str, default: Any, where: str, *, lo: float | None = None,
-         integer: bool = False) -> Any:
+def _num(
+    entry: Mapping[str, Any], key: str, default: Any, where: str, *, lo: float | None = None, integer: bool = False
+) -> Any:
     value = entry.get(key, default)
     if value is None:
         raise InputError(f"{where}: '{key}' is required")
@@ -230,15 +242,29 @@ def load_sequence(source: Any) -> Sequence:
         raise InputError(f"{name}: bit_depth must be 8 or 16, got {bit_depth}")
     gamma = _num(source, "gamma", 1.0, name, lo=1e-3)
     levels = source.get("levels", [0.0, 1.0])
-    if not (isinstance(levels, (list, tuple)) and len(levels) == 2
-            and all(isinstance(x, (int, float)) for x in levels) and 0 <= levels[0] < levels[1] <= 1):
+    if not (
+        isinstance(levels, (list, tuple))
+        and len(levels) == 2
+        and all(isinstance(x, (int, float)) for x in levels)
+        and 0 <= levels[0] < levels[1] <= 1
+    ):
         raise InputError(f"{name}: 'levels' must be [black, white] with 0 <= black < white <= 1, got {levels!r}")
     scale = proj.get("calibration_scale", [1.0, 1.0])
-    if not (isinstance(scale, (list, tuple)) and len(scale) == 2
-            and all(isinstance(x, (int, float)) and x > 0 for x in scale)):
+    if not (
+        isinstance(scale, (list, tuple))
+        and len(scale) == 2
+        and all(isinstance(x, (int, float)) and x > 0 for x in scale)
+    ):
         raise InputError(f"{name}: projector.calibration_scale must be [sx, sy] > 0, got {scale!r}")
-    seq = Sequence(width, height, bit_depth, gamma, (float(levels[0]), float(levels[1])), name=name,
-                   calibration_scale=(float(scale[0]), float(scale[1])))
+    seq = Sequence(
+        width,
+        height,
+        bit_depth,
+        gamma,
+        (float(levels[0]), float(levels[1])),
+        name=name,
+        calibration_scale=(float(scale[0]), float(scale[1])),
+    )
     entries = source.get("frames")
     if not isinstance(entries, list) or not entries:
         raise InputError(f"{name}: 'frames' must be a non-empty list")
@@ -284,23 +310,28 @@ def _add_entry(seq: Sequence, entry: Any, where: str) -> None:
         # quadratures; otherwise the arctangent is biased
         c, s = np.cos(shifts), np.sin(shifts)
         if abs(c.sum()) > 1e-6 or abs(s.sum()) > 1e-6 or abs((c * s).sum()) > 1e-6 or abs((c * c - s * s).sum()) > 1e-6:
-            raise InputError(f"{where}: shifts_deg {list(shifts_deg)} are not evenly spread over 360 deg "
-                             "(eq. 5.3 needs N equal steps)")
+            raise InputError(
+                f"{where}: shifts_deg {list(shifts_deg)} are not evenly spread over 360 deg "
+                "(eq. 5.3 needs N equal steps)"
+            )
         mean = _num(entry, "mean", 0.5, where, lo=0)
         amp = _num(entry, "amplitude", 0.5, where, lo=0)
         if amp <= 0 or mean - amp < -1e-9 or mean + amp > 1 + 1e-9:
             raise InputError(f"{where}: mean {mean} +- amplitude {amp} must lie in [0, 1] with amplitude > 0")
         gi = len(seq.phase_groups)
-        seq.phase_groups.append(PhaseGroup(direction, steps, period, offset, shifts, mean, amp,
-                                           tuple(range(start, start + steps))))
+        seq.phase_groups.append(
+            PhaseGroup(direction, steps, period, offset, shifts, mean, amp, tuple(range(start, start + steps)))
+        )
         seq.frames.extend(Frame("phase", direction, gi, k) for k in range(steps))
         return
     n_words = math.ceil((span - offset) / period) if span > offset else 1
     need = max(1, math.ceil(math.log2(max(n_words, 2))))
     bits = _num(entry, "bits", need, where, lo=1, integer=True)
     if bits < need:
-        raise InputError(f"{where}: {bits} bits number only {1 << bits} stripes of {period} px; "
-                         f"the {direction} span of {span} px needs {need}")
+        raise InputError(
+            f"{where}: {bits} bits number only {1 << bits} stripes of {period} px; "
+            f"the {direction} span of {span} px needs {need}"
+        )
     if bits > 24:
         raise InputError(f"{where}: 'bits' = {bits} is more than 24")
     inverse = _choice(entry, "inverse", INVERSE_MODES, "none", where)

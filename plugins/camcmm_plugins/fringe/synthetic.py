@@ -20,13 +20,24 @@ from .patterns import code_word, gray_encode, projector_phase
 from .sequence import load_sequence
 
 
-def render_captures(sequence, u=None, v=None, mean=100.0, modulation=80.0, noise: float = 0.0,
-                    dtype=np.uint8, code_shift: float = 0.0, seed: int = 0) -> list[np.ndarray]:
+def render_captures(
+    sequence,
+    u=None,
+    v=None,
+    mean=100.0,
+    modulation=80.0,
+    noise: float = 0.0,
+    dtype=np.uint8,
+    code_shift: float = 0.0,
+    seed: int = 0,
+) -> list[np.ndarray]:
     """Frames (sequence order) for camera pixels seeing projector coordinates u (column)
     and v (row), (H, W) float arrays in px. ``mean`` / ``modulation`` scalars or maps."""
     seq = load_sequence(sequence)
-    coords = {"vertical": None if u is None else np.asarray(u, dtype=np.float64),
-              "horizontal": None if v is None else np.asarray(v, dtype=np.float64)}
+    coords = {
+        "vertical": None if u is None else np.asarray(u, dtype=np.float64),
+        "horizontal": None if v is None else np.asarray(v, dtype=np.float64),
+    }
     shape = next(c.shape for c in coords.values() if c is not None)
     rng = np.random.default_rng(seed)
     a = np.broadcast_to(np.asarray(mean, dtype=np.float64), shape)
@@ -41,8 +52,9 @@ def render_captures(sequence, u=None, v=None, mean=100.0, modulation=80.0, noise
                 raise ValueError(f"frame {f.name} needs the {f.direction} coordinate map")
             if f.kind == "phase":
                 g = seq.phase_groups[f.group]
-                s = (2 * g.mean - 1) + 2 * g.amplitude * np.cos(projector_phase(x, g.period, g.offset)
-                                                                 + g.shifts[f.index])
+                s = (2 * g.mean - 1) + 2 * g.amplitude * np.cos(
+                    projector_phase(x, g.period, g.offset) + g.shifts[f.index]
+                )
             else:
                 g = seq.code_groups[f.group]
                 c = np.clip(code_word(x + code_shift, g.period, g.offset), 0, g.n_words - 1)

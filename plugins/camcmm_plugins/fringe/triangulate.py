@@ -63,7 +63,7 @@ def distort(cam: CameraModel, xy: np.ndarray) -> np.ndarray:
     if len(dc) > 12:
         pts = np.column_stack([xy, np.ones(len(xy))])
         return project(CameraModel(cam.camera_matrix, dc, name=cam.name), pts, _opencv=True)
-    k[:len(dc)] = dc
+    k[: len(dc)] = dc
     x, y = xy[:, 0], xy[:, 1]
     r2 = x * x + y * y
     radial = (1 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]))) / (1 + r2 * (k[5] + r2 * (k[6] + r2 * k[7])))
@@ -83,13 +83,26 @@ def project(cam: CameraModel, points: np.ndarray, _opencv: bool = False) -> np.n
     import cv2
 
     rvec, _ = cv2.Rodrigues(cam.rotation)
-    px, _ = cv2.projectPoints(np.ascontiguousarray(points).reshape(-1, 1, 3), rvec,
-                              cam.translation.astype(np.float64), cam.camera_matrix, cam.dist_coeffs)
+    px, _ = cv2.projectPoints(
+        np.ascontiguousarray(points).reshape(-1, 1, 3),
+        rvec,
+        cam.translation.astype(np.float64),
+        cam.camera_matrix,
+        cam.dist_coeffs,
+    )
     return px.reshape(-1, 2)
 
 
-def intersect_stripe(cam: CameraModel, proj: CameraModel, pixels: np.ndarray, coord: np.ndarray,
-                     axis: int = 0, iterations: int = 10, tol: float = 1e-4, min_angle: float = 1.0) -> np.ndarray:
+def intersect_stripe(
+    cam: CameraModel,
+    proj: CameraModel,
+    pixels: np.ndarray,
+    coord: np.ndarray,
+    axis: int = 0,
+    iterations: int = 10,
+    tol: float = 1e-4,
+    min_angle: float = 1.0,
+) -> np.ndarray:
     """Points where camera pixels' rays meet the projector stripes of ``coord``.
 
     pixels : (n, 2) camera pixels (distorted, as captured).

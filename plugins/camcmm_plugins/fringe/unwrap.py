@@ -54,8 +54,10 @@ def beat(a: Level, b: Level) -> Level:
     if a.period > b.period:
         a, b = b, a
     if abs(b.period - a.period) < 1e-9 * b.period:
-        raise InputError(f"phase levels {a.name} and {b.name} have the same period {a.period} px; "
-                         "heterodyne unwrapping needs different periods")
+        raise InputError(
+            f"phase levels {a.name} and {b.name} have the same period {a.period} px; "
+            "heterodyne unwrapping needs different periods"
+        )
     t = a.period * b.period / (b.period - a.period)
     offset = t * (a.offset / a.period - b.offset / b.period)
     f = a.frac - b.frac
@@ -88,9 +90,18 @@ def refine(x_est: np.ndarray, level: Level, out: np.ndarray | None = None):
     return k, t
 
 
-def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, code_period: float = 0.0,
-           code_offset: float = 0.0, valid: np.ndarray | None = None, correction: str = "auto",
-           direction: str = "", code_half: float | None = None, modulation: np.ndarray | None = None):
+def unwrap(
+    levels: list[Level],
+    span: float,
+    code: np.ndarray | None = None,
+    code_period: float = 0.0,
+    code_offset: float = 0.0,
+    valid: np.ndarray | None = None,
+    correction: str = "auto",
+    direction: str = "",
+    code_half: float | None = None,
+    modulation: np.ndarray | None = None,
+):
     """Absolute projector coordinate from wrapped levels (and a code estimate).
 
     levels : the direction's phase groups as Levels (any number, any periods).
@@ -126,15 +137,19 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
         absolute = [lv for lv in chain if lv.period >= span * (1 - 1e-9)]
         if not absolute:
             longest = max(lv.period for lv in chain)
-            raise InputError(f"{direction or 'these'} fringes: no code, and the longest (beat) period "
-                             f"{longest:.4g} px is shorter than the projector span {span} px; cannot unwrap")
+            raise InputError(
+                f"{direction or 'these'} fringes: no code, and the longest (beat) period "
+                f"{longest:.4g} px is shorter than the projector span {span} px; cannot unwrap"
+            )
         top = min(absolute, key=lambda lv: lv.period)
         todo = [top] + [lv for lv in chain if lv.period < top.period]
         x, steps = np.full(shape, np.float32(span / 2.0)), []
     todo.sort(key=lambda lv: -lv.period)
     if code is not None and todo[0].period < code_period * (1 - 1e-9):
-        raise InputError(f"{direction or 'these'} fringes: the code's {code_period:g} px stripes are wider than "
-                         f"the longest (beat) period {todo[0].period:.4g} px; the code cannot fix the fringe order")
+        raise InputError(
+            f"{direction or 'these'} fringes: the code's {code_period:g} px stripes are wider than "
+            f"the longest (beat) period {todo[0].period:.4g} px; the code cannot fix the fringe order"
+        )
     unreliable = np.zeros(shape, bool)
     stats = {"corrected": 0, "dropped": 0}
     check = correction != "none"
@@ -162,8 +177,9 @@ def unwrap(levels: list[Level], span: float, code: np.ndarray | None = None, cod
                 nd = int(np.count_nonzero(dropped))
                 stats["corrected"] += n
                 stats["dropped"] += nd
-                order_note = (f"orders near code boundaries: {int(np.count_nonzero(doubt))} doubtful, "
-                              f"{n} corrected, {nd} dropped")
+                order_note = (
+                    f"orders near code boundaries: {int(np.count_nonzero(doubt))} doubtful, {n} corrected, {nd} dropped"
+                )
         steps.append(note)
         if order_note:
             steps.append(order_note)

@@ -108,13 +108,24 @@ class Alignment:
         w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
         angle = float(np.degrees(np.arctan2(np.linalg.norm(w) / 2, (np.trace(R) - 1) / 2)))
         return {
-            "transform": self.transform.tolist(), "scale": self.scale, "rotation": R.tolist(),
-            "rotation_angle_deg": angle, "translation": self.translation.tolist(),
-            "converged": bool(self.converged), "reason": self.reason, "method": self.method,
-            "rms": self.rms, "rms_all": self.rms_all, "overlap": self.overlap,
-            "inlier_distance": self.inlier_distance, "n_points": self.n_points, "n_inliers": self.n_inliers,
+            "transform": self.transform.tolist(),
+            "scale": self.scale,
+            "rotation": R.tolist(),
+            "rotation_angle_deg": angle,
+            "translation": self.translation.tolist(),
+            "converged": bool(self.converged),
+            "reason": self.reason,
+            "method": self.method,
+            "rms": self.rms,
+            "rms_all": self.rms_all,
+            "overlap": self.overlap,
+            "inlier_distance": self.inlier_distance,
+            "n_points": self.n_points,
+            "n_inliers": self.n_inliers,
             "sigma": self.sigma,
-            "iterations": self.iterations, "weak_directions": list(self.weak_directions), "stages": self.stages,
+            "iterations": self.iterations,
+            "weak_directions": list(self.weak_directions),
+            "stages": self.stages,
         }
 
 
@@ -154,7 +165,7 @@ def _check_transform(T: Any, what: str = "initial transform") -> np.ndarray:
     if not det > 0:
         raise ParameterError(f"{what}: the 3×3 part must be a (scaled) rotation with positive determinant")
     s = np.cbrt(det)
-    if np.abs(A.T @ A / s ** 2 - np.eye(3)).max() > 1e-6:
+    if np.abs(A.T @ A / s**2 - np.eye(3)).max() > 1e-6:
         raise ParameterError(f"{what}: the 3×3 part is not a scaled rotation (shear or unequal scales)")
     return M
 
@@ -228,8 +239,7 @@ class Nominal:
 
 
 # --------------------------------------------------------------------------- point pairs
-def umeyama(src: np.ndarray, dst: np.ndarray, scale: bool = False,
-            weights: np.ndarray | None = None) -> np.ndarray:
+def umeyama(src: np.ndarray, dst: np.ndarray, scale: bool = False, weights: np.ndarray | None = None) -> np.ndarray:
     """Closed-form least-squares rigid or similarity transform src -> dst (Umeyama 1991)."""
     X = np.asarray(src, dtype=float)
     Y = np.asarray(dst, dtype=float)
@@ -268,15 +278,29 @@ def align_point_pairs(measured: Any, nominal: Any, scale: bool = False) -> Align
             raise GeometryError(f"point pairs: the {name} points lie on one line; pick three that span a triangle")
     T = umeyama(A, B, scale)
     res = np.linalg.norm(apply(T, A) - B, axis=1)
-    rms = float(np.sqrt(np.mean(res ** 2)))
-    return Alignment(T, True, "pairs" + ("+scale" if scale else ""), rms=rms, rms_all=rms, n_points=len(A),
-                     n_inliers=len(A), overlap=float("nan"),
-                     stages=[{"stage": "pairs", "residuals": res.tolist(), "rms": rms}])
+    rms = float(np.sqrt(np.mean(res**2)))
+    return Alignment(
+        T,
+        True,
+        "pairs" + ("+scale" if scale else ""),
+        rms=rms,
+        rms_all=rms,
+        n_points=len(A),
+        n_inliers=len(A),
+        overlap=float("nan"),
+        stages=[{"stage": "pairs", "residuals": res.tolist(), "rms": rms}],
+    )
 
 
 # --------------------------------------------------------------------------- global
-def global_registration(points: np.ndarray, nominal: Nominal, scale: bool = False, voxel: float | None = None,
-                        seed: int = 0, min_fitness: float = 0.2) -> tuple[np.ndarray, dict[str, Any]]:
+def global_registration(
+    points: np.ndarray,
+    nominal: Nominal,
+    scale: bool = False,
+    voxel: float | None = None,
+    seed: int = 0,
+    min_fitness: float = 0.2,
+) -> tuple[np.ndarray, dict[str, Any]]:
     """Coarse transform from FPFH feature matches and RANSAC (Open3D).
 
     ``voxel`` (default 1/60 of the nominal's diagonal) sets the downsampling; normals are
@@ -310,24 +334,47 @@ def global_registration(points: np.ndarray, nominal: Nominal, scale: bool = Fals
     fs = reg.compute_fpfh_feature(src, feat)
     ft = reg.compute_fpfh_feature(tgt, feat)
     if len(src.points) < 10 or len(tgt.points) < 10:
-        return pre, {"ok": False, "fitness": 0.0, "inlier_rmse": None, "voxel": voxel, "prescale": prescale,
-                     "reason": "too few points after downsampling for features"}
+        return pre, {
+            "ok": False,
+            "fitness": 0.0,
+            "inlier_rmse": None,
+            "voxel": voxel,
+            "prescale": prescale,
+            "reason": "too few points after downsampling for features",
+        }
     o3d.utility.random.seed(int(seed))
     dist = 1.5 * voxel
     # Open3D prints a warning on stdout when the mutual filter leaves few matches (and
     # then uses all matches): keep stdout clean for `--json`
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
         res = reg.registration_ransac_based_on_feature_matching(
-            src, tgt, fs, ft, True, dist, reg.TransformationEstimationPointToPoint(bool(scale)), 3,
+            src,
+            tgt,
+            fs,
+            ft,
+            True,
+            dist,
+            reg.TransformationEstimationPointToPoint(bool(scale)),
+            3,
             [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9), reg.CorrespondenceCheckerBasedOnDistance(dist)],
-            reg.RANSACConvergenceCriteria(100000, 0.999))
+            reg.RANSACConvergenceCriteria(100000, 0.999),
+        )
     T = np.asarray(res.transformation) @ pre
     ok = bool(res.fitness >= min_fitness)
-    info = {"ok": ok, "fitness": float(res.fitness), "inlier_rmse": float(res.inlier_rmse), "voxel": voxel,
-            "prescale": prescale, "n_source": len(src.points), "n_target": len(tgt.points)}
+    info = {
+        "ok": ok,
+        "fitness": float(res.fitness),
+        "inlier_rmse": float(res.inlier_rmse),
+        "voxel": voxel,
+        "prescale": prescale,
+        "n_source": len(src.points),
+        "n_target": len(tgt.points),
+    }
     if not ok:
-        info["reason"] = (f"global registration: only {100 * res.fitness:.1f} % of the downsampled points found a "
-                          f"consistent feature match (need {100 * min_fitness:.0f} %); the clouds may not overlap")
+        info["reason"] = (
+            f"global registration: only {100 * res.fitness:.1f} % of the downsampled points found a "
+            f"consistent feature match (need {100 * min_fitness:.0f} %); the clouds may not overlap"
+        )
     return T, info
 
 
@@ -349,8 +396,15 @@ def _weights(r: np.ndarray, kernel: str, k: float) -> np.ndarray:
     return np.ones_like(r)
 
 
-_DOF_NAMES = ("rotation about x", "rotation about y", "rotation about z",
-              "translation along x", "translation along y", "translation along z", "scale")
+_DOF_NAMES = (
+    "rotation about x",
+    "rotation about y",
+    "rotation about z",
+    "translation along x",
+    "translation along y",
+    "translation along z",
+    "scale",
+)
 
 
 def _jacobian(x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float) -> tuple[np.ndarray, np.ndarray]:
@@ -369,8 +423,9 @@ def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = 1e-7) -> int:
     return int(np.sum(lam <= cond * lam.max()))
 
 
-def _gn_step(x: np.ndarray, q: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float,
-             cond: float = 1e-7) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def _gn_step(
+    x: np.ndarray, q: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float, cond: float = 1e-7
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """One weighted Gauss-Newton step: (ω, τ, σ), the centroid c, weak directions."""
     J, c = _jacobian(x, n, w, scale, L)
     r = np.einsum("ij,ij->i", n, x - q)
@@ -418,11 +473,24 @@ def _residuals(nom: Nominal, x: np.ndarray, d_in: float) -> tuple[np.ndarray, np
     return e, rim
 
 
-def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = None, scale: bool = False,
-        max_distance: float | None = None, kernel: str = "tukey", kernel_k: float | None = None,
-        region: Any = None, max_iterations: int = 100, tolerance: float = 1e-9, max_points: int = 50_000,
-        inlier_distance: float | None = None, min_overlap: float = 0.5, seed: int = 0,
-        max_scale_change: float = 0.1, method: str | None = None) -> Alignment:
+def icp(
+    points: Any,
+    nominal: Nominal | TriangleMesh | PointCloud,
+    init: Any = None,
+    scale: bool = False,
+    max_distance: float | None = None,
+    kernel: str = "tukey",
+    kernel_k: float | None = None,
+    region: Any = None,
+    max_iterations: int = 100,
+    tolerance: float = 1e-9,
+    max_points: int = 50_000,
+    inlier_distance: float | None = None,
+    min_overlap: float = 0.5,
+    seed: int = 0,
+    max_scale_change: float = 0.1,
+    method: str | None = None,
+) -> Alignment:
     """Point-to-plane ICP (rigid, or similarity with ``scale=True``) with a robust kernel.
 
     ``points``: measured (N, 3) mm. ``init``: 4×4 start (measured -> nominal), identity by
@@ -471,15 +539,20 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
             use = _in_box(x, box)
             xi = x[use]
             if len(xi) < need:
-                fail = (f"only {len(xi)} measured points inside the region" if box is not None
-                        else f"only {len(xi)} measured points")
+                fail = (
+                    f"only {len(xi)} measured points inside the region"
+                    if box is not None
+                    else f"only {len(xi)} measured points"
+                )
                 break
             q, n, rim = nom.closest(xi)
             e = np.linalg.norm(xi - q, axis=1)
             good = (e <= dmax) & ~rim
             if good.sum() < need:
-                fail = (f"no overlap: {int(good.sum())} of {len(xi)} measured points lie within max_distance "
-                        f"{dmax:.4g} mm of the nominal")
+                fail = (
+                    f"no overlap: {int(good.sum())} of {len(xi)} measured points lie within max_distance "
+                    f"{dmax:.4g} mm of the nominal"
+                )
                 break
             xg, qg, ng = xi[good], q[good], n[good]
             r = np.einsum("ij,ij->i", ng, xg - qg)
@@ -519,8 +592,15 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
                 break
         if fail:
             break
-    al = Alignment(T, False, label, iterations=it_total, weak_directions=weak, inlier_distance=d_in,
-                   n_points=int(last.get("n_region", 0)))
+    al = Alignment(
+        T,
+        False,
+        label,
+        iterations=it_total,
+        weak_directions=weak,
+        inlier_distance=d_in,
+        n_points=int(last.get("n_region", 0)),
+    )
     if fail:
         al.reason = fail
         return al
@@ -533,26 +613,41 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
     al.n_inliers = int(inl.sum())
     al.overlap = float(inl.mean()) if e.size else 0.0
     al.rms = float(np.sqrt(np.mean(e[inl] ** 2))) if inl.any() else float("nan")
-    al.rms_all = float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan")
+    al.rms_all = float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
     corr = e[(e <= dmax) & ~rim]
     al.sigma = float(1.4826 * np.median(corr)) if corr.size else float("nan")
-    al.stages.append({"stage": label, "iterations": it_total, "kernel": kernel, "kernel_k": last.get("k"),
-                      "max_distance": dmax, "max_points": max_points, "region": None if box is None else box.tolist()})
+    al.stages.append(
+        {
+            "stage": label,
+            "iterations": it_total,
+            "kernel": kernel,
+            "kernel_k": last.get("k"),
+            "max_distance": dmax,
+            "max_points": max_points,
+            "region": None if box is None else box.tolist(),
+        }
+    )
     s = al.scale
     if not settled:
         al.reason = f"the iterations did not settle within {max_iterations} (+20 on all points)"
     elif al.overlap < min_overlap:
-        al.reason = (f"low overlap: {100 * al.overlap:.1f} % of the measured points lie within {d_in:.4g} mm of the "
-                     f"nominal (need {100 * min_overlap:.0f} %); the clouds may not overlap or the start was too far off")
+        al.reason = (
+            f"low overlap: {100 * al.overlap:.1f} % of the measured points lie within {d_in:.4g} mm of the "
+            f"nominal (need {100 * min_overlap:.0f} %); the clouds may not overlap or the start was too far off"
+        )
     elif not al.sigma * BAND <= d_in:
-        al.reason = (f"the residuals are too wide for a match: their robust standard deviation {al.sigma:.4g} mm is more "
-                     f"than 1/{BAND:g} of the inlier distance {d_in:.4g} mm. Either the clouds do not overlap and ICP "
-                     f"slid one over the other, or the part deviates that much: then give a larger inlier_distance")
+        al.reason = (
+            f"the residuals are too wide for a match: their robust standard deviation {al.sigma:.4g} mm is more "
+            f"than 1/{BAND:g} of the inlier distance {d_in:.4g} mm. Either the clouds do not overlap and ICP "
+            f"slid one over the other, or the part deviates that much: then give a larger inlier_distance"
+        )
     elif not (1e-3 < s < 1e3):
         al.reason = f"implausible scale {s:.4g}"
     elif scale and abs(np.log(s / s0)) > np.log1p(max_scale_change):
-        al.reason = (f"the scale moved from {s0:.6g} to {s:.6g} (more than {100 * max_scale_change:.0f} %): the cloud "
-                     f"shrank or grew onto the nominal instead of matching it; give a better start (pairs, global)")
+        al.reason = (
+            f"the scale moved from {s0:.6g} to {s:.6g} (more than {100 * max_scale_change:.0f} %): the cloud "
+            f"shrank or grew onto the nominal instead of matching it; give a better start (pairs, global)"
+        )
     else:
         al.converged = True
         if weak:
@@ -564,8 +659,14 @@ def icp(points: Any, nominal: Nominal | TriangleMesh | PointCloud, init: Any = N
 METHODS = ("none", "icp", "similarity", "global+icp", "global+similarity", "pairs", "pairs+icp", "pairs+similarity")
 
 
-def align(points: Any, nominal: Nominal | TriangleMesh | PointCloud, method: str = "icp", init: Any = None,
-          pairs: dict[str, Any] | None = None, **icp_args: Any) -> Alignment:
+def align(
+    points: Any,
+    nominal: Nominal | TriangleMesh | PointCloud,
+    method: str = "icp",
+    init: Any = None,
+    pairs: dict[str, Any] | None = None,
+    **icp_args: Any,
+) -> Alignment:
     """Coarse + fine alignment in one call.
 
     ``method``: none | icp | similarity | global+icp | global+similarity | pairs |
@@ -610,7 +711,16 @@ def _evaluate(P: np.ndarray, nom: Nominal, T: np.ndarray, method: str, stages: l
     use = _in_box(x, None if box is None else np.asarray(box, dtype=float).ravel())
     e, rim = _residuals(nom, x[use], d_in)
     inl = (e <= d_in) & ~rim
-    return Alignment(T, True, method, reason="no fitting requested", rms=float(np.sqrt(np.mean(e[inl] ** 2))) if
-                     inl.any() else float("nan"), rms_all=float(np.sqrt(np.mean(e ** 2))) if e.size else float("nan"),
-                     overlap=float(inl.mean()) if e.size else 0.0, inlier_distance=d_in, n_points=int(use.sum()),
-                     n_inliers=int(inl.sum()), stages=stages)
+    return Alignment(
+        T,
+        True,
+        method,
+        reason="no fitting requested",
+        rms=float(np.sqrt(np.mean(e[inl] ** 2))) if inl.any() else float("nan"),
+        rms_all=float(np.sqrt(np.mean(e**2))) if e.size else float("nan"),
+        overlap=float(inl.mean()) if e.size else 0.0,
+        inlier_distance=d_in,
+        n_points=int(use.sum()),
+        n_inliers=int(inl.sum()),
+        stages=stages,
+    )

@@ -29,30 +29,68 @@ ALIGN = ("none", "icp", "similarity", "global+icp", "global+similarity", "pairs"
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("cloud", help="measured point cloud (.ply .pcd .xyz .csv .txt .e57)")
-    parser.add_argument("--nominal", required=True, metavar="FILE",
-                        help="nominal: CAD mesh (.stl .obj .ply) or reference cloud")
-    parser.add_argument("--align", default="icp", choices=ALIGN,
-                        help="icp: rigid ICP from where the cloud is (default); similarity: with one uniform scale; "
-                             "global+...: FPFH/RANSAC first; pairs+...: --pairs first; none: as it is")
+    parser.add_argument(
+        "--nominal", required=True, metavar="FILE", help="nominal: CAD mesh (.stl .obj .ply) or reference cloud"
+    )
+    parser.add_argument(
+        "--align",
+        default="icp",
+        choices=ALIGN,
+        help="icp: rigid ICP from where the cloud is (default); similarity: with one uniform scale; "
+        "global+...: FPFH/RANSAC first; pairs+...: --pairs first; none: as it is",
+    )
     parser.add_argument("--tolerance", type=float, default=None, metavar="T", help="tolerance in mm (colour scale ±T)")
     parser.add_argument("--out", default=None, metavar="FILE", help="write the coloured cloud with field 'deviation'")
     parser.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
-    parser.add_argument("--pairs", default=None, metavar="FILE",
-                        help='JSON {"measured": [[x,y,z],...], "nominal": [[x,y,z],...]}: at least 3 point pairs')
-    parser.add_argument("--region", type=float, nargs=6, default=None,
-                        metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
-                        help="align on the measured points inside this box (nominal coordinates, mm)")
+    parser.add_argument(
+        "--pairs",
+        default=None,
+        metavar="FILE",
+        help='JSON {"measured": [[x,y,z],...], "nominal": [[x,y,z],...]}: at least 3 point pairs',
+    )
+    parser.add_argument(
+        "--region",
+        type=float,
+        nargs=6,
+        default=None,
+        metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+        help="align on the measured points inside this box (nominal coordinates, mm)",
+    )
     parser.add_argument("--kernel", default="tukey", choices=("tukey", "huber", "none"), help="robust kernel of ICP")
-    parser.add_argument("--max-distance", type=float, default=None, metavar="D",
-                        help="ICP ignores correspondences farther apart (mm; default 5 %% of the nominal's size)")
-    parser.add_argument("--inlier-distance", type=float, default=None, metavar="D",
-                        help="overlap distance (mm; default 1 %% of the nominal's size)")
-    parser.add_argument("--min-overlap", type=float, default=0.5, metavar="F",
-                        help="share of points that must overlap for success (default 0.5)")
-    parser.add_argument("--distance", default="auto", choices=("auto", "mesh", "plane", "nn"),
-                        help="deviation: signed to mesh, to the local plane or nearest point of a reference cloud")
-    parser.add_argument("--coverage-distance", type=float, default=None, metavar="D",
-                        help="coverage: a nominal sample is covered by a point this close (mm; default 3 point spacings)")
+    parser.add_argument(
+        "--max-distance",
+        type=float,
+        default=None,
+        metavar="D",
+        help="ICP ignores correspondences farther apart (mm; default 5 %% of the nominal's size)",
+    )
+    parser.add_argument(
+        "--inlier-distance",
+        type=float,
+        default=None,
+        metavar="D",
+        help="overlap distance (mm; default 1 %% of the nominal's size)",
+    )
+    parser.add_argument(
+        "--min-overlap",
+        type=float,
+        default=0.5,
+        metavar="F",
+        help="share of points that must overlap for success (default 0.5)",
+    )
+    parser.add_argument(
+        "--distance",
+        default="auto",
+        choices=("auto", "mesh", "plane", "nn"),
+        help="deviation: signed to mesh, to the local plane or nearest point of a reference cloud",
+    )
+    parser.add_argument(
+        "--coverage-distance",
+        type=float,
+        default=None,
+        metavar="D",
+        help="coverage: a nominal sample is covered by a point this close (mm; default 3 point spacings)",
+    )
     parser.add_argument("--unit", default=None, help="length unit of the cloud file when it does not say (default mm)")
     parser.add_argument("--nominal-unit", default=None, help="length unit of the nominal file when it does not say")
     parser.add_argument("--seed", type=int, default=0, help="seed of the random subsets and RANSAC")
@@ -74,8 +112,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             raise InputError(f"{f}: no such file ({what})")
     cloud = _read(args.cloud, args.unit, "cloud") if args.unit else args.cloud
     nominal = _read(args.nominal, args.nominal_unit, "nominal") if args.nominal_unit else args.nominal
-    params: dict[str, Any] = {"align": args.align, "kernel": args.kernel, "min_overlap": args.min_overlap,
-                              "distance": args.distance, "seed": args.seed}
+    params: dict[str, Any] = {
+        "align": args.align,
+        "kernel": args.kernel,
+        "min_overlap": args.min_overlap,
+        "distance": args.distance,
+        "seed": args.seed,
+    }
     for key in ("tolerance", "region", "max_distance", "inlier_distance", "coverage_distance"):
         if getattr(args, key) is not None:
             params[key] = getattr(args, key)
@@ -90,16 +133,35 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     mr = {k: v for k, v in o["material_ratio"].items() if k != "curve" or args.curve}
     cov = o["coverage_info"]
     out: dict[str, Any] = {
-        "cloud": str(args.cloud), "nominal": str(args.nominal), "align": args.align,
+        "cloud": str(args.cloud),
+        "nominal": str(args.nominal),
+        "align": args.align,
         "n_points": o["deviations"].n_points,
-        "transform": o["transform"], "scale": o["scale"], "rms": o["rms"], "overlap": o["overlap"],
-        "converged": o["converged"], "reason": o["reason"],
-        "stats": o["stats"], "tolerance": args.tolerance, "colour_limit": o["colour_limit"],
-        "coverage": o["coverage"], "coverage_info": cov, "material_ratio": mr, "histogram": o["histogram"],
-        "distance_method": o["distance_method"], "nominal_info": o["nominal_info"],
-        "alignment": o["alignment"], "warnings": res.warnings,
-        "plugin": {"id": res.plugin_id, "version": res.plugin_version, "params": res.params,
-                   "input_hashes": res.input_hashes, "started": res.started, "finished": res.finished},
+        "transform": o["transform"],
+        "scale": o["scale"],
+        "rms": o["rms"],
+        "overlap": o["overlap"],
+        "converged": o["converged"],
+        "reason": o["reason"],
+        "stats": o["stats"],
+        "tolerance": args.tolerance,
+        "colour_limit": o["colour_limit"],
+        "coverage": o["coverage"],
+        "coverage_info": cov,
+        "material_ratio": mr,
+        "histogram": o["histogram"],
+        "distance_method": o["distance_method"],
+        "nominal_info": o["nominal_info"],
+        "alignment": o["alignment"],
+        "warnings": res.warnings,
+        "plugin": {
+            "id": res.plugin_id,
+            "version": res.plugin_version,
+            "params": res.params,
+            "input_hashes": res.input_hashes,
+            "started": res.started,
+            "finished": res.finished,
+        },
     }
     if args.out:
         write(o["deviations"], args.out)
@@ -125,21 +187,32 @@ def text(r: dict[str, Any]) -> str:
     lines = [f"{r['cloud']} against {r['nominal']}: {r['n_points']} points, alignment {r['align']}"]
     state = "converged" if r["converged"] else "NOT CONVERGED"
     lines.append(f"  alignment  {state}" + (f" ({r['reason']})" if r["reason"] else ""))
-    lines.append(f"             scale {r['scale']:.8f}  rotation {a['rotation_angle_deg']:.4f}°  translation "
-                 + "(" + ", ".join(f"{v:.4f}" for v in a["translation"]) + ") mm")
+    lines.append(
+        f"             scale {r['scale']:.8f}  rotation {a['rotation_angle_deg']:.4f}°  translation "
+        + "("
+        + ", ".join(f"{v:.4f}" for v in a["translation"])
+        + ") mm"
+    )
     ov = r["overlap"]
-    lines.append(f"             rms {_um(r['rms'], False)}  overlap {100 * ov:.1f} %" if ov is not None and ov == ov
-                 else f"             rms {_um(r['rms'], False)}")
+    lines.append(
+        f"             rms {_um(r['rms'], False)}  overlap {100 * ov:.1f} %"
+        if ov is not None and ov == ov
+        else f"             rms {_um(r['rms'], False)}"
+    )
     lines.append(f"  deviation  mean {_um(s['mean'])}  std {_um(s['std'], False)}  rms {_um(s['rms'], False)}")
     lines.append(f"             min {_um(s['min'])}  max {_um(s['max'])}")
     lines.append(f"             95 % within {_um(s['p97_5'])} / {_um(s['p2_5'])}")
     if r.get("tolerance") is not None:
         lines.append(f"             within ±{r['tolerance']} mm: {100 * s['within_tolerance']:.2f} %")
     c = r["coverage_info"]
-    lines.append(f"  coverage   {c['percent']:.2f} % of the nominal area (±{100 * c['std_error']:.2f} %, points within "
-                 f"{c['distance']:.4g} mm)")
-    lines.append(f"  material   Sk {_um(mr['Sk'], False)}  Spk {_um(mr['Spk'], False)}  Svk {_um(mr['Svk'], False)}  "
-                 f"Smr1 {mr['Smr1']:.2f} %  Smr2 {mr['Smr2']:.2f} %")
+    lines.append(
+        f"  coverage   {c['percent']:.2f} % of the nominal area (±{100 * c['std_error']:.2f} %, points within "
+        f"{c['distance']:.4g} mm)"
+    )
+    lines.append(
+        f"  material   Sk {_um(mr['Sk'], False)}  Spk {_um(mr['Spk'], False)}  Svk {_um(mr['Svk'], False)}  "
+        f"Smr1 {mr['Smr1']:.2f} %  Smr2 {mr['Smr2']:.2f} %"
+    )
     for w in r.get("warnings", []):
         lines.append(f"  warning: {w}")
     if r.get("written"):

@@ -66,9 +66,16 @@ def default_distance(points: np.ndarray, n_probe: int = 20000, seed: int = 0, fa
     return float(factor * np.median(d[:, 1]))
 
 
-def coverage(points: Any, vertices: np.ndarray | None = None, faces: np.ndarray | None = None,
-             distance: float | None = None, n_samples: int = 200_000, reference_points: np.ndarray | None = None,
-             seed: int = 0, return_samples: bool = False) -> dict[str, Any]:
+def coverage(
+    points: Any,
+    vertices: np.ndarray | None = None,
+    faces: np.ndarray | None = None,
+    distance: float | None = None,
+    n_samples: int = 200_000,
+    reference_points: np.ndarray | None = None,
+    seed: int = 0,
+    return_samples: bool = False,
+) -> dict[str, Any]:
     """Covered share of the nominal area.
 
     ``points``: measured points in nominal coordinates (mm). The nominal is a mesh

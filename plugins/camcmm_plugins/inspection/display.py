@@ -128,9 +128,17 @@ def mesh_section(vertices: Any, faces: Any, axis: int, position: float) -> list[
     return _chain(segments, where)
 
 
-def section(axis: int | str, position: float, points: Any, dev: Any, half_width: float,
-            nominal: Any = None, nominal_points: Any = None, max_points: int = 6000,
-            seed: int = 0) -> dict[str, Any]:
+def section(
+    axis: int | str,
+    position: float,
+    points: Any,
+    dev: Any,
+    half_width: float,
+    nominal: Any = None,
+    nominal_points: Any = None,
+    max_points: int = 6000,
+    seed: int = 0,
+) -> dict[str, Any]:
     """A cut through the part by the plane ``coord[axis] = position`` (mm).
 
     ``nominal``: a mesh (anything with ``vertices`` (V, 3) and ``faces`` (F, 3)),
@@ -163,15 +171,26 @@ def section(axis: int | str, position: float, points: Any, dev: Any, half_width:
         if sel.size > max_points:
             sel = np.random.default_rng(seed + 1).choice(sel, max_points, replace=False)
         nom_pts = Q[sel][:, [u, v]]
-    return {"axis": AXES[ax], "position": float(position), "u": AXES[u], "v": AXES[v], "nominal": lines,
-            "nominal_points": nom_pts, "measured": P[inside][:, [u, v]], "deviation": d[inside],
-            "n_in_slab": n_in, "half_width": hw}
+    return {
+        "axis": AXES[ax],
+        "position": float(position),
+        "u": AXES[u],
+        "v": AXES[v],
+        "nominal": lines,
+        "nominal_points": nom_pts,
+        "measured": P[inside][:, [u, v]],
+        "deviation": d[inside],
+        "n_in_slab": n_in,
+        "half_width": hw,
+    }
 
 
 def deviation_field(cloud: Any) -> np.ndarray:
     """The field ``deviation`` (mm) of a cloud; InputError naming the cloud without it."""
     dev = (getattr(cloud, "fields", None) or {}).get("deviation")
     if dev is None:
-        raise InputError(f"{getattr(cloud, 'name', 'cloud')}: no field 'deviation' "
-                         "(a cloud made by inspect.compare or inspect.deviations has it)")
+        raise InputError(
+            f"{getattr(cloud, 'name', 'cloud')}: no field 'deviation' "
+            "(a cloud made by inspect.compare or inspect.deviations has it)"
+        )
     return np.asarray(dev, dtype=float)

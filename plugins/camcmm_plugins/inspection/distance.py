@@ -64,11 +64,17 @@ from camcmm.api import GeometryError, InputError, PointCloud, TriangleMesh
 
 #: Fixed, well spread, "generic" ray directions for the parity vote (no axis, no
 #: diagonal: CAD faces are often axis-aligned, and a ray inside a face's plane is useless).
-_DIRS = np.array([
-    [0.5774, 0.6124, 0.5400], [-0.6935, 0.2981, 0.6557], [0.1542, -0.8893, 0.4306],
-    [0.8012, -0.1911, -0.5670], [-0.4128, -0.5362, -0.7363], [-0.2217, 0.9066, -0.3590],
-    [-0.9161, -0.3533, 0.1893],
-])
+_DIRS = np.array(
+    [
+        [0.5774, 0.6124, 0.5400],
+        [-0.6935, 0.2981, 0.6557],
+        [0.1542, -0.8893, 0.4306],
+        [0.8012, -0.1911, -0.5670],
+        [-0.4128, -0.5362, -0.7363],
+        [-0.2217, 0.9066, -0.3590],
+        [-0.9161, -0.3533, 0.1893],
+    ]
+)
 _DIRS = _DIRS / np.linalg.norm(_DIRS, axis=1)[:, None]
 
 #: Barycentric coordinate below which the closest point counts as on an edge/vertex.
@@ -217,14 +223,18 @@ class MeshDistance:
         directed = F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
         dkey = directed[:, 0] * len(V) + directed[:, 1]
         info.consistent_input = bool(np.unique(dkey).size == dkey.size)
-        legacy = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(Vc), o3d.utility.Vector3iVector(F.astype(np.int32)))
+        legacy = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(Vc), o3d.utility.Vector3iVector(F.astype(np.int32))
+        )
         if not info.consistent_input:
             if legacy.orient_triangles():
                 F = np.asarray(legacy.triangles).astype(np.int64)
             else:
                 info.orientable = False
-                info.notes.append("triangles cannot be oriented consistently (non-manifold or non-orientable); "
-                                  "signs come from ray parity")
+                info.notes.append(
+                    "triangles cannot be oriented consistently (non-manifold or non-orientable); "
+                    "signs come from ray parity"
+                )
         comp = np.asarray(legacy.cluster_connected_triangles()[0], dtype=np.int64)
         info.n_components = int(comp.max()) + 1 if comp.size else 0
 
@@ -233,7 +243,7 @@ class MeshDistance:
         cr = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         dbl_area = np.linalg.norm(cr, axis=1)
         info.area = float(0.5 * dbl_area.sum())
-        degenerate = dbl_area <= 1e-12 * self.diag ** 2
+        degenerate = dbl_area <= 1e-12 * self.diag**2
         info.n_degenerate = int(degenerate.sum())
         fn = np.where(degenerate[:, None], 0.0, cr / np.where(degenerate, 1.0, dbl_area)[:, None])
 
@@ -244,8 +254,10 @@ class MeshDistance:
         info.closed = info.n_boundary_edges == 0 and info.n_nonmanifold_edges == 0
         self.parity_ok = (info.hole_share_bound <= HOLE_SHARE_MAX) if parity is None else bool(parity)
         if info.n_boundary_edges and self.parity_ok:
-            info.notes.append(f"{info.n_boundary_edges} boundary edges (small holes, at most "
-                              f"{100 * info.hole_share_bound:.3g} % of the area): ray parity still used")
+            info.notes.append(
+                f"{info.n_boundary_edges} boundary edges (small holes, at most "
+                f"{100 * info.hole_share_bound:.3g} % of the area): ray parity still used"
+            )
 
         self.V, self.F, self.fn = Vc, F, fn
         self._scene = o3d.t.geometry.RaycastingScene()
@@ -274,8 +286,9 @@ class MeshDistance:
         e_und, boundary, _ = self._edges(F, len(V))
         self.edge_id = e_und
         n_edges = int(e_und.max()) + 1
-        self.en = np.column_stack([np.bincount(e_und.ravel(), weights=np.repeat(fn[:, k], 3), minlength=n_edges)
-                                   for k in range(3)])
+        self.en = np.column_stack(
+            [np.bincount(e_und.ravel(), weights=np.repeat(fn[:, k], 3), minlength=n_edges) for k in range(3)]
+        )
         # edge neighbours (for the walk that corrects Open3D's pick on sliver triangles)
         side_f = np.repeat(np.arange(len(F)), 3)
         order = np.argsort(e_und.ravel(), kind="stable")
@@ -286,7 +299,7 @@ class MeshDistance:
         nbr[order[pair + 1]] = side_f[order[pair]]
         self.nbr = nbr.reshape(-1, 3)
         longest = np.max(np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2), axis=1)
-        thin = dbl_area < SLIVER * longest ** 2   # altitude below SLIVER of the longest edge
+        thin = dbl_area < SLIVER * longest**2  # altitude below SLIVER of the longest edge
         near = thin.copy()
         for k in range(3):
             ok = self.nbr[:, k] >= 0
@@ -302,8 +315,9 @@ class MeshDistance:
             vb[F[boundary[e_und]]] = True
         self.vertex_boundary = vb
         ang = self._corner_angles(Vc[F])
-        self.vn = np.column_stack([np.bincount(F.ravel(), weights=(ang * fn[:, [k]]).ravel(), minlength=len(V))
-                                   for k in range(3)])
+        self.vn = np.column_stack(
+            [np.bincount(F.ravel(), weights=(ang * fn[:, [k]]).ravel(), minlength=len(V)) for k in range(3)]
+        )
         self.info = info
 
     # ------------------------------------------------------------------ mesh helpers
@@ -571,8 +585,9 @@ def oriented_reference_normals(ref: PointCloud, k: int = 16, n_orient: int = 400
     return n, "consistent tangent planes (subsample), outward"
 
 
-def local_plane_distance(points: Any, ref: PointCloud, k: int = 12,
-                         normals: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def local_plane_distance(
+    points: Any, ref: PointCloud, k: int = 12, normals: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Signed distance to the least-squares plane of the k reference points nearest to
     each point's nearest reference point; the sign follows the reference normals.
 
@@ -592,7 +607,7 @@ def local_plane_distance(points: Any, ref: PointCloud, k: int = 12,
     nearest = nearest[:, 0]
     used, inv = np.unique(nearest, return_inverse=True)
     nb, _ = knn(R, R[used], k, nns)
-    X = R[nb]                              # (U, k, 3)
+    X = R[nb]  # (U, k, 3)
     cen = X.mean(axis=1)
     D = X - cen[:, None, :]
     C = np.einsum("uki,ukj->uij", D, D)

@@ -215,9 +215,19 @@ def iso13565(curve: MaterialRatioCurve, window: float = WINDOW) -> dict[str, flo
     A2 = _positive_area(curve.mr, C2 - curve.height)
     spk = 2.0 * A1 / smr1 if smr1 > 0 else 0.0
     svk = 2.0 * A2 / (1.0 - smr2) if smr2 < 1 else 0.0
-    return {"Sk": C1 - C2, "Spk": spk, "Svk": svk, "Smr1": 100.0 * smr1, "Smr2": 100.0 * smr2,
-            "C1": C1, "C2": C2, "secant_start": 100.0 * a, "secant_end": 100.0 * (a + window),
-            "A1": A1, "A2": A2}
+    return {
+        "Sk": C1 - C2,
+        "Spk": spk,
+        "Svk": svk,
+        "Smr1": 100.0 * smr1,
+        "Smr2": 100.0 * smr2,
+        "C1": C1,
+        "C2": C2,
+        "secant_start": 100.0 * a,
+        "secant_end": 100.0 * (a + window),
+        "A1": A1,
+        "A2": A2,
+    }
 
 
 def volume_parameters(curve: MaterialRatioCurve, p: float = 0.10, q: float = 0.80) -> dict[str, float]:

@@ -34,8 +34,17 @@ from . import distance as dist
 from . import material_ratio as mrmod
 from . import stats as st
 
-_ALIGN_KEYS = ("kernel", "kernel_k", "max_distance", "inlier_distance", "min_overlap", "region", "max_iterations",
-               "max_points", "seed")
+_ALIGN_KEYS = (
+    "kernel",
+    "kernel_k",
+    "max_distance",
+    "inlier_distance",
+    "min_overlap",
+    "region",
+    "max_iterations",
+    "max_points",
+    "seed",
+)
 
 
 # --------------------------------------------------------------------------- helpers
@@ -81,8 +90,15 @@ def transformed_cloud(cloud: PointCloud, T: np.ndarray, name: str | None = None)
     if cloud.normals is not None:
         R = T[:3, :3] / np.cbrt(np.linalg.det(T[:3, :3]))
         normals = cloud.normals @ R.T
-    return PointCloud(al.apply(T, cloud.points), cloud.colors, normals, dict(cloud.fields), dict(cloud.field_units),
-                      name or cloud.name, cloud.source_unit)
+    return PointCloud(
+        al.apply(T, cloud.points),
+        cloud.colors,
+        normals,
+        dict(cloud.fields),
+        dict(cloud.field_units),
+        name or cloud.name,
+        cloud.source_unit,
+    )
 
 
 def colour_limit(stats: dict[str, Any], tolerance: float | None) -> float:
@@ -130,14 +146,23 @@ def run_alignment(cloud: PointCloud, nom: al.Nominal, method: str, pairs: Any = 
         return al.align(cloud.points, nom, method=method, pairs=p, **args)
     except (InputError, GeometryError) as exc:
         if str(exc).startswith("point pairs"):
-            raise type(exc)(where + str(exc)[len("point pairs"):]) from None
+            raise type(exc)(where + str(exc)[len("point pairs") :]) from None
         raise
 
 
 def _alignment_outputs(a: al.Alignment) -> dict[str, Any]:
     d = a.to_dict()
-    return {"transform": a.transform, "scale": a.scale, "rotation": a.rotation, "translation": a.translation,
-            "rms": a.rms, "overlap": a.overlap, "converged": a.converged, "reason": a.reason, "alignment": d}
+    return {
+        "transform": a.transform,
+        "scale": a.scale,
+        "rotation": a.rotation,
+        "translation": a.translation,
+        "rms": a.rms,
+        "overlap": a.overlap,
+        "converged": a.converged,
+        "reason": a.reason,
+        "alignment": d,
+    }
 
 
 def align(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) -> dict[str, Any]:
@@ -155,9 +180,17 @@ def align(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) ->
 
 
 # --------------------------------------------------------------------------- deviations
-def compute_deviations(ctx, cloud: PointCloud, nom: al.Nominal, tolerance: float | None = None,
-                       distance: str = "auto", neighbours: int = 12, coverage_distance: float | None = None,
-                       coverage_samples: int = 200_000, bins: int | None = None) -> dict[str, Any]:
+def compute_deviations(
+    ctx,
+    cloud: PointCloud,
+    nom: al.Nominal,
+    tolerance: float | None = None,
+    distance: str = "auto",
+    neighbours: int = 12,
+    coverage_distance: float | None = None,
+    coverage_samples: int = 200_000,
+    bins: int | None = None,
+) -> dict[str, Any]:
     """Deviations of ``cloud`` (already in nominal coordinates) and everything derived."""
     P = cloud.points
     if distance == "auto":
@@ -195,8 +228,9 @@ def compute_deviations(ctx, cloud: PointCloud, nom: al.Nominal, tolerance: float
     hist = st.histogram(dev, bins if bins else "auto", limit=limit)
     ctx.progress(0.75, "coverage")
     if nom.mesh is not None:
-        c = cov.coverage(P, nom.mesh.V + nom.mesh.center, nom.mesh.F, coverage_distance, coverage_samples,
-                         return_samples=True)
+        c = cov.coverage(
+            P, nom.mesh.V + nom.mesh.center, nom.mesh.F, coverage_distance, coverage_samples, return_samples=True
+        )
     else:
         c = cov.coverage(P, distance=coverage_distance, reference_points=nom.cloud.points, return_samples=True)
     fields_c = {"covered": c.pop("covered").astype(np.uint8)}
@@ -209,11 +243,22 @@ def compute_deviations(ctx, cloud: PointCloud, nom: al.Nominal, tolerance: float
     units = dict(cloud.field_units)
     fields["deviation"] = dev
     units["deviation"] = "mm"
-    out_cloud = PointCloud(P, deviation_colours(dev, limit), cloud.normals, fields, units,
-                           f"{cloud.name} deviations", cloud.source_unit)
-    return {"deviations": out_cloud, "stats": stats, "histogram": hist, "coverage": c["fraction"],
-            "coverage_info": c, "coverage_cloud": samples, "material_ratio": mr, "colour_limit": limit,
-            "distance_method": method, "nominal_info": nominal_info, **extra}
+    out_cloud = PointCloud(
+        P, deviation_colours(dev, limit), cloud.normals, fields, units, f"{cloud.name} deviations", cloud.source_unit
+    )
+    return {
+        "deviations": out_cloud,
+        "stats": stats,
+        "histogram": hist,
+        "coverage": c["fraction"],
+        "coverage_info": c,
+        "coverage_cloud": samples,
+        "material_ratio": mr,
+        "colour_limit": limit,
+        "distance_method": method,
+        "nominal_info": nominal_info,
+        **extra,
+    }
 
 
 def deviations(ctx, cloud, nominal, transform=None, **params: Any) -> dict[str, Any]:
@@ -237,8 +282,11 @@ def compare(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) 
     if not a.converged:
         ctx.warn(f"alignment did not converge: {a.reason}. The deviations below rest on an unreliable alignment.")
     moved = transformed_cloud(cloud, a.transform)
-    dev_args = {k: params[k] for k in ("tolerance", "distance", "neighbours", "coverage_distance", "coverage_samples",
-                                       "bins") if k in params}
+    dev_args = {
+        k: params[k]
+        for k in ("tolerance", "distance", "neighbours", "coverage_distance", "coverage_samples", "bins")
+        if k in params
+    }
     out = _alignment_outputs(a)
     out.update(compute_deviations(ctx, moved, nom, **dev_args))
     return out
@@ -261,8 +309,15 @@ def load_heightmap(path: Any, unit: str = "mm", level: bool = False) -> np.ndarr
     return mrmod.level(z) if level else z
 
 
-def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", level: bool = False,
-                   smc_at: list[float] | None = None, smr_at: list[float] | None = None) -> dict[str, Any]:
+def material_ratio(
+    ctx,
+    source,
+    field: str = "deviation",
+    unit: str = "mm",
+    level: bool = False,
+    smc_at: list[float] | None = None,
+    smr_at: list[float] | None = None,
+) -> dict[str, Any]:
     """inspect.material-ratio of a height map (.npy) or of a cloud's field (results in mm, Smr in %)."""
     if isinstance(source, (str, Path)) and Path(source).suffix.lower() == ".npy":
         h = load_heightmap(source, unit, level)
@@ -270,7 +325,9 @@ def material_ratio(ctx, source, field: str = "deviation", unit: str = "mm", leve
     else:
         cloud = read(source) if isinstance(source, (str, Path)) else source
         if not isinstance(cloud, PointCloud):
-            raise InputError(f"material ratio: expected a .npy height map or a point cloud, got a {type(cloud).__name__}")
+            raise InputError(
+                f"material ratio: expected a .npy height map or a point cloud, got a {type(cloud).__name__}"
+            )
         if field == "z":
             h = cloud.points[:, 2]
         elif field in cloud.fields:
@@ -308,8 +365,17 @@ def bands(ctx, deviations, *, tolerance: float | None) -> dict[str, Any]:
     return {"codes": codes, "counts": counts, "within": disp.within_share(counts)}
 
 
-def section(ctx, deviations, nominal=None, *, axis: str, position: float | None, half_width: float | None,
-            max_points: int, seed: int) -> dict[str, Any]:
+def section(
+    ctx,
+    deviations,
+    nominal=None,
+    *,
+    axis: str,
+    position: float | None,
+    half_width: float | None,
+    max_points: int,
+    seed: int,
+) -> dict[str, Any]:
     """inspect.section: a plane across an axis cutting the nominal and the deviations cloud
     (``position`` None: the middle of the cloud; ``half_width`` None: half its median
     point spacing, returned as ``spacing``)."""

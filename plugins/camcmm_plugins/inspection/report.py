@@ -13,8 +13,9 @@ matplotlib's Agg canvas directly (no pyplot), the report's diverging colour scal
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -52,8 +53,17 @@ def _png(fig, info: dict) -> bytes:
 def _rc():
     import matplotlib as mpl
 
-    return mpl.rc_context({"font.size": 7.5, "axes.titlesize": 8, "axes.labelsize": 7.5, "xtick.labelsize": 7,
-                           "ytick.labelsize": 7, "legend.fontsize": 6.5, "axes.linewidth": 0.6})
+    return mpl.rc_context(
+        {
+            "font.size": 7.5,
+            "axes.titlesize": 8,
+            "axes.labelsize": 7.5,
+            "xtick.labelsize": 7,
+            "ytick.labelsize": 7,
+            "legend.fontsize": 6.5,
+            "axes.linewidth": 0.6,
+        }
+    )
 
 
 def _subsample(dev: np.ndarray, n_max: int, seed: int = 0) -> np.ndarray:
@@ -62,8 +72,8 @@ def _subsample(dev: np.ndarray, n_max: int, seed: int = 0) -> np.ndarray:
     if n <= n_max:
         return np.arange(n)
     order = np.argsort(np.abs(dev), kind="stable")
-    top = order[n - n_max // 10:]
-    rest = np.random.default_rng(seed).choice(order[:n - n_max // 10], n_max - n_max // 10, replace=False)
+    top = order[n - n_max // 10 :]
+    rest = np.random.default_rng(seed).choice(order[: n - n_max // 10], n_max - n_max // 10, replace=False)
     return np.concatenate([rest, top])
 
 
@@ -82,9 +92,16 @@ def _project(p: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     return p @ ex, p @ ey, p @ d
 
 
-def deviation_views(points: np.ndarray, values: np.ndarray, limit: float | None = None, title: str | None = None,
-                    views: Sequence[tuple[np.ndarray, str]] = VIEWS, categorical: dict | None = None,
-                    max_points: int = 60_000, width_mm: float = 170.0) -> bytes:
+def deviation_views(
+    points: np.ndarray,
+    values: np.ndarray,
+    limit: float | None = None,
+    title: str | None = None,
+    views: Sequence[tuple[np.ndarray, str]] = VIEWS,
+    categorical: dict | None = None,
+    max_points: int = 60_000,
+    width_mm: float = 170.0,
+) -> bytes:
     """Colour map of a 3-D part: orthographic views, nearer points drawn over farther ones.
 
     ``values`` in mm on the diverging scale ±``limit`` (default max|value|); or with
@@ -105,8 +122,12 @@ def deviation_views(points: np.ndarray, values: np.ndarray, limit: float | None 
     panel_w = (width_mm - bar - 4.0) / n
     panel_h = float(np.clip(panel_w * span_y / span_x, 35.0, 95.0))
     height_mm = panel_h + top + 3.0 + (6.0 if categorical else 0.0)
-    info: dict[str, Any] = {"chart": "deviation_views", "views": [lab for _, lab in views], "n_points": int(len(values)),
-                            "n_drawn": int(len(idx))}
+    info: dict[str, Any] = {
+        "chart": "deviation_views",
+        "views": [lab for _, lab in views],
+        "n_points": int(len(values)),
+        "n_drawn": int(len(idx)),
+    }
     if categorical is None:
         vmax = float(limit) if limit else float(np.abs(v).max()) or 1.0
         unit, f = _unit(vmax)
@@ -124,8 +145,17 @@ def deviation_views(points: np.ndarray, values: np.ndarray, limit: float | None 
             area_pt2 = (panel_w * _MM * 72) * (panel_h * _MM * 72)
             s = float(np.clip(3.0 * area_pt2 / max(len(o), 1), 0.05, 20.0))
             if categorical is None:
-                sc = ax.scatter(x[o], y[o], c=v[o] * f, s=s, marker="s" if len(o) > 5000 else "o", cmap=_CMAP,
-                                vmin=-vmax * f, vmax=vmax * f, linewidths=0)
+                sc = ax.scatter(
+                    x[o],
+                    y[o],
+                    c=v[o] * f,
+                    s=s,
+                    marker="s" if len(o) > 5000 else "o",
+                    cmap=_CMAP,
+                    vmin=-vmax * f,
+                    vmax=vmax * f,
+                    linewidths=0,
+                )
             else:
                 cols = np.empty(len(o), dtype=object)
                 for key, (col, _) in categorical.items():
@@ -144,13 +174,27 @@ def deviation_views(points: np.ndarray, values: np.ndarray, limit: float | None 
             ey = np.cross(d, ex)
             for k, (name, col) in enumerate((("x", "#c62828"), ("y", "#2e7d32"), ("z", "#1565c0"))):
                 e = np.eye(3)[k]
-                ax.annotate("", xy=(0.06 + 0.05 * (e @ ex), 0.08 + 0.05 * (e @ ey)), xytext=(0.06, 0.08),
-                            xycoords="axes fraction", arrowprops={"arrowstyle": "-|>", "color": col, "lw": 0.6})
-                ax.text(0.06 + 0.065 * (e @ ex), 0.08 + 0.065 * (e @ ey), name, transform=ax.transAxes,
-                        fontsize=5.5, color=col, ha="center", va="center")
+                ax.annotate(
+                    "",
+                    xy=(0.06 + 0.05 * (e @ ex), 0.08 + 0.05 * (e @ ey)),
+                    xytext=(0.06, 0.08),
+                    xycoords="axes fraction",
+                    arrowprops={"arrowstyle": "-|>", "color": col, "lw": 0.6},
+                )
+                ax.text(
+                    0.06 + 0.065 * (e @ ex),
+                    0.08 + 0.065 * (e @ ey),
+                    name,
+                    transform=ax.transAxes,
+                    fontsize=5.5,
+                    color=col,
+                    ha="center",
+                    va="center",
+                )
         if categorical is None and sc is not None:
-            cax = fig.add_axes(((width_mm - bar + 2.0) / width_mm, 4.0 / height_mm, 2.6 / width_mm,
-                                (panel_h - 4.0) / height_mm))
+            cax = fig.add_axes(
+                ((width_mm - bar + 2.0) / width_mm, 4.0 / height_mm, 2.6 / width_mm, (panel_h - 4.0) / height_mm)
+            )
             over = bool(np.abs(values).max() > vmax * (1 + 1e-12))
             cb = fig.colorbar(sc, cax=cax, extend="both" if over else "neither")
             cb.set_label(f"deviation [{unit}]")
@@ -164,8 +208,14 @@ def deviation_views(points: np.ndarray, values: np.ndarray, limit: float | None 
     return png
 
 
-def material_ratio_chart(mr: dict[str, Any], interval: Sequence[float] | None = None, title: str | None = None,
-                         width_mm: float = 82.0, height_mm: float = 62.0, what: str = "deviation") -> bytes:
+def material_ratio_chart(
+    mr: dict[str, Any],
+    interval: Sequence[float] | None = None,
+    title: str | None = None,
+    width_mm: float = 82.0,
+    height_mm: float = 62.0,
+    what: str = "deviation",
+) -> bytes:
     """The Abbott-Firestone curve with the ISO 13565-2 construction drawn in.
 
     Curve (material ratio on x, height on y), the 40 % secant of least gradient and its
@@ -191,22 +241,40 @@ def material_ratio_chart(mr: dict[str, Any], interval: Sequence[float] | None = 
             fig.text(0.012, 1 - 1.2 / height_mm, title, ha="left", va="top", fontsize=8, fontweight="bold")
         ax.fill_between(x, y, C1, where=y > C1, color="#f4b6b6", lw=0, zorder=1)
         ax.fill_between(x, y, C2, where=y < C2, color="#b8cde8", lw=0, zorder=1)
-        ax.add_patch(Polygon([[0, C1], [0, C1 + mr["Spk"] * f], [s1, C1]], closed=True, fill=False,
-                             ec="#c62828", lw=0.8, zorder=3))
-        ax.add_patch(Polygon([[100, C2], [100, C2 - mr["Svk"] * f], [s2, C2]], closed=True, fill=False,
-                             ec="#1565c0", lw=0.8, zorder=3))
+        ax.add_patch(
+            Polygon(
+                [[0, C1], [0, C1 + mr["Spk"] * f], [s1, C1]], closed=True, fill=False, ec="#c62828", lw=0.8, zorder=3
+            )
+        )
+        ax.add_patch(
+            Polygon(
+                [[100, C2], [100, C2 - mr["Svk"] * f], [s2, C2]],
+                closed=True,
+                fill=False,
+                ec="#1565c0",
+                lw=0.8,
+                zorder=3,
+            )
+        )
         ax.plot(x, y, color="#111", lw=1.0, zorder=4, label="material-ratio curve")
         ax.plot([0, 100], [C1, C2], color="#6a1b9a", lw=0.7, ls="--", zorder=3, label="equivalent straight line")
         a, b = mr["secant_start"], mr["secant_end"]
-        ya, yb = (np.interp([a, b], x, y))
+        ya, yb = np.interp([a, b], x, y)
         ax.plot([a, b], [ya, yb], color="#6a1b9a", lw=1.8, zorder=5, label="40 % secant of least gradient")
         ax.hlines([C1, C2], [0, 0], [s1, s2], color="#555", lw=0.5, ls=":", zorder=2)
         ax.vlines([s1, s2], [y.min()] * 2, [C1, C2], color="#555", lw=0.5, ls=":", zorder=2)
         if interval is not None:
             lo, hi = interval[0] * f, interval[1] * f
             ax.axhspan(lo, hi, xmin=0, xmax=1, color="#e8f5e9", zorder=0, lw=0)
-            ax.text(50, hi, f"95 % within {hi:+.3g} / {lo:+.3g} {unit}".replace("-", "\u2212"), ha="center",
-                    va="bottom", fontsize=6, color="#2e7d32")
+            ax.text(
+                50,
+                hi,
+                f"95 % within {hi:+.3g} / {lo:+.3g} {unit}".replace("-", "\u2212"),
+                ha="center",
+                va="bottom",
+                fontsize=6,
+                color="#2e7d32",
+            )
         ax.set_xlim(0, 100)
         pad = 0.06 * (y.max() - y.min() or 1.0)
         ax.set_ylim(min(y.min(), C2 - mr["Svk"] * f) - pad, max(y.max(), C1 + mr["Spk"] * f) + pad)
@@ -214,10 +282,20 @@ def material_ratio_chart(mr: dict[str, Any], interval: Sequence[float] | None = 
         ax.set_ylabel(f"{what} [{unit}]")
         ax.grid(color="#e3e6ea", lw=0.5, zorder=0)
         ax.tick_params(length=2)
-        txt = (f"Sk {mr['Sk'] * f:.3g}  Spk {mr['Spk'] * f:.3g}  Svk {mr['Svk'] * f:.3g} {unit}\n"
-               f"Smr1 {s1:.2f} %  Smr2 {s2:.2f} %")
-        ax.text(0.98, 0.97, txt, transform=ax.transAxes, ha="right", va="top", fontsize=6,
-                bbox={"boxstyle": "round,pad=0.3", "fc": "white", "ec": "#ccc", "lw": 0.5})
+        txt = (
+            f"Sk {mr['Sk'] * f:.3g}  Spk {mr['Spk'] * f:.3g}  Svk {mr['Svk'] * f:.3g} {unit}\n"
+            f"Smr1 {s1:.2f} %  Smr2 {s2:.2f} %"
+        )
+        ax.text(
+            0.98,
+            0.97,
+            txt,
+            transform=ax.transAxes,
+            ha="right",
+            va="top",
+            fontsize=6,
+            bbox={"boxstyle": "round,pad=0.3", "fc": "white", "ec": "#ccc", "lw": 0.5},
+        )
         ax.legend(loc="lower left", frameon=False, fontsize=5.5, handlelength=1.6)
         png = _png(fig, info)
     return png
@@ -235,119 +313,209 @@ def _fmt_mm(x: float | None) -> str:
     return f"{x:.4f} mm" if abs(x) >= 0.1 else f"{x * 1000:.2f} µm"
 
 
-def build_report(o: dict[str, Any], cloud_file: str | None = None, nominal_file: str | None = None, run=None,
-                 tolerance: float | None = None) -> Report:
+def build_report(
+    o: dict[str, Any],
+    cloud_file: str | None = None,
+    nominal_file: str | None = None,
+    run=None,
+    tolerance: float | None = None,
+) -> Report:
     """The report of an ``inspect.compare`` result ``o`` (its outputs dict)."""
     dev_cloud = o["deviations"]
     dev = dev_cloud.fields["deviation"]
     st, mr, a = o["stats"], o["material_ratio"], o["alignment"]
     limit = o["colour_limit"]
     measured = dev_cloud.name.removesuffix(" deviations")
-    r = Report("Inspection against the nominal",
-               subtitle=f"{measured} against {nominal_file}" if nominal_file else measured,
-               meta={"measured cloud": cloud_file or dev_cloud.name, "nominal": nominal_file or "",
-                     "points": dev_cloud.n_points, "tolerance": "—" if tolerance is None else f"±{tolerance} mm"})
+    r = Report(
+        "Inspection against the nominal",
+        subtitle=f"{measured} against {nominal_file}" if nominal_file else measured,
+        meta={
+            "measured cloud": cloud_file or dev_cloud.name,
+            "nominal": nominal_file or "",
+            "points": dev_cloud.n_points,
+            "tolerance": "—" if tolerance is None else f"±{tolerance} mm",
+        },
+    )
 
     s = r.section("Summary")
     if not a["converged"]:
         s.warning(f"The alignment did not converge: {a['reason']}. The deviations rest on an unreliable alignment.")
-    s.keyvalues([
-        ("alignment", f"{a['method']}: " + ("converged" if a["converged"] else "NOT converged")),
-        ("scale applied to the measured cloud", f"{a['scale']:.8f}"),
-        ("alignment RMS (overlapping points)", _fmt_mm(a["rms"])),
-        ("overlap", "—" if a["overlap"] != a["overlap"] else f"{100 * a['overlap']:.1f} % within {_fmt_mm(a['inlier_distance'])}"),
-        ("deviation mean ± std", f"{_fmt_mm(st['mean'])} ± {_fmt_mm(st['std'])}"),
-        ("deviation RMS", _fmt_mm(st["rms"])),
-        ("min / max", f"{_fmt_mm(st['min'])} / {_fmt_mm(st['max'])}"),
-        ("95 % of the deviations within", f"{_fmt_mm(st['p2_5'])} … {_fmt_mm(st['p97_5'])}"),
-        *([("within tolerance", f"{100 * st['within_tolerance']:.2f} % within ±{tolerance} mm")]
-          if tolerance is not None else []),
-        ("coverage of the nominal area", f"{o['coverage_info']['percent']:.2f} %"),
-        ("Sk / Spk / Svk", f"{_fmt_mm(mr['Sk'])} / {_fmt_mm(mr['Spk'])} / {_fmt_mm(mr['Svk'])}"),
-        ("Smr1 / Smr2", f"{mr['Smr1']:.2f} % / {mr['Smr2']:.2f} %"),
-    ])
+    s.keyvalues(
+        [
+            ("alignment", f"{a['method']}: " + ("converged" if a["converged"] else "NOT converged")),
+            ("scale applied to the measured cloud", f"{a['scale']:.8f}"),
+            ("alignment RMS (overlapping points)", _fmt_mm(a["rms"])),
+            (
+                "overlap",
+                "—"
+                if a["overlap"] != a["overlap"]
+                else f"{100 * a['overlap']:.1f} % within {_fmt_mm(a['inlier_distance'])}",
+            ),
+            ("deviation mean ± std", f"{_fmt_mm(st['mean'])} ± {_fmt_mm(st['std'])}"),
+            ("deviation RMS", _fmt_mm(st["rms"])),
+            ("min / max", f"{_fmt_mm(st['min'])} / {_fmt_mm(st['max'])}"),
+            ("95 % of the deviations within", f"{_fmt_mm(st['p2_5'])} … {_fmt_mm(st['p97_5'])}"),
+            *(
+                [("within tolerance", f"{100 * st['within_tolerance']:.2f} % within ±{tolerance} mm")]
+                if tolerance is not None
+                else []
+            ),
+            ("coverage of the nominal area", f"{o['coverage_info']['percent']:.2f} %"),
+            ("Sk / Spk / Svk", f"{_fmt_mm(mr['Sk'])} / {_fmt_mm(mr['Spk'])} / {_fmt_mm(mr['Svk'])}"),
+            ("Smr1 / Smr2", f"{mr['Smr1']:.2f} % / {mr['Smr2']:.2f} %"),
+        ]
+    )
     if run is not None:
         for w in run.warnings:
             s.warning(w)
 
     s = r.section("Alignment")
-    s.paragraph("The transform maps measured coordinates onto nominal ones: x_nominal = s·R·x_measured + t; "
-                "the matrix below holds s·R and t.")
-    s.table(["", "1", "2", "3", "4"], [[f"row {i + 1}", *[f"{v:.9g}" for v in row]] for i, row in enumerate(a["transform"])],
-            caption="Transform measured → nominal (4×4)")
-    kv = [("method", a["method"]), ("converged", a["converged"]), ("reason", a["reason"] or "—"),
-          ("scale s", f"{a['scale']:.9f}"), ("rotation angle", f"{a['rotation_angle_deg']:.6f}°"),
-          ("translation t", "(" + ", ".join(f"{v:.5f}" for v in a["translation"]) + ") mm"),
-          ("iterations", a["iterations"]), ("points used / overlapping", f"{a['n_points']} / {a['n_inliers']}"),
-          ("RMS of the overlapping points", _fmt_mm(a["rms"])), ("RMS of all points", _fmt_mm(a["rms_all"]))]
+    s.paragraph(
+        "The transform maps measured coordinates onto nominal ones: x_nominal = s·R·x_measured + t; "
+        "the matrix below holds s·R and t."
+    )
+    s.table(
+        ["", "1", "2", "3", "4"],
+        [[f"row {i + 1}", *[f"{v:.9g}" for v in row]] for i, row in enumerate(a["transform"])],
+        caption="Transform measured → nominal (4×4)",
+    )
+    kv = [
+        ("method", a["method"]),
+        ("converged", a["converged"]),
+        ("reason", a["reason"] or "—"),
+        ("scale s", f"{a['scale']:.9f}"),
+        ("rotation angle", f"{a['rotation_angle_deg']:.6f}°"),
+        ("translation t", "(" + ", ".join(f"{v:.5f}" for v in a["translation"]) + ") mm"),
+        ("iterations", a["iterations"]),
+        ("points used / overlapping", f"{a['n_points']} / {a['n_inliers']}"),
+        ("RMS of the overlapping points", _fmt_mm(a["rms"])),
+        ("RMS of all points", _fmt_mm(a["rms_all"])),
+    ]
     if a["weak_directions"]:
         kv.append(("not determined by the data", "; ".join(a["weak_directions"])))
     for stg in a["stages"]:
         if stg.get("stage") == "global":
-            kv.append(("global registration", f"RANSAC fitness {stg['fitness']:.3f}, voxel {stg['voxel']:.4g} mm, "
-                       f"prescale {stg['prescale']:.6g}"))
+            kv.append(
+                (
+                    "global registration",
+                    f"RANSAC fitness {stg['fitness']:.3f}, voxel {stg['voxel']:.4g} mm, prescale {stg['prescale']:.6g}",
+                )
+            )
         elif stg.get("stage") == "pairs":
             kv.append(("point pairs", f"{len(stg['residuals'])} pairs, RMS {_fmt_mm(stg['rms'])}"))
         elif "kernel" in stg:
-            kv.append(("ICP", f"kernel {stg['kernel']} (k = {_fmt_mm(stg['kernel_k'])}), max distance "
-                       f"{_fmt_mm(stg['max_distance'])}" + (f", region {stg['region']}" if stg.get("region") else "")))
+            kv.append(
+                (
+                    "ICP",
+                    f"kernel {stg['kernel']} (k = {_fmt_mm(stg['kernel_k'])}), max distance "
+                    f"{_fmt_mm(stg['max_distance'])}" + (f", region {stg['region']}" if stg.get("region") else ""),
+                )
+            )
     s.keyvalues(kv)
 
     s = r.section("Deviations")
-    s.paragraph(f"Signed distance of every measured point to the nominal ({o['distance_method']}). Positive: outside "
-                "the material (red), negative: inside (blue). Colours saturate at ±" + _fmt_mm(limit) + ".")
+    s.paragraph(
+        f"Signed distance of every measured point to the nominal ({o['distance_method']}). Positive: outside "
+        "the material (red), negative: inside (blue). Colours saturate at ±" + _fmt_mm(limit) + "."
+    )
     P = dev_cloud.points
     s.figure(deviation_views(P, dev, limit, title="Deviation colour map"), caption="Deviations, two views")
     if _is_flat(P):
-        s.figure(charts.deviation_map(P, dev, kind="plane", limit=limit, title="Deviation map (in-plane)"),
-                 caption="Deviations over the plane of the part")
-    s.figure(charts.histogram(dev, limit=limit, title="Histogram"), caption="Histogram of the deviations",
-             data={"edges": o["histogram"]["edges"], "counts": o["histogram"]["counts"]})
-    s.figure(material_ratio_chart(mr, st["interval95"], title="Abbott-Firestone curve"),
-             caption="Material-ratio curve of the deviations (ISO 13565-2 construction)",
-             data={"mr_percent": mr["curve"]["mr_percent"][::10], "height_mm": mr["curve"]["height"][::10]})
+        s.figure(
+            charts.deviation_map(P, dev, kind="plane", limit=limit, title="Deviation map (in-plane)"),
+            caption="Deviations over the plane of the part",
+        )
+    s.figure(
+        charts.histogram(dev, limit=limit, title="Histogram"),
+        caption="Histogram of the deviations",
+        data={"edges": o["histogram"]["edges"], "counts": o["histogram"]["counts"]},
+    )
+    s.figure(
+        material_ratio_chart(mr, st["interval95"], title="Abbott-Firestone curve"),
+        caption="Material-ratio curve of the deviations (ISO 13565-2 construction)",
+        data={"mr_percent": mr["curve"]["mr_percent"][::10], "height_mm": mr["curve"]["height"][::10]},
+    )
     keys = ["n", "mean", "std", "rms", "min", "max", "p0_5", "p2_5", "p5", "p25", "p50", "p75", "p95", "p97_5", "p99_5"]
-    s.table(["statistic", "value [mm]"], [[k, st[k] if k == "n" else float(f"{st[k]:.6g}")] for k in keys],
-            caption="Deviation statistics (percentiles: Hazen plotting position)")
+    s.table(
+        ["statistic", "value [mm]"],
+        [[k, st[k] if k == "n" else float(f"{st[k]:.6g}")] for k in keys],
+        caption="Deviation statistics (percentiles: Hazen plotting position)",
+    )
 
     s = r.section("Material ratio (ISO 13565-2 / ISO 25178-2)")
-    s.paragraph("Construction: the material-ratio curve (share of points at or above each height) is cut by the "
-                "secant over 40 % of material ratio with the least gradient; extended to 0 % and 100 % it gives C1 "
-                "and C2 (Sk = C1 − C2). Smr1 and Smr2 are the material ratios where the curve crosses C1 and C2. The "
-                "areas of the curve above C1 and below C2 are replaced by right-angled triangles of the same area on "
-                "the bases Smr1 and 100 % − Smr2; their heights are Spk and Svk.")
-    s.table(["parameter", "value", "unit"], [
-        ["Sk", float(f"{mr['Sk']:.6g}"), "mm"], ["Spk", float(f"{mr['Spk']:.6g}"), "mm"],
-        ["Svk", float(f"{mr['Svk']:.6g}"), "mm"], ["Smr1", float(f"{mr['Smr1']:.4f}"), "%"],
-        ["Smr2", float(f"{mr['Smr2']:.4f}"), "%"], ["C1", float(f"{mr['C1']:.6g}"), "mm"],
-        ["C2", float(f"{mr['C2']:.6g}"), "mm"],
-        ["secant", f"{mr['secant_start']:.2f} … {mr['secant_end']:.2f}", "%"],
-        ["Smc(2.5 %) / Smc(97.5 %)", f"{mr['Smc']['2.5']:.6g} / {mr['Smc']['97.5']:.6g}", "mm"],
-        ["Vmp / Vmc / Vvc / Vvv", " / ".join(f"{mr[k]:.4g}" for k in ("Vmp", "Vmc", "Vvc", "Vvv")), "mm³/mm²"],
-    ], caption="Material-ratio parameters of the deviations", align=["left", "right", "left"])
+    s.paragraph(
+        "Construction: the material-ratio curve (share of points at or above each height) is cut by the "
+        "secant over 40 % of material ratio with the least gradient; extended to 0 % and 100 % it gives C1 "
+        "and C2 (Sk = C1 − C2). Smr1 and Smr2 are the material ratios where the curve crosses C1 and C2. The "
+        "areas of the curve above C1 and below C2 are replaced by right-angled triangles of the same area on "
+        "the bases Smr1 and 100 % − Smr2; their heights are Spk and Svk."
+    )
+    s.table(
+        ["parameter", "value", "unit"],
+        [
+            ["Sk", float(f"{mr['Sk']:.6g}"), "mm"],
+            ["Spk", float(f"{mr['Spk']:.6g}"), "mm"],
+            ["Svk", float(f"{mr['Svk']:.6g}"), "mm"],
+            ["Smr1", float(f"{mr['Smr1']:.4f}"), "%"],
+            ["Smr2", float(f"{mr['Smr2']:.4f}"), "%"],
+            ["C1", float(f"{mr['C1']:.6g}"), "mm"],
+            ["C2", float(f"{mr['C2']:.6g}"), "mm"],
+            ["secant", f"{mr['secant_start']:.2f} … {mr['secant_end']:.2f}", "%"],
+            ["Smc(2.5 %) / Smc(97.5 %)", f"{mr['Smc']['2.5']:.6g} / {mr['Smc']['97.5']:.6g}", "mm"],
+            ["Vmp / Vmc / Vvc / Vvv", " / ".join(f"{mr[k]:.4g}" for k in ("Vmp", "Vmc", "Vvc", "Vvv")), "mm³/mm²"],
+        ],
+        caption="Material-ratio parameters of the deviations",
+        align=["left", "right", "left"],
+    )
 
     c = o["coverage_info"]
     s = r.section("Coverage")
-    s.paragraph("Share of the nominal surface area with a measured point nearby: the nominal surface is sampled "
-                "uniformly by area and a sample counts as covered when a measured point lies within the coverage "
-                "distance (area, not point count: thesis ch. 6.2.4).")
-    s.keyvalues([("covered", f"{c['percent']:.2f} % (standard error {100 * c['std_error']:.2f} %)"),
-                 ("covered area", "—" if c["area"] is None else f"{c['covered_area']:.1f} of {c['area']:.1f} mm²"),
-                 ("coverage distance", _fmt_mm(c["distance"])), ("samples", c["n_samples"]), ("method", c["method"])])
+    s.paragraph(
+        "Share of the nominal surface area with a measured point nearby: the nominal surface is sampled "
+        "uniformly by area and a sample counts as covered when a measured point lies within the coverage "
+        "distance (area, not point count: thesis ch. 6.2.4)."
+    )
+    s.keyvalues(
+        [
+            ("covered", f"{c['percent']:.2f} % (standard error {100 * c['std_error']:.2f} %)"),
+            ("covered area", "—" if c["area"] is None else f"{c['covered_area']:.1f} of {c['area']:.1f} mm²"),
+            ("coverage distance", _fmt_mm(c["distance"])),
+            ("samples", c["n_samples"]),
+            ("method", c["method"]),
+        ]
+    )
     cc = o.get("coverage_cloud")
     if cc is not None:
-        s.figure(deviation_views(cc.points, cc.fields["covered"].astype(float), title="Coverage of the nominal",
-                                 views=VIEWS3,
-                                 categorical={1.0: ("#4f8f63", "covered"), 0.0: ("#c9ccd1", "not covered")}),
-                 caption="Nominal surface samples: covered (green) or not (grey)")
+        s.figure(
+            deviation_views(
+                cc.points,
+                cc.fields["covered"].astype(float),
+                title="Coverage of the nominal",
+                views=VIEWS3,
+                categorical={1.0: ("#4f8f63", "covered"), 0.0: ("#c9ccd1", "not covered")},
+            ),
+            caption="Nominal surface samples: covered (green) or not (grey)",
+        )
 
     if run is not None:
-        r.provenance(plugins=[{"id": run.plugin_id, "version": run.plugin_version, "params": run.params}],
-                     extra={"started": run.started, "finished": run.finished})
+        r.provenance(
+            plugins=[{"id": run.plugin_id, "version": run.plugin_version, "params": run.params}],
+            extra={"started": run.started, "finished": run.finished},
+        )
     # the report hashes the files itself (SHA-256 of the bytes read)
     r.provenance(inputs=[{"file": str(f)} for f in (cloud_file, nominal_file) if f and Path(str(f)).is_file()])
-    r.data = {"transform": a["transform"], "scale": a["scale"], "rms": a["rms"], "overlap": a["overlap"],
-              "converged": a["converged"], "reason": a["reason"], "stats": st, "coverage": o["coverage"],
-              "coverage_info": c, "material_ratio": {k: v for k, v in mr.items() if k != "curve"},
-              "histogram": o["histogram"], "alignment": a}
+    r.data = {
+        "transform": a["transform"],
+        "scale": a["scale"],
+        "rms": a["rms"],
+        "overlap": a["overlap"],
+        "converged": a["converged"],
+        "reason": a["reason"],
+        "stats": st,
+        "coverage": o["coverage"],
+        "coverage_info": c,
+        "material_ratio": {k: v for k, v in mr.items() if k != "curve"},
+        "histogram": o["histogram"],
+        "alignment": a,
+    }
     return r

@@ -60,8 +60,7 @@ def deviation_stats(dev: Any, tolerance: float | None = None) -> dict[str, Any]:
     return out
 
 
-def histogram(dev: Any, bins: int | str = "auto", max_bins: int = 200,
-              limit: float | None = None) -> dict[str, Any]:
+def histogram(dev: Any, bins: int | str = "auto", max_bins: int = 200, limit: float | None = None) -> dict[str, Any]:
     """Histogram of the finite deviations: ``edges`` (mm, length k+1), ``counts`` (k).
 
     ``bins`` as numpy takes it ("auto", "fd", an int); more than ``max_bins`` bins are

@@ -31,8 +31,9 @@ class DaskExecutor:
             try:
                 self.client, self._own = Client(scheduler, timeout=timeout), True
             except Exception as exc:  # noqa: BLE001 - any connection failure is the address's fault
-                raise InputError(f"Dask scheduler {scheduler!r}: cannot connect "
-                                 f"({type(exc).__name__}: {exc})") from None
+                raise InputError(
+                    f"Dask scheduler {scheduler!r}: cannot connect ({type(exc).__name__}: {exc})"
+                ) from None
 
     def map(self, fn: Callable, tasks: Sequence[tuple], progress: Callable | None = None) -> list:
         from dask.distributed import as_completed

@@ -85,8 +85,16 @@ class Budget:
             "expanded": self.expanded,
             "coverage_probability": self.coverage_probability,
             "contributions": [
-                {"name": c.name, "u": c.u, "c": c.c, "dof": c.dof, "dof_infinite": bool(math.isinf(c.dof)),
-                 "distribution": c.distribution, "contribution": c.value, "share": s}
+                {
+                    "name": c.name,
+                    "u": c.u,
+                    "c": c.c,
+                    "dof": c.dof,
+                    "dof_infinite": bool(math.isinf(c.dof)),
+                    "distribution": c.distribution,
+                    "contribution": c.value,
+                    "share": s,
+                }
                 for c, s in zip(self.contributions, self.shares)
             ],
             "warnings": list(self.warnings),
@@ -139,8 +147,9 @@ def contribution_from_dict(d: Mapping[str, Any], index: int = 0) -> Contribution
         raise InputError(f"{tag}: sensitivity c must be finite")
     dof = _number(d.get("dof", math.inf) if d.get("dof") is not None else math.inf, f"{tag} dof")
     if not dof > 0:
-        raise InputError(f"{tag}: degrees of freedom dof = {dof:g} must be > 0 (use inf for an exactly known "
-                         "type B contribution)")
+        raise InputError(
+            f"{tag}: degrees of freedom dof = {dof:g} must be > 0 (use inf for an exactly known type B contribution)"
+        )
     return Contribution(name=name, u=u, c=c, dof=dof, distribution=dist)
 
 
@@ -148,17 +157,18 @@ def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -
     """Effective degrees of freedom of ``sqrt(sum u_i^2)`` (GUM eq. G.2b); ``inf`` when
     every contribution with a non-zero value has infinite dof. Works on arrays too:
     ``contributions`` of shape (n, ...) give a result of shape (...)."""
-    u = np.abs(np.asarray(list(contributions) if not isinstance(contributions, np.ndarray) else contributions,
-                          dtype=float))
+    u = np.abs(
+        np.asarray(list(contributions) if not isinstance(contributions, np.ndarray) else contributions, dtype=float)
+    )
     nu = np.asarray(list(dofs) if not isinstance(dofs, np.ndarray) else dofs, dtype=float)
     nu = nu.reshape(nu.shape + (1,) * (u.ndim - nu.ndim))
     # nu is scale-free: dividing by the largest contribution keeps u^4 from overflowing
     top = np.max(u, axis=0)
     u = u / np.where(top > 0, top, 1.0)
-    uc2 = np.sum(u ** 2, axis=0)
+    uc2 = np.sum(u**2, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        denom = np.sum(np.where(np.isinf(nu), 0.0, u ** 4 / nu), axis=0)
-        out = np.where(denom > 0, uc2 ** 2 / np.where(denom > 0, denom, 1.0), np.inf)
+        denom = np.sum(np.where(np.isinf(nu), 0.0, u**4 / nu), axis=0)
+        out = np.where(denom > 0, uc2**2 / np.where(denom > 0, denom, 1.0), np.inf)
     return float(out) if out.ndim == 0 else out
 
 
@@ -177,16 +187,20 @@ def coverage_factor(dof: float, p: float = 0.95, dof_rounding: str = "truncate")
     return float(stats.t.ppf(q, nu))
 
 
-def evaluate(contributions: Iterable[Contribution | Mapping[str, Any]], coverage_probability: float = 0.95,
-             quantity: str = "", unit: str = "", dof_rounding: str = "truncate") -> Budget:
+def evaluate(
+    contributions: Iterable[Contribution | Mapping[str, Any]],
+    coverage_probability: float = 0.95,
+    quantity: str = "",
+    unit: str = "",
+    dof_rounding: str = "truncate",
+) -> Budget:
     """Evaluate a budget; entries may be :class:`Contribution` or file-style dicts."""
-    items = [c if isinstance(c, Contribution) else contribution_from_dict(c, i)
-             for i, c in enumerate(contributions)]
+    items = [c if isinstance(c, Contribution) else contribution_from_dict(c, i) for i, c in enumerate(contributions)]
     if not items:
         raise InputError("the budget has no contributions")
     p = _number(coverage_probability, "coverage_probability")
     vals = np.array([c.value for c in items])
-    uc = math.hypot(*vals)                  # no overflow in the squares
+    uc = math.hypot(*vals)  # no overflow in the squares
     nu = welch_satterthwaite(vals, [c.dof for c in items])
     k = coverage_factor(nu, p, dof_rounding)
     if not math.isfinite(k * uc):
@@ -195,8 +209,10 @@ def evaluate(contributions: Iterable[Contribution | Mapping[str, Any]], coverage
     warnings = []
     if uc == 0:
         # legal arithmetic, but no measurement is exact: a budget of zeros is a mistake
-        warnings.append("the combined standard uncertainty u_c is 0: every contribution |c|·u is zero; "
-                        "check the budget's u and c values")
+        warnings.append(
+            "the combined standard uncertainty u_c is 0: every contribution |c|·u is zero; "
+            "check the budget's u and c values"
+        )
     return Budget(items, uc, float(nu), k, k * uc, p, quantity, unit, dof_rounding, shares, warnings)
 
 
@@ -207,5 +223,10 @@ def budget_from_dict(doc: Mapping[str, Any]) -> Budget:
     contribs = doc.get("contributions")
     if not isinstance(contribs, list):
         raise InputError("budget file: missing 'contributions' (a list of {name, u, c, dof, distribution})")
-    return evaluate(contribs, doc.get("coverage_probability", 0.95), str(doc.get("quantity", "")),
-                    str(doc.get("unit", "")), str(doc.get("dof_rounding", "truncate")))
+    return evaluate(
+        contribs,
+        doc.get("coverage_probability", 0.95),
+        str(doc.get("quantity", "")),
+        str(doc.get("unit", "")),
+        str(doc.get("dof_rounding", "truncate")),
+    )

@@ -32,8 +32,9 @@ import numpy as np
 from camcmm.api import InputError, project_values
 
 
-def _num(doc: Mapping[str, Any], key: str, default: float | None = None, minimum: float | None = 0.0,
-         strict: bool = False) -> float | None:
+def _num(
+    doc: Mapping[str, Any], key: str, default: float | None = None, minimum: float | None = 0.0, strict: bool = False
+) -> float | None:
     v = doc.get(key, default)
     if v is None:
         return None
@@ -85,8 +86,14 @@ def thermal_u(block: Mapping[str, Any]) -> float:
     return float(L * math.hypot((T - 20.0) * u_alpha, alpha * u_T))
 
 
-def evaluate(measurements: Sequence[float], calibrated_value: float, u_cal: float, k: float = 2.0,
-             u_w: float = 0.0, u_b: float | None = None) -> dict[str, Any]:
+def evaluate(
+    measurements: Sequence[float],
+    calibrated_value: float,
+    u_cal: float,
+    k: float = 2.0,
+    u_w: float = 0.0,
+    u_b: float | None = None,
+) -> dict[str, Any]:
     """Eq. 4.1 from the numbers; see the module docstring. Returns the JSON dict."""
     y = np.asarray(measurements, dtype=float).ravel()
     if y.size < 2:
@@ -110,15 +117,25 @@ def evaluate(measurements: Sequence[float], calibrated_value: float, u_cal: floa
         u_b, u_b_method = u_p / math.sqrt(n), "u_p/sqrt(n)"
     elif not (u_b >= 0):
         raise InputError(f"u_b = {u_b!r} must be >= 0")
-    uc = math.hypot(u_cal, u_p, u_b, u_w)                # hypot: no overflow in the squares
+    uc = math.hypot(u_cal, u_p, u_b, u_w)  # hypot: no overflow in the squares
     uc_unc = math.hypot(u_cal, u_p, u_w)
     if not math.isfinite(k * uc + abs(bias)):
         raise InputError(f"U = k u_c overflows (u_c = {uc:g}, k = {k:g}); check the magnitudes")
     parts = {"u_cal": u_cal, "u_p": u_p, "u_b": u_b, "u_w": u_w}
     return {
-        "n": n, "mean": mean, "std": u_p, "calibrated_value": float(calibrated_value), "bias": bias,
-        "u_cal": u_cal, "u_p": u_p, "u_b": u_b, "u_b_method": u_b_method, "u_w": u_w,
-        "combined": uc, "k": float(k), "U": float(k) * uc,
+        "n": n,
+        "mean": mean,
+        "std": u_p,
+        "calibrated_value": float(calibrated_value),
+        "bias": bias,
+        "u_cal": u_cal,
+        "u_p": u_p,
+        "u_b": u_b,
+        "u_b_method": u_b_method,
+        "u_w": u_w,
+        "combined": uc,
+        "k": float(k),
+        "U": float(k) * uc,
         "U_uncorrected_bias": float(k) * uc_unc + abs(bias),
         "shares": {name: ((v / uc) ** 2 if uc > 0 else 0.0) for name, v in parts.items()},
         "measurements": y.tolist(),
@@ -168,8 +185,9 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
             project = Path(base_dir) / project
         meas = project_values(project, int(src["result"]), str(src["path"]))
     else:
-        raise InputError("measurements: missing (a list of repeated results, measurements_file, "
-                         "or measurements_from a project)")
+        raise InputError(
+            "measurements: missing (a list of repeated results, measurements_file, or measurements_from a project)"
+        )
     parts = {}
     if doc.get("u_w") is not None:
         parts["u_w"] = _num(doc, "u_w")
@@ -185,6 +203,8 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
     out["measurand"] = str(doc.get("measurand", ""))
     out["unit"] = str(doc.get("unit", ""))
     if out["n"] < 20:
-        out["note"] = (f"ISO 15530-3 asks for at least 20 measurements in total (n = {out['n']}); "
-                       "u_p from few repeats is itself uncertain")
+        out["note"] = (
+            f"ISO 15530-3 asks for at least 20 measurements in total (n = {out['n']}); "
+            "u_p from few repeats is itself uncertain"
+        )
     return out

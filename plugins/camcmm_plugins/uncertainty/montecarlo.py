@@ -59,15 +59,22 @@ from . import gum
 from . import stereo_model as sm
 from . import triangulation as tri
 
-FACTORS = ("feature_location", "focal_length", "principal_point", "radial_distortion",
-           "tangential_distortion", "rotation", "translation")
+FACTORS = (
+    "feature_location",
+    "focal_length",
+    "principal_point",
+    "radial_distortion",
+    "tangential_distortion",
+    "rotation",
+    "translation",
+)
 DEFAULT_DIST = {f: ("normal" if f == "feature_location" else "rectangular") for f in FACTORS}
 UNITS = {"mm": 1.0, "um": 1e3, "µm": 1e3, "nm": 1e6}
 STUDIES = ("convergence", "sweep", "volume_maps", "spatial", "joint")
 #: Most trials per factor (the thesis ran 10^4 .. 10^5) and the largest seed: as the
 #: plugin declares them (plugin.yaml), for values that come from the input file.
 MAX_ITERATIONS = 100_000_000
-MAX_SEED = 2 ** 32 - 1
+MAX_SEED = 2**32 - 1
 #: Most grid points (a 100 x 100 x 100 grid).
 MAX_POINTS = 1_000_000
 #: Memory per trial and grid point of a chunk (offsets, image points, triangulation,
@@ -95,17 +102,17 @@ class Setup:
     """Everything a chunk needs (plain arrays: cheap to send to Dask workers)."""
 
     system: sm.StereoSystem
-    points: np.ndarray                      # (P, 3) grid, mm, camera-1 frame
+    points: np.ndarray  # (P, 3) grid, mm, camera-1 frame
     grid_shape: tuple[int, ...]
-    stds: dict[str, np.ndarray]             # factor -> (V, n) or (n,) standard uncertainties
+    stds: dict[str, np.ndarray]  # factor -> (V, n) or (n,) standard uncertainties
     distributions: dict[str, str]
     dofs: dict[str, float]
     method: str = "linear"
     chunk: int = 250
     unit: str = "um"
     # derived, per camera
-    und: np.ndarray = field(default=None)   # (V, P, 2) ideal undistorted pixels
-    xd: np.ndarray = field(default=None)    # (V, P, 2) ideal distorted normalised coordinates
+    und: np.ndarray = field(default=None)  # (V, P, 2) ideal undistorted pixels
+    xd: np.ndarray = field(default=None)  # (V, P, 2) ideal distorted normalised coordinates
 
     def __post_init__(self):
         pix, norm, _ = self.system.project(self.points, distorted=False)
@@ -141,8 +148,9 @@ def _per_camera(value, n, what) -> np.ndarray:
         arr = np.array([_vec(v, n, f"uncertainties.{what}") for v in value])
     else:
         a = _vec(value, len(value) if isinstance(value, (list, tuple)) else 1, f"uncertainties.{what}")
-        arr = np.vstack([_vec(np.pad(a, (0, max(0, n - a.size))) if 1 < a.size < n else a, n,
-                              f"uncertainties.{what}")] * 2)
+        arr = np.vstack(
+            [_vec(np.pad(a, (0, max(0, n - a.size))) if 1 < a.size < n else a, n, f"uncertainties.{what}")] * 2
+        )
     if np.any(arr < 0):
         raise InputError(f"uncertainties.{what}: standard uncertainties must be >= 0, got {value!r}")
     return arr
@@ -279,8 +287,11 @@ def _from_calibration(cal: Mapping[str, Any]) -> dict[str, Any]:
     }
     if cal.get("feature_location") is not None:
         unc["feature_location"] = cal["feature_location"]
-    out: dict[str, Any] = {"cameras": [dict(c) for c in cams], "stereo": {"R": cal["R"], "T": cal["T"]},
-                           "uncertainties": unc}
+    out: dict[str, Any] = {
+        "cameras": [dict(c) for c in cams],
+        "stereo": {"R": cal["R"], "T": cal["T"]},
+        "uncertainties": unc,
+    }
     if cal.get("dof") is not None:
         out["dof"] = {f: cal["dof"] for f in unc if f != "feature_location"}
     return out
@@ -294,8 +305,9 @@ def _draw(rng: np.random.Generator, dist: str, std: np.ndarray, shape: tuple[int
     return rng.uniform(-1.0, 1.0, shape + std.shape) * (math.sqrt(3.0) * std)
 
 
-def sample_offsets(setup: Setup, factors: Sequence[str], B: int, rng: np.random.Generator,
-                   scale: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+def sample_offsets(
+    setup: Setup, factors: Sequence[str], B: int, rng: np.random.Generator, scale: Mapping[str, float] | None = None
+) -> dict[str, np.ndarray]:
     """Random offsets of the given factors for B trials (drawn in a fixed order)."""
     off = {}
     P = len(setup.points)
@@ -309,8 +321,14 @@ def sample_offsets(setup: Setup, factors: Sequence[str], B: int, rng: np.random.
     return off
 
 
-def measure(setup: Setup, off: Mapping[str, np.ndarray], B: int, points: np.ndarray | None = None,
-            und: np.ndarray | None = None, xd: np.ndarray | None = None) -> np.ndarray:
+def measure(
+    setup: Setup,
+    off: Mapping[str, np.ndarray],
+    B: int,
+    points: np.ndarray | None = None,
+    und: np.ndarray | None = None,
+    xd: np.ndarray | None = None,
+) -> np.ndarray:
     """Triangulated points (B, P, 3) for B trials with the given parameter offsets."""
     sys_ = setup.system
     und = setup.und if und is None else und
@@ -326,14 +344,14 @@ def measure(setup: Setup, off: Mapping[str, np.ndarray], B: int, points: np.ndar
         xdv, ydv = xd[v, :, 0], xd[v, :, 1]
         r2 = xdv * xdv + ydv * ydv
         if "radial_distortion" in off:  # eq. 3.9 with b1..b4
-            db = off["radial_distortion"][:, v, :]                      # (B, 4)
+            db = off["radial_distortion"][:, v, :]  # (B, 4)
             s = sum(db[:, n, None] * r2[None, :] ** (n + 1) for n in range(4))
             u += cam.fu * xdv * s
             w += cam.fv * ydv * s
         if "tangential_distortion" in off:  # first order: the change of the forward term, removed
             dp = off["tangential_distortion"][:, v, :]
-            u -= cam.fu * (2 * dp[:, 0, None] * xdv * ydv + dp[:, 1, None] * (r2 + 2 * xdv ** 2))
-            w -= cam.fv * (dp[:, 0, None] * (r2 + 2 * ydv ** 2) + 2 * dp[:, 1, None] * xdv * ydv)
+            u -= cam.fu * (2 * dp[:, 0, None] * xdv * ydv + dp[:, 1, None] * (r2 + 2 * xdv**2))
+            w -= cam.fv * (dp[:, 0, None] * (r2 + 2 * ydv**2) + 2 * dp[:, 1, None] * xdv * ydv)
         if "principal_point" in off:  # the distortion correction about a shifted centre
             b = sm.inverse_coefficients(cam.k)
             dc = off["principal_point"][:, v, :]
@@ -377,8 +395,9 @@ def errors(setup: Setup, X: np.ndarray, points: np.ndarray | None = None) -> np.
 
 
 # ------------------------------------------------------------------ chunks and merging
-def simulate_chunk(setup: Setup, factors: Sequence[str], n: int, seed: np.random.SeedSequence,
-                   scale: Mapping[str, float] | None = None) -> tuple[int, np.ndarray, np.ndarray]:
+def simulate_chunk(
+    setup: Setup, factors: Sequence[str], n: int, seed: np.random.SeedSequence, scale: Mapping[str, float] | None = None
+) -> tuple[int, np.ndarray, np.ndarray]:
     """n trials with the given factors perturbed: (n, mean (P, 3), M2 (P, 3)) in mm."""
     rng = np.random.default_rng(seed)
     E = errors(setup, measure(setup, sample_offsets(setup, factors, n, rng, scale), n))
@@ -413,8 +432,14 @@ def reduce_chunks(results: Sequence[tuple[int, np.ndarray, np.ndarray]], scale: 
             conv_u.append(np.sqrt((M2 / (n - 1)).mean(axis=0)) * scale)
     n, mean, M2 = acc
     std = np.sqrt(M2 / (n - 1)) * scale
-    return {"n": int(n), "std": std, "bias": mean * scale, "u": np.sqrt((std ** 2).mean(axis=0)),
-            "convergence_iterations": np.array(conv_n), "convergence": np.array(conv_u).reshape(-1, 3)}
+    return {
+        "n": int(n),
+        "std": std,
+        "bias": mean * scale,
+        "u": np.sqrt((std**2).mean(axis=0)),
+        "convergence_iterations": np.array(conv_n),
+        "convergence": np.array(conv_u).reshape(-1, 3),
+    }
 
 
 class LocalExecutor:
@@ -429,9 +454,15 @@ class LocalExecutor:
         return out
 
 
-def run_factors(setup: Setup, groups: Mapping[str, Sequence[str]], iterations: int, seed: int,
-                executor=None, progress: Callable | None = None,
-                scale: Mapping[str, float] | None = None) -> dict[str, dict[str, Any]]:
+def run_factors(
+    setup: Setup,
+    groups: Mapping[str, Sequence[str]],
+    iterations: int,
+    seed: int,
+    executor=None,
+    progress: Callable | None = None,
+    scale: Mapping[str, float] | None = None,
+) -> dict[str, dict[str, Any]]:
     """Simulate each named group of factors; seeds: SeedSequence(seed).spawn per group
     (in the order of :data:`FACTORS`, then extra groups by name), then per chunk."""
     if iterations < 2:
@@ -457,16 +488,21 @@ def group_names(setup: Setup) -> dict[str, list[str]]:
 def summarise(setup: Setup, per_factor: Mapping[str, Mapping[str, Any]], p: float = 0.95) -> dict[str, Any]:
     """Table 3.2: contributions, combined (RSS), WS dof, k and U per axis."""
     names = [f for f in setup.factors if f in per_factor]
-    U = np.array([per_factor[f]["u"] for f in names])               # (F, 3)
+    U = np.array([per_factor[f]["u"] for f in names])  # (F, 3)
     dofs = [setup.dofs[f] for f in names]
-    combined = np.sqrt((U ** 2).sum(axis=0))
+    combined = np.sqrt((U**2).sum(axis=0))
     nu = np.atleast_1d(gum.welch_satterthwaite(U, dofs))
     k = np.array([gum.coverage_factor(float(v), p) for v in nu])
-    return {"contributions": {f: U[i].tolist() for i, f in enumerate(names)},
-            "combined": combined.tolist(), "dof_eff": nu.tolist(), "k": k.tolist(),
-            "expanded": (k * combined).tolist(), "coverage_probability": p,
-            "factor_dof": {f: setup.dofs[f] for f in names},
-            "factor_distribution": {f: setup.distributions[f] for f in names}}
+    return {
+        "contributions": {f: U[i].tolist() for i, f in enumerate(names)},
+        "combined": combined.tolist(),
+        "dof_eff": nu.tolist(),
+        "k": k.tolist(),
+        "expanded": (k * combined).tolist(),
+        "coverage_probability": p,
+        "factor_dof": {f: setup.dofs[f] for f in names},
+        "factor_distribution": {f: setup.distributions[f] for f in names},
+    }
 
 
 # ------------------------------------------------------------------ first-order propagation
@@ -496,7 +532,7 @@ def propagate(setup: Setup, factor: str, rel_step: float = 1e-3) -> dict[str, An
                 d[0, v, :, c] = h
                 Jp = (measure(setup, {factor: d}, 1)[0] - measure(setup, {factor: -d}, 1)[0]) / (2 * h)  # (P, 3)
                 C = (Jp * s) ** 2
-                var += (1 - 2 / P) * C + C.sum(axis=0) / P ** 2
+                var += (1 - 2 / P) * C + C.sum(axis=0) / P**2
         per_point = np.sqrt(var) * unit
     else:
         var = np.zeros((P, 3))
@@ -508,7 +544,7 @@ def propagate(setup: Setup, factor: str, rel_step: float = 1e-3) -> dict[str, An
             em = errors(setup, measure(setup, _param_offsets(setup, factor, j, -h), 1))[0]
             var += ((ep - em) / (2 * h) * s) ** 2
         per_point = np.sqrt(var) * unit
-    return {"std": per_point, "u": np.sqrt((per_point ** 2).mean(axis=0))}
+    return {"std": per_point, "u": np.sqrt((per_point**2).mean(axis=0))}
 
 
 # ------------------------------------------------------------------ studies
@@ -525,13 +561,16 @@ def volume_maps(setup: Setup, multiple: float = 1.0) -> dict[str, Any]:
             continue
         off = {f: (multiple * np.asarray(setup.stds[f], float))[None]}
         E = errors(setup, measure(setup, off, 1))[0] * unit
-        out[f] = {"errors": E, "norm": np.linalg.norm(E, axis=1), "offset": off[f][0],
-                  "range": (E.max(axis=0) - E.min(axis=0)).tolist()}
+        out[f] = {
+            "errors": E,
+            "norm": np.linalg.norm(E, axis=1),
+            "offset": off[f][0],
+            "range": (E.max(axis=0) - E.min(axis=0)).tolist(),
+        }
     return {"points": setup.points, "grid_shape": list(setup.grid_shape), "multiple": multiple, "factors": out}
 
 
-def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[float],
-                  executor=None) -> dict[str, Any]:
+def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[float], executor=None) -> dict[str, Any]:
     """Fig. 3.4: the feature-location contribution for sigma from 0 to 1 px."""
     try:
         levels = np.asarray(levels, float)
@@ -541,22 +580,38 @@ def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[flo
         raise InputError("sweep_levels: expected a list of 1 .. 1000 feature-location sigmas >= 0 px")
     stds = dict(setup.stds)
     stds["feature_location"] = np.ones((2, 2))
-    sub = Setup(setup.system, setup.points, setup.grid_shape, stds, setup.distributions, setup.dofs,
-                setup.method, setup.chunk, setup.unit)
+    sub = Setup(
+        setup.system,
+        setup.points,
+        setup.grid_shape,
+        stds,
+        setup.distributions,
+        setup.dofs,
+        setup.method,
+        setup.chunk,
+        setup.unit,
+    )
     groups = {f"{s:g}px": ["feature_location"] for s in levels}
     # each level is simulated (same streams per level: common random numbers, so the
     # curve is smooth) with the noise scaled to that level
     u = []
     for s_px in levels:
-        r = run_factors(sub, {"feature_location": ["feature_location"]}, iterations, seed, executor,
-                        scale={"feature_location": float(s_px)})
+        r = run_factors(
+            sub,
+            {"feature_location": ["feature_location"]},
+            iterations,
+            seed,
+            executor,
+            scale={"feature_location": float(s_px)},
+        )
         u.append(r["feature_location"]["u"])
     del groups
     return {"sigma_px": levels, "u": np.array(u), "iterations": iterations}
 
 
-def spatial_variation(setup: Setup, iterations: int, seed: int, axis: str = "x", n: int = 21,
-                      executor=None) -> dict[str, Any]:
+def spatial_variation(
+    setup: Setup, iterations: int, seed: int, axis: str = "x", n: int = 21, executor=None
+) -> dict[str, Any]:
     """Fig. 3.9: per-point standard deviation (all factors at once) along a line of
     points through the grid centre parallel to ``axis``."""
     i = "xyz".index(axis)
@@ -564,17 +619,25 @@ def spatial_variation(setup: Setup, iterations: int, seed: int, axis: str = "x",
     lo, hi = setup.points[:, i].min(), setup.points[:, i].max()
     line = np.repeat(c[None], n, axis=0)
     line[:, i] = np.linspace(lo, hi, n)
-    sub = Setup(setup.system, line, (n,), setup.stds, setup.distributions, setup.dofs, setup.method,
-                setup.chunk, setup.unit)
+    sub = Setup(
+        setup.system, line, (n,), setup.stds, setup.distributions, setup.dofs, setup.method, setup.chunk, setup.unit
+    )
     res = run_factors(sub, {"joint": sub.factors}, iterations, seed, executor)["joint"]
     return {"axis": axis, "position": line[:, i], "points": line, "std": res["std"], "iterations": iterations}
 
 
 # ------------------------------------------------------------------ the study
-def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int | None = None,
-              method: str | None = None, scheduler: str | None = None, studies: Sequence[str] = (),
-              progress: Callable | None = None, warn: Callable | None = None,
-              executor=None) -> dict[str, Any]:
+def run_study(
+    doc: Mapping[str, Any],
+    iterations: int | None = None,
+    seed: int | None = None,
+    method: str | None = None,
+    scheduler: str | None = None,
+    studies: Sequence[str] = (),
+    progress: Callable | None = None,
+    warn: Callable | None = None,
+    executor=None,
+) -> dict[str, Any]:
     """The whole Monte Carlo study; returns the JSON-able result (arrays as numpy).
 
     Besides the table (``contributions``, ``combined``, ``dof_eff``, ``k``, ``expanded``,
@@ -588,14 +651,15 @@ def run_study(doc: Mapping[str, Any], iterations: int | None = None, seed: int |
         out = _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn, executor)
     bad = [f for f, u in out["contributions"].items() if not np.all(np.isfinite(u))]
     if bad or not np.all(np.isfinite(out["combined"])):
-        raise InputError(f"the model gives non-finite errors{' for ' + bad[0] if bad else ''}; "
-                         "check the magnitudes of the cameras, stereo, grid and uncertainties")
+        raise InputError(
+            f"the model gives non-finite errors{' for ' + bad[0] if bad else ''}; "
+            "check the magnitudes of the cameras, stereo, grid and uncertainties"
+        )
     return out
 
 
 def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn, executor) -> dict[str, Any]:
-    N = _whole(iterations if iterations is not None else doc.get("iterations", 10000), "iterations", 2,
-               MAX_ITERATIONS)
+    N = _whole(iterations if iterations is not None else doc.get("iterations", 10000), "iterations", 2, MAX_ITERATIONS)
     s = _whole(seed if seed is not None else doc.get("seed", 0), "seed", 0, MAX_SEED)
     setup = setup_from_dict(doc, method)
     studies = list(studies) or list(doc.get("studies", []) or [])
@@ -609,8 +673,10 @@ def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn
     P = len(setup.points)
     groups_n = len(setup.factors) + ("joint" in studies)
     chunks = -(-N // setup.chunk)
-    check_budget(f"Monte Carlo of {N} iterations x {P} grid points (chunk {setup.chunk})",
-                 TRIAL_BYTES * min(setup.chunk, N) * P + POINT_BYTES * P + 48.0 * chunks * groups_n * P)
+    check_budget(
+        f"Monte Carlo of {N} iterations x {P} grid points (chunk {setup.chunk})",
+        TRIAL_BYTES * min(setup.chunk, N) * P + POINT_BYTES * P + 48.0 * chunks * groups_n * P,
+    )
     own_client = None
     if executor is None and scheduler:
         from .distributed import DaskExecutor
@@ -623,10 +689,19 @@ def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn
             groups["joint"] = setup.factors
         res = run_factors(setup, groups, N, s, executor, progress)
         out = summarise(setup, res, float(doc.get("coverage_probability", 0.95)))
-        out.update({"iterations": N, "seed": s, "method": setup.method, "unit": setup.unit,
-                    "n_points": len(setup.points), "grid_shape": list(setup.grid_shape),
-                    "executor": "dask" if (scheduler or executor is not None and
-                                           not isinstance(executor, LocalExecutor)) else "local"})
+        out.update(
+            {
+                "iterations": N,
+                "seed": s,
+                "method": setup.method,
+                "unit": setup.unit,
+                "n_points": len(setup.points),
+                "grid_shape": list(setup.grid_shape),
+                "executor": "dask"
+                if (scheduler or executor is not None and not isinstance(executor, LocalExecutor))
+                else "local",
+            }
+        )
         out["per_point"] = {"points": setup.points, **{f: r["std"] for f, r in res.items()}}
         # each point's standard uncertainties (x, y, z) as one length, the magnitude a map shows
         out["per_point_norm"] = {f: np.sqrt((r["std"] ** 2).sum(axis=1)) for f, r in res.items()}
@@ -634,21 +709,28 @@ def _run_study(doc, iterations, seed, method, scheduler, studies, progress, warn
         if "joint" in res:
             out["combined_joint"] = res["joint"]["u"].tolist()
         if "convergence" in studies:
-            extra["convergence"] = {f: {"iterations": r["convergence_iterations"], "u": r["convergence"]}
-                                    for f, r in res.items()}
+            extra["convergence"] = {
+                f: {"iterations": r["convergence_iterations"], "u": r["convergence"]} for f, r in res.items()
+            }
         if "volume_maps" in studies:
             extra["volume_maps"] = volume_maps(setup, float(doc.get("volume_map_multiple", 1.0)))
         if "sweep" in studies:
             n_sweep = _whole(doc.get("sweep_iterations", 2000), "sweep_iterations", 2, MAX_ITERATIONS)
-            extra["sweep"] = feature_sweep(setup, min(N, n_sweep), s + 1,
-                                           doc.get("sweep_levels", np.linspace(0, 1, 11)), executor)
+            extra["sweep"] = feature_sweep(
+                setup, min(N, n_sweep), s + 1, doc.get("sweep_levels", np.linspace(0, 1, 11)), executor
+            )
         if "spatial" in studies:
             sp = doc.get("spatial", {}) or {}
             if sp.get("axis", "x") not in ("x", "y", "z"):
                 raise InputError(f"spatial.axis {sp.get('axis')!r}: use x, y or z")
             extra["spatial"] = spatial_variation(
-                setup, min(N, _whole(sp.get("iterations", N), "spatial.iterations", 2, MAX_ITERATIONS)), s + 2,
-                sp.get("axis", "x"), _whole(sp.get("n", 21), "spatial.n", 2, 10_000), executor)
+                setup,
+                min(N, _whole(sp.get("iterations", N), "spatial.iterations", 2, MAX_ITERATIONS)),
+                s + 2,
+                sp.get("axis", "x"),
+                _whole(sp.get("n", 21), "spatial.n", 2, 10_000),
+                executor,
+            )
         out["studies"] = extra
         out["elapsed_s"] = time.perf_counter() - t0
         return out

@@ -28,8 +28,9 @@ def load_spec(spec: Any) -> tuple[dict[str, Any], Path | None]:
     raise InputError(f"spec: expected a file path or a mapping, got {type(spec).__name__}")
 
 
-def budget(ctx: RunContext, spec: Any, coverage_probability: float | None = None,
-           dof_rounding: str = "truncate") -> dict[str, Any]:
+def budget(
+    ctx: RunContext, spec: Any, coverage_probability: float | None = None, dof_rounding: str = "truncate"
+) -> dict[str, Any]:
     from .gum import budget_from_dict
 
     doc, _ = load_spec(spec)
@@ -54,11 +55,25 @@ def iso15530_3(ctx: RunContext, spec: Any, k: float | None = None) -> dict[str, 
     return out
 
 
-def montecarlo(ctx: RunContext, spec: Any, iterations: int | None = None, seed: int | None = None,
-               method: str | None = None, scheduler: str | None = None, studies: str = "") -> dict[str, Any]:
+def montecarlo(
+    ctx: RunContext,
+    spec: Any,
+    iterations: int | None = None,
+    seed: int | None = None,
+    method: str | None = None,
+    scheduler: str | None = None,
+    studies: str = "",
+) -> dict[str, Any]:
     from .montecarlo import run_study
 
     doc, base = load_spec(spec)
-    return run_study(doc, iterations=iterations, seed=seed, method=method, scheduler=scheduler or None,
-                     studies=[s.strip() for s in (studies or "").split(",") if s.strip()],
-                     progress=ctx.progress, warn=ctx.warn)
+    return run_study(
+        doc,
+        iterations=iterations,
+        seed=seed,
+        method=method,
+        scheduler=scheduler or None,
+        studies=[s.strip() for s in (studies or "").split(",") if s.strip()],
+        progress=ctx.progress,
+        warn=ctx.warn,
+    )

@@ -53,26 +53,34 @@ def rot_xyz(theta, phi, rho) -> np.ndarray:
 def inverse_coefficients(k) -> np.ndarray:
     """b1..b4 of eqs. 3.10-3.13 from k1..k4 (missing k's are 0)."""
     k1, k2, k3, k4 = (list(np.asarray(k, dtype=float).ravel()) + [0.0] * 4)[:4]
-    return np.array([-k1, 3 * k1 ** 2 - k2, -12 * k1 ** 3 + 8 * k1 * k2 - k3,
-                     55 * k1 ** 4 - 55 * k1 ** 2 * k2 + 5 * k2 ** 2 + 10 * k1 * k3 - k4])
+    return np.array(
+        [
+            -k1,
+            3 * k1**2 - k2,
+            -12 * k1**3 + 8 * k1 * k2 - k3,
+            55 * k1**4 - 55 * k1**2 * k2 + 5 * k2**2 + 10 * k1 * k3 - k4,
+        ]
+    )
 
 
 def inverse_jacobian(k) -> np.ndarray:
     """d b_n / d k_i (4 x 4) of eqs. 3.10-3.13."""
     k1, k2, k3, _ = (list(np.asarray(k, dtype=float).ravel()) + [0.0] * 4)[:4]
-    return np.array([
-        [-1.0, 0.0, 0.0, 0.0],
-        [6 * k1, -1.0, 0.0, 0.0],
-        [-36 * k1 ** 2 + 8 * k2, 8 * k1, -1.0, 0.0],
-        [220 * k1 ** 3 - 110 * k1 * k2 + 10 * k3, -55 * k1 ** 2 + 10 * k2, 10 * k1, -1.0],
-    ])
+    return np.array(
+        [
+            [-1.0, 0.0, 0.0, 0.0],
+            [6 * k1, -1.0, 0.0, 0.0],
+            [-36 * k1**2 + 8 * k2, 8 * k1, -1.0, 0.0],
+            [220 * k1**3 - 110 * k1 * k2 + 10 * k3, -55 * k1**2 + 10 * k2, 10 * k1, -1.0],
+        ]
+    )
 
 
 def inverse_uncertainty(k, u_k) -> np.ndarray:
     """u(b_n) from u(k_i) by eq. 3.14 (GUM form, uncorrelated k)."""
     uk = (list(np.asarray(u_k, dtype=float).ravel()) + [0.0] * 4)[:4]
     J = inverse_jacobian(k)
-    return np.sqrt((J ** 2) @ np.square(uk))
+    return np.sqrt((J**2) @ np.square(uk))
 
 
 def distort(x, y, k, p=(0.0, 0.0)):
@@ -80,7 +88,7 @@ def distort(x, y, k, p=(0.0, 0.0)):
     k1, k2, k3 = (list(np.asarray(k, dtype=float).ravel()) + [0.0] * 3)[:3]
     p1, p2 = (list(np.asarray(p, dtype=float).ravel()) + [0.0] * 2)[:2]
     r2 = x * x + y * y
-    radial = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
+    radial = 1 + k1 * r2 + k2 * r2**2 + k3 * r2**3
     xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
     yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
     return xd, yd
@@ -113,13 +121,14 @@ def polar_uncertainty(T, u_T) -> tuple[float, float]:
     ux, uy, uz = (float(v) for v in u_T)
     rho2 = Tx * Tx + Ty * Ty
     if rho2 == 0:
-        raise InputError("translation of camera 2 lies on the optical axis of camera 1: its direction "
-                         "angles are undefined")
+        raise InputError(
+            "translation of camera 2 lies on the optical axis of camera 1: its direction angles are undefined"
+        )
     Tr2 = rho2 + Tz * Tz
     rho = math.sqrt(rho2)
     dth = (Tx * Tz / (Tr2 * rho), Ty * Tz / (Tr2 * rho), -rho / Tr2)
     dph = (-Ty / rho2, Tx / rho2)
-    u_th = math.hypot(dth[0] * ux, dth[1] * uy, dth[2] * uz)     # hypot: no overflow in the squares
+    u_th = math.hypot(dth[0] * ux, dth[1] * uy, dth[2] * uz)  # hypot: no overflow in the squares
     u_ph = math.hypot(dph[0] * ux, dph[1] * uy)
     return u_th, u_ph
 
@@ -192,8 +201,16 @@ class Camera:
                     raise InputError(f"{name}: missing principal point u0, v0 (or image_size)")
                 k = list(d.get("k", [d.get("k1", 0.0), d.get("k2", 0.0), d.get("k3", 0.0)]))
                 p = list(d.get("p", [d.get("p1", 0.0), d.get("p2", 0.0)]))
-            cam = cls(float(fu), float(fv), float(u0), float(v0), np.asarray((list(k) + [0.0] * 3)[:3], float),
-                      np.asarray((list(p) + [0.0] * 2)[:2], float), size, d.get("pixel_pitch"))
+            cam = cls(
+                float(fu),
+                float(fv),
+                float(u0),
+                float(v0),
+                np.asarray((list(k) + [0.0] * 3)[:3], float),
+                np.asarray((list(p) + [0.0] * 2)[:2], float),
+                size,
+                d.get("pixel_pitch"),
+            )
         except (TypeError, ValueError) as exc:
             raise InputError(f"{name}: intrinsics must be numbers ({exc})") from None
         if not (cam.fu > 0 and cam.fv > 0 and np.isfinite(cam.fu) and np.isfinite(cam.fv)):
@@ -277,12 +294,16 @@ class StereoSystem:
         for i, cam in enumerate(self.cameras):
             behind = int(np.sum(depth[i] <= 0))
             if behind:
-                raise InputError(f"camera {i + 1}: {behind} of {len(X)} {what} points lie behind the camera; "
-                                 "the views do not overlap the measuring volume")
+                raise InputError(
+                    f"camera {i + 1}: {behind} of {len(X)} {what} points lie behind the camera; "
+                    "the views do not overlap the measuring volume"
+                )
             w, h = cam.image_size
             if w and h:
                 u, v = pix[i, :, 0], pix[i, :, 1]
                 out = int(np.sum((u < 0) | (u > w) | (v < 0) | (v > h)))
                 if out:
-                    raise InputError(f"camera {i + 1}: {out} of {len(X)} {what} points fall outside its "
-                                     f"{w} x {h} px image; the views do not overlap the measuring volume")
+                    raise InputError(
+                        f"camera {i + 1}: {out} of {len(X)} {what} points fall outside its "
+                        f"{w} x {h} px image; the views do not overlap the measuring volume"
+                    )

@@ -113,8 +113,9 @@ def reproject(P: np.ndarray, X: np.ndarray) -> np.ndarray:
     return h[..., :2] / h[..., 2:3]
 
 
-def optimal(P: np.ndarray, x: np.ndarray, weights: np.ndarray | None = None, iterations: int = 3,
-            X0: np.ndarray | None = None) -> np.ndarray:
+def optimal(
+    P: np.ndarray, x: np.ndarray, weights: np.ndarray | None = None, iterations: int = 3, X0: np.ndarray | None = None
+) -> np.ndarray:
     """Minimal (weighted) reprojection error by Gauss–Newton from the linear solution.
 
     ``weights`` (V,) or (..., V) scale each view's residual (e.g. focal length in px
@@ -141,9 +142,15 @@ def optimal(P: np.ndarray, x: np.ndarray, weights: np.ndarray | None = None, ite
                 j0 = (Pv[..., r, 0] - proj * Pv[..., 2, 0]) * inv_z * wv
                 j1 = (Pv[..., r, 1] - proj * Pv[..., 2, 1]) * inv_z * wv
                 j2 = (Pv[..., r, 2] - proj * Pv[..., 2, 2]) * inv_z * wv
-                m00 += j0 * j0; m01 += j0 * j1; m02 += j0 * j2  # noqa: E702
-                m11 += j1 * j1; m12 += j1 * j2; m22 += j2 * j2  # noqa: E702
-                g0 += j0 * res; g1 += j1 * res; g2 += j2 * res  # noqa: E702
+                m00 += j0 * j0
+                m01 += j0 * j1
+                m02 += j0 * j2  # noqa: E702
+                m11 += j1 * j1
+                m12 += j1 * j2
+                m22 += j2 * j2  # noqa: E702
+                g0 += j0 * res
+                g1 += j1 * res
+                g2 += j2 * res  # noqa: E702
         X = X + _solve_sym3(m00, m01, m02, m11, m12, m22, g0, g1, g2)
     return X
 

@@ -41,21 +41,30 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     params = {"workers": args.workers} if args.workers is not None else {}
     res = host.run(std, {"plan": path}, params)
     result = res.outputs
-    result["run"] = {"plugin": res.plugin_id, "version": res.plugin_version, "input_hashes": res.input_hashes,
-                     "started": res.started, "finished": res.finished}
+    result["run"] = {
+        "plugin": res.plugin_id,
+        "version": res.plugin_version,
+        "input_hashes": res.input_hashes,
+        "started": res.started,
+        "finished": res.finished,
+    }
     if args.report:
         result["report"] = {k: str(v) for k, v in host.load(std).write_report(result, args.report, path).items()}
     return result
 
 
 def text(result: dict[str, Any]) -> str:
-    lines = [f"{result.get('standard_name', result['standard'])}: {result['verdict'].upper()} "
-             f"(guarded acceptance: {result.get('verdict_guarded', '-')})"]
+    lines = [
+        f"{result.get('standard_name', result['standard'])}: {result['verdict'].upper()} "
+        f"(guarded acceptance: {result.get('verdict_guarded', '-')})"
+    ]
     lines.append(f"{'':3}{'parameter':34}{'value/mm':>10}{'MPE/mm':>9}{'U/mm':>9}  verdict / guarded")
     for key, p in result["parameters"].items():
         v = "-" if p["value"] is None else f"{p['value']:+.4f}"
-        lines.append(f"{'':3}{p.get('name', key):34}{v:>10}{p['mpe']:>9.4f}{p.get('U', 0):>9.4f}  "
-                     f"{p['verdict']} / {p.get('verdict_guarded', '-')}")
+        lines.append(
+            f"{'':3}{p.get('name', key):34}{v:>10}{p['mpe']:>9.4f}{p.get('U', 0):>9.4f}  "
+            f"{p['verdict']} / {p.get('verdict_guarded', '-')}"
+        )
     for w in result.get("warnings", []):
         lines.append(f"warning: {w}")
     if result.get("report"):

@@ -53,8 +53,11 @@ def fit_rows(ev: dict[str, Any]) -> list[dict[str, str]]:
         add("length", _mm(ev["length"]) + (f" (calibrated {float(cal):.4f})" if cal is not None else ""))
     for i, sph in enumerate(ev.get("spheres") or []):
         if isinstance(sph, dict) and sph.get("center") is not None:
-            add(f"sphere {i + 1}", xyz(sph["center"]) + (f", Ø {float(sph['diameter']):.4f} mm"
-                                                          if sph.get("diameter") is not None else ""))
+            add(
+                f"sphere {i + 1}",
+                xyz(sph["center"])
+                + (f", Ø {float(sph['diameter']):.4f} mm" if sph.get("diameter") is not None else ""),
+            )
     if ev.get("normal") is not None:
         add("normal", "(" + ", ".join(f"{float(x):.4f}" for x in ev["normal"]) + ")")
     form = ev.get("form") if isinstance(ev.get("form"), dict) else {}

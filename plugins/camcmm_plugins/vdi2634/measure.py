@@ -65,11 +65,15 @@ def check_extent(cloud: PointCloud, expected: float, name: str, what: str) -> No
         raise GeometryError(f"{name}: only {cloud.n_points} points; too few for a {what}")
     extent = float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
     if extent < expected / 50 and 0.05 * expected <= extent * 1000 <= 20 * expected:
-        raise InputError(f"{name}: the cloud spans {extent:.4g} but a {what} of {expected:g} mm was expected; "
-                         f"it looks like metres; convert it or give its unit (unit: m in the plan)")
+        raise InputError(
+            f"{name}: the cloud spans {extent:.4g} but a {what} of {expected:g} mm was expected; "
+            f"it looks like metres; convert it or give its unit (unit: m in the plan)"
+        )
     if extent > 50 * expected and 0.05 * expected <= extent / 1000 <= 20 * expected:
-        raise InputError(f"{name}: the cloud spans {extent:.4g} mm but a {what} of {expected:g} mm was expected; "
-                         f"it looks like a file in mm read as metres; check the unit the plan gives it")
+        raise InputError(
+            f"{name}: the cloud spans {extent:.4g} mm but a {what} of {expected:g} mm was expected; "
+            f"it looks like a file in mm read as metres; check the unit the plan gives it"
+        )
 
 
 def _fit(ctx, plugin: str, name: str, expect: str = "", **kw) -> dict[str, Any]:
@@ -97,10 +101,16 @@ def _scaled(cloud: PointCloud | None, s: float) -> PointCloud | None:
 
 def _sphere_summary(fit: dict[str, Any], s: float = 1.0) -> dict[str, Any]:
     form = {k: v * s for k, v in fit["form"].items()}
-    return {"center": (np.asarray(fit["center"]) * s).tolist(), "diameter": 2 * fit["radius"] * s,
-            "radius": fit["radius"] * s, "form": form, "n_points": fit["n_points"], "n_used": fit["n_used"],
-            "n_removed": fit["n_removed"],
-            "std_uncertainty": {k: (np.asarray(v) * s).tolist() for k, v in fit["std_uncertainty"].items()}}
+    return {
+        "center": (np.asarray(fit["center"]) * s).tolist(),
+        "diameter": 2 * fit["radius"] * s,
+        "radius": fit["radius"] * s,
+        "form": form,
+        "n_points": fit["n_points"],
+        "n_used": fit["n_used"],
+        "n_removed": fit["n_removed"],
+        "std_uncertainty": {k: (np.asarray(v) * s).tolist() for k, v in fit["std_uncertainty"].items()},
+    }
 
 
 # -- sphere -----------------------------------------------------------------------------------
@@ -108,13 +118,19 @@ def _size_check(d_fit: float, d_ref: float, name: str, what: str) -> None:
     if abs(d_fit - d_ref) <= SIZE_TOLERANCE * d_ref:
         return
     if 0.5e-3 <= d_fit / d_ref <= 2e-3:
-        raise InputError(f"{name}: the fitted {what} diameter is {d_fit:.4g}, about 1/1000 of {d_ref:g} mm; "
-                         "it looks like metres; convert it or give its unit (unit: m in the plan)")
+        raise InputError(
+            f"{name}: the fitted {what} diameter is {d_fit:.4g}, about 1/1000 of {d_ref:g} mm; "
+            "it looks like metres; convert it or give its unit (unit: m in the plan)"
+        )
     if 500 <= d_fit / d_ref <= 2000:
-        raise InputError(f"{name}: the fitted {what} diameter is {d_fit:.4g} mm, about 1000 x {d_ref:g} mm; "
-                         "it looks like a file in mm read as metres; check the unit the plan gives it")
-    raise GeometryError(f"{name}: no {what} of diameter {d_ref:g} mm in it (the least-squares sphere has "
-                        f"diameter {d_fit:.4g} mm); is this the right file?")
+        raise InputError(
+            f"{name}: the fitted {what} diameter is {d_fit:.4g} mm, about 1000 x {d_ref:g} mm; "
+            "it looks like a file in mm read as metres; check the unit the plan gives it"
+        )
+    raise GeometryError(
+        f"{name}: no {what} of diameter {d_ref:g} mm in it (the least-squares sphere has "
+        f"diameter {d_fit:.4g} mm); is this the right file?"
+    )
 
 
 def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:
@@ -132,9 +148,17 @@ def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None)
     if fit["n_points"] < 334 and rule == "vdi2634":
         warnings.append(f"{name}: {fit['n_points']} points; below 334 the 3 per 1000 rule removes nothing")
     out = _sphere_summary(fit)
-    out.update({"test": "sphere", "outliers": rule, "diameter_calibrated": d_ref, "scale": 1.0,
-                "values": {"PF": fit["form"]["range"], "PS": 2 * fit["radius"] - d_ref},
-                "warnings": warnings, "deviations": fit.get("deviations")})
+    out.update(
+        {
+            "test": "sphere",
+            "outliers": rule,
+            "diameter_calibrated": d_ref,
+            "scale": 1.0,
+            "values": {"PF": fit["form"]["range"], "PS": 2 * fit["radius"] - d_ref},
+            "warnings": warnings,
+            "deviations": fit.get("deviations"),
+        }
+    )
     return out
 
 
@@ -150,10 +174,19 @@ def _sphere_scaled(ctx, cloud: PointCloud, plan: Plan, name: str, rule: str) -> 
     s = scaling.by_radii([f["radius"] for f in fits[1:]], d_scale / 2)
     main = fits[0]
     out = _sphere_summary(main, s)
-    out.update({"test": "sphere", "outliers": rule, "diameter_calibrated": d_ref, "scale": s,
-                "scaling": "radii", "scale_spheres": [_sphere_summary(f, s) for f in fits[1:]],
-                "values": {"PF": main["form"]["range"] * s, "PS": 2 * main["radius"] * s - d_ref},
-                "warnings": [], "deviations": _scaled(main.get("deviations"), s)})
+    out.update(
+        {
+            "test": "sphere",
+            "outliers": rule,
+            "diameter_calibrated": d_ref,
+            "scale": s,
+            "scaling": "radii",
+            "scale_spheres": [_sphere_summary(f, s) for f in fits[1:]],
+            "values": {"PF": main["form"]["range"] * s, "PS": 2 * main["radius"] * s - d_ref},
+            "warnings": [],
+            "deviations": _scaled(main.get("deviations"), s),
+        }
+    )
     return out
 
 
@@ -162,10 +195,15 @@ def _merge(clouds: list[PointCloud | None], name: str) -> PointCloud | None:
     clouds = [c for c in clouds if c is not None]
     if not clouds:
         return None
-    return PointCloud(np.vstack([c.points for c in clouds]),
-                      fields={"deviation": np.concatenate([c.fields["deviation"] for c in clouds]),
-                              "sphere": np.concatenate([np.full(c.n_points, i + 1.0) for i, c in enumerate(clouds)])},
-                      field_units={"deviation": "mm"}, name=f"{name} deviations")
+    return PointCloud(
+        np.vstack([c.points for c in clouds]),
+        fields={
+            "deviation": np.concatenate([c.fields["deviation"] for c in clouds]),
+            "sphere": np.concatenate([np.full(c.n_points, i + 1.0) for i, c in enumerate(clouds)]),
+        },
+        field_units={"deviation": "mm"},
+        name=f"{name} deviations",
+    )
 
 
 def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:
@@ -197,14 +235,26 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
     mpe = plan.mpe.get("SD")
     if mpe and np.isfinite(u_len) and u_len > 0.1 * mpe:
         worst = min(range(2), key=lambda k: fits[k]["n_points"])
-        warnings.append(f"{name}: the length is uncertain by {u_len:.4f} mm (more than 1/10 of MPE SD): sphere "
-                        f"{worst + 1} is seen on {fits[worst]['n_points']} points only; "
-                        "turn the bar towards the sensor")
-    return {"test": "ball_bar", "outliers": rule, "scale": s, "scaling": mode, "n_points": cloud.n_points,
-            "n_assigned": int(sum(len(p) for p in parts)), "spheres": [_sphere_summary(f, s) for f in fits],
-            "length": l_a, "length_calibrated": l_ref, "u_length": u_len, "values": {"SD": l_a - l_ref},
-            "warnings": warnings,
-            "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s)}
+        warnings.append(
+            f"{name}: the length is uncertain by {u_len:.4f} mm (more than 1/10 of MPE SD): sphere "
+            f"{worst + 1} is seen on {fits[worst]['n_points']} points only; "
+            "turn the bar towards the sensor"
+        )
+    return {
+        "test": "ball_bar",
+        "outliers": rule,
+        "scale": s,
+        "scaling": mode,
+        "n_points": cloud.n_points,
+        "n_assigned": int(sum(len(p) for p in parts)),
+        "spheres": [_sphere_summary(f, s) for f in fits],
+        "length": l_a,
+        "length_calibrated": l_ref,
+        "u_length": u_len,
+        "values": {"SD": l_a - l_ref},
+        "warnings": warnings,
+        "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s),
+    }
 
 
 # -- flat -------------------------------------------------------------------------------------
@@ -224,12 +274,24 @@ def evaluate_flat(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -
     covered = float(np.ptp(inplane @ axis))
     warnings = []
     if covered < 0.5 * plan.diagonal:
-        warnings.append(f"{name}: the measured part of the flat spans {covered:.4g} mm, less than 0.5 of the "
-                        f"volume diagonal ({0.5 * plan.diagonal:.4g} mm)")
-    return {"test": "flat", "outliers": rule, "point": list(map(float, fit["point"])),
-            "normal": normal.tolist(), "form": fit["form"], "n_points": fit["n_points"], "n_used": fit["n_used"],
-            "n_removed": fit["n_removed"], "covered_length": covered, "values": {"F": fit["form"]["range"]},
-            "warnings": warnings, "deviations": fit.get("deviations")}
+        warnings.append(
+            f"{name}: the measured part of the flat spans {covered:.4g} mm, less than 0.5 of the "
+            f"volume diagonal ({0.5 * plan.diagonal:.4g} mm)"
+        )
+    return {
+        "test": "flat",
+        "outliers": rule,
+        "point": list(map(float, fit["point"])),
+        "normal": normal.tolist(),
+        "form": fit["form"],
+        "n_points": fit["n_points"],
+        "n_used": fit["n_used"],
+        "n_removed": fit["n_removed"],
+        "covered_length": covered,
+        "values": {"F": fit["form"]["range"]},
+        "warnings": warnings,
+        "deviations": fit.get("deviations"),
+    }
 
 
 # -- ball plate (part 3) ----------------------------------------------------------------------
@@ -264,14 +326,29 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
         for f in fits:
             _size_check(2 * f["radius"], d_nom, name, "ball-plate sphere")
     sd = [m - c for m, c in zip(l_m, l_cal)]
-    return {"test": "ball_plate", "outliers": rule, "scaling": mode, "scale": s, "n_points": cloud.n_points,
-            "spheres": [_sphere_summary(f, s) for f in fits], "lengths_reconstructed": l_rec, "lengths": l_m,
-            "lengths_calibrated": l_cal, "values": {"SD": sd}, "items": {"SD": ["L1", "L2", "L3"]},
-            "warnings": [], "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s)}
+    return {
+        "test": "ball_plate",
+        "outliers": rule,
+        "scaling": mode,
+        "scale": s,
+        "n_points": cloud.n_points,
+        "spheres": [_sphere_summary(f, s) for f in fits],
+        "lengths_reconstructed": l_rec,
+        "lengths": l_m,
+        "lengths_calibrated": l_cal,
+        "values": {"SD": sd},
+        "items": {"SD": ["L1", "L2", "L3"]},
+        "warnings": [],
+        "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s),
+    }
 
 
-EVALUATORS = {"sphere": evaluate_sphere, "ball_bar": evaluate_ball_bar, "flat": evaluate_flat,
-              "ball_plate": evaluate_ball_plate}
+EVALUATORS = {
+    "sphere": evaluate_sphere,
+    "ball_bar": evaluate_ball_bar,
+    "flat": evaluate_flat,
+    "ball_plate": evaluate_ball_plate,
+}
 
 
 def evaluate(ctx, test: str, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:

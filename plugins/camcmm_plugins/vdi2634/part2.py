@@ -31,8 +31,10 @@ class Part2(Standard):
         scaled = {t: m for t, m in plan.scaling.items() if m != "none"}
         if scaled:  # an area-scanning system measures in mm; scaling is part 3's adaptation
             test = next(iter(scaled))
-            raise InputError(f"{plan.source}: scaling.{test} is {scaled[test]!r}; part 2 systems measure in mm "
-                             "(scaling is for vdi2634-3)")
+            raise InputError(
+                f"{plan.source}: scaling.{test} is {scaled[test]!r}; part 2 systems measure in mm "
+                "(scaling is for vdi2634-3)"
+            )
 
 
 #: The manifest entry: ``camcmm_plugins.vdi2634.part2:PART2``.

@@ -39,8 +39,12 @@ def _stats(values: list[float], u_cal: float, reference: float | None) -> dict[s
     if len(v) == 0:
         return {"n": 0}
     sd = float(v.std(ddof=1)) if len(v) > 1 else float("nan")
-    out = {"n": int(len(v)), "mean": float(v.mean()), "std": sd,
-           "U_iso15530_3": 2 * math.sqrt(u_cal**2 + (sd if math.isfinite(sd) else 0.0) ** 2)}
+    out = {
+        "n": int(len(v)),
+        "mean": float(v.mean()),
+        "std": sd,
+        "U_iso15530_3": 2 * math.sqrt(u_cal**2 + (sd if math.isfinite(sd) else 0.0) ** 2),
+    }
     if reference is not None:
         out["calibrated"] = reference
         out["mean_deviation"] = float(v.mean() - reference)
@@ -61,11 +65,13 @@ class Part3(Standard):
     def check_plan(self, plan: plans.Plan) -> None:
         super().check_plan(plan)
         if plan.scaling.get("sphere") == "radii" and "ball_plate" not in plan.artefacts:
-            raise InputError(f"{plan.source}: scaling.sphere is radii but artefacts.ball_plate (the scale spheres) "
-                             "is missing")
+            raise InputError(
+                f"{plan.source}: scaling.sphere is radii but artefacts.ball_plate (the scale spheres) is missing"
+            )
         if plan.scaling.get("ball_bar") == "lengths":
-            raise InputError(f"{plan.source}: scaling.ball_bar cannot be lengths (a ball bar has one length); "
-                             "use radii or none")
+            raise InputError(
+                f"{plan.source}: scaling.ball_bar cannot be lengths (a ball bar has one length); use radii or none"
+            )
 
     def repeats(self, plan: plans.Plan | None) -> int:
         return DEFAULT_REPEATS if plan is None or plan.repeats is None else plan.repeats
@@ -78,9 +84,14 @@ class Part3(Standard):
             groups: dict[str, list] = defaultdict(list)
             for e in evs:
                 groups[e.get("position") or e.get("file")].append(e)
-            by_pos[test] = [{"position": pos, "repeats": [e.get("repeat") for e in g],
-                             "values": {k: [e["values"][k] for e in g] for k in g[0]["values"]}}
-                            for pos, g in groups.items()]
+            by_pos[test] = [
+                {
+                    "position": pos,
+                    "repeats": [e.get("repeat") for e in g],
+                    "values": {k: [e["values"][k] for e in g] for k in g[0]["values"]},
+                }
+                for pos, g in groups.items()
+            ]
         out["repeat_values"] = by_pos
         if ok.get("ball_plate"):
             certs = [p.certificate("ball_plate", f"length_{i}") for i in (1, 2, 3)]
@@ -94,10 +105,16 @@ class Part3(Standard):
             d = p.certificate("sphere", "diameter")
             size = _stats([e["diameter"] for e in ok["sphere"]], d.standard_uncertainty, d.value)
             stds = [e["form"]["std"] for e in ok["sphere"]]
-            form = {"n": len(stds), "mean_std": float(np.mean(stds)),
-                    "U_iso15530_3": 2 * math.sqrt(d.standard_uncertainty**2 + float(np.mean(stds)) ** 2)}
-            out["iso15530_3"] = {"size": size, "form": form,
-                                 "note": "U = k sqrt(u_cal^2 + u_p^2), thesis eq. 4.1 with u_b = u_w = 0"}
+            form = {
+                "n": len(stds),
+                "mean_std": float(np.mean(stds)),
+                "U_iso15530_3": 2 * math.sqrt(d.standard_uncertainty**2 + float(np.mean(stds)) ** 2),
+            }
+            out["iso15530_3"] = {
+                "size": size,
+                "form": form,
+                "note": "U = k sqrt(u_cal^2 + u_p^2), thesis eq. 4.1 with u_b = u_w = 0",
+            }
         return out
 
 

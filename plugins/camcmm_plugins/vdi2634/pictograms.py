@@ -51,44 +51,57 @@ class _Svg:
     def line(self, a: Any, b: Any, color: str = _EDGE, width: float = 1.0, dash: str = "", cap: str = "round") -> None:
         (x1, y1), (x2, y2) = self._pt(a), self._pt(b)
         d = f' stroke-dasharray="{dash}"' if dash else ""
-        self.parts.append(f'<line x1="{x1:.1f}" y1="{y1:.1f}" x2="{x2:.1f}" y2="{y2:.1f}" stroke="{color}" '
-                          f'stroke-width="{width:.2f}" stroke-linecap="{cap}"{d}/>')
+        self.parts.append(
+            f'<line x1="{x1:.1f}" y1="{y1:.1f}" x2="{x2:.1f}" y2="{y2:.1f}" stroke="{color}" '
+            f'stroke-width="{width:.2f}" stroke-linecap="{cap}"{d}/>'
+        )
 
     def poly(self, pts: list[Any], fill: str, stroke: str = "none", width: float = 1.0, opacity: float = 1.0) -> None:
         xy = [self._pt(p) for p in pts]
         s = " ".join(f"{x:.1f},{y:.1f}" for x, y in xy)
-        self.parts.append(f'<polygon points="{s}" fill="{fill}" fill-opacity="{opacity:.2f}" stroke="{stroke}" '
-                          f'stroke-width="{width:.2f}" stroke-linejoin="round"/>')
+        self.parts.append(
+            f'<polygon points="{s}" fill="{fill}" fill-opacity="{opacity:.2f}" stroke="{stroke}" '
+            f'stroke-width="{width:.2f}" stroke-linejoin="round"/>'
+        )
 
     def ball(self, c: Any, r: float, color: str = _BLUE, faint: bool = False) -> None:
         x, y = self._pt(c)
         self.xs += [x - r, x + r]
         self.ys += [y - r, y + r]
         if faint:
-            self.parts.append(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" fill="#cfd8dc" stroke="#b0bec5" '
-                              'stroke-width="0.6"/>')
+            self.parts.append(
+                f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" fill="#cfd8dc" stroke="#b0bec5" stroke-width="0.6"/>'
+            )
             return
         gid = f"g-{self.uid}"
         if not self.defs:
-            self.defs.append(f'<radialGradient id="{gid}" cx="0.35" cy="0.3" r="0.75">'
-                             f'<stop offset="0" stop-color="#ffffff"/><stop offset="0.35" stop-color="#64b5f6"/>'
-                             f'<stop offset="1" stop-color="{color}"/></radialGradient>')
-        self.parts.append(f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" fill="url(#{gid})" stroke="#0d47a1" '
-                          'stroke-width="0.8"/>')
+            self.defs.append(
+                f'<radialGradient id="{gid}" cx="0.35" cy="0.3" r="0.75">'
+                f'<stop offset="0" stop-color="#ffffff"/><stop offset="0.35" stop-color="#64b5f6"/>'
+                f'<stop offset="1" stop-color="{color}"/></radialGradient>'
+            )
+        self.parts.append(
+            f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" fill="url(#{gid})" stroke="#0d47a1" stroke-width="0.8"/>'
+        )
 
     def text(self, p: Any, s: str, size: float = 9.0, color: str = "#78909c", anchor: str = "middle") -> None:
         x, y = self._pt(p)
-        self.parts.append(f'<text x="{x:.1f}" y="{y:.1f}" font-size="{size:.1f}" fill="{color}" '
-                          f'text-anchor="{anchor}" font-family="sans-serif">{_html.escape(s)}</text>')
+        self.parts.append(
+            f'<text x="{x:.1f}" y="{y:.1f}" font-size="{size:.1f}" fill="{color}" '
+            f'text-anchor="{anchor}" font-family="sans-serif">{_html.escape(s)}</text>'
+        )
 
     def render(self, title: str, pad: float = 6.0) -> str:
         x0, x1 = min(self.xs) - pad, max(self.xs) + pad
         y0, y1 = min(self.ys) - pad, max(self.ys) + pad
         defs = f"<defs>{''.join(self.defs)}</defs>" if self.defs else ""
-        return (f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0:.1f} {y0:.1f} {x1 - x0:.1f} {y1 - y0:.1f}" '
-                f'width="100%" height="100%" preserveAspectRatio="xMidYMid meet" role="img" '
-                f'aria-label="{_html.escape(title)}"><title>{_html.escape(title)}</title>{defs}'
-                + "".join(self.parts) + "</svg>")
+        return (
+            f'<svg xmlns="http://www.w3.org/2000/svg" viewBox="{x0:.1f} {y0:.1f} {x1 - x0:.1f} {y1 - y0:.1f}" '
+            f'width="100%" height="100%" preserveAspectRatio="xMidYMid meet" role="img" '
+            f'aria-label="{_html.escape(title)}"><title>{_html.escape(title)}</title>{defs}'
+            + "".join(self.parts)
+            + "</svg>"
+        )
 
 
 def _unit(v: Any, default=(1.0, 0.0, 0.0)) -> np.ndarray:
@@ -128,8 +141,14 @@ def _drop(svg: _Svg, c: np.ndarray, floor: float) -> None:
     svg.line(c, (c[0], c[1], floor), "#90a4ae", 0.7, "2 2")
 
 
-def pictogram(test: str, position: dict[str, Any], volume: Any, artefact: dict[str, Any] | None = None,
-              others: list[dict[str, Any]] | None = None, uid: str = "p") -> str:
+def pictogram(
+    test: str,
+    position: dict[str, Any],
+    volume: Any,
+    artefact: dict[str, Any] | None = None,
+    others: list[dict[str, Any]] | None = None,
+    uid: str = "p",
+) -> str:
     """An inline SVG of one position of a test in the measuring volume (mm).
 
     ``position`` is a position of ``std.requirements()`` (``where`` as fractions of the
@@ -168,9 +187,11 @@ def pictogram(test: str, position: dict[str, Any], volume: Any, artefact: dict[s
         x, y = svg._pt(p)
         svg.xs += [x - 8, x + 8]
         svg.ys += [y - 6, y + 6]
-        svg.parts.append(f'<g transform="translate({x:.1f},{y:.1f})"><rect x="-7" y="-5" width="14" height="10" rx="2" '
-                         'fill="#ef6c00"/><circle cx="0" cy="0" r="3.2" fill="#fff3e0" stroke="#bf360c" '
-                         'stroke-width="0.8"/><rect x="-4" y="-7.5" width="6" height="2.5" fill="#ef6c00"/></g>')
+        svg.parts.append(
+            f'<g transform="translate({x:.1f},{y:.1f})"><rect x="-7" y="-5" width="14" height="10" rx="2" '
+            'fill="#ef6c00"/><circle cx="0" cy="0" r="3.2" fill="#fff3e0" stroke="#bf360c" '
+            'stroke-width="0.8"/><rect x="-4" y="-7.5" width="6" height="2.5" fill="#ef6c00"/></g>'
+        )
     elif test == "sphere":
         r = max(float(a.get("diameter") or 0.1 * vol.max()) / 2 * s, min_r)
         for o in others or []:

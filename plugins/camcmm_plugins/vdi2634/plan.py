@@ -121,8 +121,9 @@ def _num(w: _Where, v: Any, key: str, positive: bool = True) -> float:
     return v
 
 
-def _number(w: _Where, d: dict, key: str, path: str, positive: bool = True, required: bool = True,
-            default: float | None = None) -> float | None:
+def _number(
+    w: _Where, d: dict, key: str, path: str, positive: bool = True, required: bool = True, default: float | None = None
+) -> float | None:
     if key not in d or d[key] is None:
         if required:
             raise w.fail(f"{path}.{key}", "is missing")
@@ -146,8 +147,9 @@ def read_source(source: Any) -> tuple[dict[str, Any], Path | None, str]:
         raise InputError(f"{path}: plan file not found")
     doc = read_yaml(path, name=path.name)  # one line naming the file: syntax, duplicate key, alias bomb
     if not isinstance(doc, dict):
-        raise InputError(f"{path.name}: a plan must be a YAML mapping with standard, system, mpe, artefacts, "
-                         "measurements")
+        raise InputError(
+            f"{path.name}: a plan must be a YAML mapping with standard, system, mpe, artefacts, measurements"
+        )
     return doc, path.parent.resolve(), path.name
 
 
@@ -182,8 +184,10 @@ def _artefact(w: _Where, test: str, d: Any) -> Artefact:
             cert("sphere_diameter", "sphere_diameter", "sphere_diameter_uncertainty")
         lengths = d.get("lengths")
         if not isinstance(lengths, list) or len(lengths) != 3:
-            raise w.fail(f"{p}.lengths", f"must list the three calibrated lengths L1 = |c1c2|, L2 = |c2c3|, "
-                                         f"L3 = |c3c1| in mm, got {lengths!r}")
+            raise w.fail(
+                f"{p}.lengths",
+                f"must list the three calibrated lengths L1 = |c1c2|, L2 = |c2c3|, L3 = |c3c1| in mm, got {lengths!r}",
+            )
         u = _number(w, d, "uncertainty", p, positive=False, required=False, default=0.0)
         for i, v in enumerate(lengths):
             v = _num(w, v, f"{p}.lengths[{i}]")
@@ -207,8 +211,9 @@ def _rules(w: _Where, value: Any, tests: list[str]) -> dict[str, str]:
             raise w.fail(f"outliers.{test}", f"is not a test; use {', '.join(TESTS)}")
         text = str(rule).strip().lower()
         if not _RULE.match(text):
-            raise w.fail(f"outliers.{test}",
-                         f"{rule!r} is not an outlier rule; use none, vdi2634, percent:P or sigma:K")
+            raise w.fail(
+                f"outliers.{test}", f"{rule!r} is not an outlier rule; use none, vdi2634, percent:P or sigma:K"
+            )
         out[test] = text
     return out
 
@@ -302,6 +307,19 @@ def load(source: Any, standard: str | None = None) -> Plan:
     if repeats is not None and (isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1):
         raise w.fail("repeats", f"must be a whole number >= 1, got {repeats!r}")
     options = _mapping(w, doc.get("options") or {}, "options")
-    return Plan(std, str(system.get("name", "")), vol, mpe, artefacts, meas,
-                _rules(w, doc.get("outliers"), list(TESTS)), dict(scaling), repeats,
-                None if unit is None else str(unit), base, name, doc, dict(options))
+    return Plan(
+        std,
+        str(system.get("name", "")),
+        vol,
+        mpe,
+        artefacts,
+        meas,
+        _rules(w, doc.get("outliers"), list(TESTS)),
+        dict(scaling),
+        repeats,
+        None if unit is None else str(unit),
+        base,
+        name,
+        doc,
+        dict(options),
+    )

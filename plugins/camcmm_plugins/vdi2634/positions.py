@@ -59,32 +59,67 @@ _PLATE = [(0.0, 0.0), (45.0, 0.0), (90.0, 0.0), (135.0, 0.0), (180.0, 0.0), (270
 
 def sphere(part: int) -> list[dict[str, Any]]:
     if part == 3:
-        return [{"id": f"sphere-{i + 1:02d}", "label": f"Camera position {chr(65 + i)}",
-                 "hint": f"sphere in the centre; camera at azimuth {az:g}°, elevation 45°, same magnification",
-                 "where": [0.0, 0.0, 0.0], "camera": {"azimuth": az, "elevation": 45.0}}
-                for i, az in enumerate(_CAMERA)]
-    return [{"id": f"sphere-{i + 1:02d}", "label": f"Sphere position {i + 1}", "hint": hint, "where": list(w)}
-            for i, (w, hint) in enumerate(_SPHERE)]
+        return [
+            {
+                "id": f"sphere-{i + 1:02d}",
+                "label": f"Camera position {chr(65 + i)}",
+                "hint": f"sphere in the centre; camera at azimuth {az:g}°, elevation 45°, same magnification",
+                "where": [0.0, 0.0, 0.0],
+                "camera": {"azimuth": az, "elevation": 45.0},
+            }
+            for i, az in enumerate(_CAMERA)
+        ]
+    return [
+        {"id": f"sphere-{i + 1:02d}", "label": f"Sphere position {i + 1}", "hint": hint, "where": list(w)}
+        for i, (w, hint) in enumerate(_SPHERE)
+    ]
 
 
 def ball_bar() -> list[dict[str, Any]]:
-    return [{"id": f"ball-bar-{i + 1:02d}", "label": f"Ball bar orientation {i + 1}", "hint": hint,
-             "where": [0.0, 0.0, 0.0], "direction": list(map(float, d))} for i, (d, hint) in enumerate(_BALL_BAR)]
+    return [
+        {
+            "id": f"ball-bar-{i + 1:02d}",
+            "label": f"Ball bar orientation {i + 1}",
+            "hint": hint,
+            "where": [0.0, 0.0, 0.0],
+            "direction": list(map(float, d)),
+        }
+        for i, (d, hint) in enumerate(_BALL_BAR)
+    ]
 
 
 def flat() -> list[dict[str, Any]]:
-    return [{"id": f"flat-{i + 1:02d}", "label": f"Flat orientation {i + 1}", "hint": hint,
-             "where": [0.0, 0.0, 0.0], "direction": list(map(float, d)), "normal": list(map(float, n))}
-            for i, (d, n, hint) in enumerate(_FLAT)]
+    return [
+        {
+            "id": f"flat-{i + 1:02d}",
+            "label": f"Flat orientation {i + 1}",
+            "hint": hint,
+            "where": [0.0, 0.0, 0.0],
+            "direction": list(map(float, d)),
+            "normal": list(map(float, n)),
+        }
+        for i, (d, n, hint) in enumerate(_FLAT)
+    ]
 
 
 def ball_plate() -> list[dict[str, Any]]:
     out = []
     for i, (rot, tilt) in enumerate(_PLATE):
-        hint = (f"plate flat, edge 1 turned {rot:g}° from arrow 1" if not tilt else
-                f"plate tilted {tilt:g}° (replaces the vertical position the speckle projector cannot light)")
-        out.append({"id": f"ball-plate-{i + 1:02d}", "label": f"Ball plate orientation {i + 1}", "hint": hint,
-                    "where": [0.0, 0.0, 0.0], "rotation": rot, "tilt": tilt})
+        hint = (
+            f"plate flat, edge 1 turned {rot:g}° from arrow 1"
+            if not tilt
+            else f"plate tilted {tilt:g}° (replaces the vertical position the speckle projector cannot light)"
+        )
+        out.append(
+            {
+                "id": f"ball-plate-{i + 1:02d}",
+                "label": f"Ball plate orientation {i + 1}",
+                "hint": hint,
+                "where": [0.0, 0.0, 0.0],
+                "rotation": rot,
+                "tilt": tilt,
+            }
+        )
     return out
 
 

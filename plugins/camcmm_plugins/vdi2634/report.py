@@ -21,11 +21,22 @@ from camcmm.api import Report, charts
 from .declaration import SYMBOLS
 from .plain import plain
 
-TEST_TITLES = {"sphere": "Probing errors P_F and P_S (sphere)", "ball_bar": "Sphere-spacing error SD (ball bar)",
-               "flat": "Flatness measurement error F (flat)", "ball_plate": "Sphere-spacing error SD (ball plate)"}
-CERT_NAMES = {"diameter": "diameter", "form": "form deviation", "length": "length", "flatness": "flatness",
-              "sphere_diameter": "sphere diameter", "length_1": "L1 = |c1 c2|", "length_2": "L2 = |c2 c3|",
-              "length_3": "L3 = |c3 c1|"}
+TEST_TITLES = {
+    "sphere": "Probing errors P_F and P_S (sphere)",
+    "ball_bar": "Sphere-spacing error SD (ball bar)",
+    "flat": "Flatness measurement error F (flat)",
+    "ball_plate": "Sphere-spacing error SD (ball plate)",
+}
+CERT_NAMES = {
+    "diameter": "diameter",
+    "form": "form deviation",
+    "length": "length",
+    "flatness": "flatness",
+    "sphere_diameter": "sphere diameter",
+    "length_1": "L1 = |c1 c2|",
+    "length_2": "L2 = |c2 c3|",
+    "length_3": "L3 = |c3 c1|",
+}
 
 
 def _mm(v: Any, signed: bool = False) -> str:
@@ -35,7 +46,7 @@ def _mm(v: Any, signed: bool = False) -> str:
 
 
 def _label(ev: dict[str, Any], repeats: bool = False) -> str:
-    """"sphere-03", or "sphere-03 #2" where positions are repeated."""
+    """ "sphere-03", or "sphere-03 #2" where positions are repeated."""
     pos = ev.get("position") or ev.get("file") or "?"
     return pos + (f" #{ev.get('repeat') or 1}" if repeats else "")
 
@@ -48,26 +59,40 @@ def _short(ev: dict[str, Any], repeats: bool) -> str:
 
 def _result_section(r, result: dict[str, Any]) -> None:
     s = r.section("Result")
-    s.paragraph(f"Verdict: {result['verdict'].upper()} (simple acceptance); "
-                f"{result['verdict_guarded'].upper()} under guarded acceptance (ISO 14253-1).")
+    s.paragraph(
+        f"Verdict: {result['verdict'].upper()} (simple acceptance); "
+        f"{result['verdict_guarded'].upper()} under guarded acceptance (ISO 14253-1)."
+    )
     for key, p in result["parameters"].items():
         signed = key in ("PS", "SD")
         note = "; ".join(p.get("incomplete_reasons") or [])
-        s.verdict(SYMBOLS.get(key, key), simple=p["verdict"], guarded=p["verdict_guarded"],
-                  value=_mm(p["value"], signed), limit=_mm(p["mpe"]), uncertainty=_mm(p["U"]), note=note)
+        s.verdict(
+            SYMBOLS.get(key, key),
+            simple=p["verdict"],
+            guarded=p["verdict_guarded"],
+            value=_mm(p["value"], signed),
+            limit=_mm(p["mpe"]),
+            uncertainty=_mm(p["U"]),
+            note=note,
+        )
     for rule, text in result.get("decision_rules", {}).items():
         s.paragraph(f"{rule}: {text}.")
-    s.paragraph("A parameter is incomplete when one of its measurements failed or fewer measurements than the "
-                "standard requires were evaluated; an incomplete test never passes.")
+    s.paragraph(
+        "A parameter is incomplete when one of its measurements failed or fewer measurements than the "
+        "standard requires were evaluated; an incomplete test never passes."
+    )
 
 
 def _system_section(r, result: dict[str, Any]) -> None:
     sysd = result["system"]
     s = r.section("System and test")
-    kv = {"System": sysd.get("name") or "-",
-          "Measuring volume": " x ".join(f"{v:g}" for v in sysd["measuring_volume"]) + " mm",
-          "Longest diagonal L0": f"{sysd['diagonal']:.2f} mm", "Standard": result.get("standard_name", ""),
-          "Outlier rules": ", ".join(f"{t}: {rule}" for t, rule in result.get("outliers", {}).items())}
+    kv = {
+        "System": sysd.get("name") or "-",
+        "Measuring volume": " x ".join(f"{v:g}" for v in sysd["measuring_volume"]) + " mm",
+        "Longest diagonal L0": f"{sysd['diagonal']:.2f} mm",
+        "Standard": result.get("standard_name", ""),
+        "Outlier rules": ", ".join(f"{t}: {rule}" for t, rule in result.get("outliers", {}).items()),
+    }
     if result.get("scaling"):
         kv["Scaling"] = ", ".join(f"{t}: {m}" for t, m in result["scaling"].items())
     if result.get("repeats"):
@@ -80,13 +105,16 @@ def _system_section(r, result: dict[str, Any]) -> None:
         for name, v in art["nominal"].items():
             if name not in art["certificates"] and isinstance(v, (int, float)) and not isinstance(v, bool):
                 rows.append([test.replace("_", " "), f"{CERT_NAMES.get(name, name)} (nominal)", v, None, None])
-    s.table(["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows,
-            caption="Artefacts and calibration certificates")
+    s.table(
+        ["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows, caption="Artefacts and calibration certificates"
+    )
     checks = result.get("artefact_checks") or []
     if checks:
-        s.table(["Artefact", "Rule", "Value [mm]", "Limit", "Met"],
-                [[c["artefact"], c["rule"], c["value"], c["limit"], "yes" if c["ok"] else "NO"] for c in checks],
-                caption="Artefact rules (VDI/VDE 2634 part 2) against the measuring volume")
+        s.table(
+            ["Artefact", "Rule", "Value [mm]", "Limit", "Met"],
+            [[c["artefact"], c["rule"], c["value"], c["limit"], "yes" if c["ok"] else "NO"] for c in checks],
+            caption="Artefact rules (VDI/VDE 2634 part 2) against the measuring volume",
+        )
         for c in checks:
             if not c["ok"]:
                 s.warning(c["text"])
@@ -95,12 +123,23 @@ def _system_section(r, result: dict[str, Any]) -> None:
 def _test_rows(test: str, evs: list[dict[str, Any]], reps: bool) -> tuple[list[str], list[list[Any]]]:
     if test == "sphere":
         cols = ["Position", "File", "Points", "Removed", "D_a [mm]", "P_F [mm]", "P_S [mm]", "Scale"]
-        get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("diameter"), e["values"]["PF"],  # noqa: E731
-                         e["values"]["PS"], e.get("scale")]
+        get = lambda e: [
+            e.get("n_points"),
+            e.get("n_removed"),
+            e.get("diameter"),
+            e["values"]["PF"],  # noqa: E731
+            e["values"]["PS"],
+            e.get("scale"),
+        ]
     elif test == "ball_bar":
         cols = ["Position", "File", "Points", "D1 [mm]", "D2 [mm]", "L_a [mm]", "SD [mm]"]
-        get = lambda e: [e.get("n_points"), e["spheres"][0]["diameter"], e["spheres"][1]["diameter"],  # noqa: E731
-                         e["length"], e["values"]["SD"]]
+        get = lambda e: [
+            e.get("n_points"),
+            e["spheres"][0]["diameter"],
+            e["spheres"][1]["diameter"],  # noqa: E731
+            e["length"],
+            e["values"]["SD"],
+        ]
     elif test == "flat":
         cols = ["Position", "File", "Points", "Removed", "Covered [mm]", "F [mm]"]
         get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("covered_length"), e["values"]["F"]]  # noqa: E731
@@ -129,10 +168,12 @@ def _map(charts, e: dict[str, Any], test: str, reps: bool):
     if dev is None or not hasattr(dev, "points") or "deviation" not in getattr(dev, "fields", {}):
         return None
     if test == "sphere":
-        return charts.deviation_map(dev.points, dev.fields["deviation"], kind="sphere", center=e["center"],
-                                    title=_label(e, reps))
-    return charts.deviation_map(dev.points, dev.fields["deviation"], kind="plane", normal=e["normal"],
-                                title=_label(e, reps))
+        return charts.deviation_map(
+            dev.points, dev.fields["deviation"], kind="sphere", center=e["center"], title=_label(e, reps)
+        )
+    return charts.deviation_map(
+        dev.points, dev.fields["deviation"], kind="plane", normal=e["normal"], title=_label(e, reps)
+    )
 
 
 def _test_section(r, charts, test: str, evs: list[dict[str, Any]], result: dict[str, Any]) -> None:
@@ -150,9 +191,16 @@ def _test_section(r, charts, test: str, evs: list[dict[str, Any]], result: dict[
         for item in items:  # one chart per ball-plate length, else one per parameter
             sel = [row for row in rws if row.get("item") == item]
             what = p["name"] + (f", {item}" if item else "")
-            s.figure(charts.bar_chart([_short(row, reps) for row in sel], [row["value"] for row in sel],
-                                      limit=p["mpe"], unit="mm", title=f"{what} per measurement, MPE {p['mpe']:g} mm"),
-                     caption=f"{what}: bars per position{' and repeat' if reps else ''}, dashed lines at the MPE")
+            s.figure(
+                charts.bar_chart(
+                    [_short(row, reps) for row in sel],
+                    [row["value"] for row in sel],
+                    limit=p["mpe"],
+                    unit="mm",
+                    title=f"{what} per measurement, MPE {p['mpe']:g} mm",
+                ),
+                caption=f"{what}: bars per position{' and repeat' if reps else ''}, dashed lines at the MPE",
+            )
     if test in ("sphere", "flat"):
         for e in evs:
             if e.get("error"):
@@ -163,42 +211,71 @@ def _test_section(r, charts, test: str, evs: list[dict[str, Any]], result: dict[
                 s.warning(f"{_label(e, reps)}: no deviation map ({exc})")
                 continue
             if png is not None:
-                s.figure(png, caption=f"{_label(e, reps)} ({e.get('file')}): deviations from the least-squares "
-                                      f"{'sphere' if test == 'sphere' else 'plane'}", width_mm=80)
+                s.figure(
+                    png,
+                    caption=f"{_label(e, reps)} ({e.get('file')}): deviations from the least-squares "
+                    f"{'sphere' if test == 'sphere' else 'plane'}",
+                    width_mm=80,
+                )
 
 
 def _part3_sections(r, result: dict[str, Any]) -> None:
     if result.get("lengths"):
         s = r.section("Ball-plate lengths (thesis table 4.2, ISO 15530-3)")
-        s.table(["Length", "Calibrated [mm]", "Mean [mm]", "Mean - cal. [mm]", "Std [mm]", "n", "U (k=2) [mm]"],
-                [[x["name"], x.get("calibrated"), *(_round(x.get(k), 5) for k in ("mean", "mean_deviation", "std")),
-                  x["n"], _round(x.get("U_iso15530_3"), 5)] for x in result["lengths"]],
-                caption="U = k sqrt(u_cal² + u_p²) (thesis eq. 4.1, u_b = u_w = 0)")
+        s.table(
+            ["Length", "Calibrated [mm]", "Mean [mm]", "Mean - cal. [mm]", "Std [mm]", "n", "U (k=2) [mm]"],
+            [
+                [
+                    x["name"],
+                    x.get("calibrated"),
+                    *(_round(x.get(k), 5) for k in ("mean", "mean_deviation", "std")),
+                    x["n"],
+                    _round(x.get("U_iso15530_3"), 5),
+                ]
+                for x in result["lengths"]
+            ],
+            caption="U = k sqrt(u_cal² + u_p²) (thesis eq. 4.1, u_b = u_w = 0)",
+        )
     iso = result.get("iso15530_3")
     if iso:
         s = r.section("Sphere size and form (thesis table 4.1, ISO 15530-3)")
-        s.keyvalues({"Mean diameter": _mm(iso["size"].get("mean")), "Std of diameters": _mm(iso["size"].get("std")),
-                     "U size (k=2)": _mm(iso["size"].get("U_iso15530_3")),
-                     "Mean std of radial deviations": _mm(iso["form"].get("mean_std")),
-                     "U form (k=2)": _mm(iso["form"].get("U_iso15530_3"))})
+        s.keyvalues(
+            {
+                "Mean diameter": _mm(iso["size"].get("mean")),
+                "Std of diameters": _mm(iso["size"].get("std")),
+                "U size (k=2)": _mm(iso["size"].get("U_iso15530_3")),
+                "Mean std of radial deviations": _mm(iso["form"].get("mean_std")),
+                "U form (k=2)": _mm(iso["form"].get("U_iso15530_3")),
+            }
+        )
 
 
 def _uncertainty_section(r, result: dict[str, Any]) -> None:
     s = r.section("Uncertainty of the test (for guarded acceptance)")
-    s.table(["Parameter", "U (k=2) [mm]", "Basis"],
-            [[p["name"], _round(p["U"], 5), p["uncertainty"]["basis"]] for p in result["parameters"].values()])
-    s.paragraph("Only the artefacts' calibration enters U: ISO 14253-1 asks for the uncertainty of the test. "
-                "Form and flatness certificates are counted in full (a known bound on the artefact's share).")
+    s.table(
+        ["Parameter", "U (k=2) [mm]", "Basis"],
+        [[p["name"], _round(p["U"], 5), p["uncertainty"]["basis"]] for p in result["parameters"].values()],
+    )
+    s.paragraph(
+        "Only the artefacts' calibration enters U: ISO 14253-1 asks for the uncertainty of the test. "
+        "Form and flatness certificates are counted in full (a known bound on the artefact's share)."
+    )
 
 
 def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
     """Render the report of ``result`` (from a standard's __call__/summarize) into
     ``directory``; returns {"html", "pdf", "json"} paths."""
     prov = result.get("provenance", {})
-    r = Report(f"{result.get('standard_name', result['standard'])} acceptance test",
-               subtitle=result["system"].get("name") or "",
-               meta={"Standard": result["standard"], "Plan": prov.get("plan"),
-                     "Verdict": result["verdict"], "Verdict (guarded)": result["verdict_guarded"]})
+    r = Report(
+        f"{result.get('standard_name', result['standard'])} acceptance test",
+        subtitle=result["system"].get("name") or "",
+        meta={
+            "Standard": result["standard"],
+            "Plan": prov.get("plan"),
+            "Verdict": result["verdict"],
+            "Verdict (guarded)": result["verdict_guarded"],
+        },
+    )
     _result_section(r, result)
     _system_section(r, result)
     for test, evs in result["measurements"].items():
@@ -210,10 +287,16 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
         for w in result["warnings"]:
             s.warning(w)
     inputs = [i for i in prov.get("inputs", []) if i.get("sha256")]
-    r.provenance(software=f"camcmm {prov.get('software', {}).get('camcmm', '?')}",
-                 plugins=prov.get("plugins", []), inputs=inputs,
-                 extra={"plan": prov.get("plan"), "missing inputs": ", ".join(
-                     str(i.get("file")) for i in prov.get("inputs", []) if not i.get("sha256")) or "none"})
+    r.provenance(
+        software=f"camcmm {prov.get('software', {}).get('camcmm', '?')}",
+        plugins=prov.get("plugins", []),
+        inputs=inputs,
+        extra={
+            "plan": prov.get("plan"),
+            "missing inputs": ", ".join(str(i.get("file")) for i in prov.get("inputs", []) if not i.get("sha256"))
+            or "none",
+        },
+    )
     r.data = _data(result)
     return r.write(Path(directory))
 
@@ -221,4 +304,3 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
 def _data(result: dict[str, Any]) -> Any:
     """The result as JSON data: clouds left out (their summary stays)."""
     return plain(result)
-

@@ -28,33 +28,56 @@ SUBSTANTIAL = 0.2
 
 
 def _check(artefact: str, rule: str, value: float, limit: str, ok: bool, text: str) -> dict[str, Any]:
-    return {"artefact": artefact, "rule": rule, "value": value, "limit": limit, "ok": bool(ok),
-            "text": text if not ok else f"{artefact}: {rule} ({value:.4g} mm; {limit}) ok"}
+    return {
+        "artefact": artefact,
+        "rule": rule,
+        "value": value,
+        "limit": limit,
+        "ok": bool(ok),
+        "text": text if not ok else f"{artefact}: {rule} ({value:.4g} mm; {limit}) ok",
+    }
 
 
-def _between(artefact: str, what: str, v: float, lo: float, hi: float, l0: float,
-             flo: float, fhi: float) -> dict[str, Any]:
+def _between(
+    artefact: str, what: str, v: float, lo: float, hi: float, l0: float, flo: float, fhi: float
+) -> dict[str, Any]:
     ok = lo <= v <= hi
     limit = f"{flo:g} L0 .. {fhi:g} L0 = {lo:.4g} .. {hi:.4g} mm, L0 = {l0:.4g} mm"
-    return _check(artefact, f"{what} between {flo:g} and {fhi:g} of the volume diagonal", v, limit, ok,
-                  f"{artefact}: {what} {v:.4g} mm is outside {limit}; the evaluation runs, the test deviates "
-                  "from VDI/VDE 2634")
+    return _check(
+        artefact,
+        f"{what} between {flo:g} and {fhi:g} of the volume diagonal",
+        v,
+        limit,
+        ok,
+        f"{artefact}: {what} {v:.4g} mm is outside {limit}; the evaluation runs, the test deviates from VDI/VDE 2634",
+    )
 
 
 def _at_least(artefact: str, what: str, v: float, lo: float, descr: str) -> dict[str, Any]:
-    return _check(artefact, f"{what} at least {descr}", v, f">= {lo:.4g} mm", v >= lo,
-                  f"{artefact}: {what} {v:.4g} mm is below {descr} = {lo:.4g} mm; the evaluation runs, the test "
-                  "deviates from VDI/VDE 2634")
+    return _check(
+        artefact,
+        f"{what} at least {descr}",
+        v,
+        f">= {lo:.4g} mm",
+        v >= lo,
+        f"{artefact}: {what} {v:.4g} mm is below {descr} = {lo:.4g} mm; the evaluation runs, the test "
+        "deviates from VDI/VDE 2634",
+    )
 
 
 def _small(artefact: str, what: str, v: float, mpe: float | None, param: str) -> dict[str, Any] | None:
     if mpe is None:
         return None
     lim = SUBSTANTIAL * mpe
-    return _check(artefact, f"{what} substantially less than MPE {param}", v,
-                  f"<= {SUBSTANTIAL:g} x MPE = {lim:.4g} mm", v <= lim,
-                  f"{artefact}: {what} {v:.4g} mm is not substantially less than MPE {param} = {mpe:g} mm "
-                  f"(taken as <= {lim:.4g} mm); the artefact takes a large share of the error")
+    return _check(
+        artefact,
+        f"{what} substantially less than MPE {param}",
+        v,
+        f"<= {SUBSTANTIAL:g} x MPE = {lim:.4g} mm",
+        v <= lim,
+        f"{artefact}: {what} {v:.4g} mm is not substantially less than MPE {param} = {mpe:g} mm "
+        f"(taken as <= {lim:.4g} mm); the artefact takes a large share of the error",
+    )
 
 
 def check(plan: Plan, tests: list[str]) -> list[dict[str, Any]]:

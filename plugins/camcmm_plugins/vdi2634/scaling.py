@@ -63,8 +63,10 @@ def order_plate(centres: np.ndarray, l_cal, name: str) -> list[int]:
         if s < spread - 1e-12:
             best, spread = list(perm), s
     if spread > 0.1:
-        raise GeometryError(f"{name}: the three spheres do not form the ball plate's triangle "
-                            f"(length ratios disagree by {100 * spread:.1f} %)")
+        raise GeometryError(
+            f"{name}: the three spheres do not form the ball plate's triangle "
+            f"(length ratios disagree by {100 * spread:.1f} %)"
+        )
     return best
 
 
@@ -87,8 +89,10 @@ def find_spheres_by_ratio(ctx, cloud: PointCloud, name: str, d_main: float, d_sc
     of unknown scale, told apart by their calibrated diameters."""
     ratio = d_scale / d_main
     if 0.75 < ratio < 1 / 0.75:
-        raise InputError(f"{name}: scale spheres ({d_scale:g} mm) and probing sphere ({d_main:g} mm) are too alike "
-                         "in size to be told apart; export the probing sphere alone and use scaling: none")
+        raise InputError(
+            f"{name}: scale spheres ({d_scale:g} mm) and probing sphere ({d_main:g} mm) are too alike "
+            "in size to be told apart; export the probing sphere alone and use scaling: none"
+        )
     r1 = estimate_radius(ctx, cloud, name)
     last = None
     for big in (r1, r1 / ratio):  # the RANSAC sphere is the probing sphere, or a scale sphere

@@ -39,6 +39,7 @@ def detect(ctx, cloud: PointCloud, name: str, radius: float, n: int, what: str) 
     except GeometryError:
         seg = {"n_spheres": 0, "spheres": []}
     if seg["n_spheres"] < n:
-        raise GeometryError(f"{name}: found {seg['n_spheres']} sphere(s) of diameter about {2 * radius:.4g} mm; "
-                            f"a {what} needs {n}")
+        raise GeometryError(
+            f"{name}: found {seg['n_spheres']} sphere(s) of diameter about {2 * radius:.4g} mm; a {what} needs {n}"
+        )
     return assign(cloud.points, seg["spheres"])

@@ -105,8 +105,10 @@ class Standard:
         for spec in self.tests(plan):
             for param in spec.parameters:
                 if param not in plan.mpe and (spec.required or plan.measurements.get(spec.test)):
-                    raise InputError(f"{plan.source}: mpe.{param} is missing; {self.title} judges "
-                                     f"{PARAMETER_NAMES[param]} against it")
+                    raise InputError(
+                        f"{plan.source}: mpe.{param} is missing; {self.title} judges "
+                        f"{PARAMETER_NAMES[param]} against it"
+                    )
             if spec.required and spec.test not in plan.artefacts:
                 raise InputError(f"{plan.source}: artefacts.{spec.test} is missing; {self.title} needs it")
 
@@ -122,8 +124,13 @@ class Standard:
         if plan is None:
             return [s for s in self.specs if s.required]
         covered = {p for s in self.specs if s.required for p in s.parameters}
-        return [s for s in self.specs if s.required or plan.measurements.get(s.test)
-                or any(p in plan.mpe and p not in covered for p in s.parameters)]
+        return [
+            s
+            for s in self.specs
+            if s.required
+            or plan.measurements.get(s.test)
+            or any(p in plan.mpe and p not in covered for p in s.parameters)
+        ]
 
     def repeats(self, plan: plans.Plan | None) -> int:
         return 1
@@ -143,18 +150,34 @@ class Standard:
         required, the artefact and the positions (ids, labels, hints, coordinates)."""
         p = self.load_plan(plan) if plan is not None else None
         out = []
-        for spec in (self.tests(p) if p is not None else self.specs):
+        for spec in self.tests(p) if p is not None else self.specs:
             art = p.artefacts.get(spec.test) if p is not None else None
-            out.append({"test": spec.test, "label": spec.label, "parameters": list(spec.parameters),
-                        "min_count": spec.min_count, "repeats": self.repeats(p), "required": spec.required,
-                        "artefact": None if art is None else art.to_dict(),
-                        "planned": len(p.measurements.get(spec.test, [])) if p is not None else 0,
-                        "positions": positions.for_test(spec.test, self.part)})
+            out.append(
+                {
+                    "test": spec.test,
+                    "label": spec.label,
+                    "parameters": list(spec.parameters),
+                    "min_count": spec.min_count,
+                    "repeats": self.repeats(p),
+                    "required": spec.required,
+                    "artefact": None if art is None else art.to_dict(),
+                    "planned": len(p.measurements.get(spec.test, [])) if p is not None else 0,
+                    "positions": positions.for_test(spec.test, self.part),
+                }
+            )
         return out
 
-    def evaluate_measurement(self, ctx: RunContext | None, test: str, cloud: Any, plan: Any, *,
-                             file: str | None = None, position: str | None = None,
-                             repeat: int | None = None) -> dict[str, Any]:
+    def evaluate_measurement(
+        self,
+        ctx: RunContext | None,
+        test: str,
+        cloud: Any,
+        plan: Any,
+        *,
+        file: str | None = None,
+        position: str | None = None,
+        repeat: int | None = None,
+    ) -> dict[str, Any]:
         """Evaluate one measurement now; ``cloud`` is a PointCloud or a file path (read
         with the plan's unit). Raises a one-line error for bad input."""
         p = self.load_plan(plan)
@@ -205,8 +228,9 @@ class Standard:
         return self.summarize(ctx, p, per)
 
     # -- summary -------------------------------------------------------------------------
-    def summarize(self, ctx: RunContext | None, plan: Any, per_measurement: dict[str, list[dict[str, Any]]]
-                  ) -> dict[str, Any]:
+    def summarize(
+        self, ctx: RunContext | None, plan: Any, per_measurement: dict[str, list[dict[str, Any]]]
+    ) -> dict[str, Any]:
         """The full result from already-evaluated measurements (dicts as
         :meth:`evaluate_measurement` returns them, or ``{"file", "error"}`` entries)."""
         ctx = ctx or RunContext(default_host(), self.id)
@@ -219,8 +243,9 @@ class Standard:
             for ev in evs:
                 warnings += [w for w in ev.get("warnings") or []]
                 if ev.get("error"):
-                    warnings.append(ev["error"] if ev.get("file", "") in ev["error"]
-                                    else f"{ev.get('file')}: {ev['error']}")
+                    warnings.append(
+                        ev["error"] if ev.get("file", "") in ev["error"] else f"{ev.get('file')}: {ev['error']}"
+                    )
         params = {}
         for param in ("PF", "PS", "SD", "F"):
             tests = [s for s in specs if param in s.parameters]
@@ -235,9 +260,9 @@ class Standard:
             "decision_rules": {
                 "verdict": "simple acceptance (VDI/VDE 2634, ISO 14253-1 'simple'): pass when |E| <= MPE",
                 "verdict_guarded": "guarded acceptance (ISO 14253-1:2017): pass when |E| <= MPE - U, fail when "
-                                   "|E| > MPE + U, else inconclusive; U = expanded uncertainty of the test (k = 2)"},
-            "system": {"name": p.system_name, "measuring_volume": p.measuring_volume.tolist(),
-                       "diagonal": p.diagonal},
+                "|E| > MPE + U, else inconclusive; U = expanded uncertainty of the test (k = 2)",
+            },
+            "system": {"name": p.system_name, "measuring_volume": p.measuring_volume.tolist(), "diagonal": p.diagonal},
             "parameters": params,
             "artefacts": {k: a.to_dict() for k, a in p.artefacts.items()},
             "artefact_checks": checks,
@@ -255,8 +280,12 @@ class Standard:
             evs = per.get(spec.test, [])
             ok = [e for e in evs if not e.get("error")]
             for e in evs:
-                base = {"file": e.get("file"), "position": e.get("position"), "repeat": e.get("repeat", 1),
-                        "test": spec.test}
+                base = {
+                    "file": e.get("file"),
+                    "position": e.get("position"),
+                    "repeat": e.get("repeat", 1),
+                    "test": spec.test,
+                }
                 if e.get("error"):
                     rows.append({**base, "value": None, "error": e["error"]})
                     continue
@@ -287,10 +316,20 @@ class Standard:
         else:
             simple = simple_verdict(value, mpe)
             guarded = guarded_verdict(value, mpe, unc["U"])
-        return {"name": PARAMETER_NAMES[param], "value": value, "mpe": mpe, "verdict": simple,
-                "verdict_guarded": guarded, "U": unc["U"], "uncertainty": unc, "unit": "mm",
-                "n_evaluated": sum(1 for r in rows if r["value"] is not None),
-                "incomplete_reasons": reasons, "per_measurement": rows, "_notes": notes}
+        return {
+            "name": PARAMETER_NAMES[param],
+            "value": value,
+            "mpe": mpe,
+            "verdict": simple,
+            "verdict_guarded": guarded,
+            "U": unc["U"],
+            "uncertainty": unc,
+            "unit": "mm",
+            "n_evaluated": sum(1 for r in rows if r["value"] is not None),
+            "incomplete_reasons": reasons,
+            "per_measurement": rows,
+            "_notes": notes,
+        }
 
     def extra(self, p: plans.Plan, per: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
         """More result keys (part 3: lengths, repeats)."""
@@ -305,8 +344,13 @@ class Standard:
             except CamcmmError:
                 plugins.append({"id": pid, "version": "not installed"})
         inputs = [{"file": e.get("file"), "sha256": e.get("sha256")} for evs in per.values() for e in evs]
-        return {"software": {"camcmm": _version()}, "plugins": plugins, "inputs": inputs,
-                "plan": p.source, "plan_dict": plain(p.raw)}
+        return {
+            "software": {"camcmm": _version()},
+            "plugins": plugins,
+            "inputs": inputs,
+            "plan": p.source,
+            "plan_dict": plain(p.raw),
+        }
 
     # -- report --------------------------------------------------------------------------
     def write_report(self, result: dict[str, Any], directory: str | Path, plan: Any = None) -> dict[str, str]:

@@ -43,9 +43,12 @@ def _result(contribs: dict[str, float], basis: str) -> dict[str, Any]:
 def _bound(cert, what: str) -> dict[str, Any]:
     if cert is None:
         return {"U": 0.0, "k": K, "basis": f"{what} not certified: taken as 0", "contributions": {}}
-    return {"U": cert.value + cert.expanded_uncertainty * K / cert.k, "k": K,
-            "basis": f"certified {what} {cert.value:g} mm + its U {cert.expanded_uncertainty * K / cert.k:g} mm",
-            "contributions": {what: cert.value + cert.expanded_uncertainty * K / cert.k}}
+    return {
+        "U": cert.value + cert.expanded_uncertainty * K / cert.k,
+        "k": K,
+        "basis": f"certified {what} {cert.value:g} mm + its U {cert.expanded_uncertainty * K / cert.k:g} mm",
+        "contributions": {what: cert.value + cert.expanded_uncertainty * K / cert.k},
+    }
 
 
 def probing_form(plan: Plan) -> dict[str, Any]:
@@ -86,7 +89,7 @@ def spacing(plan: Plan, test: str) -> dict[str, Any]:
         per = [_result(_plate_length(plan, i), "") for i in (1, 2, 3)]
         worst = max(range(3), key=lambda i: per[i]["U"])
         out = per[worst]
-        mode = plan.scaling.get('ball_plate', 'none')
+        mode = plan.scaling.get("ball_plate", "none")
         out["basis"] = f"calibrated lengths and the scaling ({mode}); largest of L1-L3"
         out["per_length"] = [p["U"] for p in per]
         return out

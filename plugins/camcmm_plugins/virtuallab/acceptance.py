@@ -26,7 +26,9 @@ from .plugin import build_scene, make_sensor
 from .simulate import simulate
 
 PART2 = {
-    "volume": [100.0, 100.0, 100.0], "noise": 0.02, "sensor": "stereo_fringe",
+    "volume": [100.0, 100.0, 100.0],
+    "noise": 0.02,
+    "sensor": "stereo_fringe",
     "system": "Virtual stereo fringe projection (camcmm virtual lab)",
     "mpe": {"PF": 0.186, "PS": 0.143, "SD": 0.096, "F": 0.243},
     "artefacts": {
@@ -36,13 +38,20 @@ PART2 = {
     },
 }
 PART3 = {
-    "volume": [30.0, 30.0, 30.0], "noise": 0.008, "sensor": "turntable",
+    "volume": [30.0, 30.0, 30.0],
+    "noise": 0.008,
+    "sensor": "turntable",
     "system": "Virtual turntable photogrammetry with laser speckle (camcmm virtual lab)",
     "mpe": {"PF": 0.060, "PS": 0.030, "SD": 0.040},
     "artefacts": {
         "sphere": {"diameter": 10.0, "uncertainty": 0.0008, "k": 2},
-        "ball_plate": {"sphere_diameter": 5.0, "sphere_diameter_uncertainty": 0.0008,
-                       "lengths": [5.942, 7.956, 9.957], "uncertainty": 0.0003, "k": 2},
+        "ball_plate": {
+            "sphere_diameter": 5.0,
+            "sphere_diameter_uncertainty": 0.0008,
+            "lengths": [5.942, 7.956, 9.957],
+            "uncertainty": 0.0003,
+            "k": 2,
+        },
     },
 }
 FLAT3 = {"length": 60.0, "width": 50.0, "flatness": 0.001}
@@ -53,16 +62,27 @@ def _positions(ctx, standard: str) -> dict[str, list[dict[str, Any]]]:
         std = ctx.host.load(standard)
         reqs = std.requirements()
     except Exception as exc:
-        raise PluginError(f"virtuallab.acceptance-set lays out positions as the standard plugin {standard!r} "
-                          f"asks, but it is not usable: {exc}") from None
+        raise PluginError(
+            f"virtuallab.acceptance-set lays out positions as the standard plugin {standard!r} "
+            f"asks, but it is not usable: {exc}"
+        ) from None
     return {r["test"]: r["positions"] for r in reqs}
 
 
 def _scene_args(test: str, pos: dict[str, Any], vol: np.ndarray, art: dict[str, Any]) -> dict[str, Any]:
     centre = np.asarray(pos.get("where", [0, 0, 0]), float) * vol
-    common = {"center": centre, "direction": pos.get("direction", [1, 0, 0]), "normal": pos.get("normal"),
-              "diameter": 1.0, "length": 1.0, "width": 1.0, "lengths": (6.0, 8.0, 10.0), "scale_diameter": 1.0,
-              "rotation": pos.get("rotation", 0.0), "tilt": pos.get("tilt", 0.0)}
+    common = {
+        "center": centre,
+        "direction": pos.get("direction", [1, 0, 0]),
+        "normal": pos.get("normal"),
+        "diameter": 1.0,
+        "length": 1.0,
+        "width": 1.0,
+        "lengths": (6.0, 8.0, 10.0),
+        "scale_diameter": 1.0,
+        "rotation": pos.get("rotation", 0.0),
+        "tilt": pos.get("tilt", 0.0),
+    }
     if test == "sphere":
         common["diameter"] = art["sphere"]["diameter"]
         if "ball_plate" in art:  # part 3: scale spheres beside the probing sphere (thesis ch. 4.5.1)
@@ -78,12 +98,27 @@ def _scene_args(test: str, pos: dict[str, Any], vol: np.ndarray, art: dict[str, 
     return {"artefact": test, **common}
 
 
-def acceptance_set(ctx, directory: str, standard: str = "vdi2634-2", measuring_volume=None, n_sphere: int = 20000,
-                   n_ball_bar: int = 20000, n_flat: int = 50000, n_ball_plate: int = 15000,
-                   noise: float | None = None, noise_model: str = "normal", scale_error: float = 0.0,
-                   quadratic: float = 0.0, amplitude: float = 0.0, wavelength: float = 40.0,
-                   random_scale: bool = False, repeats: int = 3, flats: bool = False, format: str = "ply",
-                   seed: int = 2634) -> dict[str, Any]:
+def acceptance_set(
+    ctx,
+    directory: str,
+    standard: str = "vdi2634-2",
+    measuring_volume=None,
+    n_sphere: int = 20000,
+    n_ball_bar: int = 20000,
+    n_flat: int = 50000,
+    n_ball_plate: int = 15000,
+    noise: float | None = None,
+    noise_model: str = "normal",
+    scale_error: float = 0.0,
+    quadratic: float = 0.0,
+    amplitude: float = 0.0,
+    wavelength: float = 40.0,
+    random_scale: bool = False,
+    repeats: int = 3,
+    flats: bool = False,
+    format: str = "ply",
+    seed: int = 2634,
+) -> dict[str, Any]:
     """Write the measurement set and plan.yaml into ``directory``."""
     part3 = standard == "vdi2634-3"
     base = PART3 if part3 else PART2
@@ -98,8 +133,9 @@ def acceptance_set(ctx, directory: str, standard: str = "vdi2634-2", measuring_v
     except OSError as exc:
         raise ParameterError(f"directory {directory!r}: cannot create it ({exc})") from None
     layout = _positions(ctx, standard)
-    dist = VolumeDistortion(scale_error, np.zeros(3), quadratic, amplitude, wavelength,
-                            reference_radius=float(np.linalg.norm(vol)) / 2)
+    dist = VolumeDistortion(
+        scale_error, np.zeros(3), quadratic, amplitude, wavelength, reference_radius=float(np.linalg.norm(vol)) / 2
+    )
     counts = {"sphere": n_sphere, "ball_bar": 2 * n_ball_bar, "flat": n_flat, "ball_plate": n_ball_plate}
     tests = [t for t in ("sphere", "ball_bar", "flat", "ball_plate") if t in art]
     n_rep = repeats if part3 else 1
@@ -113,8 +149,9 @@ def acceptance_set(ctx, directory: str, standard: str = "vdi2634-2", measuring_v
         g = float(np.exp(rng.uniform(np.log(0.3), np.log(3.0)))) if (part3 and random_scale) else 1.0
         sensor = make_sensor(base["sensor"], (pos.get("camera") or {}).get("azimuth", 0.0))
         scene, truth = build_scene(**_scene_args(test, pos, vol, art))
-        pts, _, truth = simulate(scene, truth, sensor, counts[test], noise, noise_model, dist, g, "mm",
-                                 seed + 7919 * j + 1)
+        pts, _, truth = simulate(
+            scene, truth, sensor, counts[test], noise, noise_model, dist, g, "mm", seed + 7919 * j + 1
+        )
         name = f"{test.replace('_', '')}_{i + 1:02d}" + (f"_r{r + 1}" if part3 else "") + f".{format}"
         write(PointCloud(pts, name=name), out / name)
         truth.update({"test": test, "position": pos["id"], "repeat": r + 1})
@@ -126,14 +163,22 @@ def acceptance_set(ctx, directory: str, standard: str = "vdi2634-2", measuring_v
             measurements[test][-1].append(name)
         else:
             measurements[test].append(name)
-    plan = {"standard": standard,
-            "system": {"name": base["system"], "measuring_volume": vol.tolist()},
-            "mpe": dict(base["mpe"], **({"F": 0.060} if part3 and flats else {})),
-            "artefacts": art, "measurements": measurements,
-            "outliers": ({"sphere": "percent:5", "ball_plate": "percent:5", "flat": "vdi2634"} if part3
-                         else "vdi2634"),
-            "simulation": {"noise": noise, "noise_model": noise_model, "sensor": base["sensor"], "seed": seed,
-                           "distortion": dist.to_dict(), "random_scale": bool(random_scale)}}
+    plan = {
+        "standard": standard,
+        "system": {"name": base["system"], "measuring_volume": vol.tolist()},
+        "mpe": dict(base["mpe"], **({"F": 0.060} if part3 and flats else {})),
+        "artefacts": art,
+        "measurements": measurements,
+        "outliers": ({"sphere": "percent:5", "ball_plate": "percent:5", "flat": "vdi2634"} if part3 else "vdi2634"),
+        "simulation": {
+            "noise": noise,
+            "noise_model": noise_model,
+            "sensor": base["sensor"],
+            "seed": seed,
+            "distortion": dist.to_dict(),
+            "random_scale": bool(random_scale),
+        },
+    }
     if part3:
         plan.update({"scaling": {"sphere": "radii", "ball_plate": "lengths"}, "repeats": n_rep})
     (out / "plan.yaml").write_text(yaml.safe_dump(plan, sort_keys=False), encoding="utf-8")

@@ -33,8 +33,7 @@ def sphere(center, diameter: float, stem: bool = True) -> tuple[list, dict]:
     scene: list = [Sphere(c, r, "sphere")]
     if stem:  # a holder from below: hides the bottom cap
         scene.append(Cylinder(c + DOWN * 0.8 * r, c + DOWN * 2.5 * r, 0.3 * r, "stem", measured=False))
-    return scene, {"kind": "sphere", "spheres": [_sphere_truth(scene[0])], "diameter": diameter,
-                   "center": c.tolist()}
+    return scene, {"kind": "sphere", "spheres": [_sphere_truth(scene[0])], "diameter": diameter, "center": c.tolist()}
 
 
 def ball_bar(center, direction, length: float, sphere_diameter: float, bar: bool = True) -> tuple[list, dict]:
@@ -45,16 +44,27 @@ def ball_bar(center, direction, length: float, sphere_diameter: float, bar: bool
     scene: list = [s1, s2]
     if bar and length > 2 * r:
         rb = 0.2 * r  # bar radius; it meets the spheres inside their surface
-        scene.append(Cylinder(s1.center + a * np.sqrt(r**2 - rb**2), s2.center - a * np.sqrt(r**2 - rb**2),
-                              rb, "bar"))
-    return scene, {"kind": "ball_bar", "spheres": [_sphere_truth(s1), _sphere_truth(s2)], "length": length,
-                   "sphere_diameter": sphere_diameter, "center": c.tolist(), "direction": a.tolist()}
+        scene.append(Cylinder(s1.center + a * np.sqrt(r**2 - rb**2), s2.center - a * np.sqrt(r**2 - rb**2), rb, "bar"))
+    return scene, {
+        "kind": "ball_bar",
+        "spheres": [_sphere_truth(s1), _sphere_truth(s2)],
+        "length": length,
+        "sphere_diameter": sphere_diameter,
+        "center": c.tolist(),
+        "direction": a.tolist(),
+    }
 
 
 def flat(center, axis, normal, length: float, width: float) -> tuple[list, dict]:
     rect = Rectangle(np.asarray(center, float), axis, normal, length, width, "flat")
-    return [rect], {"kind": "flat", "center": rect.center.tolist(), "axis": rect.axis.tolist(),
-                    "normal": rect.normal.tolist(), "length": length, "width": width}
+    return [rect], {
+        "kind": "flat",
+        "center": rect.center.tolist(),
+        "axis": rect.axis.tolist(),
+        "normal": rect.normal.tolist(),
+        "length": length,
+        "width": width,
+    }
 
 
 def triangle(lengths) -> np.ndarray:
@@ -68,8 +78,9 @@ def triangle(lengths) -> np.ndarray:
     return pts - pts.mean(axis=0)
 
 
-def ball_plate(center, lengths, sphere_diameter: float, rotation: float = 0.0, tilt: float = 0.0,
-               plate: bool = True) -> tuple[list, dict]:
+def ball_plate(
+    center, lengths, sphere_diameter: float, rotation: float = 0.0, tilt: float = 0.0, plate: bool = True
+) -> tuple[list, dict]:
     """Three spheres on posts above a plate; ``rotation`` (deg) about the plate normal,
     then ``tilt`` (deg) of the normal from +z about the x axis."""
     r = sphere_diameter / 2
@@ -87,11 +98,18 @@ def ball_plate(center, lengths, sphere_diameter: float, rotation: float = 0.0, t
     if plate:
         span = np.ptp(corners, axis=0)
         scene.append(Rectangle(c, u, normal, span[0] + 4 * r, span[1] + 4 * r, "plate", measured=False))
-        scene += [Cylinder(s.center - normal * 0.8 * r, s.center - normal * height, 0.3 * r, "post", measured=False)
-                  for s in spheres]
-    return scene, {"kind": "ball_plate", "spheres": [_sphere_truth(s) for s in spheres],
-                   "lengths": [float(x) for x in lengths], "sphere_diameter": sphere_diameter,
-                   "center": c.tolist(), "normal": normal.tolist()}
+        scene += [
+            Cylinder(s.center - normal * 0.8 * r, s.center - normal * height, 0.3 * r, "post", measured=False)
+            for s in spheres
+        ]
+    return scene, {
+        "kind": "ball_plate",
+        "spheres": [_sphere_truth(s) for s in spheres],
+        "lengths": [float(x) for x in lengths],
+        "sphere_diameter": sphere_diameter,
+        "center": c.tolist(),
+        "normal": normal.tolist(),
+    }
 
 
 def sphere_with_scale(center, diameter: float, scale_diameter: float) -> tuple[list, dict]:

@@ -21,15 +21,25 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import yaml
 
-from camcmm.api import (CameraModel, Image, InputError, check_disk, get_algorithm, human_bytes, read, write,
-                        write_calibration)
-from camcmm.api import check_calibration
+from camcmm.api import (
+    CameraModel,
+    Image,
+    InputError,
+    check_calibration,
+    check_disk,
+    get_algorithm,
+    human_bytes,
+    read,
+    write,
+    write_calibration,
+)
 
 from . import imaging, render, rig
 from .scene_file import LabScene, _nonfinite
@@ -62,18 +72,33 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
         size = tuple(int(x) for x in out["projector_size"])
         if scene.projector is None or tuple(scene.projector.model.image_size) != size:
             have = scene.projector.model.image_size if scene.projector is not None else None
-            raise InputError(f"sequence {'(in the scene)' if inline else scene.sequence.name}: patterns of "
-                             f"{size[0]} x {size[1]} px, "
-                             f"but the projector shows {have}")
+            raise InputError(
+                f"sequence {'(in the scene)' if inline else scene.sequence.name}: patterns of "
+                f"{size[0]} x {size[1]} px, "
+                f"but the projector shows {have}"
+            )
         for k, (pat, desc) in enumerate(zip(np.asarray(out["patterns"]), out["frames"])):
-            frames.append({"name": desc.get("name", f"frame {k}"), "kind": desc.get("kind", "pattern"),
-                           "pattern": pat, "lamp": False, "source": "sequence"})
+            frames.append(
+                {
+                    "name": desc.get("name", f"frame {k}"),
+                    "kind": desc.get("kind", "pattern"),
+                    "pattern": pat,
+                    "lamp": False,
+                    "source": "sequence",
+                }
+            )
     for i, entry in enumerate(scene.patterns):
         what = f"patterns[{i}]"
         if entry in ("white", "black"):
             shape = _projector_shape(scene)
-            frames.append({"name": entry, "kind": entry, "lamp": False,
-                           "pattern": np.full(shape, 1.0 if entry == "white" else 0.0)})
+            frames.append(
+                {
+                    "name": entry,
+                    "kind": entry,
+                    "lamp": False,
+                    "pattern": np.full(shape, 1.0 if entry == "white" else 0.0),
+                }
+            )
         elif entry == "diffuse":
             frames.append({"name": "diffuse", "kind": "diffuse", "pattern": None, "lamp": True})
         elif entry == "dark":
@@ -81,8 +106,12 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
         elif isinstance(entry, dict) and "speckle" in entry:
             sp = dict(entry["speckle"] or {})
             try:
-                pat = speckle(_projector_shape(scene), float(sp.get("grain", 6.0)), int(sp.get("seed", 0)),
-                              float(sp.get("mean", 0.3)))
+                pat = speckle(
+                    _projector_shape(scene),
+                    float(sp.get("grain", 6.0)),
+                    int(sp.get("seed", 0)),
+                    float(sp.get("mean", 0.3)),
+                )
             except ValueError as exc:
                 raise InputError(f"{what}: {exc}") from None
             frames.append({"name": f"speckle {i}", "kind": "speckle", "pattern": pat, "lamp": False})
@@ -93,8 +122,10 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
                 raise InputError(f"{what}: {entry['image']} is not an image")
             data = img.data if img.data.ndim == 2 else img.data[..., :3].mean(axis=2)
             if data.shape != _projector_shape(scene):
-                raise InputError(f"{what}: {entry['image']} is {data.shape[1]} x {data.shape[0]} px; the projector "
-                                 f"shows {scene.projector.model.image_size[0]} x {scene.projector.model.image_size[1]}")
+                raise InputError(
+                    f"{what}: {entry['image']} is {data.shape[1]} x {data.shape[0]} px; the projector "
+                    f"shows {scene.projector.model.image_size[0]} x {scene.projector.model.image_size[1]}"
+                )
             frames.append({"name": p.name, "kind": "image", "pattern": img.data, "lamp": False})
         else:
             raise InputError(f"{what}: {entry!r}; use white, black, dark, diffuse, {{speckle: ...}} or {{image: FILE}}")
@@ -124,7 +155,7 @@ def calibration(scene: LabScene, with_errors: bool = True) -> dict[str, Any]:
     if "focal_length" in e:
         for i in _camera_sel(e, "focal_length", cams):
             K = cams[i].camera_matrix.copy()
-            K[0, :2] *= 1 + float(e["focal_length"].get("relative", 0.0))   # fx and the skew term
+            K[0, :2] *= 1 + float(e["focal_length"].get("relative", 0.0))  # fx and the skew term
             K[1, 1] *= 1 + float(e["focal_length"].get("relative", 0.0))
             cams[i].camera_matrix = K
     if "principal_point" in e:
@@ -146,8 +177,11 @@ def calibration(scene: LabScene, with_errors: bool = True) -> dict[str, Any]:
         s = 1 + float(e["baseline"].get("relative", 0.0))
         for c in cams[1:]:
             c.translation = c.translation * s
-    cal: dict[str, Any] = {"cameras": cams, "source": "camcmm virtual lab",
-                           "systematic_errors": {k: v for k, v in e.items()} if e else {}}
+    cal: dict[str, Any] = {
+        "cameras": cams,
+        "source": "camcmm virtual lab",
+        "systematic_errors": {k: v for k, v in e.items()} if e else {},
+    }
     if len(cams) > 1:
         cal["R"], cal["T"] = cams[1].rotation, cams[1].translation
     # a systematic error may leave no camera (focal_length relative -2, baseline relative -1)
@@ -177,13 +211,18 @@ def truth(scene: LabScene, frames: list[dict[str, Any]] | None = None) -> dict[s
     R, t = scene.cameras[0].model.rotation, scene.cameras[0].model.translation
     M = np.eye(4)
     M[:3, :3], M[:3, 3] = R, t
-    return {"scene": scene.name, "unit": "mm",
-            "frame": "artefacts: measuring volume (origin at its centre, +z to the sensor); "
-                     "artefacts_calibration: camera 1, the calibration's world frame",
-            "volume_to_calibration": M.tolist(),
-            "artefacts": scene.artefacts, "artefacts_calibration": _transform(scene.artefacts, R, t),
-            "errors": scene.errors, "seed": scene.seed,
-            "frames": [{k: v for k, v in f.items() if k != "pattern"} for f in (frames or [])]}
+    return {
+        "scene": scene.name,
+        "unit": "mm",
+        "frame": "artefacts: measuring volume (origin at its centre, +z to the sensor); "
+        "artefacts_calibration: camera 1, the calibration's world frame",
+        "volume_to_calibration": M.tolist(),
+        "artefacts": scene.artefacts,
+        "artefacts_calibration": _transform(scene.artefacts, R, t),
+        "errors": scene.errors,
+        "seed": scene.seed,
+        "frames": [{k: v for k, v in f.items() if k != "pattern"} for f in (frames or [])],
+    }
 
 
 def prepare_views(scene: LabScene, progress: Callable[[float, str], None] | None = None) -> list[render.View]:
@@ -192,13 +231,23 @@ def prepare_views(scene: LabScene, progress: Callable[[float, str], None] | None
     for i, cam in enumerate(scene.cameras):
         if progress:
             progress(i / max(len(scene.cameras), 1), f"casting rays for {cam.name}")
-        views.append(render.prepare(scene.primitives, scene.albedo, cam.model, proj, scene.lighting,
-                                    scene.supersample, projector_lens=scene.projector.lens if proj else None))
+        views.append(
+            render.prepare(
+                scene.primitives,
+                scene.albedo,
+                cam.model,
+                proj,
+                scene.lighting,
+                scene.supersample,
+                projector_lens=scene.projector.lens if proj else None,
+            )
+        )
     return views
 
 
-def render_frame(scene: LabScene, view: render.View, cam_index: int, frame_index: int, frame: dict[str, Any],
-                 noise: bool = True) -> np.ndarray:
+def render_frame(
+    scene: LabScene, view: render.View, cam_index: int, frame_index: int, frame: dict[str, Any], noise: bool = True
+) -> np.ndarray:
     """One digital image (uint8/uint16) of camera ``cam_index`` for ``frame``."""
     dev = scene.cameras[cam_index]
     L = render.radiance(view, frame["pattern"], scene.lighting, frame.get("lamp", False))
@@ -207,8 +256,12 @@ def render_frame(scene: LabScene, view: render.View, cam_index: int, frame_index
     return imaging.expose(L, scene.sensor, rng)
 
 
-def render_all(scene: LabScene, frames: list[dict[str, Any]], views: list[render.View] | None = None,
-               progress: Callable[[float, str], None] | None = None) -> dict[str, list[np.ndarray]]:
+def render_all(
+    scene: LabScene,
+    frames: list[dict[str, Any]],
+    views: list[render.View] | None = None,
+    progress: Callable[[float, str], None] | None = None,
+) -> dict[str, list[np.ndarray]]:
     """All frames of all cameras: {camera name: [image, ...]}."""
     views = views or prepare_views(scene, progress)
     out: dict[str, list[np.ndarray]] = {}
@@ -236,8 +289,11 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     # frames compress little) and a truth that JSON cannot hold
     px = sum(int(c.model.image_size[0]) * int(c.model.image_size[1]) for c in scene.cameras)
     depth = 1 if scene.sensor.bits <= 8 else 2
-    check_disk(f"{len(frames)} frames x {len(scene.cameras)} cameras (~{human_bytes(px * depth)} per frame)",
-               float(len(frames)) * px * depth, d)
+    check_disk(
+        f"{len(frames)} frames x {len(scene.cameras)} cameras (~{human_bytes(px * depth)} per frame)",
+        float(len(frames)) * px * depth,
+        d,
+    )
     _json_text(truth(scene, frames))
     views = prepare_views(scene, (lambda f, m: prog(0.3 * f, m)) if prog else None)
     files: dict[str, list[str]] = {}
@@ -248,7 +304,7 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
         cd = d / dev.name
         (cd / "extra").mkdir(parents=True, exist_ok=True)
         for old in [*cd.glob("frame*.png"), *(cd / "extra").glob("frame*.png")]:
-            old.unlink()                                  # a shorter sequence must not leave stale frames
+            old.unlink()  # a shorter sequence must not leave stale frames
         files[dev.name] = []
         n_seq = sum(f.get("source") == "sequence" for f in frames)
         for k, f in enumerate(frames):
@@ -262,8 +318,10 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
             saturated[dev.name] = max(saturated.get(dev.name, 0.0), float(np.mean(img >= scene.sensor.max_dn)))
     for name, frac in saturated.items():
         if frac > SATURATION_WARN:
-            warnings.append(f"{name}: up to {100 * frac:.1f} % of the pixels saturate in a frame; "
-                            "lower sensor.exposure or lighting.projector")
+            warnings.append(
+                f"{name}: up to {100 * frac:.1f} % of the pixels saturate in a frame; "
+                "lower sensor.exposure or lighting.projector"
+            )
     write_calibration(d / "calibration.yaml", calibration(scene, True))
     write_calibration(d / "calibration_true.yaml", calibration(scene, False))
     if isinstance(scene.sequence, dict):
@@ -271,9 +329,14 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     elif scene.sequence is not None:
         shutil.copyfile(scene.sequence, d / "sequence.yaml")
     tr = truth(scene, frames)
-    tr["coverage"] = {dev.name: {"surface": float(v.coverage.mean()), "lit": float(v.lit.mean()),
-                                 "artefact_pixels": _pixels_per_artefact(scene, v)}
-                      for dev, v in zip(scene.cameras, views)}
+    tr["coverage"] = {
+        dev.name: {
+            "surface": float(v.coverage.mean()),
+            "lit": float(v.lit.mean()),
+            "artefact_pixels": _pixels_per_artefact(scene, v),
+        }
+        for dev, v in zip(scene.cameras, views)
+    }
     tr["warnings"] = warnings
     for w in warnings:
         if ctx is not None:
@@ -281,10 +344,17 @@ def capture(scene: LabScene, out: str | Path, ctx=None) -> dict[str, Any]:
     (d / "truth.json").write_text(_json_text(tr), encoding="utf-8")
     if prog:
         prog(1.0, "written")
-    return {"out": str(d), "cameras": [c.name for c in scene.cameras], "n_frames": len(frames),
-            "files": files, "calibration": str(d / "calibration.yaml"), "truth": str(d / "truth.json"),
-            "sequence": str(d / "sequence.yaml") if scene.sequence is not None else None,
-            "coverage": tr["coverage"], "warnings": warnings}
+    return {
+        "out": str(d),
+        "cameras": [c.name for c in scene.cameras],
+        "n_frames": len(frames),
+        "files": files,
+        "calibration": str(d / "calibration.yaml"),
+        "truth": str(d / "truth.json"),
+        "sequence": str(d / "sequence.yaml") if scene.sequence is not None else None,
+        "coverage": tr["coverage"],
+        "warnings": warnings,
+    }
 
 
 def _json_text(doc: dict[str, Any]) -> str:
@@ -300,8 +370,11 @@ def _json_text(doc: dict[str, Any]) -> str:
 def _pixels_per_artefact(scene: LabScene, view: render.View) -> dict[str, int]:
     """Pixels of each artefact (by label) in a view (at the pixel centres)."""
     prim = view.primitive[view.primitive >= 0]
-    counts = np.bincount(scene.owner[prim], minlength=len(scene.artefacts)) if len(prim) else \
-        np.zeros(len(scene.artefacts), int)
+    counts = (
+        np.bincount(scene.owner[prim], minlength=len(scene.artefacts))
+        if len(prim)
+        else np.zeros(len(scene.artefacts), int)
+    )
     return {a["label"]: int(c) for a, c in zip(scene.artefacts, counts)}
 
 

@@ -24,8 +24,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def text(result: dict[str, Any]) -> str:
-    cov = ", ".join(f"{k}: {100 * v['surface']:.0f} % surface, {100 * v['lit']:.0f} % lit"
-                    for k, v in result["coverage"].items())
+    cov = ", ".join(
+        f"{k}: {100 * v['surface']:.0f} % surface, {100 * v['lit']:.0f} % lit" for k, v in result["coverage"].items()
+    )
     warn = "".join(f"\n  warning: {w}" for w in result.get("warnings", []))
-    return (f"{result['n_frames']} frames x {len(result['cameras'])} cameras written to {result['out']}\n"
-            f"  calibration: {result['calibration']}\n  truth: {result['truth']}\n  {cov}{warn}")
+    return (
+        f"{result['n_frames']} frames x {len(result['cameras'])} cameras written to {result['out']}\n"
+        f"  calibration: {result['calibration']}\n  truth: {result['truth']}\n  {cov}{warn}"
+    )

@@ -69,6 +69,13 @@ class VolumeDistortion:
         return out[0] if single else out
 
     def to_dict(self) -> dict:
-        return {"scale": self.scale, "axis_scale": self.axis_scale.tolist(), "quadratic": self.quadratic,
-                "amplitude": self.amplitude, "wavelength": self.wavelength, "offset": self.offset.tolist(),
-                "center": self.center.tolist(), "reference_radius": self.reference_radius}
+        return {
+            "scale": self.scale,
+            "axis_scale": self.axis_scale.tolist(),
+            "quadratic": self.quadratic,
+            "amplitude": self.amplitude,
+            "wavelength": self.wavelength,
+            "offset": self.offset.tolist(),
+            "center": self.center.tolist(),
+            "reference_radius": self.reference_radius,
+        }

@@ -44,19 +44,20 @@ class Lens:
 @dataclass
 class Sensor:
     bits: int = 8
-    full_well: float = 20000.0      # electrons at 1.0 radiance
-    read_noise: float = 10.0        # electrons (standard deviation)
+    full_well: float = 20000.0  # electrons at 1.0 radiance
+    read_noise: float = 10.0  # electrons (standard deviation)
     shot_noise: bool = True
     exposure: float = 1.0
-    black_level: float = 0.0        # DN
+    black_level: float = 0.0  # DN
 
     @property
     def max_dn(self) -> int:
         return (1 << int(self.bits)) - 1
 
 
-def blur_diameter(depth: np.ndarray, focal_length: float, f_number: float, focus_distance: float,
-                  pixel_pitch: float) -> np.ndarray:
+def blur_diameter(
+    depth: np.ndarray, focal_length: float, f_number: float, focus_distance: float, pixel_pitch: float
+) -> np.ndarray:
     """Blur circle diameter (px) at camera depths ``depth`` (mm) (thin lens, see above)."""
     f, sf = focal_length, focus_distance
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -71,7 +72,7 @@ def _kernel(diameter: float, psf: str) -> np.ndarray | None:
         return None
     r = diameter / 2
     n = int(np.ceil(r + 1))
-    o = 8                                              # 8 x 8 samples per kernel pixel: a smooth disc edge
+    o = 8  # 8 x 8 samples per kernel pixel: a smooth disc edge
     g = (np.arange(-n * o, (n + 1) * o) + 0.5) / o - 0.5
     X, Y = np.meshgrid(g, g)
     fine = (X * X + Y * Y <= r * r).astype(float)
@@ -117,7 +118,7 @@ def optics(img: np.ndarray, depth: np.ndarray, camera, lens: Lens) -> np.ndarray
             raise ValueError(f"camera {camera.name!r}: defocus needs its pixel_pitch (mm)")
         f = camera.camera_matrix[0, 0] * camera.pixel_pitch
         sf = lens.focus_distance or float(np.nanmedian(depth))
-        d = np.where(np.isfinite(depth), depth, sf)     # nothing hit: as if in focus (it is dark)
+        d = np.where(np.isfinite(depth), depth, sf)  # nothing hit: as if in focus (it is dark)
         out = defocus(out, blur_diameter(d, f, lens.f_number, sf, camera.pixel_pitch), lens.psf)
     if lens.blur > 0:
         out = cv2.GaussianBlur(out, (0, 0), lens.blur, borderType=cv2.BORDER_REPLICATE)

@@ -58,7 +58,7 @@ class VirtualSystem:
         self.frames_taken = 0
 
     @classmethod
-    def from_file(cls, path: str | Path) -> "VirtualSystem":
+    def from_file(cls, path: str | Path) -> VirtualSystem:
         return cls(load_scene(path))
 
     @property
@@ -93,14 +93,25 @@ class VirtualSystem:
         if camera not in self._views:
             i = self._index(camera)
             proj = self.scene.projector.model if self.scene.projector is not None else None
-            self._views[camera] = render.prepare(self.scene.primitives, self.scene.albedo,
-                                                 self.scene.cameras[i].model, proj, self.scene.lighting,
-                                                 self.scene.supersample,
-                                                 projector_lens=self.scene.projector.lens if proj else None)
+            self._views[camera] = render.prepare(
+                self.scene.primitives,
+                self.scene.albedo,
+                self.scene.cameras[i].model,
+                proj,
+                self.scene.lighting,
+                self.scene.supersample,
+                projector_lens=self.scene.projector.lens if proj else None,
+            )
         return self._views[camera]
 
-    def frame(self, camera: str, pattern: np.ndarray | None = None, lamp: bool = False, exposure: float | None = None,
-              noise: bool = True) -> np.ndarray:
+    def frame(
+        self,
+        camera: str,
+        pattern: np.ndarray | None = None,
+        lamp: bool = False,
+        exposure: float | None = None,
+        noise: bool = True,
+    ) -> np.ndarray:
         """One image (uint8, or uint16 above 8 bits) of ``camera`` while the projector
         shows ``pattern`` (None: dark) and the diffuse lamp is ``lamp``; ``exposure``
         scales the sensor's."""
@@ -108,8 +119,10 @@ class VirtualSystem:
         if pattern is not None and self.projector_size is not None:
             want = (self.projector_size[1], self.projector_size[0])
             if np.shape(pattern)[:2] != want:
-                raise InputError(f"pattern of {np.shape(pattern)[1]} x {np.shape(pattern)[0]} px; the projector "
-                                 f"shows {want[1]} x {want[0]}")
+                raise InputError(
+                    f"pattern of {np.shape(pattern)[1]} x {np.shape(pattern)[0]} px; the projector "
+                    f"shows {want[1]} x {want[0]}"
+                )
         v = self.view(camera)
         dev = self.scene.cameras[i]
         L = render.radiance(v, pattern, self.scene.lighting, lamp)
@@ -118,8 +131,9 @@ class VirtualSystem:
         if exposure is not None:
             sensor = copy.copy(sensor)
             sensor.exposure = float(exposure)
-        rng = (np.random.default_rng(np.random.SeedSequence([self.scene.seed, i, self.frames_taken, 1]))
-               if noise else None)
+        rng = (
+            np.random.default_rng(np.random.SeedSequence([self.scene.seed, i, self.frames_taken, 1])) if noise else None
+        )
         self.frames_taken += 1
         return imaging.expose(L, sensor, rng)
 
@@ -140,7 +154,7 @@ class VirtualSystem:
                 o = np.asarray(d.get("origin", [0, 0, 0]), float)
                 a = np.radians(float(pos))
                 K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-                Rk = np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K      # Rodrigues
+                Rk = np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K  # Rodrigues
                 R, t = Rk @ R, Rk @ (t - o) + o
             else:
                 t = t + float(pos) * axis

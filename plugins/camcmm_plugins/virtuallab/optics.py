@@ -53,7 +53,7 @@ def distort(cam: CameraModel, x: np.ndarray, y: np.ndarray, jacobian: bool = Fal
         return xd, yd
     da = k1 + r2 * (2 * k2 + 3 * k3 * r2)
     db = k4 + r2 * (2 * k5 + 3 * k6 * r2)
-    dg2 = 2 * (da * b - a * db) / (b * b)          # d g / d r, divided by r: dg/dx = x dg2
+    dg2 = 2 * (da * b - a * db) / (b * b)  # d g / d r, divided by r: dg/dx = x dg2
     sx = 2 * (s1 + 2 * s2 * r2)
     sy = 2 * (s3 + 2 * s4 * r2)
     dxx = g + x * x * dg2 + 2 * p1 * y + 6 * p2 * x + sx * x
@@ -177,9 +177,9 @@ def grid_normalised(cam: CameraModel, supersample: int = 1, step: int = 4) -> tu
 def directions(cam: CameraModel, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """Unit world directions (N, 3) of ideal normalised coordinates X, Y (any shape)."""
     inv = 1.0 / np.sqrt(X * X + Y * Y + 1.0)
-    Rt = cam.rotation.T                              # camera -> world
+    Rt = cam.rotation.T  # camera -> world
     d = np.empty((X.size, 3))
-    for k in range(3):                               # R^T (x, y, 1) / |.|, without (N, 3) temporaries
+    for k in range(3):  # R^T (x, y, 1) / |.|, without (N, 3) temporaries
         d[:, k] = ((Rt[k, 0] * X + Rt[k, 1] * Y + Rt[k, 2]) * inv).ravel()
     return d
 

@@ -8,13 +8,25 @@ import numpy as np
 
 from camcmm.api import ParameterError, PointCloud
 
-from . import artefacts, sensor as sensors
+from . import artefacts
+from . import sensor as sensors
 from .distortion import VolumeDistortion
 from .simulate import simulate
 
 
-def build_scene(artefact: str, center, direction, normal, diameter: float, length: float, width: float,
-                lengths, scale_diameter: float, rotation: float, tilt: float):
+def build_scene(
+    artefact: str,
+    center,
+    direction,
+    normal,
+    diameter: float,
+    length: float,
+    width: float,
+    lengths,
+    scale_diameter: float,
+    rotation: float,
+    tilt: float,
+):
     """(scene, truth) for one artefact; lengths in mm."""
     if artefact == "sphere":
         return artefacts.sphere(center, diameter)
@@ -38,26 +50,63 @@ def make_sensor(kind: str, camera_azimuth: float = 0.0) -> sensors.Sensor:
     return sensors.stereo_fringe()
 
 
-def artefact_cloud(ctx, artefact: str = "sphere", center=(0, 0, 0), direction=(1, 0, 0), normal=None,
-                   diameter: float = 20.0, length: float = 50.0, width: float = 60.0,
-                   lengths=(5.942, 7.956, 9.957), scale_diameter: float = 5.0, rotation: float = 0.0,
-                   tilt: float = 0.0, sensor: str = "stereo_fringe", camera_azimuth: float = 0.0,
-                   n_points: int = 20000, noise: float = 0.01, noise_model: str = "normal",
-                   scale_error: float = 0.0, axis_scale=(0, 0, 0), quadratic: float = 0.0, amplitude: float = 0.0,
-                   wavelength: float = 40.0, measuring_volume=(100, 100, 100), reconstruction_scale: float = 1.0,
-                   unit: str = "mm", seed: int = 0) -> dict[str, Any]:
+def artefact_cloud(
+    ctx,
+    artefact: str = "sphere",
+    center=(0, 0, 0),
+    direction=(1, 0, 0),
+    normal=None,
+    diameter: float = 20.0,
+    length: float = 50.0,
+    width: float = 60.0,
+    lengths=(5.942, 7.956, 9.957),
+    scale_diameter: float = 5.0,
+    rotation: float = 0.0,
+    tilt: float = 0.0,
+    sensor: str = "stereo_fringe",
+    camera_azimuth: float = 0.0,
+    n_points: int = 20000,
+    noise: float = 0.01,
+    noise_model: str = "normal",
+    scale_error: float = 0.0,
+    axis_scale=(0, 0, 0),
+    quadratic: float = 0.0,
+    amplitude: float = 0.0,
+    wavelength: float = 40.0,
+    measuring_volume=(100, 100, 100),
+    reconstruction_scale: float = 1.0,
+    unit: str = "mm",
+    seed: int = 0,
+) -> dict[str, Any]:
     """Simulate one measurement; returns ``cloud`` and ``truth``."""
     ctx.progress(0.05, "building the scene")
     try:
-        scene, truth = build_scene(artefact, center, direction, normal, diameter, length, width, lengths,
-                                   scale_diameter, rotation, tilt)
+        scene, truth = build_scene(
+            artefact, center, direction, normal, diameter, length, width, lengths, scale_diameter, rotation, tilt
+        )
     except ValueError as exc:
         raise ParameterError(f"virtuallab.artefact-cloud: {exc}") from None
-    dist = VolumeDistortion(scale_error, np.asarray(axis_scale, float), quadratic, amplitude, wavelength,
-                            reference_radius=float(np.linalg.norm(measuring_volume)) / 2)
+    dist = VolumeDistortion(
+        scale_error,
+        np.asarray(axis_scale, float),
+        quadratic,
+        amplitude,
+        wavelength,
+        reference_radius=float(np.linalg.norm(measuring_volume)) / 2,
+    )
     ctx.progress(0.2, "sampling what the sensor sees")
-    pts, lab, truth = simulate(scene, truth, make_sensor(sensor, camera_azimuth), n_points, noise, noise_model,
-                               dist, reconstruction_scale, unit, seed)
+    pts, lab, truth = simulate(
+        scene,
+        truth,
+        make_sensor(sensor, camera_azimuth),
+        n_points,
+        noise,
+        noise_model,
+        dist,
+        reconstruction_scale,
+        unit,
+        seed,
+    )
     if len(pts) < n_points:
         ctx.warn(f"the sensor sees only {len(pts)} of the {n_points} points asked for")
     cloud = PointCloud(pts, fields={"primitive": lab.astype(np.float64)}, name=f"simulated {artefact}")
@@ -72,9 +121,22 @@ def capture(ctx, scene, out: str) -> dict[str, Any]:
     return run_capture(load_scene(scene), out, ctx)
 
 
-def frame(ctx, scene, camera: str = "camera1", pattern=None, stage_positions=None, stage_units=None,
-          camera_model=None, size=None, exposure_ms: float = 10.0, gain_db: float = 0.0, pattern_index: int = -1,
-          speckle: bool = False, frame: int = 0, seed: int = -1) -> dict[str, Any]:
+def frame(
+    ctx,
+    scene,
+    camera: str = "camera1",
+    pattern=None,
+    stage_positions=None,
+    stage_units=None,
+    camera_model=None,
+    size=None,
+    exposure_ms: float = 10.0,
+    gain_db: float = 0.0,
+    pattern_index: int = -1,
+    speckle: bool = False,
+    frame: int = 0,
+    seed: int = -1,
+) -> dict[str, Any]:
     """One rendered frame for a simulated camera (virtuallab.frame): the state keywords
     of camcmm_plugins.devices' SimulatedCamera in, ``{"image": array}`` out."""
     from camcmm.api import InputError
@@ -83,10 +145,13 @@ def frame(ctx, scene, camera: str = "camera1", pattern=None, stage_positions=Non
     from .speckle import speckle as speckle_pattern
 
     lab = system_for(scene)
-    if size is not None and tuple(int(x) for x in size) != tuple(lab.scene.cameras[lab._index(camera)].model.image_size):
+    if size is not None and tuple(int(x) for x in size) != tuple(
+        lab.scene.cameras[lab._index(camera)].model.image_size
+    ):
         want = lab.scene.cameras[lab._index(camera)].model.image_size
-        raise InputError(f"camera {camera!r}: asked for {size[0]} x {size[1]} px, the scene renders "
-                         f"{want[0]} x {want[1]}")
+        raise InputError(
+            f"camera {camera!r}: asked for {size[0]} x {size[1]} px, the scene renders {want[0]} x {want[1]}"
+        )
     lab.set_stages(dict(stage_positions or {}), dict(stage_units or {}))
     pat = None if pattern is None else np.asarray(pattern)
     if speckle and lab.projector_size is not None:
@@ -104,9 +169,17 @@ def frame(ctx, scene, camera: str = "camera1", pattern=None, stage_positions=Non
     return {"image": img}
 
 
-def fringe_system(ctx, placement, preset: str = "stereo_fringe", method: str = "stereo", image_width: int = 640,
-                  image_height: int = 480, seed: int = 0, baseline_error: float = 0.0,
-                  focal_error: float = 0.0) -> dict[str, Any]:
+def fringe_system(
+    ctx,
+    placement,
+    preset: str = "stereo_fringe",
+    method: str = "stereo",
+    image_width: int = 640,
+    image_height: int = 480,
+    seed: int = 0,
+    baseline_error: float = 0.0,
+    focal_error: float = 0.0,
+) -> dict[str, Any]:
     """The simulated stereo fringe system measuring one placement (virtuallab.fringe-system)."""
     from .system import measure
 
@@ -118,4 +191,3 @@ def fringe_system(ctx, placement, preset: str = "stereo_fringe", method: str = "
     if method == "stereo" and preset != "stereo_fringe":
         raise ParameterError("method stereo needs the preset stereo_fringe (two cameras)")
     return measure(dict(placement), preset, method, (image_width, image_height), seed, errors, ctx=ctx)
-

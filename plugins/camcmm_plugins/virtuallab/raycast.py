@@ -37,7 +37,7 @@ class Box:
     def __post_init__(self) -> None:
         self.center = np.asarray(self.center, float)
         a = np.asarray(self.axes, float).reshape(3, 3)
-        q, r = np.linalg.qr(a.T)                     # orthonormalise, keep the given directions
+        q, r = np.linalg.qr(a.T)  # orthonormalise, keep the given directions
         self.axes = (q * np.sign(np.diag(r))).T
         self.size = np.asarray(self.size, float).reshape(3)
         if np.any(self.size <= 0):
@@ -49,7 +49,7 @@ class Box:
         return 2 * (a * b + b * c + c * a)
 
     def intersect(self, o: np.ndarray, d: np.ndarray, eps: float = 1e-9) -> np.ndarray:
-        ol = np.column_stack([(o - self.center) @ ax for ax in self.axes])   # 3 matvecs beat (N,3)@(3,3)
+        ol = np.column_stack([(o - self.center) @ ax for ax in self.axes])  # 3 matvecs beat (N,3)@(3,3)
         dl = np.column_stack([d @ ax for ax in self.axes])
         h = self.size / 2
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -175,15 +175,15 @@ def _shared_origin(p, o: np.ndarray, d: np.ndarray, eps: float = 1e-9) -> np.nda
         b = w @ p.v + t * (d @ p.v)
         inside = (np.abs(a) <= p.length / 2) & (np.abs(b) <= p.width / 2)
         return np.where(ok & (t > eps) & inside, t, INF)
-    if isinstance(p, Box):                            # slab method, one axis at a time
+    if isinstance(p, Box):  # slab method, one axis at a time
         ol = p.axes @ (o - p.center)
         tn = np.full(len(d), -INF)
         tf = np.full(len(d), INF)
         with np.errstate(divide="ignore", invalid="ignore"):
             for ax, olk, hk in zip(p.axes, ol, p.size / 2):
                 inv = 1.0 / (d @ ax)
-                t1, t2 = (-hk - olk) * inv, (hk - olk) * inv   # +-inf for rays parallel to the slab
-                tn = np.fmax(tn, np.minimum(t1, t2))           # fmax/fmin skip a 0 * inf NaN
+                t1, t2 = (-hk - olk) * inv, (hk - olk) * inv  # +-inf for rays parallel to the slab
+                tn = np.fmax(tn, np.minimum(t1, t2))  # fmax/fmin skip a 0 * inf NaN
                 tf = np.fmin(tf, np.maximum(t1, t2))
         t = np.where(tn > eps, tn, np.where(tf > eps, tf, INF))
         return np.where(tn <= tf, t, INF)
@@ -193,7 +193,7 @@ def _shared_origin(p, o: np.ndarray, d: np.ndarray, eps: float = 1e-9) -> np.nda
         da = d @ a
         wa = w @ a
         wp = w - wa * a
-        dw = d @ wp                                   # (d - (d.a) a) . wp = d . wp as wp is normal to a
+        dw = d @ wp  # (d - (d.a) a) . wp = d . wp as wp is normal to a
         A = 1.0 - da * da
         B = 2 * dw
         C = wp @ wp - p.radius**2
@@ -218,10 +218,10 @@ def _candidates(p, o: np.ndarray, d: np.ndarray) -> np.ndarray | None:
     w = c - o
     dist = float(np.linalg.norm(w))
     if dist <= r * (1 + 1e-9):
-        return None                                  # origin inside the bound: no cone
+        return None  # origin inside the bound: no cone
     cos_cone = np.sqrt(max(1.0 - (r / dist) ** 2, 0.0)) * (1 - 1e-12)
     sel = np.flatnonzero(d @ (w / dist) >= cos_cone - 1e-12)
-    return None if len(sel) > 0.7 * len(d) else sel      # mostly covered: skip the gather
+    return None if len(sel) > 0.7 * len(d) else sel  # mostly covered: skip the gather
 
 
 def cast(scene: list, o: np.ndarray, d: np.ndarray, want_normals: bool = True):
@@ -265,10 +265,10 @@ def cast(scene: list, o: np.ndarray, d: np.ndarray, want_normals: bool = True):
             continue
         if isinstance(p, Mesh):
             r_all, n_all = mesh_normals[k]
-            keep = idx[r_all] == k                     # rows a later primitive did not take over
+            keep = idx[r_all] == k  # rows a later primitive did not take over
             normals[r_all[keep]] = n_all[keep]
         elif isinstance(p, Rectangle):
-            normals[rows] = p.normal                   # constant: no hit points needed
+            normals[rows] = p.normal  # constant: no hit points needed
         else:
             x = (o if o.ndim == 1 else o[rows]) + t[rows, None] * d[rows]
             normals[rows] = surface_normal(p, x)
@@ -279,8 +279,9 @@ def cast(scene: list, o: np.ndarray, d: np.ndarray, want_normals: bool = True):
 _CONVEX = (Sphere, Box, Rectangle)
 
 
-def occluded(scene: list, o: np.ndarray, d: np.ndarray, dist: np.ndarray, own: np.ndarray,
-             eps: float = 1e-3) -> np.ndarray:
+def occluded(
+    scene: list, o: np.ndarray, d: np.ndarray, dist: np.ndarray, own: np.ndarray, eps: float = 1e-3
+) -> np.ndarray:
     """Whether each ray from the shared origin ``o`` (3,) along unit ``d`` (N, 3) meets a
     primitive before ``dist - eps`` (N,) mm: the shadow test of surface points seen
     from a light at ``o``. ``own`` (N,) is the primitive each point lies on; a convex or

@@ -44,13 +44,13 @@ SHADOW_EPS = 1e-3
 class Lighting:
     """Light levels (fractions of full scale for albedo 1 at normal incidence)."""
 
-    projector: float = 0.8          # a white pattern at the reference distance
+    projector: float = 0.8  # a white pattern at the reference distance
     ambient: float = 0.02
-    diffuse: float = 0.6            # a distant diffuse lamp (frames that switch it on), no shadows
+    diffuse: float = 0.6  # a distant diffuse lamp (frames that switch it on), no shadows
     diffuse_direction: tuple = (0.0, 0.0, 1.0)
-    background: float = 0.0         # rays that hit nothing
-    gamma: float = 1.0              # projector response: emitted = pattern ** gamma
-    projector_blur: float = 0.0     # Gaussian sigma (projector px) of the projector's optics
+    background: float = 0.0  # rays that hit nothing
+    gamma: float = 1.0  # projector response: emitted = pattern ** gamma
+    projector_blur: float = 0.0  # Gaussian sigma (projector px) of the projector's optics
     falloff: bool = True
 
 
@@ -96,23 +96,34 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     X, Y = XY
     d = optics.directions(camera, X[r0:r1], Y[r0:r1])
     C = optics.centre(camera)
-    p0, p1 = r0 // s, r1 // s                             # pixel rows of this batch
+    p0, p1 = r0 // s, r1 // s  # pixel rows of this batch
     npx = (p1 - p0) * w
     col = np.arange(w * s) // s
     pix_of = ((np.arange(r0, r1) // s - p0)[:, None] * w + col[None, :]).ravel()
     t, idx, nrm = cast(scene, C, d)
     hit = np.flatnonzero(idx >= 0)
-    out = {"rows": (p0, p1), "prim": idx.reshape(r1 - r0, w * s)[(s // 2)::s, (s // 2)::s],
-           "base": np.bincount(pix_of, minlength=npx) * light.background}
+    out = {
+        "rows": (p0, p1),
+        "prim": idx.reshape(r1 - r0, w * s)[(s // 2) :: s, (s // 2) :: s],
+        "base": np.bincount(pix_of, minlength=npx) * light.background,
+    }
     zero = np.zeros(npx)
-    out.update(lamp=zero, depth=zero, hits=zero, lit=zero, pix=np.zeros(0, np.int32),
-               corner=np.zeros(0, np.int32), weights=np.zeros((4, 0), np.float32), pblur=np.zeros(0, np.float32))
+    out.update(
+        lamp=zero,
+        depth=zero,
+        hits=zero,
+        lit=zero,
+        pix=np.zeros(0, np.int32),
+        corner=np.zeros(0, np.int32),
+        weights=np.zeros((4, 0), np.float32),
+        pblur=np.zeros(0, np.float32),
+    )
     if not len(hit):
         return out
     dh = d[hit]
     Xw = C + t[hit, None] * dh
     n = nrm[hit]
-    n[np.einsum("ij,ij->i", n, dh) > 0] *= -1              # face the camera
+    n[np.einsum("ij,ij->i", n, dh) > 0] *= -1  # face the camera
     rho = albedo[idx[hit]]
     p = pix_of[hit]
     ldir = np.asarray(light.diffuse_direction, float)
@@ -144,7 +155,7 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     fu, fv = uc - u0, vc - v0
     wts = np.empty((4, len(ok)), np.float32)
     gv = g * fv
-    g -= gv                                                 # g (1 - fv)
+    g -= gv  # g (1 - fv)
     wts[1] = g * fu
     wts[0] = g - wts[1]
     wts[3] = gv * fu
@@ -160,8 +171,16 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     return out
 
 
-def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | None = None,
-            supersample: int = 2, workers: int | None = None, projector_lens=None) -> View:
+def prepare(
+    scene: list,
+    albedo,
+    camera,
+    projector=None,
+    lighting: Lighting | None = None,
+    supersample: int = 2,
+    workers: int | None = None,
+    projector_lens=None,
+) -> View:
     """Cast the camera's sub-pixel rays (``camera``, ``projector``: CameraModel) and
     work out lighting geometry; ``albedo`` is one reflectance (0..1) per primitive.
     ``projector_lens`` (imaging.Lens with an f-number and the projector's pixel pitch)
@@ -177,17 +196,17 @@ def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | No
     if projector is not None and min(projector.image_size) < 2:
         raise ValueError(f"projector {projector.name!r}: image size {projector.image_size} is below 2 x 2 px")
     albedo = np.broadcast_to(np.asarray(albedo, float), (len(scene),))
-    XY = optics.grid_normalised(camera, s)                  # (h*s, w*s) each
-    rows = max(s, (BATCH // (w * s)) // s * s)             # whole pixel rows per band
+    XY = optics.grid_normalised(camera, s)  # (h*s, w*s) each
+    rows = max(s, (BATCH // (w * s)) // s * s)  # whole pixel rows per band
     bands = [(a, min(a + rows, h * s)) for a in range(0, h * s, rows)]
     n_workers = workers or min(os.cpu_count() or 1, 8)
-    job = (lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r, plens=projector_lens))
+    job = lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r, plens=projector_lens)
     if n_workers > 1 and len(bands) > 1:
         with ThreadPoolExecutor(n_workers) as pool:
             parts = list(pool.map(job, bands))
     else:
         parts = [job(b) for b in bands]
-    cat = (lambda key: np.concatenate([q[key] for q in parts]))
+    cat = lambda key: np.concatenate([q[key] for q in parts])
     hits = cat("hits")
     extra = {}
     pix, corner, weights = cat("pix"), cat("corner"), np.hstack([q["weights"] for q in parts])
@@ -201,16 +220,28 @@ def prepare(scene: list, albedo, camera, projector=None, lighting: Lighting | No
         pix, corner, weights = pix[order], corner[order], weights[:, order]
         a = (pblur[order] / imaging.LEVEL_STEP - k).astype(np.float32)
         bounds = np.searchsorted(k, np.arange(n + 1))
-        extra["pblur"] = {"levels": np.arange(n + 1) * imaging.LEVEL_STEP, "psf": projector_lens.psf,
-                          "groups": [(slice(bounds[i], bounds[i + 1]), a[bounds[i]:bounds[i + 1]])
-                                     for i in range(n)]}
+        extra["pblur"] = {
+            "levels": np.arange(n + 1) * imaging.LEVEL_STEP,
+            "psf": projector_lens.psf,
+            "groups": [(slice(bounds[i], bounds[i + 1]), a[bounds[i] : bounds[i + 1]]) for i in range(n)],
+        }
     with np.errstate(invalid="ignore"):
         depth = np.where(hits > 0, cat("depth") / np.maximum(hits, 1), np.nan)
-    return View((h, w), s, (cat("base") / (s * s)).reshape(h, w), (cat("lamp") / (s * s)).reshape(h, w),
-                pix, corner, weights,
-                (projector.image_size[1], projector.image_size[0]) if projector is not None else None,
-                depth.reshape(h, w), (hits / (s * s)).reshape(h, w), np.vstack([q["prim"] for q in parts]),
-                (cat("lit") / (s * s)).reshape(h, w), extra)
+    return View(
+        (h, w),
+        s,
+        (cat("base") / (s * s)).reshape(h, w),
+        (cat("lamp") / (s * s)).reshape(h, w),
+        pix,
+        corner,
+        weights,
+        (projector.image_size[1], projector.image_size[0]) if projector is not None else None,
+        depth.reshape(h, w),
+        (hits / (s * s)).reshape(h, w),
+        np.vstack([q["prim"] for q in parts]),
+        (cat("lit") / (s * s)).reshape(h, w),
+        extra,
+    )
 
 
 def emitted(pattern: np.ndarray, lighting: Lighting) -> np.ndarray:
@@ -218,12 +249,12 @@ def emitted(pattern: np.ndarray, lighting: Lighting) -> np.ndarray:
     scaled by their range): response ``gamma``, then the projector optics' blur."""
     p = np.asarray(pattern)
     if p.ndim == 3:
-        p = p.mean(axis=2)                               # a colour pattern shown as grey
+        p = p.mean(axis=2)  # a colour pattern shown as grey
     if np.issubdtype(p.dtype, np.integer):
         p = p / float(np.iinfo(p.dtype).max)
     p = np.clip(p.astype(np.float64), 0.0, 1.0)
     if lighting.gamma != 1.0:
-        p = p ** lighting.gamma
+        p = p**lighting.gamma
     if lighting.projector_blur > 0:
         import cv2
 
@@ -236,8 +267,9 @@ def _gather(f: np.ndarray, c: np.ndarray, wts: np.ndarray, pw: int) -> np.ndarra
     return f[c] * wts[0] + f[c + 1] * wts[1] + f[c + pw] * wts[2] + f[c + pw + 1] * wts[3]
 
 
-def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None = None,
-             lamp: bool = False) -> np.ndarray:
+def radiance(
+    view: View, pattern: np.ndarray | None, lighting: Lighting | None = None, lamp: bool = False
+) -> np.ndarray:
     """Radiance image (h, w) of one frame; ``pattern`` None: projector dark; ``lamp``:
     the diffuse lamp on."""
     h, w = view.shape
@@ -247,13 +279,15 @@ def radiance(view: View, pattern: np.ndarray | None, lighting: Lighting | None =
     if pattern is not None and view.pattern_shape is not None and len(view.pix):
         e = emitted(pattern, lighting or Lighting())
         if e.shape != view.pattern_shape:
-            raise ValueError(f"pattern of {e.shape[1]} x {e.shape[0]} px; the projector shows "
-                             f"{view.pattern_shape[1]} x {view.pattern_shape[0]}")
+            raise ValueError(
+                f"pattern of {e.shape[1]} x {e.shape[0]} px; the projector shows "
+                f"{view.pattern_shape[1]} x {view.pattern_shape[0]}"
+            )
         pw = view.pattern_shape[1]
         pb = view.extra.get("pblur")
         if pb is None:
             val = _gather(e.ravel(), view.corner, view.weights, pw)
-        else:                                     # projector defocus: two blur levels per point
+        else:  # projector defocus: two blur levels per point
             blurred = [imaging.defocus(e, float(c), pb["psf"]).ravel() for c in pb["levels"]]
             val = np.empty(len(view.pix))
             for i, (sel, a) in enumerate(pb["groups"]):
@@ -289,8 +323,14 @@ def pixel_truth(scene: list, camera, projector=None) -> dict[str, np.ndarray]:
         pw, ph = projector.image_size
         L = optics.centre(projector) - X[k]
         dist = np.sqrt(np.einsum("ij,ij->i", L, L))
-        ok = (Zp > 0) & (up >= -0.5) & (up <= pw - 0.5) & (vp >= -0.5) & (vp <= ph - 0.5) \
+        ok = (
+            (Zp > 0)
+            & (up >= -0.5)
+            & (up <= pw - 0.5)
+            & (vp >= -0.5)
+            & (vp <= ph - 0.5)
             & (np.einsum("ij,ij->i", nrm[k], L) > 0)
+        )
         j = np.flatnonzero(ok)
         blocked = occluded(scene, optics.centre(projector), -L[j] / dist[j, None], dist[j], idx[k[j]], SHADOW_EPS)
         lit[k[j[~blocked]]] = True

@@ -37,8 +37,9 @@ A device entry (camera or projector)::
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -98,14 +99,16 @@ def device_from_dict(d: Mapping[str, Any], default_name: str) -> Device:
         if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
             raise ValueError(f"{where}.rotation is not a rotation matrix")
     elif "position" in d:
-        R, t = optics.look_at(_vec(d["position"], 3, f"{where}.position"),
-                              _vec(d.get("look_at", [0, 0, 0]), 3, f"{where}.look_at"),
-                              _vec(d.get("up", [0, 1, 0]), 3, f"{where}.up"))
+        R, t = optics.look_at(
+            _vec(d["position"], 3, f"{where}.position"),
+            _vec(d.get("look_at", [0, 0, 0]), 3, f"{where}.look_at"),
+            _vec(d.get("up", [0, 1, 0]), 3, f"{where}.up"),
+        )
     else:
         raise ValueError(f"{where}: give position (and look_at) or rotation and translation")
     dist = np.asarray(d.get("dist_coeffs", [0, 0, 0, 0, 0]), float).ravel()
     model = CameraModel(K, dist, R, t, size, float(pitch) if pitch else None, name)
-    optics._coeffs(model)                                # validates the distortion terms
+    optics._coeffs(model)  # validates the distortion terms
     psf = str(d.get("psf", "gaussian"))
     if psf not in ("gaussian", "disc"):
         raise ValueError(f"{where}.psf {psf!r}: use gaussian or disc")
@@ -114,9 +117,12 @@ def device_from_dict(d: Mapping[str, Any], default_name: str) -> Device:
         raise ValueError(f"{where}.f_number {fn!r} must be > 0")
     if fn is not None and not pitch:
         raise ValueError(f"{where}: defocus (f_number) needs pixel_pitch (mm)")
-    lens = Lens(float(fn) if fn is not None else None,
-                float(d["focus_distance"]) if d.get("focus_distance") is not None else None,
-                psf, float(d.get("blur", 0.0)))
+    lens = Lens(
+        float(fn) if fn is not None else None,
+        float(d["focus_distance"]) if d.get("focus_distance") is not None else None,
+        psf,
+        float(d.get("blur", 0.0)),
+    )
     return Device(model, lens)
 
 
@@ -157,8 +163,7 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
     dist = _pos(o.get("distance", CONVERGENCE), "rig.distance")
     target = np.asarray(o.get("target", [0.0, 0.0, 0.0]), float)
     h = float(np.sqrt(max(dist**2 - (b / 2) ** 2, 1e-9)))
-    fls = o.get("focal_lengths") or ([o["focal_length"]] * 2 if "focal_length" in o else
-                                     [f for f, _ in THESIS_LENSES])
+    fls = o.get("focal_lengths") or ([o["focal_length"]] * 2 if "focal_length" in o else [f for f, _ in THESIS_LENSES])
     if not isinstance(fls, (list, tuple)) or len(fls) != 2:
         raise ValueError(f"rig.focal_lengths {fls!r}: expected two focal lengths (mm)")
     fls = [_pos(f, "rig.focal_length") for f in fls]
@@ -178,18 +183,34 @@ def preset(name: str, options: Mapping[str, Any] | None = None) -> tuple[list[di
     for i, sx in enumerate((-1.0, 1.0)):
         f = float(fls[i])
         width = SENSOR_WIDTH if fov is None else float(fov) * f / dist
-        cams.append({"name": f"camera{i + 1}", "image_size": size, "focal_length": f,
-                     "pixel_pitch": width / size[0], "dist_coeffs": dcs[i],
-                     "position": (target + [sx * b / 2, 0.0, h]).tolist(), "look_at": target.tolist(),
-                     "up": [0, 1, 0], "f_number": o.get("f_number", 8.0),
-                     "focus_distance": o.get("focus_distance", dist), "psf": o.get("psf", "gaussian")})
+        cams.append(
+            {
+                "name": f"camera{i + 1}",
+                "image_size": size,
+                "focal_length": f,
+                "pixel_pitch": width / size[0],
+                "dist_coeffs": dcs[i],
+                "position": (target + [sx * b / 2, 0.0, h]).tolist(),
+                "look_at": target.tolist(),
+                "up": [0, 1, 0],
+                "f_number": o.get("f_number", 8.0),
+                "focus_distance": o.get("focus_distance", dist),
+                "psf": o.get("psf", "gaussian"),
+            }
+        )
     psize = _size(o.get("projector_size", [1280, 800]), "rig.projector_size")
     field_mm = float(o.get("projector_field", 1.2 * (fov if fov is not None else SENSOR_WIDTH * dist / fls[0])))
-    pf = 10.0                                            # projector lens (mm); only the ratio matters
-    proj = {"name": "projector", "image_size": psize, "focal_length": pf,
-            "pixel_pitch": field_mm * pf / dist / psize[0],
-            "dist_coeffs": o.get("projector_dist_coeffs", [0, 0, 0, 0, 0]),
-            "position": (target + [0.0, 0.0, dist]).tolist(), "look_at": target.tolist(), "up": [0, 1, 0]}
+    pf = 10.0  # projector lens (mm); only the ratio matters
+    proj = {
+        "name": "projector",
+        "image_size": psize,
+        "focal_length": pf,
+        "pixel_pitch": field_mm * pf / dist / psize[0],
+        "dist_coeffs": o.get("projector_dist_coeffs", [0, 0, 0, 0, 0]),
+        "position": (target + [0.0, 0.0, dist]).tolist(),
+        "look_at": target.tolist(),
+        "up": [0, 1, 0],
+    }
     if o.get("projector_f_number") is not None:
         proj["f_number"] = o["projector_f_number"]
         proj["focus_distance"] = o.get("projector_focus_distance", dist)
@@ -203,5 +224,6 @@ def relative_to(first: CameraModel, cam: CameraModel, name: str | None = None) -
     calibration file's convention: camera 1 = world)."""
     R = cam.rotation @ first.rotation.T
     t = cam.translation - R @ first.translation
-    return CameraModel(cam.camera_matrix.copy(), cam.dist_coeffs.copy(), R, t, cam.image_size,
-                       cam.pixel_pitch, name or cam.name)
+    return CameraModel(
+        cam.camera_matrix.copy(), cam.dist_coeffs.copy(), R, t, cam.image_size, cam.pixel_pitch, name or cam.name
+    )

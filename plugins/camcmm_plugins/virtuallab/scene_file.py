@@ -47,20 +47,23 @@ Schema (``version: 1``; every section but ``artefacts`` optional)::
 Every artefact accepts ``albedo`` (0..1, default 0.8) and ``label``.
 
 Checked on reading, each with one line naming the entry: every number in the file is
-finite and at most ``MAX_NUMBER`` in magnitude; diameters, lengths, widths and mesh scales are > 0; ``seed`` is a whole number
->= 0; sensor ``bits`` 8 .. 16; sensor and lighting levels are >= 0 (``full_well``, ``gamma`` > 0);
-image sides are at most ``MAX_SIDE`` px and the rendering's memory estimate (``RAY_BYTES`` per cast ray,
-``PIXEL_BYTES`` per pixel of the largest image) is within ``camcmm.api.check_budget``.
+finite and at most ``MAX_NUMBER`` in magnitude; diameters, lengths, widths and mesh scales are
+> 0; ``seed`` is a whole number >= 0; sensor ``bits`` 8 .. 16; sensor and lighting levels are
+>= 0 (``full_well``, ``gamma`` > 0); image sides are at most ``MAX_SIDE`` px and the
+rendering's memory estimate (``RAY_BYTES`` per cast ray, ``PIXEL_BYTES`` per pixel of the
+largest image) is within ``camcmm.api.check_budget``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
+
 from camcmm.api import CamcmmError, InputError, TriangleMesh, check_budget, check_count, read, read_yaml
 
 from . import artefacts as art
@@ -110,7 +113,7 @@ class LabScene:
     errors: dict[str, Any] = field(default_factory=dict)
     base: Path = Path(".")
     source: dict[str, Any] = field(default_factory=dict)
-    owner: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))   # artefact of each primitive
+    owner: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # artefact of each primitive
     stages: dict[str, dict[str, Any]] = field(default_factory=dict)
     speckle: dict[str, Any] = field(default_factory=dict)
 
@@ -139,7 +142,7 @@ def _nonfinite(obj: Any, path: str = "", limit: float = MAX_NUMBER) -> tuple[str
     parsed document (seeds apart), or None."""
     if isinstance(obj, Mapping):
         for k, v in obj.items():
-            if k == "seed" and isinstance(v, int):       # noise seeds: any whole number >= 0
+            if k == "seed" and isinstance(v, int):  # noise seeds: any whole number >= 0
                 continue
             hit = _nonfinite(v, f"{path}.{k}" if path else str(k), limit)
             if hit:
@@ -163,25 +166,46 @@ def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict
     if t == "sphere":
         return art.sphere(c, _positive(a, "diameter", None, what), bool(a.get("stem", True)))
     if t == "ball_bar":
-        return art.ball_bar(c, a.get("direction", [1, 0, 0]), _positive(a, "length", None, what),
-                            _positive(a, "sphere_diameter", None, what), bool(a.get("bar", True)))
+        return art.ball_bar(
+            c,
+            a.get("direction", [1, 0, 0]),
+            _positive(a, "length", None, what),
+            _positive(a, "sphere_diameter", None, what),
+            bool(a.get("bar", True)),
+        )
     if t == "ball_plate":
-        return art.ball_plate(c, _g(a, "lengths", None, what), _positive(a, "sphere_diameter", None, what),
-                              float(a.get("rotation", 0.0)), float(a.get("tilt", 0.0)), bool(a.get("plate", True)))
+        return art.ball_plate(
+            c,
+            _g(a, "lengths", None, what),
+            _positive(a, "sphere_diameter", None, what),
+            float(a.get("rotation", 0.0)),
+            float(a.get("tilt", 0.0)),
+            bool(a.get("plate", True)),
+        )
     if t == "flat":
         axis, n = art.axes_from(a.get("direction", [1, 0, 0]), a.get("normal"))
         return art.flat(c, axis, n, _positive(a, "length", None, what), _positive(a, "width", None, what))
     if t == "plane":
-        r = Rectangle(c, a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]),
-                      _positive(a, "length", 500.0, what), _positive(a, "width", 500.0, what), a.get("label", "plane"),
-                      measured=False)
+        r = Rectangle(
+            c,
+            a.get("direction", [1, 0, 0]),
+            a.get("normal", [0, 0, 1]),
+            _positive(a, "length", 500.0, what),
+            _positive(a, "width", 500.0, what),
+            a.get("label", "plane"),
+            measured=False,
+        )
         return [r], {"kind": "plane", "center": r.center.tolist(), "normal": r.normal.tolist()}
     if t == "gauge_blocks":
-        return workpieces.gauge_blocks(c, _g(a, "blocks", None, what), a.get("platen", (200.0, 150.0, 30.0)),
-                                       a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]))
+        return workpieces.gauge_blocks(
+            c,
+            _g(a, "blocks", None, what),
+            a.get("platen", (200.0, 150.0, 30.0)),
+            a.get("direction", [1, 0, 0]),
+            a.get("normal", [0, 0, 1]),
+        )
     if t == "box":
-        return workpieces.box(c, _g(a, "size", None, what), a.get("direction", [1, 0, 0]),
-                              a.get("normal", [0, 0, 1]))
+        return workpieces.box(c, _g(a, "size", None, what), a.get("direction", [1, 0, 0]), a.get("normal", [0, 0, 1]))
     if t == "mesh":
         if "file" in a:
             p = Path(a["file"])
@@ -191,8 +215,14 @@ def build_artefact(a: Mapping[str, Any], i: int, base: Path) -> tuple[list, dict
             V, F = m.vertices, m.faces
         else:
             V, F = _g(a, "vertices", None, what), _g(a, "faces", None, what)
-        return workpieces.mesh(V, F, a.get("position", [0, 0, 0]), a.get("rotation_deg", [0, 0, 0]),
-                               _positive(a, "scale", 1.0, what), a.get("label", "mesh"))
+        return workpieces.mesh(
+            V,
+            F,
+            a.get("position", [0, 0, 0]),
+            a.get("rotation_deg", [0, 0, 0]),
+            _positive(a, "scale", 1.0, what),
+            a.get("label", "mesh"),
+        )
     raise ValueError(f"{what}.type {t!r}: use one of {', '.join(ARTEFACTS)}")
 
 
@@ -250,8 +280,9 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
     errors = _errors(doc.get("errors"))
     if "projector_gamma" in errors:
         light.gamma = _positive(errors, "projector_gamma", None, "errors")
-    _check_levels(light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",),
-                  MAX_LEVEL)
+    _check_levels(
+        light, "lighting", ("projector", "ambient", "diffuse", "background", "projector_blur"), ("gamma",), MAX_LEVEL
+    )
     sensor = _dataclass_from(Sensor, doc.get("sensor"), "sensor")
     # frames are 8- or 16-bit images read at their type's full scale: below 8 bits a frame
     # would use 2^bits of 256 grey levels and decode as nearly dark
@@ -271,16 +302,31 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         raise ValueError("patterns: expected a list")
     check_count("patterns: the number of entries", len(pats), MAX_PATTERNS)
     _check_size(cams, proj, ss, len(pats))
-    return LabScene(str(doc.get("name", "virtual lab scene")), prims, np.asarray(albedo), truths, cams, proj,
-                    light, sensor, ss, seed,
-                    seq if isinstance(seq, Mapping) else
-                    ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
-                    pats, errors, base, dict(doc), np.asarray(owner, np.int64), _stages(doc.get("stages")),
-                    dict(doc.get("speckle") or {}))
+    return LabScene(
+        str(doc.get("name", "virtual lab scene")),
+        prims,
+        np.asarray(albedo),
+        truths,
+        cams,
+        proj,
+        light,
+        sensor,
+        ss,
+        seed,
+        seq
+        if isinstance(seq, Mapping)
+        else ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
+        pats,
+        errors,
+        base,
+        dict(doc),
+        np.asarray(owner, np.int64),
+        _stages(doc.get("stages")),
+        dict(doc.get("speckle") or {}),
+    )
 
 
-def _check_levels(obj, what: str, non_negative: tuple[str, ...], positive: tuple[str, ...],
-                  maximum: float) -> None:
+def _check_levels(obj, what: str, non_negative: tuple[str, ...], positive: tuple[str, ...], maximum: float) -> None:
     """Light levels, noise and gains: numbers >= 0 (``positive``: > 0) up to ``maximum``;
     ValueError names the field."""
     for key in non_negative + positive:
@@ -300,8 +346,13 @@ def _errors(d: Any) -> dict[str, Any]:
     bad = sorted(set(d) - set(ERRORS))
     if bad:
         raise ValueError(f"errors.{bad[0]}: unknown error; use {', '.join(ERRORS)}")
-    shapes = {"focal_length": ("relative", 1), "baseline": ("relative", 1), "principal_point": ("shift", 2),
-              "distortion": ("delta", None), "rotation": ("angles_deg", 3)}
+    shapes = {
+        "focal_length": ("relative", 1),
+        "baseline": ("relative", 1),
+        "principal_point": ("shift", 2),
+        "distortion": ("delta", None),
+        "rotation": ("angles_deg", 3),
+    }
     for name, v in d.items():
         if name == "projector_gamma":
             continue
@@ -310,9 +361,11 @@ def _errors(d: Any) -> dict[str, Any]:
             raise ValueError(f"errors.{name}: expected a mapping with {key}, got {v!r}")
         x = v.get(key, 0.0)
         items = x if isinstance(x, (list, tuple)) else [x]
-        if (n is not None and (len(items) != n or (n == 1 and isinstance(x, (list, tuple))))) \
-                or not 1 <= len(items) <= 12 \
-                or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in items):
+        if (
+            (n is not None and (len(items) != n or (n == 1 and isinstance(x, (list, tuple)))))
+            or not 1 <= len(items) <= 12
+            or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in items)
+        ):
             raise ValueError(f"errors.{name}.{key} {x!r}: expected {n or 'up to 12'} number(s)")
         if key == "relative" and not -1 < x < 1:
             raise ValueError(f"errors.{name}.relative {x!r} must lie between -1 and 1")
@@ -330,7 +383,7 @@ def _check_size(cams: list, proj, supersample: int, n_patterns: int) -> None:
     ppx = int(proj.model.image_size[0]) * int(proj.model.image_size[1]) if proj is not None else 0
     # rays of every camera are kept at once; one frame is rendered at a time; a white,
     # black or speckle entry of ``patterns`` is a float64 image at the projector's size
-    need = RAY_BYTES * supersample ** 2 * sum(px) + PIXEL_BYTES * max(px, default=0) + 8.0 * ppx * n_patterns
+    need = RAY_BYTES * supersample**2 * sum(px) + PIXEL_BYTES * max(px, default=0) + 8.0 * ppx * n_patterns
     sizes = ", ".join(f"{c.name} {c.model.image_size[0]} x {c.model.image_size[1]} px" for c in cams)
     check_budget(f"rendering {sizes} at supersample {supersample}", need)
 

@@ -79,8 +79,14 @@ def stereo_fringe(center=(0.0, 0.0, 0.0)) -> Sensor:
     return Sensor(np.array(vps), None, 75.0, "stereo fringe projection")
 
 
-def turntable(center=(0.0, 0.0, 0.0), distance: float = 150.0, elevation: float = 45.0,
-              start_azimuth: float = 0.0, span: float = 180.0, n_views: int = 30) -> Sensor:
+def turntable(
+    center=(0.0, 0.0, 0.0),
+    distance: float = 150.0,
+    elevation: float = 45.0,
+    start_azimuth: float = 0.0,
+    span: float = 180.0,
+    n_views: int = 30,
+) -> Sensor:
     """A camera ring over ``span`` degrees of azimuth at ``elevation`` (thesis ch. 4.5)."""
     az = np.radians(start_azimuth + np.linspace(0, span, n_views))
     el = np.radians(elevation)

@@ -69,9 +69,18 @@ def _plane_range(x: np.ndarray) -> float:
     return float(np.ptp(d))
 
 
-def simulate(scene: list, truth: dict[str, Any], sensor: Sensor, n_points: int, noise: float = 0.0,
-             noise_model: str = "normal", distortion: VolumeDistortion | None = None,
-             reconstruction_scale: float = 1.0, unit: str = "mm", seed: int = 0):
+def simulate(
+    scene: list,
+    truth: dict[str, Any],
+    sensor: Sensor,
+    n_points: int,
+    noise: float = 0.0,
+    noise_model: str = "normal",
+    distortion: VolumeDistortion | None = None,
+    reconstruction_scale: float = 1.0,
+    unit: str = "mm",
+    seed: int = 0,
+):
     """Points (N, 3) in ``unit``, the primitive index of each point, and the truth dict
     (lengths in mm, before the reconstruction scale and the unit)."""
     rng = np.random.default_rng(seed)
@@ -89,15 +98,26 @@ def simulate(scene: list, truth: dict[str, Any], sensor: Sensor, n_points: int, 
     if unit == "m":
         out = out / 1000.0
     truth = dict(truth)
-    truth.update({"n_points": int(len(x)), "n_points_asked": int(n_points), "noise": noise,
-                  "noise_model": noise_model, "sensor": sensor.name, "distortion": dist.to_dict(),
-                  "reconstruction_scale": reconstruction_scale, "unit": unit, "seed": seed})
+    truth.update(
+        {
+            "n_points": int(len(x)),
+            "n_points_asked": int(n_points),
+            "noise": noise,
+            "noise_model": noise_model,
+            "sensor": sensor.name,
+            "distortion": dist.to_dict(),
+            "reconstruction_scale": reconstruction_scale,
+            "unit": unit,
+            "seed": seed,
+        }
+    )
     _distorted_truth(scene, truth, dist, x, lab)
     return out, lab, truth
 
 
-def _distorted_truth(scene: list, truth: dict[str, Any], dist: VolumeDistortion, x: np.ndarray,
-                     lab: np.ndarray) -> None:
+def _distorted_truth(
+    scene: list, truth: dict[str, Any], dist: VolumeDistortion, x: np.ndarray, lab: np.ndarray
+) -> None:
     spheres = [(i, p) for i, p in enumerate(scene) if isinstance(p, Sphere) and p.measured]
     for (i, s), st in zip(spheres, truth.get("spheres", [])):
         fc = dist.apply(s.center)

@@ -44,12 +44,14 @@ def speckle_intensity(shape, grain: float, seed: int = 0) -> np.ndarray:
     pupil = (fx * fx + fy * fy) <= rho * rho
     n_in = int(pupil.sum())
     if n_in < 20:
-        raise ValueError(f"speckle grain {grain:g} px on {w} x {h} px leaves {n_in} frequencies in the pupil; "
-                         "use a smaller grain or a larger pattern")
+        raise ValueError(
+            f"speckle grain {grain:g} px on {w} x {h} px leaves {n_in} frequencies in the pupil; "
+            "use a smaller grain or a larger pattern"
+        )
     screen = np.zeros((h, w), complex)
     screen[pupil] = np.exp(2j * np.pi * rng.random(n_in))
     field = sfft.ifft2(screen, workers=-1)
-    inten = field.real ** 2 + field.imag ** 2
+    inten = field.real**2 + field.imag**2
     return inten / inten.mean()
 
 

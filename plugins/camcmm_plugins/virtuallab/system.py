@@ -27,9 +27,16 @@ import numpy as np
 
 from camcmm.api import InputError, PointCloud, get_algorithm
 
-DEFAULT_SEQUENCE = {"projector": {"width": 1280, "height": 800}, "bit_depth": 8,
-                    "frames": ["white", "black", {"type": "phase", "direction": "vertical", "steps": 4, "period": 16},
-                               {"type": "gray", "direction": "vertical", "period": 8}]}
+DEFAULT_SEQUENCE = {
+    "projector": {"width": 1280, "height": 800},
+    "bit_depth": 8,
+    "frames": [
+        "white",
+        "black",
+        {"type": "phase", "direction": "vertical", "steps": 4, "period": 16},
+        {"type": "gray", "direction": "vertical", "period": 8},
+    ],
+}
 
 
 def placed_artefact(placement: dict[str, Any]) -> dict[str, Any]:
@@ -47,11 +54,22 @@ def placed_artefact(placement: dict[str, Any]) -> dict[str, Any]:
             raise InputError("placement: the plan's sphere has no diameter")
         return {"type": "sphere", "center": centre, "diameter": float(art["diameter"]), "stem": False}
     if test == "ball_bar":
-        return {"type": "ball_bar", "center": centre, "direction": pos.get("direction", [1, 0, 0]),
-                "length": float(art["length"]), "sphere_diameter": float(art["sphere_diameter"])}
+        return {
+            "type": "ball_bar",
+            "center": centre,
+            "direction": pos.get("direction", [1, 0, 0]),
+            "length": float(art["length"]),
+            "sphere_diameter": float(art["sphere_diameter"]),
+        }
     if test == "flat":
-        return {"type": "flat", "center": centre, "direction": pos.get("direction", [1, 0, 0]),
-                "normal": pos.get("normal", [0, 0, 1]), "length": float(art["length"]), "width": float(art["width"])}
+        return {
+            "type": "flat",
+            "center": centre,
+            "direction": pos.get("direction", [1, 0, 0]),
+            "normal": pos.get("normal", [0, 0, 1]),
+            "length": float(art["length"]),
+            "width": float(art["width"]),
+        }
     raise InputError(f"placement: the simulated fringe system measures spheres, ball bars and flats, not {test!r}")
 
 
@@ -60,8 +78,9 @@ def interior(points: np.ndarray, camera: Any, erode: int = 2) -> np.ndarray:
     region (camera-projector and stereo points both reproject onto camera 1)."""
     import cv2
 
-    p, _ = cv2.projectPoints(points, cv2.Rodrigues(camera.rotation)[0], camera.translation, camera.camera_matrix,
-                             camera.dist_coeffs)
+    p, _ = cv2.projectPoints(
+        points, cv2.Rodrigues(camera.rotation)[0], camera.translation, camera.camera_matrix, camera.dist_coeffs
+    )
     ij = np.rint(p.reshape(-1, 2)).astype(int)
     w, h = camera.image_size
     ok = (ij[:, 0] >= 0) & (ij[:, 0] < w) & (ij[:, 1] >= 0) & (ij[:, 1] < h)
@@ -73,9 +92,17 @@ def interior(points: np.ndarray, camera: Any, erode: int = 2) -> np.ndarray:
     return keep
 
 
-def measure(placement: dict[str, Any], preset: str = "stereo_fringe", method: str = "stereo",
-            image_size=(640, 480), seed: int = 0, errors: dict[str, Any] | None = None,
-            sequence: dict[str, Any] | None = None, erode: int = 2, ctx=None) -> dict[str, Any]:
+def measure(
+    placement: dict[str, Any],
+    preset: str = "stereo_fringe",
+    method: str = "stereo",
+    image_size=(640, 480),
+    seed: int = 0,
+    errors: dict[str, Any] | None = None,
+    sequence: dict[str, Any] | None = None,
+    erode: int = 2,
+    ctx=None,
+) -> dict[str, Any]:
     """Render, decode, triangulate and crop one placement; ``{"cloud", "n_frames", "truth"}``."""
     import yaml
 
@@ -88,8 +115,13 @@ def measure(placement: dict[str, Any], preset: str = "stereo_fringe", method: st
     # a reproducible, different noise stream per position
     key = f"{placement.get('test')}/{(placement.get('position') or {}).get('id', '')}"
     pos_seed = int(seed) * 1000 + int(hashlib.sha256(key.encode()).hexdigest()[:6], 16) % 1000
-    doc = {"seed": pos_seed, "artefacts": [art], "rig": {"preset": preset, "image_size": list(image_size)},
-           "sequence": sequence or DEFAULT_SEQUENCE, "errors": errors or {}}
+    doc = {
+        "seed": pos_seed,
+        "artefacts": [art],
+        "rig": {"preset": preset, "image_size": list(image_size)},
+        "sequence": sequence or DEFAULT_SEQUENCE,
+        "errors": errors or {},
+    }
     with tempfile.TemporaryDirectory(prefix="camcmm-fringe-system-") as tmp:
         d = Path(tmp)
         (d / "scene.yaml").write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
@@ -98,14 +130,21 @@ def measure(placement: dict[str, Any], preset: str = "stereo_fringe", method: st
         out = d / "out"
         frames = [str(f) for f in sorted((out / "camera1").glob("frame*.png"))]
         frames2 = [str(f) for f in sorted((out / "camera2").glob("frame*.png"))] if method == "stereo" else None
-        rec = get_algorithm("fringe.reconstruct")(sequence=str(out / "sequence.yaml"), images=frames, images2=frames2,
-                                                  calibration=str(out / "calibration.yaml"), method=method)
+        rec = get_algorithm("fringe.reconstruct")(
+            sequence=str(out / "sequence.yaml"),
+            images=frames,
+            images2=frames2,
+            calibration=str(out / "calibration.yaml"),
+            method=method,
+        )
         cloud = rec["cloud"]
         cam = read_calibration(out / "calibration.yaml")["cameras"][0]
         keep = np.flatnonzero(interior(cloud.points, cam, erode))
         if len(keep) < 100:
-            raise InputError(f"{key}: the simulated system saw only {len(keep)} points of the artefact; "
-                             "is it inside the cameras' and projector's common field?")
+            raise InputError(
+                f"{key}: the simulated system saw only {len(keep)} points of the artefact; "
+                "is it inside the cameras' and projector's common field?"
+            )
         cloud = cloud.subset(keep)
         name = f"{placement.get('test')}-{(placement.get('position') or {}).get('id', 'x')}"
         cloud = PointCloud(cloud.points, name=name)

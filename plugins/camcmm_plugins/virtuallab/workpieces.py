@@ -30,8 +30,9 @@ def frame(direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0)) -> np.ndarray:
     return np.vstack([u, np.cross(n, u), n])
 
 
-def gauge_blocks(center, blocks, platen=(200.0, 150.0, 30.0), direction=(1.0, 0.0, 0.0),
-                 normal=(0.0, 0.0, 1.0)) -> tuple[list, dict[str, Any]]:
+def gauge_blocks(
+    center, blocks, platen=(200.0, 150.0, 30.0), direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0)
+) -> tuple[list, dict[str, Any]]:
     """Blocks on a platen whose top surface is centred at ``center``; ``blocks`` is a
     list of {length, at: [a, b] (mm along the platen's axes), size: [w, d] (mm; default
     per ISO 3650), turn (deg about the normal)}; ``platen`` [length, width, thickness]."""
@@ -52,11 +53,21 @@ def gauge_blocks(center, blocks, platen=(200.0, 150.0, 30.0), direction=(1.0, 0.
         bf = np.vstack([bu, np.cross(n, bu), n])
         base = c + a * u + bb * v
         prims.append(Box(base + n * L / 2, bf, [w, dep, L], f"gauge block {i + 1}"))
-        truth_blocks.append({"label": f"gauge block {i + 1}", "length": L, "size": [w, dep],
-                             "top_center": (base + n * L).tolist(), "base_center": base.tolist()})
-    return prims, {"kind": "gauge_blocks", "blocks": truth_blocks,
-                   "platen": {"point": c.tolist(), "normal": n.tolist(), "size": pl.tolist()},
-                   "center": c.tolist()}
+        truth_blocks.append(
+            {
+                "label": f"gauge block {i + 1}",
+                "length": L,
+                "size": [w, dep],
+                "top_center": (base + n * L).tolist(),
+                "base_center": base.tolist(),
+            }
+        )
+    return prims, {
+        "kind": "gauge_blocks",
+        "blocks": truth_blocks,
+        "platen": {"point": c.tolist(), "normal": n.tolist(), "size": pl.tolist()},
+        "center": c.tolist(),
+    }
 
 
 def box(center, size, direction=(1.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0)) -> tuple[list, dict[str, Any]]:
@@ -75,12 +86,19 @@ def rotation_xyz(deg) -> np.ndarray:
     return Rz @ Ry @ Rx
 
 
-def mesh(vertices, faces, position=(0.0, 0.0, 0.0), rotation_deg=(0.0, 0.0, 0.0), scale: float = 1.0,
-         label: str = "mesh") -> tuple[list, dict[str, Any]]:
+def mesh(
+    vertices, faces, position=(0.0, 0.0, 0.0), rotation_deg=(0.0, 0.0, 0.0), scale: float = 1.0, label: str = "mesh"
+) -> tuple[list, dict[str, Any]]:
     """A mesh placed by x' = R (scale x) + position (R from ``rotation_deg``)."""
     R = rotation_xyz(rotation_deg)
     V = (np.asarray(vertices, float) * float(scale)) @ R.T + np.asarray(position, float)
     m = Mesh(V, faces, label)
-    return [m], {"kind": "mesh", "label": label, "n_triangles": int(len(m.triangles)),
-                 "position": list(map(float, position)), "rotation_deg": list(map(float, rotation_deg)),
-                 "scale": float(scale), "area": m.area}
+    return [m], {
+        "kind": "mesh",
+        "label": label,
+        "n_triangles": int(len(m.triangles)),
+        "position": list(map(float, position)),
+        "rotation_deg": list(map(float, rotation_deg)),
+        "scale": float(scale),
+        "area": m.area,
+    }

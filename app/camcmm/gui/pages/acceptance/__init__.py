@@ -71,6 +71,19 @@ def _build(page: Any) -> None:
 
 PAGE = Page("acceptance", "Acceptance test", "mdi-clipboard-check-outline", mount, _build, order=10, full=False)
 
-__all__ = ["HISTORY_KEY", "PAGE", "PendingEvaluation", "REPORT_POINTS", "STATE_KEY", "Wizard", "WizardPage",
-           "artefact_plan_fields", "fit_rows", "fmt_mm", "load_catalogue", "mount", "parse_options",
-           "plan_fields_to_artefact"]
+__all__ = [
+    "HISTORY_KEY",
+    "PAGE",
+    "PendingEvaluation",
+    "REPORT_POINTS",
+    "STATE_KEY",
+    "Wizard",
+    "WizardPage",
+    "artefact_plan_fields",
+    "fit_rows",
+    "fmt_mm",
+    "load_catalogue",
+    "mount",
+    "parse_options",
+    "plan_fields_to_artefact",
+]

@@ -47,9 +47,13 @@ class PageAcquire:
         pos = next((p for p in (req or {}).get("positions", []) if p["id"] == position), None)
         if pos is None:
             raise KeyError(f"{test}/{position}: no such position in this test")
-        return {"standard": w.state.get("standard"), "test": test, "position": dict(pos),
-                "measuring_volume": list((plan.get("system") or {}).get("measuring_volume") or []),
-                "artefacts": dict(plan.get("artefacts") or {})}
+        return {
+            "standard": w.state.get("standard"),
+            "test": test,
+            "position": dict(pos),
+            "measuring_volume": list((plan.get("system") or {}).get("measuring_volume") or []),
+            "artefacts": dict(plan.get("artefacts") or {}),
+        }
 
     def _acquire(self, source: str, params: dict[str, Any], placement: dict[str, Any]) -> Path:
         """Worker: run the system, write its cloud to a temporary PLY for the import."""

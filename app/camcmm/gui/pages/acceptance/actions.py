@@ -43,8 +43,9 @@ class PageActions:
         f = files[0]
         await self.import_async(test, position, f["content"], f["name"], repeat)
 
-    async def import_async(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
-                           repeat: int | None = None) -> dict[str, Any] | None:
+    async def import_async(
+        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
+    ) -> dict[str, Any] | None:
         key = f"{test}/{position}"
         if key in self._busy:
             self.session.error(f"{position}: a measurement is being evaluated; wait for it")
@@ -105,9 +106,12 @@ class PageActions:
         self.state.wz_blocks = blocks
 
     def _detail(self, test: str, position: str, repeat: int, ev: dict[str, Any]) -> None:
-        self.state.wz_detail = {"title": f"{position} (repeat {repeat})" if self._repeats(test) > 1 else position,
-                                "file": ev.get("file") or "", "rows": fit_rows(ev, self.wizard.declaration()),
-                                "warnings": [str(x) for x in ev.get("warnings") or []]}
+        self.state.wz_detail = {
+            "title": f"{position} (repeat {repeat})" if self._repeats(test) > 1 else position,
+            "file": ev.get("file") or "",
+            "rows": fit_rows(ev, self.wizard.declaration()),
+            "warnings": [str(x) for x in ev.get("warnings") or []],
+        }
 
     def _repeats(self, test: str) -> int:
         try:
@@ -125,8 +129,7 @@ class PageActions:
         filled = self.wizard.filled(test, position)
         rep, mid = (repeat, dict(filled).get(repeat)) if repeat else filled[-1]
         self._detail(test, position, rep, self.wizard.evaluation(mid) or {})
-        self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud,
-                        self.wizard.evaluation(mid))
+        self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud, self.wizard.evaluation(mid))
 
     def show_cloud(self, key: str, cloud: Any, evaluation: dict[str, Any] | None = None) -> None:
         """Show a deviations cloud coloured by ``deviation`` (legend in mm) in the

@@ -28,9 +28,16 @@ def load_catalogue(path: str | Path | None = None) -> list[dict[str, Any]]:
     out = []
     for a in doc.get("artefacts") or []:
         if isinstance(a, dict) and a.get("id") and a.get("kind"):
-            out.append({"id": str(a["id"]), "kind": str(a["kind"]), "name": str(a.get("name") or a["id"]),
-                        "nominal": dict(a.get("nominal") or {}), "certificates": dict(a.get("certificates") or {}),
-                        "source": "catalogue"})
+            out.append(
+                {
+                    "id": str(a["id"]),
+                    "kind": str(a["kind"]),
+                    "name": str(a.get("name") or a["id"]),
+                    "nominal": dict(a.get("nominal") or {}),
+                    "certificates": dict(a.get("certificates") or {}),
+                    "source": "catalogue",
+                }
+            )
     return out
 
 
@@ -54,8 +61,9 @@ def artefact_plan_fields(artefact: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def plan_fields_to_artefact(kind: str, fields: dict[str, Any], aid: str, name: str,
-                            declared: ArtefactKind | None = None) -> dict[str, Any]:
+def plan_fields_to_artefact(
+    kind: str, fields: dict[str, Any], aid: str, name: str, declared: ArtefactKind | None = None
+) -> dict[str, Any]:
     """The inverse for the project store: the plan's artefact entry as an Artefact dict.
 
     A value the standard declares with a ``certificate`` becomes that certificate (a
@@ -77,7 +85,10 @@ def plan_fields_to_artefact(kind: str, fields: dict[str, Any], aid: str, name: s
                 certs[spec.certificate.format(i=i + 1)] = {"value": float(x), "uncertainty": u, "k": k}
         elif (spec is not None and spec.certificate) or u_key in fields:
             certs[(spec.certificate if spec is not None and spec.certificate else key)] = {
-                "value": float(v), "uncertainty": u, "k": k}
+                "value": float(v),
+                "uncertainty": u,
+                "k": k,
+            }
         elif key != "uncertainty":
             nominal[key] = v
     return {"id": aid, "kind": kind, "name": name, "nominal": nominal, "certificates": certs}

@@ -17,16 +17,30 @@ def declaration_of(std: Any, sid: str) -> StandardDeclaration:
     if callable(declare):
         decl = declare()
         if not isinstance(decl, StandardDeclaration):
-            raise InputError(f"standard plugin {sid!r}: declare() returned {type(decl).__name__}, "
-                             "not a StandardDeclaration (camcmm.api)")
+            raise InputError(
+                f"standard plugin {sid!r}: declare() returned {type(decl).__name__}, "
+                "not a StandardDeclaration (camcmm.api)"
+            )
         return decl
     reqs = std.requirements(None)
     keys = list(dict.fromkeys(p for r in reqs for p in r.get("parameters") or []))
-    tests = tuple(TestDeclaration(r["test"], r.get("label") or r["test"], r["test"], tuple(r.get("parameters") or ()),
-                                  int(r.get("min_count") or 0), int(r.get("repeats") or 1),
-                                  bool(r.get("required", True))) for r in reqs)
-    positions = tuple(PositionSpec(r["test"], p["id"], p.get("label") or p["id"], r["test"], p.get("hint") or "")
-                      for r in reqs for p in r.get("positions") or [])
+    tests = tuple(
+        TestDeclaration(
+            r["test"],
+            r.get("label") or r["test"],
+            r["test"],
+            tuple(r.get("parameters") or ()),
+            int(r.get("min_count") or 0),
+            int(r.get("repeats") or 1),
+            bool(r.get("required", True)),
+        )
+        for r in reqs
+    )
+    positions = tuple(
+        PositionSpec(r["test"], p["id"], p.get("label") or p["id"], r["test"], p.get("hint") or "")
+        for r in reqs
+        for p in r.get("positions") or []
+    )
     return StandardDeclaration(sid, sid, tuple(QualityParameter(k, k, k) for k in keys), (), tests, positions)
 
 

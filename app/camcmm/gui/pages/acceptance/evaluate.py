@@ -22,12 +22,20 @@ from ...session import safe_name
 from .values import log
 
 
-def _run_dict(plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str,
-              warnings: list[str]) -> dict[str, Any]:
+def _run_dict(
+    plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str, warnings: list[str]
+) -> dict[str, Any]:
     """A result record for the project store (times UTC ISO)."""
-    return {"plugin": plugin, "version": version, "params": params, "input_hashes": hashes,
-            "outputs": to_jsonable(outputs), "started": started, "finished": utcnow(),
-            "warnings": [str(w) for w in warnings]}
+    return {
+        "plugin": plugin,
+        "version": version,
+        "params": params,
+        "input_hashes": hashes,
+        "outputs": to_jsonable(outputs),
+        "started": started,
+        "finished": utcnow(),
+        "warnings": [str(w) for w in warnings],
+    }
 
 
 @dataclass
@@ -63,8 +71,7 @@ class WizardImport:
         r = self.requirement(test)
         ids = [p["id"] for p in r["positions"]]
         if position not in ids:
-            raise InputError(f"{test.replace('_', ' ')} has no position {position!r}; its positions: "
-                             f"{', '.join(ids)}")
+            raise InputError(f"{test.replace('_', ' ')} has no position {position!r}; its positions: {', '.join(ids)}")
         slots = self._slots(test)[position]
         if repeat is None:
             repeat = next((i + 1 for i, mid in enumerate(slots) if mid is None), len(slots))
@@ -72,8 +79,9 @@ class WizardImport:
             raise InputError(f"{position}: repeat {repeat} is outside 1..{len(slots)}")
         return PendingEvaluation(test, position, int(repeat), started=utcnow())
 
-    def evaluate(self, job: PendingEvaluation, source: str | Path | bytes, name: str | None = None
-                 ) -> PendingEvaluation:
+    def evaluate(
+        self, job: PendingEvaluation, source: str | Path | bytes, name: str | None = None
+    ) -> PendingEvaluation:
         """Read the file and evaluate it with the standard. Thread-safe: touches neither
         the store nor the wizard's state. Raises a one-line CamcmmError naming the file."""
         if isinstance(source, (bytes, bytearray, memoryview)):
@@ -100,8 +108,9 @@ class WizardImport:
         std = self.standard(sid)
         ctx = RunContext(self.host, sid)
         try:
-            ev = std.evaluate_measurement(ctx, job.test, cloud, plan, file=job.name,
-                                          position=job.position, repeat=job.repeat)
+            ev = std.evaluate_measurement(
+                ctx, job.test, cloud, plan, file=job.name, position=job.position, repeat=job.repeat
+            )
         except CamcmmError as exc:
             raise type(exc)(one_line(exc, job.name)) from exc
         except Exception as exc:  # a plugin bug: one line naming the file and the standard
@@ -131,26 +140,45 @@ class WizardImport:
             deviations = ev.pop("deviations", None)
             h = self.project.add_file(job.path)
             ev["sha256"] = h
-            meta = {"standard": std_id, "test": job.test, "position": job.position, "repeat": job.repeat,
-                    "file": job.name, "summary": f"{getattr(job.cloud, 'n_points', 0)} points"}
-            mid = self.project.add_measurement(f"{job.position} ({job.name})", h, kind="pointcloud",
-                                               system_id=self.state.get("system_id"),
-                                               artefact_id=(self.state.get("artefact_ids") or {}).get(job.test),
-                                               meta=meta)
+            meta = {
+                "standard": std_id,
+                "test": job.test,
+                "position": job.position,
+                "repeat": job.repeat,
+                "file": job.name,
+                "summary": f"{getattr(job.cloud, 'n_points', 0)} points",
+            }
+            mid = self.project.add_measurement(
+                f"{job.position} ({job.name})",
+                h,
+                kind="pointcloud",
+                system_id=self.state.get("system_id"),
+                artefact_id=(self.state.get("artefact_ids") or {}).get(job.test),
+                meta=meta,
+            )
             files = {}
             if deviations is not None and hasattr(deviations, "n_points"):
                 files["deviations"] = self.project.add_object(deviations, f"{job.position} deviations")
             params = {"test": job.test, "position": job.position, "repeat": job.repeat}
-            rid = self.project.add_result(_run_dict(std_id, version, params, {"cloud": h}, ev, job.started,
-                                                    list(ev.get("warnings") or [])),
-                                          [mid], files, label=f"{std_id} {job.position}")
+            rid = self.project.add_result(
+                _run_dict(std_id, version, params, {"cloud": h}, ev, job.started, list(ev.get("warnings") or [])),
+                [mid],
+                files,
+                label=f"{std_id} {job.position}",
+            )
             slots = self._slots(job.test)[job.position]
             old = slots[job.repeat - 1]
             if old is not None:
-                self.state["superseded"].append({"test": job.test, "position": job.position, "repeat": job.repeat,
-                                                 "measurement": old,
-                                                 "result": self.state["evaluations"].get(str(old)),
-                                                 "replaced": utcnow()})
+                self.state["superseded"].append(
+                    {
+                        "test": job.test,
+                        "position": job.position,
+                        "repeat": job.repeat,
+                        "measurement": old,
+                        "result": self.state["evaluations"].get(str(old)),
+                        "replaced": utcnow(),
+                    }
+                )
             slots[job.repeat - 1] = mid
             self.state["evaluations"][str(mid)] = rid
             self.state["errors"].pop(job.key, None)
@@ -187,8 +215,9 @@ class WizardImport:
             shutil.rmtree(job.temp, ignore_errors=True)
             job.temp = None
 
-    def import_measurement(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
-                           repeat: int | None = None) -> dict[str, Any]:
+    def import_measurement(
+        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
+    ) -> dict[str, Any]:
         """Import, evaluate and store one measurement in the calling thread. Returns the
         position's card; a bad file gives the card with ``status`` "error" and the
         reason (nothing else changes)."""
@@ -200,8 +229,9 @@ class WizardImport:
             return self.card(test, position)
         return self.record(job)
 
-    def redo(self, test: str, position: str, source: str | Path | bytes, name: str | None = None,
-             repeat: int | None = None) -> dict[str, Any]:
+    def redo(
+        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
+    ) -> dict[str, Any]:
         """Measure a position again: the new evaluation replaces the old one (of
         ``repeat``, default the last filled repeat)."""
         if repeat is None:

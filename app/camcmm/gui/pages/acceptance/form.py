@@ -18,6 +18,7 @@ from .setup import _FORM_KEYS
 
 def _same_value(a: Any, b: Any) -> bool:
     """Equal as numbers when both read as numbers (the browser sends 20.0 back as 20)."""
+
     def nums(x: Any) -> list[float]:
         if isinstance(x, (list, tuple)):
             return [float(v) for v in x]
@@ -46,21 +47,36 @@ class PageSetup:
         if w.active and standard is None:
             plan = w.plan
             standard = w.state["standard"]
-            form = {"standard": standard, "system_name": plan["system"].get("name", ""),
-                    "volume": [float(x) for x in plan["system"]["measuring_volume"]],
-                    "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
-                    "artefacts": {}, "include": list(w.state.get("tests") or []),
-                    "options": _options_text(plan)}
+            form = {
+                "standard": standard,
+                "system_name": plan["system"].get("name", ""),
+                "volume": [float(x) for x in plan["system"]["measuring_volume"]],
+                "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
+                "artefacts": {},
+                "include": list(w.state.get("tests") or []),
+                "options": _options_text(plan),
+            }
             for test, a in (plan.get("artefacts") or {}).items():
                 aid = (w.state.get("artefact_ids") or {}).get(test) or ""
-                form["artefacts"][test] = {"_choice": aid, **{k: (", ".join(map(str, v)) if isinstance(v, list) else v)
-                                                              for k, v in a.items() if k not in ("id", "name")}}
+                form["artefacts"][test] = {
+                    "_choice": aid,
+                    **{
+                        k: (", ".join(map(str, v)) if isinstance(v, list) else v)
+                        for k, v in a.items()
+                        if k not in ("id", "name")
+                    },
+                }
         else:
             standard = standard or (keep or {}).get("standard") or (ids[0] if ids else None)
-            form = {"standard": standard, "system_name": (keep or {}).get("system_name", ""),
-                    "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
-                    "mpe": dict((keep or {}).get("mpe") or {}), "artefacts": {}, "include": [],
-                    "options": (keep or {}).get("options", "")}
+            form = {
+                "standard": standard,
+                "system_name": (keep or {}).get("system_name", ""),
+                "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
+                "mpe": dict((keep or {}).get("mpe") or {}),
+                "artefacts": {},
+                "include": [],
+                "options": (keep or {}).get("options", ""),
+            }
         tests = []
         catalogue: dict[str, list[dict[str, Any]]] = {}
         decl = None
@@ -74,12 +90,16 @@ class PageSetup:
         for t in tests:
             test = t["test"]
             kind = artefact_kind(decl, test) if decl is not None else test
-            options = [{"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""),
-                        "value": a["id"]} for a in cat if a["kind"] == kind]
+            options = [
+                {"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""), "value": a["id"]}
+                for a in cat
+                if a["kind"] == kind
+            ]
             catalogue[test] = options
             spec = artefact_fields(decl, test) if decl is not None else []
-            t["fields"] = [{"key": f.key, "label": f.label, "unit": f.unit, "kind": f.kind, "help": f.help}
-                           for f in spec]
+            t["fields"] = [
+                {"key": f.key, "label": f.label, "unit": f.unit, "kind": f.kind, "help": f.help} for f in spec
+            ]
             t["options"] = options
             if test not in form["artefacts"]:
                 first = next((a for a in cat if a["kind"] == kind), None)
@@ -92,8 +112,9 @@ class PageSetup:
         s.wz_form = form
         s.wz_form_tests = tests
         s.wz_catalogue = catalogue
-        s.wz_mpe_fields = [{"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit}
-                           for p in params]
+        s.wz_mpe_fields = [
+            {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
+        ]
 
     @staticmethod
     def _artefact_values(a: dict[str, Any]) -> dict[str, Any]:
@@ -138,8 +159,15 @@ class PageSetup:
                     else:
                         a["_id"], a["_name"] = entry["id"], entry.get("name", entry["id"])
                 arts[test] = a
-            self.wizard.setup(form.get("standard"), form.get("system_name"), form.get("volume"), form.get("mpe") or {},
-                              arts, tests=form.get("include") or [], options=form.get("options"))
+            self.wizard.setup(
+                form.get("standard"),
+                form.get("system_name"),
+                form.get("volume"),
+                form.get("mpe") or {},
+                arts,
+                tests=form.get("include") or [],
+                options=form.get("options"),
+            )
         except Exception as exc:
             s.wz_setup_error = one_line(exc)
             return False

@@ -22,14 +22,24 @@ def build(page: Any, accept: str = "") -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    with html.Div(v_if="page === 'acceptance'", classes="pa-3",
-                  style="flex: 0 0 55%; max-width: 55%; height: calc(100vh - 48px - 24px); overflow-y: auto; "
-                        "border-right: 1px solid rgba(0,0,0,0.12);",
-                  raw_attrs=tid("wizard")):
-        v.VAlert(v_if="wz_error", text=("wz_error",), type="error", density="compact", classes="mb-2",
-                 raw_attrs=tid("wz-error"))
-        with v.VTabs(v_model=("wz_step", "setup"), density="compact", color="primary", classes="mb-2",
-                     raw_attrs=tid("wz-steps")):
+    with html.Div(
+        v_if="page === 'acceptance'",
+        classes="pa-3",
+        style="flex: 0 0 55%; max-width: 55%; height: calc(100vh - 48px - 24px); overflow-y: auto; "
+        "border-right: 1px solid rgba(0,0,0,0.12);",
+        raw_attrs=tid("wizard"),
+    ):
+        v.VAlert(
+            v_if="wz_error",
+            text=("wz_error",),
+            type="error",
+            density="compact",
+            classes="mb-2",
+            raw_attrs=tid("wz-error"),
+        )
+        with v.VTabs(
+            v_model=("wz_step", "setup"), density="compact", color="primary", classes="mb-2", raw_attrs=tid("wz-steps")
+        ):
             v.VTab("1 · Setup", value="setup", raw_attrs=tid("wz-tab-setup"))
             v.VTab("2 · Positions", value="positions", disabled=("!wz_active",), raw_attrs=tid("wz-tab-positions"))
             v.VTab("3 · Result", value="result", disabled=("!wz_active",), raw_attrs=tid("wz-tab-result"))

@@ -86,8 +86,9 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         w = self.wizard
         s.wz_error = w.load_error
         try:
-            s.wz_standards = [{"title": f"{x['name']} ({x['id']})", "value": x["id"], "summary": x["summary"]}
-                              for x in w.standards()]
+            s.wz_standards = [
+                {"title": f"{x['name']} ({x['id']})", "value": x["id"], "summary": x["summary"]} for x in w.standards()
+            ]
         except Exception as exc:  # discovery problems are shown, the page stays
             s.wz_standards = []
             s.wz_error = one_line(exc)
@@ -125,8 +126,11 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         if not s.wz_svgs or set(s.wz_svgs) != {c["key"] for b in blocks for c in b["cards"]}:
             s.wz_svgs = pictograms(w.standard(), w.requirements(), w.plan)
         plan = w.plan
-        s.wz_title = (f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
-                      + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"]) + " mm")
+        s.wz_title = (
+            f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
+            + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"])
+            + " mm"
+        )
 
     def _publish_summary(self) -> None:
         s = self.state
@@ -143,11 +147,20 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         for key, p in (summary.get("parameters") or {}).items():
             q = parameter(decl, key)
             unit = p.get("unit") or q.unit
-            rows.append({"key": key, "symbol": q.symbol, "name": p.get("name") or q.name,
-                         "value": fmt_mm(p.get("value"), q.signed, unit), "mpe": fmt_mm(p.get("mpe"), unit=unit),
-                         "U": fmt_mm(p.get("U"), unit=unit), "verdict": p.get("verdict") or "incomplete",
-                         "verdict_guarded": p.get("verdict_guarded") or "incomplete",
-                         "n": p.get("n_evaluated", ""), "note": "; ".join(p.get("incomplete_reasons") or [])})
+            rows.append(
+                {
+                    "key": key,
+                    "symbol": q.symbol,
+                    "name": p.get("name") or q.name,
+                    "value": fmt_mm(p.get("value"), q.signed, unit),
+                    "mpe": fmt_mm(p.get("mpe"), unit=unit),
+                    "U": fmt_mm(p.get("U"), unit=unit),
+                    "verdict": p.get("verdict") or "incomplete",
+                    "verdict_guarded": p.get("verdict_guarded") or "incomplete",
+                    "n": p.get("n_evaluated", ""),
+                    "note": "; ".join(p.get("incomplete_reasons") or []),
+                }
+            )
         s.wz_parameters = rows
         s.wz_verdict = summary.get("verdict") or "incomplete"
         s.wz_verdict_guarded = summary.get("verdict_guarded") or ""
@@ -156,9 +169,10 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
 
     def _links(self) -> list[dict[str, str]]:
         rid = (self.wizard.state or {}).get("summary_result")
-        links = (self.offered.offer(f"acceptance-test-{rid}.{kind}", path, kind=kind,
-                                    title=REPORT_TITLES.get(kind, kind))
-                 for kind, path in self.wizard.report_paths().items())
+        links = (
+            self.offered.offer(f"acceptance-test-{rid}.{kind}", path, kind=kind, title=REPORT_TITLES.get(kind, kind))
+            for kind, path in self.wizard.report_paths().items()
+        )
         return sort_links(l for l in links if l)
 
     def close(self) -> None:

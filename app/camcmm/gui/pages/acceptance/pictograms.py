@@ -15,11 +15,13 @@ from .values import log
 def plain(label: str) -> str:
     """A neutral pictogram: a frame with the position's label (SVG text)."""
     text = html.escape(label)
-    return ('<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 120 80" width="100%" height="100%" role="img" '
-            f'aria-label="{text}"><title>{text}</title><rect x="4" y="4" width="112" height="72" rx="6" '
-            'fill="#eceff1" stroke="#78909c"/><circle cx="60" cy="34" r="10" fill="#1565c0"/>'
-            f'<text x="60" y="66" font-size="9" text-anchor="middle" fill="#455a64" '
-            f'font-family="sans-serif">{text}</text></svg>')
+    return (
+        '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 120 80" width="100%" height="100%" role="img" '
+        f'aria-label="{text}"><title>{text}</title><rect x="4" y="4" width="112" height="72" rx="6" '
+        'fill="#eceff1" stroke="#78909c"/><circle cx="60" cy="34" r="10" fill="#1565c0"/>'
+        f'<text x="60" y="66" font-size="9" text-anchor="middle" fill="#455a64" '
+        f'font-family="sans-serif">{text}</text></svg>'
+    )
 
 
 def pictograms(std: Any, requirements: list[dict[str, Any]], plan: dict[str, Any]) -> dict[str, str]:

@@ -23,16 +23,29 @@ class WizardPositions:
         out = []
         for r in self.requirements():
             slots = self._slots(r["test"])
-            done = sum(1 for p in r["positions"] for mid in slots[p["id"]]
-                       if mid is not None and not (self.evaluation(mid) or {}).get("error"))
+            done = sum(
+                1
+                for p in r["positions"]
+                for mid in slots[p["id"]]
+                if mid is not None and not (self.evaluation(mid) or {}).get("error")
+            )
             total = len(r["positions"]) * r["repeats"]
             required = r["min_count"] * r["repeats"]
             label = r["label"][:1].lower() + r["label"][1:]
             text = f"{done} of {total} {label}"
             if r["repeats"] > 1:
                 text = f"{done} of {total} measurements of {label} ({len(r['positions'])} × {r['repeats']} repeats)"
-            out.append({"test": r["test"], "label": r["label"], "done": done, "total": total, "required": required,
-                        "text": text, "complete": done >= required})
+            out.append(
+                {
+                    "test": r["test"],
+                    "label": r["label"],
+                    "done": done,
+                    "total": total,
+                    "required": required,
+                    "text": text,
+                    "complete": done >= required,
+                }
+            )
         return out
 
     @property
@@ -60,33 +73,74 @@ class WizardPositions:
                 status = "done" if len(done) == len(reps) else ("partial" if done else "pending")
                 if status != "done" and errors.get(key):
                     status = "error"
-                cards.append({"key": key, "test": r["test"], "id": p["id"], "label": p.get("label") or p["id"],
-                              "hint": p.get("hint") or "", "status": status, "error": errors.get(key, ""),
-                              "repeats": reps, "n_repeats": r["repeats"],
-                              "verdict": combine(x["verdict"] for x in reps) if done else "",
-                              "next_repeat": next((x["repeat"] for x in reps if x["status"] != "done"), None)})
+                cards.append(
+                    {
+                        "key": key,
+                        "test": r["test"],
+                        "id": p["id"],
+                        "label": p.get("label") or p["id"],
+                        "hint": p.get("hint") or "",
+                        "status": status,
+                        "error": errors.get(key, ""),
+                        "repeats": reps,
+                        "n_repeats": r["repeats"],
+                        "verdict": combine(x["verdict"] for x in reps) if done else "",
+                        "next_repeat": next((x["repeat"] for x in reps if x["status"] != "done"), None),
+                    }
+                )
             blocks.append({"test": r["test"], "label": r["label"], "progress": prog[r["test"]], "cards": cards})
         return blocks
 
-    def _repeat_view(self, decl: StandardDeclaration, repeat: int, mid: Any, ev: dict | None, mpe: dict
-                     ) -> dict[str, Any]:
+    def _repeat_view(
+        self, decl: StandardDeclaration, repeat: int, mid: Any, ev: dict | None, mpe: dict
+    ) -> dict[str, Any]:
         if mid is None or ev is None:
-            return {"repeat": repeat, "status": "pending", "values": [], "verdict": "", "measurement": None,
-                    "file": "", "fit": "", "warnings": []}
+            return {
+                "repeat": repeat,
+                "status": "pending",
+                "values": [],
+                "verdict": "",
+                "measurement": None,
+                "file": "",
+                "fit": "",
+                "warnings": [],
+            }
         if ev.get("error"):
-            return {"repeat": repeat, "status": "error", "values": [], "verdict": "", "measurement": int(mid),
-                    "file": ev.get("file") or "", "fit": ev["error"], "warnings": []}
+            return {
+                "repeat": repeat,
+                "status": "error",
+                "values": [],
+                "verdict": "",
+                "measurement": int(mid),
+                "file": ev.get("file") or "",
+                "fit": ev["error"],
+                "warnings": [],
+            }
         values = []
         verdicts = []
         for param, v in (ev.get("values") or {}).items():
             verdict = _verdict(v, mpe.get(param))
             verdicts.append(verdict)
             q = parameter(decl, param)
-            values.append({"param": param, "symbol": q.symbol, "text": fmt_value(v, q.signed, q.unit),
-                           "verdict": verdict, "mpe": mpe.get(param)})
-        return {"repeat": repeat, "status": "done", "values": values, "verdict": combine(verdicts),
-                "measurement": int(mid), "file": ev.get("file") or "", "fit": str(ev.get("fit_text") or ""),
-                "warnings": list(ev.get("warnings") or [])}
+            values.append(
+                {
+                    "param": param,
+                    "symbol": q.symbol,
+                    "text": fmt_value(v, q.signed, q.unit),
+                    "verdict": verdict,
+                    "mpe": mpe.get(param),
+                }
+            )
+        return {
+            "repeat": repeat,
+            "status": "done",
+            "values": values,
+            "verdict": combine(verdicts),
+            "measurement": int(mid),
+            "file": ev.get("file") or "",
+            "fit": str(ev.get("fit_text") or ""),
+            "warnings": list(ev.get("warnings") or []),
+        }
 
     def card(self, test: str, position: str) -> dict[str, Any]:
         for block in self.cards():

@@ -62,8 +62,9 @@ class WizardResult:
         ctx = RunContext(self.host, sid)
         return as_dict(self.standard(sid).summarize(ctx, plan, per if per is not None else self.per_measurement()))
 
-    def make_report(self, directory: str | Path, per: dict[str, list[dict[str, Any]]] | None = None
-                    ) -> tuple[dict[str, Any], dict[str, str]]:
+    def make_report(
+        self, directory: str | Path, per: dict[str, list[dict[str, Any]]] | None = None
+    ) -> tuple[dict[str, Any], dict[str, str]]:
         """Summarise and write the report files into ``directory`` (any thread; give
         ``per`` from :meth:`per_measurement` taken on the loop). Returns (summary, paths)."""
         per = copy.deepcopy(per) if per is not None else self.per_measurement(with_deviations=True)
@@ -99,11 +100,22 @@ class WizardResult:
                     if e.get("file") and e.get("sha256"):
                         hashes[str(e["file"])] = e["sha256"]
             outputs = dict(summary)
-            rid = self.project.add_result(_run_dict(std_id, version, {}, hashes, outputs, started or utcnow(),
-                                                    list(summary.get("warnings") or [])),
-                                          mids, files, label=f"{std_id} acceptance test")
-            self.state.update({"summary_result": rid, "report": files, "verdict": summary.get("verdict"),
-                               "verdict_guarded": summary.get("verdict_guarded")})
+            rid = self.project.add_result(
+                _run_dict(
+                    std_id, version, {}, hashes, outputs, started or utcnow(), list(summary.get("warnings") or [])
+                ),
+                mids,
+                files,
+                label=f"{std_id} acceptance test",
+            )
+            self.state.update(
+                {
+                    "summary_result": rid,
+                    "report": files,
+                    "verdict": summary.get("verdict"),
+                    "verdict_guarded": summary.get("verdict_guarded"),
+                }
+            )
             self._save()
         return {"summary_result": rid, "files": files}
 

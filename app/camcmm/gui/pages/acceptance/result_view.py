@@ -26,11 +26,21 @@ def build_result(page: Any) -> None:
     with html.Div(v_if="wz_step === 'result' && wz_active", raw_attrs=tid("wz-result")):
         with html.Div(classes="d-flex align-center ga-3 mb-2"):
             html.Span("Verdict", classes="text-h6")
-            v.VChip("{{ (wz_verdict || 'incomplete').toUpperCase() }}", size="large", variant="flat",
-                    color=verdict_color("wz_verdict"), raw_attrs=tid("wz-verdict"))
+            v.VChip(
+                "{{ (wz_verdict || 'incomplete').toUpperCase() }}",
+                size="large",
+                variant="flat",
+                color=verdict_color("wz_verdict"),
+                raw_attrs=tid("wz-verdict"),
+            )
             html.Span("guarded (ISO 14253-1):", classes="text-caption")
-            v.VChip("{{ (wz_verdict_guarded || 'incomplete').toUpperCase() }}", size="small", variant="tonal",
-                    color=verdict_color("wz_verdict_guarded"), raw_attrs=tid("wz-verdict-guarded"))
+            v.VChip(
+                "{{ (wz_verdict_guarded || 'incomplete').toUpperCase() }}",
+                size="small",
+                variant="tonal",
+                color=verdict_color("wz_verdict_guarded"),
+                raw_attrs=tid("wz-verdict-guarded"),
+            )
         html.Div("{{ wz_progress_text }}", classes="text-caption mb-2")
         with v.VTable(density="compact", raw_attrs=tid("wz-parameters")):
             with html.Thead():
@@ -48,20 +58,38 @@ def build_result(page: Any) -> None:
                     with html.Td():
                         v.VChip("{{ p.verdict }}", size="x-small", variant="flat", color=verdict_color("p.verdict"))
                     with html.Td():
-                        v.VChip("{{ p.verdict_guarded }}", size="x-small", variant="tonal",
-                                color=verdict_color("p.verdict_guarded"))
+                        v.VChip(
+                            "{{ p.verdict_guarded }}",
+                            size="x-small",
+                            variant="tonal",
+                            color=verdict_color("p.verdict_guarded"),
+                        )
                     html.Td("{{ p.n }}")
         with v.VExpansionPanels(v_if="wz_summary_warnings.length", classes="my-2"):
             with v.VExpansionPanel(title=("'Warnings (' + wz_summary_warnings.length + ')'",)):
                 with v.VExpansionPanelText():
                     html.Div("{{ w }}", v_for="(w, i) in wz_summary_warnings", key="i", classes="text-caption")
         with html.Div(classes="d-flex align-center flex-wrap ga-2 mt-3"):
-            v.VBtn("Report", color="primary", prepend_icon="mdi-file-document-outline",
-                   loading=("wz_reporting",), disabled=("wz_reporting",), click=on_report,
-                   raw_attrs=tid("wz-report"))
-            html.A("{{ l.title }}", v_for="l in wz_report_links", key="l.kind", href=("l.url",),
-                   target="_blank", download=("l.kind === 'html' ? undefined : l.name",),
-                   classes="text-body-2 mx-2", raw_attrs=dyn_tid("'wz-report-' + l.kind"))
-        html.Div("The report is stored in the project with the summary result; Report again after a redo.",
-                 classes="text-caption mt-1")
-
+            v.VBtn(
+                "Report",
+                color="primary",
+                prepend_icon="mdi-file-document-outline",
+                loading=("wz_reporting",),
+                disabled=("wz_reporting",),
+                click=on_report,
+                raw_attrs=tid("wz-report"),
+            )
+            html.A(
+                "{{ l.title }}",
+                v_for="l in wz_report_links",
+                key="l.kind",
+                href=("l.url",),
+                target="_blank",
+                download=("l.kind === 'html' ? undefined : l.name",),
+                classes="text-body-2 mx-2",
+                raw_attrs=dyn_tid("'wz-report-' + l.kind"),
+            )
+        html.Div(
+            "The report is stored in the project with the summary result; Report again after a redo.",
+            classes="text-caption mt-1",
+        )

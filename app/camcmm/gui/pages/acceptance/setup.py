@@ -63,8 +63,10 @@ class WizardSetup:
         obj = self.host.load(sid)
         for attr in ("requirements", "evaluate_measurement", "summarize", "write_report"):
             if not callable(getattr(obj, attr, None)):
-                raise InputError(f"standard plugin {sid!r} lacks {attr}(); it does not speak the standard protocol "
-                                 "of docs/standards.md")
+                raise InputError(
+                    f"standard plugin {sid!r} lacks {attr}(); it does not speak the standard protocol "
+                    "of docs/standards.md"
+                )
         return obj
 
     def declaration(self, sid: str | None = None) -> StandardDeclaration:
@@ -90,14 +92,29 @@ class WizardSetup:
         """The tests of standard ``sid`` before a plan exists: test, label, parameters,
         required, positions count."""
         std = self.standard(sid)
-        return [{"test": r["test"], "label": r.get("label") or r["test"], "parameters": list(r.get("parameters") or []),
-                 "required": bool(r.get("required", True)), "min_count": int(r.get("min_count") or 0),
-                 "repeats": int(r.get("repeats") or 1), "n_positions": len(r.get("positions") or [])}
-                for r in std.requirements(None)]
+        return [
+            {
+                "test": r["test"],
+                "label": r.get("label") or r["test"],
+                "parameters": list(r.get("parameters") or []),
+                "required": bool(r.get("required", True)),
+                "min_count": int(r.get("min_count") or 0),
+                "repeats": int(r.get("repeats") or 1),
+                "n_positions": len(r.get("positions") or []),
+            }
+            for r in std.requirements(None)
+        ]
 
     # -- setup ---------------------------------------------------------------------------
-    def build_plan(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
-                   artefacts: dict[str, dict[str, Any]], options: Any = None) -> dict[str, Any]:
+    def build_plan(
+        self,
+        standard: str,
+        system_name: str,
+        measuring_volume: Any,
+        mpe: dict[str, Any],
+        artefacts: dict[str, dict[str, Any]],
+        options: Any = None,
+    ) -> dict[str, Any]:
         """The plan dict from the setup form; values are checked here (one line naming
         the field) and by the standard (``requirements(plan)``). ``options``: more plan
         keys (a dict or YAML text: outliers, scaling, repeats, unit, options ...)."""
@@ -138,16 +155,28 @@ class WizardSetup:
                 if (fields_ or {}).get(f"_{meta}"):
                     entry[meta] = str(fields_[f"_{meta}"])
             arts[test] = entry
-        plan = {"standard": standard, "system": {"name": name, "measuring_volume": vol}, "mpe": mpes,
-                "artefacts": arts, "measurements": {},
-                "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)"}
+        plan = {
+            "standard": standard,
+            "system": {"name": name, "measuring_volume": vol},
+            "mpe": mpes,
+            "artefacts": arts,
+            "measurements": {},
+            "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)",
+        }
         plan.update(parse_options(options))
         self.standard(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
         return plan
 
-    def setup(self, standard: str, system_name: str, measuring_volume: Any, mpe: dict[str, Any],
-              artefacts: dict[str, dict[str, Any]], tests: list[str] | None = None, options: Any = None
-              ) -> dict[str, Any]:
+    def setup(
+        self,
+        standard: str,
+        system_name: str,
+        measuring_volume: Any,
+        mpe: dict[str, Any],
+        artefacts: dict[str, dict[str, Any]],
+        tests: list[str] | None = None,
+        options: Any = None,
+    ) -> dict[str, Any]:
         """Start a new test (the running one, if any, goes to the history: its results
         stay in the project). Returns the new state."""
         std = self.standard(standard)
@@ -158,18 +187,27 @@ class WizardSetup:
             for param in available[t].get("parameters") or []:
                 v = (mpe or {}).get(param)
                 if _blank(v):
-                    raise InputError(f"MPE {parameter(decl, param).symbol} is empty; enter it from the measuring "
-                                     "system's specification")
-        plan = self.build_plan(standard, system_name, measuring_volume, mpe,
-                               {t: a for t, a in (artefacts or {}).items() if t in chosen}, options)
+                    raise InputError(
+                        f"MPE {parameter(decl, param).symbol} is empty; enter it from the measuring "
+                        "system's specification"
+                    )
+        plan = self.build_plan(
+            standard,
+            system_name,
+            measuring_volume,
+            mpe,
+            {t: a for t, a in (artefacts or {}).items() if t in chosen},
+            options,
+        )
         missing = [t for t in chosen if t not in plan["artefacts"]]
         if missing:
             raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
         with self._lock:
             self._archive()
             system = plan["system"]
-            sid = self.project.add_system(system["name"], {"measuring_volume": system["measuring_volume"],
-                                                                  "standard": standard})
+            sid = self.project.add_system(
+                system["name"], {"measuring_volume": system["measuring_volume"], "standard": standard}
+            )
             art_ids = {}
             for test, entry in plan["artefacts"].items():
                 aid = str((artefacts.get(test) or {}).get("_id") or "") or f"{test}-own"
@@ -177,13 +215,27 @@ class WizardSetup:
                 try:
                     kind = artefact_kind(decl, test)
                     art_ids[test] = self.project.add_artefact(
-                        plan_fields_to_artefact(kind, entry, aid, name, decl.artefact(kind)))
+                        plan_fields_to_artefact(kind, entry, aid, name, decl.artefact(kind))
+                    )
                 except CamcmmError as exc:
                     log.warning("artefact %s not saved in the project: %s", aid, exc)
-            state = {"standard": standard, "plan": plan, "measurements": {}, "evaluations": {}, "positions": {},
-                     "errors": {}, "superseded": [], "tests": chosen, "system_id": sid, "artefact_ids": art_ids,
-                     "summary_result": None, "report": None, "verdict": None, "verdict_guarded": None,
-                     "created": utcnow()}
+            state = {
+                "standard": standard,
+                "plan": plan,
+                "measurements": {},
+                "evaluations": {},
+                "positions": {},
+                "errors": {},
+                "superseded": [],
+                "tests": chosen,
+                "system_id": sid,
+                "artefact_ids": art_ids,
+                "summary_result": None,
+                "report": None,
+                "verdict": None,
+                "verdict_guarded": None,
+                "created": utcnow(),
+            }
             self.state = state
             self._std = std
             self._reqs = None
@@ -196,8 +248,20 @@ class WizardSetup:
             return
         try:
             history = list(self.project.get_state(HISTORY_KEY, []) or [])
-            history.append({k: self.state.get(k) for k in ("standard", "created", "summary_result", "verdict",
-                                                            "verdict_guarded", "measurements", "evaluations")})
+            history.append(
+                {
+                    k: self.state.get(k)
+                    for k in (
+                        "standard",
+                        "created",
+                        "summary_result",
+                        "verdict",
+                        "verdict_guarded",
+                        "measurements",
+                        "evaluations",
+                    )
+                }
+            )
             self.project.set_state(HISTORY_KEY, history)
         except CamcmmError as exc:
             log.warning("could not keep the previous test in the history: %s", exc)

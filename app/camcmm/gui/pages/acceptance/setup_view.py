@@ -15,6 +15,7 @@ def set_form(path: str) -> str:
     (``v-model="wz_form.x"``) would neither re-render nor reach the server, and a field
     would fall back to the old value on blur. Assigning a new top-level object does
     both. ``path`` items are JS expressions for the keys (``"'mpe'"``, ``"f.key"``)."""
+
     def build(obj: str, keys: list[str]) -> str:
         if not keys:
             return "$event"
@@ -39,80 +40,167 @@ def build_setup(page: Any) -> None:
         page.start(form)
 
     with html.Div(v_if="wz_step === 'setup'", raw_attrs=tid("wz-setup")):
-        with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal",
-                      classes="mb-2"):
+        with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal", classes="mb-2"):
             html.Span("A test is running in this project: {{ wz_progress_text }}. ")
-            v.VBtn("Set up a new test", size="small", variant="text", color="primary", click="wz_locked = false",
-                   raw_attrs=tid("wz-unlock"))
-        v.VAlert(v_if="!wz_standards.length", type="warning", density="compact", classes="mb-2",
-                 text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.")
-        v.VAlert(v_if="wz_setup_error", text=("wz_setup_error",), type="error", density="compact",
-                 classes="mb-2", raw_attrs=tid("wz-setup-error"))
+            v.VBtn(
+                "Set up a new test",
+                size="small",
+                variant="text",
+                color="primary",
+                click="wz_locked = false",
+                raw_attrs=tid("wz-unlock"),
+            )
+        v.VAlert(
+            v_if="!wz_standards.length",
+            type="warning",
+            density="compact",
+            classes="mb-2",
+            text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.",
+        )
+        v.VAlert(
+            v_if="wz_setup_error",
+            text=("wz_setup_error",),
+            type="error",
+            density="compact",
+            classes="mb-2",
+            raw_attrs=tid("wz-setup-error"),
+        )
         with v.VRow(dense=True):
             with v.VCol(cols=12, md=7):
-                v.VSelect(model_value=("wz_form.standard",), items=("wz_standards",), label="Standard",
-                          density="compact", variant="outlined", disabled=("wz_locked",), hide_details=True,
-                          update_modelValue=(on_standard, "[$event, wz_form]"), raw_attrs=tid("wz-standard"))
+                v.VSelect(
+                    model_value=("wz_form.standard",),
+                    items=("wz_standards",),
+                    label="Standard",
+                    density="compact",
+                    variant="outlined",
+                    disabled=("wz_locked",),
+                    hide_details=True,
+                    update_modelValue=(on_standard, "[$event, wz_form]"),
+                    raw_attrs=tid("wz-standard"),
+                )
             with v.VCol(cols=12, md=5):
-                v.VTextField(model_value=("wz_form.system_name",), update_modelValue=set_form("'system_name'"),
-                             label="Measuring system", density="compact",
-                             variant="outlined", disabled=("wz_locked",), hide_details=True,
-                             raw_attrs=tid("wz-system-name"))
+                v.VTextField(
+                    model_value=("wz_form.system_name",),
+                    update_modelValue=set_form("'system_name'"),
+                    label="Measuring system",
+                    density="compact",
+                    variant="outlined",
+                    disabled=("wz_locked",),
+                    hide_details=True,
+                    raw_attrs=tid("wz-system-name"),
+                )
         html.Div("Measuring volume", classes="text-caption mt-3 mb-2")
         with v.VRow(dense=True):
             for i, axis in enumerate("xyz"):
                 with v.VCol(cols=4):
-                    v.VTextField(model_value=(f"wz_form.volume[{i}]",),
-                                 update_modelValue=set_form(f"'volume' | {i}").replace(
-                                     "Object.assign({}, (wz_form || {})['volume']",
-                                     "Object.assign([], (wz_form || {})['volume']"),
-                                 label=axis, suffix="mm",
-                                 density="compact", variant="outlined", disabled=("wz_locked",),
-                                 hide_details=True, raw_attrs=tid(f"wz-volume-{axis}"))
+                    v.VTextField(
+                        model_value=(f"wz_form.volume[{i}]",),
+                        update_modelValue=set_form(f"'volume' | {i}").replace(
+                            "Object.assign({}, (wz_form || {})['volume']", "Object.assign([], (wz_form || {})['volume']"
+                        ),
+                        label=axis,
+                        suffix="mm",
+                        density="compact",
+                        variant="outlined",
+                        disabled=("wz_locked",),
+                        hide_details=True,
+                        raw_attrs=tid(f"wz-volume-{axis}"),
+                    )
         html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
         with v.VRow(dense=True):
             with v.VCol(v_for="f in wz_mpe_fields", key="f.key", cols=6, md=3):
-                v.VTextField(model_value=("wz_form.mpe[f.key]",), update_modelValue=set_form("'mpe' | f.key"),
-                             label=("f.label",), suffix=("f.unit",),
-                             density="compact", variant="outlined", disabled=("wz_locked",), hide_details=True,
-                             raw_attrs=dyn_tid("'wz-mpe-' + f.key"))
+                v.VTextField(
+                    model_value=("wz_form.mpe[f.key]",),
+                    update_modelValue=set_form("'mpe' | f.key"),
+                    label=("f.label",),
+                    suffix=("f.unit",),
+                    density="compact",
+                    variant="outlined",
+                    disabled=("wz_locked",),
+                    hide_details=True,
+                    raw_attrs=dyn_tid("'wz-mpe-' + f.key"),
+                )
         html.Div("Artefacts", classes="text-caption mt-3 mb-2")
-        with v.VCard(v_for="t in wz_form_tests", key="t.test", variant="outlined", classes="mb-2",
-                     raw_attrs=dyn_tid("'wz-artefact-' + t.test")):
+        with v.VCard(
+            v_for="t in wz_form_tests",
+            key="t.test",
+            variant="outlined",
+            classes="mb-2",
+            raw_attrs=dyn_tid("'wz-artefact-' + t.test"),
+        ):
             with v.VCardText(classes="pb-1"):
                 with html.Div(classes="d-flex align-center ga-2 mb-2"):
                     html.Span("{{ t.label }}", classes="text-subtitle-2")
-                    v.VChip("{{ t.min_count }} positions{{ t.repeats > 1 ? ' × ' + t.repeats + ' repeats' : '' }}",
-                            size="x-small", variant="tonal")
-                    v.VCheckbox(v_if="!t.required", model_value=("wz_form.include",),
-                                update_modelValue=set_form("'include'"), value=("t.test",), multiple=True,
-                                label="include (optional)", density="compact", hide_details=True,
-                                disabled=("wz_locked",))
+                    v.VChip(
+                        "{{ t.min_count }} positions{{ t.repeats > 1 ? ' × ' + t.repeats + ' repeats' : '' }}",
+                        size="x-small",
+                        variant="tonal",
+                    )
+                    v.VCheckbox(
+                        v_if="!t.required",
+                        model_value=("wz_form.include",),
+                        update_modelValue=set_form("'include'"),
+                        value=("t.test",),
+                        multiple=True,
+                        label="include (optional)",
+                        density="compact",
+                        hide_details=True,
+                        disabled=("wz_locked",),
+                    )
                 with html.Div(v_if="t.required || (wz_form.include || []).includes(t.test)"):
-                    v.VSelect(model_value=("(wz_form.artefacts[t.test] || {})._choice",), items=("t.options",),
-                              label="From the catalogue", density="compact", variant="outlined",
-                              disabled=("wz_locked",), hide_details=True, classes="mb-2",
-                              update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
-                              raw_attrs=dyn_tid("'wz-catalogue-' + t.test"))
+                    v.VSelect(
+                        model_value=("(wz_form.artefacts[t.test] || {})._choice",),
+                        items=("t.options",),
+                        label="From the catalogue",
+                        density="compact",
+                        variant="outlined",
+                        disabled=("wz_locked",),
+                        hide_details=True,
+                        classes="mb-2",
+                        update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
+                        raw_attrs=dyn_tid("'wz-catalogue-' + t.test"),
+                    )
                     with v.VRow(dense=True):
                         with v.VCol(v_for="f in t.fields", key="f.key", cols=6, md=3):
-                            v.VTextField(model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
-                                         update_modelValue=set_form("'artefacts' | t.test | f.key"),
-                                         label=("f.label",),
-                                         suffix=("f.unit",), density="compact", variant="outlined",
-                                         disabled=("wz_locked",), hide_details=True,
-                                         raw_attrs=dyn_tid("'wz-field-' + t.test + '-' + f.key"))
+                            v.VTextField(
+                                model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
+                                update_modelValue=set_form("'artefacts' | t.test | f.key"),
+                                label=("f.label",),
+                                suffix=("f.unit",),
+                                density="compact",
+                                variant="outlined",
+                                disabled=("wz_locked",),
+                                hide_details=True,
+                                raw_attrs=dyn_tid("'wz-field-' + t.test + '-' + f.key"),
+                            )
         with v.VExpansionPanels(classes="mb-2", raw_attrs=tid("wz-advanced")):
             with v.VExpansionPanel(title="More plan options (YAML, docs/standards.md)"):
                 with v.VExpansionPanelText():
-                    v.VTextarea(model_value=("wz_form.options",), update_modelValue=set_form("'options'"),
-                                rows=3, auto_grow=True, density="compact", variant="outlined",
-                                disabled=("wz_locked",), hide_details=True,
-                                placeholder="unit: mm  (keys the standard reads besides the form)",
-                                raw_attrs=tid("wz-options"))
+                    v.VTextarea(
+                        model_value=("wz_form.options",),
+                        update_modelValue=set_form("'options'"),
+                        rows=3,
+                        auto_grow=True,
+                        density="compact",
+                        variant="outlined",
+                        disabled=("wz_locked",),
+                        hide_details=True,
+                        placeholder="unit: mm  (keys the standard reads besides the form)",
+                        raw_attrs=tid("wz-options"),
+                    )
         with html.Div(classes="d-flex ga-2 mt-2"):
-            v.VBtn("Start the test", color="primary", prepend_icon="mdi-play", disabled=("wz_locked",),
-                   click=(on_start, "[wz_form]"), raw_attrs=tid("wz-start"))
-            v.VBtn("Go to the positions", v_if="wz_active", variant="text", click="wz_step = 'positions'",
-                   raw_attrs=tid("wz-goto-positions"))
-
+            v.VBtn(
+                "Start the test",
+                color="primary",
+                prepend_icon="mdi-play",
+                disabled=("wz_locked",),
+                click=(on_start, "[wz_form]"),
+                raw_attrs=tid("wz-start"),
+            )
+            v.VBtn(
+                "Go to the positions",
+                v_if="wz_active",
+                variant="text",
+                click="wz_step = 'positions'",
+                raw_attrs=tid("wz-goto-positions"),
+            )

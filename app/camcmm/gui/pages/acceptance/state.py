@@ -55,8 +55,10 @@ class WizardState:
         try:
             self._std = self.standard(state["standard"])
         except CamcmmError as exc:
-            self.load_error = (f"the acceptance test in this project uses standard {state['standard']!r}, "
-                               f"which cannot be loaded: {exc}")
+            self.load_error = (
+                f"the acceptance test in this project uses standard {state['standard']!r}, "
+                f"which cannot be loaded: {exc}"
+            )
             return False
         if not isinstance(state.get("positions"), dict) or not state["positions"]:
             state["positions"] = self._derive_positions()
@@ -119,10 +121,18 @@ class WizardState:
         reqs = []
         for t in order:
             r = got[t]
-            reqs.append({"test": t, "label": r.get("label") or t, "parameters": list(r.get("parameters") or []),
-                         "min_count": int(r.get("min_count") or len(r.get("positions") or [])),
-                         "repeats": max(1, int(r.get("repeats") or 1)), "required": bool(r.get("required", True)),
-                         "positions": list(r.get("positions") or []), "artefact": r.get("artefact")})
+            reqs.append(
+                {
+                    "test": t,
+                    "label": r.get("label") or t,
+                    "parameters": list(r.get("parameters") or []),
+                    "min_count": int(r.get("min_count") or len(r.get("positions") or [])),
+                    "repeats": max(1, int(r.get("repeats") or 1)),
+                    "required": bool(r.get("required", True)),
+                    "positions": list(r.get("positions") or []),
+                    "artefact": r.get("artefact"),
+                }
+            )
         self._reqs = reqs
         return reqs
 
@@ -130,8 +140,10 @@ class WizardState:
         for r in self.requirements():
             if r["test"] == test:
                 return r
-        raise InputError(f"this test has no {test.replace('_', ' ')} measurements; its tests: "
-                         f"{', '.join(r['test'] for r in self.requirements())}")
+        raise InputError(
+            f"this test has no {test.replace('_', ' ')} measurements; its tests: "
+            f"{', '.join(r['test'] for r in self.requirements())}"
+        )
 
     def _slots(self, test: str) -> dict[str, list]:
         r = self.requirement(test)
@@ -174,8 +186,9 @@ class WizardState:
                         continue
                     ms.setdefault(r["test"], []).append(int(mid))
                     ev = self.evaluation(mid) or {}
-                    plan_ms.setdefault(r["test"], []).append({"file": ev.get("file") or f"measurement-{mid}",
-                                                               "position": p["id"], "repeat": i + 1})
+                    plan_ms.setdefault(r["test"], []).append(
+                        {"file": ev.get("file") or f"measurement-{mid}", "position": p["id"], "repeat": i + 1}
+                    )
         self.state["measurements"] = ms
         self.state["plan"]["measurements"] = plan_ms
         self._reqs = None
@@ -183,8 +196,9 @@ class WizardState:
     def _stale_summary(self) -> None:
         """A changed measurement makes a written report stale (it stays in the project)."""
         if self.state.get("summary_result") is not None:
-            self.state.setdefault("reports", []).append({"summary_result": self.state["summary_result"],
-                                                         "report": self.state.get("report")})
+            self.state.setdefault("reports", []).append(
+                {"summary_result": self.state["summary_result"], "report": self.state.get("report")}
+            )
         self.state.update({"summary_result": None, "report": None, "verdict": None, "verdict_guarded": None})
 
     def _save(self) -> None:

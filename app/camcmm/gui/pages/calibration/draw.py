@@ -25,8 +25,11 @@ def bgr8(data: np.ndarray) -> np.ndarray:
     if a.dtype != np.uint8:
         f = a.astype(np.float64)
         lo, hi = float(np.nanmin(f)), float(np.nanmax(f))
-        a = np.zeros(a.shape, np.uint8) if hi <= lo else \
-            np.clip((f - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
+        a = (
+            np.zeros(a.shape, np.uint8)
+            if hi <= lo
+            else np.clip((f - lo) * (255.0 / (hi - lo)), 0, 255).astype(np.uint8)
+        )
     if a.ndim == 2:
         return cv2.cvtColor(a, cv2.COLOR_GRAY2BGR)
     if a.shape[2] == 4:
@@ -73,8 +76,14 @@ def _label(img: np.ndarray, text: str, colour: tuple[int, int, int]) -> None:
     cv2.putText(img, text, (6, tht + 5), cv2.FONT_HERSHEY_SIMPLEX, scale, colour, th, cv2.LINE_AA)
 
 
-def draw_detection(data: np.ndarray, corners: Sequence[Sequence[float]] | None, layout: tuple[int, int] | None,
-                   status: str = "used", text: str = "", max_width: int = 960) -> np.ndarray:
+def draw_detection(
+    data: np.ndarray,
+    corners: Sequence[Sequence[float]] | None,
+    layout: tuple[int, int] | None,
+    status: str = "used",
+    text: str = "",
+    max_width: int = 960,
+) -> np.ndarray:
     """The image (BGR, downscaled to ``max_width``) with the detected board drawn:
     OpenCV's coloured chessboard rows when every point of the board was found
     (cv2.drawChessboardCorners; ``layout`` is (cols, rows)), else a ring per point.

@@ -16,9 +16,11 @@ from typing import Any
 from ....errors import InputError
 
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
-BOARD_HELP = ("chessboard:COLSxROWS:SQUARE_MM counts inner corners (chessboard:9x6:25); "
-              "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] counts squares; circles:COLSxROWS:SPACING_MM; "
-              "acircles:COLSxROWS:SPACING_MM (OpenCV's asymmetric grid)")
+BOARD_HELP = (
+    "chessboard:COLSxROWS:SQUARE_MM counts inner corners (chessboard:9x6:25); "
+    "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] counts squares; circles:COLSxROWS:SPACING_MM; "
+    "acircles:COLSxROWS:SPACING_MM (OpenCV's asymmetric grid)"
+)
 #: one line per board kind, shown under the board field for the kind being typed
 BOARD_HINTS = {
     "chessboard": "chessboard:COLSxROWS:SQUARE_MM, inner corners as OpenCV counts them, e.g. chessboard:9x6:25",
@@ -28,8 +30,19 @@ BOARD_HINTS = {
     "": "chessboard:9x6:25 (inner corners), charuco:11x8:15:11, circles:7x6:20 or acircles:4x11:10",
 }
 #: the keys of a run request (the layout sends them; the project remembers the last)
-REQUEST_KEYS = ("mode", "source", "left", "right", "folder", "left_pattern", "right_pattern", "board", "model",
-                "outlier_factor", "name")
+REQUEST_KEYS = (
+    "mode",
+    "source",
+    "left",
+    "right",
+    "folder",
+    "left_pattern",
+    "right_pattern",
+    "board",
+    "model",
+    "outlier_factor",
+    "name",
+)
 MODELS = [
     {"title": "standard: k1 k2 p1 p2 k3", "value": "standard"},
     {"title": "thin prism: + s1-s4", "value": "thin-prism"},
@@ -60,9 +73,14 @@ def folder_sources(folder: str, pattern: str = "*", what: str = "images", roots:
     if not root.is_dir():
         raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
     pats = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
-    files = sorted(p for p in root.iterdir()
-                   if p.is_file() and p.suffix.lower() in IMAGE_EXTS and any(fnmatch.fnmatch(p.name, q) for q in pats)
-                   and (roots is None or roots.allows(p)))  # a link to a file elsewhere stays out
+    files = sorted(
+        p
+        for p in root.iterdir()
+        if p.is_file()
+        and p.suffix.lower() in IMAGE_EXTS
+        and any(fnmatch.fnmatch(p.name, q) for q in pats)
+        and (roots is None or roots.allows(p))
+    )  # a link to a file elsewhere stays out
     if not files:
         raise InputError(f"{what}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r} in {root}")
     return [{"name": p.name, "path": str(p.resolve()), "hash": None, "item": None} for p in files]
@@ -81,8 +99,14 @@ def item_sources(project: Any, item_ids: Iterable[Any], what: str = "images") ->
             raise InputError(f"{what}: item {i} is no longer in the project")
         if m.get("kind") != "image":
             raise InputError(f"{what}: item {m.get('name', i)!r} is a {m.get('kind')}, not an image")
-        out.append({"name": str(m.get("name") or i), "path": str(project.file_path(m["hash"])), "hash": m["hash"],
-                    "item": m["id"]})
+        out.append(
+            {
+                "name": str(m.get("name") or i),
+                "path": str(project.file_path(m["hash"])),
+                "hash": m["hash"],
+                "item": m["id"],
+            }
+        )
     for s, n in zip(out, _unique([s["name"] for s in out])):
         s["name"] = n
     return out
@@ -143,8 +167,9 @@ def board_layout(spec: str) -> tuple[str, tuple[int, int] | None]:
     return kind, ((c - 1, r - 1) if kind == "charuco" else (c, r))
 
 
-def check_request(req: dict[str, Any], project: Any, roots: Any = None
-                  ) -> tuple[dict[str, Any], dict[str, list[dict[str, Any]]]]:
+def check_request(
+    req: dict[str, Any], project: Any, roots: Any = None
+) -> tuple[dict[str, Any], dict[str, list[dict[str, Any]]]]:
     """The request cleaned (mode, board, model, outlier factor) and its image sources
     ``{"left": [...], "right": [...]}`` (one camera: left only); InputError naming what is
     wrong. Reads the project (loop thread); the plugin judges the board spec itself."""
@@ -155,8 +180,7 @@ def check_request(req: dict[str, Any], project: Any, roots: Any = None
     if not req["board"]:
         raise InputError("board: give the board spec, e.g. chessboard:9x6:25 (" + BOARD_HELP + ")")
     try:
-        req["outlier_factor"] = float(req.get("outlier_factor") if req.get("outlier_factor") not in (None, "")
-                                      else 3.0)
+        req["outlier_factor"] = float(req.get("outlier_factor") if req.get("outlier_factor") not in (None, "") else 3.0)
     except (TypeError, ValueError):
         raise InputError(f"outlier factor: {req.get('outlier_factor')!r} is not a number") from None
     req["model"] = req.get("model") or "standard"
@@ -173,6 +197,8 @@ def check_request(req: dict[str, Any], project: Any, roots: Any = None
     if mode == "stereo":
         both = {s["path"] for s in src["left"]} & {s["path"] for s in src["right"]}
         if both:
-            raise InputError(f"the same image is among the left and the right images ({len(both)} of them); "
-                             "give each camera its own images")
+            raise InputError(
+                f"the same image is among the left and the right images ({len(both)} of them); "
+                "give each camera its own images"
+            )
     return req, src

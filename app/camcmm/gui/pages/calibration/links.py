@@ -27,8 +27,11 @@ def offer_heatmap(offered: Downloads, doc: dict[str, Any], side: str) -> dict[st
     cam = res.camera_part(doc["outputs"], mode, side)
     suffix = f"-{side}" if mode == "stereo" else ""
     title = f"Projection uncertainty at z = {pu['distance']:g} mm, {res.side_title(mode, side)}"
-    return offered.offer(f"{base(doc)}-heatmap{suffix}.png", replace=True, data=figs.heatmap_png(
-        pu, res.used_corners(cam), cam.get("image_size") or [0, 0], title))
+    return offered.offer(
+        f"{base(doc)}-heatmap{suffix}.png",
+        replace=True,
+        data=figs.heatmap_png(pu, res.used_corners(cam), cam.get("image_size") or [0, 0], title),
+    )
 
 
 def offer_all(offered: Downloads, project: Any, doc: dict[str, Any]) -> list[dict[str, str]]:
@@ -40,12 +43,26 @@ def offer_all(offered: Downloads, project: Any, doc: dict[str, Any]) -> list[dic
             links.append(offered.offer(f"{name}.{ext}", src=project.file_path(cur[key]), replace=True))
         except Exception as exc:  # the numbers stay shown without the file
             log.warning("cannot offer the calibration %s: %s", ext, exc)
-    links.append(offered.offer(f"{name}-views.csv", replace=True, data=table_csv(
-        ["camera", "image", "status", "rms_px", "points", "reason"], res.views_csv_rows(doc["outputs"], mode))))
+    links.append(
+        offered.offer(
+            f"{name}-views.csv",
+            replace=True,
+            data=table_csv(
+                ["camera", "image", "status", "rms_px", "points", "reason"], res.views_csv_rows(doc["outputs"], mode)
+            ),
+        )
+    )
     for side in res.sides(mode):
         cam = res.camera_part(doc["outputs"], mode, side)
         suffix = f"-{side}" if mode == "stereo" else ""
-        links.append(offered.offer(f"{name}-errors{suffix}.png", replace=True, data=figs.views_png(
-            res.view_rows(cam), cam.get("rms"), f"Reprojection error per view, {res.side_title(mode, side)}")))
+        links.append(
+            offered.offer(
+                f"{name}-errors{suffix}.png",
+                replace=True,
+                data=figs.views_png(
+                    res.view_rows(cam), cam.get("rms"), f"Reprojection error per view, {res.side_title(mode, side)}"
+                ),
+            )
+        )
         links.append(offer_heatmap(offered, doc, side))
     return [x for x in links if x]

@@ -25,9 +25,19 @@ from .show import Results
 log = logging.getLogger("camcmm.gui.calibration")
 
 #: request key -> state variable of the input it comes from
-FIELDS = {"mode": "cal_mode", "source": "cal_source", "left": "cal_left_items", "right": "cal_right_items",
-          "folder": "cal_folder", "left_pattern": "cal_left_pattern", "right_pattern": "cal_right_pattern",
-          "board": "cal_board", "model": "cal_model", "outlier_factor": "cal_outlier", "name": "cal_name"}
+FIELDS = {
+    "mode": "cal_mode",
+    "source": "cal_source",
+    "left": "cal_left_items",
+    "right": "cal_right_items",
+    "folder": "cal_folder",
+    "left_pattern": "cal_left_pattern",
+    "right_pattern": "cal_right_pattern",
+    "board": "cal_board",
+    "model": "cal_model",
+    "outlier_factor": "cal_outlier",
+    "name": "cal_name",
+}
 
 
 class CalibrationPage:
@@ -139,8 +149,11 @@ class CalibrationPage:
         self.state.cal_left_items, self.state.cal_right_items = left, right
         self.state.cal_source = "items"
         if not left:
-            self._error("no image items" + (" named left…" if self.state.cal_mode == "stereo" else "")
-                        + " in the project: upload the board images or import them")
+            self._error(
+                "no image items"
+                + (" named left…" if self.state.cal_mode == "stereo" else "")
+                + " in the project: upload the board images or import them"
+            )
 
     # -- the run ----------------------------------------------------------------------------
     def _show_progress(self, fraction: float, message: str) -> None:
@@ -165,8 +178,7 @@ class CalibrationPage:
             self._error("a calibration is running; wait for it or cancel it")
             return None
         try:
-            req, src = inputs.check_request(self.request() if req is None else req, self.project,
-                                            self.session.roots)
+            req, src = inputs.check_request(self.request() if req is None else req, self.project, self.session.roots)
         except Exception as exc:
             self._error(exc)
             return None

@@ -34,8 +34,9 @@ def first_used(doc: dict[str, Any], side: str = "left") -> str | None:
     return next((r["name"] for r in rows if r["status"] == "used"), rows[0]["name"] if rows else None)
 
 
-def overlay(project: Any, doc: dict[str, Any], side: str, name: str,
-            images: dict[str, list] | None = None) -> tuple[str, str]:
+def overlay(
+    project: Any, doc: dict[str, Any], side: str, name: str, images: dict[str, list] | None = None
+) -> tuple[str, str]:
     """(data URL, note) of image ``name`` with its detected board drawn."""
     cam = res.camera_part(doc["outputs"], doc["request"]["mode"], side)
     det = next((d for d in cam["detections"] if d["image"] == name), None)
@@ -55,8 +56,9 @@ def overlay(project: Any, doc: dict[str, Any], side: str, name: str,
     return draw.data_url(draw.draw_detection(img.data, det.get("corners"), layout, row["status"], text)), note
 
 
-def rectified(host: Any, project: Any, doc: dict[str, Any], index: int,
-              images: dict[str, list] | None = None) -> tuple[str, str]:
+def rectified(
+    host: Any, project: Any, doc: dict[str, Any], index: int, images: dict[str, list] | None = None
+) -> tuple[str, str]:
     """(data URL, note) of used pair ``index`` rectified by the plugin, with horizontal lines."""
     pairs = doc["outputs"].get("pairs") or []
     if not 0 <= int(index) < len(pairs):
@@ -64,12 +66,15 @@ def rectified(host: Any, project: Any, doc: dict[str, Any], index: int,
     ln, rn = pairs[int(index)]
     try:
         left, right = image(project, doc, "left", ln, images), image(project, doc, "right", rn, images)
-        out = worker.run(host, plugin(host, RECTIFY), {"calibration": doc["outputs"]["calibration"],
-                                                       "left": left, "right": right}).outputs
+        out = worker.run(
+            host, plugin(host, RECTIFY), {"calibration": doc["outputs"]["calibration"], "left": left, "right": right}
+        ).outputs
         pic = draw.rectified_pair(out["left"].data, out["right"].data)
     except Exception as exc:
         return "", f"{ln} / {rn}: the rectified pair cannot be shown: {one_line(exc)}"
     dy = doc["outputs"].get("rectified_dy") or {}
-    return draw.data_url(pic), (f"{ln} / {rn} rectified: a board corner lies on the same row in both images "
-                                f"(row difference over all pairs: RMS {res.fmt(dy.get('rms'), 2)} px, "
-                                f"max {res.fmt(dy.get('max'), 2)} px)")
+    return draw.data_url(pic), (
+        f"{ln} / {rn} rectified: a board corner lies on the same row in both images "
+        f"(row difference over all pairs: RMS {res.fmt(dy.get('rms'), 2)} px, "
+        f"max {res.fmt(dy.get('max'), 2)} px)"
+    )

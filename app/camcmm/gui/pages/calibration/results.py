@@ -31,15 +31,21 @@ def side_title(mode: str, side: str) -> str:
 def camera_part(outputs: dict[str, Any], mode: str, side: str = "left") -> dict[str, Any]:
     """One camera's numbers, detections and the calibration its heat map comes from."""
     if mode != "stereo":
-        return {**outputs, "detections": outputs.get("detections") or [],
-                "map_calibration": outputs.get("calibration"), "pair_rejected": {}}
+        return {
+            **outputs,
+            "detections": outputs.get("detections") or [],
+            "map_calibration": outputs.get("calibration"),
+            "pair_rejected": {},
+        }
     cam = dict(outputs.get(side) or {})
     k = 0 if side == "left" else 1
     pair_rejected = {}
     for r in outputs.get("rejected") or []:
         rms = r.get("rms")
-        pair_rejected[r.get(side)] = {"reason": r.get("reason", ""),
-                                      "rms": rms[k] if isinstance(rms, list) and len(rms) == 2 else None}
+        pair_rejected[r.get(side)] = {
+            "reason": r.get("reason", ""),
+            "rms": rms[k] if isinstance(rms, list) and len(rms) == 2 else None,
+        }
     cam["detections"] = (outputs.get("detections") or {}).get(side) or []
     cam["map_calibration"] = (outputs.get("single") or {}).get(side)
     cam["pair_rejected"] = pair_rejected
@@ -86,8 +92,10 @@ def number_rows(cam: dict[str, Any]) -> list[dict[str, str]]:
     values = [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *D]
     std = cam.get("std_named") or {}
     names = list(std) if len(std) == len(values) else (["fx", "fy", "cx", "cy"] + [f"d{i}" for i in range(D.size)])
-    rows = [{"name": n, "value": fmt(v, 6), "std": fmt(std.get(n), 3), "unit": "px" if i < 4 else ""}
-            for i, (n, v) in enumerate(zip(names, values))]
+    rows = [
+        {"name": n, "value": fmt(v, 6), "std": fmt(std.get(n), 3), "unit": "px" if i < 4 else ""}
+        for i, (n, v) in enumerate(zip(names, values))
+    ]
     rows.append({"name": "RMS", "value": fmt(cam.get("rms"), 4), "std": "", "unit": "px"})
     return rows
 
@@ -102,13 +110,27 @@ def stereo_rows(outputs: dict[str, Any]) -> list[dict[str, str]]:
     T = np.asarray(outputs.get("T") or nan3, float)
     sT = np.asarray(outputs.get("std_T") or nan3, float)
     angle = outputs.get("rotation_angle")
-    rows = [{"name": f"rotation r{a} (Rodrigues)", "value": fmt(v, 5), "std": fmt(s, 2), "unit": "°"}
-            for a, v, s in zip("xyz", rvec, srv)]
-    rows.append({"name": "rotation angle", "value": fmt(None if angle is None else math.degrees(angle), 5), "std": "",
-                 "unit": "°"})
+    rows = [
+        {"name": f"rotation r{a} (Rodrigues)", "value": fmt(v, 5), "std": fmt(s, 2), "unit": "°"}
+        for a, v, s in zip("xyz", rvec, srv)
+    ]
+    rows.append(
+        {
+            "name": "rotation angle",
+            "value": fmt(None if angle is None else math.degrees(angle), 5),
+            "std": "",
+            "unit": "°",
+        }
+    )
     rows += [{"name": f"T{a}", "value": fmt(v, 6), "std": fmt(s, 2), "unit": "mm"} for a, v, s in zip("xyz", T, sT)]
-    rows.append({"name": "baseline |T|", "value": fmt(outputs.get("baseline"), 6),
-                 "std": fmt(outputs.get("baseline_std"), 2), "unit": "mm"})
+    rows.append(
+        {
+            "name": "baseline |T|",
+            "value": fmt(outputs.get("baseline"), 6),
+            "std": fmt(outputs.get("baseline_std"), 2),
+            "unit": "mm",
+        }
+    )
     rows.append({"name": "stereo RMS", "value": fmt(outputs.get("rms")), "std": "", "unit": "px"})
     ep = outputs.get("epipolar") or {}
     for k in ("rms", "mean", "median", "max"):
@@ -140,8 +162,11 @@ def default_distance(cam: dict[str, Any]) -> float:
 def used_corners(cam: dict[str, Any]) -> np.ndarray:
     """(N, 2) px: the corners of every view the calibration used (its coverage)."""
     used = set((cam.get("per_view_rms") or {}).keys())
-    pts = [np.asarray(d["corners"], float).reshape(-1, 2) for d in cam.get("detections") or []
-           if d.get("found") and d.get("image") in used and d.get("corners")]
+    pts = [
+        np.asarray(d["corners"], float).reshape(-1, 2)
+        for d in cam.get("detections") or []
+        if d.get("found") and d.get("image") in used and d.get("corners")
+    ]
     return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 

@@ -22,8 +22,12 @@ from ....host import to_jsonable
 from . import draw, inputs
 from . import results as res
 
-CAMERA, STEREO, PROJECTION, RECTIFY = ("camera-calibration", "stereo-calibration", "projection-uncertainty",
-                                       "rectification")
+CAMERA, STEREO, PROJECTION, RECTIFY = (
+    "camera-calibration",
+    "stereo-calibration",
+    "projection-uncertainty",
+    "rectification",
+)
 CURRENT_KEY, INPUTS_KEY = "calibration.current", "calibration.inputs"
 #: (columns, rows) of the projection-uncertainty map
 MAP_GRID = (48, 36)
@@ -41,13 +45,18 @@ def projection_map(host: Any, cam: dict[str, Any], distance: float) -> dict[str,
     cal = cam.get("map_calibration")
     if not cal:
         return None
-    out = worker.run(host, plugin(host, PROJECTION), {"calibration": cal},
-                     {"distance": float(distance), "columns": MAP_GRID[0], "rows": MAP_GRID[1]}).outputs
+    out = worker.run(
+        host,
+        plugin(host, PROJECTION),
+        {"calibration": cal},
+        {"distance": float(distance), "columns": MAP_GRID[0], "rows": MAP_GRID[1]},
+    ).outputs
     return to_jsonable({k: out[k] for k in ("map", "u", "v", "distance", "min", "max", "centre", "method")})
 
 
-def calibrate(host: Any, project: Any, req: dict[str, Any], src: dict[str, list[dict[str, Any]]],
-              job: Any) -> tuple[dict[str, Any], dict[str, list[Any]]]:
+def calibrate(
+    host: Any, project: Any, req: dict[str, Any], src: dict[str, list[dict[str, Any]]], job: Any
+) -> tuple[dict[str, Any], dict[str, list[Any]]]:
     """(page document, the images read per side) of a checked request; ``job`` (a
     :class:`~camcmm.gui.jobs.Job`) gets the progress and may cancel."""
     mode = req["mode"]
@@ -63,15 +72,34 @@ def calibrate(host: Any, project: Any, req: dict[str, Any], src: dict[str, list[
             job.progress(0.1 * k / total, f"reading {s['name']}")
     tmp = Path(tempfile.mkdtemp(prefix="camcmm-cal-"))
     try:
-        params = {"board": req["board"], "model": req["model"], "outlier_factor": req["outlier_factor"],
-                  "save": str(tmp / "calibration.json")}
+        params = {
+            "board": req["board"],
+            "model": req["model"],
+            "outlier_factor": req["outlier_factor"],
+            "save": str(tmp / "calibration.json"),
+        }
         ins = {"left": images["left"], "right": images["right"]} if mode == "stereo" else {"images": images["left"]}
-        run = worker.run(host, plugin(host, STEREO if mode == "stereo" else CAMERA), ins, params,
-                         progress=lambda f, m: job.progress(0.1 + 0.7 * f, m), cancel=job.cancel_event)
+        run = worker.run(
+            host,
+            plugin(host, STEREO if mode == "stereo" else CAMERA),
+            ins,
+            params,
+            progress=lambda f, m: job.progress(0.1 + 0.7 * f, m),
+            cancel=job.cancel_event,
+        )
         run.outputs.pop("written", None)
         outputs = to_jsonable(run.outputs)
-        doc = {"version": 1, "request": req, "sources": src, "outputs": outputs, "warnings": list(run.warnings),
-               "plugin": run.plugin_id, "plugin_version": run.plugin_version, "maps": {}, "thumbs": {}}
+        doc = {
+            "version": 1,
+            "request": req,
+            "sources": src,
+            "outputs": outputs,
+            "warnings": list(run.warnings),
+            "plugin": run.plugin_id,
+            "plugin_version": run.plugin_version,
+            "maps": {},
+            "thumbs": {},
+        }
         _, layout = inputs.board_layout(req["board"])
         for side in res.sides(mode):
             job.progress(0.82, f"projection uncertainty, {res.side_title(mode, side)}")
@@ -97,18 +125,30 @@ def store(project: Any, doc: dict[str, Any], run: Any, tmp: Path) -> None:
     from ....io import read_calibration, write_calibration
 
     req = doc["request"]
-    name = str(req.get("name") or "").strip() or \
-        f"{'stereo pair' if req['mode'] == 'stereo' else 'camera'} {req['board']} ({time.strftime('%Y-%m-%d %H:%M')})"
+    name = (
+        str(req.get("name") or "").strip()
+        or f"{'stereo pair' if req['mode'] == 'stereo' else 'camera'} {req['board']} "
+        f"({time.strftime('%Y-%m-%d %H:%M')})"
+    )
     write_calibration(tmp / "calibration.yaml", read_calibration(tmp / "calibration.json"))
     (tmp / "calibration-page.json").write_text(json.dumps(doc), encoding="utf-8")
-    files = {"calibration": project.add_file(tmp / "calibration.json"),
-             "calibration_yaml": project.add_file(tmp / "calibration.yaml"),
-             "page": project.add_file(tmp / "calibration-page.json")}
+    files = {
+        "calibration": project.add_file(tmp / "calibration.json"),
+        "calibration_yaml": project.add_file(tmp / "calibration.yaml"),
+        "page": project.add_file(tmp / "calibration-page.json"),
+    }
     mids = [s["item"] for lst in doc["sources"].values() for s in lst if s.get("item") is not None]
     rid = project.add_result(run, measurement_ids=mids, files=files, label=f"calibration: {name}")
-    doc["current"] = {"result": rid, "file": files["page"], "calibration": files["calibration"],
-                      "yaml": files["calibration_yaml"], "name": name, "kind": req["mode"], "board": req["board"],
-                      "rms": doc["outputs"].get("rms")}
+    doc["current"] = {
+        "result": rid,
+        "file": files["page"],
+        "calibration": files["calibration"],
+        "yaml": files["calibration_yaml"],
+        "name": name,
+        "kind": req["mode"],
+        "board": req["board"],
+        "rms": doc["outputs"].get("rms"),
+    }
     project.set_state(CURRENT_KEY, doc["current"])
     project.set_state(INPUTS_KEY, req)
 

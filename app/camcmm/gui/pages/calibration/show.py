@@ -71,8 +71,13 @@ class Results:
         mode = doc["request"]["mode"]
         out = doc["outputs"]
         cur = doc.get("current") or {}
-        s.cal_summary = {**res.summary(out, mode), "name": cur.get("name", ""), "result": cur.get("result"),
-                         "board": doc["request"]["board"], "model": doc["request"]["model"]}
+        s.cal_summary = {
+            **res.summary(out, mode),
+            "name": cur.get("name", ""),
+            "result": cur.get("result"),
+            "board": doc["request"]["board"],
+            "model": doc["request"]["model"],
+        }
         s.cal_warnings = list(doc.get("warnings") or [])  # the plugin warns on RMS, poses, parameters
         s.cal_sides = [{"title": res.side_title(mode, k), "value": k} for k in res.sides(mode)]
         s.cal_stereo_rows = res.stereo_rows(out) if mode == "stereo" else []
@@ -113,8 +118,9 @@ class Results:
         rows = res.view_rows(cam)
         thumbs = (doc.get("thumbs") or {}).get(side) or {}
         s.cal_rows = [{**r, "rms_text": res.fmt(r["rms"], 3), "thumb": thumbs.get(r["name"], "")} for r in rows]
-        s.cal_fig_views = figs.views_figure(rows, cam.get("rms"), f"Reprojection error per view, "
-                                                                  f"{res.side_title(mode, side)}")
+        s.cal_fig_views = figs.views_figure(
+            rows, cam.get("rms"), f"Reprojection error per view, {res.side_title(mode, side)}"
+        )
         s.cal_numbers = res.number_rows(cam)
         self._show_map(side)
         if overlay is None and rows:
@@ -135,12 +141,14 @@ class Results:
             s.cal_map_note = ""
             return
         s.cal_distance = pu["distance"]
-        title = (f"Projection uncertainty (1σ, worst direction) at z = {pu['distance']:g} mm, "
-                 f"{res.side_title(mode, side)}")
+        title = (
+            f"Projection uncertainty (1σ, worst direction) at z = {pu['distance']:g} mm, {res.side_title(mode, side)}"
+        )
         s.cal_fig_map = figs.heatmap_figure(pu, res.used_corners(cam), cam.get("image_size") or [0, 0], title)
         own = "; from the camera's own calibration" if mode == "stereo" else ""
-        s.cal_map_note = (f"σ {res.fmt(pu['min'], 2)} … {res.fmt(pu['max'], 3)} px, "
-                          f"centre {res.fmt(pu['centre'], 2)} px{own}")
+        s.cal_map_note = (
+            f"σ {res.fmt(pu['min'], 2)} … {res.fmt(pu['max'], 3)} px, centre {res.fmt(pu['centre'], 2)} px{own}"
+        )
 
     async def set_distance_async(self, distance: Any) -> None:
         """The heat map of the shown camera at another working distance (mm)."""

@@ -16,9 +16,15 @@ def rows(project: Any, current: dict[str, Any] | None) -> tuple[list[dict[str, A
     out = []
     for sy in project.systems():
         c = (sy.get("meta") or {}).get("calibration") or {}
-        out.append({"id": sy["id"], "name": sy["name"], "calibration": c.get("name", "") if c else "",
-                    "file": str(c.get("file", ""))[:12],
-                    "current": bool(c) and c.get("file") == cur.get("calibration")})
+        out.append(
+            {
+                "id": sy["id"],
+                "name": sy["name"],
+                "calibration": c.get("name", "") if c else "",
+                "file": str(c.get("file", ""))[:12],
+                "current": bool(c) and c.get("file") == cur.get("calibration"),
+            }
+        )
     return out, [{"title": f"#{r['id']} {r['name']}", "value": r["id"]} for r in out] + [new_option()]
 
 
@@ -32,8 +38,10 @@ def use(project: Any, current: dict[str, Any], target: Any = NEW, name: str = ""
     ref = {k: current.get(k) for k in ("name", "result", "kind", "board", "rms", "yaml")}
     ref["file"] = current["calibration"]
     if target in (None, "", NEW):
-        label = str(name or "").strip() or \
-            f"{'stereo system' if current['kind'] == 'stereo' else 'camera'} ({current['name']})"
+        label = (
+            str(name or "").strip()
+            or f"{'stereo system' if current['kind'] == 'stereo' else 'camera'} ({current['name']})"
+        )
         return int(project.add_system(label, {"calibration": ref}))
     sid = int(target)
     meta = dict(project.system(sid).get("meta") or {})

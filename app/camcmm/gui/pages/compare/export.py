@@ -47,12 +47,20 @@ class Export:
         """Worker thread: the deviations cloud as a project file, the result, the state."""
         dev = result.outputs["deviations"]
         h = self.project.add_object(dev, _safe_file_name(dev.name) + ".ply")
-        rid = self.project.add_result(result, measurement_ids=mids, files={"deviations": h},
-                                      label="inspection: compare with CAD")
-        saved = {"result": rid, "measured": self._mid(self.state.ins_measured),
-                 "nominal": self._mid(self.state.ins_nominal), "align": result.params.get("align"),
-                 "tolerance": result.params.get("tolerance"), "pairs": self.pairs(), "deviations": h,
-                 "report": None, "export": None}
+        rid = self.project.add_result(
+            result, measurement_ids=mids, files={"deviations": h}, label="inspection: compare with CAD"
+        )
+        saved = {
+            "result": rid,
+            "measured": self._mid(self.state.ins_measured),
+            "nominal": self._mid(self.state.ins_nominal),
+            "align": result.params.get("align"),
+            "tolerance": result.params.get("tolerance"),
+            "pairs": self.pairs(),
+            "deviations": h,
+            "report": None,
+            "export": None,
+        }
         self.project.set_state(STATE_KEY, saved)
         return saved
 
@@ -85,9 +93,16 @@ class Export:
             cloud = cio.read(self.project.file_path(h))
             outputs = dict(d.get("outputs") or {})
             outputs["deviations"] = cloud
-            result = RunResult(d.get("plugin") or self._spec_of().id, d.get("version", ""), d.get("params") or {},
-                               d.get("input_hashes") or {}, outputs, d.get("started", ""), d.get("finished", ""),
-                               list(d.get("warnings") or []))
+            result = RunResult(
+                d.get("plugin") or self._spec_of().id,
+                d.get("version", ""),
+                d.get("params") or {},
+                d.get("input_hashes") or {},
+                outputs,
+                d.get("started", ""),
+                d.get("finished", ""),
+                list(d.get("warnings") or []),
+            )
         except Exception as exc:
             s.ins_error = f"the last comparison (result {saved.get('result')}) cannot be shown: {one_line(exc)}"
             return False
@@ -170,16 +185,16 @@ class Export:
         return out
 
     def _exported(self, cloud: Any, path: Path, h: str) -> dict[str, Any]:
-        mid = self.session.add_measurement(path.name, h, cloud,
-                                           source=f"{self._spec_of().id} result #{self.result_id}")
+        mid = self.session.add_measurement(path.name, h, cloud, source=f"{self._spec_of().id} result #{self.result_id}")
         key = str(mid)
         self.session.refresh_items()
         if self.saved:
             self.saved["export"] = h
             self._save_state()
         self.state.ins_export_links = [self.offered.offer(path.name, path, kind="ply")]
-        self.session.info(f"exported {path.name} ({fmt_count(cloud.n_points)} points, field deviation in mm); "
-                          "added to the project")
+        self.session.info(
+            f"exported {path.name} ({fmt_count(cloud.n_points)} points, field deviation in mm); added to the project"
+        )
         return {"path": str(path), "hash": h, "item": key}
 
     def _can(self, what: str) -> bool:
@@ -187,8 +202,10 @@ class Export:
             self._error(f"{what}: run a comparison first")
             return False
         if what == "export" and self.state.ins_failed:
-            self._error("export: the alignment failed, so the deviations are not valid; nothing is exported "
-                        "(the report records the failure)")
+            self._error(
+                "export: the alignment failed, so the deviations are not valid; nothing is exported "
+                "(the report records the failure)"
+            )
             return False
         if self.state.ins_busy:
             self._error(f"{what}: wait for the {self.state.ins_busy} to finish")
@@ -207,8 +224,9 @@ class Export:
         try:
             return getattr(importlib.import_module(module), name)
         except (ImportError, AttributeError) as exc:
-            raise PluginError(f"plugin {spec.id!r}: its report writer {declared!r} cannot be loaded: "
-                              f"{one_line(exc)}") from None
+            raise PluginError(
+                f"plugin {spec.id!r}: its report writer {declared!r} cannot be loaded: {one_line(exc)}"
+            ) from None
 
     def _make_report(self, folder: Path) -> dict[str, str]:
         """Worker thread: the report files (html, pdf, json) in ``folder``."""
@@ -225,8 +243,9 @@ class Export:
             if m and m.get("hash"):
                 inputs.append({"file": str(m.get("name")), "sha256": m["hash"], "role": role})
         if inputs:
-            rep.provenance(inputs=inputs, extra={"project": str(getattr(self.project, "path", "")),
-                                                 "result": self.result_id})
+            rep.provenance(
+                inputs=inputs, extra={"project": str(getattr(self.project, "path", "")), "result": self.result_id}
+            )
         return rep.write(folder, basename=f"inspection-{self.result_id or 'new'}")
 
     def _report_files(self, folder: Path) -> tuple[dict[str, str], dict[str, str]]:
@@ -239,12 +258,20 @@ class Export:
         res = self.result
         if res is not None:
             mids = [m for m in (self._mid(self.state.ins_measured), self._mid(self.state.ins_nominal)) if m is not None]
-            run = {"plugin": res.plugin_id, "version": res.plugin_version, "params": res.params,
-                   "input_hashes": res.input_hashes, "outputs": {"report_of": self.result_id, "formats": sorted(paths)},
-                   "started": res.started, "finished": res.finished, "warnings": []}
+            run = {
+                "plugin": res.plugin_id,
+                "version": res.plugin_version,
+                "params": res.params,
+                "input_hashes": res.input_hashes,
+                "outputs": {"report_of": self.result_id, "formats": sorted(paths)},
+                "started": res.started,
+                "finished": res.finished,
+                "warnings": [],
+            }
             try:
-                self.project.add_result(run, measurement_ids=mids, files=files,
-                                        label=f"inspection report of result #{self.result_id}")
+                self.project.add_result(
+                    run, measurement_ids=mids, files=files, label=f"inspection report of result #{self.result_id}"
+                )
             except Exception as exc:
                 log.warning("report result: %s", exc)
         if self.saved is not None:
@@ -262,8 +289,9 @@ class Export:
                 log.warning("%s file %s: %s", what, name, exc)
                 continue
             if what == "report":
-                link = self.offered.offer(f"inspection-{self.result_id}.{kind}", src, kind=kind,
-                                          title=REPORT_TITLES.get(kind))
+                link = self.offered.offer(
+                    f"inspection-{self.result_id}.{kind}", src, kind=kind, title=REPORT_TITLES.get(kind)
+                )
             else:
                 link = self.offered.offer(self._export_name(h), src, kind=kind)
             if link:

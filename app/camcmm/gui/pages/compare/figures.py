@@ -29,15 +29,22 @@ def _fig_json(fig: Any) -> dict[str, Any]:
 
 
 def _base_layout(title: str, xtitle: str, ytitle: str) -> dict[str, Any]:
-    return {"title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
-            "margin": {"l": 56, "r": 14, "t": 34, "b": 40}, "xaxis": {"title": {"text": xtitle}, "zeroline": False},
-            "yaxis": {"title": {"text": ytitle}, "zeroline": False}, "showlegend": False,
-            "paper_bgcolor": "white", "plot_bgcolor": "white", "hovermode": "closest",
-            "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11}}
+    return {
+        "title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
+        "margin": {"l": 56, "r": 14, "t": 34, "b": 40},
+        "xaxis": {"title": {"text": xtitle}, "zeroline": False},
+        "yaxis": {"title": {"text": ytitle}, "zeroline": False},
+        "showlegend": False,
+        "paper_bgcolor": "white",
+        "plot_bgcolor": "white",
+        "hovermode": "closest",
+        "font": {"family": "Roboto, DejaVu Sans, sans-serif", "size": 11},
+    }
 
 
-def histogram_figure(hist: dict[str, Any], stats: dict[str, Any], unit: str, limit: float,
-                     tolerance: float | None = None) -> dict[str, Any]:
+def histogram_figure(
+    hist: dict[str, Any], stats: dict[str, Any], unit: str, limit: float, tolerance: float | None = None
+) -> dict[str, Any]:
     """Bars of the deviation histogram (coloured as the colour map), the 95 % interval
     shaded, ±tolerance as dashed lines; hover: the bin's range, count and share."""
     import plotly.graph_objects as go
@@ -48,36 +55,101 @@ def histogram_figure(hist: dict[str, Any], stats: dict[str, Any], unit: str, lim
     centres = 0.5 * (edges[1:] + edges[:-1])
     total = max(counts.sum(), 1.0)
     custom = np.column_stack([edges[:-1] * f, edges[1:] * f, 100.0 * counts / total])
-    fig = go.Figure(go.Bar(
-        x=(centres * f).tolist(), y=counts.tolist(), width=(np.diff(edges) * f).tolist(),
-        marker={"color": _hex_colours(centres, limit), "line": {"width": 0}}, customdata=custom.tolist(),
-        hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
-                      "(%{customdata[2]:.2f} %)<extra></extra>", name="deviations"))
+    fig = go.Figure(
+        go.Bar(
+            x=(centres * f).tolist(),
+            y=counts.tolist(),
+            width=(np.diff(edges) * f).tolist(),
+            marker={"color": _hex_colours(centres, limit), "line": {"width": 0}},
+            customdata=custom.tolist(),
+            hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
+            "(%{customdata[2]:.2f} %)<extra></extra>",
+            name="deviations",
+        )
+    )
     layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points")
     lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
-    shapes = [{"type": "rect", "xref": "x", "yref": "paper", "x0": lo, "x1": hi, "y0": 0, "y1": 1,
-               "fillcolor": "rgba(46,125,50,0.10)", "line": {"width": 0}, "layer": "below"},
-              {"type": "line", "xref": "x", "yref": "paper", "x0": lo, "x1": lo, "y0": 0, "y1": 1,
-               "line": {"color": "#2e7d32", "width": 1, "dash": "dot"}},
-              {"type": "line", "xref": "x", "yref": "paper", "x0": hi, "x1": hi, "y0": 0, "y1": 1,
-               "line": {"color": "#2e7d32", "width": 1, "dash": "dot"}}]
-    notes = [{"x": 0.5 * (lo + hi), "y": 1.0, "xref": "x", "yref": "paper", "yanchor": "bottom", "showarrow": False,
-              "text": f"95 %: {interval_text(stats, unit)}", "font": {"size": 10, "color": "#2e7d32"}}]
+    shapes = [
+        {
+            "type": "rect",
+            "xref": "x",
+            "yref": "paper",
+            "x0": lo,
+            "x1": hi,
+            "y0": 0,
+            "y1": 1,
+            "fillcolor": "rgba(46,125,50,0.10)",
+            "line": {"width": 0},
+            "layer": "below",
+        },
+        {
+            "type": "line",
+            "xref": "x",
+            "yref": "paper",
+            "x0": lo,
+            "x1": lo,
+            "y0": 0,
+            "y1": 1,
+            "line": {"color": "#2e7d32", "width": 1, "dash": "dot"},
+        },
+        {
+            "type": "line",
+            "xref": "x",
+            "yref": "paper",
+            "x0": hi,
+            "x1": hi,
+            "y0": 0,
+            "y1": 1,
+            "line": {"color": "#2e7d32", "width": 1, "dash": "dot"},
+        },
+    ]
+    notes = [
+        {
+            "x": 0.5 * (lo + hi),
+            "y": 1.0,
+            "xref": "x",
+            "yref": "paper",
+            "yanchor": "bottom",
+            "showarrow": False,
+            "text": f"95 %: {interval_text(stats, unit)}",
+            "font": {"size": 10, "color": "#2e7d32"},
+        }
+    ]
     if tolerance:
         for s in (-1, 1):
             x = s * float(tolerance) * f
-            shapes.append({"type": "line", "xref": "x", "yref": "paper", "x0": x, "x1": x, "y0": 0, "y1": 0.92,
-                           "line": {"color": "#c62828", "width": 1.5, "dash": "dash"}})
-        notes.append({"x": float(tolerance) * f, "y": 0.92, "xref": "x", "yref": "paper", "xanchor": "left",
-                      "showarrow": False, "text": f" ±{fmt_len(tolerance, unit)}",
-                      "font": {"size": 10, "color": "#c62828"}})
+            shapes.append(
+                {
+                    "type": "line",
+                    "xref": "x",
+                    "yref": "paper",
+                    "x0": x,
+                    "x1": x,
+                    "y0": 0,
+                    "y1": 0.92,
+                    "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
+                }
+            )
+        notes.append(
+            {
+                "x": float(tolerance) * f,
+                "y": 0.92,
+                "xref": "x",
+                "yref": "paper",
+                "xanchor": "left",
+                "showarrow": False,
+                "text": f" ±{fmt_len(tolerance, unit)}",
+                "font": {"size": 10, "color": "#c62828"},
+            }
+        )
     layout.update({"shapes": shapes, "annotations": notes, "bargap": 0})
     fig.update_layout(**layout)
     return _fig_json(fig)
 
 
-def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
-                          tolerance: float | None = None) -> dict[str, Any]:
+def material_ratio_figure(
+    mr: dict[str, Any], stats: dict[str, Any], unit: str, tolerance: float | None = None
+) -> dict[str, Any]:
     """The Abbott-Firestone curve (material ratio % on x, deviation on y) with the
     ISO 13565-2 construction: the 40 % secant of least gradient, the equivalent
     straight line to 0 and 100 %, C1/C2 with Smr1/Smr2, the Spk and Svk triangles;
@@ -94,53 +166,146 @@ def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
     ya, yb = np.interp([a, b], x, y)
     u = unit
     traces = [
-        go.Scatter(x=[0, s1, s1, 0, 0], y=[C1, C1, C1, C1 + spk, C1], mode="lines", fill="toself",
-                   fillcolor="rgba(198,40,40,0.12)", line={"color": "#c62828", "width": 1},
-                   name="Spk triangle",
-                   hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>"),
-        go.Scatter(x=[100, s2, s2, 100, 100], y=[C2, C2, C2, C2 - svk, C2], mode="lines", fill="toself",
-                   fillcolor="rgba(21,101,192,0.12)", line={"color": "#1565c0", "width": 1},
-                   name="Svk triangle",
-                   hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>"),
-        go.Scatter(x=[0, 100], y=[C1, C2], mode="lines", line={"color": "#6a1b9a", "width": 1, "dash": "dash"},
-                   name="equivalent straight line",
-                   hovertemplate=(f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %"
-                                  "<extra></extra>")),
-        go.Scatter(x=[0, s1, s1], y=[C1, C1, float(y.min())], mode="lines",
-                   line={"color": "#555", "width": 1, "dash": "dot"}, name="C1, Smr1",
-                   hovertemplate=f"C1 {C1:.4g} {u}, Smr1 {s1:.2f} %<extra></extra>"),
-        go.Scatter(x=[0, s2, s2], y=[C2, C2, float(y.min())], mode="lines",
-                   line={"color": "#555", "width": 1, "dash": "dot"}, name="C2, Smr2",
-                   hovertemplate=f"C2 {C2:.4g} {u}, Smr2 {s2:.2f} %<extra></extra>"),
-        go.Scatter(x=x.tolist(), y=y.tolist(), mode="lines", line={"color": "#111", "width": 2},
-                   name="material-ratio curve",
-                   hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4g}} {u}<extra></extra>"),
-        go.Scatter(x=[a, b], y=[float(ya), float(yb)], mode="lines", line={"color": "#6a1b9a", "width": 4},
-                   name="40 % secant of least gradient",
-                   hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %"
-                                 f"<br>Sk {float(mr['Sk']) * f:.4g} {u}"
-                                 "<extra></extra>"),
+        go.Scatter(
+            x=[0, s1, s1, 0, 0],
+            y=[C1, C1, C1, C1 + spk, C1],
+            mode="lines",
+            fill="toself",
+            fillcolor="rgba(198,40,40,0.12)",
+            line={"color": "#c62828", "width": 1},
+            name="Spk triangle",
+            hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>",
+        ),
+        go.Scatter(
+            x=[100, s2, s2, 100, 100],
+            y=[C2, C2, C2, C2 - svk, C2],
+            mode="lines",
+            fill="toself",
+            fillcolor="rgba(21,101,192,0.12)",
+            line={"color": "#1565c0", "width": 1},
+            name="Svk triangle",
+            hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>",
+        ),
+        go.Scatter(
+            x=[0, 100],
+            y=[C1, C2],
+            mode="lines",
+            line={"color": "#6a1b9a", "width": 1, "dash": "dash"},
+            name="equivalent straight line",
+            hovertemplate=(
+                f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %<extra></extra>"
+            ),
+        ),
+        go.Scatter(
+            x=[0, s1, s1],
+            y=[C1, C1, float(y.min())],
+            mode="lines",
+            line={"color": "#555", "width": 1, "dash": "dot"},
+            name="C1, Smr1",
+            hovertemplate=f"C1 {C1:.4g} {u}, Smr1 {s1:.2f} %<extra></extra>",
+        ),
+        go.Scatter(
+            x=[0, s2, s2],
+            y=[C2, C2, float(y.min())],
+            mode="lines",
+            line={"color": "#555", "width": 1, "dash": "dot"},
+            name="C2, Smr2",
+            hovertemplate=f"C2 {C2:.4g} {u}, Smr2 {s2:.2f} %<extra></extra>",
+        ),
+        go.Scatter(
+            x=x.tolist(),
+            y=y.tolist(),
+            mode="lines",
+            line={"color": "#111", "width": 2},
+            name="material-ratio curve",
+            hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4g}} {u}<extra></extra>",
+        ),
+        go.Scatter(
+            x=[a, b],
+            y=[float(ya), float(yb)],
+            mode="lines",
+            line={"color": "#6a1b9a", "width": 4},
+            name="40 % secant of least gradient",
+            hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %"
+            f"<br>Sk {float(mr['Sk']) * f:.4g} {u}"
+            "<extra></extra>",
+        ),
     ]
     fig = go.Figure(traces)
     layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]")
     lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
-    shapes = [{"type": "rect", "xref": "paper", "yref": "y", "x0": 0, "x1": 1, "y0": lo, "y1": hi,
-               "fillcolor": "rgba(46,125,50,0.10)", "line": {"width": 0}, "layer": "below"}]
-    notes = [{"x": 50, "y": hi, "xref": "x", "yref": "y", "yanchor": "bottom", "showarrow": False,
-              "text": f"95 % within {interval_text(stats, unit)}", "font": {"size": 10, "color": "#2e7d32"}},
-             {"x": 0.99, "y": 0.98, "xref": "paper", "yref": "paper", "xanchor": "right", "yanchor": "top",
-              "showarrow": False, "align": "right", "bgcolor": "rgba(255,255,255,0.85)", "bordercolor": "#ccc",
-              "borderwidth": 1, "font": {"size": 10},
-              "text": (f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {spk:.3g} {u} · Svk {svk:.3g} {u}"
-                       f"<br>Smr1 {s1:.2f} % · Smr2 {s2:.2f} %")}]
+    shapes = [
+        {
+            "type": "rect",
+            "xref": "paper",
+            "yref": "y",
+            "x0": 0,
+            "x1": 1,
+            "y0": lo,
+            "y1": hi,
+            "fillcolor": "rgba(46,125,50,0.10)",
+            "line": {"width": 0},
+            "layer": "below",
+        }
+    ]
+    notes = [
+        {
+            "x": 50,
+            "y": hi,
+            "xref": "x",
+            "yref": "y",
+            "yanchor": "bottom",
+            "showarrow": False,
+            "text": f"95 % within {interval_text(stats, unit)}",
+            "font": {"size": 10, "color": "#2e7d32"},
+        },
+        {
+            "x": 0.99,
+            "y": 0.98,
+            "xref": "paper",
+            "yref": "paper",
+            "xanchor": "right",
+            "yanchor": "top",
+            "showarrow": False,
+            "align": "right",
+            "bgcolor": "rgba(255,255,255,0.85)",
+            "bordercolor": "#ccc",
+            "borderwidth": 1,
+            "font": {"size": 10},
+            "text": (
+                f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {spk:.3g} {u} · Svk {svk:.3g} {u}"
+                f"<br>Smr1 {s1:.2f} % · Smr2 {s2:.2f} %"
+            ),
+        },
+    ]
     if tolerance:
         for s in (-1, 1):
             yv = s * float(tolerance) * f
-            shapes.append({"type": "line", "xref": "paper", "yref": "y", "x0": 0, "x1": 1, "y0": yv, "y1": yv,
-                           "line": {"color": "#c62828", "width": 1.5, "dash": "dash"}})
-        notes.append({"x": 0.01, "y": float(tolerance) * f, "xref": "paper", "yref": "y", "xanchor": "left",
-                      "yanchor": "bottom", "showarrow": False, "text": f"+{fmt_len(tolerance, unit)}",
-                      "font": {"size": 10, "color": "#c62828"}})
+            shapes.append(
+                {
+                    "type": "line",
+                    "xref": "paper",
+                    "yref": "y",
+                    "x0": 0,
+                    "x1": 1,
+                    "y0": yv,
+                    "y1": yv,
+                    "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
+                }
+            )
+        notes.append(
+            {
+                "x": 0.01,
+                "y": float(tolerance) * f,
+                "xref": "paper",
+                "yref": "y",
+                "xanchor": "left",
+                "yanchor": "bottom",
+                "showarrow": False,
+                "text": f"+{fmt_len(tolerance, unit)}",
+                "font": {"size": 10, "color": "#c62828"},
+            }
+        )
     layout["xaxis"]["range"] = [0, 100]
     pad = 0.06 * ((y.max() - y.min()) or 1.0)
     layout["yaxis"]["range"] = [min(float(y.min()), C2 - svk) - pad, max(float(y.max()), C1 + spk) + pad]
@@ -150,10 +315,17 @@ def material_ratio_figure(mr: dict[str, Any], stats: dict[str, Any], unit: str,
 
 
 def empty_figure(text: str = "") -> dict[str, Any]:
-    return {"data": [], "layout": {"xaxis": {"visible": False}, "yaxis": {"visible": False},
-                                   "margin": {"l": 10, "r": 10, "t": 10, "b": 10},
-                                   "annotations": [{"text": text, "showarrow": False, "xref": "paper",
-                                                    "yref": "paper", "x": 0.5, "y": 0.5}] if text else []}}
+    return {
+        "data": [],
+        "layout": {
+            "xaxis": {"visible": False},
+            "yaxis": {"visible": False},
+            "margin": {"l": 10, "r": 10, "t": 10, "b": 10},
+            "annotations": [{"text": text, "showarrow": False, "xref": "paper", "yref": "paper", "x": 0.5, "y": 0.5}]
+            if text
+            else [],
+        },
+    }
 
 
 def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, Any]:
@@ -167,36 +339,74 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
     if len(m):
         dev = np.asarray(sec["deviation"], dtype=float) * f
         lim = float(limit) * f
-        traces.append(go.Scatter(
-            x=m[:, 0].tolist(), y=m[:, 1].tolist(), mode="markers", name="measured",
-            marker={"color": np.nan_to_num(dev).tolist(), "colorscale": COLOURMAP, "cmin": -lim, "cmax": lim,
-                    "size": 4, "line": {"width": 0},
-                    "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9}},
-            customdata=np.nan_to_num(dev).tolist(),
-            hovertemplate=(f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
-                           f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>")))
+        traces.append(
+            go.Scatter(
+                x=m[:, 0].tolist(),
+                y=m[:, 1].tolist(),
+                mode="markers",
+                name="measured",
+                marker={
+                    "color": np.nan_to_num(dev).tolist(),
+                    "colorscale": COLOURMAP,
+                    "cmin": -lim,
+                    "cmax": lim,
+                    "size": 4,
+                    "line": {"width": 0},
+                    "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9},
+                },
+                customdata=np.nan_to_num(dev).tolist(),
+                hovertemplate=(
+                    f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
+                    f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>"
+                ),
+            )
+        )
     if len(sec["nominal_points"]):
         q = sec["nominal_points"]
-        traces.append(go.Scatter(x=q[:, 0].tolist(), y=q[:, 1].tolist(), mode="markers", name="nominal",
-                                 marker={"color": "#424242", "size": 2},
-                                 hovertemplate="nominal point<extra></extra>"))
+        traces.append(
+            go.Scatter(
+                x=q[:, 0].tolist(),
+                y=q[:, 1].tolist(),
+                mode="markers",
+                name="nominal",
+                marker={"color": "#424242", "size": 2},
+                hovertemplate="nominal point<extra></extra>",
+            )
+        )
     if sec["nominal"]:
         xs: list[float | None] = []
         ys: list[float | None] = []
         for pl in sec["nominal"]:
             xs += pl[:, 0].tolist() + [None]
             ys += pl[:, 1].tolist() + [None]
-        traces.append(go.Scatter(x=xs, y=ys, mode="lines", line={"color": "#212121", "width": 1.2}, name="nominal",
-                                 hovertemplate=(f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
-                                                "<extra></extra>")))
+        traces.append(
+            go.Scatter(
+                x=xs,
+                y=ys,
+                mode="lines",
+                line={"color": "#212121", "width": 1.2},
+                name="nominal",
+                hovertemplate=(f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm<extra></extra>"),
+            )
+        )
     fig = go.Figure(traces)
-    title = (f"Section {sec['axis']} = {sec['position']:.3f} mm — {sec['n_in_slab']:,} measured points within "
-             f"±{fmt_len(sec['half_width'], 'mm')}").replace(",", " ")
+    title = (
+        f"Section {sec['axis']} = {sec['position']:.3f} mm — {sec['n_in_slab']:,} measured points within "
+        f"±{fmt_len(sec['half_width'], 'mm')}"
+    ).replace(",", " ")
     layout = _base_layout(title, f"{sec['u']} [mm]", f"{sec['v']} [mm]")
     layout["yaxis"].update({"scaleanchor": "x", "scaleratio": 1})
     layout["title"]["font"] = {"size": 11}
     if not traces:
-        layout["annotations"] = [{"text": "the plane misses the part", "showarrow": False, "xref": "paper",
-                                  "yref": "paper", "x": 0.5, "y": 0.5}]
+        layout["annotations"] = [
+            {
+                "text": "the plane misses the part",
+                "showarrow": False,
+                "xref": "paper",
+                "yref": "paper",
+                "x": 0.5,
+                "y": 0.5,
+            }
+        ]
     fig.update_layout(**layout)
     return _fig_json(fig)

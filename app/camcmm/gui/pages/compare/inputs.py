@@ -56,8 +56,9 @@ class Inputs:
             fields, values = [], {}
             for f in form_schema(spec.parameters):
                 if f["name"] == "align":
-                    s.ins_align_options = [{"title": ALIGN_TITLES.get(c, c), "value": c}
-                                           for c in f.get("choices") or []]
+                    s.ins_align_options = [
+                        {"title": ALIGN_TITLES.get(c, c), "value": c} for c in f.get("choices") or []
+                    ]
                     if s.ins_align not in (f.get("choices") or []):
                         s.ins_align = f.get("default") or (f.get("choices") or ["icp"])[0]
                     continue
@@ -68,9 +69,15 @@ class Inputs:
                 d["unit"] = f.get("unit", "")
                 d["help"] = f.get("help", "")
                 default = f.get("default")
-                values[f["name"]] = bool(default) if f["widget"] == "switch" else (
-                    "" if default is None else (", ".join(str(x) for x in default) if isinstance(default, list)
-                                                else to_jsonable(default)))
+                values[f["name"]] = (
+                    bool(default)
+                    if f["widget"] == "switch"
+                    else (
+                        ""
+                        if default is None
+                        else (", ".join(str(x) for x in default) if isinstance(default, list) else to_jsonable(default))
+                    )
+                )
                 fields.append(d)
             s.ins_fields = fields
             s.ins_params = values
@@ -157,9 +164,15 @@ class Inputs:
         for i in range(max(len(self._pairs_measured), len(self._pairs_nominal))):
             m = self._pairs_measured[i] if i < len(self._pairs_measured) else None
             n = self._pairs_nominal[i] if i < len(self._pairs_nominal) else None
-            fmt = (lambda p: "(" + ", ".join(f"{c:.2f}" for c in p) + ")")
-            rows.append({"i": i + 1, "measured": fmt(m) if m else "…", "nominal": fmt(n) if n else "…",
-                         "complete": m is not None and n is not None})
+            fmt = lambda p: "(" + ", ".join(f"{c:.2f}" for c in p) + ")"
+            rows.append(
+                {
+                    "i": i + 1,
+                    "measured": fmt(m) if m else "…",
+                    "nominal": fmt(n) if n else "…",
+                    "complete": m is not None and n is not None,
+                }
+            )
         self.state.ins_pairs = rows
         self._pick_hint()
 
@@ -233,8 +246,9 @@ class Inputs:
             which = "measured" if nm <= nn else "nominal"
             p = self.view.pick_input(which, x, y)
             if p is None:
-                s.ins_pick_hint = (f"no point of the {which} {'cloud' if which == 'measured' else ''} there; "
-                                   "click on it").replace("  ", " ")
+                s.ins_pick_hint = (
+                    f"no point of the {which} {'cloud' if which == 'measured' else ''} there; click on it"
+                ).replace("  ", " ")
                 return None
             self.add_pair_point(which, p)
             return {"which": which, "point": p.tolist()}
@@ -253,13 +267,22 @@ class Inputs:
         d = float(np.asarray(cloud.fields["deviation"])[i])
         unit = self.state.ins_unit
         valid = not self.state.ins_failed
-        info = {"found": True, "index": int(i), "x": float(p[0]), "y": float(p[1]), "z": float(p[2]),
-                "deviation_mm": d, "deviation": fmt_len(d, unit, True, 4),
-                "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm", "valid": valid}
+        info = {
+            "found": True,
+            "index": int(i),
+            "x": float(p[0]),
+            "y": float(p[1]),
+            "z": float(p[2]),
+            "deviation_mm": d,
+            "deviation": fmt_len(d, unit, True, 4),
+            "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm",
+            "valid": valid,
+        }
         if self.bands is not None:
             info["band"] = BANDS[int(self.bands["codes"][i])][0]
         info["text"] = f"point #{i}: {info['coords']}, deviation {info['deviation']}" + (
-            "" if valid else " (alignment failed: not a valid deviation)")
+            "" if valid else " (alignment failed: not a valid deviation)"
+        )
         self.state.ins_picked = info
         label = info["deviation"] if valid else "?"
         self.view.set_markers([{"point": p.tolist(), "label": label, "colour": "#212121"}])

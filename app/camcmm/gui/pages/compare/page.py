@@ -76,7 +76,7 @@ class ComparePage(Inputs, Run, Section, Export):
         # the comparison on show
         self.result: RunResult | None = None
         self.outputs: dict[str, Any] | None = None
-        self.deviations: Any = None          # PointCloud with field "deviation"
+        self.deviations: Any = None  # PointCloud with field "deviation"
         self.prepared: Prepared | None = None
         self.bands: dict[str, Any] | None = None  # the plugin's bands for the tolerance shown
         self.nominal: Any = None

@@ -34,7 +34,7 @@ def world_to_display(renderer: Any, points: np.ndarray) -> tuple[np.ndarray, np.
     xy = np.column_stack([ox + (ndc[:, 0] + 1.0) * 0.5 * W, oy + (ndc[:, 1] + 1.0) * 0.5 * H])
     direction = np.asarray(cam.GetDirectionOfProjection(), dtype=float)
     dist = (P - np.asarray(cam.GetPosition(), dtype=float)) @ direction
-    ok &= (np.abs(ndc[:, 2]) <= 1.0)
+    ok &= np.abs(ndc[:, 2]) <= 1.0
     return xy, dist, ok
 
 
@@ -70,8 +70,9 @@ def surface_distance(renderer: Any, x: float, y: float, r: int = 2) -> float | N
     return float((w[:3] / w[3] - np.asarray(cam.GetPosition())) @ np.asarray(cam.GetDirectionOfProjection()))
 
 
-def pick_point(renderer: Any, points: np.ndarray, x: float, y: float, radii: tuple[float, ...] = (7, 14),
-               zbuffer: bool = True) -> int | None:
+def pick_point(
+    renderer: Any, points: np.ndarray, x: float, y: float, radii: tuple[float, ...] = (7, 14), zbuffer: bool = True
+) -> int | None:
     """The index of the point drawn at display position (x, y), or None.
 
     Candidates are the points projected within a few pixels of the click (the radius

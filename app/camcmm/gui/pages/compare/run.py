@@ -47,8 +47,9 @@ class Run:
         if s.ins_nominal in (None, ""):
             raise InputError("choose the nominal (a CAD mesh or a reference cloud) first")
         if str(s.ins_measured) == str(s.ins_nominal):
-            raise InputError(f"{self._name(s.ins_measured)} is chosen as both measured and nominal; "
-                             "choose two different items")
+            raise InputError(
+                f"{self._name(s.ins_measured)} is chosen as both measured and nominal; choose two different items"
+            )
         declared = {p.name: p for p in spec.parameters}
         raw: dict[str, Any] = {}
         for k, v in (params if params is not None else (s.ins_params or {})).items():
@@ -68,8 +69,10 @@ class Run:
             pairs = self.pairs()
             k = 0 if pairs is None else len(pairs["measured"])
             if k < N_PAIRS:
-                raise InputError(f"alignment {values['align']!r} needs {N_PAIRS} point pairs, {k} picked: click a "
-                                 "point on the measured cloud, then the same point on the nominal, three times")
+                raise InputError(
+                    f"alignment {values['align']!r} needs {N_PAIRS} point pairs, {k} picked: click a "
+                    "point on the measured cloud, then the same point on the nominal, three times"
+                )
             inputs["pairs"] = pairs
         mids = [self._mid(k) for k in (s.ins_measured, s.ins_nominal) if self._mid(k) is not None]
         return inputs, values, mids
@@ -92,8 +95,9 @@ class Run:
         if self.job.cancel():
             self.state.ins_progress_message = "cancelling …"
 
-    def _compute(self, inputs: dict[str, Any], values: dict[str, Any], measured_key: str,
-                 nominal_key: str) -> tuple[RunResult, Prepared, dict[str, float]]:
+    def _compute(
+        self, inputs: dict[str, Any], values: dict[str, Any], measured_key: str, nominal_key: str
+    ) -> tuple[RunResult, Prepared, dict[str, float]]:
         """Worker thread: load the inputs, run the plugin, prepare the display."""
         t0 = time.time()
         cloud = self.session.load(measured_key)
@@ -103,8 +107,14 @@ class Run:
         if not hasattr(nominal, "points") and not hasattr(nominal, "faces"):
             raise InputError(f"{self._name(nominal_key)}: the nominal must be a mesh or a point cloud")
         self.measured, self.nominal = cloud, nominal
-        result = worker.run(self.host, self._spec_of().id, {"cloud": cloud, "nominal": nominal, **inputs}, values,
-                            progress=self.job.progress, cancel=self.job.cancel_event)
+        result = worker.run(
+            self.host,
+            self._spec_of().id,
+            {"cloud": cloud, "nominal": nominal, **inputs},
+            values,
+            progress=self.job.progress,
+            cancel=self.job.cancel_event,
+        )
         t_result = time.time()
         dev = result.outputs["deviations"]
         prep = prepare_cloud(dev.points, dev.fields["deviation"], self.view.display_limit)
@@ -166,8 +176,9 @@ class Run:
         self._error(msg)
 
     # -- showing a result -------------------------------------------------------------------
-    def _show_result(self, result: RunResult, prep: Prepared, timing: dict[str, float] | None = None,
-                     mode: str | None = None) -> None:
+    def _show_result(
+        self, result: RunResult, prep: Prepared, timing: dict[str, float] | None = None, mode: str | None = None
+    ) -> None:
         """Publish a comparison (fresh or restored) and draw it — the view first, so that
         its image is on its way while the numbers and charts are made. Loop thread."""
         s = self.state
@@ -196,9 +207,11 @@ class Run:
         s.ins_warnings = [str(w) for w in (result.warnings or [])][:12]
         s.ins_alignment = alignment_rows(o, unit)
         s.ins_picked = None
-        s.ins_title = (f"{self._name(s.ins_measured)} against {self._name(s.ins_nominal)} — "
-                       f"{fmt_count(self.deviations.n_points)} points, "
-                       f"alignment {o.get('alignment', {}).get('method', '')}")
+        s.ins_title = (
+            f"{self._name(s.ins_measured)} against {self._name(s.ins_nominal)} — "
+            f"{fmt_count(self.deviations.n_points)} points, "
+            f"alignment {o.get('alignment', {}).get('method', '')}"
+        )
         s.ins_running = False
         s.ins_progress = 100.0
         s.ins_progress_message = "done" if converged else "done — the alignment FAILED"
@@ -235,8 +248,12 @@ class Run:
             return
         spec = self.host.provider(BANDS_TASK)
         out = self.host.run(spec.id, {"deviations": self.deviations}, {"tolerance": tol}).outputs
-        self.bands = {"tolerance": tol, "codes": np.asarray(out["codes"]), "counts": dict(out["counts"]),
-                      "within": float(out["within"])}
+        self.bands = {
+            "tolerance": tol,
+            "codes": np.asarray(out["codes"]),
+            "counts": dict(out["counts"]),
+            "within": float(out["within"]),
+        }
 
     def _publish_numbers(self, tol: float | None) -> None:
         """Statistics, bands, histogram and curve for the current tolerance."""
@@ -276,8 +293,10 @@ class Run:
             except Exception as exc:
                 self._error(f"tolerance bands: {one_line(exc)}")
         if mode == "bands" and self.bands is not None:
-            bands = {"codes": self.bands["codes"],
-                     "rows": band_legend(self.bands["counts"], self.bands["tolerance"], s.ins_unit)}
+            bands = {
+                "codes": self.bands["codes"],
+                "rows": band_legend(self.bands["counts"], self.bands["tolerance"], s.ins_unit),
+            }
         self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, bands, reset_camera=reset_camera)
         s.ins_mode = self.view.scene
         s.ins_note = self.view.note

@@ -31,9 +31,9 @@ class Prepared:
     """What the view draws of a deviations cloud (made in a worker thread)."""
 
     idx: np.ndarray | None  # displayed subset of the full cloud (None: all points)
-    points: np.ndarray      # displayed points (n_shown, 3), nominal coordinates
-    dev: np.ndarray         # their deviations (mm)
-    poly: Any               # pyvista PolyData of the displayed points
+    points: np.ndarray  # displayed points (n_shown, 3), nominal coordinates
+    dev: np.ndarray  # their deviations (mm)
+    poly: Any  # pyvista PolyData of the displayed points
     n_total: int
 
     @property
@@ -92,8 +92,13 @@ class CompareView:
         rw.AddObserver("WindowResizeEvent", self._resized)
         iren = rw.GetInteractor()
         if iren is not None:
-            for event in ("LeftButtonPressEvent", "RightButtonPressEvent", "MiddleButtonPressEvent",
-                          "MouseWheelForwardEvent", "MouseWheelBackwardEvent"):
+            for event in (
+                "LeftButtonPressEvent",
+                "RightButtonPressEvent",
+                "MiddleButtonPressEvent",
+                "MouseWheelForwardEvent",
+                "MouseWheelBackwardEvent",
+            ):
                 iren.AddObserver(event, self._touched)
 
     @property
@@ -152,19 +157,27 @@ class CompareView:
         if hasattr(nominal, "faces"):
             self._inputs.pop("nominal_cloud", None)
             poly = self.mesh_poly(nominal)
-            self._actors["nominal"] = self.plotter.add_mesh(poly, color=NOMINAL_COLOUR, opacity=opacity,
-                                                            smooth_shading=False, reset_camera=False, pickable=True)
+            self._actors["nominal"] = self.plotter.add_mesh(
+                poly, color=NOMINAL_COLOUR, opacity=opacity, smooth_shading=False, reset_camera=False, pickable=True
+            )
         else:
             prep = self._inputs.get("nominal_cloud")
             if prep is None or prep.n_total != nominal.n_points:
                 prep = prepare_cloud(nominal.points, None, self.display_limit, seed=1)
                 self._inputs["nominal_cloud"] = prep
-            self._actors["nominal"] = self.plotter.add_mesh(pv.PolyData(prep.points), color="#7b8494",
-                                                            reset_camera=False, **self._point_style(prep.n_shown))
+            self._actors["nominal"] = self.plotter.add_mesh(
+                pv.PolyData(prep.points), color="#7b8494", reset_camera=False, **self._point_style(prep.n_shown)
+            )
 
     # -- scenes ------------------------------------------------------------------------
-    def show_inputs(self, measured: Any, nominal: Any, markers: list[dict[str, Any]] | None = None,
-                    reset_camera: bool = True, push: bool = True) -> None:
+    def show_inputs(
+        self,
+        measured: Any,
+        nominal: Any,
+        markers: list[dict[str, Any]] | None = None,
+        reset_camera: bool = True,
+        push: bool = True,
+    ) -> None:
         """The measured cloud (orange) and the nominal (grey) as they are."""
         self._clear()
         self.scene = "inputs"
@@ -175,19 +188,31 @@ class CompareView:
                 prep = prepare_cloud(measured.points, None, self.display_limit)
                 self._inputs["measured"] = prep
                 self._inputs["measured_key"] = measured
-            self._actors["measured"] = self.plotter.add_mesh(prep.poly, color=MEASURED_COLOUR, reset_camera=False,
-                                                             **self._point_style(prep.n_shown))
+            self._actors["measured"] = self.plotter.add_mesh(
+                prep.poly, color=MEASURED_COLOUR, reset_camera=False, **self._point_style(prep.n_shown)
+            )
             n = prep.n_total
-            self.note = (f"measured: {fmt_count(prep.n_shown)} of {fmt_count(n)} points shown"
-                         if prep.n_shown < n else f"measured: {fmt_count(n)} points")
-        self._legend([["measured", MEASURED_COLOUR, "rectangle"], ["nominal", NOMINAL_COLOUR, "rectangle"]],
-                     (0.16, 0.08))
+            self.note = (
+                f"measured: {fmt_count(prep.n_shown)} of {fmt_count(n)} points shown"
+                if prep.n_shown < n
+                else f"measured: {fmt_count(n)} points"
+            )
+        self._legend(
+            [["measured", MEASURED_COLOUR, "rectangle"], ["nominal", NOMINAL_COLOUR, "rectangle"]], (0.16, 0.08)
+        )
         self.legend_labels = ["measured", "nominal"]
         self.set_markers(markers or [], render=False)
         self._changed(reset_camera, push)
 
-    def show_deviations(self, prep: Prepared, limit: float, unit: str, mode: str = "colour",
-                        bands: dict[str, Any] | None = None, reset_camera: bool = True) -> None:
+    def show_deviations(
+        self,
+        prep: Prepared,
+        limit: float,
+        unit: str,
+        mode: str = "colour",
+        bands: dict[str, Any] | None = None,
+        reset_camera: bool = True,
+    ) -> None:
         """The deviations: ``mode`` "colour" (diverging map on ±limit mm, legend
         "deviation [unit]") or "bands" (within ±tolerance green, above red, below blue):
         ``bands`` is ``{"codes": (n_total,) band codes of the whole cloud, "rows": the
@@ -200,8 +225,9 @@ class CompareView:
             codes = np.asarray(bands["codes"])
             codes = codes if prep.idx is None else codes[prep.idx]
             self.scene = "bands"
-            self._actors["cloud"] = self.plotter.add_mesh(prep.poly, scalars=band_colours(codes), rgb=True,
-                                                          reset_camera=False, **style)
+            self._actors["cloud"] = self.plotter.add_mesh(
+                prep.poly, scalars=band_colours(codes), rgb=True, reset_camera=False, **style
+            )
             rows = bands["rows"]
             labels = [[r["label"], r["colour"], "rectangle"] for r in rows]
             self._legend(labels, (0.3, 0.04 * len(labels)))
@@ -211,12 +237,27 @@ class CompareView:
             lim = float(limit) * f if limit and limit > 0 else 1.0
             self.scalar_bar_title = legend_title(unit)
             self._actors["cloud"] = self.plotter.add_mesh(
-                prep.poly, scalars=(prep.dev * f), cmap=COLOURMAP, clim=[-lim, lim], reset_camera=False,
+                prep.poly,
+                scalars=(prep.dev * f),
+                cmap=COLOURMAP,
+                clim=[-lim, lim],
+                reset_camera=False,
                 nan_color="#888888",
-                scalar_bar_args={"title": self.scalar_bar_title, "color": "black", "vertical": True,
-                                 "position_x": 0.86, "position_y": 0.12, "height": 0.75, "width": 0.05,
-                                 "fmt": "%.3g", "n_labels": 5, "title_font_size": 16, "label_font_size": 13},
-                **style)
+                scalar_bar_args={
+                    "title": self.scalar_bar_title,
+                    "color": "black",
+                    "vertical": True,
+                    "position_x": 0.86,
+                    "position_y": 0.12,
+                    "height": 0.75,
+                    "width": 0.05,
+                    "fmt": "%.3g",
+                    "n_labels": 5,
+                    "title_font_size": 16,
+                    "label_font_size": 13,
+                },
+                **style,
+            )
             bars = self.plotter.scalar_bars
             if self.scalar_bar_title in bars:
                 bar = bars[self.scalar_bar_title]
@@ -230,8 +271,12 @@ class CompareView:
                 bar.SetUseCustomLabels(True)
                 bar.SetLabelFormat("%g")
         n = prep.n_total
-        self.note = (f"showing {fmt_count(prep.n_shown)} of {fmt_count(n)} points (random subset for display; "
-                     "statistics use all)" if prep.n_shown < n else f"showing all {fmt_count(n)} points")
+        self.note = (
+            f"showing {fmt_count(prep.n_shown)} of {fmt_count(n)} points (random subset for display; "
+            "statistics use all)"
+            if prep.n_shown < n
+            else f"showing all {fmt_count(n)} points"
+        )
         self._changed(reset_camera)
 
     def show_failed(self, prep: Prepared, nominal: Any, reset_camera: bool = True) -> None:
@@ -240,10 +285,13 @@ class CompareView:
         self.dev = prep
         self.scene = "failed"
         self._add_nominal(nominal, opacity=0.5)
-        self._actors["cloud"] = self.plotter.add_mesh(prep.poly, color=MEASURED_COLOUR, reset_camera=False,
-                                                      **self._point_style(prep.n_shown))
-        self._legend([["measured (alignment failed)", MEASURED_COLOUR, "rectangle"],
-                      ["nominal", NOMINAL_COLOUR, "rectangle"]], (0.3, 0.08))
+        self._actors["cloud"] = self.plotter.add_mesh(
+            prep.poly, color=MEASURED_COLOUR, reset_camera=False, **self._point_style(prep.n_shown)
+        )
+        self._legend(
+            [["measured (alignment failed)", MEASURED_COLOUR, "rectangle"], ["nominal", NOMINAL_COLOUR, "rectangle"]],
+            (0.3, 0.08),
+        )
         self.note = "alignment failed: no deviations shown"
         self._changed(reset_camera)
 
@@ -270,17 +318,31 @@ class CompareView:
             pts = np.asarray([m["point"] for m in markers], dtype=float)
             for i, m in enumerate(markers):
                 self._actors[f"marker{i}"] = self.plotter.add_points(
-                    pts[i:i + 1], color=m.get("colour", "#000000"), point_size=16, render_points_as_spheres=True,
-                    reset_camera=False, pickable=False)
-            lab = self.plotter.add_point_labels(pts, [m["label"] for m in markers], font_size=15, point_size=1,
-                                                shape_opacity=0.8, always_visible=True, show_points=False,
-                                                reset_camera=False, pickable=False)
+                    pts[i : i + 1],
+                    color=m.get("colour", "#000000"),
+                    point_size=16,
+                    render_points_as_spheres=True,
+                    reset_camera=False,
+                    pickable=False,
+                )
+            lab = self.plotter.add_point_labels(
+                pts,
+                [m["label"] for m in markers],
+                font_size=15,
+                point_size=1,
+                shape_opacity=0.8,
+                always_visible=True,
+                show_points=False,
+                reset_camera=False,
+                pickable=False,
+            )
             self._actors["marker_labels"] = lab
         if render:
             self._changed(False)
 
-    def set_section_plane(self, axis: str | None, position: float = 0.0, bounds: np.ndarray | None = None,
-                          render: bool = True) -> None:
+    def set_section_plane(
+        self, axis: str | None, position: float = 0.0, bounds: np.ndarray | None = None, render: bool = True
+    ) -> None:
         """The section plane's outline in the view (None removes it)."""
         import pyvista as pv
 
@@ -293,14 +355,23 @@ class CompareView:
             pad = 0.06 * (hi - lo).max()
             u, v = [a for a in range(3) if a != ax]
             corners = []
-            for cu, cv in ((lo[u] - pad, lo[v] - pad), (hi[u] + pad, lo[v] - pad), (hi[u] + pad, hi[v] + pad),
-                           (lo[u] - pad, hi[v] + pad), (lo[u] - pad, lo[v] - pad)):
+            for cu, cv in (
+                (lo[u] - pad, lo[v] - pad),
+                (hi[u] + pad, lo[v] - pad),
+                (hi[u] + pad, hi[v] + pad),
+                (lo[u] - pad, hi[v] + pad),
+                (lo[u] - pad, lo[v] - pad),
+            ):
                 p = np.zeros(3)
                 p[ax], p[u], p[v] = position, cu, cv
                 corners.append(p)
-            self._actors["section"] = self.plotter.add_mesh(pv.lines_from_points(np.asarray(corners)),
-                                                            color="#37474f", line_width=3, reset_camera=False,
-                                                            pickable=False)
+            self._actors["section"] = self.plotter.add_mesh(
+                pv.lines_from_points(np.asarray(corners)),
+                color="#37474f",
+                line_width=3,
+                reset_camera=False,
+                pickable=False,
+            )
         if render:
             self._changed(False)
 

@@ -77,7 +77,7 @@ def nice_ticks(limit: float, n: int = 5) -> list[float]:
     if not math.isfinite(lim) or lim == 0:
         return [0.0]
     e0 = math.floor(math.log10(lim))
-    steps = sorted((m * 10.0 ** e for e in range(e0 - 2, e0 + 1) for m in (1.0, 2.0, 2.5, 5.0)), reverse=True)
+    steps = sorted((m * 10.0**e for e in range(e0 - 2, e0 + 1) for m in (1.0, 2.0, 2.5, 5.0)), reverse=True)
     for step in steps:
         k = math.floor(lim / step + 1e-9)
         if 2 * k + 1 >= n:
@@ -90,22 +90,34 @@ def band_legend(counts: dict[str, int], tolerance: float, unit: str) -> list[dic
     """Legend rows ``{key, label, colour, count, percent}`` for the tolerance bands."""
     total = max(sum(counts.values()), 1)
     t = fmt_len(tolerance, unit)
-    labels = {"above": f"above +{t}", "within": f"within ±{t}", "below": f"below {MINUS}{t}",
-              "invalid": "no deviation (NaN)"}
+    labels = {
+        "above": f"above +{t}",
+        "within": f"within ±{t}",
+        "below": f"below {MINUS}{t}",
+        "invalid": "no deviation (NaN)",
+    }
     rows = []
     for code in (1, 0, -1, 2):
         key, colour = BANDS[code]
         if key == "invalid" and not counts.get(key):
             continue
         c = int(counts.get(key, 0))
-        rows.append({"key": key, "label": labels[key], "colour": colour, "count": c,
-                     "percent": round(100.0 * c / total, 2), "text": f"{labels[key]}: {100.0 * c / total:.1f} %"})
+        rows.append(
+            {
+                "key": key,
+                "label": labels[key],
+                "colour": colour,
+                "count": c,
+                "percent": round(100.0 * c / total, 2),
+                "text": f"{labels[key]}: {100.0 * c / total:.1f} %",
+            }
+        )
     return rows
 
 
 def _hex_to_rgb(h: str) -> list[int]:
     h = h.lstrip("#")
-    return [int(h[i:i + 2], 16) for i in (0, 2, 4)]
+    return [int(h[i : i + 2], 16) for i in (0, 2, 4)]
 
 
 def band_colours(codes: np.ndarray) -> np.ndarray:
@@ -126,30 +138,44 @@ def diverging_colours(dev: Any, limit: float) -> np.ndarray:
 
 
 # =============================================================================== tables
-def stats_rows(outputs: dict[str, Any], unit: str, tolerance: float | None = None,
-               within: float | None = None) -> list[dict[str, str]]:
+def stats_rows(
+    outputs: dict[str, Any], unit: str, tolerance: float | None = None, within: float | None = None
+) -> list[dict[str, str]]:
     """The statistics table: ``{key, name, value}`` rows in ``unit``. With a
     ``tolerance``, the share ``within`` it (0..1, counted by the plugin's bands for the
     tolerance now in the field, else the run's own) is a row."""
     st = outputs.get("stats") or {}
     rows = [{"key": "n", "name": "points", "value": fmt_count(st.get("n", 0))}]
-    for key, name, signed in (("mean", "mean", True), ("std", "std dev", False),
-                              ("rms", "rms", False), ("min", "min", True), ("max", "max", True),
-                              ("p2_5", "p2.5", True), ("p97_5", "p97.5", True)):
+    for key, name, signed in (
+        ("mean", "mean", True),
+        ("std", "std dev", False),
+        ("rms", "rms", False),
+        ("min", "min", True),
+        ("max", "max", True),
+        ("p2_5", "p2.5", True),
+        ("p97_5", "p97.5", True),
+    ):
         rows.append({"key": key, "name": name, "value": fmt_len(st.get(key), unit, signed)})
     rows.append({"key": "interval95", "name": "95 % within", "value": interval_text(st, unit)})
     if tolerance is not None and tolerance > 0:
         share = within if within is not None else st.get("within_tolerance")
         if share is not None:
-            rows.append({"key": "within", "name": f"within ±{fmt_len(tolerance, unit)}",
-                         "value": f"{100.0 * float(share):.2f} %"})
+            rows.append(
+                {
+                    "key": "within",
+                    "name": f"within ±{fmt_len(tolerance, unit)}",
+                    "value": f"{100.0 * float(share):.2f} %",
+                }
+            )
     cov = outputs.get("coverage_info") or {}
     if outputs.get("coverage") is not None:
-        rows.append({"key": "coverage", "name": "coverage (area)",
-                     "value": f"{100.0 * float(outputs['coverage']):.2f} %"})
+        rows.append(
+            {"key": "coverage", "name": "coverage (area)", "value": f"{100.0 * float(outputs['coverage']):.2f} %"}
+        )
         if cov.get("distance"):
-            rows.append({"key": "coverage_distance", "name": "covered: a point within",
-                         "value": fmt_len(cov["distance"], "mm")})
+            rows.append(
+                {"key": "coverage_distance", "name": "covered: a point within", "value": fmt_len(cov["distance"], "mm")}
+            )
     return rows
 
 
@@ -159,10 +185,15 @@ def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
     a = outputs.get("alignment") or {}
     conv = bool(outputs.get("converged", a.get("converged")))
     reason = outputs.get("reason", a.get("reason")) or ""
-    rows = [{"key": "method", "name": "method", "value": str(a.get("method", ""))},
-            {"key": "converged", "name": "converged",
-             "value": ("yes" if conv else "NO") + (f" — {reason}" if reason else "")},
-            {"key": "rms", "name": "rms", "value": fmt_len(outputs.get("rms", a.get("rms")), unit)}]
+    rows = [
+        {"key": "method", "name": "method", "value": str(a.get("method", ""))},
+        {
+            "key": "converged",
+            "name": "converged",
+            "value": ("yes" if conv else "NO") + (f" — {reason}" if reason else ""),
+        },
+        {"key": "rms", "name": "rms", "value": fmt_len(outputs.get("rms", a.get("rms")), unit)},
+    ]
     scale = outputs.get("scale", a.get("scale"))
     if scale is not None:
         rows.append({"key": "scale", "name": "scale", "value": f"{float(scale):.8f}"})
@@ -170,8 +201,13 @@ def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
         rows.append({"key": "rotation", "name": "rotation", "value": f"{float(a['rotation_angle_deg']):.4f}°"})
     t = outputs.get("translation", a.get("translation"))
     if t is not None:
-        rows.append({"key": "translation", "name": "translation",
-                     "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm"})
+        rows.append(
+            {
+                "key": "translation",
+                "name": "translation",
+                "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm",
+            }
+        )
     ov = outputs.get("overlap", a.get("overlap"))
     if ov is not None and isinstance(ov, (int, float)) and math.isfinite(ov):
         rows.append({"key": "overlap", "name": "overlap", "value": f"{100.0 * float(ov):.1f} %"})

@@ -21,8 +21,12 @@ def build(page: Any) -> None:
     """The page's three columns, shown while ``page === 'devices'``."""
     from trame.widgets import html
 
-    with html.Div(v_if=shown("devices"), classes="d-flex ga-3 pa-3", raw_attrs=tid("devices"),
-                  style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); overflow-y: auto;"):
+    with html.Div(
+        v_if=shown("devices"),
+        classes="d-flex ga-3 pa-3",
+        raw_attrs=tid("devices"),
+        style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); overflow-y: auto;",
+    ):
         with html.Div(style="flex: 0 0 340px; max-width: 340px;"):
             _add(page)
             _list(page)
@@ -42,19 +46,43 @@ def _add(page: Any) -> None:
         if key is not None:
             await page.act(key, "connect")
 
-    v.VAlert(v_if="dev_error", text=("dev_error",), type="error", density="compact", closable=True,
-             classes="mb-2", click_close="dev_error = ''", raw_attrs=tid("dev-error"))
+    v.VAlert(
+        v_if="dev_error",
+        text=("dev_error",),
+        type="error",
+        density="compact",
+        closable=True,
+        classes="mb-2",
+        click_close="dev_error = ''",
+        raw_attrs=tid("dev-error"),
+    )
     # the buttons sit above their forms: a field's hint folds away when it loses focus, and a
     # button below would move from under the pointer between press and release (a lost click)
     with html.Div(classes="d-flex align-center mb-1"):
         html.Div("Add a device", classes="text-subtitle-2")
         v.VSpacer()
-        v.VBtn("Add and connect", prepend_icon="mdi-connection", color="primary", size="small",
-               disabled=("!dev_add_id",), click=(on_add, "[dev_add_id, dev_add_values]"), raw_attrs=tid("dev-add"))
-    v.VSelect(model_value=("dev_add_id",), items=("dev_catalogue.filter(d => d.role !== 'sequence')",),
-              item_title="title", item_value="id", label="Device plugin", density="compact",
-              variant="outlined", hide_details=True, classes="mb-2",
-              update_modelValue=(page.choose_plugin, "[$event]"), raw_attrs=tid("dev-add-plugin"))
+        v.VBtn(
+            "Add and connect",
+            prepend_icon="mdi-connection",
+            color="primary",
+            size="small",
+            disabled=("!dev_add_id",),
+            click=(on_add, "[dev_add_id, dev_add_values]"),
+            raw_attrs=tid("dev-add"),
+        )
+    v.VSelect(
+        model_value=("dev_add_id",),
+        items=("dev_catalogue.filter(d => d.role !== 'sequence')",),
+        item_title="title",
+        item_value="id",
+        label="Device plugin",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        classes="mb-2",
+        update_modelValue=(page.choose_plugin, "[$event]"),
+        raw_attrs=tid("dev-add-plugin"),
+    )
     param_form("dev_add_fields", "dev_add_values", "dev-add", sync=True)
 
 
@@ -66,15 +94,26 @@ def _list(page: Any) -> None:
     v.VDivider(classes="my-3")
     html.Div("Devices ({{ dev_list.length }})", classes="text-subtitle-2 mb-1")
     with v.VList(density="compact", nav=True, raw_attrs=tid("dev-list")):
-        with v.VListItem(v_for="d in dev_list", key="d.key", active=("d.key === dev_selected",),
-                         click=(page.select, "[d.key]"), raw_attrs=dyn_tid("'dev-item-' + d.name")):
+        with v.VListItem(
+            v_for="d in dev_list",
+            key="d.key",
+            active=("d.key === dev_selected",),
+            click=(page.select, "[d.key]"),
+            raw_attrs=dyn_tid("'dev-item-' + d.name"),
+        ):
             v.VListItemTitle("{{ d.name }} · {{ d.kind }}")
             v.VListItemSubtitle("{{ d.message || d.label }}{{ d.position ? ' · ' + d.position : '' }}")
             with html.Template(v_slot_append=True):
-                v.VChip("{{ d.state }}", size="x-small", variant="flat", color=(STATE_COLOUR,),
-                        raw_attrs=dyn_tid("'dev-state-' + d.name"))
-        v.VListItem(v_if="!dev_list.length", subtitle="No device yet: add one above (a simulated one needs "
-                                                       "no hardware).")
+                v.VChip(
+                    "{{ d.state }}",
+                    size="x-small",
+                    variant="flat",
+                    color=(STATE_COLOUR,),
+                    raw_attrs=dyn_tid("'dev-state-' + d.name"),
+                )
+        v.VListItem(
+            v_if="!dev_list.length", subtitle="No device yet: add one above (a simulated one needs no hardware)."
+        )
 
 
 def _detail(page: Any) -> None:
@@ -90,17 +129,34 @@ def _detail(page: Any) -> None:
             html.Div("{{ d.label }}", classes="text-subtitle-1")
             v.VChip("{{ d.state }}", size="small", variant="flat", color=(STATE_COLOUR,))
             v.VSpacer()
-            v.VBtn("{{ d.connected ? 'Disconnect' : 'Connect' }}", size="small", variant="tonal",
-                   click=(on_connect, "[d.key, !d.connected]"), raw_attrs=tid("dev-connect"))
+            v.VBtn(
+                "{{ d.connected ? 'Disconnect' : 'Connect' }}",
+                size="small",
+                variant="tonal",
+                click=(on_connect, "[d.key, !d.connected]"),
+                raw_attrs=tid("dev-connect"),
+            )
             v.VBtn("Remove", size="small", variant="text", click=(page.remove, "[d.key]"))
-        v.VAlert(v_if="d.state === 'fault'", text=("d.message",), type="error", density="compact",
-                 classes="mb-2", raw_attrs=tid("dev-fault"))
+        v.VAlert(
+            v_if="d.state === 'fault'",
+            text=("d.message",),
+            type="error",
+            density="compact",
+            classes="mb-2",
+            raw_attrs=tid("dev-fault"),
+        )
         with html.Div(v_if="dev_settings_fields.length", classes="mb-2"):
             with html.Div(classes="d-flex align-center mb-1"):  # Apply above the fields, as Add
                 html.Div("Settings", classes="text-subtitle-2")
                 v.VSpacer()
-                v.VBtn("Apply", size="small", color="primary", variant="tonal",
-                       click=(page.apply_settings, "[d.key, dev_settings_values]"), raw_attrs=tid("dev-apply"))
+                v.VBtn(
+                    "Apply",
+                    size="small",
+                    color="primary",
+                    variant="tonal",
+                    click=(page.apply_settings, "[d.key, dev_settings_values]"),
+                    raw_attrs=tid("dev-apply"),
+                )
             param_form("dev_settings_fields", "dev_settings_values", "dev-setting", sync=True)
         _camera(page)
         _stage(page)
@@ -117,12 +173,28 @@ def _camera(page: Any) -> None:
 
     with html.Div(v_if="d.kind === 'camera'", classes="mt-2"):
         with html.Div(classes="d-flex ga-2 mb-1"):
-            v.VBtn("Grab", size="small", prepend_icon="mdi-camera", click=(on_grab, "[d.key]"),
-                   disabled=("!d.connected",), raw_attrs=tid("dev-grab"))
-            v.VBtn("{{ d.live ? 'Stop live' : 'Live view' }}", size="small", prepend_icon="mdi-video",
-                   click=(page.live, "[d.key, !d.live]"), disabled=("!d.connected",), raw_attrs=tid("dev-live"))
-        html.Img(v_if="dev_live", src=("dev_live",), style="max-width: 100%; border: 1px solid #ccc;",
-                 raw_attrs=tid("dev-live-image"))
+            v.VBtn(
+                "Grab",
+                size="small",
+                prepend_icon="mdi-camera",
+                click=(on_grab, "[d.key]"),
+                disabled=("!d.connected",),
+                raw_attrs=tid("dev-grab"),
+            )
+            v.VBtn(
+                "{{ d.live ? 'Stop live' : 'Live view' }}",
+                size="small",
+                prepend_icon="mdi-video",
+                click=(page.live, "[d.key, !d.live]"),
+                disabled=("!d.connected",),
+                raw_attrs=tid("dev-live"),
+            )
+        html.Img(
+            v_if="dev_live",
+            src=("dev_live",),
+            style="max-width: 100%; border: 1px solid #ccc;",
+            raw_attrs=tid("dev-live-image"),
+        )
         html.Div("{{ dev_live_note }}", classes="text-caption")
 
 
@@ -135,8 +207,15 @@ def _stage(page: Any) -> None:
 
     with html.Div(v_if="d.kind === 'stage'", classes="d-flex align-center ga-2 mt-2"):
         v.VBtn("Home", size="small", click=(on_move, "[d.key, 'home', null]"), raw_attrs=tid("dev-home"))
-        v.VTextField(v_model=("dev_move", "10"), label="Target / step", density="compact", variant="outlined",
-                     hide_details=True, style="max-width: 140px;", raw_attrs=tid("dev-move-value"))
+        v.VTextField(
+            v_model=("dev_move", "10"),
+            label="Target / step",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            style="max-width: 140px;",
+            raw_attrs=tid("dev-move-value"),
+        )
         v.VBtn("Move to", size="small", click=(on_move, "[d.key, 'abs', dev_move]"), raw_attrs=tid("dev-move-abs"))
         v.VBtn("Move by", size="small", click=(on_move, "[d.key, 'rel', dev_move]"))
         v.VBtn("Stop", size="small", color="error", variant="tonal", click=(on_move, "[d.key, 'stop', null]"))
@@ -153,20 +232,41 @@ def _projector(page: Any) -> None:
         await page.act(key, "show", index)
 
     with html.Div(v_if="d.kind === 'projector'", classes="mt-2", raw_attrs=tid("dev-projector-panel")):
-        html.Div("{{ d.patterns }} patterns loaded{{ d.index !== null && d.index !== undefined ? ', "
-                 "showing ' + d.index : '' }}. Open <a href='projector' target='_blank'>the projector "
-                 "page</a> full-screen on the projector's display.", classes="text-caption mb-1")
+        html.Div(
+            "{{ d.patterns }} patterns loaded{{ d.index !== null && d.index !== undefined ? ', "
+            "showing ' + d.index : '' }}. Open <a href='projector' target='_blank'>the projector "
+            "page</a> full-screen on the projector's display.",
+            classes="text-caption mb-1",
+        )
         with html.Div(classes="d-flex align-center ga-2"):
-            v.VTextField(v_model=("dev_sequence_file", ""), label="Sequence file (empty: the shipped one)",
-                         density="compact", variant="outlined", hide_details=True,
-                         raw_attrs=tid("dev-sequence-file"))
-            v.VBtn("Load", size="small", click=(on_load, "[d.key, dev_sequence_file]"),
-                   raw_attrs=tid("dev-load-patterns"))
+            v.VTextField(
+                v_model=("dev_sequence_file", ""),
+                label="Sequence file (empty: the shipped one)",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                raw_attrs=tid("dev-sequence-file"),
+            )
+            v.VBtn(
+                "Load", size="small", click=(on_load, "[d.key, dev_sequence_file]"), raw_attrs=tid("dev-load-patterns")
+            )
         with html.Div(classes="d-flex align-center ga-2 mt-1"):
-            v.VTextField(v_model=("dev_pattern", "0"), label="Pattern", density="compact", variant="outlined",
-                         hide_details=True, style="max-width: 100px;", raw_attrs=tid("dev-pattern"))
-            v.VBtn("Show", size="small", click=(on_show, "[d.key, dev_pattern]"), disabled=("!d.patterns",),
-                   raw_attrs=tid("dev-show-pattern"))
+            v.VTextField(
+                v_model=("dev_pattern", "0"),
+                label="Pattern",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                style="max-width: 100px;",
+                raw_attrs=tid("dev-pattern"),
+            )
+            v.VBtn(
+                "Show",
+                size="small",
+                click=(on_show, "[d.key, dev_pattern]"),
+                disabled=("!d.patterns",),
+                raw_attrs=tid("dev-show-pattern"),
+            )
             v.VBtn("Blank", size="small", variant="text", click=(on_show, "[d.key, null]"))
 
 
@@ -176,23 +276,54 @@ def _sequences(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     html.Div("Acquisition sequences", classes="text-subtitle-2 mb-1")
-    html.Div("Frames are stored in the project as they arrive; a device fault pauses the run.",
-             classes="text-caption mb-2")
-    v.VSelect(model_value=("dev_seq_id",), items=("dev_catalogue.filter(d => d.role === 'sequence')",),
-              item_title="title", item_value="id", label="Sequence", density="compact", variant="outlined",
-              hide_details=True, classes="mb-2", update_modelValue=(page.choose_sequence, "[$event]"),
-              raw_attrs=tid("dev-seq-plugin"))
+    html.Div(
+        "Frames are stored in the project as they arrive; a device fault pauses the run.", classes="text-caption mb-2"
+    )
+    v.VSelect(
+        model_value=("dev_seq_id",),
+        items=("dev_catalogue.filter(d => d.role === 'sequence')",),
+        item_title="title",
+        item_value="id",
+        label="Sequence",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        classes="mb-2",
+        update_modelValue=(page.choose_sequence, "[$event]"),
+        raw_attrs=tid("dev-seq-plugin"),
+    )
     with html.Div(classes="d-flex flex-wrap ga-1 mb-2"):  # above the form, as Add
-        v.VBtn("Start", size="small", color="primary", prepend_icon="mdi-play", disabled=("!dev_seq_id",),
-               click=(page.start_sequence, "[dev_seq_id, dev_seq_values]"), raw_attrs=tid("dev-seq-start"))
+        v.VBtn(
+            "Start",
+            size="small",
+            color="primary",
+            prepend_icon="mdi-play",
+            disabled=("!dev_seq_id",),
+            click=(page.start_sequence, "[dev_seq_id, dev_seq_values]"),
+            raw_attrs=tid("dev-seq-start"),
+        )
         for action, icon in (("pause", "mdi-pause"), ("resume", "mdi-play-pause"), ("abort", "mdi-stop")):
-            v.VBtn(action.capitalize(), size="small", variant="tonal", prepend_icon=icon, disabled=("!dev_seq",),
-                   click=(page.sequence_action, f"['{action}']"), raw_attrs=tid(f"dev-seq-{action}"))
+            v.VBtn(
+                action.capitalize(),
+                size="small",
+                variant="tonal",
+                prepend_icon=icon,
+                disabled=("!dev_seq",),
+                click=(page.sequence_action, f"['{action}']"),
+                raw_attrs=tid(f"dev-seq-{action}"),
+            )
     param_form("dev_seq_fields", "dev_seq_values", "dev-seq", sync=True)
     with v.VCard(v_if="dev_seq", variant="tonal", classes="mt-2", raw_attrs=tid("dev-seq-status")):
         with v.VCardText(classes="py-2"):
-            html.Div("{{ dev_seq.name }}: {{ dev_seq.state }} — {{ dev_seq.label }} · {{ dev_seq.frames }} frames",
-                     raw_attrs=tid("dev-seq-state"))
-            v.VProgressLinear(model_value=("dev_seq.progress",), height=10, rounded=True, classes="my-1",
-                              color=("dev_seq.state === 'paused' ? 'warning' : 'primary'",))
+            html.Div(
+                "{{ dev_seq.name }}: {{ dev_seq.state }} — {{ dev_seq.label }} · {{ dev_seq.frames }} frames",
+                raw_attrs=tid("dev-seq-state"),
+            )
+            v.VProgressLinear(
+                model_value=("dev_seq.progress",),
+                height=10,
+                rounded=True,
+                classes="my-1",
+                color=("dev_seq.state === 'paused' ? 'warning' : 'primary'",),
+            )
             html.Div("{{ dev_seq.reason }}", v_if="dev_seq.reason", classes="text-caption text-error")

@@ -34,5 +34,8 @@ def frame_note(frame: Any) -> str:
     """``#frame · time · exposure ms · W×H px`` from a frame's metadata."""
     meta = getattr(frame, "metadata", {}) or {}
     h, w = frame.data.shape[:2]
-    return " · ".join(str(x) for x in (
-        f"#{meta.get('frame')}", meta.get("time", ""), f"{meta.get('exposure_ms', '')} ms", f"{w}×{h} px") if x)
+    return " · ".join(
+        str(x)
+        for x in (f"#{meta.get('frame')}", meta.get("time", ""), f"{meta.get('exposure_ms', '')} ms", f"{w}×{h} px")
+        if x
+    )

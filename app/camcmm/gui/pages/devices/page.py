@@ -41,8 +41,8 @@ class DevicesPage:
         self.state = session.state
         self.host = session.host
         self.project = session.project
-        self.devices: dict[str, Any] = {}       # key -> device object
-        self.plugin_of: dict[str, str] = {}     # key -> plugin id
+        self.devices: dict[str, Any] = {}  # key -> device object
+        self.plugin_of: dict[str, str] = {}  # key -> plugin id
         self.sequence: Any = None
         self.monitor: DeviceMonitor | None = None
         self.io = Job("device I/O", state=session.state, workers=2)
@@ -248,9 +248,14 @@ class DevicesPage:
             return
         snap = seq.snapshot()
         steps = max(int(snap.get("steps") or 0), 1)
-        self.state.dev_seq = {"name": snap.get("name"), "state": snap.get("state"), "reason": snap.get("reason", ""),
-                              "label": snap.get("label", ""), "frames": snap.get("frames", 0),
-                              "progress": round(100.0 * min(int(snap.get("step") or 0), steps) / steps, 1)}
+        self.state.dev_seq = {
+            "name": snap.get("name"),
+            "state": snap.get("state"),
+            "reason": snap.get("reason", ""),
+            "label": snap.get("label", ""),
+            "frames": snap.get("frames", 0),
+            "progress": round(100.0 * min(int(snap.get("step") or 0), steps) / steps, 1),
+        }
         if snap.get("state") == "paused" and snap.get("reason"):
             self.state.dev_error = f"sequence paused: {snap['reason']}"
 
@@ -258,9 +263,17 @@ class DevicesPage:
     def _row(self, key: str) -> dict[str, Any]:
         dev = self.devices[key]
         st = dev.status()
-        row = {"key": key, "plugin": self.plugin_of.get(key, ""), "name": dev.name, "kind": dev.kind,
-               "label": dev.label, "state": st.state, "message": st.message, "connected": dev.connected,
-               "live": bool(getattr(dev, "live", False))}
+        row = {
+            "key": key,
+            "plugin": self.plugin_of.get(key, ""),
+            "name": dev.name,
+            "kind": dev.kind,
+            "label": dev.label,
+            "state": st.state,
+            "message": st.message,
+            "connected": dev.connected,
+            "live": bool(getattr(dev, "live", False)),
+        }
         if dev.kind == "projector":
             row["patterns"] = len(getattr(dev, "patterns", []) or [])
             row["index"] = getattr(dev, "index", None)

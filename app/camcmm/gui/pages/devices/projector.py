@@ -62,8 +62,12 @@ def add_routes(server: Any, projector_of: Callable[[], Any]) -> None:
 
     async def state(_request):
         p = projector_of()
-        return web.json_response({"connected": p is not None and bool(getattr(p, "connected", False)),
-                                  "version": int(getattr(p, "version", 0)) if p is not None else 0})
+        return web.json_response(
+            {
+                "connected": p is not None and bool(getattr(p, "connected", False)),
+                "version": int(getattr(p, "version", 0)) if p is not None else 0,
+            }
+        )
 
     async def pattern(_request):
         p = projector_of()

@@ -24,8 +24,13 @@ def role(spec: Any) -> str:
 def catalogue_entry(spec: Any) -> dict[str, Any]:
     """One row of the page's list of addable plugins (``dev_catalogue``)."""
     sim = bool(spec.simulated)
-    return {"id": spec.id, "title": f"{spec.name}{' (simulated)' if sim else ''}", "role": role(spec),
-            "simulated": sim, "summary": spec.summary}
+    return {
+        "id": spec.id,
+        "title": f"{spec.name}{' (simulated)' if sim else ''}",
+        "role": role(spec),
+        "simulated": sim,
+        "summary": spec.summary,
+    }
 
 
 def catalogue_order(row: dict[str, Any]) -> tuple[int, bool, str]:

@@ -14,8 +14,7 @@ from ...session import kind_of
 from .results import fmt_value
 
 #: Input port types the form can fill from the project's items: port type -> item kinds.
-ITEM_TYPES = {"pointcloud": ("pointcloud",), "mesh": ("mesh",), "geometry": ("pointcloud", "mesh"),
-              "image": ("image",)}
+ITEM_TYPES = {"pointcloud": ("pointcloud",), "mesh": ("mesh",), "geometry": ("pointcloud", "mesh"), "image": ("image",)}
 
 
 def _initial(f: dict[str, Any]) -> Any:
@@ -37,16 +36,22 @@ def fields_of(spec: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     fields, values = [], {}
     for f in form_schema(spec.parameters):
         d = {k: to_jsonable(v) for k, v in f.items()}
-        d.update(unit=f.get("unit", ""), min=f.get("min"), max=f.get("max"), choices=list(f.get("choices") or []),
-                 help=f.get("help", ""))
+        d.update(
+            unit=f.get("unit", ""),
+            min=f.get("min"),
+            max=f.get("max"),
+            choices=list(f.get("choices") or []),
+            help=f.get("help", ""),
+        )
         d["label"] = f["label"] if f.get("required") is not True else f["label"] + " *"
         values[f["name"]] = _initial(f)
         fields.append(d)
     return fields, values
 
 
-def inputs_of(spec: Any, items: list[dict[str, Any]], current: dict[str, Any],
-              selected: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+def inputs_of(
+    spec: Any, items: list[dict[str, Any]], current: dict[str, Any], selected: Any
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """``(inputs, values)``: one select per input port the items can fill (options: the
     items of a fitting kind), a text field for any other port. A port keeps the item
     chosen in ``current`` while it exists; else it takes the ``selected`` item if it
@@ -54,9 +59,15 @@ def inputs_of(spec: Any, items: list[dict[str, Any]], current: dict[str, Any],
     inputs, values = [], {}
     for port in spec.inputs:
         kinds = ITEM_TYPES.get(port.type)
-        entry = {"name": port.name, "type": port.type, "optional": port.optional,
-                 "label": f"{port.name} ({port.type})" + ("" if port.optional else " *"),
-                 "help": port.help, "supported": kinds is not None, "options": []}
+        entry = {
+            "name": port.name,
+            "type": port.type,
+            "optional": port.optional,
+            "label": f"{port.name} ({port.type})" + ("" if port.optional else " *"),
+            "help": port.help,
+            "supported": kinds is not None,
+            "options": [],
+        }
         if kinds is not None:
             opts = [{"title": it["name"], "value": it["id"]} for it in items if it["kind"] in kinds]
             entry["options"] = opts
@@ -71,8 +82,13 @@ def inputs_of(spec: Any, items: list[dict[str, Any]], current: dict[str, Any],
     return inputs, values
 
 
-def run_arguments(spec: Any, params: dict[str, Any], chosen: dict[str, Any], load: Callable[[str], Any],
-                  record: Callable[[str], dict | None]) -> tuple[dict[str, Any], dict[str, Any], list]:
+def run_arguments(
+    spec: Any,
+    params: dict[str, Any],
+    chosen: dict[str, Any],
+    load: Callable[[str], Any],
+    record: Callable[[str], dict | None],
+) -> tuple[dict[str, Any], dict[str, Any], list]:
     """``(values, inputs, measurement_ids)`` of a run: the parameters checked by their
     declaration (an empty field means the default), the input objects (items loaded
     with ``load(key)``, other ports as given) and the ids of the items used
@@ -95,17 +111,22 @@ def run_arguments(spec: Any, params: dict[str, Any], chosen: dict[str, Any], loa
             if key in (None, ""):
                 if port.optional:
                     continue
-                raise PluginError(f"plugin {pid!r} needs input {port.name!r} ({port.type}): "
-                                  "import a file or choose an item")
+                raise PluginError(
+                    f"plugin {pid!r} needs input {port.name!r} ({port.type}): import a file or choose an item"
+                )
             obj = load(str(key))
             if kind_of(obj) not in ITEM_TYPES[port.type]:
-                raise PluginError(f"plugin {pid!r}: input {port.name!r} must be a {port.type}, "
-                                  f"item {getattr(obj, 'name', key)!r} is a {kind_of(obj)}")
+                raise PluginError(
+                    f"plugin {pid!r}: input {port.name!r} must be a {port.type}, "
+                    f"item {getattr(obj, 'name', key)!r} is a {kind_of(obj)}"
+                )
             objs[port.name] = obj
             mids.append((record(str(key)) or {}).get("id", key))
         elif key not in (None, ""):
             objs[port.name] = key
         elif not port.optional:
-            raise PluginError(f"plugin {pid!r} needs input {port.name!r} ({port.type}), "
-                              "which this form cannot provide yet; use the CLI")
+            raise PluginError(
+                f"plugin {pid!r} needs input {port.name!r} ({port.type}), "
+                "which this form cannot provide yet; use the CLI"
+            )
     return values, objs, mids

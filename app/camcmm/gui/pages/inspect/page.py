@@ -35,9 +35,21 @@ class InspectPage:
         self.last_result: RunResult | None = None
         self.last_result_id: Any = None
         s = self.state
-        s.update({"plugins": [], "selected_plugin": None, "plugin_title": "", "plugin_summary": "",
-                  "form_fields": [], "form_values": {}, "form_inputs": [], "input_values": {}, "running": False,
-                  "progress": 0.0, "progress_message": ""})
+        s.update(
+            {
+                "plugins": [],
+                "selected_plugin": None,
+                "plugin_title": "",
+                "plugin_summary": "",
+                "form_fields": [],
+                "form_values": {},
+                "form_inputs": [],
+                "input_values": {},
+                "running": False,
+                "progress": 0.0,
+                "progress_message": "",
+            }
+        )
         self._clear_result()
         session.watch_items(self.refresh_inputs)
         self.refresh_plugins()
@@ -51,9 +63,18 @@ class InspectPage:
             self.session.error(f"plugin discovery failed: {exc}")
             specs = []
         self.state.plugins = [
-            {"id": s.id, "name": s.name, "kind": s.kind, "version": s.version, "status": s.status,
-             "ok": s.status == "ok", "summary": s.summary,
-             "runnable": s.status == "ok" and s.kind in ("algorithm", "standard")} for s in specs]
+            {
+                "id": s.id,
+                "name": s.name,
+                "kind": s.kind,
+                "version": s.version,
+                "status": s.status,
+                "ok": s.status == "ok",
+                "summary": s.summary,
+                "runnable": s.status == "ok" and s.kind in ("algorithm", "standard"),
+            }
+            for s in specs
+        ]
 
     def select_plugin(self, plugin_id: str | None) -> None:
         """Build the form of an algorithm or standard plugin from its manifest."""
@@ -104,15 +125,15 @@ class InspectPage:
             return None
         try:  # the run also takes inputs from the state, which the client writes too: check those
             inputs = {**dict(self.state.input_values or {}), **dict(input_values or {})}
-            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, inputs,
-                                                                ITEM_TYPES)
+            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, inputs, ITEM_TYPES)
         except CamcmmError as exc:
             session.error(str(exc))
             return None
         return await self.run_plugin(pid, form_values or {}, input_values or {})
 
-    async def run_plugin(self, plugin_id: str, params: dict[str, Any] | None = None,
-                         inputs: dict[str, Any] | None = None) -> RunResult | None:
+    async def run_plugin(
+        self, plugin_id: str, params: dict[str, Any] | None = None, inputs: dict[str, Any] | None = None
+    ) -> RunResult | None:
         """Run a plugin on the form's inputs (``inputs`` overrides them: port -> item key
         or value) while the page stays live. Progress and result go to the state, the
         result and its new clouds or meshes into the project. Returns the RunResult, or
@@ -120,17 +141,22 @@ class InspectPage:
         session = self.session
         try:
             spec = session.host.get(plugin_id)
-            values, objs, mids = run_arguments(spec, dict(params or {}),
-                                               {**dict(self.state.input_values or {}), **dict(inputs or {})},
-                                               session.load, session.measurement)
+            values, objs, mids = run_arguments(
+                spec,
+                dict(params or {}),
+                {**dict(self.state.input_values or {}), **dict(inputs or {})},
+                session.load,
+                session.measurement,
+            )
             cancel = self.job.begin()
         except Exception as exc:  # a bad value or input, or Busy: a run is going
             session.error(one_line(exc))
             return None
         self._started(plugin_id)
         try:
-            result = await self.job.call(worker.run, session.host, plugin_id, objs, values,
-                                         progress=self.job.progress, cancel=cancel)
+            result = await self.job.call(
+                worker.run, session.host, plugin_id, objs, values, progress=self.job.progress, cancel=cancel
+            )
         except Exception as exc:
             self.job.end()
             self._failed(plugin_id, exc)

@@ -97,8 +97,12 @@ def _with_fields(spec: Any, result: RunResult, base: Any) -> Any | None:
     units = {p.name: p.unit for p in spec.outputs}
     fields, field_units = dict(base.fields), dict(base.field_units)
     for name, value in result.outputs.items():
-        if isinstance(value, np.ndarray) and value.ndim == 1 and len(value) == base.n_points \
-                and value.dtype.kind in "iuf":
+        if (
+            isinstance(value, np.ndarray)
+            and value.ndim == 1
+            and len(value) == base.n_points
+            and value.dtype.kind in "iuf"
+        ):
             fields[name] = value.astype(float)
             field_units[name] = units.get(name, "")
     if len(fields) == len(base.fields):
@@ -124,7 +128,10 @@ def new_items(spec: Any, result: RunResult, inputs: dict[str, Any]) -> list[tupl
     out = []
     for label, obj in found:  # an output keeps its own name unless it only repeats the input's
         own = str(getattr(obj, "name", "") or "")
-        name = own if own and own != in_name and own not in ("cloud", "mesh") else \
-            f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
+        name = (
+            own
+            if own and own != in_name and own not in ("cloud", "mesh")
+            else f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
+        )
         out.append((label, name, obj))
     return out

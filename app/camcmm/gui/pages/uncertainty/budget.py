@@ -25,9 +25,15 @@ def rows_from_doc(doc: dict[str, Any]) -> list[dict[str, Any]]:
     rows = []
     for c in doc.get("contributions") or []:
         dof = c.get("dof", "inf")
-        rows.append({"name": str(c.get("name", "")), "u": str(c.get("u", "")), "c": str(c.get("c", 1)),
-                     "dof": "inf" if dof is None or (isinstance(dof, float) and math.isinf(dof)) else str(dof),
-                     "distribution": str(c.get("distribution", "normal"))})
+        rows.append(
+            {
+                "name": str(c.get("name", "")),
+                "u": str(c.get("u", "")),
+                "c": str(c.get("c", 1)),
+                "dof": "inf" if dof is None or (isinstance(dof, float) and math.isinf(dof)) else str(dof),
+                "distribution": str(c.get("distribution", "normal")),
+            }
+        )
     return rows
 
 
@@ -35,8 +41,12 @@ def budget_doc(quantity: str, unit: str, p: Any, rows: list[dict[str, Any]]) -> 
     """The budget file's form (the contract of ``camcmm uncertainty budget``) from the editor."""
     contributions = []
     for r in rows:
-        c = {"name": str(r.get("name") or "").strip(), "u": r.get("u"), "dof": r.get("dof") or "inf",
-             "distribution": r.get("distribution") or "normal"}
+        c = {
+            "name": str(r.get("name") or "").strip(),
+            "u": r.get("u"),
+            "dof": r.get("dof") or "inf",
+            "distribution": r.get("distribution") or "normal",
+        }
         if str(r.get("c", "")).strip() not in ("", "1"):
             c["c"] = r.get("c")
         contributions.append(c)
@@ -46,11 +56,20 @@ def budget_doc(quantity: str, unit: str, p: Any, rows: list[dict[str, Any]]) -> 
 def shown(res: dict[str, Any]) -> dict[str, Any]:
     """The result card's texts (``unc_b_result``) from the plugin's outputs."""
     return {
-        "combined": figs.fmt(res["combined"]), "dof_eff": figs.fmt(res["dof_eff"], 3), "k": figs.fmt(res["k"], 3),
-        "expanded": figs.fmt(res["expanded"]), "p": f"{100 * float(res['coverage_probability']):g} %",
+        "combined": figs.fmt(res["combined"]),
+        "dof_eff": figs.fmt(res["dof_eff"], 3),
+        "k": figs.fmt(res["k"], 3),
+        "expanded": figs.fmt(res["expanded"]),
+        "p": f"{100 * float(res['coverage_probability']):g} %",
         "unit": figs.shown_unit(res.get("unit")),
-        "shares": [{"name": c["name"], "contribution": figs.fmt(c["contribution"]),
-                    "share": f"{100 * float(c['share']):.1f} %"} for c in res["contributions"]],
+        "shares": [
+            {
+                "name": c["name"],
+                "contribution": figs.fmt(c["contribution"]),
+                "share": f"{100 * float(c['share']):.1f} %",
+            }
+            for c in res["contributions"]
+        ],
     }
 
 
@@ -59,11 +78,22 @@ def exports(offered: Downloads, name: str, doc: dict[str, Any], res: dict[str, A
     as CSV, the plugin's outputs as JSON and the chart as PNG; the links offered."""
     import yaml
 
-    rows = [[c["name"], c["u"], c["c"], c["dof"], c["distribution"], c["contribution"], c["share"]]
-            for c in res["contributions"]]
+    rows = [
+        [c["name"], c["u"], c["c"], c["dof"], c["distribution"], c["contribution"], c["share"]]
+        for c in res["contributions"]
+    ]
     rows.append(["combined", None, None, res["dof_eff"], None, res["combined"], 1.0])
-    rows.append([f"expanded (k = {res['k']:.3g}, p = {res['coverage_probability']:g})", None, None, None, None,
-                 res["expanded"], None])
+    rows.append(
+        [
+            f"expanded (k = {res['k']:.3g}, p = {res['coverage_probability']:g})",
+            None,
+            None,
+            None,
+            None,
+            res["expanded"],
+            None,
+        ]
+    )
     header = ["name", f"u ({res.get('unit', '')})", "c", "dof", "distribution", "|c·u|", "share"]
     links = [
         offered.offer(f"{name}.yaml", data=yaml.safe_dump(doc, sort_keys=False, allow_unicode=True).encode()),

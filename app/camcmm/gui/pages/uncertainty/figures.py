@@ -24,10 +24,14 @@ from ...plotly_json import LEGEND_BELOW, empty, layout
 AXES = ("x", "y", "z")
 AXIS_COLOURS = {"x": "#1f77b4", "y": "#2ca02c", "z": "#d62728"}
 FACTOR_TITLES = {
-    "feature_location": "feature location", "focal_length": "focal length",
-    "principal_point": "principal point", "radial_distortion": "radial distortion",
-    "tangential_distortion": "tangential distortion", "rotation": "rotation (camera 2)",
-    "translation": "translation (camera 2)", "joint": "all factors at once",
+    "feature_location": "feature location",
+    "focal_length": "focal length",
+    "principal_point": "principal point",
+    "radial_distortion": "radial distortion",
+    "tangential_distortion": "tangential distortion",
+    "rotation": "rotation (camera 2)",
+    "translation": "translation (camera 2)",
+    "joint": "all factors at once",
 }
 PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f")
 
@@ -63,11 +67,22 @@ def budget_figure(result: dict[str, Any]) -> dict[str, Any]:
     names = [str(r.get("name")) for r in rows][::-1]
     values = [abs(float(r.get("contribution", 0.0))) for r in rows][::-1]
     shares = [100.0 * float(r.get("share", 0.0)) for r in rows][::-1]
-    bar = {"type": "bar", "orientation": "h", "y": names, "x": values, "marker": {"color": "#1f77b4"},
-           "text": [f"{s:.1f} %" for s in shares], "textposition": "auto",
-           "hovertemplate": "%{y}<br>|c·u| = %{x:.4g} " + unit + "<br>share %{text}<extra></extra>"}
-    return {"data": [bar], "layout": _layout(f"Contributions to u_c ({unit})", f"|c·u| / {unit}", "", legend=False,
-                                             yaxis={"automargin": True})}
+    bar = {
+        "type": "bar",
+        "orientation": "h",
+        "y": names,
+        "x": values,
+        "marker": {"color": "#1f77b4"},
+        "text": [f"{s:.1f} %" for s in shares],
+        "textposition": "auto",
+        "hovertemplate": "%{y}<br>|c·u| = %{x:.4g} " + unit + "<br>share %{text}<extra></extra>",
+    }
+    return {
+        "data": [bar],
+        "layout": _layout(
+            f"Contributions to u_c ({unit})", f"|c·u| / {unit}", "", legend=False, yaxis={"automargin": True}
+        ),
+    }
 
 
 def contributions_figure(mc: dict[str, Any]) -> dict[str, Any]:
@@ -77,15 +92,27 @@ def contributions_figure(mc: dict[str, Any]) -> dict[str, Any]:
     if not contrib:
         return empty("run the Monte Carlo simulation to see the contributions")
     names = [factor_title(f) for f in contrib]
-    data = [{"type": "bar", "name": a, "x": names, "y": [float(v[i]) for v in contrib.values()],
-             "marker": {"color": AXIS_COLOURS[a]},
-             "hovertemplate": "%{x}<br>u_" + a + " = %{y:.3g} " + unit + "<extra></extra>"}
-            for i, a in enumerate(AXES)]
+    data = [
+        {
+            "type": "bar",
+            "name": a,
+            "x": names,
+            "y": [float(v[i]) for v in contrib.values()],
+            "marker": {"color": AXIS_COLOURS[a]},
+            "hovertemplate": "%{x}<br>u_" + a + " = %{y:.3g} " + unit + "<extra></extra>",
+        }
+        for i, a in enumerate(AXES)
+    ]
     comb = mc.get("combined") or [0, 0, 0]
-    title = ("Contributions per factor; combined "
-             + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb)) + f" {unit}")
-    return {"data": data,
-            "layout": _layout(title, "influence factor", f"standard uncertainty / {unit}", barmode="group")}
+    title = (
+        "Contributions per factor; combined "
+        + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb))
+        + f" {unit}"
+    )
+    return {
+        "data": data,
+        "layout": _layout(title, "influence factor", f"standard uncertainty / {unit}", barmode="group"),
+    }
 
 
 def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict[str, Any]:
@@ -98,10 +125,17 @@ def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict
     data = []
     for j, (f, c) in enumerate(conv.items()):
         u = np.asarray(c["u"], float).reshape(-1, 3)
-        data.append({"type": "scatter", "mode": "lines", "name": factor_title(f),
-                     "x": np.asarray(c["iterations"]).tolist(), "y": u[:, i].tolist(),
-                     "line": {"color": PALETTE[j % len(PALETTE)], "width": 1.6},
-                     "hovertemplate": factor_title(f) + "<br>N = %{x}<br>u = %{y:.4g} " + unit + "<extra></extra>"})
+        data.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "name": factor_title(f),
+                "x": np.asarray(c["iterations"]).tolist(),
+                "y": u[:, i].tolist(),
+                "line": {"color": PALETTE[j % len(PALETTE)], "width": 1.6},
+                "hovertemplate": factor_title(f) + "<br>N = %{x}<br>u = %{y:.4g} " + unit + "<extra></extra>",
+            }
+        )
     lay = _layout(f"Convergence in {axis}", "iterations", f"u_{axis} / {unit}")
     lay["xaxis"]["type"] = "log"
     return {"data": data, "layout": lay}
@@ -114,10 +148,21 @@ def sweep_figure(sweep: dict[str, Any], unit: str) -> dict[str, Any]:
     s = np.asarray(sweep["sigma_px"], float)
     u = np.asarray(sweep["u"], float).reshape(-1, 3)
     unit = shown_unit(unit)
-    data = [{"type": "scatter", "mode": "lines+markers", "name": a, "x": s.tolist(), "y": u[:, i].tolist(),
-             "line": {"color": AXIS_COLOURS[a]}} for i, a in enumerate(AXES)]
-    return {"data": data, "layout": _layout("Feature-location sweep", "σ of the feature location / px",
-                                            f"standard uncertainty / {unit}")}
+    data = [
+        {
+            "type": "scatter",
+            "mode": "lines+markers",
+            "name": a,
+            "x": s.tolist(),
+            "y": u[:, i].tolist(),
+            "line": {"color": AXIS_COLOURS[a]},
+        }
+        for i, a in enumerate(AXES)
+    ]
+    return {
+        "data": data,
+        "layout": _layout("Feature-location sweep", "σ of the feature location / px", f"standard uncertainty / {unit}"),
+    }
 
 
 def spatial_figure(spatial: dict[str, Any], unit: str) -> dict[str, Any]:
@@ -127,10 +172,25 @@ def spatial_figure(spatial: dict[str, Any], unit: str) -> dict[str, Any]:
     pos = np.asarray(spatial["position"], float)
     std = np.asarray(spatial["std"], float).reshape(-1, 3)
     unit = shown_unit(unit)
-    data = [{"type": "scatter", "mode": "lines+markers", "name": a, "x": pos.tolist(), "y": std[:, i].tolist(),
-             "line": {"color": AXIS_COLOURS[a]}} for i, a in enumerate(AXES)]
-    return {"data": data, "layout": _layout(f"Spatial variation along {spatial.get('axis', 'x')} (all factors)",
-                                            f"{spatial.get('axis', 'x')} / mm", f"standard deviation / {unit}")}
+    data = [
+        {
+            "type": "scatter",
+            "mode": "lines+markers",
+            "name": a,
+            "x": pos.tolist(),
+            "y": std[:, i].tolist(),
+            "line": {"color": AXIS_COLOURS[a]},
+        }
+        for i, a in enumerate(AXES)
+    ]
+    return {
+        "data": data,
+        "layout": _layout(
+            f"Spatial variation along {spatial.get('axis', 'x')} (all factors)",
+            f"{spatial.get('axis', 'x')} / mm",
+            f"standard deviation / {unit}",
+        ),
+    }
 
 
 def figure_png(fig: dict[str, Any], width_px: int = 900, height_px: int = 520) -> bytes:
@@ -154,13 +214,24 @@ def figure_png(fig: dict[str, Any], width_px: int = 900, height_px: int = 520) -
         w = 0.8 / len(bars)
         x = np.arange(len(labels))
         for k, t in enumerate(bars):
-            ax.bar(x + (k - (len(bars) - 1) / 2) * w, t["y"], w, label=t.get("name"),
-                   color=t.get("marker", {}).get("color"))
+            ax.bar(
+                x + (k - (len(bars) - 1) / 2) * w,
+                t["y"],
+                w,
+                label=t.get("name"),
+                color=t.get("marker", {}).get("color"),
+            )
         ax.set_xticks(x, labels, rotation=20, ha="right")
     for t in traces:
         if t.get("type") == "scatter":
-            ax.plot(t["x"], t["y"], marker="o" if "markers" in t.get("mode", "") else None, ms=3,
-                    label=t.get("name"), color=(t.get("line") or {}).get("color"))
+            ax.plot(
+                t["x"],
+                t["y"],
+                marker="o" if "markers" in t.get("mode", "") else None,
+                ms=3,
+                label=t.get("name"),
+                color=(t.get("line") or {}).get("color"),
+            )
     if lay.get("xaxis", {}).get("type") == "log":
         ax.set_xscale("log")
     ax.set_title(lay.get("title", {}).get("text", ""), loc="left", fontsize=10)
@@ -173,4 +244,3 @@ def figure_png(fig: dict[str, Any], width_px: int = 900, height_px: int = 520) -
     buf = io.BytesIO()
     f.savefig(buf, format="png")
     return buf.getvalue()
-

@@ -28,8 +28,17 @@ def _row_update(field: str) -> str:
 
 def _links(v: Any, html: Any, key: str, testid: str) -> None:
     with html.Div(v_if=f"{key}.length", classes="d-flex flex-wrap ga-1 mt-2", raw_attrs=tid(testid)):
-        v.VBtn("{{ l.name }}", v_for=f"l in {key}", key="l.url", href=("l.url",), target="_blank",
-               size="small", variant="tonal", prepend_icon="mdi-download", raw_attrs=[':download="l.name"'])
+        v.VBtn(
+            "{{ l.name }}",
+            v_for=f"l in {key}",
+            key="l.url",
+            href=("l.url",),
+            target="_blank",
+            size="small",
+            variant="tonal",
+            prepend_icon="mdi-download",
+            raw_attrs=[':download="l.name"'],
+        )
 
 
 def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
@@ -58,59 +67,138 @@ def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
     with html.Div(v_if="unc_tab === 'budget'", classes="d-flex ga-3", raw_attrs=tid("unc-budget")):
         with html.Div(style="flex: 1 1 58%; min-width: 0;"):
             with html.Div(classes="d-flex ga-2 mb-2"):
-                v.VTextField(v_model=("unc_b_quantity", ""), label="Quantity", density="compact", variant="outlined",
-                             hide_details=True, blur=call, raw_attrs=tid("unc-b-quantity"))
-                v.VTextField(v_model=("unc_b_unit", ""), label="Unit", density="compact", variant="outlined",
-                             hide_details=True, style="max-width: 90px;", blur=call, raw_attrs=tid("unc-b-unit"))
-                v.VTextField(v_model=("unc_b_p", 0.95), label="Coverage probability", density="compact",
-                             variant="outlined", hide_details=True, style="max-width: 170px;", blur=call,
-                             raw_attrs=tid("unc-b-p"))
+                v.VTextField(
+                    v_model=("unc_b_quantity", ""),
+                    label="Quantity",
+                    density="compact",
+                    variant="outlined",
+                    hide_details=True,
+                    blur=call,
+                    raw_attrs=tid("unc-b-quantity"),
+                )
+                v.VTextField(
+                    v_model=("unc_b_unit", ""),
+                    label="Unit",
+                    density="compact",
+                    variant="outlined",
+                    hide_details=True,
+                    style="max-width: 90px;",
+                    blur=call,
+                    raw_attrs=tid("unc-b-unit"),
+                )
+                v.VTextField(
+                    v_model=("unc_b_p", 0.95),
+                    label="Coverage probability",
+                    density="compact",
+                    variant="outlined",
+                    hide_details=True,
+                    style="max-width: 170px;",
+                    blur=call,
+                    raw_attrs=tid("unc-b-p"),
+                )
             with v.VTable(density="compact", raw_attrs=tid("unc-b-table")):
                 with html.Thead():
                     with html.Tr():
-                        for h in ("Contribution", "u (standard)", "c (sensitivity)", "dof (∞: inf)",
-                                  "Distribution", ""):
+                        for h in (
+                            "Contribution",
+                            "u (standard)",
+                            "c (sensitivity)",
+                            "dof (∞: inf)",
+                            "Distribution",
+                            "",
+                        ):
                             html.Th(h)
                 with html.Tbody():
                     with html.Tr(v_for="(r, i) in unc_b_rows", key="i", raw_attrs=tid("unc-b-row")):
                         for field, width in (("name", "220px"), ("u", "95px"), ("c", "95px"), ("dof", "85px")):
                             with html.Td(style=f"min-width: {width};"):
-                                v.VTextField(model_value=(f"r.{field}",), density="compact", variant="plain",
-                                             hide_details=True, update_modelValue=_row_update(field), blur=call,
-                                             raw_attrs=[f':data-testid="\'unc-b-{field}-\' + i"',
-                                                        f'@keydown.enter="{call}"'])
+                                v.VTextField(
+                                    model_value=(f"r.{field}",),
+                                    density="compact",
+                                    variant="plain",
+                                    hide_details=True,
+                                    update_modelValue=_row_update(field),
+                                    blur=call,
+                                    raw_attrs=[f":data-testid=\"'unc-b-{field}-' + i\"", f'@keydown.enter="{call}"'],
+                                )
                         with html.Td(style="min-width: 140px;"):
-                            v.VSelect(model_value=("r.distribution",), items=("unc_b_distributions",),
-                                      density="compact", variant="plain", hide_details=True,
-                                      update_modelValue=_row_update("distribution") + "; " + call)
+                            v.VSelect(
+                                model_value=("r.distribution",),
+                                items=("unc_b_distributions",),
+                                density="compact",
+                                variant="plain",
+                                hide_details=True,
+                                update_modelValue=_row_update("distribution") + "; " + call,
+                            )
                         with html.Td():
-                            v.VBtn(icon="mdi-delete-outline", size="x-small", variant="text",
-                                   click=(on_remove, "[i]"), title="remove this contribution")
+                            v.VBtn(
+                                icon="mdi-delete-outline",
+                                size="x-small",
+                                variant="text",
+                                click=(on_remove, "[i]"),
+                                title="remove this contribution",
+                            )
             with html.Div(classes="d-flex ga-2 mt-1 align-center"):
-                v.VBtn("Add contribution", prepend_icon="mdi-plus", size="small", variant="tonal", click=on_add,
-                       raw_attrs=tid("unc-b-add"))
-                v.VFileInput(v_model=("unc_b_file", None), label="Load a budget (YAML)", accept=".yaml,.yml,.json",
-                             density="compact", variant="outlined", hide_details=True, prepend_icon="mdi-file-upload",
-                             style="max-width: 280px;", raw_attrs=tid("unc-b-load"))
+                v.VBtn(
+                    "Add contribution",
+                    prepend_icon="mdi-plus",
+                    size="small",
+                    variant="tonal",
+                    click=on_add,
+                    raw_attrs=tid("unc-b-add"),
+                )
+                v.VFileInput(
+                    v_model=("unc_b_file", None),
+                    label="Load a budget (YAML)",
+                    accept=".yaml,.yml,.json",
+                    density="compact",
+                    variant="outlined",
+                    hide_details=True,
+                    prepend_icon="mdi-file-upload",
+                    style="max-width: 280px;",
+                    raw_attrs=tid("unc-b-load"),
+                )
                 v.VSpacer()
-                v.VBtn("Store & export", prepend_icon="mdi-content-save", color="primary", size="small",
-                       click=on_store, disabled=("!unc_b_result",), raw_attrs=tid("unc-b-store"))
-            v.VAlert(v_if="unc_b_error", text=("unc_b_error",), type="warning", density="compact", classes="mt-2",
-                     raw_attrs=tid("unc-b-error"))
+                v.VBtn(
+                    "Store & export",
+                    prepend_icon="mdi-content-save",
+                    color="primary",
+                    size="small",
+                    click=on_store,
+                    disabled=("!unc_b_result",),
+                    raw_attrs=tid("unc-b-store"),
+                )
+            v.VAlert(
+                v_if="unc_b_error",
+                text=("unc_b_error",),
+                type="warning",
+                density="compact",
+                classes="mt-2",
+                raw_attrs=tid("unc-b-error"),
+            )
             _links(v, html, "unc_b_links", "unc-b-links")
         with html.Div(style="flex: 1 1 42%; min-width: 0;"):
-            with v.VCard(v_if="unc_b_result", variant="tonal", color="primary", classes="mb-2",
-                         raw_attrs=tid("unc-b-result")):
+            with v.VCard(
+                v_if="unc_b_result", variant="tonal", color="primary", classes="mb-2", raw_attrs=tid("unc-b-result")
+            ):
                 with v.VCardText(classes="py-2"):
                     with html.Div(classes="d-flex flex-wrap ga-4 text-body-2"):
-                        html.Div("u<sub>c</sub> = <b>{{ unc_b_result.combined }}</b> {{ unc_b_result.unit }}",
-                                 raw_attrs=tid("unc-b-combined"))
+                        html.Div(
+                            "u<sub>c</sub> = <b>{{ unc_b_result.combined }}</b> {{ unc_b_result.unit }}",
+                            raw_attrs=tid("unc-b-combined"),
+                        )
                         html.Div("ν<sub>eff</sub> = <b>{{ unc_b_result.dof_eff }}</b>", raw_attrs=tid("unc-b-dof"))
                         html.Div("k = <b>{{ unc_b_result.k }}</b> ({{ unc_b_result.p }})", raw_attrs=tid("unc-b-k"))
-                        html.Div("U = <b>{{ unc_b_result.expanded }}</b> {{ unc_b_result.unit }}",
-                                 raw_attrs=tid("unc-b-expanded"))
-            tplotly.Figure(state_variable_name="unc_b_fig", display_mode_bar=True, style="height: 330px;",
-                           raw_attrs=tid("unc-b-chart"))
+                        html.Div(
+                            "U = <b>{{ unc_b_result.expanded }}</b> {{ unc_b_result.unit }}",
+                            raw_attrs=tid("unc-b-expanded"),
+                        )
+            tplotly.Figure(
+                state_variable_name="unc_b_fig",
+                display_mode_bar=True,
+                style="height: 330px;",
+                raw_attrs=tid("unc-b-chart"),
+            )
 
 
 def _mc_tab(v: Any, html: Any, tplotly: Any, page: Any) -> None:
@@ -129,34 +217,62 @@ def _mc_tab(v: Any, html: Any, tplotly: Any, page: Any) -> None:
 
 def _mc_form(v: Any, html: Any, page: Any) -> None:
     """The system (YAML), the run's parameters, Run / Cancel, progress and the exports."""
+
     async def on_run(spec, params, studies):
         await page.run_montecarlo_async(spec, {**(params or {}), "studies": studies})
 
     def on_cancel():
         page.cancel()
 
-    v.VTextarea(v_model=("unc_mc_spec", ""), label="Stereo system (YAML: cameras, stereo, grid, uncertainties)",
-                rows=14, density="compact", variant="outlined", hide_details=True,
-                style="font-family: monospace; font-size: 11px;", disabled=("unc_mc_running",),
-                raw_attrs=tid("unc-mc-spec"))
+    v.VTextarea(
+        v_model=("unc_mc_spec", ""),
+        label="Stereo system (YAML: cameras, stereo, grid, uncertainties)",
+        rows=14,
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        style="font-family: monospace; font-size: 11px;",
+        disabled=("unc_mc_running",),
+        raw_attrs=tid("unc-mc-spec"),
+    )
     with html.Div(classes="mt-2"):
         # no hints or messages under the fields: one appearing on focus and going on blur
         # moves the Run button under the pointer between mouse down and up (the click is
         # lost); the server checks the values and names a wrong one in one line
         param_form("unc_mc_fields", "unc_mc_params", "unc-mc", disabled="unc_mc_running", hide_details=True)
-    v.VSelect(v_model=("unc_mc_studies", []), items=("unc_mc_study_options",), label="Studies",
-              multiple=True, chips=True, density="compact", variant="outlined", hide_details=True,
-              classes="mt-2", disabled=("unc_mc_running",), raw_attrs=tid("unc-mc-studies"))
+    v.VSelect(
+        v_model=("unc_mc_studies", []),
+        items=("unc_mc_study_options",),
+        label="Studies",
+        multiple=True,
+        chips=True,
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        classes="mt-2",
+        disabled=("unc_mc_running",),
+        raw_attrs=tid("unc-mc-studies"),
+    )
     with html.Div(classes="d-flex ga-2 mt-2"):
-        v.VBtn("Run", color="primary", prepend_icon="mdi-play", loading=("unc_mc_running",),
-               disabled=("unc_mc_running",),
-               click=(on_run, "[unc_mc_spec, unc_mc_params, unc_mc_studies]"),
-               raw_attrs=tid("unc-mc-run"))
-        v.VBtn("Cancel", v_if="unc_mc_running", variant="text", click=on_cancel,
-               raw_attrs=tid("unc-mc-cancel"))
-    with v.VProgressLinear(v_show="unc_mc_running || unc_mc_progress > 0", model_value=("unc_mc_progress",),
-                           height=18, rounded=True, classes="mt-2",
-                           color=("unc_mc_running ? 'primary' : 'success'",), raw_attrs=tid("unc-mc-progress")):
+        v.VBtn(
+            "Run",
+            color="primary",
+            prepend_icon="mdi-play",
+            loading=("unc_mc_running",),
+            disabled=("unc_mc_running",),
+            click=(on_run, "[unc_mc_spec, unc_mc_params, unc_mc_studies]"),
+            raw_attrs=tid("unc-mc-run"),
+        )
+        v.VBtn("Cancel", v_if="unc_mc_running", variant="text", click=on_cancel, raw_attrs=tid("unc-mc-cancel"))
+    with v.VProgressLinear(
+        v_show="unc_mc_running || unc_mc_progress > 0",
+        model_value=("unc_mc_progress",),
+        height=18,
+        rounded=True,
+        classes="mt-2",
+        color=("unc_mc_running ? 'primary' : 'success'",),
+        raw_attrs=tid("unc-mc-progress"),
+    ):
         html.Span("{{ Math.round(unc_mc_progress) }} %", classes="text-caption")
     html.Div("{{ unc_mc_message }}", classes="text-caption mt-1", raw_attrs=tid("unc-mc-message"))
     _links(v, html, "unc_mc_links", "unc-mc-links")
@@ -179,25 +295,47 @@ def _mc_table(v: Any, html: Any, tplotly: Any) -> None:
                     html.Td(f"{{{{ r.{a} }}}}", classes="text-right")
                 html.Td("{{ r.dof }}", classes="text-right")
                 html.Td("{{ r.distribution }}")
-    tplotly.Figure(state_variable_name="unc_mc_fig_contrib", display_mode_bar=True, style="height: 300px;",
-                   raw_attrs=tid("unc-mc-chart"))
+    tplotly.Figure(
+        state_variable_name="unc_mc_fig_contrib",
+        display_mode_bar=True,
+        style="height: 300px;",
+        raw_attrs=tid("unc-mc-chart"),
+    )
 
 
 def _mc_studies(v: Any, tplotly: Any, page: Any) -> None:
     """Convergence (on the chosen axis), the feature-location sweep and the spatial variation."""
+
     def on_axis(axis):
         page.set_axis(axis)
 
-    with v.VBtnToggle(model_value=("unc_mc_axis",), density="compact", mandatory=True, color="primary",
-                      update_modelValue=(on_axis, "[$event]")):
+    with v.VBtnToggle(
+        model_value=("unc_mc_axis",),
+        density="compact",
+        mandatory=True,
+        color="primary",
+        update_modelValue=(on_axis, "[$event]"),
+    ):
         for a in ("x", "y", "z"):
             v.VBtn(a, value=a, size="small")
-    tplotly.Figure(state_variable_name="unc_mc_fig_conv", display_mode_bar=True, style="height: 280px;",
-                   raw_attrs=tid("unc-mc-convergence"))
-    tplotly.Figure(state_variable_name="unc_mc_fig_sweep", display_mode_bar=True, style="height: 240px;",
-                   raw_attrs=tid("unc-mc-sweep"))
-    tplotly.Figure(state_variable_name="unc_mc_fig_spatial", display_mode_bar=True, style="height: 240px;",
-                   raw_attrs=tid("unc-mc-spatial"))
+    tplotly.Figure(
+        state_variable_name="unc_mc_fig_conv",
+        display_mode_bar=True,
+        style="height: 280px;",
+        raw_attrs=tid("unc-mc-convergence"),
+    )
+    tplotly.Figure(
+        state_variable_name="unc_mc_fig_sweep",
+        display_mode_bar=True,
+        style="height: 240px;",
+        raw_attrs=tid("unc-mc-sweep"),
+    )
+    tplotly.Figure(
+        state_variable_name="unc_mc_fig_spatial",
+        display_mode_bar=True,
+        style="height: 240px;",
+        raw_attrs=tid("unc-mc-spatial"),
+    )
 
 
 def _mc_volume(v: Any, html: Any, page: Any) -> None:
@@ -207,14 +345,24 @@ def _mc_volume(v: Any, html: Any, page: Any) -> None:
     def on_map(choice):
         page.show_map(choice)
 
-    v.VSelect(model_value=("unc_mc_map",), items=("unc_mc_maps",), item_title="title", item_value="value",
-              label="Measuring volume", density="compact", variant="outlined", hide_details=True,
-              disabled=("!unc_mc_maps.length",), update_modelValue=(on_map, "[$event]"),
-              raw_attrs=tid("unc-mc-map"))
+    v.VSelect(
+        model_value=("unc_mc_map",),
+        items=("unc_mc_maps",),
+        item_title="title",
+        item_value="value",
+        label="Measuring volume",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        disabled=("!unc_mc_maps.length",),
+        update_modelValue=(on_map, "[$event]"),
+        raw_attrs=tid("unc-mc-map"),
+    )
     html.Div("{{ unc_mc_map_note }}", classes="text-caption my-1", raw_attrs=tid("unc-mc-map-note"))
     with html.Div(style="height: 480px; position: relative;", raw_attrs=tid("unc-mc-view")):
-        rview = VtkRemoteView(page.view.plotter.render_window, interactive_ratio=0.5,
-                              interactive_quality=60, still_ratio=1)
+        rview = VtkRemoteView(
+            page.view.plotter.render_window, interactive_ratio=0.5, interactive_quality=60, still_ratio=1
+        )
 
     def view_changed(reset_camera: bool) -> None:
         if reset_camera:
@@ -231,10 +379,22 @@ def build(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     ctrl = page.server.controller
-    with html.Div(v_if=shown("uncertainty"), classes="pa-3", raw_attrs=tid("uncertainty"),
-                  style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); overflow-y: auto;"):
-        v.VAlert(v_if="unc_error", text=("unc_error",), type="error", density="compact", closable=True,
-                 classes="mb-2", click_close="unc_error = ''", raw_attrs=tid("unc-error"))
+    with html.Div(
+        v_if=shown("uncertainty"),
+        classes="pa-3",
+        raw_attrs=tid("uncertainty"),
+        style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); overflow-y: auto;",
+    ):
+        v.VAlert(
+            v_if="unc_error",
+            text=("unc_error",),
+            type="error",
+            density="compact",
+            closable=True,
+            classes="mb-2",
+            click_close="unc_error = ''",
+            raw_attrs=tid("unc-error"),
+        )
         with v.VTabs(v_model=("unc_tab", "budget"), density="compact", color="primary", classes="mb-2"):
             v.VTab("GUM budget", value="budget", raw_attrs=tid("unc-tab-budget"))
             v.VTab("Monte Carlo: stereo system", value="montecarlo", raw_attrs=tid("unc-tab-montecarlo"))

@@ -105,8 +105,9 @@ class UncertaintyPage:
         return self.host.provider(task).id
 
     # -- the budget --------------------------------------------------------------------------
-    def set_budget(self, quantity: str, unit: str, p: Any, rows: list[dict[str, Any]],
-                   save_draft: bool = True) -> dict | None:
+    def set_budget(
+        self, quantity: str, unit: str, p: Any, rows: list[dict[str, Any]], save_draft: bool = True
+    ) -> dict | None:
         """Evaluate the editor's budget; the result (or the one-line reason) is shown at once."""
         s = self.state
         s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows = quantity, unit, p, [dict(r) for r in rows]
@@ -148,8 +149,12 @@ class UncertaintyPage:
         if not isinstance(doc, dict) or not isinstance(doc.get("contributions"), list):
             self._error(f"{name}: expected a mapping with a 'contributions' list")
             return False
-        self.set_budget(str(doc.get("quantity", "")), str(doc.get("unit", "")),
-                        doc.get("coverage_probability", 0.95), bud.rows_from_doc(doc))
+        self.set_budget(
+            str(doc.get("quantity", "")),
+            str(doc.get("unit", "")),
+            doc.get("coverage_probability", 0.95),
+            bud.rows_from_doc(doc),
+        )
         return True
 
     def save_budget(self) -> dict[str, Any] | None:
@@ -181,8 +186,9 @@ class UncertaintyPage:
 
     def _compute(self, plugin_id: str, doc: dict[str, Any], values: dict[str, Any]) -> Any:
         """Worker: the plugin's run (in a worker process when the host allows)."""
-        return worker.run(self.host, plugin_id, {"spec": doc}, values, progress=self.job.progress,
-                          cancel=self.job.cancel_event)
+        return worker.run(
+            self.host, plugin_id, {"spec": doc}, values, progress=self.job.progress, cancel=self.job.cancel_event
+        )
 
     async def run_montecarlo_async(self, spec_text: str, params: dict[str, Any]) -> dict[str, Any] | None:
         """Run the study of the system ``spec_text`` (YAML) with the form's ``params``
@@ -228,8 +234,13 @@ class UncertaintyPage:
         s = self.state
         self.mc, self.mc_result_id = full, rid
         s.unc_mc_rows = study.table_rows(full)
-        s.unc_mc_summary = {"unit": figs.shown_unit(full.get("unit", "um")), "iterations": full.get("iterations"),
-                            "result_id": rid, "method": full.get("method"), "n_points": full.get("n_points")}
+        s.unc_mc_summary = {
+            "unit": figs.shown_unit(full.get("unit", "um")),
+            "iterations": full.get("iterations"),
+            "result_id": rid,
+            "method": full.get("method"),
+            "n_points": full.get("n_points"),
+        }
         self._draw_figures()
         s.unc_mc_maps = map_options(full)
         s.unc_mc_map = s.unc_mc_maps[0]["value"] if s.unc_mc_maps else None
@@ -254,8 +265,9 @@ class UncertaintyPage:
         s.unc_mc_map = choice
         if not choice or self.mc is None:
             self.view.clear()
-            s.unc_mc_map_note = ("tick 'volume_maps' under Studies and run to see the measuring volume"
-                                 if self.mc else "")
+            s.unc_mc_map_note = (
+                "tick 'volume_maps' under Studies and run to see the measuring volume" if self.mc else ""
+            )
             return
         try:
             s.unc_mc_map_note = self.view.show(self.mc, choice, self.mc.get("unit", "um"))
@@ -277,8 +289,13 @@ class UncertaintyPage:
                 draft = read_yaml(_resource("budget.yaml"))
             except InputError:
                 draft = {"quantity": "", "unit": "um", "coverage_probability": 0.95, "contributions": []}
-        self.set_budget(str(draft.get("quantity", "")), str(draft.get("unit", "")),
-                        draft.get("coverage_probability", 0.95), bud.rows_from_doc(draft), save_draft=False)
+        self.set_budget(
+            str(draft.get("quantity", "")),
+            str(draft.get("unit", "")),
+            draft.get("coverage_probability", 0.95),
+            bud.rows_from_doc(draft),
+            save_draft=False,
+        )
         try:
             s.unc_mc_spec = _resource("stereo_system.yaml").read_text("utf-8")
         except OSError:

@@ -76,9 +76,11 @@ def read(project: Any, h: str) -> dict[str, Any]:
 
 def done_message(full: dict[str, Any]) -> str:
     elapsed = full.get("elapsed_s")
-    return (f"done: {full.get('iterations')} iterations × {full.get('n_points')} points"
-            + (f" in {elapsed:.1f} s" if isinstance(elapsed, (int, float)) else "")
-            + (f" ({full.get('executor')})" if full.get("executor") else ""))
+    return (
+        f"done: {full.get('iterations')} iterations × {full.get('n_points')} points"
+        + (f" in {elapsed:.1f} s" if isinstance(elapsed, (int, float)) else "")
+        + (f" ({full.get('executor')})" if full.get("executor") else "")
+    )
 
 
 def table_rows(full: dict[str, Any]) -> list[dict[str, Any]]:
@@ -86,32 +88,60 @@ def table_rows(full: dict[str, Any]) -> list[dict[str, Any]]:
     then combined u, effective dof, k and U (rows with ``total``)."""
     rows = []
     for f, u in (full.get("contributions") or {}).items():
-        rows.append({"factor": figs.factor_title(f), "x": figs.fmt(u[0], 3), "y": figs.fmt(u[1], 3),
-                     "z": figs.fmt(u[2], 3), "dof": figs.fmt((full.get("factor_dof") or {}).get(f), 4),
-                     "distribution": (full.get("factor_distribution") or {}).get(f, "")})
-    for key, title in (("combined", "combined u"), ("dof_eff", "effective dof"), ("k", "k"),
-                       ("expanded", f"U ({100 * float(full.get('coverage_probability', 0.95)):g} %)")):
+        rows.append(
+            {
+                "factor": figs.factor_title(f),
+                "x": figs.fmt(u[0], 3),
+                "y": figs.fmt(u[1], 3),
+                "z": figs.fmt(u[2], 3),
+                "dof": figs.fmt((full.get("factor_dof") or {}).get(f), 4),
+                "distribution": (full.get("factor_distribution") or {}).get(f, ""),
+            }
+        )
+    for key, title in (
+        ("combined", "combined u"),
+        ("dof_eff", "effective dof"),
+        ("k", "k"),
+        ("expanded", f"U ({100 * float(full.get('coverage_probability', 0.95)):g} %)"),
+    ):
         v = full.get(key) or [None] * 3
-        rows.append({"factor": title, "x": figs.fmt(v[0], 3), "y": figs.fmt(v[1], 3), "z": figs.fmt(v[2], 3),
-                     "dof": "", "distribution": "", "total": True})
+        rows.append(
+            {
+                "factor": title,
+                "x": figs.fmt(v[0], 3),
+                "y": figs.fmt(v[1], 3),
+                "z": figs.fmt(v[2], 3),
+                "dof": "",
+                "distribution": "",
+                "total": True,
+            }
+        )
     return rows
 
 
-def exports(offered: Downloads, full: dict[str, Any], rid: int | None, rows: list[dict[str, Any]],
-            axis: str) -> list[dict[str, str]]:
+def exports(
+    offered: Downloads, full: dict[str, Any], rid: int | None, rows: list[dict[str, Any]], axis: str
+) -> list[dict[str, str]]:
     """Offer the table (CSV), the whole result (JSON) and each chart drawn (PNG)."""
     name = f"montecarlo-{rid if rid is not None else 'unsaved'}"
     header = ["factor", "u_x", "u_y", "u_z", "dof", "distribution"]
     unit = full.get("unit", "um")
     table = [[r["factor"], r["x"], r["y"], r["z"], r["dof"], r["distribution"]] for r in rows]
     studies = full.get("studies") or {}
-    links = [offered.offer(f"{name}.csv", replace=True, data=table_csv(
-                 [header[0]] + [f"{h} ({unit})" for h in header[1:4]] + header[4:], table)),
-             offered.offer(f"{name}.json", data=json.dumps(full).encode(), replace=True),
-             offered.offer(f"{name}-contributions.png", replace=True,
-                           data=figs.figure_png(figs.contributions_figure(full)))]
-    charts = {"convergence": lambda s: figs.convergence_figure(s, unit, axis),
-              "sweep": lambda s: figs.sweep_figure(s, unit), "spatial": lambda s: figs.spatial_figure(s, unit)}
+    links = [
+        offered.offer(
+            f"{name}.csv",
+            replace=True,
+            data=table_csv([header[0]] + [f"{h} ({unit})" for h in header[1:4]] + header[4:], table),
+        ),
+        offered.offer(f"{name}.json", data=json.dumps(full).encode(), replace=True),
+        offered.offer(f"{name}-contributions.png", replace=True, data=figs.figure_png(figs.contributions_figure(full))),
+    ]
+    charts = {
+        "convergence": lambda s: figs.convergence_figure(s, unit, axis),
+        "sweep": lambda s: figs.sweep_figure(s, unit),
+        "spatial": lambda s: figs.spatial_figure(s, unit),
+    }
     for key, draw in charts.items():
         if studies.get(key):
             links.append(offered.offer(f"{name}-{key}.png", replace=True, data=figs.figure_png(draw(studies[key]))))

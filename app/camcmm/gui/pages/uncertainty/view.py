@@ -28,7 +28,7 @@ def map_options(result: dict[str, Any] | None) -> list[dict[str, str]]:
     vm = ((result.get("studies") or {}).get("volume_maps") or {}).get("factors") or {}
     for f in vm:
         out.append({"title": f"Distortion of the volume: +1 u of {factor_title(f)}", "value": f"distortion:{f}"})
-    for f in (result.get("per_point") or {}):
+    for f in result.get("per_point") or {}:
         if f != "points":
             out.append({"title": f"Uncertainty per point: {factor_title(f)}", "value": f"uncertainty:{f}"})
     return out
@@ -46,11 +46,19 @@ def scene_arrays(result: dict[str, Any], choice: str) -> tuple[np.ndarray, np.nd
         if kind == "distortion":
             vm = result["studies"]["volume_maps"]
             m = vm["factors"][factor]
-            return (_points(vm["points"]), np.asarray(m["norm"], float).ravel(),
-                    _points(m["errors"]), f"|error| ({factor_title(factor)})")
+            return (
+                _points(vm["points"]),
+                np.asarray(m["norm"], float).ravel(),
+                _points(m["errors"]),
+                f"|error| ({factor_title(factor)})",
+            )
         if kind == "uncertainty":
-            return (_points(result["per_point"]["points"]), np.asarray(result["per_point_norm"][factor], float).ravel(),
-                    None, f"u ({factor_title(factor)})")
+            return (
+                _points(result["per_point"]["points"]),
+                np.asarray(result["per_point_norm"][factor], float).ravel(),
+                None,
+                f"u ({factor_title(factor)})",
+            )
     except KeyError:
         # a result stored by an earlier camcmm lacks the lengths the map shows
         raise InputError(f"{choice}: this result has no such map; run the study again") from None
@@ -97,8 +105,16 @@ class UncertaintyView:
         title = f"{what} / {unit}"
         cloud = pv.PolyData(pts)
         cloud[title] = mag
-        bar = {"title": title, "vertical": True, "position_x": 0.86, "position_y": 0.1, "height": 0.8,
-               "title_font_size": 12, "label_font_size": 11, "fmt": "%.3g"}
+        bar = {
+            "title": title,
+            "vertical": True,
+            "position_x": 0.86,
+            "position_y": 0.1,
+            "height": 0.8,
+            "title_font_size": 12,
+            "label_font_size": 11,
+            "fmt": "%.3g",
+        }
         extent = float(np.ptp(pts, axis=0).max()) or 1.0
         if vec is not None:
             # The errors are micrometres in a volume of tens of millimetres: draw them
@@ -106,20 +122,25 @@ class UncertaintyView:
             longest = float(mag.max()) or 1.0
             factor = 0.1 * extent / longest
             cloud["vectors"] = vec
-            glyphs = cloud.glyph(orient="vectors", scale=title, factor=factor,
-                                 geom=pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04))
+            glyphs = cloud.glyph(
+                orient="vectors",
+                scale=title,
+                factor=factor,
+                geom=pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04),
+            )
             self.plotter.add_mesh(glyphs, scalars=title, cmap="viridis", scalar_bar_args=bar)
-            self.plotter.add_mesh(cloud, color="#444444", point_size=3, render_points_as_spheres=True,
-                                  show_scalar_bar=False)
+            self.plotter.add_mesh(
+                cloud, color="#444444", point_size=3, render_points_as_spheres=True, show_scalar_bar=False
+            )
             self.scale = factor
             magnified = factor / {"mm": 1.0, "µm": 1e-3, "nm": 1e-6}.get(unit, 1.0)
-            self.note = (f"arrows magnified {magnified:,.0f}× (longest {longest:.3g} {unit}); "
-                         f"{len(pts)} grid points")
+            self.note = f"arrows magnified {magnified:,.0f}× (longest {longest:.3g} {unit}); {len(pts)} grid points"
         else:
-            self.plotter.add_mesh(cloud, scalars=title, cmap="viridis", point_size=12,
-                                  render_points_as_spheres=True, scalar_bar_args=bar)
+            self.plotter.add_mesh(
+                cloud, scalars=title, cmap="viridis", point_size=12, render_points_as_spheres=True, scalar_bar_args=bar
+            )
             self.scale = 0.0
-            self.note = (f"{len(pts)} grid points; u from {float(mag.min()):.3g} to {float(mag.max()):.3g} {unit}")
+            self.note = f"{len(pts)} grid points; u from {float(mag.min()):.3g} to {float(mag.max()):.3g} {unit}"
         self.shown = choice
         self.plotter.camera_position = "iso"
         self.plotter.reset_camera()
@@ -135,4 +156,3 @@ class UncertaintyView:
             self.plotter.close()
         except Exception:
             pass
-
