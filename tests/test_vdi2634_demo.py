@@ -60,5 +60,6 @@ def test_demo_without_the_plugins_says_so(tmp_path, monkeypatch):
     monkeypatch.setattr(demo, "default_host", lambda: PluginHost(entry_points=[]))
     out = demo.create_demo(tmp_path / "bare")
     assert len(out["measurements"]) == 4
-    assert "virtuallab.acceptance-set, vdi2634-2" in out["notes"][0] and "not installed" in out["notes"][0]
+    # the demo finds its plugins by task: the note names the task none provides
+    assert "area-scanning-acceptance-test" in out["notes"][0] and "install one" in out["notes"][0]
     assert "acceptance" not in out

@@ -32,8 +32,10 @@ from .project.store import utcnow
 
 SEED = 2634
 ACCEPTANCE_STATE = "acceptance.current"
-STANDARD = "vdi2634-2"
-SIMULATOR = "virtuallab.acceptance-set"
+#: what the demo runs, found by the task a plugin declares (``provides``, docs/manifest.md):
+#: a lab's own plugin for a task replaces camcmm's (``PluginHost.provider``)
+STANDARD_TASK = "area-scanning-acceptance-test"
+SIMULATOR_TASK = "acceptance-set-simulation"
 #: The simulated system: noise like the thesis's stereo fringe projection (ch. 5.3:
 #: 20-30 um standard deviation of the radial deviations), a small global scale error,
 #: a radial term and a repeatable periodic pattern (ch. 3.3.1, 3.3.2: local scale that
@@ -189,18 +191,15 @@ def _acceptance_test(project: Project) -> list[str]:
     notes for the operator (e.g. a missing plugin). Never raises for a plugin problem:
     the rest of the demo stays usable."""
     host = default_host()
-    missing = [pid for pid in (SIMULATOR, STANDARD) if pid not in host.plugins]
-    if missing:
-        return [f"no acceptance test in the demo: plugin {', '.join(missing)} is not installed"]
     try:
-        std = host.load(STANDARD)
+        standard, simulator = host.provider(STANDARD_TASK).id, host.provider(SIMULATOR_TASK).id
+        std = host.load(standard)
         with tempfile.TemporaryDirectory(prefix="camcmm-demo-") as tmp:
             gen = host.run(
-                SIMULATOR, {}, {"directory": str(Path(tmp) / "measurements"), "standard": STANDARD, **SIMULATION}
+                simulator, {}, {"directory": str(Path(tmp) / "measurements"), "standard": standard, **SIMULATION}
             )
-            _record_test(
-                project, host, std, gen.outputs["plan_dict"], Path(gen.outputs["plan"]).parent, Path(tmp) / "report"
-            )
+            plan, folder = gen.outputs["plan_dict"], Path(gen.outputs["plan"]).parent
+            _record_test(project, host, std, (standard, simulator), plan, folder, Path(tmp) / "report")
     except CamcmmError as exc:
         return [f"no acceptance test in the demo: {exc}"]
     return []
@@ -221,17 +220,19 @@ def _run_dict(
     }
 
 
-def _record_test(project: Project, host, std, plan: dict, folder: Path, report_dir: Path) -> None:
-    """Measurements, one stored evaluation each, the summary with its report, the state."""
-    version = host.get(STANDARD).version
-    ctx = RunContext(host, STANDARD)
+def _record_test(project: Project, host, std, ids: tuple[str, str], plan: dict, folder: Path, report_dir: Path) -> None:
+    """Measurements, one stored evaluation each, the summary with its report, the state
+    (``ids``: the standard's and the simulator's plugin ids)."""
+    standard, simulator = ids
+    version = host.get(standard).version
+    ctx = RunContext(host, standard)
     reqs = {r["test"]: r for r in std.requirements(plan)}
     sid = project.add_system(
-        plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"], "simulated_by": SIMULATOR}
+        plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"], "simulated_by": simulator}
     )
     per: dict[str, list[dict[str, Any]]] = {}
     state: dict[str, Any] = {
-        "standard": STANDARD,
+        "standard": standard,
         "plan": plan,
         "measurements": {},
         "evaluations": {},
@@ -244,7 +245,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
     }
     for test, files in plan["measurements"].items():
         art = reqs[test]["artefact"]
-        aid = project.add_artefact({**art, "id": f"{STANDARD}:{art['id']}"})
+        aid = project.add_artefact({**art, "id": f"{standard}:{art['id']}"})
         state["artefact_ids"][test] = aid
         positions = reqs[test]["positions"]
         for i, name in enumerate(files):
@@ -256,7 +257,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
                 kind="pointcloud",
                 system_id=sid,
                 artefact_id=aid,
-                meta={"standard": STANDARD, "test": test, "position": pos, "repeat": 1, "file": name},
+                meta={"standard": standard, "test": test, "position": pos, "repeat": 1, "file": name},
             )
             started = utcnow()
             try:
@@ -269,7 +270,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
                 files_out["deviations"] = project.add_object(ev["deviations"], f"{pos} deviations")
             rid = project.add_result(
                 _run_dict(
-                    STANDARD,
+                    standard,
                     version,
                     {"test": test, "position": pos},
                     {"cloud": h},
@@ -279,7 +280,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
                 ),
                 [mid],
                 files_out,
-                label=f"{STANDARD} {pos}",
+                label=f"{standard} {pos}",
             )
             per.setdefault(test, []).append(ev)
             state["measurements"].setdefault(test, []).append(mid)
@@ -292,7 +293,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
     mids = [m for ms in state["measurements"].values() for m in ms]
     rid = project.add_result(
         _run_dict(
-            STANDARD,
+            standard,
             version,
             {},
             {e["file"]: e["sha256"] for es in per.values() for e in es},
@@ -302,7 +303,7 @@ def _record_test(project: Project, host, std, plan: dict, folder: Path, report_d
         ),
         mids,
         report_files,
-        label=f"{STANDARD} acceptance test",
+        label=f"{standard} acceptance test",
     )
     state.update(
         {
