@@ -103,7 +103,12 @@ def _page_switch(pages: list[Any], first: str) -> None:
 
 def _import_controls(session: Any) -> None:
     """The toolbar's import: a file through the browser, or a path on the server."""
-    from trame.widgets import html
+    _upload_field(session)
+    _path_dialog(session)
+
+
+def _upload_field(session: Any) -> None:
+    """A file from the browser: imported as soon as it is chosen."""
     from trame.widgets import vuetify3 as v
 
     state = session.state
@@ -123,17 +128,6 @@ def _import_controls(session: Any) -> None:
             return on_upload(upload)  # a coroutine: trame schedules it
         return None
 
-    async def on_import_path(path):
-        state.path_dialog = False
-        if path and str(path).strip():
-            try:  # only the project folder and the data roots: refused before anything is read
-                allowed = session.roots.check(path)
-            except CamcmmError as exc:
-                session.error(str(exc))
-                return
-            await session.import_file_async(str(allowed), Path(str(path).strip().strip('"')).name)
-
-    session.ctrl.import_server_path = on_import_path  # for tests
     v.VFileInput(
         v_model=("upload", None),
         label="Import cloud / mesh / image",
@@ -149,6 +143,24 @@ def _import_controls(session: Any) -> None:
         classes="mr-4",
         raw_attrs=tid("import-file"),
     )
+
+
+def _path_dialog(session: Any) -> None:
+    """A file on the server (too large to upload): only inside the project folder and the data roots."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_import_path(path):
+        session.state.path_dialog = False
+        if path and str(path).strip():
+            try:  # refused before anything is read
+                allowed = session.roots.check(path)
+            except CamcmmError as exc:
+                session.error(str(exc))
+                return
+            await session.import_file_async(str(allowed), Path(str(path).strip().strip('"')).name)
+
+    session.ctrl.import_server_path = on_import_path  # for tests
     with v.VDialog(v_model=("path_dialog", False), max_width=640):
         with v.VCard(title="Import a file on the server", raw_attrs=tid("path-dialog")):
             with v.VCardText():
