@@ -24,10 +24,10 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from datetime import UTC, datetime
 from typing import Any
 
 from ..errors import InputError, ParameterError
+from ..jsonable import utc_now
 from ..params import Param
 
 log = logging.getLogger("camcmm.devices")
@@ -48,8 +48,9 @@ class DeviceDisconnected(DeviceError):
 
 
 def utc_iso(t: float | None = None) -> str:
-    """Wall-clock time ``t`` (epoch seconds; now if None) as UTC ISO 8601 with ms."""
-    return datetime.fromtimestamp(time.time() if t is None else t, UTC).isoformat(timespec="milliseconds")
+    """Wall-clock time ``t`` (epoch seconds; now if None) as UTC ISO 8601 with ms: the
+    device logs' name for :func:`camcmm.jsonable.utc_now`, the one clock."""
+    return utc_now(t)
 
 
 @dataclass(frozen=True)

@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, to_jsonable
 
-from .sequence import Sequence, grab_all, jsonable
+from .sequence import Sequence, grab_all
 
 
 def turntable_angles(
@@ -235,7 +235,7 @@ class ScaleRunSequence(Sequence):
         return [self.rows[k] for k in sorted(self.rows)]
 
     def snapshot(self) -> dict[str, Any]:
-        return {**super().snapshot(), "rows": jsonable(self.table()) if hasattr(self, "rows") else []}
+        return {**super().snapshot(), "rows": to_jsonable(self.table()) if hasattr(self, "rows") else []}
 
     def _load_progress(self) -> None:
         super()._load_progress()
@@ -247,7 +247,7 @@ class ScaleRunSequence(Sequence):
         if not hasattr(self.store, "add_file"):
             return
         path = self._tmp / f"{self.run_id}-scale-run.json"
-        doc = {"sequence": self.name, "run_id": self.run_id, "unit": "mm", "rows": jsonable(self.table())}
+        doc = {"sequence": self.name, "run_id": self.run_id, "unit": "mm", "rows": to_jsonable(self.table())}
         path.write_text(json.dumps(doc, indent=1))
         try:
             h = self.store.add_file(path)

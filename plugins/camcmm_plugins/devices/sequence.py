@@ -29,25 +29,11 @@ from collections.abc import Sequence as Seq
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from camcmm.api import Device, DeviceError, Events, Image, utc_iso, write
+from camcmm.api import Device, DeviceError, Events, Image, to_jsonable, utc_iso, write
 
 log = logging.getLogger(__name__)
 
 TERMINAL = ("done", "aborted", "failed")
-
-
-def jsonable(x: Any) -> Any:
-    if isinstance(x, dict):
-        return {str(k): jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
 
 
 class Sequence:
@@ -144,7 +130,7 @@ class Sequence:
 
     def _plan_key(self) -> str:
         """A digest of the plan: progress saved for another plan is not taken over."""
-        text = json.dumps(jsonable(self.steps), sort_keys=True, default=str)
+        text = json.dumps(to_jsonable(self.steps), sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     # -- for subclasses --------------------------------------------------------------------------
@@ -168,7 +154,7 @@ class Sequence:
 
     def store_frame(self, frame: Image, i: int, key: str, meta: dict[str, Any] | None = None) -> int | None:
         step = self.steps[i]
-        info = jsonable(
+        info = to_jsonable(
             {
                 **frame.metadata,
                 **(meta or {}),

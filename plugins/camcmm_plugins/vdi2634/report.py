@@ -16,10 +16,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import Report, charts
+from camcmm.api import Report, charts, to_jsonable
 
 from .declaration import SYMBOLS
-from .plain import plain
 
 TEST_TITLES = {
     "sphere": "Probing errors P_F and P_S (sphere)",
@@ -303,4 +302,4 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
 
 def _data(result: dict[str, Any]) -> Any:
     """The result as JSON data: clouds left out (their summary stays)."""
-    return plain(result)
+    return to_jsonable(result)

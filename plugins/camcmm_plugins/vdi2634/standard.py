@@ -37,12 +37,12 @@ from camcmm.api import (
     default_host,
     guarded_verdict,
     simple_verdict,
+    to_jsonable,
 )
 
 from . import declaration, describe, measure, positions, report, rules, uncertainty
 from . import pictograms as drawings
 from . import plan as plans
-from .plain import plain
 
 INCOMPLETE = "incomplete"
 #: A deviations cloud kept in a batch result (for the report's colour maps) has at most this many points.
@@ -349,7 +349,7 @@ class Standard:
             "plugins": plugins,
             "inputs": inputs,
             "plan": p.source,
-            "plan_dict": plain(p.raw),
+            "plan_dict": to_jsonable(p.raw),
         }
 
     # -- report --------------------------------------------------------------------------
