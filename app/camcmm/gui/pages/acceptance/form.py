@@ -35,6 +35,53 @@ def _options_text(plan: dict[str, Any]) -> str:
     return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
 
 
+def _running_form(w: Any, standard: str) -> dict[str, Any]:
+    """The form filled from the running test's plan (artefacts with their catalogue choice)."""
+    plan = w.plan
+    form = {
+        "standard": standard,
+        "system_name": plan["system"].get("name", ""),
+        "volume": [float(x) for x in plan["system"]["measuring_volume"]],
+        "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
+        "artefacts": {},
+        "include": list(w.state.get("tests") or []),
+        "options": _options_text(plan),
+    }
+    for test, a in (plan.get("artefacts") or {}).items():
+        aid = (w.state.get("artefact_ids") or {}).get(test) or ""
+        form["artefacts"][test] = {
+            "_choice": aid,
+            **{
+                k: (", ".join(map(str, v)) if isinstance(v, list) else v)
+                for k, v in a.items()
+                if k not in ("id", "name")
+            },
+        }
+    return form
+
+
+def _default_form(standard: str | None, keep: dict[str, Any] | None) -> dict[str, Any]:
+    """A new form for ``standard``, keeping the system, MPEs and options of ``keep``."""
+    return {
+        "standard": standard,
+        "system_name": (keep or {}).get("system_name", ""),
+        "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
+        "mpe": dict((keep or {}).get("mpe") or {}),
+        "artefacts": {},
+        "include": [],
+        "options": (keep or {}).get("options", ""),
+    }
+
+
+def _catalogue_options(cat: list[dict[str, Any]], kind: str) -> list[dict[str, Any]]:
+    """The catalogue's artefacts of ``kind`` as select items (the project's own marked)."""
+    return [
+        {"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""), "value": a["id"]}
+        for a in cat
+        if a["kind"] == kind
+    ]
+
+
 class PageSetup:
     """The setup handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
@@ -45,56 +92,46 @@ class PageSetup:
         cat = w.catalogue()
         ids = [x["value"] for x in s.wz_standards]
         if w.active and standard is None:
-            plan = w.plan
             standard = w.state["standard"]
-            form = {
-                "standard": standard,
-                "system_name": plan["system"].get("name", ""),
-                "volume": [float(x) for x in plan["system"]["measuring_volume"]],
-                "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
-                "artefacts": {},
-                "include": list(w.state.get("tests") or []),
-                "options": _options_text(plan),
-            }
-            for test, a in (plan.get("artefacts") or {}).items():
-                aid = (w.state.get("artefact_ids") or {}).get(test) or ""
-                form["artefacts"][test] = {
-                    "_choice": aid,
-                    **{
-                        k: (", ".join(map(str, v)) if isinstance(v, list) else v)
-                        for k, v in a.items()
-                        if k not in ("id", "name")
-                    },
-                }
+            form = _running_form(w, standard)
         else:
             standard = standard or (keep or {}).get("standard") or (ids[0] if ids else None)
-            form = {
-                "standard": standard,
-                "system_name": (keep or {}).get("system_name", ""),
-                "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
-                "mpe": dict((keep or {}).get("mpe") or {}),
-                "artefacts": {},
-                "include": [],
-                "options": (keep or {}).get("options", ""),
-            }
-        tests = []
-        catalogue: dict[str, list[dict[str, Any]]] = {}
+            form = _default_form(standard, keep)
+        tests, decl = self._standard_tests(standard)
+        catalogue, params = self._fill_tests(tests, decl, cat, form)
+        for p in params:
+            form["mpe"].setdefault(p, "")
+        s.wz_form = form
+        s.wz_form_tests = tests
+        s.wz_catalogue = catalogue
+        s.wz_mpe_fields = [
+            {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
+        ]
+
+    def _standard_tests(self, standard: str | None) -> tuple[list[dict[str, Any]], Any]:
+        """The tests and the declaration of ``standard`` (none and ``wz_setup_error`` if it fails)."""
+        tests: list[dict[str, Any]] = []
         decl = None
         if standard:
             try:
-                tests = w.setup_tests(standard)
-                decl = w.declaration(standard)
+                tests = self.wizard.setup_tests(standard)
+                decl = self.wizard.declaration(standard)
             except Exception as exc:
-                s.wz_setup_error = one_line(exc)
-        params = []
+                self.state.wz_setup_error = one_line(exc)
+        return tests, decl
+
+    def _fill_tests(
+        self, tests: list[dict[str, Any]], decl: Any, cat: list[dict[str, Any]], form: dict[str, Any]
+    ) -> tuple[dict[str, list[dict[str, Any]]], list[str]]:
+        """Per test: its catalogue options and declared fields (into ``tests``), the first
+        artefact of its kind where ``form`` has none; the catalogue options per test and the
+        parameters of all tests."""
+        params: list[str] = []
+        catalogue: dict[str, list[dict[str, Any]]] = {}
         for t in tests:
             test = t["test"]
             kind = artefact_kind(decl, test) if decl is not None else test
-            options = [
-                {"title": f"{a['name']}" + (" (project)" if a.get("source") == "project" else ""), "value": a["id"]}
-                for a in cat
-                if a["kind"] == kind
-            ]
+            options = _catalogue_options(cat, kind)
             catalogue[test] = options
             spec = artefact_fields(decl, test) if decl is not None else []
             t["fields"] = [
@@ -107,14 +144,7 @@ class PageSetup:
             for p in t["parameters"]:
                 if p not in params:
                     params.append(p)
-        for p in params:
-            form["mpe"].setdefault(p, "")
-        s.wz_form = form
-        s.wz_form_tests = tests
-        s.wz_catalogue = catalogue
-        s.wz_mpe_fields = [
-            {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
-        ]
+        return catalogue, params
 
     @staticmethod
     def _artefact_values(a: dict[str, Any]) -> dict[str, Any]:

@@ -28,179 +28,247 @@ def set_form(path: str) -> str:
 def build_setup(page: Any) -> None:
     """The setup step (shown while ``wz_step === 'setup'``); wires it to ``page``."""
     from trame.widgets import html
+
+    with html.Div(v_if="wz_step === 'setup'", raw_attrs=tid("wz-setup")):
+        _alerts()
+        _standard_row(page)
+        _volume_row()
+        _mpe_row()
+        _artefact_cards(page)
+        _more_options()
+        _start_buttons(page)
+
+
+def _alerts() -> None:
+    """A test running (with Set up a new test), no standard installed, the setup error."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal", classes="mb-2"):
+        html.Span("A test is running in this project: {{ wz_progress_text }}. ")
+        v.VBtn(
+            "Set up a new test",
+            size="small",
+            variant="text",
+            color="primary",
+            click="wz_locked = false",
+            raw_attrs=tid("wz-unlock"),
+        )
+    v.VAlert(
+        v_if="!wz_standards.length",
+        type="warning",
+        density="compact",
+        classes="mb-2",
+        text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.",
+    )
+    v.VAlert(
+        v_if="wz_setup_error",
+        text=("wz_setup_error",),
+        type="error",
+        density="compact",
+        classes="mb-2",
+        raw_attrs=tid("wz-setup-error"),
+    )
+
+
+def _standard_row(page: Any) -> None:
+    """The standard and the measuring system's name."""
     from trame.widgets import vuetify3 as v
 
     def on_standard(std, form):
         page.choose_standard(std, form)
 
+    with v.VRow(dense=True):
+        with v.VCol(cols=12, md=7):
+            v.VSelect(
+                model_value=("wz_form.standard",),
+                items=("wz_standards",),
+                label="Standard",
+                density="compact",
+                variant="outlined",
+                disabled=("wz_locked",),
+                hide_details=True,
+                update_modelValue=(on_standard, "[$event, wz_form]"),
+                raw_attrs=tid("wz-standard"),
+            )
+        with v.VCol(cols=12, md=5):
+            v.VTextField(
+                model_value=("wz_form.system_name",),
+                update_modelValue=set_form("'system_name'"),
+                label="Measuring system",
+                density="compact",
+                variant="outlined",
+                disabled=("wz_locked",),
+                hide_details=True,
+                raw_attrs=tid("wz-system-name"),
+            )
+
+
+def _volume_row() -> None:
+    """The measuring volume, x y z in mm."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    html.Div("Measuring volume", classes="text-caption mt-3 mb-2")
+    with v.VRow(dense=True):
+        for i, axis in enumerate("xyz"):
+            with v.VCol(cols=4):
+                v.VTextField(
+                    model_value=(f"wz_form.volume[{i}]",),
+                    update_modelValue=set_form(f"'volume' | {i}").replace(
+                        "Object.assign({}, (wz_form || {})['volume']", "Object.assign([], (wz_form || {})['volume']"
+                    ),
+                    label=axis,
+                    suffix="mm",
+                    density="compact",
+                    variant="outlined",
+                    disabled=("wz_locked",),
+                    hide_details=True,
+                    raw_attrs=tid(f"wz-volume-{axis}"),
+                )
+
+
+def _mpe_row() -> None:
+    """One field per MPE the standard's tests evaluate."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
+    with v.VRow(dense=True):
+        with v.VCol(v_for="f in wz_mpe_fields", key="f.key", cols=6, md=3):
+            v.VTextField(
+                model_value=("wz_form.mpe[f.key]",),
+                update_modelValue=set_form("'mpe' | f.key"),
+                label=("f.label",),
+                suffix=("f.unit",),
+                density="compact",
+                variant="outlined",
+                disabled=("wz_locked",),
+                hide_details=True,
+                raw_attrs=dyn_tid("'wz-mpe-' + f.key"),
+            )
+
+
+def _artefact_cards(page: Any) -> None:
+    """One card per test of the standard: its artefact from the catalogue and its fields."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    html.Div("Artefacts", classes="text-caption mt-3 mb-2")
+    with v.VCard(
+        v_for="t in wz_form_tests",
+        key="t.test",
+        variant="outlined",
+        classes="mb-2",
+        raw_attrs=dyn_tid("'wz-artefact-' + t.test"),
+    ):
+        with v.VCardText(classes="pb-1"):
+            _artefact_header()
+            with html.Div(v_if="t.required || (wz_form.include || []).includes(t.test)"):
+                _artefact_fields(page)
+
+
+def _artefact_header() -> None:
+    """The test's name, its count of positions and repeats, include for an optional one."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with html.Div(classes="d-flex align-center ga-2 mb-2"):
+        html.Span("{{ t.label }}", classes="text-subtitle-2")
+        v.VChip(
+            "{{ t.min_count }} positions{{ t.repeats > 1 ? ' × ' + t.repeats + ' repeats' : '' }}",
+            size="x-small",
+            variant="tonal",
+        )
+        v.VCheckbox(
+            v_if="!t.required",
+            model_value=("wz_form.include",),
+            update_modelValue=set_form("'include'"),
+            value=("t.test",),
+            multiple=True,
+            label="include (optional)",
+            density="compact",
+            hide_details=True,
+            disabled=("wz_locked",),
+        )
+
+
+def _artefact_fields(page: Any) -> None:
+    """The catalogue choice and the fields the standard declares for the artefact."""
+    from trame.widgets import vuetify3 as v
+
     def on_pick(test, choice, form):
         page.pick_artefact(test, choice, form)
+
+    v.VSelect(
+        model_value=("(wz_form.artefacts[t.test] || {})._choice",),
+        items=("t.options",),
+        label="From the catalogue",
+        density="compact",
+        variant="outlined",
+        disabled=("wz_locked",),
+        hide_details=True,
+        classes="mb-2",
+        update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
+        raw_attrs=dyn_tid("'wz-catalogue-' + t.test"),
+    )
+    with v.VRow(dense=True):
+        with v.VCol(v_for="f in t.fields", key="f.key", cols=6, md=3):
+            v.VTextField(
+                model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
+                update_modelValue=set_form("'artefacts' | t.test | f.key"),
+                label=("f.label",),
+                suffix=("f.unit",),
+                density="compact",
+                variant="outlined",
+                disabled=("wz_locked",),
+                hide_details=True,
+                raw_attrs=dyn_tid("'wz-field-' + t.test + '-' + f.key"),
+            )
+
+
+def _more_options() -> None:
+    """More plan options as YAML, in a closed panel."""
+    from trame.widgets import vuetify3 as v
+
+    with v.VExpansionPanels(classes="mb-2", raw_attrs=tid("wz-advanced")):
+        with v.VExpansionPanel(title="More plan options (YAML, docs/standards.md)"):
+            with v.VExpansionPanelText():
+                v.VTextarea(
+                    model_value=("wz_form.options",),
+                    update_modelValue=set_form("'options'"),
+                    rows=3,
+                    auto_grow=True,
+                    density="compact",
+                    variant="outlined",
+                    disabled=("wz_locked",),
+                    hide_details=True,
+                    placeholder="unit: mm  (keys the standard reads besides the form)",
+                    raw_attrs=tid("wz-options"),
+                )
+
+
+def _start_buttons(page: Any) -> None:
+    """Start the test; Go to the positions while one runs."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
 
     def on_start(form):
         page.start(form)
 
-    with html.Div(v_if="wz_step === 'setup'", raw_attrs=tid("wz-setup")):
-        with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal", classes="mb-2"):
-            html.Span("A test is running in this project: {{ wz_progress_text }}. ")
-            v.VBtn(
-                "Set up a new test",
-                size="small",
-                variant="text",
-                color="primary",
-                click="wz_locked = false",
-                raw_attrs=tid("wz-unlock"),
-            )
-        v.VAlert(
-            v_if="!wz_standards.length",
-            type="warning",
-            density="compact",
-            classes="mb-2",
-            text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.",
+    with html.Div(classes="d-flex ga-2 mt-2"):
+        v.VBtn(
+            "Start the test",
+            color="primary",
+            prepend_icon="mdi-play",
+            disabled=("wz_locked",),
+            click=(on_start, "[wz_form]"),
+            raw_attrs=tid("wz-start"),
         )
-        v.VAlert(
-            v_if="wz_setup_error",
-            text=("wz_setup_error",),
-            type="error",
-            density="compact",
-            classes="mb-2",
-            raw_attrs=tid("wz-setup-error"),
+        v.VBtn(
+            "Go to the positions",
+            v_if="wz_active",
+            variant="text",
+            click="wz_step = 'positions'",
+            raw_attrs=tid("wz-goto-positions"),
         )
-        with v.VRow(dense=True):
-            with v.VCol(cols=12, md=7):
-                v.VSelect(
-                    model_value=("wz_form.standard",),
-                    items=("wz_standards",),
-                    label="Standard",
-                    density="compact",
-                    variant="outlined",
-                    disabled=("wz_locked",),
-                    hide_details=True,
-                    update_modelValue=(on_standard, "[$event, wz_form]"),
-                    raw_attrs=tid("wz-standard"),
-                )
-            with v.VCol(cols=12, md=5):
-                v.VTextField(
-                    model_value=("wz_form.system_name",),
-                    update_modelValue=set_form("'system_name'"),
-                    label="Measuring system",
-                    density="compact",
-                    variant="outlined",
-                    disabled=("wz_locked",),
-                    hide_details=True,
-                    raw_attrs=tid("wz-system-name"),
-                )
-        html.Div("Measuring volume", classes="text-caption mt-3 mb-2")
-        with v.VRow(dense=True):
-            for i, axis in enumerate("xyz"):
-                with v.VCol(cols=4):
-                    v.VTextField(
-                        model_value=(f"wz_form.volume[{i}]",),
-                        update_modelValue=set_form(f"'volume' | {i}").replace(
-                            "Object.assign({}, (wz_form || {})['volume']", "Object.assign([], (wz_form || {})['volume']"
-                        ),
-                        label=axis,
-                        suffix="mm",
-                        density="compact",
-                        variant="outlined",
-                        disabled=("wz_locked",),
-                        hide_details=True,
-                        raw_attrs=tid(f"wz-volume-{axis}"),
-                    )
-        html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
-        with v.VRow(dense=True):
-            with v.VCol(v_for="f in wz_mpe_fields", key="f.key", cols=6, md=3):
-                v.VTextField(
-                    model_value=("wz_form.mpe[f.key]",),
-                    update_modelValue=set_form("'mpe' | f.key"),
-                    label=("f.label",),
-                    suffix=("f.unit",),
-                    density="compact",
-                    variant="outlined",
-                    disabled=("wz_locked",),
-                    hide_details=True,
-                    raw_attrs=dyn_tid("'wz-mpe-' + f.key"),
-                )
-        html.Div("Artefacts", classes="text-caption mt-3 mb-2")
-        with v.VCard(
-            v_for="t in wz_form_tests",
-            key="t.test",
-            variant="outlined",
-            classes="mb-2",
-            raw_attrs=dyn_tid("'wz-artefact-' + t.test"),
-        ):
-            with v.VCardText(classes="pb-1"):
-                with html.Div(classes="d-flex align-center ga-2 mb-2"):
-                    html.Span("{{ t.label }}", classes="text-subtitle-2")
-                    v.VChip(
-                        "{{ t.min_count }} positions{{ t.repeats > 1 ? ' × ' + t.repeats + ' repeats' : '' }}",
-                        size="x-small",
-                        variant="tonal",
-                    )
-                    v.VCheckbox(
-                        v_if="!t.required",
-                        model_value=("wz_form.include",),
-                        update_modelValue=set_form("'include'"),
-                        value=("t.test",),
-                        multiple=True,
-                        label="include (optional)",
-                        density="compact",
-                        hide_details=True,
-                        disabled=("wz_locked",),
-                    )
-                with html.Div(v_if="t.required || (wz_form.include || []).includes(t.test)"):
-                    v.VSelect(
-                        model_value=("(wz_form.artefacts[t.test] || {})._choice",),
-                        items=("t.options",),
-                        label="From the catalogue",
-                        density="compact",
-                        variant="outlined",
-                        disabled=("wz_locked",),
-                        hide_details=True,
-                        classes="mb-2",
-                        update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
-                        raw_attrs=dyn_tid("'wz-catalogue-' + t.test"),
-                    )
-                    with v.VRow(dense=True):
-                        with v.VCol(v_for="f in t.fields", key="f.key", cols=6, md=3):
-                            v.VTextField(
-                                model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
-                                update_modelValue=set_form("'artefacts' | t.test | f.key"),
-                                label=("f.label",),
-                                suffix=("f.unit",),
-                                density="compact",
-                                variant="outlined",
-                                disabled=("wz_locked",),
-                                hide_details=True,
-                                raw_attrs=dyn_tid("'wz-field-' + t.test + '-' + f.key"),
-                            )
-        with v.VExpansionPanels(classes="mb-2", raw_attrs=tid("wz-advanced")):
-            with v.VExpansionPanel(title="More plan options (YAML, docs/standards.md)"):
-                with v.VExpansionPanelText():
-                    v.VTextarea(
-                        model_value=("wz_form.options",),
-                        update_modelValue=set_form("'options'"),
-                        rows=3,
-                        auto_grow=True,
-                        density="compact",
-                        variant="outlined",
-                        disabled=("wz_locked",),
-                        hide_details=True,
-                        placeholder="unit: mm  (keys the standard reads besides the form)",
-                        raw_attrs=tid("wz-options"),
-                    )
-        with html.Div(classes="d-flex ga-2 mt-2"):
-            v.VBtn(
-                "Start the test",
-                color="primary",
-                prepend_icon="mdi-play",
-                disabled=("wz_locked",),
-                click=(on_start, "[wz_form]"),
-                raw_attrs=tid("wz-start"),
-            )
-            v.VBtn(
-                "Go to the positions",
-                v_if="wz_active",
-                variant="text",
-                click="wz_step = 'positions'",
-                raw_attrs=tid("wz-goto-positions"),
-            )
