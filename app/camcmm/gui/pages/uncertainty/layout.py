@@ -42,132 +42,20 @@ def _links(v: Any, html: Any, key: str, testid: str) -> None:
 
 
 def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
+    """The GUM budget: quantity, contributions and actions; the result and its chart.
+    Every field, on blur, sends the whole budget to the page (``call``)."""
+
     def on_change(quantity, unit, p, rows):
         page.set_budget(quantity, unit, p, rows or [])
 
-    def on_add():
-        page.add_row()
-
-    def on_remove(i):
-        page.remove_row(i)
-
-    def on_store():
-        page.save_budget()
-
-    def on_file(files):
-        if files:
-            f = files[0] if isinstance(files, list) else files
-            page.load_budget(f.get("content", b""), f.get("name", "budget.yaml"))
-        page.state.unc_b_file = None
-
     change = ctrl.trigger_name(on_change)
     call = f"trigger('{change}', [unc_b_quantity, unc_b_unit, unc_b_p, unc_b_rows])"
-    page.state.change("unc_b_file")(lambda unc_b_file=None, **_: on_file(unc_b_file))
 
     with html.Div(v_if="unc_tab === 'budget'", classes="d-flex ga-3", raw_attrs=tid("unc-budget")):
         with html.Div(style="flex: 1 1 58%; min-width: 0;"):
-            with html.Div(classes="d-flex ga-2 mb-2"):
-                v.VTextField(
-                    v_model=("unc_b_quantity", ""),
-                    label="Quantity",
-                    density="compact",
-                    variant="outlined",
-                    hide_details=True,
-                    blur=call,
-                    raw_attrs=tid("unc-b-quantity"),
-                )
-                v.VTextField(
-                    v_model=("unc_b_unit", ""),
-                    label="Unit",
-                    density="compact",
-                    variant="outlined",
-                    hide_details=True,
-                    style="max-width: 90px;",
-                    blur=call,
-                    raw_attrs=tid("unc-b-unit"),
-                )
-                v.VTextField(
-                    v_model=("unc_b_p", 0.95),
-                    label="Coverage probability",
-                    density="compact",
-                    variant="outlined",
-                    hide_details=True,
-                    style="max-width: 170px;",
-                    blur=call,
-                    raw_attrs=tid("unc-b-p"),
-                )
-            with v.VTable(density="compact", raw_attrs=tid("unc-b-table")):
-                with html.Thead():
-                    with html.Tr():
-                        for h in (
-                            "Contribution",
-                            "u (standard)",
-                            "c (sensitivity)",
-                            "dof (∞: inf)",
-                            "Distribution",
-                            "",
-                        ):
-                            html.Th(h)
-                with html.Tbody():
-                    with html.Tr(v_for="(r, i) in unc_b_rows", key="i", raw_attrs=tid("unc-b-row")):
-                        for field, width in (("name", "220px"), ("u", "95px"), ("c", "95px"), ("dof", "85px")):
-                            with html.Td(style=f"min-width: {width};"):
-                                v.VTextField(
-                                    model_value=(f"r.{field}",),
-                                    density="compact",
-                                    variant="plain",
-                                    hide_details=True,
-                                    update_modelValue=_row_update(field),
-                                    blur=call,
-                                    raw_attrs=[f":data-testid=\"'unc-b-{field}-' + i\"", f'@keydown.enter="{call}"'],
-                                )
-                        with html.Td(style="min-width: 140px;"):
-                            v.VSelect(
-                                model_value=("r.distribution",),
-                                items=("unc_b_distributions",),
-                                density="compact",
-                                variant="plain",
-                                hide_details=True,
-                                update_modelValue=_row_update("distribution") + "; " + call,
-                            )
-                        with html.Td():
-                            v.VBtn(
-                                icon="mdi-delete-outline",
-                                size="x-small",
-                                variant="text",
-                                click=(on_remove, "[i]"),
-                                title="remove this contribution",
-                            )
-            with html.Div(classes="d-flex ga-2 mt-1 align-center"):
-                v.VBtn(
-                    "Add contribution",
-                    prepend_icon="mdi-plus",
-                    size="small",
-                    variant="tonal",
-                    click=on_add,
-                    raw_attrs=tid("unc-b-add"),
-                )
-                v.VFileInput(
-                    v_model=("unc_b_file", None),
-                    label="Load a budget (YAML)",
-                    accept=".yaml,.yml,.json",
-                    density="compact",
-                    variant="outlined",
-                    hide_details=True,
-                    prepend_icon="mdi-file-upload",
-                    style="max-width: 280px;",
-                    raw_attrs=tid("unc-b-load"),
-                )
-                v.VSpacer()
-                v.VBtn(
-                    "Store & export",
-                    prepend_icon="mdi-content-save",
-                    color="primary",
-                    size="small",
-                    click=on_store,
-                    disabled=("!unc_b_result",),
-                    raw_attrs=tid("unc-b-store"),
-                )
+            _budget_quantity(v, html, call)
+            _budget_table(v, html, page, call)
+            _budget_actions(v, html, page)
             v.VAlert(
                 v_if="unc_b_error",
                 text=("unc_b_error",),
@@ -178,27 +66,155 @@ def _budget_tab(v: Any, html: Any, tplotly: Any, page: Any, ctrl: Any) -> None:
             )
             _links(v, html, "unc_b_links", "unc-b-links")
         with html.Div(style="flex: 1 1 42%; min-width: 0;"):
-            with v.VCard(
-                v_if="unc_b_result", variant="tonal", color="primary", classes="mb-2", raw_attrs=tid("unc-b-result")
-            ):
-                with v.VCardText(classes="py-2"):
-                    with html.Div(classes="d-flex flex-wrap ga-4 text-body-2"):
-                        html.Div(
-                            "u<sub>c</sub> = <b>{{ unc_b_result.combined }}</b> {{ unc_b_result.unit }}",
-                            raw_attrs=tid("unc-b-combined"),
-                        )
-                        html.Div("ν<sub>eff</sub> = <b>{{ unc_b_result.dof_eff }}</b>", raw_attrs=tid("unc-b-dof"))
-                        html.Div("k = <b>{{ unc_b_result.k }}</b> ({{ unc_b_result.p }})", raw_attrs=tid("unc-b-k"))
-                        html.Div(
-                            "U = <b>{{ unc_b_result.expanded }}</b> {{ unc_b_result.unit }}",
-                            raw_attrs=tid("unc-b-expanded"),
-                        )
+            _budget_result(v, html)
             tplotly.Figure(
                 state_variable_name="unc_b_fig",
                 display_mode_bar=True,
                 style="height: 330px;",
                 raw_attrs=tid("unc-b-chart"),
             )
+
+
+def _budget_quantity(v: Any, html: Any, call: str) -> None:
+    """The quantity, its unit and the coverage probability."""
+    with html.Div(classes="d-flex ga-2 mb-2"):
+        v.VTextField(
+            v_model=("unc_b_quantity", ""),
+            label="Quantity",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            blur=call,
+            raw_attrs=tid("unc-b-quantity"),
+        )
+        v.VTextField(
+            v_model=("unc_b_unit", ""),
+            label="Unit",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            style="max-width: 90px;",
+            blur=call,
+            raw_attrs=tid("unc-b-unit"),
+        )
+        v.VTextField(
+            v_model=("unc_b_p", 0.95),
+            label="Coverage probability",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            style="max-width: 170px;",
+            blur=call,
+            raw_attrs=tid("unc-b-p"),
+        )
+
+
+def _budget_table(v: Any, html: Any, page: Any, call: str) -> None:
+    """The contributions, one editable row each (name, u, c, dof, distribution, remove)."""
+
+    def on_remove(i):
+        page.remove_row(i)
+
+    with v.VTable(density="compact", raw_attrs=tid("unc-b-table")):
+        with html.Thead():
+            with html.Tr():
+                for h in ("Contribution", "u (standard)", "c (sensitivity)", "dof (∞: inf)", "Distribution", ""):
+                    html.Th(h)
+        with html.Tbody():
+            with html.Tr(v_for="(r, i) in unc_b_rows", key="i", raw_attrs=tid("unc-b-row")):
+                for field, width in (("name", "220px"), ("u", "95px"), ("c", "95px"), ("dof", "85px")):
+                    with html.Td(style=f"min-width: {width};"):
+                        v.VTextField(
+                            model_value=(f"r.{field}",),
+                            density="compact",
+                            variant="plain",
+                            hide_details=True,
+                            update_modelValue=_row_update(field),
+                            blur=call,
+                            raw_attrs=[f":data-testid=\"'unc-b-{field}-' + i\"", f'@keydown.enter="{call}"'],
+                        )
+                with html.Td(style="min-width: 140px;"):
+                    v.VSelect(
+                        model_value=("r.distribution",),
+                        items=("unc_b_distributions",),
+                        density="compact",
+                        variant="plain",
+                        hide_details=True,
+                        update_modelValue=_row_update("distribution") + "; " + call,
+                    )
+                with html.Td():
+                    v.VBtn(
+                        icon="mdi-delete-outline",
+                        size="x-small",
+                        variant="text",
+                        click=(on_remove, "[i]"),
+                        title="remove this contribution",
+                    )
+
+
+def _budget_actions(v: Any, html: Any, page: Any) -> None:
+    """Add a contribution, load a budget from a file, Store & export."""
+
+    def on_add():
+        page.add_row()
+
+    def on_store():
+        page.save_budget()
+
+    def on_file(files):
+        if files:
+            f = files[0] if isinstance(files, list) else files
+            page.load_budget(f.get("content", b""), f.get("name", "budget.yaml"))
+        page.state.unc_b_file = None
+
+    page.state.change("unc_b_file")(lambda unc_b_file=None, **_: on_file(unc_b_file))
+    with html.Div(classes="d-flex ga-2 mt-1 align-center"):
+        v.VBtn(
+            "Add contribution",
+            prepend_icon="mdi-plus",
+            size="small",
+            variant="tonal",
+            click=on_add,
+            raw_attrs=tid("unc-b-add"),
+        )
+        v.VFileInput(
+            v_model=("unc_b_file", None),
+            label="Load a budget (YAML)",
+            accept=".yaml,.yml,.json",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            prepend_icon="mdi-file-upload",
+            style="max-width: 280px;",
+            raw_attrs=tid("unc-b-load"),
+        )
+        v.VSpacer()
+        v.VBtn(
+            "Store & export",
+            prepend_icon="mdi-content-save",
+            color="primary",
+            size="small",
+            click=on_store,
+            disabled=("!unc_b_result",),
+            raw_attrs=tid("unc-b-store"),
+        )
+
+
+def _budget_result(v: Any, html: Any) -> None:
+    """The result: u_c, ν_eff, k (with the coverage probability) and U."""
+    with v.VCard(v_if="unc_b_result", variant="tonal", color="primary", classes="mb-2", raw_attrs=tid("unc-b-result")):
+        with v.VCardText(classes="py-2"):
+            with html.Div(classes="d-flex flex-wrap ga-4 text-body-2"):
+                html.Div(
+                    "u<sub>c</sub> = <b>{{ unc_b_result.combined }}</b> {{ unc_b_result.unit }}",
+                    raw_attrs=tid("unc-b-combined"),
+                )
+                html.Div("ν<sub>eff</sub> = <b>{{ unc_b_result.dof_eff }}</b>", raw_attrs=tid("unc-b-dof"))
+                html.Div("k = <b>{{ unc_b_result.k }}</b> ({{ unc_b_result.p }})", raw_attrs=tid("unc-b-k"))
+                html.Div(
+                    "U = <b>{{ unc_b_result.expanded }}</b> {{ unc_b_result.unit }}",
+                    raw_attrs=tid("unc-b-expanded"),
+                )
 
 
 def _mc_tab(v: Any, html: Any, tplotly: Any, page: Any) -> None:
