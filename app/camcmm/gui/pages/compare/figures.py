@@ -42,6 +42,11 @@ def _base_layout(title: str, xtitle: str, ytitle: str) -> dict[str, Any]:
     }
 
 
+def _scale(unit: str) -> float:
+    """The factor from mm to ``unit`` (µm or mm)."""
+    return 1e3 if unit == "µm" else 1.0
+
+
 def histogram_figure(
     hist: dict[str, Any], stats: dict[str, Any], unit: str, limit: float, tolerance: float | None = None
 ) -> dict[str, Any]:
@@ -49,27 +54,43 @@ def histogram_figure(
     shaded, ±tolerance as dashed lines; hover: the bin's range, count and share."""
     import plotly.graph_objects as go
 
-    f = 1e3 if unit == "µm" else 1.0
+    fig = go.Figure(_histogram_bars(hist, unit, limit))
+    layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points")
+    shapes, notes = _histogram_interval(stats, unit)
+    if tolerance:
+        _histogram_tolerance(shapes, notes, tolerance, unit)
+    layout.update({"shapes": shapes, "annotations": notes, "bargap": 0})
+    fig.update_layout(**layout)
+    return _fig_json(fig)
+
+
+def _histogram_bars(hist: dict[str, Any], unit: str, limit: float) -> Any:
+    """The histogram's bars, coloured as the colour map; hover: the bin's range, count and share."""
+    import plotly.graph_objects as go
+
+    f = _scale(unit)
     edges = np.asarray(hist["edges"], dtype=float)
     counts = np.asarray(hist["counts"], dtype=float)
     centres = 0.5 * (edges[1:] + edges[:-1])
     total = max(counts.sum(), 1.0)
     custom = np.column_stack([edges[:-1] * f, edges[1:] * f, 100.0 * counts / total])
-    fig = go.Figure(
-        go.Bar(
-            x=(centres * f).tolist(),
-            y=counts.tolist(),
-            width=(np.diff(edges) * f).tolist(),
-            marker={"color": _hex_colours(centres, limit), "line": {"width": 0}},
-            customdata=custom.tolist(),
-            hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
-            "(%{customdata[2]:.2f} %)<extra></extra>",
-            name="deviations",
-        )
+    return go.Bar(
+        x=(centres * f).tolist(),
+        y=counts.tolist(),
+        width=(np.diff(edges) * f).tolist(),
+        marker={"color": _hex_colours(centres, limit), "line": {"width": 0}},
+        customdata=custom.tolist(),
+        hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
+        "(%{customdata[2]:.2f} %)<extra></extra>",
+        name="deviations",
     )
-    layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points")
+
+
+def _histogram_interval(stats: dict[str, Any], unit: str) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The 95 % interval on the histogram: shaded, its bounds dotted, its text above (shapes, notes)."""
+    f = _scale(unit)
     lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
-    shapes = [
+    shapes: list[dict[str, Any]] = [
         {
             "type": "rect",
             "xref": "x",
@@ -81,28 +102,21 @@ def histogram_figure(
             "fillcolor": "rgba(46,125,50,0.10)",
             "line": {"width": 0},
             "layer": "below",
-        },
-        {
-            "type": "line",
-            "xref": "x",
-            "yref": "paper",
-            "x0": lo,
-            "x1": lo,
-            "y0": 0,
-            "y1": 1,
-            "line": {"color": "#2e7d32", "width": 1, "dash": "dot"},
-        },
-        {
-            "type": "line",
-            "xref": "x",
-            "yref": "paper",
-            "x0": hi,
-            "x1": hi,
-            "y0": 0,
-            "y1": 1,
-            "line": {"color": "#2e7d32", "width": 1, "dash": "dot"},
-        },
+        }
     ]
+    for x in (lo, hi):
+        shapes.append(
+            {
+                "type": "line",
+                "xref": "x",
+                "yref": "paper",
+                "x0": x,
+                "x1": x,
+                "y0": 0,
+                "y1": 1,
+                "line": {"color": "#2e7d32", "width": 1, "dash": "dot"},
+            }
+        )
     notes = [
         {
             "x": 0.5 * (lo + hi),
@@ -115,36 +129,40 @@ def histogram_figure(
             "font": {"size": 10, "color": "#2e7d32"},
         }
     ]
-    if tolerance:
-        for s in (-1, 1):
-            x = s * float(tolerance) * f
-            shapes.append(
-                {
-                    "type": "line",
-                    "xref": "x",
-                    "yref": "paper",
-                    "x0": x,
-                    "x1": x,
-                    "y0": 0,
-                    "y1": 0.92,
-                    "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
-                }
-            )
-        notes.append(
+    return shapes, notes
+
+
+def _histogram_tolerance(
+    shapes: list[dict[str, Any]], notes: list[dict[str, Any]], tolerance: float, unit: str
+) -> None:
+    """±tolerance as dashed vertical lines, "±tolerance" written at the upper one (appended)."""
+    f = _scale(unit)
+    for s in (-1, 1):
+        x = s * float(tolerance) * f
+        shapes.append(
             {
-                "x": float(tolerance) * f,
-                "y": 0.92,
+                "type": "line",
                 "xref": "x",
                 "yref": "paper",
-                "xanchor": "left",
-                "showarrow": False,
-                "text": f" ±{fmt_len(tolerance, unit)}",
-                "font": {"size": 10, "color": "#c62828"},
+                "x0": x,
+                "x1": x,
+                "y0": 0,
+                "y1": 0.92,
+                "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
             }
         )
-    layout.update({"shapes": shapes, "annotations": notes, "bargap": 0})
-    fig.update_layout(**layout)
-    return _fig_json(fig)
+    notes.append(
+        {
+            "x": float(tolerance) * f,
+            "y": 0.92,
+            "xref": "x",
+            "yref": "paper",
+            "xanchor": "left",
+            "showarrow": False,
+            "text": f" ±{fmt_len(tolerance, unit)}",
+            "font": {"size": 10, "color": "#c62828"},
+        }
+    )
 
 
 def material_ratio_figure(
@@ -156,16 +174,32 @@ def material_ratio_figure(
     the 95 % interval shaded and ±tolerance dashed. Hover gives the values."""
     import plotly.graph_objects as go
 
-    f = 1e3 if unit == "µm" else 1.0
-    x = np.asarray(mr["curve"]["mr_percent"], dtype=float)
+    f = _scale(unit)
     y = np.asarray(mr["curve"]["height"], dtype=float) * f
+    C1, C2 = float(mr["C1"]) * f, float(mr["C2"]) * f
+    spk, svk = float(mr["Spk"]) * f, float(mr["Svk"]) * f
+    fig = go.Figure(_mr_construction(mr, unit) + _mr_curve(mr, unit))
+    layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]")
+    shapes, notes = _mr_notes(mr, stats, unit)
+    if tolerance:
+        _mr_tolerance(shapes, notes, tolerance, unit)
+    layout["xaxis"]["range"] = [0, 100]
+    pad = 0.06 * ((y.max() - y.min()) or 1.0)
+    layout["yaxis"]["range"] = [min(float(y.min()), C2 - svk) - pad, max(float(y.max()), C1 + spk) + pad]
+    layout.update({"shapes": shapes, "annotations": notes})
+    fig.update_layout(**layout)
+    return _fig_json(fig)
+
+
+def _mr_construction(mr: dict[str, Any], unit: str) -> list[Any]:
+    """The Spk and Svk triangles and the equivalent straight line from C1 at 0 % to C2 at 100 %."""
+    import plotly.graph_objects as go
+
+    f, u = _scale(unit), unit
     C1, C2 = float(mr["C1"]) * f, float(mr["C2"]) * f
     s1, s2 = float(mr["Smr1"]), float(mr["Smr2"])
     spk, svk = float(mr["Spk"]) * f, float(mr["Svk"]) * f
-    a, b = float(mr["secant_start"]), float(mr["secant_end"])
-    ya, yb = np.interp([a, b], x, y)
-    u = unit
-    traces = [
+    return [
         go.Scatter(
             x=[0, s1, s1, 0, 0],
             y=[C1, C1, C1, C1 + spk, C1],
@@ -196,22 +230,33 @@ def material_ratio_figure(
                 f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %<extra></extra>"
             ),
         ),
+    ]
+
+
+def _mr_curve(mr: dict[str, Any], unit: str) -> list[Any]:
+    """C1/Smr1 and C2/Smr2 dotted, the material-ratio curve, and its 40 % secant of least gradient."""
+    import plotly.graph_objects as go
+
+    f, u = _scale(unit), unit
+    x = np.asarray(mr["curve"]["mr_percent"], dtype=float)
+    y = np.asarray(mr["curve"]["height"], dtype=float) * f
+    a, b = float(mr["secant_start"]), float(mr["secant_end"])
+    ya, yb = np.interp([a, b], x, y)
+    traces = [
         go.Scatter(
-            x=[0, s1, s1],
-            y=[C1, C1, float(y.min())],
+            x=[0, s, s],
+            y=[c, c, float(y.min())],
             mode="lines",
             line={"color": "#555", "width": 1, "dash": "dot"},
-            name="C1, Smr1",
-            hovertemplate=f"C1 {C1:.4g} {u}, Smr1 {s1:.2f} %<extra></extra>",
-        ),
-        go.Scatter(
-            x=[0, s2, s2],
-            y=[C2, C2, float(y.min())],
-            mode="lines",
-            line={"color": "#555", "width": 1, "dash": "dot"},
-            name="C2, Smr2",
-            hovertemplate=f"C2 {C2:.4g} {u}, Smr2 {s2:.2f} %<extra></extra>",
-        ),
+            name=f"{cn}, {sn}",
+            hovertemplate=f"{cn} {c:.4g} {u}, {sn} {s:.2f} %<extra></extra>",
+        )
+        for cn, sn, c, s in (
+            ("C1", "Smr1", float(mr["C1"]) * f, float(mr["Smr1"])),
+            ("C2", "Smr2", float(mr["C2"]) * f, float(mr["Smr2"])),
+        )
+    ]
+    return traces + [
         go.Scatter(
             x=x.tolist(),
             y=y.tolist(),
@@ -231,8 +276,13 @@ def material_ratio_figure(
             "<extra></extra>",
         ),
     ]
-    fig = go.Figure(traces)
-    layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]")
+
+
+def _mr_notes(
+    mr: dict[str, Any], stats: dict[str, Any], unit: str
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """The 95 % interval shaded with its text, and the box of Sk, Spk, Svk, Smr1, Smr2 (shapes, notes)."""
+    f, u = _scale(unit), unit
     lo, hi = float(stats["p2_5"]) * f, float(stats["p97_5"]) * f
     shapes = [
         {
@@ -273,45 +323,45 @@ def material_ratio_figure(
             "borderwidth": 1,
             "font": {"size": 10},
             "text": (
-                f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {spk:.3g} {u} · Svk {svk:.3g} {u}"
-                f"<br>Smr1 {s1:.2f} % · Smr2 {s2:.2f} %"
+                f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {float(mr['Spk']) * f:.3g} {u} · "
+                f"Svk {float(mr['Svk']) * f:.3g} {u}"
+                f"<br>Smr1 {float(mr['Smr1']):.2f} % · Smr2 {float(mr['Smr2']):.2f} %"
             ),
         },
     ]
-    if tolerance:
-        for s in (-1, 1):
-            yv = s * float(tolerance) * f
-            shapes.append(
-                {
-                    "type": "line",
-                    "xref": "paper",
-                    "yref": "y",
-                    "x0": 0,
-                    "x1": 1,
-                    "y0": yv,
-                    "y1": yv,
-                    "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
-                }
-            )
-        notes.append(
+    return shapes, notes
+
+
+def _mr_tolerance(shapes: list[dict[str, Any]], notes: list[dict[str, Any]], tolerance: float, unit: str) -> None:
+    """±tolerance as dashed horizontal lines, "+tolerance" written at the upper one (appended)."""
+    f = _scale(unit)
+    for s in (-1, 1):
+        yv = s * float(tolerance) * f
+        shapes.append(
             {
-                "x": 0.01,
-                "y": float(tolerance) * f,
+                "type": "line",
                 "xref": "paper",
                 "yref": "y",
-                "xanchor": "left",
-                "yanchor": "bottom",
-                "showarrow": False,
-                "text": f"+{fmt_len(tolerance, unit)}",
-                "font": {"size": 10, "color": "#c62828"},
+                "x0": 0,
+                "x1": 1,
+                "y0": yv,
+                "y1": yv,
+                "line": {"color": "#c62828", "width": 1.5, "dash": "dash"},
             }
         )
-    layout["xaxis"]["range"] = [0, 100]
-    pad = 0.06 * ((y.max() - y.min()) or 1.0)
-    layout["yaxis"]["range"] = [min(float(y.min()), C2 - svk) - pad, max(float(y.max()), C1 + spk) + pad]
-    layout.update({"shapes": shapes, "annotations": notes})
-    fig.update_layout(**layout)
-    return _fig_json(fig)
+    notes.append(
+        {
+            "x": 0.01,
+            "y": float(tolerance) * f,
+            "xref": "paper",
+            "yref": "y",
+            "xanchor": "left",
+            "yanchor": "bottom",
+            "showarrow": False,
+            "text": f"+{fmt_len(tolerance, unit)}",
+            "font": {"size": 10, "color": "#c62828"},
+        }
+    )
 
 
 def empty_figure(text: str = "") -> dict[str, Any]:
@@ -333,34 +383,51 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
     measured points coloured by deviation on the colour map's scale."""
     import plotly.graph_objects as go
 
-    f = 1e3 if unit == "µm" else 1.0
-    traces = []
+    traces = _section_measured(sec, unit, limit) + _section_nominal(sec)
+    fig = go.Figure(traces)
+    fig.update_layout(**_section_layout(sec, bool(traces)))
+    return _fig_json(fig)
+
+
+def _section_measured(sec: dict[str, Any], unit: str, limit: float) -> list[Any]:
+    """The measured points in the slab, coloured by deviation on the colour map's scale (none if empty)."""
+    import plotly.graph_objects as go
+
     m = sec["measured"]
-    if len(m):
-        dev = np.asarray(sec["deviation"], dtype=float) * f
-        lim = float(limit) * f
-        traces.append(
-            go.Scatter(
-                x=m[:, 0].tolist(),
-                y=m[:, 1].tolist(),
-                mode="markers",
-                name="measured",
-                marker={
-                    "color": np.nan_to_num(dev).tolist(),
-                    "colorscale": COLOURMAP,
-                    "cmin": -lim,
-                    "cmax": lim,
-                    "size": 4,
-                    "line": {"width": 0},
-                    "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9},
-                },
-                customdata=np.nan_to_num(dev).tolist(),
-                hovertemplate=(
-                    f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
-                    f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>"
-                ),
-            )
+    if not len(m):
+        return []
+    f = _scale(unit)
+    dev = np.asarray(sec["deviation"], dtype=float) * f
+    lim = float(limit) * f
+    return [
+        go.Scatter(
+            x=m[:, 0].tolist(),
+            y=m[:, 1].tolist(),
+            mode="markers",
+            name="measured",
+            marker={
+                "color": np.nan_to_num(dev).tolist(),
+                "colorscale": COLOURMAP,
+                "cmin": -lim,
+                "cmax": lim,
+                "size": 4,
+                "line": {"width": 0},
+                "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9},
+            },
+            customdata=np.nan_to_num(dev).tolist(),
+            hovertemplate=(
+                f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
+                f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>"
+            ),
         )
+    ]
+
+
+def _section_nominal(sec: dict[str, Any]) -> list[Any]:
+    """The nominal: its points (a reference cloud) and its cut polylines (a mesh), in black."""
+    import plotly.graph_objects as go
+
+    traces = []
     if len(sec["nominal_points"]):
         q = sec["nominal_points"]
         traces.append(
@@ -389,7 +456,11 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
                 hovertemplate=(f"nominal<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm<extra></extra>"),
             )
         )
-    fig = go.Figure(traces)
+    return traces
+
+
+def _section_layout(sec: dict[str, Any], drawn: bool) -> dict[str, Any]:
+    """The section's title and equal axes; "the plane misses the part" when nothing is ``drawn``."""
     title = (
         f"Section {sec['axis']} = {sec['position']:.3f} mm — {sec['n_in_slab']:,} measured points within "
         f"±{fmt_len(sec['half_width'], 'mm')}"
@@ -397,7 +468,7 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
     layout = _base_layout(title, f"{sec['u']} [mm]", f"{sec['v']} [mm]")
     layout["yaxis"].update({"scaleanchor": "x", "scaleratio": 1})
     layout["title"]["font"] = {"size": 11}
-    if not traces:
+    if not drawn:
         layout["annotations"] = [
             {
                 "text": "the plane misses the part",
@@ -408,5 +479,4 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
                 "y": 0.5,
             }
         ]
-    fig.update_layout(**layout)
-    return _fig_json(fig)
+    return layout
