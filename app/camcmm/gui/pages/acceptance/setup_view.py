@@ -128,25 +128,33 @@ def _volume_row() -> None:
                 )
 
 
-def _mpe_row() -> None:
-    """One field per MPE the standard's tests evaluate."""
-    from trame.widgets import html
+def _field_grid(fields: str, value: str, path: str, testid: str) -> None:
+    """A grid of number fields, one per declared field ``f`` of the list ``fields``
+    (label and unit from the declaration), each bound to ``value`` in the setup form
+    (written back at ``path``, see :func:`set_form`)."""
     from trame.widgets import vuetify3 as v
 
-    html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
     with v.VRow(dense=True):
-        with v.VCol(v_for="f in wz_mpe_fields", key="f.key", cols=6, md=3):
+        with v.VCol(v_for=f"f in {fields}", key="f.key", cols=6, md=3):
             v.VTextField(
-                model_value=("wz_form.mpe[f.key]",),
-                update_modelValue=set_form("'mpe' | f.key"),
+                model_value=(value,),
+                update_modelValue=set_form(path),
                 label=("f.label",),
                 suffix=("f.unit",),
                 density="compact",
                 variant="outlined",
                 disabled=("wz_locked",),
                 hide_details=True,
-                raw_attrs=dyn_tid("'wz-mpe-' + f.key"),
+                raw_attrs=dyn_tid(testid),
             )
+
+
+def _mpe_row() -> None:
+    """One field per MPE the standard's tests evaluate."""
+    from trame.widgets import html
+
+    html.Div("Maximum permissible errors (from the system's specification)", classes="text-caption mt-3 mb-2")
+    _field_grid("wz_mpe_fields", "wz_form.mpe[f.key]", "'mpe' | f.key", "'wz-mpe-' + f.key")
 
 
 def _artefact_cards(page: Any) -> None:
@@ -212,19 +220,12 @@ def _artefact_fields(page: Any) -> None:
         update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
         raw_attrs=dyn_tid("'wz-catalogue-' + t.test"),
     )
-    with v.VRow(dense=True):
-        with v.VCol(v_for="f in t.fields", key="f.key", cols=6, md=3):
-            v.VTextField(
-                model_value=("(wz_form.artefacts[t.test] || {})[f.key]",),
-                update_modelValue=set_form("'artefacts' | t.test | f.key"),
-                label=("f.label",),
-                suffix=("f.unit",),
-                density="compact",
-                variant="outlined",
-                disabled=("wz_locked",),
-                hide_details=True,
-                raw_attrs=dyn_tid("'wz-field-' + t.test + '-' + f.key"),
-            )
+    _field_grid(
+        "t.fields",
+        "(wz_form.artefacts[t.test] || {})[f.key]",
+        "'artefacts' | t.test | f.key",
+        "'wz-field-' + t.test + '-' + f.key",
+    )
 
 
 def _more_options() -> None:

@@ -141,24 +141,29 @@ def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict
     return {"data": data, "layout": lay}
 
 
-def sweep_figure(sweep: dict[str, Any], unit: str) -> dict[str, Any]:
-    """Thesis fig. 3.4: the feature-location contribution for sigma 0..1 px."""
-    if not sweep:
-        return empty("tick 'sweep' under Studies and run to see the feature-location sweep")
-    s = np.asarray(sweep["sigma_px"], float)
-    u = np.asarray(sweep["u"], float).reshape(-1, 3)
-    unit = shown_unit(unit)
-    data = [
+def _xyz_lines(x: Any, xyz: Any) -> list[dict[str, Any]]:
+    """One line per axis: ``xyz`` (N, 3) against ``x`` (N,), coloured as every x/y/z chart here."""
+    x = np.asarray(x, float).tolist()
+    xyz = np.asarray(xyz, float).reshape(-1, 3)
+    return [
         {
             "type": "scatter",
             "mode": "lines+markers",
             "name": a,
-            "x": s.tolist(),
-            "y": u[:, i].tolist(),
+            "x": x,
+            "y": xyz[:, i].tolist(),
             "line": {"color": AXIS_COLOURS[a]},
         }
         for i, a in enumerate(AXES)
     ]
+
+
+def sweep_figure(sweep: dict[str, Any], unit: str) -> dict[str, Any]:
+    """Thesis fig. 3.4: the feature-location contribution for sigma 0..1 px."""
+    if not sweep:
+        return empty("tick 'sweep' under Studies and run to see the feature-location sweep")
+    data = _xyz_lines(sweep["sigma_px"], sweep["u"])
+    unit = shown_unit(unit)
     return {
         "data": data,
         "layout": _layout("Feature-location sweep", "σ of the feature location / px", f"standard uncertainty / {unit}"),
@@ -169,20 +174,8 @@ def spatial_figure(spatial: dict[str, Any], unit: str) -> dict[str, Any]:
     """Thesis fig. 3.9: per-point standard deviation along a line through the volume."""
     if not spatial:
         return empty("tick 'spatial' under Studies and run to see the variation along an axis")
-    pos = np.asarray(spatial["position"], float)
-    std = np.asarray(spatial["std"], float).reshape(-1, 3)
+    data = _xyz_lines(spatial["position"], spatial["std"])
     unit = shown_unit(unit)
-    data = [
-        {
-            "type": "scatter",
-            "mode": "lines+markers",
-            "name": a,
-            "x": pos.tolist(),
-            "y": std[:, i].tolist(),
-            "line": {"color": AXIS_COLOURS[a]},
-        }
-        for i, a in enumerate(AXES)
-    ]
     return {
         "data": data,
         "layout": _layout(
