@@ -4,6 +4,7 @@ ball plates whose sphere centres are known."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -109,3 +110,104 @@ def test_segmentation_errors():
     assert "\n" not in str(exc.value)
     with pytest.raises(InputError, match="positive nominal radius"):
         segment_spheres(plane, 0.0)
+
+
+# ------------------------------------------- extraction that finds nothing like the nominal (issue 15)
+def _cap_cloud(r=0.0666, n=6474):
+    """Issue 15's cloud: a hemisphere of a ball of radius r mm (0.13 mm wide), n exact points."""
+    rng = np.random.default_rng(15)
+    u = rng.normal(size=(3 * n, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    u = u[u[:, 2] > 0][:n]
+    assert len(u) == n
+    return np.array([1.0, 2.0, 3.0]) + r * u
+
+
+def _ball_in_clutter(noise=0.0, seed=5):
+    """A ball (radius 10 mm, 3000 points seen from above: z > -R/2 about its centre) on a
+    stem (cylinder of radius 3 mm down to a table) and the table (5000 points): points
+    0-4999 table, 5000-7999 ball, 8000-9999 stem. Without noise every ball point is on
+    the sphere exactly."""
+    rng = np.random.default_rng(seed)
+    c, r = np.array([120.0, -40.0, 30.0]), 10.0
+    u = rng.normal(size=(9000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    u = u[u[:, 2] > -0.5][:3000]
+    ball = c + (r + rng.normal(scale=noise, size=len(u)) if noise else np.full(len(u), r))[:, None] * u
+    t = rng.uniform(-25.0, -np.sqrt(r**2 - 9.0), 2000)
+    phi = rng.uniform(0, 2 * np.pi, 2000)
+    stem = c + np.column_stack([3 * np.cos(phi), 3 * np.sin(phi), t])
+    table = c + np.column_stack([rng.uniform(-60, 60, 5000), rng.uniform(-60, 60, 5000), np.full(5000, -25.0)])
+    return np.vstack([table, ball, stem]), c, r
+
+
+def test_extract_with_a_wrong_nominal_is_refused():
+    x = _cap_cloud()
+    assert fit_sphere(x).radius == pytest.approx(0.0666, abs=1e-12)  # what the cloud is
+    with pytest.raises(GeometryError) as exc:
+        extract_sphere(x, 50.0)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert "no sphere of radius 50 mm (±20 %)" in msg and "6474 points spanning 0.133" in msg, msg
+    assert "radius is 0.0666 mm" in msg and "all of them" in msg, msg
+
+
+def test_extract_wrong_nominal_from_the_cli(tmp_path, capsys):
+    from camcmm.api import PointCloud, write
+    from cliasserts import refused
+
+    path = tmp_path / "cap.ply"
+    write(PointCloud(_cap_cloud(), name="cap"), path)
+    line = refused(capsys, ["fit", "sphere", path, "--extract", "--nominal-radius", "50"], "no sphere of radius 50 mm")
+    assert "radius is 0.0666 mm" in line
+
+
+def test_extract_ball_among_clutter_exact():
+    x, c, r = _ball_in_clutter()
+    seg = extract_sphere(x, 10.0)
+    np.testing.assert_array_equal(seg.indices, np.arange(5000, 8000))
+    assert abs(seg.radius - r) < 1e-9 and np.linalg.norm(seg.center - c) < 1e-9
+
+
+def test_extract_ball_among_clutter_noisy(tmp_path, capsys):
+    from camcmm.api import PointCloud, write
+    from camcmm.cli.main import main
+
+    x, c, r = _ball_in_clutter(noise=0.005)
+    seg = extract_sphere(x, 10.0)
+    ball = (seg.indices >= 5000) & (seg.indices < 8000)
+    assert ball.sum() > 0.99 * 3000 and (~ball).sum() < 0.01 * 3000
+    # sigma 5 um on 3000 points: u(r) ~ 0.1 um, u(centre) ~ 0.2 um; 20x that allowed
+    assert abs(seg.radius - r) < 0.002 and np.linalg.norm(seg.center - c) < 0.004
+    path = tmp_path / "ball.ply"
+    write(PointCloud(x, name="ball"), path)
+    assert main(["fit", "sphere", str(path), "--extract", "--nominal-radius", "10", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_points_raw"] == 10_000 and out["n_points"] == len(seg.indices)
+    assert out["radius"] == pytest.approx(seg.radius, abs=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("off,found", [(0.19, True), (-0.19, True), (0.21, False), (-0.21, False)])
+def test_extract_at_the_20_percent_boundary(off, found):
+    # the ball's radius is 10 mm exactly; the nominal R is such that (10 - R) / R = off
+    x, c, r = _ball_in_clutter()
+    nominal = r / (1 + off)
+    if found:
+        seg = extract_sphere(x, nominal)
+        np.testing.assert_array_equal(seg.indices, np.arange(5000, 8000))
+        assert abs(seg.radius - r) < 1e-9 and np.linalg.norm(seg.center - c) < 1e-9
+    else:
+        with pytest.raises(GeometryError, match=r"radius is 10 mm, not within ±20 %"):
+            extract_sphere(x, nominal)
+
+
+def test_nominal_sphere_rule():
+    from camcmm_plugins.fitting.checks import nominal_sphere_mismatch as why
+
+    assert why(59.9, 0.1, 1000, 50.0) is None and why(40.1, 0.1, 1000, 50.0) is None
+    assert "not within ±20 % of 50 mm" in why(60.1, 0.1, 1000, 50.0)
+    assert why(50.0, 10 / 3 - 1e-9, 1000, 50.0) is None  # 3 u = the 10 mm band
+    assert "ill-determined" in why(50.0, 10 / 3 + 1e-9, 1000, 50.0)
+    assert "only 29 points" in why(50.0, 0.1, 29, 50.0) and why(50.0, 0.1, 30, 50.0) is None
+    assert "not within" in why(float("nan"), 0.1, 1000, 50.0)

@@ -185,3 +185,45 @@ def fit_warnings(
             if np.isfinite(u) and np.degrees(u) > MAX_U_DIRECTION_DEG:
                 out.append(f"{element} fit: the {key} is ill-determined (standard uncertainty {_fmt(np.degrees(u))}°)")
     return out
+
+
+#: Sphere extraction with a nominal radius (``extract_sphere``, ``fit sphere --extract``,
+#: ``segment.sphere``): the sphere found must have a radius within this fraction of the
+#: nominal. The nominal radius of a reference ball is known to far better than 1 %, the
+#: refinement lets the radius float, and even an uncorrected fringe scanner lands within
+#: 2 % (50.7 mm on the 50 mm ball of test_fringe_kimthyung); what is 20 % off is another
+#: object (the mount, a ball of another size) or the whole cloud (a wrong nominal or a
+#: wrong unit: factors of 25.4 or 1000). The same fraction drops candidates in
+#: ``segment_spheres`` (its ``radius_tolerance``).
+EXTRACT_RADIUS_TOLERANCE = 0.2
+#: ... found on at least this many points (as ``segment_spheres``' ``min_points``): fewer
+#: cannot show that they lie on a sphere rather than on whatever else passes there.
+EXTRACT_MIN_POINTS = 30
+
+
+def nominal_sphere_mismatch(
+    radius: float,
+    u_radius: float,
+    n_points: int,
+    nominal: float,
+    tolerance: float = EXTRACT_RADIUS_TOLERANCE,
+    min_points: int = EXTRACT_MIN_POINTS,
+) -> str | None:
+    """Why a sphere extracted with the ``nominal`` radius (mm) is not the sphere asked for,
+    or None when it is: its least-squares ``radius`` (mm, standard uncertainty
+    ``u_radius`` mm) on ``n_points`` points. Accepted when the radius is within
+    ``tolerance`` × nominal of the nominal, on at least ``min_points`` points, with
+    3 u(r) within that tolerance too: a radius less certain than that could be the
+    nominal by chance (a small noisy patch), so the comparison would say nothing —
+    widening the tolerance by 3 u instead would accept exactly those patches."""
+    band = tolerance * nominal
+    if n_points < min_points:
+        return f"only {n_points} points on it (at least {min_points} needed)"
+    if not np.isfinite(radius) or abs(radius - nominal) > band:
+        return f"its radius is {_fmt(radius)} mm, not within ±{_fmt(100 * tolerance)} % of {_fmt(nominal)} mm"
+    if not np.isfinite(u_radius) or 3 * u_radius > band:
+        return (
+            f"its radius {_fmt(radius)} mm is ill-determined (standard uncertainty {_fmt(u_radius)} mm; 3 u must be "
+            f"within the ±{_fmt(100 * tolerance)} % tolerance)"
+        )
+    return None
