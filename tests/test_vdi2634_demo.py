@@ -49,6 +49,27 @@ def test_demo_contains_a_finished_test(made):
     assert "sphere scan (20 mm ball)" in names  # the original demo clouds are kept
 
 
+def test_demo_test_passes_the_artefact_rules_of_its_standard(made):
+    """The showcase test obeys VDI/VDE 2634-2's artefact rules (rules.py): in the 90 mm cube
+    L0 = 90 sqrt(3) = 155.88 mm, so 0.3 L0 = 46.77 mm <= the 49.944 mm ball bar (in the former
+    100 mm cube 0.3 L0 = 51.96 mm > 49.944 mm), 0.5 L0 = 77.94 mm <= the 150 mm flat."""
+    d, summary = made
+    with Project.open(d) as p:
+        state = p.get_state("acceptance.current")
+        assert state["plan"]["system"]["measuring_volume"] == [90.0, 90.0, 90.0]
+        s = p.result(state["summary_result"])["outputs"]
+    assert s["system"]["diagonal"] == pytest.approx(90.0 * 3**0.5, rel=1e-12)
+    # sphere diameter; ball bar length, sphere diameter, U; flat width, length, flatness
+    checks = {(c["artefact"], c["rule"]): c for c in s["artefact_checks"]}
+    assert len(checks) == 7 and all(c["ok"] for c in checks.values()), [c["text"] for c in s["artefact_checks"]]
+    bar = checks[("ball bar", "length at least 0.3 L0 (L0 = 155.9 mm)")]
+    assert bar["value"] == 49.944 and bar["limit"] == ">= 46.77 mm"
+    assert s["warnings"] == []  # nothing for a collapsed "Warnings (1)" panel to hide
+    # the verdicts are what they were in the 100 mm cube: every parameter passes, guarded too
+    assert s["verdict"] == "pass" and s["verdict_guarded"] == "pass"
+    assert all(p["verdict"] == "pass" for p in s["parameters"].values())
+
+
 def test_demo_is_not_made_twice(made):
     d, first = made
     again = demo.create_demo(d)

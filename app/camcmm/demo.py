@@ -40,7 +40,14 @@ SIMULATOR_TASK = "acceptance-set-simulation"
 #: 20-30 um standard deviation of the radial deviations), a small global scale error,
 #: a radial term and a repeatable periodic pattern (ch. 3.3.1, 3.3.2: local scale that
 #: varies through the volume, so sphere sizes vary more than ball-bar lengths).
+#: The measuring volume is 90 mm cubed (L0 = 155.9 mm) so that the thesis's artefacts meet
+#: every artefact rule of VDI/VDE 2634-2 (rules.py): in the virtual lab's default 100 mm cube
+#: (L0 = 173.2 mm) the 49.944 mm ball bar is shorter than 0.3 L0 = 51.96 mm; here 0.3 L0 =
+#: 46.77 mm, the sphere (20 mm) lies in 0.02..0.2 L0 = 3.12..31.18 mm, the flat (150 mm) is
+#: longer than 0.5 L0 = 77.94 mm. A showcase test must pass the standard it demonstrates.
+DEMO_VOLUME = [90.0, 90.0, 90.0]
 SIMULATION = {
+    "measuring_volume": DEMO_VOLUME,
     "n_sphere": 20_000,
     "n_ball_bar": 15_000,
     "n_flat": 40_000,
