@@ -630,8 +630,10 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     form = json.loads(json.dumps(state.wz_form))
     form["system_name"], form["mpe"] = "Scanner", {k: str(v) for k, v in MPE.items()}
     assert form["artefacts"]["sphere"]["diameter"] == 20.001
+    assert state.wz_artefact_warnings == []  # the default 90 mm cube: the catalogue's artefacts meet the rules
     assert page.start(form), state.wz_setup_error
     assert state.wz_active and state.wz_step == "positions" and state.wz_locked
+    assert state.wz_test_status == "A test is running in this project"
     assert len(state.wz_svgs) == 23 and all(s.startswith("<svg") for s in state.wz_svgs.values())
     assert state.wz_progress[0]["text"] == "0 of 10 sphere positions"
 
@@ -658,6 +660,7 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
             if (test, pos) != ("sphere", "sphere-01"):
                 asyncio.run(page.import_async(test, pos, path))
     assert state.wz_complete and state.wz_verdict == "pass"
+    assert state.wz_test_status == "A test is in this project with every position measured (no report yet)"
     assert [r["key"] for r in state.wz_parameters] == ["PF", "PS", "SD", "F"]
     assert all(r["verdict"] == "pass" for r in state.wz_parameters)
     page.redo("flat", "flat-02")
@@ -673,6 +676,7 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
         assert link["url"].startswith("camcmm-downloads/")
         assert (page.downloads / link["name"]).is_file()
     assert any(r["id"] == str(out["summary_result"]) for r in state.results)
+    assert state.wz_test_status == "A finished test is in this project (verdict: pass)"  # not "running"
 
     # a restart of the server: the page opens on the result, the report still offered
     server.pages["acceptance"].close()
@@ -682,6 +686,40 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     assert server2.state.wz_step == "result" and server2.state.wz_verdict == "pass"
     assert [link["kind"] for link in server2.state.wz_report_links] == ["html", "pdf", "json"]
     assert server2.state.wz_form["system_name"] == "Scanner"
+    assert server2.state.wz_test_status == "A finished test is in this project (verdict: pass)"
+
+
+def test_page_holds_start_while_the_setup_breaks_artefact_rules(tmp_path, gui):
+    """The standard's own rules run on the form before Start (vdi2634-2: ball bar length
+    >= 0.3 L0, L0 the volume diagonal); a broken rule is listed and Start waits for
+    "start anyway", which a different list of broken rules takes back."""
+    if not _real_available():
+        pytest.skip("the vdi2634-2 plugin is not installed (yet)")
+    server, _session, page = gui(tmp_path / "proj")
+    state = server.state
+    page.choose_standard("vdi2634-2", state.wz_form)
+    form = json.loads(json.dumps(state.wz_form))
+    assert form["volume"] == [90.0, 90.0, 90.0] and form["artefacts"]["ball_bar"]["length"] == BAR_L
+    # no MPEs yet: the plan cannot be built, the page says the rules wait for it
+    assert page.check_artefacts(form) == [] and "mpe.PF is missing" in state.wz_artefact_note
+    form["system_name"], form["mpe"] = "Scanner", {k: str(v) for k, v in MPE.items()}
+    assert page.check_artefacts(form) == [] and state.wz_artefact_note == ""  # L0 = 155.9 mm: 46.77 <= 49.944
+    # a 100 mm cube: L0 = 100 sqrt(3) = 173.2 mm, 0.3 L0 = 51.96 mm > 49.944 mm
+    form["volume"] = list(VOLUME)
+    bar = "ball bar: length 49.94 mm is below 0.3 L0 (L0 = 173.2 mm) = 51.96 mm; the evaluation runs, the test "
+    bar += "deviates from VDI/VDE 2634"
+    assert page.check_artefacts(form) == [bar] and state.wz_artefact_warnings == [bar]
+    assert not page.start(form) and "start anyway" in state.wz_setup_error and not state.wz_active
+    state.wz_confirm_violations = True
+    form["artefacts"]["ball_bar"]["length"] = "40"  # shorter still: a new list, the confirmation is taken back
+    assert page.check_artefacts(form)[0].startswith("ball bar: length 40 mm is below 0.3 L0")
+    assert state.wz_confirm_violations is False
+    assert not page.start(form) and not state.wz_active
+    state.wz_confirm_violations = True
+    assert page.start(form), state.wz_setup_error
+    assert state.wz_active and state.wz_step == "positions"
+    assert page.wizard.plan["artefacts"]["ball_bar"]["length"] == 40.0
+    assert any(w.startswith("ball bar: length 40 mm") for w in state.wz_summary_warnings)  # and in the report
 
 
 def test_demo_project_opens_with_a_finished_test(tmp_path):

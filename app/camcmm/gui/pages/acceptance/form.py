@@ -15,6 +15,12 @@ from .catalogue import artefact_plan_fields
 from .declared import artefact_fields, artefact_kind, parameter
 from .setup import _FORM_KEYS
 
+#: The new form's measuring volume (mm): the demo's 90 mm cube, in which the shipped
+#: catalogue's first artefacts (20 mm sphere, 49.944 mm ball bar, 150 x 60 mm flat) meet the
+#: artefact rules of VDI/VDE 2634-2 (L0 = 155.9 mm, 0.3 L0 = 46.77 mm). In a 100 mm cube
+#: the ball bar is shorter than 0.3 L0 = 51.96 mm. The operator enters the system's own.
+DEFAULT_VOLUME = [90.0, 90.0, 90.0]
+
 
 def _same_value(a: Any, b: Any) -> bool:
     """Equal as numbers when both read as numbers (the browser sends 20.0 back as 20)."""
@@ -65,7 +71,7 @@ def _default_form(standard: str | None, keep: dict[str, Any] | None) -> dict[str
     return {
         "standard": standard,
         "system_name": (keep or {}).get("system_name", ""),
-        "volume": (keep or {}).get("volume") or [100.0, 100.0, 100.0],
+        "volume": (keep or {}).get("volume") or list(DEFAULT_VOLUME),
         "mpe": dict((keep or {}).get("mpe") or {}),
         "artefacts": {},
         "include": [],
@@ -107,6 +113,36 @@ class PageSetup:
         s.wz_mpe_fields = [
             {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
         ]
+        self.check_artefacts(form)
+
+    def check_artefacts(self, form: dict[str, Any] | None = None) -> list[str]:
+        """Run the standard's artefact rules on the setup form (through the plugin,
+        :meth:`Wizard.artefact_checks`); publish the broken ones (``wz_artefact_warnings``,
+        shown above Start) and why none could be checked yet (``wz_artefact_note``).
+        A changed list of broken rules takes back an earlier "start anyway"."""
+        s = self.state
+        form = form if form is not None else s.wz_form
+        broken: list[str] = []
+        note = ""
+        if form and form.get("standard"):
+            try:
+                checks = self.wizard.artefact_checks(
+                    form.get("standard"),
+                    form.get("system_name"),
+                    form.get("volume"),
+                    form.get("mpe") or {},
+                    form.get("artefacts") or {},
+                    tests=form.get("include") or [],
+                    options=form.get("options"),
+                )
+                broken = [str(c.get("text") or c.get("rule")) for c in checks if not c.get("ok", True)]
+            except Exception as exc:  # an incomplete form: Start names the field
+                note = f"the artefact rules are checked once the setup is complete ({one_line(exc)})"
+        if broken != list(getattr(s, "wz_artefact_warnings", None) or []):
+            s.wz_confirm_violations = False
+        s.wz_artefact_warnings = broken
+        s.wz_artefact_note = note
+        return broken
 
     def _standard_tests(self, standard: str | None) -> tuple[list[dict[str, Any]], Any]:
         """The tests and the declaration of ``standard`` (none and ``wz_setup_error`` if it fails)."""
@@ -169,12 +205,22 @@ class PageSetup:
             return
         form.setdefault("artefacts", {})[test] = self._artefact_values(entry)
         self.state.wz_form = form
+        self.check_artefacts(form)
 
     def start(self, form: dict[str, Any] | None = None) -> bool:
-        """Set up the test from the form; go to the positions."""
+        """Set up the test from the form; go to the positions. Refused (``wz_setup_error``)
+        while the form breaks an artefact rule of the standard and "start anyway"
+        (``wz_confirm_violations``) is not set."""
         form = form if form is not None else self.state.wz_form
         s = self.state
         s.wz_setup_error = ""
+        broken = self.check_artefacts(form)
+        if broken and not s.wz_confirm_violations:
+            s.wz_setup_error = (
+                f"the setup breaks {len(broken)} artefact rule(s) of {form.get('standard')} (listed above); "
+                "set 'start anyway' to run a test that deviates from the standard"
+            )
+            return False
         try:
             arts = {}
             for test, a in (form.get("artefacts") or {}).items():

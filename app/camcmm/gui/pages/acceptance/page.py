@@ -57,6 +57,10 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_catalogue = {}
         s.wz_mpe_fields = []
         s.wz_locked = False
+        s.wz_artefact_warnings = []
+        s.wz_artefact_note = ""
+        s.wz_confirm_violations = False
+        s.wz_test_status = ""
         s.wz_title = ""
         s.wz_blocks = []
         s.wz_svgs = {}
@@ -98,7 +102,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         if not w.active:
             s.wz_locked = False
             s.wz_blocks, s.wz_progress, s.wz_parameters = [], [], []
-            s.wz_title, s.wz_progress_text = "", ""
+            s.wz_title, s.wz_progress_text, s.wz_test_status = "", "", ""
             s.wz_verdict = s.wz_verdict_guarded = ""
             s.wz_report_links = []
             return
@@ -109,6 +113,18 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         except Exception as exc:
             log.exception("wizard refresh failed")
             s.wz_error = one_line(exc)
+        s.wz_test_status = self._test_status()
+
+    def _test_status(self) -> str:
+        """What the test in the project is: finished (its summary and report stored, with
+        the verdict), every position measured but no report yet, or running."""
+        st = self.wizard.state or {}
+        if st.get("summary_result") is not None:
+            verdict = st.get("verdict") or self.state.wz_verdict or "incomplete"
+            return f"A finished test is in this project (verdict: {verdict})"
+        if self.state.wz_complete:
+            return "A test is in this project with every position measured (no report yet)"
+        return "A test is running in this project"
 
     def _publish_positions(self) -> None:
         s = self.state

@@ -167,6 +167,37 @@ class WizardSetup:
         self.standard(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
         return plan
 
+    def artefact_checks(
+        self,
+        standard: str,
+        system_name: str,
+        measuring_volume: Any,
+        mpe: dict[str, Any],
+        artefacts: dict[str, dict[str, Any]],
+        tests: list[str] | None = None,
+        options: Any = None,
+    ) -> list[dict[str, Any]]:
+        """The standard's own artefact rules on a setup before Start:
+        ``[{artefact, rule, value, limit, ok, text}]`` (docs/standards.md), lengths in mm.
+
+        The rules are the standard plugin's, not the page's: its ``summarize`` of the plan
+        with no measurements returns them (``artefact_checks``); a standard that states
+        none gives ``[]``. A form the plan cannot be built from yet raises (InputError
+        naming the field). A blank system name does not matter to the rules."""
+        std = self.standard(standard)
+        available = {r["test"]: r for r in std.requirements(None)}
+        chosen = [t for t, r in available.items() if r.get("required", True) or t in (tests or [])]
+        plan = self.build_plan(
+            standard,
+            str(system_name or "").strip() or "(not named yet)",
+            measuring_volume,
+            mpe,
+            {t: a for t, a in (artefacts or {}).items() if t in chosen},
+            options,
+        )
+        summary = std.summarize(None, plan, {}) or {}
+        return [dict(c) for c in summary.get("artefact_checks") or [] if isinstance(c, dict)]
+
     def setup(
         self,
         standard: str,

@@ -26,8 +26,11 @@ def set_form(path: str) -> str:
 
 
 def build_setup(page: Any) -> None:
-    """The setup step (shown while ``wz_step === 'setup'``); wires it to ``page``."""
+    """The setup step (shown while ``wz_step === 'setup'``); wires it to ``page``; every
+    change of the form runs the standard's artefact rules on it."""
     from trame.widgets import html
+
+    page.state.change("wz_form")(lambda wz_form=None, **_: page.check_artefacts(wz_form))
 
     with html.Div(v_if="wz_step === 'setup'", raw_attrs=tid("wz-setup")):
         _alerts()
@@ -40,12 +43,14 @@ def build_setup(page: Any) -> None:
 
 
 def _alerts() -> None:
-    """A test running (with Set up a new test), no standard installed, the setup error."""
+    """The test in the project (with Set up a new test), no standard installed, the
+    setup error, the broken artefact rules."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
     with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal", classes="mb-2"):
-        html.Span("A test is running in this project: {{ wz_progress_text }}. ")
+        # "finished", "every position measured" or "running": never "running" for a finished test
+        html.Span("{{ wz_test_status }}: {{ wz_progress_text }}. ", raw_attrs=tid("wz-test-status"))
         v.VBtn(
             "Set up a new test",
             size="small",
@@ -68,6 +73,45 @@ def _alerts() -> None:
         density="compact",
         classes="mb-2",
         raw_attrs=tid("wz-setup-error"),
+    )
+    _artefact_warnings()
+
+
+def _artefact_warnings() -> None:
+    """The standard's artefact rules the setup breaks, always in view (not in a closed
+    panel), with the "start anyway" switch Start waits for; or why they are not checked yet."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with v.VAlert(
+        v_if="wz_artefact_warnings.length",
+        type="warning",
+        density="compact",
+        variant="tonal",
+        classes="mb-2",
+        raw_attrs=tid("wz-artefact-warnings"),
+    ):
+        html.Div(
+            "This setup breaks {{ wz_artefact_warnings.length }} artefact rule(s) of {{ wz_form.standard }}: the "
+            "evaluation runs, but the test deviates from the standard and its report says so.",
+            classes="font-weight-medium",
+        )
+        with html.Ul(classes="ml-4"):
+            html.Li("{{ w }}", v_for="(w, i) in wz_artefact_warnings", key="i")
+        v.VSwitch(
+            v_if="!wz_locked",
+            v_model=("wz_confirm_violations", False),
+            label="Start anyway (a test that deviates from the standard)",
+            color="warning",
+            density="compact",
+            hide_details=True,
+            raw_attrs=tid("wz-confirm-violations"),
+        )
+    html.Div(
+        "{{ wz_artefact_note }}",
+        v_if="wz_artefact_note && !wz_locked",
+        classes="text-caption text-medium-emphasis mb-2",
+        raw_attrs=tid("wz-artefact-note"),
     )
 
 
@@ -250,7 +294,8 @@ def _more_options() -> None:
 
 
 def _start_buttons(page: Any) -> None:
-    """Start the test; Go to the positions while one runs."""
+    """Start the test (held while artefact rules are broken and "start anyway" is off);
+    Go to the positions while one runs."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
@@ -262,7 +307,7 @@ def _start_buttons(page: Any) -> None:
             "Start the test",
             color="primary",
             prepend_icon="mdi-play",
-            disabled=("wz_locked",),
+            disabled=("wz_locked || (wz_artefact_warnings.length > 0 && !wz_confirm_violations)",),
             click=(on_start, "[wz_form]"),
             raw_attrs=tid("wz-start"),
         )
