@@ -708,6 +708,9 @@ def test_page_holds_start_while_the_setup_breaks_artefact_rules(tmp_path, gui):
     form["volume"] = list(VOLUME)
     bar = "ball bar: length 49.94 mm is below 0.3 L0 (L0 = 173.2 mm) = 51.96 mm; the evaluation runs, the test "
     bar += "deviates from VDI/VDE 2634"
+    state.wz_form = json.loads(json.dumps(form))
+    state.flush()  # a change of the form (as the browser sends it) runs the rules
+    assert state.wz_artefact_warnings == [bar]
     assert page.check_artefacts(form) == [bar] and state.wz_artefact_warnings == [bar]
     assert not page.start(form) and "start anyway" in state.wz_setup_error and not state.wz_active
     state.wz_confirm_violations = True
