@@ -150,6 +150,23 @@ def test_extract_with_a_wrong_nominal_is_refused():
     assert "\n" not in msg
     assert "no sphere of radius 50 mm (±20 %)" in msg and "6474 points spanning 0.133" in msg, msg
     assert "radius is 0.0666 mm" in msg and "all of them" in msg, msg
+    assert "a file in metres read as mm?" in msg  # 50 / 0.0666 = 751, within 500-2000
+    with pytest.raises(GeometryError) as exc:  # 50 / 0.0666 / 10 = 75: no unit hint
+        extract_sphere(x * 10, 50.0)
+    assert "radius is 0.666 mm" in str(exc.value) and str(exc.value).endswith("check the nominal radius and the unit")
+
+
+def test_nist_scan_in_metres_read_as_mm_is_refused():
+    # issue 15 as seen: SPH101.xyz (metres) read as mm, nominal 50 mm -> all 6474 points, r = 0.0666
+    raw = read(NIST / "SPH101.xyz", unit="mm").points
+    with pytest.raises(GeometryError) as exc:
+        extract_sphere(raw, 50.0)
+    msg = str(exc.value)
+    assert "no sphere of radius 50 mm" in msg and "6474 points spanning 0.1379" in msg, msg
+    assert "radius is 0.0666 mm" in msg and "a file in metres read as mm? give its unit" in msg, msg
+    truncated = read(NIST / "tSPH101.xyz", unit="mm").points  # r = 0.0501 mm: 1/998 of 50 mm
+    with pytest.raises(GeometryError, match="a file in metres read as mm"):
+        extract_sphere(truncated, 50.0)
 
 
 def test_extract_wrong_nominal_from_the_cli(tmp_path, capsys):

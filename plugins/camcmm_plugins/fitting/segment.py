@@ -313,7 +313,7 @@ def extract_sphere(
     if not _positive(nominal_radius):
         raise InputError(f"sphere extraction: the nominal radius must be positive (mm), got {nominal_radius!r}")
     r_nom = float(nominal_radius)
-    best: tuple[float, str] | None = None  # (relative radius error, description) of the closest candidate
+    best: tuple[float, float, str] | None = None  # (relative error, radius, description) of the closest candidate
     seen: list[np.ndarray] = []  # refined centres of the candidates tried
     for c in _detect(x, r_nom, CANDIDATES, 8):
         try:
@@ -333,18 +333,26 @@ def extract_sphere(
         err = abs(r - r_nom) / r_nom if np.isfinite(r) else np.inf
         if best is None or err < best[0]:
             every = ", all of them" if n == len(x) else ""
-            best = (err, f"the best candidate ({n} points{every}): {why}")
+            best = (err, r, f"the best candidate ({n} points{every}): {why}")
+    r_best = float("nan")
     if best is None:  # no candidate at all: what the whole cloud offers instead
         try:
-            offer = f"the least-squares sphere of all points has radius {fit_sphere(x).radius:.4g} mm"
+            r_best = float(fit_sphere(x).radius)
+            offer = f"the least-squares sphere of all points has radius {r_best:.4g} mm"
         except (GeometryError, InputError, np.linalg.LinAlgError):
             offer = "no sphere candidate"
     else:
-        offer = best[1]
+        r_best, offer = best[1], best[2]
+    # a factor of about 1000 is a unit mistake (the ratios of VDI 2634's sphere check)
+    hint = "check the nominal radius and the unit"
+    if 500 <= r_nom / r_best <= 2000:
+        hint = "about 1/1000 of the nominal: a file in metres read as mm? give its unit"
+    elif 500 <= r_best / r_nom <= 2000:
+        hint = "about 1000 × the nominal: a file in mm read as metres? check its unit"
     ext = " × ".join(f"{v:.4g}" for v in np.ptp(x, axis=0))
     raise GeometryError(
         f"sphere extraction: no sphere of radius {r_nom:g} mm (±{100 * radius_tolerance:g} %) found in {len(x)} "
-        f"points spanning {ext} mm; {offer}; check the nominal radius and the unit"
+        f"points spanning {ext} mm; {offer}; {hint}"
     )
 
 
