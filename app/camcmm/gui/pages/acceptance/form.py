@@ -217,7 +217,7 @@ class PageSetup:
         broken = self.check_artefacts(form)
         if broken and not s.wz_confirm_violations:
             s.wz_setup_error = (
-                f"the setup breaks {len(broken)} artefact rule(s) of {form.get('standard')} (listed above); "
+                f"the setup breaks {len(broken)} artefact rule(s) of {form.get('standard')} (listed above Start); "
                 "set 'start anyway' to run a test that deviates from the standard"
             )
             return False

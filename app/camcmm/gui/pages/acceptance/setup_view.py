@@ -39,12 +39,13 @@ def build_setup(page: Any) -> None:
         _mpe_row()
         _artefact_cards(page)
         _more_options()
+        _artefact_warnings()  # right above Start, below the fields: no field moves while one types
         _start_buttons(page)
 
 
 def _alerts() -> None:
     """The test in the project (with Set up a new test), no standard installed, the
-    setup error, the broken artefact rules."""
+    setup error."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
@@ -74,7 +75,6 @@ def _alerts() -> None:
         classes="mb-2",
         raw_attrs=tid("wz-setup-error"),
     )
-    _artefact_warnings()
 
 
 def _artefact_warnings() -> None:
