@@ -33,9 +33,26 @@ and minimises ``Σ w_i (n_i · (x'_i - q_i))²``: the residual's derivative is
 from the residuals at each iteration with the kernel's scale ``k`` = 4.685 σ̂ (Tukey) or
 1.345 σ̂ (Huber), σ̂ = 1.4826 median |residual| (about zero, so that a common offset
 counts), unless ``kernel_k`` fixes it.
-Directions the data leave undetermined (sliding along a plane, turning about a
-cylinder's axis) are found from the eigenvalues of the normalised normal matrix, kept
-at their starting values and reported in ``weak_directions``.
+Degrees of freedom the part's shape leaves undetermined (a sphere: the three rotations
+about its centre; a cylinder: the turn about and the slide along its axis; a plane: two
+slides and the turn about its normal) are found at every iteration from the eigenvalues
+of the normalised 6×6 (7×7) normal matrix: a direction whose eigenvalue is below
+``HOLD_COND`` × the largest is held at its start value, the step is solved in the
+determined subspace only, and the held directions are reported in words in
+``held_dofs`` (and per axis in ``weak_directions``). Open3D's ICP has no such locking
+(it solves the full 6×6 system, and on a sphere the free rotations wander and the
+iterations never settle), so the step is written here. The analysis uses the nominal's
+smooth normals (vertex normals interpolated on the triangle, where they stay within
+20° of the facet's): the facets of a tessellated sphere would otherwise "determine" its
+rotations by their corners (λ/λmax ≈ 1e-4 for the 5120-facet demo ball), which pins the
+part on the tessellation, not on its shape.
+
+When the measured cloud does not overlap the nominal at the start (fewer than
+``COARSE_SHARE`` of the points within ``max_distance``), :func:`align` first moves its
+centroid onto the nominal's area centroid and runs a wide ICP pass, then the normal
+one (stages ``coarse`` and ``icp wide``). Principal axes are not used: a partial scan's
+axes differ from the whole nominal's, so a rotation from them would be wrong whenever
+the scan covers part of the surface; a part that needs turning takes ``global+icp``.
 
 Failure is reported, never hidden: ``converged`` is False with a ``reason`` when there
 are too few correspondences within ``max_distance`` (no overlap), when fewer than
@@ -63,6 +80,23 @@ KERNELS = ("tukey", "huber", "none")
 #: A match must hold ±BAND robust standard deviations of its residuals within the
 #: inlier distance; wider residuals are what two surfaces slid over each other leave.
 BAND = 4.0
+#: Relative eigenvalue (of the normal matrix, rotations scaled by half the nominal's
+#: diagonal) below which a direction counts as undetermined and is held. λ/λmax is the
+#: squared ratio of how strongly the point-to-plane residuals respond to a unit motion
+#: along that direction versus along the best-determined one: 1e-4 = a 1 % response.
+#: A true symmetry with smooth normals, noise of ~1e-3 of the size and normals accurate
+#: to ~1e-3 rad stays near 1e-6 (2e-6 measured on the demo ball with 7.6 µm noise);
+#: a real feature that fixes a direction (a notch, keyway or flat covering >= ~1 % of
+#: the area at a lever arm of the part's size) gives >= 1e-3. Between the two, 1e-4.
+HOLD_COND = 1e-4
+#: Share of the measured points within ``max_distance`` of the nominal at the start
+#: below which :func:`align` starts from a coarse (centroid) alignment.
+COARSE_SHARE = 0.1
+#: ... but only when the measured centroid lies within this many nominal diagonals of
+#: the nominal's centre (the demo's ball scan: 1.2): a cloud farther off is in another
+#: frame (scanner coordinates) or unit, where a shift of the centroids alone is as
+#: likely wrong as right; there the user chooses global+icp or pairs+icp.
+COARSE_REACH = 5.0
 _TUKEY_C, _HUBER_C = 4.685, 1.345
 
 
@@ -84,6 +118,7 @@ class Alignment:
     sigma: float = float("nan")
     iterations: int = 0
     weak_directions: list[str] = field(default_factory=list)
+    held_dofs: list[str] = field(default_factory=list)
     stages: list[dict[str, Any]] = field(default_factory=list)
 
     @property
@@ -125,6 +160,7 @@ class Alignment:
             "sigma": self.sigma,
             "iterations": self.iterations,
             "weak_directions": list(self.weak_directions),
+            "held_dofs": list(self.held_dofs),
             "stages": self.stages,
         }
 
@@ -193,6 +229,9 @@ class Nominal:
             self._index = _nns(geometry.points)
         else:
             raise InputError(f"nominal: expected a mesh or a point cloud, got {type(geometry).__name__}")
+        self._vn: np.ndarray | None = None
+        if self.mesh is not None:
+            self._vn = self._vertex_normals(self.mesh.V, self.mesh.F)
         lo, hi = self.bounds
         self.diag = float(np.linalg.norm(hi - lo))
         self.name = self.mesh.name if self.mesh else self.cloud.name
@@ -207,6 +246,30 @@ class Nominal:
         pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.points))
         pc.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(k))
         return np.asarray(pc.normals).copy()
+
+    @staticmethod
+    def _vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+        """Area-weighted vertex normals (unit; zero where a vertex has no area)."""
+        fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+        vn = np.column_stack(
+            [np.bincount(F.ravel(), weights=np.repeat(fn[:, k], 3), minlength=len(V)) for k in range(3)]
+        )
+        return vn / np.maximum(np.linalg.norm(vn, axis=1), 1e-300)[:, None]
+
+    def closest_smooth(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`closest`, plus smooth unit normals (N, 3) for the analysis of the
+        undetermined directions: the vertex normals interpolated with the closest point's
+        barycentric coordinates, or the facet's normal where they differ from it by more
+        than 20° (a sharp edge, which must stay sharp). For a reference cloud its normals."""
+        if self.mesh is None:
+            q, n, rim = self.closest(points)
+            return q, n, n, rim
+        q, f, b, n = self.mesh.closest(points)
+        ns = np.einsum("ij,ijk->ik", b, self._vn[self.mesh.F[f]])
+        ns /= np.maximum(np.linalg.norm(ns, axis=1), 1e-300)[:, None]
+        sharp = np.einsum("ij,ij->i", ns, n) < np.cos(np.radians(20.0))
+        ns[sharp] = n[sharp]
+        return q, n, ns, self.mesh.on_boundary(f, b)
 
     @property
     def bounds(self) -> np.ndarray:
@@ -407,8 +470,10 @@ _DOF_NAMES = (
 )
 
 
-def _jacobian(x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float) -> tuple[np.ndarray, np.ndarray]:
-    c = (w @ x) / w.sum()
+def _jacobian(
+    x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float, centre: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    c = (w @ x) / w.sum() if centre is None else centre
     xc = x - c
     cols = [np.cross(xc, n) / L, n]
     if scale:
@@ -416,7 +481,7 @@ def _jacobian(x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float
     return np.hstack(cols), c
 
 
-def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = 1e-7) -> int:
+def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = HOLD_COND) -> int:
     """Directions the weighted normal matrix leaves (numerically) undetermined."""
     H = J.T @ (J * (w / w.sum())[:, None])
     lam = np.linalg.eigvalsh(H)
@@ -424,17 +489,46 @@ def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = 1e-7) -> int:
 
 
 def _gn_step(
-    x: np.ndarray, q: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float, cond: float = 1e-7
-) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """One weighted Gauss-Newton step: (ω, τ, σ), the centroid c, weak directions."""
+    x: np.ndarray,
+    q: np.ndarray,
+    n: np.ndarray,
+    w: np.ndarray,
+    scale: bool,
+    L: float,
+    cond: float = HOLD_COND,
+    ns: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray]:
+    """One weighted Gauss-Newton step in the determined subspace.
+
+    ``n``: the nominal's (facet) normals, which define the residuals; ``ns``: smooth
+    normals for finding the undetermined directions (default ``n``). Returns the step
+    (ω [rad], τ [mm], σ), the centroid c (mm) it is taken about, the held directions by
+    axis and the held directions as columns (scaled coordinates: ω × L, τ, σ × L).
+    """
     J, c = _jacobian(x, n, w, scale, L)
+    Js = J if ns is None else _jacobian(x, ns, w, scale, L)[0]
     r = np.einsum("ij,ij->i", n, x - q)
     sw = w / w.sum()
     H = J.T @ (J * sw[:, None])
     g = J.T @ (r * sw)
-    lam, vec = np.linalg.eigh(H)
+    Hs = H if ns is None else Js.T @ (Js * sw[:, None])
+    lam, vec = np.linalg.eigh(Hs)
     keep = lam > cond * lam.max()
-    delta = -vec[:, keep] @ ((vec[:, keep].T @ g) / lam[keep])
+    if (~keep).any():
+        # take the step about the held rotations' axis point s: there the held directions
+        # are pure rotations (and pure translations), so holding them keeps the part's turn
+        # about s and its slide along the held axes exactly; about the centroid the
+        # determined subspace would mix in a turn about s that the facets then pick up
+        s_axis = c + _axis_offset(vec[:, ~keep], L)
+        J, c = _jacobian(x, n, w, scale, L, centre=s_axis)
+        Js = J if ns is None else _jacobian(x, ns, w, scale, L, centre=s_axis)[0]
+        H = J.T @ (J * sw[:, None])
+        g = J.T @ (r * sw)
+        Hs = H if ns is None else Js.T @ (Js * sw[:, None])
+        lam, vec = np.linalg.eigh(Hs)
+        keep = lam > cond * lam.max()
+    B = vec[:, keep]
+    delta = -B @ np.linalg.solve(B.T @ H @ B, B.T @ g)
     weak = []
     for i in np.flatnonzero(~keep):
         v = vec[:, i]
@@ -443,7 +537,77 @@ def _gn_step(
     delta[:3] /= L
     if scale:
         delta[6] /= L
-    return delta, c, weak
+    return delta, c, weak, vec[:, ~keep]
+
+
+def _vec(v: np.ndarray) -> str:
+    return "(" + ", ".join(f"{a:.4f}" for a in np.where(np.abs(v) < 5e-5, 0.0, v)) + ")"
+
+
+def _split_held(null: np.ndarray, L: float) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """Held directions split into rotations and pure translations: (number of rotations,
+    their ω (3, nr) in rad per unit, their τ with the pure translations taken out
+    (3, nr), orthonormal pure translations (3, m))."""
+    om, tau = null[:3], null[3:6]
+    _, S, Vt = np.linalg.svd(om)
+    nr = int(np.sum(S > 1e-6))
+    Tr = tau @ Vt[nr:].T  # held pure translations (3, k - nr)
+    Qt = np.zeros((3, 0))
+    if Tr.size:
+        Qt = np.linalg.svd(Tr, full_matrices=False)[0][:, : np.linalg.matrix_rank(Tr, 1e-6)]
+    W = om @ Vt[:nr].T / L
+    Tt = tau @ Vt[:nr].T
+    return nr, W, Tt - Qt @ (Qt.T @ Tt), Qt
+
+
+def _axis_offset(null: np.ndarray, L: float) -> np.ndarray:
+    """u = s - c (mm): the held rotations' axis point s nearest the centre c about which
+    ``null`` is expressed. τ = ω × (c - s) = -(ω × u) = -[ω]ₓ u, solved by least squares."""
+    nr, W, Tt, _ = _split_held(null, L)
+    if not nr:
+        return np.zeros(3)
+    A = np.vstack([np.array([[0, -wi[2], wi[1]], [wi[2], 0, -wi[0]], [-wi[1], wi[0], 0]]) for wi in W.T])
+    return np.linalg.lstsq(A, -Tt.T.ravel(), rcond=1e-9)[0]
+
+
+def describe_held(null: np.ndarray, c: np.ndarray, L: float) -> list[str]:
+    """The held directions in words.
+
+    ``null``: (6 or 7, k) held directions in scaled coordinates (ω × L, τ, [σ × L]) about
+    the centroid ``c`` (mm, nominal coordinates). A rotation ω about an axis through s
+    moves x by ω × (x - s) = ω × (x - c) + ω × (c - s): the rotational part's axis point
+    is the least-squares s (nearest to c) with τ = ω × (c - s), once the pure
+    translations have been taken out of τ.
+    """
+    if null.size == 0:
+        return []
+    out = []
+    nr, W, _, Qt = _split_held(null, L)
+    if nr:
+        s = c + _axis_offset(null, L)
+        if nr == 3:
+            out.append(f"rotation about any axis through {_vec(s)} mm")
+        elif nr == 1:
+            d = W[:, 0] / np.linalg.norm(W[:, 0])
+            d = d * np.sign(d[np.argmax(np.abs(d))])
+            out.append(f"rotation about the axis through {_vec(s)} mm along {_vec(d)}")
+        else:
+            d = np.cross(W[:, 0], W[:, 1])
+            d /= np.linalg.norm(d)
+            out.append(f"rotation about any axis through {_vec(s)} mm perpendicular to {_vec(d)}")
+    m = Qt.shape[1]
+    if m == 1:
+        d = Qt[:, 0] * np.sign(Qt[np.argmax(np.abs(Qt[:, 0])), 0])
+        out.append(f"translation along {_vec(d)}")
+    elif m == 2:
+        d = np.cross(Qt[:, 0], Qt[:, 1])
+        d = d * np.sign(d[np.argmax(np.abs(d))])
+        out.append(f"translation in the plane normal to {_vec(d)}")
+    elif m == 3:
+        out.append("translation in any direction")
+    if null.shape[0] > 6 and (np.abs(null[6]) > 1e-6).any() and not out:
+        out.append("scale")
+    return out
 
 
 def _compose(T: np.ndarray, delta: np.ndarray, c: np.ndarray, scale: bool) -> np.ndarray:
@@ -528,6 +692,8 @@ def icp(
     sub = P if len(P) <= max_points else P[np.sort(rng.choice(len(P), max_points, replace=False))]
     L = 0.5 * nom.diag
     it_total, weak, settled = 0, [], False
+    held = np.zeros((need, 0))
+    c_last = np.zeros(3)
     fail = ""
     last: dict[str, Any] = {}
     for phase, pts, n_iter in (("subset", sub, max_iterations), ("all", P, 20)):
@@ -545,7 +711,7 @@ def icp(
                     else f"only {len(xi)} measured points"
                 )
                 break
-            q, n, rim = nom.closest(xi)
+            q, n, ns_all, rim = nom.closest_smooth(xi)
             e = np.linalg.norm(xi - q, axis=1)
             good = (e <= dmax) & ~rim
             if good.sum() < need:
@@ -554,7 +720,7 @@ def icp(
                     f"{dmax:.4g} mm of the nominal"
                 )
                 break
-            xg, qg, ng = xi[good], q[good], n[good]
+            xg, qg, ng, nsg = xi[good], q[good], n[good], ns_all[good]
             r = np.einsum("ij,ij->i", ng, xg - qg)
             if kernel_k:
                 k = float(kernel_k)
@@ -562,12 +728,15 @@ def icp(
                 sig = 1.4826 * np.median(np.abs(r))  # about zero: an offset is a residual too
                 k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-6 * nom.diag)  # float32 floor
             w = _weights(r, kernel, k)
-            delta, c, weak = _gn_step(xg, qg, ng, w, scale, L) if (w > 0).sum() >= need else (None, None, ["all"])
+            if (w > 0).sum() >= need:
+                delta, c, weak, held = _gn_step(xg, qg, ng, w, scale, L, ns=nsg)
+            else:
+                delta, c, weak = None, None, ["all"]
             if weak and kernel != "none" and not kernel_k:
                 # the kernel must not leave a direction undetermined that the data fix: with
                 # exact data where a face really deviates, the adaptive scale can shrink
                 # below that deviation and reject every face that holds, say, z
-                Jg, _ = _jacobian(xg, ng, np.ones(len(xg)), scale, L)
+                Jg, _ = _jacobian(xg, nsg, np.ones(len(xg)), scale, L)
                 geo = _n_weak(Jg, np.ones(len(xg)))
                 for _ in range(40):
                     if (w > 0).sum() >= need and _n_weak(Jg, w) <= geo:
@@ -575,11 +744,12 @@ def icp(
                     k *= 2.0
                     w = _weights(r, kernel, k)
                 if (w > 0).sum() >= need:
-                    delta, c, weak = _gn_step(xg, qg, ng, w, scale, L)
+                    delta, c, weak, held = _gn_step(xg, qg, ng, w, scale, L, ns=nsg)
             if (w > 0).sum() < need:
                 fail = "the robust kernel rejected all but a few correspondences"
                 break
             T = _compose(T, delta, c, scale)
+            c_last = c
             it_total += 1
             last = {"e": e, "n_region": len(xi), "k": k}
             # settled when the update moves the part by far less than its noise: in mm at the
@@ -598,6 +768,7 @@ def icp(
         label,
         iterations=it_total,
         weak_directions=weak,
+        held_dofs=describe_held(held, c_last, L) if weak and weak != ["all"] else [],
         inlier_distance=d_in,
         n_points=int(last.get("n_region", 0)),
     )
@@ -651,7 +822,10 @@ def icp(
     else:
         al.converged = True
         if weak:
-            al.reason = "converged; undetermined by the data (kept at the start value): " + "; ".join(weak)
+            al.reason = (
+                f"converged; the part's shape leaves {len(weak)} degree(s) of freedom undetermined, held at the "
+                "start value: " + "; ".join(al.held_dofs or weak)
+            )
     return al
 
 
@@ -698,9 +872,64 @@ def align(
             al = Alignment(T0, False, method, reason=info["reason"], stages=stages)
             return al
         icp_args.setdefault("max_distance", 3 * info["voxel"])
+    else:
+        T0 = _coarse_start(P, nom, T0, icp_args, scale, stages)
     al = icp(P, nom, init=T0, scale=scale, method=method, **icp_args)
     al.stages = stages + al.stages
+    al.iterations += sum(int(st.get("iterations", 0)) for st in stages if st.get("stage") == "icp wide")
     return al
+
+
+def _coarse_start(P: np.ndarray, nom: Nominal, T0: np.ndarray, icp_args: dict, scale: bool, stages: list) -> np.ndarray:
+    """The start for ICP when the clouds do not overlap at ``T0``.
+
+    If fewer than ``COARSE_SHARE`` of (a subset of) the measured points lie within
+    ``max_distance`` of the nominal, the measured centroid is moved onto the nominal's
+    area centroid and a wide ICP pass (correspondences up to the 95th percentile of the
+    distances there) brings the cloud close; the normal ICP then starts from it. The
+    stages ``coarse`` and ``icp wide`` record both. Returns the start (4×4).
+    """
+    dmax = float(icp_args.get("max_distance") or 0.05 * nom.diag)
+    rng = np.random.default_rng(int(icp_args.get("seed", 0)))
+    if len(P) == 0:
+        return T0
+    sub = P if len(P) <= 5000 else P[rng.choice(len(P), 5000, replace=False)]
+    e0 = np.linalg.norm(apply(T0, sub) - nom.closest(apply(T0, sub))[0], axis=1)
+    share = float(np.mean(e0 <= dmax))
+    if share >= COARSE_SHARE:
+        return T0
+    target = nom.sample(20000, int(icp_args.get("seed", 0)))[0].mean(axis=0)
+    off = float(np.linalg.norm(target - apply(T0, P).mean(axis=0)))
+    if off > COARSE_REACH * nom.diag:
+        stages.append(
+            {
+                "stage": "coarse",
+                "kind": "none",
+                "why": f"not tried: the measured centroid is {off:.4g} mm ({off / nom.diag:.3g} nominal diagonals) "
+                f"from the nominal's, more than {COARSE_REACH:g}; use global+icp or pairs+icp",
+            }
+        )
+        return T0
+    T1 = T0.copy()
+    T1[:3, 3] += target - apply(T0, P).mean(axis=0)
+    e1 = np.linalg.norm(apply(T1, sub) - nom.closest(apply(T1, sub))[0], axis=1)
+    wide = max(dmax, float(np.percentile(e1, 95)))
+    stages.append(
+        {
+            "stage": "coarse",
+            "kind": "centroids",
+            "why": f"{100 * share:.1f} % of the measured points lie within max_distance {dmax:.4g} mm at the start",
+            "translation": (T1[:3, 3] - T0[:3, 3]).tolist(),
+        }
+    )
+    args = {k: v for k, v in icp_args.items() if k not in ("max_distance", "method")}
+    pre = icp(P, nom, init=T1, scale=scale, max_distance=wide, method="icp wide", **args)
+    info = pre.stages[-1] if pre.stages else {"stage": "icp wide", "iterations": pre.iterations}
+    info.update({"stage": "icp wide", "reason": pre.reason, "iterations": pre.iterations})
+    stages.append(info)
+    if pre.reason.startswith(("no overlap", "only", "the robust kernel")):
+        return T1
+    return pre.transform
 
 
 def _evaluate(P: np.ndarray, nom: Nominal, T: np.ndarray, method: str, stages: list, args: dict) -> Alignment:

@@ -13,7 +13,14 @@ included), ``scale`` (the factor applied to the measured cloud), ``rms``, ``over
 ``converged``, ``reason``, ``stats`` {``mean std rms min max p2_5 p97_5`` ...},
 ``coverage`` (covered share 0..1 of the nominal area) and ``coverage_info``,
 ``material_ratio`` {``Sk Spk Svk Smr1 Smr2`` ...; Smr in %}, ``histogram``,
-``alignment`` (every stage), ``warnings``, and ``written`` / ``report`` file paths.
+``alignment`` (every stage), ``held_dofs`` (degrees of freedom the part's symmetry left
+undetermined and the alignment held, in words), ``warnings``, and ``written`` /
+``report`` file paths. ``aligned`` is true when the alignment converged; when it did not,
+``aligned`` is false, ``failure`` gives the reason, and the statistics of the comparison
+as it stands (``stats``, ``coverage``, ``coverage_info``, ``material_ratio``,
+``histogram``) are not results: they are null at the top level and kept under
+``unaligned`` for diagnosis. The exit code stays 0 (the command ran; the failure is in
+the document), as for every other command that returns a result.
 """
 
 from __future__ import annotations
@@ -163,6 +170,18 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             "finished": res.finished,
         },
     }
+    out["held_dofs"] = list(o.get("held_dofs", []))
+    out["aligned"] = bool(o["converged"])
+    if not o["converged"]:
+        out["failure"] = f"alignment failed: {o['reason']}"
+        keys = ("stats", "coverage", "coverage_info", "material_ratio", "histogram")
+        out["unaligned"] = {
+            "note": "statistics of the unaligned comparison (the cloud where the failed alignment left it); "
+            "for diagnosis only, not results",
+            **{k: out[k] for k in keys},
+        }
+        for k in keys:
+            out[k] = None
     if args.out:
         write(o["deviations"], args.out)
         out["written"] = {"deviations": str(args.out)}
@@ -183,7 +202,7 @@ def _um(x: float | None, signed: bool = True) -> str:
 
 def text(r: dict[str, Any]) -> str:
     """Human-readable summary of :func:`run`."""
-    s, mr, a = r["stats"], r["material_ratio"], r["alignment"]
+    a = r["alignment"]
     lines = [f"{r['cloud']} against {r['nominal']}: {r['n_points']} points, alignment {r['align']}"]
     state = "converged" if r["converged"] else "NOT CONVERGED"
     lines.append(f"  alignment  {state}" + (f" ({r['reason']})" if r["reason"] else ""))
@@ -199,6 +218,13 @@ def text(r: dict[str, Any]) -> str:
         if ov is not None and ov == ov
         else f"             rms {_um(r['rms'], False)}"
     )
+    if r["stats"] is None:
+        lines.append(f"  no deviations: {r.get('failure', 'alignment failed')}")
+        lines += [f"  warning: {w}" for w in r.get("warnings", [])]
+        if r.get("written"):
+            lines.append(f"  wrote {r['written']['deviations']} (unaligned)")
+        return "\n".join(lines)
+    s, mr = r["stats"], r["material_ratio"]
     lines.append(f"  deviation  mean {_um(s['mean'])}  std {_um(s['std'], False)}  rms {_um(s['rms'], False)}")
     lines.append(f"             min {_um(s['min'])}  max {_um(s['max'])}")
     lines.append(f"             95 % within {_um(s['p97_5'])} / {_um(s['p2_5'])}")

@@ -162,7 +162,17 @@ def _alignment_outputs(a: al.Alignment) -> dict[str, Any]:
         "converged": a.converged,
         "reason": a.reason,
         "alignment": d,
+        "held_dofs": list(a.held_dofs),
     }
+
+
+def _warn_held(ctx, a: al.Alignment) -> None:
+    """Say which degrees of freedom the part's symmetry left undetermined (and held)."""
+    if a.converged and a.held_dofs:
+        ctx.warn(
+            "the part's symmetry leaves these degrees of freedom undetermined by its shape; they were held at "
+            "the start (coarse) alignment: " + "; ".join(a.held_dofs)
+        )
 
 
 def align(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) -> dict[str, Any]:
@@ -174,6 +184,7 @@ def align(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) ->
     a = run_alignment(cloud, nom, align, pairs, **params)
     if not a.converged:
         ctx.warn(f"alignment did not converge: {a.reason}")
+    _warn_held(ctx, a)
     out = _alignment_outputs(a)
     out["aligned"] = transformed_cloud(cloud, a.transform, f"{cloud.name} aligned")
     return out
@@ -281,6 +292,7 @@ def compare(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) 
     a = run_alignment(cloud, nom, align, pairs, **params)
     if not a.converged:
         ctx.warn(f"alignment did not converge: {a.reason}. The deviations below rest on an unreliable alignment.")
+    _warn_held(ctx, a)
     moved = transformed_cloud(cloud, a.transform)
     dev_args = {
         k: params[k]
