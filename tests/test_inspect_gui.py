@@ -282,8 +282,15 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
 
 
 def test_no_overlap_is_reported_not_coloured(app, tmp_path):
-    server, session, page, _ = imported(app, tmp_path, offset=(500.0, 0.0, 0.0))
+    """A ball twice the box's size, 500 mm off: no alignment fits it onto the box."""
+    server, session, page, _ = imported(app, tmp_path)
+    u = np.random.default_rng(4).normal(size=(6000, 3))
+    ball = 2 * np.linalg.norm(HI - LO) * u / np.linalg.norm(u, axis=1)[:, None] + 500.0
+    cio.write(PointCloud(ball, name="ball"), tmp_path / "files" / "ball.ply")
+    assert session.import_file(tmp_path / "files" / "ball.ply") is not None
+    page.refresh_inputs()
     s = server.state
+    s.ins_measured = next(it["id"] for it in s.items if it["name"] == "ball.ply")
     result = asyncio.run(page.run_async())
     assert result is not None and not result.outputs["converged"]
     assert s.ins_failed and s.ins_failed_reason and s.ins_failed_reason == result.outputs["reason"]
@@ -295,7 +302,9 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     assert page.view.scene == "failed" and "alignment failed" in s.ins_error
     assert asyncio.run(page.export_async()) is None and "not valid" in s.ins_error
     rep = asyncio.run(page.report_async())  # the report records the failure
-    assert rep is not None and "did not converge" in Path(rep["paths"]["html"]).read_text("utf-8")
+    html = Path(rep["paths"]["html"]).read_text("utf-8")
+    assert rep is not None and "did not converge" in html and f"alignment failed: {s.ins_failed_reason}" in html
+    assert "Deviation colour map" not in html and "Abbott-Firestone" not in html
     # it is still stored (a failed comparison is a result too), and restored as failed
     assert session.project.get_state(STATE_KEY)["result"] == s.ins_result_id
     project_dir = session.project.path

@@ -46,6 +46,10 @@ def files(tmp_path_factory):
     S = similarity(1 / 0.4, rotation([30.0, 100.0, -60.0]), np.array([20.0, 5.0, -7.0]))
     write(PointCloud(apply(np.linalg.inv(S), pts), name="photo"), d / "photo.ply")
     write(PointCloud(pts + 2000.0, name="far"), d / "far.ply")
+    # a shape no alignment fits onto the block: a ball of twice its size, far off
+    u = np.random.default_rng(8).normal(size=(20000, 3))
+    ball = 60.0 * u / np.linalg.norm(u, axis=1)[:, None] + 2000.0
+    write(PointCloud(ball, name="ball"), d / "ball.ply")
     picks = [0, 20000, 40000]
     (d / "pairs.json").write_text(
         json.dumps({"measured": apply(np.linalg.inv(S), pts[picks]).tolist(), "nominal": pts[picks].tolist()})
@@ -118,12 +122,68 @@ def test_cli_pairs(files):
 
 
 def test_cli_no_overlap_reports_failure(files):
+    """A ball is not the block: the alignment fails, the JSON says so (no statistics at the
+    top level, the unaligned ones under 'unaligned'), the exit code is 3 with the reason on
+    stderr; the report shows no deviation figures and says why."""
+    d = files["dir"]
+    out = run_camcmm(
+        "inspect", d / "ball.ply", "--nominal", d / "block.stl", "--json", "--report", d / "failed", ok=False
+    )
+    assert out.returncode == 3, out.stderr
+    r = json.loads(out.stdout)
+    assert r["converged"] is False and r["aligned"] is False and r["reason"]
+    assert r["failure"] == f"alignment failed: {r['reason']}"
+    assert out.stderr.strip() == f"camcmm: {r['failure']}" and "\n" not in out.stderr.strip()
+    for k in ("stats", "coverage", "coverage_info", "material_ratio", "histogram"):
+        assert r[k] is None and r["unaligned"][k] is not None
+    assert any("did not converge" in w for w in r["warnings"])
+    rep = json.loads(Path(r["report"]["json"]).read_text())
+    assert rep["data"]["aligned"] is False and rep["data"]["stats"] is None
+    assert rep["data"]["unaligned"]["stats"]["n"] == 20000
+    titles = [s["title"] for s in rep["sections"]]
+    assert "Deviations" not in titles and "Unaligned comparison (diagnosis only, not results)" in titles
+    assert not [b for s in rep["sections"] for b in s["blocks"] if b["type"] == "figure"]
+    assert f"alignment failed: {r['reason']}" in Path(r["report"]["html"]).read_text()
+    text = run_camcmm("inspect", d / "ball.ply", "--nominal", d / "block.stl", ok=False)
+    assert text.returncode == 3 and "NOT CONVERGED" in text.stdout and "no deviations" in text.stdout
+
+
+def test_cli_far_off_exact_copy_is_aligned(files):
+    """The same cloud 2000 mm away (≈ 50 nominal diagonals) is found by the coarse start:
+    how far off a cloud lies does not matter once its centroid is moved."""
     d = files["dir"]
     r = cli_json("inspect", d / "far.ply", "--nominal", d / "block.stl", "--json")
-    assert r["converged"] is False and "no overlap" in r["reason"]
-    assert any("did not converge" in w for w in r["warnings"])
-    out = run_camcmm("inspect", d / "far.ply", "--nominal", d / "block.stl", ok=False)
-    assert "NOT CONVERGED" in out.stdout
+    assert r["aligned"] is True and r["converged"] is True and r["stats"] is not None
+    assert r["alignment"]["stages"][0]["stage"] == "coarse"
+    assert np.abs(np.array(r["transform"])[:3, 3] + 2000.0).max() < 1e-3
+
+
+def test_report_states_held_dofs_in_words():
+    """A ball's rotations are held: the report says so in words (summary and alignment)."""
+    mesh = _ball_mesh(10.0)
+    u = np.random.default_rng(2).normal(size=(6000, 3))
+    pts = 10.0 * u / np.linalg.norm(u, axis=1)[:, None]
+    pts = pts[pts[:, 2] > -3.0] + np.array([1.0, -2.0, 0.5])
+    res = PluginHost().run("inspect.compare", {"cloud": PointCloud(pts, name="ball"), "nominal": mesh}, {})
+    o = res.outputs
+    assert o["converged"] and o["held_dofs"] and "rotation about any axis" in o["held_dofs"][0]
+    rep = build_report(o, run=res)
+    kv = {
+        k: v
+        for s in rep.to_dict()["sections"]
+        for b in s["blocks"]
+        if b["type"] == "keyvalues"
+        for k, v in b["items"].items()
+    }
+    assert kv["held by the part's symmetry"] == "; ".join(o["held_dofs"])
+    assert rep.data["held_dofs"] == o["held_dofs"] and rep.data["aligned"] is True
+
+
+def _ball_mesh(radius: float) -> TriangleMesh:
+    from camcmm.demo import _icosphere
+
+    m = _icosphere(radius, 4)
+    return TriangleMesh(m.vertices, m.faces, name="ball")
 
 
 def test_cli_bad_input(files, tmp_path):

@@ -209,11 +209,16 @@ def test_cli_json_failed_alignment_is_not_a_result(part, tmp_path, capsys):
 
     nom, pts = part
     write(TriangleMesh(nom.mesh.V + nom.mesh.center, nom.mesh.F, name="l-block"), tmp_path / "block.stl")
-    write(PointCloud(pts[::10] + 5000.0, name="far"), tmp_path / "far.ply")
-    assert main(["inspect", str(tmp_path / "far.ply"), "--nominal", str(tmp_path / "block.stl"), "--json"]) == 0
-    r = json.loads(capsys.readouterr().out)
-    assert r["aligned"] is False and r["converged"] is False and "no overlap" in r["failure"]
+    # a shape no alignment fits onto the block (a ball twice its size), far off
+    u = np.random.default_rng(9).normal(size=(5000, 3))
+    ball = 2 * nom.diag * u / np.linalg.norm(u, axis=1)[:, None] + 5000.0
+    write(PointCloud(ball, name="far"), tmp_path / "far.ply")
+    assert main(["inspect", str(tmp_path / "far.ply"), "--nominal", str(tmp_path / "block.stl"), "--json"]) == 3
+    out = capsys.readouterr()
+    r = json.loads(out.out)
+    assert r["aligned"] is False and r["converged"] is False and r["failure"].startswith("alignment failed: ")
+    assert out.err.strip() == f"camcmm: {r['failure']}"
     for k in ("stats", "coverage", "material_ratio", "histogram"):
         assert r[k] is None and r["unaligned"][k] is not None
     assert "not results" in r["unaligned"]["note"]
-    assert r["alignment"]["stages"][0]["kind"] == "none"  # the coarse start is not tried that far off
+    assert r["alignment"]["stages"][0]["kind"] == "centroids"  # tried however far off, and refused after

@@ -5,6 +5,12 @@ plugin packages contribute more (``camcmm fit`` ...) through the ``commands`` li
 their manifest. Every command returns a JSON-able dict: with ``--json`` exactly one
 JSON document goes to stdout, otherwise a human-readable text. Errors go to stderr as
 one line and the exit code is non-zero (2 for bad input, 1 for anything else).
+
+Exit code 3: the command ran and printed its document, but what it was asked for failed
+in a way the document records (``camcmm inspect`` whose alignment failed: its JSON says
+``aligned: false`` and ``failure``). A script must not read that document as a result;
+the one-line reason goes to stderr. A command module says so with ``failure(result)``,
+which returns that reason or None.
 """
 
 from __future__ import annotations
@@ -54,7 +60,10 @@ def _print(result: Any, as_json: bool, text: Callable | None) -> None:
         print(json.dumps(to_jsonable(result), indent=2, allow_nan=False))
 
 
-def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable | None]:
+FAILED = 3  # ran, printed, but the result is a failure (see the module docstring)
+
+
+def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable | None, Callable | None]:
     try:
         module = importlib.import_module(spec.entry)
     except Exception as exc:
@@ -65,7 +74,7 @@ def _contributed(name: str, spec, argv: list[str]) -> tuple[Any, bool, Callable 
     module.configure(p)
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     args = p.parse_args(argv)
-    return module.run(args), args.json, getattr(module, "text", None)
+    return module.run(args), args.json, getattr(module, "text", None), getattr(module, "failure", None)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,8 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         first = next((a for a in argv if not a.startswith("-")), None)
         if first in handlers and not isinstance(handlers[first], tuple):
             i = argv.index(first)
-            result, as_json, text = _contributed(first, handlers[first], argv[i + 1 :])
+            result, as_json, text, failure = _contributed(first, handlers[first], argv[i + 1 :])
         else:
+            failure = None
             args = parser.parse_args(argv)
             if not args.command:
                 parser.print_help()
@@ -87,6 +97,10 @@ def main(argv: list[str] | None = None) -> int:
             as_json = getattr(args, "json", False)
         if result is not None:
             _print(result, as_json, text)
+        reason = failure(result) if failure is not None and result is not None else None
+        if reason:
+            print(f"camcmm: {reason}", file=sys.stderr)
+            return FAILED
         return 0
     except CamcmmError as exc:
         print(f"camcmm: error: {exc}", file=sys.stderr)

@@ -53,6 +53,9 @@ centroid onto the nominal's area centroid and runs a wide ICP pass, then the nor
 one (stages ``coarse`` and ``icp wide``). Principal axes are not used: a partial scan's
 axes differ from the whole nominal's, so a rotation from them would be wrong whenever
 the scan covers part of the surface; a part that needs turning takes ``global+icp``.
+The centroid shift is tried however far off the cloud lies: after it, the problem no
+longer depends on where the cloud started (a shift is translation-invariant), and a
+wrong match is caught by the success checks below, not by a distance limit.
 
 Failure is reported, never hidden: ``converged`` is False with a ``reason`` when there
 are too few correspondences within ``max_distance`` (no overlap), when fewer than
@@ -92,11 +95,6 @@ HOLD_COND = 1e-4
 #: Share of the measured points within ``max_distance`` of the nominal at the start
 #: below which :func:`align` starts from a coarse (centroid) alignment.
 COARSE_SHARE = 0.1
-#: ... but only when the measured centroid lies within this many nominal diagonals of
-#: the nominal's centre (the demo's ball scan: 1.2): a cloud farther off is in another
-#: frame (scanner coordinates) or unit, where a shift of the centroids alone is as
-#: likely wrong as right; there the user chooses global+icp or pairs+icp.
-COARSE_REACH = 5.0
 _TUKEY_C, _HUBER_C = 4.685, 1.345
 
 
@@ -528,7 +526,9 @@ def _gn_step(
         lam, vec = np.linalg.eigh(Hs)
         keep = lam > cond * lam.max()
     B = vec[:, keep]
-    delta = -B @ np.linalg.solve(B.T @ H @ B, B.T @ g)
+    # least squares, not solve: the subspace is chosen on the smooth normals, and the facet
+    # normals' matrix can still be singular in it (a sphere's cloud inside a box)
+    delta = -B @ np.linalg.lstsq(B.T @ H @ B, B.T @ g, rcond=None)[0]
     weak = []
     for i in np.flatnonzero(~keep):
         v = vec[:, i]
@@ -899,17 +899,6 @@ def _coarse_start(P: np.ndarray, nom: Nominal, T0: np.ndarray, icp_args: dict, s
     if share >= COARSE_SHARE:
         return T0
     target = nom.sample(20000, int(icp_args.get("seed", 0)))[0].mean(axis=0)
-    off = float(np.linalg.norm(target - apply(T0, P).mean(axis=0)))
-    if off > COARSE_REACH * nom.diag:
-        stages.append(
-            {
-                "stage": "coarse",
-                "kind": "none",
-                "why": f"not tried: the measured centroid is {off:.4g} mm ({off / nom.diag:.3g} nominal diagonals) "
-                f"from the nominal's, more than {COARSE_REACH:g}; use global+icp or pairs+icp",
-            }
-        )
-        return T0
     T1 = T0.copy()
     T1[:3, 3] += target - apply(T0, P).mean(axis=0)
     e1 = np.linalg.norm(apply(T1, sub) - nom.closest(apply(T1, sub))[0], axis=1)

@@ -19,8 +19,11 @@ undetermined and the alignment held, in words), ``warnings``, and ``written`` /
 ``aligned`` is false, ``failure`` gives the reason, and the statistics of the comparison
 as it stands (``stats``, ``coverage``, ``coverage_info``, ``material_ratio``,
 ``histogram``) are not results: they are null at the top level and kept under
-``unaligned`` for diagnosis. The exit code stays 0 (the command ran; the failure is in
-the document), as for every other command that returns a result.
+``unaligned`` for diagnosis. A failed alignment exits with code 3 (not 0: a script
+that checks only the exit code must not take the document for a comparison) and prints
+``camcmm: alignment failed: <reason>`` on stderr; the JSON (or the text) is still printed
+on stdout, and ``--out``/``--report`` still write (the report says the alignment failed
+and shows no deviation figures). Exit 2 is bad input, 1 an internal error.
 """
 
 from __future__ import annotations
@@ -191,6 +194,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         rep = build_report(o, cloud_file=args.cloud, nominal_file=args.nominal, run=res, tolerance=args.tolerance)
         out["report"] = rep.write(args.report)
     return out
+
+
+def failure(r: dict[str, Any]) -> str | None:
+    """The one line for stderr when the alignment failed (the CLI then exits 3), else None."""
+    if r.get("aligned") is not False:
+        return None
+    return r.get("failure") or "alignment failed"
 
 
 def _um(x: float | None, signed: bool = True) -> str:

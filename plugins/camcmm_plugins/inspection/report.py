@@ -322,9 +322,7 @@ def build_report(
 ) -> Report:
     """The report of an ``inspect.compare`` result ``o`` (its outputs dict)."""
     dev_cloud = o["deviations"]
-    dev = dev_cloud.fields["deviation"]
     st, mr, a = o["stats"], o["material_ratio"], o["alignment"]
-    limit = o["colour_limit"]
     measured = dev_cloud.name.removesuffix(" deviations")
     r = Report(
         "Inspection against the nominal",
@@ -337,34 +335,15 @@ def build_report(
         },
     )
 
+    failed = not a["converged"]
+    held = list(o.get("held_dofs") or a.get("held_dofs") or [])
     s = r.section("Summary")
-    if not a["converged"]:
-        s.warning(f"The alignment did not converge: {a['reason']}. The deviations rest on an unreliable alignment.")
-    s.keyvalues(
-        [
-            ("alignment", f"{a['method']}: " + ("converged" if a["converged"] else "NOT converged")),
-            ("scale applied to the measured cloud", f"{a['scale']:.8f}"),
-            ("alignment RMS (overlapping points)", _fmt_mm(a["rms"])),
-            (
-                "overlap",
-                "—"
-                if a["overlap"] != a["overlap"]
-                else f"{100 * a['overlap']:.1f} % within {_fmt_mm(a['inlier_distance'])}",
-            ),
-            ("deviation mean ± std", f"{_fmt_mm(st['mean'])} ± {_fmt_mm(st['std'])}"),
-            ("deviation RMS", _fmt_mm(st["rms"])),
-            ("min / max", f"{_fmt_mm(st['min'])} / {_fmt_mm(st['max'])}"),
-            ("95 % of the deviations within", f"{_fmt_mm(st['p2_5'])} … {_fmt_mm(st['p97_5'])}"),
-            *(
-                [("within tolerance", f"{100 * st['within_tolerance']:.2f} % within ±{tolerance} mm")]
-                if tolerance is not None
-                else []
-            ),
-            ("coverage of the nominal area", f"{o['coverage_info']['percent']:.2f} %"),
-            ("Sk / Spk / Svk", f"{_fmt_mm(mr['Sk'])} / {_fmt_mm(mr['Spk'])} / {_fmt_mm(mr['Svk'])}"),
-            ("Smr1 / Smr2", f"{mr['Smr1']:.2f} % / {mr['Smr2']:.2f} %"),
-        ]
-    )
+    if failed:
+        s.warning(
+            f"alignment failed: {a['reason']}. The alignment did not converge, so no deviations are reported: "
+            "they would rest on a wrong alignment. The numbers under 'Unaligned comparison' are a diagnosis only."
+        )
+    s.keyvalues(_summary_rows(o, a, st, mr, tolerance, held, failed))
     if run is not None:
         for w in run.warnings:
             s.warning(w)
@@ -391,7 +370,9 @@ def build_report(
         ("RMS of the overlapping points", _fmt_mm(a["rms"])),
         ("RMS of all points", _fmt_mm(a["rms_all"])),
     ]
-    if a["weak_directions"]:
+    if held:
+        kv.append(("held (the part's symmetry leaves them undetermined)", "; ".join(held)))
+    elif a["weak_directions"]:
         kv.append(("not determined by the data", "; ".join(a["weak_directions"])))
     for stg in a["stages"]:
         if stg.get("stage") == "global":
@@ -413,6 +394,104 @@ def build_report(
             )
     s.keyvalues(kv)
 
+    if failed:
+        _unaligned_section(r, o, st)
+    else:
+        _deviation_sections(r, o, st, mr)
+
+    if run is not None:
+        r.provenance(
+            plugins=[{"id": run.plugin_id, "version": run.plugin_version, "params": run.params}],
+            extra={"started": run.started, "finished": run.finished},
+        )
+    # the report hashes the files itself (SHA-256 of the bytes read)
+    r.provenance(inputs=[{"file": str(f)} for f in (cloud_file, nominal_file) if f and Path(str(f)).is_file()])
+    c = o["coverage_info"]
+    r.data = {
+        "transform": a["transform"],
+        "scale": a["scale"],
+        "rms": a["rms"],
+        "overlap": a["overlap"],
+        "converged": a["converged"],
+        "reason": a["reason"],
+        "stats": st,
+        "coverage": o["coverage"],
+        "coverage_info": c,
+        "material_ratio": {k: v for k, v in mr.items() if k != "curve"},
+        "histogram": o["histogram"],
+        "alignment": a,
+        "held_dofs": held,
+        "aligned": not failed,
+    }
+    if failed:  # as `camcmm inspect --json`: the unaligned numbers only under "unaligned"
+        keys = ("stats", "coverage", "coverage_info", "material_ratio", "histogram")
+        r.data["failure"] = f"alignment failed: {a['reason']}"
+        r.data["unaligned"] = {"note": UNALIGNED_NOTE, **{k: r.data[k] for k in keys}}
+        r.data.update(dict.fromkeys(keys))
+    return r
+
+
+UNALIGNED_NOTE = (
+    "statistics of the unaligned comparison (the cloud where the failed alignment left it); "
+    "for diagnosis only, not results"
+)
+
+
+def _summary_rows(o, a, st, mr, tolerance, held, failed) -> list[tuple[str, Any]]:
+    """The summary: the alignment, then (only when it converged) the deviations."""
+    rows: list[tuple[str, Any]] = [
+        ("alignment", f"{a['method']}: " + ("converged" if not failed else f"FAILED ({a['reason']})")),
+        ("scale applied to the measured cloud", f"{a['scale']:.8f}"),
+        ("alignment RMS (overlapping points)", _fmt_mm(a["rms"])),
+        (
+            "overlap",
+            "—"
+            if a["overlap"] != a["overlap"]
+            else f"{100 * a['overlap']:.1f} % within {_fmt_mm(a['inlier_distance'])}",
+        ),
+    ]
+    if held:
+        rows.append(("held by the part's symmetry", "; ".join(held)))
+    if failed:
+        return rows + [("deviations", "none: alignment failed")]
+    return rows + [
+        ("deviation mean ± std", f"{_fmt_mm(st['mean'])} ± {_fmt_mm(st['std'])}"),
+        ("deviation RMS", _fmt_mm(st["rms"])),
+        ("min / max", f"{_fmt_mm(st['min'])} / {_fmt_mm(st['max'])}"),
+        ("95 % of the deviations within", f"{_fmt_mm(st['p2_5'])} … {_fmt_mm(st['p97_5'])}"),
+        *(
+            [("within tolerance", f"{100 * st['within_tolerance']:.2f} % within ±{tolerance} mm")]
+            if tolerance is not None
+            else []
+        ),
+        ("coverage of the nominal area", f"{o['coverage_info']['percent']:.2f} %"),
+        ("Sk / Spk / Svk", f"{_fmt_mm(mr['Sk'])} / {_fmt_mm(mr['Spk'])} / {_fmt_mm(mr['Svk'])}"),
+        ("Smr1 / Smr2", f"{mr['Smr1']:.2f} % / {mr['Smr2']:.2f} %"),
+    ]
+
+
+def _unaligned_section(r: Report, o: dict[str, Any], st: dict[str, Any]) -> None:
+    """A failed alignment: the distances where it left the cloud, labelled as a diagnosis;
+    no colour map, histogram, material ratio or coverage (they would read as results)."""
+    s = r.section("Unaligned comparison (diagnosis only, not results)")
+    s.paragraph(
+        "The alignment failed, so the distances below are those of the cloud where the failed alignment "
+        "left it. They say how far off it is, not how the part deviates."
+    )
+    s.keyvalues(
+        [
+            ("points", st["n"]),
+            ("distance mean / RMS", f"{_fmt_mm(st['mean'])} / {_fmt_mm(st['rms'])}"),
+            ("largest |distance|", _fmt_mm(st["max_abs"])),
+        ]
+    )
+
+
+def _deviation_sections(r: Report, o: dict[str, Any], st: dict[str, Any], mr: dict[str, Any]) -> None:
+    """Deviations, material ratio and coverage of a converged comparison."""
+    dev_cloud = o["deviations"]
+    dev = dev_cloud.fields["deviation"]
+    limit = o["colour_limit"]
     s = r.section("Deviations")
     s.paragraph(
         f"Signed distance of every measured point to the nominal ({o['distance_method']}). Positive: outside "
@@ -496,26 +575,3 @@ def build_report(
             ),
             caption="Nominal surface samples: covered (green) or not (grey)",
         )
-
-    if run is not None:
-        r.provenance(
-            plugins=[{"id": run.plugin_id, "version": run.plugin_version, "params": run.params}],
-            extra={"started": run.started, "finished": run.finished},
-        )
-    # the report hashes the files itself (SHA-256 of the bytes read)
-    r.provenance(inputs=[{"file": str(f)} for f in (cloud_file, nominal_file) if f and Path(str(f)).is_file()])
-    r.data = {
-        "transform": a["transform"],
-        "scale": a["scale"],
-        "rms": a["rms"],
-        "overlap": a["overlap"],
-        "converged": a["converged"],
-        "reason": a["reason"],
-        "stats": st,
-        "coverage": o["coverage"],
-        "coverage_info": c,
-        "material_ratio": {k: v for k, v in mr.items() if k != "curve"},
-        "histogram": o["histogram"],
-        "alignment": a,
-    }
-    return r

@@ -225,9 +225,10 @@ class Run:
             self._publish_numbers(tol)
         else:
             s.ins_stats, s.ins_bands = [], []
-            s.ins_fig_hist = empty_figure("alignment failed: no deviations")
-            s.ins_fig_af = empty_figure("alignment failed: no deviations")
-            s.ins_fig_section = empty_figure("alignment failed")
+            why = f"alignment failed: {s.ins_failed_reason}"
+            s.ins_fig_hist = empty_figure(why)
+            s.ins_fig_af = empty_figure(why)
+            s.ins_fig_section = empty_figure(why)
             s.ins_mode = "failed"
             self.view.show_failed(prep, self.nominal, reset_camera=True)
             s.ins_note = self.view.note

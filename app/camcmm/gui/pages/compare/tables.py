@@ -208,6 +208,9 @@ def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
                 "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm",
             }
         )
+    held = outputs.get("held_dofs", a.get("held_dofs")) or []
+    if held:  # in words: what the part's symmetry left undetermined and the alignment held
+        rows.append({"key": "held", "name": "held (symmetry)", "value": "; ".join(str(h) for h in held)})
     ov = outputs.get("overlap", a.get("overlap"))
     if ov is not None and isinstance(ov, (int, float)) and math.isfinite(ov):
         rows.append({"key": "overlap", "name": "overlap", "value": f"{100.0 * float(ov):.1f} %"})
