@@ -58,7 +58,7 @@ def raw(project_dir: Path) -> sqlite3.Connection:
 def test_create_open_roundtrip(tmp_path):
     root = tmp_path / "a" / "b"
     with Project.create(root, name="Ball plate 2024") as p:
-        assert p.path == root and p.name == "Ball plate 2024" and p.schema_version == SCHEMA_VERSION == 2
+        assert p.path == root and p.name == "Ball plate 2024" and p.schema_version == SCHEMA_VERSION == 3
         assert (root / DB_NAME).is_file() and (root / "data").is_dir()
         p.set_state("wizard", {"step": 3})
     with Project.open(root) as p:
@@ -167,7 +167,7 @@ def test_newer_schema_is_refused(proj):
     c.close()
     with pytest.raises(ProjectError) as e:
         Project.open(proj.path)
-    assert "was written by camcmm schema 7; this version reads up to 2" in str(e.value)
+    assert f"was written by camcmm schema 7; this version reads up to {SCHEMA_VERSION}" in str(e.value)
 
 
 # -- schema migrations -------------------------------------------------------------------
@@ -204,7 +204,7 @@ def test_v1_project_is_migrated(tmp_path):
     assert "label" not in [r[1] for r in c.execute("PRAGMA table_info(results)")]
     c.close()
     with Project.open(root) as p:
-        assert p.schema_version == 2 and p.name == "old one"
+        assert p.schema_version == SCHEMA_VERSION and p.name == "old one"
         (old,) = p.results()
         assert old["plugin"] == "fit.plane" and old["label"] == "" and old["params"] == {"k": 1}
         assert old["measurement_ids"] == [1]
@@ -213,7 +213,7 @@ def test_v1_project_is_migrated(tmp_path):
         assert p.result(rid)["label"] == "after migration"
         assert p.verify() == []
     c = raw(root)
-    assert c.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == ("2",)
+    assert c.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() == (str(SCHEMA_VERSION),)
     c.close()
     backup = root / f"{DB_NAME}.schema1.bak"  # what the old camcmm can still read
     b = sqlite3.connect(backup)
@@ -241,7 +241,7 @@ def test_failed_migration_leaves_previous_version(tmp_path, monkeypatch):
     c.close()
     monkeypatch.undo()
     with Project.open(root) as p:
-        assert p.schema_version == 2
+        assert p.schema_version == SCHEMA_VERSION
 
 
 def test_fresh_schema_equals_migrated_schema(tmp_path):

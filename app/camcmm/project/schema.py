@@ -97,7 +97,13 @@ V2_RESULT_LABEL = """
 ALTER TABLE results ADD COLUMN label TEXT NOT NULL DEFAULT '';
 """
 
-MIGRATIONS: list[Migration] = [V1_DDL, V2_RESULT_LABEL]
+# Version 3: the project tidy - an item can be hidden from the lists (not deleted; a
+# delete stays the soft ``removed`` of version 1).
+V3_MEASUREMENT_HIDDEN = """
+ALTER TABLE measurements ADD COLUMN hidden INTEGER NOT NULL DEFAULT 0;
+"""
+
+MIGRATIONS: list[Migration] = [V1_DDL, V2_RESULT_LABEL, V3_MEASUREMENT_HIDDEN]
 
 SCHEMA_VERSION = len(MIGRATIONS)
 

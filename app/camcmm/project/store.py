@@ -13,7 +13,8 @@ completed result):
   panic may then roll back the last commits. A result the GUI has shown as saved must
   survive that too, and FULL costs only one fsync of the WAL per commit - small next
   to the fsync of the data file that goes with nearly every result.
-* Rows are never deleted: measurements are soft-deleted, results are immutable.
+* Rows are never deleted: measurements are soft-deleted, results are immutable
+  (rename, hide, delete and restore: :mod:`.tidy`).
 
 Threads: the GUI calls the store from worker threads. We keep ONE connection
 (``check_same_thread=False``) guarded by a re-entrant lock rather than one connection
@@ -44,6 +45,7 @@ from ..jsonable import utc_now
 from . import schema
 from .blobs import BlobStore, check_hash, fsync_dir, normalise_ext, orphaned
 from .jsonutil import dumps, loads
+from .tidy import TidyMixin, hidden_of
 
 DB_NAME = "project.sqlite"
 DATA_DIR = "data"
@@ -90,7 +92,7 @@ def _only_leftovers(root: Path) -> bool:
     return True
 
 
-class Project:
+class Project(TidyMixin):
     """A camcmm project folder. Make one with :meth:`create`, :meth:`open` or
     :meth:`open_or_create`; close it with :meth:`close` or use it as a context manager.
 
@@ -541,8 +543,8 @@ class Project:
 
     def measurements(self, include_removed: bool = False) -> list[dict[str, Any]]:
         """Measurements in the order they were added: id, name, kind, hash, path,
-        created (UTC ISO), meta (dict), system_id, artefact_id, removed (None or time).
-        Removed ones only with ``include_removed``."""
+        created (UTC ISO), meta (dict), system_id, artefact_id, removed (None or time),
+        hidden (bool, see :mod:`.tidy`). Removed ones only with ``include_removed``."""
         where = "" if include_removed else " WHERE m.removed IS NULL"
         with self._read("listing measurements") as conn:
             rows = conn.execute(f"{self._MEASUREMENT_SQL}{where} ORDER BY m.id").fetchall()
@@ -569,15 +571,18 @@ class Project:
             "system_id": r["system_id"],
             "artefact_id": r["artefact_id"],
             "removed": r["removed"],
+            "hidden": hidden_of(r),
         }
 
     def load_measurement(self, mid: int) -> Any:
         """The measurement's data read with :func:`camcmm.io.read` (PointCloud or
-        TriangleMesh), named after the measurement."""
+        TriangleMesh), named after the measurement; in the length unit recorded as
+        ``meta["unit"]`` when the import gave one (a file that does not state its own)."""
         m = self.measurement(mid)
         path = self.file_path(m["hash"])
         io = importlib.import_module("camcmm.io")
-        obj = io.read(path)
+        unit = (m.get("meta") or {}).get("unit")
+        obj = io.read(path, unit=str(unit)) if unit else io.read(path)
         if hasattr(obj, "name"):
             try:
                 obj.name = m["name"]
