@@ -231,9 +231,11 @@ class PluginHost:
         if spec.kind == "device":
             raise PluginError(f"plugin {plugin_id!r} is a device; devices are connected, not run")
         values = validate(spec.parameters, params or {}, owner=f"plugin {plugin_id!r}")
-        loaded, hashes = self._inputs(spec, inputs or {})
+        notes: list[str] = []  # e.g. a file with no unit whose size is implausible as mm
+        loaded, hashes = self._inputs(spec, inputs or {}, notes)
         fn = self.load(plugin_id)
         ctx = context or RunContext(self, plugin_id, progress, cancel)
+        ctx.warnings.extend(notes)
         started = utc_now()
         try:
             outputs = fn(ctx, **loaded, **values)
@@ -294,7 +296,9 @@ class PluginHost:
         except Exception as exc:
             raise PluginError(f"device {plugin_id!r} could not be created: {type(exc).__name__}: {exc}") from exc
 
-    def _inputs(self, spec: PluginSpec, given: dict[str, Any]) -> tuple[dict[str, Any], dict[str, str]]:
+    def _inputs(
+        self, spec: PluginSpec, given: dict[str, Any], notes: list[str] | None = None
+    ) -> tuple[dict[str, Any], dict[str, str]]:
         declared = {p.name: p for p in spec.inputs}
         unknown = sorted(set(given) - set(declared))
         if unknown:
@@ -309,7 +313,7 @@ class PluginHost:
                 continue
             value = given[name]
             if isinstance(value, (str, Path)) and port.type not in ("file", "json"):
-                read_value = read(value)  # first: a missing or bad file is its one-line InputError
+                read_value = read(value, notes)  # first: a missing or bad file is its one-line InputError
                 hashes[name] = file_hash(value)
                 value = read_value
             elif (
@@ -368,10 +372,17 @@ def _existing(path: str | Path) -> Path:
     return path
 
 
-def read(path: str | Path) -> Any:
-    from .io import read as read_file  # lazy: the file formats pull in Open3D
+def read(path: str | Path, notes: list[str] | None = None) -> Any:
+    """Read a file; with ``notes``, add the one-line warning of camcmm.units.decide_unit
+    when the file states no unit and its size is implausible as mm (docs/units.md)."""
+    from .io import read_stated, unit_decision  # lazy: the file formats pull in Open3D
 
-    return read_file(path)
+    obj, stated = read_stated(path)
+    if notes is not None and hasattr(obj, "source_unit"):
+        check = unit_decision(obj, stated)
+        if check.asks:
+            notes.append(check.reason)
+    return obj
 
 
 _default: PluginHost | None = None

@@ -69,7 +69,11 @@ def _plugins_text(result: dict[str, Any]) -> str:
 # -- info ----------------------------------------------------------------------------
 def _info_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", help="point cloud, mesh or image file")
-    p.add_argument("--unit", help="length unit of the file when it does not say (default mm)")
+    p.add_argument(
+        "--unit",
+        help="length unit of the file's coordinates (m, cm, mm, um, in); without it: the file's own, else mm, "
+        "with a warning when the size is implausible as mm (docs/units.md)",
+    )
     _json_flag(p)
 
 
@@ -92,6 +96,7 @@ def _info_text(d: dict[str, Any]) -> str:
             lines.append(f"  converted from {d['source_unit']} to mm")
     if d.get("fields"):
         lines.append(f"  scalar fields: {', '.join(d['fields'])}")
+    lines += [f"warning: {w}" for w in d.get("warnings", [])]  # e.g. no unit and an implausible size
     return "\n".join(lines)
 
 

@@ -32,7 +32,9 @@ import numpy as np
 
 from ..errors import CamcmmError, InputError, one_line
 from ..host import default_host
+from ..units import unit_label
 from .jobs import Job
+from .unit_ask import UnitAsks
 from .view import DISPLAY_LIMIT, SceneView, color_fields, fmt_count
 
 log = logging.getLogger("camcmm.gui")
@@ -91,6 +93,7 @@ class Session:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._loop_thread: int | None = None
         self._reader = Job("import", state=self.state, workers=2)
+        self._unit_asks = UnitAsks(self)  # imports waiting for the user's unit (import_file)
         self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-gui-"))
         self.errors: list[str] = []
         self._init_state()
@@ -113,8 +116,11 @@ class Session:
                 "display_note": "",
                 "results": [],
                 "error_message": "",
+                "error_page": "",
                 "error_visible": False,
+                "page_messages": {},
                 "info_message": "",
+                "info_page": "",
                 "info_visible": False,
                 "importing": False,
             }
@@ -144,23 +150,58 @@ class Session:
             fn(*args)
 
     # -- messages ----------------------------------------------------------------------
-    def error(self, msg: str) -> None:
-        """Show a one-line error; the app keeps running."""
+    # A message belongs to the page that raised it (state ``page_messages``: page key ->
+    # line): the page's alert shows its own, never another page's. ``error_message`` is the
+    # newest error of any page, for the brief notice (the snackbar) and for scripts.
+    page_of_module: dict[str, str] = {}
+    """Module prefix -> page key (set by the shell for the pages it mounts), to find the
+    page that raised a message from its caller's module."""
+
+    def page_of_caller(self, depth: int = 2) -> str:
+        """The page whose code called (first page module up the stack), else the page shown."""
+        frame = sys._getframe(depth)
+        while frame is not None:
+            module = str(frame.f_globals.get("__name__", ""))
+            for prefix, key in self.page_of_module.items():
+                if module == prefix or module.startswith(prefix + "."):
+                    return key
+            frame = frame.f_back
+        return str(getattr(self.state, "page", "") or "")
+
+    def _set_page_message(self, page: str, line: str) -> None:
+        self.state.page_messages = {**(self.state.page_messages or {}), page: line}
+
+    def error(self, msg: str, page: str | None = None) -> None:
+        """Show a one-line error on ``page`` (default: the page whose code called); the app keeps running."""
         line = " ".join(str(msg).split()) or "unknown error"
+        key = page if page is not None else self.page_of_caller()
         self.errors.append(line)
         log.warning("%s", line)
         print(f"camcmm GUI error: {line}", file=sys.stderr, flush=True)
+        self._set_page_message(key, line)
         self.state.error_message = line
+        self.state.error_page = key
         self.state.error_visible = True
         self.state.info_visible = False
 
-    def info(self, msg: str) -> None:
+    def info(self, msg: str, page: str | None = None) -> None:
+        """A one-line note in the status bar (``info_message``, ``info_page``)."""
         self.state.info_message = " ".join(str(msg).split())
+        self.state.info_page = page if page is not None else self.page_of_caller()
         self.state.info_visible = True
 
-    def clear_error(self) -> None:
-        self.state.error_message = ""
-        self.state.error_visible = False
+    def clear_error(self, page: str | None = None) -> None:
+        """Clear ``page``'s error (default: the calling page's); the others stay."""
+        key = page if page is not None else self.page_of_caller()
+        if (self.state.page_messages or {}).get(key):
+            self._set_page_message(key, "")
+        if self.state.error_page == key:
+            self.state.error_message = ""
+            self.state.error_visible = False
+
+    def page_error(self, page: str) -> str:
+        """The error line ``page`` shows ("" when none)."""
+        return str((self.state.page_messages or {}).get(page) or "")
 
     # -- items (the project's measurements) -------------------------------------------
     def refresh_items(self) -> None:
@@ -202,9 +243,19 @@ class Session:
         self._summary[key] = f"{kind_of(obj)} · {describe(obj)}"
         return obj
 
-    def read_file(self, source: str | Path | bytes, name: str | None = None) -> tuple[Path, Any, str]:
+    def read_file(
+        self, source: str | Path | bytes, name: str | None = None, unit: str | None = None
+    ) -> tuple[Path, Any, str]:
         """Read a file (a path, or uploaded bytes with their original ``name``) through
-        :func:`camcmm.io.read`. Thread-safe; touches neither project nor state."""
+        :func:`camcmm.io.read`, in ``unit`` when given. Thread-safe; touches neither
+        project nor state."""
+        path, obj, name, _ = self._read_stated(source, name, unit)
+        return path, obj, name
+
+    def _read_stated(
+        self, source: str | Path | bytes, name: str | None, unit: str | None
+    ) -> tuple[Path, Any, str, str | None]:
+        """As :meth:`read_file`, with the unit the caller or the file states (or None)."""
         from .. import io as cio
 
         if isinstance(source, (bytes, bytearray, memoryview)):
@@ -218,7 +269,7 @@ class Session:
             if not path.is_file():
                 raise InputError(f"{name}: no such file" if not path.exists() else f"{name}: is not a file")
         try:
-            obj = cio.read(path)
+            obj, stated = cio.read_stated(path, unit or None)
         except Exception as exc:
             raise InputError(one_line(exc, name, path, path.parent)) from exc
         k = kind_of(obj)
@@ -227,23 +278,52 @@ class Session:
         if k == "pointcloud":  # the model checks this; say it again in case a reader did not
             if not np.isfinite(np.asarray(obj.points)).all():
                 raise InputError(f"{name}: points with NaN or Inf coordinates")
-        return path, obj, name
+        return path, obj, name, stated
 
     def _register(self, path: Path, obj: Any, name: str) -> str:
-        """Store a read file in the project and show it. Loop thread only."""
+        """Store a read file in the project and show it. Loop thread only. The item
+        records the unit its file was read in (``meta["unit"]``), so it loads the same."""
         h = self.project.add_file(path)
-        key = str(self.add_measurement(name, h, obj))
+        unit = str(getattr(obj, "source_unit", "") or "")
+        key = str(self.add_measurement(name, h, obj, unit=unit))
         self.refresh_items()
         self.select_item(key)
-        self.info(f"imported {name}: {describe(obj)}")
+        note = f" (read in {unit_label(unit)})" if unit and unit != "mm" else ""
+        self.info(f"imported {name}: {describe(obj)}{note}")
         return key
 
-    def add_measurement(self, name: str, h: str, obj: Any, source: str = "") -> Any:
+    def _imported(self, path: Path, obj: Any, label: str, stated: str | None, source: Any) -> str | None:
+        """Register a read file, or hold it and ask its unit when camcmm.units says so."""
+        if kind_of(obj) in ("pointcloud", "mesh"):
+            from .. import io as cio
+
+            check = cio.unit_decision(obj, stated)
+            if check.asks:
+                return self._ask_unit(path, obj, label, check, source)
+        return self._register(path, obj, label)
+
+    def _ask_unit(self, path: Path, obj: Any, label: str, check: Any, source: Any) -> None:
+        """Hold an import whose unit is in doubt and show the question (state ``unit_ask``)."""
+        self._unit_asks.hold(path, obj, label, check, source)
+
+    def answer_unit(self, unit: Any) -> str | None:
+        """The user's unit for the import being asked about (one of camcmm.units'
+        CANDIDATE_UNITS): convert, store, show. Returns the new item's id, or None."""
+        return self._unit_asks.answer(unit)
+
+    def cancel_unit(self) -> None:
+        """Drop the import being asked about (nothing is stored)."""
+        self._unit_asks.cancel()
+
+    def add_measurement(self, name: str, h: str, obj: Any, source: str = "", unit: str = "") -> Any:
         """Record ``obj`` (stored as file hash ``h``) as a new item; it stays loaded.
-        Returns the measurement id (its item key is ``str(id)``)."""
+        ``unit``: the length unit the file is read in (an import's). Returns the
+        measurement id (its item key is ``str(id)``)."""
         meta = {"summary": describe(obj)}
         if source:
             meta["made_by"] = source
+        if unit:
+            meta["unit"] = unit
         try:
             mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
         except TypeError:  # a store without meta
@@ -256,14 +336,16 @@ class Session:
         """The project's record of item ``key`` (``id``, ``name``, ``kind`` ...), or None."""
         return None if key is None else self._measurements.get(str(key))
 
-    def import_file(self, source: str | Path | bytes, name: str | None = None) -> str | None:
-        """Import a file into the project and show it. Returns the new item's id, or
-        None after showing the reason it could not be imported."""
+    def import_file(self, source: str | Path | bytes, name: str | None = None, unit: str | None = None) -> str | None:
+        """Import a file into the project and show it, in ``unit`` when given (else the
+        file's own, else mm — or, when its size is implausible as mm, hold it and ask:
+        state ``unit_ask``, answered by :meth:`answer_unit`). Returns the new item's id,
+        or None after showing the reason it could not be imported (or while asking)."""
         label = name or (Path(source).name if isinstance(source, (str, Path)) else "upload")
         self.state.importing = True
         try:
-            path, obj, label = self.read_file(source, name)
-            return self._register(path, obj, label)
+            path, obj, label, stated = self._read_stated(source, name, unit)
+            return self._imported(path, obj, label, stated, source)
         except Exception as exc:
             self.error(self._import_reason(exc, label, source))
             return None
@@ -271,7 +353,9 @@ class Session:
             self.state.importing = False
             self.drop_upload(source)
 
-    async def import_file_async(self, source: str | Path | bytes, name: str | None = None) -> str | None:
+    async def import_file_async(
+        self, source: str | Path | bytes, name: str | None = None, unit: str | None = None
+    ) -> str | None:
         """As :meth:`import_file`, reading in a worker thread so the page stays live."""
         label = name or (Path(source).name if isinstance(source, (str, Path)) else "upload")
         if self._loop is None:
@@ -281,8 +365,8 @@ class Session:
         self.info(f"reading {label} …")
         self.flush()
         try:
-            path, obj, label = await self._reader.call(self.read_file, source, name)
-            return self._register(path, obj, label)
+            path, obj, label, stated = await self._reader.call(self._read_stated, source, name, unit)
+            return self._imported(path, obj, label, stated, source)
         except Exception as exc:
             self.error(self._import_reason(exc, label, source))
             return None

@@ -2,7 +2,10 @@
 
     read(path, unit=None)  -> PointCloud | TriangleMesh | Image   (lengths in mm)
     write(obj, path, binary=True, unit="mm")
-    info(path, unit=None)  -> dict, JSON-able summary
+    info(path, unit=None)  -> dict, JSON-able summary (with ``unit_check`` and ``warnings``)
+    read_stated(path, unit=None) -> (object, the unit stated by the caller or the file, or None)
+    unit_decision(obj, stated, expected=None) -> camcmm.units.UnitDecision (ask or not)
+    with_unit(obj, unit)   -> the object as if read in ``unit``
     FORMATS                -> extension -> what it holds and what camcmm does with it
     read_calibration(path) -> dict; write_calibration(path, cal)  (camera calibrations,
                               OpenCV YAML or JSON; see camcmm.io.calibration)
@@ -28,7 +31,7 @@ import numpy as np
 
 from ..errors import CamcmmError, InputError
 from ..model import Image, PointCloud, TriangleMesh
-from ..units import to_mm_factor
+from ..units import UnitDecision, decide_unit, object_span, to_mm_factor, unit_key
 from ._common import Raw, atomic_path, canonical_unit
 from .calibration import check_calibration, read_calibration, write_calibration
 
@@ -213,6 +216,52 @@ def read(path: str | Path, unit: str | None = None) -> PointCloud | TriangleMesh
     return _read(path, unit)[0]
 
 
+def stated_unit(raw: Raw | None, fmt: dict[str, Any], unit: str | None) -> str | None:
+    """The unit stated for a file's coordinates: the caller's ``unit``, else the file's
+    own (a unit comment; E57 is metres by definition), else None (read as mm, unstated)."""
+    if unit is not None:
+        return canonical_unit(unit) or unit.strip().lower().replace("µ", "u")
+    if raw is not None and raw.unit is not None:
+        return canonical_unit(raw.unit)
+    return None if fmt["default_unit"] == "mm" else fmt["default_unit"]
+
+
+def read_stated(path: str | Path, unit: str | None = None) -> tuple[Any, str | None]:
+    """As :func:`read`, with the unit stated for the coordinates (:func:`stated_unit`;
+    None when neither the file nor the caller says). Give both to
+    :func:`camcmm.units.decide_unit` to know whether to ask."""
+    obj, fmt, raw = _read(path, unit)
+    return obj, (None if isinstance(obj, Image) else stated_unit(raw, fmt, unit))
+
+
+def unit_decision(obj: Any, stated: str | None, expected: float | None = None, what: str = "part") -> UnitDecision:
+    """:func:`camcmm.units.decide_unit` for a cloud or mesh as read (its size and ``source_unit``)."""
+    return decide_unit(
+        object_span(obj),
+        stated,
+        unit=getattr(obj, "source_unit", None) or "mm",
+        expected=expected,
+        name=str(getattr(obj, "name", "") or "the file"),
+        what=what,
+    )
+
+
+def with_unit(obj: Any, unit: str) -> Any:
+    """The cloud or mesh as if read in ``unit``: coordinates rescaled from its
+    ``source_unit`` and ``source_unit`` set (fields keep their own units)."""
+    unit = canonical_unit(unit) or unit_key(unit)
+    k = to_mm_factor(unit) / to_mm_factor(getattr(obj, "source_unit", "mm") or "mm")
+    if isinstance(obj, PointCloud):
+        return PointCloud(
+            obj.points * k, obj.colors, obj.normals, dict(obj.fields), dict(obj.field_units), obj.name, unit
+        )
+    if isinstance(obj, TriangleMesh):
+        return TriangleMesh(
+            obj.vertices * k, obj.faces, obj.vertex_normals, dict(obj.fields), dict(obj.field_units), obj.name, unit
+        )
+    raise InputError(f"{getattr(obj, 'name', 'item')}: a {type(obj).__name__} has no length unit")
+
+
 def write(obj: PointCloud | TriangleMesh | Image, path: str | Path, binary: bool = True, unit: str = "mm") -> None:
     """Write a cloud, mesh (or image) to ``path``; the format follows the extension.
 
@@ -278,8 +327,23 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
             has_colors=has_colors,
             has_normals=has_normals,
         )
+        check = unit_decision(obj, stated_unit(raw, fmt, unit))
+        out["unit_check"] = check.to_json()
+        out["warnings"] = [check.reason] if check.asks else []
     out["bytes"] = p.stat().st_size
     return out
 
 
-__all__ = ["FORMATS", "check_calibration", "info", "read", "read_calibration", "write", "write_calibration"]
+__all__ = [
+    "FORMATS",
+    "check_calibration",
+    "info",
+    "read",
+    "read_calibration",
+    "read_stated",
+    "stated_unit",
+    "unit_decision",
+    "with_unit",
+    "write",
+    "write_calibration",
+]
