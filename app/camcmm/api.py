@@ -30,7 +30,7 @@ from .devices import (
 from .devices import param as device_param
 from .errors import CamcmmError, GeometryError, InputError, ParameterError, PluginError
 from .host import Cancelled, RunContext, RunResult, default_host
-from .io import check_calibration, read, read_calibration, write, write_calibration
+from .io import check_calibration, read, read_calibration, read_stated, unit_decision, write, write_calibration
 from .jsonable import to_jsonable, utc_now
 from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
 from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
@@ -49,13 +49,13 @@ from .standard import (
     TestDeclaration,
     TestResult,
 )
-from .units import to_mm_factor
+from .units import UnitDecision, decide_unit, suggest_unit, to_mm_factor
 from .yamlfile import YamlError, load_yaml, read_yaml
 
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.0"
+API_VERSION = "1.1"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -116,6 +116,11 @@ __all__ = [
     "declared_value",
     "project_values",
     "to_mm_factor",
+    "UnitDecision",
+    "decide_unit",
+    "read_stated",
+    "suggest_unit",
+    "unit_decision",
     # running plugins
     "Cancelled",
     "RunContext",
