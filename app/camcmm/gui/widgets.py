@@ -74,6 +74,8 @@ def param_form(
         # below it: a click on a button there, right after typing, would land on nothing.
         # Shown always, the form keeps its shape (hide_details=True hides hints entirely).
         kw.setdefault("persistent_hint", True)
+        # the declared help as the field's tooltip too: it stays readable with hide_details
+        kw.setdefault("title", (f"{f}.help",))
         if sync:
             kw.update(model_value=(f"{values}[{f}.name]",), update_modelValue=assign(values, f"{f}.name"))
         else:
