@@ -237,7 +237,10 @@ def test_pick_section_export_report_and_reopen(app, tmp_path):
     assert sec["n_in_slab"] == int(in_slab.sum()) > 10
     assert np.allclose(np.sort(sec["deviation"]), np.sort(dev[in_slab]))
     fig = s.ins_fig_section
-    assert [t["name"] for t in fig["data"]] == ["measured", "nominal"]
+    # the measured points as deviation whiskers along the nominal's cut (issue 15), then the cut
+    names = [t["name"] for t in fig["data"]]
+    assert names[:2] == ["whiskers above", "whiskers below"] and names[-1] == "nominal"
+    assert names[2].startswith("deviation ×")
     assert fig["layout"]["yaxis"]["scaleanchor"] == "x"
     assert s.ins_section_axis == "z" and s.ins_section_pos == 10.0
     # another axis re-centres the plane on the part

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -292,11 +293,31 @@ def cli_values(args: argparse.Namespace) -> dict[str, Any]:
     return {k[len("param__") :]: v for k, v in vars(args).items() if k.startswith("param__") and v is not None}
 
 
+def _unit_words(unit: str) -> list[list[str]]:
+    """How a name may spell ``unit`` at its end: ``mm/s`` as ``mm_s`` or ``mm_per_s``, ``µm`` as ``um``."""
+    text = unit.lower().replace("µ", "u").replace("°", "deg").replace("%", "percent")
+    words = [w for w in re.split(r"[^a-z0-9]+", text) if w]
+    spelled = [words]
+    if "/" in unit and len(words) == 2:
+        spelled.append([words[0], "per", words[1]])
+    return [w for w in spelled if w]
+
+
+def label(p: Param) -> str:
+    """A form's label: the name in words, the unit once in brackets. A name that already
+    ends in its unit (``exposure_ms`` in ms) is not labelled "exposure ms [ms]" but
+    "exposure [ms]"."""
+    words = p.name.split("_")
+    for unit_words in _unit_words(p.unit) if p.unit else []:
+        n = len(unit_words)
+        if len(words) > n and [w.lower() for w in words[-n:]] == unit_words:
+            words = words[:-n]
+            break
+    text = " ".join(w for w in words if w)
+    return f"{text} [{p.unit}]" if p.unit else text
+
+
 def form_schema(params: list[Param]) -> list[dict[str, Any]]:
-    """A JSON-able description of the GUI form for these parameters."""
+    """A JSON-able description of the GUI form for these parameters (``label``: :func:`label`)."""
     widget = {"float": "number", "int": "number", "bool": "switch", "str": "text", "choice": "select", "vector": "text"}
-    out = []
-    for p in params:
-        label = p.name.replace("_", " ") + (f" [{p.unit}]" if p.unit else "")
-        out.append({"name": p.name, "widget": widget[p.type], "label": label, **p.to_dict()})
-    return out
+    return [{"name": p.name, "widget": widget[p.type], "label": label(p), **p.to_dict()} for p in params]

@@ -133,6 +133,7 @@ class SceneView:
         self.scalar_bar_title: str = ""
         self.note: str = ""
         self._cache: dict[str, Shown] = {}
+        self.point_size: int | None = None  # None: automatic (viewtools.ViewTools sets it)
         self.on_update = None  # callable(reset_camera: bool) set by the app
 
     # -- geometry --------------------------------------------------------------------
@@ -205,7 +206,7 @@ class SceneView:
         if shown.kind == "pointcloud":
             style = {
                 "style": "points",
-                "point_size": 3 if shown.n_shown > 100_000 else 5,
+                "point_size": self.point_size or self.auto_point_size(),
                 "render_points_as_spheres": False,
             }
         else:
@@ -254,6 +255,17 @@ class SceneView:
         else:
             self.field = SOLID
             self.actor = self.plotter.add_mesh(poly, color="#3b6ea5", reset_camera=False, **style)
+
+    def auto_point_size(self) -> int:
+        return 3 if self.shown is not None and self.shown.n_shown > 100_000 else 5
+
+    def point_actors(self) -> list[Any]:
+        """The actors drawn as points (for the point size of the view's tools)."""
+        return (
+            [self.actor]
+            if self.actor is not None and self.shown is not None and self.shown.kind == "pointcloud"
+            else []
+        )
 
     def look(self, direction: Any, up: Any) -> None:
         """Look at what is shown from ``direction`` (object to camera) with ``up`` up,

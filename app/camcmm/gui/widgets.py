@@ -67,6 +67,8 @@ def param_form(
     from trame.widgets import vuetify3 as v
 
     f = "field"
+    # the unit is in the label ("exposure [ms]", camcmm.params.label), once: no suffix beside
+    # the value (Vuetify hides a suffix while the field is empty, so it could not stand alone)
     ident = dyn_tid(f"'{testid}-' + {f}.name")
 
     def bind(**kw: Any) -> dict[str, Any]:
@@ -89,7 +91,6 @@ def param_form(
                     v_if=f"{f}.widget === 'number'",
                     type="number",
                     label=(f"{f}.label",),
-                    suffix=(f"{f}.unit",),
                     hint=(f"{f}.help",),
                     min=(f"{f}.min",),
                     max=(f"{f}.max",),
@@ -127,7 +128,6 @@ def param_form(
             **bind(
                 v_else=True,
                 label=(f"{f}.label",),
-                suffix=(f"{f}.unit",),
                 hint=(f"{f}.help",),
                 density="compact",
                 variant="outlined",

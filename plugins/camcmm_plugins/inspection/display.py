@@ -148,7 +148,10 @@ def section(
     seeded subset). Returns 2-D coordinates on the plane's other two axes:
     ``{"axis", "position", "u", "v" (axis names), "nominal": [(k, 2) arrays],
     "nominal_points": (m, 2), "measured": (n, 2), "deviation": (n,), "n_in_slab",
-    "half_width"}``.
+    "half_width", "foot": (n, 2), "normal": (n, 2)}``: with a mesh, each measured point's
+    closest point on the cut and the in-plane unit normal there, turned to the side a
+    positive deviation lies on (the deviation whiskers start at ``foot`` and run along
+    ``normal`` × deviation); without one both are (0, 2).
     """
     ax = AXES.index(axis) if isinstance(axis, str) else int(axis)
     u, v = [a for a in range(3) if a != ax]
@@ -171,18 +174,50 @@ def section(
         if sel.size > max_points:
             sel = np.random.default_rng(seed + 1).choice(sel, max_points, replace=False)
         nom_pts = Q[sel][:, [u, v]]
+    m2 = P[inside][:, [u, v]]
+    foot, normal = outline_feet(m2, d[inside], lines)
     return {
+        "foot": foot,
+        "normal": normal,
         "axis": AXES[ax],
         "position": float(position),
         "u": AXES[u],
         "v": AXES[v],
         "nominal": lines,
         "nominal_points": nom_pts,
-        "measured": P[inside][:, [u, v]],
+        "measured": m2,
         "deviation": d[inside],
         "n_in_slab": n_in,
         "half_width": hw,
     }
+
+
+def outline_feet(points: Any, dev: Any, lines: list[np.ndarray], chunk: int = 512) -> tuple[np.ndarray, np.ndarray]:
+    """For 2-D ``points`` (n, 2) with deviations ``dev`` (n,): the closest point on the
+    polylines ``lines`` (each (k, 2)) and the unit normal of that segment, turned so that
+    a positive deviation lies along it (the side the point is on, times the deviation's
+    sign). Both (0, 2) without lines. Chunked: n × segments distances at a time."""
+    X = np.asarray(points, dtype=float).reshape(-1, 2)
+    segs = [np.stack([pl[:-1], pl[1:]], axis=1) for pl in lines if len(pl) >= 2]
+    if not segs or not len(X):
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    S = np.concatenate(segs)  # (m, 2 ends, 2)
+    a, t = S[:, 0], S[:, 1] - S[:, 0]
+    tt = np.maximum(np.einsum("ij,ij->i", t, t), 1e-300)
+    foot, tang = np.empty_like(X), np.empty_like(X)
+    for i in range(0, len(X), chunk):
+        x = X[i : i + chunk]
+        s = np.clip(np.einsum("nmj,mj->nm", x[:, None, :] - a[None], t) / tt, 0.0, 1.0)
+        q = a[None] + s[..., None] * t[None]
+        k = np.argmin(np.einsum("nmj,nmj->nm", x[:, None, :] - q, x[:, None, :] - q), axis=1)
+        foot[i : i + chunk] = q[np.arange(len(x)), k]
+        tang[i : i + chunk] = t[k]
+    nrm = np.column_stack([-tang[:, 1], tang[:, 0]])
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1), 1e-300)[:, None]
+    side = np.sign(np.einsum("ij,ij->i", X - foot, nrm))
+    sign = np.sign(np.nan_to_num(np.asarray(dev, dtype=float)))
+    turn = np.where(side == 0, 1.0, side) * np.where(sign == 0, 1.0, sign)
+    return foot, nrm * turn[:, None]
 
 
 def deviation_field(cloud: Any) -> np.ndarray:

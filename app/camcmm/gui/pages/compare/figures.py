@@ -383,7 +383,8 @@ def section_figure(sec: dict[str, Any], unit: str, limit: float) -> dict[str, An
     measured points coloured by deviation on the colour map's scale."""
     import plotly.graph_objects as go
 
-    traces = _section_measured(sec, unit, limit) + _section_nominal(sec)
+    whiskers = _section_whiskers(sec, unit, limit)
+    traces = (whiskers or _section_measured(sec, unit, limit)) + _section_nominal(sec)
     fig = go.Figure(traces)
     fig.update_layout(**_section_layout(sec, bool(traces)))
     return _fig_json(fig)
@@ -421,6 +422,68 @@ def _section_measured(sec: dict[str, Any], unit: str, limit: float) -> list[Any]
             ),
         )
     ]
+
+
+def whisker_gain(sec: dict[str, Any], limit: float) -> float:
+    """The drawing scale of the deviation whiskers: the colour limit (mm) drawn as a tenth
+    of the outline's extent (presentation only, stated in the legend)."""
+    lines = sec.get("nominal") or []
+    if not lines:
+        return 0.0
+    P = np.concatenate([np.asarray(pl, dtype=float) for pl in lines])
+    extent = float(np.ptp(P, axis=0).max()) if len(P) else 0.0
+    return 0.1 * extent / float(limit) if limit and limit > 0 and extent > 0 else 0.0
+
+
+def _section_whiskers(sec: dict[str, Any], unit: str, limit: float) -> list[Any]:
+    """Deviation whiskers along the nominal outline: from each measured point's foot on
+    the cut, along the outline's normal, deviation × gain long (red outward, blue
+    inward), the tip coloured by the deviation. None without the plugin's feet."""
+    import plotly.graph_objects as go
+
+    foot = np.asarray(sec.get("foot", np.zeros((0, 2))), dtype=float)
+    m = np.asarray(sec["measured"], dtype=float)
+    gain = whisker_gain(sec, limit)
+    if not len(foot) or len(foot) != len(m) or gain <= 0:
+        return []
+    dev = np.nan_to_num(np.asarray(sec["deviation"], dtype=float))
+    tip = foot + gain * dev[:, None] * np.asarray(sec["normal"], dtype=float)
+    f = _scale(unit)
+    traces = []
+    for name, sel, colour in (("above", dev > 0, "#c62828"), ("below", dev < 0, "#1565c0")):
+        xs: list[float | None] = []
+        ys: list[float | None] = []
+        for a, b in zip(foot[sel], tip[sel]):
+            xs += [float(a[0]), float(b[0]), None]
+            ys += [float(a[1]), float(b[1]), None]
+        traces.append(
+            go.Scatter(
+                x=xs, y=ys, mode="lines", line={"color": colour, "width": 1}, name=f"whiskers {name}", hoverinfo="skip"
+            )
+        )
+    traces.append(
+        go.Scatter(
+            x=tip[:, 0].tolist(),
+            y=tip[:, 1].tolist(),
+            mode="markers",
+            name=f"deviation × {gain:.3g}",
+            marker={
+                "color": (dev * f).tolist(),
+                "colorscale": COLOURMAP,
+                "cmin": -float(limit) * f,
+                "cmax": float(limit) * f,
+                "size": 3,
+                "line": {"width": 0},
+                "colorbar": {"title": {"text": f"[{unit}]", "side": "top"}, "thickness": 10, "len": 0.9},
+            },
+            customdata=np.column_stack([dev * f, m]).tolist(),
+            hovertemplate=(
+                f"measured {sec['u']} %{{customdata[1]:.4f}} mm, {sec['v']} %{{customdata[2]:.4f}} mm"
+                f"<br>deviation %{{customdata[0]:.4g}} {unit}<extra></extra>"
+            ),
+        )
+    )
+    return traces
 
 
 def _section_nominal(sec: dict[str, Any]) -> list[Any]:

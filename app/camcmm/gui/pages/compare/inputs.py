@@ -260,8 +260,9 @@ class Inputs:
             return self.pick_index(i)
         return None
 
-    def pick_index(self, i: int) -> dict[str, Any]:
-        """Show the deviation of point ``i`` of the deviations cloud."""
+    def pick_index(self, i: int, label: bool = True) -> dict[str, Any]:
+        """Show the deviation of point ``i`` of the deviations cloud (and, with ``label``,
+        add a label that stays in the view)."""
         cloud = self.deviations
         p = np.asarray(cloud.points[i], dtype=float)
         d = float(np.asarray(cloud.fields["deviation"])[i])
@@ -284,8 +285,9 @@ class Inputs:
             "" if valid else " (alignment failed: not a valid deviation)"
         )
         self.state.ins_picked = info
-        label = info["deviation"] if valid else "?"
-        self.view.set_markers([{"point": p.tolist(), "label": label, "colour": "#212121"}])
+        # a label that stays (with the others picked); no deviation when the alignment failed
+        if label:
+            self.tools.add_label(p, d if valid else None, unit)
         return info
 
     # -- running -------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...viewtools import view_toolbar
 from ...widgets import dyn_tid, param_form, tid
 from .. import shown
 
@@ -399,6 +400,9 @@ def _centre_column(page: Any, on_mode: Any) -> Any:
 
     with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
         _mode_bar(on_mode)
+        with html.Div(classes="d-flex align-center flex-wrap", style="min-height: 40px;"):
+            view_toolbar(page.tools)
+            _legend_controls(page)
         html.Div("{{ ins_note }}", classes="text-caption px-3", style="margin-top: -6px;", raw_attrs=tid("ins-note"))
         # server-side times (epoch s) of the last run's stages, for benchmarks/bench_gui_colourmap.py
         html.Span(
@@ -476,6 +480,53 @@ def _mode_bar(on_mode: Any) -> None:
         v.VChip("alignment failed", v_if="ins_mode === 'failed'", size="small", color="error", variant="flat")
 
 
+def _legend_controls(page: Any) -> None:
+    """The colour map's legend: continuous, stepped (n bands) or n bands over ±tolerance with
+    out-of-tolerance colours. Always in place (disabled without a colour map): nothing moves."""
+    from trame.widgets import vuetify3 as v
+
+    def on_legend(kind, n):
+        page.set_legend(kind, n)
+
+    v.VSelect(
+        model_value=("ins_legend_kind",),
+        items=(
+            [
+                {"title": "continuous", "value": "continuous"},
+                {"title": "stepped", "value": "stepped"},
+                {"title": "stepped ± tolerance", "value": "tolerance"},
+            ],
+        ),
+        label="Legend",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        style="max-width: 190px;",
+        classes="ml-2",
+        disabled=("ins_mode !== 'colour'",),
+        update_modelValue=(on_legend, "[$event, null]"),
+        title="Colour legend: continuous, stepped in n bands over ± the colour limit, or n bands over "
+        "± tolerance with deviations beyond it in the out-of-tolerance colours",
+        raw_attrs=tid("ins-legend-kind"),
+    )
+    v.VTextField(
+        model_value=("ins_legend_n",),
+        label="bands",
+        type="number",
+        min=2,
+        max=32,
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        style="max-width: 90px;",
+        classes="ml-1",
+        disabled=("ins_mode !== 'colour' || ins_legend_kind === 'continuous'",),
+        update_modelValue=(on_legend, "[null, $event]"),
+        title="Number of colour bands of a stepped legend (2 to 32)",
+        raw_attrs=tid("ins-legend-n"),
+    )
+
+
 def _view(page: Any) -> Any:
     """The 3D view; a click (press and release without dragging) picks at its fractions of the view."""
     from trame.widgets import html
@@ -546,7 +597,8 @@ def _charts_column(page: Any) -> None:
         _section_controls(page)
         html.Div(
             "{{ ins_section_axis }} = {{ Number(ins_section_pos).toFixed(3) }} mm: the nominal cut (black) "
-            "and the measured points within ± half their spacing of the plane",
+            "with deviation whiskers (magnified as the legend says; red outward, blue inward) of the "
+            "measured points within ± half their spacing of the plane",
             v_if="ins_has_result",
             classes="text-caption text-medium-emphasis",
         )

@@ -47,9 +47,11 @@ from ....errors import one_line
 from ....host import RunResult
 from ...downloads import Downloads
 from ...jobs import Job
+from ...viewtools import ViewTools
 from .export import STATE_KEY, Export
 from .figures import empty_figure
 from .inputs import TASK, Inputs
+from .legend import Legend
 from .run import Run
 from .scene import CompareView, Prepared
 from .section import Section
@@ -59,7 +61,7 @@ __all__ = ["DOWNLOAD_ROUTE", "STATE_KEY", "ComparePage", "mount"]
 DOWNLOAD_ROUTE = "camcmm-inspect-downloads"
 
 
-class ComparePage(Inputs, Run, Section, Export):
+class ComparePage(Inputs, Run, Section, Export, Legend):
     """Publishes the comparison through the session's trame state (``ins_*`` keys) and
     runs the slow steps in its job. One per server."""
 
@@ -72,6 +74,8 @@ class ComparePage(Inputs, Run, Section, Export):
         self.view = CompareView(int(limit))
         self.offered = Downloads(DOWNLOAD_ROUTE, "camcmm-inspect-", downloads)
         self.downloads, self.download_route = self.offered.folder, self.offered.route
+        # the view's toolbar (state keys insv_*); screenshots go to the page's downloads
+        self.tools = ViewTools(self.view, self.state, "insv", self.offered)
         self.job = Job("the comparison", state=self.state, on_progress=self._set_progress)
         # the comparison on show
         self.result: RunResult | None = None
@@ -114,6 +118,8 @@ class ComparePage(Inputs, Run, Section, Export):
         s.ins_unit = "mm"
         s.ins_legend_title = ""
         s.ins_limit_text = ""
+        s.ins_legend_kind = "continuous"
+        s.ins_legend_n = 10
         s.ins_bands = []
         s.ins_note = ""
         s.ins_stats = []

@@ -204,6 +204,7 @@ class Run:
         s.ins_failed_reason = "" if converged else (o.get("reason") or "the alignment did not converge")
         s.ins_legend_title = legend_title(unit)
         s.ins_limit_text = f"colours saturate at ±{fmt_len(limit, unit)}"
+        self.tools.clear_labels()  # labels picked on the comparison shown before
         s.ins_warnings = [str(w) for w in (result.warnings or [])][:12]
         s.ins_alignment = alignment_rows(o, unit)
         s.ins_picked = None
@@ -298,6 +299,7 @@ class Run:
                 "codes": self.bands["codes"],
                 "rows": band_legend(self.bands["counts"], self.bands["tolerance"], s.ins_unit),
             }
+        self.view.legend = self._legend_spec() if mode == "colour" else None
         self.view.show_deviations(self.prepared, limit, s.ins_unit, mode, bands, reset_camera=reset_camera)
         s.ins_mode = self.view.scene
         s.ins_note = self.view.note
@@ -340,7 +342,7 @@ class Run:
         if self.deviations is None or s.ins_failed:
             return
         self._publish_numbers(tol)
-        if s.ins_mode == "bands":
-            self._draw("bands" if tol else "colour")
+        if s.ins_mode == "bands" or (s.ins_mode == "colour" and s.ins_legend_kind == "tolerance"):
+            self._draw(s.ins_mode if tol else "colour")
         if s.ins_picked and s.ins_picked.get("found"):
-            self.pick_index(int(s.ins_picked["index"]))
+            self.pick_index(int(s.ins_picked["index"]), label=False)

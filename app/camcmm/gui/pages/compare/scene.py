@@ -84,6 +84,9 @@ class CompareView:
         self.dev: Prepared | None = None
         self.nominal_poly: Any = None  # pyvista mesh of the nominal mesh _nominal_src
         self._nominal_src: Any = None
+        self.point_size: int | None = None  # None: automatic (the view's tools set it)
+        self.labels: list[dict[str, Any]] = []  # picked labels that stay (markers)
+        self.legend: dict[str, Any] | None = None  # viewtools.legend_spec of the colour map
         # Until the operator turns or zooms, a new size of the view (the browser's, on
         # mount or resize) frames the part anew: a camera reset for the wrong aspect
         # leaves it small or cut.
@@ -139,8 +142,21 @@ class CompareView:
         """Points small enough that they hardly overlap in a view of the whole part:
         where they do, the ones standing out of the surface hide those below it and a
         dense map looks redder than it is."""
-        size = 1 if n > 250_000 else (2 if n > 100_000 else (3 if n > 40_000 else (4 if n > 10_000 else 5)))
+        size = self.point_size or self.auto_point_size(n)
         return {"style": "points", "point_size": size, "render_points_as_spheres": False}
+
+    def auto_point_size(self, n: int | None = None) -> int:
+        if n is None:
+            prep = self.dev if self.dev is not None else self._inputs.get("measured")
+            n = prep.n_shown if prep is not None else 0
+        return 1 if n > 250_000 else (2 if n > 100_000 else (3 if n > 40_000 else (4 if n > 10_000 else 5)))
+
+    def point_actors(self) -> list[Any]:
+        """The actors drawn as points (clouds, not a nominal mesh nor the markers)."""
+        out = [self._actors[k] for k in ("measured", "cloud") if k in self._actors]
+        if "nominal" in self._actors and "nominal_cloud" in self._inputs:
+            out.append(self._actors["nominal"])
+        return out
 
     def mesh_poly(self, nominal: Any) -> Any:
         """The pyvista mesh of a nominal TriangleMesh, made once per mesh."""
@@ -219,7 +235,6 @@ class CompareView:
         legend rows}``."""
         self._clear()
         self.dev = prep
-        f = 1e3 if unit == "µm" else 1.0
         style = self._point_style(prep.n_shown)
         if mode == "bands" and bands:
             codes = np.asarray(bands["codes"])
@@ -234,42 +249,7 @@ class CompareView:
             self.legend_labels = [r["label"] for r in rows]
         else:
             self.scene = "colour"
-            lim = float(limit) * f if limit and limit > 0 else 1.0
-            self.scalar_bar_title = legend_title(unit)
-            self._actors["cloud"] = self.plotter.add_mesh(
-                prep.poly,
-                scalars=(prep.dev * f),
-                cmap=COLOURMAP,
-                clim=[-lim, lim],
-                reset_camera=False,
-                nan_color="#888888",
-                scalar_bar_args={
-                    "title": self.scalar_bar_title,
-                    "color": "black",
-                    "vertical": True,
-                    "position_x": 0.86,
-                    "position_y": 0.12,
-                    "height": 0.75,
-                    "width": 0.05,
-                    "fmt": "%.3g",
-                    "n_labels": 5,
-                    "title_font_size": 16,
-                    "label_font_size": 13,
-                },
-                **style,
-            )
-            bars = self.plotter.scalar_bars
-            if self.scalar_bar_title in bars:
-                bar = bars[self.scalar_bar_title]
-                from vtkmodules.vtkCommonCore import vtkDoubleArray
-
-                _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
-                ticks = vtkDoubleArray()
-                for t in nice_ticks(lim):
-                    ticks.InsertNextValue(t)
-                bar.SetCustomLabels(ticks)
-                bar.SetUseCustomLabels(True)
-                bar.SetLabelFormat("%g")
+            self._colour_map(prep, limit, unit, style)
         n = prep.n_total
         self.note = (
             f"showing {fmt_count(prep.n_shown)} of {fmt_count(n)} points (random subset for display; "
@@ -277,7 +257,60 @@ class CompareView:
             if prep.n_shown < n
             else f"showing all {fmt_count(n)} points"
         )
+        self.set_markers(self.labels, render=False)
         self._changed(reset_camera)
+
+    def _colour_map(self, prep: Prepared, limit: float, unit: str, style: dict[str, Any]) -> None:
+        """The deviations on the diverging map: continuous over ±limit, or stepped as
+        ``self.legend`` says (n bands, ticks at the band edges; out-of-tolerance colours)."""
+        f = 1e3 if unit == "µm" else 1.0
+        spec = self.legend or {}
+        lim = float(limit) * f if limit and limit > 0 else 1.0
+        clim = [c * f for c in spec["clim"]] if spec.get("edges") else [-lim, lim]
+        self.scalar_bar_title = legend_title(unit)
+        extra: dict[str, Any] = {}
+        bar_args: dict[str, Any] = {}
+        if spec.get("edges"):
+            extra["n_colors"] = int(spec["n_colors"])
+        if spec.get("above"):
+            extra.update(above_color=spec["above"], below_color=spec["below"])
+            bar_args.update(above_label="above", below_label="below")
+        self._actors["cloud"] = self.plotter.add_mesh(
+            prep.poly,
+            scalars=(prep.dev * f),
+            cmap=COLOURMAP,
+            clim=clim,
+            reset_camera=False,
+            nan_color="#888888",
+            scalar_bar_args={
+                "title": self.scalar_bar_title,
+                "color": "black",
+                "vertical": True,
+                "position_x": 0.86,
+                "position_y": 0.12,
+                "height": 0.75,
+                "width": 0.05,
+                "fmt": "%.3g",
+                "n_labels": 5,
+                "title_font_size": 16,
+                "label_font_size": 13,
+                **bar_args,
+            },
+            **extra,
+            **style,
+        )
+        bars = self.plotter.scalar_bars
+        if self.scalar_bar_title in bars:
+            bar = bars[self.scalar_bar_title]
+            from vtkmodules.vtkCommonCore import vtkDoubleArray
+
+            _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
+            ticks = vtkDoubleArray()
+            for t in [round(e * f, 9) for e in spec["edges"]] if spec.get("edges") else nice_ticks(lim):
+                ticks.InsertNextValue(t)
+            bar.SetCustomLabels(ticks)
+            bar.SetUseCustomLabels(True)
+            bar.SetLabelFormat("%g")
 
     def show_failed(self, prep: Prepared, nominal: Any, reset_camera: bool = True) -> None:
         """Where the failed alignment left the cloud, over the nominal; no colour map."""
@@ -293,6 +326,7 @@ class CompareView:
             (0.3, 0.08),
         )
         self.note = "alignment failed: no deviations shown"
+        self.set_markers(self.labels, render=False)
         self._changed(reset_camera)
 
     def clear(self) -> None:
@@ -339,6 +373,12 @@ class CompareView:
             self._actors["marker_labels"] = lab
         if render:
             self._changed(False)
+
+    def set_labels(self, markers: list[dict[str, Any]]) -> None:
+        """The picked labels that stay (drawn over a result, kept across redraws)."""
+        self.labels = list(markers)
+        if self.scene in ("colour", "bands", "failed"):
+            self.set_markers(self.labels)
 
     def set_section_plane(
         self, axis: str | None, position: float = 0.0, bounds: np.ndarray | None = None, render: bool = True
