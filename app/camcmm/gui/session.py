@@ -69,6 +69,25 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
+def _in_display_units(obj: Any, units: Any) -> Any:
+    """A copy of cloud ``obj`` whose fields named in ``units`` ({field: "µm"}) are
+    scaled from mm for the view (a fit's residuals read in µm); ``obj`` itself when
+    there is nothing to convert. The data, and every computation, stay in mm."""
+    if not isinstance(units, dict) or not hasattr(obj, "fields") or not hasattr(obj, "points"):
+        return obj
+    factors = {"µm": 1e3, "mm": 1.0}
+    fields, field_units = dict(obj.fields), dict(obj.field_units)
+    changed = False
+    for name, unit in units.items():
+        if name in fields and field_units.get(name) == "mm" and unit in factors and unit != "mm":
+            fields[name] = np.asarray(fields[name], dtype=float) * factors[unit]
+            field_units[name] = unit
+            changed = True
+    if not changed:
+        return obj
+    return type(obj)(obj.points, obj.colors, obj.normals, fields, field_units, obj.name, obj.source_unit)
+
+
 class Session:
     """The project, its items, the 3D view, the messages and the loop, shared by the pages."""
 
@@ -109,7 +128,9 @@ class Session:
         s.update(
             {
                 "items": [],
+                "hidden_items": [],
                 "selected_item": None,
+                "picked_item": None,
                 "color_fields": [],
                 "color_field": None,
                 "legend_title": "",
@@ -205,12 +226,15 @@ class Session:
 
     # -- items (the project's measurements) -------------------------------------------
     def refresh_items(self) -> None:
+        """List the project's items: state ``items`` (the ones the pickers offer) and
+        ``hidden_items`` (hidden by the tidy; still loadable). Each ``{id, name, kind,
+        subtitle, derived, hidden}``; ``derived``: made by a plugin run, not imported."""
         try:
             records = list(self.project.measurements())
         except Exception as exc:
             self.error(f"project {self.state.project_name}: cannot list measurements: {exc}")
             records = []
-        items = []
+        items, hidden = [], []
         self._measurements = {}
         for m in records:
             key = str(m["id"])
@@ -218,8 +242,18 @@ class Session:
             kind = str(m.get("kind") or "")
             meta = m.get("meta") if isinstance(m.get("meta"), dict) else {}
             sub = self._summary.get(key) or (f"{kind} · {meta['summary']}" if meta.get("summary") else kind)
-            items.append({"id": key, "name": str(m.get("name") or key), "kind": kind, "subtitle": sub})
+            made_by = str(meta.get("made_by") or "")
+            row = {
+                "id": key,
+                "name": str(m.get("name") or key),
+                "kind": kind,
+                "subtitle": sub + (f" · made by {made_by}" if made_by else ""),
+                "derived": bool(made_by),
+                "hidden": bool(m.get("hidden")),
+            }
+            (hidden if row["hidden"] else items).append(row)
         self.state.items = items
+        self.state.hidden_items = hidden
         for fn in self._item_watchers:
             fn()
 
@@ -315,15 +349,20 @@ class Session:
         """Drop the import being asked about (nothing is stored)."""
         self._unit_asks.cancel()
 
-    def add_measurement(self, name: str, h: str, obj: Any, source: str = "", unit: str = "") -> Any:
+    def add_measurement(
+        self, name: str, h: str, obj: Any, source: str = "", unit: str = "", display: dict | None = None
+    ) -> Any:
         """Record ``obj`` (stored as file hash ``h``) as a new item; it stays loaded.
-        ``unit``: the length unit the file is read in (an import's). Returns the
-        measurement id (its item key is ``str(id)``)."""
-        meta = {"summary": describe(obj)}
+        ``unit``: the length unit the file is read in (an import's). ``display``: field
+        -> unit the view shows it in (``{"deviation": "µm"}``; the data stay in mm).
+        Returns the measurement id (its item key is ``str(id)``)."""
+        meta: dict[str, Any] = {"summary": describe(obj)}
         if source:
             meta["made_by"] = source
         if unit:
             meta["unit"] = unit
+        if display:
+            meta["display_units"] = dict(display)
         try:
             mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
         except TypeError:  # a store without meta
@@ -331,6 +370,10 @@ class Session:
         self._objects[str(mid)] = obj
         self._summary[str(mid)] = f"{kind_of(obj)} · {describe(obj)}"
         return mid
+
+    def loaded(self, key: Any) -> Any | None:
+        """Item ``key``'s object if it is loaded (no reading), else None."""
+        return None if key is None else self._objects.get(str(key))
 
     def measurement(self, key: Any) -> dict[str, Any] | None:
         """The project's record of item ``key`` (``id``, ``name``, ``kind`` ...), or None."""
@@ -405,8 +448,11 @@ class Session:
             out.append({"name": str(f.get("name") or "upload"), "content": bytes(content or b"")})
         return out
 
-    def select_item(self, key: str | None) -> None:
-        """Show an item in the 3D view, keeping the chosen colouring when it exists."""
+    def select_item(self, key: str | None, chosen: bool = True, field: str | None = None) -> None:
+        """Show an item in the 3D view, keeping the chosen colouring when it exists
+        (``field``: colour by that field instead). ``chosen``: the user picked it (a click,
+        an import), so the plugin form offers it first; a run showing its output passes
+        False. Fields the item's ``meta["display_units"]`` names are shown in that unit."""
         if key is None:
             return
         key = str(key)
@@ -417,6 +463,8 @@ class Session:
             self.error(one_line(exc, str(name)))
             return
         self.state.selected_item = key
+        if chosen:
+            self.state.picked_item = key
         self.remember("gui.selected_item", key)
         k = kind_of(obj)
         if k not in ("pointcloud", "mesh"):
@@ -426,8 +474,10 @@ class Session:
             self.state.legend_title = ""
             self.state.display_note = f"{describe(obj)} (not shown in the 3D view)"
         else:
+            meta = (self._measurements.get(key) or {}).get("meta") or {}
+            obj = _in_display_units(obj, meta.get("display_units") if isinstance(meta, dict) else None)
             fields = color_fields(obj)
-            keep = self.state.color_field
+            keep = field or self.state.color_field
             wanted = keep if keep in {f["value"] for f in fields} else None
             try:
                 self.view.show(key, obj, wanted)
@@ -460,7 +510,8 @@ class Session:
         if key is not None and str(key) in self._measurements:
             if field_name:
                 self.state.color_field = field_name
-            self.select_item(str(key))
+            meta = self._measurements[str(key)].get("meta") or {}
+            self.select_item(str(key), chosen=not (isinstance(meta, dict) and meta.get("made_by")))
 
     # -- results (the project's) ---------------------------------------------------------
     def refresh_results(self) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ....errors import PluginError
+from ....errors import PluginError, one_line
 from ....host import to_jsonable
 from ....params import form_schema, validate
 from ...session import kind_of
@@ -50,12 +50,13 @@ def fields_of(spec: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
 
 
 def inputs_of(
-    spec: Any, items: list[dict[str, Any]], current: dict[str, Any], selected: Any
+    spec: Any, items: list[dict[str, Any]], current: dict[str, Any], preferred: Any
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """``(inputs, values)``: one select per input port the items can fill (options: the
     items of a fitting kind), a text field for any other port. A port keeps the item
-    chosen in ``current`` while it exists; else it takes the ``selected`` item if it
-    fits, else the newest fitting one (an optional port: none)."""
+    chosen in ``current`` while it exists; else it takes the ``preferred`` item (the one
+    the user last picked) if it fits, else the newest fitting item the user imported
+    (not one a run derived), else the newest fitting one (an optional port: none)."""
     inputs, values = [], {}
     for port in spec.inputs:
         kinds = ITEM_TYPES.get(port.type)
@@ -64,22 +65,63 @@ def inputs_of(
             "type": port.type,
             "optional": port.optional,
             "label": f"{port.name} ({port.type})" + ("" if port.optional else " *"),
-            "help": port.help,
+            "help": port.help or f"the input {port.name!r} ({port.type})",
             "supported": kinds is not None,
             "options": [],
         }
         if kinds is not None:
-            opts = [{"title": it["name"], "value": it["id"]} for it in items if it["kind"] in kinds]
+            fitting = [it for it in items if it["kind"] in kinds]
+            opts = [{"title": it["name"], "value": it["id"]} for it in fitting]
             entry["options"] = opts
             ids = [o["value"] for o in opts]
             chosen = current.get(port.name)
             if chosen not in ids:
-                chosen = selected if selected in ids else (ids[-1] if ids and not port.optional else None)
+                imported = [it["id"] for it in fitting if not it.get("derived")]
+                newest = (imported or ids)[-1] if ids else None
+                chosen = preferred if preferred in ids else (None if port.optional else newest)
             values[port.name] = chosen
         else:
             values[port.name] = current.get(port.name, "")
         inputs.append(entry)
     return inputs, values
+
+
+def run_blocker(spec: Any, params: dict[str, Any], chosen: dict[str, Any], items: list[dict[str, Any]]) -> str:
+    """Why a run of ``spec`` with these form values cannot start, in one line ("" when
+    it can): a missing or unknown input item, or a parameter its declaration refuses.
+    Cheap (no item is loaded): the page shows it next to Run as the user edits."""
+    try:
+        _checked_params(spec, params)
+    except Exception as exc:
+        return one_line(exc)
+    kinds_of = {it["id"]: it["kind"] for it in items}
+    for port in spec.inputs:
+        key = chosen.get(port.name)
+        if port.type not in ITEM_TYPES:
+            if key in (None, "") and not port.optional:
+                return f"input {port.name!r} ({port.type}) is needed: type its path"
+            continue
+        if key in (None, ""):
+            if not port.optional:
+                return f"input {port.name!r} ({port.type}) is needed: import a file or choose an item"
+            continue
+        if str(key) not in kinds_of:
+            return f"input {port.name!r}: item {key!r} is not in the project (deleted or hidden?)"
+        if kinds_of[str(key)] not in ITEM_TYPES[port.type]:
+            return f"input {port.name!r} must be a {port.type}, the chosen item is a {kinds_of[str(key)]}"
+    return ""
+
+
+def _checked_params(spec: Any, params: dict[str, Any]) -> dict[str, Any]:
+    """The parameters checked by their declaration (an empty field means the default)."""
+    declared = {p.name: p for p in spec.parameters}
+    raw = {}
+    for k, v in params.items():
+        p = declared.get(k)
+        if p is not None and p.type != "str" and (v is None or (isinstance(v, str) and v.strip() == "")):
+            continue
+        raw[k] = v
+    return validate(spec.parameters, raw, owner=f"plugin {spec.id!r}")
 
 
 def run_arguments(
@@ -96,14 +138,7 @@ def run_arguments(
     pid = spec.id
     if spec.kind == "device":
         raise PluginError(f"plugin {pid!r} is a device; devices are connected, not run")
-    declared = {p.name: p for p in spec.parameters}
-    raw = {}
-    for k, v in params.items():
-        p = declared.get(k)
-        if p is not None and p.type != "str" and (v is None or (isinstance(v, str) and v.strip() == "")):
-            continue
-        raw[k] = v
-    values = validate(spec.parameters, raw, owner=f"plugin {pid!r}")
+    values = _checked_params(spec, params)
     objs, mids = {}, []
     for port in spec.inputs:
         key = chosen.get(port.name)

@@ -16,15 +16,20 @@ from .... import worker
 from ....errors import CamcmmError, one_line
 from ....host import RunResult
 from ...jobs import Job
-from .form import ITEM_TYPES, fields_of, inputs_of, run_arguments
-from .results import new_items, result_rows, summarize_json
+from .form import ITEM_TYPES, fields_of, inputs_of, run_arguments, run_blocker
+from .report import parameters_line, report_rows
+from .results import new_items, residual_fields, result_rows, summarize_json
+from .tidy import Tidy
 
 
 class InspectPage:
     """The state variables it owns: ``plugins``, ``selected_plugin``, ``plugin_title``,
     ``plugin_summary``, ``form_fields``, ``form_values``, ``form_inputs``,
     ``input_values``, ``running``, ``progress`` (0..100 %), ``progress_message``,
-    ``result``, ``result_title``, ``result_rows``, ``result_warnings``."""
+    ``run_reason`` (why Run cannot start, "" when it can), ``run_status`` (how the last
+    run ended), ``result``, ``result_title``, ``report_rows`` (:mod:`.report`),
+    ``result_params``, ``result_rows`` (every output), ``result_warnings``; the
+    tidy's (:mod:`.tidy`)."""
 
     def __init__(self, server: Any, session: Any):
         self.server = server
@@ -48,9 +53,12 @@ class InspectPage:
                 "running": False,
                 "progress": 0.0,
                 "progress_message": "",
+                "run_reason": "choose a plugin first",
+                "run_status": "",
             }
         )
         self._clear_result()
+        self.tidy = Tidy(session)
         session.watch_items(self.refresh_inputs)
         self.refresh_plugins()
 
@@ -97,37 +105,69 @@ class InspectPage:
         s.selected_plugin = spec.id
         s.plugin_title = f"{spec.name} ({spec.id} {spec.version})"
         s.plugin_summary = spec.summary
+        s.run_status = ""
         self.refresh_inputs(reset=True)
 
     def refresh_inputs(self, reset: bool = False) -> None:
         """The form's input selects after the items changed (``reset``: a new plugin)."""
         s = self.state
-        try:
-            spec = self.session.host.get(s.selected_plugin) if s.selected_plugin else None
-        except CamcmmError:
-            spec = None
+        spec = self._spec()
         if spec is None:
             s.form_inputs = []
-            return
-        current = {} if reset else dict(s.input_values or {})
-        s.form_inputs, s.input_values = inputs_of(spec, s.items or [], current, s.selected_item)
+        else:
+            current = {} if reset else dict(s.input_values or {})
+            s.form_inputs, s.input_values = inputs_of(spec, s.items or [], current, s.picked_item)
+        self.check_run()
+
+    def _spec(self) -> Any:
+        try:
+            return self.session.host.get(self.state.selected_plugin) if self.state.selected_plugin else None
+        except CamcmmError:
+            return None
+
+    def check_run(self) -> str:
+        """Why Run cannot start now (state ``run_reason``, shown next to Run), "" if it can."""
+        s, spec = self.state, self._spec()
+        if self.job.running:
+            reason = f"a run is going ({s.progress_message or 'running'}): wait for it or cancel it"
+        elif spec is None:
+            reason = "choose a plugin first" if not s.selected_plugin else f"plugin {s.selected_plugin!r} is not there"
+        else:
+            reason = run_blocker(spec, dict(s.form_values or {}), dict(s.input_values or {}), s.items or [])
+        s.run_reason = reason
+        return reason
 
     def select_item(self, key: Any) -> None:
         self.session.select_item(key)
 
     # -- a run -------------------------------------------------------------------------
+    def _refuse(self, reason: str) -> None:
+        """A run that cannot start: the reason next to Run, and as the page's error."""
+        self.state.run_reason = reason
+        self.session.error(reason)
+        self.session.flush()
+
     async def run_form(self, pid: Any, form_values: Any, input_values: Any) -> RunResult | None:
-        """The Run button (also ``ctrl.run_plugin_form``): a value naming a file or folder
-        must lie inside the roots, then :meth:`run_plugin`."""
+        """The Run button (also ``ctrl.run_plugin_form``): a run that cannot start says
+        why (no plugin, a run going, a missing input, a refused value); a value naming a
+        file or folder must lie inside the roots; then :meth:`run_plugin`."""
         session = self.session
-        if not pid:
-            session.error("choose a plugin first")
+        if not pid or not isinstance(pid, str):
+            self._refuse("choose a plugin first")
+            return None
+        if self.job.running:
+            self._refuse(f"a run is going ({self.state.progress_message}): wait for it or cancel it")
             return None
         try:  # the run also takes inputs from the state, which the client writes too: check those
             inputs = {**dict(self.state.input_values or {}), **dict(input_values or {})}
-            form_values, input_values = session.roots.check_run(session.host.get(pid), form_values, inputs, ITEM_TYPES)
-        except CamcmmError as exc:
-            session.error(str(exc))
+            spec = session.host.get(pid)
+            form_values, input_values = session.roots.check_run(spec, form_values, inputs, ITEM_TYPES)
+        except (CamcmmError, TypeError, ValueError) as exc:
+            self._refuse(one_line(exc))
+            return None
+        reason = run_blocker(spec, dict(form_values or {}), dict(input_values or {}), self.state.items or [])
+        if reason:
+            self._refuse(reason)
             return None
         return await self.run_plugin(pid, form_values or {}, input_values or {})
 
@@ -150,7 +190,7 @@ class InspectPage:
             )
             cancel = self.job.begin()
         except Exception as exc:  # a bad value or input, or Busy: a run is going
-            session.error(one_line(exc))
+            self._refuse(one_line(exc))
             return None
         self._started(plugin_id)
         try:
@@ -175,21 +215,46 @@ class InspectPage:
             self.state.progress_message = message
 
     def _clear_result(self) -> None:
-        self.state.update({"result": None, "result_title": "", "result_rows": [], "result_warnings": []})
+        self.state.update(
+            {
+                "result": None,
+                "result_title": "",
+                "result_rows": [],
+                "result_warnings": [],
+                "report_rows": [],
+                "result_params": "",
+            }
+        )
 
     def _started(self, plugin_id: str) -> None:
         s = self.state
         s.running, s.progress, s.progress_message = True, 0.0, f"running {plugin_id} …"
+        s.run_status = ""
+        self.check_run()
         self._clear_result()
         self.session.clear_error()
         self.session.flush()
 
     def _failed(self, plugin_id: str, exc: BaseException) -> None:
         self.state.running = False
-        self.state.progress_message = "failed"
+        self.check_run()
         _, msg = Job.outcome(exc)
-        self.session.error(msg if plugin_id in msg else f"plugin {plugin_id!r}: {msg}")
+        line = msg if plugin_id in msg else f"plugin {plugin_id!r}: {msg}"
+        self.state.progress_message = "failed"
+        self.state.run_status = line
+        self.session.error(line)
         self.session.flush()
+
+    def _show(self, spec: Any, d: dict[str, Any], made: dict[str, str], warnings: list[str]) -> None:
+        """A result (``RunResult.to_json()`` or a stored one) in the result panel: the
+        report rows from the plugin's declared outputs, every output in the raw table."""
+        s, outputs = self.state, d.get("outputs") or {}
+        ports = list(spec.outputs) if spec is not None else []
+        s.result = summarize_json(d)
+        s.report_rows = report_rows(outputs, ports, made)
+        s.result_rows = result_rows(outputs, {p.name: p.unit for p in ports})
+        s.result_params = parameters_line(dict(d.get("params") or {}), list(spec.parameters) if spec else [])
+        s.result_warnings = warnings
 
     def _done(self, spec: Any, result: RunResult, mids: list, objs: dict[str, Any]) -> RunResult:
         session, s = self.session, self.state
@@ -199,31 +264,39 @@ class InspectPage:
             self.last_result_id = session.project.add_result(result, measurement_ids=mids, files={})
         except Exception as exc:
             session.error(f"result of {spec.id} could not be stored in the project: {one_line(exc)}")
-        keys = self._store_outputs(spec, result, objs, warnings)
-        s.result = summarize_json(result.to_json())
-        s.result_title = f"{spec.name} — {spec.id} {result.plugin_version}"
-        s.result_rows = result_rows(result.outputs, {p.name: p.unit for p in spec.outputs})
-        s.result_warnings = warnings
+        made = self._store_outputs(spec, result, objs, warnings)
+        self._show(spec, result.to_json(), {label: name for label, name, _, _ in made}, warnings)
+        number = f" #{self.last_result_id}" if self.last_result_id is not None else ""
+        s.result_title = f"{spec.name}{number} — {spec.id} {result.plugin_version}"
         s.running, s.progress, s.progress_message = False, 100.0, "done"
+        s.run_status = f"done{number}" + (f"; added {len(made)} item(s)" if made else "")
         session.refresh_results()
-        if keys:
-            session.select_item(keys[-1])
-        session.info(f"{spec.id} finished" + (f"; added {len(keys)} item(s)" if keys else ""))
+        if made:  # show the output, coloured by what the run added (a fit's residuals)
+            _, _, key, fields = made[-1]
+            session.select_item(key, chosen=False, field=next(iter(fields), None))
+        self.check_run()
         session.flush()
         return result
 
-    def _store_outputs(self, spec: Any, result: RunResult, objs: dict[str, Any], warnings: list[str]) -> list[str]:
-        """The new items of a run (:func:`~.results.new_items`) into the project; their keys."""
-        session, keys = self.session, []
-        for label, name, obj in new_items(spec, result, objs):
+    def _store_outputs(
+        self, spec: Any, result: RunResult, objs: dict[str, Any], warnings: list[str]
+    ) -> list[tuple[str, str, str, dict[str, str]]]:
+        """The new items of a run (:func:`~.results.new_items`) into the project:
+        ``[(output label, item name, item key, {residual field: display unit})]``."""
+        session, made = self.session, []
+        taken = {it["name"] for it in [*(self.state.items or []), *(self.state.hidden_items or [])]}
+        for label, name, obj in new_items(spec, result, objs, taken):
+            fields = residual_fields(obj, objs)
             try:
                 h = session.project.add_object(obj, name)
-                keys.append(str(session.add_measurement(name, h, obj, source=f"{spec.id} {result.plugin_version}")))
+                source = f"{spec.id} {result.plugin_version}"
+                key = str(session.add_measurement(name, h, obj, source=source, display=fields))
+                made.append((label, name, key, fields))
             except Exception as exc:
                 warnings.append(f"output {label!r} could not be stored: {one_line(exc)}")
-        if keys:
+        if made:
             session.refresh_items()
-        return keys
+        return made
 
     # -- the result panel and the view -----------------------------------------------------
     def show_result(self, rid: Any) -> None:
@@ -235,14 +308,11 @@ class InspectPage:
             return
         plugin = str(d.get("plugin", ""))
         try:
-            units = {p.name: p.unit for p in self.session.host.get(plugin).outputs}
+            spec = self.session.host.get(plugin)
         except CamcmmError:
-            units = {}
-        s = self.state
-        s.result = summarize_json(d)
-        s.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
-        s.result_rows = result_rows(d.get("outputs") or {}, units)
-        s.result_warnings = list(d.get("warnings") or [])
+            spec = None
+        self._show(spec, d, {}, list(d.get("warnings") or []))
+        self.state.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
 
     def set_color_field(self, name: str | None) -> None:
         """Colour the shown item by the field ``name`` (kept in the project for next time)."""
@@ -269,5 +339,9 @@ def mount(server: Any, session: Any) -> InspectPage:
     @server.state.change("color_field")
     def _field_changed(color_field: Any = None, **_: Any) -> None:
         page.set_color_field(color_field)
+
+    @server.state.change("form_values", "input_values")
+    def _form_changed(**_: Any) -> None:  # the reason next to Run follows the form as it is edited
+        page.check_run()
 
     return page

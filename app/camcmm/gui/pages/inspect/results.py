@@ -5,6 +5,7 @@ cloud as colour fields; nothing is computed from them."""
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -110,9 +111,25 @@ def _with_fields(spec: Any, result: RunResult, base: Any) -> Any | None:
     return PointCloud(base.points, base.colors, base.normals, fields, field_units, base.name, base.source_unit)
 
 
-def new_items(spec: Any, result: RunResult, inputs: dict[str, Any]) -> list[tuple[str, str, Any]]:
+def derived_name(own: str, in_name: str, fallback: str, taken: set[str]) -> str:
+    """The name of an item a run made: the output's own name unless it only repeats the
+    input's, with a word the input's name already ends in said once ("ball deviations"
+    fitted again gives "ball deviations", not "ball deviations deviations"), and a
+    number when the project already has that name ("ball deviations (2)")."""
+    name = own if own and own != in_name and own not in ("cloud", "mesh") else fallback
+    name = re.sub(r"\b(\w+)(?: \1\b)+", r"\1", " ".join(name.split()))
+    base, n = name, 2
+    while name in taken:
+        name, n = f"{base} ({n})", n + 1
+    return name
+
+
+def new_items(
+    spec: Any, result: RunResult, inputs: dict[str, Any], taken: set[str] | None = None
+) -> list[tuple[str, str, Any]]:
     """``[(output label, item name, object)]``: the clouds and meshes among the outputs (one level
-    into dicts), or else a coloured copy of the input cloud (a deviation map)."""
+    into dicts), or else a coloured copy of the input cloud (a deviation map). ``taken``:
+    the names the project's items have (a new name does not repeat one)."""
     found: list[tuple[str, Any]] = []
     for name, value in result.outputs.items():
         if kind_of(value) in ("pointcloud", "mesh"):
@@ -125,13 +142,29 @@ def new_items(spec: Any, result: RunResult, inputs: dict[str, Any]) -> list[tupl
         if coloured is not None:
             found.append(("fields", coloured))
     in_name = next((getattr(o, "name", "") for o in inputs.values() if getattr(o, "name", "")), "")
-    out = []
-    for label, obj in found:  # an output keeps its own name unless it only repeats the input's
-        own = str(getattr(obj, "name", "") or "")
-        name = (
-            own
-            if own and own != in_name and own not in ("cloud", "mesh")
-            else f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
-        )
+    out, names = [], set(taken or ())
+    for label, obj in found:
+        fallback = f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
+        name = derived_name(str(getattr(obj, "name", "") or ""), in_name, fallback, names)
+        names.add(name)
         out.append((label, name, obj))
+    return out
+
+
+def residual_fields(obj: Any, inputs: dict[str, Any]) -> dict[str, str]:
+    """The length fields (unit mm) a run added to a cloud, i.e. not on its input cloud
+    (a fit's residuals, a comparison's deviations), each with the unit the view shows
+    it in: µm when every value lies within ±1 mm, else mm. First the one to colour by."""
+    if not hasattr(obj, "fields"):
+        return {}
+    had = set()
+    for o in inputs.values():
+        had |= set(getattr(o, "fields", {}) or {})
+    out = {}
+    for name, values in obj.fields.items():
+        if name in had or (obj.field_units or {}).get(name) != "mm":
+            continue
+        a = np.asarray(values, dtype=float)
+        finite = a[np.isfinite(a)]
+        out[name] = "µm" if finite.size and float(np.abs(finite).max()) < 1.0 else "mm"
     return out
