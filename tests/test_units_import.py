@@ -230,3 +230,27 @@ def test_session_cancel_and_uploads_kept_while_asking(gui_app):
     key = session.answer_unit("m")
     assert key is not None and [it["name"] for it in server.state.items] == ["b.xyz"]
     assert not list(session._tmp.glob("pending-*"))
+
+
+# -- the acceptance wizard uses the same rule ------------------------------------------------------
+def test_wizard_extent_check_is_the_shared_rule():
+    from camcmm.api import GeometryError, InputError
+    from camcmm_plugins.vdi2634.measure import _size_check, check_extent
+
+    corners = _box(_diag(20.0)).points  # a 20 mm artefact's cloud, diagonal exactly 20 mm
+    ball = PointCloud(np.vstack([corners, corners.mean(axis=0) + 0 * corners]), name="ok.ply")  # 16 points
+    check_extent(ball, 20.0, "ok.ply", "sphere")  # fits: no error
+    metres = PointCloud(ball.points / 1000, name="m.ply")  # numbers in metres, read as mm
+    with pytest.raises(InputError, match=r"spans 0\.02 mm .* looks like metres; convert it or give its unit"):
+        check_extent(metres, 20.0, "m.ply", "sphere")
+    mm_as_m = PointCloud(ball.points * 1000, name="x.ply", source_unit="m")  # a plan saying m on mm files
+    with pytest.raises(InputError, match="a file in mm read as metres"):
+        check_extent(mm_as_m, 20.0, "x.ply", "sphere")
+    micro = PointCloud(ball.points * 1000, name="u.ply")  # µm numbers, no unit
+    with pytest.raises(InputError, match=r"looks like µm; convert it or give its unit \(unit: um in the plan\)"):
+        check_extent(micro, 20.0, "u.ply", "sphere")
+    # the fitted diameter: 1/1000 -> metres; 3 x -> not a unit, the wrong artefact
+    with pytest.raises(InputError, match="about 1/1000 of 20 mm; it looks like metres"):
+        _size_check(0.02, 20.0, "m.ply", "sphere")
+    with pytest.raises(GeometryError, match="is this the right file"):
+        _size_check(60.0, 20.0, "big.ply", "sphere")

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import CamcmmError, GeometryError, InputError, PointCloud, read
+from camcmm.api import CamcmmError, GeometryError, InputError, PointCloud, decide_unit, read, suggest_unit
 
 from . import scaling
 from .plan import Plan, PlannedMeasurement
@@ -55,25 +55,42 @@ def _name(cloud: PointCloud, name: str | None) -> str:
     return name or getattr(cloud, "name", "cloud")
 
 
+#: The units an acceptance test's files come in (a scanner's mm or m; µm from a fine
+#: instrument): the candidates of the shared unit rule (camcmm.api.decide_unit) here.
+UNITS = ("m", "mm", "um")
+
+
+def _unit_words(name: str, found: str, unit: str, size: str) -> str:
+    """The wizard's wording of a unit the shared rule suggests instead of ``unit``."""
+    if found == "m" and unit != "m":
+        return f"{size}; it looks like metres; convert it or give its unit (unit: m in the plan)"
+    if unit == "m" and found == "mm":
+        return f"{size}; it looks like a file in mm read as metres; check the unit the plan gives it"
+    return f"{size}; it looks like {found.replace('um', 'µm')}; convert it or give its unit (unit: {found} in the plan)"
+
+
+def _unit(cloud: PointCloud) -> str:
+    """The unit the cloud's file was read in (the plan's ``unit``, the file's, else mm)."""
+    return getattr(cloud, "source_unit", "mm") or "mm"
+
+
 def check_extent(cloud: PointCloud, expected: float, name: str, what: str) -> None:
     """Refuse a cloud whose size says it is in the wrong unit (or is no such artefact).
 
-    ``expected`` is the artefact's size in mm; a cloud 1000 times smaller than it is
-    almost surely a file in metres read as mm, 1000 times larger a file in mm read as
-    metres (``unit: m`` in the plan on mm files)."""
+    ``expected`` is the artefact's size in mm. The decision is camcmm's one unit rule
+    (``decide_unit`` with the expected size, docs/units.md): the cloud's diagonal must
+    lie within expected/50 .. 50 x expected, else a unit that brings it to 0.05 .. 20 x
+    expected is named: a cloud 1000 times too small is a file in metres read as mm, one
+    1000 times too large a file in mm read as metres (``unit: m`` in the plan on mm files)."""
     if cloud.n_points < 10:
         raise GeometryError(f"{name}: only {cloud.n_points} points; too few for a {what}")
-    extent = float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
-    if extent < expected / 50 and 0.05 * expected <= extent * 1000 <= 20 * expected:
-        raise InputError(
-            f"{name}: the cloud spans {extent:.4g} but a {what} of {expected:g} mm was expected; "
-            f"it looks like metres; convert it or give its unit (unit: m in the plan)"
-        )
-    if extent > 50 * expected and 0.05 * expected <= extent / 1000 <= 20 * expected:
-        raise InputError(
-            f"{name}: the cloud spans {extent:.4g} mm but a {what} of {expected:g} mm was expected; "
-            f"it looks like a file in mm read as metres; check the unit the plan gives it"
-        )
+    span = np.ptp(cloud.points, axis=0)
+    unit = _unit(cloud)
+    check = decide_unit(span, unit, unit=unit, expected=expected, name=name, what=what, units=UNITS)
+    if check.asks and check.suggested:
+        extent = float(np.linalg.norm(span))
+        size = f"{name}: the cloud spans {extent:.4g} mm but a {what} of {expected:g} mm was expected"
+        raise InputError(_unit_words(name, check.suggested, unit, size))
 
 
 def _fit(ctx, plugin: str, name: str, expect: str = "", **kw) -> dict[str, Any]:
@@ -114,23 +131,23 @@ def _sphere_summary(fit: dict[str, Any], s: float = 1.0) -> dict[str, Any]:
 
 
 # -- sphere -----------------------------------------------------------------------------------
-def _size_check(d_fit: float, d_ref: float, name: str, what: str) -> None:
+def _size_check(d_fit: float, d_ref: float, name: str, what: str, unit: str = "mm") -> None:
     if abs(d_fit - d_ref) <= SIZE_TOLERANCE * d_ref:
         return
-    if 0.5e-3 <= d_fit / d_ref <= 2e-3:
-        raise InputError(
-            f"{name}: the fitted {what} diameter is {d_fit:.4g}, about 1/1000 of {d_ref:g} mm; "
-            "it looks like metres; convert it or give its unit (unit: m in the plan)"
-        )
-    if 500 <= d_fit / d_ref <= 2000:
-        raise InputError(
-            f"{name}: the fitted {what} diameter is {d_fit:.4g} mm, about 1000 x {d_ref:g} mm; "
-            "it looks like a file in mm read as metres; check the unit the plan gives it"
-        )
+    # the shared unit rule, narrowed to a fitted diameter: another unit must bring it
+    # within a factor 2 of the calibrated one (VDI 2634's 500-2000 ratios for m <-> mm)
+    found = suggest_unit(d_fit, d_ref, unit, within=(0.5, 2.0), units=UNITS)
+    if found is not None:
+        size = f"{name}: the fitted {what} diameter is {d_fit:.4g} mm, about {_ratio(d_fit, d_ref)} {d_ref:g} mm"
+        raise InputError(_unit_words(name, found, unit, size))
     raise GeometryError(
         f"{name}: no {what} of diameter {d_ref:g} mm in it (the least-squares sphere has "
         f"diameter {d_fit:.4g} mm); is this the right file?"
     )
+
+
+def _ratio(a: float, b: float) -> str:
+    return f"1/{b / a:.0f} of" if a < b else f"{a / b:.0f} x"
 
 
 def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:
@@ -144,7 +161,7 @@ def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None)
     check_extent(cloud, d_ref, name, "sphere")
     kw = {"extract": True, "nominal_radius": d_ref / 2} if plan.options.get("extract_sphere") else {}
     fit = _fit(ctx, "fit.sphere", name, f"no sphere of diameter {d_ref:g} mm", cloud=cloud, outliers=rule, **kw)
-    _size_check(2 * fit["radius"], d_ref, name, "sphere")
+    _size_check(2 * fit["radius"], d_ref, name, "sphere", _unit(cloud))
     if fit["n_points"] < 334 and rule == "vdi2634":
         warnings.append(f"{name}: {fit['n_points']} points; below 334 the 3 per 1000 rule removes nothing")
     out = _sphere_summary(fit)
@@ -224,7 +241,7 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
     s = scaling.by_radii([f["radius"] for f in fits], d_nom / 2) if mode == "radii" else 1.0
     if mode == "none":
         for f in fits:
-            _size_check(2 * f["radius"], d_nom, name, "ball-bar sphere")
+            _size_check(2 * f["radius"], d_nom, name, "ball-bar sphere", _unit(cloud))
     axis = np.asarray(fits[1]["center"]) - np.asarray(fits[0]["center"])
     l_a = s * float(np.linalg.norm(axis))
     # the fits' own standard uncertainty of the length (centres along the bar's axis):
@@ -324,7 +341,7 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
         l_m = [s * x for x in l_rec]
     if mode == "none":
         for f in fits:
-            _size_check(2 * f["radius"], d_nom, name, "ball-plate sphere")
+            _size_check(2 * f["radius"], d_nom, name, "ball-plate sphere", _unit(cloud))
     sd = [m - c for m, c in zip(l_m, l_cal)]
     return {
         "test": "ball_plate",
