@@ -3,9 +3,11 @@
 The token, Origin and Sec-Fetch-Site checks of :mod:`camcmm.gui.security` on mocked
 aiohttp requests; the confinement of :mod:`camcmm.gui.roots` (``..``, symlinks,
 relative paths, plugin parameters and inputs); the options of ``camcmm serve`` that
-are refused before anything starts; and a real server probed over raw HTTP and
-websocket: nothing answers without the token, nor to a page of another origin, and the
-default ``wslink-secret`` no longer authenticates.
+are refused before anything starts; and a real server (the session launcher's front and
+its children) probed over raw HTTP and websocket: nothing answers without the token, at
+the front or under a session's ``/s/<id>/``, nor to a page of another origin; the default
+``wslink-secret`` no longer authenticates; a session's child answers nobody but the
+front; an invented session id is refused; the number of sessions is limited.
 """
 
 from __future__ import annotations
@@ -151,6 +153,8 @@ def test_serve_refuses_bad_options_in_one_line(tmp_path):
         (["--port", "0", "--host", "0.0.0.0", "--no-token"], "--no-token: refused"),
         (["--port", "0", "--data-root", str(tmp_path / "nowhere")], "no such folder"),
         (["--port", "99999"], "99999: a port is 0"),
+        (["--port", "0", "--max-sessions", "0"], "--max-sessions 0: at least 1"),
+        (["--port", "0", "--session-idle", "0"], "--session-idle 0: a number of seconds above 0"),
     ):
         r = subprocess.run(
             [sys.executable, "-m", "camcmm.cli.main", "serve", "--project", str(tmp_path / "p"), *args],
@@ -234,22 +238,49 @@ def test_guard_refuses_other_origins_even_with_the_token():
     assert _check(g, "/index.html", framed).status == 403  # the app in another site's frame
 
 
+def test_the_guards_of_the_front_and_of_a_session_child():
+    """The front: a session's page ``/s/<id>/`` is the app page (it gets the websocket
+    secret); ``/`` is not. A child: its own secret in ``Authorization``, the user's token
+    as the websocket's secret, and nothing else opens it."""
+    from camcmm.gui.security import SESSION_APP_PAGE
+
+    token, child_secret = new_token(), new_token()
+    front = Guard(token, app_page=SESSION_APP_PAGE)
+    r = _check(front, f"/?token={token}")
+    assert r.status == 302 and r.headers["Location"] == "./" and r.cookies[front.cookie_name].value == token
+    cookie = {"Cookie": f"{front.cookie_name}={token}"}
+    assert _check(front, "/", cookie) is None  # the launcher's own page: opens a session
+    for page in ("/s/abc-_1/", "/s/abc-_1/index.html"):
+        assert _check(front, page, cookie).headers["Location"] == f"index.html?secret={token}"
+        assert _check(front, page + f"?secret={token}", cookie) is None
+    assert _check(front, "/s/abc/projector", cookie) is None
+    assert _check(front, "/s/abc/", {"Cookie": f"{front.cookie_name}=wrong"}).status == 403
+    child = Guard(child_secret, ws_secret=token)
+    assert child.wslink_args() == [f"--authKey={token}"]
+    assert _check(child, "/", {"Authorization": f"token {child_secret}"}) is None
+    for headers in ({"Authorization": f"token {token}"}, {"Cookie": f"{child.cookie_name}={token}"}, {}):
+        assert _check(child, "/index.html", headers).status == 403
+    assert _check(child, f"/?token={token}").status == 403
+    assert Guard(child_secret, ws_secret=None).wslink_args() == []  # --no-token: the client's default
+
+
 def test_without_a_token_the_origin_is_still_checked():
     g = Guard(None)
     assert _check(g, "/projector/state") is None
     assert _check(g, "/ws", {"Origin": "http://127.0.0.1:9999"}).status == 403
 
 
-# -- a real server ------------------------------------------------------------------------------
+# -- a real server (the front and its session children) ----------------------------------------
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     pytest.importorskip("trame")
     from camcmm.gui.process import GuiProcess
 
     try:
-        s = GuiProcess(tmp_path_factory.mktemp("sec") / "proj")
+        s = GuiProcess(tmp_path_factory.mktemp("sec") / "proj", args=("--max-sessions", "2"))
     except CamcmmError as exc:
         pytest.fail(str(exc))
+    s.opened = []  # the sessions the tests opened: the limit test counts them
     yield s
     s.stop()
 
@@ -259,18 +290,33 @@ class _NoRedirect(urllib.request.HTTPRedirectHandler):
         return None
 
 
-def _http(url, method="GET", headers=None):
+def _http(url, method="GET", headers=None, context=None):
     req = urllib.request.Request(url, method=method, headers=headers or {}, data=b"" if method == "POST" else None)
+    handlers = [_NoRedirect()] + ([urllib.request.HTTPSHandler(context=context)] if context else [])
     try:
-        with urllib.request.build_opener(_NoRedirect).open(req, timeout=20) as r:
+        with urllib.request.build_opener(*handlers).open(req, timeout=60) as r:
             return r.status, dict(r.headers), r.read()
     except urllib.error.HTTPError as e:
         return e.code, dict(e.headers), e.read()
 
 
-def test_the_server_answers_nothing_without_its_token(server):
+def _open_session(server, context=None) -> str:
+    """What a new tab does: ``/`` gives it a session of its own, ``s/<id>/``."""
+    status, headers, body = _http(server.base, headers={"Authorization": f"token {server.token}"}, context=context)
+    assert status == 302 and headers["Location"].startswith("s/"), (status, body)
+    sid = headers["Location"][2:].rstrip("/")
+    getattr(server, "opened", []).append(sid)
+    return sid
+
+
+@pytest.fixture(scope="module")
+def sid(server):
+    return _open_session(server)
+
+
+def test_the_server_answers_nothing_without_its_token(server, sid):
     assert server.token and len(server.token) >= 43 and server.url == f"{server.base}?token={server.token}"
-    for path in (
+    paths = [
         "",
         "index.html",
         "projector",
@@ -278,24 +324,32 @@ def test_the_server_answers_nothing_without_its_token(server):
         "projector/pattern.png",
         "ws",
         "wz-downloads/report.html",
-        "assets/x.js",
-    ):
+    ]
+    paths += ["assets/x.js", "s/invented/", f"s/{sid}/", f"s/{sid}/index.html", f"s/{sid}/ws", f"s/{sid}/assets/x.js"]
+    paths += [f"s/{sid}/projector", f"s/{sid}/projector/state", f"s/{sid}/wz-downloads/report.html"]
+    for path in paths:
         status, _, body = _http(server.base + path)
         assert status == 403 and b"token" in body and len(body) < 200, (path, status, body)
     assert _http(server.base + "projector/ack?v=1", "POST")[0] == 403
+    assert _http(server.base + f"s/{sid}/projector/ack?v=1", "POST")[0] == 403
     status, headers, _ = _http(server.url)
     assert status == 302 and server.token in headers["Set-Cookie"] and "HttpOnly" in headers["Set-Cookie"]
     auth = {"Authorization": f"token {server.token}"}
-    status, headers, body = _http(server.base + "projector/state", headers=auth)
+    status, headers, body = _http(server.base + f"s/{sid}/projector/state", headers=auth)
     assert status == 200 and json.loads(body)["version"] == 0
     assert headers["X-Frame-Options"] == "SAMEORIGIN" and "frame-ancestors 'self'" in headers["Content-Security-Policy"]
-    assert _http(server.base + "projector/ack?v=1", "POST", auth)[0] == 200
-    assert _http(server.base + "projector/ack?v=1", "POST", {**auth, "Origin": "http://127.0.0.1:1"})[0] == 403
+    ack = server.base + f"s/{sid}/projector/ack?v=1"
+    assert _http(ack, "POST", auth)[0] == 200
+    assert _http(ack, "POST", {**auth, "Origin": "http://127.0.0.1:1"})[0] == 403
+    # the app page of a session hands the trame client its websocket secret, as before
+    cookie = {"Cookie": f"camcmm-token-{server.base.rsplit(':', 1)[1].strip('/')}={server.token}"}
+    status, headers, _ = _http(server.base + f"s/{sid}/", headers=cookie)
+    assert status == 302 and headers["Location"] == f"index.html?secret={server.token}"
 
 
-def test_the_websocket_needs_the_token_the_origin_and_the_secret(server):
+def test_the_websocket_needs_the_token_the_origin_and_the_secret(server, sid):
     async def probe():
-        ws_url = server.base.replace("http", "ws", 1) + "ws"
+        ws_url = server.base.replace("http", "ws", 1) + f"s/{sid}/ws"
         own = server.base.rstrip("/")
         results = {}
         async with aiohttp.ClientSession() as http:
@@ -329,6 +383,53 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server):
     assert r["no token"] == 403 and r["other origin"] == 403, r
     assert "error" in r["default secret"] and "result" not in r["default secret"], r
     assert "result" in r["token"], r
+
+
+def test_a_session_child_answers_nobody_but_the_front(server, sid):
+    """The child listens on 127.0.0.1 with a secret only the front holds: the user's token,
+    cookie or Origin get nothing from it, over HTTP or websocket."""
+    import re
+
+    ports = dict(re.findall(r"session (\S{6}): ready on 127\.0\.0\.1:(\d+)", "".join(server.log)))
+    port = ports[sid[:6]]
+    child = f"http://127.0.0.1:{port}/"
+    cookie = {"Cookie": f"camcmm-token-{port}={server.token}"}
+    for headers in ({}, {"Authorization": f"token {server.token}"}, cookie, {"Origin": f"http://127.0.0.1:{port}"}):
+        for path in ("", "index.html", "projector/state", f"index.html?secret={server.token}"):
+            status, _, body = _http(child + path, headers=headers)
+            assert status == 403, (path, headers, status, body)
+        assert _http(child + f"?token={server.token}")[0] == 403
+
+    async def ws():
+        async with aiohttp.ClientSession() as http:
+            try:
+                async with http.ws_connect(
+                    child.replace("http", "ws") + "ws", headers={"Authorization": f"token {server.token}"}
+                ):
+                    return "open"
+            except aiohttp.WSServerHandshakeError as e:
+                return e.status
+
+    assert asyncio.run(ws()) == 403
+
+
+def test_an_invented_session_id_is_refused(server):
+    auth = {"Authorization": f"token {server.token}"}
+    status, headers, body = _http(server.base + "s/AAAAAAAAAAAAAAAA/", headers=auth)
+    assert status == 404 and b"no such session" in body and b"Open a new session" in body
+    assert b"Traceback" not in body and headers["X-Frame-Options"] == "SAMEORIGIN"
+    for path in ("s/AAAAAAAAAAAAAAAA/ws", "s/AAAAAAAAAAAAAAAA/projector/state", "s/../etc/passwd", "s/%2e%2e/x"):
+        status, _, body = _http(server.base + path, headers=auth)
+        assert status in (400, 404) and body.count(b"\n") <= 1 and b"Traceback" not in body, (path, status, body)
+
+
+def test_the_number_of_sessions_is_limited(server, sid):
+    """--max-sessions 2: the third tab gets a one-line 503; nothing else is started."""
+    while len(server.opened) < 2:
+        _open_session(server)
+    status, _, body = _http(server.base, headers={"Authorization": f"token {server.token}"})
+    assert status == 503 and body.count(b"\n") == 1 and b"--max-sessions" in body, (status, body)
+    assert b"2 sessions are open" in body
 
 
 def _wslink_frame(obj) -> bytes:
@@ -461,12 +562,10 @@ def test_https_with_certfile_and_keyfile(tmp_path):
         assert s.url.startswith("https://127.0.0.1:") and s.token
         ctx = ssl.create_default_context(cafile=str(cert))
         ctx.check_hostname = False
-        req = urllib.request.Request(s.base + "projector/state", headers={"Authorization": f"token {s.token}"})
-        with urllib.request.urlopen(req, context=ctx, timeout=20) as r:
-            assert r.status == 200
-        with pytest.raises(urllib.error.HTTPError) as e:
-            urllib.request.urlopen(s.base + "projector/state", context=ctx, timeout=20)
-        assert e.value.code == 403
+        sid = _open_session(s, context=ctx)
+        state = s.base + f"s/{sid}/projector/state"
+        assert _http(state, headers={"Authorization": f"token {s.token}"}, context=ctx)[0] == 200
+        assert _http(state, context=ctx)[0] == 403
     finally:
         s.stop()
 

@@ -278,11 +278,14 @@ def start(
     allowed_origins: Any = (),
     certfile: str | None = None,
     keyfile: str | None = None,
+    ws_secret: Any = "token",
+    announce: Any = None,
 ) -> None:
     """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once
     listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`):
     ``"auto"`` makes a random one, ``None`` (no token) is refused beyond loopback.
-    ``certfile``/``keyfile``: serve HTTPS."""
+    ``certfile``/``keyfile``: serve HTTPS. A session child (:mod:`camcmm.gui.launcher`)
+    gives its websocket's own ``ws_secret`` and ``announce(port)`` instead of the URL."""
     from .security import Guard, binding_warning, is_loopback, new_token
 
     if token == "auto":
@@ -296,14 +299,17 @@ def start(
     warning = binding_warning(host, tls)
     if warning:
         print(warning, file=sys.stderr, flush=True)
-    guard = Guard(token, allowed_origins)
+    guard = Guard(token, allowed_origins) if ws_secret == "token" else Guard(token, allowed_origins, ws_secret)
     guard.install(server)
     server.guard = guard
     scheme = "https" if tls else "http"
     # a wildcard address is no address to open: show the machine's name, as Jupyter does
     shown = socket.gethostname() if host in ("0.0.0.0", "::", "") else (f"[{host}]" if ":" in host else host)
 
-    def announce(**_):
+    def ready(**_):
+        if announce is not None:
+            announce(server.port)
+            return
         url = guard.url(f"{scheme}://{shown}:{server.port}/")
         print(f"camcmm GUI: {url}", flush=True)
         if open_browser:
@@ -311,7 +317,7 @@ def start(
 
             webbrowser.open(url)
 
-    server.controller.on_server_ready.add(announce)
+    server.controller.on_server_ready.add(ready)
     extra = guard.wslink_args() + (["--ssl", f"{certfile},{keyfile}"] if tls else [])
     try:
         with _bare_argv(extra):
@@ -348,7 +354,9 @@ def port_number(text: str) -> int:
 
 def add_serve_arguments(ap: Any) -> None:
     """The options ``camcmm serve`` and ``python -m camcmm.gui`` share (besides the
-    project and the port): data roots, token, origins, TLS."""
+    project and the port): data roots, token, origins, TLS, sessions."""
+    import argparse
+
     ap.add_argument(
         "--host",
         default="127.0.0.1",
@@ -380,6 +388,28 @@ def add_serve_arguments(ap: Any) -> None:
     )
     ap.add_argument("--certfile", help="TLS certificate (PEM): serve HTTPS")
     ap.add_argument("--keyfile", help="TLS private key (PEM) of --certfile")
+    from .launcher import DEFAULT_IDLE_S, DEFAULT_MAX_SESSIONS
+
+    ap.add_argument(
+        "--max-sessions",
+        type=int,
+        default=DEFAULT_MAX_SESSIONS,
+        metavar="N",
+        help=f"browser sessions (tabs), each its own process of ~0.6 GB, open at once (default {DEFAULT_MAX_SESSIONS})",
+    )
+    ap.add_argument(
+        "--session-idle",
+        type=float,
+        default=DEFAULT_IDLE_S,
+        metavar="S",
+        help=f"stop a session's process S seconds after its last tab closed (default {DEFAULT_IDLE_S:g})",
+    )
+    ap.add_argument(
+        "--single-session",
+        action="store_true",
+        help="one process for every tab, as before: tabs share their page state (for debugging)",
+    )
+    ap.add_argument("--session-child", action="store_true", help=argparse.SUPPRESS)  # started by the launcher only
 
 
 def serve(
@@ -395,6 +425,10 @@ def serve(
     allowed_origins: Iterable[str] = (),
     certfile: str | None = None,
     keyfile: str | None = None,
+    single_session: bool = False,
+    max_sessions: int | None = None,
+    session_idle: float | None = None,
+    session_child: bool = False,
 ) -> None:
     """Open (or create) the project in ``project_dir`` and serve the GUI until stopped.
 
@@ -403,14 +437,42 @@ def serve(
     ``token_file`` / ``$CAMCMM_TOKEN``; ``no_token`` only on a loopback ``host``. The
     browser reaches only the project folder and ``data_roots``. Bad options raise a
     one-line :class:`~camcmm.errors.CamcmmError` before anything starts.
+
+    By default each browser session gets a process of its own behind a front server
+    (:mod:`camcmm.gui.launcher`: ``max_sessions``, ``session_idle`` seconds);
+    ``single_session`` serves every tab from one process (one shared page state).
+    ``session_child``: this process is one session, started by the launcher.
     """
+    from .security import binding_warning, choose_token
+
+    if session_child:
+        return _serve_child(project_dir, server_name, data_roots)
+    token = choose_token(host, no_token=no_token, token_file=token_file)
+    from .roots import Roots
+
+    Roots(project_dir, data_roots)  # a missing --data-root is refused before the project is made
+    if not single_session:
+        from .launcher import DEFAULT_IDLE_S, DEFAULT_MAX_SESSIONS, serve_sessions
+
+        warning = binding_warning(host, bool(certfile))
+        if warning:
+            print(warning, file=sys.stderr, flush=True)
+        return serve_sessions(
+            project_dir,
+            host=host,
+            port=port,
+            token=token,
+            data_roots=data_roots,
+            allowed_origins=allowed_origins,
+            certfile=certfile,
+            keyfile=keyfile,
+            max_sessions=DEFAULT_MAX_SESSIONS if max_sessions is None else max_sessions,
+            idle=DEFAULT_IDLE_S if session_idle is None else session_idle,
+            open_browser=open_browser,
+        )
     from .. import worker
     from .pages import preload
-    from .roots import Roots
-    from .security import choose_token
 
-    token = choose_token(host, no_token=no_token, token_file=token_file)
-    Roots(project_dir, data_roots)  # a missing --data-root is refused before the project is made
     preload()  # pages registered by the modules of $CAMCMM_GUI_PRELOAD
     server, session = build(server_name, project_dir, data_roots=data_roots)
     worker.warm_later(session.host)  # the plugin worker process starts while the page loads
@@ -426,6 +488,20 @@ def serve(
     )
 
 
+def _serve_child(project_dir: str | Path, server_name: str, data_roots: Iterable[str | Path]) -> None:
+    """One session behind the launcher: 127.0.0.1, a free port, the launcher's secret."""
+    from .. import worker
+    from .launcher import child
+    from .pages import preload
+
+    secret, ws_secret = child.take_secrets()
+    preload()
+    server, session = build(server_name, project_dir, data_roots=data_roots)
+    worker.warm_later(session.host)
+    child.prepare(server, session)
+    start(server, host="127.0.0.1", port=0, token=secret, ws_secret=ws_secret, announce=child.announce)
+
+
 def serve_from_args(project: str | Path, args: Any, port: int, open_browser: bool = False) -> None:
     """:func:`serve` with the options of :func:`add_serve_arguments`."""
     serve(
@@ -439,6 +515,10 @@ def serve_from_args(project: str | Path, args: Any, port: int, open_browser: boo
         allowed_origins=args.allow_origin,
         certfile=args.certfile,
         keyfile=args.keyfile,
+        single_session=args.single_session,
+        max_sessions=args.max_sessions,
+        session_idle=args.session_idle,
+        session_child=args.session_child,
     )
 
 

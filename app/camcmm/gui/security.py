@@ -19,6 +19,12 @@ download folders and ``/projector*`` — does three checks:
 
 Refusals are ``403`` with one line of text. The token is random per launch
 (:func:`new_token`), or a fixed password from ``$CAMCMM_TOKEN`` or a token file.
+
+Behind the session launcher (:mod:`camcmm.gui.launcher`) the front server runs this
+guard with the user's token and the app pages ``/s/<id>/``; each session's child process
+runs it with a secret of its own that only the front knows (sent as
+``Authorization: token …``), while the child's websocket secret stays the user's token
+(``ws_secret``), the one the browser already holds.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import os
+import re
 import secrets
 from collections.abc import Iterable
 from pathlib import Path
@@ -38,7 +45,10 @@ TOKEN_ENV = "CAMCMM_TOKEN"
 MIN_TOKEN_LENGTH = 16
 SECURITY_DOC = "docs/security.md"
 #: the paths of the app page (the ones that get ``?secret=`` for the trame client)
-APP_PAGES = ("/", "/index.html")
+APP_PAGE = re.compile(r"/(index\.html)?")
+#: behind the launcher: a session's app page
+SESSION_APP_PAGE = re.compile(r"/s/[A-Za-z0-9_-]+/(index\.html)?")
+_SAME = object()
 #: on every response: no page of another origin frames the app (clicks through a
 #: transparent frame), and no address with the secret leaves in a Referer
 HEADERS = {
@@ -117,15 +127,34 @@ def _netloc(scheme: str, netloc: str) -> tuple[str, int | None] | None:
     return host, port
 
 
+def _equal(supplied: str | None, secret: str) -> bool:
+    return supplied is not None and hmac.compare_digest(
+        str(supplied).encode("utf-8", "replace"), secret.encode("utf-8")
+    )
+
+
 class Guard:
     """The checks above, for one server. ``token=None`` checks the origin only
-    (``--no-token`` on a loopback address)."""
+    (``--no-token`` on a loopback address). ``ws_secret``: the websocket's secret when
+    it is not the token (a session child's); ``app_page``: the paths that are the app
+    page (a regular expression matched in full)."""
 
-    def __init__(self, token: str | None, allowed_origins: Iterable[str] = ()):
+    def __init__(
+        self,
+        token: str | None,
+        allowed_origins: Iterable[str] = (),
+        ws_secret: Any = _SAME,
+        app_page: re.Pattern[str] = APP_PAGE,
+    ):
         self.token = token
+        self.ws_secret: str | None = token if ws_secret is _SAME else ws_secret
         self.allowed_origins = frozenset(o.rstrip("/").lower() for o in allowed_origins if o)
+        self.app_page = app_page
         self.cookie_name = "camcmm-token"
         self.refused = 0  # count, for tests and the log
+
+    def is_app_page(self, path: str) -> bool:
+        return self.app_page.fullmatch(path) is not None
 
     # -- wiring ----------------------------------------------------------------------------
     def install(self, server: Any) -> None:
@@ -149,7 +178,7 @@ class Guard:
         """trame's command-line arguments that make the websocket's secret the token."""
         # "--authKey=VALUE": a token may begin with "-" (token_urlsafe gives one in 64), which
         # argparse would take for an option after a separate "--authKey"
-        return [f"--authKey={self.token}"] if self.token else []
+        return [f"--authKey={self.ws_secret}"] if self.ws_secret else []
 
     # -- checks ----------------------------------------------------------------------------
     def origin_ok(self, origin: str, request: Any) -> bool:
@@ -166,11 +195,7 @@ class Guard:
         return mine is not None and _netloc(u.scheme, u.netloc) == mine
 
     def token_ok(self, supplied: str | None) -> bool:
-        return (
-            bool(self.token)
-            and supplied is not None
-            and hmac.compare_digest(str(supplied).encode("utf-8", "replace"), self.token.encode("utf-8"))
-        )
+        return bool(self.token) and _equal(supplied, self.token)
 
     def _header_token(self, request: Any) -> str | None:
         auth = request.headers.get("Authorization", "")
@@ -190,7 +215,7 @@ class Guard:
         too) with ``query``; setting the cookie on the way."""
         from aiohttp import web
 
-        if request.path in APP_PAGES:
+        if self.is_app_page(request.path):
             name = "index.html"
         else:
             name = request.path.rsplit("/", 1)[-1] or "./"
@@ -227,8 +252,8 @@ class Guard:
             if not self.token_ok(query.pop("token")):
                 return self._refuse("wrong token: open the address camcmm serve printed")
             if request.method == "GET" and not upgrade:
-                if request.path in APP_PAGES:
-                    query["secret"] = self.token
+                if self.is_app_page(request.path) and self.ws_secret:
+                    query["secret"] = self.ws_secret
                 return self._redirect(request, query, set_cookie=True)
             return None
         if self.token_ok(self._header_token(request)):
@@ -236,11 +261,12 @@ class Guard:
         if self.token_ok(request.cookies.get(self.cookie_name)):
             if (
                 request.method == "GET"
-                and request.path in APP_PAGES
+                and self.is_app_page(request.path)
+                and self.ws_secret
                 and not upgrade
-                and not self.token_ok(query.get("secret"))
+                and not _equal(query.get("secret"), self.ws_secret)
             ):
-                query["secret"] = self.token  # a reload: the client removed it from the address
+                query["secret"] = self.ws_secret  # a reload: the client removed it from the address
                 return self._redirect(request, query, set_cookie=False)
             return None
         return self._refuse(
