@@ -1,8 +1,10 @@
 """``camcmm uncertainty budget|iso15530-3|montecarlo FILE.yaml [--json]``
 
 * ``budget FILE``: a GUM budget. JSON keys ``combined, dof_eff, k, expanded,
-  coverage_probability, contributions`` (+ ``quantity, unit, dof_eff_infinite, warnings``);
-  an infinite dof is written as ``null``.
+  coverage_probability, contributions`` (+ ``quantity, unit, dof_eff_infinite, warnings``;
+  per contribution + ``entered_as, entered_value, divisor, coverage_factor, conversion``);
+  an infinite dof is written as ``null``. An entry gives u, or half_width + distribution,
+  or expanded + k (see :mod:`.distributions`).
 * ``iso15530-3 FILE``: ISO 15530-3 with a calibrated workpiece. JSON keys ``mean, bias,
   u_cal, u_p, u_b, u_w, k, U, n`` (+ ``U_uncorrected_bias, combined, shares``).
 * ``montecarlo FILE [--iterations N] [--seed S] [--method linear|optimal]
@@ -143,6 +145,8 @@ def text(result: dict[str, Any]) -> str:
                 f"  {c['name']:28} u={_g(c['u'])} c={_g(c['c'])} |c|u={_g(c['contribution'])} "
                 f"dof={_g(c['dof'])} {c['distribution']:11} share {100 * c['share']:.1f} %"
             )
+            if c.get("entered_as", "u") != "u":
+                lines.append(f"  {'':28} entered as {c['conversion']}")
         lines += [f"warning: {w}" for w in result.get("warnings", [])]
         return "\n".join(lines)
     if "u_cal" in result:  # iso15530-3

@@ -13,9 +13,11 @@ known exactly) and the distribution it was evaluated with. :func:`evaluate` give
   GUM G.4.1 allows (``dof_rounding="none"`` uses the fractional value),
 * the expanded uncertainty ``U = k·u_c`` and each contribution's share of ``u_c^2``.
 
-A contribution may give a half-width ``a`` instead of ``u``; ``u`` is then ``a``
-divided by the distribution's divisor (rectangular √3, triangular √6, U-shaped √2,
-normal: ``a`` is taken as an expanded uncertainty with ``k_a``, default 2).
+A contribution may state a half-width ``a`` with its distribution (u = a/√3
+rectangular, GUM 4.3.7; a/√6 triangular, GUM 4.3.9; a/√2 U-shaped, JCGM 101 6.4.6) or
+an expanded uncertainty ``U`` with its coverage factor ``k`` (u = U/k, GUM 4.3.3)
+instead of ``u``: :mod:`.distributions` converts, and the JSON says how each was
+entered (``entered_as``, ``entered_value``, ``divisor``, ``conversion``).
 
 Numbers only; no camcmm imports besides the error types.
 """
@@ -31,8 +33,8 @@ import numpy as np
 
 from camcmm.api import InputError
 
-DISTRIBUTIONS = ("normal", "rectangular", "triangular", "u-shaped", "student-t")
-DIVISORS = {"rectangular": math.sqrt(3.0), "triangular": math.sqrt(6.0), "u-shaped": math.sqrt(2.0)}
+from .distributions import DISTRIBUTIONS, DIVISORS, Entered, standard_uncertainty  # noqa: F401 (re-exported)
+
 INF_WORDS = {"inf", "infinity", "∞", "oo"}
 
 
@@ -45,6 +47,8 @@ class Contribution:
     c: float = 1.0
     dof: float = math.inf
     distribution: str = "normal"
+    entered: Entered | None = field(default=None, compare=False)
+    unit: str = ""  # the input quantity's unit when stated (u is in it; c converts)
 
     @property
     def value(self) -> float:
@@ -94,11 +98,28 @@ class Budget:
                     "distribution": c.distribution,
                     "contribution": c.value,
                     "share": s,
+                    **_entered(c, self.unit),
                 }
                 for c, s in zip(self.contributions, self.shares)
             ],
             "warnings": list(self.warnings),
         }
+
+
+def _entered(c: Contribution, unit: str) -> dict[str, Any]:
+    """How the contribution was stated (keys added to the JSON of issue 15). The input's
+    own unit if the entry states one, else the measurand's when c = 1 (else none: an
+    input such as a temperature is not in the measurand's unit)."""
+    e = c.entered or Entered(c.u, c.distribution, "u", c.u, 1.0)
+    unit = c.unit or (unit if c.c == 1 else "")
+    return {
+        "input_unit": unit,
+        "entered_as": e.entered_as,
+        "entered_value": e.value,
+        "divisor": e.divisor,
+        "coverage_factor": e.k,
+        "conversion": e.text(unit),
+    }
 
 
 def _number(value: Any, what: str) -> float:
@@ -122,24 +143,8 @@ def contribution_from_dict(d: Mapping[str, Any], index: int = 0) -> Contribution
         raise InputError(f"contribution {index + 1}: expected a mapping with name and u, got {d!r}")
     name = str(d.get("name", f"#{index + 1}"))
     tag = f"contribution {index + 1} ({name!r})"
-    dist = str(d.get("distribution", "normal")).strip().lower()
-    if dist not in DISTRIBUTIONS:
-        raise InputError(f"{tag}: unknown distribution {dist!r}; use one of {', '.join(DISTRIBUTIONS)}")
-    if d.get("u") is not None:
-        u = _number(d["u"], f"{tag} u")
-    elif d.get("a") is not None or d.get("half_width") is not None:
-        a = _number(d.get("a", d.get("half_width")), f"{tag} half-width a")
-        if a < 0:
-            raise InputError(f"{tag}: half-width a = {a} must be >= 0")
-        if dist in DIVISORS:
-            u = a / DIVISORS[dist]
-        else:
-            k_a = _number(d.get("k_a", 2.0), f"{tag} k_a")
-            if not k_a > 0:
-                raise InputError(f"{tag}: k_a = {k_a} must be > 0")
-            u = a / k_a
-    else:
-        raise InputError(f"{tag}: missing standard uncertainty u (or half-width a)")
+    entered = standard_uncertainty(d, tag, _number)
+    u = entered.u
     if not (u >= 0) or math.isinf(u):
         raise InputError(f"{tag}: standard uncertainty u = {u} must be a finite number >= 0")
     c = _number(d.get("c", 1.0), f"{tag} sensitivity c")
@@ -150,7 +155,8 @@ def contribution_from_dict(d: Mapping[str, Any], index: int = 0) -> Contribution
         raise InputError(
             f"{tag}: degrees of freedom dof = {dof:g} must be > 0 (use inf for an exactly known type B contribution)"
         )
-    return Contribution(name=name, u=u, c=c, dof=dof, distribution=dist)
+    unit = str(d.get("unit") or "")
+    return Contribution(name=name, u=u, c=c, dof=dof, distribution=entered.distribution, entered=entered, unit=unit)
 
 
 def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -> float:

@@ -57,17 +57,24 @@ def iso15530_3(ctx: RunContext, spec: Any, k: float | None = None) -> dict[str, 
 
 def montecarlo(
     ctx: RunContext,
-    spec: Any,
+    spec: Any = None,
     iterations: int | None = None,
     seed: int | None = None,
     method: str | None = None,
     scheduler: str | None = None,
     studies: str = "",
+    **system: Any,
 ) -> dict[str, Any]:
+    """The study of ``spec``, or without one of the system the declared parameters
+    (``system``: focal_length, baseline, u_rotation … see :mod:`.declared_system`) describe."""
+    from .declared_system import NAMES, system_document
     from .montecarlo import run_study
 
-    doc, base = load_spec(spec)
-    return run_study(
+    unknown = sorted(set(system) - set(NAMES))
+    if unknown:
+        raise InputError(f"parameter {unknown[0]!r}: not a parameter of the stereo system")
+    doc = load_spec(spec)[0] if spec is not None else system_document(system)
+    out = run_study(
         doc,
         iterations=iterations,
         seed=seed,
@@ -77,3 +84,5 @@ def montecarlo(
         progress=ctx.progress,
         warn=ctx.warn,
     )
+    out.setdefault("system", doc)
+    return out
