@@ -29,7 +29,13 @@ def cli_json(*args) -> dict:
 
 
 def run_mc(page, spec, params):
-    return asyncio.run(page.run_montecarlo_async(spec, params))
+    """Run the study of the system file text ``spec`` (the form's "load YAML" option),
+    or of the form's fields when ``spec`` is None; None when it cannot start or fails."""
+    if spec is None:
+        page.use_fields()
+    elif not page.load_system(spec, "system.yaml"):
+        return None
+    return asyncio.run(page.run_montecarlo_async(params))
 
 
 def test_budget_editor_reproduces_gum_h1_and_the_cli(gui_app):
@@ -75,6 +81,102 @@ def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(gui_app, tmp_pa
     assert server2.state.unc_b_rows[1]["dof"] == "0"
     assert page.load_budget(b"contributions: 3", "x.yaml") is False
     assert "x.yaml" in s.unc_error
+
+
+def test_budget_rows_entered_as_half_width_or_expanded_show_the_conversion(gui_app):
+    """Each row is entered as u, a half-width a with its distribution or an expanded U with
+    k; the table shows the u the plugin made of it and how (GUM 4.3.3-4.3.9)."""
+    server, _ = gui_app()
+    page, s = server.pages["uncertainty"], server.state
+    row = {"name": "rot", "kind": "a", "value": "2.0", "distribution": "rectangular", "k": "", "c": "1", "dof": "14"}
+    plain = dict(row, kind="u", value=repr(2.0 / math.sqrt(3)))
+    first = {"name": "feature", "kind": "u", "value": "3.1", "distribution": "normal", "k": "", "c": "1", "dof": "inf"}
+    page.set_budget("x", "um", 0.95, [first, row])
+    assert s.unc_b_result["rows"][1]["conversion"] == "a = 2 µm, rectangular → u = a/√3 = 1.155 µm"
+    assert s.unc_b_result["rows"][1]["u"] == "1.155" and s.unc_b_result["rows"][0]["entered_as"] == "u"
+    stated = dict(page.budget)
+    page.set_budget("x", "um", 0.95, [first, plain])  # the same row entered as u = a/√3
+    for key in ("combined", "dof_eff", "k", "expanded"):
+        assert page.budget[key] == stated[key]
+    page.set_budget("x", "um", 0.95, [first, dict(row, kind="U", distribution="normal", value="3", k="2")])
+    assert s.unc_b_result["rows"][1]["conversion"] == "U = 3 µm, normal with k = 2 → u = U/k = 1.5 µm"
+    # bad combinations: one line naming the row; the page keeps working
+    for bad, needle in (
+        (dict(row, value="-2"), "half-width a = -2"),
+        (dict(row, distribution="cauchy"), "unknown distribution"),
+        (dict(row, kind="U", distribution="normal", value="3"), "needs its coverage factor k"),
+        (dict(row, distribution="student-t"), "student-t"),
+    ):
+        assert page.set_budget("x", "um", 0.95, [first, bad]) is None
+        assert needle in s.unc_b_error and "'rot'" in s.unc_b_error and "\n" not in s.unc_b_error
+    # the rows come back from the stored draft as entered
+    page.set_budget("x", "um", 0.95, [first, row])
+    server2, _ = gui_app(server.session.project.path)
+    assert server2.state.unc_b_rows[1]["kind"] == "a" and server2.state.unc_b_rows[1]["value"] == "2.0"
+
+
+def test_gum_h1_entered_as_the_gum_states_it_through_the_editor(gui_app):
+    """GUM H.1 with U = 75 nm (k = 3) and the rectangular bounds typed as half-widths:
+    u_c 31.7 nm, nu_eff 16.8 (16 for t; GUM 16.7 from its rounded u), U 92.5 nm (GUM: 93 nm
+    = 2.92 x 32 nm); the same numbers as the CLI on the file."""
+    server, _ = gui_app()
+    page, s = server.pages["uncertainty"], server.state
+    assert page.load_budget((DATA / "budget_gum_h1_half_widths.yaml").read_bytes(), "h1.yaml")
+    assert [r["kind"] for r in s.unc_b_rows] == ["U", "u", "a", "u", "a", "a"]
+    assert page.budget["combined"] == pytest.approx(31.7, abs=0.05)
+    assert page.budget["dof_eff"] == pytest.approx(16.7, abs=0.1) and math.floor(page.budget["dof_eff"]) == 16
+    assert float(s.unc_b_result["k"]) == pytest.approx(2.92, abs=0.005)
+    assert abs(page.budget["expanded"] - 93) < 1
+    assert "u = a/√3 = 0.02887 °C" in s.unc_b_result["rows"][5]["conversion"]
+    cli = cli_json("uncertainty", "budget", str(DATA / "budget_gum_h1_half_widths.yaml"))
+    for key in ("combined", "dof_eff", "k", "expanded"):
+        assert page.budget[key] == pytest.approx(cli[key], rel=1e-12)
+
+
+def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
+    """No YAML box: the system is the plugin's declared fields (defaults: the thesis system),
+    units as suffixes only; a run from the fields is stored with them and shown again."""
+    server, session = gui_app()
+    page, s = server.pages["uncertainty"], server.state
+    assert "unc_mc_spec" not in s.to_dict()
+    declared = {p.name: p for p in session.host.provider("monte-carlo-uncertainty").parameters}
+    fields = s.unc_mc_fields_system + s.unc_mc_fields_errors + s.unc_mc_fields_run
+    names = {f["name"] for f in fields}
+    assert {"focal_length", "pixel_pitch", "baseline", "axes_angle", "u_rotation", "u_translation"} <= names
+    assert names == set(declared) - {"studies"}
+    for f in fields:
+        assert "[" not in f["label"] and f.get("unit", "") == declared[f["name"]].unit  # the unit once: the suffix
+        assert f.get("help"), f["name"]  # the tooltip (param_form's title)
+    assert s.unc_mc_params["focal_length"] == "16.74, 16.66" and s.unc_mc_params["u_rotation"] == "184, 152, 71"
+    params = dict(s.unc_mc_params, grid_points="4, 3, 3", iterations=200, studies=[])
+    full = run_mc(page, None, params)
+    assert full is not None, s.unc_error
+    assert full["system"]["grid"]["n"] == [4, 3, 3] and full["system"]["stereo"]["baseline"] == 199.35
+    assert full["form"]["grid_points"] == [4.0, 3.0, 3.0]
+    server2, _ = gui_app(session.project.path)
+    assert server2.state.unc_mc_params["grid_points"] == "4, 3, 3" and not server2.state.unc_mc_loaded
+    # a bad field: one line naming it, nothing runs
+    assert run_mc(page, None, dict(params, baseline="-5")) is None
+    assert "baseline" in s.unc_error and "\n" not in s.unc_error
+
+
+def test_every_control_of_the_page_has_a_tooltip_and_run_its_shortcut(gui_app):
+    import re
+
+    from trame.ui.vuetify3 import VAppLayout
+
+    from camcmm.gui.pages.uncertainty import layout
+
+    server, _ = gui_app()
+    with VAppLayout(server, template_name="unc_probe") as lay:
+        layout.build(server.pages["uncertainty"])
+    html = lay.html
+    controls = re.findall(r"<(VTextField|VSelect|VBtn|VFileInput|VTab|VSwitch|VBtnToggle|VTextarea)\b([^>]*)>", html)
+    assert len(controls) > 30
+    assert [c for c, attrs in controls if "title" not in attrs] == []
+    run = re.search(r"<VBtn[^>]*data-testid=\"unc-mc-run\"[^>]*>", html).group(0)
+    assert 'data-shortcut="run"' in run
+    assert "VTextarea" not in html  # no raw YAML box
 
 
 def test_budget_store_and_export(gui_app):
@@ -163,7 +265,7 @@ def test_montecarlo_bad_input_is_one_line_and_the_page_keeps_working(gui_app):
     server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
     assert run_mc(page, "cameras: [", {}) is None
-    assert "YAML" in s.unc_error and "line" in s.unc_error
+    assert "YAML" in s.unc_error and "line" in s.unc_error and "system.yaml" in s.unc_error
     doc = yaml.safe_load(small_spec())
     doc["uncertainties"]["focal_length"] = [-0.8, 0.8]
     assert run_mc(page, yaml.safe_dump(doc), {"iterations": 50}) is None
@@ -190,8 +292,10 @@ def test_montecarlo_cancel_is_said_and_the_next_run_works(gui_app):
     server, _ = gui_app()
     page, s = server.pages["uncertainty"], server.state
 
+    assert page.load_system(small_spec(), "small.yaml")
+
     async def cancel_soon():
-        task = asyncio.ensure_future(page.run_montecarlo_async(small_spec(), {"iterations": 5_000_000}))
+        task = asyncio.ensure_future(page.run_montecarlo_async({"iterations": 5_000_000}))
         while not s.unc_mc_running and not task.done():
             await asyncio.sleep(0.02)
         await asyncio.sleep(0.3)

@@ -167,7 +167,6 @@ def test_uncertainty_page_refuses_a_small_bomb_upload_and_keeps_working(tmp_path
     """The reported case: a few hundred bytes uploaded as a budget must not grow the server."""
     pytest.importorskip("trame")
     pytest.importorskip("pyvista")
-    import asyncio
     import os
 
     from camcmm.gui.app import build, close
@@ -184,7 +183,7 @@ def test_uncertainty_page_refuses_a_small_bomb_upload_and_keeps_working(tmp_path
         assert s.unc_b_rows == rows_before
         assert page.load_budget(b"quantity: L\ncontributions: []\nquantity: M\n", "dup.yaml") is False
         assert "duplicate key 'quantity'" in s.unc_error
-        assert asyncio.run(page.run_montecarlo_async("cameras: &c [1]\ncameras: *c\n", {})) is None
+        assert page.load_system("cameras: &c [1]\ncameras: *c\n", "system description") is False
         assert s.unc_error.startswith("system description: duplicate key 'cameras'")
     finally:
         close(server)

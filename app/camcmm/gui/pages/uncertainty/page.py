@@ -65,16 +65,22 @@ class UncertaintyPage:
         s.unc_error = ""
         s.unc_b_error = ""
         s.unc_b_distributions = bud.DISTRIBUTIONS
+        s.unc_b_kinds = bud.KINDS
         s.unc_b_result = None
         s.unc_b_fig = figs.empty("the budget's contributions appear here")
         s.unc_b_links = []
-        s.unc_mc_spec = ""
         try:
-            s.unc_mc_fields = study.form_fields(self.host.provider(MONTECARLO_TASK))
+            groups = study.form_fields(self.host.provider(MONTECARLO_TASK))
         except CamcmmError as exc:  # no plugin for the study: the page opens, Run says why
             log.warning("%s", one_line(exc))
-            s.unc_mc_fields = []
-        s.unc_mc_params = dict(study.START)
+            groups = {"run": [], "system": [], "errors": []}
+        s.unc_mc_fields_run, s.unc_mc_fields_system = groups["run"], groups["system"]
+        s.unc_mc_fields_errors = groups["errors"]
+        self.mc_groups = groups
+        s.unc_mc_params = study.start_values(groups)
+        # the "load YAML" option: a system file used instead of the fields until cleared
+        self.mc_system: dict[str, Any] | None = None
+        s.unc_mc_loaded = ""
         s.unc_mc_studies = ["convergence", "volume_maps"]
         s.unc_mc_study_options = study.STUDIES
         s.unc_mc_running = False
@@ -132,7 +138,7 @@ class UncertaintyPage:
 
     def add_row(self) -> None:
         self.state.unc_b_rows = list(self.state.unc_b_rows or []) + [dict(bud.EMPTY_ROW)]
-        self.state.unc_b_error = "a new row: give its name and u"
+        self.state.unc_b_error = "a new row: give its name, how it is entered (u, a or U) and its value"
 
     def remove_row(self, i: int) -> None:
         rows = [r for j, r in enumerate(self.state.unc_b_rows or []) if j != int(i)]
@@ -184,35 +190,50 @@ class UncertaintyPage:
         if self.job.cancel():
             self.state.unc_mc_message = "cancelling …"
 
-    def _compute(self, plugin_id: str, doc: dict[str, Any], values: dict[str, Any]) -> Any:
+    def _compute(self, plugin_id: str, given: dict[str, Any], values: dict[str, Any]) -> Any:
         """Worker: the plugin's run (in a worker process when the host allows)."""
-        return worker.run(
-            self.host, plugin_id, {"spec": doc}, values, progress=self.job.progress, cancel=self.job.cancel_event
-        )
+        return worker.run(self.host, plugin_id, given, values, progress=self.job.progress, cancel=self.job.cancel_event)
 
-    async def run_montecarlo_async(self, spec_text: str, params: dict[str, Any]) -> dict[str, Any] | None:
-        """Run the study of the system ``spec_text`` (YAML) with the form's ``params``
-        (iterations, seed, method, scheduler as typed; studies a list of
-        :data:`~.study.STUDIES`); store and show it. The full
-        result, or None (the reason is in ``unc_error``)."""
+    def load_system(self, text: str | bytes, name: str = "system.yaml") -> bool:
+        """The "load YAML" option: a system file (cameras, stereo, grid, uncertainties; or a
+        stereo calibration) replaces the form's system fields until :meth:`use_fields`."""
+        try:
+            self.mc_system = study.load_system(text, name)
+        except InputError as exc:
+            self._error(exc)
+            return False
+        self.state.unc_mc_loaded = name
+        return True
+
+    def use_fields(self) -> None:
+        """Back to the system of the form's fields."""
+        self.mc_system = None
+        self.state.unc_mc_loaded = ""
+
+    async def run_montecarlo_async(self, params: dict[str, Any]) -> dict[str, Any] | None:
+        """Run the study with the form's ``params`` (the system's fields, iterations, seed,
+        method, scheduler as typed; studies a list of :data:`~.study.STUDIES`) — of the
+        loaded system file instead of the fields if there is one; store and show it. The
+        full result, or None (the reason is in ``unc_error``)."""
         s = self.state
         if self.job.running:
             self._error("a Monte Carlo run is going on; wait for it or cancel it")
             return None
         try:
             spec = self.host.provider(MONTECARLO_TASK)
-            doc, values = study.inputs(spec_text, params, spec)
+            given, values = study.inputs(params, spec, self.mc_system)
         except Exception as exc:
             self._error(exc)
             return None
+        form = None if self.mc_system is not None else {k: v for k, v in values.items() if k != "studies"}
         self.job.begin()
         s.unc_mc_running, s.unc_mc_progress, s.unc_mc_message, s.unc_error = True, 0.0, "starting …", ""
         self.flush()
         try:
-            run = await self.job.call(self._compute, spec.id, doc, values)
+            run = await self.job.call(self._compute, spec.id, given, values)
             s.unc_mc_message = "storing the result in the project …"
             self.flush()
-            rid, h = await self.job.call(study.store, self.project, run, doc)
+            rid, h = await self.job.call(study.store, self.project, run, given.get("spec"), form)
             full = await self.job.call(study.read, self.project, h)
         except Exception as exc:
             status, line = Job.outcome(exc)
@@ -277,8 +298,6 @@ class UncertaintyPage:
     # -- restore -----------------------------------------------------------------------------
     def restore(self) -> None:
         """The draft budget (or the shipped example) and the last stored Monte Carlo run."""
-        import yaml
-
         s = self.state
         try:
             draft = self.project.get_state(DRAFT_KEY)
@@ -297,15 +316,14 @@ class UncertaintyPage:
             save_draft=False,
         )
         try:
-            s.unc_mc_spec = _resource("stereo_system.yaml").read_text("utf-8")
-        except OSError:
-            s.unc_mc_spec = ""
-        try:
             cur = self.project.get_state(study.MC_KEY)
             if isinstance(cur, dict) and self.project.has_file(str(cur.get("file"))):
                 full = study.read(self.project, str(cur["file"]))
-                if isinstance(full.get("system"), dict):
-                    s.unc_mc_spec = yaml.safe_dump(full["system"], sort_keys=False)
+                if isinstance(full.get("form"), dict):  # run from the fields: show them again
+                    s.unc_mc_params = study.start_values(self.mc_groups, full["form"])
+                elif isinstance(full.get("system"), dict):  # run of a loaded file
+                    self.mc_system = full["system"]
+                    s.unc_mc_loaded = f"the system of result #{cur.get('result')}"
                 s.unc_mc_message = f"result #{cur.get('result')} from the project"
                 self.show_montecarlo(full, cur.get("result"))
         except Exception as exc:  # a damaged file must not keep the page from opening

@@ -20,39 +20,80 @@ from ...downloads import Downloads, table_csv
 from . import figures as figs
 
 STUDIES = ["convergence", "sweep", "volume_maps", "spatial"]
-#: The form's first values (the plugin's own defaults are the file's or 10000 iterations:
-#: a first run in the page should take seconds).
+#: The form's first values of the run (the plugin's own defaults are the file's or 10000
+#: iterations: a first run in the page should take seconds).
 START = {"iterations": 2000, "seed": 1, "method": "linear", "scheduler": ""}
+RUN = tuple(START)
 #: The project state key naming the last stored run ({"result": id, "file": hash}).
 MC_KEY = "uncertainty.montecarlo.current"
 #: Outputs too large for the result row: they are in the stored JSON file only.
-ARRAYS = ("per_point", "per_point_norm", "studies", "system")
+ARRAYS = ("per_point", "per_point_norm", "studies", "system", "form")
 
 
-def form_fields(plugin: Any) -> list[dict[str, Any]]:
+def form_fields(plugin: Any) -> dict[str, list[dict[str, Any]]]:
     """The form of ``plugin``'s declared parameters (:func:`camcmm.params.form_schema`)
-    but ``studies``, which the page offers as a list to tick (:data:`STUDIES`)."""
-    return [f for f in form_schema(plugin.parameters) if f["name"] != "studies"]
+    in three groups: ``run`` (iterations, seed, method, scheduler), ``system`` (cameras,
+    stereo, grid) and ``errors`` (the influence factors' u and dof: ``u_*``, ``dof_*``);
+    ``studies`` is offered as a list to tick (:data:`STUDIES`). The unit is the field's
+    suffix, so the label does not repeat it."""
+    groups: dict[str, list[dict[str, Any]]] = {"run": [], "system": [], "errors": []}
+    for f in form_schema(plugin.parameters):
+        if f["name"] == "studies":
+            continue
+        f = dict(f, label=f["name"].replace("_", " "))
+        key = "run" if f["name"] in RUN else "errors" if f["name"].startswith(("u_", "dof_")) else "system"
+        groups[key].append(f)
+    return groups
 
 
-def inputs(spec_text: str, form: dict[str, Any], plugin: Any) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The system description (YAML text) as a mapping and the form's values (iterations,
-    seed, method, scheduler, studies as typed) checked against ``plugin``'s declared
-    parameters; a one-line :class:`InputError` / ParameterError naming what is wrong."""
-    doc = load_yaml(spec_text or "", name="system description")
-    if not isinstance(doc, dict):
+def _shown(value: Any) -> Any:
+    """A declared default as the form shows it (a vector as "16.74, 16.66")."""
+    if isinstance(value, (list, tuple)):
+        return ", ".join(f"{x:g}" if isinstance(x, float) else str(x) for x in value)
+    return value
+
+
+def start_values(groups: dict[str, list[dict[str, Any]]], values: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The form's values: the declared defaults (the thesis system), the run's :data:`START`,
+    then ``values`` (e.g. a stored run's form)."""
+    out = {f["name"]: _shown(f.get("default")) for fs in groups.values() for f in fs}
+    out.update(START)
+    out.update({k: _shown(v) for k, v in (values or {}).items() if k in out})
+    return out
+
+
+def inputs(form: dict[str, Any], plugin: Any, system: Any = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The plugin's inputs (``{"spec": system}`` for a loaded file, else none: the fields are
+    the system) and the form's values checked against ``plugin``'s declared parameters;
+    a one-line :class:`InputError` / ParameterError naming what is wrong. With a loaded
+    file only the run's fields are sent (the file is the system)."""
+    if system is not None and not isinstance(system, dict):
         raise InputError("system description: expected a mapping (cameras, stereo, grid, uncertainties)")
-    given = {k: form.get(k) for k in ("iterations", "seed", "method", "scheduler")}
-    given["scheduler"] = str(given["scheduler"] or "").strip() or None
+    declared = {p.name for p in plugin.parameters}
+    given = {k: v for k, v in form.items() if k in declared and k != "studies"}
+    if system is not None:
+        given = {k: v for k, v in given.items() if k in RUN}
+    given["scheduler"] = str(given.get("scheduler") or "").strip() or None
     given["studies"] = ",".join(str(x) for x in (form.get("studies") or []))
     values = validate(plugin.parameters, given, owner=f"plugin {plugin.id!r}")
-    return doc, {k: v for k, v in values.items() if v is not None}
+    if system is not None:
+        values = {k: v for k, v in values.items() if k in RUN or k == "studies"}
+    return ({"spec": system} if system is not None else {}), {k: v for k, v in values.items() if v is not None}
 
 
-def store(project: Any, run: Any, doc: dict[str, Any]) -> tuple[int, str]:
-    """The summary as the result row, everything (arrays too) as a JSON file; the
-    project remembers it as the page's current run. Returns (result id, file hash)."""
-    full = to_jsonable({"system": doc, **run.outputs})
+def load_system(text: str | bytes, name: str) -> dict[str, Any]:
+    """A system file (YAML/JSON) read for the form's "load YAML" option (one line if bad)."""
+    doc = load_yaml(text or "", name=name)
+    if not isinstance(doc, dict):
+        raise InputError(f"{name}: expected a mapping (cameras, stereo, grid, uncertainties)")
+    return doc
+
+
+def store(project: Any, run: Any, doc: dict[str, Any] | None, form: dict[str, Any] | None = None) -> tuple[int, str]:
+    """The summary as the result row, everything (arrays too, the system simulated and
+    the form's values when it came from the fields) as a JSON file; the project remembers
+    it as the page's current run. Returns (result id, file hash)."""
+    full = to_jsonable({**({"system": doc} if doc is not None else {}), **run.outputs, "form": form})
     folder = Path(tempfile.mkdtemp(prefix="camcmm-mc-"))
     try:
         path = folder / "montecarlo.json"
