@@ -181,3 +181,21 @@ def test_compare_page_labels_stay_and_the_stepped_legend(gui_app, tmp_path):
     assert any(t.get("name", "").startswith("deviation ×") for t in fig["data"])
     link = page.tools.screenshot()
     assert (page.offered.folder / link["name"]).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_inspect_view_gets_the_same_tools(gui_app, tmp_path):
+    """mount_view_tools on the session's own scene (the Inspect page's): views, point size and a
+    screenshot offered on its own guarded route."""
+    from camcmm.gui.viewtools import mount_view_tools
+
+    server, session = gui_app()
+    pts = np.random.default_rng(1).uniform(0, 10, size=(500, 3))
+    session.view.show("c", PointCloud(pts, name="cube"), "z")
+    tools = mount_view_tools(server, session.view, "vt")
+    cam = tools.standard_view("-x")
+    assert np.allclose(unit(np.subtract(cam["position"], cam["focal_point"])), [-1, 0, 0], atol=1e-9)
+    assert tools.set_point_size(2) == 2 and session.view.point_actors()[0].GetProperty().GetPointSize() == 2
+    link = tools.screenshot()
+    assert link["url"].startswith("camcmm-vt-view/") and server.state.vt_shot == link
+    assert (tools.downloads.folder / link["name"]).read_bytes()[:4] == b"\x89PNG"
+    tools.downloads.close()
