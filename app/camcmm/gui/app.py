@@ -24,7 +24,7 @@ from typing import Any
 from ..errors import CamcmmError
 from . import setup_offscreen
 from .pages import shown
-from .widgets import accepted_extensions, tid
+from .widgets import accepted_extensions, dyn_tid, tid
 
 
 def open_project(project_dir: str | Path) -> Any:
@@ -102,13 +102,16 @@ def _page_switch(pages: list[Any], first: str) -> None:
 
 
 def _import_controls(session: Any) -> None:
-    """The toolbar's import: a file through the browser, or a path on the server."""
+    """The toolbar's import: a file through the browser, or a path on the server; and the
+    question asked when a file's unit is in doubt (docs/units.md)."""
     _upload_field(session)
     _path_dialog(session)
+    _unit_dialog(session)
 
 
 def _upload_field(session: Any) -> None:
-    """A file from the browser: imported as soon as it is chosen."""
+    """A file from the browser: imported as soon as it is chosen, in the unit the file
+    states, else mm — asked first when its size is implausible as mm."""
     from trame.widgets import vuetify3 as v
 
     state = session.state
@@ -141,8 +144,21 @@ def _upload_field(session: Any) -> None:
         disabled=("importing",),
         style="max-width: 380px;",
         classes="mr-4",
+        title="Import a point cloud, mesh or image into the project. Lengths: the file's own unit "
+        "(E57, PLY 'comment unit m' ...), else mm; a size implausible as mm is asked about first.",
         raw_attrs=tid("import-file"),
     )
+
+
+#: The unit field of the server-path import: "" = the file's own, else mm (asked when implausible).
+IMPORT_UNITS = [
+    {"title": "the file's own, else mm", "value": ""},
+    {"title": "m", "value": "m"},
+    {"title": "cm", "value": "cm"},
+    {"title": "mm", "value": "mm"},
+    {"title": "µm", "value": "um"},
+    {"title": "inch", "value": "in"},
+]
 
 
 def _path_dialog(session: Any) -> None:
@@ -150,7 +166,7 @@ def _path_dialog(session: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_import_path(path):
+    async def on_import_path(path, unit=None):
         session.state.path_dialog = False
         if path and str(path).strip():
             try:  # refused before anything is read
@@ -158,7 +174,12 @@ def _path_dialog(session: Any) -> None:
             except CamcmmError as exc:
                 session.error(str(exc))
                 return
-            await session.import_file_async(str(allowed), Path(str(path).strip().strip('"')).name)
+            offered = {u["value"] for u in IMPORT_UNITS}
+            if unit not in offered and unit is not None:  # browser input: only what is offered
+                session.error(f"unit {str(unit)[:20]!r} is not one of m, cm, mm, um, in")
+                return
+            name = Path(str(path).strip().strip('"')).name
+            await session.import_file_async(str(allowed), name, unit or None)
 
     session.ctrl.import_server_path = on_import_path  # for tests
     with v.VDialog(v_model=("path_dialog", False), max_width=640):
@@ -175,21 +196,89 @@ def _path_dialog(session: Any) -> None:
                     density="compact",
                     variant="outlined",
                     autofocus=True,
+                    title="The file's path on the machine that runs camcmm (inside the project or a data root)",
                     raw_attrs=tid("server-path"),
+                )
+                v.VSelect(
+                    v_model=("server_path_unit", ""),
+                    items=("import_units", IMPORT_UNITS),
+                    label="Unit of the file's coordinates",
+                    density="compact",
+                    variant="outlined",
+                    hint="Without one: the file's own unit (E57, a unit comment), else mm — asked when implausible",
+                    persistent_hint=True,
+                    title="The length unit of the coordinates in the file; camcmm converts to mm",
+                    raw_attrs=tid("server-path-unit"),
                 )
             with v.VCardActions():
                 v.VSpacer()
-                v.VBtn("Cancel", variant="text", click="path_dialog = false")
+                v.VBtn("Cancel", variant="text", click="path_dialog = false", title="Close without importing")
                 v.VBtn(
                     "Import",
                     color="primary",
-                    click=(on_import_path, "[server_path]"),
+                    click=(on_import_path, "[server_path, server_path_unit]"),
+                    title="Read the file and add it to the project",
                     raw_attrs=tid("server-path-import"),
                 )
     with v.VBtn(
         icon=True, click="path_dialog = true", title="Import a file on the server", raw_attrs=tid("open-path-dialog")
     ):
         v.VIcon("mdi-folder-open-outline")
+
+
+def _unit_dialog(session: Any) -> None:
+    """The question of camcmm.units when a file's unit is in doubt: the reason, one
+    choice per candidate unit with the size it gives (plausible ones marked), the
+    suggestion preselected; nothing is stored until it is answered (gui/unit_ask.py)."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    if not session.state.has("unit_ask"):
+        session.state.unit_ask = None
+
+    def on_answer(unit=None):
+        session.answer_unit(unit)
+        session.flush()
+
+    def on_cancel():
+        session.cancel_unit()
+        session.flush()
+
+    with v.VDialog(v_model=("unit_ask_visible", False), persistent=True, max_width=680):
+        with v.VCard(v_if="unit_ask", raw_attrs=tid("unit-dialog")):
+            v.VCardTitle("In what unit is {{ unit_ask.file }}?", classes="text-subtitle-1")
+            with v.VCardText():
+                html.Div("{{ unit_ask.reason }}", classes="text-body-2 mb-2", raw_attrs=tid("unit-reason"))
+                with v.VRadioGroup(v_model=("unit_choice", "mm"), density="compact", hide_details=True):
+                    html.Div("Read the file's numbers as:", classes="text-caption")
+                    v.VRadio(
+                        v_for="c in unit_ask.choices",
+                        value=("c.value",),
+                        label=("c.title + (c.plausible ? '  — a plausible size' : '')",),
+                        title=("`Read the coordinates as ${c.value} and convert them to mm`",),
+                        raw_attrs=dyn_tid("'unit-choice-' + c.value"),
+                    )
+                html.Div(
+                    "{{ unit_ask.waiting > 1 ? (unit_ask.waiting - 1) + ' more file(s) wait for their unit' : '' }}",
+                    classes="text-caption mt-1",
+                    style="min-height: 1.25em;",
+                )
+            with v.VCardActions():
+                v.VSpacer()
+                v.VBtn(
+                    "Don't import",
+                    variant="text",
+                    click=on_cancel,
+                    title="Drop this file; nothing is stored",
+                    raw_attrs=tid("unit-cancel"),
+                )
+                v.VBtn(
+                    "Import in {{ unit_choice === 'um' ? 'µm' : unit_choice }}",
+                    color="primary",
+                    click=(on_answer, "[unit_choice]"),
+                    title="Convert the coordinates from this unit to mm and store the file with it",
+                    raw_attrs=tid("unit-accept"),
+                )
 
 
 def _snackbars() -> None:

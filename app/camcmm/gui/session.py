@@ -63,6 +63,13 @@ def describe(obj: Any) -> str:
     return k
 
 
+def size_text(obj: Any) -> str:
+    """The bounding box of a cloud or mesh in mm, e.g. ``138 × 106 × 99.3 mm``."""
+    from ..units import object_span
+
+    return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
+
+
 def safe_name(name: str) -> str:
     """A file name safe to write in a temp folder, keeping its extension."""
     base = Path(str(name).replace("\\", "/")).name.strip() or "upload"
@@ -323,7 +330,7 @@ class Session:
         self.refresh_items()
         self.select_item(key)
         note = f" (read in {unit_label(unit)})" if unit and unit != "mm" else ""
-        self.info(f"imported {name}: {describe(obj)}{note}")
+        self.info(f"imported {name}: {describe(obj)}, {size_text(obj)}{note}")
         return key
 
     def _imported(self, path: Path, obj: Any, label: str, stated: str | None, source: Any) -> str | None:
@@ -359,8 +366,9 @@ class Session:
         meta: dict[str, Any] = {"summary": describe(obj)}
         if source:
             meta["made_by"] = source
-        if unit:
+        if unit:  # an import: its unit, and the size in mm it gave
             meta["unit"] = unit
+            meta["summary"] = f"{meta['summary']} · {size_text(obj)}"
         if display:
             meta["display_units"] = dict(display)
         try:
@@ -368,7 +376,7 @@ class Session:
         except TypeError:  # a store without meta
             mid = self.project.add_measurement(name, h, kind_of(obj))
         self._objects[str(mid)] = obj
-        self._summary[str(mid)] = f"{kind_of(obj)} · {describe(obj)}"
+        self._summary[str(mid)] = f"{kind_of(obj)} · {meta['summary']}"
         return mid
 
     def loaded(self, key: Any) -> Any | None:
