@@ -254,3 +254,17 @@ def test_wizard_extent_check_is_the_shared_rule():
         _size_check(0.02, 20.0, "m.ply", "sphere")
     with pytest.raises(GeometryError, match="is this the right file"):
         _size_check(60.0, 20.0, "big.ply", "sphere")
+
+
+@pytest.mark.slow
+def test_compare_inputs_say_when_the_cloud_is_in_another_unit_than_the_nominal(gui_app):
+    server, session = gui_app()
+    page = server.pages["compare"]
+    nominal = _box((60.0, 40.0, 20.0))
+    same = _box((59.0, 40.0, 20.0))
+    assert page.unit_note(same, nominal) == ""
+    metres = _box((0.059, 0.040, 0.020))  # numbers in metres read as mm
+    note = page.unit_note(metres, nominal)
+    assert "but a nominal of 74.8 mm was expected; in m it would fit" in note, note
+    assert "import it again with its unit" in note
+    assert page.unit_note(None, nominal) == "" and page.unit_note(metres, None) == ""

@@ -216,11 +216,10 @@ def decide_unit(
             )
         better = suggest_unit(diag, expected, read_unit, units=units)
         if better is not None:
-            word = f"stated as {unit_label(read_unit)}" if stated_key else "read as mm, no unit stated"
             return done(
                 "ask",
                 better,
-                f"{as_read} ({word}) but a {what} of {_g(expected)} mm was expected; "
+                f"{as_read} but a {what} of {_g(expected)} mm was expected; "
                 f"in {unit_label(better)} it would fit: give its unit",
             )
         # no unit explains it: not a unit question (the wrong file, another artefact)

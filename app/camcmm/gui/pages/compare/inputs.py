@@ -18,6 +18,7 @@ import numpy as np
 from ....errors import InputError, one_line
 from ....host import to_jsonable
 from ....params import form_schema
+from ....units import decide_unit, object_span
 from .tables import BANDS, _num, fmt_len
 
 #: The task whose plugin the page runs (``provides:`` in its manifest).
@@ -129,12 +130,34 @@ class Inputs:
             self._error(f"{self._name(s.ins_measured)} is not a point cloud")
             return False
         self.measured, self.nominal = measured, nominal
+        note = self.unit_note(measured, nominal)
+        if note:  # shown, not refused: the user may know better (a scan of a small detail)
+            self._error(note)
         self.view.show_inputs(measured, nominal, self._pair_markers(), reset_camera=reset_camera, push=push)
         s.ins_mode = "inputs"
         s.ins_note = self.view.note
         s.ins_legend_title = ""
         self._pick_hint()
         return True
+
+    def unit_note(self, measured: Any, nominal: Any) -> str:
+        """The unit question of camcmm.units with the nominal's size as the expected one:
+        a measured cloud 1000 times smaller or larger than its CAD model was imported in
+        the wrong unit (or the model was). "" when the sizes agree (docs/units.md)."""
+        if measured is None or nominal is None or not hasattr(measured, "points"):
+            return ""
+        expected = float(np.linalg.norm(object_span(nominal)))
+        if not expected > 0:
+            return ""
+        unit = getattr(measured, "source_unit", "mm") or "mm"
+        name = self._name(self.state.ins_measured)
+        check = decide_unit(object_span(measured), unit, unit=unit, expected=expected, name=name, what="nominal")
+        if not check.asks:
+            return ""
+        return (
+            f"{check.reason.replace(': give its unit', '')}; import it again with its unit "
+            f"(or the nominal {self._name(self.state.ins_nominal)}, if that is the one in another unit)"
+        )
 
     def set_align(self, method: str) -> None:
         self.state.ins_align = method
