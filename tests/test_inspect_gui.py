@@ -303,6 +303,7 @@ def test_no_overlap_is_reported_not_coloured(app, tmp_path):
     assert {r["key"]: r["value"] for r in s.ins_alignment}["converged"].startswith("NO")
     page.set_mode("colour")  # refused, with a reason
     assert page.view.scene == "failed" and "alignment failed" in s.ins_error
+    assert page.set_section("z", 0.0) is None and "no section" in s.ins_error  # nor a section of it
     assert asyncio.run(page.export_async()) is None and "not valid" in s.ins_error
     rep = asyncio.run(page.report_async())  # the report records the failure
     html = Path(rep["paths"]["html"]).read_text("utf-8")

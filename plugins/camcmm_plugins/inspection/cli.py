@@ -222,6 +222,8 @@ def text(r: dict[str, Any]) -> str:
         + ", ".join(f"{v:.4f}" for v in a["translation"])
         + ") mm"
     )
+    for h in r.get("held_dofs") or []:  # what the part's symmetry left undetermined
+        lines.append(f"             held: {h}")
     ov = r["overlap"]
     lines.append(
         f"             rms {_um(r['rms'], False)}  overlap {100 * ov:.1f} %"

@@ -70,6 +70,9 @@ class Section:
             s.ins_section_pos = float(position)
         if self.deviations is None:
             return None
+        if s.ins_failed:  # the unaligned distances are no deviations: no section of them
+            self._error("the alignment failed: the deviations are not valid, so no section is drawn")
+            return None
         try:
             spec = self.host.provider(SECTION_TASK)
             inputs = {"deviations": self.deviations}
