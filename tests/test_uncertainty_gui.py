@@ -135,7 +135,7 @@ def test_gum_h1_entered_as_the_gum_states_it_through_the_editor(gui_app):
 
 def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
     """No YAML box: the system is the plugin's declared fields (defaults: the thesis system),
-    units as suffixes only; a run from the fields is stored with them and shown again."""
+    each unit once in its label; a run from the fields is stored with them and shown again."""
     server, session = gui_app()
     page, s = server.pages["uncertainty"], server.state
     assert "unc_mc_spec" not in s.to_dict()
@@ -145,7 +145,8 @@ def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
     assert {"focal_length", "pixel_pitch", "baseline", "axes_angle", "u_rotation", "u_translation"} <= names
     assert names == set(declared) - {"studies"}
     for f in fields:
-        assert "[" not in f["label"] and f.get("unit", "") == declared[f["name"]].unit  # the unit once: the suffix
+        unit = declared[f["name"]].unit
+        assert f["label"].count("[") == (1 if unit else 0) and f["label"].endswith(f"[{unit}]" if unit else "")
         assert f.get("help"), f["name"]  # the tooltip (param_form's title)
     assert s.unc_mc_params["focal_length"] == "16.74, 16.66" and s.unc_mc_params["u_rotation"] == "184, 152, 71"
     params = dict(s.unc_mc_params, grid_points="4, 3, 3", iterations=200, studies=[])

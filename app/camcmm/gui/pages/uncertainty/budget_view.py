@@ -137,7 +137,7 @@ def _budget_table(v: Any, html: Any, page: Any, call: str) -> None:
                     html.Th(h, title=tip)
         with html.Tbody():
             with html.Tr(v_for="(r, i) in unc_b_rows", key="i", raw_attrs=tid("unc-b-row")):
-                with html.Td(style="min-width: 190px;"):
+                with html.Td(style="min-width: 220px;"):
                     _cell(v, "name", call, "the input quantity's name")
                 with html.Td(style="min-width: 130px;"):
                     v.VSelect(
@@ -226,7 +226,8 @@ def _budget_actions(v: Any, html: Any, page: Any) -> None:
             density="compact",
             variant="outlined",
             hide_details=True,
-            prepend_icon="mdi-file-upload",
+            prepend_icon="",
+            prepend_inner_icon="mdi-file-upload",
             style="max-width: 280px;",
             title="replace the table by a budget file (YAML/JSON: contributions with u, half_width + "
             "distribution, or expanded + k)",

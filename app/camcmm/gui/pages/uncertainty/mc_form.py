@@ -38,7 +38,8 @@ def _mc_system_file(v: Any, html: Any, page: Any) -> None:
             density="compact",
             variant="outlined",
             hide_details=True,
-            prepend_icon="mdi-file-upload",
+            prepend_icon="",
+            prepend_inner_icon="mdi-file-upload",
             disabled=("unc_mc_running",),
             title="optional: a system file (cameras, stereo, grid, uncertainties, or a stereo calibration) "
             "used instead of the fields below",

@@ -34,13 +34,12 @@ def form_fields(plugin: Any) -> dict[str, list[dict[str, Any]]]:
     """The form of ``plugin``'s declared parameters (:func:`camcmm.params.form_schema`)
     in three groups: ``run`` (iterations, seed, method, scheduler), ``system`` (cameras,
     stereo, grid) and ``errors`` (the influence factors' u and dof: ``u_*``, ``dof_*``);
-    ``studies`` is offered as a list to tick (:data:`STUDIES`). The unit is the field's
-    suffix, so the label does not repeat it."""
+    ``studies`` is offered as a list to tick (:data:`STUDIES`). Labels as form_schema
+    makes them (the unit once, in brackets)."""
     groups: dict[str, list[dict[str, Any]]] = {"run": [], "system": [], "errors": []}
     for f in form_schema(plugin.parameters):
         if f["name"] == "studies":
             continue
-        f = dict(f, label=f["name"].replace("_", " "))
         key = "run" if f["name"] in RUN else "errors" if f["name"].startswith(("u_", "dof_")) else "system"
         groups[key].append(f)
     return groups
