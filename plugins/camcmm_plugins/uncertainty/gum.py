@@ -74,8 +74,9 @@ class Budget:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON form: ``combined, dof_eff, k, expanded, coverage_probability,
-        contributions`` (each ``name, u, c, dof, distribution, contribution, share``)
-        plus ``quantity, unit, dof_eff_infinite, dof_rounding`` and ``warnings`` (why the
+        contributions`` (each ``name, u, c, dof, distribution, contribution, share``, and
+        how it was stated: ``entered_as, entered_value, divisor, coverage_factor, conversion,
+        input_unit``) plus ``quantity, unit, dof_eff_infinite, dof_rounding`` and ``warnings`` (why the
         result may be meaningless). JSON has no infinity: an infinite ``dof`` or
         ``dof_eff`` is written as ``null`` and flagged."""
         return {
