@@ -63,6 +63,15 @@ class Page:
     full: bool = True
     drawer: Callable[[Any], None] | None = None
 
+    def package(self) -> str:
+        """Where the page's code lives: ``camcmm.gui.pages.<folder>`` for a page of this
+        folder, else the module of its ``mount`` (a lab's or a test's page). A message a
+        module under it raises belongs to this page (:meth:`Session.page_of_caller`)."""
+        module = getattr(self.mount, "__module__", "") or ""
+        if module.startswith(__name__ + "."):
+            return ".".join(module.split(".")[: len(__name__.split(".")) + 1])
+        return module
+
 
 _extra: dict[str, Page] = {}
 

@@ -248,6 +248,7 @@ class PageSetup:
             s.wz_setup_error = one_line(exc)
             return False
         s.wz_svgs = {}
+        s.wz_detail, s.wz_redo, self.last_card = None, None, None  # the old test's "Last shown" is not this one's
         self._busy.clear()
         self.refresh(setup_form=True)
         s.wz_step = "positions"
