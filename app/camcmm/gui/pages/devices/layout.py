@@ -15,6 +15,11 @@ from .. import shown
 
 # the colour of a device's state chip (JavaScript, for the device ``d`` of a v_for)
 STATE_COLOUR = "({ready: 'success', busy: 'primary', fault: 'error', disconnected: 'grey'})[d.state] || 'grey'"
+SEQUENCE_ACTIONS = (
+    ("pause", "mdi-pause", "Pause after the current step (the devices stay where they are)"),
+    ("resume", "mdi-play-pause", "Go on from where the sequence paused"),
+    ("abort", "mdi-stop", "Stop the sequence; the frames stored so far stay in the project"),
+)
 
 
 def build(page: Any) -> None:
@@ -68,6 +73,7 @@ def _add(page: Any) -> None:
             size="small",
             disabled=("!dev_add_id",),
             click=(on_add, "[dev_add_id, dev_add_values]"),
+            title="Make the device from the plugin and the values below, then connect it",
             raw_attrs=tid("dev-add"),
         )
     v.VSelect(
@@ -76,6 +82,7 @@ def _add(page: Any) -> None:
         item_title="title",
         item_value="id",
         label="Device plugin",
+        title="The device to add: a real one or a simulated one (no hardware needed)",
         density="compact",
         variant="outlined",
         hide_details=True,
@@ -99,10 +106,11 @@ def _list(page: Any) -> None:
             key="d.key",
             active=("d.key === dev_selected",),
             click=(page.select, "[d.key]"),
+            title=("`${d.label}: ${d.state}${d.position ? ', at ' + d.position : ''} (click to show it)`",),
             raw_attrs=dyn_tid("'dev-item-' + d.name"),
         ):
             v.VListItemTitle("{{ d.name }} · {{ d.kind }}")
-            v.VListItemSubtitle("{{ d.message || d.label }}{{ d.position ? ' · ' + d.position : '' }}")
+            v.VListItemSubtitle("{{ d.message || d.label }}")  # the position is in the device's panel, whole
             with html.Template(v_slot_append=True):
                 v.VChip(
                     "{{ d.state }}",
@@ -134,9 +142,16 @@ def _detail(page: Any) -> None:
                 size="small",
                 variant="tonal",
                 click=(on_connect, "[d.key, !d.connected]"),
+                title=("d.connected ? 'Close the connection to this device' : 'Open the connection to this device'",),
                 raw_attrs=tid("dev-connect"),
             )
-            v.VBtn("Remove", size="small", variant="text", click=(page.remove, "[d.key]"))
+            v.VBtn(
+                "Remove",
+                size="small",
+                variant="text",
+                click=(page.remove, "[d.key]"),
+                title="Disconnect this device and take it off the list",
+            )
         v.VAlert(
             v_if="d.state === 'fault'",
             text=("d.message",),
@@ -155,6 +170,7 @@ def _detail(page: Any) -> None:
                     color="primary",
                     variant="tonal",
                     click=(page.apply_settings, "[d.key, dev_settings_values]"),
+                    title="Send the settings below to the device (empty fields stay as they are)",
                     raw_attrs=tid("dev-apply"),
                 )
             param_form("dev_settings_fields", "dev_settings_values", "dev-setting", sync=True)
@@ -179,6 +195,7 @@ def _camera(page: Any) -> None:
                 prepend_icon="mdi-camera",
                 click=(on_grab, "[d.key]"),
                 disabled=("!d.connected",),
+                title="Take one frame and show it",
                 raw_attrs=tid("dev-grab"),
             )
             v.VBtn(
@@ -187,6 +204,7 @@ def _camera(page: Any) -> None:
                 prepend_icon="mdi-video",
                 click=(page.live, "[d.key, !d.live]"),
                 disabled=("!d.connected",),
+                title="Show the camera's frames as they come (a few per second)",
                 raw_attrs=tid("dev-live"),
             )
         html.Img(
@@ -199,26 +217,62 @@ def _camera(page: Any) -> None:
 
 
 def _stage(page: Any) -> None:
+    """A stage's position (in the panel, whole: the list beside it is too narrow) and its moves."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
     async def on_move(key: str, how: str, value: Any) -> None:
         await page.act(key, how, value)
 
-    with html.Div(v_if="d.kind === 'stage'", classes="d-flex align-center ga-2 mt-2"):
-        v.VBtn("Home", size="small", click=(on_move, "[d.key, 'home', null]"), raw_attrs=tid("dev-home"))
-        v.VTextField(
-            v_model=("dev_move", "10"),
-            label="Target / step",
-            density="compact",
-            variant="outlined",
-            hide_details=True,
-            style="max-width: 140px;",
-            raw_attrs=tid("dev-move-value"),
-        )
-        v.VBtn("Move to", size="small", click=(on_move, "[d.key, 'abs', dev_move]"), raw_attrs=tid("dev-move-abs"))
-        v.VBtn("Move by", size="small", click=(on_move, "[d.key, 'rel', dev_move]"))
-        v.VBtn("Stop", size="small", color="error", variant="tonal", click=(on_move, "[d.key, 'stop', null]"))
+    with html.Div(v_if="d.kind === 'stage'", classes="mt-2"):
+        with html.Div(classes="d-flex align-baseline ga-2 mb-2"):
+            html.Span("Position", classes="text-subtitle-2")
+            html.Span(
+                "{{ d.position || (d.connected ? 'not known (home it)' : 'not connected') }}",
+                classes="text-h6 font-weight-regular",
+                style="white-space: nowrap; font-variant-numeric: tabular-nums;",
+                title="The stage's position as it last reported it",
+                raw_attrs=tid("dev-position"),
+            )
+        with html.Div(classes="d-flex align-center flex-wrap ga-2"):
+            v.VBtn(
+                "Home",
+                size="small",
+                click=(on_move, "[d.key, 'home', null]"),
+                title="Find the reference position",
+                raw_attrs=tid("dev-home"),
+            )
+            v.VTextField(
+                v_model=("dev_move", "10"),
+                label=("`Target / step [${d.unit || 'mm'}]`",),
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                style="max-width: 160px;",
+                title="Where to move to (Move to) or how far (Move by)",
+                raw_attrs=tid("dev-move-value"),
+            )
+            v.VBtn(
+                "Move to",
+                size="small",
+                click=(on_move, "[d.key, 'abs', dev_move]"),
+                title="Move to the position given",
+                raw_attrs=tid("dev-move-abs"),
+            )
+            v.VBtn(
+                "Move by",
+                size="small",
+                click=(on_move, "[d.key, 'rel', dev_move]"),
+                title="Move by the distance given (negative: back)",
+            )
+            v.VBtn(
+                "Stop",
+                size="small",
+                color="error",
+                variant="tonal",
+                click=(on_move, "[d.key, 'stop', null]"),
+                title="Stop the stage now",
+            )
 
 
 def _projector(page: Any) -> None:
@@ -245,10 +299,15 @@ def _projector(page: Any) -> None:
                 density="compact",
                 variant="outlined",
                 hide_details=True,
+                title="A fringe sequence file (YAML) in the project or a data folder; empty: the one camcmm ships",
                 raw_attrs=tid("dev-sequence-file"),
             )
             v.VBtn(
-                "Load", size="small", click=(on_load, "[d.key, dev_sequence_file]"), raw_attrs=tid("dev-load-patterns")
+                "Load",
+                size="small",
+                click=(on_load, "[d.key, dev_sequence_file]"),
+                title="Make the sequence's patterns and give them to the projector",
+                raw_attrs=tid("dev-load-patterns"),
             )
         with html.Div(classes="d-flex align-center ga-2 mt-1"):
             v.VTextField(
@@ -258,6 +317,7 @@ def _projector(page: Any) -> None:
                 variant="outlined",
                 hide_details=True,
                 style="max-width: 100px;",
+                title="Number of the pattern to show (0 is the first)",
                 raw_attrs=tid("dev-pattern"),
             )
             v.VBtn(
@@ -265,9 +325,16 @@ def _projector(page: Any) -> None:
                 size="small",
                 click=(on_show, "[d.key, dev_pattern]"),
                 disabled=("!d.patterns",),
+                title="Project this pattern",
                 raw_attrs=tid("dev-show-pattern"),
             )
-            v.VBtn("Blank", size="small", variant="text", click=(on_show, "[d.key, null]"))
+            v.VBtn(
+                "Blank",
+                size="small",
+                variant="text",
+                click=(on_show, "[d.key, null]"),
+                title="Project nothing (a black image)",
+            )
 
 
 def _sequences(page: Any) -> None:
@@ -285,6 +352,7 @@ def _sequences(page: Any) -> None:
         item_title="title",
         item_value="id",
         label="Sequence",
+        title="The acquisition sequence to run with the connected devices it needs",
         density="compact",
         variant="outlined",
         hide_details=True,
@@ -300,9 +368,10 @@ def _sequences(page: Any) -> None:
             prepend_icon="mdi-play",
             disabled=("!dev_seq_id",),
             click=(page.start_sequence, "[dev_seq_id, dev_seq_values]"),
-            raw_attrs=tid("dev-seq-start"),
+            title="Start the sequence (Ctrl+Enter); its frames are stored in the project as they come",
+            raw_attrs=[*tid("dev-seq-start"), 'data-shortcut="run"'],
         )
-        for action, icon in (("pause", "mdi-pause"), ("resume", "mdi-play-pause"), ("abort", "mdi-stop")):
+        for action, icon, what in SEQUENCE_ACTIONS:
             v.VBtn(
                 action.capitalize(),
                 size="small",
@@ -310,6 +379,7 @@ def _sequences(page: Any) -> None:
                 prepend_icon=icon,
                 disabled=("!dev_seq",),
                 click=(page.sequence_action, f"['{action}']"),
+                title=what,
                 raw_attrs=tid(f"dev-seq-{action}"),
             )
     param_form("dev_seq_fields", "dev_seq_values", "dev-seq", sync=True)

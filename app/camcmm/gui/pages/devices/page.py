@@ -283,6 +283,7 @@ class DevicesPage:
             except Exception:  # the monitor shows the fault; the list just leaves the position out
                 pos = None
             row["position"] = "" if pos is None else f"{pos:.4f} {getattr(dev, 'unit', '')}"
+            row["unit"] = str(getattr(dev, "unit", "") or "")
         return row
 
     def _publish_one(self, key: str) -> None:
