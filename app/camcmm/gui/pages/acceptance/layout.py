@@ -40,9 +40,26 @@ def build(page: Any, accept: str = "") -> None:
         with v.VTabs(
             v_model=("wz_step", "setup"), density="compact", color="primary", classes="mb-2", raw_attrs=tid("wz-steps")
         ):
-            v.VTab("1 · Setup", value="setup", raw_attrs=tid("wz-tab-setup"))
-            v.VTab("2 · Positions", value="positions", disabled=("!wz_active",), raw_attrs=tid("wz-tab-positions"))
-            v.VTab("3 · Result", value="result", disabled=("!wz_active",), raw_attrs=tid("wz-tab-result"))
+            v.VTab(
+                "1 · Setup",
+                value="setup",
+                title="The standard, the system, its MPEs and the artefacts",
+                raw_attrs=tid("wz-tab-setup"),
+            )
+            v.VTab(
+                "2 · Positions",
+                value="positions",
+                disabled=("!wz_active",),
+                title="Measure each position the standard requires",
+                raw_attrs=tid("wz-tab-positions"),
+            )
+            v.VTab(
+                "3 · Result",
+                value="result",
+                disabled=("!wz_active",),
+                title="The verdict per parameter and the report",
+                raw_attrs=tid("wz-tab-result"),
+            )
         build_setup(page)
         build_positions(page, accept)
         build_result(page)

@@ -42,6 +42,7 @@ def _source_bar(page: Any) -> None:
             hide_details=True,
             style="max-width: 420px;",
             update_modelValue=(on_source, "[$event]"),
+            title="Import files measured elsewhere, or let a measuring system acquire each position",
             raw_attrs=tid("wz-source"),
         )
         v.VBtn(
@@ -53,9 +54,17 @@ def _source_bar(page: Any) -> None:
             loading=("wz_acquiring_all",),
             disabled=("wz_acquiring_all",),
             click=on_acquire_all,
+            title="Acquire every position not yet measured, one after the other",
             raw_attrs=tid("wz-acquire-all"),
         )
-        v.VBtn("Stop", v_if="wz_acquiring_all", size="small", variant="text", click="wz_acquiring_all = false")
+        v.VBtn(
+            "Stop",
+            v_if="wz_acquiring_all",
+            size="small",
+            variant="text",
+            click="wz_acquiring_all = false",
+            title="Stop after the position being acquired",
+        )
 
 
 def _counters() -> None:
@@ -82,6 +91,7 @@ def _counters() -> None:
             color="success",
             append_icon="mdi-arrow-right",
             click="wz_step = 'result'",
+            title="Every position is measured: see the verdict",
             raw_attrs=tid("wz-goto-result"),
         )
 
@@ -242,6 +252,7 @@ def _card_inputs(page: Any, accept: str) -> None:
             classes="mb-1",
             disabled=("wz_acquiring_all",),
             click=(on_acquire, "[c.test, c.id]"),
+            title="Measure this position with the chosen system now",
             raw_attrs=tid("card-acquire"),
         )
         v.VFileInput(
@@ -253,6 +264,7 @@ def _card_inputs(page: Any, accept: str) -> None:
             prepend_icon="",
             prepend_inner_icon="mdi-file-import",
             update_modelValue=(on_upload, "[c.test, c.id, $event]"),
+            title="The measured cloud of this position (it is evaluated as soon as it is chosen)",
             raw_attrs=tid("card-file")
             + [":key=\"c.key + '-' + (c.repeats.map(r => r.measurement).join()) + '-' + c.error\""],
         )
@@ -275,6 +287,7 @@ def _card_actions(page: Any) -> None:
             variant="text",
             prepend_icon="mdi-palette",
             click=(on_show, "[c.test, c.id]"),
+            title="Show this position's deviations as a colour map in the 3D view, and its fit",
             raw_attrs=tid("card-show"),
         )
         v.VBtn(
@@ -284,6 +297,14 @@ def _card_actions(page: Any) -> None:
             prepend_icon="mdi-restore",
             v_if="wz_redo !== c.key",
             click=(on_redo, "[c.test, c.id]"),
+            title="Measure this position again (the new file replaces the old one)",
             raw_attrs=tid("card-redo"),
         )
-        v.VBtn("Cancel", size="small", variant="text", v_if="wz_redo === c.key", click="wz_redo = null")
+        v.VBtn(
+            "Cancel",
+            size="small",
+            variant="text",
+            v_if="wz_redo === c.key",
+            click="wz_redo = null",
+            title="Keep the position as it was measured",
+        )

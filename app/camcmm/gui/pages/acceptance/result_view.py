@@ -108,7 +108,8 @@ def _report(page: Any) -> None:
             loading=("wz_reporting",),
             disabled=("wz_reporting",),
             click=on_report,
-            raw_attrs=tid("wz-report"),
+            title="Write the test report (HTML, PDF, JSON) and store it in the project (Ctrl+Enter)",
+            raw_attrs=[*tid("wz-report"), 'data-shortcut="run"'],
         )
         html.A(
             "{{ l.title }}",

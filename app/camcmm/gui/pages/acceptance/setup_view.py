@@ -58,6 +58,7 @@ def _alerts() -> None:
             variant="text",
             color="primary",
             click="wz_locked = false",
+            title="Fill in the form for a new test; the test in the project stays until you start the new one",
             raw_attrs=tid("wz-unlock"),
         )
     v.VAlert(
@@ -105,6 +106,7 @@ def _artefact_warnings() -> None:
             color="warning",
             density="compact",
             hide_details=True,
+            title="Start although the artefacts break the rules listed above; the report says so",
             raw_attrs=tid("wz-confirm-violations"),
         )
     html.Div(
@@ -133,6 +135,7 @@ def _standard_row(page: Any) -> None:
                 disabled=("wz_locked",),
                 hide_details=True,
                 update_modelValue=(on_standard, "[$event, wz_form]"),
+                title="The acceptance test to run (each standard plugin declares its own)",
                 raw_attrs=tid("wz-standard"),
             )
         with v.VCol(cols=12, md=5):
@@ -144,6 +147,7 @@ def _standard_row(page: Any) -> None:
                 variant="outlined",
                 disabled=("wz_locked",),
                 hide_details=True,
+                title="The name of the measuring system under test, as the report names it",
                 raw_attrs=tid("wz-system-name"),
             )
 
@@ -162,12 +166,12 @@ def _volume_row() -> None:
                     update_modelValue=set_form(f"'volume' | {i}").replace(
                         "Object.assign({}, (wz_form || {})['volume']", "Object.assign([], (wz_form || {})['volume']"
                     ),
-                    label=axis,
-                    suffix="mm",
+                    label=f"{axis} [mm]",
                     density="compact",
                     variant="outlined",
                     disabled=("wz_locked",),
                     hide_details=True,
+                    title=f"The measuring volume's size along {axis}",
                     raw_attrs=tid(f"wz-volume-{axis}"),
                 )
 
@@ -183,12 +187,12 @@ def _field_grid(fields: str, value: str, path: str, testid: str) -> None:
             v.VTextField(
                 model_value=(value,),
                 update_modelValue=set_form(path),
-                label=("f.label",),
-                suffix=("f.unit",),
+                label=("f.unit ? f.label + ' [' + f.unit + ']' : f.label",),
                 density="compact",
                 variant="outlined",
                 disabled=("wz_locked",),
                 hide_details=True,
+                title=("f.help || f.label",),
                 raw_attrs=dyn_tid(testid),
             )
 
@@ -242,6 +246,7 @@ def _artefact_header() -> None:
             density="compact",
             hide_details=True,
             disabled=("wz_locked",),
+            title="This test is optional in the standard: run it too",
         )
 
 
@@ -262,6 +267,7 @@ def _artefact_fields(page: Any) -> None:
         hide_details=True,
         classes="mb-2",
         update_modelValue=(on_pick, "[t.test, $event, wz_form]"),
+        title="Fill the artefact's values from the catalogue (calibrated artefacts; edit them below if yours differ)",
         raw_attrs=dyn_tid("'wz-catalogue-' + t.test"),
     )
     _field_grid(
@@ -309,12 +315,14 @@ def _start_buttons(page: Any) -> None:
             prepend_icon="mdi-play",
             disabled=("wz_locked || (wz_artefact_warnings.length > 0 && !wz_confirm_violations)",),
             click=(on_start, "[wz_form]"),
-            raw_attrs=tid("wz-start"),
+            title="Set the test up from this form and go to its positions (Ctrl+Enter)",
+            raw_attrs=[*tid("wz-start"), 'data-shortcut="run"'],
         )
         v.VBtn(
             "Go to the positions",
             v_if="wz_active",
             variant="text",
             click="wz_step = 'positions'",
+            title="Back to the positions of the test in the project",
             raw_attrs=tid("wz-goto-positions"),
         )

@@ -52,6 +52,7 @@ def _downloads(v: Any, html: Any) -> None:
             size="x-small",
             variant="tonal",
             prepend_icon="mdi-download",
+            title=("l.title || 'Download ' + l.name",),
             raw_attrs=[':download="l.name"'],
         )
 
@@ -72,6 +73,7 @@ def _use_for_system(v: Any, page: Any) -> None:
         variant="outlined",
         hide_details=True,
         classes="mb-2",
+        title="The measuring system that is to use this calibration, or a new one",
         raw_attrs=tid("cal-system-target"),
     )
     v.VTextField(
@@ -82,6 +84,7 @@ def _use_for_system(v: Any, page: Any) -> None:
         variant="outlined",
         hide_details=True,
         classes="mb-2",
+        title="The name of the measuring system to make",
         raw_attrs=tid("cal-system-name"),
     )
     v.VBtn(
@@ -90,6 +93,7 @@ def _use_for_system(v: Any, page: Any) -> None:
         variant="tonal",
         prepend_icon="mdi-link-variant",
         click=(on_use, "[cal_system_target, cal_system_name]"),
+        title="Link this calibration to the measuring system (acceptance tests and measurements use it)",
         raw_attrs=tid("cal-use"),
     )
 
@@ -180,8 +184,20 @@ def _summary(v: Any, html: Any, page: Any) -> None:
             variant="outlined",
             divided=True,
         ):
-            v.VBtn("Left camera", value="left", size="small", raw_attrs=tid("cal-side-left"))
-            v.VBtn("Right camera", value="right", size="small", raw_attrs=tid("cal-side-right"))
+            v.VBtn(
+                "Left camera",
+                value="left",
+                size="small",
+                title="Show the left camera's results",
+                raw_attrs=tid("cal-side-left"),
+            )
+            v.VBtn(
+                "Right camera",
+                value="right",
+                size="small",
+                title="Show the right camera's results",
+                raw_attrs=tid("cal-side-right"),
+            )
 
 
 def _warnings(v: Any, html: Any) -> None:
@@ -214,6 +230,7 @@ def _image_list(v: Any, html: Any, page: Any) -> None:
                             key="r.name",
                             click=(on_select, "[r.name]"),
                             style="cursor: pointer;",
+                            title="Show this image with its detected corners and residuals",
                             classes=("r.name === cal_selected ? 'bg-blue-lighten-5' : ''",),
                             raw_attrs=tid("cal-image-row") + [':data-status="r.status"'],
                         ):
@@ -284,8 +301,7 @@ def _heat_map(v: Any, html: Any, tplotly: Any, page: Any) -> None:
         with html.Div(classes="d-flex align-center ga-2 px-3 pt-2"):
             v.VTextField(
                 v_model=("cal_distance", 1000.0),
-                label="Working distance",
-                suffix="mm",
+                label="Working distance [mm]",
                 type="number",
                 min=0,
                 density="compact",
@@ -293,6 +309,7 @@ def _heat_map(v: Any, html: Any, tplotly: Any, page: Any) -> None:
                 hide_details=True,
                 style="max-width: 190px;",
                 change=(on_distance, "[cal_distance]"),
+                title="The distance from the camera at which the uncertainty map is drawn",
                 raw_attrs=tid("cal-distance"),
             )
             html.Span("{{ cal_map_note }}", classes="text-caption", raw_attrs=tid("cal-map-note"))
@@ -336,6 +353,7 @@ def _rectified(v: Any, html: Any, page: Any) -> None:
                 hide_details=True,
                 style="max-width: 320px;",
                 update_modelValue=(on_pair, "[$event]"),
+                title="The image pair to show rectified, with epipolar lines",
                 raw_attrs=tid("cal-pair"),
             )
         with v.VCardText():

@@ -49,6 +49,7 @@ def _image_select(v: Any, html: Any, model: str, label: str, testid: str) -> Non
         hide_details=True,
         classes="mb-2",
         disabled=("cal_running",),
+        title="The calibration images among the project's image items",
         raw_attrs=tid(testid),
     ):
         with v.Template(v_slot_selection="{ item, index }"):
@@ -80,8 +81,20 @@ def _mode_and_source(v: Any) -> None:
         classes="mb-3",
         disabled=("cal_running",),
     ):
-        v.VBtn("One camera", value="camera", prepend_icon="mdi-camera", raw_attrs=tid("cal-mode-camera"))
-        v.VBtn("Stereo pair", value="stereo", prepend_icon="mdi-camera-burst", raw_attrs=tid("cal-mode-stereo"))
+        v.VBtn(
+            "One camera",
+            value="camera",
+            prepend_icon="mdi-camera",
+            title="Calibrate one camera: intrinsics and distortion",
+            raw_attrs=tid("cal-mode-camera"),
+        )
+        v.VBtn(
+            "Stereo pair",
+            value="stereo",
+            prepend_icon="mdi-camera-burst",
+            title="Calibrate two cameras and the pose between them from simultaneous views",
+            raw_attrs=tid("cal-mode-stereo"),
+        )
     with v.VBtnToggle(
         v_model=("cal_source", "items"),
         mandatory=True,
@@ -97,16 +110,23 @@ def _mode_and_source(v: Any) -> None:
             value="items",
             prepend_icon="mdi-image-multiple-outline",
             size="small",
-            title="the project's image items",
+            title="Images from the project's image items",
             raw_attrs=tid("cal-source-items"),
         )
-        v.VBtn("Upload", value="upload", prepend_icon="mdi-upload", size="small", raw_attrs=tid("cal-source-upload"))
+        v.VBtn(
+            "Upload",
+            value="upload",
+            prepend_icon="mdi-upload",
+            size="small",
+            title="Images uploaded from this computer (they become image items of the project)",
+            raw_attrs=tid("cal-source-upload"),
+        )
         v.VBtn(
             "Folder",
             value="folder",
             prepend_icon="mdi-folder-outline",
             size="small",
-            title="a folder on the server",
+            title="Images in a folder on the server (inside the project or a data folder)",
             raw_attrs=tid("cal-source-folder"),
         )
 
@@ -131,6 +151,7 @@ def _from_items(v: Any, html: Any, page: Any) -> None:
             prepend_icon="mdi-auto-fix",
             click=on_pick,
             disabled=("cal_running",),
+            title="Fill the image lists from the project's image items (by name for a pair)",
             raw_attrs=tid("cal-pick"),
         )
 
@@ -169,6 +190,7 @@ def _from_upload(v: Any, html: Any) -> None:
                 classes="mb-2",
                 prepend_icon="mdi-image-multiple",
                 disabled=("cal_running",),
+                title="Choose image files to upload",
                 raw_attrs=tid(f"cal-upload-{side}"),
             )
 
@@ -185,6 +207,7 @@ def _from_folder(v: Any, html: Any) -> None:
             classes="mb-2",
             disabled=("cal_running",),
             placeholder="/data/calibration/2024-05-02",
+            title="A folder on the machine that runs camcmm, inside the project or a data folder",
             raw_attrs=tid("cal-folder"),
         )
         with html.Div(classes="d-flex ga-2 mb-2"):
@@ -195,6 +218,7 @@ def _from_folder(v: Any, html: Any) -> None:
                 variant="outlined",
                 hide_details=True,
                 disabled=("cal_running",),
+                title="Which files of the folder: a pattern such as left*.png",
                 raw_attrs=tid("cal-left-pattern"),
             )
             v.VTextField(
@@ -205,6 +229,7 @@ def _from_folder(v: Any, html: Any) -> None:
                 variant="outlined",
                 hide_details=True,
                 disabled=("cal_running",),
+                title="The right camera's files, in the same order as the left's",
                 raw_attrs=tid("cal-right-pattern"),
             )
 
@@ -220,6 +245,7 @@ def _board_and_model(v: Any, html: Any) -> None:
         hint=(BOARD_HINT,),
         classes="mt-1 mb-2",
         disabled=("cal_running",),
+        title="The calibration board: kind:columns x rows:square size in mm",
         raw_attrs=tid("cal-board"),
     )
     with html.Div(classes="d-flex ga-2 mb-2"):
@@ -233,6 +259,7 @@ def _board_and_model(v: Any, html: Any) -> None:
             variant="outlined",
             hide_details=True,
             disabled=("cal_running",),
+            title="Which lens distortion terms are estimated",
             raw_attrs=tid("cal-model"),
         )
         v.VTextField(
@@ -256,6 +283,7 @@ def _board_and_model(v: Any, html: Any) -> None:
         variant="outlined",
         hide_details=True,
         disabled=("cal_running",),
+        title="A name to find this calibration by later (empty: one is made)",
         raw_attrs=tid("cal-name"),
     )
 
@@ -277,9 +305,17 @@ def _run_controls(v: Any, html: Any, page: Any) -> None:
             loading=("cal_running",),
             disabled=("cal_running",),
             click=(on_run, RUN_ARGS),
-            raw_attrs=tid("cal-run"),
+            title="Run the calibration (Ctrl+Enter)",
+            raw_attrs=[*tid("cal-run"), 'data-shortcut="run"'],
         )
-        v.VBtn("Cancel", v_if="cal_running", variant="text", click=on_cancel, raw_attrs=tid("cal-cancel"))
+        v.VBtn(
+            "Cancel",
+            v_if="cal_running",
+            variant="text",
+            click=on_cancel,
+            title="Stop the calibration; nothing is stored",
+            raw_attrs=tid("cal-cancel"),
+        )
     with v.VProgressLinear(
         v_show="cal_running || cal_progress > 0",
         model_value=("cal_progress",),
