@@ -105,8 +105,8 @@ def test_import_view_and_run_a_plugin(gui_server, tmp_path):
             assert "mm" in page.locator('[data-testid="param-voxel_size"]').inner_text()
             field.fill("2")
             page.locator('[data-testid="run-button"]').click()
-            page.wait_for_selector('[data-testid="result-panel"]:has-text("n_points")')
-            n = int(page.locator('[data-testid="result-n_points"]').inner_text().strip())
+            page.wait_for_selector('[data-testid="report-n_points"]')  # the report's "points" row
+            n = int(page.locator('[data-testid="report-n_points"]').inner_text().replace(" ", "").strip())
             assert 0 < n < 20000
             page.wait_for_selector('[data-testid="progress"]:has-text("100")')
             assert page.locator('[data-testid="item"]').count() == 2

@@ -1,146 +1,14 @@
-"""The Inspect page's widgets: the drawer (items, plugins, the plugin's form, results)
-and the main area (colour field, the 3D view, the result panel)."""
+"""The Inspect page's main area: the plugin panel (:mod:`.form_view`) and beside it the
+colour field, the 3D view and the result panel. The drawer (the project's items with
+the tidy, its results) is :mod:`.drawer`."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from ...widgets import dyn_tid, param_form, tid
-
-
-def _items(page: Any) -> None:
-    from trame.widgets import vuetify3 as v
-
-    with v.VList(density="compact", nav=True, raw_attrs=tid("items")):
-        v.VListSubheader("Items in the project ({{ items.length }})")
-        v.VListItem(
-            v_for="item in items",
-            key="item.id",
-            title=("item.name",),
-            subtitle=("item.subtitle",),
-            active=("item.id === selected_item",),
-            color="primary",
-            prepend_icon=(
-                "item.kind === 'mesh' ? 'mdi-vector-triangle' : "
-                "(item.kind === 'image' ? 'mdi-image' : 'mdi-dots-hexagon')",
-            ),
-            click=(page.select_item, "[item.id]"),
-            classes="item-row",
-            raw_attrs=tid("item"),
-        )
-        v.VListItem(v_if="!items.length", subtitle="No items yet: import a file above.")
-
-
-def _plugins(page: Any) -> None:
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    with v.VList(density="compact", nav=True, raw_attrs=tid("plugins")):
-        v.VListSubheader("Plugins ({{ plugins.length }})")
-        with v.VListItem(
-            v_for="p in plugins",
-            key="p.id",
-            active=("p.id === selected_plugin",),
-            color="primary",
-            disabled=("!p.runnable && p.ok",),
-            click=(page.select_plugin, "[p.id]"),
-            classes="plugin-row",
-            raw_attrs=tid("plugin") + [':data-plugin-id="p.id"'],
-        ):
-            v.VListItemTitle("{{ p.name }}")
-            v.VListItemSubtitle("{{ p.id }} · v{{ p.version }}")
-            with html.Div(classes="d-flex ga-1 mt-1"):
-                v.VChip("{{ p.kind }}", size="x-small", variant="tonal", color="secondary")
-                v.VChip(
-                    "{{ p.ok ? 'ok' : 'failed' }}",
-                    size="x-small",
-                    variant="flat",
-                    color=("p.ok ? 'success' : 'error'",),
-                )
-            html.Div("{{ p.status }}", v_if="!p.ok", classes="text-caption text-error", raw_attrs=tid("plugin-error"))
-        v.VListItem(v_if="!plugins.length", subtitle="No plugins installed.")
-
-
-def _form(page: Any) -> None:
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    with html.Div(v_if="selected_plugin", classes="pa-3", raw_attrs=tid("plugin-form")):
-        html.Div("{{ plugin_title }}", classes="text-subtitle-2")
-        html.Div("{{ plugin_summary }}", classes="text-caption mb-2")
-        with html.Template(v_for="inp in form_inputs", key="inp.name"):
-            v.VSelect(
-                v_if="inp.supported",
-                v_model="input_values[inp.name]",
-                items=("inp.options",),
-                label=("inp.label",),
-                hint=("inp.help",),
-                density="compact",
-                variant="outlined",
-                classes="mb-1",
-                raw_attrs=dyn_tid("'input-' + inp.name"),
-            )
-            v.VTextField(
-                v_else=True,
-                v_model="input_values[inp.name]",
-                label=("inp.label + ' — path on the server'",),
-                density="compact",
-                variant="outlined",
-                raw_attrs=dyn_tid("'input-' + inp.name"),
-            )
-        param_form("form_fields", "form_values", "param")
-        with html.Div(classes="d-flex ga-2 mt-1"):
-            v.VBtn(
-                "Run",
-                color="primary",
-                prepend_icon="mdi-play",
-                click=(page.run_form, "[selected_plugin, form_values, input_values]"),
-                disabled=("running",),
-                loading=("running",),
-                raw_attrs=tid("run-button"),
-            )
-            v.VBtn("Cancel", v_if="running", variant="text", click=page.cancel, raw_attrs=tid("cancel-button"))
-        with v.VProgressLinear(
-            v_show="running || progress > 0",
-            model_value=("progress",),
-            indeterminate=("running && progress <= 0",),
-            height=18,
-            color=("running ? 'primary' : 'success'",),
-            classes="mt-2",
-            rounded=True,
-            raw_attrs=tid("progress"),
-        ):
-            html.Span("{{ progress_message }} {{ Math.round(progress) }} %", classes="text-caption")
-    html.Div("Choose an algorithm or standard plugin above to see its form.", v_else=True, classes="pa-3 text-caption")
-
-
-def _results(page: Any) -> None:
-    from trame.widgets import vuetify3 as v
-
-    with v.VList(density="compact", nav=True, raw_attrs=tid("results")):
-        v.VListSubheader("Results in the project ({{ results.length }})")
-        v.VListItem(
-            v_for="r in results",
-            key="r.id",
-            title=("'#' + r.id + ' ' + r.plugin",),
-            subtitle=("r.time",),
-            click=(page.show_result, "[r.id]"),
-            classes="result-row",
-            raw_attrs=tid("result-row"),
-        )
-
-
-def drawer(page: Any) -> None:
-    """The side drawer: items, plugins, the selected plugin's form, results."""
-    from trame.widgets import vuetify3 as v
-
-    _items(page)
-    v.VDivider()
-    _plugins(page)
-    v.VDivider()
-    _form(page)
-    v.VDivider()
-    _results(page)
+from ...widgets import dyn_tid, tid
+from .drawer import drawer
+from .form_view import plugin_panel
 
 
 def _colour_bar() -> None:
@@ -159,6 +27,7 @@ def _colour_bar() -> None:
             hide_details=True,
             disabled=("!color_fields.length",),
             style="max-width: 300px;",
+            title="The field the points are coloured by; the legend in the view follows",
             raw_attrs=tid("color-field"),
         )
         v.VChip(
@@ -166,9 +35,15 @@ def _colour_bar() -> None:
             v_if="legend_title",
             size="small",
             prepend_icon="mdi-palette",
+            title="The colour legend's field and unit",
             raw_attrs=tid("legend-title"),
         )
-        html.Span("{{ display_note }}", classes="text-caption", raw_attrs=tid("display-note"))
+        html.Span(
+            "{{ display_note }}",
+            classes="text-caption",
+            title="How many points the view draws",
+            raw_attrs=tid("display-note"),
+        )
 
 
 def _view(page: Any) -> None:
@@ -192,18 +67,63 @@ def _view(page: Any) -> None:
     view.on_update = view_changed
 
 
+def _report_table() -> None:
+    """The result as a report reads (state ``report_rows``): the label, then the value
+    with its unit and, below it, its standard uncertainty u (k = 1)."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with v.VTable(density="compact", v_if="report_rows.length", raw_attrs=tid("report-table")):
+        with html.Tbody():
+            with html.Tr(v_for="r in report_rows", key="r.name", raw_attrs=[':title="r.help"']):
+                html.Td("{{ r.label }}", classes="font-weight-medium", style="white-space: nowrap;")
+                with html.Td(classes="text-right", raw_attrs=dyn_tid("'report-' + r.name")):
+                    html.Span("{{ r.value }} {{ r.unit }}", style="white-space: nowrap;")
+                    html.Div(
+                        "u = {{ r.u }}",
+                        v_if="r.u",
+                        classes="text-caption text-medium-emphasis",
+                        title="standard uncertainty (k = 1) from the fit",
+                        raw_attrs=dyn_tid("'report-u-' + r.name"),
+                    )
+
+
+def _all_outputs() -> None:
+    """Every output as the plugin returned it, and the stored JSON: folded away."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with v.VExpansionPanels(classes="mt-2", raw_attrs=tid("all-outputs")):
+        with v.VExpansionPanel(title="All outputs", raw_attrs=tid("all-outputs-panel")):
+            v.VTooltip(activator="parent", text="Every output of the run, unformatted", open_delay=600)
+            with v.VExpansionPanelText():
+                with v.VTable(density="compact", raw_attrs=tid("result-table")):
+                    with html.Tbody():
+                        with html.Tr(v_for="r in result_rows", key="r.name"):
+                            html.Td("{{ r.name }}", classes="font-weight-medium")
+                            html.Td("{{ r.value }}", classes="text-right", raw_attrs=dyn_tid("'result-' + r.name"))
+                            html.Td("{{ r.unit }}")
+        with v.VExpansionPanel(title="Result JSON (as stored)"):
+            v.VTooltip(activator="parent", text="The record kept in the project", open_delay=600)
+            with v.VExpansionPanelText():
+                html.Pre("{{ JSON.stringify(result, null, 2) }}", style="font-size: 11px; white-space: pre-wrap;")
+
+
 def _result_panel() -> None:
+    """At the bottom of the view, on the Inspect page only: toasts appear elsewhere
+    (errors at the top right, infos in the footer), so none covers a result."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
     with v.VCard(
-        v_if="result || result_warnings.length",
+        v_if="page === 'inspect' && (result || result_warnings.length)",
         classes="ma-2",
         variant="outlined",
-        style="max-height: 34vh; overflow: auto;",
+        style="max-height: 36vh; overflow: auto; flex: 0 0 auto;",
         raw_attrs=tid("result-panel"),
     ):
         v.VCardTitle("{{ result_title }}", classes="text-subtitle-1")
+        v.VCardSubtitle("{{ result_params }}", v_if="result_params", raw_attrs=tid("result-params"))
         with v.VCardText():
             v.VAlert(
                 v_for="(w, i) in result_warnings",
@@ -214,30 +134,30 @@ def _result_panel() -> None:
                 classes="mb-1",
                 raw_attrs=tid("result-warning"),
             )
-            with v.VTable(density="compact", raw_attrs=tid("result-table")):
-                with html.Tbody():
-                    with html.Tr(v_for="r in result_rows", key="r.name"):
-                        html.Td("{{ r.name }}", classes="font-weight-medium")
-                        html.Td("{{ r.value }}", classes="text-right", raw_attrs=dyn_tid("'result-' + r.name"))
-                        html.Td("{{ r.unit }}")
-            with v.VExpansionPanels(classes="mt-2"):
-                with v.VExpansionPanel(title="Result JSON (as stored)"):
-                    with v.VExpansionPanelText():
-                        html.Pre(
-                            "{{ JSON.stringify(result, null, 2) }}", style="font-size: 11px; white-space: pre-wrap;"
-                        )
+            _report_table()
+            html.Div(
+                "This plugin declares no outputs to report; all of them are below.",
+                v_if="!report_rows.length",
+                classes="text-caption",
+            )
+            _all_outputs()
 
 
 def build(page: Any) -> None:
-    """The main area: the 3D view with its colour field and the result panel. The view
-    stays alive on every page (hidden, not removed, on pages that fill the area) and
-    sits right of the pages that share the area with it."""
+    """The main area: the plugin panel, then the 3D view with its colour field and the
+    result panel. The view stays alive on every page (hidden, not removed, on pages
+    that fill the area) and sits right of the pages that share the area with it."""
     from trame.widgets import html
 
     with html.Div(
-        classes=("full_pages.includes(page) ? 'd-none' : 'd-flex flex-column'",),
+        classes=("full_pages.includes(page) ? 'd-none' : 'd-flex flex-row'",),
         style="flex: 1 1 0; min-width: 0; height: calc(100vh - 48px - 24px); order: 1;",
     ):
-        _colour_bar()
-        _view(page)
-        _result_panel()
+        plugin_panel(page)
+        with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
+            _colour_bar()
+            _view(page)
+            _result_panel()
+
+
+__all__ = ["build", "drawer"]

@@ -116,7 +116,8 @@ class InspectPage:
             s.form_inputs = []
         else:
             current = {} if reset else dict(s.input_values or {})
-            s.form_inputs, s.input_values = inputs_of(spec, s.items or [], current, s.picked_item)
+            shown = next((it["id"] for it in s.items or [] if it["id"] == s.selected_item and not it["derived"]), None)
+            s.form_inputs, s.input_values = inputs_of(spec, s.items or [], current, s.picked_item or shown)
         self.check_run()
 
     def _spec(self) -> Any:
@@ -146,6 +147,10 @@ class InspectPage:
         self.state.run_reason = reason
         self.session.error(reason)
         self.session.flush()
+
+    async def run_clicked(self, pid: Any, form_values: Any, input_values: Any) -> None:
+        """The Run button: :meth:`run_form`, returning nothing to the browser."""
+        await self.run_form(pid, form_values, input_values)
 
     async def run_form(self, pid: Any, form_values: Any, input_values: Any) -> RunResult | None:
         """The Run button (also ``ctrl.run_plugin_form``): a run that cannot start says

@@ -2,8 +2,8 @@
 
 State it owns: ``tidy_rename`` (``{id, name}`` while the rename dialog is open, else
 None), ``tidy_confirm`` (``{id, name, results: [text]}`` while a delete waits for the
-user to confirm, else None), ``tidy_undo`` (the last action that can be undone, one
-line, "" when none), ``show_hidden``. The store does the work
+user to confirm, else None), ``tidy_undo`` (the last action, one line, "" when none),
+``tidy_can_undo``, ``tidy_new_name`` (the rename field), ``show_hidden``. The store does the work
 (:mod:`camcmm.project.tidy`): a delete is soft, so it can be undone for as long as this
 session runs (and the row, its file and every result stay in the project after it).
 A stored result's input is deleted only after the user saw which results used it.
@@ -22,7 +22,16 @@ class Tidy:
         self.session = session
         self.state = session.state
         self._undo: list[tuple[str, str, Any]] = []  # (action, item key, previous value)
-        self.state.update({"tidy_rename": None, "tidy_confirm": None, "tidy_undo": "", "show_hidden": False})
+        self.state.update(
+            {
+                "tidy_rename": None,
+                "tidy_new_name": "",
+                "tidy_confirm": None,
+                "tidy_undo": "",
+                "tidy_can_undo": False,
+                "show_hidden": False,
+            }
+        )
 
     # -- helpers ----------------------------------------------------------------------
     def _record(self, key: Any) -> dict[str, Any] | None:
@@ -36,6 +45,7 @@ class Tidy:
     def _done(self, action: str, key: str, before: Any, line: str) -> None:
         self._undo.append((action, key, before))
         self.state.tidy_undo = line
+        self.state.tidy_can_undo = True
         self.session.refresh_items()
 
     # -- rename -----------------------------------------------------------------------
@@ -43,6 +53,7 @@ class Tidy:
         m = self._record(key)
         if m is not None:
             self.state.tidy_rename = {"id": str(m["id"]), "name": str(m["name"])}
+            self.state.tidy_new_name = str(m["name"])
 
     def rename(self, key: Any, name: Any) -> bool:
         """Rename item ``key`` to ``name``; False (with the reason shown) when refused."""
@@ -126,7 +137,7 @@ class Tidy:
     def undo(self) -> bool:
         """Undo the last rename, hide or delete of this session."""
         if not self._undo:
-            self.state.tidy_undo = ""
+            self.state.tidy_undo, self.state.tidy_can_undo = "", False
             return False
         action, key, before = self._undo.pop()
         project = self.session.project
@@ -143,6 +154,7 @@ class Tidy:
         except Exception as exc:
             self.session.error(one_line(exc))
             return False
-        self.state.tidy_undo = f"undone ({action})" + (" · more to undo" if self._undo else "")
+        self.state.tidy_undo = f"undone: {action}"
+        self.state.tidy_can_undo = bool(self._undo)
         self.session.refresh_items()
         return True
