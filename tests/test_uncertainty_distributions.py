@@ -140,6 +140,7 @@ def test_bad_combinations_get_one_line_naming_the_entry(entry, needle):
     assert needle in msg and "contribution 2 ('rot')" in msg and "\n" not in msg
 
 
+@pytest.mark.slow
 def test_cli_json_keeps_its_keys_and_adds_how_each_entry_was_stated():
     from conftest import run_camcmm
 
@@ -238,3 +239,16 @@ def test_what_the_page_says_about_the_difference_holds():
         assert words in texts.MC_SOURCE, words
     for words in ("table 3.2", "rotation 9.1", "same system"):
         assert words in texts.BUDGET_SOURCE, words
+
+
+@pytest.mark.slow
+def test_the_declared_system_is_a_cli_option_too():
+    """One declaration, three faces: the fields of the page's form are `camcmm run` options."""
+    from conftest import run_camcmm
+
+    out = run_camcmm(
+        "run", "uncertainty.montecarlo", "--grid-points", "3,3,3", "--iterations", "20", "--baseline", "250", "--json"
+    ).stdout
+    system = json.loads(out)["outputs"]["system"]
+    assert system["stereo"] == {"baseline": 250.0, "angle_deg": 38.64} and system["grid"]["n"] == [3, 3, 3]
+    assert system["uncertainties"]["rotation"] == [1.84e-4, 1.52e-4, 0.71e-4]  # table 3.2, rad

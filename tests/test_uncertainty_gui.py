@@ -83,6 +83,7 @@ def test_budget_edits_evaluate_live_and_bad_cells_name_the_entry(gui_app, tmp_pa
     assert "x.yaml" in s.unc_error
 
 
+@pytest.mark.slow
 def test_budget_rows_entered_as_half_width_or_expanded_show_the_conversion(gui_app):
     """Each row is entered as u, a half-width a with its distribution or an expanded U with
     k; the table shows the u the plugin made of it and how (GUM 4.3.3-4.3.9)."""
@@ -115,6 +116,7 @@ def test_budget_rows_entered_as_half_width_or_expanded_show_the_conversion(gui_a
     assert server2.state.unc_b_rows[1]["kind"] == "a" and server2.state.unc_b_rows[1]["value"] == "2.0"
 
 
+@pytest.mark.slow
 def test_gum_h1_entered_as_the_gum_states_it_through_the_editor(gui_app):
     """GUM H.1 with U = 75 nm (k = 3) and the rectangular bounds typed as half-widths:
     u_c 31.7 nm, nu_eff 16.8 (16 for t; GUM 16.7 from its rounded u), U 92.5 nm (GUM: 93 nm
@@ -133,6 +135,7 @@ def test_gum_h1_entered_as_the_gum_states_it_through_the_editor(gui_app):
         assert page.budget[key] == pytest.approx(cli[key], rel=1e-12)
 
 
+@pytest.mark.slow
 def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
     """No YAML box: the system is the plugin's declared fields (defaults: the thesis system),
     each unit once in its label; a run from the fields is stored with them and shown again."""
@@ -161,6 +164,7 @@ def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
     assert "baseline" in s.unc_error and "\n" not in s.unc_error
 
 
+@pytest.mark.slow
 def test_every_control_of_the_page_has_a_tooltip_and_run_its_shortcut(gui_app):
     import re
 
