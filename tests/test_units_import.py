@@ -94,7 +94,9 @@ def test_expected_size_asks_even_a_stated_unit():
     # the bounds E/50 .. 50 E: inside is fine, a factor 1000 outside asks
     assert not decide_unit(_diag(20.0 / 50 * 1.001), expected=20.0).asks
     assert not decide_unit(_diag(20.0 * 50 * 0.999), expected=20.0).asks
-    assert decide_unit(_diag(20.0 / 50 * 0.999), expected=20.0).suggested == "in"  # nearest 20 mm: 0.4 in = 10 mm
+    # cm, inch and m would all fit a 20 mm artefact here; the suggestion is the usual slip, m
+    assert decide_unit(_diag(20.0 / 50 * 0.999), expected=20.0).suggested == "m"
+    assert decide_unit(_diag(20.0 / 50 * 0.999), expected=20.0, units=("cm", "in", "mm")).suggested == "cm"
     assert decide_unit(_diag(20.0 / 50 * 0.999), expected=20.0, units=("m", "mm", "um")).suggested == "m"
     assert decide_unit(_diag(20.0 * 1000), expected=20.0).suggested == "um"
     # mm read as metres: 20 000 mm for a 20 mm artefact -> mm
@@ -268,3 +270,20 @@ def test_compare_inputs_say_when_the_cloud_is_in_another_unit_than_the_nominal(g
     assert "but a nominal of 74.8 mm was expected; in m it would fit" in note, note
     assert "import it again with its unit" in note
     assert page.unit_note(None, nominal) == "" and page.unit_note(metres, None) == ""
+
+
+@pytest.mark.slow
+def test_gauge_block_cli_uses_the_rule_with_the_nominal(tmp_path):
+    from conftest import cli_json
+
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-20, 20, (3000, 2))
+    top = (np.abs(xy[:, 0]) < 4.5) & (np.abs(xy[:, 1]) < 15)
+    pts = np.column_stack([xy, np.where(top, 5.0006, 0.0)]) / 1000  # metres, no unit in the file
+    f = tmp_path / "block.xyz"
+    f.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()))
+    told = cli_json("gauge-block", f, "--nominal", "5.0006", "--unit", "m", "--json")
+    assert abs(told["error"]) < 1e-9 and not any("unit" in w for w in told.get("warnings", []))
+    proc = run_camcmm("gauge-block", f, "--nominal", "5.0006", "--json", ok=False)
+    out = proc.stdout + proc.stderr
+    assert "block.xyz spans" in out and "in m it would fit" in out, out

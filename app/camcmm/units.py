@@ -62,7 +62,16 @@ EXPECTED_RATIO: float = 50.0
 #: does, 10 or 25.4 only when the size was already almost right.
 EXPLAINS: tuple[float, float] = (0.05, 20.0)
 
-_TYPICAL_MM = 100.0  # without an expected size, the suggestion is the plausible unit nearest this
+#: When several units would give a plausible size, the suggestion is the first of these
+#: that does: the slips that happen are metres (scanner software, E57 exports, TLS) and
+#: µm (interferometers, profilometers) read as mm; cm and inch files are rare in
+#: metrology, and "nearest the expected size" would pick them wrongly for a scan that
+#: carries its platen or mount (a gauge block on a platen spans 8 times its length).
+PREFERENCE: tuple[str, ...] = ("m", "um", "mm", "cm", "in")
+
+
+def _preferred(units: Sequence[str]) -> str | None:
+    return min(units, key=lambda u: PREFERENCE.index(u) if u in PREFERENCE else len(PREFERENCE), default=None)
 
 
 def unit_key(unit: str) -> str:
@@ -131,8 +140,8 @@ def suggest_unit(
     units: Sequence[str] = CANDIDATE_UNITS,
 ) -> str | None:
     """The unit of ``units`` other than ``unit`` that brings a size read as ``unit``
-    (``size_mm``, in mm) to within ``within`` × ``expected_mm``, nearest the expected
-    size; None if none.
+    (``size_mm``, in mm) to within ``within`` × ``expected_mm`` (the first such in
+    PREFERENCE order); None if none.
 
     >>> suggest_unit(0.028, 20.0)  # a 20 mm ball's scan in metres read as mm
     'm'
@@ -141,11 +150,9 @@ def suggest_unit(
         return None
     raw = size_mm / to_mm_factor(unit)
     fits = [
-        (abs(math.log(raw * to_mm_factor(u) / expected_mm)), u)
-        for u in units
-        if u != unit and within[0] * expected_mm <= raw * to_mm_factor(u) <= within[1] * expected_mm
+        u for u in units if u != unit and within[0] * expected_mm <= raw * to_mm_factor(u) <= within[1] * expected_mm
     ]
-    return min(fits)[1] if fits else None
+    return _preferred(fits)
 
 
 def _candidates(span: tuple[float, float, float], lo: float, hi: float, units: Sequence[str]) -> tuple[dict, ...]:
@@ -227,12 +234,7 @@ def decide_unit(
         return done("known", None, f"{as_read} (unit stated)")
     if PLAUSIBLE_SPAN_MM[0] <= diag <= PLAUSIBLE_SPAN_MM[1]:
         return done("plausible", None, f"{as_read}; no unit stated, read as mm (a plausible part size)")
-    plaus = [c for c in cands if c["plausible"] and c["unit"] != "mm"]
-    best = None
-    if plaus:
-        best = min(plaus, key=lambda c: abs(math.log(math.sqrt(sum(s * s for s in c["span_mm"])) / _TYPICAL_MM)))[
-            "unit"
-        ]
+    best = _preferred([c["unit"] for c in cands if c["plausible"] and c["unit"] != "mm"])
     side = "small" if diag < PLAUSIBLE_SPAN_MM[0] else "large"
     hint = ""
     if best is not None:
