@@ -227,7 +227,9 @@ def view_toolbar(tools: ViewTools, labels: bool = True) -> None:
         tools.clear_labels()
 
     with html.Div(
-        classes="d-flex align-center flex-wrap ga-1 px-3", style="min-height: 36px;", raw_attrs=tid(f"{p}-tools")
+        classes="d-flex align-center flex-wrap ga-1 px-3",
+        style="min-height: 36px; row-gap: 14px;",
+        raw_attrs=tid(f"{p}-tools"),
     ):
         buttons = [(name, tip, key) for name, (_, _, tip, key) in VIEWS.items()]
         for name, tip, key in buttons + [("reset", "Reset: frame everything, keep the direction", "r")]:

@@ -400,7 +400,7 @@ def _centre_column(page: Any, on_mode: Any) -> Any:
 
     with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
         _mode_bar(on_mode)
-        with html.Div(classes="d-flex align-center flex-wrap", style="min-height: 40px;"):
+        with html.Div(classes="d-flex align-center flex-wrap pt-2", style="min-height: 40px; row-gap: 14px;"):
             view_toolbar(page.tools)
             _legend_controls(page)
         html.Div("{{ ins_note }}", classes="text-caption px-3", style="margin-top: -6px;", raw_attrs=tid("ins-note"))
