@@ -29,5 +29,6 @@ MC_SOURCE = (
     "rotation comes out at 3.7–3.8 µm in x against the table's 9.1 µm, and radial distortion well below "
     "its 2.1 µm. The thesis does not state the volume it simulated, and these contributions grow with it "
     "(80 × 60 × 60 mm gives rotation about 5.0, 4.7, 8.8 µm in x, y, z; the table: 9.1, 4.7, 9.1 µm), so no "
-    "volume reproduces the whole table."
+    "volume reproduces the whole table. The combined u_c(x), about 5.4 µm here, is near the 5.9 µm the "
+    "thesis's discussion (ch. 3.4.1) quotes rather than its table's 10.1 µm."
 )
