@@ -287,3 +287,13 @@ def test_gauge_block_cli_uses_the_rule_with_the_nominal(tmp_path):
     proc = run_camcmm("gauge-block", f, "--nominal", "5.0006", "--json", ok=False)
     out = proc.stdout + proc.stderr
     assert "block.xyz spans" in out and "in m it would fit" in out, out
+
+
+@pytest.mark.slow
+def test_fit_cli_warns_without_a_unit_and_not_with_one():
+    from conftest import cli_json
+
+    doc = cli_json("fit", "sphere", NIST / "SPH101.xyz", "--json")
+    assert doc["warnings"][0].startswith("SPH101.xyz has no unit and spans 0.138 × 0.106 × 0.0993")
+    told = cli_json("fit", "sphere", NIST / "SPH101.xyz", "--unit", "m", "--json")
+    assert not any("no unit" in w for w in told["warnings"])

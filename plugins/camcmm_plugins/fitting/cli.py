@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from camcmm.api import declared_value, read
+from camcmm.api import declared_value, read_stated, unit_decision
 
 RULES = "none, vdi2634 (3 of every 1000 points, one at a time), percent:P, sigma:K"
 
@@ -45,7 +45,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="sphere only: first extract the sphere from a raw scan with mount and background",
     )
-    parser.add_argument("--unit", default=None, help="length unit of the file when it does not say (default mm)")
+    parser.add_argument(
+        "--unit",
+        default=None,
+        help="length unit of the file (m, cm, mm, um, in) when it does not say; without it: mm, with a warning "
+        "when the size is implausible as mm (docs/units.md)",
+    )
     parser.add_argument(
         "--residuals", action="store_true", help="include every point's residual and the removed indices in the JSON"
     )
@@ -61,7 +66,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         args.nominal_radius = declared_value(f"fit.{args.element}", "nominal_radius", args.nominal_radius)
     if args.extract and args.element != "sphere":
         raise InputError("--extract works for a sphere only")
-    obj = read(args.file, unit=args.unit) if args.unit else read(args.file)
+    obj, stated = read_stated(args.file, unit=args.unit)
+    # the shared unit rule (a sphere's nominal diameter, when given, is the size to expect)
+    expected = 2 * args.nominal_radius if args.nominal_radius and args.element == "sphere" else None
+    unit_note = unit_decision(obj, stated, expected=expected, what="sphere" if expected else "part")
     cloud, note = as_cloud(obj, args.element, str(args.file))
     pts = cloud.points
     extra: dict[str, Any] = {"file": str(args.file)}
@@ -75,6 +83,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     out.update(extra)
     if note:
         out["warnings"] = [note, *out["warnings"]]
+    if unit_note.asks:
+        out["warnings"] = [unit_note.reason, *out["warnings"]]
     return out
 
 
