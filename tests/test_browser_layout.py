@@ -226,5 +226,9 @@ def test_keyboard_shortcuts(demo):
             page.screenshot(path=str(SHOTS / "layout-shortcuts-help.png"))
             page.keyboard.press("Escape")
             help_.wait_for(state="detached")
+            page.click('[data-testid="shortcut-help-open"]')  # the toolbar's keyboard button opens it too
+            help_.wait_for()
+            page.click('[data-testid="shortcut-help-close"]')
+            help_.wait_for(state="detached")
         finally:
             browser.close()

@@ -1,12 +1,11 @@
 """The app shell: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session` and
 the registered pages (:mod:`camcmm.gui.pages`).
 
-Toolbar: the project's name, one button per page (``page-<key>``, in the pages'
-order) and the import (a file through the browser, or a path on the server). Drawer:
-the error alert and the drawer of the page shown; it is open on a page that has one
-(state ``drawer_pages``, ``main_drawer``). Main area: every page's widgets, each shown
-while the state ``page`` is its key. Errors also appear in a snackbar. Key widgets
-carry ``data-testid`` attributes for the browser tests. :func:`start` serves it
+:func:`build` mounts the pages and lays them out with :mod:`camcmm.gui.shell` (toolbar
+with one button per page (``page-<key>``, in the pages' order), drawer, footer, error
+notice); the import controls (a file through the browser, a path on the server, the unit
+question) live here. Each page's widgets show while the state ``page`` is its key. Key
+widgets carry ``data-testid`` attributes for the browser tests. :func:`start` serves it
 behind the token guard (:mod:`camcmm.gui.security`).
 """
 
@@ -23,7 +22,6 @@ from typing import Any
 
 from ..errors import CamcmmError
 from . import setup_offscreen
-from .pages import shown
 from .widgets import accepted_extensions, dyn_tid, tid
 
 
@@ -55,6 +53,7 @@ def build(
     from .pages import registered
     from .roots import Roots
     from .session import Session
+    from .shell import layout
     from .view import DISPLAY_LIMIT, SceneView
 
     server = get_server(server_name, client_type="vue3")
@@ -71,7 +70,7 @@ def build(
     server.state.trame__title = f"camcmm — {server.state.project_name}"
     server.state.full_pages = [p.key for p in pages if p.full]
     server.state.drawer_pages = [p.key for p in pages if p.drawer is not None]
-    _layout(server, session, pages)
+    layout(server, session, pages, import_controls=_import_controls)
 
     def on_server_ready(**_):
         try:
@@ -81,46 +80,6 @@ def build(
 
     server.controller.on_server_ready.add(on_server_ready)
     return server, session
-
-
-def _page_switch(pages: list[Any], first: str) -> None:
-    """The toolbar's page toggle: one button per page, its icon and (when there is room,
-    see resources/ui/shell.js) its title; the tooltip names it and its shortcut Alt+N.
-    The drawer opens on pages that have one."""
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    with v.VBtnToggle(
-        v_model=("page", first),
-        mandatory=True,
-        density="compact",
-        variant="outlined",
-        divided=True,
-        color="primary",
-        classes="ml-3",
-        update_modelValue="main_drawer = drawer_pages.includes($event)",
-        raw_attrs=tid("page-switch"),
-    ):
-        for i, p in enumerate(pages):
-            keys = f" (Alt+{i + 1})" if i < 9 else ""
-            with v.VBtn(
-                value=p.key,
-                prepend_icon=p.icon,
-                classes="cmm-page-btn text-none",
-                raw_attrs=[
-                    *tid(f"page-{p.key}"),
-                    f'data-page-key="{p.key}"',
-                    f'data-page-title="{_attr(p.title)}"',
-                    f'aria-label="{_attr(p.title)}"',
-                ],
-            ):
-                html.Span(p.title, classes="cmm-page-title")
-                v.VTooltip(activator="parent", location="bottom", text=p.title + keys)
-
-
-def _attr(text: str) -> str:
-    """``text`` inside a double-quoted HTML attribute."""
-    return str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
 
 
 def _import_controls(session: Any) -> None:
@@ -301,165 +260,6 @@ def _unit_dialog(session: Any) -> None:
                     title="Convert the coordinates from this unit to mm and store the file with it",
                     raw_attrs=tid("unit-accept"),
                 )
-
-
-def _notice() -> None:
-    """The newest error of any page, briefly, at the top right (below the toolbar, away
-    from the results below); the page's own alert keeps it. Infos go to the footer."""
-    from trame.widgets import vuetify3 as v
-
-    v.VSnackbar(
-        v_model=("error_visible", False),
-        text=("error_message",),
-        color="error",
-        timeout=6000,
-        location="top right",
-        raw_attrs=tid("error-snackbar"),
-    )
-
-
-# the current page's error ("" when none) and the handler that clears it, as JavaScript
-PAGE_ERROR = "(page_messages || {})[page]"
-CLEAR_PAGE_ERROR = "page_messages = Object.assign({}, page_messages, {[page]: ''})"
-
-
-def _page_alert() -> None:
-    """The drawer's alert: the error of the page shown, not another page's."""
-    from trame.widgets import vuetify3 as v
-
-    v.VAlert(
-        v_if=PAGE_ERROR,
-        text=(PAGE_ERROR,),
-        type="error",
-        density="compact",
-        closable=True,
-        classes="ma-2",
-        click_close=CLEAR_PAGE_ERROR,
-        raw_attrs=tid("error-alert"),
-    )
-
-
-def _toolbar(session: Any, pages: list[Any], first: str) -> None:
-    """App name, project (may truncate: its tooltip holds it whole), pages, import."""
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    html.Div("camcmm", classes="cmm-app-title font-weight-medium", title="camcmm — camera-based coordinate metrology")
-    with html.Div(classes="cmm-project-box ml-3", title=("`Project ${project_name}: ${project_path}`",)):
-        v.VIcon("mdi-folder-outline", size="small", classes="mr-1")
-        html.Span("{{ project_name }}", classes="cmm-project text-subtitle-1", raw_attrs=tid("project-name"))
-    _page_switch(pages, first)
-    v.VSpacer()
-    with html.Div(classes="cmm-import ml-2", raw_attrs=tid("import-box")):
-        _import_controls(session)
-    with v.VBtn(
-        icon=True,
-        size="small",
-        variant="text",
-        raw_attrs=[*tid("shortcut-help-open"), "data-shortcut-help", 'aria-label="Keyboard shortcuts"'],
-    ):
-        v.VIcon("mdi-keyboard-outline")  # a child replaces the icon= prop's icon: name it here
-        v.VTooltip(activator="parent", location="bottom", text="Keyboard shortcuts (?)")
-
-
-def _footer(layout: Any) -> None:
-    """camcmm's own footer: version, project folder, the page's message (its error, else
-    the newest note), connection. One line of fixed height: nothing moves when a message comes."""
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    from .. import __version__
-
-    footer = layout.footer
-    footer.clear()
-    footer.classes = "cmm-footer px-3 py-0 d-flex align-center text-medium-emphasis"
-    _raw_attrs(footer, tid("footer"))
-    with footer:
-        v.VProgressCircular(indeterminate=("!!trame__busy",), color="primary", size=12, width=2, title="busy")
-        html.Span(f"camcmm {__version__}", raw_attrs=tid("footer-version"), title="camcmm version")
-        html.Span(
-            "{{ project_path }}",
-            classes="cmm-footer-path",
-            title=("`Project folder: ${project_path}`",),
-            raw_attrs=tid("footer-project"),
-        )
-        with html.Div(classes="cmm-footer-message d-flex align-center"):
-            with html.Template(v_if=f"{PAGE_ERROR} && !(main_drawer && drawer_pages.includes(page))"):
-                v.VIcon("mdi-alert-circle", color="error", size="small", classes="mr-1")
-                html.Span(
-                    "{{ " + PAGE_ERROR + " }}",
-                    classes="text-error",
-                    title=(PAGE_ERROR,),
-                    raw_attrs=tid("footer-error"),
-                )
-                with v.VBtn(icon=True, size="x-small", variant="text", click=CLEAR_PAGE_ERROR, classes="ml-1"):
-                    v.VIcon("mdi-close")
-                    v.VTooltip(activator="parent", location="top", text="Dismiss this message")
-            html.Span(
-                "{{ info_message }}",
-                v_else_if="info_message",
-                title=("info_message",),
-                raw_attrs=tid("footer-info"),
-            )
-        with html.Span(classes="d-flex align-center", raw_attrs=tid("footer-connection")):
-            v.VIcon("mdi-lan-connect", size="small", color="success", classes="mr-1")
-            html.Span("connected", title="This page is connected to its camcmm server")
-
-
-def _raw_attrs(elem: Any, attrs: list[str]) -> None:
-    """``raw_attrs`` on a widget the layout made (setting the keyword after construction
-    renders nothing: trame reads it only in the constructor)."""
-    for i, attr in enumerate(attrs):
-        elem._attributes[f"_raw_shell_{i}"] = attr
-
-
-def _shell_assets(server: Any) -> None:
-    """resources/ui: the toolbar's fit and the keyboard shortcuts (shell.js), their styles."""
-    from ..assets import resources_dir
-
-    server.enable_module(
-        {
-            "serve": {"__camcmm_ui": str(resources_dir() / "ui")},
-            "scripts": ["__camcmm_ui/shell.js"],
-            "styles": ["__camcmm_ui/shell.css"],
-        }
-    )
-
-
-def _layout(server: Any, session: Any, pages: list[Any]) -> None:
-    """The shell: toolbar (project, pages, import), drawer (the page's error, the pages'
-    drawers), the pages' content, the footer, the error notice."""
-    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
-
-    first = pages[0].key if pages else ""
-    opened = bool(pages) and pages[0].drawer is not None  # the first page shown has its drawer open
-    with SinglePageWithDrawerLayout(server, width=400, show_drawer=opened, theme=("theme", "light")) as layout:
-        layout.title.hide()
-        layout.icon.v_show = "drawer_pages.includes(page)"  # no empty drawer to open elsewhere
-        with layout.icon:  # a child replaces the default icon: give it back
-            v.VIcon("mdi-menu")
-            v.VTooltip(activator="parent", location="bottom", text="Show or hide the side panel")
-        with layout.toolbar:
-            layout.toolbar.density = "compact"
-            layout.toolbar.classes = "cmm-toolbar"
-            _raw_attrs(layout.toolbar, tid("toolbar"))
-            _toolbar(session, pages, first)
-        with layout.drawer as drawer:
-            _raw_attrs(drawer, tid("drawer"))
-            _page_alert()
-            for p in pages:
-                if p.drawer is not None:
-                    with html.Div(v_show=shown(p.key)):  # kept in the page, as the drawer is
-                        p.drawer(server.pages[p.key])
-        with layout.content:
-            layout.content.classes = "d-flex"
-            for p in pages:
-                p.build(server.pages[p.key])
-        _footer(layout)
-        _notice()
-    _shell_assets(server)  # after the widgets' modules: shell.css comes after Vuetify's styles
 
 
 @contextmanager
