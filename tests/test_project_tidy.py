@@ -124,3 +124,56 @@ def test_schema_2_project_migrates_to_the_hidden_flag(tmp_path):
         assert m["name"] == "kept" and m["hidden"] is False
         p.set_measurement_hidden(m["id"])
         assert p.measurement(m["id"])["hidden"] is True
+
+
+# -- the tidy on the Inspect page (no browser) ------------------------------------------------
+@pytest.mark.slow
+def test_the_page_renames_hides_deletes_with_confirmation_and_undoes(gui_app, tmp_path):
+    pytest.importorskip("trame")
+    import numpy as np
+
+    from camcmm import io as cio
+    from camcmm.model import PointCloud
+
+    f = tmp_path / "scan.xyz"
+    cio.write(PointCloud(np.random.default_rng(1).normal(size=(200, 3)), name="scan"), f)
+    server, s = gui_app()
+    page, state = server.pages["inspect"], server.state
+    tidy = page.tidy
+    a, b = s.import_file(f), s.import_file(f, name="other.xyz")
+    names = lambda: [it["name"] for it in state.items]  # noqa: E731
+
+    tidy.ask_rename(a)
+    assert state.tidy_rename == {"id": a, "name": "scan.xyz"} and state.tidy_new_name == "scan.xyz"
+    assert tidy.rename(a, "left ball") and names() == ["left ball", "other.xyz"]
+    assert s.load(a).name == "left ball" and state.tidy_rename is None
+    assert not tidy.rename(a, "   ") and "name" in s.page_error("inspect")  # refused, kept
+    assert (
+        tidy.set_hidden(b) and names() == ["left ball"] and [it["name"] for it in state.hidden_items] == ["other.xyz"]
+    )
+    assert tidy.undo() and names() == ["left ball", "other.xyz"]
+    assert tidy.undo() and names() == ["scan.xyz", "other.xyz"]
+
+    # a stored result's input: the page lists the results and asks; nothing happens until confirmed
+    import asyncio
+
+    assert asyncio.run(page.run_plugin("cloud.downsample", {"voxel_size": 0.5}, {"cloud": a})) is not None
+    rid = page.last_result_id
+    assert not tidy.ask_delete(a)
+    assert state.tidy_confirm["id"] == a and state.tidy_confirm["results"][0].startswith(f"#{rid} cloud.downsample")
+    assert "scan.xyz" in names()
+    tidy.cancel()
+    assert state.tidy_confirm is None and "scan.xyz" in names()
+    assert not tidy.delete(a, confirm="yes")  # only a real True from the dialog confirms
+    assert "scan.xyz" in names()
+    assert tidy.delete(a, confirm=True) and "scan.xyz" not in names()
+    assert s.project.result(rid)["measurement_ids"] == [int(a)]  # the result keeps its record
+    # an item no result used goes at once; both come back with undo
+    assert tidy.ask_delete(b) and "other.xyz" not in names()
+    assert tidy.undo() and tidy.undo() and names()[:2] == ["scan.xyz", "other.xyz"]
+    assert not state.tidy_can_undo
+    # hostile ids from the browser: a one-line reason, nothing changes
+    before = names()
+    for bad in ("999", None, "'; DROP TABLE measurements; --", {"x": 1}):
+        assert not tidy.ask_delete(bad) and not tidy.set_hidden(bad) and not tidy.rename(bad, "x")
+    assert names() == before
