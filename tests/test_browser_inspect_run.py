@@ -7,7 +7,9 @@ toggled and Run clicked at once (no wait in between). Run must not have moved, t
 must happen with what the form shows (extract on, nominal 10 mm: the stored result
 says so), and the result reads as a report (diameter, u, form in µm) with the view
 coloured by the fit's residuals in µm. Then a run that cannot start (a negative
-nominal radius) says why next to Run, and a click stores nothing.
+nominal radius) says why next to Run, and a click stores nothing. Last the tidy: the
+scan, input of the stored fit, is deleted only after a dialog listing that fit, and
+Undo brings it back.
 
 Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``<tmp>/inspect-run``).
 """
@@ -107,5 +109,20 @@ def test_run_right_after_toggling_extract_and_a_refused_run_says_why(demo):
             assert reason.is_visible() and "nominal_radius" in reason.inner_text()
             assert len(_results(folder)) == 1
             page.screenshot(path=str(SHOTS / "run-refused.png"))
+
+            # the tidy: the scan is the stored fit's input, so a delete lists the fit and asks
+            scan = page.locator('[data-testid="item"]', has_text="sphere scan (20 mm ball)").first
+            scan.locator('[data-testid="item-menu"]').click()
+            page.locator('.v-overlay--active [data-testid="item-delete"]').click()
+            dialog = page.locator('[data-testid="delete-dialog"]')
+            dialog.wait_for()
+            assert "#1 fit.sphere" in page.locator('[data-testid="delete-results"]').inner_text()
+            page.screenshot(path=str(SHOTS / "tidy-confirm.png"))
+            page.locator('[data-testid="delete-confirm"]').click()
+            page.wait_for_selector('[data-testid="tidy-undo-text"]:has-text("deleted")')
+            assert page.locator('[data-testid="item"]', has_text="sphere scan (20 mm ball)").count() == 1  # the fit's
+            page.locator('[data-testid="tidy-undo"]').click()
+            page.wait_for_selector('[data-testid="tidy-undo-text"]:has-text("undone")')
+            assert page.locator('[data-testid="item"]', has_text="sphere scan (20 mm ball)").count() == 2
         finally:
             browser.close()
