@@ -106,9 +106,13 @@ def _list(page: Any) -> None:
             key="d.key",
             active=("d.key === dev_selected",),
             click=(page.select, "[d.key]"),
-            title=("`${d.label}: ${d.state}${d.position ? ', at ' + d.position : ''} (click to show it)`",),
             raw_attrs=dyn_tid("'dev-item-' + d.name"),
-        ):
+        ):  # (a VListItem's title= is its heading, not a tooltip)
+            v.VTooltip(
+                activator="parent",
+                location="end",
+                text=("`${d.label}: ${d.state}${d.position ? ', at ' + d.position : ''} (click to show it)`",),
+            )
             v.VListItemTitle("{{ d.name }} · {{ d.kind }}")
             v.VListItemSubtitle("{{ d.message || d.label }}")  # the position is in the device's panel, whole
             with html.Template(v_slot_append=True):
@@ -119,8 +123,10 @@ def _list(page: Any) -> None:
                     color=(STATE_COLOUR,),
                     raw_attrs=dyn_tid("'dev-state-' + d.name"),
                 )
-        v.VListItem(
-            v_if="!dev_list.length", subtitle="No device yet: add one above (a simulated one needs no hardware)."
+        html.Div(
+            "No device yet: add one above (a simulated one needs no hardware).",
+            v_if="!dev_list.length",
+            classes="text-caption text-medium-emphasis px-4 py-2",
         )
 
 
