@@ -297,3 +297,20 @@ def test_fit_cli_warns_without_a_unit_and_not_with_one():
     assert doc["warnings"][0].startswith("SPH101.xyz has no unit and spans 0.138 × 0.106 × 0.0993")
     told = cli_json("fit", "sphere", NIST / "SPH101.xyz", "--unit", "m", "--json")
     assert not any("no unit" in w for w in told["warnings"])
+
+
+@pytest.mark.slow
+def test_server_path_import_with_its_unit_field(gui_app):
+    import asyncio
+
+    server, session = gui_app(data_roots=(NIST,))
+    path = str(NIST / "SPH101.xyz")
+    asyncio.run(session.ctrl.import_server_path(path, "furlong"))  # hostile input: refused, nothing read
+    assert "not one of" in session.errors[-1] and server.state.items == []
+    asyncio.run(session.ctrl.import_server_path(path, "m"))  # told: not asked
+    assert not server.state.unit_ask_visible and len(server.state.items) == 1
+    item = server.state.items[0]
+    assert "138 × 106 × 99.3 mm" in item["subtitle"], item
+    assert session.load(item["id"]).source_unit == "m"
+    asyncio.run(session.ctrl.import_server_path(path, ""))  # the file's own: none, so asked
+    assert server.state.unit_ask_visible and len(server.state.items) == 1
