@@ -186,3 +186,10 @@ def test_the_page_reports_a_fit_colours_it_and_keeps_the_picker(gui_app, tmp_pat
         page.job.end()
     assert asyncio.run(page.run_form(None, {}, {})) is None and state.run_reason == "choose a plugin first"
     assert len(s.project.results()) == n
+
+
+def test_a_stored_results_cloud_output_reads_as_its_summary():
+    ports = [{"name": "deviations", "type": "pointcloud"}, {"name": "n_points", "type": "int"}]
+    stored = {"deviations": {"kind": "pointcloud", "name": "ball deviations", "n_points": 59997}, "n_points": 3}
+    rows = report_rows(stored, ports)
+    assert [r["value"] for r in rows] == ["point cloud 'ball deviations', 59 997 points", "3"]

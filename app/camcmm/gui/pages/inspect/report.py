@@ -76,8 +76,13 @@ def _one(port: dict[str, str], value: Any, u: Any, items: dict[str, str]) -> lis
     name, typ, unit, help = port["name"], port["type"], port["unit"], port["help"]
     if typ in ("pointcloud", "mesh"):
         made = items.get(name)
-        text = f"item '{made}' (coloured in the view)" if made else "not stored as an item"
-        return [_row(name, text, help=help)]
+        if made:
+            return [_row(name, f"item '{made}' (coloured in the view)", help=help)]
+        d = value if isinstance(value, dict) else {}  # to_jsonable's summary of a cloud or mesh
+        n = d.get("n_points", d.get("n_faces"))
+        kind = "point cloud" if typ == "pointcloud" else typ
+        what = f"{kind} '{d.get('name', name)}'" + (f", {fmt.count(n)} points" if "n_points" in d else "")
+        return [_row(name, what if n is not None else kind, help=help)]
     if isinstance(value, bool) or value is None:
         return [_row(name, "yes" if value else ("no" if value is False else "not defined"), help=help)]
     if isinstance(value, (int, float)):
