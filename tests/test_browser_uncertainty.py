@@ -101,10 +101,10 @@ def test_uncertainty_page_in_the_browser(gui_server):
             assert page.locator('[data-testid="uncertainty"]').evaluate(UNTITLED) == []
             it = page.locator('[data-testid="unc-mc-iterations"] input')
             it.fill("300")
-            page.click('[data-testid="unc-mc-run"]')
+            it.press("Control+Enter")  # the shell's run shortcut clicks the Run button (data-shortcut="run")
             page.wait_for_selector('[data-testid="unc-mc-progress"]')
             page.wait_for_selector('[data-testid="unc-mc-table"]', timeout=120_000)
-            assert "done" in page.locator('[data-testid="unc-mc-message"]').inner_text()
+            assert "done: 300 iterations" in page.locator('[data-testid="unc-mc-message"]').inner_text()
             rows = page.locator('[data-testid="unc-mc-table"] tbody tr')
             assert rows.count() >= 8  # six factors of the shipped system + combined, dof, k, U
             page.wait_for_selector('[data-testid="unc-mc-chart"] .main-svg')
