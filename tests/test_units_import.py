@@ -314,3 +314,33 @@ def test_server_path_import_with_its_unit_field(gui_app):
     assert session.load(item["id"]).source_unit == "m"
     asyncio.run(session.ctrl.import_server_path(path, ""))  # the file's own: none, so asked
     assert server.state.unit_ask_visible and len(server.state.items) == 1
+
+
+@pytest.mark.slow
+def test_wizard_import_in_metres_refused_then_read_in_the_plan_unit(tmp_path):
+    from test_wizard import ARTEFACTS, MPE, VOLUME, _real_available, make_cloud
+
+    if not _real_available():
+        pytest.skip("needs the vdi2634-2 plugin")
+    from camcmm.gui.pages.acceptance import Wizard
+    from camcmm.host import default_host
+    from camcmm.project import Project
+
+    with Project.create(tmp_path / "proj") as project:
+        w = Wizard(project, default_host())
+        artefacts = {t: dict(a) for t, a in ARTEFACTS.items()}
+        w.setup("vdi2634-2", "Test scanner", VOLUME, MPE, artefacts)
+        req = next(r for r in w.requirements() if r["test"] == "sphere")
+        pos = req["positions"][0]
+        f = tmp_path / "sphere_m.xyz"  # the sphere's numbers in metres, no unit in the file
+        pts = make_cloud("sphere", pos, n=2000).points / 1000
+        f.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()))
+        card = w.import_measurement("sphere", pos["id"], f)
+        assert card["status"] == "error" and "looks like metres; convert it or give its unit" in card["error"]
+        w.setup("vdi2634-2", "Test scanner", VOLUME, MPE, artefacts, options="unit: m")
+        card = w.import_measurement("sphere", pos["id"], f)
+        assert card["status"] == "done", card
+        m = project.measurements()[-1]
+        assert m["meta"]["unit"] == "m"  # recorded: it loads in metres again
+        back = project.load_measurement(m["id"])
+        assert back.source_unit == "m" and np.allclose(back.points, pts * 1000, rtol=1e-12)

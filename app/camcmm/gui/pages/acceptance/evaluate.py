@@ -147,6 +147,8 @@ class WizardImport:
                 "repeat": job.repeat,
                 "file": job.name,
                 "summary": f"{getattr(job.cloud, 'n_points', 0)} points",
+                # the unit it was read in (the plan's, the file's, else mm), so that it loads the same
+                "unit": str(getattr(job.cloud, "source_unit", "") or "mm"),
             }
             mid = self.project.add_measurement(
                 f"{job.position} ({job.name})",
