@@ -202,7 +202,13 @@ def test_session_asks_for_sph101_and_m_gives_a_50_mm_sphere(gui_app):
     # reloaded from the project (a new session on the same folder reads it in metres again)
     assert session.project.load_measurement(int(key)).source_unit == "m"
     fit = session.host.run("segment.sphere", {"cloud": cloud}, {"nominal_radius": 50.0})
-    assert abs(fit.outputs["radius"] - 50.0) < 0.3, fit.outputs["radius"]
+    assert abs(fit.outputs["radius"] - 50.0) < 0.3, fit.outputs["radius"]  # 49.9936 mm (nominal 50)
+    # the project opened again: the item is read in metres and shows its size in mm
+    server2, session2 = gui_app(project_dir=Path(session.project.path))
+    session2.select_item(key)
+    assert session2.load(key).source_unit == "m"
+    item = next(it for it in server2.state.items if it["id"] == key)
+    assert "138 × 106 × 99.3 mm" in item["subtitle"], item
 
 
 @pytest.mark.slow

@@ -281,7 +281,9 @@ class Session:
         except Exception as exc:
             raise InputError(one_line(exc, f"{m.get('name', key)}: cannot load from the project")) from exc
         self._objects[key] = obj
-        self._summary[key] = f"{kind_of(obj)} · {describe(obj)}"
+        unit = (m.get("meta") or {}).get("unit") if isinstance(m.get("meta"), dict) else None
+        sized = f" · {size_text(obj)}" if unit and kind_of(obj) in ("pointcloud", "mesh") else ""  # an import's size
+        self._summary[key] = f"{kind_of(obj)} · {describe(obj)}{sized}"
         return obj
 
     def read_file(
