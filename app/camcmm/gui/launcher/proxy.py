@@ -70,6 +70,8 @@ async def http(request: web.Request, child: Child, tail: str, client: ClientSess
             loc = headers.get("Location", "")
             if loc.startswith("/") and not loc.startswith("//"):
                 headers["Location"] = prefix + loc
+            if r.content_type == "text/html":  # a page is never reused from the cache once its session is gone
+                headers["Cache-Control"] = "no-store"
             resp = web.StreamResponse(status=r.status, reason=r.reason, headers=headers)
             await resp.prepare(request)
             async for chunk in r.content.iter_chunked(1 << 16):

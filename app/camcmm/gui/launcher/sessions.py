@@ -104,7 +104,7 @@ class Sessions:
                 child.ready.set()
                 continue
             child.tail = (child.tail + [line])[-5:]
-            self.log(tag + line)
+            self.log(tag + line if line.strip() else "")  # blank lines stay blank: they separate tracebacks
         code = await child.proc.wait()
         self._end(child, child.ended or f"its server process stopped (exit code {code})")
         child.ready.set()  # wake whoever waits: it will find it ended
