@@ -55,7 +55,9 @@ def test_devices_page_and_projector_page_in_step(gui_server):
             # a click right after typing reaches the server (the field's hint folds away on blur)
             page.fill('[data-testid="dev-setting-timeout_s"] input', "3")  # a field with a hint
             page.click('[data-testid="dev-apply"]')
-            page.locator(".v-snackbar", has_text="sim-camera' on simulated: settings applied").wait_for()
+            page.locator(
+                '[data-testid="footer-info"]', has_text="sim-camera' on simulated: settings applied"
+            ).wait_for()  # the page's note, in the footer
             choose(page, "dev-seq-plugin", "Fringe sequence capture")
             page.click('[data-testid="dev-seq-start"]')
             state = page.locator('[data-testid="dev-seq-state"]')
