@@ -3,7 +3,8 @@
 * A page served from another origin (another port on the same machine: same-site for
   the browser, so even the SameSite cookie goes along) cannot open the app's websocket
   nor load its files, although the operator's browser holds the token's cookie.
-* A browser without the token gets a 403 page, and its websocket is refused.
+* A browser without the token gets a 403 page, at the front and under a session's
+  ``/s/<id>/``, and its websocket is refused.
 * A path outside the project folder and the data roots is refused, with one line that
   shows nothing of the file, in each of the three places a page names one: "Import a
   file on the server", the Calibration page's server folder, and a plugin parameter
@@ -116,6 +117,7 @@ def test_another_origin_and_a_client_without_the_token_cannot_connect(served):
                 app.goto(server.url)
                 app.wait_for_selector('[data-testid="project-name"]:has-text("proj")')
                 assert "token=" not in app.url and "secret=" not in app.url  # gone from the address bar
+                session = app.url.split("/s/", 1)[1].split("/", 1)[0]  # its own session behind the launcher
                 assert any(c["name"].startswith("camcmm-token") and c["httpOnly"] for c in ctx.cookies())
                 # ... then visits another site in another tab
                 evil = ctx.new_page()
@@ -132,20 +134,25 @@ def test_another_origin_and_a_client_without_the_token_cannot_connect(served):
                 # the app itself keeps working, a reload too (the cookie gives the client its secret again)
                 app.reload()
                 app.wait_for_selector('[data-testid="project-name"]:has-text("proj")')
+                assert f"/s/{session}/" in app.url  # the same session
                 app.wait_for_selector('[data-plugin-id="cloud.downsample"]')
                 ctx.close()
 
                 # a browser without the token: a 403 page, and its websocket is refused
                 stranger = browser.new_page()
-                for path in ("", "index.html", "projector"):
+                for path in ("", "index.html", "projector", f"s/{session}/", f"s/{session}/projector"):
                     resp = stranger.goto(server.base + path)
                     assert resp.status == 403, (path, resp.status)
                     assert "token" in stranger.content()
                 assert stranger.locator('[data-testid="project-name"]').count() == 0
-                state = stranger.evaluate("""() => new Promise(done => {
-                    const ws = new WebSocket(location.origin.replace('http', 'ws') + '/ws');
-                    ws.onopen = () => done('open'); ws.onerror = () => done('error'); })""")
-                assert state == "error"
+                for ws_path in ("/ws", f"/s/{session}/ws"):
+                    state = stranger.evaluate(
+                        """(p) => new Promise(done => {
+                        const ws = new WebSocket(location.origin.replace('http', 'ws') + p);
+                        ws.onopen = () => done('open'); ws.onerror = () => done('error'); })""",
+                        ws_path,
+                    )
+                    assert state == "error", ws_path
                 resp = stranger.goto(server.base + "?token=not-the-token")
                 assert resp.status == 403
                 stranger.screenshot(path=str(SHOTS / "no-token.png"))

@@ -180,6 +180,8 @@ def test_each_tab_gets_its_own_session_and_a_reload_keeps_it(front):
     status, headers, _ = get(f.base + f"s/{a}/redirect")
     assert status == 302 and headers["Location"] == f"/s/{a}/index.html"
     assert get(f.base + f"s/{a}")[1]["Location"] == f"{a}/"
+    status, headers, _ = get(f.base + "?ui=main&secret=x")  # trame's own parameters go along, no secret
+    assert status == 302 and headers["Location"].endswith("/?ui=main")
 
 
 def test_the_websocket_is_forwarded_and_counts_as_the_tab(front):

@@ -2,7 +2,10 @@
 
 Used by the browser tests and benchmarks (and open to a lab's own end-to-end tests):
 ``python -m camcmm.gui PROJECT --port 0`` picks a free port and prints
-``camcmm GUI: http://HOST:PORT/?token=TOKEN``, which is read here.
+``camcmm GUI: http://HOST:PORT/?token=TOKEN``, which is read here. That is the session
+launcher's front (:mod:`camcmm.gui.launcher`), printed once its first session process is
+ready: every page opened at ``url`` gets a session (a process) of its own under
+``/s/<id>/``; ``args=("--single-session",)`` serves all pages from one process.
 """
 
 from __future__ import annotations
@@ -70,7 +73,8 @@ class GuiProcess:
         self.token: str | None = parse_qs(u.query).get("token", [None])[0]
 
     def at(self, path: str, token: bool = True) -> str:
-        """The address of ``path`` on the server (``/projector``), with the token."""
+        """The address of ``path`` on the server (``/projector``), with the token. A path
+        outside ``/s/<id>/`` reaches the only open session (docs/security.md, Sessions)."""
         url = self.base.rstrip("/") + "/" + path.lstrip("/")
         return f"{url}?{urlencode({'token': self.token})}" if token and self.token else url
 
@@ -80,7 +84,7 @@ class GuiProcess:
             self.proc.kill()
         self.proc.wait(timeout=10)
 
-    def stop(self, timeout: float = 10.0) -> None:
+    def stop(self, timeout: float = 20.0) -> None:
         if self.proc.poll() is None:
             self.proc.terminate()
             try:

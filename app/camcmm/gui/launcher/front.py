@@ -16,7 +16,7 @@ import asyncio
 import html
 import re
 from typing import Any
-from urllib.parse import urlsplit
+from urllib.parse import urlencode, urlsplit
 
 from aiohttp import ClientSession, web
 
@@ -82,8 +82,7 @@ class Front:
                 f"{s.max_sessions} sessions are open, the most this server allows (--max-sessions); "
                 f"a session closes {s.idle:g} s after its last tab: close one and reload",
             )
-        q = {k: v for k, v in request.query.items() if k not in ("token", "secret")}
-        query = "&".join(f"{k}={v}" for k, v in q.items())  # e.g. ui=… for trame; already validated by aiohttp
+        query = urlencode([(k, v) for k, v in request.query.items() if k not in ("token", "secret")])  # e.g. ui=
         raise web.HTTPFound(f"s/{child.id}/" + (f"?{query}" if query else ""), headers={"Cache-Control": "no-store"})
 
     async def add_slash(self, request: web.Request) -> web.StreamResponse:
@@ -91,6 +90,9 @@ class Front:
 
     async def forward(self, request: web.Request) -> web.StreamResponse:
         sid, tail = request.match_info["sid"], request.match_info["tail"]
+        starting = self.sessions.live.get(sid)
+        if starting is not None and starting.port is None:  # opened a moment ago, still starting
+            await asyncio.wait([asyncio.ensure_future(starting.ready.wait())], timeout=self.sessions.start_timeout)
         child = self.sessions.get(sid)
         if child is None:
             return self._gone(request, sid, tail)

@@ -190,7 +190,7 @@ class Sessions:
 
     def get(self, sid: str) -> Child | None:
         child = self.live.get(sid)
-        return child if child is not None and child.alive else None
+        return child if child is not None and child.alive and child.port is not None else None
 
     def why_ended(self, sid: str) -> str | None:
         return self.ended.get(sid)
