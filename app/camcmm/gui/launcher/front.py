@@ -116,7 +116,7 @@ class Front:
         """A path outside any session: to the session of the page it came from, or the only one."""
         if request.headers.get("Upgrade", "").lower() == "websocket":
             return _line(404, "the websocket of a session is under /s/<id>/ws")
-        live = self.sessions.live
+        live = {sid: c for sid, c in self.sessions.live.items() if c.port is not None}  # started ones
         m = _SESSION_PATH.match(urlsplit(request.headers.get("Referer", "")).path or "")
         if m and m.group(1) in live:
             sid = m.group(1)
