@@ -4,7 +4,8 @@ A block of 60 × 40 × 20 mm written in metres in an .xyz file with no unit comm
 imported through the toolbar's file input: the app does not read it as mm (a 0.075 mm
 part) but asks, listing the candidate units with the size each gives and the suggestion
 (m) preselected; nothing is stored before the answer; "Import in m" stores it and the
-item shows its size in mm. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default
+item shows its size in mm. Then the upload's unit field (the ruler menu) set to m: the
+next metre file is read in m without a question. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default
 ``/tmp/units-gui``).
 """
 
@@ -74,6 +75,15 @@ def test_a_metre_file_is_asked_and_converted(gui_server, tmp_path):
             assert "60 × 40 × 20 mm" in item.inner_text(), item.inner_text()
             page.wait_for_selector('[data-testid="unit-dialog"]', state="hidden")
             page.screenshot(path=str(SHOTS / "imported-in-m.png"))
+
+            # the upload's unit field: told "m" first, the next file is not asked about
+            page.locator('[data-testid="import-unit"]').click()
+            page.locator('.v-overlay--active [data-testid="import-unit-m"]').click()
+            g = block_in_metres(tmp_path / "block_told.xyz")
+            page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(g))
+            item = page.wait_for_selector('[data-testid="item"]:has-text("block_told.xyz")', timeout=60_000)
+            assert "60 × 40 × 20 mm" in item.inner_text(), item.inner_text()
+            assert not page.locator('[data-testid="unit-dialog"]').is_visible()
         finally:
             browser.close()
     assert not server_tracebacks(log), server_tracebacks(log)[0]

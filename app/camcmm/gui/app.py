@@ -91,18 +91,26 @@ def _import_controls(session: Any) -> None:
 
 
 def _upload_field(session: Any) -> None:
-    """A file from the browser: imported as soon as it is chosen, in the unit the file
-    states, else mm — asked first when its size is implausible as mm."""
+    """A file from the browser: imported as soon as it is chosen, in the unit chosen in
+    the ruler menu, else the unit the file states, else mm — asked first when its size
+    is implausible as mm."""
     from trame.widgets import vuetify3 as v
 
     state = session.state
+    if not state.has("import_unit"):
+        state.import_unit = ""
 
     async def on_upload(upload=None, **_):
         if not upload:
             return
+        unit = state.import_unit or None
+        if unit is not None and unit not in {u["value"] for u in IMPORT_UNITS}:  # browser input
+            session.error(f"unit {str(unit)[:20]!r} is not one of m, cm, mm, um, in")
+            state.upload = None
+            return
         files = session.import_upload(upload)
         for f in files:
-            await session.import_file_async(f["content"], f["name"])
+            await session.import_file_async(f["content"], f["name"], unit)
         state.upload = None
         session.flush()
 
@@ -123,12 +131,45 @@ def _upload_field(session: Any) -> None:
         show_size=True,
         loading=("importing",),
         disabled=("importing",),
-        style="max-width: 380px;",
-        classes="mr-4",
-        title="Import a point cloud, mesh or image into the project. Lengths: the file's own unit "
-        "(E57, PLY 'comment unit m' ...), else mm; a size implausible as mm is asked about first.",
+        style="max-width: 340px;",
+        classes="mr-1",
+        title="Import a point cloud, mesh or image into the project. Lengths: the unit chosen in the ruler "
+        "menu, else the file's own (E57, PLY 'comment unit m' ...), else mm; a size implausible as mm is asked "
+        "about first.",
         raw_attrs=tid("import-file"),
     )
+    _unit_menu()
+
+
+def _unit_menu() -> None:
+    """The upload's unit field: a fixed-size ruler button (nothing moves when a unit is
+    chosen) opening the list of units; the choice shows as the active entry and in the tooltip."""
+    from trame.widgets import vuetify3 as v
+
+    with v.VMenu(location="bottom end"):
+        with v.Template(v_slot_activator="{ props }"):
+            v.VBtn(
+                icon="mdi-ruler",
+                v_bind="props",
+                size="small",
+                variant="text",
+                classes="mr-2",
+                color=("import_unit ? 'primary' : undefined",),
+                aria_label="Unit of the coordinates of the files imported",
+                title=(
+                    "import_unit ? 'Files imported are read in ' + import_unit + ' (click to change)' "
+                    ": 'Unit of the files imported: the one in the file, else mm, asked if implausible (click to set)'",
+                ),
+                raw_attrs=tid("import-unit"),
+            )
+        with v.VList(density="compact", raw_attrs=tid("import-unit-menu")):
+            v.VListItem(
+                v_for="u in import_units",
+                title=("u.title",),
+                active=("u.value === import_unit",),
+                click="import_unit = u.value",
+                raw_attrs=dyn_tid("'import-unit-' + (u.value || 'auto')"),
+            )
 
 
 #: The unit field of the server-path import: "" = the file's own, else mm (asked when implausible).
