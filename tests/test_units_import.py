@@ -159,6 +159,7 @@ def test_unitless_file_is_asked_and_with_unit_converts(tmp_path):
     assert np.allclose(cio.read(f, unit="m").points, m.points, rtol=1e-15)
 
 
+@pytest.mark.slow
 def test_cli_info_warns_only_without_a_unit():
     doc = json.loads(run_camcmm("info", NIST / "SPH101.xyz", "--json").stdout)
     assert doc["unit_check"]["status"] == "ask" and doc["unit_check"]["suggested"] == "m"
