@@ -34,7 +34,13 @@ def session_guard(token: str | None, allowed_origins: Any = ()) -> Guard:
 
 
 def _line(status: int, text: str) -> web.Response:
-    return web.Response(status=status, text=f"camcmm: {text}\n", content_type="text/plain")
+    # the text may echo the requested path: never to be sniffed into HTML
+    return web.Response(
+        status=status,
+        text=f"camcmm: {text}\n",
+        content_type="text/plain",
+        headers={"X-Content-Type-Options": "nosniff"},
+    )
 
 
 def _page(status: int, text: str, link: str = "", label: str = "") -> web.Response:
