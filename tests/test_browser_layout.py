@@ -132,6 +132,8 @@ def test_no_toolbar_text_is_clipped_on_any_page(demo, size):
                 page.screenshot(path=str(SHOTS / f"layout-{size[0]}x{size[1]}-{key}.png"))
                 problems = page.evaluate(TOOLBAR_PROBLEMS)
                 assert not problems, (key, size, problems)
+                # the Inspect page's plugin panel is its own (it once showed on Acceptance too)
+                assert page.locator('[data-testid="plugin-panel"]').is_visible() == (key == "inspect"), key
             # the import box shows its label whole, the footer is camcmm's own
             label = page.locator('[data-testid="import-file"] .v-label').first
             assert label.evaluate("el => el.scrollWidth <= el.clientWidth + 1"), label.inner_text()

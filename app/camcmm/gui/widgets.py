@@ -70,6 +70,9 @@ def param_form(
     # the unit is in the label ("exposure [ms]", camcmm.params.label), once: no suffix beside
     # the value (Vuetify hides a suffix while the field is empty, so it could not stand alone)
     ident = dyn_tid(f"'{testid}-' + {f}.name")
+    # a hint of two lines reaches into the next outlined field, whose label floats ~8 px
+    # above its outline: keep that much more room below a field that shows hints
+    gap = "mb-1" if hide_details is True else "mb-3"
 
     def bind(**kw: Any) -> dict[str, Any]:
         # A hint shown only while a field has focus folds away on blur and moves what lies
@@ -99,7 +102,7 @@ def param_form(
                     density="compact",
                     variant="outlined",
                     hide_details=hide_details,
-                    classes="mb-1",
+                    classes=gap,
                 )
             )
         v.VSwitch(
@@ -121,7 +124,7 @@ def param_form(
                 density="compact",
                 variant="outlined",
                 hide_details=hide_details,
-                classes="mb-1",
+                classes=gap,
             )
         )
         v.VTextField(
@@ -132,6 +135,6 @@ def param_form(
                 density="compact",
                 variant="outlined",
                 hide_details=hide_details,
-                classes="mb-1",
+                classes=gap,
             )
         )

@@ -157,8 +157,9 @@ def plugin_panel(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     with html.Div(
-        v_show="page === 'inspect'",
-        classes="d-flex flex-column",
+        # not v_show: Vuetify's d-flex is "display: flex !important" and beats v-show's
+        # inline "display: none", so the panel showed on the Acceptance page too
+        classes=("page === 'inspect' ? 'd-flex flex-column' : 'd-none'",),
         style="flex: 0 0 340px; width: 340px; border-right: 1px solid rgba(0,0,0,0.12); overflow-y: auto;",
         raw_attrs=tid("plugin-panel"),
     ):
