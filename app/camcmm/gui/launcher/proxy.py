@@ -112,9 +112,14 @@ async def websocket(request: web.Request, child: Child, client: ClientSession, o
             await upstream.close()
 
         tasks = [asyncio.ensure_future(down()), asyncio.ensure_future(up())]
-        _, pending = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        done, pending = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for t in pending:
             t.cancel()
+        for t in done:
+            # one side went away mid-message (a tab closed, a child stopped): the end of this
+            # connection, not a fault; retrieved here so asyncio logs no orphan traceback
+            if not t.cancelled() and t.exception() is not None and not isinstance(t.exception(), ConnectionError):
+                raise t.exception()  # type: ignore[misc]
     finally:
         on_open(-1)
         await upstream.close()
