@@ -39,6 +39,9 @@ from .view import DISPLAY_LIMIT, SceneView, color_fields, fmt_count
 
 log = logging.getLogger("camcmm.gui")
 
+#: Seconds between checks for changes another session made to the shared project.
+WATCH_PERIOD_S = 1.0
+
 
 def kind_of(obj: Any) -> str:
     if hasattr(obj, "faces") and hasattr(obj, "vertices"):
@@ -122,6 +125,9 @@ class Session:
         self._unit_asks = UnitAsks(self)  # imports waiting for the user's unit (import_file)
         self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-gui-"))
         self.errors: list[str] = []
+        self._watch: asyncio.TimerHandle | None = None  # the check for other sessions' changes
+        self._watching = True  # until close()
+        self._project_token = self._change_token()  # before listing: a commit in between shows next tick
         self._init_state()
         self.refresh_items()
         self.refresh_results()
@@ -164,6 +170,8 @@ class Session:
         """Remember the server's event loop (called from inside it)."""
         self._loop = loop or asyncio.get_running_loop()
         self._loop_thread = threading.get_ident()
+        if self._watch is None and self._watching:  # the loop is where the check runs
+            self._watch = self._loop.call_later(WATCH_PERIOD_S, self._watch_tick)
 
     def post(self, fn: Callable[..., None], *args: Any) -> None:
         """Run ``fn`` on the loop thread (now, if we are on it or there is no loop)."""
@@ -543,8 +551,48 @@ class Session:
             )
         self.state.results = list(reversed(out))
 
+    # -- other sessions' changes (one process per browser session, one shared store) ---------
+    def _change_token(self) -> Any:
+        token_of = getattr(self.project, "change_token", None)
+        try:
+            return token_of() if callable(token_of) else None
+        except Exception:  # a store without tokens, or one gone: nothing to compare
+            return None
+
+    def check_project(self) -> bool:
+        """List the items and results again when another session (or the CLI) committed
+        to the project since the last check; True when it did. Loop thread only. Costs
+        one pragma when nothing changed; a busy or closed store is skipped (None token)."""
+        token = self._change_token()
+        if token is None or token == self._project_token:
+            return False
+        self._project_token = token
+        with self.state:  # pushed now: the timer runs outside any client request
+            self.refresh_items()
+            self.refresh_results()
+        return True
+
+    def _watch_tick(self) -> None:
+        """The timer on the loop (started by :meth:`bind_loop`): never raises into it."""
+        try:
+            if self._watching:
+                self.check_project()
+        except Exception:
+            log.debug("checking the project for other sessions' changes failed", exc_info=True)
+        finally:
+            loop = self._loop
+            if self._watching and loop is not None and not loop.is_closed():
+                self._watch = loop.call_later(WATCH_PERIOD_S, self._watch_tick)
+
     # -- shutdown -----------------------------------------------------------------------
     def close(self) -> None:
+        self._watching = False
+        watch, self._watch = self._watch, None
+        if watch is not None and self._loop is not None and not self._loop.is_closed():
+            try:
+                self._loop.call_soon_threadsafe(watch.cancel)
+            except RuntimeError:  # the loop closed meanwhile: the timer is gone with it
+                pass
         self._reader.close()
         shutil.rmtree(self._tmp, ignore_errors=True)
         try:

@@ -344,6 +344,22 @@ class Project(TidyMixin):
             except sqlite3.Error as exc:
                 raise ProjectError(f"{self.db_path}: {what} failed: {exc}") from exc
 
+    def change_token(self) -> int | None:
+        """A number that changes when another connection (another GUI session, the CLI)
+        commits to this project; this object's own commits leave it alone (SQLite's
+        ``PRAGMA data_version``). Costs one pragma, no table is read. None when the store
+        is busy in another thread or closed: ask again later; never raises."""
+        if not self._lock.acquire(blocking=False):
+            return None
+        try:
+            if self._conn is None:
+                return None
+            return int(self._conn.execute("PRAGMA data_version").fetchone()[0])
+        except sqlite3.Error:
+            return None
+        finally:
+            self._lock.release()
+
     # -- data files ---------------------------------------------------------------------
     def add_file(self, src: str | os.PathLike) -> str:
         """Copy a file into the project; returns its sha256. Adding the same content
