@@ -76,7 +76,8 @@ def _run_row(page: Any) -> None:
         html.Span(
             "{{ run_status }}",
             v_else=True,
-            classes="text-caption text-success",
+            # a failed run's reason in the error colour: green would read as "done"
+            classes=("progress_message === 'failed' ? 'text-caption text-error' : 'text-caption text-success'",),
             style="flex: 1 1 auto; min-width: 0; overflow: hidden; text-overflow: ellipsis; white-space: nowrap;",
             title=("run_status",),
             raw_attrs=tid("run-status"),
@@ -85,7 +86,7 @@ def _run_row(page: Any) -> None:
         model_value=("progress",),
         indeterminate=("running && progress <= 0",),
         height=16,
-        color=("running ? 'primary' : 'success'",),
+        color=("running ? 'primary' : progress_message === 'failed' ? 'error' : 'success'",),
         bg_opacity=0.15,
         classes="mb-2",
         rounded=True,

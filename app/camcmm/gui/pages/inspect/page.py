@@ -246,7 +246,8 @@ class InspectPage:
         _, msg = Job.outcome(exc)
         line = msg if plugin_id in msg else f"plugin {plugin_id!r}: {msg}"
         self.state.progress_message = "failed"
-        self.state.run_status = line
+        # next to this plugin's own Run the name would fill the short line: the reason first
+        self.state.run_status = msg
         self.session.error(line)
         self.session.flush()
 
