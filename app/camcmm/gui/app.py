@@ -212,26 +212,32 @@ def _path_dialog(session: Any) -> None:
                     "machine that runs camcmm.",
                     classes="text-caption mb-2",
                 )
-                v.VTextField(
-                    v_model=("server_path", ""),
-                    label="Path",
-                    density="compact",
-                    variant="outlined",
-                    autofocus=True,
-                    title="The file's path on the machine that runs camcmm (inside the project or a data root)",
-                    raw_attrs=tid("server-path"),
-                )
-                v.VSelect(
-                    v_model=("server_path_unit", ""),
-                    items=("import_units", IMPORT_UNITS),
-                    label="Unit of the file's coordinates",
-                    density="compact",
-                    variant="outlined",
-                    hint="Without one: the file's own unit (E57, a unit comment), else mm — asked when implausible",
-                    persistent_hint=True,
-                    title="The length unit of the coordinates in the file; camcmm converts to mm",
-                    raw_attrs=tid("server-path-unit"),
-                )
+                # Vuetify puts a field's title on its <input> only: the wrapper's title
+                # covers the label, the chosen value and the hint too.
+                tip = "The file's path on the machine that runs camcmm (inside the project or a data root)"
+                with html.Div(title=tip):
+                    v.VTextField(
+                        v_model=("server_path", ""),
+                        label="Path",
+                        density="compact",
+                        variant="outlined",
+                        autofocus=True,
+                        title=tip,
+                        raw_attrs=tid("server-path"),
+                    )
+                tip = "The length unit of the coordinates in the file; camcmm converts to mm"
+                with html.Div(title=tip):
+                    v.VSelect(
+                        v_model=("server_path_unit", ""),
+                        items=("import_units", IMPORT_UNITS),
+                        label="Unit of the file's coordinates",
+                        density="compact",
+                        variant="outlined",
+                        hint="Without one: the file's own unit (E57, a unit comment), else mm — asked when implausible",
+                        persistent_hint=True,
+                        title=tip,
+                        raw_attrs=tid("server-path-unit"),
+                    )
             with v.VCardActions():
                 v.VSpacer()
                 v.VBtn("Cancel", variant="text", click="path_dialog = false", title="Close without importing")
@@ -273,13 +279,14 @@ def _unit_dialog(session: Any) -> None:
                 html.Div("{{ unit_ask.reason }}", classes="text-body-2 mb-2", raw_attrs=tid("unit-reason"))
                 with v.VRadioGroup(v_model=("unit_choice", "mm"), density="compact", hide_details=True):
                     html.Div("Read the file's numbers as:", classes="text-caption")
-                    v.VRadio(
-                        v_for="c in unit_ask.choices",
-                        value=("c.value",),
-                        label=("c.title + (c.plausible ? '  — a plausible size' : '')",),
-                        title=("`Read the coordinates as ${c.value} and convert them to mm`",),
-                        raw_attrs=dyn_tid("'unit-choice-' + c.value"),
-                    )
+                    tip = ("`Read the coordinates as ${c.value} and convert them to mm`",)
+                    with html.Div(v_for="c in unit_ask.choices", title=tip):  # the label too, not only the circle
+                        v.VRadio(
+                            value=("c.value",),
+                            label=("c.title + (c.plausible ? '  — a plausible size' : '')",),
+                            title=tip,
+                            raw_attrs=dyn_tid("'unit-choice-' + c.value"),
+                        )
                 html.Div(
                     "{{ unit_ask.waiting > 1 ? (unit_ask.waiting - 1) + ' more file(s) wait for their unit' : '' }}",
                     classes="text-caption mt-1",
