@@ -184,8 +184,9 @@ def test_acceptance_setup_shows_broken_artefact_rules_before_start(demo_with_tes
             warnings = page.locator('[data-testid="wz-artefact-warnings"]')
             warnings.wait_for()
             listed = warnings.inner_text()
-            assert "ball" in listed.lower() and "49.94" in listed, listed
+            assert "ball bar: length 49.94 mm is below 0.3 L0" in listed, listed
             assert start.is_disabled()
+            warnings.scroll_into_view_if_needed()  # below the fold at 900 px, right above Start
             page.screenshot(path=str(SHOTS / "setup-rules-broken.png"))
             page.locator('[data-testid="wz-confirm-violations"] input').click()
             page.wait_for_function("!document.querySelector('[data-testid=\"wz-start\"]').disabled")
