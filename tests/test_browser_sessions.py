@@ -81,6 +81,8 @@ def test_two_sessions_have_their_own_pages_and_share_the_project(tmp_path):
     extra = tmp_path / "extra-scan.ply"
     rng = np.random.default_rng(3)
     write(PointCloud(rng.uniform(-5, 5, (500, 3))), extra)
+    later = tmp_path / "later-scan.ply"
+    write(PointCloud(rng.uniform(-5, 5, (400, 3))), later)
     server = GuiProcess(demo, timeout=180)
     try:
         with sync_api.sync_playwright() as pw:
@@ -135,6 +137,12 @@ def test_two_sessions_have_their_own_pages_and_share_the_project(tmp_path):
                     assert any(name in t for t in names_b), (name, names_b)
                     assert any(name in t for t in _items(a)), name
                 b.screenshot(path=str(SHOTS / "b-after-reload.png"))
+
+                # 3b. ... and without a reload: B's session checks the store on a timer (~1 s)
+                a.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(later))
+                a.wait_for_selector('[data-testid="item"]:has-text("later-scan.ply")')
+                b.wait_for_selector('[data-testid="item"]:has-text("later-scan.ply")', state="attached", timeout=10_000)
+                b.screenshot(path=str(SHOTS / "b-sees-without-reload.png"))
 
                 # 4. a session whose process dies: its tab says so, the other goes on
                 started = re.search(rf"session {re.escape(sid_a[:6])}: process (\d+) started", "".join(server.log))
