@@ -1,12 +1,10 @@
-"""The app shell: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session` and
-the registered pages (:mod:`camcmm.gui.pages`).
-
-:func:`build` mounts the pages and lays them out with :mod:`camcmm.gui.shell` (toolbar
-with one button per page (``page-<key>``, in the pages' order), drawer, footer, error
-notice); the import controls (a file through the browser, a path on the server, the unit
-question) live here. Each page's widgets show while the state ``page`` is its key. Key
-widgets carry ``data-testid`` attributes for the browser tests. :func:`start` serves it
-behind the token guard (:mod:`camcmm.gui.security`).
+"""The app shell: trame + Vuetify 3 around a :class:`~camcmm.gui.session.Session` and the
+registered pages (:mod:`camcmm.gui.pages`). :func:`build` mounts the pages and lays them
+out with :mod:`camcmm.gui.shell` (toolbar with one button per page (``page-<key>``, in
+the pages' order), drawer, footer); the import controls (a file through the browser, a
+path on the server, the unit question) live here. Each page's widgets show while the
+state ``page`` is its key. Key widgets carry ``data-testid`` attributes for the browser
+tests. :func:`start` serves it behind the token guard (:mod:`camcmm.gui.security`).
 """
 
 from __future__ import annotations

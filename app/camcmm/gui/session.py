@@ -188,7 +188,7 @@ class Session:
     # -- messages ----------------------------------------------------------------------
     # A message belongs to the page that raised it (state ``page_messages``: page key ->
     # line): the page's alert shows its own, never another page's. ``error_message`` is the
-    # newest error of any page, for the brief notice (the snackbar) and for scripts.
+    # newest error of any page, for scripts and tests (each page shows only its own: page_messages)
     page_of_module: dict[str, str] = {}
     """Module prefix -> page key (set by the shell for the pages it mounts), to find the
     page that raised a message from its caller's module."""

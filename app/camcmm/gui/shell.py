@@ -1,9 +1,10 @@
 """The shell's widgets around the pages: the toolbar (app name, project, one button per
 page, the import controls :mod:`camcmm.gui.app` gives, the shortcuts' list), the drawer
 (the error of the page shown, the pages' drawers), the footer (version, project folder,
-the page's message, connection) and the brief error notice. resources/ui/shell.js fits
-the toolbar to the window and handles the keyboard shortcuts (docs/architecture.md,
-"Keyboard"); shell.css styles both.
+the page's message, connection). No toast floats over a page (one covered the Inspect
+view's controls): a page's error stands in its drawer's alert or, without one, in the
+footer. resources/ui/shell.js fits the toolbar to the window and handles the keyboard
+shortcuts (docs/architecture.md, "Keyboard"); shell.css styles both.
 
 A message belongs to the page that raised it (:meth:`Session.error`, state
 ``page_messages``): the alert and the footer show the current page's only.
@@ -56,21 +57,6 @@ def _page_switch(pages: list[Any], first: str) -> None:
 def _attr(text: str) -> str:
     """``text`` inside a double-quoted HTML attribute."""
     return str(text).replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;")
-
-
-def _notice() -> None:
-    """The newest error of any page, briefly, at the top right (below the toolbar, away
-    from the results below); the page's own alert keeps it. Infos go to the footer."""
-    from trame.widgets import vuetify3 as v
-
-    v.VSnackbar(
-        v_model=("error_visible", False),
-        text=("error_message",),
-        color="error",
-        timeout=6000,
-        location="top right",
-        raw_attrs=tid("error-snackbar"),
-    )
 
 
 # the current page's error ("" when none) and the handler that clears it, as JavaScript
@@ -187,7 +173,7 @@ def _shell_assets(server: Any) -> None:
 
 def layout(server: Any, session: Any, pages: list[Any], import_controls: Callable[[Any], None]) -> None:
     """The shell: toolbar (project, pages, import), drawer (the page's error, the pages'
-    drawers), the pages' content, the footer, the error notice."""
+    drawers), the pages' content, the footer."""
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
@@ -217,5 +203,4 @@ def layout(server: Any, session: Any, pages: list[Any], import_controls: Callabl
             for p in pages:
                 p.build(server.pages[p.key])
         _footer(layout)
-        _notice()
     _shell_assets(server)  # after the widgets' modules: shell.css comes after Vuetify's styles
