@@ -14,7 +14,7 @@ import os
 from typing import Any
 from urllib.parse import urlencode
 
-from aiohttp import ClientSession, ClientTimeout, WSMsgType, web
+from aiohttp import ClientError, ClientSession, ClientTimeout, WSMsgType, web
 
 from .sessions import Child
 
@@ -74,11 +74,14 @@ async def http(request: web.Request, child: Child, tail: str, client: ClientSess
                 headers["Cache-Control"] = "no-store"
             resp = web.StreamResponse(status=r.status, reason=r.reason, headers=headers)
             await resp.prepare(request)
-            async for chunk in r.content.iter_chunked(1 << 16):
-                await resp.write(chunk)
-            await resp.write_eof()
+            try:
+                async for chunk in r.content.iter_chunked(1 << 16):
+                    await resp.write(chunk)
+                await resp.write_eof()
+            except (TimeoutError, OSError, ClientError):
+                pass  # the child died or the tab left mid-answer: the answer ends short, nothing to add
             return resp
-    except (TimeoutError, OSError) as exc:
+    except (TimeoutError, OSError, ClientError) as exc:  # ServerDisconnectedError is a ClientError, not an OSError
         return web.Response(status=502, text=f"camcmm: this session's server does not answer ({type(exc).__name__})\n")
 
 
@@ -118,8 +121,9 @@ async def websocket(request: web.Request, child: Child, client: ClientSession, o
         for t in done:
             # one side went away mid-message (a tab closed, a child stopped): the end of this
             # connection, not a fault; retrieved here so asyncio logs no orphan traceback
-            if not t.cancelled() and t.exception() is not None and not isinstance(t.exception(), ConnectionError):
-                raise t.exception()  # type: ignore[misc]
+            exc = None if t.cancelled() else t.exception()
+            if exc is not None and not isinstance(exc, (ConnectionError, ClientError)):
+                raise exc
     finally:
         on_open(-1)
         await upstream.close()
