@@ -18,6 +18,7 @@ from typing import Any
 
 from camcmm.api import Report, charts, to_jsonable
 
+from . import tables_ch4
 from .declaration import SYMBOLS
 
 TEST_TITLES = {
@@ -280,6 +281,8 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
     for test, evs in result["measurements"].items():
         _test_section(r, charts, test, evs, result)
     _part3_sections(r, result)
+    if result.get("standard") == "vdi2634-3":
+        tables_ch4.add_sections(r, result)
     _uncertainty_section(r, result)
     if result.get("warnings"):
         s = r.section("Warnings")
