@@ -1,0 +1,202 @@
+"""Reading Agisoft Metashape / PhotoScan exports: a delimited point cloud and the
+camera XML (File > Export > Export Cameras, "Agisoft XML").
+
+Written by hand: no maintained library reads either (the XML is Agisoft's own schema).
+
+Conventions converted here (Metashape user manual, appendix "Camera models"; Agisoft KB
+"What do camera calibration results mean"):
+
+* ``u = w/2 + cx + x' (f + b1) + y' b2``, ``v = h/2 + cy + y' f`` with (u, v) from the
+  image's top-left *corner*: cx, cy are offsets from the image centre. OpenCV counts from
+  the centre of the top-left pixel, so ``cx_cv = w/2 + cx - 0.5`` (likewise cy),
+  ``fx = f + b1``, ``fy = f``, skew ``b2``.
+* Metashape's P1 multiplies ``r² + 2y²`` in v — it is OpenCV's p2 and P2 is OpenCV's p1.
+  K4 (an r⁸ term) has no place in OpenCV's model: refused with a warning if non-zero.
+* ``camera/transform`` is the 4x4 camera-to-chunk transform (camera axes as OpenCV's:
+  x right, y down, z forward); ``chunk/transform`` (rotation R_c, translation T_c, scale
+  s) takes chunk coordinates to the exported world: ``X = s R_c X_chunk + T_c``.
+"""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import InputError
+
+
+def _floats(el, path: Path, what: str, n: int) -> np.ndarray:
+    try:
+        v = np.array([float(x) for x in (el.text or "").split()])
+    except ValueError:
+        raise InputError(f"{path}: {what}: not numbers") from None
+    if len(v) != n or not np.isfinite(v).all():
+        raise InputError(f"{path}: {what}: expected {n} numbers, found {len(v)}")
+    return v
+
+
+def _num(calib, tag: str, path: Path, default: float | None = 0.0) -> float:
+    el = calib.find(tag)
+    if el is None:
+        if default is None:
+            raise InputError(f"{path}: calibration lacks <{tag}>")
+        return default
+    return float(_floats(el, path, f"<{tag}>", 1)[0])
+
+
+def _camera(sensor, path: Path, warnings: list[str]) -> dict[str, Any]:
+    label = sensor.get("label", sensor.get("id", "?"))
+    calib = sensor.find("calibration")
+    res = (calib if calib is not None and calib.find("resolution") is not None else sensor).find("resolution")
+    if res is None:
+        raise InputError(f"{path}: sensor {label!r} has no <resolution>")
+    w, h = int(res.get("width", 0)), int(res.get("height", 0))
+    if calib is None:
+        raise InputError(f"{path}: sensor {label!r} has no <calibration> (cameras not aligned?)")
+    kind = calib.get("type", sensor.get("type", "frame"))
+    if kind != "frame":
+        warnings.append(f"{path}: sensor {label!r} is a {kind} camera; only frame cameras map to OpenCV")
+    if calib.find("f") is not None:
+        f = _num(calib, "f", path, None)
+        fx, fy = f + _num(calib, "b1", path), f
+        cx, cy = w / 2 + _num(calib, "cx", path) - 0.5, h / 2 + _num(calib, "cy", path) - 0.5
+    else:  # PhotoScan before 1.3: fx fy and cx cy from the corner
+        fx, fy = _num(calib, "fx", path, None), _num(calib, "fy", path, None)
+        cx, cy = _num(calib, "cx", path, None) - 0.5, _num(calib, "cy", path, None) - 0.5
+    skew = _num(calib, "b2", path) + _num(calib, "skew", path)
+    if skew:
+        warnings.append(f"{path}: sensor {label!r} has skew b2 = {skew:g} px, which OpenCV's model drops")
+    k = {t: _num(calib, t, path) for t in ("k1", "k2", "k3", "k4", "p1", "p2")}
+    if k["k4"]:
+        warnings.append(f"{path}: sensor {label!r} has k4 = {k['k4']:g} (r^8), which OpenCV's model lacks; dropped")
+    return {
+        "model": "OPENCV",
+        "fx": fx,
+        "fy": fy,
+        "cx": cx,
+        "cy": cy,
+        "dist": [k["k1"], k["k2"], k["p2"], k["p1"], k["k3"]],
+        "width": w,
+        "height": h,
+        "skew": skew,
+        "label": label,
+    }
+
+
+def chunk_transform(chunk, path: Path) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """(R_c, T_c, s) of ``chunk/transform``, or None when the chunk has none."""
+    tr = chunk.find("transform")
+    if tr is None:
+        return None
+    rot, trans, sc = tr.find("rotation"), tr.find("translation"), tr.find("scale")
+    R = np.eye(3) if rot is None else _floats(rot, path, "chunk <rotation>", 9).reshape(3, 3)
+    T = np.zeros(3) if trans is None else _floats(trans, path, "chunk <translation>", 3)
+    s = 1.0 if sc is None else float(_floats(sc, path, "chunk <scale>", 1)[0])
+    if s <= 0 or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
+        raise InputError(f"{path}: chunk <transform> is not a rotation with a positive scale")
+    return R, T, s
+
+
+def read_cameras_xml(path: Path) -> dict[str, Any]:
+    """Cameras and views of a Metashape/PhotoScan camera XML, in the exported world frame.
+
+    Returns dict ``cameras`` [OpenCV camera dicts], ``views`` [{image, R, t, centre,
+    camera}] (``x_cam = R X + t``), ``scaled`` (the chunk transform sets a scale),
+    ``warnings``.
+    """
+    warnings: list[str] = []
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as exc:
+        raise InputError(f"{path}: not a readable camera XML ({exc})") from None
+    chunk = root.find("chunk") if root.tag == "document" else (root if root.tag == "chunk" else None)
+    if chunk is None:
+        raise InputError(f"{path}: no <chunk> (not an Agisoft camera XML)")
+    sensors = {s.get("id"): s for s in chunk.iter("sensor")}
+    cams = {sid: _camera(s, path, warnings) for sid, s in sensors.items()}
+    ct = chunk_transform(chunk, path)
+    views = []
+    for cam in chunk.iter("camera"):
+        tr = cam.find("transform")
+        label = cam.get("label", cam.get("id", "?"))
+        if tr is None:
+            continue  # not aligned
+        if cam.get("sensor_id") not in cams:
+            raise InputError(f"{path}: camera {label!r} names sensor {cam.get('sensor_id')!r}, which is absent")
+        M = _floats(tr, path, f"camera {label!r} <transform>", 16).reshape(4, 4)
+        Rcc, tcc = M[:3, :3], M[:3, 3]  # camera to chunk
+        if not np.allclose(Rcc @ Rcc.T, np.eye(3), atol=1e-6) or np.linalg.det(Rcc) < 0:
+            raise InputError(f"{path}: camera {label!r} <transform> is not a rigid motion")
+        if ct is not None:
+            Rc, Tc, s = ct
+            Rcw, centre = Rc @ Rcc, s * Rc @ tcc + Tc  # camera to world
+        else:
+            Rcw, centre = Rcc, tcc
+        R = Rcw.T
+        views.append({"image": label, "R": R, "t": -R @ centre, "centre": centre, "camera": cam.get("sensor_id")})
+    if not views:
+        raise InputError(f"{path}: no aligned camera (no <camera> with a <transform>)")
+    order = list(cams)
+    for v in views:
+        v["camera"] = order.index(v["camera"])
+    scaled = ct is not None and ct[2] != 1.0
+    return {"cameras": [cams[k] for k in order], "views": views, "scaled": scaled, "warnings": warnings}
+
+
+_NUM = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
+def read_cloud_txt(path: Path) -> dict[str, Any]:
+    """A delimited point cloud (tab, space, comma or semicolon): x y z [r g b] [nx ny nz].
+
+    Columns are told apart by content: a triple of integers 0-255 is a colour, a triple
+    of unit length a normal; further columns are ignored with a warning. A header line
+    of names or ``//``/``#`` comments is skipped. Returns dict ``points`` (N, 3),
+    ``colors`` (N, 3) uint8 or None, ``normals`` or None, ``warnings``.
+    """
+    warnings: list[str] = []
+    try:
+        lines = path.read_text(encoding="utf-8", errors="strict").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: cannot read ({exc})") from None
+    rows, first, ncol = [], 0, None
+    for k, line in enumerate(lines, 1):
+        s = line.strip()
+        if not s or s.startswith(("#", "//")):
+            continue
+        f = re.split(r"[\s,;]+", s)
+        if not all(_NUM.match(x) for x in f):
+            if not rows and not first:
+                first = k  # a header of column names
+                continue
+            raise InputError(f"{path}: line {k}: not a row of numbers ({s[:40]!r})")
+        if ncol is None:
+            ncol = len(f)
+            if ncol < 3:
+                raise InputError(f"{path}: line {k}: {ncol} column(s); a point needs x y z")
+        elif len(f) != ncol:
+            raise InputError(f"{path}: line {k}: {len(f)} columns where the first row has {ncol}")
+        rows.append(f)
+    if not rows:
+        raise InputError(f"{path}: no points")
+    a = np.array(rows, dtype=np.float64)
+    if not np.isfinite(a).all():
+        raise InputError(f"{path}: a non-finite value")
+    out: dict[str, Any] = {"points": a[:, :3], "colors": None, "normals": None, "warnings": warnings}
+    rest = a[:, 3:]
+    while rest.shape[1] >= 3:
+        tri = rest[:, :3]
+        if out["colors"] is None and np.all(tri == np.round(tri)) and tri.min() >= 0 and tri.max() <= 255:
+            out["colors"] = tri.astype(np.uint8)
+        elif out["normals"] is None and np.allclose(np.linalg.norm(tri, axis=1), 1.0, atol=1e-3):
+            out["normals"] = tri
+        else:
+            break
+        rest = rest[:, 3:]
+    if rest.shape[1]:
+        warnings.append(f"{path}: {rest.shape[1]} column(s) after x y z [r g b] [nx ny nz] ignored")
+    return out
