@@ -1,0 +1,335 @@
+"""The "Photogrammetry" page's state and handlers (``pg_*`` keys): an image series in,
+a reconstruction (sparse and dense cloud, the registered cameras) out.
+
+Listing a series (the sources checked, thumbnails made) goes to one
+:class:`~camcmm.gui.jobs.Job`, the reconstruction to another, with progress per stage
+and cancel; the plugin computes in a worker process (:mod:`.run`). The result goes
+into the project (loop thread) and into the page's own scene (:mod:`.scene`) with the
+cameras drawn around the cloud; "send to" hands the cloud to Inspect, Compare with CAD
+or the Acceptance test. Tests call ``asyncio.run(page.run_async(...))``; ``runner`` may
+be replaced by a stand-in with :func:`.run.reconstruct`'s signature.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from ....errors import CamcmmError, one_line
+from ....host import to_jsonable
+from ...jobs import Job
+from . import inputs, links
+from . import run as runs
+from .scene import PhotoScene
+
+log = logging.getLogger("camcmm.gui.photogrammetry")
+KEY = "photogrammetry"
+#: request key -> state variable of the input it comes from
+FIELDS = {"source": "pg_source", "folder": "pg_folder", "pattern": "pg_pattern", "items": "pg_items", "name": "pg_name"}
+EMPTY_HINT = (
+    "No image series yet. Give a folder on the server that holds the photographs (inside the project "
+    "folder or a folder the server was started with, --data-root) and press Show, or import the images "
+    "(Import in the toolbar) and choose them here. A series: at least 3 overlapping photographs of one "
+    "object from one camera, e.g. a turntable series with laser speckle on a bare surface."
+)
+
+
+class PhotogrammetryPage:
+    def __init__(self, server: Any, session: Any):
+        self.server = server
+        self.session = session
+        self.state = session.state
+        self.project = session.project
+        self.host = session.host
+        self.view = PhotoScene(session.view.display_limit)
+        self.tools: Any = None  # the view's toolbar (mount)
+        self.job = Job("reconstruction", state=self.state, on_progress=self._show_progress, interval=0.2)
+        self.lister = Job("image list", state=self.state)
+        self.runner = runs.reconstruct
+        self.record: dict[str, Any] | None = None
+        self._sources: list[dict[str, Any]] = []
+        self._shown_result: Any = None
+        self._init_state()
+        self.refresh_form()
+        self.restore()
+
+    # -- state ------------------------------------------------------------------------------
+    def _init_state(self) -> None:
+        s = self.state
+        s.pg_source = "items" if inputs.image_items(s.items) else "folder"
+        s.pg_folder, s.pg_pattern, s.pg_items, s.pg_name = "", "*", [], ""
+        s.pg_images, s.pg_listing, s.pg_list_note = [], False, ""
+        s.pg_fields, s.pg_params = [], {}
+        s.pg_use_cal, s.pg_cal_note = False, ""
+        s.pg_running, s.pg_progress, s.pg_stage, s.pg_message, s.pg_error = False, 0.0, "", "", ""
+        s.pg_stages = [{"name": n, "state": "todo"} for n in runs.STAGES]
+        s.pg_summary, s.pg_warnings, s.pg_title = [], [], ""
+        s.pg_items_made, s.pg_display, s.pg_cameras, s.pg_note = {}, "cloud", 0, ""
+        s.pg_empty_hint = EMPTY_HINT
+
+    def _error(self, msg: Any) -> None:
+        line = one_line(msg)
+        self.state.pg_error = line
+        self.session.error(line, page=KEY)
+
+    def _clear_error(self) -> None:
+        self.state.pg_error = ""
+        self.session.clear_error(page=KEY)
+
+    def spec(self) -> Any:
+        """The manifest of the plugin that reconstructs (found by its task)."""
+        return self.host.provider(runs.TASK)
+
+    def refresh_form(self) -> None:
+        """The run form from the plugin's declared parameters; the calibration offered."""
+        s = self.state
+        try:
+            spec = self.spec()
+        except CamcmmError as exc:
+            s.pg_fields, s.pg_params = [], {}
+            s.pg_message = f"no reconstruction plugin: {one_line(exc)}"
+            return
+        from ....params import form_schema
+
+        fields, values = [], {}
+        for f in form_schema(spec.parameters):
+            d = to_jsonable(f)
+            d["unit"], d["help"] = f.get("unit", ""), f.get("help", "")
+            d["choices"] = list(f.get("choices") or [])
+            default = f.get("default")
+            values[f["name"]] = bool(default) if f["widget"] == "switch" else ("" if default is None else default)
+            fields.append(d)
+        s.pg_fields, s.pg_params = fields, values
+        cal = runs.calibration_file(self.project)
+        s.pg_cal_note = "" if cal is None else "the project's camera calibration (Calibration page)"
+        s.pg_use_cal = s.pg_use_cal and cal is not None
+
+    def request(self) -> dict[str, Any]:
+        """The inputs as they stand in the page."""
+        req = {key: self.state[var] for key, var in FIELDS.items()}
+        req["items"] = [str(i) for i in req["items"] or []]
+        return req
+
+    def _set_request(self, req: dict[str, Any]) -> None:
+        for key, var in FIELDS.items():
+            if key in req and req[key] is not None:
+                self.state[var] = req[key]
+
+    # -- the series -------------------------------------------------------------------------
+    def pick_all_items(self) -> None:
+        """Choose every image item of the project, by name."""
+        imgs = sorted(inputs.image_items(self.state.items), key=lambda it: it["name"].lower())
+        self.state.pg_items = [it["id"] for it in imgs]
+        self.state.pg_source = "items"
+        if not imgs:
+            self._error("no image items in the project: import the photographs (Import in the toolbar)")
+
+    def _thumbs(self, sources: list[dict[str, Any]]) -> list[str]:
+        """Thumbnails (worker thread), at most inputs.MAX_THUMBS."""
+        out = []
+        for k, src in enumerate(sources[: inputs.MAX_THUMBS]):
+            self.lister.check()
+            out.append(inputs.thumbnail(src["path"]))
+            self.lister.progress(k / max(1, len(sources)), f"thumbnails {k + 1}/{len(sources)}")
+        return out
+
+    async def list_async(self, req: dict[str, Any] | None = None) -> list[dict[str, Any]] | None:
+        """Check the series (``req``, else the page's inputs) and show it as thumbnails."""
+        req = self.request() if req is None else {**self.request(), **req}
+        try:
+            sources = runs.sources_of(req, self.project, self.session.roots)
+        except Exception as exc:
+            self._error(exc)
+            return None
+        self._set_request(req)
+        self._clear_error()
+        self.state.pg_listing = True
+        self.session.flush()
+        try:
+            thumbs = await self.lister.run(self._thumbs, sources)
+        except Exception as exc:
+            self.state.pg_listing = False
+            self._error(Job.outcome(exc)[1])
+            return None
+        self._sources = sources
+        s = self.state
+        s.pg_listing = False
+        s.pg_images = inputs.rows(sources, thumbs)
+        more = len(sources) - len(thumbs)
+        s.pg_list_note = f"{len(sources)} images" + (f" ({more} without thumbnail)" if more > 0 else "")
+        self.session.flush()
+        return sources
+
+    # -- the run ----------------------------------------------------------------------------
+    def _show_progress(self, fraction: float, message: str) -> None:
+        s = self.state
+        s.pg_progress = round(100.0 * float(fraction), 1)
+        s.pg_message = message or s.pg_message
+        stage = runs.stage_of(message)
+        if stage:
+            s.pg_stage = stage
+            at = runs.STAGES.index(stage)
+            s.pg_stages = [
+                {"name": n, "state": "done" if i < at else ("now" if i == at else "todo")}
+                for i, n in enumerate(runs.STAGES)
+            ]
+
+    def cancel(self) -> None:
+        if self.job.cancel():
+            self.state.pg_message = "cancelling …"
+
+    async def run_async(
+        self, params: dict[str, Any] | None = None, req: dict[str, Any] | None = None
+    ) -> dict[str, Any] | None:
+        """Reconstruct the series (``req``/``params``, else the page's) and store it; the
+        page's record, or None with the one-line reason shown on the page."""
+        s = self.state
+        if self.job.running:
+            self._error("a reconstruction is running; wait for it or cancel it")
+            return None
+        req = self.request() if req is None else {**self.request(), **req}
+        try:
+            spec = self.spec()
+            values = runs.check_params(spec, s.pg_params if params is None else params, self.session.roots)
+            sources = runs.sources_of(req, self.project, self.session.roots)
+            cal = runs.calibration_file(self.project) if s.pg_use_cal else None
+            if s.pg_use_cal and cal is None:
+                raise CamcmmError("the project has no camera calibration: calibrate on the Calibration page first")
+        except Exception as exc:
+            self._error(exc)
+            return None
+        self._set_request(req)
+        if [x["path"] for x in sources] != [x["path"] for x in self._sources]:
+            s.pg_images = inputs.rows(sources, [r.get("thumb", "") for r in s.pg_images or []])
+        self._sources = sources
+        self._clear_error()
+        s.pg_running, s.pg_progress, s.pg_stage, s.pg_message = True, 0.0, "", "starting …"
+        s.pg_stages = [{"name": n, "state": "todo"} for n in runs.STAGES]
+        self.session.flush()
+        try:
+            result = await self.job.run(self.runner, self.host, spec.id, sources, values, cal, self.job)
+            rec = runs.store(self.session, spec, result, req, sources)
+        except Exception as exc:
+            status, line = Job.outcome(exc)
+            s.pg_running, s.pg_progress, s.pg_message = False, 0.0, status
+            self._error(line)
+            self.session.flush()
+            return None
+        s.pg_running, s.pg_progress = False, 100.0
+        s.pg_stages = [{"name": n, "state": "done"} for n in runs.STAGES]
+        self.show_record(rec, result.outputs)
+        rc = rec["reconstruction"]
+        s.pg_message = (
+            f"done: {rc.get('n_registered', '?')} of {rc.get('n_images', '?')} registered, result #{rec['result']}"
+        )
+        self.session.refresh_items()
+        self.session.refresh_results()
+        self.session.info(f"reconstruction stored as result #{rec['result']}", page=KEY)
+        self.session.flush()
+        return rec
+
+    # -- what is shown ----------------------------------------------------------------------
+    def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None) -> None:
+        """A run's record on the page: figures, image counts, the cloud with its cameras."""
+        s, rc = self.state, rec.get("reconstruction") or {}
+        self.record = rec
+        s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
+        s.pg_summary = runs.summary(rc)
+        s.pg_warnings = [str(w) for w in rec.get("warnings") or rc.get("warnings") or []]
+        s.pg_items_made = dict(rec.get("items") or {})
+        listed = s.pg_images if len(s.pg_images or []) == len(rec.get("sources") or []) else None
+        s.pg_images = inputs.with_counts(listed or inputs.rows(rec.get("sources") or []), rc.get("images"))
+        self.view.views, self.view.camera = [], None
+        objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
+        self.show_cloud(s.pg_display if s.pg_display in s.pg_items_made else "cloud", objs)
+
+    def show_cloud(self, which: str = "cloud", objs: dict[str, Any] | None = None) -> None:
+        """Show the dense ("cloud") or the sparse cloud with the registered cameras."""
+        s, rec = self.state, self.record or {}
+        key = (rec.get("items") or {}).get(which)
+        if key is None:
+            return
+        try:
+            obj = (objs or {}).get(which) or self.session.load(key)
+            rc = rec.get("reconstruction") or {}
+            self.view.views, self.view.camera = list(rc.get("views") or []), rc.get("camera")
+            self.view.show(key, obj)
+        except Exception as exc:
+            self._error(f"the {which} cannot be shown: {one_line(exc)}")
+            return
+        s.pg_display = which
+        s.pg_cameras = self.view.cameras_drawn()
+        s.pg_note = f"{self.view.note}; {s.pg_cameras} registered cameras drawn"
+        self._shown_result = rec.get("result")
+
+    def send_to(self, target: str) -> bool:
+        """The shown cloud to another page (:mod:`.links`); False with the reason shown."""
+        key = (self.state.pg_items_made or {}).get(self.state.pg_display) or (self.state.pg_items_made or {}).get(
+            "cloud"
+        )
+        try:
+            links.send(self.server, self.session, str(target), key)
+        except Exception as exc:
+            self._error(exc)
+            return False
+        return True
+
+    def opened(self) -> None:
+        """The page is shown: the stored run's thumbnails and scene, made once."""
+        if self.record is None or self.job.running:
+            return
+        if self._shown_result != self.record.get("result"):
+            self.show_cloud(self.state.pg_display or "cloud")
+        if not any(r.get("thumb") for r in self.state.pg_images or []):
+            srcs = [x for x in self.record.get("sources") or [] if x.get("path")]
+            thumbs = [inputs.thumbnail(x["path"]) for x in srcs[: min(24, inputs.MAX_THUMBS)]]
+            self.state.pg_images = [
+                dict(r, thumb=thumbs[i] if i < len(thumbs) else "") for i, r in enumerate(self.state.pg_images)
+            ]
+
+    def restore(self) -> None:
+        """The last run, as the project keeps it (the scene is drawn when the page opens)."""
+        try:
+            rec = runs.stored(self.project)
+            if rec is None:
+                return
+            self._set_request(rec.get("request") or {})
+            self.record = rec
+            s, rc = self.state, rec.get("reconstruction") or {}
+            s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
+            s.pg_summary = runs.summary(rc)
+            s.pg_warnings = [str(w) for w in rec.get("warnings") or []]
+            s.pg_items_made = dict(rec.get("items") or {})
+            s.pg_images = inputs.with_counts(inputs.rows(rec.get("sources") or []), rc.get("images"))
+            s.pg_message = f"result #{rec.get('result')} from the project"
+        except Exception as exc:  # a damaged record must not keep the page from opening
+            log.warning("cannot restore the reconstruction: %s", exc)
+            self.state.pg_message = f"the stored reconstruction could not be read: {one_line(exc)}"
+
+    def close(self) -> None:
+        self.job.close()
+        self.lister.close()
+        try:
+            self.view.plotter.close()
+        except Exception:
+            pass
+
+
+def mount(server: Any, session: Any) -> PhotogrammetryPage:
+    """Create the page for a session, its view tools and downloads (before the server starts)."""
+    from ...viewtools import mount_view_tools
+
+    page = PhotogrammetryPage(server, session)
+    page.tools = mount_view_tools(server, page.view, "pgv")
+
+    @server.state.change("page")
+    def _page_changed(**changes: Any) -> None:
+        if changes.get("page") == KEY:
+            page.opened()
+
+    @server.state.change("items")
+    def _items_changed(**_: Any) -> None:
+        if page.state.pg_source == "folder" and not page.state.pg_folder and inputs.image_items(page.state.items):
+            page.state.pg_source = "items"
+
+    return page
