@@ -122,6 +122,8 @@ def test_stages_and_counts_read_from_the_plugins_words():
     from camcmm.gui.pages.photogrammetry.run import stage_of
 
     assert stage_of("matching: 12/28 pairs") == "matching" and stage_of("Dense 3/8") == "dense"
+    assert stage_of("SIFT features") == "features" and stage_of("depth map 3/8") == "dense"
+    assert stage_of("exhaustive matching") == "matching" and stage_of("registered 3 of 8 images") == "mapping"
     assert stage_of("starting") == ""
     rows = inputs.with_counts(
         inputs.rows([{"name": "a.png"}, {"name": "b.png"}, {"name": "c.png"}]),

@@ -28,10 +28,23 @@ CURRENT_KEY = "photogrammetry.current"
 STAGES = ("reading", "features", "matching", "mapping", "dense", "scale")
 
 
+#: other words the plugin's messages begin with -> the stage they belong to
+WORDS = {
+    "sift": "features",
+    "extract": "features",
+    "extraction": "features",
+    "registered": "mapping",
+    "bundle": "mapping",
+    "depth": "dense",
+    "fusion": "dense",
+    "stereo": "dense",
+}
+
+
 def stage_of(message: str) -> str:
     """The stage a progress message is in ("" when it names none of :data:`STAGES`)."""
-    words = str(message or "").lower().replace(":", " ").split()
-    return next((w for w in words[:3] if w in STAGES), "")
+    words = str(message or "").lower().replace(":", " ").split()[:3]
+    return next((w for w in words if w in STAGES), "") or next((WORDS[w] for w in words if w in WORDS), "")
 
 
 def check_params(spec: Any, raw: dict[str, Any] | None, roots: Any) -> dict[str, Any]:
