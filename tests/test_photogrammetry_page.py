@@ -279,9 +279,14 @@ def test_restored_on_reopen_and_sent_to_the_other_pages(app, tmp_path):
     assert page.send_to("inspect") and server.state.page == "inspect" and session.state.selected_item == key
     assert not page.send_to("nowhere") and "nowhere" in page.state.pg_error
     assert page.send_to("acceptance") and server.state.page == "acceptance"
+    # sparse only: the plugin's "cloud" is the sparse one, stored once
+    rec2 = asyncio.run(page.run_async({"dense": False}, {"source": "folder", "folder": str(tmp_path / "data" / "s")}))
+    assert set(rec2["items"]) == {"sparse"} and page.state.pg_display == "sparse"
+    assert page.view.shown.n_total == 150 and page.state.pg_cameras == N_VIEWS - 1
+    assert page.send_to("inspect") and session.state.selected_item == rec2["items"]["sparse"]
     # a new server on the same project shows the stored run once the page opens
     page2, _, _ = app(session.project.path)
-    assert page2.state.pg_summary and page2.state.pg_items_made == rec["items"]
+    assert page2.state.pg_summary and page2.state.pg_items_made == rec2["items"]
     page2.opened()
     assert page2.state.pg_cameras == N_VIEWS - 1
     assert page2.state.pg_images[-1]["status"] == "unregistered" and page2.state.pg_images[0]["thumb"]

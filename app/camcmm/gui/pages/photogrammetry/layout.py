@@ -264,7 +264,7 @@ def _results(page: Any) -> None:
                         variant="tonal",
                         append_icon="mdi-arrow-right",
                         click=(on_send, f"['{b['value']}']"),
-                        disabled=("pg_running || !pg_items_made.cloud",),
+                        disabled=("pg_running || !(pg_items_made.cloud || pg_items_made.sparse)",),
                         title=b["tip"],
                         raw_attrs=tid(f"pg-send-{b['value']}"),
                     )

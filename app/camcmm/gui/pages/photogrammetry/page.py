@@ -241,7 +241,12 @@ class PhotogrammetryPage:
         s.pg_images = inputs.with_counts(listed or inputs.rows(rec.get("sources") or []), rc.get("images"))
         self.view.views, self.view.camera = [], None
         objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
-        self.show_cloud(s.pg_display if s.pg_display in s.pg_items_made else "cloud", objs)
+        self.show_cloud(self._display(), objs)
+
+    def _display(self) -> str:
+        """The cloud to show: the one shown before if this run has it, else dense, else sparse."""
+        made = self.state.pg_items_made or {}
+        return self.state.pg_display if self.state.pg_display in made else ("cloud" if "cloud" in made else "sparse")
 
     def show_cloud(self, which: str = "cloud", objs: dict[str, Any] | None = None) -> None:
         """Show the dense ("cloud") or the sparse cloud with the registered cameras."""
@@ -264,9 +269,8 @@ class PhotogrammetryPage:
 
     def send_to(self, target: str) -> bool:
         """The shown cloud to another page (:mod:`.links`); False with the reason shown."""
-        key = (self.state.pg_items_made or {}).get(self.state.pg_display) or (self.state.pg_items_made or {}).get(
-            "cloud"
-        )
+        made = self.state.pg_items_made or {}
+        key = made.get(self.state.pg_display) or made.get("cloud") or made.get("sparse")
         try:
             links.send(self.server, self.session, str(target), key)
         except Exception as exc:
@@ -279,7 +283,7 @@ class PhotogrammetryPage:
         if self.record is None or self.job.running:
             return
         if self._shown_result != self.record.get("result"):
-            self.show_cloud(self.state.pg_display or "cloud")
+            self.show_cloud(self._display())
         if not any(r.get("thumb") for r in self.state.pg_images or []):
             srcs = [x for x in self.record.get("sources") or [] if x.get("path")]
             thumbs = [inputs.thumbnail(x["path"]) for x in srcs[: min(24, inputs.MAX_THUMBS)]]

@@ -146,7 +146,11 @@ def store(session: Any, spec: Any, result: Any, req: dict[str, Any], sources: li
     out = result.outputs
     stamp = time.strftime("%Y-%m-%d %H:%M")
     base = str(req.get("name") or "").strip() or f"photogrammetry {len(sources)} images ({stamp})"
-    clouds = [(k, out.get(k)) for k in ("cloud", "sparse") if getattr(out.get(k), "n_points", 0)]
+    # with dense off the plugin's "cloud" is the sparse cloud: one item, not the same points twice
+    dense = bool(getattr(result, "params", {}).get("dense", True))
+    sparse = out.get("sparse") if out.get("sparse") is not None else out.get("cloud")
+    clouds = [("cloud", out.get("cloud")), ("sparse", sparse)] if dense else [("sparse", sparse)]
+    clouds = [(k, obj) for k, obj in clouds if getattr(obj, "n_points", 0)]
     if not clouds:
         raise InputError("the reconstruction returned no points: nothing was stored")
     hashes = {k: project.add_object(obj, f"{base} {k}") for k, obj in clouds}
