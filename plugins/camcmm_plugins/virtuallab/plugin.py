@@ -191,3 +191,35 @@ def fringe_system(
     if method == "stereo" and preset != "stereo_fringe":
         raise ParameterError("method stereo needs the preset stereo_fringe (two cameras)")
     return measure(dict(placement), preset, method, (image_width, image_height), seed, errors, ctx=ctx)
+
+
+def turntable_series(
+    ctx,
+    out: str,
+    artefact: str = "sphere",
+    n_images: int = 30,
+    arc_deg: float = 180.0,
+    elevation: float = 30.0,
+    downscale: float = 4.0,
+    f_number: float = 8.0,
+    magnification: float = 0.0,
+    speckle: bool = True,
+    wavelength: float = 532.0,
+    distance: float = 80.0,
+    diffuser: float = 0.25,
+    grain: float = 0.0,
+    supersample: int = 2,
+    depth_of_field: bool = True,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """The chapter-4 turntable series with laser speckle (virtuallab.turntable-series)."""
+    from .turntable import SeriesSpec, write_series
+
+    spec = SeriesSpec(
+        artefact, n_images, arc_deg, elevation, downscale, f_number, magnification, speckle,
+        wavelength, distance, diffuser, grain, 0.3, supersample, depth_of_field, seed,
+    )  # fmt: skip
+    res = write_series(spec, out, ctx.progress)
+    for w in res["warnings"]:
+        ctx.warn(w)
+    return res

@@ -76,3 +76,71 @@ def autocovariance(img: np.ndarray) -> np.ndarray:
     f = sfft.fft2(x, workers=-1)
     c = sfft.ifft2(f * np.conj(f), workers=-1).real
     return c / c[0, 0]
+
+
+# --- objective and subjective speckle of a laser speckle projector (thesis ch. 4.2, 6.2)
+#
+# Objective speckle: a diffuser lit over a spot of diameter D throws a far-field
+# pattern whose grains subtend ~ λ/D; on an object at distance z they measure
+#
+#     d_obj ≈ λ z / D                                   (mm; Goodman ch. 4.5, order of magnitude)
+#
+# The projector on the turntable is therefore a pinhole whose pattern holds grains of
+# λ/D radians: its image is made by ``speckle`` with the grain in projector pixels.
+#
+# Subjective speckle: the camera lens images the rough, laser-lit surface into its own
+# speckle in the image plane (it changes with the viewpoint, so it is noise for SfM).
+# Its grain is the Airy disc of the lens's exit pupil at the image distance,
+#
+#     d_subj ≈ 2.44 λ F (1 + M)                         (sensor mm; F the f-number, M the magnification)
+#
+# and a pixel of area A_px integrating grains of area A_c = π d_subj²/4 sees the
+# contrast (Goodman, Speckle Phenomena in Optics, ch. 4: integrated speckle, with the
+# number of speckles per pixel approximated by 1 + A_px / A_c)
+#
+#     C = 1 / sqrt(1 + A_px / A_c)    → sqrt(A_c / A_px) for small grains, → 1 for large.
+#
+# A lower f-number (F/8, ch. 4.2) gives smaller grains and less contrast; F/11 (ch. 6.2)
+# more. A binned (down-scaled) image has bigger pixels and so less contrast.
+
+
+def objective_grain(wavelength_nm: float, distance_mm: float, diffuser_mm: float) -> float:
+    """Objective speckle grain on the object (mm): λ z / D, λ in nm, z and D in mm."""
+    if not (wavelength_nm > 0 and distance_mm > 0 and diffuser_mm > 0):
+        raise ValueError(
+            f"speckle: wavelength {wavelength_nm} nm, distance {distance_mm} mm and diffuser spot "
+            f"{diffuser_mm} mm must all be > 0"
+        )
+    return wavelength_nm * 1e-6 * distance_mm / diffuser_mm
+
+
+def subjective_grain(wavelength_nm: float, f_number: float, magnification: float) -> float:
+    """Subjective speckle grain on the sensor (mm): 2.44 λ F (1 + M)."""
+    return 2.44 * wavelength_nm * 1e-6 * f_number * (1.0 + magnification)
+
+
+def subjective_contrast(grain_mm: float, pixel_mm: float) -> float:
+    """Contrast σ/<I> of subjective speckle of grain ``grain_mm`` integrated over a square
+    pixel of side ``pixel_mm`` (both on the sensor): 1/sqrt(1 + A_px/A_c), at most 1."""
+    a_c = np.pi * grain_mm**2 / 4.0
+    if not a_c > 0:
+        return 0.0
+    return float(1.0 / np.sqrt(1.0 + pixel_mm**2 / a_c))
+
+
+def subjective_field(shape, grain_px: float, contrast: float, seed: int) -> np.ndarray:
+    """A multiplicative subjective-speckle field (h, w) of mean 1 and contrast ``contrast``.
+
+    Grains of at least MIN_GRAIN px are an FFT speckle field of that grain; smaller ones
+    are drawn independent per pixel (their correlation length is below ~2 px), from the
+    exponential law of fully developed speckle. Either is scaled to the contrast the
+    pixel integration leaves: 1 + C (S - 1)."""
+    h, w = (int(shape[0]), int(shape[1]))
+    if contrast <= 0:
+        return np.ones((h, w))
+    if grain_px >= MIN_GRAIN:
+        s = speckle_intensity((h, w), grain_px, seed)
+        s = 1.0 + (s - s.mean()) / s.std()  # unit contrast exactly, whatever the sample
+    else:
+        s = np.random.default_rng(seed).exponential(1.0, (h, w))
+    return np.clip(1.0 + contrast * (s - 1.0), 0.0, None)
