@@ -189,7 +189,7 @@ def test_delimited_clouds(tmp_path):
     p.write_text("x,y,z,intensity\n1,2,3,0.5\n4,5,6,0.25\n")
     r = read_reconstruction(p)
     assert r["cloud"].colors is None and r["n_points"] == 2
-    assert any("1 column(s)" in w for w in r["warnings"])
+    np.testing.assert_array_equal(r["cloud"].fields["intensity"], [0.5, 0.25])
 
 
 @pytest.mark.parametrize(
@@ -213,9 +213,9 @@ def test_bad_colmap_files(tmp_path, name, text, message):
 @pytest.mark.parametrize(
     ("name", "text", "message"),
     [
-        ("a.txt", "1 2 3 4 5 6\n1 2 3\n", r"a.txt: line 2: 3 columns where the first row has 6"),
-        ("a.txt", "1 2\n", r"a.txt: line 1: 2 column\(s\)"),
-        ("a.txt", "x y z\n1 2 3\nfoo 2 3\n", r"a.txt: line 3: not a row of numbers"),
+        ("a.txt", "1 2 3 4 5 6\n1 2 3\n", r"a.txt line 2: expected 6 numeric columns"),
+        ("a.txt", "1 2\n", r"a.txt line 1: expected 3 or more numeric columns"),
+        ("a.txt", "x y z\n1 2 3\nfoo 2 3\n", r"a.txt line 3: expected 3 numeric columns"),
         ("a.xml", "<document><nochunk/></document>", r"a.xml: no <chunk>"),
         (
             "a.xml",
@@ -231,7 +231,8 @@ def test_bad_colmap_files(tmp_path, name, text, message):
             r"a.xml: camera 'A' <transform>: expected 16 numbers",
         ),
         ("a.xml", "<document><chunk", r"a.xml: not a readable camera XML"),
-        ("a.ply", "ply", r"a.ply: not a COLMAP model or Metashape export"),
+        ("a.las", "las", r"a.las: not a COLMAP model or Metashape export"),
+        ("a.ply", "ply", r"a.ply"),
     ],
 )
 def test_bad_exports(tmp_path, name, text, message):
@@ -252,3 +253,16 @@ def test_plugin_entry():
     assert out.outputs["cloud"].n_points == 3
     assert out.outputs["reconstruction"]["n_views"] == 3
     assert any("arbitrary scale" in w for w in out.warnings)
+
+
+def test_ply_cloud_with_its_camera_xml(tmp_path):
+    from camcmm.api import PointCloud, write
+
+    shutil.copy(DATA / "metashape" / "cameras.xml", tmp_path / "scan.xml")
+    pts = np.array([[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]])
+    write(PointCloud(pts, np.array([[1, 2, 3], [4, 5, 6]], np.uint8)), tmp_path / "scan.ply")
+    r = read_reconstruction(tmp_path / "scan.ply")
+    assert r["n_points"] == 2 and len(r["views"]) == 2
+    np.testing.assert_array_equal(r["cloud"].colors[1], [4, 5, 6])
+    r = read_reconstruction(tmp_path / "scan.xml")  # the cloud of the same name comes along
+    assert r["n_points"] == 2

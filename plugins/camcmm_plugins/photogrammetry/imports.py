@@ -15,12 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError, PointCloud
+from camcmm.api import InputError, PointCloud, read
 
 from . import colmap_model, metashape
 from .cameras import COLMAP_PARAMS, opencv_from_colmap
 
-CLOUD_SUFFIXES = (".txt", ".xyz", ".csv", ".pts")
+#: Delimited clouds (and PLY, Metashape's other export), read by camcmm.api.read: x y z
+#: [r g b] [nx ny nz], a header by name, colours and normals told apart by content, extra
+#: columns kept as fields, a "# unit m" comment honoured.
+CLOUD_SUFFIXES = (".txt", ".xyz", ".csv", ".ply")
 
 ARBITRARY_SCALE = (
     "{name}: the coordinates are in the reconstruction's own arbitrary scale (not mm); "
@@ -35,7 +38,7 @@ def read_reconstruction(path) -> dict[str, Any]:
     ----------
     path : a COLMAP model folder (cameras/images/points3D as .txt or .bin, or a folder
         holding ``sparse/0``), one of its files, a Metashape/PhotoScan point cloud
-        (.txt/.xyz/.csv: x y z [r g b] [nx ny nz]; a camera XML with the same stem, or the
+        (.txt/.xyz/.csv: x y z [r g b] [nx ny nz], read by camcmm.api.read; a camera XML with the same stem, or the
         only Agisoft XML beside it, is read too) or a camera XML alone.
 
     Returns
@@ -67,7 +70,7 @@ def read_reconstruction(path) -> dict[str, Any]:
         return _from_metashape(cloud, p)
     if p.suffix.lower() in CLOUD_SUFFIXES:
         return _from_metashape(p, _xml_beside(p))
-    raise InputError(f"{p}: not a COLMAP model or Metashape export (expected a folder, .txt/.xyz/.csv or .xml)")
+    raise InputError(f"{p}: not a COLMAP model or Metashape export (expected a folder, .txt/.xyz/.csv/.ply or .xml)")
 
 
 def _xml_beside(cloud: Path) -> Path | None:
@@ -135,12 +138,12 @@ def _from_colmap(folder: Path, ext: str) -> dict[str, Any]:
 def _from_metashape(cloud_path: Path | None, xml: Path | None) -> dict[str, Any]:
     warnings: list[str] = []
     if cloud_path is not None:
-        c = metashape.read_cloud_txt(cloud_path)
-        warnings += c["warnings"]
-        cloud = PointCloud(c["points"], c["colors"], c["normals"], name=cloud_path.name)
+        cloud = read(cloud_path)
+        if not isinstance(cloud, PointCloud):  # pragma: no cover - text files are clouds
+            raise InputError(f"{cloud_path}: not a point cloud")
     else:
         cloud = PointCloud(np.zeros((0, 3)), name=xml.name if xml else "cloud")
-        warnings.append(f"{xml}: cameras only; no point cloud beside it (same name, .txt/.xyz/.csv)")
+        warnings.append(f"{xml}: cameras only; no point cloud beside it (same name, .txt/.xyz/.csv/.ply)")
     cameras, views, scaled = [], [], False
     if xml is not None:
         x = metashape.read_cameras_xml(xml)

@@ -1,7 +1,7 @@
-"""Reading Agisoft Metashape / PhotoScan exports: a delimited point cloud and the
-camera XML (File > Export > Export Cameras, "Agisoft XML").
+"""Reading the camera XML of Agisoft Metashape / PhotoScan (File > Export > Export
+Cameras, "Agisoft XML"); the exported point cloud is read by camcmm's own text reader.
 
-Written by hand: no maintained library reads either (the XML is Agisoft's own schema).
+Written by hand: no maintained library reads the XML (it is Agisoft's own schema).
 
 Conventions converted here (Metashape user manual, appendix "Camera models"; Agisoft KB
 "What do camera calibration results mean"):
@@ -19,7 +19,6 @@ Conventions converted here (Metashape user manual, appendix "Camera models"; Agi
 
 from __future__ import annotations
 
-import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -145,58 +144,3 @@ def read_cameras_xml(path: Path) -> dict[str, Any]:
         v["camera"] = order.index(v["camera"])
     scaled = ct is not None and ct[2] != 1.0
     return {"cameras": [cams[k] for k in order], "views": views, "scaled": scaled, "warnings": warnings}
-
-
-_NUM = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
-
-
-def read_cloud_txt(path: Path) -> dict[str, Any]:
-    """A delimited point cloud (tab, space, comma or semicolon): x y z [r g b] [nx ny nz].
-
-    Columns are told apart by content: a triple of integers 0-255 is a colour, a triple
-    of unit length a normal; further columns are ignored with a warning. A header line
-    of names or ``//``/``#`` comments is skipped. Returns dict ``points`` (N, 3),
-    ``colors`` (N, 3) uint8 or None, ``normals`` or None, ``warnings``.
-    """
-    warnings: list[str] = []
-    try:
-        lines = path.read_text(encoding="utf-8", errors="strict").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: cannot read ({exc})") from None
-    rows, first, ncol = [], 0, None
-    for k, line in enumerate(lines, 1):
-        s = line.strip()
-        if not s or s.startswith(("#", "//")):
-            continue
-        f = re.split(r"[\s,;]+", s)
-        if not all(_NUM.match(x) for x in f):
-            if not rows and not first:
-                first = k  # a header of column names
-                continue
-            raise InputError(f"{path}: line {k}: not a row of numbers ({s[:40]!r})")
-        if ncol is None:
-            ncol = len(f)
-            if ncol < 3:
-                raise InputError(f"{path}: line {k}: {ncol} column(s); a point needs x y z")
-        elif len(f) != ncol:
-            raise InputError(f"{path}: line {k}: {len(f)} columns where the first row has {ncol}")
-        rows.append(f)
-    if not rows:
-        raise InputError(f"{path}: no points")
-    a = np.array(rows, dtype=np.float64)
-    if not np.isfinite(a).all():
-        raise InputError(f"{path}: a non-finite value")
-    out: dict[str, Any] = {"points": a[:, :3], "colors": None, "normals": None, "warnings": warnings}
-    rest = a[:, 3:]
-    while rest.shape[1] >= 3:
-        tri = rest[:, :3]
-        if out["colors"] is None and np.all(tri == np.round(tri)) and tri.min() >= 0 and tri.max() <= 255:
-            out["colors"] = tri.astype(np.uint8)
-        elif out["normals"] is None and np.allclose(np.linalg.norm(tri, axis=1), 1.0, atol=1e-3):
-            out["normals"] = tri
-        else:
-            break
-        rest = rest[:, 3:]
-    if rest.shape[1]:
-        warnings.append(f"{path}: {rest.shape[1]} column(s) after x y z [r g b] [nx ny nz] ignored")
-    return out
