@@ -266,3 +266,13 @@ def test_ply_cloud_with_its_camera_xml(tmp_path):
     np.testing.assert_array_equal(r["cloud"].colors[1], [4, 5, 6])
     r = read_reconstruction(tmp_path / "scan.xml")  # the cloud of the same name comes along
     assert r["n_points"] == 2
+
+
+def test_metashape_components_and_adjusted_calibration():
+    """Metashape 1.6+ writes the transform per component and may keep the initial
+    calibration before the adjusted one: the same cameras and views as the chunk-style file."""
+    new = read_reconstruction(DATA / "metashape_v2" / "cameras.xml")
+    old = read_reconstruction(DATA / "metashape" / "cameras.xml")
+    assert new["cameras"] == old["cameras"]
+    assert new["views"] == old["views"]
+    assert any("chunk transform sets a scale" in w for w in new["warnings"])

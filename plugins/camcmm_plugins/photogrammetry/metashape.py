@@ -13,8 +13,9 @@ Conventions converted here (Metashape user manual, appendix "Camera models"; Agi
 * Metashape's P1 multiplies ``r² + 2y²`` in v — it is OpenCV's p2 and P2 is OpenCV's p1.
   K4 (an r⁸ term) has no place in OpenCV's model: refused with a warning if non-zero.
 * ``camera/transform`` is the 4x4 camera-to-chunk transform (camera axes as OpenCV's:
-  x right, y down, z forward); ``chunk/transform`` (rotation R_c, translation T_c, scale
-  s) takes chunk coordinates to the exported world: ``X = s R_c X_chunk + T_c``.
+  x right, y down, z forward); the camera's component's ``transform`` (Metashape 1.6+) or
+  else ``chunk/transform`` (rotation R_c, translation T_c, scale s) takes chunk coordinates
+  to the exported world: ``X = s R_c X_chunk + T_c``.
 """
 
 from __future__ import annotations
@@ -49,7 +50,9 @@ def _num(calib, tag: str, path: Path, default: float | None = 0.0) -> float:
 
 def _camera(sensor, path: Path, warnings: list[str]) -> dict[str, Any]:
     label = sensor.get("label", sensor.get("id", "?"))
-    calib = sensor.find("calibration")
+    # a sensor may hold its initial and its adjusted calibration: the adjusted one counts
+    calibs = sensor.findall("calibration")
+    calib = next((c for c in calibs if c.get("class") == "adjusted"), calibs[0] if calibs else None)
     res = (calib if calib is not None and calib.find("resolution") is not None else sensor).find("resolution")
     if res is None:
         raise InputError(f"{path}: sensor {label!r} has no <resolution>")
@@ -86,17 +89,18 @@ def _camera(sensor, path: Path, warnings: list[str]) -> dict[str, Any]:
     }
 
 
-def chunk_transform(chunk, path: Path) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """(R_c, T_c, s) of ``chunk/transform``, or None when the chunk has none."""
-    tr = chunk.find("transform")
+def similarity(owner, path: Path, what: str) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """(R, T, s) of ``owner/transform`` (a chunk's or a component's: ``X = s R x + T``),
+    or None when it has none."""
+    tr = owner.find("transform")
     if tr is None:
         return None
     rot, trans, sc = tr.find("rotation"), tr.find("translation"), tr.find("scale")
-    R = np.eye(3) if rot is None else _floats(rot, path, "chunk <rotation>", 9).reshape(3, 3)
-    T = np.zeros(3) if trans is None else _floats(trans, path, "chunk <translation>", 3)
-    s = 1.0 if sc is None else float(_floats(sc, path, "chunk <scale>", 1)[0])
-    if s <= 0 or not np.allclose(R @ R.T, np.eye(3), atol=1e-6):
-        raise InputError(f"{path}: chunk <transform> is not a rotation with a positive scale")
+    R = np.eye(3) if rot is None else _floats(rot, path, f"{what} <rotation>", 9).reshape(3, 3)
+    T = np.zeros(3) if trans is None else _floats(trans, path, f"{what} <translation>", 3)
+    s = 1.0 if sc is None else float(_floats(sc, path, f"{what} <scale>", 1)[0])
+    if s <= 0 or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
+        raise InputError(f"{path}: {what} <transform> is not a rotation with a positive scale")
     return R, T, s
 
 
@@ -112,13 +116,21 @@ def read_cameras_xml(path: Path) -> dict[str, Any]:
         root = ET.parse(path).getroot()
     except (ET.ParseError, OSError) as exc:
         raise InputError(f"{path}: not a readable camera XML ({exc})") from None
-    chunk = root.find("chunk") if root.tag == "document" else (root if root.tag == "chunk" else None)
+    chunks = root.findall("chunk") if root.tag == "document" else ([root] if root.tag == "chunk" else [])
+    chunk = chunks[0] if chunks else None
+    if len(chunks) > 1:
+        warnings.append(f"{path}: {len(chunks)} chunks; the first is read")
     if chunk is None:
         raise InputError(f"{path}: no <chunk> (not an Agisoft camera XML)")
     sensors = {s.get("id"): s for s in chunk.iter("sensor")}
     cams = {sid: _camera(s, path, warnings) for sid, s in sensors.items()}
-    ct = chunk_transform(chunk, path)
-    views = []
+    # Metashape 1.6+ keeps the transform per component (cameras name theirs), older
+    # versions one per chunk; each takes the cameras' frame to the exported world.
+    ct = similarity(chunk, path, "chunk")
+    comps = {c.get("id"): similarity(c, path, f"component {c.get('id')!r}") for c in chunk.iter("component")}
+    if ct is not None and any(v is not None for v in comps.values()):
+        warnings.append(f"{path}: both a chunk and a component transform; each camera's component's is used")
+    views, used = [], []
     for cam in chunk.iter("camera"):
         tr = cam.find("transform")
         label = cam.get("label", cam.get("id", "?"))
@@ -130,8 +142,10 @@ def read_cameras_xml(path: Path) -> dict[str, Any]:
         Rcc, tcc = M[:3, :3], M[:3, 3]  # camera to chunk
         if not np.allclose(Rcc @ Rcc.T, np.eye(3), atol=1e-6) or np.linalg.det(Rcc) < 0:
             raise InputError(f"{path}: camera {label!r} <transform> is not a rigid motion")
-        if ct is not None:
-            Rc, Tc, s = ct
+        tf = comps.get(cam.get("component_id")) or ct
+        used.append(tf)
+        if tf is not None:
+            Rc, Tc, s = tf
             Rcw, centre = Rc @ Rcc, s * Rc @ tcc + Tc  # camera to world
         else:
             Rcw, centre = Rcc, tcc
@@ -142,5 +156,5 @@ def read_cameras_xml(path: Path) -> dict[str, Any]:
     order = list(cams)
     for v in views:
         v["camera"] = order.index(v["camera"])
-    scaled = ct is not None and ct[2] != 1.0
+    scaled = any(tf is not None and tf[2] != 1.0 for tf in used)
     return {"cameras": [cams[k] for k in order], "views": views, "scaled": scaled, "warnings": warnings}
