@@ -176,3 +176,18 @@ def test_plugin_entry():
     assert res.outputs["scale"]["factor"] == pytest.approx(TRUE, rel=1e-9)
     np.testing.assert_allclose(res.outputs["cloud"].points, pts * TRUE, rtol=1e-9)
     assert res.outputs["cloud"].colors[0].tolist() == [7, 7, 7]
+
+
+@pytest.mark.slow
+def test_spheres_among_outliers_and_a_larger_sphere():
+    """5 % of points scattered through the volume and a 20 mm sphere that RANSAC finds
+    first: the 5 mm spheres are still found, the factor within 3 u."""
+    out = _artefact(
+        artefact="sphere_with_scale", diameter=20.0, scale_diameter=5.0, n_points=12000, noise=0.008, seed=301
+    )
+    p = out["cloud"].points
+    rng = np.random.default_rng(0)
+    pts = np.vstack([p, rng.uniform(p.min(0), p.max(0), (len(p) // 20, 3))])
+    r = apply_scale(pts, "spheres:2.5,2.5")
+    assert abs(r["factor"] - TRUE) < 3 * r["u"]
+    assert all(s["fitted_radius"] * r["factor"] == pytest.approx(2.5, abs=0.01) for s in r["details"]["spheres"])

@@ -123,20 +123,25 @@ def find_spheres(points: np.ndarray, radii: list[float], algo, what: str) -> lis
     Returns per sphere ``center`` (3,), ``radius``, ``u_center`` (3,), ``u_radius``
     (standard uncertainties of the fit, reconstruction units), ``n_points``, ``form_std``.
     """
-    sub_r, sub_d = _sub(points, RANSAC_POINTS), _sub(points, DETECT_POINTS)
-    keep = np.ones(len(sub_r), bool)
+    sub = _sub(points, DETECT_POINTS)
+    keep = np.ones(len(sub), bool)
     for _ in range(ROUNDS):
         if keep.sum() < 20:
             break
         try:
-            ran = algo("segment.sphere")(cloud=PointCloud(sub_r[keep]))
+            ran = algo("segment.sphere")(cloud=PointCloud(_sub(sub[keep], RANSAC_POINTS)))
         except GeometryError:
             break
         for big in sorted(set(radii)):  # the RANSAC sphere may be any of the sizes
-            found = _detect(sub_d, radii, ran["radius"] / big, algo)
+            found = _detect(sub, radii, ran["radius"] / big, algo)
             if found is not None:
                 return [_refine(points, s, algo) for s in found]
-        keep[np.flatnonzero(keep)[np.asarray(ran["indices"], int)]] = False
+        # not one of ours (a larger sphere, the mount): leave its points out and look again
+        band = max(5 * float(ran["form"]["std"]), 0.02 * float(ran["radius"]))
+        off = np.abs(np.linalg.norm(sub - np.asarray(ran["center"]), axis=1) - ran["radius"]) <= band
+        if not (keep & off).any():
+            break
+        keep &= ~off
     sizes = ", ".join(f"{r:g}" for r in radii)
     raise GeometryError(f"{what}: could not find {len(radii)} sphere(s) of relative radii {sizes} in the cloud")
 
