@@ -1,0 +1,446 @@
+"""Structure from motion with pycolmap: SIFT, matching, incremental mapping, bundle adjustment.
+
+One shared camera for the whole series (a turntable series from one camera), either
+self-calibrated or held fixed to a calibration (thesis ch. 2.3-2.5: the collinearity model
+with distortion, eqs. 2.1-2.6, solved for all cameras and points at once by bundle
+adjustment). pycolmap works on files, so the images are written (down-scaled to
+``max_image_size``) into a work folder; the camera comes back at full image size in
+OpenCV's convention (see :mod:`.cameras`).
+
+Compared with pycolmap's defaults (one SIMPLE_RADIAL camera, 8192 SIFT features, the
+mapper's own final bundle adjustment) the defaults here end with a final global bundle
+adjustment run to convergence (Ceres' tolerances tightened, robust Cauchy loss of 1 px), a
+retriangulation before it, and a camera model chosen by measurement on templeRing
+(docs/photogrammetry.md, "Structure from motion").
+"""
+
+from __future__ import annotations
+
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import Cancelled, InputError
+
+from .cameras import COLMAP_PARAMS, colmap_from_opencv, initial_params, opencv_from_colmap
+from .inputs import check_registration, check_series, reason_unregistered
+
+#: camera model of a self-calibrated series (chosen on templeRing, see the module docstring)
+DEFAULT_MODEL = "SIMPLE_RADIAL"
+
+
+@dataclass
+class SparseResult:
+    """What :func:`reconstruct_sparse` found.
+
+    ``camera`` {model, fx, fy, cx, cy, dist, K} in px at full image size, OpenCV's pixel
+    origin; ``views`` [{image, R, t, centre}] of the registered images in input order, with
+    x_cam = R X + t and centre = -R^T t (the reconstruction's arbitrary units and frame);
+    ``points`` (N, 3), ``colours`` (N, 3) uint8 RGB, ``track_lengths`` (N,) images per point;
+    ``images`` [{image, n_features, n_matched, registered, reason}] for every input image;
+    ``unregistered`` {name: reason}; ``reprojection_rms_px`` (full-size px);
+    ``timings`` seconds per stage.
+    """
+
+    camera: dict[str, Any]
+    views: list[dict[str, Any]]
+    points: np.ndarray
+    colours: np.ndarray
+    track_lengths: np.ndarray
+    images: list[dict[str, Any]]
+    unregistered: dict[str, str]
+    reprojection_rms_px: float
+    image_size: tuple[int, int]
+    warnings: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+def _pycolmap():
+    try:
+        import pycolmap
+    except ImportError as exc:  # pragma: no cover - a declared dependency
+        raise InputError(f"photogrammetry needs pycolmap ({exc}); pip install pycolmap") from exc
+    pycolmap.logging.minloglevel = 2  # errors only: its INFO lines would flood the CLI's stderr
+    return pycolmap
+
+
+def _as_uint8(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[:, :, 0]
+    if a.ndim == 3 and a.shape[2] == 4:
+        a = a[:, :, :3]
+    if a.dtype == np.uint8:
+        return a
+    if a.dtype == np.uint16:
+        return (a >> 8).astype(np.uint8)
+    f = a.astype(np.float64)
+    top = 1.0 if np.nanmax(f) <= 1.0 else 255.0
+    return np.clip(np.nan_to_num(f) * (255.0 / top), 0, 255).astype(np.uint8)
+
+
+def write_images(
+    images: Sequence[np.ndarray], names: Sequence[str], folder: Path, max_image_size: int
+) -> tuple[list[str], tuple[float, float]]:
+    """Write the series as PNG files (RGB arrays in, files readable by COLMAP), the longer side
+    down-scaled to ``max_image_size`` (INTER_AREA). Returns the file names and (sx, sy), the
+    written size over the full size."""
+    import cv2
+
+    h, w = np.asarray(images[0]).shape[:2]
+    s = min(1.0, max_image_size / max(w, h))
+    nw, nh = max(1, round(w * s)), max(1, round(h * s))
+    files = []
+    for i, (im, name) in enumerate(zip(images, names, strict=True)):
+        a = _as_uint8(im)
+        if (nw, nh) != (w, h):
+            a = cv2.resize(a, (nw, nh), interpolation=cv2.INTER_AREA)
+        if a.ndim == 3:
+            a = cv2.cvtColor(a, cv2.COLOR_RGB2BGR)
+        f = f"{i:05d}_{Path(name).stem}.png"
+        if not cv2.imwrite(str(folder / f), a, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+            raise InputError(f"photogrammetry: cannot write {name} to the work folder {folder}")
+        files.append(f)
+    return files, (nw / w, nh / h)
+
+
+class _Stages:
+    """Progress over the stages and a cancellation token polled from ``cancel``."""
+
+    WEIGHTS = {"extract": 0.25, "match": 0.4, "map": 0.3, "refine": 0.05}
+
+    def __init__(self, pycolmap, progress, cancel):
+        self.progress, self.cancel = progress, cancel
+        self.token = pycolmap.CancellationToken() if hasattr(pycolmap, "CancellationToken") else None
+        self.done = 0.0
+        self.timings: dict[str, float] = {}
+        self._stop = threading.Event()
+        if cancel is not None and self.token is not None:
+            threading.Thread(target=self._watch, daemon=True).start()
+
+    def _watch(self) -> None:
+        while not self._stop.wait(0.2):
+            if self.cancel():
+                self.token.cancel()
+                return
+
+    def check(self) -> None:
+        if (self.cancel is not None and self.cancel()) or (self.token is not None and self.token.is_cancelled):
+            self.close()
+            raise Cancelled("photogrammetry: cancelled")
+
+    def report(self, stage: str, within: float, message: str) -> None:
+        if self.progress is not None:
+            self.progress(min(1.0, self.done + self.WEIGHTS.get(stage, 0.0) * within), message)
+
+    def run(self, stage: str, message: str, fn: Callable[[], Any]) -> Any:
+        self.check()
+        self.report(stage, 0.0, message)
+        t0 = time.perf_counter()
+        out = fn()
+        self.timings[stage] = time.perf_counter() - t0
+        self.check()
+        self.done += self.WEIGHTS.get(stage, 0.0)
+        return out
+
+    def close(self) -> None:
+        self._stop.set()
+
+
+def _per_image(pycolmap, db_path: Path, files: list[str], names: Sequence[str]) -> tuple[list[dict], int]:
+    db = pycolmap.Database.open(str(db_path))
+    try:
+        ids = {im.name: im.image_id for im in db.read_all_images()}
+        feats = {i: db.num_keypoints_for_image(i) for i in ids.values()}
+        matched: dict[int, set] = {i: set() for i in ids.values()}
+        pair_ids, geoms = db.read_two_view_geometries()
+        n_pairs = 0
+        for pid, g in zip(pair_ids, geoms, strict=True):
+            m = np.asarray(g.inlier_matches)
+            if len(m) == 0:
+                continue
+            n_pairs += 1
+            a, b = pycolmap.pair_id_to_image_pair(pid)
+            matched[a].update(m[:, 0].tolist())
+            matched[b].update(m[:, 1].tolist())
+    finally:
+        db.close()
+    rows = []
+    for f, n in zip(files, names, strict=True):
+        i = ids.get(f)
+        rows.append(
+            {
+                "image": n,
+                "n_features": int(feats.get(i, 0)) if i is not None else 0,
+                "n_matched": len(matched.get(i, ())) if i is not None else 0,
+                "registered": False,
+                "reason": "",
+            }
+        )
+    return rows, n_pairs
+
+
+def _reprojection_rms(rec, scale: float) -> float:
+    sq, n = 0.0, 0
+    for im in rec.images.values():
+        if not im.has_pose:  # a property
+            continue
+        obs = [(p.xy, p.point3D_id) for p in im.points2D if p.has_point3D()]
+        if not obs:
+            continue
+        xy = np.array([o[0] for o in obs])
+        xyz = np.array([rec.points3D[o[1]].xyz for o in obs])
+        pose = im.cam_from_world() if callable(im.cam_from_world) else im.cam_from_world
+        cam = xyz @ pose.rotation.matrix().T + pose.translation
+        proj = im.camera.img_from_cam(cam, check_cheirality=False)
+        sq += float(((proj - xy) ** 2).sum())
+        n += len(xy)
+    return float(np.sqrt(sq / n) / scale) if n else float("nan")
+
+
+def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
+    """A last global bundle adjustment run to convergence: the mapper's own stops early
+    (its tolerances serve speed while images are still being added)."""
+    opts = pycolmap.BundleAdjustmentOptions()
+    opts.refine_focal_length = not fixed
+    opts.refine_extra_params = not fixed
+    opts.refine_principal_point = refine_pp and not fixed
+    opts.print_summary = False
+    so = opts.ceres.solver_options
+    so.function_tolerance = 1e-10
+    so.gradient_tolerance = 1e-12
+    so.parameter_tolerance = 1e-10
+    so.max_num_iterations = 200
+    # the adjuster itself rather than pycolmap.bundle_adjustment, which logs to stderr whatever
+    # the log level (the CLI's stderr is one line)
+    config = pycolmap.BundleAdjustmentConfig()
+    for image_id in rec.reg_image_ids():
+        config.add_image(image_id)
+    config.fix_gauge(pycolmap.BundleAdjustmentGauge.THREE_POINTS)
+    pycolmap.create_default_bundle_adjuster(opts, config, rec).solve()
+
+
+def reconstruct_sparse(
+    images: Sequence[np.ndarray],
+    names: Sequence[str],
+    *,
+    calibration: dict[str, Any] | None = None,
+    max_image_size: int = 1600,
+    matching: str = "exhaustive",
+    camera_model: str = DEFAULT_MODEL,
+    max_features: int = 8192,
+    refine: bool = True,
+    refine_principal_point: bool = False,
+    seed: int = 0,
+    progress: Callable[[float, str], None] | None = None,
+    cancel: Callable[[], bool] | None = None,
+    workdir: str | Path | None = None,
+) -> SparseResult:
+    """Sparse reconstruction of an image series from one camera (thesis ch. 2.5).
+
+    Parameters
+    ----------
+    images : arrays (H, W) grey or (H, W, 3) RGB, all of one size (uint8; others are scaled).
+    names : one name per image (used in the result and in messages).
+    calibration : None to self-calibrate; else {camera_matrix (3, 3) px, dist_coeffs
+        OpenCV order, image_size (w, h)} of the full-size images: held fixed.
+    max_image_size : longest side (px) the images are down-scaled to for SfM.
+    matching : ``exhaustive`` (every pair) or ``sequential`` (neighbours in input order).
+    camera_model : COLMAP model of a self-calibrated camera (see :data:`.cameras.COLMAP_PARAMS`).
+    max_features : SIFT features per image at most.
+    refine : end with retriangulation and a converged global bundle adjustment.
+    refine_principal_point : also self-calibrate the principal point in that adjustment.
+    seed : random seed of RANSAC and the mapper (repeatable results).
+    progress : ``progress(fraction, message)``; cancel : ``cancel() -> bool``, polled.
+    workdir : folder for the images, database and model (kept); default a temporary one.
+
+    Returns
+    -------
+    SparseResult. Raises InputError (one line naming the images) when the series is
+    unusable, :class:`camcmm.api.Cancelled` when cancelled.
+    """
+    check_series(images, names)
+    if matching not in ("exhaustive", "sequential"):
+        raise InputError(f"photogrammetry: matching {matching!r}: choose exhaustive or sequential")
+    if camera_model not in COLMAP_PARAMS:
+        raise InputError(f"photogrammetry: camera model {camera_model!r}: choose one of {', '.join(COLMAP_PARAMS)}")
+    pycolmap = _pycolmap()
+    pycolmap.set_random_seed(int(seed))
+    h, w = np.asarray(images[0]).shape[:2]
+    if calibration is not None:
+        size = tuple(calibration.get("image_size") or (0, 0))
+        if size != (0, 0) and tuple(map(int, size)) != (w, h):
+            raise InputError(
+                f"photogrammetry: the calibration is for {size[0]}x{size[1]} px images, "
+                f"the series ({names[0]} ...) is {w}x{h} px"
+            )
+    tmp = tempfile.TemporaryDirectory(prefix="camcmm-sfm-") if workdir is None else None
+    root = Path(tmp.name if tmp is not None else workdir)
+    st = _Stages(pycolmap, progress, cancel)
+    try:
+        (root / "images").mkdir(parents=True, exist_ok=True)
+        (root / "sparse").mkdir(exist_ok=True)
+        db = root / "database.db"
+        if db.exists():
+            db.unlink()
+        files, (sx, sy) = write_images(images, names, root / "images", max_image_size)
+        nw, nh = round(w * sx), round(h * sy)
+        reader = pycolmap.ImageReaderOptions()
+        if calibration is not None:
+            model, params = colmap_from_opencv(
+                calibration["camera_matrix"], calibration.get("dist_coeffs", ()), (sx, sy)
+            )
+        else:
+            model, params = camera_model, initial_params(camera_model, nw, nh)
+        reader.camera_model = model
+        reader.camera_params = ",".join(f"{v:.12g}" for v in params)
+        ext = pycolmap.FeatureExtractionOptions()
+        ext.sift.max_num_features = int(max_features)
+        ext.use_gpu = False
+        st.run(
+            "extract",
+            "SIFT features",
+            lambda: pycolmap.extract_features(
+                db,
+                root / "images",
+                image_names=files,
+                camera_mode=pycolmap.CameraMode.SINGLE,
+                reader_options=reader,
+                extraction_options=ext,
+                device=pycolmap.Device.cpu,
+                cancellation_token=st.token,
+            ),
+        )
+        mopts = pycolmap.FeatureMatchingOptions()
+        mopts.use_gpu = False
+        verify = pycolmap.TwoViewGeometryOptions()
+        verify.ransac.random_seed = int(seed)
+        if matching == "exhaustive":
+            match = lambda: pycolmap.match_exhaustive(  # noqa: E731
+                db,
+                matching_options=mopts,
+                verification_options=verify,
+                device=pycolmap.Device.cpu,
+                cancellation_token=st.token,
+            )
+        else:
+            match = lambda: pycolmap.match_sequential(  # noqa: E731
+                db,
+                matching_options=mopts,
+                verification_options=verify,
+                device=pycolmap.Device.cpu,
+                cancellation_token=st.token,
+            )
+        st.run("match", f"{matching} matching", match)
+        per_image, n_pairs = _per_image(pycolmap, db, files, names)
+
+        popts = pycolmap.IncrementalPipelineOptions()
+        popts.random_seed = int(seed)
+        popts.mapper.random_seed = int(seed)
+        popts.triangulation.random_seed = int(seed)
+        fixed = calibration is not None
+        popts.ba_refine_focal_length = not fixed
+        popts.ba_refine_extra_params = not fixed
+        popts.ba_refine_principal_point = False
+        popts.mapper.abs_pose_refine_focal_length = not fixed
+        popts.mapper.abs_pose_refine_extra_params = not fixed
+        count = [0]
+
+        def next_image() -> None:
+            count[0] += 1
+            st.report("map", min(1.0, count[0] / len(files)), f"registered {count[0]} of {len(files)} images")
+
+        recs = st.run(
+            "map",
+            "incremental mapping",
+            lambda: pycolmap.incremental_mapping(
+                db,
+                root / "images",
+                root / "sparse",
+                options=popts,
+                next_image_callback=next_image,
+                cancellation_token=st.token,
+            ),
+        )
+        rec = max(recs.values(), key=lambda r: r.num_reg_images()) if recs else None
+        n_reg = rec.num_reg_images() if rec is not None else 0
+        warnings = []
+        if len(recs) > 1:
+            sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
+            warnings.append(
+                f"the series fell apart into {len(recs)} separate models ({', '.join(map(str, sizes))} images); "
+                "the largest is kept"
+            )
+        if rec is None or n_reg < 2:
+            for p in per_image:
+                p["reason"] = reason_unregistered(p["n_features"], p["n_matched"])
+        check_registration(per_image, n_reg, n_pairs)
+        if refine:
+
+            def refine_fn() -> None:
+                # retriangulate what drift split apart, then adjust everything to convergence
+                database = pycolmap.Database.open(str(db))
+                try:
+                    cache = pycolmap.DatabaseCache.create(database, pycolmap.DatabaseCacheOptions())
+                    mapper = pycolmap.IncrementalMapper(cache)
+                    mapper.begin_reconstruction(rec)
+                    mapper.retriangulate(popts.get_triangulation())
+                    mapper.complete_and_merge_tracks(popts.get_triangulation())
+                    mapper.end_reconstruction(False)
+                finally:
+                    database.close()
+                _final_refinement(pycolmap, rec, fixed, refine_principal_point)
+
+            st.run("refine", "final bundle adjustment", refine_fn)
+        return _result(pycolmap, rec, per_image, files, names, (sx, sy), (w, h), warnings, st.timings)
+    finally:
+        st.close()
+        if tmp is not None:
+            tmp.cleanup()
+
+
+def _result(pycolmap, rec, per_image, files, names, scale, size, warnings, timings) -> SparseResult:
+    by_file = {im.name: im for im in rec.images.values() if im.has_pose}
+    views = []
+    for f, n, row in zip(files, names, per_image, strict=True):
+        im = by_file.get(f)
+        if im is None:
+            row["registered"] = False
+            row["reason"] = reason_unregistered(row["n_features"], row["n_matched"])
+            continue
+        row["registered"] = True
+        pose = im.cam_from_world() if callable(im.cam_from_world) else im.cam_from_world
+        r = np.asarray(pose.rotation.matrix(), dtype=np.float64)
+        t = np.asarray(pose.translation, dtype=np.float64)
+        views.append({"image": n, "R": r, "t": t, "centre": -r.T @ t})
+    unreg = {row["image"]: row["reason"] for row in per_image if not row["registered"]}
+    cam = next(iter(rec.cameras.values()))
+    camera = opencv_from_colmap(cam.model_name if hasattr(cam, "model_name") else str(cam.model), cam.params, scale)
+    pts = rec.points3D
+    ids = list(pts.keys()) if hasattr(pts, "keys") else list(pts)
+    xyz = np.array([pts[i].xyz for i in ids], dtype=np.float64).reshape(-1, 3)
+    rgb = np.array([pts[i].color for i in ids], dtype=np.uint8).reshape(-1, 3)
+    tl = np.array([pts[i].track.length() for i in ids], dtype=np.int32)
+    rms = _reprojection_rms(rec, float(np.mean(scale)))
+    if len(views) < len(files):
+        warnings = [*warnings, *check_registration(per_image, len(views), 1)]
+    return SparseResult(
+        camera=camera,
+        views=views,
+        points=xyz,
+        colours=rgb,
+        track_lengths=tl,
+        images=per_image,
+        unregistered=unreg,
+        reprojection_rms_px=rms,
+        image_size=size,
+        warnings=warnings,
+        timings={k: round(v, 3) for k, v in timings.items()},
+    )
