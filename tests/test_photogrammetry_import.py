@@ -276,3 +276,17 @@ def test_metashape_components_and_adjusted_calibration():
     assert new["cameras"] == old["cameras"]
     assert new["views"] == old["views"]
     assert any("chunk transform sets a scale" in w for w in new["warnings"])
+
+
+def test_colmap_dense_workspace(tmp_path):
+    """dense/0 of a COLMAP workspace: the cameras from dense/0/sparse, the cloud from fused.ply."""
+    from camcmm.api import PointCloud, write
+
+    ws = tmp_path / "dense" / "0"
+    shutil.copytree(DATA / "colmap_binary", ws / "sparse")
+    write(PointCloud(np.arange(12.0).reshape(4, 3)), ws / "fused.ply")
+    for path in (ws, ws / "sparse"):
+        r = read_reconstruction(path)
+        assert (r["n_points"], r["n_points_sparse"], len(r["views"])) == (4, 3, 3)
+        assert r["source"]["cloud"] == str(ws / "fused.ply")
+        np.testing.assert_array_equal(r["cloud"].points[3], [9, 10, 11])

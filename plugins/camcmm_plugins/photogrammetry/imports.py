@@ -43,7 +43,8 @@ def read_reconstruction(path) -> dict[str, Any]:
 
     Returns
     -------
-    dict ``cloud`` (PointCloud, coordinates as in the file), ``camera`` (the first
+    dict ``cloud`` (PointCloud, coordinates as in the file; for a COLMAP dense workspace
+    its ``fused.ply``, the model's points then in ``sparse``), ``camera`` (the first
     camera) and ``cameras`` [{model, fx, fy, cx, cy, dist, width, height}] (OpenCV
     convention, px), ``views`` [{image, R, t, centre, camera}] (``x_cam = R X + t``,
     R (3, 3) and t, centre (3,) as lists; camera: index into cameras), ``n_points``,
@@ -64,7 +65,7 @@ def read_reconstruction(path) -> dict[str, Any]:
             raise InputError(
                 f"{p}: not a COLMAP model folder (cameras, images, points3D as .txt or .bin, or sparse/0 inside)"
             )
-        return _from_colmap(*found)
+        return _from_colmap(*found, given=p)
     if p.suffix.lower() == ".xml":
         cloud = next((c for s in CLOUD_SUFFIXES if (c := p.with_suffix(s)).is_file()), None)
         return _from_metashape(cloud, p)
@@ -116,7 +117,16 @@ def colmap_camera(model: str, width: int, height: int, params: np.ndarray, warni
     return cam
 
 
-def _from_colmap(folder: Path, ext: str) -> dict[str, Any]:
+def _dense_ply(given: Path, folder: Path) -> Path | None:
+    """COLMAP's fused dense cloud of a dense workspace (``dense/0/fused.ply`` beside
+    ``dense/0/sparse``), named by the folder given or the model folder's parent."""
+    for d in (given, folder.parent):
+        if (d / "fused.ply").is_file():
+            return d / "fused.ply"
+    return None
+
+
+def _from_colmap(folder: Path, ext: str, given: Path | None = None) -> dict[str, Any]:
     m = colmap_model.read_model(folder, ext)
     warnings: list[str] = []
     ids = sorted(m.cameras)
@@ -132,7 +142,14 @@ def _from_colmap(folder: Path, ext: str) -> dict[str, Any]:
         name=folder.name if folder.name not in ("0", "sparse") else f"{folder.parent.name}/{folder.name}",
     )
     warnings.append(ARBITRARY_SCALE.format(name=folder))
-    return _result(cloud, cameras, views, "colmap-" + ("binary" if ext == "bin" else "text"), folder, warnings)
+    fmt = "colmap-" + ("binary" if ext == "bin" else "text")
+    dense = _dense_ply(given or folder, folder)
+    if dense is None:
+        return _result(cloud, cameras, views, fmt, folder, warnings)
+    out = _result(read(dense), cameras, views, fmt, folder, warnings)
+    out.update(sparse=cloud, n_points_sparse=cloud.n_points)
+    out["source"]["cloud"] = str(dense)
+    return out
 
 
 def _from_metashape(cloud_path: Path | None, xml: Path | None) -> dict[str, Any]:
@@ -181,5 +198,5 @@ def import_reconstruction(ctx, path) -> dict[str, Any]:
     out = read_reconstruction(path)
     for w in out["warnings"]:
         ctx.warn(w)
-    meta = {k: v for k, v in out.items() if k not in ("cloud", "warnings")}
+    meta = {k: v for k, v in out.items() if k not in ("cloud", "sparse", "warnings")}
     return {"cloud": out["cloud"], "reconstruction": meta}
