@@ -155,3 +155,35 @@ def test_devices_turntable_sequence_with_the_speckle_relay_feeds_the_series():
     assert np.corrcoef(d.ravel().astype(float), series.image(2, speckle_on=False).ravel().astype(float))[0, 1] > 0.99
     with pytest.raises(InputError, match="asks for 640 x 480 px"):
         renderer(size=(640, 480))
+
+
+@pytest.mark.slow
+def test_textureless_sphere_defeats_sfm_without_speckle_and_not_with_it(tmp_path):
+    """Issue 16: the polished carbide sphere without speckle gives structure from motion
+    nothing to hold on to (a one-line refusal); with the speckle on the table, most views
+    register, at the true turntable angles. 12 views through 132 degrees, 0.3 MP."""
+    host = default_host()
+    common = {"artefact": "sphere", "n_images": 12, "arc_deg": 132, "downscale": 9, "supersample": 1, "diffuser": 0.1}
+    runs = {}
+    for on in (False, True):
+        out = tmp_path / ("on" if on else "off")
+        res = host.run("virtuallab.turntable-series", {}, {**common, "speckle": on, "out": str(out)})
+        runs[on] = (res.outputs["files"], str(out / "calibration.yaml"))
+    files, cal = runs[False]
+    with pytest.raises(InputError, match="photogrammetry: (no texture|no overlap|nothing registered)") as exc:
+        host.run("photogrammetry.reconstruct", {"images": files, "calibration": cal}, {"dense": False})
+    assert "\n" not in str(exc.value)
+    files, cal = runs[True]
+    res = host.run("photogrammetry.reconstruct", {"images": files, "calibration": cal}, {"dense": False})
+    rec = res.outputs["reconstruction"]
+    assert rec["n_registered"] >= 10, rec["unregistered"]
+    # the registered cameras turn by the table's angles (11 degrees apart); measured: up to
+    # 0.3 degrees off at 0.79 px reprojection RMS — a 12-degree field of view at 0.3 MP couples
+    # each view's rotation with its position
+    R = {v["image"]: np.array(v["R"]) for v in rec["views"]}
+    names = sorted(R)
+    truth = {f"image{k:03d}.png": 11.0 * k for k in range(12)}
+    for a, b in zip(names, names[1:]):
+        rel = R[b] @ R[a].T
+        angle = np.degrees(np.arccos(np.clip((np.trace(rel) - 1) / 2, -1, 1)))
+        assert angle == pytest.approx(truth[b] - truth[a], abs=1.0)
