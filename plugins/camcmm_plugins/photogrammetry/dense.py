@@ -75,7 +75,8 @@ def depth_map(images: tuple, cams: tuple, zrange: tuple, opts: dict) -> dict | N
 
     ``images`` (reference, source) uint8; ``cams`` their :class:`~.pairs.Camera`;
     ``zrange`` the reference's depth range. Returns ``dict(rect=Rectified without maps,
-    Z=(H,W) float32 rectified depth, NaN where unmatched, colours=(H,W,3) uint8)`` or None.
+    Z=(H,W) float32 rectified depth, NaN where unmatched, cropped to the matched pixels,
+    colours=(H/stride,W/stride,3) uint8, stride)`` or None.
     """
     h, w = images[0].shape[:2]
     rect = rectify(cams[0], cams[1], w, h, zrange, opts["max_pixels"])
@@ -114,8 +115,18 @@ def depth_map(images: tuple, cams: tuple, zrange: tuple, opts: dict) -> dict | N
     Z[ok] = rect.f * rect.baseline / (d[ok] + rect.shift)
     if left.ndim == 2:
         left = np.repeat(left[..., None], 3, axis=2)
-    rect.maps = ()
-    return {"rect": rect, "Z": Z, "colours": left}
+    # Memory: keep the matched pixels' bounding box (an object on a dark background fills
+    # little of the canvas), shifting the principal point to match, on the fusion's stride
+    # grid; colours only where fusion takes points.
+    s = max(int(opts["fusion_stride"]), 1)
+    rows, cols = np.flatnonzero(ok.any(1)), np.flatnonzero(ok.any(0))
+    if len(rows) == 0:
+        rows = cols = np.zeros(1, int)
+    y0, x0 = rows[0] - rows[0] % s, cols[0] - cols[0] % s
+    Z = Z[y0 : rows[-1] + 1, x0 : cols[-1] + 1].copy()
+    rect.cx, rect.cy, rect.maps = rect.cx - x0, rect.cy - y0, ()
+    colours = left[y0 : rows[-1] + 1 : s, x0 : cols[-1] + 1 : s].copy()
+    return {"rect": rect, "Z": Z, "colours": colours, "stride": s}
 
 
 def _check(images: list[np.ndarray], views: list[dict]) -> tuple[int, int]:
@@ -248,7 +259,6 @@ def dense_cloud(
         tol=float(opts["depth_tolerance"]),
         n_check=int(opts["fusion_views"]),
         voxel=float(voxel),
-        stride=int(opts["fusion_stride"]),
         cancel=cancel,
     )
     t3 = time.perf_counter()

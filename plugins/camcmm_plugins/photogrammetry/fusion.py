@@ -20,15 +20,17 @@ import numpy as np
 from camcmm.api import Cancelled
 
 
-def _points(m: dict, centre: np.ndarray, stride: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """World points, their rectified depth and colours of a depth map's matched pixels
-    (every ``stride``-th row and column)."""
-    rect, Z = m["rect"], m["Z"]
-    v, u = np.nonzero(np.isfinite(Z[::stride, ::stride]))
-    v, u = v * stride, u * stride
+def _points(m: dict, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World points, their rectified depth and colours of a depth map's matched pixels on
+    every ``m["stride"]``-th row and column (the lookups stay at full resolution): each
+    surface patch is seen by many depth maps, so 2 loses little density after thinning and
+    saves three quarters of the work."""
+    rect, Z, s = m["rect"], m["Z"], m["stride"]
+    vs, us = np.nonzero(np.isfinite(Z[::s, ::s]))
+    v, u = vs * s, us * s
     z = Z[v, u].astype(np.float64)
     Y = np.c_[(u - rect.cx) * z / rect.f, (v - rect.cy) * z / rect.f, z]
-    return centre + Y @ rect.Rn, z, m["colours"][v, u]
+    return centre + Y @ rect.Rn, z, m["colours"][vs, us]
 
 
 def _projector(m: dict, centre: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +71,6 @@ def fuse(
     tol: float = 0.01,
     n_check: int = 8,
     voxel: float = 0.0,
-    stride: int = 1,
     cancel: Any = None,
 ) -> tuple[dict[str, np.ndarray], list[dict]]:
     """Fuse per-pair depth maps into one cloud.
@@ -89,10 +90,6 @@ def fuse(
         are checked.
     voxel : float
         Edge of the thinning grid, world units (0: no thinning).
-    stride : int
-        Points are taken from every ``stride``-th row and column of each depth map (the
-        lookups stay at full resolution): each surface patch is seen by many depth maps, so
-        2 loses little density after thinning and saves three quarters of the work.
 
     Returns
     -------
@@ -117,7 +114,7 @@ def fuse(
         if m is None:
             stats.append({"ref": i, "src": j, "valid": 0, "consistent": 0})
             continue
-        X, z, col = _points(m, C[i], stride)
+        X, z, col = _points(m, C[i])
         seen = np.zeros((len(X), n), bool)
         seen[:, [i, j]] = True
         X32 = X.astype(np.float32)
