@@ -126,6 +126,18 @@ def test_min_views_is_applied(sphere, sphere_cloud):
 
 
 @pytest.mark.slow
+def test_depth_range_per_view(sphere, sphere_cloud):
+    zr = [(1 - RADIUS - 0.02, 1 + 0.02)] * len(sphere[1])  # the sphere's true depth span, per view
+    r = dense_cloud(*sphere, depth_range=zr)
+    assert abs(len(r.points) - len(sphere_cloud.points)) < 0.1 * len(sphere_cloud.points)
+    assert np.median(np.abs(np.linalg.norm(r.points, axis=1) - RADIUS)) < 0.5 * (1 - RADIUS) / F
+    with pytest.raises(InputError, match="depth_range"):
+        dense_cloud(*sphere, depth_range=[(1.0, 0.5)] * len(sphere[1]))
+    with pytest.raises(InputError, match="one pair per view"):
+        dense_cloud(*sphere, depth_range=[0.5, 1.0, 2.0])
+
+
+@pytest.mark.slow
 def test_templering_points_lie_in_the_published_bounding_box(shared_data):
     folder = shared_data / "middlebury_mvs_templering"
     rows = [ln.split() for ln in (folder / "templeR_par.txt").read_text().splitlines()[1:] if ln.strip()]

@@ -30,7 +30,7 @@ DEFAULTS: dict[str, Any] = {
     "n_neighbours": 2,  # source views per reference view
     "min_angle": 5.0,  # triangulation angle window at the scene centre, degrees
     "max_angle": 30.0,
-    "depth_range": None,  # (zmin, zmax) world units along each optical axis; None: estimated
+    "depth_range": None,  # (zmin, zmax) or (n, 2) per view, world units along the optical axes; None: estimated
     "depth_margin": 0.35,  # estimated range: scene-centre depth x (1 -/+ margin)
     "block_size": 5,  # SGBM matching window, px
     "uniqueness": 10,  # SGBM uniqueness ratio, %
@@ -222,10 +222,15 @@ def dense_cloud(
     t0 = time.perf_counter()
     h, w = _check(images, views)
     cams = cameras(views, (h, w))
-    centre = scene_centre(cams) if opts["depth_range"] is None else None
-    zr = depth_ranges(cams, centre, opts["depth_range"], opts["depth_margin"])
-    if centre is None:
+    try:
         centre = scene_centre(cams)
+    except InputError:
+        if opts["depth_range"] is None:
+            raise
+        # (nearly) parallel axes, e.g. a stereo rig: the mean viewing point of the given range
+        zr = depth_ranges(cams, np.zeros(3), opts["depth_range"])
+        centre = np.mean([c.centre + c.axis * z.mean() for c, z in zip(cams, zr, strict=True)], axis=0)
+    zr = depth_ranges(cams, centre, opts["depth_range"], opts["depth_margin"])
     pairs = choose_pairs(cams, centre, opts["n_neighbours"], opts["min_angle"], opts["max_angle"])
     warnings: list[str] = []
     lonely = sorted(set(range(len(cams))) - {p[0] for p in pairs})

@@ -78,14 +78,19 @@ def scene_centre(cams: list[Camera]) -> np.ndarray:
 def depth_ranges(cams: list[Camera], centre: np.ndarray, depth_range=None, margin: float = 0.35) -> np.ndarray:
     """Per view (zmin, zmax) along the optical axis, world units, shape (n, 2).
 
-    ``depth_range`` given: used for every view. Otherwise the depth of the scene centre
-    times ``(1 - margin, 1 + margin)``.
+    ``depth_range`` given: ``(zmin, zmax)`` for every view or an (n, 2) array, one row per
+    view (e.g. percentiles of the sparse points' depths in each view). Otherwise the depth of
+    the scene centre times ``(1 - margin, 1 + margin)``.
     """
     if depth_range is not None:
-        lo, hi = (float(x) for x in depth_range)
-        if not 0 < lo < hi:
+        try:
+            zr = np.asarray(depth_range, float)
+            zr = np.tile(zr.reshape(2), (len(cams), 1)) if zr.size == 2 else zr.reshape(len(cams), 2)
+        except ValueError:
+            raise InputError(f"depth_range: needs (zmin, zmax) or one pair per view ({len(cams)})") from None
+        if not np.all((zr[:, 0] > 0) & (zr[:, 0] < zr[:, 1])):
             raise InputError(f"depth_range {depth_range!r}: needs 0 < zmin < zmax")
-        return np.tile([lo, hi], (len(cams), 1))
+        return zr
     z = np.array([c.R[2] @ centre + c.t[2] for c in cams])
     if np.any(z <= 0):
         bad = [i for i in np.flatnonzero(z <= 0)]
