@@ -40,6 +40,7 @@ def build(page: Any) -> None:
             _series(page)
             _run(page)
             _results(page)
+            _parameters(page)
         rview = _centre(page)
         images_column()
     _wire(page, rview)
@@ -154,7 +155,7 @@ def _series(page: Any) -> None:
 
 
 def _run(page: Any) -> None:
-    """The declared parameters, the calibration switch, Run, Cancel, the stages and progress."""
+    """Run (above the form, so it and the progress stay in view), Cancel, the stages and progress."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
@@ -164,30 +165,6 @@ def _run(page: Any) -> None:
     def on_cancel():
         page.cancel()
 
-    html.Div("Parameters", classes="text-subtitle-2 mb-1")
-    param_form("pg_fields", "pg_params", "pg-param", disabled="pg_running", numbers=True)
-    v.VSwitch(
-        v_if="pg_cal_note",
-        v_model=("pg_use_cal",),
-        label=("'Camera fixed to ' + pg_cal_note",),
-        color="primary",
-        density="compact",
-        hide_details=True,
-        disabled=("pg_running",),
-        title="Hold the camera to the project's calibration instead of self-calibrating it",
-        raw_attrs=tid("pg-use-cal"),
-    )
-    v.VTextField(
-        v_model=("pg_name",),
-        label="Name of the result (optional)",
-        density="compact",
-        variant="outlined",
-        hide_details=True,
-        classes="mb-2 mt-1",
-        disabled=("pg_running",),
-        title="The items and the result are named after it (default: photogrammetry N images, date)",
-        raw_attrs=tid("pg-name"),
-    )
     with html.Div(classes="d-flex ga-2"):
         v.VBtn(
             "Run",
@@ -318,3 +295,34 @@ def _centre(page: Any) -> Any:
             classes="text-caption px-3 pb-1 text-medium-emphasis",
         )
     return rview
+
+
+def _parameters(page: Any) -> None:
+    """The plugin's declared parameters, the calibration switch, the result's name."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    html.Div("Parameters", classes="text-subtitle-2 mb-1 mt-3")
+    param_form("pg_fields", "pg_params", "pg-param", disabled="pg_running", numbers=True)
+    v.VSwitch(
+        v_if="pg_cal_note",
+        v_model=("pg_use_cal",),
+        label=("'Camera fixed to ' + pg_cal_note",),
+        color="primary",
+        density="compact",
+        hide_details=True,
+        disabled=("pg_running",),
+        title="Hold the camera to the project's calibration instead of self-calibrating it",
+        raw_attrs=tid("pg-use-cal"),
+    )
+    v.VTextField(
+        v_model=("pg_name",),
+        label="Name of the result (optional)",
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        classes="mb-2 mt-1",
+        disabled=("pg_running",),
+        title="The items and the result are named after it (default: photogrammetry N images, date)",
+        raw_attrs=tid("pg-name"),
+    )
