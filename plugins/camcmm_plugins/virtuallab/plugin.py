@@ -223,3 +223,30 @@ def turntable_series(
     for w in res["warnings"]:
         ctx.warn(w)
     return res
+
+
+def photogrammetry_system(
+    ctx,
+    placement,
+    n_images: int = 30,
+    arc: float = 180.0,
+    downscale: float = 8.0,
+    magnification: float = 0.3333,
+    f_number: float = 8.0,
+    speckle: bool = True,
+    grain: float = 0.0,
+    supersample: int = 1,
+    max_image_size: int = 1600,
+    calibrated: bool = True,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """The simulated chapter-4 photogrammetry system measuring one placement
+    (virtuallab.photogrammetry-system; see photo_system.py)."""
+    from .photo_system import measure
+
+    opts = {
+        "n_images": n_images, "arc": arc, "downscale": downscale, "magnification": magnification,
+        "f_number": f_number, "speckle": speckle, "grain": grain, "supersample": supersample,
+        "max_image_size": max_image_size, "calibrated": calibrated, "seed": seed,
+    }  # fmt: skip
+    return measure(dict(placement), opts, ctx)

@@ -2,7 +2,7 @@
 
 A measuring system the wizard can drive is any algorithm plugin whose manifest says
 ``acquires: pointcloud``: it takes a ``placement`` (the test, the position as the
-standard lays it out, the measuring volume and the plan's artefacts) and returns a
+standard lays it out, the repeat, the measuring volume and the plan's artefacts) and returns a
 ``cloud``. A real system measures whatever the operator has put in front of it (the
 placement tells it what to expect); a simulated one (``virtuallab.fringe-system``)
 puts the artefact there itself. The cloud then goes through exactly the import path
@@ -76,6 +76,8 @@ class PageAcquire:
         self.session.bind_loop()
         try:
             placement = self.placement(test, position)
+            # which repeat this is (a simulated system draws a new speckle pattern per repeat)
+            placement["repeat"] = self.wizard.prepare(test, position, repeat).repeat
         except Exception as exc:
             self.session.error(one_line(exc))
             return None
