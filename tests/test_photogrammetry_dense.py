@@ -204,3 +204,19 @@ def test_dask_gives_the_same_points_as_the_local_run(sphere, sphere_cloud):
     assert np.array_equal(remote.n_views, sphere_cloud.n_views)
     with pytest.raises(InputError, match="Dask scheduler"):
         dense_cloud(*sphere, scheduler="tcp://127.0.0.1:9", scheduler_timeout=2)
+
+
+def test_depth_range_from_sparse_points():
+    from camcmm_plugins.photogrammetry.dense import depth_range_from_points
+
+    views = _views(3)
+    rng = np.random.default_rng(1)
+    pts = rng.normal(size=(2000, 3))
+    pts *= RADIUS / np.linalg.norm(pts, axis=1, keepdims=True)
+    zr = depth_range_from_points(pts, views, margin=0.1)
+    # cameras at distance 1 from the centre: visible depths span 1 - R .. 1 + R (both caps)
+    assert zr.shape == (3, 2)
+    assert np.all(zr[:, 0] < 1 - RADIUS + 0.01) and np.all(zr[:, 0] > 1 - RADIUS - 0.05)
+    assert np.all(zr[:, 1] > 1 + RADIUS - 0.01) and np.all(zr[:, 1] < 1 + RADIUS + 0.05)
+    with pytest.raises(InputError, match="fewer than 10"):
+        depth_range_from_points(pts[:5], views)

@@ -24,7 +24,7 @@ import numpy as np
 from camcmm.api import Cancelled, InputError
 
 from . import fusion
-from .pairs import Camera, cameras, choose_pairs, depth_ranges, rectify, scene_centre
+from .pairs import Camera, cameras, choose_pairs, depth_range_from_points, depth_ranges, rectify, scene_centre
 
 DEFAULTS: dict[str, Any] = {
     "n_neighbours": 2,  # source views per reference view
@@ -282,4 +282,4 @@ def dense_cloud(
     )
 
 
-__all__ = ["DEFAULTS", "Camera", "DenseResult", "dense_cloud", "depth_map"]
+__all__ = ["DEFAULTS", "Camera", "DenseResult", "dense_cloud", "depth_map", "depth_range_from_points"]

@@ -200,3 +200,24 @@ def rectify(
         Kn = np.array([[f, 0, cx + dx], [0, f, cy], [0, 0, 1]])
         maps += cv2.initUndistortRectifyMap(cam.K, cam.dist, Rn @ cam.R.T, Kn, (W, H), cv2.CV_32FC1)
     return Rectified(Rn, f, cx, cy, shift, B, (W, H), n_disp, tuple(maps))
+
+
+def depth_range_from_points(points: np.ndarray, views: list[dict], margin: float = 0.1) -> np.ndarray:
+    """Per-view ``depth_range`` (n, 2) from sparse points (M,3), world units: the 1st..99th
+    percentile of the depths of the points in front of each view, widened by ``margin`` of
+    that span (at least 1 % of the depth) each way. Views seeing no point get the others'
+    overall range."""
+    X = np.asarray(points, float).reshape(-1, 3)
+    out = np.full((len(views), 2), np.nan)
+    for i, v in enumerate(views):
+        z = X @ np.asarray(v["R"], float)[2] + float(np.asarray(v["t"], float).ravel()[2])
+        z = z[z > 0]
+        if len(z) >= 10:
+            lo, hi = np.percentile(z, [1, 99])
+            pad = max(margin * (hi - lo), 0.01 * hi)
+            out[i] = max(lo - pad, 1e-3 * hi), hi + pad
+    ok = np.isfinite(out[:, 0])
+    if not ok.any():
+        raise InputError("depth_range_from_points: fewer than 10 points in front of every view")
+    out[~ok] = out[ok, 0].min(), out[ok, 1].max()
+    return out
