@@ -165,9 +165,10 @@ class TurntableSeries:
             self.spec.supersample,
         )
         L = render.radiance(view, self.pattern if speckle_on else None, self.lighting, lamp=not speckle_on)
-        img = self.dslr.blur(L, view.depth)
-        if speckle_on:
-            dark = self.dslr.blur(render.radiance(view, None, self.lighting, lamp=False), view.depth)
+        if not speckle_on:
+            img = self.dslr.blur(L, view.depth)[0]
+        else:
+            img, dark = self.dslr.blur([L, render.radiance(view, None, self.lighting, lamp=False)], view.depth)
             # subjective speckle forms in the image plane: it modulates the laser's light only
             # ... and depends on the viewpoint (the angle), not on the frame
             key = np.random.SeedSequence([self.spec.seed, 7, round(angle_deg * 1000) % (1 << 32)])
