@@ -81,13 +81,18 @@ def test_dslr_geometry_and_turntable_views_are_a_rotation_about_the_axis():
     assert np.linalg.norm(rel) == pytest.approx(s.dslr.object_distance)
     assert np.degrees(np.arcsin(rel[2] / np.linalg.norm(rel))) == pytest.approx(40.0)
     assert s.target[:2].tolist() == [0.0, 0.0]  # the aim lies on the table's axis
-    # every sphere projects into every image
-    for k in range(0, 30, 5):
-        cam = s.camera(k)
-        for sph in s.artefact_truth["spheres"]:
-            x = cam.camera_matrix @ (cam.rotation @ np.array(sph["center"]) + cam.translation)
-            u, v = x[:2] / x[2]
-            assert 0 < u < cam.image_size[0] and 0 < v < cam.image_size[1]
+    # every sphere projects into every image, for the ball plate (ch. 4.3's lengths) too
+    plate = TurntableSeries(SeriesSpec(artefact="ball_plate", n_images=30, **SMALL))
+    c = [np.array(q["center"]) for q in plate.artefact_truth["spheres"]]
+    lengths = [np.linalg.norm(c[0] - c[1]), np.linalg.norm(c[1] - c[2]), np.linalg.norm(c[2] - c[0])]
+    assert np.allclose(lengths, [5.942, 7.956, 9.957], atol=1e-12)
+    for ser in (s, plate):
+        for k in range(0, 30, 5):
+            cam = ser.camera(k)
+            for sph in ser.artefact_truth["spheres"]:
+                x = cam.camera_matrix @ (cam.rotation @ np.array(sph["center"]) + cam.translation)
+                u, v = x[:2] / x[2]
+                assert 0 < u < cam.image_size[0] and 0 < v < cam.image_size[1]
 
 
 def test_bad_settings_are_refused_in_one_line():
