@@ -133,6 +133,9 @@ def test_depth_range_per_view(sphere, sphere_cloud):
     assert np.median(np.abs(np.linalg.norm(r.points, axis=1) - RADIUS)) < 0.5 * (1 - RADIUS) / F
     with pytest.raises(InputError, match="depth_range"):
         dense_cloud(*sphere, depth_range=[(1.0, 0.5)] * len(sphere[1]))
+    # searched 53-69 px; the sphere lies at 70-82 px of disparity
+    cut = dense_cloud(*sphere, depth_range=(0.01, 1.2), max_disparities=16)
+    assert any("near end was cut" in w for w in cut.warnings)
     with pytest.raises(InputError, match="one pair per view"):
         dense_cloud(*sphere, depth_range=[0.5, 1.0, 2.0])
 

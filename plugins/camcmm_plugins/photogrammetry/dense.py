@@ -42,6 +42,7 @@ DEFAULTS: dict[str, Any] = {
     "fusion_stride": 2,  # points from every 2nd row/column of each depth map (lookups: all)
     "voxel": None,  # thinning voxel edge, world units; None: the median pixel footprint; 0: off
     "max_pixels": 4.0,  # rectified canvas at most this x the image's pixel count
+    "max_disparities": 1024,  # SGBM search at most this wide (px); the near end is cut
     "scheduler_timeout": 30.0,  # s to connect to a Dask scheduler
 }
 
@@ -79,7 +80,7 @@ def depth_map(images: tuple, cams: tuple, zrange: tuple, opts: dict) -> dict | N
     colours=(H/stride,W/stride,3) uint8, stride)`` or None.
     """
     h, w = images[0].shape[:2]
-    rect = rectify(cams[0], cams[1], w, h, zrange, opts["max_pixels"])
+    rect = rectify(cams[0], cams[1], w, h, zrange, opts["max_pixels"], int(opts["max_disparities"]))
     if rect is None:
         return None
     m1x, m1y, m2x, m2y = rect.maps
@@ -108,7 +109,8 @@ def depth_map(images: tuple, cams: tuple, zrange: tuple, opts: dict) -> dict | N
         mode=cv2.STEREO_SGBM_MODE_SGBM_3WAY,
     )
     d = sgbm.compute(gl, right).astype(np.float32) / 16.0  # fixed point, 4 fractional bits
-    ok = (d >= 0) & good
+    # a disparity at either end of the search is saturated (the true one lies outside), not a match
+    ok = (d > 1) & (d < rect.n_disp - 2) & good
     # keep the window and the interpolation ramp at the image's edge off the canvas border
     ok &= cv2.erode(inside.astype(np.uint8), np.ones((bs + 4, bs + 4), np.uint8)) > 0
     Z = np.full(d.shape, np.nan, np.float32)
@@ -269,6 +271,12 @@ def dense_cloud(
     t3 = time.perf_counter()
     if progress is not None:
         progress(1.0, f"{len(fused['points'])} dense points")
+    clipped = [p for p, m in zip(pairs, maps, strict=True) if m is not None and m["rect"].clipped]
+    if clipped:
+        warnings.append(
+            f"pairs {clipped[:5]}{' ...' if len(clipped) > 5 else ''}: the depth range needs more than "
+            f"{opts['max_disparities']} px of disparity; the near end was cut: pass a narrower depth_range"
+        )
     if len(fused["points"]) == 0:
         warnings.append("no dense point is seen consistently by enough views (texture? poses? depth_range?)")
     return DenseResult(

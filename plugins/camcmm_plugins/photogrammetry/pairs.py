@@ -139,6 +139,7 @@ class Rectified:
     size: tuple[int, int]  # (width, height)
     n_disp: int
     maps: tuple  # (map1x, map1y, map2x, map2y) float32
+    clipped: bool = False  # the depth range needed more than max_disp disparities
 
     def project(self, X: np.ndarray, centre: np.ndarray):
         """World points (M,3) into the left rectified image: u, v (px) and Z (world units)."""
@@ -158,13 +159,20 @@ def _edge_rays(cam: Camera, w: int, h: int) -> np.ndarray:
 
 
 def rectify(
-    left: Camera, right: Camera, w: int, h: int, zrange: tuple[float, float], max_pixels: float = 4.0
+    left: Camera,
+    right: Camera,
+    w: int,
+    h: int,
+    zrange: tuple[float, float],
+    max_pixels: float = 4.0,
+    max_disp: int = 1024,
 ) -> Rectified | None:
     """Common rectified frame of a pair (None when the geometry is unusable).
 
     ``zrange``: depth range of the left view (world units) that fixes the disparity search.
     ``max_pixels``: the rectified canvas holds at most this many times the image's pixels
-    (the focal length is reduced if needed).
+    (the focal length is reduced if needed). ``max_disp``: at most this many disparities are
+    searched (SGBM's time and memory grow with it); the near end of the range is cut.
     """
     b = right.centre - left.centre
     B = float(np.linalg.norm(b))
@@ -192,6 +200,8 @@ def rectify(
     f *= scale
     shift = float(np.floor(f * B / zmax))
     n_disp = int(np.ceil((f * B / zmin - shift + 2) / 16) * 16)
+    clipped = n_disp > max_disp
+    n_disp = min(n_disp, max(16, max_disp // 16 * 16))
     W = int(np.ceil((x1 - x0) * f)) + n_disp  # SGBM leaves the leftmost n_disp columns empty
     H = int(np.ceil((y1 - y0) * f))
     cx, cy = -x0 * f + n_disp, -y0 * f
@@ -199,7 +209,7 @@ def rectify(
     for cam, dx in ((left, 0.0), (right, shift)):
         Kn = np.array([[f, 0, cx + dx], [0, f, cy], [0, 0, 1]])
         maps += cv2.initUndistortRectifyMap(cam.K, cam.dist, Rn @ cam.R.T, Kn, (W, H), cv2.CV_32FC1)
-    return Rectified(Rn, f, cx, cy, shift, B, (W, H), n_disp, tuple(maps))
+    return Rectified(Rn, f, cx, cy, shift, B, (W, H), n_disp, tuple(maps), clipped)
 
 
 def depth_range_from_points(points: np.ndarray, views: list[dict], margin: float = 0.1) -> np.ndarray:
