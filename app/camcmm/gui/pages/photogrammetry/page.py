@@ -216,7 +216,8 @@ class PhotogrammetryPage:
             self.session.flush()
             return None
         s.pg_running, s.pg_progress = False, 100.0
-        s.pg_stages = [{"name": n, "state": "done"} for n in runs.STAGES]
+        # the stages the plugin went through are done; one it skipped (dense off) stays grey
+        s.pg_stages = [dict(st, state="done" if st["state"] != "todo" else "todo") for st in s.pg_stages]
         self.show_record(rec, result.outputs)
         rc = rec["reconstruction"]
         s.pg_message = (

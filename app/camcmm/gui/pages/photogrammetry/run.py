@@ -25,7 +25,7 @@ from . import inputs
 TASK = "photogrammetry"
 CURRENT_KEY = "photogrammetry.current"
 #: the plugin's stages, in order, as its progress messages begin
-STAGES = ("reading", "features", "matching", "mapping", "dense", "scale")
+STAGES = ("features", "matching", "mapping", "dense", "scale")
 
 
 #: other words the plugin's messages begin with -> the stage they belong to

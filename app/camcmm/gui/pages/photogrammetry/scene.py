@@ -5,7 +5,7 @@ A camera of the reconstruction maps a world point X to camera coordinates
 ``x = R X + t`` (COLMAP's convention, which the plugin reports); the camera looks along
 its +z axis, image x to the right and y down, and sits at ``C = −Rᵀ t``. Its frustum
 is the apex C and the four rays through the image corners ``((u − cx)/fx, (v − cy)/fy, 1)``
-turned into the world by Rᵀ, cut at a depth proportional to the camera ring's size.
+turned into the world by Rᵀ, cut at a depth proportional to the cameras' distance from the cloud.
 
 :class:`PhotoScene` is a :class:`camcmm.gui.view.SceneView` (same decimation, colouring
 and legend; the view tools work on it) that draws the frusta again whenever the cloud
@@ -49,18 +49,18 @@ def frustum_points(R: Any, centre: Any, camera: dict[str, Any] | None, depth: fl
 
 
 def frustum_depth(centres: np.ndarray, cloud_points: np.ndarray | None) -> float:
-    """The frusta's depth: 15 % of the median camera distance from the cameras' mean
-    centre (a ring of cameras), else 10 % of the cloud's diagonal, else 1."""
+    """The frusta's depth: 15 % of the median distance from the cameras to the cloud's
+    median point (what they look at; a short arc of cameras as well as a ring), else of
+    the cameras' spread about their mean, else 1."""
     C = np.asarray(centres, dtype=float).reshape(-1, 3)
+    if cloud_points is not None and len(cloud_points) and len(C):
+        r = float(np.median(np.linalg.norm(C - np.median(np.asarray(cloud_points, dtype=float), axis=0), axis=1)))
+        if r > 0:
+            return 0.15 * r
     if len(C) >= 2:
         r = float(np.median(np.linalg.norm(C - C.mean(axis=0), axis=1)))
         if r > 0:
             return 0.15 * r
-    if cloud_points is not None and len(cloud_points):
-        P = np.asarray(cloud_points, dtype=float)
-        d = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
-        if d > 0:
-            return 0.1 * d
     return 1.0
 
 
