@@ -172,6 +172,15 @@ def test_series_from_a_folder_as_thumbnails(app, tmp_path):
     png = base64.b64decode(rows[0]["thumb"].split(",", 1)[1])
     img = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
     assert rows[0]["thumb"].startswith("data:image/png;base64,") and img.shape[1] == 96
+    # the project's image items, as the calibration page takes them
+    for f in sorted((tmp_path / "data" / "s").glob("*.png"))[:3]:
+        assert page.session.import_file(f) is not None
+    page.pick_all_items()
+    assert page.state.pg_source == "items" and len(page.state.pg_items) == 3
+    srcs = asyncio.run(page.list_async())
+    assert [x["name"] for x in srcs] == ["view00.png", "view01.png", "view02.png"]
+    assert all(x["item"] is not None and Path(x["path"]).is_file() for x in srcs)
+    assert len(page.state.pg_images) == 3 and page.state.pg_images[2]["thumb"]
 
 
 @pytest.mark.slow
@@ -265,6 +274,20 @@ def test_cancel_stores_nothing_and_failure_is_one_line(app, tmp_path):
     assert asyncio.run(page.run_async(None, req)) is None
     assert page.state.pg_error.startswith("image series: 2 images") and "\n" not in page.state.pg_error
     assert session.page_error("photogrammetry") == page.state.pg_error
+    # the camera held to the project's calibration: refused without one, passed on with one
+    page.state.pg_use_cal = True
+    assert asyncio.run(page.run_async(None, req)) is None and "no camera calibration" in page.state.pg_error
+    cal = tmp_path / "cal.json"
+    cal.write_text('{"camera_matrix": [[800, 0, 80], [0, 800, 60], [0, 0, 1]], "dist_coeffs": [0, 0, 0, 0, 0]}')
+    h = session.project.add_file(cal)
+    session.project.set_state("calibration.current", {"kind": "camera", "calibration": h})
+    page.opened()  # the page shown again offers the calibration made meanwhile
+    assert page.state.pg_cal_note
+    given = []
+    page.runner = lambda host, pid, sources, params, calibration, job: given.append(calibration) or refuse()
+    page.state.pg_use_cal = True
+    asyncio.run(page.run_async(None, req))
+    assert given == [Path(session.project.file_path(h))]
     assert len(session.project.results()) == n_results and len(session.project.measurements()) == n_items
 
 

@@ -100,9 +100,14 @@ class PhotogrammetryPage:
             values[f["name"]] = bool(default) if f["widget"] == "switch" else ("" if default is None else default)
             fields.append(d)
         s.pg_fields, s.pg_params = fields, values
+        self.refresh_calibration()
+
+    def refresh_calibration(self) -> None:
+        """Offer the project's camera calibration when it has one (made meanwhile, too)."""
+        s = self.state
         cal = runs.calibration_file(self.project)
         s.pg_cal_note = "" if cal is None else "the project's camera calibration (Calibration page)"
-        s.pg_use_cal = s.pg_use_cal and cal is not None
+        s.pg_use_cal = bool(s.pg_use_cal) and cal is not None
 
     def request(self) -> dict[str, Any]:
         """The inputs as they stand in the page."""
@@ -280,7 +285,8 @@ class PhotogrammetryPage:
         return True
 
     def opened(self) -> None:
-        """The page is shown: the stored run's thumbnails and scene, made once."""
+        """The page is shown: the calibration offered, the stored run's thumbnails and scene."""
+        self.refresh_calibration()
         if self.record is None or self.job.running:
             return
         if self._shown_result != self.record.get("result"):
