@@ -172,6 +172,8 @@ def test_bad_input_is_a_one_line_reason():
         dense_cloud([img, img, np.zeros((41, 50), np.uint8)], views)
     with pytest.raises(InputError, match="one view per image"):
         dense_cloud([img] * 3, views[:2])
+    with pytest.raises(InputError, match="image 2: needs uint8"):
+        dense_cloud([img, img, np.zeros((40, 50, 4), np.uint8)], views)
     with pytest.raises(InputError, match="unknown options"):
         dense_cloud([img] * 3, views, min_view=3)
     with pytest.raises(InputError, match="view 1: R is not a rotation"):

@@ -140,7 +140,8 @@ def _check(images: list[np.ndarray], views: list[dict]) -> tuple[int, int]:
     if len(shapes) != 1:
         raise InputError(f"images of different sizes {sorted(shapes)}: the dense stage needs one size")
     for i, im in enumerate(images):
-        if np.asarray(im).dtype != np.uint8 or np.asarray(im).ndim not in (2, 3):
+        a = np.asarray(im)
+        if a.dtype != np.uint8 or not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)):
             raise InputError(f"image {i}: needs uint8 (h,w) or (h,w,3), got {np.asarray(im).dtype} {np.shape(im)}")
     return shapes.pop()
 
@@ -244,6 +245,7 @@ def dense_cloud(
         raise InputError(
             f"no view pair with a triangulation angle of {opts['min_angle']}-{opts['max_angle']} deg: no overlap"
         )
+    images = [np.ascontiguousarray(im) for im in images]  # OpenCV refuses negative strides
     tasks = [((images[i], images[j]), (cams[i], cams[j]), tuple(zr[i]), opts) for i, j in pairs]
     t1 = time.perf_counter()
     if scheduler is None:
