@@ -236,6 +236,8 @@ def test_run_stores_draws_cameras_and_flags_the_unregistered_image(app, tmp_path
         assert np.allclose(R[2], -C / np.linalg.norm(C), atol=1e-9)  # the construction looks at the origin
         # the image's top-left corner lies up (+z) and left of the axis, as the camera sees it
         assert frustum[1][2] > frustum[0][2] + axis[2]
+    page.set_colour("z")
+    assert s.pg_colour == "z" and page.view.cameras_drawn() == N_VIEWS - 1  # a new colouring keeps the cameras
     # the sparse cloud keeps the cameras
     page.show_cloud("sparse")
     assert s.pg_display == "sparse" and page.view.shown.n_total == 150 and page.view.cameras_drawn() == N_VIEWS - 1

@@ -256,6 +256,9 @@ def _centre(page: Any) -> Any:
     def on_display(which):
         page.show_cloud(which)
 
+    def on_colour(name):
+        page.set_colour(name)
+
     with html.Div(classes="d-flex flex-column", style=f"flex: 1 1 0; min-width: 0; {COLUMN}"):
         with html.Div(classes="d-flex align-center flex-wrap ga-2 px-3 py-1", style="min-height: 48px;"):
             with v.VBtnToggle(
@@ -272,6 +275,21 @@ def _centre(page: Any) -> Any:
                 v.VBtn(
                     "Sparse", value="sparse", disabled=("!pg_items_made.sparse",), raw_attrs=tid("pg-display-sparse")
                 )
+            v.VSelect(
+                model_value=("pg_colour",),
+                items=("pg_colours",),
+                item_title="title",
+                item_value="value",
+                label="Colour by",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                disabled=("!pg_colours.length",),
+                style="max-width: 220px;",
+                update_modelValue=(on_colour, "[$event]"),
+                title="The field the points are coloured by: measured colour, views per point, quality, x/y/z",
+                raw_attrs=tid("pg-colour"),
+            )
             html.Span(
                 "{{ pg_note }}",
                 classes="text-caption",

@@ -18,6 +18,7 @@ from typing import Any
 from ....errors import CamcmmError, one_line
 from ....host import to_jsonable
 from ...jobs import Job
+from ...view import RGB, color_fields
 from . import inputs, links
 from . import run as runs
 from .scene import PhotoScene
@@ -65,6 +66,7 @@ class PhotogrammetryPage:
         s.pg_stages = [{"name": n, "state": "todo"} for n in runs.STAGES]
         s.pg_summary, s.pg_warnings, s.pg_title = [], [], ""
         s.pg_items_made, s.pg_display, s.pg_cameras, s.pg_note = {}, "cloud", 0, ""
+        s.pg_colours, s.pg_colour = [], None
         s.pg_empty_hint = EMPTY_HINT
 
     def _error(self, msg: Any) -> None:
@@ -235,8 +237,9 @@ class PhotogrammetryPage:
         return rec
 
     # -- what is shown ----------------------------------------------------------------------
-    def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None) -> None:
-        """A run's record on the page: figures, image counts, the cloud with its cameras."""
+    def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None, draw: bool = True) -> None:
+        """A run's record on the page: figures, image counts and (``draw``) the cloud with
+        its cameras; a restored record is drawn when the page opens (:meth:`opened`)."""
         s, rc = self.state, rec.get("reconstruction") or {}
         self.record = rec
         s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
@@ -245,9 +248,9 @@ class PhotogrammetryPage:
         s.pg_items_made = dict(rec.get("items") or {})
         listed = s.pg_images if len(s.pg_images or []) == len(rec.get("sources") or []) else None
         s.pg_images = inputs.with_counts(listed or inputs.rows(rec.get("sources") or []), rc.get("images"))
-        self.view.views, self.view.camera = [], None
-        objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
-        self.show_cloud(self._display(), objs)
+        if draw:
+            objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
+            self.show_cloud(self._display(), objs)
 
     def _display(self) -> str:
         """The cloud to show: the one shown before if this run has it, else dense, else sparse."""
@@ -264,14 +267,23 @@ class PhotogrammetryPage:
             obj = (objs or {}).get(which) or self.session.load(key)
             rc = rec.get("reconstruction") or {}
             self.view.views, self.view.camera = list(rc.get("views") or []), rc.get("camera")
-            self.view.show(key, obj)
+            # a photograph's cloud reads best in its measured colour (n_views, quality: "Colour by")
+            self.view.show(key, obj, RGB if getattr(obj, "colors", None) is not None else None)
         except Exception as exc:
             self._error(f"the {which} cannot be shown: {one_line(exc)}")
             return
         s.pg_display = which
+        s.pg_colours, s.pg_colour = color_fields(obj), self.view.field
         s.pg_cameras = self.view.cameras_drawn()
         s.pg_note = f"{self.view.note}; {s.pg_cameras} registered cameras drawn"
         self._shown_result = rec.get("result")
+
+    def set_colour(self, name: Any) -> None:
+        """Colour the shown cloud by field ``name`` (its measured colour, n_views, quality, x/y/z)."""
+        if self.view.shown is None or name not in {f["value"] for f in self.state.pg_colours or []}:
+            return
+        self.view.set_field(str(name))
+        self.state.pg_colour = self.view.field
 
     def send_to(self, target: str) -> bool:
         """The shown cloud to another page (:mod:`.links`); False with the reason shown."""
@@ -305,14 +317,8 @@ class PhotogrammetryPage:
             if rec is None:
                 return
             self._set_request(rec.get("request") or {})
-            self.record = rec
-            s, rc = self.state, rec.get("reconstruction") or {}
-            s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
-            s.pg_summary = runs.summary(rc)
-            s.pg_warnings = [str(w) for w in rec.get("warnings") or []]
-            s.pg_items_made = dict(rec.get("items") or {})
-            s.pg_images = inputs.with_counts(inputs.rows(rec.get("sources") or []), rc.get("images"))
-            s.pg_message = f"result #{rec.get('result')} from the project"
+            self.show_record(rec, draw=False)
+            self.state.pg_message = f"result #{rec.get('result')} from the project"
         except Exception as exc:  # a damaged record must not keep the page from opening
             log.warning("cannot restore the reconstruction: %s", exc)
             self.state.pg_message = f"the stored reconstruction could not be read: {one_line(exc)}"
