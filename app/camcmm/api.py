@@ -33,7 +33,7 @@ from .host import Cancelled, RunContext, RunResult, default_host
 from .io import check_calibration, read, read_calibration, read_stated, unit_decision, write, write_calibration
 from .jsonable import to_jsonable, utc_now
 from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
-from .model import Artefact, CameraModel, Certificate, Image, PointCloud, TriangleMesh
+from .model import Artefact, CameraModel, Certificate, HeightMap, Image, PointCloud, TriangleMesh
 from .params import Param
 from .project.select import project_values
 from .report import Report, charts
@@ -55,7 +55,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.1"
+API_VERSION = "1.2"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -100,6 +100,7 @@ __all__ = [
     "Artefact",
     "CameraModel",
     "Certificate",
+    "HeightMap",
     "Image",
     "PointCloud",
     "TriangleMesh",

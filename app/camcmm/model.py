@@ -1,4 +1,4 @@
-"""The data model: point clouds, meshes, images, cameras, artefacts.
+"""The data model: point clouds, meshes, height maps, images, cameras, artefacts.
 
 Numpy arrays are the common currency. Lengths are in millimetres (mm) everywhere in the
 model; readers convert files known to be in other units and record the original unit
@@ -204,6 +204,132 @@ class TriangleMesh:
         for k, v in self.fields.items():
             poly.point_data[k] = v
         return poly
+
+
+def _step(value: Any, what: str, name: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: {what} {value!r} is not a number") from None
+    if not (np.isfinite(v) and v > 0):
+        raise InputError(f"{name}: {what} = {v:.6g} mm must be positive and finite")
+    return v
+
+
+@dataclass(eq=False)
+class HeightMap:
+    """A surface-topography height map on a regular grid (an interferometer's or a
+    confocal microscope's measurement; thesis ch. 6.1).
+
+    Attributes
+    ----------
+    heights : (ny, nx) float64, mm; NaN where the instrument found no valid point
+    dx, dy : lateral steps in mm, x along columns (j), y along rows (i)
+    intensity : (ny, nx) float64 or None, the instrument's intensity/quality channel
+        (arbitrary units), when the file has one
+    origin : (x0, y0) mm, the position of ``heights[0, 0]``
+    name : a human-readable name, usually the file name
+    source_unit : the height unit stated by the file it was read from (``"mm"`` if made here)
+    meta : the instrument metadata kept from the file (free-form, JSON-able values)
+
+    Construction refuses non-2-D or empty grids, infinite heights, steps that are not
+    positive finite numbers and an intensity of another shape, with an InputError naming
+    the map.
+    """
+
+    heights: np.ndarray
+    dx: float
+    dy: float
+    intensity: np.ndarray | None = None
+    origin: tuple[float, float] = (0.0, 0.0)
+    name: str = "heightmap"
+    source_unit: str = "mm"
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        try:
+            h = np.ascontiguousarray(self.heights, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"{self.name}: heights are not numbers") from None
+        if h.ndim != 2 or min(h.shape) < 1:
+            raise InputError(f"{self.name}: heights must be a non-empty (ny, nx) grid, got shape {h.shape}")
+        inf = np.isinf(h)
+        if inf.any():
+            i, j = np.argwhere(inf)[0]
+            raise InputError(
+                f"{self.name}: {int(inf.sum())} heights are infinite (first at row {i}, column {j}); "
+                "invalid points must be NaN"
+            )
+        self.heights = h
+        self.dx = _step(self.dx, "lateral step dx", self.name)
+        self.dy = _step(self.dy, "lateral step dy", self.name)
+        if self.intensity is not None:
+            try:
+                a = np.ascontiguousarray(self.intensity, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise InputError(f"{self.name}: intensity is not numbers") from None
+            if a.shape != h.shape:
+                raise InputError(f"{self.name}: intensity has shape {a.shape}, heights {h.shape}")
+            self.intensity = a
+        try:
+            o = np.asarray(self.origin, dtype=np.float64).ravel()
+        except (TypeError, ValueError):
+            raise InputError(f"{self.name}: origin {self.origin!r} is not two numbers") from None
+        if o.size != 2 or not np.all(np.isfinite(o)):
+            raise InputError(f"{self.name}: origin must be two finite numbers (x0, y0) mm, got {o.tolist()}")
+        self.origin = (float(o[0]), float(o[1]))
+        self.meta = dict(self.meta or {})
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(ny, nx): rows, columns."""
+        return int(self.heights.shape[0]), int(self.heights.shape[1])
+
+    @property
+    def valid(self) -> np.ndarray:
+        """(ny, nx) bool: True where the height is a number."""
+        return ~np.isnan(self.heights)
+
+    @property
+    def n_valid(self) -> int:
+        return int(np.count_nonzero(self.valid))
+
+    @property
+    def size_mm(self) -> tuple[float, float]:
+        """(width, height) in mm as instruments state it: nx dx by ny dy (each point
+        stands for one dx by dy cell)."""
+        ny, nx = self.shape
+        return nx * self.dx, ny * self.dy
+
+    def xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """(nx,) x and (ny,) y coordinates of the columns and rows, mm."""
+        ny, nx = self.shape
+        return self.origin[0] + np.arange(nx) * self.dx, self.origin[1] + np.arange(ny) * self.dy
+
+    def points(self) -> np.ndarray:
+        """(N, 3) float64 mm of the valid cells, row by row: x = x0 + j dx,
+        y = y0 + i dy, z = height."""
+        i, j = np.nonzero(self.valid)
+        return np.column_stack([self.origin[0] + j * self.dx, self.origin[1] + i * self.dy, self.heights[i, j]])
+
+    def to_pyvista(self):
+        """A pyvista StructuredGrid of the surface, point data ``height`` (mm, NaN where
+        invalid) and ``intensity`` when there is one; invalid points keep z = 0 and are
+        blanked (ghost cells), so plots hide them."""
+        import pyvista as pv
+
+        x, y = self.xy()
+        # (nx, ny) arrays: pyvista ravels them in Fortran order, x fastest, which is
+        # numpy's C order of the (ny, nx) grids below
+        xx, yy = np.meshgrid(x, y, indexing="ij")
+        z = np.where(self.valid, self.heights, 0.0).T
+        grid = pv.StructuredGrid(xx, yy, z)
+        grid.point_data["height"] = self.heights.ravel()
+        if self.intensity is not None:
+            grid.point_data["intensity"] = self.intensity.ravel()
+        if not self.valid.all():
+            grid = grid.extract_points(self.valid.ravel(), adjacent_cells=False)
+        return grid
 
 
 @dataclass(eq=False)
