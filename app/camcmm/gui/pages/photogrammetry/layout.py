@@ -20,6 +20,9 @@ from . import links
 from .images_view import images_column
 
 COLUMN = "height: calc(100vh - 48px - 24px); overflow-y: auto;"
+# the inputs as the browser has them, sent with Show and Run: a click right after typing
+# must not find the server's copy of a field one update behind (the page checks them all)
+REQUEST = "{source: pg_source, folder: pg_folder, pattern: pg_pattern, items: pg_items, name: pg_name}"
 
 
 def build(page: Any) -> None:
@@ -59,8 +62,8 @@ def _series(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_list():
-        await page.list_async()
+    async def on_list(req):
+        await page.list_async(req if isinstance(req, dict) else None)
 
     def on_all_items():
         page.pick_all_items()
@@ -145,7 +148,7 @@ def _series(page: Any) -> None:
             size="small",
             variant="tonal",
             prepend_icon="mdi-image-multiple",
-            click=on_list,
+            click=(on_list, f"[{REQUEST}]"),
             loading=("pg_listing",),
             disabled=("pg_running || pg_listing",),
             title="List the series with thumbnails (before running)",
@@ -159,8 +162,8 @@ def _run(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_run(params):
-        await page.run_async(params)
+    async def on_run(params, req):
+        await page.run_async(params, req if isinstance(req, dict) else None)
 
     def on_cancel():
         page.cancel()
@@ -170,7 +173,7 @@ def _run(page: Any) -> None:
             "Run",
             color="primary",
             prepend_icon="mdi-play",
-            click=(on_run, "[pg_params]"),
+            click=(on_run, f"[pg_params, {REQUEST}]"),
             disabled=("pg_running || !pg_fields.length",),
             loading=("pg_running",),
             title="Reconstruct the series (Ctrl+Enter)",

@@ -111,10 +111,15 @@ class PhotogrammetryPage:
         s.pg_cal_note = "" if cal is None else "the project's camera calibration (Calibration page)"
         s.pg_use_cal = bool(s.pg_use_cal) and cal is not None
 
-    def request(self) -> dict[str, Any]:
-        """The inputs as they stand in the page."""
+    def request(self, given: dict[str, Any] | None = None) -> dict[str, Any]:
+        """The inputs as they stand in the page, with ``given`` (the browser's) over them;
+        only the known keys, as text (the items a list of ids)."""
         req = {key: self.state[var] for key, var in FIELDS.items()}
-        req["items"] = [str(i) for i in req["items"] or []]
+        req.update({k: v for k, v in dict(given or {}).items() if k in FIELDS})
+        items = req.get("items")
+        req["items"] = [str(i) for i in items] if isinstance(items, (list, tuple)) else []
+        for key in ("source", "folder", "pattern", "name"):
+            req[key] = "" if req.get(key) is None else str(req[key])
         return req
 
     def _set_request(self, req: dict[str, Any]) -> None:
@@ -142,7 +147,7 @@ class PhotogrammetryPage:
 
     async def list_async(self, req: dict[str, Any] | None = None) -> list[dict[str, Any]] | None:
         """Check the series (``req``, else the page's inputs) and show it as thumbnails."""
-        req = self.request() if req is None else {**self.request(), **req}
+        req = self.request(req)
         try:
             sources = runs.sources_of(req, self.project, self.session.roots)
         except Exception as exc:
@@ -194,7 +199,7 @@ class PhotogrammetryPage:
         if self.job.running:
             self._error("a reconstruction is running; wait for it or cancel it")
             return None
-        req = self.request() if req is None else {**self.request(), **req}
+        req = self.request(req)
         try:
             spec = self.spec()
             values = runs.check_params(spec, s.pg_params if params is None else params, self.session.roots)
