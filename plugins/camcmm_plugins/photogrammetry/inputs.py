@@ -1,4 +1,5 @@
-"""Checks of an image series before and after structure from motion.
+"""The image series: checks before and after structure from motion, the files COLMAP reads,
+the per-image counts it found.
 
 Every refusal is an InputError of one line that names the images at fault; a partial
 registration is not an error but warnings plus each unregistered image's reason.
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -103,3 +105,78 @@ def reason_unregistered(n_features: int, n_matched: int) -> str:
     if n_matched == 0:
         return "no verified matches"
     return f"not registered by the mapper ({n_matched} matched features)"
+
+
+def _as_uint8(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[:, :, 0]
+    if a.ndim == 3 and a.shape[2] == 4:
+        a = a[:, :, :3]
+    if a.dtype == np.uint8:
+        return a
+    if a.dtype == np.uint16:
+        return (a >> 8).astype(np.uint8)
+    f = a.astype(np.float64)
+    top = 1.0 if np.nanmax(f) <= 1.0 else 255.0
+    return np.clip(np.nan_to_num(f) * (255.0 / top), 0, 255).astype(np.uint8)
+
+
+def write_images(
+    images: Sequence[np.ndarray], names: Sequence[str], folder: Path, max_image_size: int
+) -> tuple[list[str], tuple[float, float]]:
+    """Write the series as PNG files (RGB arrays in, files readable by COLMAP), the longer side
+    down-scaled to ``max_image_size`` (INTER_AREA). Returns the file names and (sx, sy), the
+    written size over the full size."""
+    import cv2
+
+    h, w = np.asarray(images[0]).shape[:2]
+    s = min(1.0, max_image_size / max(w, h))
+    nw, nh = max(1, round(w * s)), max(1, round(h * s))
+    files = []
+    for i, (im, name) in enumerate(zip(images, names, strict=True)):
+        a = _as_uint8(im)
+        if (nw, nh) != (w, h):
+            a = cv2.resize(a, (nw, nh), interpolation=cv2.INTER_AREA)
+        if a.ndim == 3:
+            a = cv2.cvtColor(a, cv2.COLOR_RGB2BGR)
+        f = f"{i:05d}_{Path(name).stem}.png"
+        if not cv2.imwrite(str(folder / f), a, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+            raise InputError(f"photogrammetry: cannot write {name} to the work folder {folder}")
+        files.append(f)
+    return files, (nw / w, nh / h)
+
+
+def per_image_counts(pycolmap, db_path: Path, files: list[str], names: Sequence[str]) -> tuple[list[dict], int]:
+    """Per image (input order) its SIFT features and those in verified matches, read from
+    COLMAP's database; and the number of verified image pairs."""
+    db = pycolmap.Database.open(str(db_path))
+    try:
+        ids = {im.name: im.image_id for im in db.read_all_images()}
+        feats = {i: db.num_keypoints_for_image(i) for i in ids.values()}
+        matched: dict[int, set] = {i: set() for i in ids.values()}
+        pair_ids, geoms = db.read_two_view_geometries()
+        n_pairs = 0
+        for pid, g in zip(pair_ids, geoms, strict=True):
+            m = np.asarray(g.inlier_matches)
+            if len(m) == 0:
+                continue
+            n_pairs += 1
+            a, b = pycolmap.pair_id_to_image_pair(pid)
+            matched[a].update(m[:, 0].tolist())
+            matched[b].update(m[:, 1].tolist())
+    finally:
+        db.close()
+    rows = []
+    for f, n in zip(files, names, strict=True):
+        i = ids.get(f)
+        rows.append(
+            {
+                "image": n,
+                "n_features": int(feats.get(i, 0)) if i is not None else 0,
+                "n_matched": len(matched.get(i, ())) if i is not None else 0,
+                "registered": False,
+                "reason": "",
+            }
+        )
+    return rows, n_pairs

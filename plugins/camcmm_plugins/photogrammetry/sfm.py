@@ -7,11 +7,12 @@ adjustment). pycolmap works on files, so the images are written (down-scaled to
 ``max_image_size``) into a work folder; the camera comes back at full image size in
 OpenCV's convention (see :mod:`.cameras`).
 
-Compared with pycolmap's defaults (one SIMPLE_RADIAL camera, 8192 SIFT features, the
-mapper's own final bundle adjustment) the defaults here end with a final global bundle
-adjustment run to convergence (Ceres' tolerances tightened, robust Cauchy loss of 1 px), a
-retriangulation before it, and a camera model chosen by measurement on templeRing
-(docs/photogrammetry.md, "Structure from motion").
+Compared with pycolmap's defaults (one SIMPLE_RADIAL camera, the mapper's own final bundle
+adjustment, the principal point held at the image centre) a self-calibrated series here ends
+with a retriangulation and a final global bundle adjustment run to convergence that also
+refines the principal point (kept at the centre, with a warning, where the series does not
+determine it). On templeRing this takes the focal length from +2.0 % to +0.8 % of the gantry's
+at the same camera-centre error (docs/photogrammetry.md, "Structure from motion").
 """
 
 from __future__ import annotations
@@ -29,9 +30,10 @@ import numpy as np
 from camcmm.api import Cancelled, InputError
 
 from .cameras import COLMAP_PARAMS, colmap_from_opencv, initial_params, opencv_from_colmap
-from .inputs import check_registration, check_series, reason_unregistered
+from .inputs import check_registration, check_series, per_image_counts, reason_unregistered, write_images
 
-#: camera model of a self-calibrated series (chosen on templeRing, see the module docstring)
+#: camera model of a self-calibrated series: COLMAP's, one focal length and k1 (a real lens has
+#: distortion; SIMPLE_PINHOLE suits distortion-free optics, see docs/photogrammetry.md)
 DEFAULT_MODEL = "SIMPLE_RADIAL"
 
 
@@ -69,46 +71,6 @@ def _pycolmap():
         raise InputError(f"photogrammetry needs pycolmap ({exc}); pip install pycolmap") from exc
     pycolmap.logging.minloglevel = 2  # errors only: its INFO lines would flood the CLI's stderr
     return pycolmap
-
-
-def _as_uint8(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a)
-    if a.ndim == 3 and a.shape[2] == 1:
-        a = a[:, :, 0]
-    if a.ndim == 3 and a.shape[2] == 4:
-        a = a[:, :, :3]
-    if a.dtype == np.uint8:
-        return a
-    if a.dtype == np.uint16:
-        return (a >> 8).astype(np.uint8)
-    f = a.astype(np.float64)
-    top = 1.0 if np.nanmax(f) <= 1.0 else 255.0
-    return np.clip(np.nan_to_num(f) * (255.0 / top), 0, 255).astype(np.uint8)
-
-
-def write_images(
-    images: Sequence[np.ndarray], names: Sequence[str], folder: Path, max_image_size: int
-) -> tuple[list[str], tuple[float, float]]:
-    """Write the series as PNG files (RGB arrays in, files readable by COLMAP), the longer side
-    down-scaled to ``max_image_size`` (INTER_AREA). Returns the file names and (sx, sy), the
-    written size over the full size."""
-    import cv2
-
-    h, w = np.asarray(images[0]).shape[:2]
-    s = min(1.0, max_image_size / max(w, h))
-    nw, nh = max(1, round(w * s)), max(1, round(h * s))
-    files = []
-    for i, (im, name) in enumerate(zip(images, names, strict=True)):
-        a = _as_uint8(im)
-        if (nw, nh) != (w, h):
-            a = cv2.resize(a, (nw, nh), interpolation=cv2.INTER_AREA)
-        if a.ndim == 3:
-            a = cv2.cvtColor(a, cv2.COLOR_RGB2BGR)
-        f = f"{i:05d}_{Path(name).stem}.png"
-        if not cv2.imwrite(str(folder / f), a, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
-            raise InputError(f"photogrammetry: cannot write {name} to the work folder {folder}")
-        files.append(f)
-    return files, (nw / w, nh / h)
 
 
 class _Stages:
@@ -154,39 +116,6 @@ class _Stages:
         self._stop.set()
 
 
-def _per_image(pycolmap, db_path: Path, files: list[str], names: Sequence[str]) -> tuple[list[dict], int]:
-    db = pycolmap.Database.open(str(db_path))
-    try:
-        ids = {im.name: im.image_id for im in db.read_all_images()}
-        feats = {i: db.num_keypoints_for_image(i) for i in ids.values()}
-        matched: dict[int, set] = {i: set() for i in ids.values()}
-        pair_ids, geoms = db.read_two_view_geometries()
-        n_pairs = 0
-        for pid, g in zip(pair_ids, geoms, strict=True):
-            m = np.asarray(g.inlier_matches)
-            if len(m) == 0:
-                continue
-            n_pairs += 1
-            a, b = pycolmap.pair_id_to_image_pair(pid)
-            matched[a].update(m[:, 0].tolist())
-            matched[b].update(m[:, 1].tolist())
-    finally:
-        db.close()
-    rows = []
-    for f, n in zip(files, names, strict=True):
-        i = ids.get(f)
-        rows.append(
-            {
-                "image": n,
-                "n_features": int(feats.get(i, 0)) if i is not None else 0,
-                "n_matched": len(matched.get(i, ())) if i is not None else 0,
-                "registered": False,
-                "reason": "",
-            }
-        )
-    return rows, n_pairs
-
-
 def _reprojection_rms(rec, scale: float) -> float:
     sq, n = 0.0, 0
     for im in rec.images.values():
@@ -205,9 +134,9 @@ def _reprojection_rms(rec, scale: float) -> float:
     return float(np.sqrt(sq / n) / scale) if n else float("nan")
 
 
-def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
-    """A last global bundle adjustment run to convergence: the mapper's own stops early
-    (its tolerances serve speed while images are still being added)."""
+def _adjust(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
+    """One global bundle adjustment run to convergence: the mapper's own stops early (its
+    tolerances serve speed while images are still being added)."""
     opts = pycolmap.BundleAdjustmentOptions()
     opts.refine_focal_length = not fixed
     opts.refine_extra_params = not fixed
@@ -227,6 +156,33 @@ def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
     pycolmap.create_default_bundle_adjuster(opts, config, rec).solve()
 
 
+#: a self-calibrated principal point farther than this share of the image size from the
+#: centre is taken for a failure of the adjustment (the principal point is weakly determined)
+MAX_PP_SHIFT = 0.1
+
+
+def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool):
+    """The converged final adjustment; with ``refine_pp`` the principal point too (COLMAP's
+    mapper holds it at the image centre). A ring of views around the object determines it
+    (templeRing: 3-4 px from the gantry's, see docs/photogrammetry.md); where it runs off
+    (a short arc) the adjustment without it is kept, with a warning. Returns (rec, warnings)."""
+    if fixed or not refine_pp:
+        _adjust(pycolmap, rec, fixed, False)
+        return rec, []
+    backup = pycolmap.Reconstruction(rec)
+    _adjust(pycolmap, rec, fixed, True)
+    cam = next(iter(rec.cameras.values()))
+    shift = max(
+        abs(cam.principal_point_x - cam.width / 2) / cam.width,
+        abs(cam.principal_point_y - cam.height / 2) / cam.height,
+    )
+    if shift <= MAX_PP_SHIFT and not cam.has_bogus_params(0.1, 10.0, 1.0):
+        return rec, []
+    _adjust(pycolmap, backup, fixed, False)
+    why = f"{100 * shift:.0f} % of the image from its centre" if shift > MAX_PP_SHIFT else "implausible intrinsics"
+    return backup, [f"the principal point is not determined by this series ({why}); it is kept at the image centre"]
+
+
 def reconstruct_sparse(
     images: Sequence[np.ndarray],
     names: Sequence[str],
@@ -237,7 +193,7 @@ def reconstruct_sparse(
     camera_model: str = DEFAULT_MODEL,
     max_features: int = 8192,
     refine: bool = True,
-    refine_principal_point: bool = False,
+    refine_principal_point: bool = True,
     seed: int = 0,
     progress: Callable[[float, str], None] | None = None,
     cancel: Callable[[], bool] | None = None,
@@ -339,7 +295,7 @@ def reconstruct_sparse(
                 cancellation_token=st.token,
             )
         st.run("match", f"{matching} matching", match)
-        per_image, n_pairs = _per_image(pycolmap, db, files, names)
+        per_image, n_pairs = per_image_counts(pycolmap, db, files, names)
 
         popts = pycolmap.IncrementalPipelineOptions()
         popts.random_seed = int(seed)
@@ -384,7 +340,7 @@ def reconstruct_sparse(
         check_registration(per_image, n_reg, n_pairs)
         if refine:
 
-            def refine_fn() -> None:
+            def refine_fn():
                 # retriangulate what drift split apart, then adjust everything to convergence
                 database = pycolmap.Database.open(str(db))
                 try:
@@ -396,10 +352,23 @@ def reconstruct_sparse(
                     mapper.end_reconstruction(False)
                 finally:
                     database.close()
-                _final_refinement(pycolmap, rec, fixed, refine_principal_point)
+                return _final_refinement(pycolmap, rec, fixed, refine_principal_point)
 
-            st.run("refine", "final bundle adjustment", refine_fn)
-        return _result(pycolmap, rec, per_image, files, names, (sx, sy), (w, h), warnings, st.timings)
+            rec, more = st.run("refine", "final bundle adjustment", refine_fn)
+            warnings += more
+        out = _result(pycolmap, rec, per_image, files, names, (sx, sy), (w, h), warnings, st.timings)
+        out.options = {
+            "camera_model": model,
+            "calibrated": fixed,
+            "max_image_size": int(max_image_size),
+            "sfm_image_size": [nw, nh],
+            "matching": matching,
+            "max_features": int(max_features),
+            "refine": bool(refine),
+            "refine_principal_point": bool(refine_principal_point),
+            "seed": int(seed),
+        }
+        return out
     finally:
         st.close()
         if tmp is not None:
