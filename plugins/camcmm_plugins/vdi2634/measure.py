@@ -326,7 +326,14 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
         radius = d_nom / 2
     else:
         radius = scaling.estimate_radius(ctx, cloud, name)
-    parts = detect(ctx, cloud, name, radius, 3, "ball plate")
+    try:
+        parts = detect(ctx, cloud, name, radius, 3, "ball plate")
+    except GeometryError:
+        if mode == "none":
+            raise
+        # RANSAC can join three noisy caps into one larger sphere; a cloud already in mm
+        # (a system that scales its own reconstruction) still has the nominal radius
+        parts = detect(ctx, cloud, name, d_nom / 2, 3, "ball plate")
     fits = [_fit(ctx, "fit.sphere", name, cloud=cloud.subset(idx), outliers=rule) for idx in parts]
     centres = np.array([f["center"] for f in fits], dtype=float)
     order = scaling.order_plate(centres, l_cal, name)
