@@ -1,0 +1,308 @@
+"""The fusion pipeline of thesis fig. 6.1, stage by stage (plain functions on the data
+model; the host entry is :mod:`.plugin`)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import cv2
+import numpy as np
+
+from camcmm.api import InputError, PointCloud
+
+from . import difference as dif
+from .match import reject as reject_matches
+from .match import sift_matches
+from .merge import in_footprint, merge, subsample_grid, transform
+from .prepare import csi_image as make_csi_image
+from .prepare import normalised_blur, shade, stretch
+from .project import cloud_grid, fit_plane, grey, mirrored, splat
+from .similarity2d import apply, fit_similarity, refine_ecc, robust_fit, rot
+from .zreg import Placement, icp_3dof
+
+
+def _small(img: np.ndarray, side: int = 256) -> tuple[list, float]:
+    import cv2
+
+    f = min(1.0, side / max(img.shape))
+    if f < 1:
+        img = cv2.resize(
+            img, (max(1, round(img.shape[1] * f)), max(1, round(img.shape[0] * f))), interpolation=cv2.INTER_AREA
+        )
+    return img.tolist(), f
+
+
+def photo_image(local: np.ndarray, colors, grid: int | None, sigma_px: float) -> dict:
+    """Step 1-2 on the cloud's side: grey image (uint8), mask, pixel (mm), origin (mm)."""
+    uv = local[:, :2]
+    pixel, origin, shape = cloud_grid(uv, grid)
+    if colors is not None:
+        s, w = splat(uv, grey(colors), pixel, origin, shape)
+        img = normalised_blur(s, w, sigma_px)
+    else:  # no colour: the shaded height image, as for a CSI map without intensity
+        s, w = splat(uv, local[:, 2], pixel, origin, shape)
+        img = normalised_blur(shade(normalised_blur(s, w, 1.0), pixel, pixel), (w > 0).astype(float), sigma_px)
+    covered = normalised_blur(w, np.ones_like(w), 1.0) > 0.05 if sigma_px > 0 else w > 0
+    return {"image": stretch(img, covered), "mask": covered, "pixel": pixel, "origin": origin}
+
+
+def run(
+    cloud: PointCloud,
+    maps: list,
+    names: list[str],
+    datum: dict | None = None,
+    sigma_px: float = 6.0,
+    reject: str = "similarity",
+    grid: int | None = None,
+    ransac_px: float = 3.0,
+    min_inliers: int = 8,
+    ratio: float = 0.8,
+    icp_iterations: int = 50,
+    icp_max_distance: float | None = None,
+    icp_points: int = 20000,
+    max_points: int = 2_000_000,
+    seed: int = 0,
+    material_ratio: Callable[[np.ndarray], dict] | None = None,
+    progress: Callable[[float, str], None] | None = None,
+) -> dict[str, Any]:
+    """Fuse CSI height maps with a photogrammetry cloud; returns fused, result, views
+    (see plugin.yaml). Raises InputError naming the map for too few matches, no overlap
+    or an implausible scale (a wrong unit)."""
+    say = progress or (lambda f, m: None)
+    timings: dict[str, float] = {}
+    warnings: list[str] = []
+
+    def tick(stage: str, t0: float) -> float:
+        timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+        return time.perf_counter()
+
+    t = time.perf_counter()
+    say(0.02, "plane and grey image of the cloud")
+    pts = cloud.points
+    if len(pts) < 100:
+        raise InputError(f"{cloud.name}: {len(pts)} points, too few for a fusion")
+    centre, frame0 = fit_plane(pts, datum)
+    frames = [frame0] if datum is not None else [frame0, mirrored(frame0)]
+    images = []
+    for f in frames:
+        local = (pts - centre) @ f.T
+        images.append((f, local, photo_image(local, cloud.colors, grid, sigma_px)))
+    t = tick("project", t)
+
+    per_map: list[dict] = []
+    chosen = None
+    for k, (hm, name) in enumerate(zip(maps, names), start=1):
+        say(0.1 + 0.5 * (k - 1) / len(maps), f"matching {name}")
+        pixel = images[0][2]["pixel"]
+        extent = float(np.ptp(images[0][1][:, :2], axis=0).max())
+        w_mm = max(hm.size_mm)
+        if w_mm > 2 * extent or w_mm < 8 * pixel:
+            raise InputError(
+                f"{name}: the map is {w_mm:.4g} mm wide, the cloud {extent:.4g} mm (its image pixel {pixel:.3g} mm): "
+                f"a wrong length unit in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
+            )
+        pc = max(min(hm.dx, hm.dy), 0.5 * pixel)
+        cimg, cmask, pc = make_csi_image(hm.heights, hm.intensity, hm.dx, hm.dy, pc, sigma_px * pixel)
+        t = tick("prepare", t)
+        best = None
+        for idx, (_f, _local, ph) in enumerate(images if chosen is None else [images[chosen]]):
+            pa, pb = sift_matches(cimg, cmask, ph["image"], ph["mask"], ratio)
+            rj = reject_matches(pa, pb, ransac_px, seed)
+            n = int(rj[reject].sum())
+            if best is None or n > best[0]:
+                best = (n, idx if chosen is None else chosen, pa, pb, rj)
+        assert best is not None
+        n, idx, pa, pb, rj = best
+        t = tick("match", t)
+        if n < min_inliers:
+            raise InputError(
+                f"{name}: too few matches with the cloud ({len(pa)} SIFT matches, {n} consistent; at least "
+                f"{min_inliers} needed) — no overlap with the cloud, or nothing in common at sigma_px = {sigma_px:g}"
+            )
+        chosen = idx
+        f, local, ph = images[idx]
+        a_mm = pa * pc + np.asarray(hm.origin)
+        b_mm = pb * ph["pixel"] + ph["origin"]
+        inl = rj[reject]
+        s, th, tr, keep = robust_fit(a_mm[inl], b_mm[inl], ransac_px * ph["pixel"])
+        s, th, tr, refined = _refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_px * ph["pixel"] / pc)
+        if not refined:
+            warnings.append(f"{name}: the image correlation did not refine the SIFT registration; kept SIFT's")
+        if not 0.5 <= s <= 2.0:
+            raise InputError(
+                f"{name}: the map is {s:.4g} times the cloud's size (expected near 1): a wrong length unit "
+                f"in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
+            )
+        t = tick("similarity", t)
+        per_map.append(
+            {
+                "hm": hm,
+                "file": name,
+                "s": s,
+                "theta": th,
+                "t": tr,
+                "pa": pa[inl][keep],
+                "pb": pb[inl][keep],
+                "n_matches": len(pa),
+                "n_sim": int(rj["similarity"].sum()),
+                "n_fun": int(rj["fundamental"].sum()),
+                "n_inliers": int(keep.sum()),
+                "cimg": cimg,
+                "pc": pc,
+            }
+        )
+
+    scales = np.array([m["s"] for m in per_map])
+    s_mean = float(scales.mean())
+    s_std = float(scales.std(ddof=1)) if len(scales) > 1 else None
+    f, local, ph = images[chosen]
+    q = local / s_mean  # the cloud in the fused frame: plane coordinates, scale fixed by the CSI
+    keep_photo = np.ones(len(q), bool)
+    parts, out_maps, views = [], [], []
+    spacing = ph["pixel"] / s_mean
+    for k, m in enumerate(per_map, start=1):
+        say(0.6 + 0.3 * (k - 1) / len(per_map), f"z registration and ICP of {m['file']}")
+        hm, s, th, tr = m["hm"], m["s"], m["theta"], m["t"]
+        xy_map = (q[:, :2] * s_mean - tr) @ rot(th) / s  # inverse of eq. 6.1
+        foot = in_footprint(xy_map, hm)
+        if foot.sum() < 10:
+            raise InputError(f"{m['file']}: no overlap with the cloud ({int(foot.sum())} cloud points on the map)")
+        pm = hm.points()
+        cmap = pm[:, :2].mean(axis=0)
+        zc = float(pm[:, 2].mean())
+        place = Placement(th, cmap, zc, apply(s, th, tr, cmap[None])[0] / s_mean)
+        # z registration by mean heights, over the same places on both sides
+        from scipy.ndimage import map_coordinates
+
+        hh = map_coordinates(
+            hm.heights,
+            [(xy_map[foot, 1] - hm.origin[1]) / hm.dy, (xy_map[foot, 0] - hm.origin[0]) / hm.dx],
+            order=1,
+            cval=np.nan,
+        )
+        okz = np.isfinite(hh)
+        place.tz = float(q[foot, 2][okz].mean() - hh[okz].mean() + zc)
+        t = tick("zreg", t)
+        icp = icp_3dof(place, q[foot], hm, icp_max_distance or 5 * spacing, icp_iterations)
+        if not icp["converged"]:
+            warnings.append(f"{m['file']}: the 3-DOF ICP did not converge in {icp['iterations']} iterations")
+        t = tick("icp", t)
+        mat = place.matrix()
+        keep_photo &= ~foot
+        sub, ij = subsample_grid(hm, max_points)
+        # the CSI points keep the raw intensity (or shading), not the blurred matching image
+        raw = hm.intensity if hm.intensity is not None else shade(hm.heights, hm.dx, hm.dy)
+        gv = stretch(raw[ij[:, 0], ij[:, 1]][None, :])[0]
+        parts.append((transform(mat, sub), gv))
+        t = tick("merge", t)
+        from .zreg import residuals
+
+        gy, gx = np.gradient(hm.heights, hm.dy, hm.dx)
+        d = -residuals(mat, q[foot], hm.heights, gx, gy, hm.origin[0], hm.origin[1], hm.dx, hm.dy)
+        st = dif.stats(d)
+        mr = material_ratio(d[np.isfinite(d)]) if material_ratio is not None and st["n"] > 10 else {}
+        t = tick("difference", t)
+        tpx = (tr - ph["origin"]) / ph["pixel"]
+        out_maps.append(
+            {
+                "file": m["file"],
+                "n_matches": m["n_matches"],
+                "n_inliers": m["n_inliers"],
+                "n_inliers_similarity": m["n_sim"],
+                "n_inliers_fundamental": m["n_fun"],
+                "transform2d": {
+                    "angle_deg": float(np.degrees(th)),
+                    "tx": float(tpx[0]),
+                    "ty": float(tpx[1]),
+                    "scale": s,
+                },
+                "icp": {k2: icp[k2] for k2 in ("tz", "rx_deg", "ry_deg", "rms", "converged", "iterations", "n_used")},
+                "difference": st,
+                "material_ratio": {k2: mr.get(k2) for k2 in ("Sk", "Spk", "Svk", "Smr1", "Smr2")},
+                "transform": _to_cloud(f, centre) @ mat,
+                "n_points_replaced": int(foot.sum()),
+            }
+        )
+        ci, cs = _small(m["cimg"])
+        pi, ps = _small(ph["image"])
+        w, h = hm.size_mm
+        corners = np.array([[0, 0, zc], [w, 0, zc], [w, h, zc], [0, h, zc]]) + [hm.origin[0], hm.origin[1], 0]
+        views.append(
+            {
+                "file": m["file"],
+                "photo_image": pi,
+                "photo_scale": ps,
+                "csi_image": ci,
+                "csi_scale": cs,
+                "matches": {"photo": (m["pb"] * ps).tolist(), "csi": (m["pa"] * cs).tolist()},
+                "footprint": transform(_to_cloud(f, centre) @ mat, corners).tolist(),
+                "difference": dif.grid(xy_map[foot], d, hm),
+                "histogram": dif.histogram(d),
+                "abbott": {
+                    "mr_percent": (mr.get("curve") or {}).get("mr_percent"),
+                    "height": (mr.get("curve") or {}).get("height"),
+                    "p2_5": st["p2_5"],
+                    "p97_5": st["p97_5"],
+                },
+            }
+        )
+
+    say(0.92, "fused cloud")
+    fused_q, cols, src = merge(q, cloud.colors, keep_photo, parts)
+    fused_pts = transform(_to_cloud(f, centre), fused_q)
+    fused = PointCloud(
+        fused_pts, colors=cols, fields={"source": src}, field_units={"source": ""}, name=f"{cloud.name} fused"
+    )
+    t = tick("merge", t)
+    for m in out_maps:
+        m["transform"] = m["transform"].tolist()
+    result = {
+        "maps": out_maps,
+        "photogrammetry_scale": {"value": s_mean, "std": s_std},
+        "n_points_fused": int(len(fused_pts)),
+        "warnings": warnings,
+        "timings": timings,
+        "plane": {"point": centre.tolist(), "normal": f[2].tolist()},
+        "grid": list(ph["image"].shape[::-1]),
+        "pixel_mm": ph["pixel"],
+        "reject": reject,
+    }
+    return {"fused": fused, "result": result, "views": {"maps": views}}
+
+
+def _refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_c):
+    """ECC refinement of the similarity (mm form, eq. 6.1), accepted when it stays within
+    the RANSAC threshold of SIFT's at the map's corners."""
+    p, o_ph, o_map = ph["pixel"], ph["origin"], np.asarray(hm.origin)
+    a_px = s * pc / p * rot(th)
+    t_px = (s * rot(th) @ o_map + tr - o_ph) / p
+    # (OpenCV's ECC masks the photo image; the CSI image's holes are filled by step 2)
+    mask = cv2.erode(ph["mask"].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    # the CSI image's border (about 3σ wide) is blurred from its inside only, which pulls
+    # its pattern inwards (a scale bias of ~1 % over the whole image): correlate without it
+    m = int(np.ceil(3 * sigma_c))
+    if min(cimg.shape) - 2 * m < 32:
+        return s, th, tr, False
+    warp = refine_ecc(cimg[m:-m, m:-m], ph["image"], mask, a_px, t_px + a_px @ [m, m])
+    if warp is None:
+        return s, th, tr, False
+    warp[:, 2] -= warp[:, :2] @ [m, m]
+    jj, ii = np.meshgrid(np.arange(m, cimg.shape[1] - m, 4), np.arange(m, cimg.shape[0] - m, 4))
+    src = np.column_stack([jj.ravel(), ii.ravel()]).astype(float)
+    dst = src @ warp[:, :2].T + warp[:, 2]
+    s2, th2, tr2 = fit_similarity(src * pc + o_map, dst * p + o_ph)
+    corners = np.array([[0, 0], [cimg.shape[1], 0], [0, cimg.shape[0]], cimg.shape[::-1]], float) * pc + o_map
+    moved = np.linalg.norm(apply(s2, th2, tr2, corners) - apply(s, th, tr, corners), axis=1).max() / p
+    if moved > ransac_px:
+        return s, th, tr, False
+    return s2, th2, tr2, True
+
+
+def _to_cloud(f: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """4×4: fused frame (plane coordinates) -> the cloud's coordinates (scaled about the
+    plane's centre by 1/scale, which the fused frame already holds)."""
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = f.T, centre
+    return m

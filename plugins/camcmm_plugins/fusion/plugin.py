@@ -1,0 +1,47 @@
+"""Host entry of ``fusion.csi`` (plugin.yaml)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import HeightMap, InputError, PointCloud, read
+
+from . import pipeline
+
+
+def load_maps(csi) -> tuple[list[HeightMap], list[str]]:
+    """HeightMaps and their names from paths or HeightMap objects (one or a list)."""
+    items = csi if isinstance(csi, (list, tuple)) else [csi]
+    if not items:
+        raise InputError("csi: no height map given")
+    maps, names = [], []
+    for it in items:
+        hm = read(it) if isinstance(it, (str, Path)) else it
+        name = str(it) if isinstance(it, (str, Path)) else getattr(it, "name", "height map")
+        if not isinstance(hm, HeightMap):
+            raise InputError(f"{name}: holds a {type(hm).__name__}, not a height map")
+        if hm.n_valid < 16:
+            raise InputError(f"{name}: {hm.n_valid} valid points, too few for a fusion")
+        maps.append(hm)
+        names.append(name)
+    return maps, names
+
+
+def fuse_csi(ctx, cloud: PointCloud, csi, datum: dict | None = None, **params: Any) -> dict[str, Any]:
+    """fusion.csi: see plugin.yaml and docs/fusion.md."""
+    maps, names = load_maps(csi)
+    mr_alg = ctx.algorithm("inspect.material-ratio")
+
+    def material_ratio(d: np.ndarray) -> dict:
+        # the difference as a cloud field: inspect.material-ratio analyses it (no second copy of ISO 13565-2 here)
+        pc = PointCloud(np.zeros((len(d), 3)), fields={"difference": d}, name="CSI − photogrammetry")
+        out = mr_alg(source=pc, field="difference")
+        return out["material_ratio"] | {k: out[k] for k in ("Sk", "Spk", "Svk", "Smr1", "Smr2")}
+
+    out = pipeline.run(cloud, maps, names, datum=datum, material_ratio=material_ratio, progress=ctx.progress, **params)
+    for w in out["result"]["warnings"]:
+        ctx.warn(w)
+    return out
