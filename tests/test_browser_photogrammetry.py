@@ -1,13 +1,14 @@
 """The Photogrammetry page in a headless Chromium on the demo project (issue 16).
 
-The demo as shipped has no images: the page opens without an error and says what to
-do. A folder of two templeRing views (a --data-root of the server) is refused in one
-line naming the images, and the app keeps working; eight consecutive templeRing views
+The demo has no images: the page opens without an error and says what to do (the
+demo's clouds only: its acceptance test, which this page never reads, would add ~30 s).
+A folder of two templeRing views (a --data-root of the server) is refused in one line
+naming the images, and the app keeps working; eight consecutive templeRing views
 (Middlebury, ../shared; skipped where absent) reconstructed sparse-only at 320 px show
 the feature and match counts per image and one camera frustum per registered image
 (counted by the page from the drawn scene, not from pixels), the others flagged with the
-reason; the cloud goes to Inspect.
-Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/photogrammetry-gui``).
+reason; the cloud goes to Inspect. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default
+``/tmp/photogrammetry-gui``).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def demo_server(tmp_path, series):
     from camcmm.demo import create_demo
     from camcmm.gui.process import GuiProcess
 
-    create_demo(tmp_path / "demo")
+    create_demo(tmp_path / "demo", acceptance=False)  # its clouds; the finished acceptance test costs ~30 s
     server = GuiProcess(tmp_path / "demo", timeout=180, data_roots=(series,))
     yield server, series
     server.stop()
