@@ -15,7 +15,8 @@ import numpy as np
 
 from camcmm.api import InputError, PluginError, PointCloud, RunContext, read_calibration
 
-from .sfm import DEFAULT_MODEL, SparseResult, reconstruct_sparse
+from .sfm import DEFAULT_MODEL, reconstruct_sparse
+from .sparse import SparseResult
 
 
 def _series(images: Any) -> tuple[list[np.ndarray], list[str]]:
@@ -169,7 +170,7 @@ def reconstruct(
         )
         for w in getattr(d, "warnings", []) or []:
             ctx.warn(w)
-        sp.timings.update({f"dense_{k}" if k in sp.timings else k: v for k, v in (d.timings or {}).items()})
+        sp.timings.update({k if k.startswith("dense") else f"dense_{k}": v for k, v in (d.timings or {}).items()})
     sc: dict[str, Any] = {"method": "none", "factor": 1.0, "u": 0.0}
     if scale and scale.strip() and scale.strip().lower() != "none":
         try:

@@ -21,7 +21,6 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,39 +28,13 @@ import numpy as np
 
 from camcmm.api import Cancelled, InputError
 
-from .cameras import COLMAP_PARAMS, colmap_from_opencv, initial_params, opencv_from_colmap
+from .cameras import COLMAP_PARAMS, colmap_from_opencv, initial_params
 from .inputs import check_registration, check_series, per_image_counts, reason_unregistered, write_images
+from .sparse import SparseResult, model_result
 
 #: camera model of a self-calibrated series: COLMAP's, one focal length and k1 (a real lens has
 #: distortion; SIMPLE_PINHOLE suits distortion-free optics, see docs/photogrammetry.md)
 DEFAULT_MODEL = "SIMPLE_RADIAL"
-
-
-@dataclass
-class SparseResult:
-    """What :func:`reconstruct_sparse` found.
-
-    ``camera`` {model, fx, fy, cx, cy, dist, K} in px at full image size, OpenCV's pixel
-    origin; ``views`` [{image, R, t, centre}] of the registered images in input order, with
-    x_cam = R X + t and centre = -R^T t (the reconstruction's arbitrary units and frame);
-    ``points`` (N, 3), ``colours`` (N, 3) uint8 RGB, ``track_lengths`` (N,) images per point;
-    ``images`` [{image, n_features, n_matched, registered, reason}] for every input image;
-    ``unregistered`` {name: reason}; ``reprojection_rms_px`` (full-size px);
-    ``timings`` seconds per stage.
-    """
-
-    camera: dict[str, Any]
-    views: list[dict[str, Any]]
-    points: np.ndarray
-    colours: np.ndarray
-    track_lengths: np.ndarray
-    images: list[dict[str, Any]]
-    unregistered: dict[str, str]
-    reprojection_rms_px: float
-    image_size: tuple[int, int]
-    warnings: list[str] = field(default_factory=list)
-    timings: dict[str, float] = field(default_factory=dict)
-    options: dict[str, Any] = field(default_factory=dict)
 
 
 def _pycolmap():
@@ -114,24 +87,6 @@ class _Stages:
 
     def close(self) -> None:
         self._stop.set()
-
-
-def _reprojection_rms(rec, scale: float) -> float:
-    sq, n = 0.0, 0
-    for im in rec.images.values():
-        if not im.has_pose:  # a property
-            continue
-        obs = [(p.xy, p.point3D_id) for p in im.points2D if p.has_point3D()]
-        if not obs:
-            continue
-        xy = np.array([o[0] for o in obs])
-        xyz = np.array([rec.points3D[o[1]].xyz for o in obs])
-        pose = im.cam_from_world() if callable(im.cam_from_world) else im.cam_from_world
-        cam = xyz @ pose.rotation.matrix().T + pose.translation
-        proj = im.camera.img_from_cam(cam, check_cheirality=False)
-        sq += float(((proj - xy) ** 2).sum())
-        n += len(xy)
-    return float(np.sqrt(sq / n) / scale) if n else float("nan")
 
 
 def _adjust(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
@@ -328,12 +283,20 @@ def reconstruct_sparse(
         rec = max(recs.values(), key=lambda r: r.num_reg_images()) if recs else None
         n_reg = rec.num_reg_images() if rec is not None else 0
         warnings = []
-        if len(recs) > 1:
-            sizes = sorted((r.num_reg_images() for r in recs.values()), reverse=True)
-            warnings.append(
-                f"the series fell apart into {len(recs)} separate models ({', '.join(map(str, sizes))} images); "
-                "the largest is kept"
-            )
+        if rec is not None and len(recs) > 1:
+            # the mapper's further models may repeat images of the largest: only images
+            # nowhere in the largest mean the series fell apart
+            kept = {im.name for im in rec.images.values() if im.has_pose}
+            apart = sorted({im.name for r in recs.values() for im in r.images.values() if im.has_pose} - kept)
+            if apart:
+                by_file = dict(zip(files, names, strict=True))
+                for f, row in zip(files, per_image, strict=True):
+                    if f in apart:
+                        row["reason"] = "in a separate model (not linked to the others)"
+                warnings.append(
+                    f"the series fell apart: {len(apart)} image(s) form separate models and are left out "
+                    f"({', '.join(by_file.get(a, a) for a in apart[:6])}{' ...' if len(apart) > 6 else ''})"
+                )
         if rec is None or n_reg < 2:
             for p in per_image:
                 p["reason"] = reason_unregistered(p["n_features"], p["n_matched"])
@@ -356,7 +319,7 @@ def reconstruct_sparse(
 
             rec, more = st.run("refine", "final bundle adjustment", refine_fn)
             warnings += more
-        out = _result(pycolmap, rec, per_image, files, names, (sx, sy), (w, h), warnings, st.timings)
+        out = model_result(rec, per_image, files, names, (sx, sy), (w, h), warnings, st.timings)
         out.options = {
             "camera_model": model,
             "calibrated": fixed,
@@ -373,43 +336,3 @@ def reconstruct_sparse(
         st.close()
         if tmp is not None:
             tmp.cleanup()
-
-
-def _result(pycolmap, rec, per_image, files, names, scale, size, warnings, timings) -> SparseResult:
-    by_file = {im.name: im for im in rec.images.values() if im.has_pose}
-    views = []
-    for f, n, row in zip(files, names, per_image, strict=True):
-        im = by_file.get(f)
-        if im is None:
-            row["registered"] = False
-            row["reason"] = reason_unregistered(row["n_features"], row["n_matched"])
-            continue
-        row["registered"] = True
-        pose = im.cam_from_world() if callable(im.cam_from_world) else im.cam_from_world
-        r = np.asarray(pose.rotation.matrix(), dtype=np.float64)
-        t = np.asarray(pose.translation, dtype=np.float64)
-        views.append({"image": n, "R": r, "t": t, "centre": -r.T @ t})
-    unreg = {row["image"]: row["reason"] for row in per_image if not row["registered"]}
-    cam = next(iter(rec.cameras.values()))
-    camera = opencv_from_colmap(cam.model_name if hasattr(cam, "model_name") else str(cam.model), cam.params, scale)
-    pts = rec.points3D
-    ids = list(pts.keys()) if hasattr(pts, "keys") else list(pts)
-    xyz = np.array([pts[i].xyz for i in ids], dtype=np.float64).reshape(-1, 3)
-    rgb = np.array([pts[i].color for i in ids], dtype=np.uint8).reshape(-1, 3)
-    tl = np.array([pts[i].track.length() for i in ids], dtype=np.int32)
-    rms = _reprojection_rms(rec, float(np.mean(scale)))
-    if len(views) < len(files):
-        warnings = [*warnings, *check_registration(per_image, len(views), 1)]
-    return SparseResult(
-        camera=camera,
-        views=views,
-        points=xyz,
-        colours=rgb,
-        track_lengths=tl,
-        images=per_image,
-        unregistered=unreg,
-        reprojection_rms_px=rms,
-        image_size=size,
-        warnings=warnings,
-        timings={k: round(v, 3) for k, v in timings.items()},
-    )
