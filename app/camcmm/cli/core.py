@@ -68,7 +68,7 @@ def _plugins_text(result: dict[str, Any]) -> str:
 
 # -- info ----------------------------------------------------------------------------
 def _info_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", help="point cloud, mesh or image file")
+    p.add_argument("file", help="point cloud, mesh, height map or image file")
     p.add_argument(
         "--unit",
         help="length unit of the file's coordinates (m, cm, mm, um, in); without it: the file's own, else mm, "
@@ -94,6 +94,16 @@ def _info_text(d: dict[str, Any]) -> str:
         lines.append(f"  bounding box [mm]: {fmt(lo)} .. {fmt(hi)}")
         if d.get("source_unit", "mm") != "mm":
             lines.append(f"  converted from {d['source_unit']} to mm")
+    if d.get("kind") == "heightmap":
+        (nx, ny), (dx, dy), (w, h) = d["grid"], d["steps_mm"], d["size_mm"]
+        lo, hi = d["height_range_mm"]
+        lines.append(f"  grid: {nx} x {ny} points, steps {dx * 1000:.4g} x {dy * 1000:.4g} um")
+        lines.append(f"  size [mm]: {w:.4f} x {h:.4f}")
+        if lo is not None:
+            lines.append(f"  heights [um]: {lo * 1000:.4f} .. {hi * 1000:.4f} (valid {d['valid_fraction']:.2%})")
+        lines.append(f"  file unit: {d['source_unit']}; intensity: {'yes' if d['has_intensity'] else 'no'}")
+        if d.get("instrument"):
+            lines.append(f"  instrument: {d['instrument']}")
     if d.get("fields"):
         lines.append(f"  scalar fields: {', '.join(d['fields'])}")
     lines += [f"warning: {w}" for w in d.get("warnings", [])]  # e.g. no unit and an implausible size

@@ -1,6 +1,6 @@
-"""File formats: read and write point clouds, meshes and images.
+"""File formats: read and write point clouds, meshes, height maps and images.
 
-    read(path, unit=None)  -> PointCloud | TriangleMesh | Image   (lengths in mm)
+    read(path, unit=None)  -> PointCloud | TriangleMesh | HeightMap | Image   (lengths in mm)
     write(obj, path, binary=True, unit="mm")
     info(path, unit=None)  -> dict, JSON-able summary (with ``unit_check`` and ``warnings``)
     read_stated(path, unit=None) -> (object, the unit stated by the caller or the file, or None)
@@ -18,7 +18,8 @@ and OBJ files, E57 is metres by definition), else mm. Every problem with a file 
 
 Open3D, OpenCV and pye57 are imported only inside the functions that need them, so
 ``import camcmm.io`` stays light. One format per module: ply, pcd, text (xyz/txt/csv),
-e57, stl, obj, image.
+e57, stl, obj, image; height maps: x3p and sdf (read and written here), the
+instruments' formats through SurfaceTopography (topography, imported when used).
 """
 
 from __future__ import annotations
@@ -30,12 +31,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import CamcmmError, InputError
-from ..model import Image, PointCloud, TriangleMesh
+from ..model import HeightMap, Image, PointCloud, TriangleMesh
 from ..units import UnitDecision, decide_unit, object_span, to_mm_factor, unit_key
 from ._common import Raw, atomic_path, canonical_unit
 from .calibration import check_calibration, read_calibration, write_calibration
+from .topography import VENDOR, summary
 
-_CLOUD, _MESH, _IMAGE = "pointcloud", "mesh", "image"
+_CLOUD, _MESH, _IMAGE, _MAP = "pointcloud", "mesh", "image", "heightmap"
 
 
 def _fmt(
@@ -112,6 +114,12 @@ FORMATS: dict[str, dict[str, Any]] = {
         ext: _fmt(ext[1:].upper().replace("JPEG", "JPG").replace("TIFF", "TIF"), [_IMAGE], True, _IMG)
         for ext in _IMAGE_EXTS
     },
+    ".x3p": _fmt("X3P", [_MAP], True, "ISO 25178-72 height map (zip of XML and binary; metres)", unit="m"),
+    ".sdf": _fmt("SDF", [_MAP], True, "ISO 25178-71 height map, ascii or binary (metres)", binary=True, unit="m"),
+    **{
+        ext: {**_fmt(what, [_MAP], False, f"{what} height map (read through SurfaceTopography)"), "name": what}
+        for ext, (_key, what) in VENDOR.items()
+    },
 }
 
 
@@ -126,6 +134,9 @@ _MODULES = {
     ".stl": "stl",
     ".obj": "obj",
     **{ext: "image" for ext in _IMAGE_EXTS},
+    ".x3p": "x3p",
+    ".sdf": "sdf",
+    **{ext: "topography" for ext in VENDOR},
 }
 
 
@@ -149,7 +160,11 @@ def _kind(obj: Any) -> str:
         return _MESH
     if isinstance(obj, Image):
         return _IMAGE
-    raise InputError(f"cannot write a {type(obj).__name__}: camcmm.io writes PointCloud, TriangleMesh and Image")
+    if isinstance(obj, HeightMap):
+        return _MAP
+    raise InputError(
+        f"cannot write a {type(obj).__name__}: camcmm.io writes PointCloud, TriangleMesh, HeightMap and Image"
+    )
 
 
 def _read(path: str | Path, unit: str | None) -> tuple[Any, dict[str, Any], Raw | None]:
@@ -177,6 +192,8 @@ def _read(path: str | Path, unit: str | None) -> tuple[Any, dict[str, Any], Raw 
         raise InputError(f"{p.name}: cannot read {fmt['name']} file ({reason})") from exc
     if isinstance(raw, Image):
         return raw, fmt, None
+    if isinstance(raw, HeightMap):
+        return (raw if unit is None else with_unit(raw, unit)), fmt, None
     return _build(raw, p.name, fmt, unit, factor), fmt, raw
 
 
@@ -231,6 +248,8 @@ def read_stated(path: str | Path, unit: str | None = None) -> tuple[Any, str | N
     None when neither the file nor the caller says). Give both to
     :func:`camcmm.units.decide_unit` to know whether to ask."""
     obj, fmt, raw = _read(path, unit)
+    if isinstance(obj, HeightMap):  # every height-map format states its unit
+        return obj, obj.source_unit
     return obj, (None if isinstance(obj, Image) else stated_unit(raw, fmt, unit))
 
 
@@ -259,14 +278,22 @@ def with_unit(obj: Any, unit: str) -> Any:
         return TriangleMesh(
             obj.vertices * k, obj.faces, obj.vertex_normals, dict(obj.fields), dict(obj.field_units), obj.name, unit
         )
+    if isinstance(obj, HeightMap):  # one unit for the steps and the heights, as the formats have
+        o = obj.origin
+        return HeightMap(
+            obj.heights * k, obj.dx * k, obj.dy * k, obj.intensity, (o[0] * k, o[1] * k), obj.name, unit, obj.meta
+        )
     raise InputError(f"{getattr(obj, 'name', 'item')}: a {type(obj).__name__} has no length unit")
 
 
-def write(obj: PointCloud | TriangleMesh | Image, path: str | Path, binary: bool = True, unit: str = "mm") -> None:
-    """Write a cloud, mesh (or image) to ``path``; the format follows the extension.
+def write(
+    obj: PointCloud | TriangleMesh | HeightMap | Image, path: str | Path, binary: bool = True, unit: str = "mm"
+) -> None:
+    """Write a cloud, mesh, height map (or image) to ``path``; the format follows the extension.
 
-    ``binary`` picks the binary encoding where the format has both (PLY, PCD, STL);
-    ``unit`` is the length unit of the written coordinates (E57 is always metres). The
+    ``binary`` picks the binary encoding where the format has both (PLY, PCD, STL, SDF);
+    ``unit`` is the length unit of the written coordinates (E57, X3P and SDF are always
+    metres; a height map's intensity is not kept by X3P or SDF). The
     file is written under a temporary name in the same folder and then renamed, so
     ``path`` never holds a half-written file.
     """
@@ -298,7 +325,9 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
     out: dict[str, Any] = {"file": p.name, "format": fmt["name"], "kind": _kind(obj)}
     if raw is not None and raw.encoding:
         out["encoding"] = raw.encoding
-    if isinstance(obj, Image):
+    if isinstance(obj, HeightMap):
+        out.update(summary(obj))
+    elif isinstance(obj, Image):
         d = obj.data
         out.update(
             width=int(d.shape[1]),

@@ -1,0 +1,162 @@
+"""ISO 25178-71 SDF height maps (Surface Data File), ASCII (``aISO-1.0``) and binary
+(``bISO-1.0``), read and written here.
+
+The header gives NumPoints (x) and NumProfiles (y), the steps Xscale, Yscale and the
+height factor Zscale, all in metres by the standard; camcmm converts to mm and records
+``source_unit = "m"``. Data types 5 (int16), 6 (int32) and 7 (float64); heights are
+value * Zscale. Invalid points: ``BAD`` in ASCII files, NaN in float data, the type's
+minimum (-2^15, -2^31) in integer data. Binary files hold an 81-byte little-endian
+header (8-byte magic, ManufacID 10 s, CreateDate and ModDate 12 s each, NumPoints and
+NumProfiles uint16, Xscale, Yscale, Zscale, Zresolution float64, Compression, DataType,
+CheckType uint8), then the points x fastest. Written by hand because the layout is
+fixed and short; SurfaceTopography reads what this writes (tests check it).
+
+Writing: data type 7 (float64 values in mm, Zscale 1e-3 so heights come back bit for
+bit; steps as mm / 1000, in ASCII as the exact decimal), binary by default, ASCII with ``binary=False``
+(``BAD`` for invalid points, one profile per line). The uint16 sizes cap a grid at
+65535 x 65535 points.
+"""
+
+from __future__ import annotations
+
+import struct
+from datetime import datetime
+from decimal import Decimal
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..model import HeightMap
+from ._common import fail
+
+_HEAD = struct.Struct("<8s10s12s12sHHddddBBB")
+_TYPES = {5: "<i2", 6: "<i4", 7: "<f8"}
+_M_TO_MM = 1000.0
+_KEYS = ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale", "DataType")
+
+
+def read(path: Path, name: str) -> HeightMap:
+    with open(path, "rb") as fh:
+        blob = fh.read()
+    magic = blob[:8]
+    if magic == b"bISO-1.0":
+        if len(blob) < _HEAD.size:
+            raise fail(name, f"SDF header is cut short ({len(blob)} bytes)")
+        _, manuf, created, _mod, nx, ny, xs, ys, zs, _zres, comp, dtype, _chk = _HEAD.unpack_from(blob)
+        if comp != 0:
+            raise fail(name, f"SDF compression {comp} is not supported (only 0, none)")
+        if dtype not in _TYPES:
+            raise fail(name, f"SDF data type {dtype} is not one of 5 (int16), 6 (int32), 7 (float64)")
+        size = nx * ny * np.dtype(_TYPES[dtype]).itemsize
+        if len(blob) < _HEAD.size + size:
+            raise fail(name, f"SDF data are cut short: {len(blob) - _HEAD.size} bytes for {nx} x {ny} points")
+        raw = np.frombuffer(blob, dtype=_TYPES[dtype], count=nx * ny, offset=_HEAD.size).reshape(ny, nx)
+        header = {"ManufacID": manuf, "CreateDate": created}
+        encoding = "binary"
+    elif magic == b"aISO-1.0":
+        header, raw = _ascii(blob, name)
+        nx, ny, dtype = header["NumPoints"], header["NumProfiles"], header["DataType"]
+        xs, ys, zs = header["Xscale"], header["Yscale"], header["Zscale"]
+        encoding = "ascii"
+    else:
+        raise fail(name, f"not an ISO 25178-71 SDF file (starts {magic!r}, expected b'aISO-1.0' or b'bISO-1.0')")
+    z = raw.astype(np.float64)
+    if dtype in (5, 6):
+        z[raw == np.iinfo(_TYPES[dtype]).min] = np.nan
+    k = _mm(zs)
+    if not (np.isfinite(k) and k != 0):
+        raise fail(name, f"SDF Zscale {zs} is not a finite non-zero factor")
+    if k != 1.0:
+        z *= k
+    meta: dict[str, Any] = {"format": f"ISO 25178-71 SDF ({encoding})"}
+    for key in ("ManufacID", "CreateDate"):
+        v = header.get(key)
+        v = v.decode("latin-1") if isinstance(v, bytes) else v
+        if v and str(v).strip("\x00 "):
+            meta[key.lower()] = str(v).strip("\x00 ")
+    return HeightMap(z, _mm(xs), _mm(ys), name=name, source_unit="m", meta=meta)
+
+
+def _mm(metres: float | str) -> float:
+    """Metres to mm in decimal (on the text, or the shortest repr of a binary value): a
+    step written as the decimal of its mm value shifted by 1e-3 in ASCII comes back as the same float64, one written as
+    mm / 1000 in binary within a unit of the last place."""
+    if isinstance(metres, str):
+        return float(Decimal(metres) * 1000)
+    return float(Decimal(repr(float(metres))) * 1000) if np.isfinite(metres) else float(metres)
+
+
+def _ascii(blob: bytes, name: str) -> tuple[dict[str, Any], np.ndarray]:
+    text = blob.decode("latin-1")
+    head, sep, rest = text.partition("\n*")
+    if not sep:
+        raise fail(name, "SDF header does not end with a '*' line")
+    header: dict[str, Any] = {}
+    for line in head.splitlines()[1:]:
+        key, eq, value = line.partition("=")
+        if eq:
+            header[key.strip()] = value.strip()
+    missing = [k for k in _KEYS if k not in header]
+    if missing:
+        raise fail(name, f"SDF header lacks {', '.join(missing)}")
+    try:
+        for k in ("NumPoints", "NumProfiles", "DataType"):
+            header[k] = int(header[k])
+        for k in ("Xscale", "Yscale", "Zscale"):
+            if not np.isfinite(float(header[k])):  # kept as text: _mm scales it in decimal
+                raise ValueError(f"{k} = {header[k]}")
+    except ValueError as exc:
+        raise fail(name, f"SDF header value is not a number ({exc})") from None
+    if header["DataType"] not in _TYPES:
+        raise fail(name, f"SDF data type {header['DataType']} is not one of 5, 6, 7")
+    body = rest.split("\n", 1)[1] if "\n" in rest else ""
+    body = body.split("\n*", 1)[0]  # an optional trailer follows a second '*' line
+    words = body.split()
+    n = header["NumPoints"] * header["NumProfiles"]
+    if len(words) != n:
+        raise fail(name, f"SDF holds {len(words)} values for {header['NumPoints']} x {header['NumProfiles']} points")
+    try:
+        values = np.array([np.nan if w.upper() == "BAD" else float(w) for w in words], dtype=np.float64)
+    except ValueError as exc:
+        raise fail(name, f"SDF data value is not a number ({exc})") from None
+    return header, values.reshape(header["NumProfiles"], header["NumPoints"])
+
+
+def write(obj: Any, path: Path, *, binary: bool = True, name: str, **_: Any) -> None:
+    """Write ``obj`` (a HeightMap) as SDF (metres, data type 7, float64)."""
+    hm: HeightMap = obj
+    ny, nx = hm.shape
+    if nx > 65535 or ny > 65535:
+        raise fail(name, f"SDF holds at most 65535 x 65535 points; the map has {nx} x {ny}")
+    z = hm.heights  # mm, with Zscale 1e-3: heights come back bit for bit
+    stamp = datetime.now().strftime("%d%m%Y%H%M")
+    dx, dy = hm.dx / _M_TO_MM, hm.dy / _M_TO_MM
+    with open(path, "wb") as fh:
+        if binary:
+            fh.write(
+                _HEAD.pack(b"bISO-1.0", b"camcmm", stamp.encode(), stamp.encode(), nx, ny, dx, dy, 1e-3, -1.0, 0, 7, 0)
+            )
+            fh.write(np.ascontiguousarray(z, dtype="<f8").tobytes())
+            return
+        lines = [
+            "aISO-1.0",
+            "ManufacID   = camcmm",
+            f"CreateDate  = {stamp}",
+            f"ModDate     = {stamp}",
+            f"NumPoints   = {nx}",
+            f"NumProfiles = {ny}",
+            f"Xscale      = {Decimal(repr(hm.dx)).scaleb(-3)}",
+            f"Yscale      = {Decimal(repr(hm.dy)).scaleb(-3)}",
+            "Zscale      = 1e-3",
+            "Zresolution = -1",
+            "Compression = 0",
+            "DataType    = 7",
+            "CheckType   = 0",
+            "*",
+        ]
+        fh.write(("\n".join(lines) + "\n").encode("ascii"))
+        for row in z:
+            # repr round-trips a float64 exactly
+            fh.write((" ".join("BAD" if v != v else repr(float(v)) for v in row) + "\n").encode("ascii"))
+        fh.write(b"*\n")

@@ -1,0 +1,234 @@
+"""ISO 25178-72 X3P height maps (XML 3D surface profile), read and written here.
+
+An X3P file is a zip holding ``main.xml`` (axes, grid size, instrument, data link) and
+the heights as little-endian binary (``bindata/data.bin``, x fastest: row by row).
+X3P lengths are metres by definition; camcmm converts to mm and records
+``source_unit = "m"``. Written by hand (zipfile and ElementTree) rather than through
+SurfaceTopography: the format is small, the writer must keep camcmm's metadata, and
+reading a 4 M-point map stays one numpy view of the zip member.
+
+Reading: incremental x/y axes (AxisType I) with their increments and offsets (the map's
+origin), the z axis as I/L/F/D with z = value * increment + offset, invalid points from
+NaN or the optional validity bitmap (``ValidPointsLink``, least-significant bit first,
+as SurfaceTopography and openGPS write it), the MD5 of the point data checked when
+given, Record2 (date, instrument, probing system, comment) kept in ``meta``.
+Writing: float64 values in mm with the z increment 1e-3 (z in metres = value *
+increment, as the standard defines it), NaN for invalid points (allowed for floating
+types, so no validity bitmap), increments and offsets written as the decimal of the mm value shifted by 1e-3 and read
+back in decimal, so a map comes back bit for bit; the md5 checksum file; Record2 from
+``meta`` (``instrument``, ``date``, ``comment``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import xml.etree.ElementTree as ET
+import zipfile
+from datetime import UTC, datetime
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..model import HeightMap
+from ._common import fail
+
+_NS = "http://www.opengps.eu/2008/ISO5436_2"
+_DTYPES = {"I": "<u2", "L": "<u4", "F": "<f4", "D": "<f8"}
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _tree(elem: ET.Element) -> Any:
+    """The element as nested dicts of local names -> text (namespaces dropped)."""
+    if len(elem) == 0:
+        return (elem.text or "").strip()
+    return {_local(child.tag): _tree(child) for child in elem}
+
+
+def _mm(d: dict, key: str, name: str, default: float | None = None) -> float:
+    """The value (metres in the file) in mm, scaled in decimal: what :func:`write` wrote
+    as the decimal of ``repr(mm)`` shifted by 1e-3 comes back as the same float64, bit for bit."""
+    text = d.get(key) if isinstance(d, dict) else None
+    if text in (None, ""):
+        if default is None:
+            raise fail(name, f"X3P main.xml has no {key}")
+        return default
+    try:
+        v = float(Decimal(text.strip()) * 1000)
+    except (InvalidOperation, ValueError):
+        raise fail(name, f"X3P {key} {text!r} is not a number") from None
+    if not np.isfinite(v):
+        raise fail(name, f"X3P {key} {text!r} is not a finite number")
+    return v
+
+
+def _count(d: dict, key: str, name: str) -> int:
+    text = str(d.get(key) or "").strip()
+    if not text.isdigit():
+        raise fail(name, f"X3P {key} {text!r} is not a whole number of points")
+    return int(text)
+
+
+def _metres(mm: float) -> str:
+    return str(Decimal(repr(float(mm))).scaleb(-3))
+
+
+def read(path: Path, name: str) -> HeightMap:
+    try:
+        zf = zipfile.ZipFile(path)
+    except zipfile.BadZipFile:
+        raise fail(name, "not an X3P file (not a zip archive)") from None
+    with zf:
+        try:
+            root = ET.fromstring(zf.read("main.xml"))
+        except KeyError:
+            raise fail(name, "not an X3P file (the zip has no main.xml)") from None
+        except ET.ParseError as exc:
+            raise fail(name, f"X3P main.xml is not valid XML ({exc})") from None
+        doc = _tree(root)
+        rec1, rec3 = doc.get("Record1"), doc.get("Record3")
+        if not isinstance(rec1, dict) or not isinstance(rec3, dict):
+            raise fail(name, "X3P main.xml lacks Record1 or Record3")
+        if rec1.get("FeatureType") != "SUR":
+            raise fail(name, f"X3P feature type {rec1.get('FeatureType')!r} is not a surface (SUR)")
+        axes = rec1.get("Axes") or {}
+        cx, cy, cz = (axes.get(k) or {} for k in ("CX", "CY", "CZ"))
+        if cx.get("AxisType") != "I" or cy.get("AxisType") != "I":
+            raise fail(name, "X3P with absolute x/y axes is a point list, not a height map on a grid")
+        dims = rec3.get("MatrixDimension") or {}
+        nx, ny, nz = (_count(dims, k, name) for k in ("SizeX", "SizeY", "SizeZ"))
+        if nz != 1 or nx < 1 or ny < 1:
+            raise fail(name, f"X3P grid {nx} x {ny} x {nz} is not one layer of points")
+        dtype = _DTYPES.get(cz.get("DataType", ""))
+        if dtype is None:
+            raise fail(name, f"X3P z data type {cz.get('DataType')!r} is not one of I, L, F, D")
+        link = rec3.get("DataLink") or {}
+        member = link.get("PointDataLink")
+        if not member:
+            raise fail(name, "X3P main.xml has no PointDataLink (data inside the XML are not supported)")
+        try:
+            blob = zf.read(member)
+        except KeyError:
+            raise fail(name, f"X3P data {member!r} is missing from the zip") from None
+        expected = link.get("MD5ChecksumPointData")
+        if expected and hashlib.md5(blob).hexdigest().upper() != expected.upper():
+            raise fail(name, f"X3P data {member!r} do not match their MD5 checksum (a damaged file)")
+        n = nx * ny
+        if len(blob) != n * np.dtype(dtype).itemsize:
+            raise fail(
+                name,
+                f"X3P data hold {len(blob)} bytes; a {nx} x {ny} grid of {dtype} needs {n * np.dtype(dtype).itemsize}",
+            )
+        raw = np.frombuffer(blob, dtype=dtype).reshape(ny, nx)
+        # z = value * increment + offset (metres), taken to mm in one factor each
+        inc, off = _mm(cz, "Increment", name, 1000.0), _mm(cz, "Offset", name, 0.0)
+        z = raw.astype(np.float64)
+        if inc != 1.0:
+            z *= inc
+        if off != 0.0:
+            z += off
+        valid_member = link.get("ValidPointsLink")
+        if valid_member:
+            try:
+                bits = np.frombuffer(zf.read(valid_member), dtype=np.uint8)
+            except KeyError:
+                raise fail(name, f"X3P validity data {valid_member!r} are missing from the zip") from None
+            if len(bits) * 8 < n:
+                raise fail(name, f"X3P validity data hold {len(bits) * 8} bits for {n} points")
+            valid = np.unpackbits(bits, count=n, bitorder="little").reshape(ny, nx).astype(bool)
+            z[~valid] = np.nan
+    meta = _record2(doc.get("Record2"))
+    meta["format"] = "ISO 25178-72 X3P"
+    return HeightMap(
+        z,
+        _mm(cx, "Increment", name),
+        _mm(cy, "Increment", name),
+        origin=(_mm(cx, "Offset", name, 0.0), _mm(cy, "Offset", name, 0.0)),
+        name=name,
+        source_unit="m",
+        meta=meta,
+    )
+
+
+def _record2(rec2: Any) -> dict[str, Any]:
+    if not isinstance(rec2, dict):
+        return {}
+    meta: dict[str, Any] = {}
+    inst = rec2.get("Instrument")
+    if isinstance(inst, dict):
+        meta["instrument"] = {k.lower(): v for k, v in inst.items() if v and v not in ("unknown", "not available")}
+    for key, out in (("Date", "date"), ("Creator", "creator"), ("CalibrationDate", "calibration_date")):
+        if rec2.get(key):
+            meta[out] = rec2[key]
+    probe = rec2.get("ProbingSystem")
+    if isinstance(probe, dict) and probe:
+        meta["probing_system"] = {k.lower(): v for k, v in probe.items() if v}
+    if rec2.get("Comment"):
+        meta["comment"] = rec2["Comment"]
+    return meta
+
+
+def _sub(parent: ET.Element, tag: str, text: str | None = None) -> ET.Element:
+    e = ET.SubElement(parent, tag)
+    if text is not None:
+        e.text = text
+    return e
+
+
+def _axis(parent: ET.Element, tag: str, kind: str, dtype: str, inc_mm: float, off_mm: float) -> None:
+    ax = _sub(parent, tag)
+    _sub(ax, "AxisType", kind)
+    _sub(ax, "DataType", dtype)
+    _sub(ax, "Increment", _metres(inc_mm))
+    _sub(ax, "Offset", _metres(off_mm))
+
+
+def write(obj: Any, path: Path, *, name: str, **_: Any) -> None:
+    """Write ``obj`` (a HeightMap) as X3P at ``path``: float64 values in mm with the z
+    increment 1e-3 (so z in metres is value * increment, as the standard defines, and
+    the heights come back bit for bit), NaN = invalid."""
+    hm: HeightMap = obj
+    data = np.ascontiguousarray(hm.heights, dtype="<f8").tobytes()
+    md5 = hashlib.md5(data).hexdigest().upper()
+    root = ET.Element("p:ISO5436_2", {"xmlns:p": _NS})
+    rec1 = _sub(root, "Record1")
+    _sub(rec1, "Revision", "ISO5436 - 2000")
+    _sub(rec1, "FeatureType", "SUR")
+    axes = _sub(rec1, "Axes")
+    _axis(axes, "CX", "I", "D", hm.dx, hm.origin[0])
+    _axis(axes, "CY", "I", "D", hm.dy, hm.origin[1])
+    _axis(axes, "CZ", "A", "D", 1.0, 0.0)
+    rec2 = _sub(root, "Record2")
+    meta = hm.meta or {}
+    _sub(rec2, "Date", str(meta.get("date") or datetime.now(UTC).isoformat(timespec="seconds")))
+    _sub(rec2, "Creator", str(meta.get("creator") or "camcmm"))
+    inst: dict[str, Any] = meta["instrument"] if isinstance(meta.get("instrument"), dict) else {}
+    ins = _sub(rec2, "Instrument")
+    _sub(ins, "Manufacturer", str(inst.get("manufacturer") or inst.get("vendor") or "unknown"))
+    _sub(ins, "Model", str(inst.get("model") or inst.get("name") or "unknown"))
+    _sub(ins, "Serial", str(inst.get("serial") or "not available"))
+    _sub(ins, "Version", str(inst.get("version") or f"camcmm {__version__}"))
+    _sub(rec2, "CalibrationDate", str(meta.get("calibration_date") or meta.get("date") or "unknown"))
+    probe = _sub(rec2, "ProbingSystem")
+    _sub(probe, "Type", "NonContacting")
+    _sub(probe, "Identification", str((meta.get("probing_system") or {}).get("identification") or "unknown"))
+    _sub(rec2, "Comment", str(meta.get("comment") or hm.name))
+    rec3 = _sub(root, "Record3")
+    dims = _sub(rec3, "MatrixDimension")
+    ny, nx = hm.shape
+    for tag, v in (("SizeX", nx), ("SizeY", ny), ("SizeZ", 1)):
+        _sub(dims, tag, str(v))
+    link = _sub(rec3, "DataLink")
+    _sub(link, "PointDataLink", "bindata/data.bin")
+    _sub(link, "MD5ChecksumPointData", md5)
+    _sub(_sub(root, "Record4"), "ChecksumFile", "md5checksum.hex")
+    xml = b'<?xml version="1.0" encoding="UTF-8" standalone="no" ?>\n' + ET.tostring(root, encoding="utf-8")
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zf:
+        zf.writestr("main.xml", xml)
+        zf.writestr("bindata/data.bin", data)
+        zf.writestr("md5checksum.hex", f"{hashlib.md5(xml).hexdigest().upper()} *main.xml\n")
