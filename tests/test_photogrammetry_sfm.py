@@ -204,3 +204,31 @@ def test_cli_refuses_bad_series_in_one_line(shared_data, tmp_path):
     assert "small.png 320x240" in err
     err = cli_refused("photogrammetry", "reconstruct", tmp_path / "nothing", code=2)
     assert "nothing: no such image file or folder" in err
+
+
+def test_reconstruction_json_keys_and_scale_applied_to_views():
+    from camcmm_plugins.photogrammetry.plugin import reconstruction_json
+    from camcmm_plugins.photogrammetry.sparse import SparseResult
+
+    R = _rot([0, 1, 0], 20)
+    t = np.array([0.1, 0.2, 3.0])
+    sp = SparseResult(
+        camera={"model": "OPENCV", "fx": 1.0, "fy": 1.0, "cx": 0.0, "cy": 0.0, "dist": [0.0] * 5, "K": np.eye(3)},
+        views=[{"image": "a.png", "R": R, "t": t, "centre": -R.T @ t}],
+        points=np.zeros((4, 3)),
+        colours=np.zeros((4, 3), np.uint8),
+        track_lengths=np.full(4, 2),
+        images=[{"image": "a.png", "n_features": 1, "n_matched": 1, "registered": True, "reason": ""}],
+        unregistered={},
+        reprojection_rms_px=0.5,
+        image_size=(64, 48),
+        timings={"extract": 1.0},
+    )
+    doc = reconstruction_json(sp, None, {"method": "bar", "factor": 2.5, "u": 0.01}, ["w"])
+    assert KEYS <= set(doc) and set(doc["camera"]) == {"model", "fx", "fy", "cx", "cy", "dist"}
+    (v,) = doc["views"]
+    np.testing.assert_allclose(v["t"], 2.5 * t)
+    np.testing.assert_allclose(v["centre"], -2.5 * R.T @ t)
+    np.testing.assert_allclose(v["R"], R)
+    assert doc["scale"] == {"method": "bar", "factor": 2.5, "u": 0.01}
+    assert (doc["n_points_sparse"], doc["n_points_dense"], doc["warnings"]) == (4, 0, ["w"])
