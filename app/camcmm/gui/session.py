@@ -63,6 +63,9 @@ def describe(obj: Any) -> str:
     if k == "image":
         w, h = obj.size
         return f"image {w} × {h} px"
+    if k == "heightmap":
+        ny, nx = obj.shape
+        return f"height map {nx} × {ny} points, {obj.n_valid / (nx * ny):.1%} valid"
     return k
 
 
@@ -70,6 +73,10 @@ def size_text(obj: Any) -> str:
     """The bounding box of a cloud or mesh in mm, e.g. ``138 × 106 × 99.3 mm``."""
     from ..units import object_span
 
+    if kind_of(obj) == "heightmap":  # width × height, and the height range
+        w, h = obj.size_mm
+        z = obj.heights[obj.valid]
+        return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
     return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
 
 
@@ -485,7 +492,7 @@ class Session:
             self.state.picked_item = key
         self.remember("gui.selected_item", key)
         k = kind_of(obj)
-        if k not in ("pointcloud", "mesh"):
+        if k not in ("pointcloud", "mesh", "heightmap"):
             self.view.clear()
             self.state.color_fields = []
             self.state.color_field = None

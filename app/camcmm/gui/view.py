@@ -105,7 +105,7 @@ class Shown:
 
     key: str
     poly: Any  # pyvista.PolyData of the displayed (possibly decimated) geometry
-    kind: str  # "pointcloud" | "mesh"
+    kind: str  # "pointcloud" | "mesh" | "heightmap"
     n_total: int
     n_shown: int
     units: dict[str, str] = field(default_factory=dict)
@@ -144,6 +144,14 @@ class SceneView:
         if hasattr(obj, "faces"):  # TriangleMesh: shown whole (remote rendering copes)
             poly = obj.to_pyvista()
             shown = Shown(key, poly, "mesh", obj.n_vertices, obj.n_vertices, units)
+        elif hasattr(obj, "heights"):  # HeightMap: a surface coloured by z = height, invalid cells left out
+            ny, nx = obj.shape
+            s = max(1, int(np.ceil(np.sqrt(nx * ny / self.display_limit))))  # every s-th row and column
+            sub = obj
+            if s > 1:
+                sub = type(obj)(obj.heights[::s, ::s], obj.dx * s, obj.dy * s, origin=obj.origin, name=obj.name)
+            poly = sub.to_pyvista()
+            shown = Shown(key, poly, "heightmap", obj.n_valid, sub.n_valid, units)
         elif hasattr(obj, "points"):
             n = obj.n_points
             idx = display_index(n, self.display_limit)
@@ -168,12 +176,13 @@ class SceneView:
         self.shown = shown
         self.field = field_name or default_field(obj)
         if shown.n_shown < shown.n_total:
+            how = "every few rows and columns" if shown.kind == "heightmap" else "random subset"
             self.note = (
                 f"showing {fmt_count(shown.n_shown)} of {fmt_count(shown.n_total)} points "
-                "(random subset for display; computations use all points)"
+                f"({how} for display; computations use all points)"
             )
         else:
-            what = "points" if shown.kind == "pointcloud" else "vertices"
+            what = "vertices" if shown.kind == "mesh" else "valid points" if shown.kind == "heightmap" else "points"
             self.note = f"showing all {fmt_count(shown.n_total)} {what}"
         self._draw()
         self.plotter.reset_camera()

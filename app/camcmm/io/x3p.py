@@ -16,12 +16,16 @@ Writing: float64 values in mm with the z increment 1e-3 (z in metres = value *
 increment, as the standard defines it), NaN for invalid points (allowed for floating
 types, so no validity bitmap), increments and offsets written as the decimal of the mm value shifted by 1e-3 and read
 back in decimal, so a map comes back bit for bit; the md5 checksum file; Record2 from
-``meta`` (``instrument``, ``date``, ``comment``).
+``meta`` (``instrument``, ``date``, ``comment``). Besides the standard's members, camcmm
+writes the intensity channel and the whole ``meta`` as ``camcmm/intensity.bin`` and
+``camcmm/meta.json``, which other readers ignore, so X3P is camcmm's lossless store
+of a height map.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import xml.etree.ElementTree as ET
 import zipfile
 from datetime import UTC, datetime
@@ -32,11 +36,16 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from ..jsonable import to_jsonable
 from ..model import HeightMap
 from ._common import fail
 
 _NS = "http://www.opengps.eu/2008/ISO5436_2"
 _DTYPES = {"I": "<u2", "L": "<u4", "F": "<f4", "D": "<f8"}
+#: camcmm's own members, outside the standard's links (other readers ignore them): the
+#: intensity channel (float64, the heights' order) and the full metadata as JSON, so a
+#: map stored in a project comes back whole.
+_INTENSITY, _META = "camcmm/intensity.bin", "camcmm/meta.json"
 
 
 def _local(tag: str) -> str:
@@ -142,12 +151,29 @@ def read(path: Path, name: str) -> HeightMap:
                 raise fail(name, f"X3P validity data hold {len(bits) * 8} bits for {n} points")
             valid = np.unpackbits(bits, count=n, bitorder="little").reshape(ny, nx).astype(bool)
             z[~valid] = np.nan
-    meta = _record2(doc.get("Record2"))
-    meta["format"] = "ISO 25178-72 X3P"
+        meta = _record2(doc.get("Record2"))
+        meta["format"] = "ISO 25178-72 X3P"
+        names = set(zf.namelist())
+        intensity = None
+        if _INTENSITY in names:
+            intensity = np.frombuffer(zf.read(_INTENSITY), dtype="<f8")
+            if intensity.size != n:
+                raise fail(name, f"X3P {_INTENSITY} holds {intensity.size} values for {n} points")
+            intensity = intensity.reshape(ny, nx)
+        if _META in names:
+            try:
+                kept = json.loads(zf.read(_META))
+            except ValueError as exc:
+                raise fail(name, f"X3P {_META} is not JSON ({exc})") from None
+            if isinstance(kept, dict):
+                if kept.get("format") not in (None, meta["format"]):
+                    kept["source_format"] = kept["format"]  # the instrument file it came from
+                meta.update(kept, format=meta["format"])
     return HeightMap(
         z,
         _mm(cx, "Increment", name),
         _mm(cy, "Increment", name),
+        intensity=intensity,
         origin=(_mm(cx, "Offset", name, 0.0), _mm(cy, "Offset", name, 0.0)),
         name=name,
         source_unit="m",
@@ -232,3 +258,7 @@ def write(obj: Any, path: Path, *, name: str, **_: Any) -> None:
         zf.writestr("main.xml", xml)
         zf.writestr("bindata/data.bin", data)
         zf.writestr("md5checksum.hex", f"{hashlib.md5(xml).hexdigest().upper()} *main.xml\n")
+        if hm.intensity is not None:
+            zf.writestr(_INTENSITY, np.ascontiguousarray(hm.intensity, dtype="<f8").tobytes())
+        if hm.meta:
+            zf.writestr(_META, json.dumps(to_jsonable(hm.meta)))

@@ -367,10 +367,14 @@ class Project(TidyMixin):
         tmp, h, size = self._blobs.copy_in(src)  # slow part, outside the lock
         return self._register(tmp, h, size, normalise_ext(src), Path(src).name)
 
-    def add_object(self, obj: Any, name: str, ext: str = ".ply") -> str:
-        """Write a PointCloud/TriangleMesh with :func:`camcmm.io.write` and add the file;
-        returns its sha256. ``ext`` picks the format."""
+    def add_object(self, obj: Any, name: str, ext: str | None = None) -> str:
+        """Write a PointCloud/TriangleMesh/HeightMap with :func:`camcmm.io.write` and add
+        the file; returns its sha256. ``ext`` picks the format: by default ``.ply``, and
+        ``.x3p`` for a height map (ISO 25178-72 with camcmm's intensity and metadata
+        members: it comes back whole, heights bit for bit)."""
         io = importlib.import_module("camcmm.io")  # lazy: the formats pull in Open3D
+        if ext is None:
+            ext = ".x3p" if type(obj).__name__ == "HeightMap" else ".ply"
         ext = normalise_ext("x" + (ext if ext.startswith(".") else f".{ext}")) or ".ply"
         tmp = self._blobs.new_tmp(suffix=ext)
         try:
