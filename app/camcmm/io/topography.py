@@ -99,7 +99,9 @@ def read(path: Path, name: str) -> HeightMap:
         raise fail(name, f"the {what} file holds a non-uniform grid, not a height map")
     k = to_mm_factor(unit)
     # [x, y] -> [y, x]; masked (undefined) points -> NaN
-    heights = np.ma.filled(np.ma.asarray(h, dtype=np.float64), np.nan).T * k
+    heights = _grid(h)
+    if k != 1.0:
+        heights *= k
     nx, ny = topo.nb_grid_pts
     sx, sy = topo.physical_sizes
     intensity, intensity_name = _intensity(reader, channel, name)
@@ -118,7 +120,7 @@ def read(path: Path, name: str) -> HeightMap:
     if raw:
         meta["raw_metadata"] = raw
     return HeightMap(
-        np.ascontiguousarray(heights),
+        heights,
         sx * k / nx,
         sy * k / ny,
         intensity=intensity,
@@ -126,6 +128,16 @@ def read(path: Path, name: str) -> HeightMap:
         source_unit=unit,
         meta=meta,
     )
+
+
+def _grid(a: Any) -> np.ndarray:
+    """SurfaceTopography's [x, y] (masked) array as a C-ordered [y, x] float64 array with
+    NaN where masked, in one copy (np.ma's own filling copies twice: 0.25 s at 4 M points)."""
+    out = np.ascontiguousarray(np.asarray(np.ma.getdata(a), dtype=np.float64).T)
+    mask = np.ma.getmask(a)
+    if mask is not np.ma.nomask and mask.any():
+        out[mask.T] = np.nan
+    return out
 
 
 def _intensity(reader: Any, height: Any, name: str) -> tuple[np.ndarray | None, str | None]:
@@ -138,7 +150,7 @@ def _intensity(reader: Any, height: Any, name: str) -> tuple[np.ndarray | None, 
             data = reader.topography(channel_index=c.index).heights()
         except Exception:  # an extra channel that does not load leaves the heights usable
             continue
-        return np.ma.filled(np.ma.asarray(data, dtype=np.float64), np.nan).T.copy(), c.name
+        return _grid(data), c.name
     return None, None
 
 
