@@ -55,6 +55,7 @@ def run(
     datum: dict | None = None,
     sigma_px: float = 6.0,
     reject: str = "similarity",
+    grey: str = "auto",
     grid: int | None = None,
     ransac_px: float = 3.0,
     min_inliers: int = 8,
@@ -104,7 +105,10 @@ def run(
                 f"a wrong length unit in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
             )
         pc = max(min(hm.dx, hm.dy), 0.5 * pixel)
-        cimg, cmask, pc = make_csi_image(hm.heights, hm.intensity, hm.dx, hm.dy, pc, sigma_px * pixel)
+        if grey == "intensity" and hm.intensity is None:
+            raise InputError(f"{name}: the map has no intensity channel (grey = shaded or auto)")
+        inten = None if grey == "shaded" else hm.intensity
+        cimg, cmask, pc = make_csi_image(hm.heights, inten, hm.dx, hm.dy, pc, sigma_px * pixel)
         t = tick("prepare", t)
         best = None
         for idx, (_f, _local, ph) in enumerate(images if chosen is None else [images[chosen]]):
@@ -150,6 +154,7 @@ def run(
                 "n_fun": int(rj["fundamental"].sum()),
                 "n_inliers": int(keep.sum()),
                 "cimg": cimg,
+                "inten": inten,
                 "pc": pc,
             }
         )
@@ -193,7 +198,7 @@ def run(
         keep_photo &= ~foot
         sub, ij = subsample_grid(hm, max_points)
         # the CSI points keep the raw intensity (or shading), not the blurred matching image
-        raw = hm.intensity if hm.intensity is not None else shade(hm.heights, hm.dx, hm.dy)
+        raw = m["inten"] if m["inten"] is not None else shade(hm.heights, hm.dx, hm.dy)
         gv = stretch(raw[ij[:, 0], ij[:, 1]][None, :])[0]
         parts.append((transform(mat, sub), gv))
         t = tick("merge", t)
@@ -241,8 +246,8 @@ def run(
                 "difference": dif.grid(xy_map[foot], d, hm),
                 "histogram": dif.histogram(d),
                 "abbott": {
-                    "mr_percent": (mr.get("curve") or {}).get("mr_percent"),
-                    "height": (mr.get("curve") or {}).get("height"),
+                    "mr_percent": _curve(mr, "mr_percent"),
+                    "height": _curve(mr, "height"),
                     "p2_5": st["p2_5"],
                     "p97_5": st["p97_5"],
                 },
@@ -298,6 +303,15 @@ def _refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_c):
     if moved > ransac_px:
         return s, th, tr, False
     return s2, th2, tr2, True
+
+
+def _curve(mr: dict, key: str) -> list | None:
+    """The material-ratio curve's column as a list, thinned to ≤ 512 points (for the views)."""
+    c = (mr.get("curve") or {}).get(key)
+    if c is None:
+        return None
+    c = np.asarray(c, dtype=float)
+    return c[:: max(1, len(c) // 512)].tolist()
 
 
 def _to_cloud(f: np.ndarray, centre: np.ndarray) -> np.ndarray:

@@ -1,0 +1,137 @@
+"""``camcmm fuse csi --cloud PHOTO.ply --csi MAP [--csi MAP2 ...] [--sigma-px 6]
+[--reject similarity|fundamental] [--out fused.ply] [--report DIR] [--project DIR] [--json]``
+
+Runs the plugin ``fusion.csi`` through the host (so the result carries its provenance):
+registers each CSI height map (Zygo .dat/.datx, Wyko .opd, Sensofar .plu, .sur, .x3p, .sdf
+...) onto the coloured photogrammetry cloud, fixes the cloud's scale from the CSI's lateral
+scale and merges them. JSON keys (lengths in mm): ``maps`` [{``file``, ``n_matches``,
+``n_inliers``, ``transform2d`` {``angle_deg``, ``tx``, ``ty`` (px of the cloud's image),
+``scale``}, ``icp`` {``tz``, ``rx_deg``, ``ry_deg``, ``rms``, ``converged``}, ``difference``
+{``mean``, ``std``, ``p2_5``, ``p97_5``}, ``material_ratio`` {``Sk``, ``Spk``, ``Svk``,
+``Smr1``, ``Smr2``}, + ``n_inliers_similarity``, ``n_inliers_fundamental``, ``transform``
+(4×4 map -> fused cloud)}], ``photogrammetry_scale`` {``value``, ``std``},
+``n_points_fused``, ``warnings``, + ``timings``, ``plane``, ``plugin``, ``written``,
+``report``, ``result_id``.
+
+Bad input (a map with no overlap, too few matches, a wrong unit, a missing file) exits 2
+with one line naming the file, and writes nothing: ``--out``, ``--report`` and
+``--project`` are written only after the whole fusion succeeded.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from camcmm.api import InputError, default_host, write
+
+
+def configure(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="what", required=True, metavar="{csi}")
+    c = sub.add_parser("csi", help="fuse CSI height maps with a photogrammetry cloud (thesis ch. 6.1)")
+    c.add_argument("--cloud", required=True, metavar="PHOTO", help="the coloured photogrammetry cloud (.ply ...)")
+    c.add_argument(
+        "--csi", required=True, action="append", metavar="MAP", help="a height map (.dat .opd .plu .x3p ...); repeat"
+    )
+    c.add_argument("--sigma-px", type=float, default=None, metavar="S", help="blur of both images, px (default 6)")
+    c.add_argument("--reject", choices=("similarity", "fundamental"), default=None, help="false-match rejection")
+    c.add_argument("--grid", type=int, default=None, metavar="PX", help="side of the cloud's image (default √N)")
+    c.add_argument("--datum", default=None, metavar="FILE", help='JSON {"point": [x,y,z], "normal": [nx,ny,nz]}')
+    c.add_argument("--seed", type=int, default=None, help="seed of RANSAC")
+    c.add_argument("--out", metavar="fused.ply", help="write the fused cloud (field 'source')")
+    c.add_argument("--report", metavar="DIR", help="write report.html, report.pdf, report.json here")
+    c.add_argument("--project", metavar="DIR", help="record the result in this project folder")
+    c.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
+
+
+def _record(project_dir: str, res: Any) -> int:
+    import camcmm.api as api
+
+    store = getattr(api, "record_result", None)  # the core's recorder, where the API offers it
+    if store is None:
+        raise InputError(
+            "--project: this camcmm's plugin API cannot record results; use "
+            "'camcmm run fusion.csi --cloud PHOTO --csi MAP ... --project DIR' (same plugin, same result)"
+        )
+    return int(store(project_dir, res))
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    for f in [args.cloud, *args.csi, *([args.datum] if args.datum else [])]:
+        if not Path(f).is_file():
+            raise InputError(f"{f}: no such file")
+    if args.project:  # refuse before the work, not after it
+        import camcmm.api as api
+
+        if getattr(api, "record_result", None) is None:
+            _record(args.project, None)
+    params = {k: getattr(args, k) for k in ("sigma_px", "reject", "grid", "seed") if getattr(args, k) is not None}
+    inputs: dict[str, Any] = {"cloud": args.cloud, "csi": list(args.csi)}
+    if args.datum:
+        inputs["datum"] = args.datum
+    res = default_host().run("fusion.csi", inputs, params)
+    o = res.outputs
+    out = dict(o["result"])
+    out["warnings"] = list(res.warnings)
+    out["plugin"] = {
+        "id": res.plugin_id,
+        "version": res.plugin_version,
+        "params": res.params,
+        "input_hashes": res.input_hashes,
+        "started": res.started,
+        "finished": res.finished,
+    }
+    if args.report:  # rendered in memory first: a failure writes nothing
+        from .report import build_report
+
+        rep = build_report(o, cloud_file=args.cloud, run=res)
+    if args.out:
+        write(o["fused"], args.out)
+        out["written"] = {"fused": str(args.out)}
+    if args.report:
+        out["report"] = rep.write(args.report)
+    if args.project:
+        out["result_id"] = _record(args.project, res)
+    return out
+
+
+def _um(x: float | None) -> str:
+    return "—" if x is None or x != x else f"{x * 1000:+.2f} µm"
+
+
+def text(r: dict[str, Any]) -> str:
+    """Human-readable summary of :func:`run`."""
+    s = r["photogrammetry_scale"]
+    std = "" if s["std"] is None else f" ± {s['std']:.6f}"
+    lines = [
+        f"fused {len(r['maps'])} CSI map(s): {r['n_points_fused']} points; photogrammetry scale {s['value']:.6f}{std}"
+    ]
+    for m in r["maps"]:
+        t, i, d, mr = m["transform2d"], m["icp"], m["difference"], m["material_ratio"]
+        lines.append(
+            f"  {m['file']}: {m['n_inliers']} of {m['n_matches']} matches (similarity {m['n_inliers_similarity']}, "
+            f"fundamental {m['n_inliers_fundamental']})"
+        )
+        lines.append(
+            f"    2-D  angle {t['angle_deg']:.4f}°  t ({t['tx']:.2f}, {t['ty']:.2f}) px  scale {t['scale']:.6f}"
+        )
+        lines.append(
+            f"    ICP  tz {i['tz']:.5f} mm  rx {i['rx_deg']:.4f}°  ry {i['ry_deg']:.4f}°  rms {_um(i['rms'])}"
+            + ("" if i["converged"] else "  NOT CONVERGED")
+        )
+        lines.append(
+            f"    CSI − photogrammetry  mean {_um(d['mean'])}  std {_um(d['std'])}  95 % {_um(d['p2_5'])} … "
+            f"{_um(d['p97_5'])}"
+        )
+        if mr.get("Sk") is not None:
+            lines.append(
+                f"    material  Sk {_um(mr['Sk'])}  Spk {_um(mr['Spk'])}  Svk {_um(mr['Svk'])}  "
+                f"Smr1 {mr['Smr1']:.2f} %  Smr2 {mr['Smr2']:.2f} %"
+            )
+    lines += [f"  warning: {w}" for w in r.get("warnings", [])]
+    if r.get("written"):
+        lines.append(f"  wrote {r['written']['fused']}")
+    if r.get("report"):
+        lines.append("  report " + ", ".join(r["report"].values()))
+    return "\n".join(lines)

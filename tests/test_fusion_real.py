@@ -1,0 +1,107 @@
+"""fusion.csi with the real Zygo/Wyko/Sensofar files as the CSI side (issue 17): the
+'photogrammetry' cloud is the map's own points, every second one, scaled by 1.03,
+rotated 20° about z and tilted 5°, coloured by the grey image both sides share (the
+intensity, or the shaded heights); the CSI map is the central 60 % of the file. The
+pipeline must recover the scale and the pose and put the map's points back where they
+belong; and the CLI writes nothing on bad input."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from camcmm.api import HeightMap, PointCloud, default_host, read, write
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fusion_synthetic import affine, rx, rz  # noqa: E402
+
+pytestmark = pytest.mark.slow
+FILES = {"test_1.dat": "shaded", "test_1.opd": "auto", "test_2.opd": "auto", "test_1.plu": "auto"}
+SCALE = 1.03
+POSE = affine(rz(np.radians(20)) @ rx(np.radians(5)), [1.0, 2.0, 3.0])
+
+
+def make_case(path: Path, grey: str):
+    from camcmm_plugins.fusion.prepare import shade
+
+    hm = read(path)
+    ny, nx = hm.shape
+    g = hm.intensity if (hm.intensity is not None and grey != "shaded") else shade(hm.heights, hm.dx, hm.dy)
+    i, j = np.mgrid[0:ny:2, 0:nx:2]
+    i, j = i.ravel(), j.ravel()
+    ok = hm.valid[i, j] & np.isfinite(g[i, j])
+    i, j = i[ok], j[ok]
+    p = np.column_stack([hm.origin[0] + j * hm.dx, hm.origin[1] + i * hm.dy, hm.heights[i, j]])
+    lo, hi = np.percentile(g[i, j], [1, 99])
+    gv = np.clip((g[i, j] - lo) / (hi - lo) * 255, 0, 255).astype(np.uint8)
+    cloud = PointCloud(
+        SCALE * p @ POSE[:3, :3].T + POSE[:3, 3], colors=np.repeat(gv[:, None], 3, 1), name=f"{path.name}.ply"
+    )
+    a, b = ny // 5, nx // 5
+    crop = HeightMap(
+        hm.heights[a : ny - a, b : nx - b],
+        hm.dx,
+        hm.dy,
+        intensity=None if hm.intensity is None else hm.intensity[a : ny - a, b : nx - b],
+        origin=(hm.origin[0] + b * hm.dx, hm.origin[1] + a * hm.dy),
+        name=path.name,
+    )
+    return cloud, crop
+
+
+@pytest.mark.parametrize("name", list(FILES))
+def test_real_map_fused_onto_a_cloud_made_from_it(shared_data, name):
+    path = shared_data / "csi_height_maps_surfalize" / name
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    cloud, crop = make_case(path, FILES[name])
+    o = (
+        default_host()
+        .run("fusion.csi", {"cloud": cloud, "csi": [crop]}, {"sigma_px": 1.0, "grey": FILES[name]})
+        .outputs
+    )
+    r = o["result"]
+    mp = r["maps"][0]
+    assert abs(r["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3
+    c = np.array(r["plane"]["point"])
+    truth = affine(POSE[:3, :3], (POSE[:3, 3] - c) / SCALE + c)
+    err = np.array(mp["transform"]) @ np.linalg.inv(truth)
+    ro = POSE[:3, :3].T @ err[:3, :3] @ POSE[:3, :3]
+    assert abs(np.degrees(np.arctan2(ro[1, 0], ro[0, 0]))) < 0.05
+    assert abs(np.degrees(ro[2, 1])) < 0.01 and abs(np.degrees(ro[0, 2])) < 0.01
+    src = o["fused"].fields["source"]
+    expect = crop.points() @ truth[:3, :3].T + truth[:3, 3]
+    # the map's own points, put back: within 1 µm (its lateral step is 0.3-1.9 µm)
+    assert np.abs(o["fused"].points[src == 1] - expect).max() < 0.001
+    assert mp["n_inliers_similarity"] >= 8 and mp["icp"]["converged"]
+
+
+def test_cli_fuses_real_files_and_writes_nothing_on_bad_input(shared_data, tmp_path, capsys):
+    from camcmm.cli.main import main
+
+    path = shared_data / "csi_height_maps_surfalize" / "test_2.opd"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    cloud, _ = make_case(path, "auto")
+    write(cloud, tmp_path / "photo.ply")
+    out, rep = tmp_path / "fused.ply", tmp_path / "report"
+    args = ["fuse", "csi", "--cloud", str(tmp_path / "photo.ply"), "--csi", str(path), "--sigma-px", "1"]
+    assert main([*args, "--out", str(out), "--report", str(rep), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert set(doc) >= {"maps", "photogrammetry_scale", "n_points_fused", "warnings"}
+    assert abs(doc["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3
+    fused = read(out)
+    assert fused.n_points == doc["n_points_fused"] and set(np.unique(fused.fields["source"])) == {1}
+    assert (rep / "report.html").is_file() and (rep / "report.pdf").is_file()
+    # the same cloud against a map of another file: nothing in common -> exit 2, one line naming the map
+    other = shared_data / "csi_height_maps_surfalize" / "test_1.plu"
+    out2 = tmp_path / "bad.ply"
+    bad = ["fuse", "csi", "--cloud", str(tmp_path / "photo.ply"), "--csi", str(other), "--out", str(out2)]
+    assert main([*bad, "--report", str(tmp_path / "rep2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "test_1.plu" in err[0]
+    assert not out2.exists() and not (tmp_path / "rep2").exists()
