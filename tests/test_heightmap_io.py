@@ -149,6 +149,21 @@ def test_x3p_validity_bitmap_and_integer_heights_are_read(tmp_path):
     expect = raw * 1e-6 + 5e-3  # mm: 1 nm per count above 5 um
     expect = np.where(valid.reshape(ny, nx), expect, np.nan)
     np.testing.assert_allclose(m.heights, expect, rtol=1e-14, equal_nan=True)
+    # older openGPS versions mark invalid float points with +inf instead of NaN
+    z = np.arange(nx * ny, dtype="<f8").reshape(ny, nx) * 1e-6
+    z[1, 3] = np.inf
+    path = tmp_path / "inf.x3p"
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr(
+            "main.xml",
+            xml.replace(
+                "<DataType>I</DataType><Increment>1e-9</Increment><Offset>5e-6</Offset>", "<DataType>D</DataType>"
+            ).replace("<ValidPointsLink>bindata/valid.bin</ValidPointsLink>", ""),
+        )
+        zf.writestr("bindata/data.bin", z.tobytes())
+    m = api.read(path)
+    assert np.flatnonzero(~m.valid).tolist() == [1 * nx + 3]
+    np.testing.assert_allclose(m.heights[0], z[0] * 1000)
 
 
 def _garble(path, offset, data):

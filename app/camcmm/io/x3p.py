@@ -9,17 +9,19 @@ reading a 4 M-point map stays one numpy view of the zip member.
 
 Reading: incremental x/y axes (AxisType I) with their increments and offsets (the map's
 origin), the z axis as I/L/F/D with z = value * increment + offset, invalid points from
-NaN or the optional validity bitmap (``ValidPointsLink``, least-significant bit first,
-as SurfaceTopography and openGPS write it), the MD5 of the point data checked when
-given, Record2 (date, instrument, probing system, comment) kept in ``meta``.
+NaN, infinity (older openGPS versions) or the optional validity bitmap
+(``ValidPointsLink``, least-significant bit first, as openGPS's ValidBuffer writes it;
+SurfaceTopography 1.25 writes it so too but reads it most-significant bit first), the
+MD5 of the point data checked when given, Record2 (date, instrument, probing system,
+comment) kept in ``meta``.
 Writing: float64 values in mm with the z increment 1e-3 (z in metres = value *
 increment, as the standard defines it), NaN for invalid points (allowed for floating
-types, so no validity bitmap), increments and offsets written as the decimal of the mm value shifted by 1e-3 and read
-back in decimal, so a map comes back bit for bit; the md5 checksum file; Record2 from
-``meta`` (``instrument``, ``date``, ``comment``). Besides the standard's members, camcmm
-writes the intensity channel and the whole ``meta`` as ``camcmm/intensity.bin`` and
-``camcmm/meta.json``, which other readers ignore, so X3P is camcmm's lossless store
-of a height map.
+types, so no validity bitmap), increments and offsets written as the exact decimal of
+the mm value times 1e-3 and read back in decimal, so a map comes back bit for bit; the
+md5 checksum file; Record2 from ``meta`` (``instrument``, ``date``, ``comment``).
+Besides the standard's members, camcmm writes the intensity channel and the whole
+``meta`` as ``camcmm/intensity.bin`` and ``camcmm/meta.json``, which other readers
+ignore, so X3P is camcmm's lossless store of a height map.
 """
 
 from __future__ import annotations
@@ -141,6 +143,8 @@ def read(path: Path, name: str) -> HeightMap:
             z *= inc
         if off != 0.0:
             z += off
+        if dtype in ("<f4", "<f8"):  # openGPS marked invalid float points with +inf before NaN
+            z[np.isinf(z)] = np.nan
         valid_member = link.get("ValidPointsLink")
         if valid_member:
             try:
