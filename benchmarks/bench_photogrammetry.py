@@ -116,14 +116,14 @@ def main() -> int:
     )
     print(f"camcmm stages (s): {ours['timings']}")
     targets = {
-        "sfm_time_le_60s": ours["time_s"] <= 60,
-        "centre_rms_le_0p3pct_self_calibrating": ours["centre_rms_pct"] <= 0.3,
-        "centre_rms_le_0p3pct_known_intrinsics": rows["camcmm known intrinsics"]["centre_rms_pct"] <= 0.3,
-        "focal_within_2pct": abs(ours["focal_error_pct"]) <= 2,
+        "sfm_time_le_60s": bool(ours["time_s"] <= 60),
+        "centre_rms_le_0p3pct_self_calibrating": bool(ours["centre_rms_pct"] <= 0.3),
+        "centre_rms_le_0p3pct_known_intrinsics": bool(rows["camcmm known intrinsics"]["centre_rms_pct"] <= 0.3),
+        "focal_within_2pct": bool(abs(ours["focal_error_pct"]) <= 2),
     }
     print("targets: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in targets.items()))
     if args.json:
-        Path(args.json).write_text(json.dumps({"runs": rows, "ratios": ratios, "targets": targets}, indent=2))
+        Path(args.json).write_text(json.dumps({"runs": rows, "ratios": ratios, "targets": targets}, indent=2, default=float))
     return 0
 
 
