@@ -123,7 +123,9 @@ def main() -> int:
     }
     print("targets: " + ", ".join(f"{k} {'yes' if v else 'NO'}" for k, v in targets.items()))
     if args.json:
-        Path(args.json).write_text(json.dumps({"runs": rows, "ratios": ratios, "targets": targets}, indent=2, default=float))
+        Path(args.json).write_text(
+            json.dumps({"runs": rows, "ratios": ratios, "targets": targets}, indent=2, default=float)
+        )
     return 0
 
 
