@@ -268,6 +268,7 @@ def test_cancel_stores_nothing_and_failure_is_one_line(app, tmp_path):
 
     assert asyncio.run(run_and_cancel()) is None
     assert page.state.pg_message == "cancelled" and not page.state.pg_running
+    assert page.state.pg_error == "" and "nothing was stored" in session.state.info_message
 
     def refuse(*_):
         raise InputError("image series: 2 images (view00.png, view01.png); a reconstruction needs at least 3")

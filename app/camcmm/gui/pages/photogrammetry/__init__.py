@@ -3,7 +3,7 @@ object from one camera) reconstructed by the plugin that provides ``photogrammet
 
 ``page.py`` holds the state and handlers, ``layout.py`` the widgets; ``inputs.py`` says
 where the images come from and makes their thumbnails, ``run.py`` runs the plugin and
-stores the result, ``scene.py`` draws the cloud with the registered cameras,
+stores the result, ``display.py`` shows it, ``scene.py`` draws the cloud with the registered cameras,
 ``links.py`` sends the cloud to Inspect, Compare with CAD or the Acceptance test.
 """
 

@@ -62,8 +62,8 @@ def _series(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_list(req):
-        await page.list_async(req if isinstance(req, dict) else None)
+    def on_list(req):
+        page.start(page.list_async(req if isinstance(req, dict) else None))
 
     def on_all_items():
         page.pick_all_items()
@@ -162,8 +162,8 @@ def _run(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_run(params, req):
-        await page.run_async(params, req if isinstance(req, dict) else None)
+    def on_run(params, req):  # started, not awaited: Cancel must reach the server meanwhile
+        page.start(page.run_async(params, req if isinstance(req, dict) else None))
 
     def on_cancel():
         page.cancel()

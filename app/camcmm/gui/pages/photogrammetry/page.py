@@ -18,9 +18,9 @@ from typing import Any
 from ....errors import CamcmmError, one_line
 from ....host import to_jsonable
 from ...jobs import Job
-from ...view import RGB, color_fields
 from . import inputs, links
 from . import run as runs
+from .display import Display
 from .scene import PhotoScene
 
 log = logging.getLogger("camcmm.gui.photogrammetry")
@@ -35,7 +35,7 @@ EMPTY_HINT = (
 )
 
 
-class PhotogrammetryPage:
+class PhotogrammetryPage(Display):
     def __init__(self, server: Any, session: Any):
         self.server = server
         self.session = session
@@ -50,6 +50,7 @@ class PhotogrammetryPage:
         self.record: dict[str, Any] | None = None
         self._sources: list[dict[str, Any]] = []
         self._shown_result: Any = None
+        self._task: Any = None  # the running task started by a button (start)
         self._init_state()
         self.refresh_form()
         self.restore()
@@ -186,6 +187,16 @@ class PhotogrammetryPage:
                 for i, n in enumerate(runs.STAGES)
             ]
 
+    def start(self, coro: Any) -> Any:
+        """Run ``coro`` (a run, a listing) as a task of the server's loop and return at
+        once. A button's handler must not await it: wslink reads a client's messages one
+        after the other, so an awaited run would hold back that client's Cancel until the
+        run was over."""
+        from trame_server.utils.asynchronous import create_task
+
+        self._task = create_task(coro)
+        return self._task
+
     def cancel(self) -> None:
         if self.job.cancel():
             self.state.pg_message = "cancelling …"
@@ -224,7 +235,10 @@ class PhotogrammetryPage:
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.pg_running, s.pg_progress, s.pg_message = False, 0.0, status
-            self._error(line)
+            if status == "cancelled":  # the operator's wish, not a fault: a note, no red alert
+                self.session.info(f"{line}; nothing was stored", page=KEY)
+            else:
+                self._error(line)
             self.session.flush()
             return None
         s.pg_running, s.pg_progress = False, 100.0
@@ -240,55 +254,6 @@ class PhotogrammetryPage:
         self.session.info(f"reconstruction stored as result #{rec['result']}", page=KEY)
         self.session.flush()
         return rec
-
-    # -- what is shown ----------------------------------------------------------------------
-    def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None, draw: bool = True) -> None:
-        """A run's record on the page: figures, image counts and (``draw``) the cloud with
-        its cameras; a restored record is drawn when the page opens (:meth:`opened`)."""
-        s, rc = self.state, rec.get("reconstruction") or {}
-        self.record = rec
-        s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
-        s.pg_summary = runs.summary(rc)
-        s.pg_warnings = [str(w) for w in rec.get("warnings") or rc.get("warnings") or []]
-        s.pg_items_made = dict(rec.get("items") or {})
-        listed = s.pg_images if len(s.pg_images or []) == len(rec.get("sources") or []) else None
-        s.pg_images = inputs.with_counts(listed or inputs.rows(rec.get("sources") or []), rc.get("images"))
-        if draw:
-            objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
-            self.show_cloud(self._display(), objs)
-
-    def _display(self) -> str:
-        """The cloud to show: the one shown before if this run has it, else dense, else sparse."""
-        made = self.state.pg_items_made or {}
-        return self.state.pg_display if self.state.pg_display in made else ("cloud" if "cloud" in made else "sparse")
-
-    def show_cloud(self, which: str = "cloud", objs: dict[str, Any] | None = None) -> None:
-        """Show the dense ("cloud") or the sparse cloud with the registered cameras."""
-        s, rec = self.state, self.record or {}
-        key = (rec.get("items") or {}).get(which)
-        if key is None:
-            return
-        try:
-            obj = (objs or {}).get(which) or self.session.load(key)
-            rc = rec.get("reconstruction") or {}
-            self.view.views, self.view.camera = list(rc.get("views") or []), rc.get("camera")
-            # a photograph's cloud reads best in its measured colour (n_views, quality: "Colour by")
-            self.view.show(key, obj, RGB if getattr(obj, "colors", None) is not None else None)
-        except Exception as exc:
-            self._error(f"the {which} cannot be shown: {one_line(exc)}")
-            return
-        s.pg_display = which
-        s.pg_colours, s.pg_colour = color_fields(obj), self.view.field
-        s.pg_cameras = self.view.cameras_drawn()
-        s.pg_note = f"{self.view.note}; {s.pg_cameras} registered cameras drawn"
-        self._shown_result = rec.get("result")
-
-    def set_colour(self, name: Any) -> None:
-        """Colour the shown cloud by field ``name`` (its measured colour, n_views, quality, x/y/z)."""
-        if self.view.shown is None or name not in {f["value"] for f in self.state.pg_colours or []}:
-            return
-        self.view.set_field(str(name))
-        self.state.pg_colour = self.view.field
 
     def send_to(self, target: str) -> bool:
         """The shown cloud to another page (:mod:`.links`); False with the reason shown."""
