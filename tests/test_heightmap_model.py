@@ -55,6 +55,7 @@ def test_bad_grids_are_refused():
         HeightMap(h, 1.0, 1.0)
 
 
+@pytest.mark.slow
 def test_the_surface_hides_invalid_points():
     pytest.importorskip("pyvista")
     full = HeightMap(np.arange(12.0).reshape(3, 4), 0.1, 0.2).to_pyvista()
