@@ -272,9 +272,12 @@ def test_a_stated_unit_rescales_steps_and_heights(tmp_path):
     assert m.dx == pytest.approx(ref.dx * 1e-6) and m.source_unit == "um"
 
 
-def test_writing_a_heightmap_in_a_cloud_format_is_refused(tmp_path):
+def test_writing_a_heightmap_in_a_cloud_or_instrument_format_is_refused(tmp_path):
     with pytest.raises(InputError, match=r"m.ply: PLY cannot hold a heightmap; write it as one of .x3p, .sdf"):
         api.write(_map(), tmp_path / "m.ply")
+    with pytest.raises(InputError, match=r"m.opd: camcmm reads Wyko/Bruker OPD but does not write it; .* .x3p, .sdf"):
+        api.write(_map(), tmp_path / "m.opd")
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.slow
@@ -295,5 +298,5 @@ def test_info_cli_json_on_a_written_x3p(tmp_path):
     assert d["size_mm"] == pytest.approx([53 * 0.0013, 37 * 0.0017])
     assert d["height_range_mm"] == pytest.approx([np.nanmin(m.heights), np.nanmax(m.heights)])
     assert d["valid_fraction"] == pytest.approx(1 - 5 / (53 * 37))
-    assert d["source_unit"] == "m" and d["instrument"] == "NewView"
+    assert d["source_unit"] == "m" and d["instrument"] == "NewView" and d["warnings"] == []
     assert info(path)["origin_mm"] == [0.25, -1.5]

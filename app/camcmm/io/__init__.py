@@ -302,6 +302,8 @@ def write(
     kind = _kind(obj)
     if not fmt["writable"] or kind not in fmt["kinds"]:
         can = ", ".join(ext for ext, f in FORMATS.items() if f["writable"] and kind in f["kinds"])
+        if kind in fmt["kinds"]:  # an instrument's format: read, not written
+            raise InputError(f"{p.name}: camcmm reads {fmt['name']} but does not write it; write it as one of {can}")
         raise InputError(f"{p.name}: {fmt['name']} cannot hold a {kind}; write it as one of {can}")
     unit = canonical_unit(unit) or unit
     factor = to_mm_factor(unit)
@@ -327,6 +329,7 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
         out["encoding"] = raw.encoding
     if isinstance(obj, HeightMap):
         out.update(summary(obj))
+        out["warnings"] = [] if obj.n_valid else [f"{p.name}: the height map has no valid point"]
     elif isinstance(obj, Image):
         d = obj.data
         out.update(
