@@ -7,8 +7,8 @@ naming the images, and the app keeps working; eight consecutive templeRing views
 (Middlebury, ../shared; skipped where absent) reconstructed sparse-only at 320 px show
 the feature and match counts per image and one camera frustum per registered image
 (counted by the page from the drawn scene, not from pixels), the others flagged with the
-reason; the cloud goes to Inspect. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default
-``/tmp/photogrammetry-gui``).
+reason, the stages passed marked; a cancelled run stores nothing; the cloud goes to
+Inspect. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/photogrammetry-gui``).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
 
 SHOTS = shots("photogrammetry-gui")
+STAGES = ("features", "matching", "mapping", "dense", "scale")
 
 
 @pytest.fixture
@@ -101,8 +102,15 @@ def test_photogrammetry_page_on_the_demo(demo_server):
             assert page.locator('[data-testid="pg-image"][data-status="registered"]').count() == 0
             page.screenshot(path=str(SHOTS / "refused.png"))
 
-            # eight views, sparse only, at 320 px
+            # Cancel: the run stops, says so, and stores nothing
             _show(page, data / "ring", 8)
+            page.click('[data-testid="pg-run"]')
+            page.click('[data-testid="pg-cancel"]')
+            _text(page, "pg-message", r"^cancelled", timeout=60)
+            assert page.locator('[data-testid="pg-result"]').count() == 0
+            assert page.locator('[data-testid="pg-image"][data-status="registered"]').count() == 0
+
+            # eight views, sparse only, at 320 px
             page.keyboard.press("Control+Enter")  # the page's Run (data-shortcut="run")
             _text(page, "pg-message", r"^done", timeout=150)
             registered = _text(page, "pg-num-registered", r"\d+ of 8")
@@ -119,6 +127,8 @@ def test_photogrammetry_page_on_the_demo(demo_server):
             )
             assert page.locator('[data-testid="pg-note"]').get_attribute("data-cameras") == str(n)
             assert page.locator('[data-testid="pg-error"]').count() == 0
+            states = [page.get_attribute(f'[data-testid="pg-stage-{k}"]', "data-state") for k in STAGES]
+            assert states == ["done", "done", "done", "todo", "todo"]  # sparse only, no scale
             page.screenshot(path=str(SHOTS / "reconstructed.png"))
 
             # the cloud to Inspect
