@@ -26,8 +26,8 @@ from ....errors import InputError
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: most images a series may hold (the page and the state stay responsive)
 MAX_IMAGES = 400
-#: thumbnails made for a series (the rest are listed by name only)
-MAX_THUMBS = 120
+#: thumbnails made for a series (the rest are listed by name only): ~13 kB each in the state
+MAX_THUMBS = 60
 THUMB_WIDTH = 96
 
 
