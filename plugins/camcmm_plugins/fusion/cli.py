@@ -52,7 +52,7 @@ def _record(project_dir: str, res: Any) -> int:
     if store is None:
         raise InputError(
             "--project: this camcmm's plugin API cannot record results; use "
-            "'camcmm run fusion.csi --cloud PHOTO --csi MAP ... --project DIR' (same plugin, same result)"
+            "'camcmm run fusion.csi PHOTO MAP... --project DIR' (same plugin, same result)"
         )
     return int(store(project_dir, res))
 

@@ -8,6 +8,22 @@ import cv2
 import numpy as np
 
 
+def features(img: np.ndarray, mask: np.ndarray):
+    """SIFT keypoints (k, 2) px (x along columns) and descriptors of a uint8 image."""
+    kp, desc = cv2.SIFT_create().detectAndCompute(img, mask.astype(np.uint8) * 255)
+    return np.array([k.pt for k in kp], dtype=np.float64).reshape(-1, 2), desc
+
+
+def match_features(fa, fb, ratio: float = 0.8):
+    """Matches of two feature sets after Lowe's ratio test: pa, pb (m, 2) px."""
+    (ka, da), (kb, db) = fa, fb
+    if da is None or db is None or len(ka) < 2 or len(kb) < 2:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    knn = cv2.BFMatcher(cv2.NORM_L2).knnMatch(da, db, k=2)
+    good = [m[0] for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
+    return ka[[m.queryIdx for m in good]].reshape(-1, 2), kb[[m.trainIdx for m in good]].reshape(-1, 2)
+
+
 def sift_matches(img_a: np.ndarray, mask_a: np.ndarray, img_b: np.ndarray, mask_b: np.ndarray, ratio: float = 0.8):
     """SIFT keypoints of two uint8 images and their matches after Lowe's ratio test.
 
@@ -15,16 +31,7 @@ def sift_matches(img_a: np.ndarray, mask_a: np.ndarray, img_b: np.ndarray, mask_
     -------
     pa, pb : (m, 2) float px (x along columns, y along rows) of the matched keypoints
     """
-    sift = cv2.SIFT_create()
-    ka, da = sift.detectAndCompute(img_a, mask_a.astype(np.uint8) * 255)
-    kb, db = sift.detectAndCompute(img_b, mask_b.astype(np.uint8) * 255)
-    if da is None or db is None or len(ka) < 2 or len(kb) < 2:
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    knn = cv2.BFMatcher(cv2.NORM_L2).knnMatch(da, db, k=2)
-    good = [m[0] for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
-    pa = np.array([ka[m.queryIdx].pt for m in good], dtype=np.float64).reshape(-1, 2)
-    pb = np.array([kb[m.trainIdx].pt for m in good], dtype=np.float64).reshape(-1, 2)
-    return pa, pb
+    return match_features(features(img_a, mask_a), features(img_b, mask_b), ratio)
 
 
 def reject(src: np.ndarray, dst: np.ndarray, threshold: float, seed: int = 0) -> dict:

@@ -14,7 +14,7 @@ from camcmm.api import InputError, PointCloud
 
 from . import difference as dif
 from .match import reject as reject_matches
-from .match import sift_matches
+from .match import features, match_features
 from .merge import in_footprint, merge, subsample_grid, transform
 from .prepare import csi_image as make_csi_image
 from .prepare import normalised_blur, shade, stretch
@@ -86,14 +86,27 @@ def run(
         raise InputError(f"{cloud.name}: {len(pts)} points, too few for a fusion")
     centre, frame0 = fit_plane(pts, datum)
     frames = [frame0] if datum is not None else [frame0, mirrored(frame0)]
-    images = []
-    for f in frames:
-        local = (pts - centre) @ f.T
-        images.append((f, local, photo_image(local, cloud.colors, grid, sigma_px)))
+    local0 = (pts - centre) @ frame0.T
+    images = [(frame0, local0, photo_image(local0, cloud.colors, grid, sigma_px))]
+    if len(frames) == 2:
+        local1 = local0[:, [1, 0, 2]] * [1.0, 1.0, -1.0]  # the mirrored frame's coordinates
+        if cloud.colors is not None:  # the colour image seen from the other side is the transposed one
+            ph0 = images[0][2]
+            ph1 = {
+                "image": ph0["image"].T.copy(),
+                "mask": ph0["mask"].T.copy(),
+                "pixel": ph0["pixel"],
+                "transposed": True,
+            }
+            ph1["origin"] = ph0["origin"][::-1].copy()
+        else:  # (the shading is not: the heights change sign)
+            ph1 = photo_image(local1, None, grid, sigma_px)
+        images.append((frames[1], local1, ph1))
     t = tick("project", t)
 
     per_map: list[dict] = []
     chosen = None
+    photo_features: dict[int, tuple] = {}
     for k, (hm, name) in enumerate(zip(maps, names), start=1):
         say(0.1 + 0.5 * (k - 1) / len(maps), f"matching {name}")
         pixel = images[0][2]["pixel"]
@@ -111,8 +124,18 @@ def run(
         cimg, cmask, pc = make_csi_image(hm.heights, inten, hm.dx, hm.dy, pc, sigma_px * pixel)
         t = tick("prepare", t)
         best = None
+        fc = features(cimg, cmask)
         for idx, (_f, _local, ph) in enumerate(images if chosen is None else [images[chosen]]):
-            pa, pb = sift_matches(cimg, cmask, ph["image"], ph["mask"], ratio)
+            if idx == 1 and ph.get("transposed"):
+                # the mirrored frame's image is the transposed one: match the transposed CSI
+                # image with the features already found instead of a second SIFT of the big image
+                pa, pb = match_features(features(cimg.T.copy(), cmask.T.copy()), photo_features[0], ratio)
+                pa, pb = pa[:, ::-1].copy(), pb[:, ::-1].copy()
+            else:
+                key = idx if chosen is None else chosen
+                if key not in photo_features:
+                    photo_features[key] = features(ph["image"], ph["mask"])
+                pa, pb = match_features(fc, photo_features[key], ratio)
             rj = reject_matches(pa, pb, ransac_px, seed)
             n = int(rj[reject].sum())
             if best is None or n > best[0]:
@@ -190,7 +213,8 @@ def run(
         okz = np.isfinite(hh)
         place.tz = float(q[foot, 2][okz].mean() - hh[okz].mean() + zc)
         t = tick("zreg", t)
-        icp = icp_3dof(place, q[foot], hm, icp_max_distance or 5 * spacing, icp_iterations)
+        qf = q[foot]
+        icp = icp_3dof(place, qf[:: max(1, len(qf) // icp_points)], hm, icp_max_distance or 5 * spacing, icp_iterations)
         if not icp["converged"]:
             warnings.append(f"{m['file']}: the 3-DOF ICP did not converge in {icp['iterations']} iterations")
         t = tick("icp", t)
@@ -255,8 +279,10 @@ def run(
         )
 
     say(0.92, "fused cloud")
-    fused_q, cols, src = merge(q, cloud.colors, keep_photo, parts)
-    fused_pts = transform(_to_cloud(f, centre), fused_q)
+    # the photogrammetry points straight in the cloud's coordinates (c + (p − c)/s), the maps' through their transforms
+    photo_out = centre + (pts - centre) / s_mean
+    parts = [(transform(_to_cloud(f, centre), p), g) for p, g in parts]
+    fused_pts, cols, src = merge(photo_out, cloud.colors, keep_photo, parts)
     fused = PointCloud(
         fused_pts, colors=cols, fields={"source": src}, field_units={"source": ""}, name=f"{cloud.name} fused"
     )

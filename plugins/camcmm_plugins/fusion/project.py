@@ -54,18 +54,21 @@ def splat(uv: np.ndarray, values: np.ndarray, pixel: float, origin: np.ndarray, 
     a blur is the normalised convolution (holes and uneven sampling do not bias it)."""
     ny, nx = shape
     f = (uv - origin) / pixel
-    a0 = np.floor(f[:, 0]).astype(np.int64)
-    b0 = np.floor(f[:, 1]).astype(np.int64)
+    # one spare row and column so that no corner needs a bounds check (the cloud's image
+    # covers all its points; other clouds' points outside are clipped to the border)
+    f = np.clip(f, 0, [nx - 1, ny - 1])
+    a0 = np.minimum(f[:, 0].astype(np.int64), nx - 1)
+    b0 = np.minimum(f[:, 1].astype(np.int64), ny - 1)
     fa, fb = f[:, 0] - a0, f[:, 1] - b0
-    s = np.zeros(ny * nx)
-    w = np.zeros(ny * nx)
-    for da, db, wt in ((0, 0, (1 - fa) * (1 - fb)), (1, 0, fa * (1 - fb)), (0, 1, (1 - fa) * fb), (1, 1, fa * fb)):
-        a, b = a0 + da, b0 + db
-        ok = (a >= 0) & (a < nx) & (b >= 0) & (b < ny)
-        idx = b[ok] * nx + a[ok]
-        s += np.bincount(idx, wt[ok] * values[ok], minlength=ny * nx)
-        w += np.bincount(idx, wt[ok], minlength=ny * nx)
-    return s.reshape(shape), w.reshape(shape)
+    w1 = nx + 1
+    base = b0 * w1 + a0
+    size = (ny + 1) * w1
+    s = np.zeros(size)
+    w = np.zeros(size)
+    for off, wt in ((0, (1 - fa) * (1 - fb)), (1, fa * (1 - fb)), (w1, (1 - fa) * fb), (w1 + 1, fa * fb)):
+        s += np.bincount(base + off, wt * values, minlength=size)
+        w += np.bincount(base + off, wt, minlength=size)
+    return s.reshape(ny + 1, w1)[:ny, :nx].copy(), w.reshape(ny + 1, w1)[:ny, :nx].copy()
 
 
 def cloud_grid(uv: np.ndarray, grid: int | None) -> tuple[float, np.ndarray, tuple[int, int]]:
