@@ -35,7 +35,8 @@ def main() -> None:
     cloud, s, _m = photo_cloud(spacing=spacing, half=half)
     hm, _a = csi_map(shape=(480, 640), step=0.008)
     print(
-        f"data: {cloud.n_points} cloud points, map {hm.shape[1]}x{hm.shape[0]} ({time.perf_counter() - t:.1f} s to make)"
+        f"data: {cloud.n_points} cloud points, map {hm.shape[1]}x{hm.shape[0]} "
+        f"({time.perf_counter() - t:.1f} s to make)"
     )
     host = default_host()
     host.run("fusion.csi", {"cloud": cloud, "csi": [hm]}, {})  # warm-up: imports, OpenCV, SciPy

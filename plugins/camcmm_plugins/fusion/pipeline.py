@@ -13,8 +13,8 @@ import numpy as np
 from camcmm.api import InputError, PointCloud
 
 from . import difference as dif
-from .match import reject as reject_matches
 from .match import features, match_features
+from .match import reject as reject_matches
 from .merge import in_footprint, merge, subsample_grid, transform
 from .prepare import csi_image as make_csi_image
 from .prepare import normalised_blur, shade, stretch
