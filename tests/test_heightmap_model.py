@@ -67,3 +67,11 @@ def test_the_surface_hides_invalid_points():
     # the NaN at (1, 2) removes the 4 cells around it; no NaN is left to draw
     assert holed.n_cells == 2
     assert not np.isnan(holed.point_data["height"]).any()
+
+
+def test_a_result_holds_a_summary_of_a_map_not_its_heights():
+    from camcmm.jsonable import to_jsonable
+
+    assert to_jsonable({"map": _map()}) == {
+        "map": {"kind": "heightmap", "name": "m.x3p", "grid": [4, 3], "steps_mm": [0.1, 0.2], "n_valid": 11}
+    }

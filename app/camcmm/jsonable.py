@@ -45,7 +45,7 @@ def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: 
       whose readers expect NaN back);
     - dict keys become strings, tuples and sets lists (a set sorted by ``repr``);
     - paths become strings, dates and times ISO 8601;
-    - a point cloud or mesh becomes a short summary (``kind``, ``name``, counts):
+    - a point cloud, mesh or height map becomes a short summary (``kind``, ``name``, counts):
       results hold the numbers, the project holds the geometry;
     - an object with ``to_dict()`` or a dataclass becomes its mapping;
     - bytes become hex text.
@@ -81,6 +81,15 @@ def to_jsonable(x: Any, *, strict: bool = False, where: str = "data", keep_nan: 
         return x.hex()
     if hasattr(x, "n_points") and hasattr(x, "points"):
         return {"kind": "pointcloud", "name": getattr(x, "name", ""), "n_points": int(x.n_points)}
+    if hasattr(x, "heights") and hasattr(x, "dx") and hasattr(x, "n_valid"):  # HeightMap: 4 M values are no result
+        ny, nx = x.shape
+        return {
+            "kind": "heightmap",
+            "name": getattr(x, "name", ""),
+            "grid": [int(nx), int(ny)],
+            "steps_mm": [float(x.dx), float(x.dy)],
+            "n_valid": int(x.n_valid),
+        }
     if hasattr(x, "n_faces") and hasattr(x, "n_vertices"):
         return {
             "kind": "mesh",
