@@ -105,3 +105,15 @@ def test_cli_fuses_real_files_and_writes_nothing_on_bad_input(shared_data, tmp_p
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "test_1.plu" in err[0]
     assert not out2.exists() and not (tmp_path / "rep2").exists()
+
+
+def test_cloud_without_colours_matches_by_curvature(shared_data):
+    """A cloud without colours and a map without intensity: both drawn by their heights'
+    curvature, which a turn or a tilt does not change."""
+    path = shared_data / "csi_height_maps_surfalize" / "test_2.opd"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    cloud, crop = make_case(path, "auto")
+    bare = PointCloud(cloud.points, name="bare.ply")
+    r = default_host().run("fusion.csi", {"cloud": bare, "csi": [crop]}, {"sigma_px": 1.0}).outputs["result"]
+    assert abs(r["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3

@@ -94,3 +94,26 @@ def test_wrong_unit_is_refused_naming_the_map(data):
     wrong = HeightMap(hm.heights * 1000, hm.dx * 1000, hm.dy * 1000, intensity=hm.intensity, name="in_um.dat")
     with pytest.raises(InputError, match="in_um.dat.*unit"):
         default_host().run("fusion.csi", {"cloud": cloud, "csi": [wrong]}, {})
+
+
+def test_two_maps_one_mean_scale_thesis_rejection_and_datum(data):
+    cloud, s, m, _hm, _a = data
+    maps = [
+        csi_map(theta_deg=-40.0, centre=(-2.0, 1.5), shape=(240, 320), step=0.016, name="left")[0],
+        csi_map(theta_deg=70.0, tilt_deg=(-0.1, 0.25), centre=(2.0, 2.0), shape=(240, 320), step=0.016, name="right")[
+            0
+        ],
+    ]
+    # the datum: the coin's base plane seen from its relief's side (so only that side is tried)
+    datum = {"point": m[:3, 3].tolist(), "normal": m[:3, 2].tolist()}
+    o = (
+        default_host()
+        .run("fusion.csi", {"cloud": cloud, "csi": maps, "datum": datum}, {"reject": "fundamental"})
+        .outputs
+    )
+    r = o["result"]
+    assert [mp["file"] for mp in r["maps"]] == ["left", "right"]
+    sc = r["photogrammetry_scale"]
+    assert abs(sc["value"] / s - 1) < 1e-3 and sc["std"] is not None and sc["std"] < 1e-3
+    assert all(mp["n_inliers"] <= mp["n_inliers_fundamental"] for mp in r["maps"])
+    assert set(np.unique(o["fused"].fields["source"])) == {0, 1, 2}

@@ -41,9 +41,11 @@ def photo_image(local: np.ndarray, colors, grid: int | None, sigma_px: float) ->
     if colors is not None:
         s, w = splat(uv, grey(colors), pixel, origin, shape)
         img = normalised_blur(s, w, sigma_px)
-    else:  # no colour: the shaded height image, as for a CSI map without intensity
+    else:  # no colour: the curvature image, as for a CSI map without intensity (prepare.shade)
         s, w = splat(uv, local[:, 2], pixel, origin, shape)
-        img = normalised_blur(shade(normalised_blur(s, w, 1.0), pixel, pixel), (w > 0).astype(float), sigma_px)
+        g = shade(normalised_blur(s, w, 1.0), pixel, pixel)
+        ok = np.isfinite(g) & (w > 0)
+        img = normalised_blur(np.where(ok, g, 0.0), ok.astype(float), sigma_px)
     covered = normalised_blur(w, np.ones_like(w), 1.0) > 0.05 if sigma_px > 0 else w > 0
     return {"image": stretch(img, covered), "mask": covered, "pixel": pixel, "origin": origin}
 

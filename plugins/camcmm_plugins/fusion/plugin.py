@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import HeightMap, InputError, PointCloud, read
+from camcmm.api import HeightMap, InputError, PointCloud, read, read_yaml
 
 from . import pipeline
 
@@ -30,9 +30,26 @@ def load_maps(csi) -> tuple[list[HeightMap], list[str]]:
     return maps, names
 
 
+def load_datum(datum) -> dict | None:
+    """The datum plane {"point": [x, y, z], "normal": [nx, ny, nz]} from a dict or a JSON file."""
+    if datum is None:
+        return None
+    name = str(datum) if isinstance(datum, (str, Path)) else "datum"
+    d = read_yaml(datum) if isinstance(datum, (str, Path)) else datum
+    try:
+        p = np.asarray(d["point"], dtype=float).reshape(3)
+        n = np.asarray(d["normal"], dtype=float).reshape(3)
+    except (KeyError, TypeError, ValueError):
+        raise InputError(f'{name}: a datum is {{"point": [x, y, z], "normal": [nx, ny, nz]}} (mm)') from None
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(n)) and np.linalg.norm(n) > 0):
+        raise InputError(f"{name}: the datum's point and normal must be finite, the normal not zero")
+    return {"point": p.tolist(), "normal": n.tolist()}
+
+
 def fuse_csi(ctx, cloud: PointCloud, csi, datum: dict | None = None, **params: Any) -> dict[str, Any]:
     """fusion.csi: see plugin.yaml and docs/fusion.md."""
     maps, names = load_maps(csi)
+    datum = load_datum(datum)
     mr_alg = ctx.algorithm("inspect.material-ratio")
 
     def material_ratio(d: np.ndarray) -> dict:

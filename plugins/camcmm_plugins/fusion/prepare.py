@@ -34,11 +34,12 @@ def stretch(img: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
 
 
 def shade(heights: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """A shaded-relief image of a height grid (light from the upper left, 45° high):
-    the grey image of a map without intensity. NaN stays NaN."""
+    """The grey image of a height grid without intensity: its curvature (the Laplacian of the
+    heights). Unlike a relief shaded by a light from one side it does not change when the map
+    is turned in its plane or tilted, so the cloud's and the map's agree in any pose. NaN
+    stays NaN."""
     gy, gx = np.gradient(heights, dy, dx)
-    light = np.array([-1.0, -1.0, np.sqrt(2.0)]) / 2.0
-    return (-gx * light[0] - gy * light[1] + light[2]) / np.sqrt(1 + gx * gx + gy * gy)
+    return np.gradient(gx, dx, axis=1) + np.gradient(gy, dy, axis=0)
 
 
 def csi_image(
