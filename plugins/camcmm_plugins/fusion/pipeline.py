@@ -19,12 +19,11 @@ from .merge import in_footprint, merge, subsample_grid, transform
 from .prepare import csi_image as make_csi_image
 from .prepare import normalised_blur, shade, stretch
 from .project import cloud_grid, fit_plane, grey, mirrored, splat
-from .similarity2d import apply, fit_similarity, refine_ecc, robust_fit, rot
+from .similarity2d import apply, refine, robust_fit, rot
 from .zreg import Placement, icp_3dof
 
 
 def _small(img: np.ndarray, side: int = 256) -> tuple[list, float]:
-    import cv2
 
     f = min(1.0, side / max(img.shape))
     if f < 1:
@@ -156,7 +155,7 @@ def run(
         b_mm = pb * ph["pixel"] + ph["origin"]
         inl = rj[reject]
         s, th, tr, keep = robust_fit(a_mm[inl], b_mm[inl], ransac_px * ph["pixel"])
-        s, th, tr, refined = _refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_px * ph["pixel"] / pc)
+        s, th, tr, refined = refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_px * ph["pixel"] / pc)
         if not refined:
             warnings.append(f"{name}: the image correlation did not refine the SIFT registration; kept SIFT's")
         if not 0.5 <= s <= 2.0:
@@ -303,34 +302,6 @@ def run(
         "reject": reject,
     }
     return {"fused": fused, "result": result, "views": {"maps": views}}
-
-
-def _refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_c):
-    """ECC refinement of the similarity (mm form, eq. 6.1), accepted when it stays within
-    the RANSAC threshold of SIFT's at the map's corners."""
-    p, o_ph, o_map = ph["pixel"], ph["origin"], np.asarray(hm.origin)
-    a_px = s * pc / p * rot(th)
-    t_px = (s * rot(th) @ o_map + tr - o_ph) / p
-    # (OpenCV's ECC masks the photo image; the CSI image's holes are filled by step 2)
-    mask = cv2.erode(ph["mask"].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-    # the CSI image's border (about 3σ wide) is blurred from its inside only, which pulls
-    # its pattern inwards (a scale bias of ~1 % over the whole image): correlate without it
-    m = int(np.ceil(3 * sigma_c))
-    if min(cimg.shape) - 2 * m < 32:
-        return s, th, tr, False
-    warp = refine_ecc(cimg[m:-m, m:-m], ph["image"], mask, a_px, t_px + a_px @ [m, m])
-    if warp is None:
-        return s, th, tr, False
-    warp[:, 2] -= warp[:, :2] @ [m, m]
-    jj, ii = np.meshgrid(np.arange(m, cimg.shape[1] - m, 4), np.arange(m, cimg.shape[0] - m, 4))
-    src = np.column_stack([jj.ravel(), ii.ravel()]).astype(float)
-    dst = src @ warp[:, :2].T + warp[:, 2]
-    s2, th2, tr2 = fit_similarity(src * pc + o_map, dst * p + o_ph)
-    corners = np.array([[0, 0], [cimg.shape[1], 0], [0, cimg.shape[0]], cimg.shape[::-1]], float) * pc + o_map
-    moved = np.linalg.norm(apply(s2, th2, tr2, corners) - apply(s, th, tr, corners), axis=1).max() / p
-    if moved > ransac_px:
-        return s, th, tr, False
-    return s2, th2, tr2, True
 
 
 def _curve(mr: dict, key: str) -> list | None:

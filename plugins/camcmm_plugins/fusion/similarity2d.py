@@ -85,3 +85,33 @@ def refine_ecc(csi_img, photo_img, photo_mask, a_px: np.ndarray, t_px: np.ndarra
     except cv2.error:
         return None
     return warp.astype(np.float64)
+
+
+def refine(cimg, ph, hm, pc, s, th, tr, ransac_px, sigma_c):
+    """ECC refinement of the similarity (mm form, eq. 6.1), accepted when it stays within
+    the RANSAC threshold of SIFT's at the map's corners."""
+    p, o_ph, o_map = ph["pixel"], ph["origin"], np.asarray(hm.origin)
+    a_px = s * pc / p * rot(th)
+    t_px = (s * rot(th) @ o_map + tr - o_ph) / p
+    # (OpenCV's ECC masks the photo image; the CSI image's holes are filled by step 2)
+    import cv2
+
+    mask = cv2.erode(ph["mask"].astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    # the CSI image's border (about 3σ wide) is blurred from its inside only, which pulls
+    # its pattern inwards (a scale bias of ~1 % over the whole image): correlate without it
+    m = int(np.ceil(3 * sigma_c))
+    if min(cimg.shape) - 2 * m < 32:
+        return s, th, tr, False
+    warp = refine_ecc(cimg[m:-m, m:-m], ph["image"], mask, a_px, t_px + a_px @ [m, m])
+    if warp is None:
+        return s, th, tr, False
+    warp[:, 2] -= warp[:, :2] @ [m, m]
+    jj, ii = np.meshgrid(np.arange(m, cimg.shape[1] - m, 4), np.arange(m, cimg.shape[0] - m, 4))
+    src = np.column_stack([jj.ravel(), ii.ravel()]).astype(float)
+    dst = src @ warp[:, :2].T + warp[:, 2]
+    s2, th2, tr2 = fit_similarity(src * pc + o_map, dst * p + o_ph)
+    corners = np.array([[0, 0], [cimg.shape[1], 0], [0, cimg.shape[0]], cimg.shape[::-1]], float) * pc + o_map
+    moved = np.linalg.norm(apply(s2, th2, tr2, corners) - apply(s, th, tr, corners), axis=1).max() / p
+    if moved > ransac_px:
+        return s, th, tr, False
+    return s2, th2, tr2, True
