@@ -117,3 +117,19 @@ def test_cloud_without_colours_matches_by_curvature(shared_data):
     bare = PointCloud(cloud.points, name="bare.ply")
     r = default_host().run("fusion.csi", {"cloud": bare, "csi": [crop]}, {"sigma_px": 1.0}).outputs["result"]
     assert abs(r["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3
+
+
+def test_cli_project_without_a_recorder_is_refused_before_the_work(shared_data, tmp_path, capsys):
+    import camcmm.api as api
+    from camcmm.cli.main import main
+
+    if getattr(api, "record_result", None) is not None:
+        pytest.skip("the plugin API records results: --project is then a recording, tested with the recorder")
+    path = shared_data / "csi_height_maps_surfalize" / "test_2.opd"
+    if not path.is_file():
+        pytest.skip(f"{path} is absent")
+    proj, out = tmp_path / "proj", tmp_path / "fused.ply"
+    argv = ["fuse", "csi", "--cloud", str(path), "--csi", str(path), "--project", str(proj), "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "camcmm run fusion.csi" in err and not proj.exists() and not out.exists()
