@@ -90,21 +90,27 @@ def test_cli_fuses_real_files_and_writes_nothing_on_bad_input(shared_data, tmp_p
     write(cloud, tmp_path / "photo.ply")
     out, rep = tmp_path / "fused.ply", tmp_path / "report"
     args = ["fuse", "csi", "--cloud", str(tmp_path / "photo.ply"), "--csi", str(path), "--sigma-px", "1"]
-    assert main([*args, "--out", str(out), "--report", str(rep), "--json"]) == 0
+    proj = tmp_path / "proj"
+    assert main([*args, "--out", str(out), "--report", str(rep), "--project", str(proj), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) >= {"maps", "photogrammetry_scale", "n_points_fused", "warnings"}
     assert abs(doc["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3
     fused = read(out)
     assert fused.n_points == doc["n_points_fused"] and set(np.unique(fused.fields["source"])) == {1}
     assert (rep / "report.html").is_file() and (rep / "report.pdf").is_file()
+    from camcmm.project import Project
+
+    with Project.open(proj) as project:  # the run recorded with its provenance and the fused cloud
+        stored = project.result(doc["result_id"])
+        assert stored["plugin"] == "fusion.csi" and "fused" in stored["files"]
     # the same cloud against a map of another file: nothing in common -> exit 2, one line naming the map
     other = shared_data / "csi_height_maps_surfalize" / "test_1.plu"
     out2 = tmp_path / "bad.ply"
     bad = ["fuse", "csi", "--cloud", str(tmp_path / "photo.ply"), "--csi", str(other), "--out", str(out2)]
-    assert main([*bad, "--report", str(tmp_path / "rep2")]) == 2
+    assert main([*bad, "--report", str(tmp_path / "rep2"), "--project", str(tmp_path / "proj2")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "test_1.plu" in err[0]
-    assert not out2.exists() and not (tmp_path / "rep2").exists()
+    assert not out2.exists() and not (tmp_path / "rep2").exists() and not (tmp_path / "proj2").exists()
 
 
 def test_cloud_without_colours_matches_by_curvature(shared_data):
@@ -117,19 +123,3 @@ def test_cloud_without_colours_matches_by_curvature(shared_data):
     bare = PointCloud(cloud.points, name="bare.ply")
     r = default_host().run("fusion.csi", {"cloud": bare, "csi": [crop]}, {"sigma_px": 1.0}).outputs["result"]
     assert abs(r["photogrammetry_scale"]["value"] / SCALE - 1) < 1e-3
-
-
-def test_cli_project_without_a_recorder_is_refused_before_the_work(shared_data, tmp_path, capsys):
-    import camcmm.api as api
-    from camcmm.cli.main import main
-
-    if getattr(api, "record_result", None) is not None:
-        pytest.skip("the plugin API records results: --project is then a recording, tested with the recorder")
-    path = shared_data / "csi_height_maps_surfalize" / "test_2.opd"
-    if not path.is_file():
-        pytest.skip(f"{path} is absent")
-    proj, out = tmp_path / "proj", tmp_path / "fused.ply"
-    argv = ["fuse", "csi", "--cloud", str(path), "--csi", str(path), "--project", str(proj), "--out", str(out)]
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "camcmm run fusion.csi" in err and not proj.exists() and not out.exists()

@@ -35,6 +35,7 @@ from .jsonable import to_jsonable, utc_now
 from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
 from .model import Artefact, CameraModel, Certificate, HeightMap, Image, PointCloud, TriangleMesh
 from .params import Param
+from .project.record import record_result
 from .project.select import project_values
 from .report import Report, charts
 from .standard import (
@@ -55,7 +56,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.2"
+API_VERSION = "1.3"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -116,6 +117,7 @@ __all__ = [
     "Param",
     "declared_value",
     "project_values",
+    "record_result",
     "to_mm_factor",
     "UnitDecision",
     "decide_unit",

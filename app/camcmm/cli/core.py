@@ -13,6 +13,7 @@ from typing import Any
 from ..errors import CamcmmError, PluginError
 from ..host import default_host
 from ..params import add_cli_options, cli_values
+from ..project.record import geometry_outputs, record_result
 from .parser import Parser
 
 
@@ -170,7 +171,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     inputs = {port.name: getattr(pa, port.name) for port in spec.inputs if getattr(pa, port.name) is not None}
     result = host.run(spec.id, inputs, cli_values(pa))
     doc = result.to_json()
-    geometry = [(k, v) for k, v in result.outputs.items() if hasattr(v, "n_points") or hasattr(v, "n_faces")]
+    geometry = geometry_outputs(result)
     if pa.out:
         if not geometry:
             hint = "; its own parameter 'out' is --param-out" if any(q.name == "out" for q in spec.parameters) else ""
@@ -180,11 +181,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         write(geometry[0][1], pa.out)
         doc["written"] = {geometry[0][0]: str(Path(pa.out))}
     if pa.project:
-        from ..project import Project
-
-        with Project.open_or_create(pa.project) as project:
-            files = {k: project.add_object(v, f"{spec.id}-{k}") for k, v in geometry}
-            doc["result_id"] = project.add_result(result, files=files)
+        doc["result_id"] = record_result(pa.project, result)
     return doc
 
 

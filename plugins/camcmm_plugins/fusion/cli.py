@@ -24,7 +24,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, default_host, write
+from camcmm.api import InputError, default_host, record_result, write
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -45,27 +45,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     c.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
 
-def _record(project_dir: str, res: Any) -> int:
-    import camcmm.api as api
-
-    store = getattr(api, "record_result", None)  # the core's recorder, where the API offers it
-    if store is None:
-        raise InputError(
-            "--project: this camcmm's plugin API cannot record results; use "
-            "'camcmm run fusion.csi PHOTO MAP... --project DIR' (same plugin, same result)"
-        )
-    return int(store(project_dir, res))
-
-
 def run(args: argparse.Namespace) -> dict[str, Any]:
     for f in [args.cloud, *args.csi, *([args.datum] if args.datum else [])]:
         if not Path(f).is_file():
             raise InputError(f"{f}: no such file")
-    if args.project:  # refuse before the work, not after it
-        import camcmm.api as api
-
-        if getattr(api, "record_result", None) is None:
-            _record(args.project, None)
     params = {k: getattr(args, k) for k in ("sigma_px", "reject", "grid", "seed") if getattr(args, k) is not None}
     inputs: dict[str, Any] = {"cloud": args.cloud, "csi": list(args.csi)}
     if args.datum:
@@ -92,7 +75,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.report:
         out["report"] = rep.write(args.report)
     if args.project:
-        out["result_id"] = _record(args.project, res)
+        out["result_id"] = record_result(args.project, res)
     return out
 
 
