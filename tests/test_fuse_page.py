@@ -277,3 +277,14 @@ def test_two_maps_one_at_a_time_and_the_run_restored(inputs, app, tmp_path):
     assert again.state.fu_numbers and "from the project" in again.state.fu_message
     again.opened()
     assert again.view.shown is not None and again.state.fu_outlines == 2
+
+
+def test_a_footprint_outline_is_lifted_off_its_plane_towards_plus_z():
+    """Drawn in the plane of the points the outline would hide among them: it stands
+    LIFT × its diagonal off its plane, on the +z side, whichever way its corners run."""
+    from camcmm.gui.pages.fuse.scene import LIFT, lifted
+
+    c = np.array([[0.0, 0.0, 1.0], [4.0, 0.0, 1.0], [4.0, 3.0, 1.0], [0.0, 3.0, 1.0]])
+    for corners in (c, c[::-1]):
+        up = lifted(corners)
+        assert np.allclose(up[:, :2], corners[:, :2]) and np.allclose(up[:, 2], 1.0 + LIFT * 5.0)

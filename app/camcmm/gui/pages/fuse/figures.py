@@ -96,7 +96,7 @@ def _difference_grid(diff: dict[str, Any]) -> tuple[np.ndarray, float, float, fl
 
 
 def difference_figure(view: dict[str, Any]) -> dict[str, Any]:
-    """The difference map CSI − photogrammetry (µm, blue below 0, red above, white at 0)
+    """The difference map CSI − photogrammetry (µm; plotly's RdBu: blue below 0, red above, white at 0)
     over the CSI footprint (mm); at most :data:`HEATMAP_SIDE` cells a side are sent."""
     got = _difference_grid(view.get("difference") or {})
     if got is None or not np.isfinite(got[0]).any():
@@ -109,8 +109,8 @@ def difference_figure(view: dict[str, Any]) -> dict[str, Any]:
     lim = float(np.nanpercentile(np.abs(zs), 99)) or 1.0
     data = [
         {"type": "heatmap", "x": x, "y": y, "z": [[None if v != v else round(float(v), 4) for v in row] for row in zs],
-         "colorscale": "RdBu", "reversescale": True, "zmid": 0.0, "zmin": -lim, "zmax": lim,
-         "colorbar": {"title": {"text": "µm", "side": "right"}, "thickness": 14},
+         "colorscale": "RdBu", "zmid": 0.0, "zmin": -lim, "zmax": lim,
+         "colorbar": {"title": {"text": "µm", "side": "right"}, "thickness": 14, "tickformat": ".3~g"},
          "hovertemplate": "x %{x:.4g} mm, y %{y:.4g} mm: %{z:.3g} µm<extra></extra>"},
     ]  # fmt: skip
     lay = layout("Difference CSI − photogrammetry", "x in the map [mm]", "y in the map [mm]")

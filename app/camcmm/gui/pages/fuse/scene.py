@@ -28,13 +28,29 @@ def footprint_corners(view: dict[str, Any]) -> np.ndarray | None:
     return c if c.shape == (4, 3) and np.all(np.isfinite(c)) else None
 
 
+#: the outline is lifted off the surface by this share of the footprint's diagonal, along its
+#: normal (the side facing +z): drawn in the plane of the points, the points would hide it
+LIFT = 0.01
+
+
+def lifted(corners: np.ndarray) -> np.ndarray:
+    """The footprint's corners moved LIFT × its diagonal along its normal (n_z ≥ 0)."""
+    c = np.asarray(corners, dtype=float)
+    n = np.cross(c[1] - c[0], c[3] - c[0])
+    norm = float(np.linalg.norm(n))
+    if norm == 0:
+        return c
+    n = n / norm if n[2] >= 0 else -n / norm
+    return c + LIFT * float(np.linalg.norm(c[2] - c[0])) * n
+
+
 def outlines_polydata(footprints: list[np.ndarray]) -> Any:
-    """All footprints as one pyvista PolyData of closed outlines (4 edges each)."""
+    """All footprints as one pyvista PolyData of closed outlines (4 edges each), lifted (:func:`lifted`)."""
     import pyvista as pv
 
     if not footprints:
         return None
-    pts = np.vstack(footprints)
+    pts = np.vstack([lifted(c) for c in footprints])
     lines = []
     for k in range(len(footprints)):
         o = 4 * k
@@ -60,7 +76,7 @@ class FuseScene(SceneView):
         poly = outlines_polydata(self.footprints)
         if poly is not None:
             self.outline_actor = self.plotter.add_mesh(
-                poly, color=FOOTPRINT_COLOUR, line_width=3, reset_camera=False, name="footprints"
+                poly, color=FOOTPRINT_COLOUR, line_width=4, reset_camera=False, name="footprints"
             )
 
     def clear(self) -> None:
