@@ -82,7 +82,6 @@ def test_camera_mapping_of_one_focal_models_and_refusals():
     back = cameras.opencv_from_colmap("SIMPLE_RADIAL", [800.0, 160.5, 120.5, -0.2], (0.25, 0.25))
     assert (back["fx"], back["fy"], back["cx"], back["cy"]) == (3200.0, 3200.0, 641.5, 481.5)
     assert back["dist"] == [-0.2, 0.0, 0.0, 0.0, 0.0]
-    assert cameras.initial_params("PINHOLE", 640, 480) == [768.0, 768.0, 320.0, 240.0]
     with pytest.raises(InputError, match="skew"):
         cameras.colmap_from_opencv([[1000, 5, 300], [0, 1000, 200], [0, 0, 1]])
     with pytest.raises(InputError, match="no OpenCV equivalent"):

@@ -98,13 +98,3 @@ def opencv_from_colmap(model: str, params: Any, scale: tuple[float, float] = (1.
     }
     out["K"] = [[out["fx"], 0.0, out["cx"]], [0.0, out["fy"], out["cy"]], [0.0, 0.0, 1.0]]
     return out
-
-
-def initial_params(model: str, width: int, height: int, focal_factor: float = 1.2) -> list[float]:
-    """Starting parameters of a self-calibrated COLMAP camera: COLMAP's own guess
-    (focal = 1.2 × the longer side, principal point at the centre, no distortion)."""
-    if model not in COLMAP_PARAMS:
-        raise InputError(f"camera model {model!r}: choose one of {', '.join(COLMAP_PARAMS)}")
-    f = focal_factor * max(width, height)
-    vals = {"f": f, "fx": f, "fy": f, "cx": width / 2.0, "cy": height / 2.0}
-    return [vals.get(n, 0.0) for n in COLMAP_PARAMS[model]]

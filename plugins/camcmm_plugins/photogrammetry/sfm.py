@@ -28,7 +28,7 @@ import numpy as np
 
 from camcmm.api import Cancelled, InputError
 
-from .cameras import COLMAP_PARAMS, colmap_from_opencv, initial_params
+from .cameras import COLMAP_PARAMS, colmap_from_opencv
 from .inputs import check_registration, check_series, per_image_counts, reason_unregistered, write_images
 from .sparse import SparseResult, model_result
 
@@ -208,10 +208,12 @@ def reconstruct_sparse(
             model, params = colmap_from_opencv(
                 calibration["camera_matrix"], calibration.get("dist_coeffs", ()), (sx, sy)
             )
+            reader.camera_params = ",".join(f"{v:.12g}" for v in params)  # a known focal length: a prior
         else:
-            model, params = camera_model, initial_params(camera_model, nw, nh)
+            # no parameters: COLMAP's own start (1.2 x the longer side) WITHOUT a focal-length prior;
+            # given as parameters, that guess would count as known in verification and mapping
+            model = camera_model
         reader.camera_model = model
-        reader.camera_params = ",".join(f"{v:.12g}" for v in params)
         ext = pycolmap.FeatureExtractionOptions()
         ext.sift.max_num_features = int(max_features)
         ext.use_gpu = False
