@@ -32,7 +32,32 @@ from typing import Any
 from ..errors import CamcmmError, one_line
 from ..host import Cancelled
 
-__all__ = ["Busy", "Cancelled", "Job"]
+__all__ = ["Busy", "Cancelled", "Job", "in_background"]
+
+#: Tasks started by :func:`in_background`, held so the loop does not drop them half-way.
+_TASKS: set[asyncio.Task[Any]] = set()
+
+
+def in_background(coro: Any) -> asyncio.Task[Any]:
+    """Run ``coro`` (a page's run) as a task of the server's loop and return at once.
+
+    A button's handler must never await a long run: wslink reads one browser tab's
+    messages one after the other and trame awaits an async handler, so an awaited run
+    would hold back that tab's Cancel (and every other click) until the run was over.
+    The run reports its own outcome on the page; an exception it let escape is logged.
+    """
+    task = asyncio.get_running_loop().create_task(coro)
+    _TASKS.add(task)
+    task.add_done_callback(_finished)
+    return task
+
+
+def _finished(task: asyncio.Task[Any]) -> None:
+    _TASKS.discard(task)
+    if not task.cancelled() and task.exception() is not None:
+        import logging
+
+        logging.getLogger("camcmm.gui").error("background run failed", exc_info=task.exception())
 
 
 class Busy(CamcmmError):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...jobs import in_background
 from ...widgets import dyn_tid, tid
 from .result_view import verdict_color
 
@@ -26,8 +27,8 @@ def _source_bar(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_acquire_all():
-        await page.acquire_all_async()
+    def on_acquire_all():
+        in_background(page.acquire_all_async())  # returns at once: Stop must reach the server
 
     def on_source(source):
         page.set_source(source)
@@ -234,8 +235,8 @@ def _card_inputs(page: Any, accept: str) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_acquire(test, position):
-        await page.acquire_async(test, position)
+    def on_acquire(test, position):
+        in_background(page.acquire_async(test, position))
 
     async def on_upload(test, position, files):
         await page.upload_async(test, position, files)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...jobs import in_background
 from ...widgets import tid
 from .. import shown
 from . import cards
@@ -291,8 +292,8 @@ def _board_and_model(v: Any, html: Any) -> None:
 def _run_controls(v: Any, html: Any, page: Any) -> None:
     """Calibrate and Cancel, the progress bar and the message."""
 
-    async def on_run(req):
-        await page.run_async(req or {})
+    def on_run(req):
+        in_background(page.run_async(req or {}))  # returns at once: Cancel must reach the server
 
     def on_cancel():
         page.cancel()

@@ -15,7 +15,7 @@ from typing import Any
 from .... import worker
 from ....errors import CamcmmError, one_line
 from ....host import RunResult
-from ...jobs import Job
+from ...jobs import Job, in_background
 from .form import ITEM_TYPES, fields_of, inputs_of, run_arguments, run_blocker
 from .report import parameters_line, report_rows
 from .results import new_items, residual_fields, result_rows, summarize_json
@@ -148,9 +148,10 @@ class InspectPage:
         self.session.error(reason)
         self.session.flush()
 
-    async def run_clicked(self, pid: Any, form_values: Any, input_values: Any) -> None:
-        """The Run button: :meth:`run_form`, returning nothing to the browser."""
-        await self.run_form(pid, form_values, input_values)
+    def run_clicked(self, pid: Any, form_values: Any, input_values: Any) -> None:
+        """The Run button: :meth:`run_form` in the background, returning at once (an
+        awaited run would hold back this tab's Cancel until it was over)."""
+        in_background(self.run_form(pid, form_values, input_values))
 
     async def run_form(self, pid: Any, form_values: Any, input_values: Any) -> RunResult | None:
         """The Run button (also ``ctrl.run_plugin_form``): a run that cannot start says

@@ -17,7 +17,7 @@ from typing import Any
 
 from ....errors import CamcmmError, one_line
 from ....host import to_jsonable
-from ...jobs import Job
+from ...jobs import Job, in_background
 from . import inputs, links
 from . import run as runs
 from .display import Display
@@ -188,13 +188,9 @@ class PhotogrammetryPage(Display):
             ]
 
     def start(self, coro: Any) -> Any:
-        """Run ``coro`` (a run, a listing) as a task of the server's loop and return at
-        once. A button's handler must not await it: wslink reads a client's messages one
-        after the other, so an awaited run would hold back that client's Cancel until the
-        run was over."""
-        from trame_server.utils.asynchronous import create_task
-
-        self._task = create_task(coro)
+        """Run ``coro`` (a run, a listing) in the background and return at once
+        (:func:`camcmm.gui.jobs.in_background`: an awaited run would hold back Cancel)."""
+        self._task = in_background(coro)
         return self._task
 
     def cancel(self) -> None:

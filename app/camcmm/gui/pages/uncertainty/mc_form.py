@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...jobs import in_background
 from ...widgets import param_form, tid
 from .budget_view import links
 
@@ -67,8 +68,9 @@ def mc_form(v: Any, html: Any, page: Any) -> None:
     """The system (the plugin's declared fields, or a loaded file), the run's parameters,
     the studies, Run / Cancel, progress and the exports."""
 
-    async def on_run(params, studies):
-        await page.run_montecarlo_async({**(params or {}), "studies": studies})
+    def on_run(params, studies):
+        # returns at once: Cancel must reach the server while the study runs
+        in_background(page.run_montecarlo_async({**(params or {}), "studies": studies}))
 
     def on_cancel():
         page.cancel()
