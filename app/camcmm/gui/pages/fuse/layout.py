@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...jobs import in_background
 from ...viewtools import view_toolbar
 from ...widgets import dyn_tid, param_form, tid
 from .. import shown
@@ -98,8 +99,8 @@ def _run(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    async def on_run(params):
-        await page.run_async(params)
+    def on_run(params):
+        in_background(page.run_async(params))  # returns at once: Cancel must reach the server
 
     def on_cancel():
         page.cancel()
