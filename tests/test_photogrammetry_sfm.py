@@ -231,3 +231,15 @@ def test_reconstruction_json_keys_and_scale_applied_to_views():
     np.testing.assert_allclose(v["R"], R)
     assert doc["scale"] == {"method": "bar", "factor": 2.5, "u": 0.01}
     assert (doc["n_points_sparse"], doc["n_points_dense"], doc["warnings"]) == (4, 0, ["w"])
+
+
+@pytest.mark.slow
+def test_cli_import_colmap_model_and_refusal(tmp_path):
+    from conftest import REPO
+
+    model = REPO / "tests" / "data" / "photogrammetry" / "colmap_text"
+    out = tmp_path / "imported.ply"
+    doc = cli_json("photogrammetry", "import", model, "--json", "--out", out)
+    assert doc["n_points"] == 3 and len(doc["views"]) == 3 and doc["written"] == {"cloud": str(out)}
+    assert {"camera", "views", "source"} <= set(doc)
+    assert "no such file or folder" in cli_refused("photogrammetry", "import", tmp_path / "none", code=2)
