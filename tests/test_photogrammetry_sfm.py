@@ -168,7 +168,8 @@ KEYS = {
 def test_cli_reconstruct_sparse_only_on_eight_temple_views(shared_data, tmp_path):
     files = [TEMPLE / f"templeR{i:04d}.png" for i in range(13, 21)]  # consecutive views of the ring
     out = tmp_path / "sparse.ply"
-    doc = cli_json("photogrammetry", "reconstruct", *files, "--sparse-only", "--json", "--out", out)
+    proj = tmp_path / "proj"
+    doc = cli_json("photogrammetry", "reconstruct", *files, "--sparse-only", "--json", "--out", out, "--project", proj)
     assert KEYS <= set(doc)
     assert doc["n_images"] == 8 and doc["n_registered"] == 8 and doc["unregistered"] == {}
     assert set(doc["camera"]) >= {"model", "fx", "fy", "cx", "cy", "dist"}
@@ -188,6 +189,11 @@ def test_cli_reconstruct_sparse_only_on_eight_temple_views(shared_data, tmp_path
     from camcmm.api import read
 
     assert read(out).n_points == doc["n_points_sparse"]
+    from camcmm.project import Project
+
+    with Project.open(proj) as project:  # recorded with its provenance and its clouds
+        stored = project.result(doc["result_id"])
+        assert stored["plugin"] == "photogrammetry.reconstruct" and {"cloud", "sparse"} <= set(stored["files"])
 
 
 @pytest.mark.slow
@@ -195,8 +201,9 @@ def test_cli_refuses_bad_series_in_one_line(shared_data, tmp_path):
     import cv2
 
     files = [TEMPLE / f"templeR{i:04d}.png" for i in (13, 14)]
-    err = cli_refused("photogrammetry", "reconstruct", *files, "--sparse-only", code=2)
+    err = cli_refused("photogrammetry", "reconstruct", *files, "--sparse-only", "--project", tmp_path / "p", code=2)
     assert "templeR0013.png, templeR0014.png" in err and "at least 3" in err
+    assert not (tmp_path / "p").exists()  # nothing half-written
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), cv2.imread(str(files[0]))[::2, ::2])
     err = cli_refused("photogrammetry", "reconstruct", *files, small, "--sparse-only", code=2)

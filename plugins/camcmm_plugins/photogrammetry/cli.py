@@ -12,8 +12,7 @@
   (``photogrammetry.import``).
 
 ``--project DIR`` records the run (outputs and provenance) in a project folder only after the
-whole reconstruction succeeded (nothing half-written); where the plugin API offers no recorder
-it is refused before any work, naming ``camcmm run photogrammetry.reconstruct ... --project``.
+whole reconstruction succeeded (nothing half-written), with ``camcmm.api.record_result``.
 """
 
 from __future__ import annotations
@@ -23,7 +22,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, default_host, write
+from camcmm.api import InputError, default_host, record_result, write
 
 IMAGE_EXTS = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm", ".ppm")
 
@@ -81,19 +80,6 @@ def _params(args: argparse.Namespace) -> dict[str, Any]:
     return params
 
 
-def _record(project_dir: str, res: Any) -> int:
-    """Store the run in a project: its clouds and the provenance, as ``camcmm run --project``."""
-    import camcmm.api as api
-
-    store = getattr(api, "record_result", None)  # the core's recorder, where the API offers it
-    if store is None:
-        raise InputError(
-            "--project: this camcmm's plugin API cannot record results; use "
-            "'camcmm run photogrammetry.reconstruct IMAGES... --project DIR' (same plugin, same result)"
-        )
-    return int(store(project_dir, res))
-
-
 def run(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     if args.what == "import":
@@ -113,11 +99,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if not Path(args.calibration).is_file():
             raise InputError(f"{args.calibration}: calibration file not found")
         inputs["calibration"] = str(args.calibration)
-    if args.project:  # refuse before the work, not after it
-        import camcmm.api as api
-
-        if getattr(api, "record_result", None) is None:
-            _record(args.project, None)
     res = host.run("photogrammetry.reconstruct", inputs, _params(args))
     o = res.outputs
     out = dict(o["reconstruction"])
@@ -134,7 +115,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         write(o["cloud"], args.out)
         out["written"] = {"cloud": str(args.out)}
     if args.project:
-        out["result_id"] = _record(args.project, res)
+        out["result_id"] = record_result(args.project, res)
     return out
 
 
