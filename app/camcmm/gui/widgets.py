@@ -45,6 +45,24 @@ _NUMBER_RULE = (
 )
 
 
+def declared_fields(parameters: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """``(fields, values)`` for :func:`param_form` from a plugin's declared parameters:
+    the fields it draws (unit, help, choices) and the values it starts with (a switch's
+    default as a bool, no default as "")."""
+    from ..jsonable import to_jsonable
+    from ..params import form_schema
+
+    fields, values = [], {}
+    for f in form_schema(parameters):
+        d = to_jsonable(f)
+        d["unit"], d["help"] = f.get("unit", ""), f.get("help", "")
+        d["choices"] = list(f.get("choices") or [])
+        default = f.get("default")
+        values[f["name"]] = bool(default) if f["widget"] == "switch" else ("" if default is None else default)
+        fields.append(d)
+    return fields, values
+
+
 def param_form(
     fields: str,
     values: str,

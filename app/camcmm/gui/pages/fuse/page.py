@@ -17,9 +17,9 @@ import logging
 from typing import Any
 
 from ....errors import CamcmmError, one_line
-from ....host import to_jsonable
 from ...jobs import Job
 from ...view import color_fields
+from ...widgets import declared_fields
 from . import figures
 from . import run as runs
 from .scene import FuseScene
@@ -86,16 +86,7 @@ class FusePage:
             s.fu_fields, s.fu_params = [], {}
             s.fu_message = f"no fusion plugin: {one_line(exc)}"
             return
-        from ....params import form_schema
-
-        fields, values = [], {}
-        for f in form_schema(spec.parameters):
-            d = to_jsonable(f)
-            d["unit"], d["help"] = f.get("unit", ""), f.get("help", "")
-            d["choices"] = list(f.get("choices") or [])
-            default = f.get("default")
-            values[f["name"]] = bool(default) if f["widget"] == "switch" else ("" if default is None else default)
-            fields.append(d)
+        fields, values = declared_fields(spec.parameters)
         s.fu_fields, s.fu_params = fields, values
 
     def request(self) -> dict[str, Any]:

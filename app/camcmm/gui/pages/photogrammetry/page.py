@@ -16,8 +16,8 @@ import logging
 from typing import Any
 
 from ....errors import CamcmmError, one_line
-from ....host import to_jsonable
 from ...jobs import Job, in_background
+from ...widgets import declared_fields
 from . import inputs, links
 from . import run as runs
 from .display import Display
@@ -92,16 +92,7 @@ class PhotogrammetryPage(Display):
             s.pg_fields, s.pg_params = [], {}
             s.pg_message = f"no reconstruction plugin: {one_line(exc)}"
             return
-        from ....params import form_schema
-
-        fields, values = [], {}
-        for f in form_schema(spec.parameters):
-            d = to_jsonable(f)
-            d["unit"], d["help"] = f.get("unit", ""), f.get("help", "")
-            d["choices"] = list(f.get("choices") or [])
-            default = f.get("default")
-            values[f["name"]] = bool(default) if f["widget"] == "switch" else ("" if default is None else default)
-            fields.append(d)
+        fields, values = declared_fields(spec.parameters)
         s.pg_fields, s.pg_params = fields, values
         self.refresh_calibration()
 
