@@ -85,3 +85,22 @@ def test_gui_import_shows_a_coloured_surface(gui_app, tmp_path):
     assert img.std() > 5 and len(np.unique(img.reshape(-1, 3), axis=0)) > 50, "view looks blank"
     (m,) = s.project.measurements()
     assert m["kind"] == "heightmap" and m["path"].endswith(".x3p")
+
+
+@pytest.mark.slow
+def test_the_real_instrument_files_open_in_the_app(gui_app, shared_data):
+    """Zygo .dat, Wyko .opd and Sensofar .plu as their instruments wrote them, through the
+    GUI's import: a height-map item each, drawn as a surface of its valid points."""
+    pytest.importorskip("trame")
+    pytest.importorskip("pyvista")
+    folder = shared_data / "csi_height_maps_surfalize"
+    files = [folder / n for n in ("test_1.dat", "test_1.opd", "test_1.plu")]
+    if not all(f.is_file() for f in files):
+        pytest.skip(f"{folder} is incomplete")
+    server, s = gui_app()
+    for f in files:
+        assert s.import_file(f) is not None, server.state.error_message
+        ref = api.read(f)
+        assert server.state.items[-1]["kind"] == "heightmap"
+        assert s.view.shown.kind == "heightmap" and s.view.shown.n_total == int(ref.valid.sum())
+    assert [m["kind"] for m in s.project.measurements()] == ["heightmap"] * 3
