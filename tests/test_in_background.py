@@ -54,3 +54,30 @@ def test_an_escaped_exception_is_logged(caplog):
     with caplog.at_level(logging.ERROR, logger="camcmm.gui"):
         asyncio.run(tab())
     assert any("background run failed" in r.message for r in caplog.records)
+
+
+def test_the_state_is_pushed_when_the_run_ends():
+    """trame pushes what a handler changed when the handler returns; a background run ends
+    later, so its outcome (a refusal's message) must be pushed then (the Calibration page's
+    refusal of a folder outside the roots never reached the browser without it)."""
+
+    class State:
+        flushed: list[str] = []
+        message = ""
+
+        def flush(self):
+            self.flushed.append(self.message)
+
+    state = State()
+
+    async def refuse():
+        await asyncio.sleep(0)
+        state.message = "server folder: outside the folders this server may read"
+
+    async def tab():
+        task = in_background(refuse(), state)
+        assert state.flushed == []  # the handler returned before the run
+        await task
+
+    asyncio.run(tab())
+    assert state.flushed == ["server folder: outside the folders this server may read"]

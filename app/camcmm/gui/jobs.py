@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -38,15 +39,29 @@ __all__ = ["Busy", "Cancelled", "Job", "in_background"]
 _TASKS: set[asyncio.Task[Any]] = set()
 
 
-def in_background(coro: Any) -> asyncio.Task[Any]:
+def in_background(coro: Any, state: Any = None) -> asyncio.Task[Any]:
     """Run ``coro`` (a page's run) as a task of the server's loop and return at once.
 
     A button's handler must never await a long run: wslink reads one browser tab's
     messages one after the other and trame awaits an async handler, so an awaited run
     would hold back that tab's Cancel (and every other click) until the run was over.
-    The run reports its own outcome on the page; an exception it let escape is logged.
+    trame pushes the state a handler changed when the handler returns; the task returns
+    later, so ``state`` (the trame state) is pushed when it ends (a refusal's message,
+    the result) — progress on the way is pushed by :meth:`Job.post`. The run reports its
+    own outcome on the page; an exception it let escape is logged.
     """
-    task = asyncio.get_running_loop().create_task(coro)
+
+    async def run_then_push() -> Any:
+        try:
+            return await coro
+        finally:
+            if state is not None:
+                try:
+                    state.flush()
+                except Exception:  # a client gone mid-run must not hide the run's outcome
+                    logging.getLogger("camcmm.gui").exception("state flush failed")
+
+    task = asyncio.get_running_loop().create_task(run_then_push())
     _TASKS.add(task)
     task.add_done_callback(_finished)
     return task
@@ -55,8 +70,6 @@ def in_background(coro: Any) -> asyncio.Task[Any]:
 def _finished(task: asyncio.Task[Any]) -> None:
     _TASKS.discard(task)
     if not task.cancelled() and task.exception() is not None:
-        import logging
-
         logging.getLogger("camcmm.gui").error("background run failed", exc_info=task.exception())
 
 

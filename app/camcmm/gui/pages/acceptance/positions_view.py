@@ -28,7 +28,7 @@ def _source_bar(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     def on_acquire_all():
-        in_background(page.acquire_all_async())  # returns at once: Stop must reach the server
+        in_background(page.acquire_all_async(), page.state)  # returns at once: Stop must reach the server
 
     def on_source(source):
         page.set_source(source)
@@ -236,7 +236,7 @@ def _card_inputs(page: Any, accept: str) -> None:
     from trame.widgets import vuetify3 as v
 
     def on_acquire(test, position):
-        in_background(page.acquire_async(test, position))
+        in_background(page.acquire_async(test, position), page.state)
 
     async def on_upload(test, position, files):
         await page.upload_async(test, position, files)

@@ -293,7 +293,7 @@ def _run_controls(v: Any, html: Any, page: Any) -> None:
     """Calibrate and Cancel, the progress bar and the message."""
 
     def on_run(req):
-        in_background(page.run_async(req or {}))  # returns at once: Cancel must reach the server
+        in_background(page.run_async(req or {}), page.state)  # returns at once: Cancel must reach the server
 
     def on_cancel():
         page.cancel()

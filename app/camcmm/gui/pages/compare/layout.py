@@ -236,7 +236,7 @@ def _run_controls(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     def on_run(params):
-        in_background(page.run_async(params))  # returns at once: Cancel must reach the server
+        in_background(page.run_async(params), page.state)  # returns at once: Cancel must reach the server
 
     def on_cancel():
         page.cancel()

@@ -151,7 +151,7 @@ class InspectPage:
     def run_clicked(self, pid: Any, form_values: Any, input_values: Any) -> None:
         """The Run button: :meth:`run_form` in the background, returning at once (an
         awaited run would hold back this tab's Cancel until it was over)."""
-        in_background(self.run_form(pid, form_values, input_values))
+        in_background(self.run_form(pid, form_values, input_values), self.state)
 
     async def run_form(self, pid: Any, form_values: Any, input_values: Any) -> RunResult | None:
         """The Run button (also ``ctrl.run_plugin_form``): a run that cannot start says

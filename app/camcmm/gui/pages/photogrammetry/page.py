@@ -181,7 +181,7 @@ class PhotogrammetryPage(Display):
     def start(self, coro: Any) -> Any:
         """Run ``coro`` (a run, a listing) in the background and return at once
         (:func:`camcmm.gui.jobs.in_background`: an awaited run would hold back Cancel)."""
-        self._task = in_background(coro)
+        self._task = in_background(coro, self.state)
         return self._task
 
     def cancel(self) -> None:

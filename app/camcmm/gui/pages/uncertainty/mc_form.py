@@ -70,7 +70,7 @@ def mc_form(v: Any, html: Any, page: Any) -> None:
 
     def on_run(params, studies):
         # returns at once: Cancel must reach the server while the study runs
-        in_background(page.run_montecarlo_async({**(params or {}), "studies": studies}))
+        in_background(page.run_montecarlo_async({**(params or {}), "studies": studies}), page.state)
 
     def on_cancel():
         page.cancel()
