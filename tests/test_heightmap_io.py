@@ -250,7 +250,11 @@ def test_units_of_an_instrument_file(tmp_path):
     # steps 4 um / 4 and 6 um / 3; heights in nm scaled to the lateral um, then to mm
     assert (m.dx, m.dy) == pytest.approx((1e-3, 2e-3), rel=1e-15) and m.source_unit == "um"
     np.testing.assert_allclose(m.heights, np.arange(12.0).reshape(3, 4) * 1e-6, rtol=1e-12)
-    for xy, z, reason in (("m", "V", "holds no height channel"), ("furlong", "m", "Unknown unit 'furlong'")):
+    # an unknown lateral unit: SurfaceTopography 1.25 says so, 1.27 finds no length channel
+    for xy, z, reason in (
+        ("m", "V", "holds no height channel"),
+        ("furlong", "m", "(Unknown unit 'furlong'|holds no height channel)"),
+    ):
         _gwy(p, xy, z)
         with pytest.raises(InputError, match=rf"^scan\.gwy: .*{reason}"):
             api.read(p)
