@@ -138,6 +138,21 @@ def test_cancel_before_the_first_stage(tmp_path):
         reconstruct_sparse(ims, ["a", "b", "c"], cancel=lambda: True, workdir=tmp_path)
 
 
+def test_cancel_inside_a_pycolmap_stage_is_cancelled_not_a_failure():
+    # pycolmap answers its cancellation token with InterruptedError from inside a stage (seen in
+    # the browser: "failed: InterruptedError: Operation cancelled"); the operator asked for it
+    import pycolmap
+
+    from camcmm_plugins.photogrammetry.sfm import _Stages
+
+    def stage():
+        raise InterruptedError("Operation cancelled")
+
+    st = _Stages(pycolmap, None, lambda: False)
+    with pytest.raises(Cancelled):
+        st.run("extract", "SIFT features", stage)
+
+
 @pytest.mark.slow
 def test_texture_less_series_refused_as_no_texture():
     # smooth shading only: SIFT finds (almost) nothing, SfM must say so, naming the images

@@ -79,7 +79,11 @@ class _Stages:
         self.check()
         self.report(stage, 0.0, message)
         t0 = time.perf_counter()
-        out = fn()
+        try:
+            out = fn()
+        except InterruptedError:  # pycolmap's answer to the cancellation token mid-stage
+            self.close()
+            raise Cancelled("photogrammetry: cancelled") from None
         self.timings[stage] = time.perf_counter() - t0
         self.check()
         self.done += self.WEIGHTS.get(stage, 0.0)
