@@ -1,8 +1,8 @@
 """``camcmm photogrammetry reconstruct|import``
 
 * ``reconstruct IMAGES... [--calibration CAL.yaml] [--dense/--sparse-only]
-  [--scale spheres:R1,R2|lengths:FILE|bar:L] [--max-image-size PX] [--out cloud.ply]
-  [--project DIR] [--json]``: runs the plugin ``photogrammetry.reconstruct`` through the host
+  [--scale spheres:R1,R2|lengths:FILE|bar:L] [--max-image-size PX] [--dense-max-image-size PX]
+  [--out cloud.ply] [--project DIR] [--json]``: runs the plugin ``photogrammetry.reconstruct`` through the host
   (so the result carries its provenance). JSON keys ``n_images, n_registered, unregistered,
   reprojection_rms_px, camera {model fx fy cx cy dist}, views [{image R t centre}],
   n_points_sparse, n_points_dense, scale {method factor u}, warnings, timings`` (+ ``images``
@@ -40,6 +40,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
     r.add_argument("--matching", choices=("exhaustive", "sequential"), default=None, help="image pairs matched")
     r.add_argument("--camera-model", default=None, metavar="MODEL", help="self-calibrated camera model (COLMAP)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler for the dense stage")
+    r.add_argument(
+        "--dense-max-image-size",
+        type=int,
+        default=None,
+        metavar="PX",
+        help="longest side the dense stage matches at (default 1600; 0: full size)",
+    )
     r.add_argument("--out", metavar="cloud.ply", help="write the cloud (dense, or sparse with --sparse-only)")
     r.add_argument("--project", metavar="DIR", help="record the result in this project folder")
     i = sub.add_parser("import", help="read a COLMAP model or a Metashape export")
@@ -74,7 +81,7 @@ def image_files(items: list[str]) -> list[str]:
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
     params: dict[str, Any] = {"dense": bool(args.dense), "scale": args.scale or ""}
-    for key in ("max_image_size", "matching", "camera_model", "scheduler"):
+    for key in ("max_image_size", "matching", "camera_model", "scheduler", "dense_max_image_size"):
         if getattr(args, key) is not None:
             params[key] = getattr(args, key)
     return params

@@ -43,6 +43,7 @@ DEFAULTS: dict[str, Any] = {
     "voxel": None,  # thinning voxel edge, world units; None: the median pixel footprint; 0: off
     "max_pixels": 4.0,  # rectified canvas at most this x the image's pixel count
     "max_disparities": 1024,  # SGBM search at most this wide (px); the near end is cut
+    "max_image_size": None,  # longest image side matched (px); larger images are down-scaled; None/0: full
     "scheduler_timeout": 30.0,  # s to connect to a Dask scheduler
 }
 
@@ -56,6 +57,7 @@ class DenseResult:
     ``quality`` (N,) in [0, 1]: 1 - rms relative depth disagreement of the agreeing depth
     maps / ``depth_tolerance`` (1: all depth maps give the same depth, 0: at the tolerance).
     ``pairs``: per pair ``ref``, ``src``, ``valid`` (matched pixels), ``consistent``.
+    ``image_size``: (width, height) px of the images matched (after ``max_image_size``).
     """
 
     points: np.ndarray
@@ -65,6 +67,35 @@ class DenseResult:
     warnings: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     pairs: list[dict] = field(default_factory=list)
+    image_size: tuple[int, int] = (0, 0)
+
+
+def scaled_camera(K: np.ndarray, scale: tuple[float, float]) -> np.ndarray:
+    """Intrinsics (3x3, px) of an image resized by ``scale`` = (sx, sy), new size over old.
+
+    ``cv2.resize`` maps pixel centres as ``u' = (u + 0.5) sx - 0.5`` (the image's corner is
+    the fixed point; OpenCV puts the top-left pixel's centre at (0, 0)), so ``fx' = sx fx``,
+    ``cx' = (cx + 0.5) sx - 0.5`` (likewise y). The distortion coefficients act on normalised
+    coordinates and stay as they are; the poses, hence the world units, do not change.
+    """
+    sx, sy = float(scale[0]), float(scale[1])
+    S = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]])
+    return S @ np.asarray(K, float).reshape(3, 3)
+
+
+def downscale(images: list[np.ndarray], views: list[dict], max_image_size: int | None):
+    """Images whose longest side exceeds ``max_image_size`` px resized (``cv2.INTER_AREA``,
+    which averages, so no aliasing of a fine speckle) and their views' ``K`` scaled to match
+    (:func:`scaled_camera`). SGBM's cost grows with pixels x disparities, i.e. with the cube of
+    the image side. Returns (images, views, (width, height)); unchanged when small enough."""
+    h, w = np.asarray(images[0]).shape[:2]
+    if not max_image_size or max(w, h) <= int(max_image_size):
+        return images, views, (w, h)
+    s = int(max_image_size) / max(w, h)
+    nw, nh = max(1, round(w * s)), max(1, round(h * s))
+    out = [cv2.resize(np.asarray(im), (nw, nh), interpolation=cv2.INTER_AREA) for im in images]
+    scale = (nw / w, nh / h)
+    return out, [{**v, "K": scaled_camera(v["K"], scale)} for v in views], (nw, nh)
 
 
 def _grey(img: np.ndarray) -> np.ndarray:
@@ -223,7 +254,10 @@ def dense_cloud(
         raise InputError(f"dense_cloud: unknown options {sorted(unknown)} (known: {sorted(DEFAULTS)})")
     opts = {**DEFAULTS, **options}
     t0 = time.perf_counter()
-    h, w = _check(images, views)
+    _check(images, views)
+    if opts["max_image_size"] is not None and int(opts["max_image_size"]) < 0:
+        raise InputError(f"dense_cloud: max_image_size {opts['max_image_size']} px must be >= 0 (0: full size)")
+    images, views, (w, h) = downscale(images, views, opts["max_image_size"])
     cams = cameras(views, (h, w))
     try:
         centre = scene_centre(cams)
@@ -289,7 +323,17 @@ def dense_cloud(
         warnings,
         {"setup": t1 - t0, "depth_maps": t2 - t1, "fusion": t3 - t2, "total": t3 - t0},
         stats,
+        (int(w), int(h)),
     )
 
 
-__all__ = ["DEFAULTS", "Camera", "DenseResult", "dense_cloud", "depth_map", "depth_range_from_points"]
+__all__ = [
+    "DEFAULTS",
+    "Camera",
+    "DenseResult",
+    "dense_cloud",
+    "depth_map",
+    "depth_range_from_points",
+    "downscale",
+    "scaled_camera",
+]

@@ -99,6 +99,8 @@ def reconstruction_json(sp: SparseResult, dense: Any, scale: dict[str, Any], war
         "images": sp.images,
         "image_size": list(sp.image_size),
         "options": sp.options,
+        # the size the dense stage matched at (px), [] without it
+        "dense_image_size": list(getattr(dense, "image_size", ())) if dense is not None else [],
     }
 
 
@@ -113,6 +115,7 @@ def reconstruct(
     matching: str = "exhaustive",
     camera_model: str = DEFAULT_MODEL,
     scheduler: str = "",
+    dense_max_image_size: int = 1600,
 ) -> dict[str, Any]:
     """Multi-view reconstruction of an image series from one camera (thesis ch. 2.3-2.5, 4).
 
@@ -125,6 +128,10 @@ def reconstruct(
     scale : ``spheres:R1,R2``, ``lengths:FILE``, ``bar:L`` or "" (the reconstruction's own scale).
     matching, camera_model : see :func:`.sfm.reconstruct_sparse`.
     scheduler : a Dask scheduler address for the dense stage, "" for in-process.
+    dense_max_image_size : longest side (px) the dense stage matches at (0: full size); the
+        images are resized with area averaging and the intrinsics scaled to match
+        (:func:`.dense.scaled_camera`). 1600 px as COLMAP's "medium" patch-match stereo: SGBM's
+        time grows with the cube of the side, and the dense points stay in world units.
 
     Returns
     -------
@@ -172,6 +179,7 @@ def reconstruct(
             progress=lambda fr, msg: ctx.progress(share + (0.95 - share) * fr, msg),
             cancel=_Event(ctx),
             scheduler=scheduler or None,
+            max_image_size=int(dense_max_image_size),
         )
         for w in getattr(d, "warnings", []) or []:
             ctx.warn(w)
