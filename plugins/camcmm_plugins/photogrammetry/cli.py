@@ -2,8 +2,9 @@
 
 * ``reconstruct IMAGES... [--calibration CAL.yaml] [--dense/--sparse-only]
   [--scale spheres:R1,R2|lengths:FILE|bar:L] [--max-image-size PX] [--dense-max-image-size PX]
-  [--out cloud.ply] [--project DIR] [--json]``: runs the plugin ``photogrammetry.reconstruct`` through the host
-  (so the result carries its provenance). JSON keys ``n_images, n_registered, unregistered,
+  [--turntable-angles DEG,...|step:D] [--out cloud.ply] [--project DIR] [--json]``: runs the
+  plugin ``photogrammetry.reconstruct`` through the host (so the result carries its
+  provenance). JSON keys ``n_images, n_registered, unregistered,
   reprojection_rms_px, camera {model fx fy cx cy dist}, views [{image R t centre}],
   n_points_sparse, n_points_dense, scale {method factor u}, warnings, timings`` (+ ``images``
   per-image feature/match counts, ``plugin``, ``written``, ``result_id``). IMAGES may be
@@ -47,6 +48,13 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="PX",
         help="longest side the dense stage matches at (default 1600; 0: full size)",
     )
+    r.add_argument(
+        "--turntable-angles",
+        default=None,
+        metavar="DEG,DEG,...|step:D",
+        help="table angle of each image (deg): match only pairs within --turntable-window, check the cameras",
+    )
+    r.add_argument("--turntable-window", type=float, default=None, metavar="DEG", help="with the angles (default 60)")
     r.add_argument("--out", metavar="cloud.ply", help="write the cloud (dense, or sparse with --sparse-only)")
     r.add_argument("--project", metavar="DIR", help="record the result in this project folder")
     i = sub.add_parser("import", help="read a COLMAP model or a Metashape export")
@@ -81,7 +89,15 @@ def image_files(items: list[str]) -> list[str]:
 
 def _params(args: argparse.Namespace) -> dict[str, Any]:
     params: dict[str, Any] = {"dense": bool(args.dense), "scale": args.scale or ""}
-    for key in ("max_image_size", "matching", "camera_model", "scheduler", "dense_max_image_size"):
+    for key in (
+        "max_image_size",
+        "matching",
+        "camera_model",
+        "scheduler",
+        "dense_max_image_size",
+        "turntable_angles",
+        "turntable_window",
+    ):
         if getattr(args, key) is not None:
             params[key] = getattr(args, key)
     return params
@@ -142,6 +158,12 @@ def text(r: dict[str, Any]) -> str:
         s = r["scale"]
         if s["method"] != "none":
             lines.append(f"  scale ({s['method']}): {s['factor']:.6g} mm per unit, u {s['u']:.3g}")
+        tt = r.get("turntable")
+        if tt:
+            lines.append(
+                f"  turntable: {tt['n_views']} views within {tt['angle_rms_deg']:.2f} deg RMS "
+                f"(max {tt['angle_max_deg']:.2f}) of their table angles"
+            )
         for name, why in r["unregistered"].items():
             lines.append(f"  not registered: {name} ({why})")
         lines.append("  times: " + ", ".join(f"{k} {v:.1f} s" for k, v in r["timings"].items()))

@@ -17,6 +17,7 @@ from camcmm.api import InputError, PluginError, PointCloud, RunContext, read_cal
 
 from .sfm import DEFAULT_MODEL, reconstruct_sparse
 from .sparse import SparseResult
+from .turntable import DEFAULT_WINDOW, check_turntable, parse_angles
 
 
 def _series(images: Any) -> tuple[list[np.ndarray], list[str]]:
@@ -116,6 +117,8 @@ def reconstruct(
     camera_model: str = DEFAULT_MODEL,
     scheduler: str = "",
     dense_max_image_size: int = 1600,
+    turntable_angles: Any = "",
+    turntable_window: float = DEFAULT_WINDOW,
 ) -> dict[str, Any]:
     """Multi-view reconstruction of an image series from one camera (thesis ch. 2.3-2.5, 4).
 
@@ -132,12 +135,16 @@ def reconstruct(
         images are resized with area averaging and the intrinsics scaled to match
         (:func:`.dense.scaled_camera`). 1600 px as COLMAP's "medium" patch-match stereo: SGBM's
         time grows with the cube of the side, and the dense points stay in world units.
+    turntable_angles : the table angle (deg) of each image (list in input order, "DEG,DEG,...",
+        ``step:D``) or "" (none): only pairs within ``turntable_window`` deg are matched and the
+        cameras are checked against the angles (JSON key ``turntable``, :mod:`.turntable`).
 
     Returns
     -------
     dict ``cloud`` (dense, or sparse with dense off; mm once scaled), ``sparse``, ``reconstruction``.
     """
     arrays, names = _series(images)
+    angles = parse_angles(turntable_angles, len(arrays))  # refused before any work
     cal = _calibration(calibration)
     share = 0.45 if dense else 0.95
 
@@ -151,11 +158,18 @@ def reconstruct(
         max_image_size=int(max_image_size),
         matching=matching,
         camera_model=camera_model,
+        turntable_angles=angles,
+        turntable_window=float(turntable_window),
         progress=sfm_progress,
         cancel=lambda: ctx.cancelled,
     )
     for w in sp.warnings:
         ctx.warn(w)
+    table: dict[str, Any] = {}
+    if angles is not None:
+        table, more = check_turntable(sp.views, dict(zip(names, angles.tolist(), strict=True)))
+        for w in more:
+            ctx.warn(w)
     d = None
     if dense:
         try:
@@ -209,5 +223,7 @@ def reconstruct(
     if f != 1.0:
         ctx.warn(f"scaled to mm by {sc['method']}: factor {f:.6g} (u {float(sc['u']):.3g})")
     rec = reconstruction_json(sp, d, sc, ctx.warnings)
+    if table:  # the circle's radius and centre scale with the cloud; the angles do not
+        rec["turntable"] = {**table, "radius": table["radius"] * f, "axis_point": [x * f for x in table["axis_point"]]}
     ctx.progress(1.0, "done")
     return {"cloud": cloud, "sparse": sparse, "reconstruction": rec}

@@ -31,6 +31,7 @@ from camcmm.api import Cancelled, InputError
 from .cameras import COLMAP_PARAMS, colmap_from_opencv
 from .inputs import check_registration, check_series, per_image_counts, reason_unregistered, write_images
 from .sparse import SparseResult, model_result
+from .turntable import DEFAULT_WINDOW, angle_pairs, parse_angles, write_pair_list
 
 #: camera model of a self-calibrated series: COLMAP's, one focal length and k1 (a real lens has
 #: distortion; SIMPLE_PINHOLE suits distortion-free optics, see docs/photogrammetry.md)
@@ -154,6 +155,8 @@ def reconstruct_sparse(
     refine: bool = True,
     refine_principal_point: bool = True,
     seed: int = 0,
+    turntable_angles: Sequence[float] | str | None = None,
+    turntable_window: float = DEFAULT_WINDOW,
     progress: Callable[[float, str], None] | None = None,
     cancel: Callable[[], bool] | None = None,
     workdir: str | Path | None = None,
@@ -173,6 +176,8 @@ def reconstruct_sparse(
     refine : end with retriangulation and a converged global bundle adjustment.
     refine_principal_point : also self-calibrate the principal point in that adjustment.
     seed : random seed of RANSAC and the mapper (repeatable results).
+    turntable_angles : table angle (deg) of each image, ``step:D`` or None (see
+        :func:`.turntable.parse_angles`): only pairs within ``turntable_window`` deg are matched.
     progress : ``progress(fraction, message)``; cancel : ``cancel() -> bool``, polled.
     workdir : folder for the images, database and model (kept); default a temporary one.
 
@@ -186,6 +191,7 @@ def reconstruct_sparse(
         raise InputError(f"photogrammetry: matching {matching!r}: choose exhaustive or sequential")
     if camera_model not in COLMAP_PARAMS:
         raise InputError(f"photogrammetry: camera model {camera_model!r}: choose one of {', '.join(COLMAP_PARAMS)}")
+    angles = parse_angles(turntable_angles, len(images))
     pycolmap = _pycolmap()
     pycolmap.set_random_seed(int(seed))
     h, w = np.asarray(images[0]).shape[:2]
@@ -239,23 +245,16 @@ def reconstruct_sparse(
         mopts.use_gpu = False
         verify = pycolmap.TwoViewGeometryOptions()
         verify.ransac.random_seed = int(seed)
-        if matching == "exhaustive":
-            match = lambda: pycolmap.match_exhaustive(  # noqa: E731
-                db,
-                matching_options=mopts,
-                verification_options=verify,
-                device=pycolmap.Device.cpu,
-                cancellation_token=st.token,
-            )
+        common = dict(matching_options=mopts, verification_options=verify, device=pycolmap.Device.cpu)
+        common["cancellation_token"] = st.token
+        if angles is not None:  # the table angles choose the pairs (turntable.angle_pairs)
+            pairs = angle_pairs(angles, turntable_window)
+            listed = pycolmap.ImportedPairingOptions(match_list_path=write_pair_list(root / "pairs.txt", files, pairs))
+            match = lambda: pycolmap.match_image_pairs(db, pairing_options=listed, **common)  # noqa: E731
         else:
-            match = lambda: pycolmap.match_sequential(  # noqa: E731
-                db,
-                matching_options=mopts,
-                verification_options=verify,
-                device=pycolmap.Device.cpu,
-                cancellation_token=st.token,
-            )
-        st.run("match", f"{matching} matching", match)
+            fn = pycolmap.match_exhaustive if matching == "exhaustive" else pycolmap.match_sequential
+            match = lambda: fn(db, **common)  # noqa: E731
+        st.run("match", "turntable-window matching" if angles is not None else f"{matching} matching", match)
         per_image, n_pairs = per_image_counts(pycolmap, db, files, names)
 
         popts = pycolmap.IncrementalPipelineOptions()
@@ -331,7 +330,9 @@ def reconstruct_sparse(
             "calibrated": fixed,
             "max_image_size": int(max_image_size),
             "sfm_image_size": [nw, nh],
-            "matching": matching,
+            "matching": matching if angles is None else "turntable",
+            **({} if angles is None else {"turntable_window_deg": float(turntable_window), "pairs_listed": len(pairs)}),
+            "pairs_verified": int(n_pairs),
             "max_features": int(max_features),
             "refine": bool(refine),
             "refine_principal_point": bool(refine_principal_point),
