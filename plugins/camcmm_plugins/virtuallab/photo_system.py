@@ -176,6 +176,7 @@ def render(placement: dict[str, Any], out: Path, opts: dict[str, Any], progress=
         "seed": seed,
         "spec": spec,
         "grain_mm": grain,
+        "angles": series.angles.tolist(),  # the table angle of each image (deg)
     }
 
 
@@ -252,6 +253,7 @@ def measure(placement: dict[str, Any], opts: dict[str, Any], ctx) -> dict[str, A
             images=series["files"],
             dense=bool(opts.get("dense", True)),
             max_image_size=int(opts["max_image_size"]),
+            turntable_angles=",".join(f"{a:.9g}" for a in series["angles"]),  # the table's known angles
             **kw,
         )
     t2 = time.perf_counter()
