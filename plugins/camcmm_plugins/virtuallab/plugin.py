@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import ParameterError, PointCloud
+from camcmm.api import InputError, ParameterError, PointCloud, TriangleMesh
 
 from . import artefacts
 from . import sensor as sensors
@@ -211,6 +211,8 @@ def turntable_series(
     supersample: int = 2,
     depth_of_field: bool = True,
     seed: int = 0,
+    material: str = "ti6al4v",
+    sizes: dict | None = None,
 ) -> dict[str, Any]:
     """The chapter-4 turntable series with laser speckle (virtuallab.turntable-series)."""
     from .turntable import SeriesSpec, write_series
@@ -218,6 +220,7 @@ def turntable_series(
     spec = SeriesSpec(
         artefact, n_images, arc_deg, elevation, downscale, f_number, magnification, speckle,
         wavelength, distance, diffuser, grain, 0.3, supersample, depth_of_field, seed,
+        material=material, sizes=dict(sizes or {}),
     )  # fmt: skip
     res = write_series(spec, out, ctx.progress)
     for w in res["warnings"]:
@@ -250,3 +253,21 @@ def photogrammetry_system(
         "max_image_size": max_image_size, "calibrated": calibrated, "seed": seed,
     }  # fmt: skip
     return measure(dict(placement), opts, ctx)
+
+
+def am_artefact(ctx, artefact: str = "am_pyramid", sizes: dict | None = None) -> dict[str, Any]:
+    """The CAD mesh of an AM test artefact of ch. 6.2 with its face classes (virtuallab.am-artefact)."""
+
+    from . import am_artefacts
+
+    try:
+        V, F, cls, used = am_artefacts.build(artefact, sizes)
+    except (ValueError, TypeError) as exc:
+        raise InputError(str(exc)) from None
+    return {
+        "mesh": TriangleMesh(V, F, name=artefact),
+        "face_class": cls.astype(int).tolist(),
+        "face_classes": list(am_artefacts.FACE_CLASSES),
+        "class_areas": am_artefacts.class_areas(V, F, cls),
+        "sizes_used": used,
+    }

@@ -52,6 +52,11 @@ class Lighting:
     gamma: float = 1.0  # projector response: emitted = pattern ** gamma
     projector_blur: float = 0.0  # Gaussian sigma (projector px) of the projector's optics
     falloff: bool = True
+    # a solid texture: f(points (N, 3) mm, normals (N, 3), primitive (N,)) -> albedo factor (N,)
+    texture: object = None
+    # the lamp as a uniform hemisphere about diffuse_direction (a lighting enclosure, ch. 6.2):
+    # irradiance (1 + n·l)/2 of an unoccluded Lambertian surface, so walls are lit too
+    hemisphere: bool = False
 
 
 @dataclass
@@ -125,11 +130,14 @@ def _batch(scene, albedo, camera, projector, light: Lighting, s: int, XY, r0: in
     n = nrm[hit]
     n[np.einsum("ij,ij->i", n, dh) > 0] *= -1  # face the camera
     rho = albedo[idx[hit]]
+    if light.texture is not None:  # a material's texture, fixed on the part (AM artefacts, ch. 6.2)
+        rho = rho * light.texture(Xw, n, idx[hit])
     p = pix_of[hit]
     ldir = np.asarray(light.diffuse_direction, float)
     ldir = ldir / np.linalg.norm(ldir)
     out["base"] = out["base"] + np.bincount(p, rho * light.ambient - light.background, minlength=npx)
-    out["lamp"] = np.bincount(p, rho * light.diffuse * np.clip(n @ ldir, 0, None), minlength=npx)
+    cos_d = 0.5 * (1.0 + n @ ldir) if light.hemisphere else np.clip(n @ ldir, 0, None)
+    out["lamp"] = np.bincount(p, rho * light.diffuse * cos_d, minlength=npx)
     out["depth"] = np.bincount(p, Xw @ camera.rotation[2] + camera.translation[2], minlength=npx)
     out["hits"] = np.bincount(p, minlength=npx).astype(float)
     if projector is None or light.projector <= 0:

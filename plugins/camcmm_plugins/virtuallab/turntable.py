@@ -29,7 +29,7 @@ import numpy as np
 
 from camcmm.api import CameraModel, Image, InputError, check_calibration, check_disk, write, write_calibration
 
-from . import artefacts, imaging, render
+from . import am_artefacts, artefacts, imaging, materials, render
 from .dslr import Dslr
 from .speckle import (
     MIN_GRAIN,
@@ -40,7 +40,8 @@ from .speckle import (
     subjective_grain,
 )
 
-ARTEFACTS = ("sphere", "ball_plate", "sphere_with_scale")
+#: The chapter-4 artefacts and the four AM artefacts of ch. 6.2 (``am_artefacts``).
+ARTEFACTS = ("sphere", "ball_plate", "sphere_with_scale", *am_artefacts.NAMES)
 #: Thesis ch. 4.3: the ball plate's calibrated lengths (mm) and its 5 mm spheres.
 BALL_PLATE_LENGTHS = (5.942, 7.956, 9.957)
 #: Largest projector pattern side (px): its FFT must stay a few hundred MB.
@@ -70,10 +71,30 @@ class SeriesSpec:
     depth_of_field: bool = True
     seed: int = 0
     extra: dict = field(default_factory=dict)
+    material: str = ""  # AM artefacts: materials.NAMES (default ti6al4v)
+    sizes: dict = field(default_factory=dict)  # AM artefacts: overrides of am_artefacts.DEFAULTS
 
 
-def build_artefact(name: str) -> tuple[list, np.ndarray, dict[str, Any]]:
+def build_artefact(name: str, material: str = "", sizes: dict | None = None) -> tuple[list, np.ndarray, dict[str, Any]]:
     """(primitives, albedo per primitive, truth) of a catalogue artefact at the origin."""
+    if name in am_artefacts.NAMES:
+        from .raycast import Mesh
+
+        try:
+            V, F, cls, used = am_artefacts.build(name, sizes)
+            mat = materials.get(material or "ti6al4v")
+        except (ValueError, TypeError) as exc:
+            raise InputError(str(exc)) from None
+        truth = {
+            "kind": name,
+            "spheres": [],
+            "sizes": used,
+            "material": mat.name,
+            "face_classes": list(am_artefacts.FACE_CLASSES),
+            "class_areas": am_artefacts.class_areas(V, F, cls),
+            "bounds": [V.min(axis=0).tolist(), V.max(axis=0).tolist()],
+        }
+        return [Mesh(V, F, name)], np.array([mat.albedo]), truth
     if name == "sphere":
         prims, truth = artefacts.sphere((0, 0, 0), 10.0)
     elif name == "ball_plate":
@@ -90,6 +111,11 @@ def _extent(truth: dict[str, Any]) -> tuple[np.ndarray, float]:
     """The point on the table's axis at the spheres' mean height (the camera's aim: it
     must lie on the axis, or the artefact would wander through the images) and the
     radius (mm) of a ball about it holding all spheres."""
+    if not truth["spheres"]:  # a mesh artefact: the ball about its box's centre on the axis
+        lo, hi = (np.asarray(b, float) for b in truth["bounds"])
+        mid = np.array([0.0, 0.0, (lo[2] + hi[2]) / 2])
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        return mid, float(np.max(np.linalg.norm(corners - mid, axis=1)))
     c = np.array([s["center"] for s in truth["spheres"]], float)
     r = np.array([s["diameter"] / 2 for s in truth["spheres"]])
     mid = np.array([0.0, 0.0, c[:, 2].mean()])
@@ -103,7 +129,7 @@ class TurntableSeries:
         self.spec = spec
         if not 1 <= spec.n_images <= 10000:
             raise InputError(f"n_images {spec.n_images}: use 1 .. 10000")
-        self.prims, self.albedo, self.artefact_truth = build_artefact(spec.artefact)
+        self.prims, self.albedo, self.artefact_truth = build_artefact(spec.artefact, spec.material, spec.sizes)
         self.target, radius = _extent(self.artefact_truth)
         mag = spec.magnification or float(np.clip(0.7 * 15.6 / (2.6 * radius), 0.05, 2.0))
         try:
@@ -114,6 +140,14 @@ class TurntableSeries:
         self.lighting = render.Lighting(projector=3.0, ambient=0.03, diffuse=1.2, diffuse_direction=(0.0, 0.0, 1.0))
         self.grain = spec.grain_mm or objective_grain(spec.wavelength_nm, spec.distance_mm, spec.diffuser_mm)
         self.projector, self.pattern = self._projector(radius)
+        if spec.artefact in am_artefacts.NAMES:
+            mat = materials.get(self.artefact_truth["material"])
+            self.lighting.texture = lambda p, n, _i: mat.texture(p, n, spec.seed)
+            self.lighting.hemisphere = True  # ch. 6.2's lighting enclosure: diffuse from above and around
+            self.lighting.diffuse = 0.9
+            # translucency: the projected light spreads under the surface (σ in projector px)
+            n_px = self.projector.image_size[0]
+            self.lighting.projector_blur = mat.subsurface_mm * n_px / (3.0 * radius)
         sg = subjective_grain(spec.wavelength_nm, spec.f_number, mag)
         self.subjective = {
             "grain_mm": sg,
