@@ -146,7 +146,9 @@ def test_virtual_lab_series_angles_recovered_and_window_matches_fewer_pairs(tmp_
     named = [w for w in res.warnings if "turntable prior" in w]
     assert len(named) == 1 and "1 view(s)" in named[0] and "image007.png (-" in named[0], res.warnings
     assert every["turntable"]["views"][7]["deviation_deg"] == pytest.approx(-20.0, abs=1.5)
-    res = host.run("photogrammetry.reconstruct", inputs, {"dense": False, "turntable_angles": "step:11.25"})
+    res = host.run(
+        "photogrammetry.reconstruct", inputs, {"dense": False, "turntable_angles": "step:11.25", "turntable_window": 60}
+    )
     rec = res.outputs["reconstruction"]
     assert not any("turntable prior" in w for w in res.warnings), res.warnings
     # the window (60 deg: 5 neighbours either side) lists 65 of the 120 pairs and loses no view

@@ -54,7 +54,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="DEG,DEG,...|step:D",
         help="table angle of each image (deg): match only pairs within --turntable-window, check the cameras",
     )
-    r.add_argument("--turntable-window", type=float, default=None, metavar="DEG", help="with the angles (default 60)")
+    r.add_argument("--turntable-window", type=float, default=None, metavar="DEG", help="with the angles (default 90)")
     r.add_argument("--out", metavar="cloud.ply", help="write the cloud (dense, or sparse with --sparse-only)")
     r.add_argument("--project", metavar="DIR", help="record the result in this project folder")
     i = sub.add_parser("import", help="read a COLMAP model or a Metashape export")
