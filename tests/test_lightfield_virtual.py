@@ -133,3 +133,33 @@ def test_flat_region_only_as_the_thesis(lfset):
     for v, w in zip(r["views"], a["views"]):
         assert v["n_pixels"] < w["n_pixels"] - 1000
         assert abs(v["gradient_mm_per_lambda"] - g_true) < 3 * v["u_gradient"], v
+
+
+def test_views_from_a_colmap_model_give_the_same_gradients(lfset, tmp_path):
+    """A COLMAP text model of the same views (camera centre of the top-left pixel at 0.5, 0.5,
+    quaternions) read by photogrammetry.import: the same depth maps, the same lines."""
+    from scipy.spatial.transform import Rotation
+
+    d, _ = lfset
+    run = d / "set3_sphere10"
+    doc = json.loads((run / "views.json").read_text())
+    c = doc["camera"]
+    model = tmp_path / "sparse"
+    model.mkdir()
+    (model / "cameras.txt").write_text(
+        f"1 PINHOLE {c['width']} {c['height']} {c['fx']} {c['fy']} {c['cx'] + 0.5} {c['cy'] + 0.5}\n"
+    )
+    lines = []
+    for i, v in enumerate(doc["views"], start=1):
+        x, y, z, w = Rotation.from_matrix(np.asarray(v["R"])).as_quat()
+        lines += [f"{i} {w} {x} {y} {z} {' '.join(map(str, v['t']))} 1 {v['image']}", ""]
+    (model / "images.txt").write_text("\n".join(lines) + "\n")
+    (model / "points3D.txt").write_text("")
+    inputs = {"cloud": str(run / "cloud.ply"), "depth_maps": str(run / "depth")}
+    a = default_host().run("lightfield.gradient", {**inputs, "views": str(run / "views.json")}, {})
+    b = default_host().run("lightfield.gradient", {**inputs, "views": str(model)}, {})
+    ga = [v["gradient_mm_per_lambda"] for v in a.outputs["result"]["views"]]
+    gb = [v["gradient_mm_per_lambda"] for v in b.outputs["result"]["views"]]
+    assert gb == pytest.approx(ga, rel=1e-9)
+    n_px = [[v["n_pixels"] for v in x.outputs["result"]["views"]] for x in (a, b)]
+    assert n_px[0] == n_px[1]

@@ -134,7 +134,7 @@ def text(r: dict[str, Any]) -> str:
         )
         f = r.get("focal")
         if f:
-            lines.append(f"gradient = {f['slope']:.5f} × f + {f['intercept']:.4f} mm/λ (r² {f['r2']:.4f}, n {f['n']})")
+            lines.append(f"gradient = {f['slope']:.5f} × f {f['intercept']:+.4f} mm/λ (r² {f['r2']:.4f}, n {f['n']})")
             p = f.get("predicted")
             if p:
                 u = "—" if p["u"] is None else f"{p['u']:.4f}"

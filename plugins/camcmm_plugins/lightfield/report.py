@@ -73,7 +73,7 @@ def focal_figure(f: dict[str, Any]) -> bytes:
     ax.plot(xs, f["slope"] * xs + f["intercept"], "-", color="#555555", lw=1)
     ax.set_xlabel("calibrated focal length (mm)", fontsize=7)
     ax.set_ylabel("gradient (mm λ⁻¹)", fontsize=7)
-    ax.set_title(f"gradient = {f['slope']:.5f} f + {f['intercept']:.4f} (r² {f['r2']:.4f})", fontsize=8)
+    ax.set_title(f"gradient = {f['slope']:.5f} f {f['intercept']:+.4f} (r² {f['r2']:.4f})", fontsize=8)
     ax.tick_params(labelsize=6)
     return _png(fig)
 

@@ -6,6 +6,7 @@ A study file (YAML or JSON) lists runs; paths are relative to the file::
 
     name: my parts
     predict_focal_mm: 45          # optional
+    pixel_pitch_um: 1.4           # optional: a run without focal_length_mm gets fx (px) × pitch
     runs:
       - {set: Set 1, artefact: Pillars, focal_length_mm: 30.2,
          cloud: p1/cloud.ply, views: p1/views.json, depth_maps: p1/depth, lambda_range: "-6,9"}
@@ -110,6 +111,10 @@ def run_study(
             )
             res = o["result"]
             row.update(gradient_mm_per_lambda=res["mean"], std=res["std"], n_views=res["n_views"], views=res["views"])
+            pitch = r.get("pixel_pitch_um", doc.get("pixel_pitch_um"))
+            if row["focal_length_mm"] is None and pitch is not None:
+                # the calibrated focal length of fig. 6.16: the reconstruction's own fx (px) times the pixel pitch
+                row["focal_length_mm"] = res["focal_length_px"] * float(pitch) / 1000.0
             scatter.append({"set": row["set"], "artefact": row["artefact"], "views": o["scatter"]})
         runs_out.append(row)
     tab = table(runs_out)
