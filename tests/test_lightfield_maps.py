@@ -129,3 +129,14 @@ def test_views_from_a_reconstruction_json(tmp_path):
     f.write_text(json.dumps({"views": []}))
     with pytest.raises(InputError, match=r"rec\.json: no 'views'"):
         gradient.load_views(str(f))
+
+
+def test_polygon_region():
+    m = depthmap.polygon_mask([[10, 5], [29, 5], [29, 14], [10, 14]], (W, H))
+    assert m.shape == (H, W) and m.sum() == 20 * 10 and m[5, 10] and not m[4, 10]
+    with pytest.raises(InputError, match="at least three"):
+        depthmap.polygon_mask([[0, 0], [1, 1]], (W, H))
+    from camcmm_plugins.lightfield.plugin import _polygon
+
+    with pytest.raises(InputError, match=r"polygon '\[\[1,2\]': give JSON"):
+        _polygon("[[1,2]")

@@ -95,3 +95,52 @@ def test_view_fit_band_and_robust_reject_what_they_should():
     assert good["r2"] > 0.9999
     with pytest.raises(InputError, match="fewer than"):
         fit.fit_view(np.full((5, 5), np.nan), lam_meas[:5, :5])
+
+
+def test_study_of_table_6_3_through_the_plugin(tmp_path):
+    """lightfield.study on table 6.3's own gradients (runs measured before): the table and its
+    std row as printed; no focal lengths, so no fit (warned)."""
+    import yaml
+
+    from camcmm.api import default_host
+
+    runs = [
+        {"set": f"Set {j + 1}", "artefact": a, "gradient_mm_per_lambda": g}
+        for a, row in TABLE_6_3.items()
+        for j, g in enumerate(row)
+    ]
+    f = tmp_path / "t63.yaml"
+    f.write_text(yaml.safe_dump({"name": "table 6.3", "runs": runs}))
+    res = default_host().run("lightfield.study", {"study": str(f)}, {})
+    t = res.outputs["table"]
+    assert [round(s * 1000) for s in t["std"]] == PRINTED_STD_UM
+    assert t["gradients"][1] == TABLE_6_3["Pyramid"]
+    assert res.outputs["focal"] is None and any("focal" in w for w in res.warnings)
+    f.write_text(yaml.safe_dump({"runs": [{"set": "Set 1", "artefact": "A", "cloud": "c.ply"}]}))
+    with pytest.raises(InputError, match=r"t63\.yaml: run 1 needs cloud, views and depth_maps"):
+        default_host().run("lightfield.study", {"study": str(f)}, {})
+
+
+def test_study_focal_length_from_fx_and_pixel_pitch_and_truth():
+    """run_study with a stand-in for lightfield.gradient: a run without focal_length_mm gets
+    fx × pitch; the truth differences; the prediction."""
+    grads = {"a": 3.5, "b": 5.0, "c": 6.5}
+    fx = {"a": 30.0 / 0.0014, "b": 40.0 / 0.0014, "c": 50.0 / 0.0014}
+
+    def fake(cloud, views, depth_maps, **params):
+        k = cloud.split("/")[-1]
+        return {
+            "result": {"mean": grads[k], "std": 0.01, "n_views": 3, "views": [], "focal_length_px": fx[k]},
+            "scatter": [],
+        }
+
+    doc = {
+        "pixel_pitch_um": 1.4,
+        "runs": [{"set": s, "artefact": "P", "cloud": s, "views": "v", "depth_maps": "d"} for s in "abc"],
+        "truth": {"sets": [{"set": "b", "gradient_mm_per_lambda": 5.01}]},
+    }
+    out = study.run_study(doc, fake, predict_focal_mm=45.0)
+    assert out["table"]["focal_length_mm"] == pytest.approx([30.0, 40.0, 50.0])
+    assert out["focal"]["slope"] == pytest.approx(0.15) and out["focal"]["intercept"] == pytest.approx(-1.0)
+    assert out["focal"]["predicted"]["gradient_mm_per_lambda"] == pytest.approx(5.75)
+    assert out["truth"]["sets"] == [pytest.approx({"set": "b", "true": 5.01, "mean": 5.0, "difference": -0.01})]
