@@ -169,3 +169,28 @@ def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path):
     again = json.loads(r.stdout)
     assert again["computed"] == [] and len(again["reused"]) == 2
     assert [c["std_um"] for c in again["cases"]] == [c["std_um"] for c in out["cases"]]
+
+
+def test_a_study_of_real_image_folders_names_every_case_and_its_folder(tmp_path):
+    for c in ("off", "on"):
+        (tmp_path / f"img-{c}").mkdir()
+    pairs = {"measured": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "nominal": [[0, 0, 4], [20, 0, 4], [0, 20, 4]]}
+    f = _study(
+        tmp_path,
+        "artefacts: [{name: am_recess, sizes: {recess: [10, 3]}}]\nmaterials: [abs]\ncapture:\n  images:\n"
+        "    - {artefact: am_recess, material: abs, condition: off, folder: img-off}\n"
+        f"    - {{artefact: am_recess, material: abs, condition: on, folder: img-on, pairs: {json.dumps(pairs)}}}\n",
+    )
+    st = studyfile.load(f)
+    assert [c["id"] for c in st["cases"]] == ["am_recess-abs-off", "am_recess-abs-on"]
+    assert st["cases"][0]["sizes"] == {"recess": [10, 3]} and st["simulated"] is None
+    assert st["images"]["am_recess-abs-on"]["folder"] == str((tmp_path / "img-on").resolve())
+    assert st["images"]["am_recess-abs-on"]["pairs"] == pairs
+    # the keys differ per case and change with a setting
+    k = studyfile.case_key(st, st["cases"][1])
+    assert k != studyfile.case_key(st, st["cases"][0])
+    st["coverage"]["distance"] = 0.3
+    assert studyfile.case_key(st, st["cases"][1]) != k
+    (f.parent / "STUDY2.yaml").write_text(f.read_text().split("capture:")[0] + "capture:\n  images: []\n")
+    with pytest.raises(InputError, match="STUDY2.yaml: no image folder for case am_recess-abs-off"):
+        studyfile.load(f.parent / "STUDY2.yaml")
