@@ -194,3 +194,24 @@ def test_a_study_of_real_image_folders_names_every_case_and_its_folder(tmp_path)
     (f.parent / "STUDY2.yaml").write_text(f.read_text().split("capture:")[0] + "capture:\n  images: []\n")
     with pytest.raises(InputError, match="STUDY2.yaml: no image folder for case am_recess-abs-off"):
         studyfile.load(f.parent / "STUDY2.yaml")
+
+
+def test_report_tables_have_the_thesis_layout_and_show_a_failed_case():
+    from camcmm_plugins.studies.report import build_report
+
+    cov = {"top": 0.9, "side": 0.2, "curved": None, "bottom": 0.0}
+    ok = {"std_um": 175.4, "n_points": 1229514, "coverage_area_fraction": 0.5, "coverage_by_face": cov}
+    rows = [
+        {"id": "am_pyramid-nylon12-off", "artefact": "am_pyramid", "material": "nylon12", "condition": "off"}
+        | {"error": "too few images registered"},
+        {"id": "am_pyramid-nylon12-on", "artefact": "am_pyramid", "material": "nylon12", "condition": "on"} | ok,
+        {"id": "am_recess-abs-off", "artefact": "am_recess", "material": "abs", "condition": "off"} | ok,
+    ]
+    o = {"cases": rows, "summary": speckle.summary(rows), "study": {"name": "t", "file": "f", "work": "w"}}
+    d = build_report(o).to_dict()
+    t61, t62 = ([b for b in s["blocks"] if "rows" in b][0] for s in d["sections"][:2])
+    assert t61["columns"] == ["Artefact", "Nylon non-speckle", "Nylon speckle", "ABS plastic non-speckle"] + [
+        "ABS plastic speckle"
+    ]
+    assert t61["rows"] == [["Pyramid", "failed", 175, None, None], ["Recess", None, None, 175, None]]
+    assert t62["rows"][0] == ["Pyramid", "failed", "1,229,514", None, None]

@@ -34,7 +34,10 @@ def thesis_table(cases: list[dict[str, Any]], key: str, fmt) -> tuple[list[str],
         for m in mats:
             for cond in ("off", "on"):
                 c = by.get((a, m, cond))
-                row.append(fmt(c[key]) if c is not None and c.get(key) is not None else None)
+                if c is not None and "error" in c:
+                    row.append("failed")  # the reason is in the summary's warnings
+                else:
+                    row.append(fmt(c[key]) if c is not None and c.get(key) is not None else None)
         rows.append(row)
     return cols, rows
 
@@ -99,10 +102,10 @@ def build_report(o: dict[str, Any], run=None, **_: Any) -> Report:
         meta={"study": st["file"], "work folder": st["work"]},
     )
     sec = rep.section("Deviation from CAD (table 6.1)")
-    cols, rows = thesis_table(cases, "std_um", lambda v: round(v))
+    cols, rows = thesis_table(o["cases"], "std_um", lambda v: round(v))
     sec.table(cols, rows, caption="Standard deviation (µm) of the point cloud from the CAD, without and with speckle")
     sec = rep.section("Point counts (table 6.2)")
-    cols, rows = thesis_table(cases, "n_points", lambda v: f"{v:,}")
+    cols, rows = thesis_table(o["cases"], "n_points", lambda v: f"{v:,}")
     sec.table(cols, rows, caption="Points in each reconstruction")
     sec = rep.section("Coverage by area")
     sec.paragraph(
