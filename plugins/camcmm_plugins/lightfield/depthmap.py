@@ -71,9 +71,10 @@ def depth_map(
     size: tuple[int, int],
     *,
     measure: str = "distance",
-    tolerance: float = 0.01,
+    tolerance: float = 0.002,
     keep: np.ndarray | None = None,
     edge: int = 1,
+    jump: float = 8.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The photogrammetric depth map ``Im_depth,Photo`` of one view.
 
@@ -119,6 +120,13 @@ def depth_map(
 
         full = binary_erosion(np.isfinite(depth), np.ones((3, 3), bool), iterations=int(edge), border_value=0)
         depth[~full] = np.nan
+    if jump > 0:
+        from scipy.ndimage import maximum_filter, minimum_filter
+
+        hi = maximum_filter(np.where(np.isfinite(depth), depth, -np.inf), size=3, mode="nearest")
+        lo = minimum_filter(np.where(np.isfinite(depth), depth, np.inf), size=3, mode="nearest")
+        with np.errstate(invalid="ignore"):
+            depth[(hi - lo) > jump * depth / K[0, 0]] = np.nan
     return depth, count.reshape(h, w)
 
 

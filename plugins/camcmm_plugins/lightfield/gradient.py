@@ -99,7 +99,7 @@ def gradients(
     band: float = 0.5,
     robust: bool = True,
     measure: str = "distance",
-    tolerance: float = 0.01,
+    tolerance: float = 0.002,
     scale: float = 1.0,
     keep: np.ndarray | None = None,
     polygon: list | None = None,

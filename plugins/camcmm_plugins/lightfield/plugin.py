@@ -36,7 +36,7 @@ def gradient(
     band: float = 0.5,
     robust: bool = True,
     depth_measure: str = "distance",
-    tolerance: float = 0.01,
+    tolerance: float = 0.002,
     scale: float = 1.0,
     region: str = "all",
     region_tolerance: float = 0.5,

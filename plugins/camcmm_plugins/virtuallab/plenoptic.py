@@ -57,12 +57,25 @@ def ring_views(n: int, distance: float, elevation_deg: float, target_z: float = 
     return out
 
 
-def raycast(K: np.ndarray, R: np.ndarray, t: np.ndarray, size: tuple[int, int], sphere_r: float) -> np.ndarray:
+def raycast(
+    K: np.ndarray, R: np.ndarray, t: np.ndarray, size: tuple[int, int], sphere_r: float, dist: np.ndarray | None = None
+) -> np.ndarray:
     """Per pixel (H, W, 3) the camera-frame point its centre's ray meets first: a sphere of
-    radius ``sphere_r`` resting on the plane z = 0 at the origin, else the plane."""
+    radius ``sphere_r`` resting on the plane z = 0 at the origin, else the plane. With
+    ``dist`` (OpenCV's coefficients; only k1 is used) each pixel's ray is the undistorted one."""
     w, h = size
     u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
-    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
+    if dist is not None and np.any(dist):
+        # radial k1 only: invert x_d = x (1 + k1 r^2) by fixed-point iteration to machine precision
+        # (cv2.undistortPoints stops after 5 iterations, not exact enough for a truth)
+        xd, yd = (u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]
+        x, y = xd.copy(), yd.copy()
+        for _ in range(100):
+            f = 1.0 + float(dist[0]) * (x * x + y * y)
+            x, y = xd / f, yd / f
+        rays = np.stack([x, y, np.ones_like(u)], -1)
+    else:
+        rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], -1)
     d = rays @ R  # world directions (R^T r)
     c = -R.T @ t  # camera centre in the world
     s = np.full(u.shape, np.inf)
@@ -137,6 +150,7 @@ def lightfield_set(
     band_shrink: float = 0.5,
     band_sigma: float = 0.2,
     measure: str = "distance",
+    k1: float = 0.0,
     seed: int = 63,
 ) -> dict[str, Any]:
     """Write a light-field scale set: per focal length (a "set", table 6.3's column) and
@@ -144,6 +158,7 @@ def lightfield_set(
     (reconstruction JSON: camera, views [{image, R, t, centre}], image_size) and
     ``depth/<image>.png`` (16-bit, eq. 6.5) + ``.json`` sidecars; ``study.yaml`` listing
     the runs for ``lightfield.study``; ``truth.json`` (the gradient per set, the law).
+    ``k1``: radial distortion of the camera (OpenCV's k1), so the chain's distortion path is checked.
 
     Returns
     -------
@@ -158,6 +173,7 @@ def lightfield_set(
     rng = np.random.default_rng(seed)
     w, h = int(size[0]), int(size[1])
     a, b = float(gradient_law[0]), float(gradient_law[1])
+    dist = np.array([float(k1), 0.0, 0.0, 0.0, 0.0])
     runs, truth_sets, files = [], [], []
     for si, f in enumerate(focal_lengths):
         g = a + b * float(f)
@@ -177,7 +193,7 @@ def lightfield_set(
             views = []
             for vi, (R, t) in enumerate(ring_views(n_views, D0, elevation_deg, target_z=0.0)):
                 name = f"view_{vi:03d}.png"
-                Xc = raycast(K, R, t, (w, h), float(r))
+                Xc = raycast(K, R, t, (w, h), float(r), dist)
                 _, lam = lambda_map(
                     Xc, D0, g, rng, measure=measure, sigma_lambda=sigma_lambda,
                     band=band, band_shrink=band_shrink, band_sigma=band_sigma,
@@ -195,7 +211,7 @@ def lightfield_set(
                 "fy": fx,
                 "cx": K[0, 2],
                 "cy": K[1, 2],
-                "dist": [],
+                "dist": dist.tolist() if k1 else [],
                 "width": w,
                 "height": h,
             }
