@@ -188,3 +188,30 @@ def test_lens_distortion_is_applied(tmp_path):
     (tmp_path / "nodist.json").write_text(json.dumps(doc))
     bad = default_host().run("lightfield.gradient", {**inputs, "views": str(tmp_path / "nodist.json")}, {})
     assert abs(bad.outputs["result"]["views"][0]["gradient_mm_per_lambda"] - g_true) > 10 * v["u_gradient"]
+
+
+def test_scale_multiplies_the_cloud_and_the_translations(lfset, tmp_path):
+    """A reconstruction in its own unit (here half the size): scale 2 gives back the mm result (ch. 6.3.2)."""
+    from camcmm.api import PointCloud, read, write
+
+    d, _ = lfset
+    run = d / "set1_sphere10"
+    cloud = read(run / "cloud.ply")
+    write(PointCloud(np.asarray(cloud.points) / 2.0, name="half"), tmp_path / "half.ply")
+    doc = json.loads((run / "views.json").read_text())
+    for v in doc["views"]:
+        v["t"] = (np.asarray(v["t"]) / 2.0).tolist()
+    (tmp_path / "half.json").write_text(json.dumps(doc))
+    ref = default_host().run(
+        "lightfield.gradient",
+        {"cloud": str(run / "cloud.ply"), "views": str(run / "views.json"), "depth_maps": str(run / "depth")},
+        {},
+    )
+    got = default_host().run(
+        "lightfield.gradient",
+        {"cloud": str(tmp_path / "half.ply"), "views": str(tmp_path / "half.json"), "depth_maps": str(run / "depth")},
+        {"scale": 2.0},
+    )
+    a = [v["gradient_mm_per_lambda"] for v in ref.outputs["result"]["views"]]
+    b = [v["gradient_mm_per_lambda"] for v in got.outputs["result"]["views"]]
+    assert b == pytest.approx(a, rel=1e-6)
