@@ -140,3 +140,14 @@ def test_polygon_region():
 
     with pytest.raises(InputError, match=r"polygon '\[\[1,2\]': give JSON"):
         _polygon("[[1,2]")
+
+
+def test_tiff_maps_and_a_flat_lambda_view(tmp_path):
+    from camcmm_plugins.lightfield import fit
+
+    p = tmp_path / "v.tif"
+    cv2.imwrite(str(p), np.full((3, 5), 32768, np.uint16))
+    m = lytro.read_lambda_map(p, (-2.0, 2.0))
+    assert m["lam"].shape == (3, 5) and np.all(m["lam"] == 2.0) and np.all(m["lam_abs"] == 0.0)
+    with pytest.raises(InputError, match="lambda is the same"):
+        fit.fit_view(np.full((3, 5), 300.0), m["lam"], min_pixels=3)

@@ -82,6 +82,8 @@ def fit_view(
     n_rej = 0
     if use.sum() < min_pixels:
         raise InputError(f"{int(use.sum())} pixels with both depths (after the lambda band), fewer than {min_pixels}")
+    if np.ptp(lam[use]) <= 0:
+        raise InputError(f"lambda is the same ({lam[use][0]:g}) at all {int(use.sum())} pixels: no line to fit")
     f = line_fit(lam[use], depth[use])
     if robust:
         for _ in range(2):
