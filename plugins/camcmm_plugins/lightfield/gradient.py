@@ -38,7 +38,7 @@ def load_views(views: Any, importer: Callable[[str], dict] | None = None) -> dic
         doc = views
     if not isinstance(doc, dict) or not isinstance(doc.get("views"), list) or not doc["views"]:
         raise InputError(f"{name}: no 'views' [{{image, R, t}}] in the reconstruction")
-    cams = doc.get("cameras") or ([doc["camera"]] if doc.get("camera") else [])
+    cams = [dict(c) for c in (doc.get("cameras") or ([doc["camera"]] if doc.get("camera") else []))]
     if not cams:
         raise InputError(f"{name}: no 'camera' or 'cameras' in the reconstruction")
     size = doc.get("image_size")
