@@ -63,6 +63,24 @@ def declared_fields(parameters: Any) -> tuple[list[dict[str, Any]], dict[str, An
     return fields, values
 
 
+def form_values(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
+    """A form's values (``raw``, as the browser sent them) validated against the plugin's
+    declared parameters: keys it does not declare are dropped, never passed on; an empty
+    optional field means its default. Raises the one-line InputError of camcmm.params."""
+    from ..params import validate
+
+    declared = {p.name: p for p in spec.parameters}
+    values: dict[str, Any] = {}
+    for k, v in dict(raw or {}).items():
+        p = declared.get(str(k))
+        if p is None:
+            continue
+        if p.type != "str" and (v is None or (isinstance(v, str) and not v.strip())):
+            continue
+        values[p.name] = v
+    return validate(spec.parameters, values, owner=f"plugin {spec.id!r}")
+
+
 def param_form(
     fields: str,
     values: str,
@@ -131,6 +149,7 @@ def param_form(
                 color="primary",
                 density="compact",
                 hide_details=hide_details,
+                classes=gap,  # its hint, too, reaches the next field's floating label
             )
         )
         v.VSelect(
@@ -156,3 +175,64 @@ def param_form(
                 classes=gap,
             )
         )
+
+
+def run_buttons(prefix: str, on_run: Any, run_args: str, on_cancel: Any, title: str) -> None:
+    """Run (Ctrl+Enter) and Cancel of a page whose state has ``<prefix>_running`` and
+    ``<prefix>_fields``; ``run_args`` the JavaScript arguments of ``on_run``."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with html.Div(classes="d-flex ga-2"):
+        v.VBtn(
+            "Run",
+            color="primary",
+            prepend_icon="mdi-play",
+            click=(on_run, run_args),
+            disabled=(f"{prefix}_running || !{prefix}_fields.length",),
+            loading=(f"{prefix}_running",),
+            title=f"{title} (Ctrl+Enter)",
+            raw_attrs=[*tid(f"{prefix}-run"), 'data-shortcut="run"'],
+        )
+        v.VBtn("Cancel", v_if=f"{prefix}_running", variant="text", click=on_cancel, raw_attrs=tid(f"{prefix}-cancel"))
+
+
+def run_progress(prefix: str) -> None:
+    """The progress bar and the one-line message (red after a failure) of a run whose
+    state has ``<prefix>_running``, ``_progress`` (0-100), ``_error`` and ``_message``."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    p = prefix
+    with v.VProgressLinear(
+        v_show=f"{p}_running || {p}_progress > 0",
+        model_value=(f"{p}_progress",),
+        indeterminate=(f"{p}_running && {p}_progress <= 0",),
+        height=18,
+        rounded=True,
+        color=(f"{p}_running ? 'primary' : ({p}_error ? 'error' : 'success')",),
+        classes="mt-2",
+        raw_attrs=tid(f"{p}-progress"),
+    ):
+        html.Span(f"{{{{ Math.round({p}_progress) }}}} %", classes="text-caption")
+    html.Div(
+        f"{{{{ {p}_message }}}}",
+        classes=(f"{p}_error && !{p}_running ? 'text-caption text-error mt-1' : 'text-caption mt-1'",),
+        title=(f"{p}_message",),
+        raw_attrs=tid(f"{p}-message"),
+    )
+
+
+def warning_alerts(prefix: str) -> None:
+    """One compact warning alert per line of the state list ``<prefix>_warnings``."""
+    from trame.widgets import vuetify3 as v
+
+    v.VAlert(
+        v_for=f"(w, i) in {prefix}_warnings",
+        key="i",
+        text=("w",),
+        type="warning",
+        density="compact",
+        classes="mb-1",
+        raw_attrs=tid(f"{prefix}-warning"),
+    )

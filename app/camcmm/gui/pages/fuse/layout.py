@@ -15,7 +15,7 @@ from typing import Any
 
 from ...jobs import in_background
 from ...viewtools import view_toolbar
-from ...widgets import dyn_tid, param_form, tid
+from ...widgets import dyn_tid, param_form, run_buttons, run_progress, tid, warning_alerts
 from .. import shown
 
 COLUMN = "height: calc(100vh - 48px - 24px); overflow-y: auto;"
@@ -96,8 +96,6 @@ def _inputs() -> None:
 
 def _run(page: Any) -> None:
     """Run, Cancel, the progress and the message."""
-    from trame.widgets import html
-    from trame.widgets import vuetify3 as v
 
     def on_run(params):
         in_background(page.run_async(params), page.state)  # returns at once: Cancel must reach the server
@@ -105,35 +103,8 @@ def _run(page: Any) -> None:
     def on_cancel():
         page.cancel()
 
-    with html.Div(classes="d-flex ga-2"):
-        v.VBtn(
-            "Run",
-            color="primary",
-            prepend_icon="mdi-play",
-            click=(on_run, "[fu_params]"),
-            disabled=("fu_running || !fu_fields.length",),
-            loading=("fu_running",),
-            title="Register the maps, fix the scale, fuse and compare (Ctrl+Enter)",
-            raw_attrs=[*tid("fu-run"), 'data-shortcut="run"'],
-        )
-        v.VBtn("Cancel", v_if="fu_running", variant="text", click=on_cancel, raw_attrs=tid("fu-cancel"))
-    with v.VProgressLinear(
-        v_show="fu_running || fu_progress > 0",
-        model_value=("fu_progress",),
-        indeterminate=("fu_running && fu_progress <= 0",),
-        height=18,
-        rounded=True,
-        color=("fu_running ? 'primary' : (fu_error ? 'error' : 'success')",),
-        classes="mt-2",
-        raw_attrs=tid("fu-progress"),
-    ):
-        html.Span("{{ Math.round(fu_progress) }} %", classes="text-caption")
-    html.Div(
-        "{{ fu_message }}",
-        classes=("fu_error && !fu_running ? 'text-caption text-error mt-1' : 'text-caption mt-1'",),
-        title=("fu_message",),
-        raw_attrs=tid("fu-message"),
-    )
+    run_buttons("fu", on_run, "[fu_params]", on_cancel, "Register the maps, fix the scale, fuse and compare")
+    run_progress("fu")
 
 
 def _results(page: Any) -> None:
@@ -147,15 +118,7 @@ def _results(page: Any) -> None:
     with v.VCard(v_if="fu_numbers.length", variant="outlined", classes="mt-3", raw_attrs=tid("fu-result")):
         v.VCardTitle("{{ fu_title }}", classes="text-subtitle-2", style="white-space: normal;")
         with v.VCardText():
-            v.VAlert(
-                v_for="(w, i) in fu_warnings",
-                key="i",
-                text=("w",),
-                type="warning",
-                density="compact",
-                classes="mb-1",
-                raw_attrs=tid("fu-warning"),
-            )
+            warning_alerts("fu")
             v.VSelect(
                 v_if="fu_map_names.length > 1",
                 model_value=("fu_map",),

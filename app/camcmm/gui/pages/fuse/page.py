@@ -18,6 +18,8 @@ from typing import Any
 
 from ....errors import CamcmmError, one_line
 from ...jobs import Job
+from ...runpage import RunPage
+from ...runpage import mount as mount_page
 from ...view import color_fields
 from ...widgets import declared_fields
 from . import figures
@@ -36,19 +38,14 @@ EMPTY_HINT = (
 )
 
 
-class FusePage:
+class FusePage(RunPage):
+    KEY, PREFIX, WHAT, runs = KEY, "fu", "fusion", runs
+
     def __init__(self, server: Any, session: Any):
-        self.server = server
-        self.session = session
-        self.state = session.state
-        self.project = session.project
-        self.host = session.host
+        super().__init__(server, session)
         self.view = FuseScene(session.view.display_limit)
-        self.tools: Any = None  # the view's toolbar (mount)
         self.job = Job("fusion", state=self.state, on_progress=self._show_progress, interval=0.2)
         self.runner = runs.fuse
-        self.record: dict[str, Any] | None = None
-        self._shown_result: Any = None
         self._init_state()
         self.refresh_form()
         self.restore()
@@ -63,19 +60,6 @@ class FusePage:
         s.fu_fig_matches = s.fu_fig_diff = s.fu_fig_hist = s.fu_fig_abbott = figures.empty("")
         s.fu_items_made, s.fu_colours, s.fu_colour, s.fu_note, s.fu_outlines = {}, [], None, "", 0
         s.fu_empty_hint = EMPTY_HINT
-
-    def _error(self, msg: Any) -> None:
-        line = one_line(msg)
-        self.state.fu_error = line
-        self.session.error(line, page=KEY)
-
-    def _clear_error(self) -> None:
-        self.state.fu_error = ""
-        self.session.clear_error(page=KEY)
-
-    def spec(self) -> Any:
-        """The manifest of the plugin that fuses (found by its task)."""
-        return self.host.provider(runs.TASK)
 
     def refresh_form(self) -> None:
         """The run form from the plugin's declared parameters."""
@@ -221,37 +205,7 @@ class FusePage:
         if self._shown_result != self.record.get("result"):
             self.show_fused()
 
-    def restore(self) -> None:
-        """The last run, as the project keeps it (the scene is drawn when the page opens)."""
-        try:
-            rec = runs.stored(self.project)
-            if rec is None:
-                return
-            self._set_request(rec.get("request") or {})
-            self.show_record(rec, draw=False)
-            self.state.fu_message = f"result #{rec.get('result')} from the project"
-        except Exception as exc:  # a damaged record must not keep the page from opening
-            log.warning("cannot restore the fusion: %s", exc)
-            self.state.fu_message = f"the stored fusion could not be read: {one_line(exc)}"
-
-    def close(self) -> None:
-        self.job.close()
-        try:
-            self.view.plotter.close()
-        except Exception:
-            pass
-
 
 def mount(server: Any, session: Any) -> FusePage:
     """Create the page for a session and its view tools (before the server starts)."""
-    from ...viewtools import mount_view_tools
-
-    page = FusePage(server, session)
-    page.tools = mount_view_tools(server, page.view, "fuv")
-
-    @server.state.change("page")
-    def _page_changed(**changes: Any) -> None:
-        if changes.get("page") == KEY:
-            page.opened()
-
-    return page
+    return mount_page(FusePage, server, session, "fuv")

@@ -18,7 +18,7 @@ from typing import Any
 from .... import worker
 from ....errors import InputError
 from ....host import to_jsonable
-from ....params import validate
+from ...widgets import form_values
 
 TASK = "csi-fusion"
 CURRENT_KEY = "fuse.current"
@@ -27,18 +27,8 @@ MAP_KIND = "heightmap"
 
 
 def check_params(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
-    """The form's values validated against the plugin's declaration; keys the plugin
-    does not declare are dropped, an empty optional number means its default."""
-    declared = {p.name: p for p in spec.parameters}
-    values: dict[str, Any] = {}
-    for k, v in dict(raw or {}).items():
-        p = declared.get(str(k))
-        if p is None:
-            continue  # a key the browser made up is dropped, not passed on
-        if p.type != "str" and (v is None or (isinstance(v, str) and not v.strip())):
-            continue
-        values[p.name] = v
-    return validate(spec.parameters, values, owner=f"plugin {spec.id!r}")
+    """The form's values validated against the plugin's declaration (widgets.form_values)."""
+    return form_values(spec, raw)
 
 
 def inputs_of(session: Any, req: dict[str, Any]) -> tuple[Any, list[Any], list[dict[str, Any]]]:

@@ -22,9 +22,6 @@ class Display:
     record: dict[str, Any] | None
     _shown_result: Any
 
-    def _error(self, msg: Any) -> None:  # the page's
-        raise NotImplementedError
-
     def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None, draw: bool = True) -> None:
         """A run's record on the page: figures, image counts and (``draw``) the cloud with
         its cameras; a restored record is drawn when the page opens (:meth:`opened`)."""

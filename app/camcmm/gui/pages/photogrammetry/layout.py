@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...viewtools import view_toolbar
-from ...widgets import dyn_tid, param_form, tid
+from ...widgets import dyn_tid, param_form, run_buttons, run_progress, tid, warning_alerts
 from .. import shown
 from . import links
 from .images_view import images_column
@@ -168,18 +168,7 @@ def _run(page: Any) -> None:
     def on_cancel():
         page.cancel()
 
-    with html.Div(classes="d-flex ga-2"):
-        v.VBtn(
-            "Run",
-            color="primary",
-            prepend_icon="mdi-play",
-            click=(on_run, f"[pg_params, {REQUEST}]"),
-            disabled=("pg_running || !pg_fields.length",),
-            loading=("pg_running",),
-            title="Reconstruct the series (Ctrl+Enter)",
-            raw_attrs=[*tid("pg-run"), 'data-shortcut="run"'],
-        )
-        v.VBtn("Cancel", v_if="pg_running", variant="text", click=on_cancel, raw_attrs=tid("pg-cancel"))
+    run_buttons("pg", on_run, f"[pg_params, {REQUEST}]", on_cancel, "Reconstruct the series")
     # not v_show: Vuetify's d-flex is "display: flex !important" and beats v-show's "display: none"
     with html.Div(classes=("pg_running || pg_progress > 0 ? 'd-flex flex-wrap ga-1 mt-2' : 'd-none'",)):
         v.VChip(
@@ -191,23 +180,7 @@ def _run(page: Any) -> None:
             variant=("st.state === 'todo' ? 'outlined' : 'flat'",),
             raw_attrs=dyn_tid("'pg-stage-' + st.name") + [':data-state="st.state"'],
         )
-    with v.VProgressLinear(
-        v_show="pg_running || pg_progress > 0",
-        model_value=("pg_progress",),
-        indeterminate=("pg_running && pg_progress <= 0",),
-        height=18,
-        rounded=True,
-        color=("pg_running ? 'primary' : (pg_error ? 'error' : 'success')",),
-        classes="mt-2",
-        raw_attrs=tid("pg-progress"),
-    ):
-        html.Span("{{ Math.round(pg_progress) }} %", classes="text-caption")
-    html.Div(
-        "{{ pg_message }}",
-        classes=("pg_error && !pg_running ? 'text-caption text-error mt-1' : 'text-caption mt-1'",),
-        title=("pg_message",),
-        raw_attrs=tid("pg-message"),
-    )
+    run_progress("pg")
 
 
 def _results(page: Any) -> None:
@@ -221,15 +194,7 @@ def _results(page: Any) -> None:
     with v.VCard(v_if="pg_summary.length", variant="outlined", classes="mt-3", raw_attrs=tid("pg-result")):
         v.VCardTitle("{{ pg_title }}", classes="text-subtitle-2", style="white-space: normal;")
         with v.VCardText():
-            v.VAlert(
-                v_for="(w, i) in pg_warnings",
-                key="i",
-                text=("w",),
-                type="warning",
-                density="compact",
-                classes="mb-1",
-                raw_attrs=tid("pg-warning"),
-            )
+            warning_alerts("pg")
             with v.VTable(density="compact", raw_attrs=tid("pg-summary")):
                 with html.Tbody():
                     with html.Tr(v_for="r in pg_summary", key="r.name"):

@@ -17,6 +17,8 @@ from typing import Any
 
 from ....errors import CamcmmError, one_line
 from ...jobs import Job, in_background
+from ...runpage import RunPage
+from ...runpage import mount as mount_page
 from ...widgets import declared_fields
 from . import inputs, links
 from . import run as runs
@@ -35,21 +37,16 @@ EMPTY_HINT = (
 )
 
 
-class PhotogrammetryPage(Display):
+class PhotogrammetryPage(Display, RunPage):
+    KEY, PREFIX, WHAT, runs = KEY, "pg", "reconstruction", runs
+
     def __init__(self, server: Any, session: Any):
-        self.server = server
-        self.session = session
-        self.state = session.state
-        self.project = session.project
-        self.host = session.host
+        super().__init__(server, session)
         self.view = PhotoScene(session.view.display_limit)
-        self.tools: Any = None  # the view's toolbar (mount)
         self.job = Job("reconstruction", state=self.state, on_progress=self._show_progress, interval=0.2)
         self.lister = Job("image list", state=self.state)
         self.runner = runs.reconstruct
-        self.record: dict[str, Any] | None = None
         self._sources: list[dict[str, Any]] = []
-        self._shown_result: Any = None
         self._task: Any = None  # the running task started by a button (start)
         self._init_state()
         self.refresh_form()
@@ -69,19 +66,6 @@ class PhotogrammetryPage(Display):
         s.pg_items_made, s.pg_display, s.pg_cameras, s.pg_note = {}, "cloud", 0, ""
         s.pg_colours, s.pg_colour = [], None
         s.pg_empty_hint = EMPTY_HINT
-
-    def _error(self, msg: Any) -> None:
-        line = one_line(msg)
-        self.state.pg_error = line
-        self.session.error(line, page=KEY)
-
-    def _clear_error(self) -> None:
-        self.state.pg_error = ""
-        self.session.clear_error(page=KEY)
-
-    def spec(self) -> Any:
-        """The manifest of the plugin that reconstructs (found by its task)."""
-        return self.host.provider(runs.TASK)
 
     def refresh_form(self) -> None:
         """The run form from the plugin's declared parameters; the calibration offered."""
@@ -267,39 +251,13 @@ class PhotogrammetryPage(Display):
                 dict(r, thumb=thumbs[i] if i < len(thumbs) else "") for i, r in enumerate(self.state.pg_images)
             ]
 
-    def restore(self) -> None:
-        """The last run, as the project keeps it (the scene is drawn when the page opens)."""
-        try:
-            rec = runs.stored(self.project)
-            if rec is None:
-                return
-            self._set_request(rec.get("request") or {})
-            self.show_record(rec, draw=False)
-            self.state.pg_message = f"result #{rec.get('result')} from the project"
-        except Exception as exc:  # a damaged record must not keep the page from opening
-            log.warning("cannot restore the reconstruction: %s", exc)
-            self.state.pg_message = f"the stored reconstruction could not be read: {one_line(exc)}"
-
-    def close(self) -> None:
-        self.job.close()
-        self.lister.close()
-        try:
-            self.view.plotter.close()
-        except Exception:
-            pass
+    def _jobs(self) -> list[Any]:
+        return [self.job, self.lister]
 
 
 def mount(server: Any, session: Any) -> PhotogrammetryPage:
     """Create the page for a session, its view tools and downloads (before the server starts)."""
-    from ...viewtools import mount_view_tools
-
-    page = PhotogrammetryPage(server, session)
-    page.tools = mount_view_tools(server, page.view, "pgv")
-
-    @server.state.change("page")
-    def _page_changed(**changes: Any) -> None:
-        if changes.get("page") == KEY:
-            page.opened()
+    page = mount_page(PhotogrammetryPage, server, session, "pgv")
 
     @server.state.change("items")
     def _items_changed(**_: Any) -> None:

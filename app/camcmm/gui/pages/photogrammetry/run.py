@@ -19,7 +19,7 @@ from typing import Any
 from .... import worker
 from ....errors import InputError
 from ....host import to_jsonable
-from ....params import validate
+from ...widgets import form_values
 from . import inputs
 
 TASK = "photogrammetry"
@@ -50,16 +50,7 @@ def stage_of(message: str) -> str:
 def check_params(spec: Any, raw: dict[str, Any] | None, roots: Any) -> dict[str, Any]:
     """The form's values validated against the plugin's declaration; ``scale``'s
     ``lengths:FILE`` names a file, which must lie inside the roots (made absolute)."""
-    declared = {p.name: p for p in spec.parameters}
-    values: dict[str, Any] = {}
-    for k, v in dict(raw or {}).items():
-        p = declared.get(str(k))
-        if p is None:
-            continue  # a key the browser made up is dropped, not passed on
-        if p.type != "str" and (v is None or (isinstance(v, str) and not v.strip())):
-            continue
-        values[p.name] = v
-    values = validate(spec.parameters, values, owner=f"plugin {spec.id!r}")
+    values = form_values(spec, raw)
     scale = str(values.get("scale") or "").strip()
     if scale.lower().startswith("lengths:") and roots is not None:
         values["scale"] = "lengths:" + str(roots.check(scale.split(":", 1)[1], "scale lengths file"))
