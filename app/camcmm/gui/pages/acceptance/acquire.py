@@ -19,6 +19,8 @@ from camcmm import worker
 from camcmm.errors import one_line
 from camcmm.io import write
 
+from ...widgets import declared_fields, form_values
+
 
 def acquisition_sources(host: Any) -> list[dict[str, Any]]:
     """The installed plugins that acquire a point cloud, for the "Measure with" list."""
@@ -37,8 +39,25 @@ class PageAcquire:
     """The acquisition handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
     def set_source(self, plugin_id: str | None, params: dict[str, Any] | None = None) -> None:
+        """Choose the measuring system; its declared parameters become the settings form
+        (defaults, with ``params`` over them)."""
+        fields: list[dict[str, Any]] = []
+        values: dict[str, Any] = {}
+        if plugin_id:
+            try:
+                fields, values = declared_fields(self.session.host.get(plugin_id).parameters)
+            except Exception as exc:
+                self.session.error(f"measuring system {plugin_id!r}: {one_line(exc)}")
+                plugin_id = None
+        values.update(dict(params or {}))
         self.state.wz_source = plugin_id or None
-        self.state.wz_source_params = dict(params or {})
+        self.state.wz_source_fields = fields
+        self.state.wz_source_params = values
+
+    def source_params(self, source: str) -> dict[str, Any]:
+        """The settings form's values checked against the system's declaration (raises the
+        one-line InputError naming the value)."""
+        return form_values(self.session.host.get(source), self.state.wz_source_params)
 
     def placement(self, test: str, position: str) -> dict[str, Any]:
         w = self.wizard
@@ -75,6 +94,11 @@ class PageAcquire:
             return None
         self.session.bind_loop()
         try:
+            params = self.source_params(source)
+        except Exception as exc:  # a setting the system's declaration refuses: before any work
+            self.session.error(f"{position}: {source} could not measure: {one_line(exc)}")
+            return None
+        try:
             placement = self.placement(test, position)
             # which repeat this is (a simulated system draws a new speckle pattern per repeat)
             placement["repeat"] = self.wizard.prepare(test, position, repeat).repeat
@@ -85,7 +109,7 @@ class PageAcquire:
         self.refresh_cards()
         self.flush()
         try:
-            path = await self.job.call(self._acquire, source, dict(self.state.wz_source_params or {}), placement)
+            path = await self.job.call(self._acquire, source, params, placement)
         except Exception as exc:
             self._set_busy(key, False)
             self.refresh_cards()

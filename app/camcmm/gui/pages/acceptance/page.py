@@ -79,6 +79,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_sources = acquisition_sources(self.session.host)
         s.wz_source = None
         s.wz_source_params = {}
+        s.wz_source_fields = []
         s.wz_acquiring_all = False
 
     def flush(self) -> None:

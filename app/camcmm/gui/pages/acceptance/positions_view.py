@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ...jobs import in_background
-from ...widgets import dyn_tid, tid
+from ...widgets import dyn_tid, param_form, tid
 from .result_view import verdict_color
 
 
@@ -66,6 +66,21 @@ def _source_bar(page: Any) -> None:
             click="wz_acquiring_all = false",
             title="Stop after the position being acquired",
         )
+    _source_settings()
+
+
+def _source_settings() -> None:
+    """The chosen system's declared parameters (images, resolution, speckle ...), folded."""
+    from trame.widgets import vuetify3 as v
+
+    with v.VExpansionPanels(v_if="wz_source && wz_source_fields.length", classes="mb-2", raw_attrs=tid("wz-sys")):
+        with v.VExpansionPanel(raw_attrs=tid("wz-sys-panel")):
+            v.VExpansionPanelTitle(
+                "Settings of the measuring system",
+                title="The parameters the system declares; each acquisition uses them as they stand",
+            )
+            with v.VExpansionPanelText():
+                param_form("wz_source_fields", "wz_source_params", "wz-sys", disabled="wz_acquiring_all", sync=True)
 
 
 def _counters() -> None:
