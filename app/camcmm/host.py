@@ -86,6 +86,17 @@ class RunResult:
     finished: str
     warnings: list[str] = field(default_factory=list)
 
+    def provenance(self) -> dict[str, Any]:
+        """Who made the result and from what: the ``plugin`` block of a command's JSON."""
+        return {
+            "id": self.plugin_id,
+            "version": self.plugin_version,
+            "params": self.params,
+            "input_hashes": self.input_hashes,
+            "started": self.started,
+            "finished": self.finished,
+        }
+
     def to_json(self) -> dict[str, Any]:
         return {
             "plugin": self.plugin_id,

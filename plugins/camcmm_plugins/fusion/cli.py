@@ -57,14 +57,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     o = res.outputs
     out = dict(o["result"])
     out["warnings"] = list(res.warnings)
-    out["plugin"] = {
-        "id": res.plugin_id,
-        "version": res.plugin_version,
-        "params": res.params,
-        "input_hashes": res.input_hashes,
-        "started": res.started,
-        "finished": res.finished,
-    }
+    out["plugin"] = res.provenance()
     if args.report:  # rendered in memory first: a failure writes nothing
         from .report import build_report
 

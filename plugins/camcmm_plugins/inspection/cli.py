@@ -164,14 +164,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "nominal_info": o["nominal_info"],
         "alignment": o["alignment"],
         "warnings": res.warnings,
-        "plugin": {
-            "id": res.plugin_id,
-            "version": res.plugin_version,
-            "params": res.params,
-            "input_hashes": res.input_hashes,
-            "started": res.started,
-            "finished": res.finished,
-        },
+        "plugin": res.provenance(),
     }
     out["held_dofs"] = list(o.get("held_dofs", []))
     out["aligned"] = bool(o["converged"])

@@ -53,17 +53,6 @@ def configure(parser: argparse.ArgumentParser) -> None:
         sp.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document")
 
 
-def _plugin(res) -> dict[str, Any]:
-    return {
-        "id": res.plugin_id,
-        "version": res.plugin_version,
-        "params": res.params,
-        "input_hashes": res.input_hashes,
-        "started": res.started,
-        "finished": res.finished,
-    }
-
-
 def run(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     if args.what == "simulate":
@@ -102,7 +91,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         out = dict(res.outputs["result"])
         builder = "study_report"
     out["warnings"] = list(res.warnings)
-    out["plugin"] = _plugin(res)
+    out["plugin"] = res.provenance()
     if args.report:
         from . import report
 

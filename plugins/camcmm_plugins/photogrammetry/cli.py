@@ -126,14 +126,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     o = res.outputs
     out = dict(o["reconstruction"])
     out["warnings"] = list(res.warnings)
-    out["plugin"] = {
-        "id": res.plugin_id,
-        "version": res.plugin_version,
-        "params": res.params,
-        "input_hashes": res.input_hashes,
-        "started": res.started,
-        "finished": res.finished,
-    }
+    out["plugin"] = res.provenance()
     if args.out:
         write(o["cloud"], args.out)
         out["written"] = {"cloud": str(args.out)}
