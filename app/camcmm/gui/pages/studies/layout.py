@@ -93,13 +93,14 @@ def _inputs(page: Any) -> None:
 
 
 def _run(page: Any) -> None:
-    def on_run(params):
-        in_background(page.run_async(params), page.state)  # returns at once: Cancel must reach the server
+    def on_run(params, file=None):
+        # the file as the browser has it (a field typed just before the click may not be synced yet)
+        in_background(page.run_async(params, file), page.state)  # returns at once: Cancel must reach the server
 
     def on_cancel():
         page.cancel()
 
-    run_buttons("st", on_run, "[st_params]", on_cancel, "Run the study on its file")
+    run_buttons("st", on_run, "[st_params, st_file]", on_cancel, "Run the study on its file")
     run_progress("st")
 
 
@@ -131,7 +132,7 @@ def _parameters() -> None:
 
 
 def _results(page: Any) -> None:
-    """The title, the tables, the numbers and the figures of the shown run."""
+    """The title, the tables, the figures and the numbers of the shown run."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
@@ -154,11 +155,6 @@ def _results(page: Any) -> None:
                 with html.Tr(v_for="(r, i) in t.rows", key="i"):
                     cls = "j ? 'text-right' : 'font-weight-medium'"
                     html.Td("{{ c }}", v_for="(c, j) in r", key="j", classes=(cls,))
-    with v.VTable(v_if="st_numbers.length", density="compact", classes="mb-3", raw_attrs=tid("st-numbers")):
-        with html.Tbody():
-            with html.Tr(v_for="r in st_numbers", key="r.name"):
-                html.Td("{{ r.label }}", classes="font-weight-medium")
-                html.Td("{{ r.value }}", classes="text-right", raw_attrs=dyn_tid("'st-num-' + r.name"))
     with html.Div(v_show="st_shown_kind === 'lightfield'"):
         v.VSelect(
             v_if="st_views.length", model_value=("st_view",), items=("st_views",), item_title="title",
@@ -179,6 +175,12 @@ def _results(page: Any) -> None:
         with html.Div(classes="d-flex flex-wrap"):
             _chart("flex: 1 1 420px; height: 420px;", "st-map-off", "st_fig_off")
             _chart("flex: 1 1 420px; height: 420px;", "st-map-on", "st_fig_on")
+
+    with v.VTable(v_if="st_numbers.length", density="compact", classes="mt-3 mb-3", raw_attrs=tid("st-numbers")):
+        with html.Tbody():
+            with html.Tr(v_for="r in st_numbers", key="r.name"):
+                html.Td("{{ r.label }}", classes="font-weight-medium")
+                html.Td("{{ r.value }}", classes="text-right", raw_attrs=dyn_tid("'st-num-' + r.name"))
 
 
 def _chart(style: str, testid: str, figure: str) -> None:

@@ -39,17 +39,19 @@ KINDS: dict[str, dict[str, Any]] = {
         "task": "",
         "plugin": "studies.speckle",
         "port": ("param", "study"),
-        "virtual": None,  # a study file with simulated capture settings: written by the page (virtual_speckle)
+        "virtual": None,  # a study file with simulated capture settings: written by make_virtual
     },
 }
-#: the smallest simulated speckle study: one artefact and material, off and on, few small images
+#: the smallest simulated speckle study (as tests/test_studies_speckle.py's tiny one): one
+#: artefact and material, speckle off and on, 12 small images through 108° (9° steps)
 SPECKLE_VIRTUAL = """name: virtual lab, speckle on/off (small)
 artefacts: [am_pyramid]
-materials: [nylon12]
+materials: [ti6al4v]
 conditions: ['off', 'on']
 capture:
-  simulated: {n_images: 12, arc_deg: 270, elevation: 45, downscale: 20}
-reconstruct: {max_image_size: 400}
+  simulated: {n_images: 12, arc_deg: 108, downscale: 12, diffuser: 0.06}
+reconstruct: {max_image_size: 500}
+coverage: {samples: 20000}
 """
 
 

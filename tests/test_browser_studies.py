@@ -1,0 +1,99 @@
+"""The Studies page in a headless Chromium on the demo project (issue 18).
+
+The demo as shipped has no study: the page opens without an error and says what to do.
+A study file outside the project folder and the data roots is refused in one line.
+"Make a virtual-lab study" writes the virtual lab's light-field study into the project
+folder and chooses it; Run computes it: table 6.3 with its three sets and the sample
+standard deviations, the fit's numbers with the prediction at 45 mm near the virtual
+lab's law (-1 + 0.15 f = 5.75 mm/λ), the depth-vs-λ scatter with its line and the
+gradient-vs-focal-length plot appear; Export report offers the HTML, PDF and JSON.
+Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/studies-gui``).
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from browsing import MARKS, launch, server_tracebacks, shots  # noqa: E402
+
+pytestmark = MARKS
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+
+SHOTS = shots("studies-gui")
+
+
+@pytest.fixture
+def demo_server(tmp_path):
+    from camcmm.demo import create_demo
+    from camcmm.gui.process import GuiProcess
+
+    create_demo(tmp_path / "demo")
+    server = GuiProcess(tmp_path / "demo", timeout=180)
+    yield server
+    server.stop()
+
+
+def _text(page, testid: str, pattern: str, timeout: float = 60.0) -> str:
+    """The text of ``testid`` once it matches the regular expression ``pattern``."""
+    loc = page.locator(f'[data-testid="{testid}"]')
+    deadline, text = time.monotonic() + timeout, ""
+    while time.monotonic() < deadline:
+        if loc.count():
+            text = loc.first.inner_text()
+            if re.search(pattern, text):
+                return text
+        time.sleep(0.25)
+    page.screenshot(path=str(SHOTS / f"timeout-{testid}.png"))
+    raise AssertionError(f"{testid}: {pattern!r} did not appear; last text {text!r}")
+
+
+def test_studies_page_runs_the_virtual_light_field_study(demo_server, tmp_path):
+    server = demo_server
+    outside = tmp_path / "outside.yaml"
+    outside.write_text("runs: []\n")
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.set_default_timeout(60_000)
+            page.goto(server.url)
+            page.click('[data-testid="page-studies"]', timeout=180_000)
+            assert "virtual-lab study" in page.locator('[data-testid="st-empty"]').inner_text()
+            assert page.locator('[data-testid="st-error"]').count() == 0
+            assert page.locator('[data-testid="st-param-predict_focal_mm"]').count() == 1  # the plugin's form
+
+            # a file outside the project folder: one line, nothing run
+            page.locator('[data-testid="st-file"] input').fill(str(outside))
+            page.click('[data-testid="st-run"]')
+            err = _text(page, "st-error", r"outside the folders")
+            assert "\n" not in err.strip() and page.locator('[data-testid="st-table-t63"]').count() == 0
+
+            page.click('[data-testid="st-virtual"]')
+            _text(page, "st-message", r"virtual-lab study written", timeout=90)
+            assert page.locator('[data-testid="st-file"] input').input_value().endswith("study.yaml")
+            page.locator('[data-testid="st-param-predict_focal_mm"] input').fill("45")
+            page.click('[data-testid="st-run"]')
+            _text(page, "st-message", r"^done", timeout=120)
+
+            table = page.locator('[data-testid="st-table-t63"]').inner_text()
+            assert "Set 1" in table and "Set 3" in table and "Standard deviation" in table
+            pred = _text(page, "st-num-predicted", r"mm λ⁻¹")
+            assert abs(float(pred.split()[0]) - 5.75) < 0.02, pred
+            for testid, title in (("st-scatter", "Depth vs λ"), ("st-focal", "Gradient vs focal length")):
+                page.wait_for_selector(f'[data-testid="{testid}"] .gtitle:has-text("{title}")')
+            assert page.locator('[data-testid="st-focal"] .errorbar').count() >= 3
+            page.screenshot(path=str(SHOTS / "lightfield.png"), full_page=True)
+
+            page.click('[data-testid="st-report"]')
+            links = _text(page, "st-links", r"(?i)\.pdf", timeout=90).lower()  # buttons write upper case
+            assert ".html" in links and ".json" in links
+            assert page.locator('[data-testid="st-error"]').count() == 0
+        finally:
+            browser.close()
+    assert not server_tracebacks(server.log), server_tracebacks(server.log)
