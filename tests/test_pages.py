@@ -20,7 +20,17 @@ pytest.importorskip("pyvista")
 from camcmm.gui import pages  # noqa: E402
 
 FIXTURE = Path(__file__).with_name("pages_fixture.py")
-BUILT_IN = ["inspect", "acceptance", "compare", "uncertainty", "calibration", "photogrammetry", "fuse", "devices"]
+BUILT_IN = [
+    "inspect",
+    "acceptance",
+    "compare",
+    "uncertainty",
+    "calibration",
+    "photogrammetry",
+    "fuse",
+    "studies",
+    "devices",
+]
 
 
 @pytest.fixture
