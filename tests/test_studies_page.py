@@ -46,6 +46,10 @@ def test_opens_with_both_kinds_and_the_declared_form(app):
     assert s.st_tables == [] and s.st_error == ""
     page.set_kind("speckle")
     assert {f["name"] for f in s.st_fields} == {"fresh"}
+    from camcmm.gui.pages.studies import run as runs
+
+    # the speckle study's required 'study' parameter is the page's file field, not the form's
+    assert runs.check_params(page.spec(), s.st_params) == {"fresh": False}
     page.set_kind("nonsense")  # ignored
     assert s.st_kind == "speckle"
 

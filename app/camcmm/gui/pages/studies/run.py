@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -79,8 +80,10 @@ def form_fields(spec: Any) -> list[Any]:
 
 
 def check_params(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
+    """The form's values checked against the declared parameters but the study file's
+    (a required parameter of the speckle study: :func:`run_study` adds it)."""
     raw = {k: v for k, v in dict(raw or {}).items() if k != "study"}
-    return form_values(spec, raw)
+    return form_values(SimpleNamespace(id=spec.id, parameters=form_fields(spec)), raw)
 
 
 def check_file(roots: Any, text: Any) -> Path:
