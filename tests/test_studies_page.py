@@ -179,7 +179,10 @@ def test_speckle_tables_and_side_by_side_maps(app):
                                                             "coverage_area_fraction_change": 0.25}}},
         "maps": {"p-n-off": cloud(100.0), "p-n-on": cloud(200.0)},
     }  # fmt: skip
+    rec["warnings"] = [f"image{k:03d}.png: 1 % of the pixels saturate" for k in range(24)] + ["grain"] * 2
     page.show_record(rec)
+    w = page.state.st_warnings  # 25 distinct: four shown and a line for the rest
+    assert w[:4] == rec["warnings"][:4] and w[4] == "… and 21 more warning(s): see the report" and len(w) == 5
     t61, t62, cov = page.state.st_tables
     assert t61["header"] == ["Artefact", "nylon12 non-speckle", "nylon12 speckle"]
     assert t61["rows"] == [["am_pyramid", "231", "120"]] and t62["rows"] == [["am_pyramid", "12,345", "54,321"]]

@@ -85,7 +85,8 @@ def focal_figure(f: dict[str, Any] | None) -> dict[str, Any]:
 
 def deviation_figure(m: dict[str, Any] | None, title: str, lim_um: float | None = None) -> dict[str, Any]:
     """A deviation cloud seen from above (x, y in CAD coordinates, mm), coloured by the
-    signed deviation in µm (RdBu about 0; ``lim_um`` the colour range, shared by a pair)."""
+    signed deviation in µm (plotly's RdBu: red above the CAD, blue below, grey at 0;
+    ``lim_um`` the colour range, shared by a pair)."""
     if not m or not m.get("x"):
         return empty(f"{title}: no deviation cloud")
     d = np.asarray(m["d"], float) * UM
@@ -94,7 +95,7 @@ def deviation_figure(m: dict[str, Any] | None, title: str, lim_um: float | None 
     data = [
         {"type": "scattergl", "mode": "markers", "x": np.asarray(m["x"])[order].tolist(),
          "y": np.asarray(m["y"])[order].tolist(),
-         "marker": {"size": 3, "color": d[order].round(2).tolist(), "colorscale": "RdBu", "reversescale": True,
+         "marker": {"size": 3, "color": d[order].round(2).tolist(), "colorscale": "RdBu",
                     "cmin": -lim, "cmax": lim, "colorbar": {"title": {"text": "µm"}, "thickness": 12}},
          "hovertemplate": "x %{x:.3g}, y %{y:.3g} mm: %{marker.color:.3g} µm<extra></extra>"},
     ]  # fmt: skip

@@ -33,6 +33,17 @@ EMPTY_HINT = (
 )
 
 
+#: warnings shown on the page (a study of many images can warn once per image; the report has them all)
+MAX_WARNINGS = 4
+
+
+def shortened(warnings: list[Any], n: int = MAX_WARNINGS) -> list[str]:
+    """The first ``n`` distinct warnings, and how many more the report lists."""
+    lines = list(dict.fromkeys(str(w) for w in warnings))
+    more = len(lines) - n
+    return lines[:n] + ([f"… and {more} more warning(s): see the report"] if more > 0 else [])
+
+
 class StudiesPage(RunPage):
     KEY, PREFIX, WHAT, runs = KEY, "st", "study", runs
 
@@ -169,7 +180,7 @@ class StudiesPage(RunPage):
         s, o = self.state, rec.get("outputs") or {}
         self.record = rec
         s.st_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
-        s.st_warnings = [str(w) for w in rec.get("warnings") or []]
+        s.st_warnings = shortened(rec.get("warnings") or [])
         s.st_shown_kind, s.st_links = rec.get("kind"), []
         if rec.get("kind") == "lightfield":
             s.st_tables = [tables.table_63(o.get("table") or {})]
