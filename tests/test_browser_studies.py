@@ -7,6 +7,7 @@ folder and chooses it; Run computes it: table 6.3 with its three sets and the sa
 standard deviations, the fit's numbers with the prediction at 45 mm near the virtual
 lab's law (-1 + 0.15 f = 5.75 mm/λ), the depth-vs-λ scatter with its line and the
 gradient-vs-focal-length plot appear; Export report offers the HTML, PDF and JSON.
+Choosing the speckle study shows its form.
 Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/studies-gui``).
 """
 
@@ -94,6 +95,13 @@ def test_studies_page_runs_the_virtual_light_field_study(demo_server, tmp_path):
             links = _text(page, "st-links", r"(?i)\.pdf", timeout=90).lower()  # buttons write upper case
             assert ".html" in links and ".json" in links
             assert page.locator('[data-testid="st-error"]').count() == 0
+
+            # the other kind: the speckle study's own form; the shown run stays until another is run
+            page.click('[data-testid="st-kind"]')
+            page.locator(".v-overlay--active .v-list-item", has_text="Speckle").first.click()
+            page.wait_for_selector('[data-testid="st-param-fresh"]')
+            assert page.locator('[data-testid="st-param-predict_focal_mm"]').count() == 0
+            assert page.locator('[data-testid="st-table-t63"]').count() == 1
         finally:
             browser.close()
     assert not server_tracebacks(server.log), server_tracebacks(server.log)
