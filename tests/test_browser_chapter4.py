@@ -56,7 +56,19 @@ def _rows(html: str, caption: str) -> list[list[str]]:
     """The cells of the report table after ``caption``, row by row."""
     table = html[html.index(caption) :]
     table = table[: table.index("</table>")]
-    return [re.findall(r"<td[^>]*>(.*?)</td>", tr, re.S) for tr in re.findall(r"<tr[^>]*>(.*?)</tr>", table, re.S)]
+    rows = [re.findall(r"<td[^>]*>(.*?)</td>", tr, re.S) for tr in re.findall(r"<tr[^>]*>(.*?)</tr>", table, re.S)]
+    return [r for r in rows if r]  # the header row has <th> cells only
+
+
+def _numbers(cells: list[str]) -> list[float]:
+    """The numeric cells of a row (a blank cell reads "—" or nothing)."""
+    out = []
+    for c in cells:
+        try:
+            out.append(float(c))
+        except ValueError:
+            pass
+    return out
 
 
 def _setup(page, url: str) -> None:
@@ -144,6 +156,7 @@ def test_chapter4_through_the_wizard_with_the_simulated_photogrammetry_system(gu
             link.wait_for(timeout=60_000)
             u = urlsplit(url)
             html = page.request.get(f"{u.scheme}://{u.netloc}/" + link.get_attribute("href").lstrip("/")).text()
+            (SHOTS / "chapter4-report.html").write_text(html)
         finally:
             browser.close()
     for p in params:
@@ -160,14 +173,14 @@ def test_chapter4_through_the_wizard_with_the_simulated_photogrammetry_system(gu
     t42 = _rows(html, "Table 4.2: sphere spacing errors")
     # five camera positions with three radii and three std(Δr) each; seven plate positions
     # with three repeats of each of the three lengths
-    assert [r[0] for r in t41[:5]] == list("ABCDE") and all(len(r) == 7 and all(r[1:]) for r in t41[:5]), t41
+    assert [r[0] for r in t41[:5]] == list("ABCDE") and all(len(_numbers(r[1:])) == 6 for r in t41[:5]), t41
     assert [r[0] for r in t42[:7]] == [str(i) for i in range(1, 8)], t42
-    assert all(len(r) == 10 and all(r[1:]) for r in t42[:7]), t42
+    assert all(len(_numbers(r[1:])) == 9 for r in t42[:7]), t42
     # the values against the virtual lab's truth: radius 5 mm, the calibrated lengths
     mean41 = next(r for r in t41 if r[0] == "Mean")
-    assert abs(float(mean41[1]) - 5.0) < 0.1, mean41
+    assert abs(_numbers(mean41[1:])[0] - 5.0) < 0.1, mean41
     mean42 = next(r for r in t42 if r[0].startswith("Mean"))
-    means = [float(x) for x in mean42[1:] if x.strip()]
+    means = _numbers(mean42[1:])
     assert len(means) == 3 and all(abs(m - lc) < 0.15 for m, lc in zip(means, LENGTHS, strict=True)), mean42
     assert re.search(r"<td[^>]*>Uncertainty U \(k=2\) / µm</td>", html)
     assert "thesis: 17 µm" in html

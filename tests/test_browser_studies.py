@@ -105,3 +105,38 @@ def test_studies_page_runs_the_virtual_light_field_study(demo_server, tmp_path):
         finally:
             browser.close()
     assert not server_tracebacks(server.log), server_tracebacks(server.log)
+
+
+def test_studies_page_runs_the_virtual_speckle_study(demo_server):
+    """The speckle on/off study end to end in the browser: the virtual lab's small study
+    (one AM artefact, one material, speckle off and on) written into the project, run, and
+    tables 6.1 and 6.2, the area coverage and both deviation maps shown from the run."""
+    server = demo_server
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": 1600, "height": 1000})
+            page.set_default_timeout(60_000)
+            page.goto(server.url)
+            page.click('[data-testid="page-studies"]', timeout=180_000)
+            page.click('[data-testid="st-kind"]')
+            page.locator(".v-overlay--active .v-list-item", has_text="Speckle").first.click()
+            page.wait_for_selector('[data-testid="st-param-fresh"]')
+            page.click('[data-testid="st-virtual"]')
+            _text(page, "st-message", r"virtual-lab study written", timeout=90)
+            page.click('[data-testid="st-run"]')
+            _text(page, "st-message", r"^done", timeout=1200)  # two reconstructions: ~80 s idle
+            t61 = page.locator('[data-testid="st-table-std_um"]').inner_text()
+            t62 = page.locator('[data-testid="st-table-n_points"]').inner_text()
+            cov = page.locator('[data-testid="st-table-coverage"]').inner_text()
+            # values from the run: a std in µm and a point count for each condition, coverage in %
+            assert "non-speckle" in t61 and "speckle" in t61 and "failed" not in t61, t61
+            assert len(re.findall(r"\b\d[\d,]{3,}\b", t62)) >= 2, t62
+            assert len(re.findall(r"\b\d{1,3}\.\d\b", cov)) >= 2, cov
+            for testid in ("st-map-off", "st-map-on"):
+                page.wait_for_selector(f'[data-testid="{testid}"] .main-svg')
+            page.screenshot(path=str(SHOTS / "speckle.png"))
+            assert page.locator('[data-testid="st-error"]').count() == 0
+        finally:
+            browser.close()
+    assert not server_tracebacks(server.log), server_tracebacks(server.log)
