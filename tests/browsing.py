@@ -65,3 +65,22 @@ def server_tracebacks(log: list[str]) -> list[str]:
     ours = ("/app/camcmm/", "/camcmm_plugins/", "site-packages/camcmm/")
     closed = "Cannot write to closing transport"
     return [b[:2000] for b in blocks if any(o in b.split("\n\n")[0] for o in ours) and closed not in b.split("\n\n")[0]]
+
+
+def text_of(page, testid: str, pattern: str, timeout: float, shots_dir: Path) -> str:
+    """The text of ``[data-testid=testid]`` once it matches the regular expression
+    ``pattern``; else a screenshot ``timeout-<testid>.png`` in ``shots_dir`` and a failure
+    naming the last text seen."""
+    import re
+    import time
+
+    loc = page.locator(f'[data-testid="{testid}"]')
+    deadline, text = time.monotonic() + timeout, ""
+    while time.monotonic() < deadline:
+        if loc.count():
+            text = loc.first.inner_text()
+            if re.search(pattern, text):
+                return text
+        time.sleep(0.25)
+    page.screenshot(path=str(shots_dir / f"timeout-{testid}.png"))
+    raise AssertionError(f"{testid}: {pattern!r} did not appear; last text {text!r}")

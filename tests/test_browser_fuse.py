@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import re
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browsing import MARKS, launch, server_tracebacks, shots  # noqa: E402
+from browsing import MARKS, launch, server_tracebacks, shots, text_of  # noqa: E402
 
 pytestmark = MARKS
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
@@ -68,17 +67,7 @@ def demo_server(tmp_path, data):
 
 
 def _text(page, testid: str, pattern: str, timeout: float = 60.0) -> str:
-    """The text of ``testid`` once it matches the regular expression ``pattern``."""
-    loc = page.locator(f'[data-testid="{testid}"]')
-    deadline, text = time.monotonic() + timeout, ""
-    while time.monotonic() < deadline:
-        if loc.count():
-            text = loc.first.inner_text()
-            if re.search(pattern, text):
-                return text
-        time.sleep(0.25)
-    page.screenshot(path=str(SHOTS / f"timeout-{testid}.png"))
-    raise AssertionError(f"{testid}: {pattern!r} did not appear; last text {text!r}")
+    return text_of(page, testid, pattern, timeout, SHOTS)
 
 
 def _import(page, path: Path) -> None:

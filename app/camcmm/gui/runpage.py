@@ -82,6 +82,16 @@ class RunPage:
             pass
 
 
+def stored_record(project: Any, key: str) -> dict[str, Any] | None:
+    """A page's record of its last run under the project state ``key`` (None: none yet, or
+    not readable: a damaged record must not keep the page from opening)."""
+    try:
+        rec = project.get_state(key)
+    except Exception:
+        return None
+    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+
+
 def mount(cls: type[RunPage], server: Any, session: Any, tools: str) -> Any:
     """Create the page for a session and its view tools (state prefix ``tools``) before
     the server starts; the page's ``opened`` runs each time it is shown."""

@@ -18,6 +18,7 @@ from typing import Any
 from .... import worker
 from ....errors import InputError
 from ....host import to_jsonable
+from ...runpage import stored_record
 from ...widgets import form_values
 
 TASK = "csi-fusion"
@@ -105,11 +106,7 @@ def store(session: Any, spec: Any, result: Any, req: dict[str, Any], used: list[
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The page's record of the last run, as the project keeps it (None: none yet)."""
-    try:
-        rec = project.get_state(CURRENT_KEY)
-    except Exception:
-        return None
-    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+    return stored_record(project, CURRENT_KEY)
 
 
 def _num(x: Any, digits: int = 4) -> str:

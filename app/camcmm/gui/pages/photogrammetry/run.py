@@ -19,6 +19,7 @@ from typing import Any
 from .... import worker
 from ....errors import InputError
 from ....host import to_jsonable
+from ...runpage import stored_record
 from ...widgets import form_values
 from . import inputs
 
@@ -168,11 +169,7 @@ def store(session: Any, spec: Any, result: Any, req: dict[str, Any], sources: li
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The page's record of the last run, as the project keeps it (None: none yet)."""
-    try:
-        rec = project.get_state(CURRENT_KEY)
-    except Exception:
-        return None
-    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+    return stored_record(project, CURRENT_KEY)
 
 
 def sources_of(req: dict[str, Any], project: Any, roots: Any) -> list[dict[str, Any]]:

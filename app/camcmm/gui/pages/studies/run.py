@@ -22,6 +22,7 @@ import numpy as np
 from .... import worker
 from ....errors import InputError, PluginError
 from ....host import to_jsonable
+from ...runpage import stored_record
 from ...widgets import form_values
 
 CURRENT_KEY = "studies.current"
@@ -169,11 +170,7 @@ def store(session: Any, spec: Any, result: Any, kind: str, path: str) -> dict[st
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The page's record of the last run, as the project keeps it (None: none yet)."""
-    try:
-        rec = project.get_state(CURRENT_KEY)
-    except Exception:
-        return None
-    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+    return stored_record(project, CURRENT_KEY)
 
 
 def write_report(spec: Any, outputs: dict[str, Any], folder: Path, basename: str) -> dict[str, str]:
