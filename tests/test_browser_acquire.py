@@ -41,6 +41,9 @@ def start_with_simulated_system(browser, url):
     page.locator('[data-testid="wz-start"]').click()
     page.wait_for_selector('[data-testid="wz-positions"]')
     choose(page, "wz-source", "Simulated stereo fringe")
+    # the server answers the choice with the system's settings form (its declared defaults):
+    # a test that sets parameters itself must do so after that answer, not race it
+    page.wait_for_selector('[data-testid="wz-sys-panel"]')
     return page
 
 
