@@ -32,14 +32,12 @@ KINDS: dict[str, dict[str, Any]] = {
     "lightfield": {
         "title": "Light-field scale (ch. 6.3)",
         "task": "lightfield-study",
-        "plugin": "lightfield.study",
         "port": ("input", "study"),
-        "virtual": {"plugin": "virtuallab.lightfield-set", "folder": "studies/lightfield-virtual", "output": "study"},
+        "virtual": {"task": "lightfield-set-simulation", "folder": "studies/lightfield-virtual", "output": "study"},
     },
     "speckle": {
         "title": "Speckle on/off (ch. 6.2)",
-        "task": "",
-        "plugin": "studies.speckle",
+        "task": "speckle-study",
         "port": ("param", "study"),
         "virtual": None,  # a study file with simulated capture settings: written by make_virtual
     },
@@ -66,13 +64,8 @@ def kind_of(kind: Any) -> dict[str, Any]:
 
 def spec_of(host: Any, kind: Any) -> Any:
     """The manifest of the plugin that runs studies of ``kind``."""
-    k = kind_of(kind)
-    if k["task"]:
-        try:
-            return host.provider(k["task"])
-        except Exception:
-            pass
-    return host.get(k["plugin"])
+    # by the task its manifest provides, never by id: a lab may install its own
+    return host.provider(kind_of(kind)["task"])
 
 
 def form_fields(spec: Any) -> list[Any]:
@@ -116,13 +109,14 @@ def make_virtual(host: Any, kind: str, project_dir: Path, job: Any) -> str:
         path.write_text(SPECKLE_VIRTUAL, encoding="utf-8")
         return str(path)
     v = k["virtual"]
+    spec = host.provider(v["task"])
     out = worker.run(
-        host, v["plugin"], {}, {"directory": str(Path(project_dir) / v["folder"])},
+        host, spec.id, {}, {"directory": str(Path(project_dir) / v["folder"])},
         progress=job.progress, cancel=job.cancel_event,
     )  # fmt: skip
     study = out.outputs.get(v["output"])
     if not study or not Path(study).is_file():
-        raise PluginError(f"plugin {v['plugin']!r} wrote no study file")
+        raise PluginError(f"plugin {spec.id!r} wrote no study file")
     return str(study)
 
 
