@@ -162,6 +162,8 @@ def rotation_to(n: np.ndarray) -> np.ndarray:
 #: parameters are not affected, since the iteration converges to the point where the
 #: gradient Jᵀr (always evaluated directly) vanishes.
 COND_NORMAL = 1e8
+#: how many times ``max_iter`` a steadily contracting (linearly converging) fit may take
+EXTEND = 10
 
 
 def _scaled(jt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -298,19 +300,28 @@ def levenberg_marquardt(
     applied with the linearised residuals ``r + J δ`` (error O(|δ|²) < 1e-16), which
     saves one pass over the data. Before two steps have been seen the contraction rate
     is taken as 0.5, or as ``rate_hint`` (the rate observed when fitting nearly the same
-    points, for warm starts). Raises GeometryError after ``max_iter`` steps.
+    points, for warm starts). Raises GeometryError after ``max_iter`` steps, unless
+    the steps are still shrinking steadily: a high-residual fit (e.g. a sphere whose
+    points scatter by half its radius) converges only linearly, at rates near 0.9, and
+    is given up to ``EXTEND`` times the budget while every step contracts.
     """
     r, jt = evaluate(state)
     ssr = float(r @ r)
     lam = 0.0
     prev = None
     step = np.inf
+    shrinking = 0  # consecutive undamped steps each shorter than the one before
     first_rate = 0.5 if rate_hint is None else min(max(rate_hint, 1e-6), 0.5)
-    for it in range(1, max_iter + 1):
+    it = 0
+    for it in range(1, EXTEND * max_iter + 1):
+        if it > max_iter and shrinking < 5:
+            it -= 1
+            break
         delta = gn_step(jt, r, lam, what)
         step = float(np.linalg.norm(delta))
         if not np.isfinite(step):
             raise GeometryError(f"{what}: the iteration produced a non-finite step")
+        shrinking = shrinking + 1 if prev and step < 0.98 * prev else 0
         rate = min(step / prev, 0.5) if prev else (first_rate if it == 1 else 0.5)
         if step <= 1e-7 and step * rate / (1.0 - rate) <= xtol:
             new = update(state, delta)
@@ -332,7 +343,7 @@ def levenberg_marquardt(
             if lam > 1e12:
                 raise GeometryError(f"{what}: no step decreases the sum of squares (the iteration stalled)")
     raise GeometryError(
-        f"{what} did not converge in {max_iter} iterations (last step {step:.2g} in units of the point spread)"
+        f"{what} did not converge in {it} iterations (last step {step:.2g} in units of the point spread)"
     )
 
 
