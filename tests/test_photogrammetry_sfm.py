@@ -88,6 +88,29 @@ def test_camera_mapping_of_one_focal_models_and_refusals():
         cameras.opencv_from_colmap("FISHEYE", [1, 2, 3])
 
 
+def test_corner_distortion_of_a_radial_lens_is_k_r_squared():
+    """SIMPLE_RADIAL moves a point at normalised radius r by k r^2 of r: at the corners of a
+    600 x 400 image with f = 1906 px and the principal point at the centre, r^2 = 0.0358,
+    so k = -3.69 (a virtual nylon part's self-calibration) moves them 13.2 % of the
+    half-diagonal, and a pinhole 0; OpenCV's projectPoints gives the same displacement."""
+    import cv2
+    import pycolmap
+
+    from camcmm_plugins.photogrammetry.sfm import MAX_CORNER_DISTORTION, corner_distortion
+
+    cam = pycolmap.Camera.create_from_model_name(1, "SIMPLE_RADIAL", 1906.0, 600, 400)
+    cam.params = [1906.0, 300.0, 200.0, -3.69]
+    r2 = (300.0**2 + 200.0**2) / 1906.0**2
+    assert corner_distortion(cam) == pytest.approx(3.69 * r2, rel=1e-9)
+    assert corner_distortion(cam) > MAX_CORNER_DISTORTION
+    ray = np.array([[-300.0 / 1906.0, -200.0 / 1906.0, 1.0]])
+    K = np.array([[1906.0, 0, 300.0], [0, 1906.0, 200.0], [0, 0, 1]])
+    ref, _ = cv2.projectPoints(ray, np.zeros(3), np.zeros(3), K, np.array([-3.69, 0, 0, 0, 0]))
+    assert 1 - np.hypot(*(ref[0, 0] - [300.0, 200.0])) / np.hypot(300.0, 200.0) == pytest.approx(3.69 * r2, rel=1e-9)
+    cam.params = [1906.0, 300.0, 200.0, 0.0]
+    assert corner_distortion(cam) == pytest.approx(0.0, abs=1e-12)
+
+
 # -- refusals -------------------------------------------------------------------------------------
 def _grey(n, w=64, h=48):
     return [np.full((h, w), 128, np.uint8) for _ in range(n)], [f"im{i}.png" for i in range(n)]

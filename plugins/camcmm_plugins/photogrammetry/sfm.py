@@ -94,12 +94,12 @@ class _Stages:
         self._stop.set()
 
 
-def _adjust(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
+def _adjust(pycolmap, rec, fixed: bool, refine_pp: bool, refine_distortion: bool = True) -> None:
     """One global bundle adjustment run to convergence: the mapper's own stops early (its
     tolerances serve speed while images are still being added)."""
     opts = pycolmap.BundleAdjustmentOptions()
     opts.refine_focal_length = not fixed
-    opts.refine_extra_params = not fixed
+    opts.refine_extra_params = refine_distortion and not fixed
     opts.refine_principal_point = refine_pp and not fixed
     opts.print_summary = False
     so = opts.ceres.solver_options
@@ -121,26 +121,67 @@ def _adjust(pycolmap, rec, fixed: bool, refine_pp: bool) -> None:
 MAX_PP_SHIFT = 0.1
 
 
+#: a self-calibrated lens distortion that moves an image corner by more than this share of
+#: the half-diagonal is taken for a failure too: camera lenses stay within a few per cent
+#: (a 60 mm macro well below 1 %), while a narrow field of view over a low-texture part can
+#: trade the focal length against k1 (a virtual nylon part: k1 = -3.7, corners moved 13 %)
+MAX_CORNER_DISTORTION = 0.05
+
+
+def corner_distortion(cam) -> float:
+    """Largest displacement of an image corner by the camera's distortion, as a share of
+    the half-diagonal (0 for a pinhole): the corner's pinhole ray projected with and
+    without the distortion model (forward only, so no undistortion has to converge)."""
+    f, cx, cy = cam.focal_length_x, cam.principal_point_x, cam.principal_point_y
+    fy = cam.focal_length_y
+    corners = np.array([[0.0, 0.0], [cam.width, 0.0], [0.0, cam.height], [cam.width, cam.height]])
+    rays = np.column_stack([(corners[:, 0] - cx) / f, (corners[:, 1] - cy) / fy, np.ones(4)])
+    img = cam.img_from_cam(rays, False)
+    return float(np.max(np.linalg.norm(img - corners, axis=1)) / (0.5 * np.hypot(cam.width, cam.height)))
+
+
+def _adjust_plausible(pycolmap, rec, fixed: bool, refine_pp: bool) -> list[str]:
+    """:func:`_adjust`, then, if the self-calibrated distortion moves the image corners by
+    more than :data:`MAX_CORNER_DISTORTION`, the distortion set to zero and the adjustment
+    repeated with it held there. Returns the warning saying so (or none)."""
+    _adjust(pycolmap, rec, fixed, refine_pp)
+    cam = next(iter(rec.cameras.values()))
+    moved = 0.0 if fixed else corner_distortion(cam)
+    if moved <= MAX_CORNER_DISTORTION:
+        return []
+    extra = list(cam.extra_params_idxs())
+    said = ", ".join(f"{cam.params[i]:.3g}" for i in extra)
+    params = np.array(cam.params)
+    params[extra] = 0.0
+    cam.params = params
+    _adjust(pycolmap, rec, fixed, refine_pp, refine_distortion=False)
+    return [
+        f"the lens distortion is not determined by this series (self-calibrated {said} moves the image "
+        f"corners by {100 * moved:.0f} %); it is held at zero"
+    ]
+
+
 def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool):
     """The converged final adjustment; with ``refine_pp`` the principal point too (COLMAP's
     mapper holds it at the image centre). A ring of views around the object determines it
     (templeRing: 3-4 px from the gantry's, see docs/photogrammetry.md); where it runs off
-    (a short arc) the adjustment without it is kept, with a warning. Returns (rec, warnings)."""
+    (a short arc) the adjustment without it is kept, with a warning. A lens distortion
+    beyond :data:`MAX_CORNER_DISTORTION` is likewise not determined by the series: it is
+    set to zero and held there, with a warning. Returns (rec, warnings)."""
     if fixed or not refine_pp:
-        _adjust(pycolmap, rec, fixed, False)
-        return rec, []
+        return rec, _adjust_plausible(pycolmap, rec, fixed, False)
     backup = pycolmap.Reconstruction(rec)
-    _adjust(pycolmap, rec, fixed, True)
+    warnings = _adjust_plausible(pycolmap, rec, fixed, True)
     cam = next(iter(rec.cameras.values()))
     shift = max(
         abs(cam.principal_point_x - cam.width / 2) / cam.width,
         abs(cam.principal_point_y - cam.height / 2) / cam.height,
     )
     if shift <= MAX_PP_SHIFT and not cam.has_bogus_params(0.1, 10.0, 1.0):
-        return rec, []
-    _adjust(pycolmap, backup, fixed, False)
+        return rec, warnings
+    warnings = _adjust_plausible(pycolmap, backup, fixed, False)
     why = f"{100 * shift:.0f} % of the image from its centre" if shift > MAX_PP_SHIFT else "implausible intrinsics"
-    return backup, [f"the principal point is not determined by this series ({why}); it is kept at the image centre"]
+    return backup, [*warnings, f"the principal point is not determined by this series ({why}); it is kept at the image centre"]
 
 
 def reconstruct_sparse(
