@@ -696,7 +696,7 @@ def icp(
     c_last = np.zeros(3)
     fail = ""
     last: dict[str, Any] = {}
-    for phase, pts, n_iter in (("subset", sub, max_iterations), ("all", P, 20)):
+    for phase, pts, n_iter in (("subset", sub, max_iterations), ("all", P, max_iterations)):
         if phase == "all" and pts is sub:
             break
         settled = False
@@ -800,7 +800,7 @@ def icp(
     )
     s = al.scale
     if not settled:
-        al.reason = f"the iterations did not settle within {max_iterations} (+20 on all points)"
+        al.reason = f"the iterations did not settle within {max_iterations} (and as many on all points)"
     elif al.overlap < min_overlap:
         al.reason = (
             f"low overlap: {100 * al.overlap:.1f} % of the measured points lie within {d_in:.4g} mm of the "
