@@ -52,8 +52,10 @@ SIMULATED = {
 }
 RECONSTRUCT = {"max_image_size": 600, "dense": True}
 #: inspect.align's settings; the inlier distance is wider than its default (1 % of the
-#: part's size, ~0.6 mm) because AM parts and photogrammetry deviate by ~0.2 mm (table 6.1)
-ALIGN = {"method": "auto", "inlier_distance": 1.5}
+#: part's size, ~0.6 mm) because AM parts and photogrammetry deviate by up to 0.37 mm
+#: (table 6.1, nylon without speckle; the virtual nylon's clouds ~0.4-0.6 mm) and the
+#: alignment counts as a match only while that spread is within a quarter of it
+ALIGN = {"method": "auto", "inlier_distance": 2.5}
 
 
 def _cond(v: Any) -> Any:
