@@ -181,7 +181,8 @@ def _final_refinement(pycolmap, rec, fixed: bool, refine_pp: bool):
         return rec, warnings
     warnings = _adjust_plausible(pycolmap, backup, fixed, False)
     why = f"{100 * shift:.0f} % of the image from its centre" if shift > MAX_PP_SHIFT else "implausible intrinsics"
-    return backup, [*warnings, f"the principal point is not determined by this series ({why}); it is kept at the image centre"]
+    pp = f"the principal point is not determined by this series ({why}); it is kept at the image centre"
+    return backup, [*warnings, pp]
 
 
 def reconstruct_sparse(
