@@ -874,6 +874,14 @@ def align(
         icp_args.setdefault("max_distance", 3 * info["voxel"])
     else:
         T0 = _coarse_start(P, nom, T0, icp_args, scale, stages)
+    if scale and method.startswith("pairs"):
+        # the pairs' scale held while a rigid ICP settles the pose, then freed: from a start
+        # a few mm off, a free scale can slide a self-similar part onto itself (a stepped
+        # pyramid whose steps are 0.73 x the one below shrank onto its next step)
+        rigid = icp(P, nom, init=T0, scale=False, method="icp (pairs' scale held)", **icp_args)
+        if not rigid.reason.startswith(("no overlap", "only", "the robust kernel")):
+            T0 = rigid.transform
+            stages += [{**st, "stage": "icp (pairs' scale held)"} for st in rigid.stages]
     al = icp(P, nom, init=T0, scale=scale, method=method, **icp_args)
     al.stages = stages + al.stages
     al.iterations += sum(int(st.get("iterations", 0)) for st in stages if st.get("stage") == "icp wide")
