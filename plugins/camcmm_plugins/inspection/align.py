@@ -879,9 +879,9 @@ def align(
         # a few mm off, a free scale can slide a self-similar part onto itself (a stepped
         # pyramid whose steps are 0.73 x the one below shrank onto its next step)
         rigid = icp(P, nom, init=T0, scale=False, method="icp (pairs' scale held)", **icp_args)
-        if not rigid.reason.startswith(("no overlap", "only", "the robust kernel")):
+        if np.isfinite(rigid.overlap):  # evaluated, i.e. not stopped early for want of points
             T0 = rigid.transform
-            stages += [{**st, "stage": "icp (pairs' scale held)"} for st in rigid.stages]
+            stages += rigid.stages
     al = icp(P, nom, init=T0, scale=scale, method=method, **icp_args)
     al.stages = stages + al.stages
     al.iterations += sum(int(st.get("iterations", 0)) for st in stages if st.get("stage") == "icp wide")

@@ -132,10 +132,14 @@ def corner_distortion(cam) -> float:
     """Largest displacement of an image corner by the camera's distortion, as a share of
     the half-diagonal (0 for a pinhole): the corner's pinhole ray projected with and
     without the distortion model (forward only, so no undistortion has to converge)."""
-    f, cx, cy = cam.focal_length_x, cam.principal_point_x, cam.principal_point_y
-    fy = cam.focal_length_y
     corners = np.array([[0.0, 0.0], [cam.width, 0.0], [0.0, cam.height], [cam.width, cam.height]])
-    rays = np.column_stack([(corners[:, 0] - cx) / f, (corners[:, 1] - cy) / fy, np.ones(4)])
+    rays = np.column_stack(
+        [
+            (corners[:, 0] - cam.principal_point_x) / cam.focal_length_x,
+            (corners[:, 1] - cam.principal_point_y) / cam.focal_length_y,
+            np.ones(4),
+        ]
+    )
     img = cam.img_from_cam(rays, False)
     return float(np.max(np.linalg.norm(img - corners, axis=1)) / (0.5 * np.hypot(cam.width, cam.height)))
 
