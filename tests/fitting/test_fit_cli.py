@@ -1,0 +1,151 @@
+"""``camcmm fit`` and the fitting plugins through the host: the JSON contract."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from camcmm.api import PointCloud
+from camcmm.host import PluginHost
+from camcmm_plugins.fitting import cli
+from helpers.cli import cli_json, run_camcmm
+
+KEYS = {"element", "method", "outliers", "n_points", "n_used", "n_removed", "form", "std_uncertainty"}
+PARAMS = {
+    "sphere": ("center", "radius"),
+    "plane": ("point", "normal"),
+    "circle": ("center", "normal", "radius"),
+    "cylinder": ("point", "axis", "radius"),
+    "line": ("point", "direction"),
+}
+FORM = {"range", "max", "min", "std", "rms"}
+NIST = Path(__file__).parents[1] / "data" / "nist_spheres"
+
+
+def _clouds(tmp_path):
+    rng = np.random.default_rng(1)
+    far = np.array([1000.0, 2000.0, -500.0])
+    u = rng.normal(size=(3000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    t = rng.uniform(0, 2 * np.pi, 3000)
+    z = rng.uniform(-20, 20, 3000)
+    noise = rng.normal(scale=0.01, size=3000)
+    shapes = {
+        "sphere": far + (10 + noise)[:, None] * u,
+        "plane": far + np.column_stack([rng.uniform(-50, 50, 3000), rng.uniform(-50, 50, 3000), noise]),
+        "circle": far + np.column_stack([(8 + noise) * np.cos(t), (8 + noise) * np.sin(t), 0.5 * noise]),
+        "cylinder": far + np.column_stack([(5 + noise) * np.cos(t), (5 + noise) * np.sin(t), z]),
+        "line": far + np.column_stack([z, noise, 0.5 * noise]),
+    }
+    files = {}
+    for k, pts in shapes.items():
+        files[k] = tmp_path / f"{k}.xyz"
+        np.savetxt(files[k], pts, fmt="%.9f")
+    return files
+
+
+def _run(argv):
+    p = argparse.ArgumentParser()
+    cli.configure(p)
+    return cli.run(p.parse_args(argv))
+
+
+@pytest.mark.parametrize("rule", ["none", "vdi2634", "percent:5", "sigma:3"])
+@pytest.mark.parametrize("element", list(PARAMS))
+def test_cli_module_all_elements_all_rules(tmp_path, element, rule):
+    files = _clouds(tmp_path)
+    out = _run([element, str(files[element]), "--outliers", rule])
+    assert KEYS <= set(out) and set(PARAMS[element]) <= set(out)
+    assert set(out["form"]) == FORM
+    assert set(out["std_uncertainty"]) == set(PARAMS[element])
+    assert out["element"] == element and out["method"] == "ls" and out["n_points"] == 3000
+    assert out["n_used"] + out["n_removed"] == 3000
+    if rule == "vdi2634":
+        assert out["n_removed"] == 9
+    if rule == "percent:5":
+        assert out["n_removed"] == 150
+    json.dumps(out, allow_nan=False)
+    assert cli.text(out).startswith(element)
+
+
+def test_cli_module_minzone_nominal_and_errors(tmp_path):
+    files = _clouds(tmp_path)
+    out = _run(["sphere", str(files["sphere"]), "--method", "minzone", "--nominal-radius", "10"])
+    assert out["method"] == "minzone" and abs(out["radius_deviation"]) < 0.01
+    assert out["std_uncertainty"]["radius"] is None
+    out = _run(["plane", str(files["plane"]), "--method", "minzone", "--residuals"])
+    assert len(out["residuals"]) == 3000 and out["removed_indices"] == []
+    from camcmm.api import ParameterError
+
+    with pytest.raises(ParameterError):
+        _run(["cylinder", str(files["cylinder"]), "--method", "minzone"])
+
+
+@pytest.mark.slow
+def test_camcmm_fit_subprocess_json(tmp_path):
+    files = _clouds(tmp_path)
+    out = cli_json("fit", "sphere", files["sphere"], "--outliers", "vdi2634", "--json")
+    assert KEYS <= set(out) and out["n_removed"] == 9
+    assert abs(out["radius"] - 10) < 0.01 and len(out["center"]) == 3
+    assert set(out["form"]) == FORM
+
+
+@pytest.mark.slow
+def test_camcmm_fit_subprocess_text_and_errors(tmp_path):
+    files = _clouds(tmp_path)
+    assert run_camcmm("fit", "plane", files["plane"]).stdout.startswith("plane (ls, outliers none)")
+    run = run_camcmm("fit", "sphere", files["plane"], ok=False)
+    assert run.returncode != 0
+    assert run.stderr.count("\n") == 1 and "nearly on a plane" in run.stderr
+    run = run_camcmm("fit", "sphere", files["sphere"], "--outliers", "bogus", ok=False)
+    assert run.returncode != 0 and "unknown outlier rule" in run.stderr
+
+
+@pytest.mark.slow
+def test_camcmm_fit_extract_nist_scan():
+    out = cli_json(
+        "fit",
+        "sphere",
+        NIST / "SPH102.xyz",
+        "--unit",
+        "m",
+        "--extract",
+        "--nominal-radius",
+        "50",
+        "--outliers",
+        "vdi2634",
+        "--json",
+    )
+    assert abs(out["radius"] - 50) < 0.3 and out["n_points_raw"] == 1893 and out["n_points"] < 1893
+
+
+def test_plugins_through_the_host():
+    host = PluginHost()
+    ids = {"fit.line", "fit.plane", "fit.circle", "fit.sphere", "fit.cylinder", "segment.spheres", "segment.sphere"}
+    assert ids <= set(host.plugins)
+    assert all(host.plugins[i].status == "ok" for i in ids)
+    assert "fit" in host.commands
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(2000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    cloud = PointCloud(500 + (20 + rng.normal(scale=0.01, size=2000))[:, None] * u, name="ball")
+    run = host.run("fit.sphere", {"cloud": cloud}, {"outliers": "vdi2634", "nominal_radius": 20})
+    out = run.outputs
+    assert out["n_removed"] == 6 and abs(out["radius_deviation"]) < 0.01
+    dev = out["deviations"]
+    assert dev.fields["deviation"].shape == (2000,) and dev.field_units["deviation"] == "mm"
+    assert int(dev.fields["outlier"].sum()) == 6
+    doc = run.to_json()
+    json.dumps(doc, allow_nan=False)
+    run = host.run("fit.plane", {"cloud": cloud}, {"method": "minzone"})
+    assert run.outputs["method"] == "minzone"
+    bar = PointCloud(np.vstack([cloud.points, cloud.points + [100, 0, 0]]), name="bar")
+    seg = host.run("segment.spheres", {"cloud": bar}, {"nominal_radius": 20}).outputs
+    assert seg["n_spheres"] == 2 and len(seg["clouds"]) == 2
+    assert abs(np.linalg.norm(np.subtract(seg["spheres"][1]["center"], seg["spheres"][0]["center"])) - 100) < 0.01
+    one = host.run("segment.sphere", {"cloud": bar}, {"nominal_radius": 20}).outputs
+    assert one["cloud"].n_points == 2000
