@@ -172,9 +172,8 @@ def test_nist_scan_in_metres_read_as_mm_is_refused():
 
 
 def test_extract_wrong_nominal_from_the_cli(tmp_path, capsys):
-    from helpers.cli import refused
-
     from camcmm.api import PointCloud, write
+    from helpers.cli import refused
 
     path = tmp_path / "cap.ply"
     write(PointCloud(_cap_cloud(), name="cap"), path)
