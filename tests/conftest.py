@@ -123,21 +123,38 @@ def _leftovers(timeout: float = 10.0) -> list[tuple[int, str]]:
         time.sleep(0.2)
 
 
+_leaks: list[str] = []  # the controller's: what the xdist workers reported (pytest_testnodedown)
+
+
+def pytest_testnodedown(node, error):
+    _leaks.extend(getattr(node, "workeroutput", {}).get("camcmm_leftovers", []))
+
+
 def pytest_sessionfinish(session, exitstatus):
     import signal
+    import sys
 
+    # the warm plugin workers are a pool by design (camcmm.worker), stopped at the interpreter's
+    # exit: stop them here as the exit would, so that what remains is a real leak
+    if "camcmm.worker" in sys.modules:
+        sys.modules["camcmm.worker"].shutdown()
     left = _leftovers()
-    if not left:
-        return
     for pid, _ in left:
         try:
             os.kill(pid, signal.SIGKILL)
         except OSError:
             pass
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
-    lines = "\n".join(f"  pid {pid}: {cmd[:200]}" for pid, cmd in left)
-    print(
-        f"\nconftest ({worker}): {len(left)} process(es) started during the run were still alive at its end "
-        f"(killed now):\n{lines}"
+    lines = [f"pid {pid}: {cmd[:200]}" for pid, cmd in left]
+    workeroutput = getattr(session.config, "workeroutput", None)
+    if workeroutput is not None:  # an xdist worker: the controller fails the run
+        workeroutput["camcmm_leftovers"] = lines
+        return
+    lines += _leaks
+    if not lines:
+        return
+    listing = "\n".join(f"  {line}" for line in lines)
+    print(f"\nconftest: {len(lines)} process(es) started during the run were still alive at its end (killed):")
+    print(listing)
+        f"\nconftest: {len(lines)} process(es) started during the run were still alive at its end (killed):\n{listing}"
     )
     session.exitstatus = pytest.ExitCode.TESTS_FAILED

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from . import contracts
 from .errors import CamcmmError, InputError, PluginError
 from .hashing import file_hash, object_hash
 from .jsonable import to_jsonable, utc_now
@@ -97,7 +98,23 @@ class RunResult:
             "finished": self.finished,
         }
 
+    @classmethod
+    def from_json(cls, row: dict[str, Any]) -> RunResult:
+        """The run back from its stored row (:meth:`to_json`; a project's result ``run``):
+        outputs as JSON, geometry as the store keeps it (files), not objects."""
+        return cls(
+            str(row.get("plugin") or ""),
+            str(row.get("version") or ""),
+            dict(row.get("params") or {}),
+            dict(row.get("input_hashes") or {}),
+            dict(row.get("outputs") or {}),
+            str(row.get("started") or ""),
+            str(row.get("finished") or ""),
+            [str(w) for w in row.get("warnings") or []],
+        )
+
     def to_json(self) -> dict[str, Any]:
+        """The stored row of the run: the one record of a result (project, CLI JSON, demo)."""
         return {
             "plugin": self.plugin_id,
             "version": self.plugin_version,
@@ -196,8 +213,13 @@ class PluginHost:
             raise PluginError(
                 f"no plugin provides {task!r}: install one that declares it (`camcmm plugins` lists what is installed)"
             )
-        own = [s for s in found if s.distribution != "camcmm"]
-        return (own or found)[0]
+        # the task's output contract (camcmm.contracts), checked on the manifest: a lab's
+        # plugin that would not give what the task reads is passed over, and said so
+        fit = [s for s in found if not contracts.manifest_problem(s, task)]
+        if not fit:
+            raise PluginError(contracts.manifest_problem(found[0], task))
+        own = [s for s in fit if s.distribution != "camcmm"]
+        return (own or fit)[0]
 
     def load(self, plugin_id: str) -> Any:
         """Import a plugin's entry object; on failure set its status and raise."""
@@ -264,6 +286,21 @@ class PluginHost:
         if context is None:
             ctx.progress(1.0, "done")
         return RunResult(plugin_id, spec.version, values, hashes, outputs, started, utc_now(), ctx.warnings)
+
+    def run_task(
+        self,
+        task: str,
+        inputs: dict[str, Any] | None = None,
+        params: dict[str, Any] | None = None,
+        progress: ProgressCallback | None = None,
+        cancel: threading.Event | None = None,
+    ) -> RunResult:
+        """Run the plugin that provides ``task`` (:meth:`provider`) and hold its outputs to
+        the task's contract (:func:`camcmm.contracts.check_outputs`)."""
+        spec = self.provider(task)
+        result = self.run(spec.id, inputs, params, progress=progress, cancel=cancel)
+        contracts.check_outputs(task, spec.id, result.outputs)
+        return result
 
     def algorithm(self, plugin_id: str, parent: RunContext | None = None) -> Callable[..., dict[str, Any]]:
         """Another plugin as a plain callable ``f(**inputs_and_params) -> outputs``."""

@@ -48,6 +48,33 @@ def test_core_and_api_import_without_gui_or_open3d():
     assert out.stdout.strip() == "", f"importing the core loaded {out.stdout.strip()}"
 
 
+def test_tasks_need_no_gui_trame_or_vtk():
+    """The tasks layer (camcmm.tasks) is what the pages run: it imports nothing of the GUI,
+    by name or at run time, and importing every task module loads neither trame nor VTK."""
+    tasks = ROOT / "app" / "camcmm" / "tasks"
+    offenders = []
+    for path in tasks.rglob("*.py"):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [("." * node.level) + (node.module or "")]
+            for name in names:
+                if name.startswith(("camcmm.gui", "trame", "vtk", "pyvista", "..gui", ".gui")) or name == "..gui":
+                    offenders.append(f"{path.relative_to(ROOT)} imports {name}")
+    assert not offenders, "\n".join(offenders)
+    modules = [".".join(p.relative_to(ROOT / "app").with_suffix("").parts) for p in tasks.rglob("*.py")]
+    code = (
+        "import importlib, sys\n"
+        "for m in sys.argv[1:]:\n    importlib.import_module(m.removesuffix('.__init__'))\n"
+        "print(','.join(m for m in ('trame', 'vtk', 'pyvista') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code, *modules], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "", f"importing camcmm.tasks loaded {out.stdout.strip()}"
+
+
 @pytest.mark.slow
 def test_every_core_module_imports_on_its_own():
     # A module that only imports after another one is half of a circular import.

@@ -32,52 +32,16 @@ import numpy as np
 
 from ..errors import CamcmmError, InputError, one_line
 from ..host import default_host
+from ..tasks.items import describe, kind_of, size_text
 from ..units import unit_label
 from .jobs import Job
 from .unit_ask import UnitAsks
-from .view import DISPLAY_LIMIT, SceneView, color_fields, fmt_count
+from .view import DISPLAY_LIMIT, SceneView, color_fields
 
 log = logging.getLogger("camcmm.gui")
 
 #: Seconds between checks for changes another session made to the shared project.
 WATCH_PERIOD_S = 1.0
-
-
-def kind_of(obj: Any) -> str:
-    if hasattr(obj, "faces") and hasattr(obj, "vertices"):
-        return "mesh"
-    if hasattr(obj, "points") and hasattr(obj, "n_points"):
-        return "pointcloud"
-    if hasattr(obj, "data") and hasattr(obj, "size"):
-        return "image"
-    return type(obj).__name__.lower()
-
-
-def describe(obj: Any) -> str:
-    k = kind_of(obj)
-    if k == "pointcloud":
-        extra = f", fields: {', '.join(obj.fields)}" if getattr(obj, "fields", None) else ""
-        return f"{fmt_count(obj.n_points)} points{extra}"
-    if k == "mesh":
-        return f"{fmt_count(obj.n_vertices)} vertices, {fmt_count(obj.n_faces)} faces"
-    if k == "image":
-        w, h = obj.size
-        return f"image {w} × {h} px"
-    if k == "heightmap":
-        ny, nx = obj.shape
-        return f"height map {nx} × {ny} points, {obj.n_valid / (nx * ny):.1%} valid"
-    return k
-
-
-def size_text(obj: Any) -> str:
-    """The bounding box of a cloud or mesh in mm, e.g. ``138 × 106 × 99.3 mm``."""
-    from ..units import object_span
-
-    if kind_of(obj) == "heightmap":  # width × height, and the height range
-        w, h = obj.size_mm
-        z = obj.heights[obj.valid]
-        return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
-    return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
 
 
 def safe_name(name: str) -> str:

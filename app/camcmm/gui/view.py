@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..tasks.items import fmt_count
 from . import setup_offscreen
 
 DISPLAY_LIMIT = 500_000
@@ -23,11 +24,6 @@ COORDS = {"x": 0, "y": 1, "z": 2}
 
 # Names that usually hold signed deviations: shown with a diverging map centred on 0.
 _SIGNED = ("deviation", "residual", "distance", "error", "diff")
-
-
-def fmt_count(n: int) -> str:
-    """``2000000`` -> ``"2 000 000"`` (thin grouping, as metrology reports write it)."""
-    return f"{int(n):,}".replace(",", " ")
 
 
 def color_fields(obj: Any) -> list[dict[str, str]]:

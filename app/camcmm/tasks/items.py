@@ -1,0 +1,117 @@
+"""Project items as the tasks use them: look an item up by id, check its kind, load it, add
+one a run made — the same interface the GUI session offers (``measurement``, ``load``,
+``add_measurement``), here on a bare :class:`~camcmm.project.Project` (no trame), so a task
+runs the same headless as behind a page. What an item is called (``kind_of``) and how it is
+summarised (``describe``, ``size_text``) is said here once for both."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..errors import CamcmmError, InputError, one_line
+
+
+def fmt_count(n: int) -> str:
+    """``2000000`` -> ``"2 000 000"`` (thin grouping, as metrology reports write it)."""
+    return f"{int(n):,}".replace(",", " ")
+
+
+def kind_of(obj: Any) -> str:
+    if hasattr(obj, "faces") and hasattr(obj, "vertices"):
+        return "mesh"
+    if hasattr(obj, "points") and hasattr(obj, "n_points"):
+        return "pointcloud"
+    if hasattr(obj, "data") and hasattr(obj, "size"):
+        return "image"
+    return type(obj).__name__.lower()
+
+
+def describe(obj: Any) -> str:
+    k = kind_of(obj)
+    if k == "pointcloud":
+        extra = f", fields: {', '.join(obj.fields)}" if getattr(obj, "fields", None) else ""
+        return f"{fmt_count(obj.n_points)} points{extra}"
+    if k == "mesh":
+        return f"{fmt_count(obj.n_vertices)} vertices, {fmt_count(obj.n_faces)} faces"
+    if k == "image":
+        w, h = obj.size
+        return f"image {w} × {h} px"
+    if k == "heightmap":
+        ny, nx = obj.shape
+        return f"height map {nx} × {ny} points, {obj.n_valid / (nx * ny):.1%} valid"
+    return k
+
+
+def size_text(obj: Any) -> str:
+    """The bounding box of a cloud or mesh in mm, e.g. ``138 × 106 × 99.3 mm``."""
+    from ..units import object_span
+
+    if kind_of(obj) == "heightmap":  # width × height, and the height range
+        w, h = obj.size_mm
+        z = obj.heights[obj.valid]
+        return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
+    return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
+
+
+class ProjectItems:
+    """The items of ``project`` with the GUI session's interface; loaded objects are kept."""
+
+    def __init__(self, project: Any):
+        self.project = project
+        self._objects: dict[str, Any] = {}
+
+    def measurement(self, key: Any) -> dict[str, Any] | None:
+        """The item ``key`` (a measurement id, as text or int); None if there is none or it
+        was removed."""
+        try:
+            row = self.project.measurement(int(str(key).strip()))
+        except (CamcmmError, TypeError, ValueError):
+            return None
+        return None if row.get("removed") else row
+
+    def load(self, key: Any) -> Any:
+        """The geometry of item ``key``; InputError naming it when it cannot be read."""
+        key = str(key)
+        if key in self._objects:
+            return self._objects[key]
+        m = self.measurement(key)
+        if m is None:
+            raise InputError(f"no item with id {key!r} in the project")
+        try:
+            obj = self.project.load_measurement(m["id"])
+        except CamcmmError:
+            raise
+        except Exception as exc:
+            raise InputError(one_line(exc, f"{m.get('name', key)}: cannot load from the project")) from exc
+        self._objects[key] = obj
+        return obj
+
+    def add_measurement(
+        self, name: str, h: str, obj: Any, source: str = "", unit: str = "", display: dict | None = None
+    ) -> Any:
+        """Record ``obj`` (stored as file hash ``h``) as a new item; returns its id."""
+        meta: dict[str, Any] = {"summary": describe(obj)}
+        if source:
+            meta["made_by"] = source
+        if unit:
+            meta["unit"] = unit
+        if display:
+            meta["display_units"] = dict(display)
+        mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
+        self._objects[str(mid)] = obj
+        return mid
+
+
+def checked(items: Any, key: Any, kind: str) -> dict[str, str]:
+    """The item ``key`` of ``items`` (a session or :class:`ProjectItems`), which must be of
+    ``kind``: ``{id, name, kind}``; InputError naming the item otherwise."""
+    m = items.measurement(str(key))
+    if m is None:
+        raise InputError(f"no item with id {key!r} in the project")
+    have = str(m.get("kind") or "")
+    name = str(m.get("name") or key)
+    if have != kind:
+        raise InputError(f"item {name!r} is a {have or 'thing of no kind'}, not a {kind}")
+    return {"id": str(key), "name": name, "kind": have}
