@@ -155,6 +155,4 @@ def pytest_sessionfinish(session, exitstatus):
     listing = "\n".join(f"  {line}" for line in lines)
     print(f"\nconftest: {len(lines)} process(es) started during the run were still alive at its end (killed):")
     print(listing)
-        f"\nconftest: {len(lines)} process(es) started during the run were still alive at its end (killed):\n{listing}"
-    )
     session.exitstatus = pytest.ExitCode.TESTS_FAILED
