@@ -1,16 +1,16 @@
-"""What a comparison on the "Compare with CAD" page takes: the plugin and its form, the
+"""What a comparison on the "Compare with CAD" page takes: the plugin's form, the
 measured cloud and the nominal chosen among the project's items, the alignment method,
 the tolerance, and the point pairs clicked in the 3D view (also a click on a result:
 the deviation of the point under it).
 
-:class:`Inputs` is a mixin of :class:`.page.ComparePage` (which owns ``state``,
-``session``, ``host``, ``view``, the picked pairs, ``bands`` and ``_error``/``_spec_of``);
-loop thread only.
+:class:`Inputs` is a part of :class:`.page.ComparePage`, made with the page it serves
+(its ``state``, ``session``, ``view``, ``tools``, the comparison shown and ``error``);
+its :meth:`Inputs.request` is the :class:`~camcmm.tasks.compare.CompareRequest` the
+page's task runs. Loop thread only.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -18,14 +18,11 @@ import numpy as np
 from ....errors import InputError, one_line
 from ....host import to_jsonable
 from ....params import form_schema
+from ....tasks.compare import MAIN_PARAMS, N_PAIRS, TASK, CompareRequest, parse_tolerance
 from ....units import decide_unit, object_span
 from .tables import BANDS, _num, fmt_len
 
-#: The task whose plugin the page runs (``provides:`` in its manifest).
-TASK = "compare-with-cad"
-#: Parameters the page shows up front; the rest of the manifest's go under "More".
-MAIN_PARAMS = ("align", "tolerance")
-N_PAIRS = 3  # a rigid (or similarity) transform needs three non-collinear pairs
+__all__ = ["ALIGN_TITLES", "MAIN_PARAMS", "N_PAIRS", "TASK", "Inputs"]
 
 ALIGN_TITLES = {
     "icp": "ICP — rigid, from where the cloud is",
@@ -42,14 +39,25 @@ PAIR_COLOURS = {"measured": "#c62828", "nominal": "#1565c0"}
 
 
 class Inputs:
-    """The form, the inputs scene, point pairs and picking (mixin of ComparePage)."""
+    """The form, the inputs scene, point pairs and picking of ``page``."""
+
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+        self.session = page.session
+        self.view = page.view
+        self.measured_pairs: list[list[float]] = []
+        self.nominal_pairs: list[list[float]] = []
+
+    def _error(self, msg: Any) -> None:
+        self.page.error(msg)
 
     # -- inputs --------------------------------------------------------------------------
     def refresh_inputs(self) -> None:
         """The form: alignment choices and parameters from the manifest; default items."""
         s = self.state
         try:
-            spec = self._spec_of()
+            spec = self.page.task.spec
         except Exception as exc:  # a host without it (or a test's fake host): the page says so
             s.ins_error = f"no plugin to compare with CAD ({TASK}) is available: {one_line(exc)}"
             return
@@ -92,7 +100,7 @@ class Inputs:
             others = [g for g in geoms if g != s.ins_measured]
             s.ins_nominal = meshes[0] if meshes else (others[0] if others else None)
 
-    def _name(self, key: Any) -> str:
+    def name(self, key: Any) -> str:
         m = self.session.measurement(key)
         return str(m.get("name") or key) if m else str(key)
 
@@ -127,9 +135,9 @@ class Inputs:
             self._error(exc)
             return False
         if measured is not None and not hasattr(measured, "points"):
-            self._error(f"{self._name(s.ins_measured)} is not a point cloud")
+            self._error(f"{self.name(s.ins_measured)} is not a point cloud")
             return False
-        self.measured, self.nominal = measured, nominal
+        self.page.measured, self.page.nominal = measured, nominal
         note = self.unit_note(measured, nominal)
         if note:  # shown, not refused: the user may know better (a scan of a small detail)
             self._error(note)
@@ -150,13 +158,13 @@ class Inputs:
         if not expected > 0:
             return ""
         unit = getattr(measured, "source_unit", "mm") or "mm"
-        name = self._name(self.state.ins_measured)
+        name = self.name(self.state.ins_measured)
         check = decide_unit(object_span(measured), unit, unit=unit, expected=expected, name=name, what="nominal")
         if not check.asks:
             return ""
         return (
             f"{check.reason.replace(': give its unit', '')}; import it again with its unit "
-            f"(or the nominal {self._name(self.state.ins_nominal)}, if that is the one in another unit)"
+            f"(or the nominal {self.name(self.state.ins_nominal)}, if that is the one in another unit)"
         )
 
     def set_align(self, method: str) -> None:
@@ -176,17 +184,17 @@ class Inputs:
     # -- point pairs ---------------------------------------------------------------------
     def _pair_markers(self) -> list[dict[str, Any]]:
         out = []
-        for i, p in enumerate(self._pairs_measured):
+        for i, p in enumerate(self.measured_pairs):
             out.append({"point": p, "label": f"M{i + 1}", "colour": PAIR_COLOURS["measured"]})
-        for i, p in enumerate(self._pairs_nominal):
+        for i, p in enumerate(self.nominal_pairs):
             out.append({"point": p, "label": f"N{i + 1}", "colour": PAIR_COLOURS["nominal"]})
         return out
 
     def _publish_pairs(self) -> None:
         rows = []
-        for i in range(max(len(self._pairs_measured), len(self._pairs_nominal))):
-            m = self._pairs_measured[i] if i < len(self._pairs_measured) else None
-            n = self._pairs_nominal[i] if i < len(self._pairs_nominal) else None
+        for i in range(max(len(self.measured_pairs), len(self.nominal_pairs))):
+            m = self.measured_pairs[i] if i < len(self.measured_pairs) else None
+            n = self.nominal_pairs[i] if i < len(self.nominal_pairs) else None
             fmt = lambda p: "(" + ", ".join(f"{c:.2f}" for c in p) + ")"
             rows.append(
                 {
@@ -204,7 +212,7 @@ class Inputs:
         if not self.pairs_method():
             s.ins_pick_hint = ""
             return
-        nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+        nm, nn = len(self.measured_pairs), len(self.nominal_pairs)
         if nm >= N_PAIRS and nn >= N_PAIRS:
             s.ins_pick_hint = "three pairs picked: Run aligns with them"
         elif nm <= nn:
@@ -214,30 +222,30 @@ class Inputs:
 
     def pairs(self) -> dict[str, list[list[float]]] | None:
         """The picked pairs as the plugin takes them (complete pairs only)."""
-        k = min(len(self._pairs_measured), len(self._pairs_nominal))
+        k = min(len(self.measured_pairs), len(self.nominal_pairs))
         if k == 0:
             return None
-        return {"measured": self._pairs_measured[:k], "nominal": self._pairs_nominal[:k]}
+        return {"measured": self.measured_pairs[:k], "nominal": self.nominal_pairs[:k]}
 
     def add_pair_point(self, which: str, point: Any) -> None:
         """Record a picked point of a pair (also used by tests and scripts)."""
         p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]
-        (self._pairs_measured if which == "measured" else self._pairs_nominal).append(p)
+        (self.measured_pairs if which == "measured" else self.nominal_pairs).append(p)
         self._publish_pairs()
         if self.view.scene == "inputs":
             self.view.set_markers(self._pair_markers())
 
     def clear_pairs(self, render: bool = True) -> None:
-        self._pairs_measured, self._pairs_nominal = [], []
+        self.measured_pairs, self.nominal_pairs = [], []
         self._publish_pairs()
         if render and self.view.scene == "inputs":
             self.view.set_markers([])
 
     def undo_pair_point(self) -> None:
-        if len(self._pairs_measured) > len(self._pairs_nominal):
-            self._pairs_measured.pop()
-        elif self._pairs_nominal:
-            self._pairs_nominal.pop()
+        if len(self.measured_pairs) > len(self.nominal_pairs):
+            self.measured_pairs.pop()
+        elif self.nominal_pairs:
+            self.nominal_pairs.pop()
         self._publish_pairs()
         if self.view.scene == "inputs":
             self.view.set_markers(self._pair_markers())
@@ -262,7 +270,7 @@ class Inputs:
             if not self.pairs_method():
                 s.ins_pick_hint = "choose a 'pairs' alignment to pick point pairs; after Run, a click shows a deviation"
                 return None
-            nm, nn = len(self._pairs_measured), len(self._pairs_nominal)
+            nm, nn = len(self.measured_pairs), len(self.nominal_pairs)
             if nm >= N_PAIRS and nn >= N_PAIRS:
                 s.ins_pick_hint = "three pairs are picked; Clear them to pick again"
                 return None
@@ -275,7 +283,7 @@ class Inputs:
                 return None
             self.add_pair_point(which, p)
             return {"which": which, "point": p.tolist()}
-        if scene in ("colour", "bands", "failed") and self.deviations is not None:
+        if scene in ("colour", "bands", "failed") and self.page.deviations is not None:
             i = self.view.pick_deviation(x, y)
             if i is None:
                 s.ins_picked = {"text": "no point there", "found": False}
@@ -286,7 +294,7 @@ class Inputs:
     def pick_index(self, i: int, label: bool = True) -> dict[str, Any]:
         """Show the deviation of point ``i`` of the deviations cloud (and, with ``label``,
         add a label that stays in the view)."""
-        cloud = self.deviations
+        cloud = self.page.deviations
         p = np.asarray(cloud.points[i], dtype=float)
         d = float(np.asarray(cloud.fields["deviation"])[i])
         unit = self.state.ins_unit
@@ -302,30 +310,31 @@ class Inputs:
             "coords": "(" + ", ".join(_num(float(c), 6) for c in p) + ") mm",
             "valid": valid,
         }
-        if self.bands is not None:
-            info["band"] = BANDS[int(self.bands["codes"][i])][0]
+        bands = self.page.bands
+        if bands is not None:
+            info["band"] = BANDS[int(bands["codes"][i])][0]
         info["text"] = f"point #{i}: {info['coords']}, deviation {info['deviation']}" + (
             "" if valid else " (alignment failed: not a valid deviation)"
         )
         self.state.ins_picked = info
         # a label that stays (with the others picked); no deviation when the alignment failed
         if label:
-            self.tools.add_label(p, d if valid else None, unit)
+            self.page.tools.add_label(p, d if valid else None, unit)
         return info
 
-    # -- running -------------------------------------------------------------------------
-    def _tolerance(self, quiet: bool = False) -> float | None:
-        t = self.state.ins_tolerance
-        if t is None or (isinstance(t, str) and not t.strip()):
-            return None
-        try:
-            v = float(str(t).replace(",", ".")) if not isinstance(t, (int, float)) else float(t)
-        except ValueError:
-            if not quiet:
-                raise InputError(f"tolerance: {t!r} is not a number") from None
-            return None
-        if not math.isfinite(v) or v < 0:
-            if not quiet:
-                raise InputError(f"tolerance: {t!r} must be a number ≥ 0 (mm)")
-            return None
-        return v or None
+    # -- the request ----------------------------------------------------------------------
+    def tolerance(self, quiet: bool = False) -> float | None:
+        """The tolerance in the field (mm; None: none); InputError unless ``quiet``."""
+        return parse_tolerance(self.state.ins_tolerance, quiet)
+
+    def request(self, params: dict[str, Any] | None = None) -> CompareRequest:
+        """The form as the task's request (``params``: the "More" parameters, else the form's)."""
+        s = self.state
+        return CompareRequest(
+            measured=s.ins_measured,
+            nominal=s.ins_nominal,
+            align=str(s.ins_align),
+            tolerance=self.tolerance(),
+            params=dict(params if params is not None else (s.ins_params or {})),
+            pairs=self.pairs(),
+        )

@@ -2,7 +2,8 @@
 in n bands over ±the colour limit, or n bands over ±tolerance with the out-of-tolerance
 colours (the arithmetic is :func:`camcmm.gui.viewtools.legend_spec`).
 
-:class:`Legend` is a mixin of :class:`.page.ComparePage`; loop thread.
+:class:`Legend` is a part of :class:`.page.ComparePage`, made with the page it serves
+(its ``state``, the comparison shown, the tolerance); loop thread.
 """
 
 from __future__ import annotations
@@ -16,13 +17,17 @@ MIN_BANDS, MAX_BANDS = 2, 32
 
 
 class Legend:
-    """The legend's kind and bands (mixin of ComparePage)."""
+    """The legend's kind and bands on ``page``."""
 
-    def _legend_spec(self) -> dict[str, Any] | None:
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+
+    def spec(self) -> dict[str, Any] | None:
         s = self.state
-        limit = float((self.outputs or {}).get("colour_limit") or 1e-3)
+        limit = float((self.page.outputs or {}).get("colour_limit") or 1e-3)
         kind = s.ins_legend_kind if s.ins_legend_kind in LEGENDS else "continuous"
-        tol = self._tolerance(quiet=True)
+        tol = self.page.inputs.tolerance(quiet=True)
         spec = legend_spec(kind, int(s.ins_legend_n), limit, tol)
         unit = s.ins_unit
         if spec["edges"]:
@@ -34,27 +39,27 @@ class Legend:
             s.ins_limit_text = f"colours saturate at ±{fmt_len(limit, unit)}"
         return spec
 
-    def set_legend(self, kind: Any = None, n: Any = None) -> None:
+    def set(self, kind: Any = None, n: Any = None) -> None:
         """A new legend kind ("continuous", "stepped", "tolerance") and/or number of bands;
         the colour map is drawn again with it."""
         s = self.state
         if kind is not None:
             if kind not in LEGENDS:
-                self._error(f"legend {kind!r}: choose one of {', '.join(LEGENDS)}")
+                self.page.error(f"legend {kind!r}: choose one of {', '.join(LEGENDS)}")
                 return
-            if kind == "tolerance" and not self._tolerance(quiet=True):
-                self._error("a tolerance legend needs a tolerance: enter one (mm)")
+            if kind == "tolerance" and not self.page.inputs.tolerance(quiet=True):
+                self.page.error("a tolerance legend needs a tolerance: enter one (mm)")
                 kind = "stepped"
             s.ins_legend_kind = kind
         if n is not None:
             try:
                 k = int(float(n))
             except (TypeError, ValueError):
-                self._error(f"legend bands: {n!r} is not a whole number")
+                self.page.error(f"legend bands: {n!r} is not a whole number")
                 return
             if not MIN_BANDS <= k <= MAX_BANDS:
-                self._error(f"legend bands: {k} is outside {MIN_BANDS}…{MAX_BANDS}")
+                self.page.error(f"legend bands: {k} is outside {MIN_BANDS}…{MAX_BANDS}")
                 return
             s.ins_legend_n = k
-        if self.outputs is not None and s.ins_mode == "colour":
-            self._draw("colour")
+        if self.page.outputs is not None and s.ins_mode == "colour":
+            self.page.display.draw("colour")

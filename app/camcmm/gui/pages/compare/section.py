@@ -4,7 +4,8 @@ the measured points within ± half their spacing of the plane, coloured by devia
 are drawn as a 2-D chart, and the plane's outline in the 3D view.
 
 The cut is made by the plugin providing the task ``deviation-section``; this module
-publishes it. :class:`Section` is a mixin of :class:`.page.ComparePage`; loop thread.
+publishes it. :class:`Section` is a part of :class:`.page.ComparePage`, made with the
+page it serves (its ``state``, ``host``, ``view`` and the comparison shown); loop thread.
 """
 
 from __future__ import annotations
@@ -24,32 +25,37 @@ SECTION_TASK = "deviation-section"
 
 
 class Section:
-    """The section plane, its range and its chart (mixin of ComparePage)."""
+    """The section plane, its range and its chart on ``page``."""
 
-    def _auto_section(self) -> None:
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+        self.view = page.view
+
+    def auto(self) -> None:
         """The section through the middle, once a valid result is shown."""
-        if self.deviations is not None and not self.state.ins_failed:
+        if self.page.deviations is not None and not self.state.ins_failed:
             self.set_section()
 
     def spacing(self) -> float:
         """The median point spacing of the deviations cloud (mm), as the section plugin
         measured it (0 without a result)."""
-        if self._spacing is None and self.deviations is not None:
+        if self.page.spacing_mm is None and self.page.deviations is not None:
             self.set_section()
-        return self._spacing or 0.0
+        return self.page.spacing_mm or 0.0
 
-    def _bounds(self) -> np.ndarray | None:
-        if self.deviations is None:
+    def bounds(self) -> np.ndarray | None:
+        if self.page.deviations is None:
             return None
-        b = self.deviations.bounds
-        if self.nominal is not None and hasattr(self.nominal, "bounds"):
-            nb = np.asarray(self.nominal.bounds, dtype=float)
+        b = self.page.deviations.bounds
+        if self.page.nominal is not None and hasattr(self.page.nominal, "bounds"):
+            nb = np.asarray(self.page.nominal.bounds, dtype=float)
             b = np.vstack([np.minimum(b[0], nb[0]), np.maximum(b[1], nb[1])])
         return b
 
-    def _section_range(self, centre: bool = False) -> None:
+    def set_range(self, centre: bool = False) -> None:
         s = self.state
-        b = self._bounds()
+        b = self.bounds()
         if b is None:
             return
         ax = AXES.index(s.ins_section_axis or "z")
@@ -65,31 +71,31 @@ class Section:
         s = self.state
         if axis is not None and axis != s.ins_section_axis:
             s.ins_section_axis = axis
-            self._section_range(centre=True)
+            self.set_range(centre=True)
         if position is not None:
             s.ins_section_pos = float(position)
-        if self.deviations is None:
+        if self.page.deviations is None:
             return None
         if s.ins_failed:  # the unaligned distances are no deviations: no section of them
-            self._error("the alignment failed: the deviations are not valid, so no section is drawn")
+            self.page.error("the alignment failed: the deviations are not valid, so no section is drawn")
             return None
         try:
-            spec = self.host.provider(SECTION_TASK)
-            inputs = {"deviations": self.deviations}
-            if self.nominal is not None:
-                inputs["nominal"] = self.nominal
+            spec = self.page.host.provider(SECTION_TASK)
+            inputs = {"deviations": self.page.deviations}
+            if self.page.nominal is not None:
+                inputs["nominal"] = self.page.nominal
             params = {"axis": s.ins_section_axis, "position": float(s.ins_section_pos)}
-            if self._spacing is not None:  # measured once per result: the slab is half of it
-                params["half_width"] = 0.5 * self._spacing
-            out = self.host.run(spec.id, inputs, params).outputs
+            if self.page.spacing_mm is not None:  # measured once per result: the slab is half of it
+                params["half_width"] = 0.5 * self.page.spacing_mm
+            out = self.page.host.run(spec.id, inputs, params).outputs
             if out.get("spacing") is not None:
-                self._spacing = float(out["spacing"])
+                self.page.spacing_mm = float(out["spacing"])
             sec = out["section"]
-            s.ins_fig_section = section_figure(sec, s.ins_unit, float(self.outputs.get("colour_limit") or 1e-3))
+            s.ins_fig_section = section_figure(sec, s.ins_unit, float(self.page.outputs.get("colour_limit") or 1e-3))
         except Exception as exc:
             log.exception("section")
-            self._error(f"section: {one_line(exc)}")
+            self.page.error(f"section: {one_line(exc)}")
             return None
         if s.ins_mode in ("colour", "bands", "failed"):
-            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self._bounds())
+            self.view.set_section_plane(s.ins_section_axis, float(s.ins_section_pos), self.bounds())
         return sec
