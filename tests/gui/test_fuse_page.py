@@ -25,7 +25,7 @@ pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 
 from camcmm.errors import InputError  # noqa: E402
-from camcmm.host import RunResult  # noqa: E402
+from camcmm.host import Cancelled, RunResult  # noqa: E402
 from camcmm.model import HeightMap, PointCloud  # noqa: E402
 
 LO, HI = -0.033, 0.024  # mm: the ramp's ends (the thesis's −33/+24 µm)
@@ -77,11 +77,17 @@ def fake_views(rng: np.random.Generator) -> dict:
     }
 
 
-def fake_runner(host, plugin_id, cloud, maps, params, job):
-    """The plugin's run as the page calls it, answering with the constructed result."""
+def check(cancel) -> None:
+    if cancel is not None and cancel.is_set():
+        raise Cancelled("fusion: cancelled")
+
+
+def fake_runner(host, inputs, params, progress=None, cancel=None):
+    """The task's run as the page calls it, answering with the constructed result."""
+    cloud, maps, plugin_id = inputs.cloud, inputs.maps, "fusion.csi"
     for k, stage in enumerate(("grey images", "matching", "icp", "fusion")):
-        job.check()
-        job.progress(k / 4, f"{stage}: working")
+        check(cancel)
+        progress(k / 4, f"{stage}: working")
     rng = np.random.default_rng(5)
     views = [fake_views(rng) for _ in maps]
     d = ramp()
@@ -224,7 +230,7 @@ def test_missing_or_wrong_inputs_and_bad_values_are_one_line(inputs):
 def test_the_plugins_refusal_is_shown_and_nothing_is_stored(inputs):
     page, session, cloud, hm = inputs
 
-    def refuse(host, plugin_id, cloud_, maps, params, job):
+    def refuse(host, inputs, params, progress=None, cancel=None):
         raise InputError("map A: no overlap with the cloud's grey image (3 matches, 8 needed)")
 
     page.runner = refuse
@@ -240,10 +246,10 @@ def test_cancel_stores_nothing(inputs):
     page, session, cloud, hm = inputs
     started = threading.Event()
 
-    def slow(host, plugin_id, cloud_, maps, params, job):
+    def slow(host, inputs, params, progress=None, cancel=None):
         started.set()
         for _ in range(200):
-            job.check()
+            check(cancel)
             time.sleep(0.02)
         raise AssertionError("not cancelled")
 

@@ -2,13 +2,14 @@
 and CSI height maps in (project items), the fused cloud and the difference analysis out
 (thesis ch. 6.1).
 
-The fusion runs in a :class:`~camcmm.gui.jobs.Job` with progress and cancel; the plugin
-computes in a worker process (:mod:`.run`). The result goes into the project (loop
+The fusion is the headless task :mod:`camcmm.tasks.fusion` (inputs checked, the plugin
+run in a worker process, the result stored); the page runs it in a
+:class:`~camcmm.gui.jobs.Job` with progress and cancel. The result goes into the project (loop
 thread); the page shows each map's grey images with the inlier matches, its difference
 map, histogram and Abbott-Firestone curve (:mod:`.figures`), the numbers, and the fused
 cloud with the footprints in its own scene (:mod:`.scene`). Tests call
 ``asyncio.run(page.run_async(...))``; ``runner`` may be replaced by a stand-in with
-:func:`.run.fuse`'s signature.
+:func:`camcmm.tasks.fusion.run`'s signature.
 """
 
 from __future__ import annotations
@@ -17,13 +18,13 @@ import logging
 from typing import Any
 
 from ....errors import CamcmmError, one_line
+from ....tasks import fusion
 from ...jobs import Job
-from ...runpage import RunPage
+from ...runpage import RunShared
 from ...runpage import mount as mount_page
 from ...view import color_fields
-from ...widgets import declared_fields
+from ...widgets import declared_fields, form_values
 from . import figures
-from . import run as runs
 from .scene import FuseScene
 
 log = logging.getLogger("camcmm.gui.fuse")
@@ -38,17 +39,29 @@ EMPTY_HINT = (
 )
 
 
-class FusePage(RunPage):
-    KEY, PREFIX, WHAT, runs = KEY, "fu", "fusion", runs
+class FusePage:
+    KEY = KEY
 
     def __init__(self, server: Any, session: Any):
-        super().__init__(server, session)
+        self.server, self.session, self.state, self.host = server, session, session.state, session.host
+        self.shared = RunShared(session, KEY, "fu", "fusion", fusion)
         self.view = FuseScene(session.view.display_limit)
+        self.tools: Any = None  # the view's toolbar (mount)
+        self.record: dict[str, Any] | None = None
+        self._shown_result: Any = None
         self.job = Job("fusion", state=self.state, on_progress=self._show_progress, interval=0.2)
-        self.runner = runs.fuse
+        self.runner = fusion.run
         self._init_state()
         self.refresh_form()
         self.restore()
+
+    def spec(self) -> Any:
+        """The manifest of the plugin that does the fusion."""
+        return self.shared.spec()
+
+    def restore(self) -> None:
+        """The last run, as the project keeps it (the scene is drawn when the page opens)."""
+        self.shared.restore(lambda req: self._set_request(req.to_dict()), self.show_record)
 
     # -- state ------------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -102,32 +115,32 @@ class FusePage(RunPage):
         the result; the page's record, or None with the one-line reason shown on the page."""
         s = self.state
         if self.job.running:
-            self._error("a fusion is running; wait for it or cancel it")
+            self.shared.error("a fusion is running; wait for it or cancel it")
             return None
         req = self.request() if req is None else {**self.request(), **req}
         try:
             spec = self.spec()
-            values = runs.check_params(spec, s.fu_params if params is None else params)
-            cloud, maps, used = runs.inputs_of(self.session, req)
+            values = form_values(spec, s.fu_params if params is None else params)
+            inputs = fusion.inputs_of(self.session, req)
         except Exception as exc:
-            self._error(exc)
+            self.shared.error(exc)
             return None
         self._set_request(req)
-        self._clear_error()
+        self.shared.clear_error()
         s.fu_running, s.fu_progress, s.fu_message = True, 0.0, "starting …"
         self.session.flush()
         try:
-            result = await self.job.run(self.runner, self.host, spec.id, cloud, maps, values, self.job)
-            rec = runs.store(self.session, spec, result, req, used)
+            result = await self.shared.run_in(self.job, self.runner, self.host, inputs, values)
+            rec = fusion.store(self.project, self.session, result, req, inputs)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.fu_running, s.fu_progress, s.fu_message = False, 0.0, status
-            self._error(line)
+            self.shared.error(line)
             self.session.flush()
             return None
         s.fu_running, s.fu_progress = False, 100.0
         self.show_record(rec, result.outputs.get("fused"))
-        s.fu_message = f"done: {len(used) - 1} map(s) fused, result #{rec['result']}"
+        s.fu_message = f"done: {len(inputs.maps)} map(s) fused, result #{rec['result']}"
         self.session.refresh_items()
         self.session.refresh_results()
         self.session.info(f"fusion stored as result #{rec['result']}", page=KEY)
@@ -164,7 +177,7 @@ class FusePage(RunPage):
         v = views[k] if k < len(views) and isinstance(views[k], dict) else {}
         s = self.state
         s.fu_map = k
-        s.fu_numbers = runs.numbers(rec.get("summary") or {}, k)
+        s.fu_numbers = fusion.numbers(rec.get("summary") or {}, k)
         s.fu_fig_matches = figures.matches_figure(v)
         s.fu_fig_diff = figures.difference_figure(v)
         s.fu_fig_hist = figures.histogram_figure(v)
@@ -182,7 +195,7 @@ class FusePage(RunPage):
             field = "source" if "source" in (getattr(obj, "fields", {}) or {}) else None
             self.view.show(key, obj, field)
         except Exception as exc:
-            self._error(f"the fused cloud cannot be shown: {one_line(exc)}")
+            self.shared.error(f"the fused cloud cannot be shown: {one_line(exc)}")
             return
         s.fu_colours, s.fu_colour = color_fields(obj), self.view.field
         s.fu_outlines = self.view.outlines_drawn()
@@ -205,7 +218,18 @@ class FusePage(RunPage):
         if self._shown_result != self.record.get("result"):
             self.show_fused()
 
+    @property
+    def project(self) -> Any:
+        return self.session.project
+
+    def close(self) -> None:
+        self.job.close()
+        try:
+            self.view.plotter.close()
+        except Exception:
+            pass
+
 
 def mount(server: Any, session: Any) -> FusePage:
     """Create the page for a session and its view tools (before the server starts)."""
-    return mount_page(FusePage, server, session, "fuv")
+    return mount_page(FusePage(server, session), server, "fuv")

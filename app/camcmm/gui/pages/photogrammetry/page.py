@@ -17,8 +17,7 @@ from typing import Any
 
 from ....errors import CamcmmError, one_line
 from ...jobs import Job, in_background
-from ...runpage import RunPage
-from ...runpage import mount as mount_page
+from ...runpage import RunPage, mount_legacy
 from ...widgets import declared_fields
 from . import inputs, links
 from . import run as runs
@@ -257,7 +256,7 @@ class PhotogrammetryPage(Display, RunPage):
 
 def mount(server: Any, session: Any) -> PhotogrammetryPage:
     """Create the page for a session, its view tools and downloads (before the server starts)."""
-    page = mount_page(PhotogrammetryPage, server, session, "pgv")
+    page = mount_legacy(PhotogrammetryPage, server, session, "pgv")
 
     @server.state.change("items")
     def _items_changed(**_: Any) -> None:
