@@ -29,7 +29,7 @@ pytest.importorskip("pyvista")
 cv2 = pytest.importorskip("cv2")
 
 from camcmm.errors import InputError  # noqa: E402
-from camcmm.host import RunResult  # noqa: E402
+from camcmm.host import Cancelled, RunResult  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 
 N_VIEWS, RING = 8, 300.0
@@ -84,11 +84,17 @@ def fake_reconstruction(names: list[str]) -> dict:
     return rec, PointCloud(pts, name="dense"), PointCloud(pts[:150], name="sparse")
 
 
-def fake_runner(host, plugin_id, sources, params, calibration, job):
-    """The plugin's run as the page calls it, answering with the constructed reconstruction."""
+def check(cancel) -> None:
+    if cancel is not None and cancel.is_set():
+        raise Cancelled("reconstruction: cancelled")
+
+
+def fake_runner(host, sources, params, calibration=None, progress=None, cancel=None):
+    """The task's run as the page calls it, answering with the constructed reconstruction."""
+    plugin_id = "photogrammetry.reconstruct"
     for k, stage in enumerate(("features", "matching", "mapping", "dense")):
-        job.check()
-        job.progress(k / 4, f"{stage}: working")
+        check(cancel)
+        progress(k / 4, f"{stage}: working")
     rec, cloud, sparse = fake_reconstruction([s["name"] for s in sources])
     return RunResult(
         plugin_id, "0.1.0", dict(params), {"images": "x"}, {"cloud": cloud, "sparse": sparse, "reconstruction": rec},
@@ -119,7 +125,7 @@ def test_frustum_of_an_identity_camera():
 
 def test_stages_and_counts_read_from_the_plugins_words():
     from camcmm.gui.pages.photogrammetry import inputs
-    from camcmm.gui.pages.photogrammetry.run import stage_of
+    from camcmm.tasks.photogrammetry import stage_of
 
     assert stage_of("matching: 12/28 pairs") == "matching" and stage_of("Dense 3/8") == "dense"
     assert stage_of("SIFT features") == "features" and stage_of("depth map 3/8") == "dense"
@@ -250,10 +256,10 @@ def test_cancel_stores_nothing_and_failure_is_one_line(app, tmp_path):
     req = {"source": "folder", "folder": str(tmp_path / "data" / "s")}
     started = threading.Event()
 
-    def slow(host, plugin_id, sources, params, calibration, job):
+    def slow(host, sources, params, calibration=None, progress=None, cancel=None):
         started.set()
         while True:
-            job.check()
+            check(cancel)
             time.sleep(0.01)
 
     page.runner = slow
@@ -287,7 +293,7 @@ def test_cancel_stores_nothing_and_failure_is_one_line(app, tmp_path):
     page.opened()  # the page shown again offers the calibration made meanwhile
     assert page.state.pg_cal_note
     given = []
-    page.runner = lambda host, pid, sources, params, calibration, job: given.append(calibration) or refuse()
+    page.runner = lambda host, sources, params, calibration, progress, cancel: given.append(calibration) or refuse()
     page.state.pg_use_cal = True
     asyncio.run(page.run_async(None, req))
     assert given == [Path(session.project.file_path(h))]
@@ -328,9 +334,9 @@ def test_the_real_plugin_on_templering(app, tmp_path, shared_data):
     for f in files:
         shutil.copy(f, tmp_path / "data" / f.name)
     page, session, _ = app()
-    from camcmm.gui.pages.photogrammetry import run as runs
+    from camcmm.tasks import photogrammetry
 
-    page.runner = runs.reconstruct
+    page.runner = photogrammetry.run
     if importlib.util.find_spec("camcmm_plugins.photogrammetry.plugin") is None:
         pytest.skip("the photogrammetry plugin's module is not there yet")
     params = {"dense": False, "max_image_size": 320, "scale": ""}

@@ -1,43 +1,44 @@
 """What the Photogrammetry page shows of a run: its figures, the image rows with the
 plugin's counts, and the cloud (dense or sparse, in a chosen colouring) with the
-registered cameras in the page's scene. A part of :class:`.page.PhotogrammetryPage`."""
+registered cameras in the page's scene. The page holds one :class:`Display`."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from ....errors import one_line
+from ....tasks import photogrammetry
 from ...view import RGB, color_fields
 from . import inputs
-from . import run as runs
 
 
 class Display:
-    """The page's display methods (``state``, ``view``, ``session``, ``record``,
-    ``_error`` come from the page)."""
+    """The shown run (``record``) of a page with ``state`` (``pg_*``), its ``view`` (a
+    :class:`.scene.PhotoScene`), the ``session`` (to load an item) and ``error`` (the page's
+    one-line error)."""
 
-    state: Any
-    view: Any
-    session: Any
-    record: dict[str, Any] | None
-    _shown_result: Any
+    def __init__(self, state: Any, view: Any, session: Any, error: Callable[[Any], None]):
+        self.state, self.view, self.session, self.error = state, view, session, error
+        self.record: dict[str, Any] | None = None
+        self.shown_result: Any = None  # the result whose cloud the scene shows
 
     def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None, draw: bool = True) -> None:
         """A run's record on the page: figures, image counts and (``draw``) the cloud with
-        its cameras; a restored record is drawn when the page opens (:meth:`opened`)."""
+        its cameras; a restored record is drawn when the page opens."""
         s, rc = self.state, rec.get("reconstruction") or {}
         self.record = rec
         s.pg_title = f"{rec.get('name', '')} — result #{rec.get('result')} ({rec.get('plugin', '')})"
-        s.pg_summary = runs.summary(rc)
+        s.pg_summary = photogrammetry.summary(rc)
         s.pg_warnings = [str(w) for w in rec.get("warnings") or rc.get("warnings") or []]
         s.pg_items_made = dict(rec.get("items") or {})
         listed = s.pg_images if len(s.pg_images or []) == len(rec.get("sources") or []) else None
         s.pg_images = inputs.with_counts(listed or inputs.rows(rec.get("sources") or []), rc.get("images"))
         if draw:
             objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
-            self.show_cloud(self._display(), objs)
+            self.show_cloud(self.which(), objs)
 
-    def _display(self) -> str:
+    def which(self) -> str:
         """The cloud to show: the one shown before if this run has it, else dense, else sparse."""
         made = self.state.pg_items_made or {}
         return self.state.pg_display if self.state.pg_display in made else ("cloud" if "cloud" in made else "sparse")
@@ -55,13 +56,13 @@ class Display:
             # a photograph's cloud reads best in its measured colour (n_views, quality: "Colour by")
             self.view.show(key, obj, RGB if getattr(obj, "colors", None) is not None else None)
         except Exception as exc:
-            self._error(f"the {which} cannot be shown: {one_line(exc)}")
+            self.error(f"the {which} cannot be shown: {one_line(exc)}")
             return
         s.pg_display = which
         s.pg_colours, s.pg_colour = color_fields(obj), self.view.field
         s.pg_cameras = self.view.cameras_drawn()
         s.pg_note = f"{self.view.note}; {s.pg_cameras} registered cameras drawn"
-        self._shown_result = rec.get("result")
+        self.shown_result = rec.get("result")
 
     def set_colour(self, name: Any) -> None:
         """Colour the shown cloud by field ``name`` (its measured colour, n_views, quality, x/y/z)."""

@@ -1,10 +1,7 @@
-"""Where the Photogrammetry page's image series comes from, and its thumbnails.
+"""The Photogrammetry page's image list: thumbnails and rows with the plugin's counts.
 
-A series is a folder on the server (inside the project folder or a ``--data-root``:
-every path from the browser goes through :meth:`camcmm.gui.roots.Roots.check`) with a
-name pattern, or the project's image items. A *source* is a JSON-able dict
-``{name, path, item}``: the file name the plugin reports the image by, the path it is
-read from, and the item id when the image lives in the project.
+Where a series comes from (a folder inside the roots, or image items) is checked by the
+task (:func:`camcmm.tasks.photogrammetry.sources_of`); a *source* is ``{name, path, item}``.
 
 Thumbnails are small PNG ``data:`` URLs made server-side (at most :data:`MAX_THUMBS` of
 :data:`THUMB_WIDTH` px): a large JPEG is decoded at 1/4 or 1/8 of its size by libjpeg's
@@ -14,78 +11,15 @@ own scaling, so a 24-MP series costs little.
 from __future__ import annotations
 
 import base64
-import fnmatch
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ....errors import InputError
-
-IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
-#: most images a series may hold (the page and the state stay responsive)
-MAX_IMAGES = 400
 #: thumbnails made for a series (the rest are listed by name only): ~13 kB each in the state
 MAX_THUMBS = 60
 THUMB_WIDTH = 96
-
-
-def folder_sources(folder: Any, pattern: Any = "*", roots: Any = None) -> list[dict[str, Any]]:
-    """The image files in ``folder`` matching ``pattern`` (globs separated by ';'),
-    sorted by name. With ``roots`` a folder outside them is refused before it is
-    looked at, and a link to a file elsewhere is left out."""
-    text = str(folder or "").strip().strip('"')
-    if not text:
-        raise InputError(
-            "image series: give a folder on the server that holds the images (inside the project "
-            "folder or a --data-root), or choose image items of the project"
-        )
-    root = roots.check(text, "server folder") if roots is not None else Path(text).expanduser().resolve()
-    if not root.is_dir():
-        raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
-    pats = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
-    files = sorted(
-        p
-        for p in root.iterdir()
-        if p.is_file()
-        and p.suffix.lower() in IMAGE_EXTS
-        and any(fnmatch.fnmatch(p.name, q) for q in pats)
-        and (roots is None or roots.allows(p))
-    )
-    if not files:
-        raise InputError(f"folder {text}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r}")
-    if len(files) > MAX_IMAGES:
-        raise InputError(
-            f"folder {text}: {len(files)} images match {';'.join(pats)!r}; at most {MAX_IMAGES} make one "
-            "series here: narrow the pattern"
-        )
-    return [{"name": p.name, "path": str(p.resolve()), "item": None} for p in files]
-
-
-def item_sources(project: Any, item_ids: Iterable[Any]) -> list[dict[str, Any]]:
-    """The project's image items ``item_ids`` (in the given order; ids from the browser
-    are looked up, never used as paths)."""
-    ids = [str(i) for i in (item_ids or [])]
-    if not ids:
-        raise InputError("image series: choose image items of the project (or give a folder on the server)")
-    if len(ids) > MAX_IMAGES:
-        raise InputError(f"image series: {len(ids)} items chosen; at most {MAX_IMAGES} make one series here")
-    known = {str(m["id"]): m for m in project.measurements()}
-    out, names = [], set()
-    for i in ids:
-        m = known.get(i)
-        if m is None:
-            raise InputError(f"image series: item {i[:40]!r} is not in the project")
-        if m.get("kind") != "image":
-            raise InputError(f"image series: item {m.get('name', i)!r} is a {m.get('kind')}, not an image")
-        path = Path(project.file_path(m["hash"]))
-        name = str(m.get("name") or path.name)
-        if name in names:  # the plugin reports images by name: two alike could not be told apart
-            name = f"{Path(name).stem} ({m['id']}){Path(name).suffix}"
-        names.add(name)
-        out.append({"name": name, "path": str(path), "item": m["id"]})
-    return out
 
 
 def image_items(items: Iterable[dict[str, Any]] | None) -> list[dict[str, Any]]:

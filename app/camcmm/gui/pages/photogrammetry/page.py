@@ -3,11 +3,13 @@ a reconstruction (sparse and dense cloud, the registered cameras) out.
 
 Listing a series (the sources checked, thumbnails made) goes to one
 :class:`~camcmm.gui.jobs.Job`, the reconstruction to another, with progress per stage
-and cancel; the plugin computes in a worker process (:mod:`.run`). The result goes
+and cancel; the plugin computes in a worker process. The result goes
 into the project (loop thread) and into the page's own scene (:mod:`.scene`) with the
-cameras drawn around the cloud; "send to" hands the cloud to Inspect, Compare with CAD
-or the Acceptance test. Tests call ``asyncio.run(page.run_async(...))``; ``runner`` may
-be replaced by a stand-in with :func:`.run.reconstruct`'s signature.
+cameras drawn around the cloud (:mod:`.display`); "send to" hands the cloud to Inspect,
+Compare with CAD or the Acceptance test. The task (sources checked, the plugin run, the
+result stored) is :mod:`camcmm.tasks.photogrammetry`. Tests call
+``asyncio.run(page.run_async(...))``; ``runner`` may be replaced by a stand-in with
+:func:`camcmm.tasks.photogrammetry.run`'s signature.
 """
 
 from __future__ import annotations
@@ -16,11 +18,12 @@ import logging
 from typing import Any
 
 from ....errors import CamcmmError, one_line
+from ....tasks import photogrammetry as task
 from ...jobs import Job, in_background
-from ...runpage import RunPage, mount_legacy
-from ...widgets import declared_fields
+from ...runpage import RunShared
+from ...runpage import mount as mount_page
+from ...widgets import declared_fields, form_values
 from . import inputs, links
-from . import run as runs
 from .display import Display
 from .scene import PhotoScene
 
@@ -36,20 +39,51 @@ EMPTY_HINT = (
 )
 
 
-class PhotogrammetryPage(Display, RunPage):
-    KEY, PREFIX, WHAT, runs = KEY, "pg", "reconstruction", runs
+class PhotogrammetryPage:
+    KEY = KEY
 
     def __init__(self, server: Any, session: Any):
-        super().__init__(server, session)
+        self.server, self.session, self.state, self.host = server, session, session.state, session.host
+        self.shared = RunShared(session, KEY, "pg", "reconstruction", task)
         self.view = PhotoScene(session.view.display_limit)
+        self.display = Display(self.state, self.view, session, self.shared.error)
+        self.tools: Any = None  # the view's toolbar (mount)
         self.job = Job("reconstruction", state=self.state, on_progress=self._show_progress, interval=0.2)
         self.lister = Job("image list", state=self.state)
-        self.runner = runs.reconstruct
+        self.runner = task.run
         self._sources: list[dict[str, Any]] = []
         self._task: Any = None  # the running task started by a button (start)
         self._init_state()
         self.refresh_form()
         self.restore()
+
+    @property
+    def project(self) -> Any:
+        return self.session.project
+
+    @property
+    def record(self) -> dict[str, Any] | None:
+        """The run shown (the last one made or restored)."""
+        return self.display.record
+
+    def spec(self) -> Any:
+        """The manifest of the plugin that reconstructs."""
+        return self.shared.spec()
+
+    def restore(self) -> None:
+        """The last run, as the project keeps it (the scene is drawn when the page opens)."""
+        self.shared.restore(lambda req: self._set_request(req.to_dict()), self.show_record)
+
+    def show_record(self, rec: dict[str, Any], outputs: dict[str, Any] | None = None, draw: bool = True) -> None:
+        self.display.show_record(rec, outputs, draw)
+
+    def show_cloud(self, which: str = "cloud") -> None:
+        """Show the dense ("cloud") or the sparse cloud with the registered cameras."""
+        self.display.show_cloud(which)
+
+    def set_colour(self, name: Any) -> None:
+        """Colour the shown cloud by field ``name``."""
+        self.display.set_colour(name)
 
     # -- state ------------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -60,7 +94,7 @@ class PhotogrammetryPage(Display, RunPage):
         s.pg_fields, s.pg_params = [], {}
         s.pg_use_cal, s.pg_cal_note = False, ""
         s.pg_running, s.pg_progress, s.pg_stage, s.pg_message, s.pg_error = False, 0.0, "", "", ""
-        s.pg_stages = [{"name": n, "state": "todo"} for n in runs.STAGES]
+        s.pg_stages = [{"name": n, "state": "todo"} for n in task.STAGES]
         s.pg_summary, s.pg_warnings, s.pg_title = [], [], ""
         s.pg_items_made, s.pg_display, s.pg_cameras, s.pg_note = {}, "cloud", 0, ""
         s.pg_colours, s.pg_colour = [], None
@@ -82,7 +116,7 @@ class PhotogrammetryPage(Display, RunPage):
     def refresh_calibration(self) -> None:
         """Offer the project's camera calibration when it has one (made meanwhile, too)."""
         s = self.state
-        cal = runs.calibration_file(self.project)
+        cal = task.calibration_file(self.project)
         s.pg_cal_note = "" if cal is None else "the project's camera calibration (Calibration page)"
         s.pg_use_cal = bool(s.pg_use_cal) and cal is not None
 
@@ -109,7 +143,7 @@ class PhotogrammetryPage(Display, RunPage):
         self.state.pg_items = [it["id"] for it in imgs]
         self.state.pg_source = "items"
         if not imgs:
-            self._error("no image items in the project: import the photographs (Import in the toolbar)")
+            self.shared.error("no image items in the project: import the photographs (Import in the toolbar)")
 
     def _thumbs(self, sources: list[dict[str, Any]]) -> list[str]:
         """Thumbnails (worker thread), at most inputs.MAX_THUMBS."""
@@ -124,19 +158,19 @@ class PhotogrammetryPage(Display, RunPage):
         """Check the series (``req``, else the page's inputs) and show it as thumbnails."""
         req = self.request(req)
         try:
-            sources = runs.sources_of(req, self.project, self.session.roots)
+            sources = task.sources_of(req, self.project, self.session.roots)
         except Exception as exc:
-            self._error(exc)
+            self.shared.error(exc)
             return None
         self._set_request(req)
-        self._clear_error()
+        self.shared.clear_error()
         self.state.pg_listing = True
         self.session.flush()
         try:
             thumbs = await self.lister.run(self._thumbs, sources)
         except Exception as exc:
             self.state.pg_listing = False
-            self._error(Job.outcome(exc)[1])
+            self.shared.error(Job.outcome(exc)[1])
             return None
         self._sources = sources
         s = self.state
@@ -152,13 +186,13 @@ class PhotogrammetryPage(Display, RunPage):
         s = self.state
         s.pg_progress = round(100.0 * float(fraction), 1)
         s.pg_message = message or s.pg_message
-        stage = runs.stage_of(message)
+        stage = task.stage_of(message)
         if stage:
             s.pg_stage = stage
-            at = runs.STAGES.index(stage)
+            at = task.STAGES.index(stage)
             s.pg_stages = [
                 {"name": n, "state": "done" if i < at else ("now" if i == at else "todo")}
-                for i, n in enumerate(runs.STAGES)
+                for i, n in enumerate(task.STAGES)
             ]
 
     def start(self, coro: Any) -> Any:
@@ -178,37 +212,39 @@ class PhotogrammetryPage(Display, RunPage):
         page's record, or None with the one-line reason shown on the page."""
         s = self.state
         if self.job.running:
-            self._error("a reconstruction is running; wait for it or cancel it")
+            self.shared.error("a reconstruction is running; wait for it or cancel it")
             return None
         req = self.request(req)
         try:
             spec = self.spec()
-            values = runs.check_params(spec, s.pg_params if params is None else params, self.session.roots)
-            sources = runs.sources_of(req, self.project, self.session.roots)
-            cal = runs.calibration_file(self.project) if s.pg_use_cal else None
+            values = task.scale_checked(
+                form_values(spec, s.pg_params if params is None else params), self.session.roots
+            )
+            sources = task.sources_of(req, self.project, self.session.roots)
+            cal = task.calibration_file(self.project) if s.pg_use_cal else None
             if s.pg_use_cal and cal is None:
                 raise CamcmmError("the project has no camera calibration: calibrate on the Calibration page first")
         except Exception as exc:
-            self._error(exc)
+            self.shared.error(exc)
             return None
         self._set_request(req)
         if [x["path"] for x in sources] != [x["path"] for x in self._sources]:
             s.pg_images = inputs.rows(sources, [r.get("thumb", "") for r in s.pg_images or []])
         self._sources = sources
-        self._clear_error()
+        self.shared.clear_error()
         s.pg_running, s.pg_progress, s.pg_stage, s.pg_message = True, 0.0, "", "starting …"
-        s.pg_stages = [{"name": n, "state": "todo"} for n in runs.STAGES]
+        s.pg_stages = [{"name": n, "state": "todo"} for n in task.STAGES]
         self.session.flush()
         try:
-            result = await self.job.run(self.runner, self.host, spec.id, sources, values, cal, self.job)
-            rec = runs.store(self.session, spec, result, req, sources)
+            result = await self.shared.run_in(self.job, self.runner, self.host, sources, values, cal)
+            rec = task.store(self.project, self.session, result, req, sources)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.pg_running, s.pg_progress, s.pg_message = False, 0.0, status
             if status == "cancelled":  # the operator's wish, not a fault: a note, no red alert
                 self.session.info(f"{line}; nothing was stored", page=KEY)
             else:
-                self._error(line)
+                self.shared.error(line)
             self.session.flush()
             return None
         s.pg_running, s.pg_progress = False, 100.0
@@ -232,7 +268,7 @@ class PhotogrammetryPage(Display, RunPage):
         try:
             links.send(self.server, self.session, str(target), key)
         except Exception as exc:
-            self._error(exc)
+            self.shared.error(exc)
             return False
         return True
 
@@ -241,8 +277,8 @@ class PhotogrammetryPage(Display, RunPage):
         self.refresh_calibration()
         if self.record is None or self.job.running:
             return
-        if self._shown_result != self.record.get("result"):
-            self.show_cloud(self._display())
+        if self.display.shown_result != self.record.get("result"):
+            self.show_cloud(self.display.which())
         if not any(r.get("thumb") for r in self.state.pg_images or []):
             srcs = [x for x in self.record.get("sources") or [] if x.get("path")]
             thumbs = [inputs.thumbnail(x["path"]) for x in srcs[: min(24, inputs.MAX_THUMBS)]]
@@ -250,13 +286,18 @@ class PhotogrammetryPage(Display, RunPage):
                 dict(r, thumb=thumbs[i] if i < len(thumbs) else "") for i, r in enumerate(self.state.pg_images)
             ]
 
-    def _jobs(self) -> list[Any]:
-        return [self.job, self.lister]
+    def close(self) -> None:
+        for job in (self.job, self.lister):
+            job.close()
+        try:
+            self.view.plotter.close()
+        except Exception:
+            pass
 
 
 def mount(server: Any, session: Any) -> PhotogrammetryPage:
     """Create the page for a session, its view tools and downloads (before the server starts)."""
-    page = mount_legacy(PhotogrammetryPage, server, session, "pgv")
+    page = mount_page(PhotogrammetryPage(server, session), server, "pgv")
 
     @server.state.change("items")
     def _items_changed(**_: Any) -> None:
