@@ -30,7 +30,7 @@ from camcmm.gui.pages.compare.picking import world_to_display  # noqa: E402
 from camcmm.gui.view import fmt_count  # noqa: E402
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud, TriangleMesh  # noqa: E402
-from helpers.compare_data import BUMP, HI, LO, MOTION, NOISE, imported, surface_points  # noqa: E402
+from helpers.compare_data import HI, LO, MOTION, NOISE, imported, surface_points  # noqa: E402
 from helpers.shapes import box_mesh  # noqa: E402
 
 if "inspect.compare" not in default_host().plugins:
@@ -58,10 +58,9 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     dev = np.asarray(page.deviations.fields["deviation"], dtype=float)
     assert len(dev) == len(truth)
 
-    # the alignment undid the motion; the deviations are the noise and the bump
-    assert o["converged"] and abs(o["alignment"]["rotation_angle_deg"] - 2.0) < 0.01
-    assert abs(np.std(dev) - NOISE) < 0.15 * NOISE + 0.001
-    assert dev.max() > 0.8 * BUMP
+    # that the alignment undid the motion (the deviations are the noise and the bump) is the
+    # task's: tests/tasks/test_compare_task.py; here, what the page shows of it
+    assert o["converged"] and s.ins_title.endswith("alignment icp")
 
     # legend in µm (the colour limit is the tolerance, 10 µm), the view coloured by it
     assert s.ins_unit == "µm" and s.ins_legend_title == "deviation [µm]"
@@ -142,8 +141,7 @@ def test_compare_publishes_stats_charts_legend_and_bands(app, tmp_path):
     # the project keeps the comparison: result, deviations file, state
     saved = session.project.get_state(STATE_KEY)
     assert saved["result"] == s.ins_result_id and saved["tolerance"] == 0.01
-    stored = session.project.result(saved["result"])
-    assert stored["plugin"] == "inspect.compare" and "deviations" in stored["files"]
+    assert saved["measured"] == int(s.ins_measured) and saved["nominal"] == int(s.ins_nominal)
 
 
 @pytest.mark.slow

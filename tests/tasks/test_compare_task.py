@@ -250,6 +250,26 @@ def test_compare_run_store_and_restore(case, tmp_path):
 
 
 @pytest.mark.slow
+def test_three_point_pairs_align_a_turned_part(case, tmp_path):
+    """Turned by 90° and moved far: plain ICP cannot, three pairs (measured corners of the
+    turned box, the CAD's corners) can; the record keeps the pairs."""
+    task, items, box, scan, truth = case
+    T = np.array([[0, -1, 0, 100.0], [1, 0, 0, 50.0], [0, 0, 1, -30.0], [0, 0, 0, 1]])
+    measured = items.load(scan)
+    cio.write(PointCloud(measured.points @ T[:3, :3].T + T[:3, 3], name="turned"), tmp_path / "turned.ply")
+    key = add_file(items, tmp_path / "turned.ply")
+    corners = np.array([[0, 0, 20.0], [40, 0, 20.0], [0, 30, 20.0]])
+    picked = (corners @ MOTION[:3, :3].T + MOTION[:3, 3]) @ T[:3, :3].T + T[:3, 3]
+    pairs = {"measured": picked.tolist(), "nominal": corners.tolist()}
+    comparison = task.run(CompareRequest(key, box, align="pairs+icp", pairs=pairs))
+    assert comparison.converged, comparison.outputs.get("reason")
+    dev = np.asarray(comparison.deviations.fields["deviation"])
+    assert abs(np.std(dev) - NOISE) < 0.002
+    assert np.abs(comparison.deviations.points - truth).max() < 0.01
+    assert task.store(comparison)["pairs"] == pairs and task.stored()["align"] == "pairs+icp"
+
+
+@pytest.mark.slow
 def test_no_overlap_is_a_failed_comparison_refused_for_what_needs_valid_deviations(case, tmp_path):
     """A ball twice the box's size, 500 mm off: no alignment fits it onto the box. The run is a
     result (stored, restored as failed), but its deviations are refused for a colour map,

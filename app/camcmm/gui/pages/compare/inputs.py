@@ -227,6 +227,13 @@ class Inputs:
             return None
         return {"measured": self.measured_pairs[:k], "nominal": self.nominal_pairs[:k]}
 
+    def set_pairs(self, pairs: dict[str, Any] | None) -> None:
+        """The pairs as the task's record keeps them (``{"measured", "nominal"}``), shown."""
+        pairs = pairs or {}
+        self.measured_pairs = [list(map(float, p)) for p in pairs.get("measured") or []]
+        self.nominal_pairs = [list(map(float, p)) for p in pairs.get("nominal") or []]
+        self._publish_pairs()
+
     def add_pair_point(self, which: str, point: Any) -> None:
         """Record a picked point of a pair (also used by tests and scripts)."""
         p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]

@@ -338,10 +338,7 @@ class ComparePage:
             s.ins_align = record["align"]
         if record.get("tolerance") is not None:
             s.ins_tolerance = record["tolerance"]
-        pairs = record.get("pairs") or {}
-        self.inputs.measured_pairs = [list(map(float, p)) for p in pairs.get("measured") or []]
-        self.inputs.nominal_pairs = [list(map(float, p)) for p in pairs.get("nominal") or []]
-        self.inputs._publish_pairs()
+        self.inputs.set_pairs(record.get("pairs"))
         self.measured, self.nominal = comparison.measured, comparison.nominal
         cloud = comparison.deviations
         prep = prepare_cloud(cloud.points, cloud.fields.get("deviation"), self.view.display_limit)
