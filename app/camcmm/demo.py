@@ -10,10 +10,12 @@ virtual lab (plugin ``virtuallab.acceptance-set``) simulates every measurement t
 standard asks for — noise, partial coverage as a stereo fringe-projection system sees
 it, and a systematic distortion of the measuring volume like the one of thesis ch.
 3.3.1 — and the standard plugin (``vdi2634-2``) evaluates each one, summarises and
-writes the report. The core knows neither plugin: both are asked for by id through
-the host, through the standard protocol of docs/standards.md; if one is missing the
-demo still creates the rest and says so. The test's state is kept under the project
-state key ``acceptance.current`` for the GUI wizard.
+writes the report. The core knows neither plugin: both are found through the host by
+the task they provide, and the test runs through the headless acceptance task
+(:class:`camcmm.tasks.acceptance.Wizard`) exactly as an operator runs it in the GUI:
+setup, one import per position, the report. If a plugin is missing the demo still
+creates the rest and says so. The test's state is the wizard's own, under the project
+state key ``acceptance.current``.
 """
 
 from __future__ import annotations
@@ -25,13 +27,13 @@ from typing import Any
 import numpy as np
 
 from .errors import CamcmmError
-from .host import RunContext, default_host, to_jsonable
+from .host import default_host
 from .model import PointCloud, TriangleMesh
 from .project import Project
-from .project.store import utcnow
+from .tasks.acceptance import FORM_KEYS, STATE_KEY, Wizard
 
 SEED = 2634
-ACCEPTANCE_STATE = "acceptance.current"
+ACCEPTANCE_STATE = STATE_KEY
 #: what the demo runs, found by the task a plugin declares (``provides``, docs/manifest.md):
 #: a lab's own plugin for a task replaces camcmm's (``PluginHost.provider``)
 STANDARD_TASK = "area-scanning-acceptance-test"
@@ -176,7 +178,7 @@ def _summary(project: Project, notes: list[str] | None = None) -> dict[str, Any]
         "measurements": [{"id": m["id"], "name": m["name"], "kind": m["kind"]} for m in project.measurements()],
     }
     state = project.get_state(ACCEPTANCE_STATE)
-    if state:
+    if state and state.get("summary_result") is not None:
         summary = project.result(state["summary_result"])
         out["acceptance"] = {
             "standard": state["standard"],
@@ -200,124 +202,51 @@ def _acceptance_test(project: Project) -> list[str]:
     host = default_host()
     try:
         standard, simulator = host.provider(STANDARD_TASK).id, host.provider(SIMULATOR_TASK).id
-        std = host.load(standard)
         with tempfile.TemporaryDirectory(prefix="camcmm-demo-") as tmp:
             gen = host.run(
                 simulator, {}, {"directory": str(Path(tmp) / "measurements"), "standard": standard, **SIMULATION}
             )
             plan, folder = gen.outputs["plan_dict"], Path(gen.outputs["plan"]).parent
-            _record_test(project, host, std, (standard, simulator), plan, folder, Path(tmp) / "report")
+            wizard = run_plan(project, host, standard, plan, folder, system_meta={"simulated_by": simulator})
     except CamcmmError as exc:
         return [f"no acceptance test in the demo: {exc}"]
-    return []
+    failed = [f"{key}: {msg}" for key, msg in ((wizard.state or {}).get("errors") or {}).items()]
+    return [f"demo acceptance test: {x}" for x in failed]
 
 
-def _run_dict(
-    plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str, warnings: list[str]
-) -> dict[str, Any]:
-    return {
-        "plugin": plugin,
-        "version": version,
-        "params": params,
-        "input_hashes": hashes,
-        "outputs": to_jsonable(outputs),
-        "started": started,
-        "finished": utcnow(),
-        "warnings": warnings,
-    }
-
-
-def _record_test(project: Project, host, std, ids: tuple[str, str], plan: dict, folder: Path, report_dir: Path) -> None:
-    """Measurements, one stored evaluation each, the summary with its report, the state
-    (``ids``: the standard's and the simulator's plugin ids)."""
-    standard, simulator = ids
-    version = host.get(standard).version
-    ctx = RunContext(host, standard)
-    reqs = {r["test"]: r for r in std.requirements(plan)}
-    sid = project.add_system(
-        plan["system"]["name"], {"measuring_volume": plan["system"]["measuring_volume"], "simulated_by": simulator}
-    )
-    per: dict[str, list[dict[str, Any]]] = {}
-    state: dict[str, Any] = {
-        "standard": standard,
-        "plan": plan,
-        "measurements": {},
-        "evaluations": {},
-        "positions": {},
-        "tests": list(plan["measurements"]),
-        "system_id": sid,
-        "artefact_ids": {},
-        "errors": {},
-        "superseded": [],
-    }
-    for test, files in plan["measurements"].items():
-        art = reqs[test]["artefact"]
-        aid = project.add_artefact({**art, "id": f"{standard}:{art['id']}"})
-        state["artefact_ids"][test] = aid
-        positions = reqs[test]["positions"]
-        for i, name in enumerate(files):
-            pos = positions[i]["id"] if i < len(positions) else f"{test}-{i + 1:02d}"
-            h = project.add_file(folder / name)
-            mid = project.add_measurement(
-                f"{pos} ({name})",
-                h,
-                kind="pointcloud",
-                system_id=sid,
-                artefact_id=aid,
-                meta={"standard": standard, "test": test, "position": pos, "repeat": 1, "file": name},
-            )
-            started = utcnow()
-            try:
-                ev = std.evaluate_measurement(ctx, test, project.load_measurement(mid), plan, file=name, position=pos)
-            except CamcmmError as exc:
-                ev = {"test": test, "file": name, "position": pos, "error": str(exc)}
-            ev["sha256"] = h
-            files_out = {}
-            if ev.get("deviations") is not None:
-                files_out["deviations"] = project.add_object(ev["deviations"], f"{pos} deviations")
-            rid = project.add_result(
-                _run_dict(
-                    standard,
-                    version,
-                    {"test": test, "position": pos},
-                    {"cloud": h},
-                    {k: v for k, v in ev.items() if k != "deviations"},
-                    started,
-                    list(ev.get("warnings") or []),
-                ),
-                [mid],
-                files_out,
-                label=f"{standard} {pos}",
-            )
-            per.setdefault(test, []).append(ev)
-            state["measurements"].setdefault(test, []).append(mid)
-            state["evaluations"][str(mid)] = rid
-            state["positions"].setdefault(test, {})[pos] = [mid]
-    started = utcnow()
-    summary = std.summarize(ctx, plan, per)
-    paths = std.write_report(summary, report_dir, plan)
-    report_files = {f"report_{k}": project.add_file(v) for k, v in paths.items()}
-    mids = [m for ms in state["measurements"].values() for m in ms]
-    rid = project.add_result(
-        _run_dict(
-            standard,
-            version,
-            {},
-            {e["file"]: e["sha256"] for es in per.values() for e in es},
-            summary,
-            started,
-            summary["warnings"],
-        ),
-        mids,
-        report_files,
-        label=f"{standard} acceptance test",
-    )
-    state.update(
-        {
-            "summary_result": rid,
-            "report": report_files,
-            "verdict": summary["verdict"],
-            "verdict_guarded": summary["verdict_guarded"],
+def run_plan(
+    project: Project, host: Any, standard: str, plan: dict[str, Any], folder: Path, system_meta: dict | None = None
+) -> Wizard:
+    """A whole acceptance test through the wizard, as an operator would run it: set up
+    from a plan (the simulator's ``plan.yaml``: system, MPEs, artefacts, options), import
+    each file of ``plan["measurements"]`` (names in ``folder``, in position order; a list
+    of names per position for repeats) at its position, and finish with the report."""
+    wizard = Wizard(project, host)
+    reqs = {r["test"]: r for r in wizard.standard(standard).requirements(plan)}
+    tests = list(plan["measurements"])
+    artefacts = {}
+    for test in tests:
+        art = reqs[test].get("artefact") or {"id": test}
+        artefacts[test] = {
+            **plan["artefacts"][test],
+            "_id": f"{standard}:{art['id']}",
+            "_name": art.get("name") or f"{test.replace('_', ' ')} (simulated)",
         }
+    wizard.setup(
+        standard,
+        plan["system"]["name"],
+        plan["system"]["measuring_volume"],
+        plan["mpe"],
+        artefacts,
+        tests=tests,
+        options={k: v for k, v in plan.items() if k not in FORM_KEYS and k != "name"},
+        system_meta=system_meta,
     )
-    project.set_state(ACCEPTANCE_STATE, state)
+    for test in tests:
+        positions = wizard.requirement(test)["positions"]
+        for position, entry in zip(positions, plan["measurements"][test]):
+            names = entry if isinstance(entry, list) else [entry]
+            for repeat, name in enumerate(names, start=1):
+                wizard.import_measurement(test, position["id"], folder / name, repeat=repeat)
+    wizard.report()
+    return wizard

@@ -29,10 +29,10 @@ cio = pytest.importorskip("camcmm.io")
 
 from camcmm.api import ArtefactField, ArtefactKind, PositionSpec, QualityParameter, StandardDeclaration, TestDeclaration  # noqa: E402
 from camcmm.errors import GeometryError, InputError  # noqa: E402
-from camcmm.gui.pages.acceptance import STATE_KEY, Wizard, artefact_plan_fields, load_catalogue, plan_fields_to_artefact  # noqa: E402
 from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 from camcmm.project import Project  # noqa: E402
+from camcmm.tasks.acceptance import STATE_KEY, Wizard, artefact_plan_fields, load_catalogue, plan_fields_to_artefact  # noqa: E402
 from camcmm_plugins.vdi2634.pictograms import pictogram, pictograms  # noqa: E402
 from helpers.acceptance_data import (  # noqa: E402
     ARTEFACTS,

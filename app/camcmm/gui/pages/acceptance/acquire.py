@@ -1,42 +1,31 @@
-"""Acquiring a position from a measuring system instead of importing a file.
+"""Acquiring a position from a measuring system on the page: the "Measure with" choice
+and its settings form, one position or all of them, each run in the page's job.
 
-A measuring system the wizard can drive is any algorithm plugin whose manifest says
-``acquires: pointcloud``: it takes a ``placement`` (the test, the position as the
-standard lays it out, the repeat, the measuring volume and the plan's artefacts) and returns a
-``cloud``. A real system measures whatever the operator has put in front of it (the
-placement tells it what to expect); a simulated one (``virtuallab.fringe-system``)
-puts the artefact there itself. The cloud then goes through exactly the import path
-of a file: evaluated in the worker, recorded on the loop.
+Which systems there are, what a system is told about a position and the run itself
+belong to the task (:mod:`camcmm.tasks.acceptance.acquire`); the cloud then goes
+through exactly the import path of a file (:class:`.actions.PositionActions`).
 """
 
 from __future__ import annotations
 
-import tempfile
-from pathlib import Path
 from typing import Any
 
-from camcmm import worker
 from camcmm.errors import one_line
-from camcmm.io import write
 
 from ...widgets import declared_fields, form_values
 
 
-def acquisition_sources(host: Any) -> list[dict[str, Any]]:
-    """The installed plugins that acquire a point cloud, for the "Measure with" list."""
-    out = []
-    try:
-        specs = host.all()
-    except Exception:
-        return out
-    for p in specs:
-        if p.kind == "algorithm" and p.acquires == "pointcloud":
-            out.append({"title": p.name, "value": p.id, "summary": p.summary})
-    return out
+class Acquisition:
+    """The acquisition handlers of a :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
 
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+        self.session = page.session
 
-class PageAcquire:
-    """The acquisition handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
+    @property
+    def wizard(self) -> Any:
+        return self.page.wizard
 
     def set_source(self, plugin_id: str | None, params: dict[str, Any] | None = None) -> None:
         """Choose the measuring system; its declared parameters become the settings form
@@ -59,37 +48,14 @@ class PageAcquire:
         one-line InputError naming the value)."""
         return form_values(self.session.host.get(source), self.state.wz_source_params)
 
-    def placement(self, test: str, position: str) -> dict[str, Any]:
-        w = self.wizard
-        plan = w.plan
-        req = next((r for r in w.requirements() if r["test"] == test), None)
-        pos = next((p for p in (req or {}).get("positions", []) if p["id"] == position), None)
-        if pos is None:
-            raise KeyError(f"{test}/{position}: no such position in this test")
-        return {
-            "standard": w.state.get("standard"),
-            "test": test,
-            "position": dict(pos),
-            "measuring_volume": list((plan.get("system") or {}).get("measuring_volume") or []),
-            "artefacts": dict(plan.get("artefacts") or {}),
-        }
-
-    def _acquire(self, source: str, params: dict[str, Any], placement: dict[str, Any]) -> Path:
-        """Worker: run the system, write its cloud to a temporary PLY for the import."""
-        res = worker.run(self.session.host, source, {"placement": placement}, params)
-        cloud = res.outputs["cloud"]
-        folder = Path(tempfile.mkdtemp(prefix="camcmm-acquire-"))
-        path = folder / f"{placement['test']}-{placement['position']['id']}.ply"
-        write(cloud, path)
-        return path
-
     async def acquire_async(self, test: str, position: str, repeat: int | None = None) -> dict[str, Any] | None:
+        page = self.page
         source = self.state.wz_source
         key = f"{test}/{position}"
         if not source:
             self.session.error("choose a measuring system under 'Measure with' first")
             return None
-        if key in self._busy:
+        if key in page.busy:
             self.session.error(f"{position}: a measurement is under way; wait for it")
             return None
         self.session.bind_loop()
@@ -99,35 +65,36 @@ class PageAcquire:
             self.session.error(f"{position}: {source} could not measure: {one_line(exc)}")
             return None
         try:
-            placement = self.placement(test, position)
+            placement = self.wizard.placement(test, position)
             # which repeat this is (a simulated system draws a new speckle pattern per repeat)
             placement["repeat"] = self.wizard.prepare(test, position, repeat).repeat
         except Exception as exc:
             self.session.error(one_line(exc))
             return None
-        self._set_busy(key, True)
-        self.refresh_cards()
-        self.flush()
+        page.set_busy(key, True)
+        page.refresh_cards()
+        page.flush()
         try:
-            path = await self.job.call(self._acquire, source, params, placement)
+            path = await page.job.call(self.wizard.acquire, source, params, placement)
         except Exception as exc:
-            self._set_busy(key, False)
-            self.refresh_cards()
+            page.set_busy(key, False)
+            page.refresh_cards()
             self.session.error(f"{position}: {source} could not measure: {one_line(exc)}")
-            self.flush()
+            page.flush()
             return None
-        self._set_busy(key, False)
+        page.set_busy(key, False)
         try:
-            return await self.import_async(test, position, path, path.name, repeat)
+            return await page.actions.import_async(test, position, path, path.name, repeat)
         finally:
             path.unlink(missing_ok=True)
             path.parent.rmdir()
 
     async def acquire_all_async(self) -> int:
         """Every position still to do, one after the other; stops at the first failure."""
+        page = self.page
         done = 0
         self.state.wz_acquiring_all = True
-        self.flush()
+        page.flush()
         try:
             for block in self.wizard.cards():
                 for card in block["cards"]:
@@ -140,5 +107,5 @@ class PageAcquire:
                         card = self.wizard.card(card["test"], card["id"])
         finally:
             self.state.wz_acquiring_all = False
-            self.flush()
+            page.flush()
         return done

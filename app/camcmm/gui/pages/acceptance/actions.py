@@ -1,10 +1,11 @@
 """The page's slow steps and the 3D view: imports evaluated in the worker thread and
 recorded on the loop, busy cards, a position's colour map shown from the side the
-standard suggests (an evaluation's ``view``), and the report written in the worker."""
+standard suggests (an evaluation's ``view``), and the report written in the worker.
+What is evaluated, stored and reported is the task's
+(:class:`camcmm.tasks.acceptance.Wizard`); here it is only run and shown."""
 
 from __future__ import annotations
 
-import copy
 import shutil
 import tempfile
 from pathlib import Path
@@ -12,10 +13,9 @@ from typing import Any
 
 from camcmm.errors import CamcmmError, one_line
 from camcmm.project.store import utcnow
+from camcmm.tasks.acceptance import PendingEvaluation, fit_rows
 
 from ...view import color_fields
-from .evaluate import PendingEvaluation
-from .positions import fit_rows
 
 
 def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
@@ -27,14 +27,20 @@ def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None
     return [float(x) for x in view["direction"]], [float(x) for x in view.get("up") or (0.0, 0.0, 1.0)]
 
 
-class PageActions:
-    """The position and report handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
+class PositionActions:
+    """The position and report handlers of a :class:`~camcmm.gui.pages.acceptance.WizardPage`:
+    each runs the slow part of the page's wizard in the page's job and publishes the outcome."""
+
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+        self.session = page.session
+
+    @property
+    def wizard(self) -> Any:
+        return self.page.wizard
 
     # -- handlers: positions -----------------------------------------------------------------
-    def _set_busy(self, key: str, on: bool) -> None:
-        (self._busy.add if on else self._busy.discard)(key)
-        self.state.wz_busy = {k: True for k in self._busy}
-
     async def upload_async(self, test: str, position: str, upload: Any, repeat: int | None = None) -> None:
         """A file chosen in a card's file input: evaluate in the worker, record on the loop."""
         files = self.session.import_upload(upload) if upload else []
@@ -47,7 +53,8 @@ class PageActions:
         self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
     ) -> dict[str, Any] | None:
         key = f"{test}/{position}"
-        if key in self._busy:
+        page = self.page
+        if key in page.busy:
             self.session.error(f"{position}: a measurement is being evaluated; wait for it")
             return None
         self.session.bind_loop()
@@ -56,37 +63,37 @@ class PageActions:
         except Exception as exc:
             self.session.error(one_line(exc))
             return None
-        self._set_busy(key, True)
-        self.refresh_cards()
-        self.flush()
+        page.set_busy(key, True)
+        page.refresh_cards()
+        page.flush()
         try:
-            await self.job.call(self.wizard.evaluate, job, source, name)
+            await page.job.call(self.wizard.evaluate, job, source, name)
         except Exception as exc:
             msg = self.wizard.fail(job, exc)
-            self._set_busy(key, False)
+            page.set_busy(key, False)
             self.state.wz_redo = None
-            self.refresh()
+            page.refresh()
             self.session.error(msg)
-            self.flush()
+            page.flush()
             return None
         try:
             card = self.wizard.record(job)
         except Exception as exc:
             msg = self.wizard.fail(job, exc)
-            self._set_busy(key, False)
-            self.refresh()
+            page.set_busy(key, False)
+            page.refresh()
             self.session.error(f"{position}: could not be saved in the project: {msg}")
-            self.flush()
+            page.flush()
             return None
-        self._set_busy(key, False)
+        page.set_busy(key, False)
         self.state.wz_redo = None
-        self.refresh()
+        page.refresh()
         self._after_record(job, card)
-        self.flush()
+        page.flush()
         return card
 
     def _after_record(self, job: PendingEvaluation, card: dict[str, Any]) -> None:
-        self.last_card = card
+        self.page.last_card = card
         self.session.refresh_items()
         rep = next((r for r in card["repeats"] if r["repeat"] == job.repeat), None)
         self._detail(job.test, job.position, job.repeat, job.evaluation or {})
@@ -97,13 +104,6 @@ class PageActions:
         values = ", ".join(f"{v['symbol']} {v['text']}" for v in (rep or {}).get("values", []))
         prog = next((p["text"] for p in self.state.wz_progress if p["test"] == job.test), "")
         self.session.info(f"{job.position}: {values} — {verdict}; {prog}")
-
-    def refresh_cards(self) -> None:
-        blocks = copy.deepcopy(self.state.wz_blocks or [])
-        for b in blocks:
-            for c in b["cards"]:
-                c["busy"] = c["key"] in self._busy
-        self.state.wz_blocks = blocks
 
     def _detail(self, test: str, position: str, repeat: int, ev: dict[str, Any]) -> None:
         self.state.wz_detail = {
@@ -160,15 +160,16 @@ class PageActions:
     async def report_async(self) -> dict[str, Any] | None:
         if self.state.wz_reporting:
             return None
+        page = self.page
         self.session.bind_loop()
         s = self.state
         s.wz_reporting = True
-        self.flush()
+        page.flush()
         started = utcnow()
         folder = Path(tempfile.mkdtemp(prefix="camcmm-report-"))
         try:
             per = self.wizard.per_measurement(with_deviations=True)
-            summary, paths = await self.job.call(self.wizard.make_report, folder, per)
+            summary, paths = await page.job.call(self.wizard.make_report, folder, per)
             out = self.wizard.record_report(summary, paths, started)
         except Exception as exc:
             self.session.error(f"report: {one_line(exc)}")
@@ -176,8 +177,8 @@ class PageActions:
         finally:
             shutil.rmtree(folder, ignore_errors=True)
             s.wz_reporting = False
-        self.refresh()
+        page.refresh()
         self.session.refresh_results()
         self.session.info(f"report written (result #{out['summary_result']}): verdict {s.wz_verdict}")
-        self.flush()
+        page.flush()
         return out

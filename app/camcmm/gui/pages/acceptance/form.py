@@ -1,6 +1,7 @@
 """The setup form on the page: filled from the running test or a standard's defaults,
 artefacts picked from the catalogue, and Start, which tells a catalogue artefact kept as
-it is from one whose values the operator edited."""
+it is from one whose values the operator edited. The plan itself, its checks and the
+new run are the task's (:class:`camcmm.tasks.acceptance.Wizard`)."""
 
 from __future__ import annotations
 
@@ -10,10 +11,7 @@ from typing import Any
 import yaml
 
 from camcmm.errors import one_line
-
-from .catalogue import artefact_plan_fields
-from .declared import artefact_fields, artefact_kind, parameter
-from .setup import _FORM_KEYS
+from camcmm.tasks.acceptance import FORM_KEYS, artefact_fields, artefact_kind, artefact_plan_fields, parameter
 
 #: The new form's measuring volume (mm): the demo's 90 mm cube, in which the shipped
 #: catalogue's first artefacts (20 mm sphere, 49.944 mm ball bar, 150 x 60 mm flat) meet the
@@ -37,7 +35,7 @@ def _same_value(a: Any, b: Any) -> bool:
 
 
 def _options_text(plan: dict[str, Any]) -> str:
-    extra = {k: v for k, v in plan.items() if k not in _FORM_KEYS and k != "name"}
+    extra = {k: v for k, v in plan.items() if k not in FORM_KEYS and k != "name"}
     return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
 
 
@@ -88,10 +86,29 @@ def _catalogue_options(cat: list[dict[str, Any]], kind: str) -> list[dict[str, A
     ]
 
 
-class PageSetup:
-    """The setup handlers of :class:`~camcmm.gui.pages.acceptance.WizardPage`."""
+def artefact_values(a: dict[str, Any]) -> dict[str, Any]:
+    """A catalogue (or project) artefact as the form's fields, with its choice, id and name."""
+    vals = artefact_plan_fields(a)
+    out: dict[str, Any] = {"_choice": a["id"], "_id": a["id"], "_name": a.get("name", a["id"])}
+    for k, v in vals.items():
+        out[k] = ", ".join(f"{x:g}" for x in v) if isinstance(v, list) else v
+    return out
 
-    def _setup_form(self, standard: str | None = None, keep: dict[str, Any] | None = None) -> None:
+
+class SetupForm:
+    """The setup step of a :class:`~camcmm.gui.pages.acceptance.WizardPage`: publishes
+    the form (``wz_form``, ``wz_form_tests``, ``wz_catalogue``, ``wz_mpe_fields``, the
+    artefact rules) and starts the test on the page's wizard."""
+
+    def __init__(self, page: Any):
+        self.page = page
+        self.state = page.state
+
+    @property
+    def wizard(self) -> Any:
+        return self.page.wizard
+
+    def fill(self, standard: str | None = None, keep: dict[str, Any] | None = None) -> None:
         """The setup form: from the running test, else defaults of ``standard``."""
         s = self.state
         w = self.wizard
@@ -176,26 +193,18 @@ class PageSetup:
             t["options"] = options
             if test not in form["artefacts"]:
                 first = next((a for a in cat if a["kind"] == kind), None)
-                form["artefacts"][test] = self._artefact_values(first) if first else {"_choice": ""}
+                form["artefacts"][test] = artefact_values(first) if first else {"_choice": ""}
             for p in t["parameters"]:
                 if p not in params:
                     params.append(p)
         return catalogue, params
-
-    @staticmethod
-    def _artefact_values(a: dict[str, Any]) -> dict[str, Any]:
-        vals = artefact_plan_fields(a)
-        out: dict[str, Any] = {"_choice": a["id"], "_id": a["id"], "_name": a.get("name", a["id"])}
-        for k, v in vals.items():
-            out[k] = ", ".join(f"{x:g}" for x in v) if isinstance(v, list) else v
-        return out
 
     # -- handlers: setup -------------------------------------------------------------------
     def choose_standard(self, standard: str, form: dict[str, Any] | None = None) -> None:
         if self.wizard.active and self.state.wz_locked:
             return
         self.state.wz_setup_error = ""
-        self._setup_form(standard, keep=form)
+        self.fill(standard, keep=form)
 
     def pick_artefact(self, test: str, choice: str, form: dict[str, Any] | None = None) -> None:
         """Fill an artefact's fields from the catalogue (or the project's own)."""
@@ -203,7 +212,7 @@ class PageSetup:
         entry = next((a for a in self.wizard.catalogue() if a["id"] == choice), None)
         if entry is None:
             return
-        form.setdefault("artefacts", {})[test] = self._artefact_values(entry)
+        form.setdefault("artefacts", {})[test] = artefact_values(entry)
         self.state.wz_form = form
         self.check_artefacts(form)
 
@@ -228,7 +237,7 @@ class PageSetup:
                 choice = a.pop("_choice", "")
                 entry = next((x for x in self.wizard.catalogue() if x["id"] == choice), None) if choice else None
                 if entry is not None:
-                    same = self._artefact_values(entry)
+                    same = artefact_values(entry)
                     edited = any(not _same_value(same.get(k), v) for k, v in a.items() if not k.startswith("_"))
                     if edited:
                         a["_id"], a["_name"] = f"{choice}-own", f"{entry.get('name', choice)} (own values)"
@@ -247,13 +256,14 @@ class PageSetup:
         except Exception as exc:
             s.wz_setup_error = one_line(exc)
             return False
+        page = self.page
         s.wz_svgs = {}
-        s.wz_detail, s.wz_redo, self.last_card = None, None, None  # the old test's "Last shown" is not this one's
-        self._busy.clear()
-        self.refresh(setup_form=True)
+        s.wz_detail, s.wz_redo, page.last_card = None, None, None  # the old test's "Last shown" is not this one's
+        page.busy.clear()
+        page.refresh(setup_form=True)
         s.wz_step = "positions"
-        self.session.refresh_items()
-        self.session.info(f"acceptance test set up: {self.wizard.state['standard']}")
+        page.session.refresh_items()
+        page.session.info(f"acceptance test set up: {self.wizard.state['standard']}")
         return True
 
     def unlock(self) -> None:

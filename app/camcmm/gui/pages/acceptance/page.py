@@ -1,30 +1,31 @@
-"""The page's state: one :class:`WizardPage` per server publishes a
-:class:`~camcmm.gui.pages.acceptance.Wizard` through the trame ``state`` (keys ``wz_*``)
-for :mod:`.layout`; its handlers live in :mod:`.form`, :mod:`.actions` and
-:mod:`.acquire`."""
+"""The page's state: one :class:`WizardPage` per server holds a
+:class:`~camcmm.tasks.acceptance.Wizard` (the headless task) and publishes it through
+the trame ``state`` (keys ``wz_*``) for :mod:`.layout`; its handlers are three small
+helpers it holds: :class:`.form.SetupForm`, :class:`.actions.PositionActions` and
+:class:`.acquire.Acquisition`."""
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 from typing import Any
 
 from camcmm.errors import one_line
+from camcmm.tasks.acceptance import Wizard, fmt_mm, parameter
+from camcmm.tasks.acceptance.values import log
 
 from ...downloads import REPORT_TITLES, Downloads, sort_links
 from ...jobs import Job
-from .acquire import PageAcquire, acquisition_sources
-from .actions import PageActions
-from .declared import parameter
-from .form import PageSetup
-from .pictograms import pictograms
-from .values import fmt_mm, log
-from .wizard import Wizard
+from .acquire import Acquisition
+from .actions import PositionActions
+from .form import SetupForm
 
 
-class WizardPage(PageSetup, PageActions, PageAcquire):
+class WizardPage:
     """Publishes a :class:`Wizard` through the session's trame state (``wz_*`` keys)
     and runs its slow steps in the worker thread of its :class:`~camcmm.gui.jobs.Job`.
-    One per server."""
+    One per server. The handlers the layout binds are its helpers' (:attr:`form`,
+    :attr:`actions`, :attr:`acquisition`), named here once."""
 
     def __init__(self, session: Any, wizard: Wizard | None = None, downloads: str | Path | None = None):
         self.session = session
@@ -34,8 +35,11 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         self.downloads, self.download_route = self.offered.folder, self.offered.route
         # one worker: evaluations, acquisitions and the report run in order
         self.job = Job("acceptance test", state=self.state)
-        self._busy: set[str] = set()
+        self.busy: set[str] = set()  # "test/position" keys being evaluated or acquired
         self.last_card: dict[str, Any] | None = None
+        self.form = SetupForm(self)
+        self.actions = PositionActions(self)
+        self.acquisition = Acquisition(self)
         self._init_state()
         self.refresh(setup_form=True)
         w = self.wizard
@@ -76,7 +80,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_summary_warnings = []
         s.wz_reporting = False
         s.wz_report_links = []
-        s.wz_sources = acquisition_sources(self.session.host)
+        s.wz_sources = self.wizard.acquisition_sources()
         s.wz_source = None
         s.wz_source_params = {}
         s.wz_source_fields = []
@@ -99,7 +103,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
             s.wz_error = one_line(exc)
         s.wz_active = w.active
         if setup_form:
-            self._setup_form()
+            self.form.fill()
         if not w.active:
             s.wz_locked = False
             s.wz_blocks, s.wz_progress, s.wz_parameters = [], [], []
@@ -131,7 +135,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s = self.state
         w = self.wizard
         blocks = w.cards()
-        busy = set(self._busy)
+        busy = set(self.busy)
         for b in blocks:
             for c in b["cards"]:
                 c["busy"] = c["key"] in busy
@@ -141,7 +145,7 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
         s.wz_progress_text = " · ".join(p["text"] for p in prog)
         s.wz_complete = all(p["complete"] for p in prog)
         if not s.wz_svgs or set(s.wz_svgs) != {c["key"] for b in blocks for c in b["cards"]}:
-            s.wz_svgs = pictograms(w.standard(), w.requirements(), w.plan)
+            s.wz_svgs = w.pictograms()
         plan = w.plan
         s.wz_title = (
             f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
@@ -191,6 +195,60 @@ class WizardPage(PageSetup, PageActions, PageAcquire):
             for kind, path in self.wizard.report_paths().items()
         )
         return sort_links(l for l in links if l)
+
+    # -- busy cards ------------------------------------------------------------------------
+    def set_busy(self, key: str, on: bool) -> None:
+        (self.busy.add if on else self.busy.discard)(key)
+        self.state.wz_busy = {k: True for k in self.busy}
+
+    def refresh_cards(self) -> None:
+        blocks = copy.deepcopy(self.state.wz_blocks or [])
+        for b in blocks:
+            for c in b["cards"]:
+                c["busy"] = c["key"] in self.busy
+        self.state.wz_blocks = blocks
+
+    # -- handlers (bound by the layout, called by tests) -------------------------------------
+    def check_artefacts(self, form: dict[str, Any] | None = None) -> list[str]:
+        return self.form.check_artefacts(form)
+
+    def choose_standard(self, standard: str, form: dict[str, Any] | None = None) -> None:
+        self.form.choose_standard(standard, form)
+
+    def pick_artefact(self, test: str, choice: str, form: dict[str, Any] | None = None) -> None:
+        self.form.pick_artefact(test, choice, form)
+
+    def start(self, form: dict[str, Any] | None = None) -> bool:
+        return self.form.start(form)
+
+    def unlock(self) -> None:
+        self.form.unlock()
+
+    async def upload_async(self, test: str, position: str, upload: Any, repeat: int | None = None) -> None:
+        await self.actions.upload_async(test, position, upload, repeat)
+
+    async def import_async(
+        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
+    ) -> dict[str, Any] | None:
+        return await self.actions.import_async(test, position, source, name, repeat)
+
+    def show(self, test: str, position: str, repeat: int | None = None) -> None:
+        self.actions.show(test, position, repeat)
+
+    def redo(self, test: str, position: str) -> None:
+        self.actions.redo(test, position)
+
+    async def report_async(self) -> dict[str, Any] | None:
+        return await self.actions.report_async()
+
+    def set_source(self, plugin_id: str | None, params: dict[str, Any] | None = None) -> None:
+        self.acquisition.set_source(plugin_id, params)
+
+    async def acquire_async(self, test: str, position: str, repeat: int | None = None) -> dict[str, Any] | None:
+        return await self.acquisition.acquire_async(test, position, repeat)
+
+    async def acquire_all_async(self) -> int:
+        return await self.acquisition.acquire_all_async()
 
     def close(self) -> None:
         self.job.close()

@@ -1,6 +1,6 @@
 """The persisted acceptance state: what a run keeps under :data:`STATE_KEY` in the
 project, how a restart resumes it, and the plan's requirements and position slots that
-every other step reads and writes."""
+every other part of the :class:`~camcmm.tasks.acceptance.Wizard` reads and writes."""
 
 from __future__ import annotations
 
@@ -9,27 +9,40 @@ import threading
 from typing import Any
 
 from camcmm.errors import CamcmmError, InputError
-from camcmm.host import default_host
 from camcmm.project.store import utcnow
+
+from .standards import Standards
 
 STATE_KEY = "acceptance.current"
 HISTORY_KEY = "acceptance.history"
 
 
-class WizardState:
-    """The saved state of :class:`~camcmm.gui.pages.acceptance.Wizard` and the lookups on it."""
+class TestState:
+    """The saved state of a test on a project and the lookups on it.
 
-    def __init__(self, project: Any, host: Any = None):
+    :attr:`state` is the dict kept under :data:`STATE_KEY` (None before a setup);
+    :attr:`lock` guards it when the GUI evaluates in a worker thread while the loop
+    records another position."""
+
+    __test__ = False  # not a pytest test class despite its name
+
+    def __init__(self, project: Any, standards: Standards):
         self.project = project
-        self.host = host if host is not None else default_host()
+        self.standards = standards
         self.state: dict[str, Any] | None = None
-        self._std: Any = None
-        self._decls: dict[str, Any] = {}  # standard id -> its StandardDeclaration
+        self.load_error = ""
+        self.lock = threading.RLock()
         self._reqs: list[dict[str, Any]] | None = None
         self._outputs: dict[int, dict[str, Any]] = {}  # result id -> stored evaluation
-        self._lock = threading.RLock()
-        self.load_error = ""
         self.resume()
+
+    def start(self, state: dict[str, Any]) -> None:
+        """Make ``state`` the running test (a new setup) and save it."""
+        self.state = state
+        self.load_error = ""
+        self._reqs = None
+        self._outputs = {}
+        self.save()
 
     # -- resume --------------------------------------------------------------------------
     def resume(self) -> bool:
@@ -49,11 +62,10 @@ class WizardState:
         state.setdefault("errors", {})
         state.setdefault("superseded", [])
         self.state = state
-        self._std = None
         self._reqs = None
         self._outputs = {}
         try:
-            self._std = self.standard(state["standard"])
+            self.standards.load(state["standard"])
         except CamcmmError as exc:
             self.load_error = (
                 f"the acceptance test in this project uses standard {state['standard']!r}, "
@@ -75,7 +87,7 @@ class WizardState:
                 continue
             reps = r["repeats"]
             ids = [p["id"] for p in r["positions"]]
-            slots = {pid: [None] * reps for pid in ids}
+            slots: dict[str, list[int | None]] = {pid: [None] * reps for pid in ids}
             for i, mid in enumerate(mids):
                 try:
                     meta = self.project.measurement(int(mid)).get("meta") or {}
@@ -102,6 +114,25 @@ class WizardState:
         if not self.state:
             raise InputError("no acceptance test set up yet")
         return self.state["plan"]
+
+    @property
+    def running(self) -> dict[str, Any]:
+        """The state dict of the running test (raises before a setup)."""
+        if not self.state:
+            raise InputError("no acceptance test set up yet")
+        return self.state
+
+    @property
+    def standard_id(self) -> str:
+        return str(self.running["standard"])
+
+    def standard(self) -> Any:
+        """The running test's standard object."""
+        return self.standards.load(self.standard_id)
+
+    def declaration(self) -> Any:
+        """The running test's standard declaration."""
+        return self.standards.declaration(self.standard_id)
 
     def requirements(self) -> list[dict[str, Any]]:
         """Per test of this run: test, label, parameters, min_count, repeats, positions
@@ -145,9 +176,9 @@ class WizardState:
             f"{', '.join(r['test'] for r in self.requirements())}"
         )
 
-    def _slots(self, test: str) -> dict[str, list]:
+    def slots(self, test: str) -> dict[str, list]:
         r = self.requirement(test)
-        positions = self.state.setdefault("positions", {}).setdefault(test, {})
+        positions = self.running.setdefault("positions", {}).setdefault(test, {})
         for p in r["positions"]:
             slot = positions.setdefault(p["id"], [None] * r["repeats"])
             if len(slot) < r["repeats"]:
@@ -156,7 +187,7 @@ class WizardState:
 
     def filled(self, test: str, position: str) -> list[tuple[int, int]]:
         """(repeat, measurement id) of each measured repeat of a position, in order."""
-        slots = self._slots(test).get(position) or []
+        slots = self.slots(test).get(position) or []
         return [(i + 1, mid) for i, mid in enumerate(slots) if mid is not None]
 
     def evaluation(self, mid: int | None) -> dict[str, Any] | None:
@@ -174,12 +205,16 @@ class WizardState:
                 return {"error": f"its stored result {rid} cannot be read: {exc}"}
         return self._outputs[rid]
 
-    def _sync_measurements(self) -> None:
+    def remember(self, rid: int, outputs: dict[str, Any]) -> None:
+        """Keep a just-stored evaluation (result ``rid``'s outputs) without reading it back."""
+        self._outputs[int(rid)] = outputs
+
+    def sync_measurements(self) -> None:
         """``measurements`` (position order) and the plan's measurement list follow the slots."""
         ms: dict[str, list[int]] = {}
         plan_ms: dict[str, list[dict[str, Any]]] = {}
         for r in self.requirements():
-            slots = self._slots(r["test"])
+            slots = self.slots(r["test"])
             for p in r["positions"]:
                 for i, mid in enumerate(slots[p["id"]]):
                     if mid is None:
@@ -189,18 +224,21 @@ class WizardState:
                     plan_ms.setdefault(r["test"], []).append(
                         {"file": ev.get("file") or f"measurement-{mid}", "position": p["id"], "repeat": i + 1}
                     )
-        self.state["measurements"] = ms
-        self.state["plan"]["measurements"] = plan_ms
+        state = self.running
+        state["measurements"] = ms
+        state["plan"]["measurements"] = plan_ms
         self._reqs = None
 
-    def _stale_summary(self) -> None:
+    def stale_summary(self) -> None:
         """A changed measurement makes a written report stale (it stays in the project)."""
-        if self.state.get("summary_result") is not None:
-            self.state.setdefault("reports", []).append(
-                {"summary_result": self.state["summary_result"], "report": self.state.get("report")}
+        state = self.running
+        if state.get("summary_result") is not None:
+            state.setdefault("reports", []).append(
+                {"summary_result": state["summary_result"], "report": state.get("report")}
             )
-        self.state.update({"summary_result": None, "report": None, "verdict": None, "verdict_guarded": None})
+        state.update({"summary_result": None, "report": None, "verdict": None, "verdict_guarded": None})
 
-    def _save(self) -> None:
-        self.state["updated"] = utcnow()
-        self.project.set_state(STATE_KEY, self.state)
+    def save(self) -> None:
+        state = self.running
+        state["updated"] = utcnow()
+        self.project.set_state(STATE_KEY, state)

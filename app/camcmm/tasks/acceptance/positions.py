@@ -11,23 +11,27 @@ from camcmm.errors import InputError
 from camcmm.standard import StandardDeclaration
 
 from .declared import parameter
+from .state import TestState
 from .values import _verdict, fmt_value
 
 
-class WizardPositions:
-    """Counters and cards of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
+class Positions:
+    """The positions of the running test (:class:`TestState`) as counters and cards."""
+
+    def __init__(self, saved: TestState):
+        self.saved = saved
 
     def progress(self) -> list[dict[str, Any]]:
         """Counters per test: ``{"test", "label", "done", "total", "required", "text",
         "complete"}`` — text like "7 of 10 <test label>"."""
         out = []
-        for r in self.requirements():
-            slots = self._slots(r["test"])
+        for r in self.saved.requirements():
+            slots = self.saved.slots(r["test"])
             done = sum(
                 1
                 for p in r["positions"]
                 for mid in slots[p["id"]]
-                if mid is not None and not (self.evaluation(mid) or {}).get("error")
+                if mid is not None and not (self.saved.evaluation(mid) or {}).get("error")
             )
             total = len(r["positions"]) * r["repeats"]
             required = r["min_count"] * r["repeats"]
@@ -50,24 +54,24 @@ class WizardPositions:
 
     @property
     def complete(self) -> bool:
-        return self.active and all(p["complete"] for p in self.progress())
+        return self.saved.active and all(p["complete"] for p in self.progress())
 
     def cards(self) -> list[dict[str, Any]]:
         """Per test its position cards: id, label, hint, status (pending | done |
         error), the values with unit and per-position verdict, the error, the fit."""
-        mpe = self.plan.get("mpe") or {}
-        decl = self.declaration()
-        errors = (self.state or {}).get("errors") or {}
+        mpe = self.saved.plan.get("mpe") or {}
+        decl = self.saved.declaration()
+        errors = (self.saved.state or {}).get("errors") or {}
         blocks = []
         prog = {p["test"]: p for p in self.progress()}
-        for r in self.requirements():
-            slots = self._slots(r["test"])
+        for r in self.saved.requirements():
+            slots = self.saved.slots(r["test"])
             cards = []
             for p in r["positions"]:
                 key = f"{r['test']}/{p['id']}"
                 reps = []
                 for i, mid in enumerate(slots[p["id"]]):
-                    ev = self.evaluation(mid)
+                    ev = self.saved.evaluation(mid)
                     reps.append(self._repeat_view(decl, i + 1, mid, ev, mpe))
                 done = [x for x in reps if x["status"] == "done"]
                 status = "done" if len(done) == len(reps) else ("partial" if done else "pending")

@@ -9,16 +9,16 @@ from typing import Any
 
 from camcmm.errors import CamcmmError, InputError
 from camcmm.project.store import utcnow
-from camcmm.standard import StandardDeclaration
 from camcmm.yamlfile import load_yaml
 
 from .catalogue import load_catalogue, plan_fields_to_artefact
-from .declared import artefact_fields, artefact_kind, declaration_of, parameter
-from .state import HISTORY_KEY
+from .declared import artefact_fields, artefact_kind, parameter
+from .standards import Standards
+from .state import HISTORY_KEY, TestState
 from .values import _blank, _number, _vector, log
 
 #: Plan keys the setup form owns; the advanced options may not replace them.
-_FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
+FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
 
 
 def parse_options(options: Any) -> dict[str, Any]:
@@ -29,52 +29,21 @@ def parse_options(options: Any) -> dict[str, Any]:
         options = load_yaml(options, name="plan options")
     if not isinstance(options, dict):
         raise InputError(f"plan options: give keys and values (e.g. 'unit: mm'), got {options!r}")
-    taken = [k for k in options if k in _FORM_KEYS]
+    taken = [k for k in options if k in FORM_KEYS]
     if taken:
         raise InputError(f"plan options: {taken[0]!r} is set by the form above, not here")
     return dict(options)
 
 
-class WizardSetup:
-    """The setup steps of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
+class Setup:
+    """Setting up a test on a project: the installed standards and the artefact
+    catalogue to choose from, the plan from the form, and the start of a run (the
+    running one goes to the history under :data:`HISTORY_KEY`)."""
 
-    # -- standards and catalogue ---------------------------------------------------------
-    def standards(self) -> list[dict[str, Any]]:
-        """Installed standard plugins that load: ``{"id", "name", "version", "summary"}``."""
-        out = []
-        for spec in self.host.all():
-            if spec.kind != "standard":
-                continue
-            if spec.status != "ok":
-                try:
-                    self.host.load(spec.id)
-                except CamcmmError:
-                    continue
-            out.append({"id": spec.id, "name": spec.name, "version": spec.version, "summary": spec.summary})
-        return out
-
-    def standard(self, sid: str | None = None) -> Any:
-        """The standard object (``host.load``) of ``sid`` or of the running test."""
-        sid = sid or (self.state or {}).get("standard")
-        if not sid:
-            raise InputError("no standard chosen yet")
-        if sid == (self.state or {}).get("standard") and self._std is not None:
-            return self._std
-        obj = self.host.load(sid)
-        for attr in ("requirements", "evaluate_measurement", "summarize", "write_report"):
-            if not callable(getattr(obj, attr, None)):
-                raise InputError(
-                    f"standard plugin {sid!r} lacks {attr}(); it does not speak the standard protocol "
-                    "of docs/standards.md"
-                )
-        return obj
-
-    def declaration(self, sid: str | None = None) -> StandardDeclaration:
-        """What standard ``sid`` (or the running test's) declares; cached per standard."""
-        sid = sid or (self.state or {}).get("standard")
-        if sid not in self._decls:
-            self._decls[sid] = declaration_of(self.standard(sid), sid)
-        return self._decls[sid]
+    def __init__(self, saved: TestState, standards: Standards):
+        self.saved = saved
+        self.standards = standards
+        self.project = saved.project
 
     def catalogue(self) -> list[dict[str, Any]]:
         """Artefacts to choose from: the shipped catalogue, then the project's own
@@ -91,7 +60,7 @@ class WizardSetup:
     def setup_tests(self, sid: str) -> list[dict[str, Any]]:
         """The tests of standard ``sid`` before a plan exists: test, label, parameters,
         required, positions count."""
-        std = self.standard(sid)
+        std = self.standards.load(sid)
         return [
             {
                 "test": r["test"],
@@ -124,7 +93,7 @@ class WizardSetup:
         vol = _vector(measuring_volume, "measuring volume")
         if min(vol) <= 0:
             raise InputError(f"measuring volume: every edge must be > 0 mm, got {vol}")
-        decl = self.declaration(standard)
+        decl = self.standards.declaration(standard)
         mpes = {}
         for key, v in (mpe or {}).items():
             if _blank(v):
@@ -164,7 +133,7 @@ class WizardSetup:
             "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)",
         }
         plan.update(parse_options(options))
-        self.standard(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
+        self.standards.load(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
         return plan
 
     def artefact_checks(
@@ -184,7 +153,7 @@ class WizardSetup:
         with no measurements returns them (``artefact_checks``); a standard that states
         none gives ``[]``. A form the plan cannot be built from yet raises (InputError
         naming the field). A blank system name does not matter to the rules."""
-        std = self.standard(standard)
+        std = self.standards.load(standard)
         available = {r["test"]: r for r in std.requirements(None)}
         chosen = [t for t, r in available.items() if r.get("required", True) or t in (tests or [])]
         plan = self.build_plan(
@@ -198,7 +167,7 @@ class WizardSetup:
         summary = std.summarize(None, plan, {}) or {}
         return [dict(c) for c in summary.get("artefact_checks") or [] if isinstance(c, dict)]
 
-    def setup(
+    def start(
         self,
         standard: str,
         system_name: str,
@@ -207,11 +176,15 @@ class WizardSetup:
         artefacts: dict[str, dict[str, Any]],
         tests: list[str] | None = None,
         options: Any = None,
+        system_meta: dict[str, Any] | None = None,
     ) -> dict[str, Any]:
         """Start a new test (the running one, if any, goes to the history: its results
-        stay in the project). Returns the new state."""
-        std = self.standard(standard)
-        decl = self.declaration(standard)
+        stay in the project). ``artefacts``: per test the form's fields, ``_id`` and
+        ``_name`` naming the artefact stored in the project; ``system_meta``: more about
+        the measuring system for its project entry (e.g. what simulates it). Returns the
+        new state."""
+        std = self.standards.load(standard)
+        decl = self.standards.declaration(standard)
         available = {r["test"]: r for r in std.requirements(None)}
         chosen = [t for t, r in available.items() if r.get("required", True) or t in (tests or [])]
         for t in chosen:
@@ -233,11 +206,12 @@ class WizardSetup:
         missing = [t for t in chosen if t not in plan["artefacts"]]
         if missing:
             raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
-        with self._lock:
+        with self.saved.lock:
             self._archive()
             system = plan["system"]
             sid = self.project.add_system(
-                system["name"], {"measuring_volume": system["measuring_volume"], "standard": standard}
+                system["name"],
+                {"measuring_volume": system["measuring_volume"], "standard": standard, **(system_meta or {})},
             )
             art_ids = {}
             for test, entry in plan["artefacts"].items():
@@ -267,21 +241,18 @@ class WizardSetup:
                 "verdict_guarded": None,
                 "created": utcnow(),
             }
-            self.state = state
-            self._std = std
-            self._reqs = None
-            self._outputs = {}
-            self._save()
+            self.saved.start(state)
         return state
 
     def _archive(self) -> None:
-        if not self.state:
+        old = self.saved.state
+        if not old:
             return
         try:
             history = list(self.project.get_state(HISTORY_KEY, []) or [])
             history.append(
                 {
-                    k: self.state.get(k)
+                    k: old.get(k)
                     for k in (
                         "standard",
                         "created",

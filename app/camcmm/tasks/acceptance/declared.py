@@ -1,5 +1,5 @@
 """The running standard's declaration (:class:`camcmm.standard.StandardDeclaration`):
-the one place the page learns parameter symbols, signs, units, artefact fields and
+the one place the task (and the page) learns parameter symbols, signs, units, artefact fields and
 positions. A standard that predates ``declare()`` gets one read off its
 ``requirements()``: plain symbols, no artefact fields."""
 

@@ -6,6 +6,7 @@ worker."""
 from __future__ import annotations
 
 import copy
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -14,28 +15,19 @@ from typing import Any
 
 from camcmm import io as cio
 from camcmm.errors import CamcmmError, InputError, one_line
-from camcmm.host import RunContext, to_jsonable
+from camcmm.host import RunContext, RunResult, to_jsonable
 from camcmm.project.store import utcnow
 from camcmm.standard import as_dict
 
-from ...session import safe_name
+from .standards import Standards
+from .state import TestState
 from .values import log
 
 
-def _run_dict(
-    plugin: str, version: str, params: dict, hashes: dict, outputs: dict, started: str, warnings: list[str]
-) -> dict[str, Any]:
-    """A result record for the project store (times UTC ISO)."""
-    return {
-        "plugin": plugin,
-        "version": version,
-        "params": params,
-        "input_hashes": hashes,
-        "outputs": to_jsonable(outputs),
-        "started": started,
-        "finished": utcnow(),
-        "warnings": [str(w) for w in warnings],
-    }
+def safe_name(name: str) -> str:
+    """A file name safe to write in a temp folder, keeping its extension."""
+    base = Path(str(name).replace("\\", "/")).name.strip() or "upload"
+    return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
 @dataclass
@@ -59,20 +51,26 @@ class PendingEvaluation:
         return f"{self.test}/{self.position}"
 
 
-class WizardImport:
-    """The import steps of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
+class Evaluator:
+    """Imports measurements into the running test (:class:`TestState`): prepare (loop)
+    -> evaluate (any thread) -> record (loop), or :meth:`fail`."""
 
-    # -- import: prepare (loop) -> evaluate (any thread) -> record (loop) --------------------
+    def __init__(self, saved: TestState, standards: Standards):
+        self.saved = saved
+        self.standards = standards
+        self.host = standards.host
+        self.project = saved.project
+
     def prepare(self, test: str, position: str, repeat: int | None = None) -> PendingEvaluation:
         """Check the position and pick its repeat slot: ``repeat`` (a redo) or the first
         empty one; a position whose slots are all filled is redone at its last repeat."""
-        if not self.active:
-            raise InputError(self.load_error or "set up the acceptance test first")
-        r = self.requirement(test)
+        if not self.saved.active:
+            raise InputError(self.saved.load_error or "set up the acceptance test first")
+        r = self.saved.requirement(test)
         ids = [p["id"] for p in r["positions"]]
         if position not in ids:
             raise InputError(f"{test.replace('_', ' ')} has no position {position!r}; its positions: {', '.join(ids)}")
-        slots = self._slots(test)[position]
+        slots = self.saved.slots(test)[position]
         if repeat is None:
             repeat = next((i + 1 for i, mid in enumerate(slots) if mid is None), len(slots))
         if not 1 <= int(repeat) <= len(slots):
@@ -95,17 +93,17 @@ class WizardImport:
             if not job.path.is_file():
                 raise InputError(f"{job.name}: no such file" if not job.path.exists() else f"{job.name}: is not a file")
         try:
-            cloud = cio.read(job.path, unit=(self.state or {}).get("plan", {}).get("unit"))
+            cloud = cio.read(job.path, unit=(self.saved.state or {}).get("plan", {}).get("unit"))
         except Exception as exc:
             raise InputError(one_line(exc, job.name, job.path)) from exc
         if not hasattr(cloud, "n_points"):
             raise InputError(f"{job.name}: holds a {type(cloud).__name__.lower()}, not a point cloud")
         if cloud.n_points == 0:
             raise InputError(f"{job.name}: the file holds no points")
-        with self._lock:  # the loop may be recording another position meanwhile
-            plan = copy.deepcopy(self.plan)
-            sid = self.state["standard"]
-        std = self.standard(sid)
+        with self.saved.lock:  # the loop may be recording another position meanwhile
+            plan = copy.deepcopy(self.saved.plan)
+            sid = self.saved.standard_id
+        std = self.standards.load(sid)
         ctx = RunContext(self.host, sid)
         try:
             ev = std.evaluate_measurement(
@@ -128,14 +126,16 @@ class WizardImport:
         job.cloud, job.evaluation = cloud, ev
         return job
 
-    def record(self, job: PendingEvaluation) -> dict[str, Any]:
+    def record(self, job: PendingEvaluation) -> int:
         """Store an evaluated job: its file, measurement, deviations and result; the
         replaced measurement (a redo) is soft-deleted; the state is saved. Returns the
-        position's card."""
+        result id."""
         assert job.evaluation is not None and job.path is not None
-        with self._lock:
-            std_id = self.state["standard"]
-            version = self.host.get(std_id).version
+        saved = self.saved
+        with saved.lock:
+            state = saved.state
+            assert state is not None
+            std_id = state["standard"]
             ev = dict(job.evaluation)
             deviations = ev.pop("deviations", None)
             h = self.project.add_file(job.path)
@@ -154,40 +154,50 @@ class WizardImport:
                 f"{job.position} ({job.name})",
                 h,
                 kind="pointcloud",
-                system_id=self.state.get("system_id"),
-                artefact_id=(self.state.get("artefact_ids") or {}).get(job.test),
+                system_id=state.get("system_id"),
+                artefact_id=(state.get("artefact_ids") or {}).get(job.test),
                 meta=meta,
             )
             files = {}
             if deviations is not None and hasattr(deviations, "n_points"):
                 files["deviations"] = self.project.add_object(deviations, f"{job.position} deviations")
             params = {"test": job.test, "position": job.position, "repeat": job.repeat}
+            run = RunResult(
+                std_id,
+                self.standards.version(std_id),
+                params,
+                {"cloud": h},
+                ev,
+                job.started,
+                utcnow(),
+                [str(w) for w in ev.get("warnings") or []],
+            )
             rid = self.project.add_result(
-                _run_dict(std_id, version, params, {"cloud": h}, ev, job.started, list(ev.get("warnings") or [])),
+                run.to_json(),
                 [mid],
                 files,
                 label=f"{std_id} {job.position}",
             )
-            slots = self._slots(job.test)[job.position]
+            slots = self.saved.slots(job.test)[job.position]
             old = slots[job.repeat - 1]
             if old is not None:
-                self.state["superseded"].append(
+                state["superseded"].append(
                     {
                         "test": job.test,
                         "position": job.position,
                         "repeat": job.repeat,
                         "measurement": old,
-                        "result": self.state["evaluations"].get(str(old)),
+                        "result": state["evaluations"].get(str(old)),
                         "replaced": utcnow(),
                     }
                 )
             slots[job.repeat - 1] = mid
-            self.state["evaluations"][str(mid)] = rid
-            self.state["errors"].pop(job.key, None)
-            self._outputs[rid] = to_jsonable(ev)
-            self._stale_summary()
-            self._sync_measurements()
-            self._save()
+            state["evaluations"][str(mid)] = rid
+            state["errors"].pop(job.key, None)
+            saved.remember(rid, to_jsonable(ev))
+            saved.stale_summary()
+            saved.sync_measurements()
+            saved.save()
             if old is not None:
                 try:
                     self.project.remove_measurement(int(old))
@@ -195,17 +205,17 @@ class WizardImport:
                     log.warning("replaced measurement %s stays listed: %s", old, exc)
         job.extra.update(measurement=mid, result=rid, deviations=deviations)
         self._cleanup(job)
-        return self.card(job.test, job.position)
+        return rid
 
     def fail(self, job: PendingEvaluation, exc: BaseException) -> str:
         """Remember why an import failed, for that position only; returns the message."""
         msg = one_line(exc, job.name)
         job.error = msg
-        with self._lock:
-            if self.state is not None:
-                self.state.setdefault("errors", {})[job.key] = msg
+        with self.saved.lock:
+            if self.saved.state is not None:
+                self.saved.state.setdefault("errors", {})[job.key] = msg
                 try:
-                    self._save()
+                    self.saved.save()
                 except CamcmmError as e:
                     log.warning("could not save the error of %s: %s", job.key, e)
         self._cleanup(job)
@@ -216,27 +226,3 @@ class WizardImport:
         if job.temp is not None:
             shutil.rmtree(job.temp, ignore_errors=True)
             job.temp = None
-
-    def import_measurement(
-        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
-    ) -> dict[str, Any]:
-        """Import, evaluate and store one measurement in the calling thread. Returns the
-        position's card; a bad file gives the card with ``status`` "error" and the
-        reason (nothing else changes)."""
-        job = self.prepare(test, position, repeat)
-        try:
-            self.evaluate(job, source, name)
-        except Exception as exc:
-            self.fail(job, exc)
-            return self.card(test, position)
-        return self.record(job)
-
-    def redo(
-        self, test: str, position: str, source: str | Path | bytes, name: str | None = None, repeat: int | None = None
-    ) -> dict[str, Any]:
-        """Measure a position again: the new evaluation replaces the old one (of
-        ``repeat``, default the last filled repeat)."""
-        if repeat is None:
-            filled = self.filled(test, position)
-            repeat = filled[-1][0] if filled else None
-        return self.import_measurement(test, position, source, name, repeat)

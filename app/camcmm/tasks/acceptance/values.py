@@ -1,4 +1,4 @@
-"""Values on their way in and out of the acceptance page: numbers typed into the setup
+"""Values on their way in and out of the acceptance test: numbers typed into the setup
 form, text with units on the cards, and verdicts against an MPE."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from typing import Any
 from camcmm.conformity import combine, simple_verdict
 from camcmm.errors import InputError
 
-#: One logger for the whole page.
-log = logging.getLogger("camcmm.gui.pages.acceptance")
+#: One logger for the whole task (the page logs under it too).
+log = logging.getLogger("camcmm.tasks.acceptance")
 
 
 def _blank(value: Any) -> bool:

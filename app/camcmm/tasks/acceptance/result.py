@@ -11,40 +11,49 @@ from typing import Any
 
 from camcmm import io as cio
 from camcmm.errors import CamcmmError, InputError
-from camcmm.host import RunContext
+from camcmm.host import RunContext, RunResult
 from camcmm.project.store import utcnow
 from camcmm.standard import as_dict
 
-from .evaluate import _run_dict
+from .standards import Standards
+from .state import TestState
 from .values import log
 
 #: Points of a deviations cloud handed to the report's colour maps.
 REPORT_POINTS = 30_000
 
 
-class WizardResult:
-    """Summary and report of :class:`~camcmm.gui.pages.acceptance.Wizard`."""
+class Result:
+    """The end of the running test (:class:`TestState`): summary, report, deviation maps.
 
-    # -- summary and report ----------------------------------------------------------------
+    The report is written by the standard plugin itself (``write_report`` of the object
+    the host loads), never by importing a writer here."""
+
+    def __init__(self, saved: TestState, standards: Standards):
+        self.saved = saved
+        self.standards = standards
+        self.host = standards.host
+        self.project = saved.project
+
     def per_measurement(self, with_deviations: bool = False) -> dict[str, list[dict[str, Any]]]:
         """The stored evaluations per test, in position order (the summary's input)."""
         per: dict[str, list[dict[str, Any]]] = {}
-        for r in self.requirements():
-            slots = self._slots(r["test"])
+        for r in self.saved.requirements():
+            slots = self.saved.slots(r["test"])
             evs = per.setdefault(r["test"], [])
             for p in r["positions"]:
                 for mid in slots[p["id"]]:
-                    ev = self.evaluation(mid)
+                    ev = self.saved.evaluation(mid)
                     if ev is None:
                         continue
                     ev = copy.deepcopy(ev)
                     if with_deviations:
-                        ev["_deviations_path"] = self._deviations_path(mid)
+                        ev["_deviations_path"] = self.deviations_path(mid)
                     evs.append(ev)
         return per
 
-    def _deviations_path(self, mid: Any) -> str | None:
-        rid = (self.state or {}).get("evaluations", {}).get(str(mid))
+    def deviations_path(self, mid: Any) -> str | None:
+        rid = (self.saved.state or {}).get("evaluations", {}).get(str(mid))
         if rid is None:
             return None
         try:
@@ -56,11 +65,13 @@ class WizardResult:
     def summarize(self, per: dict[str, list[dict[str, Any]]] | None = None) -> dict[str, Any]:
         """The standard's full result from the stored evaluations (any time: an
         unfinished test is ``incomplete``)."""
-        with self._lock:
-            plan = copy.deepcopy(self.plan)
-            sid = self.state["standard"]
+        with self.saved.lock:
+            plan = copy.deepcopy(self.saved.plan)
+            sid = self.saved.standard_id
         ctx = RunContext(self.host, sid)
-        return as_dict(self.standard(sid).summarize(ctx, plan, per if per is not None else self.per_measurement()))
+        return as_dict(
+            self.standards.load(sid).summarize(ctx, plan, per if per is not None else self.per_measurement())
+        )
 
     def make_report(
         self, directory: str | Path, per: dict[str, list[dict[str, Any]]] | None = None
@@ -73,7 +84,7 @@ class WizardResult:
                 path = ev.pop("_deviations_path", None)
                 if path:
                     try:
-                        dev = cio.read(path)
+                        dev: Any = cio.read(path)  # a deviations cloud (field ``deviation``)
                         if dev.n_points > REPORT_POINTS:
                             dev = dev.subset(slice(None, None, -(-dev.n_points // REPORT_POINTS)))
                         ev["deviations"] = dev
@@ -82,33 +93,42 @@ class WizardResult:
         summary = self.summarize(per)
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
-        with self._lock:
-            plan = copy.deepcopy(self.plan)
-        paths = self.standard().write_report(summary, directory, plan)
+        with self.saved.lock:
+            plan = copy.deepcopy(self.saved.plan)
+        paths = self.saved.standard().write_report(summary, directory, plan)
         return summary, {k: str(v) for k, v in paths.items()}
 
     def record_report(self, summary: dict[str, Any], paths: dict[str, str], started: str = "") -> dict[str, Any]:
         """Store the summary as a result with the report files; the state names it."""
-        with self._lock:
-            std_id = self.state["standard"]
-            version = self.host.get(std_id).version
+        saved = self.saved
+        with saved.lock:
+            state = saved.state
+            assert state is not None
+            std_id = state["standard"]
             files = {f"report_{k}": self.project.add_file(p) for k, p in paths.items()}
-            mids = [m for ms in self.state["measurements"].values() for m in ms]
+            mids = [m for ms in state["measurements"].values() for m in ms]
             hashes = {}
             for evs in (summary.get("measurements") or {}).values():
                 for e in evs:
                     if e.get("file") and e.get("sha256"):
                         hashes[str(e["file"])] = e["sha256"]
-            outputs = dict(summary)
+            run = RunResult(
+                std_id,
+                self.standards.version(std_id),
+                {},
+                hashes,
+                dict(summary),
+                started or utcnow(),
+                utcnow(),
+                [str(w) for w in summary.get("warnings") or []],
+            )
             rid = self.project.add_result(
-                _run_dict(
-                    std_id, version, {}, hashes, outputs, started or utcnow(), list(summary.get("warnings") or [])
-                ),
+                run.to_json(),
                 mids,
                 files,
                 label=f"{std_id} acceptance test",
             )
-            self.state.update(
+            state.update(
                 {
                     "summary_result": rid,
                     "report": files,
@@ -116,7 +136,7 @@ class WizardResult:
                     "verdict_guarded": summary.get("verdict_guarded"),
                 }
             )
-            self._save()
+            saved.save()
         return {"summary_result": rid, "files": files}
 
     def report(self, directory: str | Path | None = None) -> dict[str, Any]:
@@ -140,7 +160,7 @@ class WizardResult:
     def report_paths(self) -> dict[str, Path]:
         """The current report's files in the project (``{"html": path, ...}``)."""
         out = {}
-        for name, h in ((self.state or {}).get("report") or {}).items():
+        for name, h in ((self.saved.state or {}).get("report") or {}).items():
             try:
                 out[name.removeprefix("report_")] = self.project.file_path(h)
             except CamcmmError as exc:
@@ -149,11 +169,11 @@ class WizardResult:
 
     def deviations(self, test: str, position: str, repeat: int | None = None) -> Any:
         """The deviations cloud (field ``deviation``, mm) of a done position, from the project."""
-        filled = self.filled(test, position)
+        filled = self.saved.filled(test, position)
         if not filled:
             raise InputError(f"{position}: nothing measured yet")
         mid = dict(filled).get(repeat) if repeat else filled[-1][1]
-        path = self._deviations_path(mid)
+        path = self.deviations_path(mid)
         if not path:
             raise InputError(f"{position}: its evaluation has no deviation map")
         cloud = cio.read(path)
