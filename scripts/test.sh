@@ -10,7 +10,14 @@ export VTK_DEFAULT_OPENGL_WINDOW=${VTK_DEFAULT_OPENGL_WINDOW:-vtkEGLRenderWindow
 # Types of the core (the [tool.mypy] section of pyproject.toml says which files).
 .venv/bin/python -m mypy || exit 1
 .venv/bin/ruff format --check app plugins tests examples benchmarks || exit 1
-.venv/bin/python -m pytest -p no:dash "$@"
+# Both cores (pytest-xdist): the browser tests share one worker (their xdist_group), the
+# headless tests are spread over the others. CAMCMM_TEST_WORKERS=0 runs in this process.
+workers=${CAMCMM_TEST_WORKERS:-auto}
+if [ "$workers" = 0 ]; then
+  .venv/bin/python -m pytest -p no:dash "$@"
+else
+  .venv/bin/python -m pytest -p no:dash -n "$workers" --dist loadgroup "$@"
+fi
 rc=$?
 if [ "$rc" = 5 ]; then
   # pytest's 5 means "no tests were collected": for a suite that must test something,

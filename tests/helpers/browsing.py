@@ -24,8 +24,13 @@ ARGS = [
     "--disable-component-update",
     "--disable-sync",
 ]
+#: every browser test: marked, skipped without Chromium, and in one xdist group, so that under
+#: ``pytest -n 2 --dist loadgroup`` the browser tests run one after another on one worker (two
+#: Chromiums and their GUI servers at once overload two cores into timeouts) while the other
+#: worker takes the headless tests
 MARKS = [
     pytest.mark.browser,
+    pytest.mark.xdist_group("browser"),
     pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=f"{CHROMIUM} is absent: no browser to drive"),
 ]
 
