@@ -23,6 +23,9 @@ import numpy as np
 import pytest
 
 pytest.importorskip("trame")
+
+from camcmm.host import Cancelled  # noqa: E402
+
 pytestmark = pytest.mark.slow  # each test builds a GUI server (several seconds)
 
 LAW = (-1.0, 0.15)  # virtuallab.lightfield-set's default gradient law g = a + b f
@@ -46,10 +49,10 @@ def test_opens_with_both_kinds_and_the_declared_form(app):
     assert s.st_tables == [] and s.st_error == ""
     page.set_kind("speckle")
     assert {f["name"] for f in s.st_fields} == {"fresh"}
-    from camcmm.gui.pages.studies import run as runs
+    from camcmm.gui.pages.studies.page import check_params
 
     # the speckle study's required 'study' parameter is the page's file field, not the form's
-    assert runs.check_params(page.spec(), s.st_params) == {"fresh": False}
+    assert check_params(page.spec(), s.st_params) == {"fresh": False}
     page.set_kind("nonsense")  # ignored
     assert s.st_kind == "speckle"
 
@@ -136,11 +139,11 @@ def test_a_cancelled_study_stores_nothing(app, tmp_path):
     study.write_text("runs: []\n")
     started = threading.Event()
 
-    def waits(host, spec, kind, path, params, job):
+    def waits(host, req, params, progress=None, cancel=None):
         started.set()
-        while not job.cancelled():
+        while not cancel.is_set():
             time.sleep(0.01)
-        job.check()
+        raise Cancelled("the study: cancelled")
 
     page.runner = waits
     n = len(session.project.results())

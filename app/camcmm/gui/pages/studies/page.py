@@ -1,8 +1,9 @@
 """The "Studies" page's state and handlers (``st_*`` keys): a study file on the server in,
 the study's tables and figures out (thesis ch. 6.2 and 6.3).
 
-The study runs in a :class:`~camcmm.gui.jobs.Job` with progress and cancel; the plugin
-computes in a worker process (:mod:`.run`). The result goes into the project (loop
+The study is the headless task :mod:`camcmm.tasks.studies` (the file checked, the plugin
+run in a worker process, the result stored); the page runs it in a
+:class:`~camcmm.gui.jobs.Job` with progress and cancel. The result goes into the project (loop
 thread) and is shown again when the project reopens. "Make a virtual-lab study" writes
 the virtual lab's study of the chosen kind into the project folder (so the page works
 on the demo as shipped). "Export report" writes the plugin's declared report and offers
@@ -13,15 +14,16 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from ....errors import CamcmmError, one_line
+from ....tasks import studies
 from ...downloads import Downloads, sort_links
 from ...jobs import Job
-from ...runpage import RunPage
-from ...widgets import declared_fields
+from ...runpage import RunShared
+from ...widgets import declared_fields, form_values
 from . import figures, tables
-from . import run as runs
 
 log = logging.getLogger("camcmm.gui.studies")
 KEY = "studies"
@@ -44,23 +46,40 @@ def shortened(warnings: list[Any], n: int = MAX_WARNINGS) -> list[str]:
     return lines[:n] + ([f"… and {more} more warning(s): see the report"] if more > 0 else [])
 
 
-class StudiesPage(RunPage):
-    KEY, PREFIX, WHAT, runs = KEY, "st", "study", runs
+def check_params(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
+    """The form's values checked against the declared parameters but the study file's
+    (a required parameter of the speckle study: the task adds it from the page's file)."""
+    raw = {k: v for k, v in dict(raw or {}).items() if k != "study"}
+    return form_values(SimpleNamespace(id=spec.id, parameters=studies.form_fields(spec)), raw)
+
+
+class StudiesPage:
+    KEY = KEY
 
     def __init__(self, server: Any, session: Any, downloads: str | Path | None = None):
-        super().__init__(server, session)
+        self.server, self.session, self.state, self.host = server, session, session.state, session.host
+        self.shared = RunShared(session, KEY, "st", "study", studies)
+        self.record: dict[str, Any] | None = None
         self.job = Job("the study", state=self.state, on_progress=self._show_progress, interval=0.2)
-        self.runner = runs.run_study
+        self.runner = studies.run
         self.offered = Downloads("camcmm-studies-downloads", "camcmm-studies-", downloads)
         self.outputs: dict[str, Any] | None = None  # the last run's outputs in memory (with geometry)
         self._init_state()
         self.refresh_form()
         self.restore()
 
+    @property
+    def project(self) -> Any:
+        return self.session.project
+
+    def restore(self) -> None:
+        """The last run, as the project keeps it."""
+        self.shared.restore(lambda req: self._set_request(req.to_dict()), self.show_record)
+
     # -- state ------------------------------------------------------------------------------
     def _init_state(self) -> None:
         s = self.state
-        s.st_kinds = [{"title": k["title"], "value": key} for key, k in runs.KINDS.items()]
+        s.st_kinds = [{"title": k["title"], "value": key} for key, k in studies.KINDS.items()]
         s.st_kind, s.st_file = "lightfield", ""
         s.st_fields, s.st_params = [], {}
         s.st_running, s.st_progress, s.st_message, s.st_error = False, 0.0, "", ""
@@ -74,7 +93,8 @@ class StudiesPage(RunPage):
         s.st_empty_hint = EMPTY_HINT
 
     def spec(self) -> Any:
-        return runs.spec_of(self.host, self.state.st_kind)
+        """The manifest of the plugin that runs the chosen kind of study."""
+        return studies.spec_of(self.host, self.state.st_kind)
 
     def refresh_form(self) -> None:
         """The run form from the chosen study plugin's declared parameters (not the study file's)."""
@@ -85,17 +105,17 @@ class StudiesPage(RunPage):
             s.st_fields, s.st_params = [], {}
             s.st_message = f"no plugin for this study: {one_line(exc)}"
             return
-        s.st_fields, s.st_params = declared_fields(runs.form_fields(spec))
+        s.st_fields, s.st_params = declared_fields(studies.form_fields(spec))
 
     def set_kind(self, kind: Any) -> None:
-        if str(kind) not in runs.KINDS or self.job.running:
+        if str(kind) not in studies.KINDS or self.job.running:
             return
         if kind != self.state.st_kind:
             self.state.st_kind, self.state.st_file = str(kind), ""
         self.refresh_form()
 
     def _set_request(self, req: dict[str, Any]) -> None:
-        if req.get("kind") in runs.KINDS:
+        if req.get("kind") in studies.KINDS:
             self.state.st_kind = req["kind"]
             self.refresh_form()
         if req.get("file"):
@@ -112,7 +132,7 @@ class StudiesPage(RunPage):
 
     def _begin(self, message: str) -> None:
         s = self.state
-        self._clear_error()
+        self.shared.clear_error()
         s.st_running, s.st_progress, s.st_message = True, 0.0, message
         self.session.flush()
 
@@ -120,19 +140,20 @@ class StudiesPage(RunPage):
         status, line = Job.outcome(exc)
         s = self.state
         s.st_running, s.st_progress, s.st_message = False, 0.0, status
-        self._error(line)
+        self.shared.error(line)
         self.session.flush()
 
     async def make_virtual_async(self) -> str | None:
         """Write the virtual lab's study of the chosen kind into the project folder and
         choose its study file; the path, or None with the reason on the page."""
         if self.job.running:
-            self._error("a study is running; wait for it or cancel it")
+            self.shared.error("a study is running; wait for it or cancel it")
             return None
         kind = self.state.st_kind
         self._begin("writing the virtual-lab study …")
         try:
-            path = await self.job.run(runs.make_virtual, self.host, kind, Path(self.session.roots.project), self.job)
+            folder = Path(self.session.roots.project)
+            path = await self.shared.run_in(self.job, studies.make_virtual, self.host, kind, folder)
         except Exception as exc:
             self._failed(exc)
             return None
@@ -147,21 +168,22 @@ class StudiesPage(RunPage):
         form's) and store the result; the page's record, or None with the reason shown."""
         s = self.state
         if self.job.running:
-            self._error("a study is running; wait for it or cancel it")
+            self.shared.error("a study is running; wait for it or cancel it")
             return None
         kind = str(s.st_kind)
         try:
             spec = self.spec()
-            values = runs.check_params(spec, s.st_params if params is None else params)
-            path = runs.check_file(getattr(self.session, "roots", None), s.st_file if file is None else file)
+            values = check_params(spec, s.st_params if params is None else params)
+            path = studies.study_file(getattr(self.session, "roots", None), s.st_file if file is None else file)
         except Exception as exc:
-            self._error(exc)
+            self.shared.error(exc)
             return None
         s.st_file = str(s.st_file if file is None else file)
         self._begin("starting …")
         try:
-            result = await self.job.run(self.runner, self.host, spec, kind, str(path), values, self.job)
-            rec = runs.store(self.session, spec, result, kind, str(path))
+            req = studies.StudyRequest(kind, str(path))
+            result = await self.shared.run_in(self.job, self.runner, self.host, req, values)
+            rec = studies.store(self.project, result, req)
         except Exception as exc:
             self._failed(exc)
             return None
@@ -175,7 +197,7 @@ class StudiesPage(RunPage):
         return rec
 
     # -- what is shown ----------------------------------------------------------------------
-    def show_record(self, rec: dict[str, Any], *args: Any, draw: bool = True, **kw: Any) -> None:
+    def show_record(self, rec: dict[str, Any], draw: bool = True) -> None:
         """A run's record on the page: its tables, numbers and figures."""
         s, o = self.state, rec.get("outputs") or {}
         self.record = rec
@@ -226,18 +248,18 @@ class StudiesPage(RunPage):
         and offered for download; the links, or None with the reason on the page."""
         rec = self.record
         if rec is None:
-            self._error("export report: run a study first")
+            self.shared.error("export report: run a study first")
             return None
         if self.job.running:
-            self._error("export report: wait for the study to finish")
+            self.shared.error("export report: wait for the study to finish")
             return None
         try:
-            spec = runs.spec_of(self.host, rec.get("kind"))
+            spec = studies.spec_of(self.host, rec.get("kind"))
             outputs = self.outputs if self.outputs is not None else rec.get("outputs") or {}
             folder = self.offered.folder / f"result-{rec['result']}"
-            paths = await self.job.call(runs.write_report, spec, outputs, folder, f"study-{rec['result']}")
+            paths = await self.job.call(studies.write_report, spec, outputs, folder, f"study-{rec['result']}")
         except Exception as exc:
-            self._error(f"export report: {one_line(exc)}")
+            self.shared.error(f"export report: {one_line(exc)}")
             return None
         links = []
         for kind, p in paths.items():
@@ -249,13 +271,13 @@ class StudiesPage(RunPage):
             if link:
                 links.append(link)
         self.state.st_links = sort_links(links)
-        self._clear_error()
+        self.shared.clear_error()
         self.session.info(f"report of result #{rec['result']} written", page=KEY)
         self.session.flush()
         return self.state.st_links
 
     def close(self) -> None:
-        super().close()
+        self.job.close()
         self.offered.close()
 
 
