@@ -153,15 +153,10 @@ def test_stored_downloaded_used_by_a_system_and_restored(app):
     page, session = app()
     s = page.state
     run(page, folder_request(name="left camera, May"))
+    # what is stored (files, result row, the systems' meta) is checked headless in
+    # tests/tasks/test_calibration_task.py; here what the page shows and offers
     cur = page.doc["current"]
-    row = session.project.result(cur["result"])
-    assert row["plugin"] == "calibration.camera" and row["label"] == "calibration: left camera, May"
-    assert set(row["files"]) == {"calibration", "calibration_yaml", "page"}
     K = np.asarray(page.doc["outputs"]["camera_matrix"])
-    for key in ("calibration", "calibration_yaml"):
-        cal = read_calibration(session.project.file_path(row["files"][key]))
-        assert np.allclose(cal["cameras"][0].camera_matrix, K, rtol=1e-12)
-        assert cal["board"] == BOARD
     # downloads: YAML, JSON, the per-view CSV, the charts as PNG
     rid = cur["result"]
     names = {x["name"] for x in s.cal_links}
@@ -179,14 +174,7 @@ def test_stored_downloaded_used_by_a_system_and_restored(app):
     page.refresh_systems()
     assert page.use_calibration(sid_old) == sid_old
     for sid in (sid_new, sid_old):
-        meta = session.project.system(sid)["meta"]
-        assert meta["calibration"]["file"] == row["files"]["calibration"]
-        assert meta["calibration"]["name"] == "left camera, May" and meta["calibration"]["result"] == rid
-        assert read_calibration(session.project.file_path(meta["calibration"]["file"]))["cameras"][0].image_size == (
-            640,
-            480,
-        )
-    assert session.project.system(sid_old)["meta"]["measuring_volume"] == [500, 400, 300]
+        assert session.project.system(sid)["meta"]["calibration"]["file"] == cur["calibration"]
     assert [(x["name"], x["calibration"], x["current"]) for x in s.cal_systems] == [
         ("rig A", "left camera, May", True),
         ("rig B", "left camera, May", True),

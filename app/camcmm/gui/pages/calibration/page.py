@@ -1,11 +1,12 @@
 """The "Calibration" page's state and handlers: board images in, a camera or stereo
 calibration out, published through the trame state (``cal_*`` keys).
 
-A run (reading the images, calibrating, heat maps, thumbnails, storing; :mod:`.run`)
-goes to the page's calibration :class:`~camcmm.gui.jobs.Job` with progress and cancel;
+A run (reading the images, calibrating, heat maps, storing: the headless task
+:mod:`camcmm.tasks.calibration`; the thumbnails drawn here) goes to the page's
+calibration :class:`~camcmm.gui.jobs.Job` with progress and cancel;
 pictures made on demand go to a second job, so choosing an image never waits for a
 run. What is shown of a calibration is :class:`.show.Results`; the measuring systems
-that use it are :mod:`.systems`. State changes happen on the server's loop; plugin runs
+that use it are :mod:`.systems` (the task's ``use_for_system``). State changes happen on the server's loop; plugin runs
 and file writing in the jobs' workers.
 """
 
@@ -16,9 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from ....errors import InputError, one_line
+from ....host import Cancelled
+from ....tasks import calibration as task
 from ...downloads import Downloads
 from ...jobs import Job
-from . import inputs, run, systems
+from ...runpage import RunShared
+from . import draw, inputs, systems
 from . import results as res
 from .show import Results
 
@@ -164,11 +168,36 @@ class CalibrationPage:
         if self.job.cancel():
             self.state.cal_message = "cancelling …"
 
-    def _work(self, req: dict[str, Any], src: dict[str, list]) -> tuple[dict[str, Any], dict[str, Any]]:
-        """In the job's worker: calibrate and store, then the first pictures and the downloads."""
-        doc, images = run.calibrate(self.host, self.project, req, src, self.job)
-        self.job.progress(0.95, "drawing")
-        return doc, self.results.pictures(doc, images)
+    def _work(
+        self, req: Any, src: dict[str, list], progress: Any, cancel: Any
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """In the job's worker: calibrate (the task), the thumbnails, store (the task), then
+        the first pictures and the downloads."""
+        cal = task.run(self.host, req, src, self.project, progress, cancel)
+        try:
+            thumbs = self._thumbnails(req, cal, cancel)
+        except BaseException:
+            cal.discard()
+            raise
+        progress(0.9, "storing the calibration in the project")
+        doc = task.store(self.project, cal, req, src, thumbs)
+        progress(0.95, "drawing")
+        return doc, self.results.pictures(doc, cal.images)
+
+    @staticmethod
+    def _thumbnails(req: Any, cal: Any, cancel: Any) -> dict[str, dict[str, str]]:
+        """Each image with its detected board, small (image name -> data URL), per camera."""
+        _, layout = inputs.board_layout(req.board)
+        out: dict[str, dict[str, str]] = {}
+        for side in task.sides(req.mode):
+            cam = task.camera_part(cal.outputs, req.mode, side)
+            rows = {r["name"]: r for r in res.view_rows(cam)}
+            out[side] = {}
+            for img, d in zip(cal.images[side], cam["detections"]):
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled("calibration: cancelled")
+                out[side][d["image"]] = draw.thumbnail(img.data, d.get("corners"), layout, rows[d["image"]]["status"])
+        return out
 
     async def run_async(self, req: dict[str, Any] | None = None) -> dict[str, Any] | None:
         """Calibrate with ``req`` (the form's inputs when None); the page document, or
@@ -178,15 +207,15 @@ class CalibrationPage:
             self._error("a calibration is running; wait for it or cancel it")
             return None
         try:
-            req, src = inputs.check_request(self.request() if req is None else req, self.project, self.session.roots)
+            req, src = task.check_request(self.request() if req is None else req, self.project, self.session.roots)
         except Exception as exc:
             self._error(exc)
             return None
-        self._set_request(req)
+        self._set_request(req.to_dict())
         s.cal_running, s.cal_progress, s.cal_message, s.cal_error = True, 0.0, "starting …", ""
         self.flush()
         try:
-            doc, pics = await self.job.run(self._work, req, src)
+            doc, pics = await RunShared.run_in(self.job, self._work, req, src)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.cal_running, s.cal_progress, s.cal_message = False, 0.0, status
@@ -205,10 +234,9 @@ class CalibrationPage:
     def restore(self) -> None:
         """The inputs of the last run and the current calibration, as stored."""
         try:
-            req = run.stored_inputs(self.project)
+            req, doc = task.restore(self.project)
             if req is not None:
-                self._set_request(req)
-            doc = run.stored_doc(self.project)
+                self._set_request(req.to_dict())
             if doc is not None:
                 self.show_doc(doc)
                 self.state.cal_message = f"result #{doc['current'].get('result')} from the project"
@@ -231,13 +259,13 @@ class CalibrationPage:
 
     def use_calibration(self, target: Any = systems.NEW, name: str = "") -> int | None:
         """Let measuring system ``target`` (an id, or "new" with ``name``) refer to the
-        shown calibration (:func:`.systems.use`). Returns the system's id."""
+        shown calibration (:func:`camcmm.tasks.calibration.use_for_system`). Returns the system's id."""
         cur = (self.doc or {}).get("current")
         if not cur:
             self._error("no calibration to use yet: run one first")
             return None
         try:
-            sid = systems.use(self.project, cur, target, name)
+            sid = task.use_for_system(self.project, cur, target, name)
         except Exception as exc:
             self._error(f"measuring system: {one_line(exc)}")
             return None

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from .... import worker
 from ....errors import InputError, one_line
+from ....tasks.calibration import read_source, rectify
 from . import draw, inputs
 from . import results as res
-from .run import RECTIFY, plugin
 
 
 def image(project: Any, doc: dict[str, Any], side: str, name: str, images: dict[str, list] | None = None) -> Any:
@@ -25,7 +24,7 @@ def image(project: Any, doc: dict[str, Any], side: str, name: str, images: dict[
     src = next((x for x in doc["sources"].get(side) or [] if x["name"] == name), None)
     if src is None:
         raise InputError(f"{name}: not among the calibration's images")
-    return inputs.read_source(src, project)
+    return read_source(src, project)
 
 
 def first_used(doc: dict[str, Any], side: str = "left") -> str | None:
@@ -66,10 +65,8 @@ def rectified(
     ln, rn = pairs[int(index)]
     try:
         left, right = image(project, doc, "left", ln, images), image(project, doc, "right", rn, images)
-        out = worker.run(
-            host, plugin(host, RECTIFY), {"calibration": doc["outputs"]["calibration"], "left": left, "right": right}
-        ).outputs
-        pic = draw.rectified_pair(out["left"].data, out["right"].data)
+        left, right = rectify(host, doc["outputs"]["calibration"], left, right)
+        pic = draw.rectified_pair(left.data, right.data)
     except Exception as exc:
         return "", f"{ln} / {rn}: the rectified pair cannot be shown: {one_line(exc)}"
     dy = doc["outputs"].get("rectified_dy") or {}

@@ -17,39 +17,12 @@ from typing import Any
 
 import numpy as np
 
-SIDE_TITLES = {"camera": "camera", "left": "left camera", "right": "right camera"}
+from ....tasks.calibration import camera_part, default_distance, side_title, sides
 
-
-def sides(mode: str) -> list[str]:
-    return ["left", "right"] if mode == "stereo" else ["left"]
-
-
-def side_title(mode: str, side: str) -> str:
-    return SIDE_TITLES["camera"] if mode != "stereo" else SIDE_TITLES[side]
-
-
-def camera_part(outputs: dict[str, Any], mode: str, side: str = "left") -> dict[str, Any]:
-    """One camera's numbers, detections and the calibration its heat map comes from."""
-    if mode != "stereo":
-        return {
-            **outputs,
-            "detections": outputs.get("detections") or [],
-            "map_calibration": outputs.get("calibration"),
-            "pair_rejected": {},
-        }
-    cam = dict(outputs.get(side) or {})
-    k = 0 if side == "left" else 1
-    pair_rejected = {}
-    for r in outputs.get("rejected") or []:
-        rms = r.get("rms")
-        pair_rejected[r.get(side)] = {
-            "reason": r.get("reason", ""),
-            "rms": rms[k] if isinstance(rms, list) and len(rms) == 2 else None,
-        }
-    cam["detections"] = (outputs.get("detections") or {}).get(side) or []
-    cam["map_calibration"] = (outputs.get("single") or {}).get(side)
-    cam["pair_rejected"] = pair_rejected
-    return cam
+__all__ = [
+    "camera_part", "default_distance", "fmt", "number_rows", "side_title", "sides", "stereo_rows", "summary",
+    "used_corners", "used_pairs", "view_rows", "views_csv_rows",
+]  # fmt: skip
 
 
 def view_rows(cam: dict[str, Any]) -> list[dict[str, Any]]:
@@ -144,19 +117,6 @@ def stereo_rows(outputs: dict[str, Any]) -> list[dict[str, str]]:
 def used_pairs(outputs: dict[str, Any]) -> list[dict[str, Any]]:
     """The pairs the stereo calibration used, as options for the rectified view."""
     return [{"title": f"{p[0]} / {p[1]}", "value": i} for i, p in enumerate(outputs.get("pairs") or [])]
-
-
-def default_distance(cam: dict[str, Any]) -> float:
-    """The working distance (mm) the heat map first shows: the board's median depth in
-    the views the calibration used (the plugin's ``board_distance``), to 3 digits; 1000 mm
-    when the plugin gives none."""
-    try:
-        d = float(cam.get("board_distance"))
-    except (TypeError, ValueError):
-        return 1000.0
-    if not (math.isfinite(d) and d > 0):
-        return 1000.0
-    return float(f"{d:.3g}")
 
 
 def used_corners(cam: dict[str, Any]) -> np.ndarray:

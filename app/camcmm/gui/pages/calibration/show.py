@@ -16,10 +16,10 @@ from collections.abc import Callable
 from typing import Any
 
 from ....errors import one_line
+from ....tasks.calibration import projection_map
 from . import figures as figs
 from . import links, pictures
 from . import results as res
-from .run import projection_map
 
 EMPTY_VIEWS = "run a calibration to see each view's reprojection error"
 EMPTY_MAP = "run a calibration to see the projection uncertainty across the image"
