@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from .cli.options import add_declared_options, declared_values
 from .conformity import combine, guarded_verdict, simple_verdict
 from .devices import (
     Camera,
@@ -56,7 +57,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.3"
+API_VERSION = "1.4"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -115,7 +116,9 @@ __all__ = [
     "write_calibration",
     # parameters and units
     "Param",
+    "add_declared_options",
     "declared_value",
+    "declared_values",
     "project_values",
     "record_result",
     "to_mm_factor",

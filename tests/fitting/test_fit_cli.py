@@ -149,3 +149,51 @@ def test_plugins_through_the_host():
     assert abs(np.linalg.norm(np.subtract(seg["spheres"][1]["center"], seg["spheres"][0]["center"])) - 100) < 0.01
     one = host.run("segment.sphere", {"cloud": bar}, {"nominal_radius": 20}).outputs
     assert one["cloud"].n_points == 2000
+
+
+# -- the options are the fit plugins' declared parameters; the fit runs through the host (issue 25)
+def test_help_lists_every_declared_parameter_of_the_fits(capsys):
+    from camcmm.cli.main import main
+    from camcmm.host import default_host
+
+    with pytest.raises(SystemExit) as stop:
+        main(["fit", "--help"])
+    assert stop.value.code == 0
+    flags = set(capsys.readouterr().out.split())
+    for element in PARAMS:
+        for p in default_host().get(f"fit.{element}").parameters:
+            assert "--" + p.name.replace("_", "-") in flags, (element, p.name)
+    assert {"--unit", "--residuals", "--json"} <= flags
+
+
+def test_fit_json_carries_the_plugin_block(tmp_path, capsys):
+    """`camcmm fit --json` in this process: the run's provenance (plugin id and version, the
+    validated parameters, the input hash, the times) beside every key it had."""
+    from camcmm.cli.main import main
+    from camcmm.host import default_host
+
+    files = _clouds(tmp_path)
+    assert main(["fit", "sphere", str(files["sphere"]), "--nominal-radius", "10", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert KEYS | {"center", "radius", "radius_deviation", "form", "warnings", "file"} <= set(out)
+    plugin = out["plugin"]
+    assert plugin["id"] == "fit.sphere" and plugin["version"] == default_host().get("fit.sphere").version
+    assert plugin["params"] == {"outliers": "none", "method": "ls", "nominal_radius": 10.0, "extract": False}
+    assert set(plugin["input_hashes"]) == {"cloud"} and len(plugin["input_hashes"]["cloud"]) == 64
+    assert plugin["started"] <= plugin["finished"]
+    assert "deviations" not in out and "removed_indices" not in out  # a cloud, and indices without --residuals
+
+
+def test_old_flags_keep_their_meaning_for_each_element(tmp_path, capsys):
+    from helpers.cli import refused
+
+    files = _clouds(tmp_path)
+    out = _run(["line", str(files["line"]), "--method", "ls"])  # what every line fit does: accepted
+    assert out["method"] == "ls" and out["plugin"]["params"] == {"outliers": "none"}
+    needle = "--method: fit.line has no method (it takes --outliers)"
+    refused(capsys, ["fit", "line", files["line"], "--method", "minzone"], needle)
+    refused(capsys, ["fit", "plane", files["plane"], "--extract"], "--extract: fit.plane has no extract")
+    refused(capsys, ["fit", "sphere", files["sphere"], "--method", "fast"], "--method: parameter 'method': 'fast'")
+    out = _run(["sphere", str(files["sphere"]), "--extract", "--nominal-radius", "10", "--outliers", "percent:1"])
+    assert out["n_points_raw"] == 3000 and out["plugin"]["params"]["extract"] is True
+    assert out["outliers"] == "percent:1" and abs(out["radius"] - 10) < 0.01

@@ -152,6 +152,7 @@ def test_cli_no_overlap_reports_failure(files):
     assert text.returncode == 3 and "NOT CONVERGED" in text.stdout and "no deviations" in text.stdout
 
 
+@pytest.mark.slow
 def test_cli_far_off_exact_copy_is_aligned(files):
     """The same cloud 2000 mm away (≈ 50 nominal diagonals) is found by the coarse start:
     how far off a cloud lies does not matter once its centroid is moved."""
@@ -162,6 +163,7 @@ def test_cli_far_off_exact_copy_is_aligned(files):
     assert np.abs(np.array(r["transform"])[:3, 3] + 2000.0).max() < 1e-3
 
 
+@pytest.mark.slow
 def test_report_states_held_dofs_in_words():
     """A ball's rotations are held: the report says so in words (summary and alignment)."""
     mesh = _ball_mesh(10.0)
@@ -311,3 +313,108 @@ def test_report_renders(files, tmp_path):
     names = [s["title"] for s in data["sections"]]
     assert names[:5] == ["Summary", "Alignment", "Deviations", "Material ratio (ISO 13565-2 / ISO 25178-2)", "Coverage"]
     assert {i["file"] for i in data["provenance"]["inputs"]} == {str(d / "scan.ply"), str(d / "block.stl")}
+
+
+# -- the options are the comparison's declared parameters (issue 25) -------------------
+def _help(capsys, argv) -> str:
+    """``camcmm ARGV --help`` in this process: its text (argparse exits 0 after printing)."""
+    from camcmm.cli.main import main
+
+    with pytest.raises(SystemExit) as stop:
+        main([*argv, "--help"])
+    assert stop.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_help_lists_every_declared_parameter_of_the_comparison(capsys):
+    from camcmm.host import default_host
+
+    params = default_host().provider("compare-with-cad").parameters
+    text = _help(capsys, ["inspect"])
+    flags = set(text.split())
+    missing = [p.name for p in params if "--" + p.name.replace("_", "-") not in flags]
+    assert not missing, missing
+    assert len(params) >= 16  # kernel_k, max_iterations, max_points, neighbours, coverage_samples, bins too
+    # the declaration's limits and defaults are in the help, read from the manifest
+    assert "(3 <= x <= 200) (default: 12)" in " ".join(text.split())
+    # the command's own options stay
+    for flag in ("--nominal", "--pairs", "--out", "--report", "--unit", "--nominal-unit", "--curve", "--json"):
+        assert flag in flags, flag
+
+
+def test_every_old_flag_parses_as_before():
+    """The flags of before the declarations, in their old shapes: --region six numbers."""
+    from camcmm.cli.parser import Parser
+    from camcmm.host import default_host
+    from camcmm_plugins.inspection import cli
+
+    p = Parser(prog="camcmm inspect")
+    cli.configure(p)
+    old = [
+        *("--align", "global+similarity", "--tolerance", "0.05", "--kernel", "huber", "--max-distance", "2"),
+        *("--inlier-distance", "0.5", "--min-overlap", "0.3", "--distance", "nn", "--coverage-distance", "1"),
+        *("--seed", "7", "--region", "0", "0", "0", "10", "20", "30"),
+    ]
+    new = ["--kernel-k", "0.2", "--max-iterations", "30", "--max-points", "2000", "--neighbours", "8"]
+    new += ["--coverage-samples", "5000", "--bins", "40"]
+    args = p.parse_args(["c.ply", "--nominal", "n.stl", *old, *new, "--out", "o.ply", "--report", "r", "--curve"])
+    from camcmm.api import declared_values
+
+    values = declared_values(args, default_host().provider("compare-with-cad").parameters)
+    assert values == {
+        "align": "global+similarity",
+        "tolerance": 0.05,
+        "kernel": "huber",
+        "max_distance": 2.0,
+        "inlier_distance": 0.5,
+        "min_overlap": 0.3,
+        "distance": "nn",
+        "coverage_distance": 1.0,
+        "seed": 7,
+        "region": [0.0, 0.0, 0.0, 10.0, 20.0, 30.0],
+        "kernel_k": 0.2,
+        "max_iterations": 30,
+        "max_points": 2000,
+        "neighbours": 8,
+        "coverage_samples": 5000,
+        "bins": 40,
+    }
+    assert args.out == "o.ply" and args.report == "r" and args.curve and args.nominal == "n.stl"
+
+
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["--neighbours", "2"], "--neighbours: parameter 'neighbours' = 2 is below its minimum 3"),
+        (["--bins", "many"], "--bins: parameter 'bins': 'many' is not a valid int"),
+        (["--kernel-k", "nan"], "--kernel-k: parameter 'kernel_k': nan is not finite"),
+        (["--align", "magic"], "--align: parameter 'align': 'magic' is not a valid choice"),
+        (["--region", "0", "0", "0", "1", "1", "inf"], "--region: parameter 'region'"),
+    ],
+)
+def test_a_bad_value_is_one_line_naming_the_option(capsys, tmp_path, argv, needle):
+    """Checked by the declaration before any file is read (the files here do not exist)."""
+    from helpers.cli import refused
+
+    refused(capsys, ["inspect", tmp_path / "c.ply", "--nominal", tmp_path / "n.stl", *argv], needle)
+
+
+@pytest.mark.slow
+def test_new_options_reach_the_plugin(files, capsys):
+    """--max-iterations, --max-points, --neighbours, --coverage-samples, --bins, --kernel-k:
+    in the run's parameters (its provenance), the histogram with the bins asked for."""
+    from camcmm.cli.main import main
+
+    d = files["dir"]
+    argv = ["inspect", str(d / "scan.ply"), "--nominal", str(d / "block.stl"), "--json"]
+    argv += ["--max-iterations", "60", "--max-points", "20000", "--neighbours", "9", "--coverage-samples", "20000"]
+    argv += ["--bins", "25", "--kernel-k", "0.5", "--region", "-100", "-100", "-100", "100", "100", "100"]
+    assert main(argv) == 0
+    r = json.loads(capsys.readouterr().out)
+    params = r["plugin"]["params"]
+    assert params["max_iterations"] == 60 and params["max_points"] == 20000 and params["neighbours"] == 9
+    assert params["coverage_samples"] == 20000 and params["bins"] == 25 and params["kernel_k"] == 0.5
+    assert params["region"] == [-100.0, -100.0, -100.0, 100.0, 100.0, 100.0]
+    assert r["plugin"]["id"] == "inspect.compare" and len(r["plugin"]["input_hashes"]["cloud"]) == 64
+    assert r["aligned"] and len(r["histogram"]["counts"]) == 25
+    assert r["coverage_info"]["n_samples"] == pytest.approx(20000, rel=0.01)  # by area: not exactly (default 200000)

@@ -31,6 +31,12 @@ def test_verify_json(plan):
         assert all({"file", "value"} <= set(r) for r in p["per_measurement"])
     assert isinstance(res["warnings"], list)
     assert res["run"]["plugin"] == "vdi2634-2" and res["run"]["input_hashes"]["plan"]
+    # the run's record (RunResult.to_json without the outputs) and the plugin block of every command
+    assert {"plugin", "version", "params", "input_hashes", "started", "finished", "warnings"} == set(res["run"])
+    assert "workers" in res["run"]["params"]
+    plugin = res["plugin"]
+    assert plugin["id"] == "vdi2634-2" and plugin["version"] == res["run"]["version"]
+    assert plugin["input_hashes"] == res["run"]["input_hashes"] and plugin["params"] == res["run"]["params"]
     # the deviation clouds stay out of the JSON (a summary at most)
     ev = res["measurements"]["sphere"][0]
     assert ev["deviations"]["kind"] == "pointcloud"
@@ -66,3 +72,27 @@ def test_verify_errors_are_one_line(tmp_path):
     (tmp_path / "q.yaml").write_text("standard: iso9999\n")
     out = run_camcmm("verify", tmp_path / "q.yaml", ok=False)
     assert out.returncode == 2 and "no plugin with id 'iso9999'" in out.stderr
+
+
+def test_help_lists_every_declared_parameter_of_the_standards(capsys):
+    """The options are what the standard plugins declare (the plan names which one runs)."""
+    from camcmm.cli.main import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["verify", "--help"])
+    assert stop.value.code == 0
+    flags = set(capsys.readouterr().out.split())
+    standards = [s for s in default_host().plugins.values() if s.kind == "standard"]
+    assert {"vdi2634-2", "vdi2634-3"} <= {s.id for s in standards}
+    for spec in standards:
+        for p in spec.parameters:
+            assert "--" + p.name.replace("_", "-") in flags, (spec.id, p.name)
+    assert {"--report", "--json"} <= flags
+
+
+def test_workers_is_checked_by_the_declaration_naming_the_option(tmp_path, capsys):
+    from helpers.cli import refused
+
+    plan = tmp_path / "plan.yaml"
+    plan.write_text("standard: vdi2634-3\n")
+    refused(capsys, ["verify", plan, "--workers", "65"], "--workers: parameter 'workers' = 65 is above its maximum 64")

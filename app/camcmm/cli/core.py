@@ -14,6 +14,7 @@ from ..errors import CamcmmError, PluginError
 from ..host import default_host
 from ..params import add_cli_options, cli_values
 from ..project.record import geometry_outputs, record_result
+from .options import add_declared_options
 from .parser import Parser
 
 
@@ -122,16 +123,6 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 _RUN_OPTIONS = ("project", "out", "json", "help")
 
 
-class _Prefixed:
-    """An argparse parser seen through ``--param-NAME`` flags (same dest, same help)."""
-
-    def __init__(self, parser: argparse.ArgumentParser):
-        self.parser = parser
-
-    def add_argument(self, flag: str, **kw: Any) -> Any:
-        return self.parser.add_argument("--param-" + flag[2:], **kw)
-
-
 def _plugin_parser(spec) -> argparse.ArgumentParser:
     clash = [q for q in spec.parameters if q.name in _RUN_OPTIONS]
     epilog = (
@@ -153,7 +144,7 @@ def _plugin_parser(spec) -> argparse.ArgumentParser:
         nargs = "+" if port.type in ("images", "files") else ("?" if port.optional else None)
         p.add_argument(port.name, nargs=nargs, help=f"{port.type} {port.help}".strip())
     add_cli_options(p, [q for q in spec.parameters if q.name not in _RUN_OPTIONS])
-    add_cli_options(_Prefixed(p), clash)  # type: ignore[arg-type]
+    add_declared_options(p, clash, prefix="--param-")
     p.add_argument("--project", help="record the result in this project folder")
     own_out = "; the plugin's own parameter 'out' is --param-out" if any(q.name == "out" for q in clash) else ""
     p.add_argument("--out", help="write the first cloud/mesh output to this file" + own_out)

@@ -7,44 +7,56 @@ keys ``element, method, outliers, n_points, n_used, n_removed``, the element's
 parameters (sphere: ``center, radius``; plane: ``point, normal``; circle: ``center,
 normal, radius``; cylinder: ``point, axis, radius``; line: ``point, direction``),
 ``form {range, max, min, std, rms}``, ``std_uncertainty {parameter: value}`` and
-``warnings`` (when the element does not describe the points; see checks.py). A mesh
-file is fitted by its vertices, with a warning (see source.py); errors name FILE.
+``warnings`` (when the element does not describe the points; see checks.py), and
+``plugin`` (the run's provenance: ``id`` fit.ELEMENT, ``version``, ``params``,
+``input_hashes``, ``started``, ``finished``). A mesh file is fitted by its vertices, with
+a warning (see source.py); errors name FILE.
+
+The fit runs through the host as the plugin ``fit.ELEMENT``. The options are the
+parameters the fit plugins declare (help, limits, default from their manifest; ``camcmm
+fit --help``); each element's plugin takes its own, and a value for one it does not
+declare is refused in one line (``--nominal-radius: fit.plane has no nominal radius``),
+except that declaration's default (``--method ls`` for a line: what every line fit does).
 """
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from typing import Any
 
-from camcmm.api import declared_value, read_stated, unit_decision
+from camcmm.api import Param, add_declared_options, declared_values, default_host, read_stated, unit_decision
 
-RULES = "none, vdi2634 (3 of every 1000 points, one at a time), percent:P, sigma:K"
+from .elements import ELEMENTS  # each ELEMENT is fitted by the plugin fit.ELEMENT
+
+#: The flags that were ``store_true`` before their parameter was declared.
+SWITCHES = ("extract",)
+
+
+def parameters() -> list[Param]:
+    """Every parameter some ``fit.ELEMENT`` plugin declares, once, in first-declared order
+    (``camcmm fit``'s options; each element's plugin takes only its own). The help of one
+    that not every element takes says which do."""
+    host = default_host()
+    seen: dict[str, Param] = {}
+    takers: dict[str, list[str]] = {}
+    for element in ELEMENTS:
+        for p in host.get(f"fit.{element}").parameters:
+            seen.setdefault(p.name, p)
+            takers.setdefault(p.name, []).append(element)
+    return [
+        p
+        if len(takers[name]) == len(ELEMENTS)
+        else replace(p, help=f"{p.help} (for {', '.join(takers[name])})".strip())
+        for name, p in seen.items()
+    ]
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    from .api import ELEMENTS
-
-    parser.add_argument("element", choices=ELEMENTS, help="the geometric element")
+    parser.add_argument("element", choices=ELEMENTS, help="the geometric element (plugin fit.ELEMENT)")
     parser.add_argument("file", help="point cloud file (.xyz .csv .txt .ply .pcd .e57)")
-    parser.add_argument("--outliers", default="none", metavar="RULE", help=f"outlier rule: {RULES} (default none)")
-    parser.add_argument(
-        "--method",
-        default="ls",
-        choices=("ls", "minzone"),
-        help="ls: least squares (Gaussian); minzone: minimum zone (Chebyshev), plane and sphere",
-    )
-    parser.add_argument(
-        "--nominal-radius",
-        type=float,
-        default=None,
-        metavar="R",
-        help="nominal radius in mm: reports radius_deviation; with --extract finds the sphere",
-    )
-    parser.add_argument(
-        "--extract",
-        action="store_true",
-        help="sphere only: first extract the sphere from a raw scan with mount and background",
-    )
+    # --outliers, --method, --nominal-radius, --extract: the fit plugins' declarations
+    add_declared_options(parser, parameters(), switches=SWITCHES)
     parser.add_argument(
         "--unit",
         default=None,
@@ -56,35 +68,37 @@ def configure(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def run(args: argparse.Namespace) -> dict[str, Any]:
-    from camcmm.api import InputError
+#: Outputs of the fit plugins that are not part of the command's JSON (a cloud; index
+#: arrays, given with --residuals only).
+_NOT_JSON = ("deviations", "removed_indices", "extracted_indices")
 
-    from . import api
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
     from .source import as_cloud, naming
 
-    if args.nominal_radius is not None:
-        args.nominal_radius = declared_value(f"fit.{args.element}", "nominal_radius", args.nominal_radius)
-    if args.extract and args.element != "sphere":
-        raise InputError("--extract works for a sphere only")
+    host = default_host()
+    spec = host.get(f"fit.{args.element}")
+    # each value by the element's own declaration; one it does not take is refused
+    params = declared_values(args, parameters(), plugin=spec)
+    nominal = params.get("nominal_radius")
     obj, stated = read_stated(args.file, unit=args.unit)
     # the shared unit rule (a sphere's nominal diameter, when given, is the size to expect)
-    expected = 2 * args.nominal_radius if args.nominal_radius and args.element == "sphere" else None
+    expected = 2 * nominal if nominal and args.element == "sphere" else None
     unit_note = unit_decision(obj, stated, expected=expected, what="sphere" if expected else "part")
     cloud, note = as_cloud(obj, args.element, str(args.file))
-    pts = cloud.points
-    extra: dict[str, Any] = {"file": str(args.file)}
     with naming(str(args.file)):
-        if args.extract:
-            seg = api.extract_sphere(pts, args.nominal_radius)
-            extra["n_points_raw"] = len(pts)
-            pts = pts[seg.indices]
-        res = api.fit(args.element, pts, args.outliers, args.method, nominal_radius=args.nominal_radius)
-    out = res.to_dict(residuals=args.residuals)
-    out.update(extra)
-    if note:
-        out["warnings"] = [note, *out["warnings"]]
-    if unit_note.asks:
-        out["warnings"] = [unit_note.reason, *out["warnings"]]
+        res = host.run(spec.id, {"cloud": cloud}, params)
+    o = res.outputs
+    out = {k: v for k, v in o.items() if k not in _NOT_JSON and k != "n_points_raw"}
+    out["warnings"] = [*([unit_note.reason] if unit_note.asks else []), *([note] if note else []), *res.warnings]
+    if args.residuals:
+        dev = o.get("deviations")
+        out["residuals"] = [] if dev is None else dev.fields["deviation"].tolist()
+        out["removed_indices"] = [int(i) for i in o.get("removed_indices", [])]
+    out["file"] = str(args.file)
+    if "n_points_raw" in o:
+        out["n_points_raw"] = o["n_points_raw"]
+    out["plugin"] = res.provenance()
     return out
 
 

@@ -1,10 +1,14 @@
 """``camcmm fuse csi --cloud PHOTO.ply --csi MAP [--csi MAP2 ...] [--sigma-px 6]
 [--reject similarity|fundamental] [--out fused.ply] [--report DIR] [--project DIR] [--json]``
 
-Runs the plugin ``fusion.csi`` through the host (so the result carries its provenance):
-registers each CSI height map (Zygo .dat/.datx, Wyko .opd, Sensofar .plu, .sur, .x3p, .sdf
-...) onto the coloured photogrammetry cloud, fixes the cloud's scale from the CSI's lateral
-scale and merges them. JSON keys (lengths in mm): ``maps`` [{``file``, ``n_matches``,
+Runs the plugin that provides ``csi-fusion`` (camcmm's ``fusion.csi``) through the host (so
+the result carries its provenance); its declared parameters are the options, with the
+manifest's help, limits and defaults (``camcmm fuse csi --help``: ``--sigma-px``, ``--grey``,
+``--reject``, ``--grid``, ``--ransac-px``, ``--min-inliers``, ``--ratio``,
+``--icp-iterations``, ``--icp-max-distance``, ``--icp-points``, ``--max-points``, ``--seed``).
+The fusion registers each CSI height map (Zygo .dat/.datx, Wyko .opd, Sensofar .plu, .sur,
+.x3p, .sdf ...) onto the coloured photogrammetry cloud, fixes the cloud's scale from the
+CSI's lateral scale and merges them. JSON keys (lengths in mm): ``maps`` [{``file``, ``n_matches``,
 ``n_inliers``, ``transform2d`` {``angle_deg``, ``tx``, ``ty`` (px of the cloud's image),
 ``scale``}, ``icp`` {``tz``, ``rx_deg``, ``ry_deg``, ``rms``, ``converged``}, ``difference``
 {``mean``, ``std``, ``p2_5``, ``p97_5``}, ``material_ratio`` {``Sk``, ``Spk``, ``Svk``,
@@ -24,7 +28,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, default_host, record_result, write
+from camcmm.api import InputError, add_declared_options, declared_values, default_host, record_result, write
+
+#: The task ``camcmm fuse csi`` runs: its provider's parameters are the command's options.
+TASK = "csi-fusion"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -34,11 +41,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     c.add_argument(
         "--csi", required=True, action="append", metavar="MAP", help="a height map (.dat .opd .plu .x3p ...); repeat"
     )
-    c.add_argument("--sigma-px", type=float, default=None, metavar="S", help="blur of both images, px (default 6)")
-    c.add_argument("--reject", choices=("similarity", "fundamental"), default=None, help="false-match rejection")
-    c.add_argument("--grid", type=int, default=None, metavar="PX", help="side of the cloud's image (default √N)")
     c.add_argument("--datum", default=None, metavar="FILE", help='JSON {"point": [x,y,z], "normal": [nx,ny,nz]}')
-    c.add_argument("--seed", type=int, default=None, help="seed of RANSAC")
+    # --sigma-px, --grey, --reject, --grid, --ransac-px ... --seed: every declared parameter
+    # of the fusion, with the manifest's help, unit, limits and default
+    add_declared_options(c, default_host().provider(TASK).parameters)
     c.add_argument("--out", metavar="fused.ply", help="write the fused cloud (field 'source')")
     c.add_argument("--report", metavar="DIR", help="write report.html, report.pdf, report.json here")
     c.add_argument("--project", metavar="DIR", help="record the result in this project folder")
@@ -46,14 +52,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
+    host = default_host()
+    params = declared_values(args, host.provider(TASK).parameters)  # checked first: a bad value reads no file
     for f in [args.cloud, *args.csi, *([args.datum] if args.datum else [])]:
         if not Path(f).is_file():
             raise InputError(f"{f}: no such file")
-    params = {k: getattr(args, k) for k in ("sigma_px", "reject", "grid", "seed") if getattr(args, k) is not None}
     inputs: dict[str, Any] = {"cloud": args.cloud, "csi": list(args.csi)}
     if args.datum:
         inputs["datum"] = args.datum
-    res = default_host().run("fusion.csi", inputs, params)
+    res = host.run_task(TASK, inputs, params)
     o = res.outputs
     out = dict(o["result"])
     out["warnings"] = list(res.warnings)

@@ -5,8 +5,14 @@ Aligns the measured cloud onto the nominal (CAD mesh .stl/.obj/.ply or a referen
 cloud), computes the signed deviations, their statistics, the coverage of the nominal
 area and the material-ratio parameters, and prints them; ``--out`` writes the cloud in
 nominal coordinates with the field ``deviation`` and deviation colours, ``--report`` an
-HTML/PDF/JSON report. Runs the plugin ``inspect.compare`` through the host, so the
-result carries the plugin's provenance.
+HTML/PDF/JSON report. Runs the plugin that provides ``compare-with-cad`` (camcmm's
+``inspect.compare``) through the host, so the result carries the plugin's provenance
+(``plugin``). Its declared parameters are the command's options, help, limits and
+defaults from its manifest (``camcmm inspect --help``): ``--align``, ``--kernel``,
+``--kernel-k``, ``--max-distance``, ``--inlier-distance``, ``--min-overlap``, ``--region``
+(six numbers), ``--max-iterations``, ``--max-points``, ``--seed``, ``--tolerance``,
+``--distance``, ``--neighbours``, ``--coverage-distance``, ``--coverage-samples``,
+``--bins``; a refused value is one line naming the option.
 
 JSON (``--json``; lengths in mm): ``transform`` (4×4, measured -> nominal, scale
 included), ``scale`` (the factor applied to the measured cloud), ``rms``, ``overlap``,
@@ -32,9 +38,12 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, PointCloud, default_host, read, write
+from camcmm.api import InputError, PointCloud, add_declared_options, declared_values, default_host, read, write
 
-ALIGN = ("none", "icp", "similarity", "global+icp", "global+similarity", "pairs", "pairs+icp", "pairs+similarity")
+#: The task ``camcmm inspect`` runs: its provider's parameters are the command's options.
+TASK = "compare-with-cad"
+#: What ``--region`` takes: the box as six numbers, as before the parameter was declared.
+REGION = ("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -43,67 +52,18 @@ def configure(parser: argparse.ArgumentParser) -> None:
         "--nominal", required=True, metavar="FILE", help="nominal: CAD mesh (.stl .obj .ply) or reference cloud"
     )
     parser.add_argument(
-        "--align",
-        default="icp",
-        choices=ALIGN,
-        help="icp: rigid ICP from where the cloud is (default); similarity: with one uniform scale; "
-        "global+...: FPFH/RANSAC first; pairs+...: --pairs first; none: as it is",
-    )
-    parser.add_argument("--tolerance", type=float, default=None, metavar="T", help="tolerance in mm (colour scale ±T)")
-    parser.add_argument("--out", default=None, metavar="FILE", help="write the coloured cloud with field 'deviation'")
-    parser.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
-    parser.add_argument(
         "--pairs",
         default=None,
         metavar="FILE",
         help='JSON {"measured": [[x,y,z],...], "nominal": [[x,y,z],...]}: at least 3 point pairs',
     )
-    parser.add_argument(
-        "--region",
-        type=float,
-        nargs=6,
-        default=None,
-        metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
-        help="align on the measured points inside this box (nominal coordinates, mm)",
-    )
-    parser.add_argument("--kernel", default="tukey", choices=("tukey", "huber", "none"), help="robust kernel of ICP")
-    parser.add_argument(
-        "--max-distance",
-        type=float,
-        default=None,
-        metavar="D",
-        help="ICP ignores correspondences farther apart (mm; default 5 %% of the nominal's size)",
-    )
-    parser.add_argument(
-        "--inlier-distance",
-        type=float,
-        default=None,
-        metavar="D",
-        help="overlap distance (mm; default 1 %% of the nominal's size)",
-    )
-    parser.add_argument(
-        "--min-overlap",
-        type=float,
-        default=0.5,
-        metavar="F",
-        help="share of points that must overlap for success (default 0.5)",
-    )
-    parser.add_argument(
-        "--distance",
-        default="auto",
-        choices=("auto", "mesh", "plane", "nn"),
-        help="deviation: signed to mesh, to the local plane or nearest point of a reference cloud",
-    )
-    parser.add_argument(
-        "--coverage-distance",
-        type=float,
-        default=None,
-        metavar="D",
-        help="coverage: a nominal sample is covered by a point this close (mm; default 3 point spacings)",
-    )
+    # --align, --tolerance, --kernel, --max-distance ...: every declared parameter of the
+    # comparison, with the manifest's help, unit, limits and default
+    add_declared_options(parser, default_host().provider(TASK).parameters, spread={"region": REGION})
+    parser.add_argument("--out", default=None, metavar="FILE", help="write the coloured cloud with field 'deviation'")
+    parser.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
     parser.add_argument("--unit", default=None, help="length unit of the cloud file when it does not say (default mm)")
     parser.add_argument("--nominal-unit", default=None, help="length unit of the nominal file when it does not say")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the random subsets and RANSAC")
     parser.add_argument("--curve", action="store_true", help="include the material-ratio curve in the JSON")
 
 
@@ -117,35 +77,30 @@ def _read(path: str, unit: str | None, what: str):
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
+    host = default_host()
+    spec = host.provider(TASK)
+    params = declared_values(args, spec.parameters)  # checked first: a bad value reads no file
     for what, f in (("cloud", args.cloud), ("nominal", args.nominal), ("pairs", args.pairs)):
         if f is not None and not Path(f).is_file():
             raise InputError(f"{f}: no such file ({what})")
     cloud = _read(args.cloud, args.unit, "cloud") if args.unit else args.cloud
     nominal = _read(args.nominal, args.nominal_unit, "nominal") if args.nominal_unit else args.nominal
-    params: dict[str, Any] = {
-        "align": args.align,
-        "kernel": args.kernel,
-        "min_overlap": args.min_overlap,
-        "distance": args.distance,
-        "seed": args.seed,
-    }
-    for key in ("tolerance", "region", "max_distance", "inlier_distance", "coverage_distance"):
-        if getattr(args, key) is not None:
-            params[key] = getattr(args, key)
     # files without a unit override go to the host as paths, so it records their SHA-256
     inputs: dict[str, Any] = {"cloud": cloud, "nominal": nominal}
+    align = params.get("align", next((p.default for p in spec.parameters if p.name == "align"), None))
     if args.pairs:
         inputs["pairs"] = args.pairs
-    elif args.align.startswith("pairs"):
-        raise InputError(f"--align {args.align} needs --pairs FILE with at least 3 point pairs")
-    res = default_host().run("inspect.compare", inputs, params)
+    elif isinstance(align, str) and align.startswith("pairs"):
+        raise InputError(f"--align {align} needs --pairs FILE with at least 3 point pairs")
+    res = host.run_task(TASK, inputs, params)
+    tolerance = res.params.get("tolerance")
     o = res.outputs
     mr = {k: v for k, v in o["material_ratio"].items() if k != "curve" or args.curve}
     cov = o["coverage_info"]
     out: dict[str, Any] = {
         "cloud": str(args.cloud),
         "nominal": str(args.nominal),
-        "align": args.align,
+        "align": res.params.get("align", align),
         "n_points": o["deviations"].n_points,
         "transform": o["transform"],
         "scale": o["scale"],
@@ -154,7 +109,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "converged": o["converged"],
         "reason": o["reason"],
         "stats": o["stats"],
-        "tolerance": args.tolerance,
+        "tolerance": tolerance,
         "colour_limit": o["colour_limit"],
         "coverage": o["coverage"],
         "coverage_info": cov,
@@ -184,7 +139,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.report:
         from .report import build_report
 
-        rep = build_report(o, cloud_file=args.cloud, nominal_file=args.nominal, run=res, tolerance=args.tolerance)
+        rep = build_report(o, cloud_file=args.cloud, nominal_file=args.nominal, run=res, tolerance=tolerance)
         out["report"] = rep.write(args.report)
     return out
 

@@ -3,8 +3,10 @@
 * ``reconstruct IMAGES... [--calibration CAL.yaml] [--dense/--sparse-only]
   [--scale spheres:R1,R2|lengths:FILE|bar:L] [--max-image-size PX] [--dense-max-image-size PX]
   [--turntable-angles DEG,...|step:D] [--out cloud.ply] [--project DIR] [--json]``: runs the
-  plugin ``photogrammetry.reconstruct`` through the host (so the result carries its
-  provenance). JSON keys ``n_images, n_registered, unregistered,
+  plugin that provides ``photogrammetry`` (camcmm's ``photogrammetry.reconstruct``) through
+  the host (so the result carries its provenance); its declared parameters are the options,
+  with the manifest's help, limits and defaults (``camcmm photogrammetry reconstruct
+  --help``; ``--sparse-only`` is ``--dense`` false). JSON keys ``n_images, n_registered, unregistered,
   reprojection_rms_px, camera {model fx fy cx cy dist}, views [{image R t centre}],
   n_points_sparse, n_points_dense, scale {method factor u}, warnings, timings`` (+ ``images``
   per-image feature/match counts, ``plugin``, ``written``, ``result_id``). IMAGES may be
@@ -23,9 +25,13 @@ import re
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, default_host, record_result, write
+from camcmm.api import InputError, add_declared_options, declared_values, default_host, record_result, write
 
 IMAGE_EXTS = (".png", ".bmp", ".tif", ".tiff", ".jpg", ".jpeg", ".pgm", ".ppm")
+#: The task ``camcmm photogrammetry reconstruct`` runs: its provider's parameters are the options.
+TASK = "photogrammetry"
+#: ``--dense`` (the declared bool, given without a value) and its opposite, as before.
+SPARSE_ONLY = ("--sparse-only", "stop after structure from motion (dense false)")
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -33,28 +39,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     r = sub.add_parser("reconstruct", help="structure from motion (+ dense cloud, + scale) of an image series")
     r.add_argument("images", nargs="+", help="image files or folders of one camera's series (3 or more)")
     r.add_argument("--calibration", metavar="CAL", help="hold the camera fixed to this calibration (camcmm calibrate)")
-    g = r.add_mutually_exclusive_group()
-    g.add_argument("--dense", dest="dense", action="store_true", default=True, help="dense cloud too (default)")
-    g.add_argument("--sparse-only", dest="dense", action="store_false", help="stop after structure from motion")
-    r.add_argument("--scale", default="", metavar="SPEC", help="spheres:R1,R2 | lengths:FILE | bar:L (mm)")
-    r.add_argument("--max-image-size", type=int, default=None, metavar="PX", help="longest side used (default 1600)")
-    r.add_argument("--matching", choices=("exhaustive", "sequential"), default=None, help="image pairs matched")
-    r.add_argument("--camera-model", default=None, metavar="MODEL", help="self-calibrated camera model (COLMAP)")
-    r.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler for the dense stage")
-    r.add_argument(
-        "--dense-max-image-size",
-        type=int,
-        default=None,
-        metavar="PX",
-        help="longest side the dense stage matches at (default 1600; 0: full size)",
-    )
-    r.add_argument(
-        "--turntable-angles",
-        default=None,
-        metavar="DEG,DEG,...|step:D",
-        help="table angle of each image (deg): match only pairs within --turntable-window, check the cameras",
-    )
-    r.add_argument("--turntable-window", type=float, default=None, metavar="DEG", help="with the angles (default 90)")
+    # --dense/--sparse-only, --max-image-size, --scale, --matching, --camera-model ...: every
+    # declared parameter of the reconstruction, with the manifest's help, limits and default
+    add_declared_options(r, default_host().provider(TASK).parameters, negations={"dense": SPARSE_ONLY})
     r.add_argument("--out", metavar="cloud.ply", help="write the cloud (dense, or sparse with --sparse-only)")
     r.add_argument("--project", metavar="DIR", help="record the result in this project folder")
     i = sub.add_parser("import", help="read a COLMAP model or a Metashape export")
@@ -87,22 +74,6 @@ def image_files(items: list[str]) -> list[str]:
     return out
 
 
-def _params(args: argparse.Namespace) -> dict[str, Any]:
-    params: dict[str, Any] = {"dense": bool(args.dense), "scale": args.scale or ""}
-    for key in (
-        "max_image_size",
-        "matching",
-        "camera_model",
-        "scheduler",
-        "dense_max_image_size",
-        "turntable_angles",
-        "turntable_window",
-    ):
-        if getattr(args, key) is not None:
-            params[key] = getattr(args, key)
-    return params
-
-
 def run(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     if args.what == "import":
@@ -116,13 +87,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             write(res.outputs["cloud"], args.out)
             out["written"] = {"cloud": str(args.out)}
         return out
+    params = declared_values(args, host.provider(TASK).parameters)  # checked first: a bad value reads no image
     files = image_files(args.images)
     inputs: dict[str, Any] = {"images": files}
     if args.calibration:
         if not Path(args.calibration).is_file():
             raise InputError(f"{args.calibration}: calibration file not found")
         inputs["calibration"] = str(args.calibration)
-    res = host.run("photogrammetry.reconstruct", inputs, _params(args))
+    res = host.run_task(TASK, inputs, params)
     o = res.outputs
     out = dict(o["reconstruction"])
     out["warnings"] = list(res.warnings)
