@@ -25,6 +25,30 @@ def shared_data():
     return SHARED_DATA
 
 
+@pytest.fixture(scope="session")
+def demo_project(tmp_path_factory):
+    """``make(dest, acceptance=True) -> dest``: a copy of the demo project (``camcmm demo``) at
+    ``dest``. The demo is built once per test process and kind (with or without its finished
+    acceptance test: 12-30 s each) and copied for every test, so that each test still gets a
+    project of its own to change."""
+    import shutil
+
+    from camcmm.demo import create_demo
+
+    built: dict[bool, Path] = {}
+
+    def make(dest, acceptance: bool = True) -> Path:
+        if acceptance not in built:
+            folder = tmp_path_factory.mktemp("demo-cache") / "demo"
+            create_demo(folder, acceptance=acceptance)
+            built[acceptance] = folder
+        dest = Path(dest)
+        shutil.copytree(built[acceptance], dest)
+        return dest
+
+    return make
+
+
 @pytest.fixture
 def gui_server(tmp_path):
     """Start the GUI on a fresh project; yield its URL and its output lines."""

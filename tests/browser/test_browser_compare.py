@@ -34,11 +34,10 @@ SCAN, CAD = "sphere scan (20 mm ball)", "sphere nominal (CAD)"
 
 
 @pytest.fixture
-def demo_server(tmp_path):
-    from camcmm.demo import create_demo
+def demo_server(tmp_path, demo_project):
     from camcmm.gui.process import GuiProcess
 
-    create_demo(tmp_path / "demo")
+    demo_project(tmp_path / "demo")
     server = GuiProcess(tmp_path / "demo")
     yield server.url, server.log
     server.stop()

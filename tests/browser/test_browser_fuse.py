@@ -54,11 +54,10 @@ def data(tmp_path, shared_data):
 
 
 @pytest.fixture
-def demo_server(tmp_path, data):
-    from camcmm.demo import create_demo
+def demo_server(tmp_path, data, demo_project):
     from camcmm.gui.process import GuiProcess
 
-    create_demo(tmp_path / "demo")
+    demo_project(tmp_path / "demo")
     server = GuiProcess(tmp_path / "demo", timeout=180, data_roots=(data,))
     yield server, data
     server.stop()

@@ -35,12 +35,9 @@ SHOTS = shots("inspect-run")
 
 
 @pytest.fixture
-def demo(tmp_path):
+def demo(tmp_path, demo_project):
     """The demo project's clouds (``camcmm demo`` without its acceptance test) and the GUI on it."""
-    from camcmm.demo import create_demo
-
-    folder = tmp_path / "demo"
-    create_demo(folder, acceptance=False)
+    folder = demo_project(tmp_path / "demo", acceptance=False)
     try:
         server = GuiProcess(folder)
     except CamcmmError as exc:

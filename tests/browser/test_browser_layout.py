@@ -68,15 +68,14 @@ TOOLBAR_PROBLEMS = """() => {
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
+def demo(tmp_path_factory, demo_project):
     """The demo project and its GUI (one for the module: building the demo takes ~20 s)."""
-    from camcmm.demo import create_demo
     from camcmm.errors import CamcmmError
     from camcmm.gui.process import GuiProcess
 
     folder = tmp_path_factory.mktemp("layout") / "demo"
     try:
-        create_demo(folder)
+        demo_project(folder)
     except CamcmmError as exc:
         pytest.skip(f"the demo needs its plugins: {exc}")
     try:

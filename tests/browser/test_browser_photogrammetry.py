@@ -43,11 +43,10 @@ def series(tmp_path, shared_data):
 
 
 @pytest.fixture
-def demo_server(tmp_path, series):
-    from camcmm.demo import create_demo
+def demo_server(tmp_path, series, demo_project):
     from camcmm.gui.process import GuiProcess
 
-    create_demo(tmp_path / "demo", acceptance=False)  # its clouds; the finished acceptance test costs ~30 s
+    demo_project(tmp_path / "demo", acceptance=False)  # its clouds; the finished acceptance test costs ~30 s
     server = GuiProcess(tmp_path / "demo", timeout=180, data_roots=(series,))
     yield server, series
     server.stop()

@@ -34,10 +34,8 @@ SHOTS = shots("refusals")
 SPH101 = Path(__file__).parents[1] / "data" / "nist_spheres" / "SPH101.xyz"
 
 
-def _server(folder: Path, acceptance: bool):
-    from camcmm.demo import create_demo
-
-    create_demo(folder, acceptance=acceptance)
+def _server(folder: Path, acceptance: bool, demo_project):
+    demo_project(folder, acceptance=acceptance)
     try:
         return GuiProcess(folder)
     except CamcmmError as exc:
@@ -45,15 +43,15 @@ def _server(folder: Path, acceptance: bool):
 
 
 @pytest.fixture
-def demo(tmp_path):
-    server = _server(tmp_path / "demo", acceptance=False)
+def demo(tmp_path, demo_project):
+    server = _server(tmp_path / "demo", acceptance=False, demo_project=demo_project)
     yield server, tmp_path / "demo"
     server.stop()
 
 
 @pytest.fixture
-def demo_with_test(tmp_path):
-    server = _server(tmp_path / "demo", acceptance=True)
+def demo_with_test(tmp_path, demo_project):
+    server = _server(tmp_path / "demo", acceptance=True, demo_project=demo_project)
     yield server
     server.stop()
 

@@ -63,15 +63,14 @@ def _wait_text(page, words: str, timeout: float = 30.0) -> None:
         time.sleep(0.2)
 
 
-def test_two_sessions_have_their_own_pages_and_share_the_project(tmp_path):
-    from camcmm.demo import create_demo
+def test_two_sessions_have_their_own_pages_and_share_the_project(tmp_path, demo_project):
     from camcmm.gui.process import GuiProcess
     from camcmm.io import write
     from camcmm.model import PointCloud
     from camcmm.project import Project
 
     demo = tmp_path / "demo"
-    create_demo(demo)
+    demo_project(demo)
     with Project.open(demo) as p:
         saved = [m["name"] for m in p.measurements()]
         n_results = len(list(p.results()))

@@ -26,11 +26,10 @@ SHOTS = shots("studies-gui")
 
 
 @pytest.fixture
-def demo_server(tmp_path):
-    from camcmm.demo import create_demo
+def demo_server(tmp_path, demo_project):
     from camcmm.gui.process import GuiProcess
 
-    create_demo(tmp_path / "demo")
+    demo_project(tmp_path / "demo")
     server = GuiProcess(tmp_path / "demo", timeout=180)
     yield server
     server.stop()

@@ -205,12 +205,13 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
     assert time.monotonic() - t0 < 180  # about 40 s on an idle machine; generous for a loaded CI
 
 
-def test_demo_project_opens_with_a_finished_test(tmp_path):
+def test_demo_project_opens_with_a_finished_test(tmp_path, demo_project):
     host = default_host()
     if _standard() is None or "virtuallab.acceptance-set" not in host.plugins:
         pytest.skip("the demo's acceptance test needs the vdi2634-2 and virtual-lab plugins")
     from camcmm.demo import create_demo
 
+    demo_project(tmp_path / "demo")  # a copy of the demo built once; create_demo re-opens it
     summary = create_demo(tmp_path / "demo")
     verdict = summary["acceptance"]["verdict"]
     server = Server(tmp_path / "demo")
