@@ -1,4 +1,5 @@
-"""The acceptance page without a browser: camcmm.gui.pages.acceptance on a real project.
+"""The acceptance wizard without a browser: the task (camcmm.tasks.acceptance.Wizard) and
+its page (camcmm.gui.pages.acceptance.WizardPage) on a real project.
 
 A part-2 test is set up, every position imported (clouds generated here with numpy:
 partial spheres with noise, ball bars of two spheres at the calibrated length,

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from camcmm.errors import InputError
 from camcmm.host import RunResult, default_host
 from camcmm.project import Project
 from camcmm.tasks.acceptance import FORM_KEYS, STATE_KEY, TestState, Wizard
@@ -104,7 +105,7 @@ def test_the_state_of_a_project_without_a_test(tmp_path):
     with Project.create(tmp_path / "proj") as project:
         saved = TestState(project, Wizard(project).standards_of)
         assert not saved.resume() and not saved.active and saved.load_error == ""
-        with pytest.raises(Exception, match="no acceptance test set up yet"):
+        with pytest.raises(InputError, match="no acceptance test set up yet"):
             saved.plan  # noqa: B018
 
 
@@ -178,3 +179,31 @@ def _comparable(project: Project, state: dict) -> dict:
     state["system_id"] = (system["name"], system["meta"]["measuring_volume"], system["meta"]["standard"])
     state["artefact_ids"] = {t: project.artefact(a).to_dict() for t, a in state["artefact_ids"].items()}
     return state
+
+
+@pytest.mark.slow
+def test_a_position_acquired_from_the_simulated_system_through_the_task(tmp_path):
+    """Measuring instead of importing, without the page: the placement a system is told,
+    the simulated stereo fringe system run in a worker, its cloud imported at the position."""
+    pytest.importorskip("cv2")
+    host = default_host()
+    if "virtuallab.fringe-system" not in host.plugins:
+        pytest.skip("needs the virtual lab's fringe system")
+    with Project.create(tmp_path / "proj") as project:
+        w = Wizard(project, host)
+        assert "virtuallab.fringe-system" in [s["value"] for s in w.acquisition_sources()]
+        w.setup("vdi2634-2", "Virtual stereo fringe system", VOLUME, MPE, {t: dict(a) for t, a in ARTEFACTS.items()})
+        where = w.placement("sphere", "sphere-01")
+        assert where["test"] == "sphere" and where["position"]["id"] == "sphere-01"
+        assert where["measuring_volume"] == VOLUME and set(where["artefacts"]) == {"sphere", "ball_bar", "flat"}
+        with pytest.raises(KeyError, match="sphere-99"):
+            w.placement("sphere", "sphere-99")
+        where["repeat"] = w.prepare("sphere", "sphere-01").repeat
+        path = w.acquire("virtuallab.fringe-system", {"method": "projector", "preset": "camera_projector"}, where)
+        try:
+            card = w.import_measurement("sphere", "sphere-01", path, path.name)
+        finally:
+            path.unlink()
+            path.parent.rmdir()
+        assert card["status"] == "done" and card["verdict"] == "pass", card
+        assert w.progress()[0]["done"] == 1
