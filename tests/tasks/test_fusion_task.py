@@ -121,6 +121,7 @@ def test_a_real_fusion_is_stored_and_restored(items):
     assert stored["views"][0]["matches"]["photo"] and fusion.numbers(stored["summary"], 0)[0]["value"] == "csi_1"
 
 
+@pytest.mark.slow  # a worker process may start first
 def test_a_cancelled_run_raises_cancelled(items):
     cloud, _s, _m = photo_cloud(spacing=0.03, half=3.0)
     hm, _a = csi_map(shape=(240, 320), step=0.012, centre=(0.3, -0.2))
