@@ -48,6 +48,7 @@ class GuiProcess:
         lines: queue.Queue[str] = queue.Queue()
 
         def pump() -> None:  # keep reading, or the child blocks on a full pipe
+            assert self.proc.stdout is not None  # stdout=PIPE above
             for line in self.proc.stdout:
                 self.log.append(line)
                 lines.put(line)

@@ -34,7 +34,7 @@ import ipaddress
 import os
 import re
 import secrets
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlencode, urlsplit
@@ -80,7 +80,7 @@ def choose_token(
     """The token for this launch: from ``token_file``, else ``$CAMCMM_TOKEN``, else a
     new random one; ``None`` with ``no_token``, which only a loopback address allows.
     Raises CamcmmError (one line) for a refused combination or a weak password."""
-    env = os.environ if env is None else env
+    environ: Mapping[str, str] = os.environ if env is None else env
     if no_token:
         if not is_loopback(host):
             raise CamcmmError(
@@ -94,8 +94,8 @@ def choose_token(
         except (OSError, UnicodeDecodeError) as exc:
             raise CamcmmError(f"--token-file {token_file}: cannot read it ({type(exc).__name__})") from None
         source = f"--token-file {token_file}"
-    elif env.get(TOKEN_ENV, "").strip():
-        token, source = env[TOKEN_ENV].strip(), f"${TOKEN_ENV}"
+    elif environ.get(TOKEN_ENV, "").strip():
+        token, source = environ[TOKEN_ENV].strip(), f"${TOKEN_ENV}"
     else:
         return new_token()
     if len(token) < MIN_TOKEN_LENGTH or any(c.isspace() for c in token):
@@ -195,7 +195,7 @@ class Guard:
         return mine is not None and _netloc(u.scheme, u.netloc) == mine
 
     def token_ok(self, supplied: str | None) -> bool:
-        return bool(self.token) and _equal(supplied, self.token)
+        return self.token is not None and bool(self.token) and _equal(supplied, self.token)
 
     def _header_token(self, request: Any) -> str | None:
         auth = request.headers.get("Authorization", "")

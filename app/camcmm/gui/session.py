@@ -72,6 +72,10 @@ def _in_display_units(obj: Any, units: Any) -> Any:
 class Session:
     """The project, its items, the 3D view, the messages and the loop, shared by the pages."""
 
+    #: the folders the pages may read and write (:class:`~camcmm.gui.roots.Roots`), set by
+    #: :func:`camcmm.gui.app.build` before the pages mount
+    roots: Any = None
+
     def __init__(
         self,
         server: Any,
@@ -166,7 +170,7 @@ class Session:
 
     def page_of_caller(self, depth: int = 2) -> str:
         """The page whose code called (first page module up the stack), else the page shown."""
-        frame = sys._getframe(depth)
+        frame: Any = sys._getframe(depth)
         while frame is not None:
             module = str(frame.f_globals.get("__name__", ""))
             for prefix, key in self.page_of_module.items():
@@ -220,7 +224,8 @@ class Session:
         except Exception as exc:
             self.error(f"project {self.state.project_name}: cannot list measurements: {exc}")
             records = []
-        items, hidden = [], []
+        items: list[dict[str, Any]] = []
+        hidden: list[dict[str, Any]] = []
         self._measurements = {}
         for m in records:
             key = str(m["id"])
@@ -321,7 +326,8 @@ class Session:
 
             check = cio.unit_decision(obj, stated)
             if check.asks:
-                return self._ask_unit(path, obj, label, check, source)
+                self._ask_unit(path, obj, label, check, source)
+                return None
         return self._register(path, obj, label)
 
     def _ask_unit(self, path: Path, obj: Any, label: str, check: Any, source: Any) -> None:

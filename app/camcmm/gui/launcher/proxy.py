@@ -121,9 +121,9 @@ async def websocket(request: web.Request, child: Child, client: ClientSession, o
         for t in done:
             # one side went away mid-message (a tab closed, a child stopped): the end of this
             # connection, not a fault; retrieved here so asyncio logs no orphan traceback
-            exc = None if t.cancelled() else t.exception()
-            if exc is not None and not isinstance(exc, (ConnectionError, ClientError)):
-                raise exc
+            err = None if t.cancelled() else t.exception()
+            if err is not None and not isinstance(err, (ConnectionError, ClientError)):
+                raise err
     finally:
         on_open(-1)
         await upstream.close()

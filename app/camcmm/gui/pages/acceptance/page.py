@@ -146,9 +146,9 @@ class WizardPage:
         s.wz_complete = all(p["complete"] for p in prog)
         if not s.wz_svgs or set(s.wz_svgs) != {c["key"] for b in blocks for c in b["cards"]}:
             s.wz_svgs = w.pictograms()
-        plan = w.plan
+        plan = w.plan or {}
         s.wz_title = (
-            f"{w.state['standard']} — {plan['system'].get('name', '')}, measuring volume "
+            f"{(w.state or {}).get('standard', '')} — {plan['system'].get('name', '')}, measuring volume "
             + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"])
             + " mm"
         )

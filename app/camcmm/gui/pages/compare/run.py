@@ -131,7 +131,7 @@ class Display:
             self.page.error(f"tolerance bands: {one_line(exc)}")
         within = self.page.bands["within"] if self.page.bands else None
         s.ins_stats = stats_rows(o, unit, tol, within)
-        s.ins_bands = band_legend(self.page.bands["counts"], tol, unit) if self.page.bands else []
+        s.ins_bands = band_legend(self.page.bands["counts"], tol, unit) if self.page.bands and tol else []
         limit = float(o.get("colour_limit") or 1e-3)
         try:
             s.ins_fig_hist = histogram_figure(o["histogram"], o["stats"], unit, limit, tol)

@@ -108,7 +108,7 @@ def report_rows(outputs: dict[str, Any], ports: list[Any], items: dict[str, str]
     ``outputs`` (JSON data: a live result passed through ``to_jsonable``, or a stored one).
     ``items``: output name -> name of the item it became. No declared output: no rows
     (the caller shows all outputs instead)."""
-    uncert = outputs.get(UNCERTAINTY) if isinstance(outputs.get(UNCERTAINTY), dict) else {}
+    uncert: dict[str, Any] = outputs[UNCERTAINTY] if isinstance(outputs.get(UNCERTAINTY), dict) else {}
     rows: list[dict[str, str]] = []
     for p in map(_port, ports):
         name = p["name"]

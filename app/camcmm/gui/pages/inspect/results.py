@@ -64,7 +64,7 @@ def summarize_json(x: Any, limit: int = MAX_LIST) -> Any:
         if n > limit:
             shape = list(a.shape) if a is not None else [len(x)]
             return {"array_shape": shape, "first": to_jsonable(list(np.ravel(x)[:3]) if a is not None else list(x[:3]))}
-        return [summarize_json(v, limit) for v in (x.tolist() if a is not None else x)]
+        return [summarize_json(v, limit) for v in (a.tolist() if a is not None else x)]
     return to_jsonable(x)
 
 
@@ -72,7 +72,7 @@ def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str
     """Rows ``{name, value, unit}`` for the result table. Units come from the plugin's
     declared outputs, or from a ``units`` mapping (or ``unit`` text) inside the outputs;
     one level of nested dicts is shown with dotted names."""
-    extra = outputs.get("units") if isinstance(outputs.get("units"), dict) else {}
+    extra: dict[str, Any] = outputs["units"] if isinstance(outputs.get("units"), dict) else {}
     rows = []
     for name, value in outputs.items():
         if name == "units":
@@ -81,7 +81,7 @@ def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str
         if not isinstance(value, dict):
             rows.append({"name": name, "value": fmt_value(value), "unit": unit})
             continue
-        sub_units = value.get("units") if isinstance(value.get("units"), dict) else {}
+        sub_units: dict[str, Any] = value["units"] if isinstance(value.get("units"), dict) else {}
         for k, v in value.items():
             if k in ("units", "unit"):
                 continue

@@ -75,7 +75,7 @@ def budget_doc(quantity: str, unit: str, p: Any, rows: list[dict[str, Any]]) -> 
     each row as ``u``, ``half_width`` + ``distribution`` or ``expanded`` + ``k``."""
     contributions = []
     for r in rows:
-        kind = r.get("kind") if r.get("kind") in ("u", "a", "U") else "u"
+        kind = str(r.get("kind")) if r.get("kind") in ("u", "a", "U") else "u"
         value = r.get("value", r.get("u"))  # rows of an older page held "u"
         c: dict[str, Any] = {"name": str(r.get("name") or "").strip()}
         c[{"u": "u", "a": "half_width", "U": "expanded"}[kind]] = value
