@@ -207,15 +207,15 @@ class CalibrationPage:
             self._error("a calibration is running; wait for it or cancel it")
             return None
         try:
-            req, src = task.check_request(self.request() if req is None else req, self.project, self.session.roots)
+            checked, src = task.check_request(self.request() if req is None else req, self.project, self.session.roots)
         except Exception as exc:
             self._error(exc)
             return None
-        self._set_request(req.to_dict())
+        self._set_request(checked.to_dict())
         s.cal_running, s.cal_progress, s.cal_message, s.cal_error = True, 0.0, "starting …", ""
         self.flush()
         try:
-            doc, pics = await RunShared.run_in(self.job, self._work, req, src)
+            doc, pics = await RunShared.run_in(self.job, self._work, checked, src)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.cal_running, s.cal_progress, s.cal_message = False, 0.0, status
