@@ -1,5 +1,5 @@
 """Benchmark of fusion.csi (issue 17): a 1 M-point coloured photogrammetry cloud and a
-640×480 CSI map (the exact-by-construction coin of tests/fusion_synthetic.py) fused through
+640×480 CSI map (the exact-by-construction coin of tests/helpers/fusion_synthetic.py) fused through
 the host; prints each stage's time, the total against the issue's 10 s, and, as a
 reference run in the same process, Open3D's full 6-DOF point-to-plane ICP of the same CSI
 points onto the same cloud points (what the 3-DOF stage replaces).
@@ -27,7 +27,7 @@ def main() -> None:
     import open3d as o3d
 
     from camcmm.api import default_host
-    from fusion_synthetic import csi_map, photo_cloud
+    from helpers.fusion_synthetic import csi_map, photo_cloud
 
     half = 4.5
     spacing = 2 * half / (np.sqrt(args.points) - 1)
