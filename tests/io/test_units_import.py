@@ -329,9 +329,9 @@ def test_wizard_import_in_metres_refused_then_read_in_the_plan_unit(tmp_path):
 
     if not real_vdi2634_available():
         pytest.skip("needs the vdi2634-2 plugin")
-    from camcmm.gui.pages.acceptance import Wizard
     from camcmm.host import default_host
     from camcmm.project import Project
+    from camcmm.tasks.acceptance import Wizard
 
     with Project.create(tmp_path / "proj") as project:
         w = Wizard(project, default_host())

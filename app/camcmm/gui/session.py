@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import re
 import shutil
 import sys
 import tempfile
@@ -32,7 +31,7 @@ import numpy as np
 
 from ..errors import CamcmmError, InputError, one_line
 from ..host import default_host
-from ..tasks.items import describe, kind_of, size_text
+from ..tasks.items import describe, kind_of, safe_name, size_text
 from ..units import unit_label
 from .jobs import Job
 from .unit_ask import UnitAsks
@@ -42,12 +41,6 @@ log = logging.getLogger("camcmm.gui")
 
 #: Seconds between checks for changes another session made to the shared project.
 WATCH_PERIOD_S = 1.0
-
-
-def safe_name(name: str) -> str:
-    """A file name safe to write in a temp folder, keeping its extension."""
-    base = Path(str(name).replace("\\", "/")).name.strip() or "upload"
-    return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
 def _in_display_units(obj: Any, units: Any) -> Any:

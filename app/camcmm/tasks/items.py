@@ -6,6 +6,8 @@ summarised (``describe``, ``size_text``) is said here once for both."""
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -53,6 +55,12 @@ def size_text(obj: Any) -> str:
         z = obj.heights[obj.valid]
         return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
     return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
+
+
+def safe_name(name: str) -> str:
+    """A file name safe to write in a temp folder, keeping its extension."""
+    base = Path(str(name).replace("\\", "/")).name.strip() or "upload"
+    return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
 class ProjectItems:

@@ -6,7 +6,6 @@ worker."""
 from __future__ import annotations
 
 import copy
-import re
 import shutil
 import tempfile
 from dataclasses import dataclass, field
@@ -18,16 +17,11 @@ from camcmm.errors import CamcmmError, InputError, one_line
 from camcmm.host import RunContext, RunResult, to_jsonable
 from camcmm.project.store import utcnow
 from camcmm.standard import as_dict
+from camcmm.tasks.items import safe_name
 
 from .standards import Standards
 from .state import TestState
 from .values import log
-
-
-def safe_name(name: str) -> str:
-    """A file name safe to write in a temp folder, keeping its extension."""
-    base = Path(str(name).replace("\\", "/")).name.strip() or "upload"
-    return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
 @dataclass
