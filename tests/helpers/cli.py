@@ -1,5 +1,10 @@
 """The command line as the tests drive it: ``python -m camcmm`` in a subprocess (run_camcmm,
-cli_json, cli_refused) and in-process (refused)."""
+cli_json, cli_refused) and in-process (refused, main_json, main_refused).
+
+The in-process ones call ``camcmm.cli.main.main`` (what ``python -m camcmm`` runs) with
+pytest's ``capsys``: the same exit code, stdout and stderr, without the 1-2 s of interpreter
+start and imports a subprocess costs. A test about the process itself (exit on a signal, a
+killed run, nothing else on stdout of a fresh interpreter) keeps the subprocess."""
 
 from __future__ import annotations
 
@@ -45,3 +50,31 @@ def refused(capsys, argv, needle: str) -> str:
     assert "Traceback" not in err and "internal error" not in err, err
     assert needle in lines[0], lines[0]
     return lines[0]
+
+
+def _main(capsys, args) -> tuple[int, str, str]:
+    """``camcmm ARGS`` in this process: (exit code, stdout, stderr)."""
+    capsys.readouterr()  # what the test printed before is not the command's
+    try:
+        rc = main([str(a) for a in args])
+    except SystemExit as exc:  # argparse's --help / usage exits, as the process would
+        rc = exc.code if isinstance(exc.code, int) else 1
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def main_json(capsys, *args):
+    """:func:`cli_json` in this process: ``camcmm ARGS`` must exit 0; its stdout parsed as
+    the one JSON document."""
+    rc, out, err = _main(capsys, args)
+    assert rc == 0, err
+    return json.loads(out)
+
+
+def main_refused(capsys, *args, code=None) -> str:
+    """:func:`cli_refused` in this process: a non-zero exit (``code`` if given) and one
+    stderr line ``camcmm: error: …``, returned."""
+    rc, _, err = _main(capsys, args)
+    assert rc != 0 if code is None else rc == code, (rc, err)
+    assert err.count("\n") == 1 and err.startswith("camcmm: error:"), err
+    return err
