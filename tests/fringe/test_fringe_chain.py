@@ -111,6 +111,11 @@ def sphere_fit_radii(X: np.ndarray) -> np.ndarray:
     return np.sqrt(s[:, 3] + np.einsum("bi,bi->b", s[:, :3], s[:, :3]))
 
 
+#: The tests on ``sphere_run`` form one xdist work unit, so that the rendered and decoded sphere
+#: is made once per run, not once per worker (under --dist loadgroup ungrouped tests go alone).
+ON_SPHERE_RUN = pytest.mark.xdist_group("fringe-chain-sphere")
+
+
 @pytest.fixture(scope="module")
 def sphere_run(tmp_path_factory):
     out, scene = simulate(
@@ -120,6 +125,7 @@ def sphere_run(tmp_path_factory):
 
 
 @pytest.mark.slow
+@ON_SPHERE_RUN
 def test_phase_noise_is_what_phase_shifting_theory_predicts(sphere_run):
     """Decoded projector column vs the true one at every pixel: unbiased, and scattered
     as sigma_phi = sqrt(2/N) sigma_I / B with the sensor's noise sigma_I (shot, read,
@@ -171,6 +177,7 @@ def test_phase_noise_is_what_phase_shifting_theory_predicts(sphere_run):
     assert np.mean(np.abs(z) > 5) < 0.01
 
 
+@ON_SPHERE_RUN
 def test_sphere_diameter_within_the_montecarlo_uncertainty(sphere_run):
     """Measured through the whole chain, the 20 mm sphere's diameter lies within the
     expanded uncertainty (k = 2) the Monte Carlo model of thesis ch. 3 predicts for this

@@ -18,7 +18,11 @@ from helpers.paths import SHARED_DATA
 
 TEMPLE = SHARED_DATA / "middlebury_mvs_templering"
 
-pytestmark = pytest.mark.slow
+# One xdist work unit: under `--dist loadgroup` every ungrouped test is scheduled on its own,
+# so the three tests could land on both workers and each would build the module fixture (two
+# full SfM runs of the 47 views, ~90 s under load). Grouped, it is built once per run (where
+# loadgroup works: pytest 9.2 with pytest-xdist 3.8 drops every group, pytest-xdist#1386).
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("templering")]
 
 
 @pytest.fixture(scope="module")

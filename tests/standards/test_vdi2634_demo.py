@@ -10,6 +10,10 @@ import camcmm.demo as demo
 from camcmm.host import PluginHost
 from camcmm.project import Project
 
+# One xdist work unit (under --dist loadgroup each ungrouped test is scheduled alone): the
+# three tests on `made` then share one demo build (~20 s under load) instead of one per worker.
+pytestmark = pytest.mark.xdist_group("vdi2634-demo")
+
 
 @pytest.fixture(scope="module")
 def made(tmp_path_factory):

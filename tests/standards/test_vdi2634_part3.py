@@ -50,6 +50,12 @@ def test_eqs_4_10_to_4_12_by_hand():
     assert by_radii([1.25, 1.25], 2.5) == 2.0
 
 
+# One xdist work unit (under --dist loadgroup each ungrouped test is scheduled alone): the five
+# tests on `part3` then share one acceptance set and its evaluation (~35 s under load) instead
+# of one per worker.
+pytestmark = pytest.mark.xdist_group("vdi2634-part3")
+
+
 @pytest.fixture(scope="module")
 def ctx():
     return RunContext(default_host(), "vdi2634-3")
