@@ -83,8 +83,8 @@ class PointCloud:
             return np.zeros((2, 3))
         return np.vstack([self.points.min(axis=0), self.points.max(axis=0)])
 
-    def subset(self, index: np.ndarray) -> PointCloud:
-        """A new cloud with the points selected by a boolean mask or index array."""
+    def subset(self, index: np.ndarray | slice) -> PointCloud:
+        """A new cloud with the points selected by a boolean mask, index array or slice."""
         return PointCloud(
             self.points[index],
             None if self.colors is None else self.colors[index],

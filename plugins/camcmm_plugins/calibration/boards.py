@@ -85,7 +85,7 @@ class Board:
         )
 
 
-def parse_board(spec: str) -> Board:
+def parse_board(spec: str | Board) -> Board:
     """Board from a spec string (see the module docstring); InputError naming the spec."""
     if isinstance(spec, Board):
         return spec
@@ -316,7 +316,7 @@ def detect_all(
     differ (a calibration holds for one sensor format)."""
     board = parse_board(board)
     loaded = load_images(images)
-    sizes = {}
+    sizes: dict[tuple[int, int], list[str]] = {}
     for name, img in loaded:
         sizes.setdefault((img.shape[1], img.shape[0]), []).append(name)
     if len(sizes) > 1:

@@ -106,7 +106,7 @@ def calibrate_camera(
     flags = model_flags(model, flags)
     dets = list(detections)
     require_found(board, dets)
-    rejected = [{"image": d.name, "reason": d.reason} for d in dets if not d.found]
+    rejected: list[dict[str, Any]] = [{"image": d.name, "reason": d.reason} for d in dets if not d.found]
     used = [d for d in dets if d.found]
     if len(used) < MIN_VIEWS:
         raise InputError(

@@ -91,7 +91,7 @@ def view_warnings(names: Sequence[str], rvecs, tvecs, what: str = "views") -> li
 
     for i in range(n):
         for j in range(i + 1, n):
-            dist = 0.5 * (np.linalg.norm(t[i]) + np.linalg.norm(t[j]))
+            dist = 0.5 * float(np.linalg.norm(t[i]) + np.linalg.norm(t[j]))
             if _angle(rots[i], rots[j]) < SAME_POSE_DEG and np.linalg.norm(t[i] - t[j]) < SAME_POSE_FRACTION * max(
                 dist, 1e-300
             ):

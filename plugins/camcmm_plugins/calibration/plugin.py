@@ -257,7 +257,7 @@ def triangulate(
 
 
 def scale(
-    ctx: RunContext, interferometer, calibration=None, *, accuracy: float, length: float | None, save: str
+    ctx: RunContext | None, interferometer, calibration=None, *, accuracy: float, length: float | None, save: str
 ) -> dict[str, Any]:
     from .scale import apply_scale, read_interferometer_csv, scale_factor
 
@@ -276,7 +276,7 @@ def scale(
 
 
 def gauge_block(
-    ctx: RunContext, cloud, *, nominal: float, ransac_threshold: float | None, up: list | None
+    ctx: RunContext | None, cloud, *, nominal: float, ransac_threshold: float | None, up: list | None
 ) -> dict[str, Any]:
     from .gauge import gauge_block as gb
 

@@ -88,14 +88,14 @@ def relative_pose_spread(single_l: dict, single_r: dict, pairs: list[tuple[str, 
         tv.append(vr["tvecs"][j] - R @ vl["tvecs"][i])
     if len(rv) < 2:
         return {"n": len(rv)}
-    rv, tv = np.array(rv), np.array(tv)
-    n = len(rv)
+    rva, tva = np.array(rv), np.array(tv)
+    n = len(rva)
     return {
         "n": n,
-        "rvec_mean": rv.mean(0),
-        "T_mean": tv.mean(0),
-        "rvec_sem": rv.std(0, ddof=1) / np.sqrt(n),
-        "T_sem": tv.std(0, ddof=1) / np.sqrt(n),
+        "rvec_mean": rva.mean(0),
+        "T_mean": tva.mean(0),
+        "rvec_sem": rva.std(0, ddof=1) / np.sqrt(n),
+        "T_sem": tva.std(0, ddof=1) / np.sqrt(n),
     }
 
 
@@ -150,7 +150,7 @@ def calibrate_stereo(
         )
     dropped = {r["image"]: r["reason"] for r in single_l["rejected"] + single_r["rejected"]}
     pairs = _pairs(left, right, dropped)
-    rejected = [
+    rejected: list[dict[str, Any]] = [
         {
             "left": dl.name,
             "right": dr.name,
@@ -172,7 +172,8 @@ def calibrate_stereo(
         obj = [p[2] for p in pairs]
         il = [p[3] for p in pairs]
         ir = [p[4] for p in pairs]
-        rms, K1, D1, K2, D2, R, T, E, F, rvecs, tvecs, pv = cv2.stereoCalibrateExtended(
+        # cv2's stubs want R and T arrays; None (no initial guess) is what OpenCV takes here
+        rms, K1, D1, K2, D2, R, T, E, F, rvecs, tvecs, pv = cv2.stereoCalibrateExtended(  # type: ignore[call-overload]
             obj,
             il,
             ir,

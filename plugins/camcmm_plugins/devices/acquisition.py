@@ -72,7 +72,7 @@ class TurntableSequence(Sequence):
         super().__init__(store, devices, name, restore)
 
     def plan(self) -> list[dict[str, Any]]:
-        steps = [{"label": "setup", "kind": "setup"}]
+        steps: list[dict[str, Any]] = [{"label": "setup", "kind": "setup"}]
         width = len(str(len(self.angles)))
         steps += [
             {"label": f"view {k:0{width}d}", "kind": "view", "view": k, "angle": float(a)}
@@ -180,8 +180,9 @@ class ScaleRunSequence(Sequence):
         if targets is None:
             if int(n_steps) < 2:
                 raise InputError(f"sequence {name!r}: n_steps must be at least 2, got {n_steps}")
-            targets = np.linspace(float(start_mm), float(stop_mm), int(n_steps))
-        self.targets = [float(t) for t in targets]
+            self.targets = [float(t) for t in np.linspace(float(start_mm), float(stop_mm), int(n_steps))]
+        else:
+            self.targets = [float(t) for t in targets]
         if not self.targets or not all(math.isfinite(t) for t in self.targets):
             raise InputError(f"sequence {name!r}: targets must be finite numbers (mm)")
         self.samples, self.zero_interferometer = int(samples), bool(zero_interferometer)
@@ -190,7 +191,7 @@ class ScaleRunSequence(Sequence):
         super().__init__(store, [stage, interferometer, *self.cameras], name, restore)
 
     def plan(self) -> list[dict[str, Any]]:
-        steps = [{"label": "setup", "kind": "setup"}]
+        steps: list[dict[str, Any]] = [{"label": "setup", "kind": "setup"}]
         width = len(str(len(self.targets)))
         steps += [
             {"label": f"target {k:0{width}d}", "kind": "target", "index": k, "target_mm": t}

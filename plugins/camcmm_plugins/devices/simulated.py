@@ -60,7 +60,7 @@ def synthetic_frame(
     x = c * (u - cx) + s * (v - cy) - shift
     y = -s * (u - cx) + c * (v - cy)
     albedo = 0.35 + 0.65 * ((np.floor(x / 16.0) + np.floor(y / 16.0)) % 2)
-    light = np.ones((h, w))
+    light: np.ndarray = np.ones((h, w))
     if pattern is not None:
         import cv2
 
@@ -197,7 +197,10 @@ class CaptureReplay:
         if not 0 <= k < len(files[name]):
             raise InputError(f"capture replay: camera {name!r} has {len(files[name])} frames, asked for {k}")
         if (name, k) not in self._cache:
-            self._cache[(name, k)] = read(files[name][k]).data
+            frame = read(files[name][k])
+            if not hasattr(frame, "data"):
+                raise InputError(f"capture replay: {files[name][k]} holds a {type(frame).__name__}, not an image")
+            self._cache[(name, k)] = frame.data
         return self._cache[(name, k)]
 
 

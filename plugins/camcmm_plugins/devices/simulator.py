@@ -418,7 +418,8 @@ class _Endpoint:
     bugs = 0  # exceptions a handler raised (reported on stderr)
 
     def __init__(self, handler, link: str | None, tcp: str | None, option: str):
-        self.handler, self.buf, self.client = handler, b"", None
+        self.handler, self.buf = handler, b""
+        self.client: socket.socket | None = None
         self.fd = self.listener = self._slave = None
         if tcp is None:
             master, slave = os.openpty()
@@ -468,7 +469,11 @@ class _Endpoint:
             self.buf = b""
             return
         try:
-            data = os.read(self.fd, 4096) if r is self.fd else self.client.recv(4096)
+            if r is self.fd:
+                data = os.read(self.fd, 4096)
+            else:
+                assert self.client is not None  # r is the client's socket
+                data = self.client.recv(4096)
         except OSError:
             data = b""
         if not data:
@@ -648,6 +653,7 @@ class SimulatorProcess:
             stderr=subprocess.PIPE,
             text=True,
         )
+        assert self.proc.stdout is not None and self.proc.stderr is not None  # PIPEs
         deadline = time.monotonic() + self.timeout
         while time.monotonic() < deadline:
             line = self.proc.stdout.readline()

@@ -290,10 +290,11 @@ class ZaberStage(Stage):
         self.position_setting = position_setting
         self._travel_given = travel is not None and len(travel) == 2 and travel[0] != travel[1]
         self._link = ZaberLink(port, baudrate, timeout, self.error, message_ids, checksums)
+        span = sorted(float(x) for x in travel) if travel is not None and self._travel_given else None
         super().__init__(
             name or f"zaber-{address}-{axis}",
             port,
-            tuple(sorted(map(float, travel))) if self._travel_given else None,
+            (span[0], span[1]) if span else None,
             **settings,
         )
 

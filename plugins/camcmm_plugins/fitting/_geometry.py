@@ -211,6 +211,7 @@ def fit_covariance(res: LMResult) -> np.ndarray:
     for the closed-form fits, from its JᵀJ."""
     ssr = float(res.r @ res.r)
     if res.gram is None:
+        assert res.jt is not None  # an iterative fit keeps its Jacobian (only closed forms have gram)
         return covariance(res.jt, ssr)
     g, n = res.gram
     k = len(g)
@@ -262,7 +263,7 @@ class LMResult:
 
     state: Any
     r: np.ndarray
-    jt: np.ndarray
+    jt: np.ndarray | None
     iterations: int
     #: the last state at which residuals and Jacobian were evaluated (``jt`` belongs
     #: to it) and the residuals there; the converged ``state`` is one tiny step further.

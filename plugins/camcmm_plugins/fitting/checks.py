@@ -159,7 +159,7 @@ def fit_warnings(
         systematic = ratio is not None and ratio > NOISE_FACTOR
         if systematic or rms > GROSS_FRACTION * spread:
             head = f"{element} fit: form rms {_fmt(rms)} mm is {_fmt(100 * rms / spread)} % of the points' extent"
-            if systematic:
+            if systematic and ratio is not None:
                 out.append(
                     f"{head} and {_fmt(ratio)} times the point-to-point noise ({_fmt(noise)} mm): the "
                     f"residuals are systematic; the points may not be a {element}"

@@ -174,6 +174,7 @@ class CylinderModel:
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale
         p, a, r = res.state[:3], res.state[3:6], res.state[6]
+        assert res.jt is not None  # Gauss-Newton keeps its Jacobian
         cov = covariance(res.jt, float(res.r @ res.r))
         lengths = np.array([s, s, 1.0, 1.0, s])
         cov = cov * np.outer(lengths, lengths)

@@ -350,7 +350,7 @@ class HypersphereDowndater:
             rho = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
             r = rho - self.rad
             k = -r / rho
-            g = (x0 * k, x1 * k, x2 * k, -r)
+            g: tuple[float, ...] = (x0 * k, x1 * k, x2 * k, -r)
         else:
             x0, x1 = a[0] - dl[0], a[1] - dl[1]
             rho = math.sqrt(x0 * x0 + x1 * x1)

@@ -110,6 +110,7 @@ def apply(
         used[order] = False
         return used, order.astype(np.int64), model.fit(y[:, used], start=res.state, max_iter=max_iter)
     if rule.name == "sigma":
+        assert rule.value is not None  # parse_rule gives sigma its K
         removed: list[np.ndarray] = []
         while True:
             idx = np.flatnonzero(used)

@@ -141,6 +141,7 @@ class HypersphereModel:
         """Parameters and standard uncertainties in mm."""
         d, s = self.dim, frame.scale
         p = res.state
+        assert res.jt is not None  # Gauss-Newton keeps its Jacobian
         cov = covariance(res.jt, float(res.r @ res.r)) * s * s
         params = {"center": p[:d] * s + frame.origin, "radius": float(p[d] * s)}
         var = np.clip(np.diag(cov), 0, None)  # NaN (no degrees of freedom) stays NaN

@@ -39,6 +39,7 @@ def decode_code(frames, reference, kind: str, want_contrast: bool = False):
         word <<= 1
         word |= bit
         if want_contrast:
+            assert diff is not None and contrast is not None  # made with want_contrast
             # float32 difference: uint8/uint16 subtraction would wrap around
             np.subtract(img, ref, out=diff, dtype=np.float32, casting="unsafe")
             np.abs(diff, out=diff)

@@ -104,8 +104,8 @@ def _full_scale(frames: list[np.ndarray]) -> float:
             if top <= (1 << bits) - 1:
                 return float((1 << bits) - 1)
         return float(np.iinfo(dt).max)
-    top = max(float(np.nanmax(f)) for f in frames)
-    return 1.0 if top <= 1.0 else top
+    peak = max(float(np.nanmax(f)) for f in frames)
+    return 1.0 if peak <= 1.0 else peak
 
 
 def check_frames(seq: Sequence, frames: list[np.ndarray], name: str = "images") -> None:
@@ -188,6 +188,8 @@ def decode(
         levels[g.direction].append(Level(g.period, g.offset, frac, f"phase {name_g}"))
         if keep_wrapped:
             wrapped[f"phase_{name_g}"] = frac
+    if modulation is None or mean is None or contrast_est is None:
+        raise InputError(f"{name}: the sequence has no phase group to decode")
     rejected["low_modulation"] = low_mod
     if white is not None and black is not None:
         rejected["dark"] = (white - black) < black_thr
@@ -206,6 +208,7 @@ def decode(
         code_est, cg, code_half = None, None, None
         if codes:
             cg = min(codes, key=lambda c: c.period)
+            ref: list[np.ndarray] | np.ndarray
             if cg.inverse_frames:
                 ref = [frames[i] for i in cg.inverse_frames]
             elif threshold is not None:
@@ -248,7 +251,7 @@ def decode(
         if fractions["dark"] > 0.5:
             warn(f"{name}: {100 * fractions['dark']:.1f} % of the pixels are dark (white - black < {black_thr:g})")
     if not mask.any():
-        worst = max(fractions, key=fractions.get)
+        worst = max(fractions, key=lambda k: fractions[k])
         raise InputError(
             f"{name}: no pixel decodes ({worst}: {100 * fractions[worst]:.1f} % of the pixels); "
             "check exposure, the thresholds and that the frames follow the sequence"

@@ -152,7 +152,7 @@ def unmixed(modulation: np.ndarray, a: int = 0, b: int | None = None) -> np.ndar
     b = h if b is None else b
     e0, e1 = max(a - 1, 0), min(b + 1, h)
     top = cv2.dilate(modulation[e0:e1], np.ones((3, 3), np.uint8))[a - e0 : b - e0]
-    top *= np.float32(MIXED_SHARE)
+    np.multiply(top, np.float32(MIXED_SHARE), out=top)
     return modulation[a:b] >= top
 
 
@@ -173,7 +173,7 @@ def local_checks(
     smooth = np.empty(shape, bool)
     for a, b in row_blocks(*shape):
         g = _footprint_rows(frac, valid, a, b)
-        if doubt is not None:
+        if doubt is not None and r is not None:  # both or neither
             doubtful(r[a:b], g, period, code_half, out=doubt[a:b])
             doubt[a:b] &= valid[a:b]
         np.less(g, CONTINUITY, out=smooth[a:b])

@@ -62,10 +62,10 @@ def pattern_profile(seq: Sequence, i: int) -> np.ndarray:
         s = g.mean + g.amplitude * np.cos(projector_phase(x, g.period, g.offset) + g.shifts[f.index])
         s = np.clip(s, 0.0, 1.0) ** (1.0 / seq.gamma)
         return lo + (hi - lo) * s
-    g = seq.code_groups[f.group]
-    c = np.clip(code_word(x, g.period, g.offset), 0, g.n_words - 1)
-    word = gray_encode(c) if g.kind == "gray" else c
-    bit = (word >> (g.bits - 1 - f.index)) & 1
+    cg = seq.code_groups[f.group]
+    c = np.clip(code_word(x, cg.period, cg.offset), 0, cg.n_words - 1)
+    word = gray_encode(c) if cg.kind == "gray" else c
+    bit = (word >> (cg.bits - 1 - f.index)) & 1
     if f.inverse:
         bit = 1 - bit
     return np.where(bit == 1, hi, lo).astype(np.float64)

@@ -129,6 +129,7 @@ def reconstruct(
         if keep_phase:
             out.update({"u2": dec2.u, "v2": dec2.v})
     else:
+        assert proj is not None  # the projector method was refused above without one
         cal_size = tuple(round(s * n) for s, n in zip(seq.calibration_scale, seq.projector_size))
         if proj.image_size != (0, 0) and tuple(proj.image_size) != cal_size:
             raise InputError(

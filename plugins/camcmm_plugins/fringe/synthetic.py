@@ -56,10 +56,10 @@ def render_captures(
                     projector_phase(x, g.period, g.offset) + g.shifts[f.index]
                 )
             else:
-                g = seq.code_groups[f.group]
-                c = np.clip(code_word(x + code_shift, g.period, g.offset), 0, g.n_words - 1)
-                word = gray_encode(c) if g.kind == "gray" else c
-                bit = (word >> (g.bits - 1 - f.index)) & 1
+                cg = seq.code_groups[f.group]
+                c = np.clip(code_word(x + code_shift, cg.period, cg.offset), 0, cg.n_words - 1)
+                word = gray_encode(c) if cg.kind == "gray" else c
+                bit = (word >> (cg.bits - 1 - f.index)) & 1
                 s = np.where((bit == 1) != f.inverse, 1.0, -1.0)
         img = a + b * s
         if noise > 0:

@@ -10,7 +10,8 @@ import numpy as np
 
 def features(img: np.ndarray, mask: np.ndarray):
     """SIFT keypoints (k, 2) px (x along columns) and descriptors of a uint8 image."""
-    kp, desc = cv2.SIFT_create().detectAndCompute(img, mask.astype(np.uint8) * 255)
+    sift = cv2.SIFT_create()  # type: ignore[attr-defined]  # not in cv2's stubs
+    kp, desc = sift.detectAndCompute(img, mask.astype(np.uint8) * 255)
     return np.array([k.pt for k in kp], dtype=np.float64).reshape(-1, 2), desc
 
 

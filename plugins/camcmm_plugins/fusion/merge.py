@@ -22,8 +22,8 @@ def subsample_grid(hm, max_points: int) -> tuple[np.ndarray, np.ndarray]:
     and their (i, j) indices."""
     ny, nx = hm.shape
     step = max(1, int(np.ceil(np.sqrt(ny * nx / max_points))))
-    i, j = np.meshgrid(np.arange(0, ny, step), np.arange(0, nx, step), indexing="ij")
-    i, j = i.ravel(), j.ravel()
+    gi, gj = np.meshgrid(np.arange(0, ny, step), np.arange(0, nx, step), indexing="ij")
+    i, j = gi.ravel(), gj.ravel()
     ok = hm.valid[i, j]
     i, j = i[ok], j[ok]
     pts = np.column_stack([hm.origin[0] + j * hm.dx, hm.origin[1] + i * hm.dy, hm.heights[i, j]])

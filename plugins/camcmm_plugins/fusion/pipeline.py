@@ -186,6 +186,7 @@ def run(
     scales = np.array([m["s"] for m in per_map])
     s_mean = float(scales.mean())
     s_std = float(scales.std(ddof=1)) if len(scales) > 1 else None
+    assert chosen is not None  # set by the first map
     f, local, ph = images[chosen]
     q = local / s_mean  # the cloud in the fused frame: plane coordinates, scale fixed by the CSI
     keep_photo = np.ones(len(q), bool)

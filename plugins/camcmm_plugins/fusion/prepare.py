@@ -71,8 +71,8 @@ def csi_image(
     else:
         g = shade(heights, dx, dy)
     ok = np.isfinite(g)
-    src = np.where(ok, g, 0.0)
-    w = ok.astype(np.float64)
+    src: np.ndarray = np.where(ok, g, 0.0)
+    w: np.ndarray = ok.astype(np.float64)
     # an anti-alias blur on the full grid before resampling, the rest after
     pre = 0.5 * pixel / min(dx, dy)
     if pre > 0.5:

@@ -70,7 +70,7 @@ def refine_ecc(csi_img, photo_img, photo_mask, a_px: np.ndarray, t_px: np.ndarra
     """
     import cv2
 
-    warp = np.hstack([a_px, t_px[:, None]]).astype(np.float32)
+    warp: np.ndarray = np.hstack([a_px, t_px[:, None]]).astype(np.float32)
     crit = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iterations, 1e-7)
     try:
         _, warp = cv2.findTransformECC(

@@ -232,7 +232,13 @@ class Nominal:
             self._vn = self._vertex_normals(self.mesh.V, self.mesh.F)
         lo, hi = self.bounds
         self.diag = float(np.linalg.norm(hi - lo))
-        self.name = self.mesh.name if self.mesh else self.cloud.name
+        self.name = self.mesh.name if self.mesh else self.ref_cloud.name
+
+    @property
+    def ref_cloud(self) -> PointCloud:
+        """The reference cloud, for a nominal that is not a mesh."""
+        assert self.cloud is not None  # a nominal is a mesh or a cloud (__init__)
+        return self.cloud
 
     @staticmethod
     def _cloud_normals(cloud: PointCloud, k: int) -> np.ndarray:
@@ -263,6 +269,7 @@ class Nominal:
             q, n, rim = self.closest(points)
             return q, n, n, rim
         q, f, b, n = self.mesh.closest(points)
+        assert self._vn is not None  # made with the mesh
         ns = np.einsum("ij,ijk->ik", b, self._vn[self.mesh.F[f]])
         ns /= np.maximum(np.linalg.norm(ns, axis=1), 1e-300)[:, None]
         sharp = np.einsum("ij,ij->i", ns, n) < np.cos(np.radians(20.0))
@@ -274,7 +281,7 @@ class Nominal:
         if self.mesh is not None:
             V = self.mesh.V + self.mesh.center
             return np.vstack([V.min(axis=0), V.max(axis=0)])
-        return self.cloud.bounds
+        return self.ref_cloud.bounds
 
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Corresponding nominal points, their unit normals, and whether each lies on the
@@ -282,9 +289,9 @@ class Nominal:
         if self.mesh is not None:
             q, f, b, n = self.mesh.closest(points)
             return q, n, self.mesh.on_boundary(f, b)
-        idx, _ = knn(self.cloud.points, points, 1, self._index)
+        idx, _ = knn(self.ref_cloud.points, points, 1, self._index)
         idx = idx[:, 0]
-        return self.cloud.points[idx], self._normals[idx], np.zeros(len(idx), dtype=bool)
+        return self.ref_cloud.points[idx], self._normals[idx], np.zeros(len(idx), dtype=bool)
 
     def sample(self, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
         if self.mesh is not None:
@@ -292,7 +299,7 @@ class Nominal:
 
             pts, tid = sample_surface(self.mesh.V + self.mesh.center, self.mesh.F, n, seed)
             return pts, self.mesh.fn[tid]
-        P = self.cloud.points
+        P = self.ref_cloud.points
         if len(P) > n:
             idx = np.random.default_rng(seed).choice(len(P), n, replace=False)
             return P[idx], self._normals[idx]
@@ -392,8 +399,9 @@ def global_registration(
     if not tgt.has_normals():
         tgt.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=2 * voxel, max_nn=30))
     feat = o3d.geometry.KDTreeSearchParamHybrid(radius=5 * voxel, max_nn=100)
-    fs = reg.compute_fpfh_feature(src, feat)
-    ft = reg.compute_fpfh_feature(tgt, feat)
+    # open3d's stub makes the optional ``indices`` required
+    fs = reg.compute_fpfh_feature(src, feat)  # type: ignore[call-arg]
+    ft = reg.compute_fpfh_feature(tgt, feat)  # type: ignore[call-arg]
     if len(src.points) < 10 or len(tgt.points) < 10:
         return pre, {
             "ok": False,
@@ -422,7 +430,7 @@ def global_registration(
         )
     T = np.asarray(res.transformation) @ pre
     ok = bool(res.fitness >= min_fitness)
-    info = {
+    info: dict[str, Any] = {
         "ok": ok,
         "fitness": float(res.fitness),
         "inlier_rmse": float(res.inlier_rmse),
@@ -691,7 +699,8 @@ def icp(
     P = P[spatial_order(P)] if len(P) >= 20_000 else P
     sub = P if len(P) <= max_points else P[np.sort(rng.choice(len(P), max_points, replace=False))]
     L = 0.5 * nom.diag
-    it_total, weak, settled = 0, [], False
+    it_total, settled = 0, False
+    weak: list[str] = []
     held = np.zeros((need, 0))
     c_last = np.zeros(3)
     fail = ""
@@ -748,6 +757,7 @@ def icp(
             if (w > 0).sum() < need:
                 fail = "the robust kernel rejected all but a few correspondences"
                 break
+            assert delta is not None and c is not None  # a step was taken (too few weights: break above)
             T = _compose(T, delta, c, scale)
             c_last = c
             it_total += 1

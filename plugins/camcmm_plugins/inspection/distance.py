@@ -469,8 +469,9 @@ class MeshDistance:
         order = spatial_order(p) if len(p) >= SORT_MIN else None
         ps = p if order is None else p[order]
         out = np.empty(len(p))
-        closest = np.empty_like(p) if details else None
-        tri = np.empty(len(p), dtype=np.int64) if details else None
+        m = len(p) if details else 0  # the details' arrays, empty without details
+        closest = np.empty((m, 3))
+        tri = np.empty(m, dtype=np.int64)
         n_par = 0
         for s in range(0, len(p), chunk):
             sl = slice(s, min(s + chunk, len(p)))

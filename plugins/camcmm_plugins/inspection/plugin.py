@@ -243,7 +243,7 @@ def compute_deviations(
             P, nom.mesh.V + nom.mesh.center, nom.mesh.F, coverage_distance, coverage_samples, return_samples=True
         )
     else:
-        c = cov.coverage(P, distance=coverage_distance, reference_points=nom.cloud.points, return_samples=True)
+        c = cov.coverage(P, distance=coverage_distance, reference_points=nom.ref_cloud.points, return_samples=True)
     fields_c = {"covered": c.pop("covered").astype(np.uint8)}
     if "triangle" in c:
         fields_c["triangle"] = c.pop("triangle")

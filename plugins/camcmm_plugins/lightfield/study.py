@@ -60,7 +60,7 @@ def table(runs: list[dict[str, Any]]) -> dict[str, Any]:
         grid[arts.index(str(r["artefact"]))][sets.index(str(r["set"]))] = float(r["gradient_mm_per_lambda"])
         if r.get("focal_length_mm") is not None:
             focal[str(r["set"])].append(float(r["focal_length_mm"]))
-    stats = [fit.set_stats([row[j] for row in grid if row[j] is not None]) for j in range(len(sets))]
+    stats = [fit.set_stats([v for v in (row[j] for row in grid) if v is not None]) for j in range(len(sets))]
     return {
         "sets": sets,
         "artefacts": arts,

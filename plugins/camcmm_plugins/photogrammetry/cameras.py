@@ -83,8 +83,8 @@ def opencv_from_colmap(model: str, params: Any, scale: tuple[float, float] = (1.
         raise InputError(f"camera model {model!r} has no OpenCV equivalent here ({', '.join(COLMAP_PARAMS)})")
     names = COLMAP_PARAMS[model]
     p = dict(zip(names, np.asarray(params, dtype=np.float64).ravel(), strict=True))
-    fx = p.get("fx", p.get("f"))
-    fy = p.get("fy", p.get("f"))
+    fx = p["fx"] if "fx" in p else p["f"]  # every COLMAP model has fx or f
+    fy = p["fy"] if "fy" in p else p["f"]
     sx, sy = scale
     d = [p.get(n, 0.0) for n in ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6")]
     dist = d if any(d[5:]) else d[:5]

@@ -127,7 +127,7 @@ def depth_map(images: tuple, cams: tuple, zrange: tuple, opts: dict) -> dict | N
     inside = cv2.remap(np.full((h, w), 255, np.uint8), m1x, m1y, cv2.INTER_NEAREST) > 0
     gl = _grey(left)
     bs = int(opts["block_size"])
-    sgbm = cv2.StereoSGBM_create(
+    sgbm = cv2.StereoSGBM_create(  # type: ignore[attr-defined]  # not in cv2's stubs
         minDisparity=0,
         numDisparities=rect.n_disp,
         blockSize=bs,

@@ -125,7 +125,9 @@ def fuse(
             for q in by_ref.get(int(k), []):
                 if q == p:
                     continue
-                zk, zq = _lookup(maps[q][2], projs[q], X32)
+                mq = maps[q][2]
+                assert mq is not None  # by_ref holds only the views with a depth map
+                zk, zq = _lookup(mq, projs[q], X32)
                 with np.errstate(invalid="ignore"):
                     rel = (zq - zk) / zk
                     agree = np.flatnonzero(np.abs(rel) <= tol)

@@ -11,6 +11,7 @@ common frame built here always puts the baseline along the rectified x axis.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -205,7 +206,7 @@ def rectify(
     W = int(np.ceil((x1 - x0) * f)) + n_disp  # SGBM leaves the leftmost n_disp columns empty
     H = int(np.ceil((y1 - y0) * f))
     cx, cy = -x0 * f + n_disp, -y0 * f
-    maps = []
+    maps: list[Any] = []
     for cam, dx in ((left, 0.0), (right, shift)):
         Kn = np.array([[f, 0, cx + dx], [0, f, cy], [0, 0, 1]])
         maps += cv2.initUndistortRectifyMap(cam.K, cam.dist, Rn @ cam.R.T, Kn, (W, H), cv2.CV_32FC1)

@@ -29,8 +29,10 @@ def _series(images: Any) -> tuple[list[np.ndarray], list[str]]:
         data = getattr(im, "data", im)
         meta = getattr(im, "metadata", {}) or {}
         name = str(meta.get("file") or getattr(im, "name", "") or f"image{i + 1}")
-        a = np.asarray(data) if data is not None else None
-        if a is not None and a.ndim == 3 and a.shape[2] >= 3 and meta.get("channel_order") == "BGR":
+        if data is None:
+            raise InputError(f"{name}: holds no image data")
+        a = np.asarray(data)
+        if a.ndim == 3 and a.shape[2] >= 3 and meta.get("channel_order") == "BGR":
             a = a[:, :, 2::-1]  # files come in OpenCV's BGR: SfM and the colours want RGB
         arrays.append(a)
         names.append(name)

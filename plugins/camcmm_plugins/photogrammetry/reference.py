@@ -43,7 +43,10 @@ def read_series(folder: str | Path) -> tuple[list[np.ndarray], list[str]]:
     names = sorted(lat)
     ims = []
     for n in names:
-        im = cv2.cvtColor(cv2.imread(str(folder / n)), cv2.COLOR_BGR2RGB)
+        raw = cv2.imread(str(folder / n))
+        if raw is None:
+            raise FileNotFoundError(f"{folder / n}: not a readable image")
+        im = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
         ims.append(cv2.rotate(im, cv2.ROTATE_180) if lat[n] > 0 else im)
     return ims, names
 

@@ -316,6 +316,7 @@ def apply_scale(points, spec: str, *, views=None, ctx=None) -> dict[str, Any]:
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise InputError(f"scale: points must have shape (N, 3), got {pts.shape}")
     algo = _algorithms(ctx)
+    out: dict[str, Any]
     if p["method"] == "none":
         out = {
             "factor": 1.0,

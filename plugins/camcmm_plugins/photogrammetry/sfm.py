@@ -201,7 +201,7 @@ def reconstruct_sparse(
     refine: bool = True,
     refine_principal_point: bool = True,
     seed: int = 0,
-    turntable_angles: Sequence[float] | str | None = None,
+    turntable_angles: Sequence[float] | np.ndarray | str | None = None,
     turntable_window: float = DEFAULT_WINDOW,
     progress: Callable[[float, str], None] | None = None,
     cancel: Callable[[], bool] | None = None,
@@ -248,8 +248,12 @@ def reconstruct_sparse(
                 f"photogrammetry: the calibration is for {size[0]}x{size[1]} px images, "
                 f"the series ({names[0]} ...) is {w}x{h} px"
             )
-    tmp = tempfile.TemporaryDirectory(prefix="camcmm-sfm-") if workdir is None else None
-    root = Path(tmp.name if tmp is not None else workdir)
+    tmp: tempfile.TemporaryDirectory[str] | None = None
+    if workdir is None:
+        tmp = tempfile.TemporaryDirectory(prefix="camcmm-sfm-")
+        root = Path(tmp.name)
+    else:
+        root = Path(workdir)
     st = _Stages(pycolmap, progress, cancel)
     try:
         (root / "images").mkdir(parents=True, exist_ok=True)

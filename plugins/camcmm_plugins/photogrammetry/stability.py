@@ -122,17 +122,19 @@ def stability(images, names=None, limit: float = 3.0, std_limit: float = 1.0, pr
             raise InputError(
                 f"{n}: {g.shape[1]} x {g.shape[0]} px, but {names[0]} is {grays[0].shape[1]} x {grays[0].shape[0]} px"
             )
-    sift = cv2.SIFT_create(nfeatures=MAX_FEATURES)
+    sift = cv2.SIFT_create(nfeatures=MAX_FEATURES)  # type: ignore[attr-defined]  # not in cv2's stubs
     p0, d0 = _features(sift, grays[0])
     warnings: list[str] = []
     if len(p0) < MIN_MATCHES:
         raise InputError(f"{names[0]}: only {len(p0)} SIFT features; no texture to follow (speckle off?)")
-    mean, std, count = [0.0], [0.0], [len(p0)]
+    mean: list[float | None] = [0.0]
+    std: list[float | None] = [0.0]
+    count = [len(p0)]
     for i in range(1, len(grays)):
         if progress:
             progress(i / len(grays), f"matching {names[i]}")
         p1, d1 = _features(sift, grays[i])
-        m = _match(d0, d1)
+        m = _match(d0, d1) if d0 is not None and d1 is not None else np.zeros((0, 2), dtype=int)
         disp = p1[m[:, 1]] - p0[m[:, 0]] if len(m) else np.zeros((0, 2))
         disp = disp[_robust(disp)]
         count.append(len(disp))
@@ -144,7 +146,7 @@ def stability(images, names=None, limit: float = 3.0, std_limit: float = 1.0, pr
         r = np.linalg.norm(disp, axis=1)
         mean.append(float(r.mean()))
         std.append(float(r.std(ddof=1)))
-    known = [(n, mv, s) for n, mv, s in zip(names, mean, std) if mv is not None]
+    known = [(n, mv, s) for n, mv, s in zip(names, mean, std) if mv is not None and s is not None]
     reasons = [f"{n}: mean motion {mv:.2f} px > {limit:g} px" for n, mv, _ in known if mv > limit]
     reasons += [f"{n}: motion spread {s:.2f} px > {std_limit:g} px" for n, _, s in known if s > std_limit]
     reasons += [f"{n}: motion unknown (too few matches)" for n, mv in zip(names, mean) if mv is None]

@@ -160,7 +160,7 @@ def contribution_from_dict(d: Mapping[str, Any], index: int = 0) -> Contribution
     return Contribution(name=name, u=u, c=c, dof=dof, distribution=entered.distribution, entered=entered, unit=unit)
 
 
-def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -> float:
+def welch_satterthwaite(contributions: Iterable[float], dofs: Iterable[float]) -> float | np.ndarray:
     """Effective degrees of freedom of ``sqrt(sum u_i^2)`` (GUM eq. G.2b); ``inf`` when
     every contribution with a non-zero value has infinite dof. Works on arrays too:
     ``contributions`` of shape (n, ...) give a result of shape (...)."""
@@ -208,7 +208,7 @@ def evaluate(
     p = _number(coverage_probability, "coverage_probability")
     vals = np.array([c.value for c in items])
     uc = math.hypot(*vals)  # no overflow in the squares
-    nu = welch_satterthwaite(vals, [c.dof for c in items])
+    nu = float(welch_satterthwaite(vals, [c.dof for c in items]))  # one budget: a number
     k = coverage_factor(nu, p, dof_rounding)
     if not math.isfinite(k * uc):
         raise InputError(f"U = k u_c overflows (u_c = {uc:g}, k = {k:g}); check the contributions' magnitudes")

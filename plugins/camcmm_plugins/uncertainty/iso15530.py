@@ -49,6 +49,16 @@ def _num(
     return x
 
 
+def _given(
+    doc: Mapping[str, Any], key: str, default: float | None = None, minimum: float | None = 0.0, strict: bool = False
+) -> float:
+    """:func:`_num` of a value that is there (the caller checked) or has a default: a float."""
+    x = _num(doc, key, default, minimum, strict)
+    if x is None:
+        raise InputError(f"{key}: missing")
+    return x
+
+
 def read_measurements(path: str | Path) -> list[float]:
     """Repeated results from a text/CSV file: every number in it, in order (one per line,
     or comma/whitespace separated); lines starting with ``#`` and a non-numeric header
@@ -79,10 +89,10 @@ def thermal_u(block: Mapping[str, Any]) -> float:
     L = _num(block, "length", None)
     if L is None:
         raise InputError("thermal: missing length (the measured size, in the workpiece's unit)")
-    alpha = _num(block, "cte", 0.0, minimum=None)
-    u_alpha = _num(block, "u_cte", 0.0)
-    T = _num(block, "temperature", 20.0, minimum=None)
-    u_T = _num(block, "u_temperature", 0.0)
+    alpha = _given(block, "cte", 0.0, minimum=None)
+    u_alpha = _given(block, "u_cte", 0.0)
+    T = _given(block, "temperature", 20.0, minimum=None)
+    u_T = _given(block, "u_temperature", 0.0)
     return float(L * math.hypot((T - 20.0) * u_alpha, alpha * u_T))
 
 
@@ -152,12 +162,12 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
         raise InputError("ISO 15530-3 file: expected a mapping")
     if doc.get("calibrated_value") is None:
         raise InputError("calibrated_value: missing (the certificate value of the calibrated workpiece)")
-    x_cal = _num(doc, "calibrated_value", minimum=None)
+    x_cal = _given(doc, "calibrated_value", minimum=None)
     if doc.get("u_cal") is not None:
-        u_cal = _num(doc, "u_cal")
+        u_cal = _given(doc, "u_cal")
     elif doc.get("U_cal") is not None:
-        U_cal = _num(doc, "U_cal")
-        k_cal = _num(doc, "k_cal", 2.0, strict=True)
+        U_cal = _given(doc, "U_cal")
+        k_cal = _given(doc, "k_cal", 2.0, strict=True)
         u_cal = U_cal / k_cal
     else:
         raise InputError("u_cal: missing (standard uncertainty of the calibration, or U_cal with k_cal)")
@@ -188,17 +198,17 @@ def from_dict(doc: Mapping[str, Any], base_dir: str | Path | None = None) -> dic
         raise InputError(
             "measurements: missing (a list of repeated results, measurements_file, or measurements_from a project)"
         )
-    parts = {}
+    parts: dict[str, float] = {}
     if doc.get("u_w") is not None:
-        parts["u_w"] = _num(doc, "u_w")
+        parts["u_w"] = _given(doc, "u_w")
     for key in ("u_w_material", "u_w_manufacturing"):
         if doc.get(key) is not None:
-            parts[key] = _num(doc, key)
+            parts[key] = _given(doc, key)
     if doc.get("thermal") is not None:
         parts["u_w_thermal"] = thermal_u(doc["thermal"])
     u_w = math.hypot(*parts.values())
     u_b = _num(doc, "u_b") if doc.get("u_b") is not None else None
-    out = evaluate(meas, x_cal, u_cal, _num(doc, "k", 2.0, strict=True), u_w, u_b)
+    out = evaluate(meas, x_cal, u_cal, _given(doc, "k", 2.0, strict=True), u_w, u_b)
     out["u_w_parts"] = parts
     out["measurand"] = str(doc.get("measurand", ""))
     out["unit"] = str(doc.get("unit", ""))

@@ -111,8 +111,8 @@ class Setup:
     chunk: int = 250
     unit: str = "um"
     # derived, per camera
-    und: np.ndarray = field(default=None)  # (V, P, 2) ideal undistorted pixels
-    xd: np.ndarray = field(default=None)  # (V, P, 2) ideal distorted normalised coordinates
+    und: np.ndarray = field(init=False, repr=False)  # (V, P, 2) ideal undistorted pixels
+    xd: np.ndarray = field(init=False, repr=False)  # (V, P, 2) ideal distorted normalised coordinates
 
     def __post_init__(self):
         pix, norm, _ = self.system.project(self.points, distorted=False)
@@ -364,7 +364,8 @@ def measure(
             g1 = sum(bn * r2 ** (n + 1) for n, bn in enumerate(b))
             u += cam.fu * (x2 * g2 - xdv * g1)
             w += cam.fv * (y2 * g2 - ydv * g1)
-        fu, fv = cam.fu, cam.fv
+        fu: float | np.ndarray = cam.fu
+        fv: float | np.ndarray = cam.fv
         if "focal_length" in off:
             fu = cam.fu + off["focal_length"][:, v, 0, None]
             fv = cam.fv + off["focal_length"][:, v, 1, None]
@@ -573,10 +574,10 @@ def volume_maps(setup: Setup, multiple: float = 1.0) -> dict[str, Any]:
 def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[float], executor=None) -> dict[str, Any]:
     """Fig. 3.4: the feature-location contribution for sigma from 0 to 1 px."""
     try:
-        levels = np.asarray(levels, float)
+        sigmas = np.asarray(levels, float)
     except (TypeError, ValueError):
-        levels = np.zeros((0, 0))
-    if levels.ndim != 1 or not 1 <= len(levels) <= 1000 or not np.all(np.isfinite(levels)) or np.any(levels < 0):
+        sigmas = np.zeros((0, 0))
+    if sigmas.ndim != 1 or not 1 <= len(sigmas) <= 1000 or not np.all(np.isfinite(sigmas)) or np.any(sigmas < 0):
         raise InputError("sweep_levels: expected a list of 1 .. 1000 feature-location sigmas >= 0 px")
     stds = dict(setup.stds)
     stds["feature_location"] = np.ones((2, 2))
@@ -591,11 +592,11 @@ def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[flo
         setup.chunk,
         setup.unit,
     )
-    groups = {f"{s:g}px": ["feature_location"] for s in levels}
+    groups = {f"{s:g}px": ["feature_location"] for s in sigmas}
     # each level is simulated (same streams per level: common random numbers, so the
     # curve is smooth) with the noise scaled to that level
     u = []
-    for s_px in levels:
+    for s_px in sigmas:
         r = run_factors(
             sub,
             {"feature_location": ["feature_location"]},
@@ -606,7 +607,7 @@ def feature_sweep(setup: Setup, iterations: int, seed: int, levels: Sequence[flo
         )
         u.append(r["feature_location"]["u"])
     del groups
-    return {"sigma_px": levels, "u": np.array(u), "iterations": iterations}
+    return {"sigma_px": sigmas, "u": np.array(u), "iterations": iterations}
 
 
 def spatial_variation(
@@ -744,7 +745,7 @@ def write_outputs(result: Mapping[str, Any], out_dir: str | Path) -> dict[str, s
     import json
 
     d = check_out_dir(out_dir)
-    arrays: dict[str, np.ndarray] = {}
+    arrays: dict[str, Any] = {}  # name -> array (np.savez's keywords)
 
     def walk(x, key):
         if isinstance(x, Mapping):

@@ -227,7 +227,7 @@ class Camera:
         R = np.eye(3) if R is None else R
         T = np.zeros(3) if T is None else T
 
-        dist = [self.k[0], self.k[1], self.p[0], self.p[1], self.k[2]]
+        dist = np.array([self.k[0], self.k[1], self.p[0], self.p[1], self.k[2]], dtype=float)
         return CameraModel(self.K, dist, R, T, self.image_size, self.pixel_pitch, name)
 
 

@@ -60,7 +60,8 @@ def fit_rows(ev: dict[str, Any]) -> list[dict[str, str]]:
             )
     if ev.get("normal") is not None:
         add("normal", "(" + ", ".join(f"{float(x):.4f}" for x in ev["normal"]) + ")")
-    form = ev.get("form") if isinstance(ev.get("form"), dict) else {}
+    given = ev.get("form")
+    form = given if isinstance(given, dict) else {}
     if form.get("std") is not None:
         add("form σ", f"{1000 * float(form['std']):.1f} µm")
     n, used, removed = ev.get("n_points"), ev.get("n_used"), ev.get("n_removed")

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -48,11 +48,11 @@ def load(item: PlannedMeasurement) -> tuple[PointCloud, str]:
     cloud = read(item.file, unit=item.unit)
     if not hasattr(cloud, "n_points"):
         raise InputError(f"{item.name}: holds a {type(cloud).__name__}, not a point cloud")
-    return cloud, sha256(item.file)
+    return cast(PointCloud, cloud), sha256(item.file)
 
 
 def _name(cloud: PointCloud, name: str | None) -> str:
-    return name or getattr(cloud, "name", "cloud")
+    return name or str(getattr(cloud, "name", "cloud"))
 
 
 #: The units an acceptance test's files come in (a scanner's mm or m; µm from a fine
@@ -153,7 +153,7 @@ def _ratio(a: float, b: float) -> str:
 def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:
     """P_F and P_S of one sphere measurement (scaled by calibrated radii in part 3)."""
     name = _name(cloud, name)
-    d_ref = plan.value("sphere", "diameter")
+    d_ref = plan.required("sphere", "diameter")
     rule = plan.rule("sphere")
     warnings: list[str] = []
     if plan.scaling.get("sphere", "none") == "radii":
@@ -182,7 +182,7 @@ def evaluate_sphere(ctx, cloud: PointCloud, plan: Plan, name: str | None = None)
 def _sphere_scaled(ctx, cloud: PointCloud, plan: Plan, name: str, rule: str) -> dict[str, Any]:
     """Part 3: the cloud holds the probing sphere and scale spheres (ball-plate spheres of
     calibrated diameter) in a reconstruction of arbitrary scale (thesis ch. 4.5.1)."""
-    d_ref = plan.value("sphere", "diameter")
+    d_ref = plan.required("sphere", "diameter")
     d_scale = plan.value("ball_plate", "sphere_diameter")
     if d_scale is None:
         raise InputError(f"{name}: scaling.sphere is radii but artefacts.ball_plate.sphere_diameter is missing")
@@ -208,8 +208,8 @@ def _sphere_scaled(ctx, cloud: PointCloud, plan: Plan, name: str, rule: str) -> 
 
 
 # -- ball bar ---------------------------------------------------------------------------------
-def _merge(clouds: list[PointCloud | None], name: str) -> PointCloud | None:
-    clouds = [c for c in clouds if c is not None]
+def _merge(given: list[PointCloud | None], name: str) -> PointCloud | None:
+    clouds = [c for c in given if c is not None]
     if not clouds:
         return None
     return PointCloud(
@@ -227,8 +227,8 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
     """SD = L_a - L_r of one ball-bar measurement; both spheres in one cloud, found
     automatically; each fitted with the plan's outlier rule."""
     name = _name(cloud, name)
-    l_ref = plan.value("ball_bar", "length")
-    d_nom = plan.value("ball_bar", "sphere_diameter")
+    l_ref = plan.required("ball_bar", "length")
+    d_nom = plan.required("ball_bar", "sphere_diameter")
     rule = plan.rule("ball_bar")
     mode = plan.scaling.get("ball_bar", "none")
     radius = d_nom / 2
@@ -278,7 +278,7 @@ def evaluate_ball_bar(ctx, cloud: PointCloud, plan: Plan, name: str | None = Non
 def evaluate_flat(ctx, cloud: PointCloud, plan: Plan, name: str | None = None) -> dict[str, Any]:
     """F: range of the distances from the least-squares plane after the outlier rule."""
     name = _name(cloud, name)
-    length, width = plan.value("flat", "length"), plan.value("flat", "width")
+    length, width = plan.required("flat", "length"), plan.required("flat", "width")
     rule = plan.rule("flat")
     check_extent(cloud, float(np.hypot(length, width)), name, "flat")
     fit = _fit(ctx, "fit.plane", name, cloud=cloud, outliers=rule)
@@ -317,8 +317,8 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
     reconstruction scaled by the plan's rule: ``lengths`` (eqs. 4.10-4.12), ``radii``
     (calibrated sphere diameters) or ``none`` (a metric system)."""
     name = _name(cloud, name)
-    d_nom = plan.value("ball_plate", "sphere_diameter")
-    l_cal = [plan.value("ball_plate", f"length_{i}") for i in (1, 2, 3)]
+    d_nom = plan.required("ball_plate", "sphere_diameter")
+    l_cal = [plan.required("ball_plate", f"length_{i}") for i in (1, 2, 3)]
     rule = plan.rule("ball_plate")
     mode = plan.scaling.get("ball_plate", "none")
     if mode == "none":

@@ -81,7 +81,7 @@ class Part3(Standard):
         out: dict[str, Any] = {"repeats": self.repeats(p), "scaling": {t: p.scaling.get(t, "none") for t in per}}
         by_pos: dict[str, list[dict[str, Any]]] = {}
         for test, evs in ok.items():
-            groups: dict[str, list] = defaultdict(list)
+            groups: dict[Any, list] = defaultdict(list)  # by position (or file)
             for e in evs:
                 groups[e.get("position") or e.get("file")].append(e)
             by_pos[test] = [
@@ -94,7 +94,7 @@ class Part3(Standard):
             ]
         out["repeat_values"] = by_pos
         if ok.get("ball_plate"):
-            certs = [p.certificate("ball_plate", f"length_{i}") for i in (1, 2, 3)]
+            certs = [p.required_certificate("ball_plate", f"length_{i}") for i in (1, 2, 3)]
             out["lengths"] = []
             for i, c in enumerate(certs):
                 vals = [e["lengths"][i] for e in ok["ball_plate"]]
@@ -102,7 +102,7 @@ class Part3(Standard):
                 st.update({"name": f"L{i + 1}", "values": vals})
                 out["lengths"].append(st)
         if ok.get("sphere"):
-            d = p.certificate("sphere", "diameter")
+            d = p.required_certificate("sphere", "diameter")
             size = _stats([e["diameter"] for e in ok["sphere"]], d.standard_uncertainty, d.value)
             stds = [e["form"]["std"] for e in ok["sphere"]]
             form = {

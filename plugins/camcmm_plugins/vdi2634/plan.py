@@ -100,6 +100,21 @@ class Plan:
         v = None if a is None else a.nominal.get(name)
         return None if v is None else float(v)
 
+    def required(self, test: str, name: str) -> float:
+        """:meth:`value` of one the evaluation needs (the plan's validation asks for it):
+        InputError naming it when absent, not a failure on None later."""
+        v = self.value(test, name)
+        if v is None:
+            raise InputError(f"{self.source}: artefacts.{test}.{name} is missing")
+        return v
+
+    def required_certificate(self, test: str, name: str) -> Certificate:
+        """:meth:`certificate` of one the evaluation needs: InputError naming it when absent."""
+        c = self.certificate(test, name)
+        if c is None:
+            raise InputError(f"{self.source}: artefacts.{test}: the calibrated {name} and its uncertainty are missing")
+        return c
+
 
 class _Where:
     def __init__(self, source: str):
@@ -131,6 +146,12 @@ def _number(
     return _num(w, d[key], f"{path}.{key}", positive)
 
 
+def _optional(w: _Where, d: dict, key: str, path: str, default: float, positive: bool = True) -> float:
+    """An optional number, ``default`` when absent."""
+    v = _number(w, d, key, path, positive=positive, required=False)
+    return default if v is None else v
+
+
 def _mapping(w: _Where, d: Any, path: str) -> dict:
     if not isinstance(d, dict):
         raise w.fail(path, f"must be a mapping, got {type(d).__name__}")
@@ -156,14 +177,14 @@ def read_source(source: Any) -> tuple[dict[str, Any], Path | None, str]:
 def _artefact(w: _Where, test: str, d: Any) -> Artefact:
     p = f"artefacts.{test}"
     d = _mapping(w, d, p)
-    k = _number(w, d, "k", p, required=False, default=2.0)
+    k = _optional(w, d, "k", p, 2.0)
     certs: dict[str, Certificate] = {}
     nominal: dict[str, Any] = {}
 
     def cert(name: str, value_key: str, u_key: str, required: bool = True) -> None:
         v = _number(w, d, value_key, p, required=required, positive=value_key != "form" and value_key != "flatness")
         if v is not None:
-            u = _number(w, d, u_key, p, positive=False, required=False, default=0.0)
+            u = _optional(w, d, u_key, p, 0.0, positive=False)
             certs[name] = Certificate(v, u, k)
 
     if test == "sphere":
@@ -188,7 +209,7 @@ def _artefact(w: _Where, test: str, d: Any) -> Artefact:
                 f"{p}.lengths",
                 f"must list the three calibrated lengths L1 = |c1c2|, L2 = |c2c3|, L3 = |c3c1| in mm, got {lengths!r}",
             )
-        u = _number(w, d, "uncertainty", p, positive=False, required=False, default=0.0)
+        u = _optional(w, d, "uncertainty", p, 0.0, positive=False)
         for i, v in enumerate(lengths):
             v = _num(w, v, f"{p}.lengths[{i}]")
             certs[f"length_{i + 1}"] = Certificate(v, u, k)
@@ -276,11 +297,13 @@ def load(source: Any, standard: str | None = None) -> Plan:
         raise w.fail("system.measuring_volume", f"must be [x, y, z] in mm, got {vol!r}")
     vol = np.array([_num(w, v, f"system.measuring_volume[{i}]") for i, v in enumerate(vol)])
     mpe_d = _mapping(w, doc.get("mpe") or {}, "mpe")
-    mpe = {}
+    mpe: dict[str, float] = {}
     for key in mpe_d:
         if key not in PARAMETERS:
             raise w.fail(f"mpe.{key}", f"is not a quality parameter; use {', '.join(PARAMETERS)}")
-        mpe[key] = _number(w, mpe_d, key, "mpe")
+        v = _number(w, mpe_d, key, "mpe")
+        assert v is not None  # required: _number raises rather than return None
+        mpe[key] = v
     arts = _mapping(w, doc.get("artefacts") or {}, "artefacts")
     for key in arts:
         if key not in TESTS:

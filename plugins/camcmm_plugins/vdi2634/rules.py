@@ -85,27 +85,27 @@ def check(plan: Plan, tests: list[str]) -> list[dict[str, Any]]:
     l0 = plan.diagonal
     out: list[dict[str, Any] | None] = []
     if "sphere" in tests and "sphere" in plan.artefacts:
-        d = plan.value("sphere", "diameter")
+        d = plan.required("sphere", "diameter")
         out.append(_between("sphere", "diameter", d, 0.02 * l0, 0.2 * l0, l0, 0.02, 0.2))
         form = plan.certificate("sphere", "form")
         if form is not None:
             out.append(_small("sphere", "form deviation", form.value, plan.mpe.get("PF"), "PF"))
     if "ball_bar" in tests and "ball_bar" in plan.artefacts:
-        length = plan.value("ball_bar", "length")
+        length = plan.required("ball_bar", "length")
         out.append(_at_least("ball bar", "length", length, 0.3 * l0, f"0.3 L0 (L0 = {l0:.4g} mm)"))
-        ds = plan.value("ball_bar", "sphere_diameter")
+        ds = plan.required("ball_bar", "sphere_diameter")
         out.append(_between("ball bar", "sphere diameter", ds, 0.02 * l0, 0.2 * l0, l0, 0.02, 0.2))
-        u_length = plan.certificate("ball_bar", "length").expanded_uncertainty
+        u_length = plan.required_certificate("ball_bar", "length").expanded_uncertainty
         out.append(_small("ball bar", "length uncertainty U", u_length, plan.mpe.get("SD"), "SD"))
     if "flat" in tests and "flat" in plan.artefacts:
-        out.append(_at_least("flat", "width", plan.value("flat", "width"), 50.0, "50 mm"))
-        out.append(_at_least("flat", "length", plan.value("flat", "length"), 0.5 * l0, f"0.5 L0 (L0 = {l0:.4g} mm)"))
+        out.append(_at_least("flat", "width", plan.required("flat", "width"), 50.0, "50 mm"))
+        out.append(_at_least("flat", "length", plan.required("flat", "length"), 0.5 * l0, f"0.5 L0 (L0 = {l0:.4g} mm)"))
         fl = plan.certificate("flat", "flatness")
         if fl is not None:
             out.append(_small("flat", "flatness", fl.value, plan.mpe.get("F"), "F"))
     if "ball_plate" in tests and "ball_plate" in plan.artefacts:
-        longest = max(plan.value("ball_plate", f"length_{i}") for i in (1, 2, 3))
+        longest = max(plan.required("ball_plate", f"length_{i}") for i in (1, 2, 3))
         out.append(_at_least("ball plate", "longest length", longest, 0.3 * l0, f"0.3 L0 (L0 = {l0:.4g} mm)"))
-        ds = plan.value("ball_plate", "sphere_diameter")
+        ds = plan.required("ball_plate", "sphere_diameter")
         out.append(_between("ball plate", "sphere diameter", ds, 0.02 * l0, 0.2 * l0, l0, 0.02, 0.2))
     return [c for c in out if c is not None]

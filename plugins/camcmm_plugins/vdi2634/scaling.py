@@ -54,7 +54,8 @@ def order_plate(centres: np.ndarray, l_cal, name: str) -> list[int]:
     calibrated L1, L2, L3 up to one scale: the permutation whose length ratios
     L_r,i / L_c,i agree best (smallest relative spread)."""
     l_cal = np.asarray(l_cal, dtype=float)
-    best, spread = None, np.inf
+    best: list[int] = [0, 1, 2]  # replaced by the first finite spread; none: refused below
+    spread = np.inf
     for perm in itertools.permutations(range(3)):
         c = centres[list(perm)]
         l_rec = np.array([np.linalg.norm(c[(k + 1) % 3] - c[k]) for k in range(3)])

@@ -61,14 +61,14 @@ def probing_size(plan: Plan) -> dict[str, Any]:
     if plan.scaling.get("sphere") == "radii":
         ref = plan.certificate("ball_plate", "sphere_diameter")
         if ref is not None:
-            c["scale (calibrated radii)"] = plan.value("sphere", "diameter") * _u(ref) / ref.value
+            c["scale (calibrated radii)"] = plan.required("sphere", "diameter") * _u(ref) / ref.value
             basis += " and the scale spheres' diameter certificate"
     return _result(c, basis)
 
 
 def _plate_length(plan: Plan, i: int) -> dict[str, float]:
     """Contributions for ball-plate length i (1..3) after the plan's scaling."""
-    cert = {j: plan.certificate("ball_plate", f"length_{j}") for j in (1, 2, 3)}
+    cert = {j: plan.required_certificate("ball_plate", f"length_{j}") for j in (1, 2, 3)}
     c = {f"L_c{i}": _u(cert[i])}
     mode = plan.scaling.get("ball_plate", "none")
     li = cert[i].value
@@ -98,7 +98,7 @@ def spacing(plan: Plan, test: str) -> dict[str, Any]:
     if plan.scaling.get("ball_bar") == "radii":
         ref = plan.certificate("ball_bar", "sphere_diameter")
         if ref is not None and ref.value > 0:
-            c["scale (calibrated radii)"] = plan.value("ball_bar", "length") * _u(ref) / ref.value
+            c["scale (calibrated radii)"] = plan.required("ball_bar", "length") * _u(ref) / ref.value
             basis += " and the ball-bar spheres' diameter certificate"
     return _result(c, basis)
 

@@ -25,7 +25,7 @@ from .distortion import VolumeDistortion
 from .plugin import build_scene, make_sensor
 from .simulate import simulate
 
-PART2 = {
+PART2: dict[str, Any] = {
     "volume": [100.0, 100.0, 100.0],
     "noise": 0.02,
     "sensor": "stereo_fringe",
@@ -37,7 +37,7 @@ PART2 = {
         "flat": {"length": 150.0, "width": 60.0, "flatness": 0.0026},
     },
 }
-PART3 = {
+PART3: dict[str, Any] = {
     "volume": [30.0, 30.0, 30.0],
     "noise": 0.008,
     "sensor": "turntable",

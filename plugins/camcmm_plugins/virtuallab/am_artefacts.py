@@ -22,6 +22,7 @@ away from or towards an axis or centre), so the mesh is wound outwards.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -203,7 +204,13 @@ def build(name: str, sizes: dict[str, Any] | None = None) -> tuple[np.ndarray, n
     unknown = set(s) - set(DEFAULTS[name])
     if unknown:
         raise ValueError(f"{name}: unknown size {sorted(unknown)[0]!r} (sizes: {', '.join(DEFAULTS[name])})")
-    fn = {"am_pyramid": pyramid, "am_recess": recess, "am_sphere": sphere, "am_pillars": pillars}[name]
+    builders: dict[str, Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
+        "am_pyramid": pyramid,
+        "am_recess": recess,
+        "am_sphere": sphere,
+        "am_pillars": pillars,
+    }
+    fn = builders[name]
     V, F, cls = fn(**s)
     return V, F, cls, s
 

@@ -64,16 +64,16 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
     (projector dark) and ``lamp`` (the diffuse lamp on)."""
     frames: list[dict[str, Any]] = []
     if scene.sequence is not None:
-        inline = isinstance(scene.sequence, dict)
-        if not inline and not scene.sequence.is_file():
+        seq = scene.sequence
+        if isinstance(seq, Path) and not seq.is_file():
             raise InputError(f"sequence {scene.sequence}: file not found")
         fringe = ctx.algorithm("fringe.patterns") if ctx is not None else get_algorithm("fringe.patterns")
-        out = fringe(sequence=scene.sequence if inline else str(scene.sequence))
+        out = fringe(sequence=seq if isinstance(seq, dict) else str(seq))
         size = tuple(int(x) for x in out["projector_size"])
         if scene.projector is None or tuple(scene.projector.model.image_size) != size:
             have = scene.projector.model.image_size if scene.projector is not None else None
             raise InputError(
-                f"sequence {'(in the scene)' if inline else scene.sequence.name}: patterns of "
+                f"sequence {seq.name if isinstance(seq, Path) else '(in the scene)'}: patterns of "
                 f"{size[0]} x {size[1]} px, "
                 f"but the projector shows {have}"
             )
@@ -121,10 +121,11 @@ def scene_frames(scene: LabScene, ctx=None) -> list[dict[str, Any]]:
             if not isinstance(img, Image):
                 raise InputError(f"{what}: {entry['image']} is not an image")
             data = img.data if img.data.ndim == 2 else img.data[..., :3].mean(axis=2)
-            if data.shape != _projector_shape(scene):
+            want = _projector_shape(scene)  # (h, w)
+            if data.shape != want:
                 raise InputError(
                     f"{what}: {entry['image']} is {data.shape[1]} x {data.shape[0]} px; the projector "
-                    f"shows {scene.projector.model.image_size[0]} x {scene.projector.model.image_size[1]}"
+                    f"shows {want[1]} x {want[0]}"
                 )
             frames.append({"name": p.name, "kind": "image", "pattern": img.data, "lamp": False})
         else:
@@ -239,7 +240,7 @@ def prepare_views(scene: LabScene, progress: Callable[[float, str], None] | None
                 proj,
                 scene.lighting,
                 scene.supersample,
-                projector_lens=scene.projector.lens if proj else None,
+                projector_lens=scene.projector.lens if scene.projector is not None else None,
             )
         )
     return views

@@ -113,7 +113,7 @@ class Dslr:
         one or several radiance images (h, w) of the same view."""
         import cv2
 
-        stack = np.dstack([np.asarray(i, np.float32) for i in (imgs if isinstance(imgs, list) else [imgs])])
+        stack: np.ndarray = np.dstack([np.asarray(i, np.float32) for i in (imgs if isinstance(imgs, list) else [imgs])])
         if self.depth_of_field:
             d = np.where(np.isfinite(depth), depth, self.object_distance)  # nothing hit: dark anyway
             c = imaging.blur_diameter(d, self.focal_length, self.f_number, self.object_distance, self.pitch)

@@ -85,7 +85,9 @@ def _blur(img: np.ndarray, diameter: float, psf: str) -> np.ndarray:
         return img
     if psf == "gaussian":
         return cv2.GaussianBlur(img, (0, 0), diameter / 4.0, borderType=cv2.BORDER_REPLICATE)
-    return cv2.filter2D(img, -1, _kernel(diameter, psf), borderType=cv2.BORDER_REPLICATE)
+    kernel = _kernel(diameter, psf)
+    assert kernel is not None  # None only for the cases returned above
+    return cv2.filter2D(img, -1, kernel, borderType=cv2.BORDER_REPLICATE)
 
 
 def defocus(img: np.ndarray, diameter: np.ndarray | float, psf: str = "gaussian") -> np.ndarray:

@@ -68,7 +68,10 @@ class VirtualSystem:
     @property
     def projector_size(self) -> tuple[int, int] | None:
         """(width, height) px of the projector, None without one."""
-        return tuple(self.scene.projector.model.image_size) if self.scene.projector is not None else None
+        if self.scene.projector is None:
+            return None
+        w, h = self.scene.projector.model.image_size
+        return (w, h)
 
     def move(self, rotation_deg=(0.0, 0.0, 0.0), translation=(0.0, 0.0, 0.0), relative: bool = False) -> None:
         """Place the artefacts by x -> R x + t (R = Rz Ry Rx of ``rotation_deg`` about the
@@ -100,7 +103,7 @@ class VirtualSystem:
                 proj,
                 self.scene.lighting,
                 self.scene.supersample,
-                projector_lens=self.scene.projector.lens if proj else None,
+                projector_lens=self.scene.projector.lens if self.scene.projector is not None else None,
             )
         return self._views[camera]
 

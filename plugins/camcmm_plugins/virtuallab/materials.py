@@ -58,7 +58,7 @@ def fbm(p: np.ndarray, coarse: float, fine: float, seed: int) -> np.ndarray:
     """Sum of value-noise octaves from ``coarse`` down to ``fine`` mm (halving), each
     octave's amplitude proportional to its cell (a fractal, rough-surface-like field),
     normalised to about unit peak."""
-    out, norm, cell, k = 0.0, 0.0, coarse, 0
+    out, norm, cell, k = np.zeros(len(p)), 0.0, coarse, 0
     while cell >= fine * 0.999:
         out = out + cell * value_noise(p, cell, seed + 17 * k)
         norm += cell

@@ -113,7 +113,17 @@ def placed_scene(placement: dict[str, Any]) -> tuple[list, dict[str, Any], float
     truth = _transform(truth, R, np.zeros(3))
     z = min(_lowest(p) for p in prims) - 0.5
     span = 8.0 * max(s["diameter"] for s in truth["spheres"]) + 20.0
-    prims.append(Rectangle(np.array([0.0, 0.0, z]), [1, 0, 0], [0, 0, 1], span, span, "turntable", measured=False))
+    prims.append(
+        Rectangle(
+            np.array([0.0, 0.0, z]),
+            np.array([1.0, 0, 0]),
+            np.array([0, 0, 1.0]),
+            span,
+            span,
+            "turntable",
+            measured=False,
+        )
+    )
     return prims, truth, el, refs
 
 

@@ -26,6 +26,7 @@ plane intersections), so the truth is analytic.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -134,9 +135,9 @@ def lambda_map(
 def lightfield_set(
     directory: str | Path,
     *,
-    focal_lengths: list[float] = (30.0, 40.0, 50.0),
+    focal_lengths: Sequence[float] = (30.0, 40.0, 50.0),
     gradient_law: tuple[float, float] = (-1.0, 0.15),
-    sphere_radii: list[float] = (15.0, 10.0),
+    sphere_radii: Sequence[float] = (15.0, 10.0),
     n_views: int = 4,
     size: tuple[int, int] = (240, 168),
     pixel_pitch: float = 0.05,

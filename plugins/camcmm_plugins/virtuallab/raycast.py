@@ -242,8 +242,8 @@ def cast(scene: list, o: np.ndarray, d: np.ndarray, want_normals: bool = True):
         nk = None
         if isinstance(p, Mesh):
             tk, nk = p.cast(oo, dd)
-        elif oo.ndim == 1 and (tk := _shared_origin(p, oo, dd)) is not None:
-            pass
+        elif oo.ndim == 1 and (shared := _shared_origin(p, oo, dd)) is not None:
+            tk = shared
         else:
             tk = p.intersect(np.broadcast_to(oo, dd.shape), dd)
         if sel is None:
@@ -300,8 +300,7 @@ def occluded(
         if isinstance(p, Mesh):
             tk = p.cast(o, dd)[0]
         else:
-            tk = _shared_origin(p, o, dd)
-            if tk is None:
-                tk = p.intersect(np.broadcast_to(o, dd.shape), dd)
+            shared = _shared_origin(p, o, dd)
+            tk = shared if shared is not None else p.intersect(np.broadcast_to(o, dd.shape), dd)
         blocked[rows[tk < dist[rows] - eps]] = True
     return blocked

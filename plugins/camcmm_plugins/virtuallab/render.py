@@ -25,6 +25,7 @@ Lengths in mm, images (h, w) in pixels.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
@@ -53,7 +54,7 @@ class Lighting:
     projector_blur: float = 0.0  # Gaussian sigma (projector px) of the projector's optics
     falloff: bool = True
     # a solid texture: f(points (N, 3) mm, normals (N, 3), primitive (N,)) -> albedo factor (N,)
-    texture: object = None
+    texture: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
     # the lamp as a uniform hemisphere about diffuse_direction (a lighting enclosure, ch. 6.2):
     # irradiance (1 + n·l)/2 of an unoccluded Lambertian surface, so walls are lit too
     hemisphere: bool = False
@@ -208,7 +209,7 @@ def prepare(
     rows = max(s, (BATCH // (w * s)) // s * s)  # whole pixel rows per band
     bands = [(a, min(a + rows, h * s)) for a in range(0, h * s, rows)]
     n_workers = workers or min(os.cpu_count() or 1, 8)
-    job = lambda r: _batch(scene, albedo, camera, projector, light, s, XY, *r, plens=projector_lens)
+    job = lambda r: _batch(scene, albedo, camera, projector, light, s, XY, r[0], r[1], plens=projector_lens)
     if n_workers > 1 and len(bands) > 1:
         with ThreadPoolExecutor(n_workers) as pool:
             parts = list(pool.map(job, bands))

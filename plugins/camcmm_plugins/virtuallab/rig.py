@@ -81,7 +81,8 @@ def device_from_dict(d: Mapping[str, Any], default_name: str) -> Device:
     where = f"{name}"
     if "image_size" not in d:
         raise ValueError(f"{where}: image_size [width, height] is missing")
-    size = tuple(int(x) for x in _vec(d["image_size"], 2, f"{where}.image_size"))
+    w, h = (int(x) for x in _vec(d["image_size"], 2, f"{where}.image_size"))
+    size = (w, h)
     if min(size) < 2:
         raise ValueError(f"{where}.image_size {list(size)} must be at least 2 x 2 px")
     pitch = d.get("pixel_pitch")

@@ -60,7 +60,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -152,7 +152,9 @@ def _nonfinite(obj: Any, path: str = "", limit: float = MAX_NUMBER) -> tuple[str
             hit = _nonfinite(v, f"{path}[{i}]", limit)
             if hit:
                 return hit
-    elif isinstance(obj, (int, float, np.floating)) and not isinstance(obj, bool) and not abs(obj) <= limit:
+    elif (
+        isinstance(obj, (int, float, np.floating)) and not isinstance(obj, bool) and not abs(cast(float, obj)) <= limit
+    ):
         return path, obj
     return None
 
@@ -313,7 +315,7 @@ def scene_from_dict(doc: Mapping[str, Any], base: Path = Path(".")) -> LabScene:
         sensor,
         ss,
         seed,
-        seq
+        dict(seq)
         if isinstance(seq, Mapping)
         else ((base / seq) if seq and not Path(seq).is_absolute() else (Path(seq) if seq else None)),
         pats,

@@ -41,12 +41,16 @@ def sample_visible(scene: list, sensor: Sensor, n: int, rng: np.random.Generator
     while have < n and tries < MAX_ROUNDS:
         m = int(min(max((n - have) / max(frac, 0.02) * 1.15, 1000), 4_000_000))
         counts = rng.multinomial(m, area / area.sum())
-        pts, nrm, lab = [], [], []
+        pts: list[np.ndarray] = []
+        nrm: list[np.ndarray] = []
+        labs: list[np.ndarray] = []
         for i, k in zip(measured, counts):
             if k:
                 p, q = scene[i].sample(int(k), rng)
-                pts.append(p), nrm.append(q), lab.append(np.full(int(k), i))
-        p, q, lab = np.vstack(pts), np.vstack(nrm), np.concatenate(lab)
+                pts.append(p)
+                nrm.append(q)
+                labs.append(np.full(int(k), i))
+        p, q, lab = np.vstack(pts), np.vstack(nrm), np.concatenate(labs)
         perm = rng.permutation(len(p))  # the primitives' points interleaved, as a scan would
         p, q, lab = p[perm], q[perm], lab[perm]
         vis = sensor.visible(p, q, scene)

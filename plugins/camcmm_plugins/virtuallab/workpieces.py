@@ -52,7 +52,7 @@ def gauge_blocks(
         bu = np.cos(turn) * u + np.sin(turn) * v
         bf = np.vstack([bu, np.cross(n, bu), n])
         base = c + a * u + bb * v
-        prims.append(Box(base + n * L / 2, bf, [w, dep, L], f"gauge block {i + 1}"))
+        prims.append(Box(base + n * L / 2, bf, np.array([w, dep, L], float), f"gauge block {i + 1}"))
         truth_blocks.append(
             {
                 "label": f"gauge block {i + 1}",
