@@ -72,8 +72,11 @@ def test_there_are_enough_cases_over_every_reader_and_command():
     assert {"budget", "iso15530-3", "montecarlo", "camera", "stereo", "patterns", "reconstruct"} <= subs
 
 
+# One xdist work unit: `results` runs every selected case of the session, and a worker's session
+# holds them all; without the group both workers would run the whole matrix once each.
 @pytest.mark.parametrize("case_id", [_param(i) for i in CASES])
 @pytest.mark.slow
+@pytest.mark.xdist_group("bad-inputs")
 def test_bad_input(case_id, results):
     case = CASES[case_id]
     problem = bi.verdict(case, results.get(case_id, {"rc": "not run: its worker thread stopped"}))

@@ -1671,7 +1671,9 @@ class Worker:
     def __init__(self):
         env = dict(
             os.environ,
-            PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]),
+            # tests/ too: the cases arrive pickled as helpers.badinputs.Case (the module as the
+            # tests import it), which the worker (this file run as __main__) must import
+            PYTHONPATH=os.pathsep.join([str(HERE.parent), str(HERE), os.environ.get("PYTHONPATH", "")]),
             PYTHONUNBUFFERED="1",
             OMP_NUM_THREADS="1",
             OPENBLAS_NUM_THREADS="1",
