@@ -272,6 +272,11 @@ def test_without_a_token_the_origin_is_still_checked():
 
 
 # -- a real server (the front and its session children) ----------------------------------------
+#: The tests on ``server`` form one xdist work unit: one GUI server (front + session children) per
+#: run instead of one per worker (under --dist loadgroup an ungrouped test is scheduled alone).
+ON_SERVER = pytest.mark.xdist_group("security-server")
+
+
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     pytest.importorskip("trame")
@@ -316,6 +321,7 @@ def sid(server):
 
 
 @pytest.mark.slow
+@ON_SERVER
 def test_the_server_answers_nothing_without_its_token(server, sid):
     assert server.token and len(server.token) >= 43 and server.url == f"{server.base}?token={server.token}"
     paths = [
@@ -349,6 +355,7 @@ def test_the_server_answers_nothing_without_its_token(server, sid):
     assert status == 302 and headers["Location"] == f"index.html?secret={server.token}"
 
 
+@ON_SERVER
 def test_the_websocket_needs_the_token_the_origin_and_the_secret(server, sid):
     async def probe():
         ws_url = server.base.replace("http", "ws", 1) + f"s/{sid}/ws"
@@ -387,6 +394,7 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server, sid):
     assert "result" in r["token"], r
 
 
+@ON_SERVER
 def test_a_session_child_answers_nobody_but_the_front(server, sid):
     """The child listens on 127.0.0.1 with a secret only the front holds: the user's token,
     cookie or Origin get nothing from it, over HTTP or websocket."""
@@ -415,6 +423,7 @@ def test_a_session_child_answers_nobody_but_the_front(server, sid):
     assert asyncio.run(ws()) == 403
 
 
+@ON_SERVER
 def test_an_invented_session_id_is_refused(server):
     auth = {"Authorization": f"token {server.token}"}
     status, headers, body = _http(server.base + "s/AAAAAAAAAAAAAAAA/", headers=auth)
@@ -425,6 +434,7 @@ def test_an_invented_session_id_is_refused(server):
         assert status in (400, 404) and body.count(b"\n") <= 1 and b"Traceback" not in body, (path, status, body)
 
 
+@ON_SERVER
 def test_the_number_of_sessions_is_limited(server, sid):
     """--max-sessions 2: the third tab gets a one-line 503; nothing else is started."""
     while len(server.opened) < 2:
