@@ -29,9 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import CamcmmError, InputError, one_line
+from ..errors import InputError, one_line
 from ..host import default_host
-from ..tasks.items import describe, kind_of, safe_name, size_text
+from ..tasks.items import describe, item_meta, kind_of, read_item, safe_name, size_text
 from ..units import unit_label
 from .jobs import Job
 from .unit_ask import UnitAsks
@@ -251,12 +251,7 @@ class Session:
         m = self._measurements.get(key)
         if m is None:
             raise InputError(f"no item with id {key!r} in project {self.state.project_name}")
-        try:
-            obj = self.project.load_measurement(m["id"])
-        except CamcmmError:
-            raise
-        except Exception as exc:
-            raise InputError(one_line(exc, f"{m.get('name', key)}: cannot load from the project")) from exc
+        obj = read_item(self.project, m)
         self._objects[key] = obj
         unit = (m.get("meta") or {}).get("unit") if isinstance(m.get("meta"), dict) else None
         sized = f" · {size_text(obj)}" if unit and kind_of(obj) in ("pointcloud", "mesh") else ""  # an import's size
@@ -343,14 +338,7 @@ class Session:
         ``unit``: the length unit the file is read in (an import's). ``display``: field
         -> unit the view shows it in (``{"deviation": "µm"}``; the data stay in mm).
         Returns the measurement id (its item key is ``str(id)``)."""
-        meta: dict[str, Any] = {"summary": describe(obj)}
-        if source:
-            meta["made_by"] = source
-        if unit:  # an import: its unit, and the size in mm it gave
-            meta["unit"] = unit
-            meta["summary"] = f"{meta['summary']} · {size_text(obj)}"
-        if display:
-            meta["display_units"] = dict(display)
+        meta = item_meta(obj, source, unit, display)
         try:
             mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
         except TypeError:  # a store without meta

@@ -33,6 +33,7 @@ from ..contracts import Need, OutputContract
 from ..errors import InputError, PluginError, one_line
 from ..host import RunResult
 from ..params import validate
+from .items import stored_record
 
 log = logging.getLogger("camcmm.tasks.compare")
 
@@ -286,13 +287,7 @@ def store(project: Any, comparison: Comparison) -> dict[str, Any]:
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The record of the last comparison kept in ``project`` (None: there is none)."""
-    try:
-        record = project.get_state(STATE_KEY)
-    except Exception:
-        return None
-    if not isinstance(record, dict) or record.get("result") is None:
-        return None
-    return record
+    return stored_record(project, STATE_KEY)
 
 
 def restore(project: Any, items: Any = None) -> Comparison | None:

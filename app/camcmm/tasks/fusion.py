@@ -27,7 +27,7 @@ from .. import worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
 from ..jsonable import to_jsonable
-from .items import checked
+from .items import checked, stored_record
 
 TASK = "csi-fusion"
 CURRENT_KEY = "fuse.current"
@@ -164,11 +164,7 @@ def store(
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The record of the last run, as the project keeps it (None: none yet, or unreadable)."""
-    try:
-        rec = project.get_state(CURRENT_KEY)
-    except Exception:
-        return None
-    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+    return stored_record(project, CURRENT_KEY)
 
 
 def restore(project: Any) -> tuple[FusionRequest, dict[str, Any]] | None:

@@ -63,6 +63,32 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^\w.\-+ ()\[\]]", "_", base)
 
 
+def item_meta(obj: Any, source: str = "", unit: str = "", display: dict | None = None) -> dict[str, Any]:
+    """What an item keeps about itself: its summary, who made it (``source``), the length unit
+    its file was read in (an import's: the size in mm it gave joins the summary) and the units
+    its fields are shown in (``{"deviation": "µm"}``; the data stay in mm)."""
+    meta: dict[str, Any] = {"summary": describe(obj)}
+    if source:
+        meta["made_by"] = source
+    if unit:
+        meta["unit"] = unit
+        meta["summary"] = f"{meta['summary']} · {size_text(obj)}"
+    if display:
+        meta["display_units"] = dict(display)
+    return meta
+
+
+def read_item(project: Any, m: dict[str, Any]) -> Any:
+    """The geometry of measurement row ``m`` read from its file; InputError naming the item
+    when it cannot be read (a CamcmmError passes as it is)."""
+    try:
+        return project.load_measurement(m["id"])
+    except CamcmmError:
+        raise
+    except Exception as exc:
+        raise InputError(one_line(exc, f"{m.get('name', m.get('id'))}: cannot load from the project")) from exc
+
+
 class ProjectItems:
     """The items of ``project`` with the GUI session's interface; loaded objects are kept."""
 
@@ -87,12 +113,7 @@ class ProjectItems:
         m = self.measurement(key)
         if m is None:
             raise InputError(f"no item with id {key!r} in the project")
-        try:
-            obj = self.project.load_measurement(m["id"])
-        except CamcmmError:
-            raise
-        except Exception as exc:
-            raise InputError(one_line(exc, f"{m.get('name', key)}: cannot load from the project")) from exc
+        obj = read_item(self.project, m)
         self._objects[key] = obj
         return obj
 
@@ -100,14 +121,7 @@ class ProjectItems:
         self, name: str, h: str, obj: Any, source: str = "", unit: str = "", display: dict | None = None
     ) -> Any:
         """Record ``obj`` (stored as file hash ``h``) as a new item; returns its id."""
-        meta: dict[str, Any] = {"summary": describe(obj)}
-        if source:
-            meta["made_by"] = source
-        if unit:
-            meta["unit"] = unit
-        if display:
-            meta["display_units"] = dict(display)
-        mid = self.project.add_measurement(name, h, kind_of(obj), meta=meta)
+        mid = self.project.add_measurement(name, h, kind_of(obj), meta=item_meta(obj, source, unit, display))
         self._objects[str(mid)] = obj
         return mid
 
@@ -123,3 +137,13 @@ def checked(items: Any, key: Any, kind: str) -> dict[str, str]:
     if have != kind:
         raise InputError(f"item {name!r} is a {have or 'thing of no kind'}, not a {kind}")
     return {"id": str(key), "name": name, "kind": have}
+
+
+def stored_record(project: Any, key: str) -> dict[str, Any] | None:
+    """A task's record of its last run under the project state ``key`` (None: none yet, or not
+    readable — a damaged record must not keep a page from opening)."""
+    try:
+        rec = project.get_state(key)
+    except Exception:
+        return None
+    return rec if isinstance(rec, dict) and rec.get("result") is not None else None

@@ -33,6 +33,7 @@ from .. import worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError, PluginError
 from ..jsonable import to_jsonable
+from .items import stored_record
 
 CURRENT_KEY = "studies.current"
 #: points of each deviation cloud the record keeps for the page's maps (drawn as a scatter)
@@ -224,11 +225,7 @@ def store(project: Any, result: Any, req: StudyRequest | dict[str, Any]) -> dict
 
 def stored(project: Any) -> dict[str, Any] | None:
     """The record of the last run, as the project keeps it (None: none yet, or unreadable)."""
-    try:
-        rec = project.get_state(CURRENT_KEY)
-    except Exception:
-        return None
-    return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+    return stored_record(project, CURRENT_KEY)
 
 
 def restore(project: Any) -> tuple[StudyRequest, dict[str, Any]] | None:
