@@ -85,6 +85,11 @@ def test_chessboard_order_is_canonical_when_the_board_is_turned():
         assert np.linalg.norm(det.image_points - project(b, K, D, rv, tv), axis=1).max() < 0.15
 
 
+# One xdist work unit: the tests share the rendered board views (module fixtures), built once per
+# run instead of once per worker (under --dist loadgroup an ungrouped test is scheduled alone).
+pytestmark = pytest.mark.xdist_group("calibration-camera")
+
+
 @pytest.fixture(scope="module")
 def rendered():
     b = parse_board("chessboard:9x6:20")

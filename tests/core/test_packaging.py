@@ -21,7 +21,10 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.slow
+# One xdist work unit: the tests share the wheel and its installed copy (module fixtures), built
+# once per run instead of once per worker (under --dist loadgroup an ungrouped test is scheduled
+# alone).
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("packaging")]
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = ["app", "plugins", "resources", "pyproject.toml", "setup.py", "README.md"]

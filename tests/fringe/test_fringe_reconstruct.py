@@ -88,6 +88,12 @@ def captures(cam, proj, noise, dtype):
     )
 
 
+# One xdist work unit: the tests share the exact rendered captures (module fixtures), built once
+# per run instead of once per worker (under --dist loadgroup an ungrouped test is scheduled
+# alone).
+pytestmark = pytest.mark.xdist_group("fringe-reconstruct")
+
+
 @pytest.fixture(scope="module")
 def exact():
     cam1, cam2, proj = rig()

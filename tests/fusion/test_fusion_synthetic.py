@@ -10,7 +10,10 @@ import pytest
 from camcmm.api import HeightMap, InputError, default_host
 from helpers.fusion_synthetic import affine, csi_map, photo_cloud  # noqa: E402
 
-pytestmark = pytest.mark.slow
+# One xdist work unit: the tests share the synthetic height maps and their fusion (module
+# fixtures), built once per run instead of once per worker (under --dist loadgroup an ungrouped
+# test is scheduled alone).
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("fusion-synthetic")]
 
 
 @pytest.fixture(scope="module")

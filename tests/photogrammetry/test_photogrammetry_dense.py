@@ -79,6 +79,12 @@ def _render(view: dict, ss: int = 2) -> np.ndarray:
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
+# One xdist work unit: the tests share the rendered sphere views and their dense cloud (module
+# fixtures), built once per run instead of once per worker (under --dist loadgroup an ungrouped
+# test is scheduled alone).
+pytestmark = pytest.mark.xdist_group("photogrammetry-dense")
+
+
 @pytest.fixture(scope="module")
 def sphere():
     views = _views()

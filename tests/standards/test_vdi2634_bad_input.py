@@ -12,6 +12,10 @@ import yaml
 from camcmm.api import GeometryError, InputError, PointCloud, RunContext, write
 from camcmm.host import default_host
 
+# One xdist work unit: the tests share the bad measurement set (module fixtures), built once per
+# run instead of once per worker (under --dist loadgroup an ungrouped test is scheduled alone).
+pytestmark = pytest.mark.xdist_group("vdi2634-bad-input")
+
 
 @pytest.fixture(scope="module")
 def bad_set(tmp_path_factory):

@@ -38,6 +38,12 @@ def verify(plan):
     return default_host().run("vdi2634-2", {"plan": plan}).outputs
 
 
+# One xdist work unit: the tests share the simulated part 2 sets (good, scaled) (module fixtures),
+# built once per run instead of once per worker (under --dist loadgroup an ungrouped test is
+# scheduled alone).
+pytestmark = pytest.mark.xdist_group("vdi2634-part2")
+
+
 @pytest.fixture(scope="module")
 def good(tmp_path_factory):
     d = tmp_path_factory.mktemp("good")

@@ -51,6 +51,11 @@ def _scene(tmp_path, **extra):
     return p
 
 
+# One xdist work unit: the tests share the simulated capture (module fixtures), built once per run
+# instead of once per worker (under --dist loadgroup an ungrouped test is scheduled alone).
+pytestmark = pytest.mark.xdist_group("virtuallab-capture")
+
+
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):
     d = tmp_path_factory.mktemp("sim")
