@@ -199,6 +199,11 @@ class Device:
             self._connected = False
             self._set_status("disconnected", self._status.message if self._status.state == "fault" else "")
 
+    def release(self) -> None:
+        """Disconnect and free what the device itself started (a simulator's process): the
+        session that held it ends. A device that starts nothing only disconnects."""
+        self.disconnect()
+
     def reconnect(self, port: str | None = None) -> Device:
         """Close and open again (after a fault), optionally on another port."""
         self.disconnect()

@@ -251,6 +251,10 @@ class SimulatedZaberStage(ZaberStage):
     def interferometer_port(self) -> str:
         return self.simulator.interferometer_port if self.simulator is not None else ""
 
+    def release(self) -> None:
+        """Disconnect and stop the simulator process this stage started."""
+        self.close_simulator()
+
     def close_simulator(self) -> None:
         self.disconnect()
         if self.simulator is not None:

@@ -325,6 +325,12 @@ class DevicesPage:
                 perform(dev, "disconnect")
             except Exception:  # closing: one device's failure must not keep the others open
                 pass
+            try:  # and what a device started itself (a simulated stage's simulator process)
+                release = getattr(dev, "release", None)
+                if callable(release):
+                    release()
+            except Exception:
+                pass
 
 
 def mount(server: Any, session: Any) -> DevicesPage:
