@@ -1,6 +1,8 @@
 """`camcmm calibrate camera|stereo`, `camcmm scale`, `camcmm gauge-block` and
-`camcmm run calibration.*` as a user runs them (subprocess), with their JSON contracts
-and one-line errors."""
+`camcmm run calibration.*` as a user runs them, with their JSON contracts and one-line
+errors. In-process (the CLI's main with capfd: the same exit codes, stdout and stderr, native
+output and warnings included); a subprocess per command only added interpreter start and
+imports (~1-2 s each); the command as a process is tested in tests/core/test_cli.py."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import PointCloud, read_calibration, write
-from helpers.cli import cli_json, cli_refused, run_camcmm
+from helpers.cli import main_json, main_refused, main_text
 
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "tests" / "data" / "opencv_stereo_chessboard"
@@ -20,8 +22,9 @@ RIGHT = [str(p) for p in sorted(DATA.glob("right*.jpg"))]
 
 
 @pytest.mark.slow
-def test_calibrate_camera_json_and_file(tmp_path):
-    out = cli_json(
+def test_calibrate_camera_json_and_file(tmp_path, capfd):
+    out = main_json(
+        capfd,
         "calibrate",
         "camera",
         *LEFT,
@@ -45,7 +48,8 @@ def test_calibrate_camera_json_and_file(tmp_path):
     np.testing.assert_allclose(fs.getNode("camera_matrix").mat(), k)
     fs.release()
     # the heat map from the written file, through the plugin host
-    pu = cli_json(
+    pu = main_json(
+        capfd,
         "run",
         "calibration.projection-uncertainty",
         tmp_path / "left.yaml",
@@ -61,8 +65,9 @@ def test_calibrate_camera_json_and_file(tmp_path):
 
 
 @pytest.mark.slow
-def test_calibrate_stereo_json(tmp_path):
-    out = cli_json(
+def test_calibrate_stereo_json(tmp_path, capfd):
+    out = main_json(
+        capfd,
         "calibrate",
         "stereo",
         "--left",
@@ -87,7 +92,8 @@ def test_calibrate_stereo_json(tmp_path):
     assert out["rms"] < 0.3 and np.array(out["R"]).shape == (3, 3)
     cal = read_calibration(tmp_path / "stereo.json")
     np.testing.assert_allclose(cal["cameras"][1].translation, T)
-    text = run_camcmm(
+    text = main_text(
+        capfd,
         "calibrate",
         "stereo",
         "--left",
@@ -98,48 +104,50 @@ def test_calibrate_stereo_json(tmp_path):
         "chessboard:9x6:25",
         "--detector",
         "classic",
-    ).stdout
+    )
     assert "baseline" in text and "epipolar distance" in text
 
 
 @pytest.mark.slow
-def test_scale_and_gauge_block(tmp_path):
+def test_scale_and_gauge_block(tmp_path, capfd):
     rng = np.random.default_rng(0)
     x = np.linspace(0, 90, 10)
     rows = ["run,interferometer,camera"] + [
         f"{r},{a},{1.0001 * a + rng.normal(0, 0.003)}" for r in (1, 2, 3) for a in x
     ]
     (tmp_path / "scale.csv").write_text("\n".join(rows))
-    s = cli_json("scale", "--interferometer", tmp_path / "scale.csv", "--json")
+    s = main_json(capfd, "scale", "--interferometer", tmp_path / "scale.csv", "--json")
     assert abs(s["slope"] - 1.0001) < 5 * s["u_slope"] and s["n_runs"] == 3
     assert set(s["residuals"]) == {"1", "2", "3"} and s["u_length"] >= s["u_p"]
     xy = rng.uniform(-20, 20, (3000, 2))
     top = (np.abs(xy[:, 0]) < 4.5) & (np.abs(xy[:, 1]) < 15)
     pts = np.column_stack([xy, np.where(top, 5.0006, 0.0)])
     write(PointCloud(pts), tmp_path / "block.ply")
-    g = cli_json("gauge-block", tmp_path / "block.ply", "--nominal", "5.0006", "--json")
+    g = main_json(capfd, "gauge-block", tmp_path / "block.ply", "--nominal", "5.0006", "--json")
     assert abs(g["error"]) < 1e-9 and g["top"]["n_points"] == int(top.sum()) and "labels" not in g
     # the options are checked by the plugins' declarations, as JSON runs and the GUI are
-    err = cli_refused("scale", "--interferometer", tmp_path / "scale.csv", "--accuracy", "2", code=2)
+    err = main_refused(capfd, "scale", "--interferometer", tmp_path / "scale.csv", "--accuracy", "2", code=2)
     assert err.startswith("camcmm: error: --accuracy: parameter 'accuracy' = 2.0 is above its maximum")
-    err = cli_refused("gauge-block", tmp_path / "block.ply", "--nominal", "5", "--ransac-threshold", "0", code=2)
+    err = main_refused(
+        capfd, "gauge-block", tmp_path / "block.ply", "--nominal", "5", "--ransac-threshold", "0", code=2
+    )
     assert "--ransac-threshold: parameter 'ransac_threshold' = 0.0 must be above 0 mm" in err
-    err = cli_refused("gauge-block", tmp_path / "block.ply", "--nominal", "5", "--up", "0", "0", "0", code=2)
+    err = main_refused(capfd, "gauge-block", tmp_path / "block.ply", "--nominal", "5", "--up", "0", "0", "0", code=2)
     assert "up [0.0, 0.0, 0.0] must be 3 finite numbers, not all zero" in err
 
 
 @pytest.mark.slow
-def test_bad_input(tmp_path):
-    err = cli_refused("calibrate", "camera", *LEFT[:3], "--board", "chessboard:12x11:25", code=2)
+def test_bad_input(tmp_path, capfd):
+    err = main_refused(capfd, "calibrate", "camera", *LEFT[:3], "--board", "chessboard:12x11:25", code=2)
     assert "not found in any of the 3 images (left01.jpg, left02.jpg, left03.jpg)" in err
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), cv2.resize(cv2.imread(LEFT[0], cv2.IMREAD_GRAYSCALE), (320, 240)))
-    err = cli_refused("calibrate", "camera", *LEFT[:3], small, "--board", "chessboard:9x6:25", code=2)
+    err = main_refused(capfd, "calibrate", "camera", *LEFT[:3], small, "--board", "chessboard:9x6:25", code=2)
     assert "mixed sizes: small.png (320x240)" in err
-    err = cli_refused("calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6", code=2)
+    err = main_refused(capfd, "calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6", code=2)
     assert "board 'chessboard:9x6'" in err
-    err = cli_refused(
-        "calibrate", "stereo", "--left", *LEFT[:3], "--right", *RIGHT[:2], "--board", "chessboard:9x6:25", code=2
+    err = main_refused(
+        capfd, "calibrate", "stereo", "--left", *LEFT[:3], "--right", *RIGHT[:2], "--board", "chessboard:9x6:25", code=2
     )
     assert "3 left images but 2 right images" in err
     for opt, val, why in (
@@ -148,14 +156,22 @@ def test_bad_input(tmp_path):
         ("--max-rms", "-1", "below its minimum 0"),
         ("--distance", "0", "must be above 0 mm"),
     ):
-        err = cli_refused("calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6:25", opt, val, code=2)
+        err = main_refused(capfd, "calibrate", "camera", *LEFT[:3], "--board", "chessboard:9x6:25", opt, val, code=2)
         assert err.startswith(f"camcmm: error: {opt}: parameter '{opt[2:].replace('-', '_')}'") and why in err
 
 
 @pytest.mark.slow
-def test_run_through_the_host(tmp_path):
-    out = cli_json(
-        "run", "calibration.camera", *LEFT[:5], "--board", "chessboard:9x6:25", "--save", tmp_path / "c.json", "--json"
+def test_run_through_the_host(tmp_path, capfd):
+    out = main_json(
+        capfd,
+        "run",
+        "calibration.camera",
+        *LEFT[:5],
+        "--board",
+        "chessboard:9x6:25",
+        "--save",
+        tmp_path / "c.json",
+        "--json",
     )
     o = out["outputs"]
     assert len(o["detections"]) == 5 and all(d["found"] for d in o["detections"])

@@ -141,7 +141,7 @@ def test_summary_is_the_mean_change_per_material():
 
 
 @pytest.mark.slow
-def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path, capsys):
+def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path, capfd):
     """One artefact, one material, speckle off and on, 12 small images through 108° (the
     thesis's 9° steps): the CLI's JSON keys, the report, and a rerun that reuses both."""
     f = _study(
@@ -150,11 +150,11 @@ def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path, capsys):
         "capture:\n  simulated: {n_images: 12, arc_deg: 108, downscale: 12, diffuser: 0.06}\n"
         "reconstruct: {max_image_size: 500}\ncoverage: {samples: 20000}\n",
     )
-    # in-process (main_json: the CLI's main with capsys), not `python -m camcmm`: the test is
+    # in-process (main_json: the CLI's main with capfd), not `python -m camcmm`: the test is
     # about the study's JSON, report and resume, not the process; a subprocess only added
     # interpreter start and imports (~2 s) to each of the two runs
     argv = ["study", "speckle", f, "--json", "--report", tmp_path / "rep"]
-    out = main_json(capsys, *argv)
+    out = main_json(capfd, *argv)
     assert out["failed"] == [] and sorted(out["computed"]) == ["am_pyramid-ti6al4v-off", "am_pyramid-ti6al4v-on"]
     for c in out["cases"]:
         assert set(c) >= {"std_um", "n_points", "coverage_area_fraction", "coverage_by_face"}
@@ -165,7 +165,7 @@ def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path, capsys):
     assert set(out["summary"]["ti6al4v"]) >= {"std_um_change", "n_points_change"}
     html = (tmp_path / "rep" / "report.html").read_text("utf-8")
     assert "table 6.1" in html and "Coverage by area" in html
-    again = main_json(capsys, *argv[:-2])
+    again = main_json(capfd, *argv[:-2])
     assert again["computed"] == [] and len(again["reused"]) == 2
     assert [c["std_um"] for c in again["cases"]] == [c["std_um"] for c in out["cases"]]
 
