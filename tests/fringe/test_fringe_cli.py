@@ -12,7 +12,7 @@ from camcmm.api import CameraModel, read, write_calibration
 from camcmm_plugins.fringe.patterns import generate_patterns
 from camcmm_plugins.fringe.synthetic import render_captures
 from camcmm_plugins.fringe.triangulate import camera_rays, project
-from helpers.cli import cli_json, cli_refused, run_camcmm
+from helpers.cli import main_json, main_refused, main_text
 
 SEQ = {
     "projector": {"width": 320, "height": 240},
@@ -37,9 +37,9 @@ def seq_file(tmp_path):
 
 
 @pytest.mark.slow
-def test_patterns_are_written_at_the_projector_resolution(seq_file, tmp_path):
+def test_patterns_are_written_at_the_projector_resolution(seq_file, tmp_path, capfd):
     out = tmp_path / "pats"
-    doc = cli_json("fringe", "patterns", seq_file, "--out", out, "--json")
+    doc = main_json(capfd, "fringe", "patterns", seq_file, "--out", out, "--json")
     assert doc["n_frames"] == 2 + 4 + 2 * 6 + 3 + 3 and doc["projector_size"] == [320, 240]
     assert len(doc["files"]) == doc["n_frames"] and (out / "pat00.png").is_file()
     expected = generate_patterns(SEQ)
@@ -92,10 +92,12 @@ def capture_dir(tmp_path):
     return folder, cal, lit.mean()
 
 
-def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path):
+def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path, capfd):
     folder, cal, lit = capture_dir
     out = tmp_path / "cloud.ply"
-    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json", "--out", out)
+    doc = main_json(
+        capfd, "fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json", "--out", out
+    )
     assert {"n_points", "valid_fraction", "bbox"} <= set(doc)
     assert doc["valid_fraction"] == pytest.approx(lit, abs=0.02)
     assert doc["n_points"] > 0.9 * lit * W * H
@@ -108,18 +110,18 @@ def test_reconstruct_json_and_cloud(seq_file, capture_dir, tmp_path):
 
 
 @pytest.mark.slow
-def test_reconstruct_bad_input_is_one_line(seq_file, capture_dir, tmp_path):
+def test_reconstruct_bad_input_is_one_line(seq_file, capture_dir, tmp_path, capfd):
     folder, cal, _ = capture_dir
     (folder / "img23.png").unlink()
-    err = cli_refused("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal)
+    err = main_refused(capfd, "fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal)
     assert "23 frames given, too few for the sequence 'sequence.yaml' which declares 24" in err
     cam, proj = rig()
     other = tmp_path / "other.yaml"
     write_calibration(other, {"cameras": [CameraModel(cam.camera_matrix, image_size=(640, 480), name="cam"), proj]})
     cv2.imwrite(str(folder / "img23.png"), cv2.imread(str(folder / "img0.png"), cv2.IMREAD_UNCHANGED))
-    err = cli_refused("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", other)
+    err = main_refused(capfd, "fringe", "reconstruct", seq_file, "--images", folder, "--calibration", other)
     assert "calibrated for 640x480 px but the images are 200x150 px" in err
-    err = cli_refused("fringe", "patterns", tmp_path / "missing.yaml", "--out", tmp_path / "x")
+    err = main_refused(capfd, "fringe", "patterns", tmp_path / "missing.yaml", "--out", tmp_path / "x")
     assert "missing.yaml: no such sequence file" in err
 
 
@@ -135,12 +137,12 @@ def test_no_decoded_pixel_names_the_thresholds_given(seq_file, capture_dir, caps
 
 
 @pytest.mark.slow
-def test_saturated_captures_are_reported_with_their_fraction(seq_file, capture_dir):
+def test_saturated_captures_are_reported_with_their_fraction(seq_file, capture_dir, capfd):
     folder, cal, _ = capture_dir
     img = cv2.imread(str(folder / "img2.png"), cv2.IMREAD_UNCHANGED)  # the first phase frame
     img[:30, :50] = 255
     cv2.imwrite(str(folder / "img2.png"), img)
-    doc = cli_json("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json")
+    doc = main_json(capfd, "fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal, "--json")
     assert any(f"{100 * 30 * 50 / (W * H):.2f} % of the pixels are saturated" in w for w in doc["warnings"])
-    text = run_camcmm("fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal).stdout
+    text = main_text(capfd, "fringe", "reconstruct", seq_file, "--images", folder, "--calibration", cal)
     assert "points (" in text and "warning: images: 5.00 % of the pixels are saturated" in text

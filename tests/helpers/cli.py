@@ -1,5 +1,5 @@
 """The command line as the tests drive it: ``python -m camcmm`` in a subprocess (run_camcmm,
-cli_json, cli_refused) and in-process (refused, main_json, main_text, main_refused).
+cli_json, cli_refused) and in-process (refused, main_run, main_json, main_text, main_refused).
 
 The in-process ones call ``camcmm.cli.main.main`` (what ``python -m camcmm`` runs) with
 pytest's ``capfd``: the same exit code, stdout and stderr, without the 1-2 s of interpreter
@@ -78,6 +78,12 @@ def _main(capture, args) -> tuple[int, str, str]:
             seen.add(where)
             err += warnings.formatwarning(w.message, w.category, w.filename, w.lineno)
     return rc, out, err
+
+
+def main_run(capture, *args) -> tuple[int, str, str]:
+    """:func:`run_camcmm` with ``ok=False`` in this process (see :func:`_main`): (exit code,
+    stdout, stderr)."""
+    return _main(capture, args)
 
 
 def main_json(capture, *args):

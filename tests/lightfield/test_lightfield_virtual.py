@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import default_host
-from helpers.cli import cli_json, cli_refused  # noqa: E402
+from helpers.cli import main_json, main_refused  # noqa: E402
 
 pytestmark = pytest.mark.slow
 
@@ -29,11 +29,12 @@ def lfset(tmp_path_factory):
     return d, out.outputs
 
 
-def test_recovered_gradient_within_its_noise_predicted_uncertainty(lfset):
+def test_recovered_gradient_within_its_noise_predicted_uncertainty(lfset, capfd):
     d, o = lfset
     truth = {s["set"]: s["gradient_mm_per_lambda"] for s in o["truth"]["sets"]}
     run = d / "set1_sphere15"
-    r = cli_json(
+    r = main_json(
+        capfd,
         "lightfield", "gradient", "--cloud", run / "cloud.ply", "--views", run / "views.json",
         "--depth-maps", run / "depth", "--json",
     )  # fmt: skip
@@ -54,7 +55,8 @@ def test_recovered_gradient_within_its_noise_predicted_uncertainty(lfset):
         expected = g_true * (1 - SIGMA_LAMBDA**2 / lam.var())
         assert abs(v["gradient_mm_per_lambda"] - expected) < 3 * v["u_gradient"], (v, expected)
     # with the noise given, the dilution is undone: the truth itself within 3 u
-    fixed = cli_json(
+    fixed = main_json(
+        capfd,
         "lightfield", "gradient", "--cloud", run / "cloud.ply", "--views", run / "views.json",
         "--depth-maps", run / "depth", "--sigma-lambda", SIGMA_LAMBDA, "--json",
     )  # fmt: skip
@@ -73,11 +75,11 @@ def test_recovered_gradient_within_its_noise_predicted_uncertainty(lfset):
     assert abs(v1["gradient_mm_per_lambda"] - g_true) > 20 * full["u_gradient"]
 
 
-def test_study_table_focal_fit_and_prediction_against_the_law(lfset, tmp_path):
+def test_study_table_focal_fit_and_prediction_against_the_law(lfset, tmp_path, capfd):
     d, o = lfset
     law = o["truth"]["gradient_law"]
     study = d / "study.yaml"
-    r = cli_json("lightfield", "study", study, "--predict-focal", 45, "--report", tmp_path / "rep", "--json")
+    r = main_json(capfd, "lightfield", "study", study, "--predict-focal", 45, "--report", tmp_path / "rep", "--json")
     t = r["table"]
     assert t["sets"] == ["Set 1", "Set 2", "Set 3"] and t["artefacts"] == ["Sphere R15", "Sphere R10"]
     assert len(t["gradients"]) == 2 and all(len(row) == 3 for row in t["gradients"])
@@ -99,7 +101,7 @@ def test_study_table_focal_fit_and_prediction_against_the_law(lfset, tmp_path):
     assert rep["title"] == "Light-field scale study"
 
 
-def test_bad_input_is_one_line_naming_the_file(lfset, tmp_path):
+def test_bad_input_is_one_line_naming_the_file(lfset, tmp_path, capfd):
     d, _ = lfset
     run = d / "set1_sphere15"
     bare = tmp_path / "depth"
@@ -107,12 +109,14 @@ def test_bad_input_is_one_line_naming_the_file(lfset, tmp_path):
     import shutil
 
     shutil.copy(run / "depth" / "view_000.png", bare / "view_000.png")  # no sidecar
-    err = cli_refused(
+    err = main_refused(
+        capfd,
         "lightfield", "gradient", "--cloud", run / "cloud.ply", "--views", run / "views.json",
         "--depth-maps", bare, code=2,
     )  # fmt: skip
     assert "view_000.png: no lambda_min, lambda_max" in err
-    err = cli_refused(
+    err = main_refused(
+        capfd,
         "lightfield", "gradient", "--cloud", run / "cloud.ply", "--views", run / "views.json",
         "--depth-maps", bare, "--lambda-range", "5", code=2,
     )  # fmt: skip

@@ -9,7 +9,7 @@ import pytest
 from camcmm.api import Cancelled, InputError
 from camcmm_plugins.photogrammetry import cameras, inputs, similarity
 from camcmm_plugins.photogrammetry.sfm import reconstruct_sparse
-from helpers.cli import cli_json, cli_refused
+from helpers.cli import main_json, main_refused
 from helpers.paths import SHARED_DATA
 
 TEMPLE = SHARED_DATA / "middlebury_mvs_templering"
@@ -204,11 +204,13 @@ KEYS = {
 
 
 @pytest.mark.slow
-def test_cli_reconstruct_sparse_only_on_eight_temple_views(shared_data, tmp_path):
+def test_cli_reconstruct_sparse_only_on_eight_temple_views(shared_data, tmp_path, capfd):
     files = [TEMPLE / f"templeR{i:04d}.png" for i in range(13, 21)]  # consecutive views of the ring
     out = tmp_path / "sparse.ply"
     proj = tmp_path / "proj"
-    doc = cli_json("photogrammetry", "reconstruct", *files, "--sparse-only", "--json", "--out", out, "--project", proj)
+    doc = main_json(
+        capfd, "photogrammetry", "reconstruct", *files, "--sparse-only", "--json", "--out", out, "--project", proj
+    )
     assert KEYS <= set(doc)
     assert doc["n_images"] == 8 and doc["n_registered"] == 8 and doc["unregistered"] == {}
     assert set(doc["camera"]) >= {"model", "fx", "fy", "cx", "cy", "dist"}
@@ -236,18 +238,20 @@ def test_cli_reconstruct_sparse_only_on_eight_temple_views(shared_data, tmp_path
 
 
 @pytest.mark.slow
-def test_cli_refuses_bad_series_in_one_line(shared_data, tmp_path):
+def test_cli_refuses_bad_series_in_one_line(shared_data, tmp_path, capfd):
     import cv2
 
     files = [TEMPLE / f"templeR{i:04d}.png" for i in (13, 14)]
-    err = cli_refused("photogrammetry", "reconstruct", *files, "--sparse-only", "--project", tmp_path / "p", code=2)
+    err = main_refused(
+        capfd, "photogrammetry", "reconstruct", *files, "--sparse-only", "--project", tmp_path / "p", code=2
+    )
     assert "templeR0013.png, templeR0014.png" in err and "at least 3" in err
     assert not (tmp_path / "p").exists()  # nothing half-written
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), cv2.imread(str(files[0]))[::2, ::2])
-    err = cli_refused("photogrammetry", "reconstruct", *files, small, "--sparse-only", code=2)
+    err = main_refused(capfd, "photogrammetry", "reconstruct", *files, small, "--sparse-only", code=2)
     assert "small.png 320x240" in err
-    err = cli_refused("photogrammetry", "reconstruct", tmp_path / "nothing", code=2)
+    err = main_refused(capfd, "photogrammetry", "reconstruct", tmp_path / "nothing", code=2)
     assert "nothing: no such image file or folder" in err
 
 
@@ -280,12 +284,12 @@ def test_reconstruction_json_keys_and_scale_applied_to_views():
 
 
 @pytest.mark.slow
-def test_cli_import_colmap_model_and_refusal(tmp_path):
+def test_cli_import_colmap_model_and_refusal(tmp_path, capfd):
     from helpers.paths import REPO
 
     model = REPO / "tests" / "data" / "photogrammetry" / "colmap_text"
     out = tmp_path / "imported.ply"
-    doc = cli_json("photogrammetry", "import", model, "--json", "--out", out)
+    doc = main_json(capfd, "photogrammetry", "import", model, "--json", "--out", out)
     assert doc["n_points"] == 3 and len(doc["views"]) == 3 and doc["written"] == {"cloud": str(out)}
     assert {"camera", "views", "source"} <= set(doc)
-    assert "no such file or folder" in cli_refused("photogrammetry", "import", tmp_path / "none", code=2)
+    assert "no such file or folder" in main_refused(capfd, "photogrammetry", "import", tmp_path / "none", code=2)
