@@ -32,7 +32,7 @@ def views_figure(rows: list[dict[str, Any]], rms: float | None, title: str) -> d
     if not rows:
         return empty("run a calibration to see each view's reprojection error")
     names = [r["name"] for r in rows]
-    data = []
+    data: list[dict[str, Any]] = []
     for status, colour, label in (("used", USED, "used"), ("left out", LEFT_OUT, "left out")):
         sel = [r for r in rows if r["status"] == status and r["rms"] is not None]
         if sel:

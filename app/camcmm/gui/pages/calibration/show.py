@@ -125,7 +125,8 @@ class Results:
         self._show_map(side)
         if overlay is None and rows:
             first = pictures.first_used(doc, side)
-            overlay = (first, *pictures.overlay(self.project, doc, side, first))
+            if first is not None:
+                overlay = (first, *pictures.overlay(self.project, doc, side, first))
         if overlay is not None:
             s.cal_selected, s.cal_overlay, s.cal_overlay_note = overlay
         else:
@@ -133,6 +134,8 @@ class Results:
 
     def _show_map(self, side: str) -> None:
         s, doc = self.state, self.doc
+        if doc is None:
+            return
         mode = doc["request"]["mode"]
         pu = (doc.get("maps") or {}).get(side)
         cam = res.camera_part(doc["outputs"], mode, side)
