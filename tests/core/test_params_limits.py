@@ -4,14 +4,13 @@ finite, declarations are checked, and the CLI says what is wrong in one line."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import pytest
 
 from camcmm.errors import ParameterError
 from camcmm.host import default_host
 from camcmm.params import INT_LIMIT, MAX_VECTOR, Param, validate
+from helpers.cli import main_run
 
 # Words in a parameter name that say it sizes, counts or repeats work; a float or vector
 # in pixels or without a unit (a count) named so needs a max just as an int does. (A length
@@ -177,23 +176,19 @@ def test_a_manifest_with_a_bad_limit_names_plugin_and_parameter():
     assert "lab.x" in errors[0][1] and "'n'" in errors[0][1] and "maximum" in errors[0][1]
 
 
-def test_cli_help_shows_limits_and_the_refusal_is_one_line():
-    run = [sys.executable, "-m", "camcmm.cli.main", "run", "cloud.denoise"]
-    helptext = subprocess.run(run + ["--help"], capture_output=True, text=True, timeout=120)
-    assert helptext.returncode == 0, helptext.stderr
-    assert "2 <= x <= 1000" in " ".join(helptext.stdout.split())
-    bad = subprocess.run(run + ["nothere.ply", "--neighbours", "100000"], capture_output=True, text=True, timeout=120)
-    assert bad.returncode != 0
-    lines = bad.stderr.strip().splitlines()
-    assert len(lines) == 1 and "neighbours" in lines[0] and "maximum 1000" in lines[0], bad.stderr
+def test_cli_help_shows_limits_and_the_refusal_is_one_line(capfd):
+    # in-process (main_run: the CLI's main with capfd), not a subprocess: only the output counts
+    run = ["run", "cloud.denoise"]
+    rc, out, err = main_run(capfd, *run, "--help")
+    assert rc == 0, err
+    assert "2 <= x <= 1000" in " ".join(out.split())
+    rc, _, err = main_run(capfd, *run, "nothere.ply", "--neighbours", "100000")
+    assert rc != 0
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "neighbours" in lines[0] and "maximum 1000" in lines[0], err
 
 
-def test_cli_help_with_a_percent_unit_does_not_crash():
-    helptext = subprocess.run(
-        [sys.executable, "-m", "camcmm.cli.main", "run", "inspect.material-ratio", "--help"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert helptext.returncode == 0, helptext.stderr
-    assert "[%]" in helptext.stdout
+def test_cli_help_with_a_percent_unit_does_not_crash(capfd):
+    rc, out, err = main_run(capfd, "run", "inspect.material-ratio", "--help")
+    assert rc == 0, err
+    assert "[%]" in out

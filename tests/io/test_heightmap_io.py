@@ -4,7 +4,6 @@ and as SurfaceTopography reads them, X3P and SDF round trips, refusals naming th
 
 from __future__ import annotations
 
-import json
 import re
 import zipfile
 
@@ -285,18 +284,13 @@ def test_writing_a_heightmap_in_a_cloud_or_instrument_format_is_refused(tmp_path
 
 
 @pytest.mark.slow
-def test_info_cli_json_on_a_written_x3p(tmp_path):
-    import subprocess
-    import sys
+def test_info_cli_json_on_a_written_x3p(tmp_path, capfd):
+    from helpers.cli import main_json  # in-process (the CLI's main): only the output counts
 
     path = tmp_path / "m.x3p"
     m = _map()
     api.write(m, path)
-    out = subprocess.run(
-        [sys.executable, "-m", "camcmm", "info", str(path), "--json"], capture_output=True, text=True, timeout=120
-    )
-    assert out.returncode == 0, out.stderr
-    d = json.loads(out.stdout)
+    d = main_json(capfd, "info", path, "--json")
     assert d["kind"] == "heightmap" and d["format"] == "X3P"
     assert d["grid"] == [53, 37] and d["steps_mm"] == [0.0013, 0.0017]
     assert d["size_mm"] == pytest.approx([53 * 0.0013, 37 * 0.0017])

@@ -9,7 +9,6 @@ NIST's own segmentation fitted 50.08 mm for SPH101); `camcmm info` warns in its 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +24,7 @@ from camcmm.units import (
     decide_unit,
     suggest_unit,
 )
-from helpers.cli import run_camcmm
+from helpers.cli import main_json, main_run, main_text
 
 NIST = Path(__file__).parents[1] / "data" / "nist_spheres"
 
@@ -160,13 +159,14 @@ def test_unitless_file_is_asked_and_with_unit_converts(tmp_path):
 
 
 @pytest.mark.slow
-def test_cli_info_warns_only_without_a_unit():
-    doc = json.loads(run_camcmm("info", NIST / "SPH101.xyz", "--json").stdout)
+def test_cli_info_warns_only_without_a_unit(capfd):
+    # in-process (main_json/main_text: the CLI's main with capfd): only the output counts
+    doc = main_json(capfd, "info", NIST / "SPH101.xyz", "--json")
     assert doc["unit_check"]["status"] == "ask" and doc["unit_check"]["suggested"] == "m"
     assert len(doc["warnings"]) == 1 and "SPH101.xyz has no unit" in doc["warnings"][0]
-    told = json.loads(run_camcmm("info", NIST / "SPH101.xyz", "--unit", "m", "--json").stdout)
+    told = main_json(capfd, "info", NIST / "SPH101.xyz", "--unit", "m", "--json")
     assert told["warnings"] == [] and told["source_unit"] == "m"
-    text = run_camcmm("info", NIST / "SPH101.xyz").stdout
+    text = main_text(capfd, "info", NIST / "SPH101.xyz")
     assert "warning: SPH101.xyz has no unit" in text
 
 
@@ -280,29 +280,25 @@ def test_compare_inputs_say_when_the_cloud_is_in_another_unit_than_the_nominal(g
 
 
 @pytest.mark.slow
-def test_gauge_block_cli_uses_the_rule_with_the_nominal(tmp_path):
-    from helpers.cli import cli_json
-
+def test_gauge_block_cli_uses_the_rule_with_the_nominal(tmp_path, capfd):
     rng = np.random.default_rng(0)
     xy = rng.uniform(-20, 20, (3000, 2))
     top = (np.abs(xy[:, 0]) < 4.5) & (np.abs(xy[:, 1]) < 15)
     pts = np.column_stack([xy, np.where(top, 5.0006, 0.0)]) / 1000  # metres, no unit in the file
     f = tmp_path / "block.xyz"
     f.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()))
-    told = cli_json("gauge-block", f, "--nominal", "5.0006", "--unit", "m", "--json")
+    told = main_json(capfd, "gauge-block", f, "--nominal", "5.0006", "--unit", "m", "--json")
     assert abs(told["error"]) < 1e-9 and not any("unit" in w for w in told.get("warnings", []))
-    proc = run_camcmm("gauge-block", f, "--nominal", "5.0006", "--json", ok=False)
-    out = proc.stdout + proc.stderr
+    _, stdout, stderr = main_run(capfd, "gauge-block", f, "--nominal", "5.0006", "--json")
+    out = stdout + stderr
     assert "block.xyz spans" in out and "in m it would fit" in out, out
 
 
 @pytest.mark.slow
-def test_fit_cli_warns_without_a_unit_and_not_with_one():
-    from helpers.cli import cli_json
-
-    doc = cli_json("fit", "sphere", NIST / "SPH101.xyz", "--json")
+def test_fit_cli_warns_without_a_unit_and_not_with_one(capfd):
+    doc = main_json(capfd, "fit", "sphere", NIST / "SPH101.xyz", "--json")
     assert doc["warnings"][0].startswith("SPH101.xyz has no unit and spans 0.138 × 0.106 × 0.0993")
-    told = cli_json("fit", "sphere", NIST / "SPH101.xyz", "--unit", "m", "--json")
+    told = main_json(capfd, "fit", "sphere", NIST / "SPH101.xyz", "--unit", "m", "--json")
     assert not any("no unit" in w for w in told["warnings"])
 
 

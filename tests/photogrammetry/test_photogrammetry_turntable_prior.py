@@ -178,19 +178,21 @@ def test_virtual_lab_series_angles_recovered_and_window_matches_fewer_pairs(tmp_
 
 
 @pytest.mark.slow
-def test_cli_refuses_bad_angles_in_one_line_before_any_work(tmp_path):
+def test_cli_refuses_bad_angles_in_one_line_before_any_work(tmp_path, capfd):
     import cv2
 
-    from helpers.cli import cli_refused
+    from helpers.cli import main_refused  # in-process (the CLI's main): only the output counts
 
     files = []
     for k in range(3):
         f = tmp_path / f"v{k}.png"
         cv2.imwrite(str(f), np.full((48, 64), 40 * k, np.uint8))
         files.append(f)
-    err = cli_refused("photogrammetry", "reconstruct", *files, "--sparse-only", "--turntable-angles", "0,15", code=2)
+    err = main_refused(
+        capfd, "photogrammetry", "reconstruct", *files, "--sparse-only", "--turntable-angles", "0,15", code=2
+    )
     assert "turntable_angles '0,15': 2 angles for 3 images" in err
     bad = ("--turntable-angles", "0,15,abc", "--project", tmp_path / "p")
-    err = cli_refused("photogrammetry", "reconstruct", *files, *bad)
+    err = main_refused(capfd, "photogrammetry", "reconstruct", *files, *bad)
     assert "'abc' is not a finite angle" in err
     assert not (tmp_path / "p").exists()  # nothing half-written

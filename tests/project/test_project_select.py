@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
-
 import pytest
 
 from camcmm.errors import InputError
 from camcmm.project import Project
 from camcmm.project.select import project_values, select
+from helpers.cli import main_json
 
 DOC = {
     "parameters": {"PS": {"per_measurement": [{"value": 0.1}, {"value": None}, {"value": -0.2}]}},
@@ -44,34 +41,26 @@ def _project_with_result(tmp_path):
         return tmp_path / "p", p.add_result(run)
 
 
-def test_project_values_and_iso15530_3_from_a_project(tmp_path):
+def test_project_values_and_iso15530_3_from_a_project(tmp_path, capfd):
     project, rid = _project_with_result(tmp_path)
     values = project_values(project, rid, "diameters[]")
     assert values == [20.0031, 19.9987, 20.0012, 20.0004, 19.9995]
     spec = tmp_path / "iso.yaml"
     spec.write_text("measurand: sphere diameter\nunit: mm\ncalibrated_value: 20.001\nu_cal: 0.0005\nk: 2\n")
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "camcmm",
-            "uncertainty",
-            "iso15530-3",
-            str(spec),
-            "--project",
-            str(project),
-            "--result",
-            str(rid),
-            "--path",
-            "diameters[]",
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    # in-process (main_json: the CLI's main with capfd): only the output counts
+    doc = main_json(
+        capfd,
+        "uncertainty",
+        "iso15530-3",
+        spec,
+        "--project",
+        project,
+        "--result",
+        rid,
+        "--path",
+        "diameters[]",
+        "--json",
     )
-    assert proc.returncode == 0, proc.stderr
-    doc = json.loads(proc.stdout)
     mean = sum(values) / 5
     assert doc["n"] == 5 and doc["mean"] == pytest.approx(mean, abs=1e-12)
     assert doc["bias"] == pytest.approx(mean - 20.001, abs=1e-12)

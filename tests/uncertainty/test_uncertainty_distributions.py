@@ -15,7 +15,6 @@ the files they check.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -141,17 +140,17 @@ def test_bad_combinations_get_one_line_naming_the_entry(entry, needle):
 
 
 @pytest.mark.slow
-def test_cli_json_keeps_its_keys_and_adds_how_each_entry_was_stated():
-    from helpers.cli import run_camcmm
+def test_cli_json_keeps_its_keys_and_adds_how_each_entry_was_stated(capfd):
+    from helpers.cli import main_json, main_text  # in-process (the CLI's main): only the output counts
 
-    out = json.loads(run_camcmm("uncertainty", "budget", DATA / "budget_gum_h1_half_widths.yaml", "--json").stdout)
+    out = main_json(capfd, "uncertainty", "budget", DATA / "budget_gum_h1_half_widths.yaml", "--json")
     assert {"combined", "dof_eff", "k", "expanded", "coverage_probability", "contributions"} <= set(out)
     old = {"name", "u", "c", "dof", "dof_infinite", "distribution", "contribution", "share"}
     new = {"entered_as", "entered_value", "divisor", "coverage_factor", "conversion", "input_unit"}
     for c in out["contributions"]:
         assert old | new <= set(c)
     assert out["contributions"][5]["conversion"] == "a = 0.05 °C, rectangular → u = a/√3 = 0.02887 °C"
-    text = run_camcmm("uncertainty", "budget", DATA / "budget_gum_h1_half_widths.yaml").stdout
+    text = main_text(capfd, "uncertainty", "budget", DATA / "budget_gum_h1_half_widths.yaml")
     assert "entered as U = 75 nm, normal with k = 3 → u = U/k = 25 nm" in text
 
 
@@ -244,13 +243,22 @@ def test_what_the_page_says_about_the_difference_holds():
 
 
 @pytest.mark.slow
-def test_the_declared_system_is_a_cli_option_too():
+def test_the_declared_system_is_a_cli_option_too(capfd):
     """One declaration, three faces: the fields of the page's form are `camcmm run` options."""
-    from helpers.cli import run_camcmm
+    from helpers.cli import main_json  # in-process (the CLI's main): only the output counts
 
-    out = run_camcmm(
-        "run", "uncertainty.montecarlo", "--grid-points", "3,3,3", "--iterations", "20", "--baseline", "250", "--json"
-    ).stdout
-    system = json.loads(out)["outputs"]["system"]
+    out = main_json(
+        capfd,
+        "run",
+        "uncertainty.montecarlo",
+        "--grid-points",
+        "3,3,3",
+        "--iterations",
+        "20",
+        "--baseline",
+        "250",
+        "--json",
+    )
+    system = out["outputs"]["system"]
     assert system["stereo"] == {"baseline": 250.0, "angle_deg": 38.64} and system["grid"]["n"] == [3, 3, 3]
     assert system["uncertainties"]["rotation"] == [1.84e-4, 1.52e-4, 0.71e-4]  # table 3.2, rad
