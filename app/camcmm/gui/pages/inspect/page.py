@@ -3,8 +3,10 @@ a run with progress and cancel, the result panel and the 3D view's colour field.
 
 The session holds what every page shares (the project's items, messages, the 3D
 view); this page reads and changes them through its public methods. A run goes
-through one :class:`~camcmm.gui.jobs.Job` to :func:`camcmm.worker.run` (the plugin
-computes in the worker process; a native crash does not end the server). Tests call
+through one :class:`~camcmm.gui.jobs.Job` to the headless task
+:mod:`camcmm.tasks.plugin_run` (checked, run through :func:`camcmm.worker.run` — the plugin
+computes in the worker process; a native crash does not end the server — and stored); the
+page holds the task (``page.task``) and shows what it gives. Tests call
 ``asyncio.run(page.run_plugin(...))``.
 """
 
@@ -12,13 +14,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from .... import worker
 from ....errors import CamcmmError, one_line
 from ....host import RunResult
+from ....tasks import plugin_run
 from ...jobs import Job, in_background
-from .form import ITEM_TYPES, fields_of, inputs_of, run_arguments, run_blocker
+from .form import ITEM_TYPES, fields_of, inputs_of, run_blocker
 from .report import parameters_line, report_rows
-from .results import new_items, residual_fields, result_rows, summarize_json
+from .results import result_rows, summarize_json
 from .tidy import Tidy
 
 
@@ -37,6 +39,7 @@ class InspectPage:
         self.state = session.state
         # looked up at each call, so that a test can watch the progress by replacing it
         self.job = Job("a plugin", state=self.state, on_progress=lambda f, m: self.show_progress(f, m))
+        self.task = plugin_run.PluginRunTask(session.host, session, session.project)
         self.last_result: RunResult | None = None
         self.last_result_id: Any = None
         s = self.state
@@ -90,15 +93,9 @@ class InspectPage:
             self.state.selected_plugin = None
             return
         try:
-            spec = self.session.host.get(plugin_id)
+            spec = plugin_run.runnable(self.session.host, plugin_id)
         except CamcmmError as exc:
             self.session.error(str(exc))
-            return
-        if spec.kind == "device":
-            self.session.error(f"plugin {plugin_id!r} is a device; devices are connected, not run from a form")
-            return
-        if spec.status != "ok":
-            self.session.error(f"plugin {plugin_id!r} cannot be used: {spec.status}")
             return
         s = self.state
         s.form_fields, s.form_values = fields_of(spec)
@@ -184,31 +181,24 @@ class InspectPage:
         or value) while the page stays live. Progress and result go to the state, the
         result and its new clouds or meshes into the project. Returns the RunResult, or
         None after showing the one-line reason (a bad value, a failure, a cancel)."""
-        session = self.session
+        request = plugin_run.PluginRunRequest(
+            plugin_id, {**dict(self.state.input_values or {}), **dict(inputs or {})}, dict(params or {})
+        )
         try:
-            spec = session.host.get(plugin_id)
-            values, objs, mids = run_arguments(
-                spec,
-                dict(params or {}),
-                {**dict(self.state.input_values or {}), **dict(inputs or {})},
-                session.load,
-                session.measurement,
-            )
+            checked = self.task.check(request, screen=False)  # run_form screened it
             cancel = self.job.begin()
         except Exception as exc:  # a bad value or input, or Busy: a run is going
             self._refuse(one_line(exc))
             return None
         self._started(plugin_id)
         try:
-            result = await self.job.call(
-                worker.run, session.host, plugin_id, objs, values, progress=self.job.progress, cancel=cancel
-            )
+            result = await self.job.call(self.task.run, checked, progress=self.job.progress, cancel=cancel)
         except Exception as exc:
             self.job.end()
             self._failed(plugin_id, exc)
             return None
         self.job.end()
-        return self._done(spec, result, mids, objs)
+        return self._done(checked, result)
 
     def cancel(self) -> None:
         if self.job.cancel():
@@ -263,61 +253,41 @@ class InspectPage:
         s.result_params = parameters_line(dict(d.get("params") or {}), list(spec.parameters) if spec else [])
         s.result_warnings = warnings
 
-    def _done(self, spec: Any, result: RunResult, mids: list, objs: dict[str, Any]) -> RunResult:
-        session, s = self.session, self.state
+    def _done(self, checked: plugin_run.Checked, result: RunResult) -> RunResult:
+        """A finished run stored by the task (its row, the items it made) and shown."""
+        session, s, spec = self.session, self.state, checked.spec
         self.last_result = result
-        warnings = list(result.warnings)
-        try:
-            self.last_result_id = session.project.add_result(result, measurement_ids=mids, files={})
-        except Exception as exc:
-            session.error(f"result of {spec.id} could not be stored in the project: {one_line(exc)}")
-        made = self._store_outputs(spec, result, objs, warnings)
-        self._show(spec, result.to_json(), {label: name for label, name, _, _ in made}, warnings)
+        taken = {it["name"] for it in [*(s.items or []), *(s.hidden_items or [])]}
+        kept = self.task.store(checked, result, taken)
+        if kept.error:
+            session.error(kept.error)
+        self.last_result_id = kept.result_id
+        if kept.made:
+            session.refresh_items()
+        self._show(spec, result.to_json(), kept.made_names, kept.warnings)
         number = f" #{self.last_result_id}" if self.last_result_id is not None else ""
         s.result_title = f"{spec.name}{number} — {spec.id} {result.plugin_version}"
         s.running, s.progress, s.progress_message = False, 100.0, "done"
+        made = kept.made
         s.run_status = f"done{number}" + (f"; added {len(made)} item(s)" if made else "")
         session.refresh_results()
         if made:  # show the output, coloured by what the run added (a fit's residuals)
-            _, _, key, fields = made[-1]
-            session.select_item(key, chosen=False, field=next(iter(fields), None))
+            last = made[-1]
+            session.select_item(last.key, chosen=False, field=next(iter(last.fields), None))
         self.check_run()
         session.flush()
         return result
-
-    def _store_outputs(
-        self, spec: Any, result: RunResult, objs: dict[str, Any], warnings: list[str]
-    ) -> list[tuple[str, str, str, dict[str, str]]]:
-        """The new items of a run (:func:`~.results.new_items`) into the project:
-        ``[(output label, item name, item key, {residual field: display unit})]``."""
-        session, made = self.session, []
-        taken = {it["name"] for it in [*(self.state.items or []), *(self.state.hidden_items or [])]}
-        for label, name, obj in new_items(spec, result, objs, taken):
-            fields = residual_fields(obj, objs)
-            try:
-                h = session.project.add_object(obj, name)
-                source = f"{spec.id} {result.plugin_version}"
-                key = str(session.add_measurement(name, h, obj, source=source, display=fields))
-                made.append((label, name, key, fields))
-            except Exception as exc:
-                warnings.append(f"output {label!r} could not be stored: {one_line(exc)}")
-        if made:
-            session.refresh_items()
-        return made
 
     # -- the result panel and the view -----------------------------------------------------
     def show_result(self, rid: Any) -> None:
         """Show a stored result (from the project) in the result panel."""
         try:
-            d = self.session.project.result(int(rid))
+            d = self.task.stored(rid)
         except Exception as exc:
             self.session.error(f"result {rid}: {one_line(exc)}")
             return
         plugin = str(d.get("plugin", ""))
-        try:
-            spec = self.session.host.get(plugin)
-        except CamcmmError:
-            spec = None
+        spec = plugin_run.spec_of(self.session.host, plugin)
         self._show(spec, d, {}, list(d.get("warnings") or []))
         self.state.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
 

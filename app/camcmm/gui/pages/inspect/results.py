@@ -1,18 +1,19 @@
-"""How a plugin's result reads on the Inspect page: the table rows, the JSON shown
-(long arrays cut), and the outputs that become new items. Presentation only: values
-are formatted and per-point arrays a plugin returned are attached to a copy of the
-cloud as colour fields; nothing is computed from them."""
+"""How a plugin's result reads on the Inspect page: the table rows and the JSON shown
+(long arrays cut). Presentation only: values are formatted, nothing is computed from
+them. Which outputs become new items (``new_items``, ``derived_name``,
+``residual_fields``) is the task's (:mod:`camcmm.tasks.plugin_run`), re-exported here."""
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import numpy as np
 
-from ....host import RunResult, to_jsonable
-from ...session import kind_of
+from ....host import to_jsonable
+from ....tasks.plugin_run import derived_name, new_items, residual_fields
 from ...view import fmt_count
+
+__all__ = ["derived_name", "fmt_value", "new_items", "residual_fields", "result_rows", "summarize_json"]
 
 MAX_LIST = 12  # longer arrays are summarised in the result panel
 
@@ -88,83 +89,3 @@ def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str
             u = sub_units.get(k) or (value.get("unit") if isinstance(value.get("unit"), str) else "") or unit
             rows.append({"name": f"{name}.{k}", "value": fmt_value(v), "unit": str(u or "")})
     return rows
-
-
-def _with_fields(spec: Any, result: RunResult, base: Any) -> Any | None:
-    """A copy of the cloud ``base`` with each per-point numeric output (length
-    ``base.n_points``) as a colour field in its declared unit; None if there is none."""
-    from ....model import PointCloud
-
-    units = {p.name: p.unit for p in spec.outputs}
-    fields, field_units = dict(base.fields), dict(base.field_units)
-    for name, value in result.outputs.items():
-        if (
-            isinstance(value, np.ndarray)
-            and value.ndim == 1
-            and len(value) == base.n_points
-            and value.dtype.kind in "iuf"
-        ):
-            fields[name] = value.astype(float)
-            field_units[name] = units.get(name, "")
-    if len(fields) == len(base.fields):
-        return None
-    return PointCloud(base.points, base.colors, base.normals, fields, field_units, base.name, base.source_unit)
-
-
-def derived_name(own: str, in_name: str, fallback: str, taken: set[str]) -> str:
-    """The name of an item a run made: the output's own name unless it only repeats the
-    input's, with a word the input's name already ends in said once ("ball deviations"
-    fitted again gives "ball deviations", not "ball deviations deviations"), and a
-    number when the project already has that name ("ball deviations (2)")."""
-    name = own if own and own != in_name and own not in ("cloud", "mesh") else fallback
-    name = re.sub(r"\b(\w+)(?: \1\b)+", r"\1", " ".join(name.split()))
-    base, n = name, 2
-    while name in taken:
-        name, n = f"{base} ({n})", n + 1
-    return name
-
-
-def new_items(
-    spec: Any, result: RunResult, inputs: dict[str, Any], taken: set[str] | None = None
-) -> list[tuple[str, str, Any]]:
-    """``[(output label, item name, object)]``: the clouds and meshes among the outputs (one level
-    into dicts), or else a coloured copy of the input cloud (a deviation map). ``taken``:
-    the names the project's items have (a new name does not repeat one)."""
-    found: list[tuple[str, Any]] = []
-    for name, value in result.outputs.items():
-        if kind_of(value) in ("pointcloud", "mesh"):
-            found.append((name, value))
-        elif isinstance(value, dict):
-            found += [(f"{name}.{k}", v) for k, v in value.items() if kind_of(v) in ("pointcloud", "mesh")]
-    base = next((o for o in inputs.values() if kind_of(o) == "pointcloud"), None)
-    if not found and base is not None:
-        coloured = _with_fields(spec, result, base)
-        if coloured is not None:
-            found.append(("fields", coloured))
-    in_name = next((getattr(o, "name", "") for o in inputs.values() if getattr(o, "name", "")), "")
-    out, names = [], set(taken or ())
-    for label, obj in found:
-        fallback = f"{spec.id} {label}" + (f" of {in_name}" if in_name else "")
-        name = derived_name(str(getattr(obj, "name", "") or ""), in_name, fallback, names)
-        names.add(name)
-        out.append((label, name, obj))
-    return out
-
-
-def residual_fields(obj: Any, inputs: dict[str, Any]) -> dict[str, str]:
-    """The length fields (unit mm) a run added to a cloud, i.e. not on its input cloud
-    (a fit's residuals, a comparison's deviations), each with the unit the view shows
-    it in: µm when every value lies within ±1 mm, else mm. First the one to colour by."""
-    if not hasattr(obj, "fields"):
-        return {}
-    had = set()
-    for o in inputs.values():
-        had |= set(getattr(o, "fields", {}) or {})
-    out = {}
-    for name, values in obj.fields.items():
-        if name in had or (obj.field_units or {}).get(name) != "mm":
-            continue
-        a = np.asarray(values, dtype=float)
-        finite = a[np.isfinite(a)]
-        out[name] = "µm" if finite.size and float(np.abs(finite).max()) < 1.0 else "mm"
-    return out
