@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 
@@ -10,6 +9,7 @@ import pytest
 
 from camcmm.errors import ParameterError, PluginError
 from camcmm.host import PluginHost, default_host
+from helpers.cli import main_json
 
 ROLES = {"camera", "stage", "interferometer", "speckle", "projector", "sequence"}
 
@@ -78,15 +78,8 @@ def test_a_broken_device_class_is_one_line(tmp_path, monkeypatch):
         host.device("lab.bad")
 
 
-def test_cli_devices_list():
-    out = subprocess.run(
-        [sys.executable, "-m", "camcmm.cli.main", "devices", "list", "--json"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert out.returncode == 0, out.stderr
-    doc = json.loads(out.stdout)
+def test_cli_devices_list(capfd):
+    doc = main_json(capfd, "devices", "list", "--json")  # in-process (the CLI's main): only the output counts
     ids = {d["id"]: d for d in doc["devices"]}
     assert ids["devices.stage.zaber-simulated"]["simulated"] is True
     assert ids["devices.stage.zaber-rotary"]["role"] == "stage"
