@@ -1,5 +1,6 @@
 """The Uncertainty page's logic, without a browser: the budget editor gives the CLI's
-numbers (GUM H.1 and the thesis table), a Monte Carlo run publishes its table, charts
+numbers (GUM H.1 and the thesis table; the task's own numbers against the GUM and the CLI
+are tests/tasks/test_uncertainty_task.py), a Monte Carlo run publishes its table, charts
 and volume maps from the plugin's own numbers, is stored and comes back on reopen;
 bad input gets one-line reasons and the page keeps working."""
 
@@ -19,6 +20,7 @@ pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 
 from camcmm.gui.pages.uncertainty import figures as figs  # noqa: E402
+from camcmm.tasks import uncertainty as unc  # noqa: E402
 from helpers.cli import run_camcmm  # noqa: E402
 
 DATA = Path(__file__).parents[1] / "data" / "uncertainty"
@@ -51,9 +53,10 @@ def test_budget_editor_reproduces_gum_h1_and_the_cli(gui_app):
     assert float(s.unc_b_result["dof_eff"]) == pytest.approx(16.7, abs=0.05)  # truncated to 16 for t
     assert float(s.unc_b_result["k"]) == pytest.approx(2.92, abs=0.005)
     assert round(page.budget["expanded"]) == 93
-    cli = cli_json("uncertainty", "budget", str(DATA / "budget_gum_h1.yaml"))
+    # the task's numbers (tests/tasks/test_uncertainty_task.py: the task's are the CLI's)
+    task = unc.evaluate(server.session.host, unc.read_budget((DATA / "budget_gum_h1.yaml").read_bytes())).outputs
     for key in ("combined", "dof_eff", "k", "expanded"):
-        assert page.budget[key] == pytest.approx(cli[key], rel=1e-12)
+        assert page.budget[key] == pytest.approx(task[key], rel=1e-12)
     # the bar chart carries every contribution with its share
     bar = s.unc_b_fig["data"][0]
     assert len(bar["y"]) == len(doc["contributions"])
@@ -132,9 +135,10 @@ def test_gum_h1_entered_as_the_gum_states_it_through_the_editor(gui_app):
     assert float(s.unc_b_result["k"]) == pytest.approx(2.92, abs=0.005)
     assert abs(page.budget["expanded"] - 93) < 1
     assert "u = a/√3 = 0.02887 °C" in s.unc_b_result["rows"][5]["conversion"]
-    cli = cli_json("uncertainty", "budget", str(DATA / "budget_gum_h1_half_widths.yaml"))
+    doc = (DATA / "budget_gum_h1_half_widths.yaml").read_bytes()
+    task = unc.evaluate(server.session.host, unc.read_budget(doc)).outputs  # = the CLI's (tests/tasks)
     for key in ("combined", "dof_eff", "k", "expanded"):
-        assert page.budget[key] == pytest.approx(cli[key], rel=1e-12)
+        assert page.budget[key] == pytest.approx(task[key], rel=1e-12)
 
 
 @pytest.mark.slow

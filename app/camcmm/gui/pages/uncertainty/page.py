@@ -1,13 +1,14 @@
 """The "Uncertainty" page's state and handlers: a GUM budget editor and a Monte Carlo
 study of a stereo system, published through the trame state (``unc_*`` keys).
 
-Both run the plugins that provide ``uncertainty-budget`` and ``monte-carlo-uncertainty``
-(found by task through the host, as the CLI finds its own), so the page shows the CLI's
-numbers. The budget is evaluated as the operator types (it is cheap, on the loop
-thread); a draft is kept in the project's state so an edited table survives a restart.
-A Monte Carlo run is the page's one :class:`~camcmm.gui.jobs.Job` (progress, cancel);
-its result is stored in the project (the summary in the result row, every array in a
-JSON file) and shown again on reopen.
+Both are the headless task :mod:`camcmm.tasks.uncertainty` (the plugins that provide
+``uncertainty-budget`` and ``monte-carlo-uncertainty``, found by task through the host as
+the CLI finds its own, held to the task's output contracts), so the page shows the CLI's
+numbers; the page calls the task's steps and shows what they give. The budget is
+evaluated as the operator types (it is cheap, on the loop thread); a draft is kept in the
+project's state so an edited table survives a restart. A Monte Carlo run is the page's
+one :class:`~camcmm.gui.jobs.Job` (progress, cancel); its result is stored in the project
+(the summary in the result row, every array in a JSON file) and shown again on reopen.
 
 Threading: state, store reads and VTK on the server loop; the plugin run and the file
 writing in the job's worker.
@@ -19,10 +20,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from .... import worker
-from ....assets import resources_dir
 from ....errors import CamcmmError, InputError, one_line
-from ....yamlfile import load_yaml, read_yaml
+from ....tasks import uncertainty as task
 from ...downloads import Downloads
 from ...jobs import Job
 from . import budget as bud
@@ -32,12 +31,8 @@ from .view import UncertaintyView, map_options
 
 log = logging.getLogger("camcmm.gui.uncertainty")
 
-BUDGET_TASK, MONTECARLO_TASK = "uncertainty-budget", "monte-carlo-uncertainty"
-DRAFT_KEY = "uncertainty.budget.draft"
-
-
-def _resource(name: str) -> Path:
-    return resources_dir() / "uncertainty" / name
+BUDGET_TASK, MONTECARLO_TASK = task.BUDGET_TASK, task.MONTECARLO_TASK
+DRAFT_KEY = task.DRAFT_KEY
 
 
 class UncertaintyPage:
@@ -106,10 +101,6 @@ class UncertaintyPage:
         self.state.unc_error = line
         self.session.error(line)
 
-    def _plugin(self, task: str) -> str:
-        """The id of the plugin doing ``task`` (PluginError, one line, when none is installed)."""
-        return self.host.provider(task).id
-
     # -- the budget --------------------------------------------------------------------------
     def set_budget(
         self, quantity: str, unit: str, p: Any, rows: list[dict[str, Any]], save_draft: bool = True
@@ -117,14 +108,14 @@ class UncertaintyPage:
         """Evaluate the editor's budget; the result (or the one-line reason) is shown at once."""
         s = self.state
         s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows = quantity, unit, p, [dict(r) for r in rows]
-        doc = bud.budget_doc(quantity, unit, p, rows)
+        req = task.BudgetRequest(quantity, unit, p, [dict(r) for r in rows])
         if save_draft:
             try:
-                self.project.set_state(DRAFT_KEY, doc)
+                task.save_draft(self.project, req)
             except Exception as exc:  # the editor keeps working; the reason is shown
                 s.unc_b_error = f"the draft could not be kept in the project: {one_line(exc)}"
         try:
-            res = self.host.run(self._plugin(BUDGET_TASK), inputs={"spec": doc}).outputs
+            res = task.evaluate(self.host, req).outputs
         except Exception as exc:
             self.budget = None
             s.unc_b_result, s.unc_b_error = None, one_line(exc)
@@ -148,19 +139,11 @@ class UncertaintyPage:
     def load_budget(self, text: str | bytes, name: str = "budget.yaml") -> bool:
         """Replace the editor's budget by a YAML/JSON budget file's."""
         try:
-            doc = load_yaml(text, name=name)
+            req = task.read_budget(text, name)
         except InputError as exc:
             self._error(exc)
             return False
-        if not isinstance(doc, dict) or not isinstance(doc.get("contributions"), list):
-            self._error(f"{name}: expected a mapping with a 'contributions' list")
-            return False
-        self.set_budget(
-            str(doc.get("quantity", "")),
-            str(doc.get("unit", "")),
-            doc.get("coverage_probability", 0.95),
-            bud.rows_from_doc(doc),
-        )
+        self.set_budget(req.quantity, req.unit, req.p, req.rows)
         return True
 
     def save_budget(self) -> dict[str, Any] | None:
@@ -169,10 +152,11 @@ class UncertaintyPage:
             self._error("the budget has errors: fix the table first")
             return None
         s = self.state
-        doc = bud.budget_doc(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows)
+        req = task.BudgetRequest(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, list(s.unc_b_rows or []))
+        doc = req.doc()
         try:
-            run = self.host.run(self._plugin(BUDGET_TASK), inputs={"spec": doc})
-            rid = self.project.add_result(run, label=f"GUM budget: {doc['quantity']}")
+            run = task.evaluate(self.host, req)
+            rid = task.store_budget(self.project, run, req)
         except Exception as exc:
             self._error(f"budget: {one_line(exc)}")
             return None
@@ -190,15 +174,11 @@ class UncertaintyPage:
         if self.job.cancel():
             self.state.unc_mc_message = "cancelling …"
 
-    def _compute(self, plugin_id: str, given: dict[str, Any], values: dict[str, Any]) -> Any:
-        """Worker: the plugin's run (in a worker process when the host allows)."""
-        return worker.run(self.host, plugin_id, given, values, progress=self.job.progress, cancel=self.job.cancel_event)
-
     def load_system(self, text: str | bytes, name: str = "system.yaml") -> bool:
         """The "load YAML" option: a system file (cameras, stereo, grid, uncertainties; or a
         stereo calibration) replaces the form's system fields until :meth:`use_fields`."""
         try:
-            self.mc_system = study.load_system(text, name)
+            self.mc_system = task.load_system(text, name)
         except InputError as exc:
             self._error(exc)
             return False
@@ -220,21 +200,21 @@ class UncertaintyPage:
             self._error("a Monte Carlo run is going on; wait for it or cancel it")
             return None
         try:
-            spec = self.host.provider(MONTECARLO_TASK)
-            given, values = study.inputs(params, spec, self.mc_system)
+            checked = task.check_montecarlo(self.host, task.MonteCarloRequest(dict(params or {}), self.mc_system))
         except Exception as exc:
             self._error(exc)
             return None
-        form = None if self.mc_system is not None else {k: v for k, v in values.items() if k != "studies"}
-        self.job.begin()
+        cancel = self.job.begin()
         s.unc_mc_running, s.unc_mc_progress, s.unc_mc_message, s.unc_error = True, 0.0, "starting …", ""
         self.flush()
         try:
-            run = await self.job.call(self._compute, spec.id, given, values)
+            run = await self.job.call(
+                task.run_montecarlo, self.host, checked, progress=self.job.progress, cancel=cancel
+            )
             s.unc_mc_message = "storing the result in the project …"
             self.flush()
-            rid, h = await self.job.call(study.store, self.project, run, given.get("spec"), form)
-            full = await self.job.call(study.read, self.project, h)
+            rid, h = await self.job.call(task.store_montecarlo, self.project, run, checked)
+            full = await self.job.call(task.read, self.project, h)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.unc_mc_running, s.unc_mc_message = False, status
@@ -244,7 +224,7 @@ class UncertaintyPage:
             self.job.end()
             self.flush()
         s.unc_mc_running, s.unc_mc_progress = False, 100.0
-        s.unc_mc_message = study.done_message(full)
+        s.unc_mc_message = task.done_message(full)
         self.show_montecarlo(full, rid)
         self.session.refresh_results()
         self.flush()
@@ -299,33 +279,19 @@ class UncertaintyPage:
     def restore(self) -> None:
         """The draft budget (or the shipped example) and the last stored Monte Carlo run."""
         s = self.state
+        req = task.start_budget(self.project)
+        self.set_budget(req.quantity, req.unit, req.p, req.rows, save_draft=False)
         try:
-            draft = self.project.get_state(DRAFT_KEY)
-        except Exception:
-            draft = None
-        if not isinstance(draft, dict):
-            try:
-                draft = read_yaml(_resource("budget.yaml"))
-            except InputError:
-                draft = {"quantity": "", "unit": "um", "coverage_probability": 0.95, "contributions": []}
-        self.set_budget(
-            str(draft.get("quantity", "")),
-            str(draft.get("unit", "")),
-            draft.get("coverage_probability", 0.95),
-            bud.rows_from_doc(draft),
-            save_draft=False,
-        )
-        try:
-            cur = self.project.get_state(study.MC_KEY)
-            if isinstance(cur, dict) and self.project.has_file(str(cur.get("file"))):
-                full = study.read(self.project, str(cur["file"]))
+            back = task.restore_montecarlo(self.project)
+            if back is not None:
+                full, rid = back.full, back.result_id
                 if isinstance(full.get("form"), dict):  # run from the fields: show them again
                     s.unc_mc_params = study.start_values(self.mc_groups, full["form"])
                 elif isinstance(full.get("system"), dict):  # run of a loaded file
                     self.mc_system = full["system"]
-                    s.unc_mc_loaded = f"the system of result #{cur.get('result')}"
-                s.unc_mc_message = f"result #{cur.get('result')} from the project"
-                self.show_montecarlo(full, cur.get("result"))
+                    s.unc_mc_loaded = f"the system of result #{rid}"
+                s.unc_mc_message = f"result #{rid} from the project"
+                self.show_montecarlo(full, rid)
         except Exception as exc:  # a damaged file must not keep the page from opening
             log.warning("cannot restore the Monte Carlo result: %s", exc)
             s.unc_mc_message = f"the stored Monte Carlo result could not be read: {one_line(exc)}"

@@ -1,33 +1,30 @@
-"""The Monte Carlo tab's documents: the form's values checked by the plugin's own
-declaration, the stored result (summary row + JSON file), the table and the exports.
+"""The Monte Carlo tab's documents: the form's fields from the plugin's declaration, the
+table and the exports.
 
-Every number comes from the plugin providing ``monte-carlo-uncertainty``; this module
-checks the form through :func:`camcmm.params.validate`, stores, formats and offers.
+Every number comes from the plugin providing ``monte-carlo-uncertainty``; checking the
+form, running, storing and reading a run back is the task's
+(:mod:`camcmm.tasks.uncertainty`; ``inputs``, ``store``, ``read``, ``load_system``,
+``done_message`` re-exported here). This module formats and offers.
 """
 
 from __future__ import annotations
 
 import json
-import tempfile
-from pathlib import Path
 from typing import Any
 
-from ....errors import InputError
-from ....jsonable import to_jsonable
-from ....params import form_schema, validate
-from ....yamlfile import load_yaml
+from ....params import form_schema
+from ....tasks.uncertainty import ARRAYS, MC_KEY, RUN, done_message, inputs, load_system, read
+from ....tasks.uncertainty import store_montecarlo as store
 from ...downloads import Downloads, table_csv
 from . import figures as figs
 
+__all__ = ["ARRAYS", "MC_KEY", "STUDIES", "done_message", "exports", "form_fields", "inputs", "load_system", "read"]
+__all__ += ["start_values", "store", "table_rows"]
+
 STUDIES = ["convergence", "sweep", "volume_maps", "spatial"]
-#: The form's first values of the run (the plugin's own defaults are the file's or 10000
-#: iterations: a first run in the page should take seconds).
+#: The form's first values of the run, the task's ``RUN`` fields (the plugin's own defaults
+#: are the file's or 10000 iterations: a first run in the page should take seconds).
 START = {"iterations": 2000, "seed": 1, "method": "linear", "scheduler": ""}
-RUN = tuple(START)
-#: The project state key naming the last stored run ({"result": id, "file": hash}).
-MC_KEY = "uncertainty.montecarlo.current"
-#: Outputs too large for the result row: they are in the stored JSON file only.
-ARRAYS = ("per_point", "per_point_norm", "studies", "system", "form")
 
 
 def form_fields(plugin: Any) -> dict[str, list[dict[str, Any]]]:
@@ -59,68 +56,6 @@ def start_values(groups: dict[str, list[dict[str, Any]]], values: dict[str, Any]
     out.update(START)
     out.update({k: _shown(v) for k, v in (values or {}).items() if k in out})
     return out
-
-
-def inputs(form: dict[str, Any], plugin: Any, system: Any = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """The plugin's inputs (``{"spec": system}`` for a loaded file, else none: the fields are
-    the system) and the form's values checked against ``plugin``'s declared parameters;
-    a one-line :class:`InputError` / ParameterError naming what is wrong. With a loaded
-    file only the run's fields are sent (the file is the system)."""
-    if system is not None and not isinstance(system, dict):
-        raise InputError("system description: expected a mapping (cameras, stereo, grid, uncertainties)")
-    declared = {p.name for p in plugin.parameters}
-    given = {k: v for k, v in form.items() if k in declared and k != "studies"}
-    if system is not None:
-        given = {k: v for k, v in given.items() if k in RUN}
-    given["scheduler"] = str(given.get("scheduler") or "").strip() or None
-    given["studies"] = ",".join(str(x) for x in (form.get("studies") or []))
-    values = validate(plugin.parameters, given, owner=f"plugin {plugin.id!r}")
-    if system is not None:
-        values = {k: v for k, v in values.items() if k in RUN or k == "studies"}
-    return ({"spec": system} if system is not None else {}), {k: v for k, v in values.items() if v is not None}
-
-
-def load_system(text: str | bytes, name: str) -> dict[str, Any]:
-    """A system file (YAML/JSON) read for the form's "load YAML" option (one line if bad)."""
-    doc = load_yaml(text or "", name=name)
-    if not isinstance(doc, dict):
-        raise InputError(f"{name}: expected a mapping (cameras, stereo, grid, uncertainties)")
-    return doc
-
-
-def store(project: Any, run: Any, doc: dict[str, Any] | None, form: dict[str, Any] | None = None) -> tuple[int, str]:
-    """The summary as the result row, everything (arrays too, the system simulated and
-    the form's values when it came from the fields) as a JSON file; the project remembers
-    it as the page's current run. Returns (result id, file hash)."""
-    full = to_jsonable({**({"system": doc} if doc is not None else {}), **run.outputs, "form": form})
-    folder = Path(tempfile.mkdtemp(prefix="camcmm-mc-"))
-    try:
-        path = folder / "montecarlo.json"
-        path.write_text(json.dumps(full), encoding="utf-8")
-        h = project.add_file(path)
-    finally:
-        for p in folder.iterdir():
-            p.unlink()
-        folder.rmdir()
-    summary = dict(run.to_json())
-    summary["outputs"] = {k: v for k, v in full.items() if k not in ARRAYS}
-    rid = project.add_result(summary, files={"montecarlo": h}, label="Monte Carlo of a stereo system")
-    project.set_state(MC_KEY, {"result": rid, "file": h})
-    return rid, h
-
-
-def read(project: Any, h: str) -> dict[str, Any]:
-    """A stored run's full result (the JSON file of :func:`store`)."""
-    return json.loads(project.file_path(h).read_text("utf-8"))
-
-
-def done_message(full: dict[str, Any]) -> str:
-    elapsed = full.get("elapsed_s")
-    return (
-        f"done: {full.get('iterations')} iterations × {full.get('n_points')} points"
-        + (f" in {elapsed:.1f} s" if isinstance(elapsed, (int, float)) else "")
-        + (f" ({full.get('executor')})" if full.get("executor") else "")
-    )
 
 
 def table_rows(full: dict[str, Any]) -> list[dict[str, Any]]:
