@@ -75,6 +75,18 @@ def test_tasks_need_no_gui_trame_or_vtk():
     assert out.stdout.strip() == "", f"importing camcmm.tasks loaded {out.stdout.strip()}"
 
 
+def test_no_mixin_stack_under_the_pages():
+    """A page is one class holding its task and parts (composition): no class under
+    gui/pages/ has more than one base, and none derives from another page's part."""
+    pages = ROOT / "app" / "camcmm" / "gui" / "pages"
+    stacks = []
+    for path in pages.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ClassDef) and len(node.bases) > 1:
+                stacks.append(f"{path.relative_to(ROOT)}: class {node.name}({', '.join(map(ast.unparse, node.bases))})")
+    assert not stacks, "\n".join(stacks)
+
+
 @pytest.mark.slow
 def test_every_core_module_imports_on_its_own():
     # A module that only imports after another one is half of a circular import.
