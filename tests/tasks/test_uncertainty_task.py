@@ -181,10 +181,12 @@ def test_a_monte_carlo_of_the_fields_keeps_its_form(project):
     spec = host.provider(unc.MONTECARLO_TASK)
     params = {p.name: p.default for p in spec.parameters if p.default is not None}
     params.update(grid_points="3, 2, 2", iterations=40, seed=1, studies=[])
-    checked = unc.check_montecarlo(host, unc.MonteCarloRequest(params))
+    task = unc.UncertaintyTask(host, project)  # the steps bound, as the page holds them
+    checked = task.check_montecarlo(unc.MonteCarloRequest(params))
     assert checked.inputs == {} and checked.form is not None and checked.form["grid_points"] == [3.0, 2.0, 2.0]
-    rid, _ = unc.store_montecarlo(project, unc.run_montecarlo(host, checked), checked)
-    back = unc.restore_montecarlo(project)
+    rid, h = task.store_montecarlo(task.run_montecarlo(checked), checked)
+    assert task.read(h)["form"] == checked.form
+    back = task.restore_montecarlo()
     assert back is not None and back.result_id == rid
     assert back.full["form"]["grid_points"] == [3.0, 2.0, 2.0]
     assert back.full["system"]["grid"]["n"] == [3, 2, 2] and back.full["system"]["stereo"]["baseline"] == 199.35

@@ -18,6 +18,7 @@ The Monte Carlo study::
     rid, h = store_montecarlo(project, run, checked)    # summary row + every array as JSON
     back = restore_montecarlo(project)                  # the last stored run (None: none)
 
+:class:`UncertaintyTask` binds the steps to a host and a project, as the page holds it.
 Every number is the plugins'; nothing here imports the GUI, trame or VTK.
 """
 
@@ -391,3 +392,48 @@ def done_message(full: dict[str, Any]) -> str:
         + (f" in {elapsed:.1f} s" if isinstance(elapsed, (int, float)) else "")
         + (f" ({full.get('executor')})" if full.get("executor") else "")
     )
+
+
+# ------------------------------------------------------------------------------ the task object
+class UncertaintyTask:
+    """The steps above bound to a ``host`` and a ``project``: what the Uncertainty page holds."""
+
+    def __init__(self, host: Any, project: Any):
+        self.host, self.project = host, project
+
+    # the budget
+    def evaluate(self, req: BudgetRequest | dict[str, Any]) -> RunResult:
+        return evaluate(self.host, req)
+
+    def save_draft(self, req: BudgetRequest) -> None:
+        save_draft(self.project, req)
+
+    def start_budget(self) -> BudgetRequest:
+        return start_budget(self.project)
+
+    def store_budget(self, run: RunResult, req: BudgetRequest | dict[str, Any]) -> int:
+        return store_budget(self.project, run, req)
+
+    def restore_budget(self, rid: Any) -> RunResult:
+        return restore_budget(self.project, rid)
+
+    # the Monte Carlo study
+    def check_montecarlo(self, req: MonteCarloRequest) -> CheckedMonteCarlo:
+        return check_montecarlo(self.host, req)
+
+    def run_montecarlo(
+        self,
+        checked: CheckedMonteCarlo,
+        progress: Callable[[float, str], None] | None = None,
+        cancel: threading.Event | None = None,
+    ) -> RunResult:
+        return run_montecarlo(self.host, checked, progress=progress, cancel=cancel)
+
+    def store_montecarlo(self, run: RunResult, checked: CheckedMonteCarlo) -> tuple[int, str]:
+        return store_montecarlo(self.project, run, checked)
+
+    def read(self, h: str) -> dict[str, Any]:
+        return read(self.project, h)
+
+    def restore_montecarlo(self) -> MonteCarloRun | None:
+        return restore_montecarlo(self.project)

@@ -4,7 +4,8 @@ study of a stereo system, published through the trame state (``unc_*`` keys).
 Both are the headless task :mod:`camcmm.tasks.uncertainty` (the plugins that provide
 ``uncertainty-budget`` and ``monte-carlo-uncertainty``, found by task through the host as
 the CLI finds its own, held to the task's output contracts), so the page shows the CLI's
-numbers; the page calls the task's steps and shows what they give. The budget is
+numbers. The page holds the task (``page.task``: a
+:class:`~camcmm.tasks.uncertainty.UncertaintyTask`) and shows what it gives. The budget is
 evaluated as the operator types (it is cheap, on the loop thread); a draft is kept in the
 project's state so an edited table survives a restart. A Monte Carlo run is the page's
 one :class:`~camcmm.gui.jobs.Job` (progress, cancel); its result is stored in the project
@@ -21,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from ....errors import CamcmmError, InputError, one_line
-from ....tasks import uncertainty as task
+from ....tasks import uncertainty as unc
 from ...downloads import Downloads
 from ...jobs import Job
 from . import budget as bud
@@ -31,8 +32,8 @@ from .view import UncertaintyView, map_options
 
 log = logging.getLogger("camcmm.gui.uncertainty")
 
-BUDGET_TASK, MONTECARLO_TASK = task.BUDGET_TASK, task.MONTECARLO_TASK
-DRAFT_KEY = task.DRAFT_KEY
+BUDGET_TASK, MONTECARLO_TASK = unc.BUDGET_TASK, unc.MONTECARLO_TASK
+DRAFT_KEY = unc.DRAFT_KEY
 
 
 class UncertaintyPage:
@@ -44,6 +45,7 @@ class UncertaintyPage:
         self.state = session.state
         self.project = session.project
         self.host = session.host
+        self.task = unc.UncertaintyTask(self.host, self.project)
         self.offered = Downloads("camcmm-uncertainty-downloads", "camcmm-uncertainty-", downloads)
         self.view = UncertaintyView()
         self.job = Job("the Monte Carlo run", state=self.state, on_progress=self._show_progress, interval=0.2)
@@ -108,14 +110,14 @@ class UncertaintyPage:
         """Evaluate the editor's budget; the result (or the one-line reason) is shown at once."""
         s = self.state
         s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, s.unc_b_rows = quantity, unit, p, [dict(r) for r in rows]
-        req = task.BudgetRequest(quantity, unit, p, [dict(r) for r in rows])
+        req = unc.BudgetRequest(quantity, unit, p, [dict(r) for r in rows])
         if save_draft:
             try:
-                task.save_draft(self.project, req)
+                self.task.save_draft(req)
             except Exception as exc:  # the editor keeps working; the reason is shown
                 s.unc_b_error = f"the draft could not be kept in the project: {one_line(exc)}"
         try:
-            res = task.evaluate(self.host, req).outputs
+            res = self.task.evaluate(req).outputs
         except Exception as exc:
             self.budget = None
             s.unc_b_result, s.unc_b_error = None, one_line(exc)
@@ -139,7 +141,7 @@ class UncertaintyPage:
     def load_budget(self, text: str | bytes, name: str = "budget.yaml") -> bool:
         """Replace the editor's budget by a YAML/JSON budget file's."""
         try:
-            req = task.read_budget(text, name)
+            req = unc.read_budget(text, name)
         except InputError as exc:
             self._error(exc)
             return False
@@ -152,11 +154,11 @@ class UncertaintyPage:
             self._error("the budget has errors: fix the table first")
             return None
         s = self.state
-        req = task.BudgetRequest(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, list(s.unc_b_rows or []))
+        req = unc.BudgetRequest(s.unc_b_quantity, s.unc_b_unit, s.unc_b_p, list(s.unc_b_rows or []))
         doc = req.doc()
         try:
-            run = task.evaluate(self.host, req)
-            rid = task.store_budget(self.project, run, req)
+            run = self.task.evaluate(req)
+            rid = self.task.store_budget(run, req)
         except Exception as exc:
             self._error(f"budget: {one_line(exc)}")
             return None
@@ -178,7 +180,7 @@ class UncertaintyPage:
         """The "load YAML" option: a system file (cameras, stereo, grid, uncertainties; or a
         stereo calibration) replaces the form's system fields until :meth:`use_fields`."""
         try:
-            self.mc_system = task.load_system(text, name)
+            self.mc_system = unc.load_system(text, name)
         except InputError as exc:
             self._error(exc)
             return False
@@ -200,7 +202,7 @@ class UncertaintyPage:
             self._error("a Monte Carlo run is going on; wait for it or cancel it")
             return None
         try:
-            checked = task.check_montecarlo(self.host, task.MonteCarloRequest(dict(params or {}), self.mc_system))
+            checked = self.task.check_montecarlo(unc.MonteCarloRequest(dict(params or {}), self.mc_system))
         except Exception as exc:
             self._error(exc)
             return None
@@ -208,13 +210,11 @@ class UncertaintyPage:
         s.unc_mc_running, s.unc_mc_progress, s.unc_mc_message, s.unc_error = True, 0.0, "starting …", ""
         self.flush()
         try:
-            run = await self.job.call(
-                task.run_montecarlo, self.host, checked, progress=self.job.progress, cancel=cancel
-            )
+            run = await self.job.call(self.task.run_montecarlo, checked, progress=self.job.progress, cancel=cancel)
             s.unc_mc_message = "storing the result in the project …"
             self.flush()
-            rid, h = await self.job.call(task.store_montecarlo, self.project, run, checked)
-            full = await self.job.call(task.read, self.project, h)
+            rid, h = await self.job.call(self.task.store_montecarlo, run, checked)
+            full = await self.job.call(self.task.read, h)
         except Exception as exc:
             status, line = Job.outcome(exc)
             s.unc_mc_running, s.unc_mc_message = False, status
@@ -224,7 +224,7 @@ class UncertaintyPage:
             self.job.end()
             self.flush()
         s.unc_mc_running, s.unc_mc_progress = False, 100.0
-        s.unc_mc_message = task.done_message(full)
+        s.unc_mc_message = unc.done_message(full)
         self.show_montecarlo(full, rid)
         self.session.refresh_results()
         self.flush()
@@ -279,10 +279,10 @@ class UncertaintyPage:
     def restore(self) -> None:
         """The draft budget (or the shipped example) and the last stored Monte Carlo run."""
         s = self.state
-        req = task.start_budget(self.project)
+        req = self.task.start_budget()
         self.set_budget(req.quantity, req.unit, req.p, req.rows, save_draft=False)
         try:
-            back = task.restore_montecarlo(self.project)
+            back = self.task.restore_montecarlo()
             if back is not None:
                 full, rid = back.full, back.result_id
                 if isinstance(full.get("form"), dict):  # run from the fields: show them again
