@@ -217,7 +217,9 @@ def test_no_overlap_different_object(part):
     """A sphere is not the L-block: global+icp must not report success."""
     nom, _, _, _ = part
     rng = np.random.default_rng(12)
-    u = rng.normal(size=(30000, 3))
+    # 10 000 points (0.5 mm apart on the 15 mm sphere) end as the former 30 000 did (the
+    # iterations do not settle), at less than half the cost (CPU 6.5 -> 2.9 s)
+    u = rng.normal(size=(10000, 3))
     u /= np.linalg.norm(u, axis=1)[:, None]
     al = align(rotate(np.zeros((1, 3))) + 15.0 * u, nom, "global+icp")
     assert not al.converged, al.to_dict()
