@@ -54,8 +54,9 @@ def _given(
 ) -> float:
     """:func:`_num` of a value that is there (the caller checked) or has a default: a float."""
     x = _num(doc, key, default, minimum, strict)
-    if x is None:
-        raise InputError(f"{key}: missing")
+    if x is None:  # given as null: said as the evaluation said it before the check moved here
+        bound = "" if minimum is None else f" {'>' if strict else '>='} {minimum:g}"
+        raise InputError(f"{key} = None must be a finite number{bound}" if key in doc else f"{key}: missing")
     return x
 
 
