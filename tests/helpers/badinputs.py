@@ -1558,13 +1558,28 @@ def _rss() -> int:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
+def _reset_peak() -> None:
+    """Start this process's peak resident set (VmHWM) afresh (Linux >= 4.0), before a case."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        pass
+
+
 def _maxrss() -> int:
+    """The peak resident set of this process since :func:`_reset_peak`, or of a child it waited
+    for. VmHWM, not getrusage's ru_maxrss: Linux carries ru_maxrss over fork and exec, so a worker
+    started by a 1.2 GB test process (late in a pytest-xdist worker) read 1.2 GB before its
+    first case."""
     import resource
 
-    return (
-        max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
-        * 1024
-    )
+    own = 0
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmHWM:"):
+                own = int(line.split()[1])
+                break
+    return max(own, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss) * 1024
 
 
 def _run_in_worker(case: Case, root: Path) -> dict:
@@ -1586,6 +1601,7 @@ def _run_in_worker(case: Case, root: Path) -> dict:
     real = sys.stdout, sys.stderr
     cwd = os.getcwd()
     rss0 = _rss()
+    _reset_peak()
     t0 = time.perf_counter()
     os.dup2(out_f.fileno(), 1), os.dup2(err_f.fileno(), 2)
     sys.stdout, sys.stderr = py_out, py_err
