@@ -123,6 +123,11 @@ def test_two_sessions_have_their_own_pages_and_share_the_project(tmp_path, demo_
                 a.keyboard.press("Escape")
                 a.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(extra))
                 a.wait_for_selector('[data-testid="item"]:has-text("extra-scan.ply")')
+                # B's tab sends its page switch to its session asynchronously: under CI's load a
+                # reload two seconds later could overtake it (the reloaded tab then showed Inspect).
+                # Reload once B's session has answered since: it has listed A's new item (it
+                # polls the shared store about once a second and pushes the list to its tab)
+                b.wait_for_selector('[data-testid="item"]:has-text("extra-scan.ply")', state="attached", timeout=60_000)
                 b.reload(timeout=LOAD_MS)
                 # the reloaded tab rebuilds its page from its session's state: under CI's load that
                 # round trip took more than the 60 s default once (baseline run of issue 25)
