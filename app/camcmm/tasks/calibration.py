@@ -25,7 +25,6 @@ the CLI's numbers.
 from __future__ import annotations
 
 import dataclasses
-import fnmatch
 import json
 import math
 import shutil
@@ -42,6 +41,7 @@ from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
 from ..host import Cancelled
 from ..jsonable import to_jsonable
+from .items import IMAGE_EXTS, folder_images
 
 CAMERA, STEREO, PROJECTION, RECTIFY = (
     "camera-calibration",
@@ -56,7 +56,6 @@ CURRENT_KEY, INPUTS_KEY = "calibration.current", "calibration.inputs"
 MAP_GRID = (48, 36)
 #: the value of "use for" that makes a new measuring system
 NEW = "new"
-IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 BOARD_HELP = (
     "chessboard:COLSxROWS:SQUARE_MM counts inner corners (chessboard:9x6:25); "
     "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] counts squares; circles:COLSxROWS:SPACING_MM; "
@@ -174,18 +173,7 @@ def folder_sources(folder: Any, pattern: Any = "*", what: str = "images", roots:
     text = str(folder or "").strip().strip('"')
     if not text:
         raise InputError(f"{what}: give the folder on the server that holds the board images")
-    root = roots.check(text, "server folder") if roots is not None else Path(text).expanduser()
-    if not root.is_dir():
-        raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
-    pats = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
-    files = sorted(
-        p
-        for p in root.iterdir()
-        if p.is_file()
-        and p.suffix.lower() in IMAGE_EXTS
-        and any(fnmatch.fnmatch(p.name, q) for q in pats)
-        and (roots is None or roots.allows(p))
-    )
+    root, files, pats = folder_images(text, pattern, roots)
     if not files:
         raise InputError(f"{what}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r} in {root}")
     return [{"name": p.name, "path": str(p.resolve()), "hash": None, "item": None} for p in files]

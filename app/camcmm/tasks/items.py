@@ -147,3 +147,30 @@ def stored_record(project: Any, key: str) -> dict[str, Any] | None:
     except Exception:
         return None
     return rec if isinstance(rec, dict) and rec.get("result") is not None else None
+
+
+#: the image files a folder source lists (what OpenCV and pycolmap read)
+IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+
+
+def folder_images(text: str, pattern: Any = "*", roots: Any = None) -> tuple[Path, list[Path], list[str]]:
+    """The image files in the server folder ``text`` matching ``pattern`` (globs separated by
+    ';'), sorted by name: ``(folder, files, globs)``. With ``roots`` (the page's
+    :class:`~camcmm.gui.roots.Roots`) a folder outside them is refused before it is looked at,
+    and a link to a file elsewhere is left out; InputError for what is not a folder. An empty
+    list is the caller's to refuse in its own words."""
+    import fnmatch
+
+    root = roots.check(text, "server folder") if roots is not None else Path(text).expanduser().resolve()
+    if not root.is_dir():
+        raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
+    globs = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
+    files = sorted(
+        p
+        for p in root.iterdir()
+        if p.is_file()
+        and p.suffix.lower() in IMAGE_EXTS
+        and any(fnmatch.fnmatch(p.name, q) for q in globs)
+        and (roots is None or roots.allows(p))
+    )
+    return root, files, globs

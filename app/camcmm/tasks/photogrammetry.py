@@ -20,7 +20,6 @@ the registered cameras) out — headless, as the Photogrammetry page and the tes
 from __future__ import annotations
 
 import dataclasses
-import fnmatch
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -32,7 +31,7 @@ from .. import worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
 from ..jsonable import to_jsonable
-from .items import stored_record
+from .items import IMAGE_EXTS, folder_images, stored_record
 
 TASK = "photogrammetry"
 CURRENT_KEY = "photogrammetry.current"
@@ -49,7 +48,6 @@ WORDS = {
     "fusion": "dense",
     "stereo": "dense",
 }
-IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: most images a series may hold (the page and the state stay responsive)
 MAX_IMAGES = 400
 
@@ -143,18 +141,7 @@ def folder_sources(folder: Any, pattern: Any = "*", roots: Any = None) -> list[d
             "image series: give a folder on the server that holds the images (inside the project "
             "folder or a --data-root), or choose image items of the project"
         )
-    root = roots.check(text, "server folder") if roots is not None else Path(text).expanduser().resolve()
-    if not root.is_dir():
-        raise InputError(f"folder {text}: {'is not a folder' if root.exists() else 'no such folder'}")
-    pats = [p.strip() for p in str(pattern or "*").split(";") if p.strip()] or ["*"]
-    files = sorted(
-        p
-        for p in root.iterdir()
-        if p.is_file()
-        and p.suffix.lower() in IMAGE_EXTS
-        and any(fnmatch.fnmatch(p.name, q) for q in pats)
-        and (roots is None or roots.allows(p))
-    )
+    root, files, pats = folder_images(text, pattern, roots)
     if not files:
         raise InputError(f"folder {text}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r}")
     if len(files) > MAX_IMAGES:
