@@ -80,7 +80,9 @@ def browser_test(fn):
 
 
 @browser_test
-def test_a_registered_page_in_the_browser(tmp_path):
+def test_a_registered_page_in_the_browser(tmp_path, hello):
+    # hello: importing pages_fixture registers its page in this process too; the fixture takes it
+    # out again after the test, or a later test here (another xdist order) sees a page 'hello'
     sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
     from camcmm.gui.process import GuiProcess
     from helpers.pages_fixture import TEXT
