@@ -14,6 +14,8 @@ from collections.abc import Callable
 from typing import Any
 
 from .cli.options import add_declared_options, declared_values
+from .confine import PathRefused, document_path
+from .confine import check as checked_path
 from .conformity import combine, guarded_verdict, simple_verdict
 from .devices import (
     Camera,
@@ -57,7 +59,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.4"
+API_VERSION = "1.5"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -96,6 +98,7 @@ __all__ = [
     "GeometryError",
     "InputError",
     "ParameterError",
+    "PathRefused",
     "PluginError",
     "YamlError",
     # data model
@@ -114,6 +117,9 @@ __all__ = [
     "read_yaml",
     "write",
     "write_calibration",
+    # paths
+    "checked_path",
+    "document_path",
     # parameters and units
     "Param",
     "add_declared_options",

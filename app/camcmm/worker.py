@@ -44,6 +44,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from .confine import confined, current
 from .errors import CamcmmError, PluginError
 
 log = logging.getLogger(__name__)
@@ -141,7 +142,7 @@ def _child() -> None:
             return
         if msg is None:
             return
-        n, plugin_id, inputs, params = msg
+        n, plugin_id, inputs, params, folders = msg
         cancel.clear()
         current[0] = n
         if asked[0] >= n:  # cancelled before it arrived here (a worker still starting)
@@ -158,7 +159,8 @@ def _child() -> None:
                 conn.send(("progress", fraction, message))
 
         try:
-            data = _answer(host.run(plugin_id, inputs, params, progress=progress, cancel=cancel), plugin_id)
+            with confined(folders):  # the server's roots: paths inside documents are checked too
+                data = _answer(host.run(plugin_id, inputs, params, progress=progress, cancel=cancel), plugin_id)
         except BaseException as exc:  # noqa: BLE001 - everything goes back as one line
             data = pickle.dumps(("error", _portable(exc, plugin_id)))
         current[0] = 0
@@ -305,7 +307,7 @@ def run_isolated(
     try:
         w.runs += 1
         try:
-            w.conn.send((w.runs, plugin_id, inputs or {}, params or {}))
+            w.conn.send((w.runs, plugin_id, inputs or {}, params or {}, current()))
         except (pickle.PicklingError, TypeError, AttributeError) as exc:
             done = True  # nothing reached the worker: it stays good
             raise PluginError(

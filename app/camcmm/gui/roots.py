@@ -17,6 +17,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ..confine import within
 from ..errors import InputError
 
 #: parameter names that name a file or a folder when a manifest does not say so (``path: true``)
@@ -52,23 +53,7 @@ class Roots:
 
         ``what`` names the field for the message (``"server folder"``, ``"parameter 'out'"``).
         """
-        text = str(path).strip().strip('"').strip()
-        label = f"{what}: {text}" if what else text
-        if not text or "\x00" in text:
-            raise InputError(f"{label or what or 'path'}: not a path")
-        p = Path(text).expanduser()
-        if not p.is_absolute():
-            p = self.project / p
-        try:
-            r = p.resolve()
-        except (OSError, RuntimeError) as exc:  # a symlink loop
-            raise InputError(f"{label}: cannot be resolved ({type(exc).__name__})") from None
-        if any(r == f or r.is_relative_to(f) for f in self.folders):
-            return r
-        raise InputError(
-            f"{label}: outside the folders this server may read (project folder and --data-root); "
-            "start camcmm serve with --data-root FOLDER to allow another folder"
-        )
+        return within(path, self.folders, what)
 
     def check_run(
         self, spec: Any, params: dict[str, Any] | None, inputs: dict[str, Any] | None, item_types: Iterable[str] = ()
