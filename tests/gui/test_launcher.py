@@ -72,7 +72,7 @@ class Running:
     def __init__(self, script: Path, **opts):
         self.log: list[str] = []
         env = dict(os.environ)
-        self.sessions = Sessions([sys.executable, str(script)], env, ws_secret=TOKEN, log=self.log.append, **opts)
+        self.sessions = Sessions([sys.executable, str(script)], env, log=self.log.append, **opts)
         self.front = Front(self.sessions, session_guard(TOKEN))
         self.port: int | None = None
         ready = threading.Event()
@@ -162,20 +162,20 @@ def test_each_tab_gets_its_own_session_and_a_reload_keeps_it(front):
     f = front(max_sessions=3)
     a, b = open_session(f), open_session(f)
     assert a != b
-    pa = get(f.base + f"s/{a}/index.html?secret=x")[2]
+    pa = get(f.base + f"s/{a}/index.html?ui=x")[2]
     pb = get(f.base + f"s/{b}/index.html")[2]
     assert pa.startswith("pid=") and pa.split()[0] != pb.split()[0]  # two processes
     assert get(f.base + f"s/{a}/index.html")[2].split()[0] == pa.split()[0]  # a reload: the same one
-    assert "query=['secret']" in pa
+    assert "query=['ui']" in pa
     # the child never sees the user's token, cookie or origin: only its own secret
     posted = get(f.base + f"s/{a}/projector/ack?v=1&token={TOKEN}", auth=False, method="POST")[2]
     assert "path=/projector/ack" in posted and "query=['v']" in posted, posted
     cookie = {"Cookie": f"{f.front.guard.cookie_name}={TOKEN}", "Origin": f.base.rstrip("/")}
     text = get(f.base + f"s/{a}/probe?x=1", cookie, auth=False)[2]
     assert "path=/probe" in text and "cookie=None" in text and "origin=None" in text
-    # the app page of a session gives the trame client its websocket secret (the user's token)
+    # the app page comes with no secret in its address (issue 26); the page asks for it
     status, headers, _ = get(f.base + f"s/{a}/", cookie, auth=False)
-    assert status == 302 and headers["Location"] == f"index.html?secret={TOKEN}"
+    assert status == 200 and "Location" not in headers
     # a redirect of the child to an absolute path stays in the session
     status, headers, _ = get(f.base + f"s/{a}/redirect")
     assert status == 302 and headers["Location"] == f"/s/{a}/index.html"
@@ -200,7 +200,8 @@ def test_the_websocket_is_forwarded_and_counts_as_the_tab(front):
                 return echo, child.sockets, sid in f.sessions.live
 
     echo, sockets, alive = asyncio.run(talk())
-    assert echo == f"hello {TOKEN}" and sockets == 1 and alive
+    assert echo == f"hello {child.ws_secret}" and sockets == 1 and alive
+    assert child.ws_secret != TOKEN
     deadline = time.monotonic() + 10
     while sid in f.sessions.live and time.monotonic() < deadline:
         time.sleep(0.1)

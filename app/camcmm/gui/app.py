@@ -331,13 +331,19 @@ def start(
     keyfile: str | None = None,
     ws_secret: Any = "token",
     announce: Any = None,
+    max_upload: int | None = None,
 ) -> None:
     """Serve until stopped; print ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once
     listening. Every request must carry ``token`` (see :mod:`camcmm.gui.security`):
     ``"auto"`` makes a random one, ``None`` (no token) is refused beyond loopback.
     ``certfile``/``keyfile``: serve HTTPS. A session child (:mod:`camcmm.gui.launcher`)
-    gives its websocket's own ``ws_secret`` and ``announce(port)`` instead of the URL."""
-    from .security import Guard, binding_warning, is_loopback, new_token
+    gives its websocket's own ``ws_secret`` and ``announce(port)`` instead of the URL.
+    ``max_upload``: bytes a browser may upload at once (default ``$CAMCMM_MAX_UPLOAD``,
+    else 2 GB; :mod:`camcmm.gui.uploads`)."""
+    from .security import Guard, binding_warning, escape_log_records, is_loopback, new_token
+    from .uploads import install, limit_from_env
+
+    escape_log_records()
 
     if token == "auto":
         token = new_token()
@@ -353,6 +359,14 @@ def start(
     guard = Guard(token, allowed_origins) if ws_secret == "token" else Guard(token, allowed_origins, ws_secret)
     guard.install(server)
     server.guard = guard
+
+    def upload_refused(text: str) -> None:
+        session = getattr(server, "session", None)
+        if session is not None:
+            session.error(text)
+            session.flush()
+
+    install(limit_from_env() if max_upload is None else max_upload, upload_refused)
     scheme = "https" if tls else "http"
     # a wildcard address is no address to open: show the machine's name, as Jupyter does
     shown = socket.gethostname() if host in ("0.0.0.0", "::", "") else (f"[{host}]" if ":" in host else host)
@@ -401,6 +415,18 @@ def port_number(text: str) -> int:
     if not 0 <= n <= 65535:
         raise argparse.ArgumentTypeError(f"{n}: a port is 0 (a free one) to 65535")
     return n
+
+
+def _size_arg(text: str) -> int:
+    """argparse type of ``--max-upload``."""
+    import argparse
+
+    from .uploads import parse_size
+
+    try:
+        return parse_size(text)
+    except CamcmmError as exc:
+        raise argparse.ArgumentTypeError(str(exc).split(" ", 1)[1]) from None
 
 
 def add_serve_arguments(ap: Any) -> None:
@@ -456,6 +482,20 @@ def add_serve_arguments(ap: Any) -> None:
         help=f"stop a session's process S seconds after its last tab closed (default {DEFAULT_IDLE_S:g})",
     )
     ap.add_argument(
+        "--max-upload",
+        type=_size_arg,
+        default=None,
+        metavar="SIZE",
+        help="the most a browser may upload at once, per session, e.g. 500M or 4G (default 2G)",
+    )
+    ap.add_argument(
+        "--session-unused",
+        type=float,
+        default=None,
+        metavar="S",
+        help="stop a session S seconds after it was opened if no tab ever connected to it (default 30)",
+    )
+    ap.add_argument(
         "--single-session",
         action="store_true",
         help="one process for every tab, as before: tabs share their page state (for debugging)",
@@ -480,6 +520,8 @@ def serve(
     max_sessions: int | None = None,
     session_idle: float | None = None,
     session_child: bool = False,
+    max_upload: int | None = None,
+    session_unused: float | None = None,
 ) -> None:
     """Open (or create) the project in ``project_dir`` and serve the GUI until stopped.
 
@@ -498,12 +540,14 @@ def serve(
 
     if session_child:
         return _serve_child(project_dir, server_name, data_roots)
+    from .uploads import DEFAULT_MAX_UPLOAD
+
     token = choose_token(host, no_token=no_token, token_file=token_file)
     from .roots import Roots
 
     Roots(project_dir, data_roots)  # a missing --data-root is refused before the project is made
     if not single_session:
-        from .launcher import DEFAULT_IDLE_S, DEFAULT_MAX_SESSIONS, serve_sessions
+        from .launcher import DEFAULT_IDLE_S, DEFAULT_MAX_SESSIONS, DEFAULT_UNUSED_S, serve_sessions
 
         warning = binding_warning(host, bool(certfile))
         if warning:
@@ -519,6 +563,8 @@ def serve(
             keyfile=keyfile,
             max_sessions=DEFAULT_MAX_SESSIONS if max_sessions is None else max_sessions,
             idle=DEFAULT_IDLE_S if session_idle is None else session_idle,
+            unused=DEFAULT_UNUSED_S if session_unused is None else session_unused,
+            max_upload=DEFAULT_MAX_UPLOAD if max_upload is None else max_upload,
             open_browser=open_browser,
         )
     from .. import worker
@@ -536,6 +582,7 @@ def serve(
         allowed_origins=allowed_origins,
         certfile=certfile,
         keyfile=keyfile,
+        max_upload=max_upload,
     )
 
 
@@ -570,6 +617,8 @@ def serve_from_args(project: str | Path, args: Any, port: int, open_browser: boo
         max_sessions=args.max_sessions,
         session_idle=args.session_idle,
         session_child=args.session_child,
+        max_upload=getattr(args, "max_upload", None),
+        session_unused=getattr(args, "session_unused", None),
     )
 
 

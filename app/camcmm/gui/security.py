@@ -58,6 +58,57 @@ HEADERS = {
 }
 
 
+def printable(text: str) -> str:
+    """``text`` with every control character (and any other non-printable one: DEL, C1,
+    U+2028 ...) written as an escape (``\\x1b``, ``\\u2028``), tabs kept: what a
+    browser sent (a file name, a path, a message) must not forge log lines or drive
+    the operator's terminal."""
+    if text.isprintable():
+        return text
+    return "".join(
+        c if c.isprintable() or c == "\t" else (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
+        for c in text
+    )
+
+
+def escape_log_records() -> None:
+    """Make every log record of this process :func:`printable` (its message and text
+    arguments; a traceback stays as it is): one place for every logger, wslink's and
+    aiohttp's included, which quote what browsers send."""
+    import logging
+
+    if getattr(logging, "_camcmm_printable", False):
+        return
+    make = logging.getLogRecordFactory()
+
+    def factory(*args: Any, **kwargs: Any) -> logging.LogRecord:
+        record = make(*args, **kwargs)
+        if isinstance(record.msg, str):
+            record.msg = printable(record.msg)
+        if isinstance(record.args, tuple):
+            record.args = tuple(printable(a) if isinstance(a, str) else a for a in record.args)
+        return record
+
+    logging.setLogRecordFactory(factory)
+    logging._camcmm_printable = True  # type: ignore[attr-defined]
+
+
+def local_location(location: str) -> str:
+    """``location`` when it is a path on this server (``/x``, ``x``, ``./x``, ``x?q``);
+    else ``"/"``. A redirect never leaves the origin: ``//evil.example``, ``/\\evil``,
+    ``https://evil``, ``evil.example:80`` (a scheme) all become ``/``."""
+    loc = str(location)
+    if any(not c.isprintable() or c.isspace() for c in loc):
+        return "/"
+    u = urlsplit(loc)
+    if u.scheme or u.netloc or loc.startswith(("//", "/\\", "\\")):
+        return "/"
+    head = loc.split("?", 1)[0].split("#", 1)[0]
+    if ":" in head.split("/", 1)[0]:  # "a:b" would be read as a scheme by some clients
+        return "/"
+    return loc
+
+
 def new_token() -> str:
     """A fresh random token: 32 bytes, URL-safe base64 (43 characters)."""
     return secrets.token_urlsafe(32)
@@ -222,7 +273,7 @@ class Guard:
         resp = web.Response(
             status=302,
             headers={
-                "Location": name + (f"?{urlencode(query)}" if query else ""),
+                "Location": local_location(name + (f"?{urlencode(query)}" if query else "")),
                 "Cache-Control": "no-store",
                 "Referrer-Policy": "no-referrer",
             },

@@ -270,8 +270,10 @@ class Session:
     def _read_stated(
         self, source: str | Path | bytes, name: str | None, unit: str | None
     ) -> tuple[Path, Any, str, str | None]:
-        """As :meth:`read_file`, with the unit the caller or the file states (or None)."""
-        from .. import io as cio
+        """As :meth:`read_file`, with the unit the caller or the file states (or None).
+        The file is decoded in a process of its own under a memory cap
+        (:mod:`camcmm.gui.decode`): a bomb costs that process, never this session."""
+        from .decode import decode
 
         if isinstance(source, (bytes, bytearray, memoryview)):
             name = safe_name(name or "upload")
@@ -284,7 +286,7 @@ class Session:
             if not path.is_file():
                 raise InputError(f"{name}: no such file" if not path.exists() else f"{name}: is not a file")
         try:
-            obj, stated = cio.read_stated(path, unit or None)
+            obj, stated = decode(path, unit or None, name)
         except Exception as exc:
             raise InputError(one_line(exc, name, path, path.parent)) from exc
         k = kind_of(obj)

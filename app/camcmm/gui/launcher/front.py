@@ -5,6 +5,12 @@ every request first; then
   (503, one line, when ``max_sessions`` are open);
 * ``/s/<id>/…`` is forwarded to that session's child (:mod:`.proxy`); an unknown or
   ended id gets a one-line page with a link to a new session;
+* ``POST /s/<id>/paraview/`` answers the trame client's "session manager" request with
+  the session's websocket address and secret (JSON, never cached): so the secret is
+  never in an address the browser keeps in its history (the page used to be sent to
+  ``index.html?secret=…``). Only a page of this origin holding the cookie gets it
+  (the guard's checks; no CORS), and it is the session's own random secret, not the
+  user's token;
 * any other path (``/projector``, a download link opened from outside the page) goes
   to the session it belongs to: the one of the page it came from (``Referer``), or the
   only open one; with several and no hint, a one-line page says so.
@@ -15,22 +21,30 @@ from __future__ import annotations
 import asyncio
 import html
 import re
+import time
 from typing import Any
 from urllib.parse import urlencode, urlsplit
 
 from aiohttp import ClientSession, web
 
-from ..security import SESSION_APP_PAGE, Guard
+from ..security import SESSION_APP_PAGE, Guard, local_location
 from . import proxy
 from .sessions import Sessions
 
-_SESSION_PATH = re.compile(r"/s/([A-Za-z0-9_-]+)/")
+_SESSION_ID = r"[A-Za-z0-9_-]+"
+_SESSION_PATH = re.compile(rf"/s/({_SESSION_ID})/")
 #: a request body through the front (uploads go through the websocket, in chunks)
 MAX_BODY = 1 << 20
 
 
 def session_guard(token: str | None, allowed_origins: Any = ()) -> Guard:
-    return Guard(token, allowed_origins, app_page=SESSION_APP_PAGE)
+    # no websocket secret in the guard: the page asks for its session's (paraview/)
+    return Guard(token, allowed_origins, ws_secret=None, app_page=SESSION_APP_PAGE)
+
+
+def _redirect(location: str, **headers: str) -> web.HTTPFound:
+    """A redirect that never leaves this origin (:func:`local_location`)."""
+    return web.HTTPFound(local_location(location), headers=headers or None)
 
 
 def _line(status: int, text: str) -> web.Response:
@@ -61,6 +75,7 @@ class Front:
         self.app = web.Application(middlewares=[guard.middleware], client_max_size=MAX_BODY)
         self.app.router.add_get("/", self.new_session)
         self.app.router.add_get("/index.html", self.new_session)
+        self.app.router.add_post("/s/{sid}/paraview/", self.connection_info)
         self.app.router.add_route("*", "/s/{sid}", self.add_slash)
         self.app.router.add_route("*", "/s/{sid}/{tail:.*}", self.forward)
         self.app.router.add_route("*", "/{tail:.*}", self.elsewhere)
@@ -89,19 +104,43 @@ class Front:
                 f"a session closes {s.idle:g} s after its last tab: close one and reload",
             )
         query = urlencode([(k, v) for k, v in request.query.items() if k not in ("token", "secret")])  # e.g. ui=
-        raise web.HTTPFound(f"s/{child.id}/" + (f"?{query}" if query else ""), headers={"Cache-Control": "no-store"})
+        raise _redirect(f"s/{child.id}/" + (f"?{query}" if query else ""), **{"Cache-Control": "no-store"})
 
     async def add_slash(self, request: web.Request) -> web.StreamResponse:
-        raise web.HTTPFound(f"{request.match_info['sid']}/")
+        sid = request.match_info["sid"]
+        if not re.fullmatch(_SESSION_ID, sid):  # "/s/%2F%2Fevil.example" must not become "//evil.example/"
+            return _line(404, "no such session on this server")
+        raise _redirect(f"{sid}/")
 
-    async def forward(self, request: web.Request) -> web.StreamResponse:
-        sid, tail = request.match_info["sid"], request.match_info["tail"]
+    async def _child(self, sid: str) -> Any:
+        """The started child of session ``sid`` (waiting for one still starting), or None;
+        a request for it restarts its unused clock."""
         starting = self.sessions.live.get(sid)
         if starting is not None and starting.port is None:  # opened a moment ago, still starting
             await asyncio.wait([asyncio.ensure_future(starting.ready.wait())], timeout=self.sessions.start_timeout)
         child = self.sessions.get(sid)
+        if child is not None:
+            child.touched = time.monotonic()
+        return child
+
+    async def connection_info(self, request: web.Request) -> web.StreamResponse:
+        """The trame client's session-manager request: where the websocket is, and its secret."""
+        sid = request.match_info["sid"]
+        child = await self._child(sid)
+        if child is None:
+            return self._gone(request, sid, "paraview/")
+        info = {"sessionURL": f"ws://use_host/s/{sid}/ws", "secret": child.ws_secret}  # ws: becomes wss: on https
+        return web.json_response(info, headers={"Cache-Control": "no-store"})
+
+    async def forward(self, request: web.Request) -> web.StreamResponse:
+        sid, tail = request.match_info["sid"], request.match_info["tail"]
+        child = await self._child(sid)
         if child is None:
             return self._gone(request, sid, tail)
+        if "secret" in request.query and request.method == "GET" and self.guard.is_app_page(request.path):
+            # an old address with the secret in it: to the same page without it
+            query = urlencode([(k, v) for k, v in request.query.items() if k != "secret"])
+            raise _redirect("index.html" + (f"?{query}" if query else ""), **{"Cache-Control": "no-store"})
         assert self.client is not None
         if tail == "ws" and request.headers.get("Upgrade", "").lower() == "websocket":
             return await proxy.websocket(request, child, self.client, lambda d: self.sessions.connected(child, d))
@@ -134,7 +173,7 @@ class Front:
             return _line(
                 404, f"{request.path}: {len(live)} sessions are open: open it from the app of one of them (/s/<id>/…)"
             )
-        raise web.HTTPTemporaryRedirect(f"/s/{sid}{request.path_qs}")
+        raise web.HTTPTemporaryRedirect(local_location(f"/s/{sid}{request.path_qs}"))
 
 
 async def run(front: Front, host: str, port: int, ssl_context: Any, ready: Any) -> None:

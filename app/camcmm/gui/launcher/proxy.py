@@ -16,6 +16,7 @@ from urllib.parse import urlencode
 
 from aiohttp import ClientError, ClientSession, ClientTimeout, WSMsgType, web
 
+from ..security import local_location
 from .sessions import Child
 
 HOP = {
@@ -47,7 +48,7 @@ def _request_headers(request: web.Request, child: Child) -> dict[str, str]:
 
 
 def _query(request: web.Request) -> str:
-    q = [(k, v) for k, v in request.query.items() if k != "token"]
+    q = [(k, v) for k, v in request.query.items() if k not in ("token", "secret")]
     return f"?{urlencode(q)}" if q else ""
 
 
@@ -67,9 +68,9 @@ async def http(request: web.Request, child: Child, tail: str, client: ClientSess
             timeout=ClientTimeout(total=None, sock_connect=10),
         ) as r:
             headers = {k: v for k, v in r.headers.items() if k.lower() not in HOP}
-            loc = headers.get("Location", "")
-            if loc.startswith("/") and not loc.startswith("//"):
-                headers["Location"] = prefix + loc
+            if "Location" in headers:  # never off this origin; an absolute path stays in the session
+                loc = local_location(headers["Location"])
+                headers["Location"] = prefix + loc if loc.startswith("/") else loc
             if r.content_type == "text/html":  # a page is never reused from the cache once its session is gone
                 headers["Cache-Control"] = "no-store"
             resp = web.StreamResponse(status=r.status, reason=r.reason, headers=headers)

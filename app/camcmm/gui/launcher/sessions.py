@@ -2,7 +2,9 @@
 browser session, bound to 127.0.0.1 on a free port, holding a secret only the front
 knows. One spare child is kept started (within the limit) so that a new tab does not
 wait for trame and VTK to load. Children whose tabs are all gone for ``idle`` seconds
-are stopped; all are stopped with the front (and stop themselves if the front dies:
+are stopped, and so are sessions no tab ever connected to (``unused`` seconds after the
+last request for them: a plain ``GET /`` must not hold one of the few sessions for
+minutes); all are stopped with the front (and stop themselves if the front dies:
 :func:`camcmm.gui.launcher.child.watch_parent`)."""
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..security import printable
 from .child import READY, SECRET_ENV, WS_SECRET_ENV
 
 #: how many ended session ids are remembered (to tell a reload why its session is gone)
@@ -28,6 +31,7 @@ STOP_GRACE_S = 6.0
 class Child:
     id: str
     secret: str
+    ws_secret: str  # the websocket's (wslink's) secret: given to its page only (front: paraview/)
     proc: Any = None
     port: int | None = None
     ready: asyncio.Event = field(default_factory=asyncio.Event)
@@ -35,6 +39,8 @@ class Child:
     ready_after: float | None = None  # seconds from spawn to listening
     sockets: int = 0  # open websockets (tabs) through the front
     idle_since: float | None = None
+    used: bool = False  # a websocket (a tab's page) has connected once
+    touched: float = field(default_factory=time.monotonic)  # the last request forwarded to it
     ended: str | None = None  # why it is no longer usable
     tail: list[str] = field(default_factory=list)  # last lines it printed
 
@@ -51,14 +57,14 @@ class Sessions:
         self,
         command: list[str],
         env: dict[str, str],
-        ws_secret: str | None,
         max_sessions: int = 4,
         idle: float = 300.0,
+        unused: float = 30.0,
         start_timeout: float = 180.0,
         log: Callable[[str], None] = lambda line: print(line, flush=True),
     ):
-        self.command, self.env, self.ws_secret = command, env, ws_secret
-        self.max_sessions, self.idle, self.start_timeout = max_sessions, idle, start_timeout
+        self.command, self.env = command, env
+        self.max_sessions, self.idle, self.unused, self.start_timeout = max_sessions, idle, unused, start_timeout
         self.log = log
         self.live: dict[str, Child] = {}  # sessions given to a tab
         self.spare: Child | None = None
@@ -70,8 +76,9 @@ class Sessions:
 
     # -- children ------------------------------------------------------------------------
     async def spawn(self) -> Child:
-        child = Child(id=secrets.token_urlsafe(12), secret=secrets.token_urlsafe(32))
-        env = dict(self.env, **{SECRET_ENV: child.secret, WS_SECRET_ENV: self.ws_secret or ""})
+        # the id in lower-case hex: the trame client lower-cases the websocket URL it is given
+        child = Child(id=secrets.token_hex(12), secret=secrets.token_urlsafe(32), ws_secret=secrets.token_urlsafe(32))
+        env = dict(self.env, **{SECRET_ENV: child.secret, WS_SECRET_ENV: child.ws_secret})
         child.proc = await asyncio.create_subprocess_exec(
             *self.command,
             stdin=asyncio.subprocess.PIPE,  # never written: it ends when the front does
@@ -94,7 +101,8 @@ class Sessions:
                 continue
             if not raw:
                 break
-            line = raw.decode("utf-8", "replace").rstrip("\n")
+            # a child logs what browsers sent: never a control character raw to the terminal
+            line = printable(raw.decode("utf-8", "replace").rstrip("\r\n"))
             if line.startswith(READY) and child.port is None:
                 child.port = int(line[len(READY) :])
                 child.ready_after = time.monotonic() - child.started
@@ -180,7 +188,7 @@ class Sessions:
                 child = await self.spawn()
             self.spare = None
             self.live[child.id] = child
-            child.idle_since = time.monotonic()  # until its tab connects
+            child.idle_since = child.touched = time.monotonic()  # until its tab connects
         try:
             await self._wait_ready(child)
         except RuntimeError:
@@ -198,18 +206,23 @@ class Sessions:
     def connected(self, child: Child, delta: int) -> None:
         """A websocket of ``child`` opened (+1) or closed (-1)."""
         child.sockets += delta
+        child.used = True
         child.idle_since = None if child.sockets > 0 else time.monotonic()
 
     async def reap(self) -> None:
-        """Stop every session whose tabs have all been gone for ``idle`` seconds."""
+        """Stop every session whose tabs have all been gone for ``idle`` seconds, and
+        every one no tab connected to within ``unused`` seconds of its last request."""
         now = time.monotonic()
         for child in list(self.live.values()):
+            if not child.used and child.sockets <= 0 and now - child.touched > self.unused:
+                await self.stop(child, f"closed: no page connected to it within {self.unused:g} s")
+                continue
             if child.sockets <= 0 and child.idle_since is not None and now - child.idle_since > self.idle:
                 await self.stop(child, f"closed {self.idle:g} s after its last tab")
 
     async def run_reaper(self) -> None:
         while True:
-            await asyncio.sleep(max(0.2, min(5.0, self.idle / 4)))
+            await asyncio.sleep(max(0.2, min(5.0, self.idle / 4, self.unused / 4)))
             await self.reap()
 
     async def stop_all(self) -> None:
