@@ -360,6 +360,11 @@ class PluginHost:
                     raise PluginError(f"plugin {spec.id!r} needs input {name!r} ({port.type})")
                 continue
             value = given[name]
+            if port.max and isinstance(value, (list, tuple)) and len(value) > port.max:
+                # before any is read: 10 000 images would take minutes only to be refused later
+                raise InputError(
+                    f"{spec.id} input {name!r}: {len(value)} {port.type} given; at most {port.max} make one run"
+                )
             if isinstance(value, (str, Path)) and port.type not in ("file", "json"):
                 read_value = read(value, notes)  # first: a missing or bad file is its one-line InputError
                 hashes[name] = file_hash(value)

@@ -71,19 +71,24 @@ KEYS = (
 
 @dataclass
 class Port:
-    """A declared input or output: name, type, unit, help; ``optional`` inputs may be omitted."""
+    """A declared input or output: name, type, unit, help; ``optional`` inputs may be omitted;
+    ``max`` (an ``images``/``files`` input) the most items one run takes, 0 for no limit
+    (the host refuses more before reading any; the GUI's pages state the same one)."""
 
     name: str
     type: str
     unit: str = ""
     help: str = ""
     optional: bool = False
+    max: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": self.type}
         d.update({k: v for k, v in (("unit", self.unit), ("help", self.help)) if v})
         if self.optional:
             d["optional"] = True
+        if self.max:
+            d["max"] = self.max
         return d
 
 
@@ -171,8 +176,23 @@ class CommandSpec:
 def _port(d: Any, where: str) -> Port:
     if not isinstance(d, dict) or "name" not in d or "type" not in d:
         raise PluginError(f"{where}: each input/output needs a name and a type, got {d!r}")
+    most = d.get("max", 0)
+    if (
+        not isinstance(most, int)
+        or isinstance(most, bool)
+        or most < 0
+        or (most and d["type"] not in ("images", "files"))
+    ):
+        raise PluginError(
+            f"{where}: input {d['name']!r}: max {most!r} must be a whole number >= 0, on images/files only"
+        )
     return Port(
-        str(d["name"]), str(d["type"]), str(d.get("unit", "")), str(d.get("help", "")), bool(d.get("optional", False))
+        str(d["name"]),
+        str(d["type"]),
+        str(d.get("unit", "")),
+        str(d.get("help", "")),
+        bool(d.get("optional", False)),
+        most,
     )
 
 

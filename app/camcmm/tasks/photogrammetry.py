@@ -30,6 +30,7 @@ from typing import Any
 from .. import worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
+from ..host import default_host
 from ..jsonable import to_jsonable
 from .items import IMAGE_EXTS, folder_images, stored_record
 
@@ -48,8 +49,14 @@ WORDS = {
     "fusion": "dense",
     "stereo": "dense",
 }
-#: most images a series may hold (the page and the state stay responsive)
-MAX_IMAGES = 400
+
+
+def max_images(host: Any = None) -> int:
+    """Most images a series may hold (the page and the state stay responsive): the
+    provider's declared ``max`` of its images input (camcmm's: plugin.yaml of
+    photogrammetry.reconstruct, which the host also applies to the CLI), 0 for none."""
+    return next((p.max for p in (host or default_host()).provider(TASK).inputs if p.type == "images"), 0)
+
 
 #: what the Photogrammetry page (summary, image rows, scene) reads of the provider's outputs
 CONTRACT = register(
@@ -144,9 +151,10 @@ def folder_sources(folder: Any, pattern: Any = "*", roots: Any = None) -> list[d
     root, files, pats = folder_images(text, pattern, roots)
     if not files:
         raise InputError(f"folder {text}: no image files ({', '.join(IMAGE_EXTS)}) matching {';'.join(pats)!r}")
-    if len(files) > MAX_IMAGES:
+    most = max_images()
+    if most and len(files) > most:
         raise InputError(
-            f"folder {text}: {len(files)} images match {';'.join(pats)!r}; at most {MAX_IMAGES} make one "
+            f"folder {text}: {len(files)} images match {';'.join(pats)!r}; at most {most} make one "
             "series here: narrow the pattern"
         )
     return [{"name": p.name, "path": str(p.resolve()), "item": None} for p in files]
@@ -158,8 +166,9 @@ def item_sources(project: Any, item_ids: Iterable[Any]) -> list[dict[str, Any]]:
     ids = [str(i) for i in (item_ids or [])]
     if not ids:
         raise InputError("image series: choose image items of the project (or give a folder on the server)")
-    if len(ids) > MAX_IMAGES:
-        raise InputError(f"image series: {len(ids)} items chosen; at most {MAX_IMAGES} make one series here")
+    most = max_images()
+    if most and len(ids) > most:
+        raise InputError(f"image series: {len(ids)} items chosen; at most {most} make one series here")
     known = {str(m["id"]): m for m in project.measurements()}
     out, names = [], set()
     for i in ids:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import CameraModel, InputError
 
 #: COLMAP model name -> the names of its parameters, in COLMAP's order
 COLMAP_PARAMS: dict[str, tuple[str, ...]] = {
@@ -28,6 +28,23 @@ COLMAP_PARAMS: dict[str, tuple[str, ...]] = {
     "OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"),
     "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
 }
+
+
+def check_intrinsics(where: str, camera: Any, fx: float, fy: float, cx: float, cy: float, size: Any) -> None:
+    """Refuse, in one line starting with ``where`` and naming ``camera`` and the value,
+    intrinsics that cannot describe a camera: the calibration readers' checks
+    (``camcmm.api.CameraModel``: positive finite focal lengths, px; a finite principal point
+    near the image, OpenCV's pixel origin; whole image sides from 1 to 65536 px; the
+    distortion is checked by the caller, whose models differ), with a size of 0 x 0 refused too (an imported camera always states its
+    size; ``CameraModel`` reads 0 x 0 as "unknown")."""
+    w, h = size
+    if w == 0 and h == 0:
+        raise InputError(f"{where}: camera {str(camera)!r}: image size 0 x 0 px; width and height must be 1 px or more")
+    K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]], dtype=np.float64)
+    try:
+        CameraModel(K, np.zeros(0), image_size=(w, h), name=str(camera))
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
 
 
 def colmap_from_opencv(

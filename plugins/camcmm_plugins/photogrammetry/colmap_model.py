@@ -1,10 +1,23 @@
 """Reading a COLMAP sparse model (cameras, images, points3D) as text or binary.
 
-The text format (colmap.github.io/format.html) is read by hand: it is three small
-whitespace-separated tables, and reading it here gives a line number for every refusal
-and works without pycolmap. The binary format is read with pycolmap (COLMAP's own
-reader; its layout changes between COLMAP versions, so it is not re-implemented here).
-Both give the same :class:`ColmapModel`; the tests hold one against the other.
+Both formats (colmap.github.io/format.html; the binary one is COLMAP's
+``src/colmap/scene/reconstruction_io.cc``, little-endian, unchanged from COLMAP 3.0 to
+pycolmap 4 for these three files) are read by hand: each reader only turns its file into
+rows, and every row goes through the same checks (:class:`_Builder`), so a value the text
+refuses the binary refuses too, naming the file, the line (text) or record (binary), the
+id and the value:
+
+* cameras: a known model with its parameter count, finite parameters, intrinsics a
+  camera (``camcmm.api.CameraModel``'s checks, as the calibration readers: positive
+  finite focal lengths, whole image sides from 1 px, the principal point near the image);
+* images: a finite, non-zero quaternion, a finite translation, a name, a known camera;
+* points: finite coordinates, colours 0-255, a finite error;
+* every camera, image and point id once (a repeated id would silently replace the first,
+  as a repeated YAML key would).
+
+A binary file's counts are checked against the bytes left in the file before anything is
+allocated (a header claiming 2^60 records is refused in one line), a file that ends
+inside a record or goes on after the last is refused, and pycolmap is not needed to read.
 
 COLMAP's conventions, kept here and converted in :mod:`.imports`:
 
@@ -15,12 +28,17 @@ COLMAP's conventions, kept here and converted in :mod:`.imports`:
 
 from __future__ import annotations
 
+import mmap
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from camcmm.api import InputError
+
+from .cameras import COLMAP_PARAMS, check_intrinsics
 
 #: Number of parameters of each COLMAP camera model (src/colmap/sensor/models.h).
 N_PARAMS = {
@@ -37,6 +55,13 @@ N_PARAMS = {
     "THIN_PRISM_FISHEYE": 12,
     "RAD_TAN_THIN_PRISM_FISHEYE": 16,
 }
+
+#: COLMAP's model ids in the binary format (the order of CameraModelId in models.h)
+MODEL_IDS = tuple(N_PARAMS)
+
+#: Names of the leading parameters, by how a model spells its focal length(s): two focal
+#: lengths (fx fy cx cy ...) or one (f cx cy ...).
+TWO_FOCAL = ("PINHOLE", "OPENCV", "OPENCV_FISHEYE", "FULL_OPENCV", "THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE")
 
 FILES = ("cameras", "images", "points3D")
 
@@ -63,8 +88,8 @@ def quat_to_R(qw: float, qx: float, qy: float, qz: float) -> np.ndarray:
     """Rotation matrix of a Hamilton quaternion (normalised first, as COLMAP does)."""
     q = np.array([qw, qx, qy, qz], dtype=np.float64)
     n = np.linalg.norm(q)
-    if not np.isfinite(n) or n < 1e-12:
-        raise ValueError("zero quaternion")
+    if not np.isfinite(q).all() or not np.isfinite(n) or n < 1e-12:
+        raise ValueError(f"quaternion {_fmt(q)} is zero or not finite")
     w, x, y, z = q / n
     return np.array(
         [
@@ -85,11 +110,88 @@ def model_folder(path: Path) -> tuple[Path, str] | None:
     return None
 
 
+def _fmt(v: Any) -> str:
+    """Numbers as the refusals quote them (``nan``, ``-500``, ``1e+30``)."""
+    return "(" + ", ".join(f"{float(x):g}" for x in np.ravel(v)) + ")" if np.ndim(v) else f"{float(v):g}"
+
+
 def read_model(folder: Path, ext: str) -> ColmapModel:
-    """Read a model folder (``ext`` "txt": by hand; "bin": with pycolmap)."""
+    """Read a model folder: ``ext`` "txt" (cameras.txt ...) or "bin" (cameras.bin ...)."""
     return read_text(folder) if ext == "txt" else read_binary(folder)
 
 
+class _Builder:
+    """The checks both formats share: each ``camera``/``image``/``point`` call takes one
+    row as its reader found it (``where``: "FILE: line K" or "FILE: record K") and
+    refuses it in one line naming ``where``, the id and the value."""
+
+    def __init__(self, binary: bool):
+        self.m = ColmapModel(binary=binary)
+        self.image_ids: set[int] = set()
+        self.point_ids: set[int] = set()
+        self.xyz: list[tuple[float, float, float]] = []
+        self.rgb: list[tuple[int, int, int]] = []
+        self.error: list[float] = []
+        self.track: list[int] = []
+
+    def camera(self, where: str, cid: int, model: str, w: float, h: float, params: np.ndarray) -> None:
+        if cid in self.m.cameras:
+            raise InputError(f"{where}: camera id {cid} given twice")
+        if model not in N_PARAMS:
+            raise InputError(f"{where}: camera {cid}: unknown camera model {model!r}")
+        if len(params) != N_PARAMS[model]:
+            raise InputError(f"{where}: {model} has {N_PARAMS[model]} parameters, found {len(params)}")
+        bad = np.flatnonzero(~np.isfinite(params))
+        if bad.size:
+            k = int(bad[0])
+            label = f" ({COLMAP_PARAMS[model][k]})" if model in COLMAP_PARAMS else ""
+            raise InputError(f"{where}: camera {cid}: parameter {k + 1}{label} = {_fmt(params[k])} must be finite")
+        fx, fy, cx, cy = params[:4] if model in TWO_FOCAL else (params[0], params[0], params[1], params[2])
+        check_intrinsics(where, cid, fx, fy, cx - 0.5, cy - 0.5, (w, h))  # OpenCV's pixel origin
+        self.m.cameras[cid] = (model, int(w), int(h), params)
+
+    def image(self, where: str, iid: int, q: Any, t: Any, cid: int, name: str) -> None:
+        if iid in self.image_ids:
+            raise InputError(f"{where}: image id {iid} given twice")
+        try:
+            R = quat_to_R(*q)
+        except ValueError as exc:
+            raise InputError(f"{where}: image {iid}: {exc}") from None
+        t = np.asarray(t, dtype=np.float64)
+        if not np.isfinite(t).all():
+            raise InputError(f"{where}: image {iid}: translation {_fmt(t)} must be finite")
+        if not name:
+            raise InputError(f"{where}: image {iid} has no name")
+        if cid not in self.m.cameras:
+            raise InputError(f"{where}: image {name!r} names camera {cid}, which the cameras file lacks")
+        self.image_ids.add(iid)
+        self.m.images.append((iid, name, cid, R, t))
+
+    def point(self, where: str, pid: int, xyz: Any, rgb: Any, error: float, track: int) -> None:
+        if pid in self.point_ids:
+            raise InputError(f"{where}: point id {pid} given twice")
+        if not np.isfinite(xyz).all():
+            raise InputError(f"{where}: point {pid}: coordinates {_fmt(xyz)} must be finite")
+        if not all(0 <= c <= 255 for c in rgb):
+            raise InputError(f"{where}: point {pid}: colour {tuple(rgb)} outside 0-255")
+        if not np.isfinite(error):
+            raise InputError(f"{where}: point {pid}: error {_fmt(error)} px must be finite")
+        self.point_ids.add(pid)
+        self.xyz.append(tuple(xyz))
+        self.rgb.append(tuple(rgb))
+        self.error.append(float(error))
+        self.track.append(int(track))
+
+    def model(self) -> ColmapModel:
+        m = self.m
+        m.xyz = np.array(self.xyz, dtype=np.float64).reshape(-1, 3)
+        m.rgb = np.array(self.rgb, dtype=np.uint8).reshape(-1, 3)
+        m.error = np.array(self.error, dtype=np.float64)
+        m.track = np.array(self.track, dtype=int)
+        return m
+
+
+# -- text -------------------------------------------------------------------------------
 def _rows(path: Path):
     """(line number, fields) of the non-comment lines, empty lines included (an image's
     second line is empty when it has no 2-D points)."""
@@ -102,23 +204,28 @@ def _rows(path: Path):
             yield k, line.split()
 
 
+def _number(text: str, where: str, what: str, integer: bool = False) -> Any:
+    """One field as a number (``integer``: an id, a whole number), or a refusal naming it."""
+    try:
+        return int(text) if integer else float(text)
+    except ValueError:
+        raise InputError(f"{where}: {what} {text!r} is not {'an integer' if integer else 'a number'}") from None
+
+
 def read_text(folder: Path) -> ColmapModel:
     """Read cameras.txt, images.txt and points3D.txt of a COLMAP text model."""
-    m = ColmapModel()
+    b = _Builder(binary=False)
     path = folder / "cameras.txt"
     for k, f in _rows(path):
         if not f:
             continue
-        try:
-            cid, model, w, h = int(f[0]), f[1], int(f[2]), int(f[3])
-            params = np.array([float(v) for v in f[4:]])
-        except (ValueError, IndexError):
-            raise InputError(f"{path}: line {k}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...") from None
-        if model not in N_PARAMS:
-            raise InputError(f"{path}: line {k}: unknown camera model {model!r}")
-        if len(params) != N_PARAMS[model]:
-            raise InputError(f"{path}: line {k}: {model} has {N_PARAMS[model]} parameters, found {len(params)}")
-        m.cameras[cid] = (model, w, h, params)
+        where = f"{path}: line {k}"
+        if len(f) < 4:
+            raise InputError(f"{where}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...")
+        cid = _number(f[0], where, "camera id", integer=True)
+        w, h = _number(f[2], where, "width", False), _number(f[3], where, "height", False)
+        params = np.array([_number(v, where, f"camera {cid} parameter", False) for v in f[4:]])
+        b.camera(where, cid, f[1], w, h, params)
 
     path = folder / "images.txt"
     rows = list(_rows(path))
@@ -126,67 +233,121 @@ def read_text(folder: Path) -> ColmapModel:
         rows.pop()  # a blank last line
     for i in range(0, len(rows), 2):
         k, f = rows[i]
-        try:
-            iid, cid = int(f[0]), int(f[8])
-            q = [float(v) for v in f[1:5]]
-            t = np.array([float(v) for v in f[5:8]])
-            name = " ".join(f[9:])  # names may hold spaces
-            R = quat_to_R(*q)
-        except (ValueError, IndexError):
-            raise InputError(f"{path}: line {k}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME") from None
-        if not name or not np.isfinite(t).all():
-            raise InputError(f"{path}: line {k}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME")
-        if cid not in m.cameras:
-            raise InputError(f"{path}: line {k}: image {name!r} names camera {cid}, which cameras.txt lacks")
-        m.images.append((iid, name, cid, R, t))
+        where = f"{path}: line {k}"
+        if len(f) < 10:
+            raise InputError(f"{where}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME")
+        iid = _number(f[0], where, "image id", integer=True)
+        q = [_number(v, where, f"image {iid} quaternion", False) for v in f[1:5]]
+        t = [_number(v, where, f"image {iid} translation", False) for v in f[5:8]]
+        cid = _number(f[8], where, f"image {iid} camera id", integer=True)
+        b.image(where, iid, q, t, cid, " ".join(f[9:]))  # names may hold spaces
 
     path = folder / "points3D.txt"
-    xyz, rgb, err, track = [], [], [], []
     for k, f in _rows(path):
         if not f:
             continue
+        where = f"{path}: line {k}"
+        if len(f) < 8:
+            raise InputError(f"{where}: expected POINT3D_ID X Y Z R G B ERROR TRACK...")
+        pid = _number(f[0], where, "point id", integer=True)
+        xyz = [_number(v, where, f"point {pid} coordinate", False) for v in f[1:4]]
+        rgb = [_number(v, where, f"point {pid} colour", integer=True) for v in f[4:7]]
+        b.point(where, pid, xyz, rgb, _number(f[7], where, f"point {pid} error", False), (len(f) - 8) // 2)
+    return b.model()
+
+
+# -- binary -----------------------------------------------------------------------------
+class _Bytes:
+    """A binary model file read in order, every read checked against what is left."""
+
+    def __init__(self, path: Path):
+        self.path, self.pos = path, 0
         try:
-            xyz.append([float(v) for v in f[1:4]])
-            rgb.append([int(v) for v in f[4:7]])
-            err.append(float(f[7]))
-            track.append((len(f) - 8) // 2)
-        except (ValueError, IndexError):
-            raise InputError(f"{path}: line {k}: expected POINT3D_ID X Y Z R G B ERROR TRACK...") from None
-        if len(xyz[-1]) != 3 or len(rgb[-1]) != 3 or not all(0 <= c <= 255 for c in rgb[-1]):
-            raise InputError(f"{path}: line {k}: expected POINT3D_ID X Y Z R G B (0-255) ERROR TRACK...")
-    m.xyz = np.array(xyz, dtype=np.float64).reshape(-1, 3)
-    m.rgb = np.array(rgb, dtype=np.uint8).reshape(-1, 3)
-    m.error = np.array(err, dtype=np.float64)
-    m.track = np.array(track, dtype=int)
-    if not np.isfinite(m.xyz).all():
-        raise InputError(f"{path}: a point has a non-finite coordinate")
-    return m
+            with open(path, "rb") as fh:
+                size = fh.seek(0, 2)
+                # mapped, not read: the file's size costs no memory until a record is read
+                self.data: Any = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) if size else b""
+        except (OSError, ValueError) as exc:
+            raise InputError(f"{path}: cannot read ({exc})") from None
+
+    @property
+    def left(self) -> int:
+        return len(self.data) - self.pos
+
+    def take(self, fmt: str, what: str) -> tuple:
+        n = struct.calcsize("<" + fmt)
+        if n > self.left:
+            raise InputError(f"{self.path}: the file ends inside {what} (byte {self.pos}; {self.left} left of {n})")
+        out = struct.unpack_from("<" + fmt, self.data, self.pos)
+        self.pos += n
+        return out
+
+    def count(self, what: str, least: int) -> int:
+        """A uint64 count of records of at least ``least`` bytes each, refused when the
+        rest of the file cannot hold them (before anything is allocated for them)."""
+        (n,) = self.take("Q", f"the {what} count")
+        if n * least > self.left:
+            raise InputError(
+                f"{self.path}: {n} {what} at {least} bytes or more each need {n * least} bytes; "
+                f"{self.left} are left in the file (byte {self.pos})"
+            )
+        return n
+
+    def name(self, what: str) -> str:
+        end = self.data.find(b"\0", self.pos)
+        if end < 0:
+            raise InputError(f"{self.path}: the file ends inside {what}'s name (byte {self.pos}; no terminating NUL)")
+        raw = bytes(self.data[self.pos : end])
+        self.pos = end + 1
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"{self.path}: {what}'s name {raw[:40]!r} is not UTF-8") from None
+
+    def skip(self, n: int, what: str) -> None:
+        if n > self.left:
+            raise InputError(f"{self.path}: the file ends inside {what} ({n} bytes declared, {self.left} left)")
+        self.pos += n
+
+    def end(self) -> None:
+        if self.left:
+            raise InputError(f"{self.path}: {self.left} bytes after the last record (byte {self.pos}): a wrong count?")
 
 
 def read_binary(folder: Path) -> ColmapModel:
-    """Read a binary (or text) model with pycolmap: only registered images (with a pose)."""
-    try:
-        import pycolmap
-    except ImportError:  # pragma: no cover - pycolmap is a dependency
-        raise InputError(f"{folder}: reading a binary COLMAP model needs pycolmap") from None
-    try:
-        rec = pycolmap.Reconstruction(str(folder))
-    except Exception as exc:  # pycolmap raises its own (RuntimeError, ValueError) types
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"{folder}: not a readable COLMAP model ({first})") from None
-    m = ColmapModel(binary=True)
-    for cid, cam in rec.cameras.items():
-        m.cameras[int(cid)] = (cam.model.name, int(cam.width), int(cam.height), np.asarray(cam.params, float))
-    for iid in sorted(rec.images):
-        im = rec.images[iid]
-        if not im.has_pose:
-            continue
-        pose = im.cam_from_world()
-        m.images.append((int(iid), im.name, int(im.camera_id), pose.rotation.matrix(), np.asarray(pose.translation)))
-    pts = rec.points3D
-    ids = sorted(pts)
-    m.xyz = np.array([pts[i].xyz for i in ids], dtype=np.float64).reshape(-1, 3)
-    m.rgb = np.array([pts[i].color for i in ids], dtype=np.uint8).reshape(-1, 3)
-    m.error = np.array([pts[i].error for i in ids], dtype=np.float64)
-    m.track = np.array([pts[i].track.length() for i in ids], dtype=int)
-    return m
+    """Read cameras.bin, images.bin and points3D.bin of a COLMAP binary model (COLMAP
+    writes only registered images there)."""
+    b = _Builder(binary=True)
+    f = _Bytes(folder / "cameras.bin")
+    for k in range(1, f.count("cameras", 24) + 1):
+        what = f"camera record {k}"
+        cid, mid, w, h = f.take("iiQQ", what)
+        if not 0 <= mid < len(MODEL_IDS):
+            raise InputError(f"{f.path}: {what}: camera {cid}: unknown camera model id {mid}")
+        model = MODEL_IDS[mid]
+        params = np.array(f.take(f"{N_PARAMS[model]}d", what))
+        b.camera(f"{f.path}: record {k}", cid, model, w, h, params)
+    f.end()
+
+    f = _Bytes(folder / "images.bin")
+    for k in range(1, f.count("images", 73) + 1):  # id, q, t, camera, a 1-char name + NUL, count
+        what = f"image record {k}"
+        iid, *qt, cid = f.take("I7dI", what)
+        name = f.name(what)
+        (n2d,) = f.take("Q", what)
+        if n2d > f.left // 24:
+            raise InputError(f"{f.path}: {what}: {n2d} 2-D points need {24 * n2d} bytes; {f.left} are left")
+        f.skip(24 * n2d, what)  # x, y, point3D_id each: not needed here
+        b.image(f"{f.path}: record {k}", iid, qt[:4], qt[4:], cid, name)
+    f.end()
+
+    f = _Bytes(folder / "points3D.bin")
+    for k in range(1, f.count("points", 51) + 1):
+        what = f"point record {k}"
+        pid, x, y, z, r, g, bl, err, n = f.take("Q3d3BdQ", what)
+        if n > f.left // 8:
+            raise InputError(f"{f.path}: {what}: a track of {n} needs {8 * n} bytes; {f.left} are left")
+        f.skip(8 * n, what)  # (image_id, point2D_idx) pairs
+        b.point(f"{f.path}: record {k}", pid, (x, y, z), (r, g, bl), err, n)
+    f.end()
+    return b.model()

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError, PointCloud, read
+from camcmm.api import InputError, PathRefused, PointCloud, checked_path, read
 
 from . import colmap_model, metashape
 from .cameras import COLMAP_PARAMS, opencv_from_colmap
@@ -54,7 +54,9 @@ def read_reconstruction(path) -> dict[str, Any]:
     ------
     InputError : one line naming the file and the line or field at fault.
     """
-    p = Path(path).expanduser()
+    # checked before it is looked at: a confined run (the server) refuses a path outside
+    # its folders alike whether it exists or not
+    p = checked_path(path, "reconstruction")
     if not p.exists():
         raise InputError(f"{p}: no such file or folder")
     if p.is_file() and p.stem in colmap_model.FILES and p.suffix.lower() in (".txt", ".bin"):
@@ -65,7 +67,7 @@ def read_reconstruction(path) -> dict[str, Any]:
             raise InputError(
                 f"{p}: not a COLMAP model folder (cameras, images, points3D as .txt or .bin, or sparse/0 inside)"
             )
-        return _from_colmap(*found, given=p)
+        return _from_colmap(checked_path(found[0], "COLMAP model"), found[1], given=p)  # sparse/ may be a link
     if p.suffix.lower() == ".xml":
         cloud = next((c for s in CLOUD_SUFFIXES if (c := p.with_suffix(s)).is_file()), None)
         return _from_metashape(cloud, p)
@@ -121,8 +123,12 @@ def _dense_ply(given: Path, folder: Path) -> Path | None:
     """COLMAP's fused dense cloud of a dense workspace (``dense/0/fused.ply`` beside
     ``dense/0/sparse``), named by the folder given or the model folder's parent."""
     for d in (given, folder.parent):
-        if (d / "fused.ply").is_file():
-            return d / "fused.ply"
+        try:  # the parent may lie outside a confined run's folders: then it is not looked at
+            ply = checked_path(d / "fused.ply", "dense cloud")
+        except PathRefused:
+            continue
+        if ply.is_file():
+            return ply
     return None
 
 

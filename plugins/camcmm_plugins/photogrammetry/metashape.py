@@ -28,15 +28,31 @@ import numpy as np
 
 from camcmm.api import InputError
 
+from .cameras import check_intrinsics
+
 
 def _floats(el, path: Path, what: str, n: int) -> np.ndarray:
     try:
         v = np.array([float(x) for x in (el.text or "").split()])
     except ValueError:
         raise InputError(f"{path}: {what}: not numbers") from None
-    if len(v) != n or not np.isfinite(v).all():
+    if len(v) != n:
         raise InputError(f"{path}: {what}: expected {n} numbers, found {len(v)}")
+    if not np.isfinite(v).all():
+        raise InputError(f"{path}: {what}: {v[~np.isfinite(v)][0]:g} is not a finite number")
     return v
+
+
+def _attr(el, name: str, path: Path, what: str) -> int:
+    """A whole-number attribute (``<resolution width=...>``), refused in one line naming
+    the element and the value when missing or not a whole number."""
+    text = el.get(name)
+    if text is None:
+        raise InputError(f"{path}: {what} <{el.tag}> lacks {name}")
+    try:
+        return int(text.strip())
+    except ValueError:
+        raise InputError(f"{path}: {what} <{el.tag} {name}={text!r}>: not a whole number") from None
 
 
 def _num(calib, tag: str, path: Path, default: float | None = 0.0) -> float:
@@ -56,7 +72,8 @@ def _camera(sensor, path: Path, warnings: list[str]) -> dict[str, Any]:
     res = (calib if calib is not None and calib.find("resolution") is not None else sensor).find("resolution")
     if res is None:
         raise InputError(f"{path}: sensor {label!r} has no <resolution>")
-    w, h = int(res.get("width", 0)), int(res.get("height", 0))
+    where = f"sensor {label!r}"
+    w, h = _attr(res, "width", path, where), _attr(res, "height", path, where)
     if calib is None:
         raise InputError(f"{path}: sensor {label!r} has no <calibration> (cameras not aligned?)")
     kind = calib.get("type", sensor.get("type", "frame"))
@@ -73,6 +90,8 @@ def _camera(sensor, path: Path, warnings: list[str]) -> dict[str, Any]:
     if skew:
         warnings.append(f"{path}: sensor {label!r} has skew b2 = {skew:g} px, which OpenCV's model drops")
     k = {t: _num(calib, t, path) for t in ("k1", "k2", "k3", "k4", "p1", "p2")}
+    # the calibration readers' camera checks (f -7000, a 0 px wide sensor ...), by the sensor's label
+    check_intrinsics(f"{path}: sensor", label, fx, fy, cx, cy, (w, h))
     if k["k4"]:
         warnings.append(f"{path}: sensor {label!r} has k4 = {k['k4']:g} (r^8), which OpenCV's model lacks; dropped")
     return {

@@ -15,6 +15,7 @@ import numpy as np
 
 from camcmm.api import InputError, PluginError, PointCloud, RunContext, read_calibration
 
+from .scale import check_spec
 from .sfm import DEFAULT_MODEL, reconstruct_sparse
 from .sparse import SparseResult
 from .turntable import DEFAULT_WINDOW, check_turntable, parse_angles
@@ -147,6 +148,7 @@ def reconstruct(
     """
     arrays, names = _series(images)
     angles = parse_angles(turntable_angles, len(arrays))  # refused before any work
+    check_spec(scale)  # likewise (it is applied only after SfM and the dense stage)
     cal = _calibration(calibration)
     share = 0.45 if dense else 0.95
 

@@ -21,12 +21,11 @@ radius in reconstruction units, the calibrated radii then tell which sizes to lo
 from __future__ import annotations
 
 import itertools
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from camcmm.api import GeometryError, InputError, PointCloud, default_host
+from camcmm.api import GeometryError, InputError, PointCloud, checked_path, default_host
 
 from .scale_lengths import read_lengths
 
@@ -66,8 +65,12 @@ def parse_spec(spec: str) -> dict[str, Any]:
     if not sep or method not in ("spheres", "lengths", "bar"):
         raise InputError(f"scale {spec!r}: expected spheres:R1,R2[@U], lengths:FILE or bar:L[@U]")
     if method == "lengths":
-        path = Path(rest.strip()).expanduser()
-        if not rest.strip() or not path.is_file():
+        if not rest.strip():
+            raise InputError(f"scale {spec!r}: no lengths file named")
+        # checked before it is looked at: in the server's confined runs a file outside the
+        # roots is refused alike whether it exists or not (no oracle for the machine's files)
+        path = checked_path(rest.strip(), "scale lengths")
+        if not path.is_file():
             raise InputError(f"scale {spec!r}: no such lengths file {rest.strip()!r}")
         return {"method": method, "values": [], "u": 0.0, "file": path}
     body, at, u_text = rest.partition("@")
@@ -79,6 +82,15 @@ def parse_spec(spec: str) -> dict[str, Any]:
     if len(values) > 10:
         raise InputError(f"scale {spec!r}: at most 10 scale spheres")
     return {"method": method, "values": values, "u": u, "file": None}
+
+
+def check_spec(spec: str) -> dict[str, Any]:
+    """:func:`parse_spec`, and for ``lengths:FILE`` the file's table read and checked too:
+    a reconstruction calls it before any work, so a bad spec costs no structure from motion."""
+    p = parse_spec(spec)
+    if p["method"] == "lengths":
+        read_lengths(p["file"])
+    return p
 
 
 def _algorithms(ctx):
