@@ -208,6 +208,29 @@ def test_series_limit_is_the_manifests_and_the_gui_reads_it():
     assert not hasattr(task, "MAX_IMAGES")  # no second copy of the number
 
 
+@pytest.mark.parametrize(
+    ("port", "ok"),
+    [
+        ({"name": "i", "type": "images", "max": 3}, True),
+        ({"name": "i", "type": "files", "max": 0}, True),
+        ({"name": "i", "type": "images", "max": -1}, False),
+        ({"name": "i", "type": "images", "max": "many"}, False),
+        ({"name": "i", "type": "images", "max": True}, False),
+        ({"name": "c", "type": "pointcloud", "max": 3}, False),
+    ],
+)
+def test_manifest_max_of_an_input(port, ok):
+    from camcmm.api import PluginError
+    from camcmm.manifest import parse_plugin
+
+    entry = {"id": "lab.x", "kind": "algorithm", "name": "X", "entry": "m:f", "inputs": [port]}
+    if ok:
+        assert parse_plugin(entry, "1", "d", "w").inputs[0].max == port["max"]
+    else:
+        with pytest.raises(PluginError, match=f"input '{port['name']}': max"):
+            parse_plugin(entry, "1", "d", "w")
+
+
 def test_cli_refuses_a_series_beyond_the_limit_before_reading_it(tmp_path, capsys):
     """401 files that are not even images: refused by their count, in well under a second
     (before: 10 000 tiny images ran past 400 s)."""
