@@ -201,6 +201,8 @@ def _import_cases() -> list[Case]:
     ic("txt-cam-not-utf8", t(cameras=b"\xff\xfe 1 PINHOLE\n"), ("cameras.txt",))
     ic("txt-img-q-abc", t(images=with_image(0, q=["one", 0.0, 0.0, 0.0])), ("'one'",))
     ic("txt-img-truncated", t(images=b"1 1 0 0 0 0 0 10\n\n"), ("images.txt",))
+    ic("txt-img-name-missing", t(images=b"1 1 0 0 0 0 0 10 1\n\n"), ("images.txt",))
+    ic("txt-cam-height-abc", t(cameras=with_camera(0, h="tall")), ("'tall'",))
     ic("txt-img-id-abc", t(images=with_image(0, id="1.5")), ("'1.5'",))
     ic("txt-pt-rgb-300", t(points=with_point(0, rgb=[300, 0, 0])), ("300",))
     ic("txt-pt-rgb-neg", t(points=with_point(0, rgb=[-1, 0, 0])), ("-1",))
@@ -271,6 +273,13 @@ def _import_cases() -> list[Case]:
         ("scale", "transform"),
     )
     mc("not-xml", b"<document><chunk", ("c.xml",))
+    entities = "".join(f'<!ENTITY {chr(98 + i)} "{("&" + chr(97 + i) + ";") * 10}">' for i in range(8))
+    mc(
+        "entity-bomb",  # 10^9 characters from 0.4 kB: expat's amplification limit refuses it
+        f'<?xml version="1.0"?><!DOCTYPE d [<!ENTITY a "aaaaaaaaaa">{entities}]>'
+        '<document><chunk><sensors><sensor id="0" label="&i;"/></sensors></chunk></document>'.encode(),
+        ("c.xml",),
+    )
     mc("no-chunk", b"<document><x/></document>", ("chunk",))
     mc("not-utf8", b"\xff\xfe<document/>", ("c.xml",))
     ic("ms-cloud-bad-xml-beside", {"c.txt": b"0 0 0\n1 1 1\n2 2 2\n", "c.xml": m(f="<f>-1</f>")}, ("-1",), "c.txt")
