@@ -396,7 +396,12 @@ _PORT_KINDS = {
     "geometry": ("PointCloud", "TriangleMesh"),
     "image": ("Image",),
 }
-_KIND_WORDS = {"PointCloud": "a point cloud", "TriangleMesh": "a triangle mesh", "Image": "an image"}
+_KIND_WORDS = {
+    "PointCloud": "a point cloud",
+    "TriangleMesh": "a triangle mesh",
+    "Image": "an image",
+    "HeightMap": "a height map",
+}
 
 
 def _check_kind(plugin_id: str, port: Any, value: Any, given: Any) -> None:

@@ -250,7 +250,14 @@ def decide_unit(
 
 
 def object_span(obj) -> tuple[float, float, float]:
-    """The bounding-box sides (mm) of a PointCloud or TriangleMesh (zeros when empty)."""
+    """The bounding-box sides (mm) of a PointCloud or TriangleMesh (zeros when empty), or
+    of a HeightMap (width, length, height range; its ``points`` is a method)."""
+    if hasattr(obj, "size_mm") and hasattr(obj, "heights"):
+        import numpy as np
+
+        h = obj.heights
+        depth = float(np.nanmax(h) - np.nanmin(h)) if obj.n_valid else 0.0
+        return (float(obj.size_mm[0]), float(obj.size_mm[1]), depth)
     pts = getattr(obj, "points", None)
     if pts is None:
         pts = getattr(obj, "vertices", None)
