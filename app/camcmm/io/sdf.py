@@ -23,12 +23,13 @@ import struct
 from datetime import datetime
 from decimal import Decimal
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
 from ..model import HeightMap
 from ._common import fail
+from ._maps import MIN_Z_FACTOR_MM, check_grid, check_heights, check_plausible, factor
 
 _HEAD = struct.Struct("<8s10s12s12sHHddddBBB")
 _TYPES = {5: "<i2", 6: "<i4", 7: "<f8"}
@@ -37,45 +38,73 @@ _KEYS = ("NumPoints", "NumProfiles", "Xscale", "Yscale", "Zscale", "DataType")
 
 
 def read(path: Path, name: str) -> HeightMap:
+    size = path.stat().st_size
     with open(path, "rb") as fh:
-        blob = fh.read()
-    magic = blob[:8]
-    if magic == b"bISO-1.0":
-        if len(blob) < _HEAD.size:
-            raise fail(name, f"SDF header is cut short ({len(blob)} bytes)")
-        _, manuf, created, _mod, nx, ny, xs, ys, zs, _zres, comp, dtype, _chk = _HEAD.unpack_from(blob)
-        if comp != 0:
-            raise fail(name, f"SDF compression {comp} is not supported (only 0, none)")
-        if dtype not in _TYPES:
-            raise fail(name, f"SDF data type {dtype} is not one of 5 (int16), 6 (int32), 7 (float64)")
-        size = nx * ny * np.dtype(_TYPES[dtype]).itemsize
-        if len(blob) < _HEAD.size + size:
-            raise fail(name, f"SDF data are cut short: {len(blob) - _HEAD.size} bytes for {nx} x {ny} points")
-        raw = np.frombuffer(blob, dtype=_TYPES[dtype], count=nx * ny, offset=_HEAD.size).reshape(ny, nx)
-        header = {"ManufacID": manuf, "CreateDate": created}
-        encoding = "binary"
-    elif magic == b"aISO-1.0":
-        header, raw = _ascii(blob, name)
-        nx, ny, dtype = header["NumPoints"], header["NumProfiles"], header["DataType"]
-        xs, ys, zs = header["Xscale"], header["Yscale"], header["Zscale"]
-        encoding = "ascii"
-    else:
-        raise fail(name, f"not an ISO 25178-71 SDF file (starts {magic!r}, expected b'aISO-1.0' or b'bISO-1.0')")
+        magic = fh.read(8)
+        if magic == b"bISO-1.0":
+            header, raw = _binary(fh, size, name)
+            encoding = "binary"
+        elif magic == b"aISO-1.0":
+            header, raw = _ascii(fh, size, name)
+            encoding = "ascii"
+        else:
+            raise fail(name, f"not an ISO 25178-71 SDF file (starts {magic!r}, expected b'aISO-1.0' or b'bISO-1.0')")
+    dtype = header["DataType"]
     z = raw.astype(np.float64)
     if dtype in (5, 6):
         z[raw == np.iinfo(_TYPES[dtype]).min] = np.nan
-    k = _mm(zs)
-    if not (np.isfinite(k) and k != 0):
-        raise fail(name, f"SDF Zscale {zs} is not a finite non-zero factor")
-    if k != 1.0:
-        z *= k
+    del raw
+    if header["k"] != 1.0:
+        z *= header["k"]
+    check_heights(name, z, f" (SDF Zscale {header['Zscale']})")
     meta: dict[str, Any] = {"format": f"ISO 25178-71 SDF ({encoding})"}
     for key in ("ManufacID", "CreateDate"):
         v = header.get(key)
         v = v.decode("latin-1") if isinstance(v, bytes) else v
         if v and str(v).strip("\x00 "):
             meta[key.lower()] = str(v).strip("\x00 ")
-    return HeightMap(z, _mm(xs), _mm(ys), name=name, source_unit="m", meta=meta)
+    return HeightMap(z, header["dx"], header["dy"], name=name, source_unit="m", meta=meta)
+
+
+def _scales(header: dict[str, Any], name: str) -> None:
+    """Check the grid and the header fields that scale the data before the data are
+    read; adds the steps ``dx``, ``dy`` and the height factor ``k`` in mm."""
+    nx, ny = header["NumPoints"], header["NumProfiles"]
+    check_grid(name, nx, ny, np.dtype(_TYPES[header["DataType"]]).itemsize + 8, "SDF grid")
+    try:
+        dx, dy, k = (_mm(header[key]) for key in ("Xscale", "Yscale", "Zscale"))
+    except ArithmeticError:  # a decimal beyond the context's exponent range
+        raise fail(name, "SDF Xscale, Yscale or Zscale is out of range") from None
+    check_plausible(name, nx, ny, dx, dy, fields=f" (SDF Xscale {header['Xscale']}, Yscale {header['Yscale']})")
+    header["dx"], header["dy"] = dx, dy
+    header["k"] = factor(name, f"SDF Zscale {header['Zscale']}", k, MIN_Z_FACTOR_MM)
+
+
+def _binary(fh: BinaryIO, size: int, name: str) -> tuple[dict[str, Any], np.ndarray]:
+    """The binary header and the points, the file's length checked against the grid
+    before the points are read: short is cut, longer holds bytes no field accounts for."""
+    head = b"bISO-1.0" + fh.read(_HEAD.size - 8)
+    if len(head) < _HEAD.size:
+        raise fail(name, f"SDF header is cut short ({len(head)} bytes)")
+    _, manuf, created, _mod, nx, ny, xs, ys, zs, _zres, comp, dtype, _chk = _HEAD.unpack(head)
+    if comp != 0:
+        raise fail(name, f"SDF compression {comp} is not supported (only 0, none)")
+    if dtype not in _TYPES:
+        raise fail(name, f"SDF data type {dtype} is not one of 5 (int16), 6 (int32), 7 (float64)")
+    header = {"ManufacID": manuf, "CreateDate": created, "NumPoints": nx, "NumProfiles": ny}
+    header.update(Xscale=xs, Yscale=ys, Zscale=zs, DataType=dtype)
+    _scales(header, name)
+    need = nx * ny * np.dtype(_TYPES[dtype]).itemsize
+    if size - _HEAD.size < need:
+        raise fail(name, f"SDF data are cut short: {size - _HEAD.size} bytes for {nx} x {ny} points ({need} bytes)")
+    if size - _HEAD.size > need:
+        raise fail(
+            name,
+            f"SDF holds {size - _HEAD.size} bytes of data; its {nx} x {ny} points of data type {dtype} "
+            f"need {need}: {size - _HEAD.size - need} trailing bytes (a damaged or wrongly sized file)",
+        )
+    raw = np.fromfile(fh, dtype=_TYPES[dtype], count=nx * ny).reshape(ny, nx)
+    return header, raw
 
 
 def _mm(metres: float | str) -> float:
@@ -87,11 +116,18 @@ def _mm(metres: float | str) -> float:
     return float(Decimal(repr(float(metres))) * 1000) if np.isfinite(metres) else float(metres)
 
 
-def _ascii(blob: bytes, name: str) -> tuple[dict[str, Any], np.ndarray]:
-    text = blob.decode("latin-1")
-    head, sep, rest = text.partition("\n*")
+#: An ASCII value takes at most this many bytes with its separator (a float64's repr is
+#: at most 24 characters): a longer file holds something else, refused before parsing.
+_ASCII_BYTES_PER_VALUE = 40
+_ASCII_HEADER_BYTES = 1 << 16
+
+
+def _ascii(fh: BinaryIO, size: int, name: str) -> tuple[dict[str, Any], np.ndarray]:
+    fh.seek(0)
+    head_blob = fh.read(_ASCII_HEADER_BYTES)
+    head, sep, _ = head_blob.decode("latin-1").partition("\n*")
     if not sep:
-        raise fail(name, "SDF header does not end with a '*' line")
+        raise fail(name, "SDF header does not end with a '*' line (within 64 kB)")
     header: dict[str, Any] = {}
     for line in head.splitlines()[1:]:
         key, eq, value = line.partition("=")
@@ -102,24 +138,39 @@ def _ascii(blob: bytes, name: str) -> tuple[dict[str, Any], np.ndarray]:
         raise fail(name, f"SDF header lacks {', '.join(missing)}")
     try:
         for k in ("NumPoints", "NumProfiles", "DataType"):
-            header[k] = int(header[k])
+            text = header[k]
+            if not (text.isascii() and text.lstrip("+-").isdigit()) or len(text) > 12:
+                raise ValueError(f"{k} = {text[:40]}")
+            header[k] = int(text)
         for k in ("Xscale", "Yscale", "Zscale"):
             if not np.isfinite(float(header[k])):  # kept as text: _mm scales it in decimal
-                raise ValueError(f"{k} = {header[k]}")
+                raise ValueError(f"{k} = {header[k][:40]}")
     except ValueError as exc:
         raise fail(name, f"SDF header value is not a number ({exc})") from None
     if header["DataType"] not in _TYPES:
         raise fail(name, f"SDF data type {header['DataType']} is not one of 5, 6, 7")
-    body = rest.split("\n", 1)[1] if "\n" in rest else ""
-    body = body.split("\n*", 1)[0]  # an optional trailer follows a second '*' line
-    words = body.split()
+    _scales(header, name)
     n = header["NumPoints"] * header["NumProfiles"]
+    if size > len(head) + 64 + n * _ASCII_BYTES_PER_VALUE:
+        raise fail(
+            name,
+            f"SDF is {size} bytes; {header['NumPoints']} x {header['NumProfiles']} values take at most "
+            f"{n * _ASCII_BYTES_PER_VALUE} (trailing data or a wrong NumPoints/NumProfiles)",
+        )
+    fh.seek(0)
+    text = fh.read().decode("latin-1")
+    rest = text.partition("\n*")[2]
+    body = rest.split("\n", 1)[1] if "\n" in rest else ""
+    body, trailer, _ = body.partition("\n*")  # an optional trailer follows a second '*' line
+    words = body.split()
     if len(words) != n:
         raise fail(name, f"SDF holds {len(words)} values for {header['NumPoints']} x {header['NumProfiles']} points")
     try:
         values = np.array([np.nan if w.upper() == "BAD" else float(w) for w in words], dtype=np.float64)
     except ValueError as exc:
-        raise fail(name, f"SDF data value is not a number ({exc})") from None
+        raise fail(name, f"SDF data value is not a number ({str(exc)[:80]})") from None
+    if np.isinf(values).any():
+        raise fail(name, "SDF data hold an infinite value (invalid points are BAD)")
     return header, values.reshape(header["NumProfiles"], header["NumPoints"])
 
 

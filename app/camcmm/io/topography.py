@@ -12,6 +12,7 @@ intensity (or amplitude, quality, light, laser) becomes the map's ``intensity``.
 
 from __future__ import annotations
 
+import math
 import re
 from datetime import date, datetime
 from pathlib import Path
@@ -22,6 +23,7 @@ import numpy as np
 from ..model import HeightMap
 from ..units import to_mm_factor
 from ._common import canonical_unit, fail
+from ._maps import check_grid, check_heights, check_plausible
 
 #: extension -> (SurfaceTopography's format key, what it is)
 VENDOR: dict[str, tuple[str, str]] = {
@@ -79,9 +81,13 @@ def read(path: Path, name: str) -> HeightMap:
         reader = open_topography(str(path), format=key)
     except Exception as exc:
         raise fail(name, f"not a readable {what} file ({_reason(exc)})") from exc
-    if not reader.channels:
+    try:  # the channels are computed from the header's fields (NaN ones fail in there)
+        channels = reader.channels
+        channel = reader.default_channel if channels else None
+    except Exception as exc:
+        raise fail(name, f"the {what} file's header fields are not usable numbers ({_reason(exc)})") from exc
+    if channel is None:
         raise fail(name, f"the {what} file holds no height channel (none has a length unit)")
-    channel = reader.default_channel
     unit_word = channel.unit
     if unit_word is None:
         raise fail(name, f"the {what} file states no length unit, so its steps and heights cannot be put in mm")
@@ -90,6 +96,7 @@ def read(path: Path, name: str) -> HeightMap:
         raise fail(name, f"the {what} file states the unit {unit_word!r}, which is not a length camcmm knows")
     if channel.dim != 2:
         raise fail(name, f"the {what} file holds a {channel.dim}-D profile, not a height map")
+    _check_header(channel, key, what, name)
     try:
         topo = reader.topography(channel_index=channel.index)
         h = topo.heights()
@@ -104,6 +111,8 @@ def read(path: Path, name: str) -> HeightMap:
         heights *= k
     nx, ny = topo.nb_grid_pts
     sx, sy = topo.physical_sizes
+    check_plausible(name, nx, ny, sx * k / nx, sy * k / ny, fields=f" ({what} lateral resolution)")
+    check_heights(name, heights, f" ({what} height scale)")
     intensity, intensity_name = _intensity(reader, channel, name)
     if intensity is None and key == "metropro":
         intensity = _metropro_intensity(path, dict(topo.info).get("raw_metadata"))
@@ -128,6 +137,38 @@ def read(path: Path, name: str) -> HeightMap:
         source_unit=unit,
         meta=meta,
     )
+
+
+#: MetroPro's header fields whose product (with the phase resolution) scales the phase
+#: counts to heights (Zygo's MetroPro Reference Guide, "Data file format").
+_METROPRO_Z = ("wavelength_in", "intf_scale_factor", "obliquity_factor")
+
+
+def _check_header(channel: Any, key: str, what: str, name: str) -> None:
+    """Before the heights are read: the grid within the memory limit (the heights, their
+    float64 copy and a mask), a lateral size stated, and a height scale that is a
+    non-zero finite number (MetroPro: a wavelength of 0 makes every height 0.0)."""
+    try:
+        nx, ny = (int(v) for v in channel.nb_grid_pts)
+    except (TypeError, ValueError):
+        raise fail(name, f"the {what} file states no grid size") from None
+    check_grid(name, nx, ny, 8 + 8 + 8 + 1, f"{what} grid")
+    if channel.physical_sizes is None:
+        raise fail(name, f"the {what} file states no lateral resolution (0 or missing), so the map has no size in mm")
+    hsf = getattr(channel, "height_scale_factor", None)
+    if hsf is None:
+        return
+    try:
+        bad = not math.isfinite(float(hsf)) or float(hsf) == 0
+    except (TypeError, ValueError):
+        bad = True
+    if not bad:
+        return
+    fields = ""
+    raw = (getattr(channel, "info", None) or {}).get("raw_metadata")
+    if key == "metropro" and isinstance(raw, dict):
+        fields = " (" + ", ".join(f"{f} {raw.get(f)!r}" for f in _METROPRO_Z if f in raw) + ")"
+    raise fail(name, f"the {what} file's height scale factor is {hsf!r}{fields}: every height would be 0 or undefined")
 
 
 def _grid(a: Any) -> np.ndarray:

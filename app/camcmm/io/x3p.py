@@ -31,9 +31,10 @@ import json
 import xml.etree.ElementTree as ET
 import zipfile
 from datetime import UTC, datetime
-from decimal import Decimal, InvalidOperation
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
+from xml.parsers import expat
 
 import numpy as np
 
@@ -41,6 +42,7 @@ from .. import __version__
 from ..jsonable import to_jsonable
 from ..model import HeightMap
 from ._common import fail
+from ._maps import MIN_Z_FACTOR_MM, check_grid, check_heights, check_plausible, factor, read_member
 
 _NS = "http://www.opengps.eu/2008/ISO5436_2"
 _DTYPES = {"I": "<u2", "L": "<u4", "F": "<f4", "D": "<f8"}
@@ -48,141 +50,170 @@ _DTYPES = {"I": "<u2", "L": "<u4", "F": "<f4", "D": "<f8"}
 #: intensity channel (float64, the heights' order) and the full metadata as JSON, so a
 #: map stored in a project comes back whole.
 _INTENSITY, _META = "camcmm/intensity.bin", "camcmm/meta.json"
+#: main.xml (and camcmm/meta.json) larger than this is refused before it is read: a
+#: header of axes, sizes and a record of the instrument is a few kB.
+MAX_XML = 4 << 20
 
 
 def _local(tag: str) -> str:
     return tag.rsplit("}", 1)[-1]
 
 
-def _tree(elem: ET.Element) -> Any:
-    """The element as nested dicts of local names -> text (namespaces dropped)."""
-    if len(elem) == 0:
+def _tree(elem: ET.Element, depth: int = 0) -> Any:
+    """The element as nested dicts of local names -> text (namespaces dropped); X3P nests
+    four levels, so deeper nesting is cut off (no recursion limit reached on a hostile file)."""
+    if len(elem) == 0 or depth > 16:
         return (elem.text or "").strip()
-    return {_local(child.tag): _tree(child) for child in elem}
+    return {_local(child.tag): _tree(child, depth + 1) for child in elem}
 
 
-def _mm(d: dict, key: str, name: str, default: float | None = None) -> float:
+def _mm(d: dict, key: str, name: str, default: float | None = None, axis: str = "") -> float:
     """The value (metres in the file) in mm, scaled in decimal: what :func:`write` wrote
     as the decimal of ``repr(mm)`` shifted by 1e-3 comes back as the same float64, bit for bit."""
-    text = d.get(key) if isinstance(d, dict) else None
+    text = d.get(key)
+    label = f"X3P {axis} {key}".replace("  ", " ")
     if text in (None, ""):
         if default is None:
-            raise fail(name, f"X3P main.xml has no {key}")
+            raise fail(name, f"X3P main.xml has no {axis} {key}".replace("  ", " "))
         return default
+    if not isinstance(text, str):
+        raise fail(name, f"{label} is not a number (it has child elements)")
     try:
         v = float(Decimal(text.strip()) * 1000)
-    except (InvalidOperation, ValueError):
-        raise fail(name, f"X3P {key} {text!r} is not a number") from None
+    except (ArithmeticError, ValueError):  # InvalidOperation, Overflow of the decimal context
+        raise fail(name, f"{label} {text[:40]!r} is not a number (or is out of range)") from None
     if not np.isfinite(v):
-        raise fail(name, f"X3P {key} {text!r} is not a finite number")
+        raise fail(name, f"{label} {text[:40]!r} is not a finite number")
     return v
 
 
 def _count(d: dict, key: str, name: str) -> int:
-    text = str(d.get(key) or "").strip()
-    if not text.isdigit():
-        raise fail(name, f"X3P {key} {text!r} is not a whole number of points")
+    text = _text(d, key)
+    if not (text.isascii() and text.isdigit()) or len(text) > 12:
+        raise fail(name, f"X3P {key} {text[:40]!r} is not a whole number of points")
     return int(text)
+
+
+def _text(d: dict, key: str) -> str:
+    """A leaf's text ('' when missing or when it has children)."""
+    v = d.get(key)
+    return v if isinstance(v, str) else ""
 
 
 def _metres(mm: float) -> str:
     return str(Decimal(repr(float(mm))).scaleb(-3))
 
 
+def _xml(zf: zipfile.ZipFile, name: str) -> ET.Element:
+    """main.xml parsed, refused when it declares more than :data:`MAX_XML` bytes (before
+    reading; zipfile stops at the declared size) or carries a document type declaration:
+    X3P's schema needs none, and entities are how an XML bomb (billion laughs) expands a
+    few kB into gigabytes. Checked by expat itself, so no encoding hides it."""
+    try:
+        info = zf.getinfo("main.xml")
+    except KeyError:
+        raise fail(name, "not an X3P file (the zip has no main.xml)") from None
+    if info.file_size > MAX_XML:
+        raise fail(name, f"X3P main.xml declares {info.file_size} bytes; more than {MAX_XML} is not a header")
+    data = read_member(zf, "main.xml", name, info.file_size, "X3P")
+
+    def refuse(*_: Any) -> None:
+        raise fail(name, "X3P main.xml declares a DTD or entities, which X3P does not use (refused: entity expansion)")
+
+    check = expat.ParserCreate()
+    check.StartDoctypeDeclHandler = refuse
+    check.EntityDeclHandler = refuse
+    try:
+        check.Parse(bytes(data), True)
+        return ET.fromstring(bytes(data))
+    except (expat.ExpatError, ET.ParseError) as exc:
+        raise fail(name, f"X3P main.xml is not valid XML ({exc})") from None
+
+
 def read(path: Path, name: str) -> HeightMap:
     try:
         zf = zipfile.ZipFile(path)
-    except zipfile.BadZipFile:
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError):
         raise fail(name, "not an X3P file (not a zip archive)") from None
     with zf:
-        try:
-            root = ET.fromstring(zf.read("main.xml"))
-        except KeyError:
-            raise fail(name, "not an X3P file (the zip has no main.xml)") from None
-        except ET.ParseError as exc:
-            raise fail(name, f"X3P main.xml is not valid XML ({exc})") from None
-        doc = _tree(root)
+        doc = _tree(_xml(zf, name))
         rec1, rec3 = doc.get("Record1"), doc.get("Record3")
         if not isinstance(rec1, dict) or not isinstance(rec3, dict):
             raise fail(name, "X3P main.xml lacks Record1 or Record3")
-        if rec1.get("FeatureType") != "SUR":
-            raise fail(name, f"X3P feature type {rec1.get('FeatureType')!r} is not a surface (SUR)")
+        if _text(rec1, "FeatureType") != "SUR":
+            raise fail(name, f"X3P feature type {_text(rec1, 'FeatureType')[:40]!r} is not a surface (SUR)")
         axes = rec1.get("Axes") or {}
-        cx, cy, cz = (axes.get(k) or {} for k in ("CX", "CY", "CZ"))
-        if cx.get("AxisType") != "I" or cy.get("AxisType") != "I":
+        cx, cy, cz = (_dict(axes.get(k)) for k in ("CX", "CY", "CZ"))
+        if _text(cx, "AxisType") != "I" or _text(cy, "AxisType") != "I":
             raise fail(name, "X3P with absolute x/y axes is a point list, not a height map on a grid")
-        dims = rec3.get("MatrixDimension") or {}
+        dims = _dict(rec3.get("MatrixDimension"))
         nx, ny, nz = (_count(dims, k, name) for k in ("SizeX", "SizeY", "SizeZ"))
         if nz != 1 or nx < 1 or ny < 1:
             raise fail(name, f"X3P grid {nx} x {ny} x {nz} is not one layer of points")
-        dtype = _DTYPES.get(cz.get("DataType", ""))
+        dtype = _DTYPES.get(_text(cz, "DataType"))
         if dtype is None:
-            raise fail(name, f"X3P z data type {cz.get('DataType')!r} is not one of I, L, F, D")
-        link = rec3.get("DataLink") or {}
-        member = link.get("PointDataLink")
+            raise fail(name, f"X3P z data type {_text(cz, 'DataType')[:40]!r} is not one of I, L, F, D")
+        # the header fields that scale the data, checked before any data are read
+        dx = _mm(cx, "Increment", name, axis="CX")
+        dy = _mm(cy, "Increment", name, axis="CY")
+        origin = (_mm(cx, "Offset", name, 0.0, "CX"), _mm(cy, "Offset", name, 0.0, "CY"))
+        check_plausible(name, nx, ny, dx, dy, origin, fields=" (X3P CX/CY Increment)")
+        inc, off = _mm(cz, "Increment", name, 1000.0, "CZ"), _mm(cz, "Offset", name, 0.0, "CZ")
+        factor(name, f"X3P CZ Increment {_text(cz, 'Increment')[:40]!r}", inc, MIN_Z_FACTOR_MM)
+        link = _dict(rec3.get("DataLink"))
+        member = _text(link, "PointDataLink")
         if not member:
             raise fail(name, "X3P main.xml has no PointDataLink (data inside the XML are not supported)")
-        try:
-            blob = zf.read(member)
-        except KeyError:
-            raise fail(name, f"X3P data {member!r} is missing from the zip") from None
-        expected = link.get("MD5ChecksumPointData")
+        n, size = nx * ny, nx * ny * np.dtype(dtype).itemsize
+        # the raw data, their float64 heights, the validity bits and the intensity
+        check_grid(name, nx, ny, np.dtype(dtype).itemsize + 8 + 8 + 1, "X3P grid")
+        blob = read_member(zf, member, name, size, "X3P data")
+        expected = _text(link, "MD5ChecksumPointData")
         if expected and hashlib.md5(blob).hexdigest().upper() != expected.upper():
             raise fail(name, f"X3P data {member!r} do not match their MD5 checksum (a damaged file)")
-        n = nx * ny
-        if len(blob) != n * np.dtype(dtype).itemsize:
-            raise fail(
-                name,
-                f"X3P data hold {len(blob)} bytes; a {nx} x {ny} grid of {dtype} needs {n * np.dtype(dtype).itemsize}",
-            )
         raw = np.frombuffer(blob, dtype=dtype).reshape(ny, nx)
         # z = value * increment + offset (metres), taken to mm in one factor each
-        inc, off = _mm(cz, "Increment", name, 1000.0), _mm(cz, "Offset", name, 0.0)
         z = raw.astype(np.float64)
+        del raw, blob
         if inc != 1.0:
             z *= inc
         if off != 0.0:
             z += off
         if dtype in ("<f4", "<f8"):  # openGPS marked invalid float points with +inf before NaN
             z[np.isinf(z)] = np.nan
-        valid_member = link.get("ValidPointsLink")
+        valid_member = _text(link, "ValidPointsLink")
         if valid_member:
-            try:
-                bits = np.frombuffer(zf.read(valid_member), dtype=np.uint8)
-            except KeyError:
-                raise fail(name, f"X3P validity data {valid_member!r} are missing from the zip") from None
-            if len(bits) * 8 < n:
-                raise fail(name, f"X3P validity data hold {len(bits) * 8} bits for {n} points")
+            # whole bytes, least-significant bit first; a writer may pad to a word
+            bits = np.frombuffer(
+                read_member(zf, valid_member, name, (n + 7) // 8, "X3P validity data", slack=8), dtype=np.uint8
+            )
             valid = np.unpackbits(bits, count=n, bitorder="little").reshape(ny, nx).astype(bool)
             z[~valid] = np.nan
+        check_heights(name, z, " (X3P CZ Increment and Offset)")
         meta = _record2(doc.get("Record2"))
         meta["format"] = "ISO 25178-72 X3P"
         names = set(zf.namelist())
         intensity = None
         if _INTENSITY in names:
-            intensity = np.frombuffer(zf.read(_INTENSITY), dtype="<f8")
-            if intensity.size != n:
-                raise fail(name, f"X3P {_INTENSITY} holds {intensity.size} values for {n} points")
-            intensity = intensity.reshape(ny, nx)
+            intensity = np.frombuffer(read_member(zf, _INTENSITY, name, n * 8, "X3P"), dtype="<f8").reshape(ny, nx)
         if _META in names:
+            size = zf.getinfo(_META).file_size
+            if size > MAX_XML:
+                raise fail(name, f"X3P {_META} declares {size} bytes; more than {MAX_XML} is not metadata")
             try:
-                kept = json.loads(zf.read(_META))
+                kept = json.loads(bytes(read_member(zf, _META, name, size, "X3P")))
             except ValueError as exc:
                 raise fail(name, f"X3P {_META} is not JSON ({exc})") from None
             if isinstance(kept, dict):
                 if kept.get("format") not in (None, meta["format"]):
                     kept["source_format"] = kept["format"]  # the instrument file it came from
                 meta.update(kept, format=meta["format"])
-    return HeightMap(
-        z,
-        _mm(cx, "Increment", name),
-        _mm(cy, "Increment", name),
-        intensity=intensity,
-        origin=(_mm(cx, "Offset", name, 0.0), _mm(cy, "Offset", name, 0.0)),
-        name=name,
-        source_unit="m",
-        meta=meta,
-    )
+    return HeightMap(z, dx, dy, intensity=intensity, origin=origin, name=name, source_unit="m", meta=meta)
+
+
+def _dict(v: Any) -> dict:
+    """An element of main.xml that must hold children (a leaf or a missing one: empty)."""
+    return v if isinstance(v, dict) else {}
 
 
 def _record2(rec2: Any) -> dict[str, Any]:
