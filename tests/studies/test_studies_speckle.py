@@ -68,14 +68,14 @@ def _study(tmp_path: Path, text: str) -> Path:
 @pytest.mark.parametrize(
     "text, match",
     [
-        ("artefacts: [am_cube]\n", r"STUDY.yaml: unknown artefact 'am_cube'"),
-        ("materials: [steel]\n", r"STUDY.yaml: unknown material 'steel'"),
+        ("artefacts: [am_cube]\n", r"STUDY.yaml: artefacts\[0\]: unknown artefact 'am_cube'"),
+        ("materials: [steel]\n", r"STUDY.yaml: materials\[0\]: unknown material 'steel'"),
         (
             "artefacts: [am_pyramid]\nmaterials: [abs]\nconditions: [on]\ncapture:\n  images:\n"
             "    - {artefact: am_pyramid, material: abs, condition: on, folder: nowhere}\n",
-            r"STUDY.yaml: image folder 'nowhere' of am_pyramid-abs-on does not exist",
+            r"STUDY.yaml: capture.images\[0\].folder: image folder 'nowhere' does not exist",
         ),
-        ("capture:\n  simulated: {n_pictures: 3}\n", r"STUDY.yaml: unknown simulated setting 'n_pictures'"),
+        ("capture:\n  simulated: {n_pictures: 3}\n", r"STUDY.yaml: capture.simulated.n_pictures: is not a key here"),
     ],
 )
 def test_bad_study_files_are_refused_in_one_line(tmp_path, text, match):
@@ -173,6 +173,8 @@ def test_tiny_study_end_to_end_through_the_cli_and_resumed(tmp_path, capfd):
 def test_a_study_of_real_image_folders_names_every_case_and_its_folder(tmp_path):
     for c in ("off", "on"):
         (tmp_path / f"img-{c}").mkdir()
+        for k in range(3):  # three files with a PNG signature: the study file's checks read no more
+            (tmp_path / f"img-{c}" / f"{k}.png").write_bytes(b"\x89PNG\r\n\x1a\n")
     pairs = {"measured": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "nominal": [[0, 0, 4], [20, 0, 4], [0, 20, 4]]}
     f = _study(
         tmp_path,
@@ -191,7 +193,7 @@ def test_a_study_of_real_image_folders_names_every_case_and_its_folder(tmp_path)
     st["coverage"]["distance"] = 0.3
     assert studyfile.case_key(st, st["cases"][1]) != k
     (f.parent / "STUDY2.yaml").write_text(f.read_text().split("capture:")[0] + "capture:\n  images: []\n")
-    with pytest.raises(InputError, match="STUDY2.yaml: no image folder for case am_recess-abs-off"):
+    with pytest.raises(InputError, match="STUDY2.yaml: capture.images: no image folder for case am_recess-abs-off"):
         studyfile.load(f.parent / "STUDY2.yaml")
 
 

@@ -7,6 +7,10 @@ study's work folder. JSON keys: ``cases`` [{``id``, ``artefact``, ``material``,
 {top, side, curved, bottom}, + ``mean_um``, ``alignment``, ``timings`` ...}], ``summary``
 {material: {``std_um_change``, ``n_points_change``, ``coverage_area_fraction_change``
 ...}}, ``computed``, ``reused``, ``failed``, ``warnings`` (+ ``report``).
+
+Exit codes: 0 with a result (failed cases, if some, in ``failed`` and the warnings), 2 for
+a study file refused (one line naming the file, the key and the value), 3 when every case
+failed: the document is printed, the failures listed on stdout and named on stderr.
 """
 
 from __future__ import annotations
@@ -39,6 +43,17 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
         out["report"] = build_report(o, run=res).write(args.report)
     return out
+
+
+def failure(r: dict[str, Any]) -> str | None:
+    """The one line for stderr when every case of the study failed (the CLI then exits 3,
+    as for any command whose run produced no result), else None; a study with some
+    failed cases is a result, its failures in ``failed`` and ``warnings``."""
+    failed = [c for c in r["cases"] if "error" in c]
+    if not r["cases"] or len(failed) < len(r["cases"]):
+        return None
+    ids = ", ".join(c["id"] for c in failed)
+    return f"{Path(r['study']['file']).name}: every case failed ({ids}); the first: {failed[0]['error']}"
 
 
 def text(r: dict[str, Any]) -> str:

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import CamcmmError, Cancelled, read, write
+from camcmm.api import CamcmmError, Cancelled, InputError, read, write
 
 from . import cases, studyfile
 
@@ -72,7 +72,10 @@ def run_study(ctx, study: dict[str, Any], fresh: bool = False) -> dict[str, Any]
     """Run (or resume) every case of ``study`` (studyfile.load); returns the outputs of
     ``studies.speckle``."""
     work = Path(study["work"])
-    work.mkdir(parents=True, exist_ok=True)
+    try:  # studyfile.load checked it can be; a folder changed since is still one line
+        work.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{Path(study['file']).name}: work: {work} cannot be created ({exc.strerror})") from None
     results, clouds, computed, failed = [], {}, [], []
     n = len(study["cases"])
     for k, case in enumerate(study["cases"]):
@@ -117,5 +120,8 @@ def run_study(ctx, study: dict[str, Any], fresh: bool = False) -> dict[str, Any]
 
 
 def speckle_study(ctx, study: str, fresh: bool = False) -> dict[str, Any]:
-    """studies.speckle: run or resume the study of STUDY.yaml ``study``."""
-    return run_study(ctx, studyfile.load(study), fresh)
+    """studies.speckle: run or resume the study of STUDY.yaml ``study`` (validated whole,
+    its artefacts' CAD built once, before the work folder is created)."""
+    st = studyfile.load(study)
+    studyfile.check_cad(ctx, st)
+    return run_study(ctx, st, fresh)
