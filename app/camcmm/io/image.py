@@ -11,7 +11,15 @@ decoded. The width and height are read from the file's header first and an image
 more than ``CAMCMM_MAX_IMAGE_PIXELS`` pixels (environment variable, default
 100 million, about a 10000 x 10000 camera frame) is refused before OpenCV decodes it.
 OpenCV has no header-only read and its own limit (``OPENCV_IO_MAX_IMAGE_PIXELS``) is
-read once per process, so the few header bytes are parsed here.
+read once per process, so the few header bytes are parsed here. A file whose size cannot
+be read from its header (not a PNG, JPEG, TIFF or BMP, or a header cut short or
+malformed) is refused, not decoded: the cap must not depend on the parser giving up
+(a JPEG with one stray byte before its SOF0 used to be decoded at 2.4 GB). The JPEG
+scan follows libjpeg's ``next_marker`` (stray bytes and 0xFF fill bytes between
+segments are skipped), so whatever libjpeg decodes is measured first.
+
+This is the one image reader of the project: every image camcmm decodes (plugins
+through ``camcmm.api.read``) passes the cap here.
 
 Writing encodes ``Image.data`` unchanged (BGR order) with the extension's codec.
 """
@@ -54,16 +62,7 @@ def max_image_pixels() -> int:
 
 def read(path: Path, name: str) -> Image:
     buf = np.fromfile(path, np.uint8)
-    head = memoryview(buf.data)  # the whole file: a TIFF may keep its IFD at the end
-    kind, expected = image_kind(head), _KIND_OF_EXT.get(path.suffix.lower())
-    if kind is not None and expected is not None and kind != expected:
-        raise fail(
-            name,
-            f"the file holds a {kind} image, not {expected} as its extension says; rename it to {_EXT_OF_KIND[kind]}",
-        )
-    size = image_size(head)
-    if size is not None:
-        check_image_size(size, name)
+    measure(buf, path.suffix, name)
     import cv2
 
     error: str | None
@@ -81,12 +80,37 @@ def read(path: Path, name: str) -> Image:
             f"cannot decode the image: not a valid {path.suffix.lstrip('.').upper()} file"
             + (f" ({why})" if why else ""),
         )
-    if said[0]:  # a decoder's warnings about an image it could read: pass them on
-        os.write(2, said[0].encode())
+    if said[0].strip():
+        # a decoder's complaint about an image it could still read (libjpeg: "Corrupt JPEG
+        # data: 3 extraneous bytes before marker"): one explicit warning line, not raw noise
+        os.write(2, f"camcmm: warning: {name}: {_reason(said[0])}\n".encode())
     if data.size == 0:
         raise fail(name, f"the image has no pixels ({data.shape[1] if data.ndim > 1 else 0} x {data.shape[0]})")
     meta = {"file": name, "channel_order": "BGR" if data.ndim == 3 else "grey"}
     return Image(data, name=name, metadata=meta)
+
+
+def measure(buf: np.ndarray, suffix: str, name: str) -> tuple[int, int]:
+    """(width, height) of the encoded image ``buf`` (the whole file's bytes), checked
+    before any pixel is decoded: its content is the format its extension ``suffix``
+    names, its size is read from its header and is within the pixel cap. Every decode of
+    an image file in camcmm passes here first (:func:`read`; the GUI's thumbnails);
+    otherwise a one-line InputError naming ``name``."""
+    head = memoryview(buf.data)  # the whole file: a TIFF may keep its IFD at the end
+    kind, expected = image_kind(head), _KIND_OF_EXT.get(suffix.lower())
+    if kind is not None and expected is not None and kind != expected:
+        raise fail(
+            name,
+            f"the file holds a {kind} image, not {expected} as its extension says; rename it to {_EXT_OF_KIND[kind]}",
+        )
+    size = image_size(head)
+    if size is None:
+        # refused, not left to OpenCV: an image whose size is unknown might be any size
+        if kind is None:
+            raise fail(name, "not a PNG, JPEG, TIFF or BMP image (unknown header); not decoded")
+        raise fail(name, f"cannot read the image size from its {kind} header; not decoded")
+    check_image_size(size, name)
+    return size
 
 
 _KIND_OF_EXT = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG", ".tif": "TIFF", ".tiff": "TIFF", ".bmp": "BMP"}
@@ -157,7 +181,8 @@ def check_image_size(size: tuple[int, int], name: str) -> None:
 
 def image_size(head: bytes | memoryview) -> tuple[int, int] | None:
     """(width, height) from the header of a PNG, JPEG, BMP or TIFF file, or None
-    when the header is not one of those or is cut short (OpenCV then decides)."""
+    when the header is not one of those or is cut short or malformed (:func:`read`
+    then refuses the file rather than decode an image of unknown size)."""
     try:
         if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
             return struct.unpack(">II", head[16:24])
@@ -180,25 +205,38 @@ _SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 
 
 
 def _jpeg_size(head) -> tuple[int, int] | None:
-    i = 2
-    while i + 4 <= len(head):
-        if head[i] != 0xFF:
+    """(width, height) of the first frame header (SOFn) of a JPEG, found as libjpeg's
+    ``next_marker`` finds markers: bytes that are not 0xFF between segments (stray bytes,
+    which libjpeg skips with a warning) and 0xFF fill bytes are skipped, 0xFF00 is no
+    marker; segments with a length are stepped over. None when the scan data (SOS) or
+    the end (EOI) comes before any frame header, or the file ends first."""
+    data = bytes(head)  # bytes.find: a linear scan in C, not byte by byte in Python
+    n, i = len(data), 2
+    while True:
+        i = data.find(b"\xff", i)
+        if i < 0:
             return None
-        marker = head[i + 1]
-        if marker == 0xFF:  # fill byte
+        while i < n and data[i] == 0xFF:  # the marker's 0xFF and any fill bytes
             i += 1
-            continue
-        if marker in (0x01, 0xD8) or 0xD0 <= marker <= 0xD7:  # no length
-            i += 2
-            continue
-        length = struct.unpack(">H", head[i + 2 : i + 4])[0]
-        if marker in _SOF:
-            h, w = struct.unpack(">HH", head[i + 5 : i + 9])
-            return w, h
-        if marker in (0xD9, 0xDA) or length < 2:  # end of image or scan data before any frame
+        if i >= n:
             return None
-        i += 2 + length
-    return None
+        marker = data[i]
+        i += 1
+        if marker == 0x00 or marker == 0x01 or 0xD0 <= marker <= 0xD8:  # stuffed byte, TEM, RSTn, SOI: no length
+            continue
+        if marker in (0xD9, 0xDA):  # end of image or scan data before any frame header
+            return None
+        if i + 2 > n:
+            return None
+        length = struct.unpack(">H", data[i : i + 2])[0]
+        if marker in _SOF:
+            if i + 7 > n:
+                return None
+            h, w = struct.unpack(">HH", data[i + 3 : i + 7])
+            return w, h
+        if length < 2:
+            return None
+        i += length
 
 
 def _tiff_size(head) -> tuple[int, int] | None:

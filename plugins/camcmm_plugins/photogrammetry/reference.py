@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from camcmm.api import Image, InputError, read
+
 from .similarity import circle_radius, rotation_angle_deg, similarity
 
 
@@ -43,10 +45,14 @@ def read_series(folder: str | Path) -> tuple[list[np.ndarray], list[str]]:
     names = sorted(lat)
     ims = []
     for n in names:
-        raw = cv2.imread(str(folder / n))
-        if raw is None:
-            raise FileNotFoundError(f"{folder / n}: not a readable image")
-        im = cv2.cvtColor(raw, cv2.COLOR_BGR2RGB)
+        img = read(folder / n)  # camcmm's one image reader: BGR(A) or grey, capped
+        if not isinstance(img, Image):
+            raise InputError(f"{folder / n}: not an image")
+        raw = np.asarray(img.data)
+        if raw.ndim == 2:
+            im = cv2.cvtColor(raw, cv2.COLOR_GRAY2RGB)
+        else:
+            im = cv2.cvtColor(raw, cv2.COLOR_BGRA2RGB if raw.shape[2] == 4 else cv2.COLOR_BGR2RGB)
         ims.append(cv2.rotate(im, cv2.ROTATE_180) if lat[n] > 0 else im)
     return ims, names
 

@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from ....errors import CamcmmError
+
 #: thumbnails made for a series (the rest are listed by name only): ~13 kB each in the state
 MAX_THUMBS = 60
 THUMB_WIDTH = 96
@@ -31,7 +33,10 @@ def _decode_small(path: Path, width: int) -> np.ndarray | None:
     """The image at ``path`` decoded at a reduced size where libjpeg can (BGR 8-bit)."""
     import cv2
 
+    from ....io.image import measure
+
     buf = np.fromfile(str(path), dtype=np.uint8)
+    measure(buf, path.suffix, path.name)  # the project's pixel cap, before any decode
     size = buf.size
     flag = cv2.IMREAD_COLOR
     if size > 8_000_000:
@@ -53,7 +58,7 @@ def thumbnail(path: str | Path, width: int = THUMB_WIDTH) -> str:
 
     try:
         img = _decode_small(Path(path), int(width))
-    except (OSError, ValueError, cv2.error):
+    except (OSError, ValueError, cv2.error, CamcmmError):  # no thumbnail; the run says why
         return ""
     if img is None:
         return ""
