@@ -33,20 +33,24 @@ def configure(parser: argparse.ArgumentParser) -> None:
         metavar="PX",
         help="largest spread of the motion in an image (default 1 px)",
     )
-    st.add_argument("--plot", metavar="FILE.png", help="write mean ± std against image index")
+    st.add_argument("--plot", metavar="FILE.png", help="write mean ± std against image index (.png, .pdf or .svg)")
     st.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document")
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from camcmm.api import declared_value
+    from camcmm.api import InputError, declared_value
 
-    from .stability import load_images, plot, stability
+    from .stability import load_images, plot, plot_target, stability
 
     limit = declared_value(PLUGIN, "limit", args.limit)
     std_limit = declared_value(PLUGIN, "std_limit", args.std_limit)
+    if len(args.images) < 2:  # before any image is decoded
+        raise InputError(f"speckle stability needs at least 2 images, got 1: {args.images[0]}")
+    if args.plot is not None:
+        plot_target(args.plot)  # a folder or an unknown format is refused before the images are read
     images, names = load_images(args.images)
     res = stability(images, names, limit, std_limit)
-    if args.plot:
+    if args.plot is not None:
         res["plot"] = plot(res, args.plot)
     return res
 

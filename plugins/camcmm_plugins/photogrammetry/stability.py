@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Image, InputError
+from camcmm.api import Image, InputError, checked_path, read
 
 #: Lowe's ratio test threshold.
 RATIO = 0.75
@@ -54,18 +54,29 @@ def _gray(img: Any, name: str) -> np.ndarray:
     return np.rint((a - lo) / ((hi - lo) or 1.0) * 255).astype(np.uint8)
 
 
+#: Image files the series may hold (camcmm.api.read's image formats).
+IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+
+
 def load_images(paths) -> tuple[list[np.ndarray], list[str]]:
-    """Read image files as 8-bit grey; InputError naming an unreadable file."""
+    """Read image files as 8-bit grey through camcmm's one image reader (its pixel cap
+    refuses a decompression bomb from the header); InputError naming a file that is
+    missing, not an image or unreadable. The extensions are checked for the whole series
+    before the first file is decoded."""
     import cv2
 
+    paths = [Path(p) for p in paths]
+    for p in paths:
+        if p.suffix.lower() not in IMAGE_EXTS:
+            raise InputError(f"{p}: not an image file; give {', '.join(IMAGE_EXTS)}")
+        if not p.is_file():
+            raise InputError(f"{p}: {'a folder, not an image file' if p.is_dir() else 'file not found'}")
     out, names = [], []
     for p in paths:
-        p = Path(p)
-        if not p.is_file():
-            raise InputError(f"{p}: file not found")
-        a = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-        if a is None:
-            raise InputError(f"{p}: not an image OpenCV can read")
+        img = read(p)
+        if not isinstance(img, Image):  # the extension was checked: an image it is
+            raise InputError(f"{p}: not an image")
+        a = np.asarray(img.data)
         if a.ndim == 3:
             a = cv2.cvtColor(a[..., :3], cv2.COLOR_BGR2GRAY) if a.dtype == np.uint8 else a[..., :3].mean(axis=2)
         out.append(_gray(a, str(p)))
@@ -115,7 +126,7 @@ def stability(images, names=None, limit: float = 3.0, std_limit: float = 1.0, pr
 
     names = list(names or [getattr(im, "name", f"image {i}") for i, im in enumerate(images)])
     if len(images) < 2:
-        raise InputError(f"speckle stability needs at least 2 images, got {len(images)}")
+        raise InputError(f"speckle stability needs at least 2 images, got {len(images)}: {', '.join(names) or 'none'}")
     grays = [_gray(im, n) for im, n in zip(images, names)]
     for g, n in zip(grays[1:], names[1:]):
         if g.shape != grays[0].shape:
@@ -168,8 +179,31 @@ def stability(images, names=None, limit: float = 3.0, std_limit: float = 1.0, pr
     }
 
 
+#: What ``--plot`` may write: the formats of matplotlib's Agg backend camcmm documents.
+PLOT_EXTS = (".png", ".pdf", ".svg")
+
+
+def plot_target(path: str | Path) -> Path:
+    """The file ``--plot`` names, checked before any work: a file name (not a folder,
+    not a pipe or device) ending in one of :data:`PLOT_EXTS`, in a folder that exists.
+    One-line InputError naming the value otherwise."""
+    p = checked_path(path, "--plot")
+    give = "give a file name ending in " + ", ".join(PLOT_EXTS)
+    if p.is_dir():
+        raise InputError(f"--plot {path}: a folder; {give}")
+    if p.exists() and not p.is_file():
+        raise InputError(f"--plot {path}: not a regular file; {give}")
+    if p.suffix.lower() not in PLOT_EXTS:
+        raise InputError(f"--plot {path}: {p.suffix or 'no extension'} is not a plot format; {give}")
+    if not p.parent.is_dir():
+        raise InputError(f"--plot {path}: the folder {p.parent} does not exist")
+    return p
+
+
 def plot(result: dict[str, Any], path: str | Path) -> str:
-    """A PNG of mean ± standard deviation of the radial motion against image index."""
+    """A PNG (or PDF, SVG) of mean ± standard deviation of the radial motion against
+    image index, written to ``path`` (:func:`plot_target`); the path written."""
+    path = plot_target(path)
     import matplotlib
 
     matplotlib.use("Agg")
