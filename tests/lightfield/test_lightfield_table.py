@@ -117,13 +117,20 @@ def test_study_of_table_6_3_through_the_plugin(tmp_path):
     assert t["gradients"][1] == TABLE_6_3["Pyramid"]
     assert res.outputs["focal"] is None and any("focal" in w for w in res.warnings)
     f.write_text(yaml.safe_dump({"runs": [{"set": "Set 1", "artefact": "A", "cloud": "c.ply"}]}))
-    with pytest.raises(InputError, match=r"t63\.yaml: run 1 needs cloud, views and depth_maps"):
+    with pytest.raises(
+        InputError, match=r"t63\.yaml: runs\[0\]: no views, depth_maps; a run needs cloud, views and depth_maps"
+    ):
         default_host().run("lightfield.study", {"study": str(f)}, {})
 
 
-def test_study_focal_length_from_fx_and_pixel_pitch_and_truth():
+def test_study_focal_length_from_fx_and_pixel_pitch_and_truth(tmp_path, monkeypatch):
     """run_study with a stand-in for lightfield.gradient: a run without focal_length_mm gets
-    fx × pitch; the truth differences; the prediction."""
+    fx × pitch; the truth differences; the prediction. (The study's files must exist: they
+    are checked before any run starts; a study given as a dict starts from the working folder.)"""
+    monkeypatch.chdir(tmp_path)
+    for f in ("a", "b", "c", "v"):
+        (tmp_path / f).write_text("")
+    (tmp_path / "d").mkdir()
     grads = {"a": 3.5, "b": 5.0, "c": 6.5}
     fx = {"a": 30.0 / 0.0014, "b": 40.0 / 0.0014, "c": 50.0 / 0.0014}
 

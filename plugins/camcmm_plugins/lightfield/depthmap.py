@@ -27,10 +27,20 @@ def camera_matrix(cam: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
     ``photogrammetry.import``."""
     try:
         fx, fy, cx, cy = (float(cam[k]) for k in ("fx", "fy", "cx", "cy"))
-    except (KeyError, TypeError, ValueError):
+    except (KeyError, TypeError, ValueError, OverflowError):
         raise InputError("views: a camera needs fx, fy, cx, cy (px)") from None
+    if not all(np.isfinite(v) for v in (fx, fy, cx, cy)) or fx <= 0 or fy <= 0:
+        # a NaN or negative focal length would project every point nowhere or mirrored: a silent wrong gradient
+        raise InputError(
+            f"views: camera fx {fx:g}, fy {fy:g}, cx {cx:g}, cy {cy:g} px: fx, fy must be above 0, all finite"
+        )
     K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-    dist = np.asarray(cam.get("dist") or [], dtype=float).ravel()
+    try:
+        dist = np.asarray(cam.get("dist") or [], dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"views: camera dist {cam.get('dist')!r:.60}: give a list of numbers") from None
+    if not np.isfinite(dist).all():
+        raise InputError("views: camera dist holds non-finite values")
     # cv2 takes 4, 5, 8, 12 or 14 coefficients; a shorter list (SIMPLE_RADIAL's k1) is padded with zeros
     n = next((m for m in (4, 5, 8, 12, 14) if m >= len(dist)), None)
     if n is None:

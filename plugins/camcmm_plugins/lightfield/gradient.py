@@ -42,16 +42,32 @@ def load_views(views: Any, importer: Callable[[str], dict] | None = None) -> dic
     if not cams:
         raise InputError(f"{name}: no 'camera' or 'cameras' in the reconstruction")
     size = doc.get("image_size")
-    for c in cams:
+    for j, c in enumerate(cams):
         if size and not c.get("width"):
-            c.update(width=int(size[0]), height=int(size[1]))
+            try:
+                c.update(width=int(size[0]), height=int(size[1]))
+            except (TypeError, ValueError, IndexError, OverflowError):
+                raise InputError(f"{name}: image_size {size!r:.60}: give [width, height] px") from None
+        try:
+            depthmap.camera_matrix(c)  # its checks (fx, fy > 0, finite) named with this file
+        except InputError as exc:
+            raise InputError(f"{name}: cameras[{j}]: {str(exc).removeprefix('views: ')}") from None
+        for k in ("width", "height"):
+            v = c.get(k)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1e6):
+                raise InputError(f"{name}: cameras[{j}].{k} = {v!r:.60}: a whole number of px above 0")
     out = []
     for i, v in enumerate(doc["views"]):
         try:
             R, t = np.asarray(v["R"], float).reshape(3, 3), np.asarray(v["t"], float).reshape(3)
             cam = cams[int(v.get("camera", 0))]
-        except (KeyError, TypeError, ValueError, IndexError):
+        except (KeyError, TypeError, ValueError, IndexError, OverflowError):
             raise InputError(f"{name}: view {i} needs image, R (3 x 3), t (3) and a valid camera index") from None
+        # not a rotation (or NaN): every depth of the view would be wrong without a word
+        if not (np.isfinite(R).all() and np.isfinite(t).all()):
+            raise InputError(f"{name}: views[{i}]: R or t holds non-finite values")
+        if np.abs(R.T @ R - np.eye(3)).max() > 1e-4 or np.linalg.det(R) < 0:
+            raise InputError(f"{name}: views[{i}].R is not a rotation (R^T R != I or det R < 0)")
         out.append({"image": str(v.get("image", f"view{i}")), "R": R, "t": t, "camera": cam})
     return {"views": out, "name": name}
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import Image, InputError, read
 
 FULL_SCALE = 2.0**16  # eq. 6.5 divides by 2^16 (not 65535)
 IMAGE_EXTS = (".png", ".tif", ".tiff")
@@ -66,15 +66,17 @@ def sidecar_range(path: Path) -> tuple[float, float]:
 
 
 def read_raw(path: str | Path) -> np.ndarray:
-    """The 16-bit image (H, W) uint16 of a depth-map file; one-line InputError otherwise."""
-    import cv2
-
+    """The 16-bit image (H, W) uint16 of a depth-map file; one-line InputError otherwise.
+    Read through camcmm's one image reader, whose pixel cap refuses a bomb from its header."""
     p = Path(path)
+    if p.suffix.lower() not in IMAGE_EXTS:
+        raise InputError(f"{p}: not a depth-map image; give {', '.join(IMAGE_EXTS)}")
     if not p.is_file():
         raise InputError(f"{p}: no such depth-map file")
-    im = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
-    if im is None:
-        raise InputError(f"{p}: not a readable image (PNG or TIFF)")
+    img = read(p)
+    if not isinstance(img, Image):  # the extension was checked: an image it is
+        raise InputError(f"{p}: not an image")
+    im = np.asarray(img.data)
     if im.dtype != np.uint16:
         bits = 8 * im.dtype.itemsize
         raise InputError(f"{p}: a {bits}-bit {im.dtype} image; a Lytro depth map is 16-bit (uint16)")
@@ -140,6 +142,8 @@ def parse_range(text: str | None) -> tuple[float, float] | None:
         lo, hi = (float(v) for v in str(text).split(","))
     except ValueError:
         raise InputError(f"lambda range {text!r}: give MIN,MAX, e.g. -6.5,9.2") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise InputError(f"lambda range {text!r}: MIN and MAX must be finite numbers")
     if not hi > lo:
         raise InputError(f"lambda range {text!r}: MAX must be above MIN")
     return lo, hi
