@@ -340,7 +340,11 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
     fits = [fits[i] for i in order]
     centres = centres[order]
     l_rec = [float(np.linalg.norm(centres[(k + 1) % 3] - centres[k])) for k in range(3)]
+    warnings: list[str] = []
     if mode == "lengths":
+        # before they scale anything: are the calibrated lengths this plate's at all?
+        w = scaling.check_lengths(plan.source, l_cal, l_rec, [f["radius"] for f in fits], d_nom, name)
+        warnings += [w] if w else []
         l_m = scaling.ball_plate_lengths(l_rec, l_cal)
         s = float(np.mean(np.asarray(l_m) / np.asarray(l_rec)))
     else:
@@ -362,7 +366,7 @@ def evaluate_ball_plate(ctx, cloud: PointCloud, plan: Plan, name: str | None = N
         "lengths_calibrated": l_cal,
         "values": {"SD": sd},
         "items": {"SD": ["L1", "L2", "L3"]},
-        "warnings": [],
+        "warnings": warnings,
         "deviations": _scaled(_merge([f.get("deviations") for f in fits], name), s),
     }
 

@@ -21,7 +21,9 @@ Contract keys (docs/standards.md; more may be added, none renamed)::
 Lengths are mm; uncertainties are expanded uncertainties U with coverage factor k.
 Every fault raises :class:`camcmm.api.InputError` with one line naming the key.
 Missing measurement *files* are not plan errors: they make that measurement fail and
-the verdict incomplete (see :mod:`.standard`).
+the verdict incomplete (see :mod:`.standard`). Measurement paths are resolved relative
+to the plan's folder through ``camcmm.api.checked_path``: in a confined run (the web
+server) a file outside its folders refuses the plan (``PathRefused``) before any is read.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Artefact, Certificate, InputError, read_yaml, to_mm_factor
+from camcmm.api import Artefact, Certificate, InputError, PathRefused, checked_path, read_yaml, to_mm_factor
 
 TESTS = ("sphere", "ball_bar", "flat", "ball_plate")
 PARAMETERS = ("PF", "PS", "SD", "F")
@@ -216,6 +218,11 @@ def _artefact(w: _Where, test: str, d: Any) -> Artefact:
         a, b, c = sorted(certs[f"length_{i}"].value for i in (1, 2, 3))
         if a + b <= c:
             raise w.fail(f"{p}.lengths", f"{lengths} cannot be the sides of a triangle of three spheres")
+        d_s = nominal["sphere_diameter"]
+        if a <= d_s:  # centres closer than a diameter: the spheres would overlap
+            raise w.fail(
+                f"{p}.lengths", f"{lengths}: {a:g} mm is no longer than sphere_diameter {d_s:g} mm; the spheres overlap"
+            )
     nominal.update({key: d[key] for key in ("id", "name") if key in d})
     return Artefact(str(d.get("id", test)), test, str(d.get("name", "")), nominal, certs)
 
@@ -269,9 +276,12 @@ def _measurements(w: _Where, d: Any, base: Path | None, unit: str | None) -> dic
                         to_mm_factor(str(u))
                     except Exception as exc:
                         raise w.fail(f"{key}.unit", str(exc)) from None
-                path = Path(item)
-                if not path.is_absolute() and base is not None:
-                    path = base / path
+                # relative to the plan's folder; in a confined run (the server) a file
+                # outside its folders is refused here, before anything is read
+                try:
+                    path = Path(checked_path(item, key, base=base))
+                except PathRefused as exc:
+                    raise PathRefused(f"{w.source}: {exc}") from None
                 items.append(PlannedMeasurement(test, item, path, position, repeat, u, key))
         out[test] = items
     return out

@@ -8,7 +8,8 @@ diagonal L0 of the measuring volume (mm).
 * flat: width >= 50 mm, length >= 0.5 L0, flatness "substantially less" than the
   expected flatness error;
 * ball plate (part 3, thesis ch. 4.3): its longest length is held to the ball-bar rule,
-  its spheres to the sphere rule.
+  its spheres to the sphere rule; and (ours) its longest length to at most L0, the
+  longest that fits in the volume.
 
 "Substantially less" is taken here as at most 1/5 of the MPE (our reading; the
 guideline gives no number) — a check that is stated, not a verdict.
@@ -106,6 +107,19 @@ def check(plan: Plan, tests: list[str]) -> list[dict[str, Any]]:
     if "ball_plate" in tests and "ball_plate" in plan.artefacts:
         longest = max(plan.required("ball_plate", f"length_{i}") for i in (1, 2, 3))
         out.append(_at_least("ball plate", "longest length", longest, 0.3 * l0, f"0.3 L0 (L0 = {l0:.4g} mm)"))
+        # not the guideline's: a plate longer than the volume's diagonal cannot be measured
+        # in it, so its lengths (or the volume) are wrong (a plan 10 x too long, issue 26)
+        out.append(
+            _check(
+                "ball plate",
+                "longest length within the volume diagonal L0",
+                longest,
+                f"<= L0 = {l0:.4g} mm",
+                longest <= l0,
+                f"ball plate: longest length {longest:.4g} mm is longer than the measuring volume's diagonal "
+                f"L0 = {l0:.4g} mm: it cannot be measured in it; check the calibrated lengths and the volume",
+            )
+        )
         ds = plan.required("ball_plate", "sphere_diameter")
         out.append(_between("ball plate", "sphere diameter", ds, 0.02 * l0, 0.2 * l0, l0, 0.02, 0.2))
     return [c for c in out if c is not None]

@@ -41,6 +41,46 @@ def ball_plate_lengths(l_rec, l_cal) -> list[float]:
     return [r1 * (c3 / r3), r2 * (c3 / r3), 0.5 * r3 * (c1 / r1 + c2 / r2)]
 
 
+#: Scaled by the calibrated lengths, the plate's spheres must measure their nominal
+#: diameter: within this fraction they agree (measure.SIZE_TOLERANCE, the "no such
+#: sphere" bound of every fitted diameter); beyond it, but within a factor
+#: PLAUSIBLE_FACTOR either way, a warning; beyond that the lengths are refused. The
+#: factor is the one the shared unit rule allows a fitted diameter (docs/units.md,
+#: measure._size_check: another unit must bring it within a factor 2): a slip of a digit
+#: (x 10, x 0.1), of a unit (x 25.4, x 1000) or a wrong plate lands far outside it.
+AGREE = 0.25
+PLAUSIBLE_FACTOR = 2.0
+
+
+def check_lengths(plan: str, l_cal, l_rec, fitted_radii, d_nom: float, name: str) -> str | None:
+    """Are the calibrated lengths ``l_cal`` (mm) the lengths of this reconstruction?
+    Scaling by lengths makes them agree with themselves whatever they are (a plan 10 x
+    too long scales the cloud 10 x and passes), so the scale-free geometry decides: the
+    ratio of the centre distances ``l_rec`` to the fitted radii (reconstruction units) is
+    the plate's, and with the nominal sphere diameter ``d_nom`` it gives the lengths
+    the spheres measure. InputError naming the plan, its longest length and that
+    measured length when they differ by more than PLAUSIBLE_FACTOR; a warning (returned)
+    beyond AGREE; None when they agree."""
+    radii = np.asarray(list(fitted_radii), dtype=float)
+    if len(radii) == 0 or not np.all(np.isfinite(radii)) or not np.all(radii > 0):
+        return None  # no sphere size to judge by (the fits refuse such spheres themselves)
+    i = int(np.argmax(l_cal))
+    l_m = ball_plate_lengths(l_rec, l_cal)
+    s = float(np.mean(np.asarray(l_m) / np.asarray(l_rec)))
+    q = float(np.median(2 * radii * s) / d_nom)  # scaled sphere diameter / nominal
+    measured = float(l_m[i]) / q  # the length as the spheres' size scales it (mm)
+    what = (
+        f"{plan}: artefacts.ball_plate.lengths[{i}] = {float(l_cal[i]):g} mm but {name} measures "
+        f"{measured:.4g} mm (its spheres, scaled by these lengths, would be {d_nom * q:.4g} mm across, "
+        f"not sphere_diameter {d_nom:g} mm)"
+    )
+    if not (1 / PLAUSIBLE_FACTOR <= q <= PLAUSIBLE_FACTOR):
+        raise InputError(f"{what}: the calibrated lengths cannot be this plate's; check them and their unit")
+    if abs(q - 1) > AGREE:
+        return f"{what}: {100 * abs(q - 1):.0f} % apart; check the calibrated lengths"
+    return None
+
+
 def by_radii(fitted_radii, calibrated_radius: float) -> float:
     """Scale factor s = mean(r_c / r_fit) over the scale spheres."""
     r = np.asarray(list(fitted_radii), dtype=float)
