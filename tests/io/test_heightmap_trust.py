@@ -79,7 +79,7 @@ def test_valid_sdf_binary_and_ascii_and_metropro(tmp_path):
 # -- bombs --------------------------------------------------------------------------------------
 def test_zip_bomb_member_refused_before_it_inflates(tmp_path):
     """256 MB of zeros in a 0.26 MB file, for an 8 x 6 grid: the old reader inflated the
-    whole member (558 MB traced); refused now from the declared size, nothing read."""
+    whole member (558 MB traced); refused now from the declared sizes, nothing read."""
     bomb = zipped({"main.xml": x3p_xml(md5=None), "bindata/data.bin": b"\0" * (256 << 20)}, level=9)
     assert len(bomb) < 300_000
     p = tmp_path / "bomb.x3p"
@@ -87,12 +87,17 @@ def test_zip_bomb_member_refused_before_it_inflates(tmp_path):
     del bomb
     tracemalloc.start()
     try:
-        with pytest.raises(CamcmmError, match="declares 268435456 bytes; the grid needs 384"):
+        with pytest.raises(CamcmmError, match="inflates 2[0-9]+ bytes to 268435456 .*zip bomb"):
             read(p)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
     assert peak < 4 << 20
+
+
+def test_member_bigger_than_its_grid_refused_before_reading(tmp_path):
+    bomb = zipped({"main.xml": x3p_xml(md5=None), "bindata/data.bin": b"\0" * (16 << 20)}, level=9)
+    _refused(tmp_path, "big.x3p", bomb, "declares 16777216 bytes; the grid needs 384")
 
 
 def test_member_lying_about_its_size_stops_at_the_grid(tmp_path):
@@ -130,7 +135,7 @@ def test_xml_entities_refused(tmp_path, xml):
 
 
 def test_xml_too_big_refused_before_reading(tmp_path):
-    _refused(tmp_path, "big.x3p", patch_size(x3p(), "main.xml", 3 << 30), "main.xml declares 3221225472 bytes")
+    _refused(tmp_path, "big.x3p", patch_size(x3p(), "main.xml", 10 << 20), "main.xml declares 10485760 bytes")
 
 
 def test_grid_beyond_the_memory_limit_refused(tmp_path, monkeypatch):
@@ -184,3 +189,29 @@ def test_sdf_scaling_fields_and_trailing_bytes_refused(tmp_path, data, words):
 )
 def test_metropro_scaling_fields_refused(tmp_path, kw, words):
     _refused(tmp_path, "m.dat", metropro(**kw), *words)
+
+
+def test_member_inflating_like_a_bomb_refused_even_when_the_grid_fits(tmp_path):
+    """4096 x 4096 float64 heights declared honestly (128 MB, within the memory limit)
+    from 35 compressed bytes: no measurement deflates so; refused before inflating."""
+    honest = zipped(
+        {"main.xml": x3p_xml(nx=4096, ny=4096, xinc="1e-7", yinc="1e-7", md5=None), "bindata/data.bin": b"\0"}
+    )
+    _refused(tmp_path, "r.x3p", patch_size(honest, "bindata/data.bin", 4096 * 4096 * 8), "zip bomb", ":1")
+
+
+@pytest.mark.parametrize("ext", [".plux", ".zon", ".vk6"])
+def test_vendor_zip_bomb_refused_before_surface_topography_reads_it(tmp_path, ext):
+    bomb = patch_size(zipped({"data.bin": b"\0" * 4096, "index.xml": b"<a/>"}), "data.bin", 3 << 30)
+    _refused(tmp_path, f"b{ext}", bomb, "'data.bin' inflates", "zip bomb")
+
+
+def test_ascii_sdf_read_line_by_line_keeps_bad_points_and_values_across_lines(tmp_path):
+    words = [repr(float(v)) for v in Z]
+    words[3] = "BAD"
+    p = tmp_path / "a.sdf"
+    p.write_bytes(sdf_ascii(values=" ".join(words[:5]) + "\n" + "\n".join(words[5:]) + "\n"))
+    h = read(p).heights.ravel()
+    assert np.isnan(h[3]) and np.isnan(h).sum() == 1
+    np.testing.assert_allclose(np.delete(h, 3), np.delete(Z, 3) * 1e-3, rtol=1e-15)
+    _refused(tmp_path, "m.sdf", sdf_ascii(values="1 " * (NX * NY + 1)), "more than 48 values")

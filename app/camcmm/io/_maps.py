@@ -44,6 +44,13 @@ MIN_STEP_MM: float = 1e-8
 MIN_Z_FACTOR_MM: float = 1e-12
 #: Bytes read from a zip member at a time (a bounded read holds at most this beyond the grid).
 CHUNK = 1 << 20
+#: Measured heights carry noise and deflate by a few times at most (a map with large
+#: invalid regions perhaps by ten); zeros deflate by a thousand. A member that inflates
+#: more than :data:`MAX_RATIO` times and to more than :data:`RATIO_FLOOR` bytes is a zip
+#: bomb (a 3 MB file declaring 3 GB), refused before it is inflated even when the grid
+#: it claims to hold would fit the memory limit.
+MAX_RATIO = 100
+RATIO_FLOOR = 64 << 20
 
 
 def factor(name: str, what: str, value: Any, minimum: float) -> float:
@@ -94,6 +101,21 @@ def check_heights(name: str, z: np.ndarray, fields: str = "") -> None:
         raise fail(name, f"heights overflow to infinity{fields}: a wrong height factor")
     if hi - lo > MAX_EXTENT_MM or max(abs(lo), abs(hi)) > MAX_COORD_MM:
         raise fail(name, f"heights run from {lo:.6g} to {hi:.6g} mm{fields}; implausible for a height map")
+
+
+def check_zip(zf: zipfile.ZipFile, name: str, what: str) -> None:
+    """Refuse a zip whose members together declare more than the memory limit, or one
+    member inflating like a bomb (:data:`MAX_RATIO`); zipfile never inflates a member
+    past its declared size, so the declared sizes bound what any reader of it gets."""
+    infos = zf.infolist()
+    check_budget(f"{name}: {what} of {len(infos)} members", float(sum(i.file_size for i in infos)))
+    for i in infos:
+        if i.file_size > RATIO_FLOOR and i.file_size > MAX_RATIO * max(i.compress_size, 1):
+            raise fail(
+                name,
+                f"{what} member {i.filename[:80]!r} inflates {i.compress_size} bytes to {i.file_size} "
+                f"({i.file_size // max(i.compress_size, 1)}:1): a zip bomb, not measured data",
+            )
 
 
 def read_member(zf: zipfile.ZipFile, member: str, name: str, size: int, what: str, slack: int = 0) -> bytearray:

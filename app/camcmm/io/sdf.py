@@ -11,6 +11,12 @@ NumProfiles uint16, Xscale, Yscale, Zscale, Zresolution float64, Compression, Da
 CheckType uint8), then the points x fastest. Written by hand because the layout is
 fixed and short; SurfaceTopography reads what this writes (tests check it).
 
+Checked before the points are read (issue 26; :mod:`camcmm.io._maps`): the grid within
+the memory limit, the steps and Zscale positive, finite and plausible (a map wider than
+5000 mm is a wrong header), a binary file exactly as long as its header and points
+(trailing bytes refused with the counts), an ASCII file no longer than its values can
+take (40 bytes each, plus a 64 kB trailer), read line by line.
+
 Writing: data type 7 (float64 values in mm, Zscale 1e-3 so heights come back bit for
 bit; steps as mm / 1000, in ASCII as the exact decimal), binary by default, ASCII with ``binary=False``
 (``BAD`` for invalid points, one profile per line). The uint16 sizes cap a grid at
@@ -19,6 +25,7 @@ bit; steps as mm / 1000, in ASCII as the exact decimal), binary by default, ASCI
 
 from __future__ import annotations
 
+import io
 import struct
 from datetime import datetime
 from decimal import Decimal
@@ -120,6 +127,8 @@ def _mm(metres: float | str) -> float:
 #: at most 24 characters): a longer file holds something else, refused before parsing.
 _ASCII_BYTES_PER_VALUE = 40
 _ASCII_HEADER_BYTES = 1 << 16
+#: ... and the optional trailer after the data's closing '*' line is a few lines of text.
+_ASCII_TRAILER_BYTES = 1 << 16
 
 
 def _ascii(fh: BinaryIO, size: int, name: str) -> tuple[dict[str, Any], np.ndarray]:
@@ -151,7 +160,7 @@ def _ascii(fh: BinaryIO, size: int, name: str) -> tuple[dict[str, Any], np.ndarr
         raise fail(name, f"SDF data type {header['DataType']} is not one of 5, 6, 7")
     _scales(header, name)
     n = header["NumPoints"] * header["NumProfiles"]
-    if size > len(head) + 64 + n * _ASCII_BYTES_PER_VALUE:
+    if size > len(head) + _ASCII_TRAILER_BYTES + n * _ASCII_BYTES_PER_VALUE:
         raise fail(
             name,
             f"SDF is {size} bytes; {header['NumPoints']} x {header['NumProfiles']} values take at most "
@@ -160,15 +169,26 @@ def _ascii(fh: BinaryIO, size: int, name: str) -> tuple[dict[str, Any], np.ndarr
     fh.seek(0)
     text = fh.read().decode("latin-1")
     rest = text.partition("\n*")[2]
+    del text
     body = rest.split("\n", 1)[1] if "\n" in rest else ""
-    body, trailer, _ = body.partition("\n*")  # an optional trailer follows a second '*' line
-    words = body.split()
-    if len(words) != n:
-        raise fail(name, f"SDF holds {len(words)} values for {header['NumPoints']} x {header['NumProfiles']} points")
-    try:
-        values = np.array([np.nan if w.upper() == "BAD" else float(w) for w in words], dtype=np.float64)
-    except ValueError as exc:
-        raise fail(name, f"SDF data value is not a number ({str(exc)[:80]})") from None
+    body = body.partition("\n*")[0]  # an optional trailer follows a second '*' line
+    # line by line into the grid: a list of every value as Python objects would take ~10
+    # times the grid's memory
+    values = np.empty(n, dtype=np.float64)
+    got = 0
+    for line in io.StringIO(body):
+        words = ["nan" if w.upper() == "BAD" else w for w in line.split()]
+        if got + len(words) > n:
+            raise fail(
+                name, f"SDF holds more than {n} values for {header['NumPoints']} x {header['NumProfiles']} points"
+            )
+        try:
+            values[got : got + len(words)] = np.array(words, dtype=np.float64)
+        except ValueError as exc:
+            raise fail(name, f"SDF data value is not a number ({str(exc)[:80]})") from None
+        got += len(words)
+    if got != n:
+        raise fail(name, f"SDF holds {got} values for {header['NumPoints']} x {header['NumProfiles']} points")
     if np.isinf(values).any():
         raise fail(name, "SDF data hold an infinite value (invalid points are BAD)")
     return header, values.reshape(header["NumProfiles"], header["NumPoints"])

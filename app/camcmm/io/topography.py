@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import re
+import zipfile
 from datetime import date, datetime
 from pathlib import Path
 from typing import Any
@@ -23,7 +24,7 @@ import numpy as np
 from ..model import HeightMap
 from ..units import to_mm_factor
 from ._common import canonical_unit, fail
-from ._maps import check_grid, check_heights, check_plausible
+from ._maps import check_grid, check_heights, check_plausible, check_zip
 
 #: extension -> (SurfaceTopography's format key, what it is)
 VENDOR: dict[str, tuple[str, str]] = {
@@ -74,9 +75,10 @@ def _jsonable(v: Any, depth: int = 0) -> Any:
 
 
 def read(path: Path, name: str) -> HeightMap:
+    key, what = VENDOR[path.suffix.lower()]
+    _check_container(path, what, name)  # before SurfaceTopography is even imported
     from SurfaceTopography.IO import open_topography
 
-    key, what = VENDOR[path.suffix.lower()]
     try:
         reader = open_topography(str(path), format=key)
     except Exception as exc:
@@ -142,6 +144,18 @@ def read(path: Path, name: str) -> HeightMap:
 #: MetroPro's header fields whose product (with the phase resolution) scales the phase
 #: counts to heights (Zygo's MetroPro Reference Guide, "Data file format").
 _METROPRO_Z = ("wavelength_in", "intf_scale_factor", "obliquity_factor")
+
+
+def _check_container(path: Path, what: str, name: str) -> None:
+    """The zip inside PLUX, VK4-7, ZON and the like, checked before SurfaceTopography
+    inflates its members (:func:`camcmm.io._maps.check_zip`)."""
+    if not zipfile.is_zipfile(path):
+        return
+    try:
+        with zipfile.ZipFile(path) as zf:
+            check_zip(zf, name, f"the {what} file's zip")
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError):
+        return  # not readable as a zip: SurfaceTopography's own reader says what it is
 
 
 def _check_header(channel: Any, key: str, what: str, name: str) -> None:

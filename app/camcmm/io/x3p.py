@@ -14,6 +14,13 @@ NaN, infinity (older openGPS versions) or the optional validity bitmap
 SurfaceTopography 1.25 writes it so too but reads it most-significant bit first), the
 MD5 of the point data checked when given, Record2 (date, instrument, probing system,
 comment) kept in ``meta``.
+Limits (issue 26; :mod:`camcmm.io._maps`): the zip's declared sizes within the memory
+limit and no member inflating like a bomb (> 100:1 and > 64 MB), main.xml at most 4 MB
+and without a DTD or entities (billion laughs, external entities), each member read in
+1 MB chunks no further than the grid main.xml declares (its declared size must be the
+grid's, its inflated size is checked while reading), so reading holds the raw data and
+their float64 heights and no more; increments and offsets refused when 0, negative,
+non-finite or implausible (a map wider than 5000 mm, heights beyond it).
 Writing: float64 values in mm with the z increment 1e-3 (z in metres = value *
 increment, as the standard defines it), NaN for invalid points (allowed for floating
 types, so no validity bitmap), increments and offsets written as the exact decimal of
@@ -42,7 +49,7 @@ from .. import __version__
 from ..jsonable import to_jsonable
 from ..model import HeightMap
 from ._common import fail
-from ._maps import MIN_Z_FACTOR_MM, check_grid, check_heights, check_plausible, factor, read_member
+from ._maps import MIN_Z_FACTOR_MM, check_grid, check_heights, check_plausible, check_zip, factor, read_member
 
 _NS = "http://www.opengps.eu/2008/ISO5436_2"
 _DTYPES = {"I": "<u2", "L": "<u4", "F": "<f4", "D": "<f8"}
@@ -136,6 +143,7 @@ def read(path: Path, name: str) -> HeightMap:
     except (zipfile.BadZipFile, OSError, ValueError, EOFError):
         raise fail(name, "not an X3P file (not a zip archive)") from None
     with zf:
+        check_zip(zf, name, "X3P zip")
         doc = _tree(_xml(zf, name))
         rec1, rec3 = doc.get("Record1"), doc.get("Record3")
         if not isinstance(rec1, dict) or not isinstance(rec3, dict):

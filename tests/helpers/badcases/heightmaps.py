@@ -223,6 +223,16 @@ def cases() -> list[Case]:
         ),
         env={"CAMCMM_MAX_MEMORY_MB": "20"},
     )
+    # a grid honestly declared, 128 MB of zeros in a few kB: within the memory limit, but no
+    # measurement deflates 1000:1 (the declared size patched: building it would take seconds)
+    honest = zipped(
+        {"main.xml": x3p_xml(nx=4096, ny=4096, xinc="1e-7", yinc="1e-7", md5=None), "bindata/data.bin": b"\0" * 4096}
+    )
+    info("x3p-bomb-ratio", "ratio.x3p", patch_size(honest, "bindata/data.bin", 4096 * 4096 * 8))
+    for ext in (".plux", ".zon", ".vk6"):
+        vendor_bomb = patch_size(zipped({"data.bin": b"\0" * 4096, "index.xml": b"<a/>"}), "data.bin", 3 << 30)
+        info(f"{ext[1:]}-zip-bomb", f"bomb{ext}", vendor_bomb)
+        info(f"{ext[1:]}-zip-junk-members", f"members{ext}", zipped({"a.txt": b"hello", "b.bin": _junk(512)}))
     info("x3p-meta-huge", "meta.x3p", x3p(members={"camcmm/meta.json": b" " * (5 << 20)}))
     info("x3p-meta-not-json", "metajson.x3p", x3p(members={"camcmm/meta.json": b"{nope"}))
     info("x3p-intensity-short", "inten.x3p", x3p(members={"camcmm/intensity.bin": b"\0" * 16}))
@@ -249,6 +259,7 @@ def cases() -> list[Case]:
         info(f"sdf-asc-{tag}", f"a{tag}.sdf", sdf_ascii(**kw))
     info("sdf-asc-missing-key", "amiss.sdf", sdf_ascii().replace(b"Zscale", b"Qscale"))
     info("sdf-asc-too-few", "afew.sdf", sdf_ascii(values="1 2 3\n"))
+    info("sdf-asc-too-many", "amany.sdf", sdf_ascii(values="1 " * (NX * NY + 5) + "\n"))
     info("sdf-asc-word", "aword.sdf", sdf_ascii(values=" ".join(["1"] * (NX * NY - 1) + ["x"]) + "\n"))
     info("sdf-asc-inf", "ainf.sdf", sdf_ascii(values=" ".join(["1"] * (NX * NY - 1) + ["inf"]) + "\n"))
     info("sdf-asc-trailing-mb", "atrail.sdf", sdf_ascii(values=" ".join(["1"] * (NX * NY)) + "\n" + "7 " * 300000))
