@@ -45,12 +45,13 @@ MIN_Z_FACTOR_MM: float = 1e-12
 #: Bytes read from a zip member at a time (a bounded read holds at most this beyond the grid).
 CHUNK = 1 << 20
 #: Measured heights carry noise and deflate by a few times at most (a map with large
-#: invalid regions perhaps by ten); zeros deflate by a thousand. A member that inflates
-#: more than :data:`MAX_RATIO` times and to more than :data:`RATIO_FLOOR` bytes is a zip
-#: bomb (a 3 MB file declaring 3 GB), refused before it is inflated even when the grid
-#: it claims to hold would fit the memory limit.
+#: invalid regions perhaps by twenty); zeros deflate by a thousand. A member that
+#: inflates more than :data:`MAX_RATIO` times and to more than :data:`RATIO_FLOOR` bytes
+#: is a zip bomb (a 3 MB file declaring 3 GB), refused before it is inflated even when
+#: the grid it claims to hold would fit the memory limit. The floor spares a map of
+#: constant values (a synthetic intensity channel: 4096² float64 is 128 MB).
 MAX_RATIO = 100
-RATIO_FLOOR = 64 << 20
+RATIO_FLOOR = 256 << 20
 
 
 def factor(name: str, what: str, value: Any, minimum: float) -> float:

@@ -15,7 +15,7 @@ SurfaceTopography 1.25 writes it so too but reads it most-significant bit first)
 MD5 of the point data checked when given, Record2 (date, instrument, probing system,
 comment) kept in ``meta``.
 Limits (issue 26; :mod:`camcmm.io._maps`): the zip's declared sizes within the memory
-limit and no member inflating like a bomb (> 100:1 and > 64 MB), main.xml at most 4 MB
+limit and no member inflating like a bomb (> 100:1 and > 256 MB), main.xml at most 4 MB
 and without a DTD or entities (billion laughs, external entities), each member read in
 1 MB chunks no further than the grid main.xml declares (its declared size must be the
 grid's, its inflated size is checked while reading), so reading holds the raw data and

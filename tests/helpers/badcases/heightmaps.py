@@ -223,12 +223,12 @@ def cases() -> list[Case]:
         ),
         env={"CAMCMM_MAX_MEMORY_MB": "20"},
     )
-    # a grid honestly declared, 128 MB of zeros in a few kB: within the memory limit, but no
+    # a grid honestly declared, 512 MB of zeros in a few kB: within the memory limit, but no
     # measurement deflates 1000:1 (the declared size patched: building it would take seconds)
     honest = zipped(
-        {"main.xml": x3p_xml(nx=4096, ny=4096, xinc="1e-7", yinc="1e-7", md5=None), "bindata/data.bin": b"\0" * 4096}
+        {"main.xml": x3p_xml(nx=8192, ny=8192, xinc="1e-7", yinc="1e-7", md5=None), "bindata/data.bin": b"\0" * 4096}
     )
-    info("x3p-bomb-ratio", "ratio.x3p", patch_size(honest, "bindata/data.bin", 4096 * 4096 * 8))
+    info("x3p-bomb-ratio", "ratio.x3p", patch_size(honest, "bindata/data.bin", 8192 * 8192 * 8))
     for ext in (".plux", ".zon", ".vk6"):
         vendor_bomb = patch_size(zipped({"data.bin": b"\0" * 4096, "index.xml": b"<a/>"}), "data.bin", 3 << 30)
         info(f"{ext[1:]}-zip-bomb", f"bomb{ext}", vendor_bomb)
