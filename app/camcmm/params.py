@@ -15,7 +15,9 @@ from typing import Any
 
 from .errors import ParameterError
 
-TYPES = ("float", "int", "bool", "str", "choice", "vector")
+TYPES = ("float", "int", "bool", "str", "choice", "vector", "path", "address")
+#: What a ``path`` parameter does with its file or folder (manifest key ``access``).
+ACCESS = ("read", "write")
 #: The keys a declaration may have; another key is a typo (``maximum:`` for ``max:``) that
 #: would silently drop a limit.
 KEYS = (
@@ -31,6 +33,7 @@ KEYS = (
     "length",
     "required",
     "help",
+    "access",
 )
 #: Largest integer any int parameter takes, declared max or not: beyond it JSON (a double)
 #: no longer holds integers exactly.
@@ -44,11 +47,17 @@ MAX_STR = 65_536
 class Param:
     """One declared parameter.
 
-    type: ``float``, ``int``, ``bool``, ``str``, ``choice`` (one of ``choices``) or
-    ``vector`` (a list of ``length`` floats). ``unit`` is informative text shown beside
-    the value (``mm``, ``um``, ``deg``, ``px``...). ``minimum``/``maximum`` (manifest
-    ``min``/``max``) are inclusive; ``exclusive_minimum`` (``exclusive_min``) is a bound
-    the value must exceed (a radius > 0). Floats must be finite unless ``finite`` is false.
+    type: ``float``, ``int``, ``bool``, ``str``, ``choice`` (one of ``choices``),
+    ``vector`` (a list of ``length`` floats), ``path`` (a file or folder; ``access``
+    ``read`` or ``write`` says what the plugin does with it: the web server confines it
+    to the project folder and the data roots, docs/security.md) or ``address`` (a
+    network address the plugin connects to, e.g. a Dask scheduler ``tcp://host:8786``:
+    the web server takes only the ones its operator configured with ``--scheduler``).
+    ``path`` and ``address`` values are text, like ``str``; an empty one means "not given".
+    ``unit`` is informative text shown beside the value (``mm``, ``um``, ``deg``, ``px``...).
+    ``minimum``/``maximum`` (manifest ``min``/``max``) are inclusive; ``exclusive_minimum``
+    (``exclusive_min``) is a bound the value must exceed (a radius > 0). Floats must be
+    finite unless ``finite`` is false.
     Limits apply to each number of a vector. Every int parameter and every size, count or
     iteration number should declare ``max`` (the built-in plugins all do; a test checks).
     A ``default`` of ``None`` with ``required`` false means "not given".
@@ -66,6 +75,7 @@ class Param:
     length: int | None = None
     required: bool = False
     help: str = ""
+    access: str = ""
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Param:
@@ -80,6 +90,11 @@ class Param:
         choices = tuple(str(c) for c in d.get("choices", ()))
         if kind == "choice" and not choices:
             raise ParameterError(f"parameter {d['name']!r}: type choice needs 'choices'")
+        access = str(d.get("access", "read" if kind == "path" else ""))
+        if kind != "path" and "access" in d:
+            raise ParameterError(f"parameter {d['name']!r}: 'access' is for type path, not {kind}")
+        if kind == "path" and access not in ACCESS:
+            raise ParameterError(f"parameter {d['name']!r}: access {access!r}; use one of {', '.join(ACCESS)}")
         p = cls(
             name=str(d["name"]),
             type=kind,
@@ -93,6 +108,7 @@ class Param:
             length=d.get("length"),
             required=bool(d.get("required", False)),
             help=str(d.get("help", "")),
+            access=access,
         )
         lo = max((x for x in (p.minimum, p.exclusive_minimum) if x is not None), default=None)
         if lo is not None and p.maximum is not None and lo > p.maximum:
@@ -110,6 +126,7 @@ class Param:
             ("exclusive_min", self.exclusive_minimum),
             ("length", self.length),
             ("help", self.help),
+            ("access", self.access),
         ):
             if value not in (None, ""):
                 d[key] = value
@@ -227,6 +244,20 @@ def _to_str(p: Param, v: Any) -> str:
     return s
 
 
+def _to_path(p: Param, v: Any) -> str:
+    s = _to_str(p, v).strip()
+    if "\x00" in s:
+        raise ValueError("a path has no NUL character")
+    return s
+
+
+def _to_address(p: Param, v: Any) -> str:
+    s = _to_str(p, v).strip()
+    if len(s) > 2048 or any(c.isspace() or not c.isprintable() for c in s):
+        raise ValueError("an address is one word of printable characters")
+    return s
+
+
 def _to_choice(p: Param, v: Any) -> str:
     s = str(v)
     if s not in p.choices:
@@ -254,6 +285,8 @@ _COERCE = {
     "str": _to_str,
     "choice": _to_choice,
     "vector": _to_vector,
+    "path": _to_path,
+    "address": _to_address,
 }
 
 
@@ -319,5 +352,14 @@ def label(p: Param) -> str:
 
 def form_schema(params: list[Param]) -> list[dict[str, Any]]:
     """A JSON-able description of the GUI form for these parameters (``label``: :func:`label`)."""
-    widget = {"float": "number", "int": "number", "bool": "switch", "str": "text", "choice": "select", "vector": "text"}
+    widget = {
+        "float": "number",
+        "int": "number",
+        "bool": "switch",
+        "str": "text",
+        "choice": "select",
+        "vector": "text",
+        "path": "text",
+        "address": "text",
+    }
     return [{"name": p.name, "widget": widget[p.type], "label": label(p), **p.to_dict()} for p in params]

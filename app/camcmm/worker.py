@@ -46,6 +46,7 @@ from typing import Any
 
 from .confine import confined, current
 from .errors import CamcmmError, PluginError
+from .reach import addresses, check_addresses
 
 log = logging.getLogger(__name__)
 
@@ -373,7 +374,13 @@ def run(
     cancel: threading.Event | None = None,
 ) -> Any:
     """A plugin run in a worker process when ``host`` can be rebuilt there (see
-    :func:`isolatable`), else ``host.run`` in the calling thread."""
+    :func:`isolatable`), else ``host.run`` in the calling thread.
+
+    In a run the web server started (:func:`camcmm.reach.server_run`) a parameter that is a
+    network address must be one the operator configured (``--scheduler``): refused here,
+    in one line, before anything could connect."""
+    if addresses() is not None and callable(getattr(host, "get", None)):
+        params = check_addresses(host.get(plugin_id).parameters, params)
     if isolatable(host):
         return run_isolated(host, plugin_id, inputs, params, progress, cancel)
     return host.run(plugin_id, inputs=inputs, params=params, progress=progress, cancel=cancel)

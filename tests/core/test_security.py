@@ -89,7 +89,7 @@ def test_plugin_path_parameters_and_inputs_are_confined(tree):
             P(name="save", type="str"),
             P(name="outliers", type="str"),
             P(name="voxel", type="float"),
-            P(name="cti", type="str", path=True),
+            P(name="cti", type="path"),
         ],
         inputs=[P(name="cloud", type="pointcloud"), P(name="sequence", type="json"), P(name="csv", type="file")],
     )

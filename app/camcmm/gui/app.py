@@ -36,18 +36,22 @@ def build(
     host: Any = None,
     display_limit: int | None = None,
     data_roots: Any = (),
+    schedulers: Iterable[str] = (),
 ) -> tuple[Any, Any]:
     """Build the trame server and the session on a project folder (created if new).
 
     Every registered page (:func:`camcmm.gui.pages.registered`) is mounted, gets a
     toolbar button and builds its widgets; its page object is ``server.pages[key]``.
     The browser reaches only the project folder and ``data_roots`` (``session.roots``,
-    a :class:`~camcmm.gui.roots.Roots`). Returns ``(server, session)``; nothing
+    a :class:`~camcmm.gui.roots.Roots`), and a plugin connects only to ``schedulers``
+    (``--scheduler``); every job a page runs is confined to both in its own thread
+    (:func:`camcmm.gui.jobs.confine_jobs`). Returns ``(server, session)``; nothing
     listens until :func:`start`.
     """
     setup_offscreen()
     from trame.app import get_server
 
+    from .jobs import confine_jobs
     from .pages import registered
     from .roots import Roots
     from .session import Session
@@ -58,7 +62,8 @@ def build(
     if project is None:
         project = open_project(project_dir)
     session = Session(server, project, host=host, view=SceneView(display_limit or DISPLAY_LIMIT))
-    session.roots = Roots(getattr(project, "path", project_dir), data_roots)  # before the pages mount
+    session.roots = Roots(getattr(project, "path", project_dir), data_roots, schedulers)  # before the pages mount
+    confine_jobs(server.state, session.roots)  # each run the pages start: in their job's thread, never here
     server.session = session  # for scripts and tests
     pages = registered()
     session.page_of_module = {p.package(): p.key for p in pages}  # a message belongs to its page
@@ -447,6 +452,13 @@ def add_serve_arguments(ap: Any) -> None:
         help="a folder the browser may read and write besides the project folder (repeatable)",
     )
     ap.add_argument(
+        "--scheduler",
+        action="append",
+        default=[],
+        metavar="ADDRESS",
+        help="a Dask scheduler (tcp://host:8786) a run may connect to; no other is accepted (repeatable)",
+    )
+    ap.add_argument(
         "--token-file",
         metavar="FILE",
         help="a fixed token (password) read from FILE instead of a random one per launch (also: $CAMCMM_TOKEN)",
@@ -522,13 +534,15 @@ def serve(
     session_child: bool = False,
     max_upload: int | None = None,
     session_unused: float | None = None,
+    schedulers: Iterable[str] = (),
 ) -> None:
     """Open (or create) the project in ``project_dir`` and serve the GUI until stopped.
 
     Prints ``camcmm GUI: http://HOST:PORT/?token=TOKEN`` once the server listens
     (``port=0`` picks a free port). The token is random per launch, or read from
     ``token_file`` / ``$CAMCMM_TOKEN``; ``no_token`` only on a loopback ``host``. The
-    browser reaches only the project folder and ``data_roots``. Bad options raise a
+    browser reaches only the project folder and ``data_roots``, and a run connects only to
+    ``schedulers`` (Dask scheduler addresses, ``--scheduler``). Bad options raise a
     one-line :class:`~camcmm.errors.CamcmmError` before anything starts.
 
     By default each browser session gets a process of its own behind a front server
@@ -538,8 +552,9 @@ def serve(
     """
     from .security import binding_warning, choose_token
 
+    schedulers = scheduler_list(schedulers)
     if session_child:
-        return _serve_child(project_dir, server_name, data_roots)
+        return _serve_child(project_dir, server_name, data_roots, schedulers)
     from .uploads import DEFAULT_MAX_UPLOAD
 
     token = choose_token(host, no_token=no_token, token_file=token_file)
@@ -552,6 +567,7 @@ def serve(
         warning = binding_warning(host, bool(certfile))
         if warning:
             print(warning, file=sys.stderr, flush=True)
+        os.environ[SCHEDULERS_ENV] = " ".join(schedulers)  # the session processes inherit it
         return serve_sessions(
             project_dir,
             host=host,
@@ -571,7 +587,7 @@ def serve(
     from .pages import preload
 
     preload()  # pages registered by the modules of $CAMCMM_GUI_PRELOAD
-    server, session = build(server_name, project_dir, data_roots=data_roots)
+    server, session = build(server_name, project_dir, data_roots=data_roots, schedulers=schedulers)
     worker.warm_later(session.host)  # the plugin worker process starts while the page loads
     start(
         server,
@@ -586,15 +602,34 @@ def serve(
     )
 
 
-def _serve_child(project_dir: str | Path, server_name: str, data_roots: Iterable[str | Path]) -> None:
-    """One session behind the launcher: 127.0.0.1, a free port, the launcher's secret."""
+#: the front hands its ``--scheduler`` addresses to its session processes in this variable
+SCHEDULERS_ENV = "CAMCMM_SESSION_SCHEDULERS"
+
+
+def scheduler_list(addresses: Iterable[str] | None) -> list[str]:
+    """The ``--scheduler`` addresses, checked: each one word (``tcp://host:8786``)."""
+    out = []
+    for a in addresses or ():
+        text = str(a).strip()
+        if not text or any(c.isspace() or not c.isprintable() for c in text):
+            raise CamcmmError(f"--scheduler {str(a)!r}: an address is one word, e.g. tcp://10.0.0.5:8786")
+        out.append(text)
+    return out
+
+
+def _serve_child(
+    project_dir: str | Path, server_name: str, data_roots: Iterable[str | Path], schedulers: Iterable[str] = ()
+) -> None:
+    """One session behind the launcher: 127.0.0.1, a free port, the launcher's secret; the
+    front's schedulers from :data:`SCHEDULERS_ENV`."""
     from .. import worker
     from .launcher import child
     from .pages import preload
 
     secret, ws_secret = child.take_secrets()
     preload()
-    server, session = build(server_name, project_dir, data_roots=data_roots)
+    schedulers = [*schedulers, *scheduler_list(os.environ.get(SCHEDULERS_ENV, "").split())]
+    server, session = build(server_name, project_dir, data_roots=data_roots, schedulers=schedulers)
     worker.warm_later(session.host)
     child.prepare(server, session)
     start(server, host="127.0.0.1", port=0, token=secret, ws_secret=ws_secret, announce=child.announce)
@@ -619,6 +654,7 @@ def serve_from_args(project: str | Path, args: Any, port: int, open_browser: boo
         session_child=args.session_child,
         max_upload=getattr(args, "max_upload", None),
         session_unused=getattr(args, "session_unused", None),
+        schedulers=getattr(args, "scheduler", None) or (),
     )
 
 

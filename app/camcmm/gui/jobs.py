@@ -17,6 +17,15 @@ Typical use in a page::
         except Exception as exc:
             status, message = Job.outcome(exc, "inspect.compare")
             ...
+
+Every job's work is a run the web server starts, so it is confined (issue 26,
+docs/security.md): :func:`camcmm.gui.app.build` registers the session's
+:class:`~camcmm.gui.roots.Roots` for its trame state (:func:`confine_jobs`) and each call
+of a job with that state runs inside :func:`camcmm.reach.server_run` — paths to the
+project folder and the data roots, network addresses to the configured schedulers — *in
+the job's worker thread* (a contextvar: set nowhere else, so apps built in one process,
+as tests do, never leak it into each other or into the caller). A plugin run that goes
+to a worker process takes the folders with it (:func:`camcmm.worker.run_isolated`).
 """
 
 from __future__ import annotations
@@ -26,14 +35,31 @@ import functools
 import logging
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from ..errors import CamcmmError, one_line
 from ..host import Cancelled
+from ..reach import server_run
 
-__all__ = ["Busy", "Cancelled", "Job", "in_background"]
+__all__ = ["Busy", "Cancelled", "Job", "confine_jobs", "in_background"]
+
+#: trame state -> the Roots its jobs are confined to (:func:`confine_jobs`)
+_REACH: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
+
+
+def confine_jobs(state: Any, roots: Any) -> None:
+    """Confine every job of ``state`` (the trame state of one app) to ``roots``
+    (``folders`` and ``schedulers``): each call runs inside :func:`camcmm.reach.server_run`."""
+    _REACH[state] = roots
+
+
+def _confined_call(folders: Any, schedulers: Any, fn: Callable[..., Any]) -> Any:
+    with server_run(folders, schedulers):
+        return fn()
+
 
 #: Tasks started by :func:`in_background`, held so the loop does not drop them half-way.
 _TASKS: set[asyncio.Task[Any]] = set()
@@ -163,7 +189,11 @@ class Job:
         """``fn(*args, **kwargs)`` in the job's worker thread; its result or its exception."""
         self._bind()
         loop = asyncio.get_running_loop()
-        return await loop.run_in_executor(self._pool, functools.partial(fn, *args, **kwargs))
+        work = functools.partial(fn, *args, **kwargs)
+        roots = _REACH.get(self.state) if self.state is not None else None
+        if roots is not None:  # entered in the worker thread, for this call only
+            work = functools.partial(_confined_call, roots.folders, roots.schedulers, work)
+        return await loop.run_in_executor(self._pool, work)
 
     async def run(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """:meth:`begin`, :meth:`call`, :meth:`end` (also when the work fails)."""

@@ -8,6 +8,10 @@ it. A path is resolved first (``~``, ``..`` and symlinks: a link inside a root t
 points outside is outside), then it must lie in one of the roots. A refusal is one
 line naming the path as typed; it never says whether the path exists, nor shows a
 byte of it. A relative path is taken from the project folder.
+
+The same object holds the network addresses the server may connect to: the Dask
+schedulers named with ``camcmm serve --scheduler ADDRESS`` (:mod:`camcmm.reach`). A
+parameter declared ``type: address`` must equal one of them.
 """
 
 from __future__ import annotations
@@ -19,16 +23,16 @@ from typing import Any
 
 from ..confine import within
 from ..errors import InputError
+from ..reach import PATH_NAMES, PATH_SUFFIXES, address_in, check_values, is_address_param, is_path_param
 
-#: parameter names that name a file or a folder when a manifest does not say so (``path: true``)
-PATH_NAMES = frozenset({"save", "out", "output", "outdir", "directory", "dir", "folder", "path", "file", "plan", "cti"})
-PATH_SUFFIXES = ("_path", "_dir", "_file", "_folder", "_directory")
+__all__ = ["PATH_NAMES", "PATH_SUFFIXES", "Roots", "is_address_param", "is_path_param", "redact"]
 
 
 class Roots:
-    """The folders a browser may reach, resolved once. ``folders[0]`` is the project's."""
+    """The folders a browser may reach, resolved once (``folders[0]`` is the project's),
+    and the ``schedulers`` (network addresses) the server may connect to."""
 
-    def __init__(self, project_dir: str | Path, data_roots: Iterable[str | Path] = ()):
+    def __init__(self, project_dir: str | Path, data_roots: Iterable[str | Path] = (), schedulers: Iterable[str] = ()):
         folders = [Path(project_dir).expanduser().resolve()]
         for d in data_roots or ():
             p = Path(d).expanduser()
@@ -36,6 +40,9 @@ class Roots:
                 raise InputError(f"--data-root {d}: {'is not a folder' if p.exists() else 'no such folder'}")
             folders.append(p.resolve())
         self.folders: tuple[Path, ...] = tuple(dict.fromkeys(folders))
+        self.schedulers: tuple[str, ...] = tuple(
+            dict.fromkeys(str(s).strip() for s in schedulers or () if str(s).strip())
+        )
 
     @property
     def project(self) -> Path:
@@ -55,6 +62,16 @@ class Roots:
         """
         return within(path, self.folders, what)
 
+    def check_address(self, address: Any, what: str = "scheduler") -> str:
+        """``address`` if it is one of the configured schedulers; else one line, the same
+        whatever listens there (nothing is connected to)."""
+        return address_in(address, self.schedulers, what)
+
+    def check_params(self, parameters: Iterable[Any], values: dict[str, Any] | None) -> dict[str, Any]:
+        """``values`` (a copy) with every path parameter checked and made absolute and every
+        address parameter held to the schedulers; InputError (one line) for the first refused."""
+        return check_values(parameters, values, self.folders, self.schedulers)
+
     def check_run(
         self, spec: Any, params: dict[str, Any] | None, inputs: dict[str, Any] | None, item_types: Iterable[str] = ()
     ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -62,11 +79,7 @@ class Roots:
         checked and made absolute (``(params, inputs)`` copies); InputError for the first
         one outside the roots. An input whose type the form offers as a project item
         (``item_types``) holds an item id, not a path, and is left alone."""
-        params, inputs = dict(params or {}), dict(inputs or {})
-        for p in getattr(spec, "parameters", ()) or ():
-            v = params.get(p.name)
-            if is_path_param(p) and isinstance(v, str) and v.strip():
-                params[p.name] = str(self.check(v, f"parameter {p.name!r}"))
+        params, inputs = self.check_params(getattr(spec, "parameters", ()) or (), params), dict(inputs or {})
         items = set(item_types)
         for port in getattr(spec, "inputs", ()) or ():
             v = inputs.get(port.name)
@@ -79,17 +92,6 @@ class Roots:
             elif isinstance(v, (list, tuple)):
                 inputs[port.name] = [str(self.check(x, f"input {port.name!r}")) for x in v]
         return params, inputs
-
-
-def is_path_param(p: Any) -> bool:
-    """Does parameter declaration ``p`` name a file or folder? Declared ``path: true``,
-    or a ``str`` parameter named like one (``out``, ``save``, ``*_dir`` ...)."""
-    if getattr(p, "path", False):
-        return True
-    if getattr(p, "type", "") != "str":
-        return False
-    name = str(getattr(p, "name", "")).lower()
-    return name in PATH_NAMES or name.endswith(PATH_SUFFIXES)
 
 
 _QUOTED = re.compile(r"""(?<![\w])(['"])(?:(?!\1).){1,400}?\1""")

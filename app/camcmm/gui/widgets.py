@@ -63,10 +63,13 @@ def declared_fields(parameters: Any) -> tuple[list[dict[str, Any]], dict[str, An
     return fields, values
 
 
-def form_values(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
+def form_values(spec: Any, raw: dict[str, Any] | None, roots: Any = None) -> dict[str, Any]:
     """A form's values (``raw``, as the browser sent them) validated against the plugin's
     declared parameters: keys it does not declare are dropped, never passed on; an empty
-    optional field means its default. Raises the one-line InputError of camcmm.params."""
+    optional field means its default. With ``roots`` (the session's
+    :class:`~camcmm.gui.roots.Roots`) a path parameter must lie in its folders (made
+    absolute) and an address parameter be one of its schedulers. Raises the one-line
+    InputError of camcmm.params or of the refused path or address."""
     from ..params import validate
 
     declared = {p.name: p for p in spec.parameters}
@@ -78,7 +81,8 @@ def form_values(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
         if p.type != "str" and (v is None or (isinstance(v, str) and not v.strip())):
             continue
         values[p.name] = v
-    return validate(spec.parameters, values, owner=f"plugin {spec.id!r}")
+    values = validate(spec.parameters, values, owner=f"plugin {spec.id!r}")
+    return values if roots is None else roots.check_params(spec.parameters, values)
 
 
 def param_form(

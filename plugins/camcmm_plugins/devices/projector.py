@@ -14,11 +14,12 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from camcmm.api import Device, DeviceError, DeviceTimeout, get_algorithm
+from camcmm.api import Device, DeviceError, DeviceTimeout, checked_path, get_algorithm
 from camcmm.api import device_param as param
 
 
@@ -69,7 +70,11 @@ class PatternProjector(Device):
 
     def load_sequence(self, sequence: Any, algorithm: str | Callable[..., dict] = "fringe.patterns") -> int:
         """Patterns from a pattern-generating plugin (by id, default the fringe
-        plugin's ``fringe.patterns``, or a callable with the same contract)."""
+        plugin's ``fringe.patterns``, or a callable with the same contract). ``sequence``
+        is a mapping or a sequence file; in a run the web server confines, a file outside
+        its folders is refused before it is read (api.checked_path)."""
+        if isinstance(sequence, (str, Path)):
+            sequence = str(checked_path(sequence, "sequence file"))
         fn = get_algorithm(algorithm) if isinstance(algorithm, str) else algorithm
         out = fn(sequence=sequence)
         names = [

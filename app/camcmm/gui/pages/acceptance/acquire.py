@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from camcmm.errors import one_line
+from camcmm.errors import InputError, one_line
 
 from ...widgets import declared_fields, form_values
 
@@ -44,9 +44,15 @@ class Acquisition:
         self.state.wz_source_params = values
 
     def source_params(self, source: str) -> dict[str, Any]:
-        """The settings form's values checked against the system's declaration (raises the
-        one-line InputError naming the value)."""
-        return form_values(self.session.host.get(source), self.state.wz_source_params)
+        """The settings form's values checked against the system's declaration, its paths and
+        addresses against the session's roots (raises the one-line InputError naming the
+        value). ``source`` must be a measuring system (a plugin that ``acquires`` a point
+        cloud): the browser names it, and another plugin (one that renders a series into a
+        folder) must not run from here."""
+        spec = self.session.host.get(source)
+        if getattr(spec, "acquires", "") != "pointcloud" or spec.kind != "algorithm":
+            raise InputError(f"measuring system {source!r}: not a plugin that acquires a point cloud")
+        return form_values(spec, self.state.wz_source_params, getattr(self.session, "roots", None))
 
     async def acquire_async(self, test: str, position: str, repeat: int | None = None) -> dict[str, Any] | None:
         page = self.page

@@ -11,6 +11,7 @@ from typing import Any
 
 from ....assets import resources_dir
 from ....errors import CamcmmError
+from ....yamlfile import read_yaml
 
 ACTIONS = ("connect", "disconnect", "configure", "grab", "home", "abs", "rel", "stop", "load", "show")
 
@@ -42,8 +43,12 @@ def perform(dev: Any, action: str, arg: Any = None) -> Any:
             raise CamcmmError(f"{dev.label}: move {action}: {arg!r} is not a number") from None
         return (dev.move_abs if action == "abs" else dev.move_rel)(x)
     if action == "load":
-        path = str(arg).strip() if arg and str(arg).strip() else str(resources_dir() / "fringe" / "sequence.yaml")
-        return dev.load_sequence(path)
+        if arg and str(arg).strip():
+            return dev.load_sequence(str(arg).strip())
+        # camcmm's own sequence, as its content: the file lies outside the folders a
+        # confined (server) run may read, and it is camcmm's, not the browser's choice
+        shipped = resources_dir() / "fringe" / "sequence.yaml"
+        return dev.load_sequence(read_yaml(shipped, name=shipped.name))
     if action == "show":
         return dev.show(None if arg in (None, "", "blank") else int(arg))
     raise CamcmmError(f"{dev.label}: unknown action {action!r}")

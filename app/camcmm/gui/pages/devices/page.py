@@ -162,12 +162,16 @@ class DevicesPage:
     async def act(self, key: str, action: str, arg: Any = None) -> Any:
         """Do ``action`` (:data:`.actions.ACTIONS`: connect, disconnect, configure, grab, home,
         abs, rel, stop, load, show) in the device job's worker; its result (True for None),
-        or None with the reason shown when it fails."""
+        or None with the reason shown when it fails. A sequence file to ``load`` must lie
+        in the browser's folders: refused before it is read (empty: the one camcmm ships)."""
         dev = self.devices.get(key)
         if dev is None:
             self._error(f"no device {key!r}: it was removed")
             return None
         try:
+            roots = getattr(self.session, "roots", None)
+            if action == "load" and roots is not None and arg is not None and str(arg).strip():
+                arg = str(roots.check(arg, "sequence file"))
             out = await self.io.call(perform, dev, action, arg)
         except Exception as exc:
             self._error(exc)

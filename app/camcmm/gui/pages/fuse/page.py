@@ -120,7 +120,7 @@ class FusePage:
         req = self.request() if req is None else {**self.request(), **req}
         try:
             spec = self.spec()
-            values = form_values(spec, s.fu_params if params is None else params)
+            values = form_values(spec, s.fu_params if params is None else params, self.session.roots)
             inputs = fusion.inputs_of(self.session, req)
         except Exception as exc:
             self.shared.error(exc)

@@ -218,7 +218,7 @@ class PhotogrammetryPage:
         try:
             spec = self.spec()
             values = task.scale_checked(
-                form_values(spec, s.pg_params if params is None else params), self.session.roots
+                form_values(spec, s.pg_params if params is None else params, self.session.roots), self.session.roots
             )
             sources = task.sources_of(req, self.project, self.session.roots)
             cal = task.calibration_file(self.project) if s.pg_use_cal else None

@@ -46,11 +46,12 @@ def shortened(warnings: list[Any], n: int = MAX_WARNINGS) -> list[str]:
     return lines[:n] + ([f"… and {more} more warning(s): see the report"] if more > 0 else [])
 
 
-def check_params(spec: Any, raw: dict[str, Any] | None) -> dict[str, Any]:
+def check_params(spec: Any, raw: dict[str, Any] | None, roots: Any = None) -> dict[str, Any]:
     """The form's values checked against the declared parameters but the study file's
-    (a required parameter of the speckle study: the task adds it from the page's file)."""
+    (a required parameter of the speckle study: the task adds it from the page's file),
+    paths and addresses against ``roots``."""
     raw = {k: v for k, v in dict(raw or {}).items() if k != "study"}
-    return form_values(SimpleNamespace(id=spec.id, parameters=studies.form_fields(spec)), raw)
+    return form_values(SimpleNamespace(id=spec.id, parameters=studies.form_fields(spec)), raw, roots)
 
 
 class StudiesPage:
@@ -173,7 +174,7 @@ class StudiesPage:
         kind = str(s.st_kind)
         try:
             spec = self.spec()
-            values = check_params(spec, s.st_params if params is None else params)
+            values = check_params(spec, s.st_params if params is None else params, getattr(self.session, "roots", None))
             path = studies.study_file(getattr(self.session, "roots", None), s.st_file if file is None else file)
         except Exception as exc:
             self.shared.error(exc)

@@ -203,6 +203,9 @@ class UncertaintyPage:
             return None
         try:
             checked = self.task.check_montecarlo(unc.MonteCarloRequest(dict(params or {}), self.mc_system))
+            roots = getattr(self.session, "roots", None)
+            if roots is not None:  # the scheduler must be one of --scheduler: refused before any connection
+                roots.check_params(checked.spec.parameters, checked.values)
         except Exception as exc:
             self._error(exc)
             return None
