@@ -53,7 +53,8 @@ def failure(r: dict[str, Any]) -> str | None:
     if not r["cases"] or len(failed) < len(r["cases"]):
         return None
     ids = ", ".join(c["id"] for c in failed)
-    return f"{Path(r['study']['file']).name}: every case failed ({ids}); the first: {failed[0]['error']}"
+    first = " ".join(str(failed[0]["error"]).split())  # one line, whatever the case's error held
+    return f"{Path(r['study']['file']).name}: every case failed ({ids}); the first: {first}"
 
 
 def text(r: dict[str, Any]) -> str:
