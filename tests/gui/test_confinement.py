@@ -33,7 +33,8 @@ NOT_PATHS = {
     # (confined in a server run) and the photogrammetry page checks it with the roots
     ("photogrammetry.reconstruct", "scale"),
     ("photogrammetry.scale", "scale"),
-    # a device index, a stream URL or a video file: a device setting (docs/security.md)
+    # a device index, a stream URL or a video file: the camera checks a file with
+    # api.checked_path when it opens it (test_an_opencv_camera_opens_only_a_file_inside_the_roots)
     ("devices.camera.opencv", "source"),
 }
 _FILEISH = re.compile(r"\b(file|files|folder|folders|dir|directory|path)\b|FILE|DIR")
@@ -178,6 +179,22 @@ def test_the_projector_loads_only_a_sequence_inside_the_roots(gui_app, tmp_path)
     dev = page.devices[key]
     with pytest.raises(InputError, match="sequence file: /etc/passwd: outside the folders"):
         asyncio.run(page.io.call(dev.load_sequence, "/etc/passwd"))
+
+
+def test_an_opencv_camera_opens_only_a_file_inside_the_roots(gui_app, tmp_path):
+    """A camera's ``source`` is an index, a URL or a video/image file: a file outside the
+    roots would show any image of the machine as a frame."""
+    pytest.importorskip("cv2")
+    server, session = gui_app()
+    page = server.pages["devices"]
+    lines = []
+    for path in ("/etc/passwd", "/nonexistent/x.avi"):
+        key = page.add("devices.camera.opencv", {"source": path})
+        assert key is not None, page.state.dev_error
+        assert asyncio.run(page.act(key, "connect")) is None
+        lines.append(page.state.dev_error)
+    assert "source: /etc/passwd: outside the folders" in lines[0]
+    assert _same(*lines, "/etc/passwd", "/nonexistent/x.avi"), lines
 
 
 # -- outbound connections --------------------------------------------------------------------

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Camera
+from camcmm.api import Camera, checked_path
 
 
 class OpenCVCamera(Camera):
@@ -47,7 +47,13 @@ class OpenCVCamera(Camera):
         api = getattr(cv2, f"CAP_{self.backend.upper()}", None) if self.backend else cv2.CAP_ANY
         if api is None:
             raise self.error(f"OpenCV has no back-end {self.backend!r}")
-        cap = cv2.VideoCapture(self.source, api)
+        source = self.source
+        if isinstance(source, str) and "://" not in source:
+            # a video or image file: in a run the web server confines (the Devices page) it must
+            # lie in the project folder or a data root, or any image on the machine could be
+            # shown as a frame; refused before OpenCV opens it (the CLI only resolves it)
+            source = str(checked_path(source, "source"))
+        cap = cv2.VideoCapture(source, api)
         if not cap.isOpened():
             cap.release()
             raise self.error("cannot open (no such camera or file, or another program uses it)")
