@@ -349,10 +349,14 @@ def test_the_server_answers_nothing_without_its_token(server, sid):
     ack = server.base + f"s/{sid}/projector/ack?v=1"
     assert _http(ack, "POST", auth)[0] == 200
     assert _http(ack, "POST", {**auth, "Origin": "http://127.0.0.1:1"})[0] == 403
-    # the app page of a session hands the trame client its websocket secret, as before
+    # the app page of a session carries no secret in its address (issue 26): the page asks
+    # paraview/ for its session's own websocket secret, which is not the user's token
     cookie = {"Cookie": f"camcmm-token-{server.base.rsplit(':', 1)[1].strip('/')}={server.token}"}
     status, headers, _ = _http(server.base + f"s/{sid}/", headers=cookie)
-    assert status == 302 and headers["Location"] == f"index.html?secret={server.token}"
+    assert "secret" not in headers.get("Location", "") and server.token not in headers.get("Location", "")
+    own = {**cookie, "Origin": server.base.rstrip("/")}
+    status, _, body = _http(server.base + f"s/{sid}/paraview/", "POST", own)
+    assert status == 200 and json.loads(body)["secret"] != server.token
 
 
 @ON_SERVER
@@ -372,9 +376,12 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server, sid):
                 except aiohttp.WSServerHandshakeError as e:
                     results[name] = e.status
             # with the token and the right origin the socket opens, but the trame client's
-            # default secret is refused: only the token authenticates
+            # default secret is refused, and so is the token: only the session's own secret,
+            # which its page gets from paraview/ (issue 26), authenticates
             hdr = {"Origin": own, "Authorization": f"token {server.token}"}
-            for name, secret in (("default secret", "wslink-secret"), ("token", server.token)):
+            async with http.post(server.base + f"s/{sid}/paraview/", data="{}", headers=hdr) as info:
+                own_secret = (await info.json())["secret"]
+            for name, secret in (("default secret", "wslink-secret"), ("token", server.token), ("own", own_secret)):
                 async with http.ws_connect(ws_url, headers=hdr) as ws:
                     hello = {
                         "wslink": "1.0",
@@ -391,7 +398,8 @@ def test_the_websocket_needs_the_token_the_origin_and_the_secret(server, sid):
     r = asyncio.run(probe())
     assert r["no token"] == 403 and r["other origin"] == 403, r
     assert "error" in r["default secret"] and "result" not in r["default secret"], r
-    assert "result" in r["token"], r
+    assert "error" in r["token"] and "result" not in r["token"], r
+    assert "result" in r["own"], r
 
 
 @ON_SERVER

@@ -106,6 +106,7 @@ class Sessions:
             if line.startswith(READY) and child.port is None:
                 child.port = int(line[len(READY) :])
                 child.ready_after = time.monotonic() - child.started
+                child.touched = time.monotonic()  # the unused clock runs from here: a tab waited for it
                 self.log(
                     f"camcmm: session {child.id[:6]}: ready on 127.0.0.1:{child.port} after {child.ready_after:.1f} s"
                 )
@@ -214,7 +215,8 @@ class Sessions:
         every one no tab connected to within ``unused`` seconds of its last request."""
         now = time.monotonic()
         for child in list(self.live.values()):
-            if not child.used and child.sockets <= 0 and now - child.touched > self.unused:
+            started = child.port is not None
+            if started and not child.used and child.sockets <= 0 and now - child.touched > self.unused:
                 await self.stop(child, f"closed: no page connected to it within {self.unused:g} s")
                 continue
             if child.sockets <= 0 and child.idle_since is not None and now - child.idle_since > self.idle:
