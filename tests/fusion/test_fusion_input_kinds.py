@@ -33,7 +33,8 @@ def test_height_map_as_cloud_through_the_host(files):
 
 
 def test_cloud_as_height_map_is_one_line_naming_it(capsys, files):
-    refused(capsys, ["fuse", "csi", "--cloud", files / "c.ply", "--csi", files / "c.ply"], "not a height map")
+    argv = ["fuse", "csi", "--cloud", files / "c.ply", "--csi", files / "c.ply"]
+    refused(capsys, argv, "c.ply: this is a point cloud, not a height map")
 
 
 def test_unit_decision_measures_a_height_map_by_its_size():

@@ -11,6 +11,9 @@ from camcmm.api import HeightMap, InputError, PointCloud, read, read_yaml
 
 from . import pipeline
 
+#: what a file given as a map holds instead, in words (as the host names a wrong kind)
+_KINDS = {"PointCloud": "a point cloud", "TriangleMesh": "a triangle mesh", "Image": "an image"}
+
 
 def load_maps(csi) -> tuple[list[HeightMap], list[str]]:
     """HeightMaps and their names from paths or HeightMap objects (one or a list)."""
@@ -22,7 +25,8 @@ def load_maps(csi) -> tuple[list[HeightMap], list[str]]:
         hm = read(it) if isinstance(it, (str, Path)) else it
         name = str(it) if isinstance(it, (str, Path)) else getattr(it, "name", "height map")
         if not isinstance(hm, HeightMap):
-            raise InputError(f"{name}: holds a {type(hm).__name__}, not a height map")
+            kind = _KINDS.get(type(hm).__name__, f"a {type(hm).__name__}")
+            raise InputError(f"{name}: this is {kind}, not a height map (.x3p .sdf .dat .opd .plu ...)")
         if hm.n_valid < 16:
             raise InputError(f"{name}: {hm.n_valid} valid points, too few for a fusion")
         maps.append(hm)

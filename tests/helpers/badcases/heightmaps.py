@@ -20,7 +20,7 @@ import zlib
 
 import numpy as np
 
-from helpers.badinputs import Case, _junk, _sphere, ply_binary
+from helpers.badinputs import Case, _junk, _sphere, _tetra, ply_binary, png, stl_binary
 
 NX, NY = 8, 6
 #: the grid: heights in µm (X3P z increment 1e-6 m), a gentle slope so every value differs
@@ -290,6 +290,16 @@ def cases() -> list[Case]:
     fuse("cloud-missing", ("--cloud", "nope.ply", "--csi", "m.x3p"), base, ("nope.ply",))
     fuse("csi-missing", ("--cloud", "c.ply", "--csi", "nope.x3p"), base, ("nope.x3p",))
     fuse("csi-is-cloud", ("--cloud", "c.ply", "--csi", "c.ply"), base, ("c.ply",))
+    kinds = {**base, "i.png": png(32, 32), "t.stl": stl_binary(_tetra()[0][_tetra()[1]]), "s.sdf": sdf_binary()}
+    fuse("cloud-is-image", ("--cloud", "i.png", "--csi", "m.x3p"), kinds, ("i.png",))
+    fuse("cloud-is-mesh", ("--cloud", "t.stl", "--csi", "m.x3p"), kinds, ("t.stl",))
+    fuse("cloud-is-sdf", ("--cloud", "s.sdf", "--csi", "m.x3p"), kinds, ("s.sdf",))
+    fuse("csi-is-image", ("--cloud", "c.ply", "--csi", "i.png"), kinds, ("i.png",))
+    fuse("csi-is-mesh", ("--cloud", "c.ply", "--csi", "t.stl"), kinds, ("t.stl",))
+    fuse("csi-second-bad", ("--cloud", "c.ply", "--csi", "m.x3p", "--csi", "i.png"), kinds, ("i.png",))
+    nan_map = x3p(data=np.full(NX * NY, np.nan).tobytes())
+    fuse("csi-all-invalid", ("--cloud", "c.ply", "--csi", "n.x3p"), {**base, "n.x3p": nan_map}, ("n.x3p",))
+    fuse("csi-wrong-unit", ("--cloud", "c.ply", "--csi", "m.x3p"), base, ("m.x3p",))
     fuse("csi-bomb", ("--cloud", "c.ply", "--csi", "b.x3p"), {**base, "b.x3p": bomb}, ("b.x3p",))
     fuse(
         "csi-wavelength0",
