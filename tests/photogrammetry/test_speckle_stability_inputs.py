@@ -93,3 +93,27 @@ def test_the_plot_is_written_where_reported_and_the_motion_is_right(tmp_path, ca
 def test_one_image_is_refused_naming_it(tmp_path, capsys):
     (a,) = _speckle(tmp_path, (0,))
     assert "s0.png" in refused(capsys, ["speckle", "stability", a], "at least 2 images")
+
+
+def test_large_frames_are_analysed_in_tiles_with_the_same_motion(tmp_path, monkeypatch):
+    """SIFT on tiles (an 81 Mpx frame took 19 GB whole; ~215 bytes a pixel): with tiles
+    of 4096 px a 128 x 128 series is cut in 4 and still gives its whole-pixel shifts."""
+    import camcmm_plugins.photogrammetry.stability as st
+
+    files = _speckle(tmp_path, (0, 2, -1))
+    whole = st.stability(st.ImageSeries(files), [p.name for p in files])
+    monkeypatch.setattr(st, "TILE_PIXELS", 4096)
+    assert len(st._tiles(128, 128)) == 4
+    tiled = st.stability(st.ImageSeries(files), [p.name for p in files])
+    assert tiled["mean_motion_px"] == pytest.approx([0.0, 2.0, 1.0], abs=0.02)
+    assert whole["mean_motion_px"] == pytest.approx([0.0, 2.0, 1.0], abs=0.02)
+
+
+def test_a_uniform_frame_is_refused_without_running_sift(tmp_path, monkeypatch):
+    import camcmm_plugins.photogrammetry.stability as st
+
+    flat = tmp_path / "flat.png"
+    flat.write_bytes(png(3000, 3000))
+    monkeypatch.setattr(cv2, "SIFT_create", lambda **k: pytest.fail("SIFT ran on a uniform frame"))
+    with pytest.raises(InputError, match=r"flat\.png: only 0 SIFT features"):
+        st.stability(st.ImageSeries([flat, flat]), ["flat.png", "flat.png"])

@@ -40,7 +40,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from camcmm.api import InputError, declared_value
 
-    from .stability import load_images, plot, plot_target, stability
+    from .stability import ImageSeries, plot, plot_target, stability
 
     limit = declared_value(PLUGIN, "limit", args.limit)
     std_limit = declared_value(PLUGIN, "std_limit", args.std_limit)
@@ -48,8 +48,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"speckle stability needs at least 2 images, got 1: {args.images[0]}")
     if args.plot is not None:
         plot_target(args.plot)  # a folder or an unknown format is refused before the images are read
-    images, names = load_images(args.images)
-    res = stability(images, names, limit, std_limit)
+    series = ImageSeries(args.images)  # every path checked now; each image read when its turn comes
+    res = stability(series, series.names, limit, std_limit)
     if args.plot is not None:
         res["plot"] = plot(res, args.plot)
     return res

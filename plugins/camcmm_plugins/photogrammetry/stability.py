@@ -23,6 +23,7 @@ pattern's own motion it accepted as stable).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,57 +37,121 @@ RATIO = 0.75
 MIN_MATCHES = 10
 #: SIFT features per image (the strongest); enough for a stable mean, bounded time.
 MAX_FEATURES = 2000
+#: SIFT runs on tiles of at most this many pixels (memory ~215 bytes a pixel, see _features).
+TILE_PIXELS = 1_000_000
 
 
 def _gray(img: Any, name: str) -> np.ndarray:
-    """An 8-bit grey image of ``img`` (Image, array (h, w) or (h, w, c))."""
+    """An 8-bit grey image of ``img`` (Image, array (h, w) or (h, w, c)); an 8-bit image
+    is kept as it is (no float copy: 8 bytes a pixel of a large frame), others are
+    stretched over 0..255."""
     a = np.asarray(img.data if isinstance(img, Image) else img)
     if a.ndim == 3:
-        a = a[..., :3].mean(axis=2)
+        a = a[..., :3].mean(axis=2, dtype=np.float32) if a.dtype != np.uint8 else _bgr_grey(a)
     if a.ndim != 2 or min(a.shape) < 16:
         raise InputError(f"{name}: not a 2-D image of at least 16 x 16 px (shape {a.shape})")
-    a = a.astype(np.float64)
+    if a.dtype == np.uint8:
+        return a
+    a = a.astype(np.float32)
     if not np.isfinite(a).all():
         raise InputError(f"{name}: the image holds non-finite values")
     lo, hi = float(a.min()), float(a.max())
-    if np.asarray(img.data if isinstance(img, Image) else img).dtype == np.uint8:
-        return np.asarray(a, np.uint8)
     return np.rint((a - lo) / ((hi - lo) or 1.0) * 255).astype(np.uint8)
+
+
+def _bgr_grey(a: np.ndarray) -> np.ndarray:
+    import cv2
+
+    return cv2.cvtColor(np.ascontiguousarray(a[..., :3]), cv2.COLOR_BGR2GRAY)
 
 
 #: Image files the series may hold (camcmm.api.read's image formats).
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
-def load_images(paths) -> tuple[list[np.ndarray], list[str]]:
-    """Read image files as 8-bit grey through camcmm's one image reader (its pixel cap
-    refuses a decompression bomb from the header); InputError naming a file that is
-    missing, not an image or unreadable. The extensions are checked for the whole series
-    before the first file is decoded."""
-    import cv2
-
+def _checked_paths(paths) -> list[Path]:
+    """The series' paths, each an image file by its extension and present; checked for
+    the whole series before the first file is decoded."""
     paths = [Path(p) for p in paths]
     for p in paths:
         if p.suffix.lower() not in IMAGE_EXTS:
             raise InputError(f"{p}: not an image file; give {', '.join(IMAGE_EXTS)}")
         if not p.is_file():
             raise InputError(f"{p}: {'a folder, not an image file' if p.is_dir() else 'file not found'}")
-    out, names = [], []
-    for p in paths:
-        img = read(p)
-        if not isinstance(img, Image):  # the extension was checked: an image it is
-            raise InputError(f"{p}: not an image")
-        a = np.asarray(img.data)
-        if a.ndim == 3:
-            a = cv2.cvtColor(a[..., :3], cv2.COLOR_BGR2GRAY) if a.dtype == np.uint8 else a[..., :3].mean(axis=2)
-        out.append(_gray(a, str(p)))
-        names.append(p.name)
-    return out, names
+    return paths
 
 
-def _features(sift, img: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-    kp, desc = sift.detectAndCompute(img, None)
-    return np.array([k.pt for k in kp], float).reshape(-1, 2), desc
+def _load(p: Path) -> np.ndarray:
+    """One file through camcmm's one image reader (its pixel cap refuses a decompression
+    bomb from the header), as 8-bit grey."""
+    img = read(p)
+    if not isinstance(img, Image):  # the extension was checked: an image it is
+        raise InputError(f"{p}: not an image")
+    return _gray(img, str(p))
+
+
+class ImageSeries(Sequence):
+    """The series' files, each read when :func:`stability` reaches it and not kept: a
+    long series of large frames never sits in memory at once."""
+
+    def __init__(self, paths):
+        self.paths = _checked_paths(paths)
+
+    def __len__(self) -> int:
+        return len(self.paths)
+
+    def __getitem__(self, i):  # type: ignore[override]
+        return _load(self.paths[i])
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.paths]
+
+
+def load_images(paths) -> tuple[list[np.ndarray], list[str]]:
+    """Read image files as 8-bit grey through camcmm's one image reader; InputError naming
+    a file that is missing, not an image or unreadable (all checked before any decode)."""
+    series = ImageSeries(paths)
+    return [series[i] for i in range(len(series))], series.names
+
+
+def _tiles(h: int, w: int) -> list[tuple[int, int, int, int]]:
+    """(y0, y1, x0, x1) of a grid of tiles of at most :data:`TILE_PIXELS` covering (h, w)."""
+    ny = nx = 1
+    while (h / ny) * (w / nx) > TILE_PIXELS:
+        if h / ny >= w / nx:
+            ny += 1
+        else:
+            nx += 1
+    ys = np.linspace(0, h, ny + 1).round().astype(int)
+    xs = np.linspace(0, w, nx + 1).round().astype(int)
+    return [(ys[j], ys[j + 1], xs[i], xs[i + 1]) for j in range(ny) for i in range(nx)]
+
+
+def _features(img: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """SIFT keypoints (K, 2) px and descriptors of ``img``, detected tile by tile.
+
+    OpenCV's SIFT doubles the image first and keeps six blurred copies of each octave:
+    about 215 bytes a pixel (an 81 Mpx frame took 19 GB). Tiles of at most
+    :data:`TILE_PIXELS` bound that to ~250 MB whatever the frame; each keeps its share of
+    :data:`MAX_FEATURES` (the strongest), which spreads the features over the frame.
+    An image of one grey value has no features: SIFT is not run on it."""
+    import cv2
+
+    if int(img.max()) == int(img.min()):
+        return np.zeros((0, 2)), None
+    tiles = _tiles(*img.shape)
+    sift = cv2.SIFT_create(nfeatures=-(-MAX_FEATURES // len(tiles)))  # type: ignore[attr-defined]  # not in stubs
+    pts, descs = [], []
+    for y0, y1, x0, x1 in tiles:
+        kp, desc = sift.detectAndCompute(np.ascontiguousarray(img[y0:y1, x0:x1]), None)
+        if desc is None or not kp:
+            continue
+        pts.append(np.array([k.pt for k in kp], float).reshape(-1, 2) + (x0, y0))
+        descs.append(desc)
+    if not pts:
+        return np.zeros((0, 2)), None
+    return np.vstack(pts), np.vstack(descs)
 
 
 def _match(d0: np.ndarray, d1: np.ndarray) -> np.ndarray:
@@ -122,29 +187,32 @@ def stability(images, names=None, limit: float = 3.0, std_limit: float = 1.0, pr
     over the series), ``n_features`` (kept matches per image; the first image's own
     feature count), ``verdict``, ``reasons``, ``limit_px``, ``std_limit_px``, ``warnings``.
     """
-    import cv2
-
-    names = list(names or [getattr(im, "name", f"image {i}") for i, im in enumerate(images)])
+    if names is None:
+        names = [getattr(images[i], "name", None) or f"image {i}" for i in range(len(images))]
+    names = list(names)
     if len(images) < 2:
         raise InputError(f"speckle stability needs at least 2 images, got {len(images)}: {', '.join(names) or 'none'}")
-    grays = [_gray(im, n) for im, n in zip(images, names)]
-    for g, n in zip(grays[1:], names[1:]):
-        if g.shape != grays[0].shape:
-            raise InputError(
-                f"{n}: {g.shape[1]} x {g.shape[0]} px, but {names[0]} is {grays[0].shape[1]} x {grays[0].shape[0]} px"
-            )
-    sift = cv2.SIFT_create(nfeatures=MAX_FEATURES)  # type: ignore[attr-defined]  # not in cv2's stubs
-    p0, d0 = _features(sift, grays[0])
+    # one image at a time (images may be an ImageSeries that reads each file when asked)
+    first = _gray(images[0], names[0])
+    shape = first.shape
+    p0, d0 = _features(first)
+    del first
     warnings: list[str] = []
     if len(p0) < MIN_MATCHES:
         raise InputError(f"{names[0]}: only {len(p0)} SIFT features; no texture to follow (speckle off?)")
     mean: list[float | None] = [0.0]
     std: list[float | None] = [0.0]
     count = [len(p0)]
-    for i in range(1, len(grays)):
+    for i in range(1, len(images)):
         if progress:
-            progress(i / len(grays), f"matching {names[i]}")
-        p1, d1 = _features(sift, grays[i])
+            progress(i / len(images), f"matching {names[i]}")
+        g = _gray(images[i], names[i])
+        if g.shape != shape:
+            raise InputError(
+                f"{names[i]}: {g.shape[1]} x {g.shape[0]} px, but {names[0]} is {shape[1]} x {shape[0]} px"
+            )
+        p1, d1 = _features(g)
+        del g
         m = _match(d0, d1) if d0 is not None and d1 is not None else np.zeros((0, 2), dtype=int)
         disp = p1[m[:, 1]] - p0[m[:, 0]] if len(m) else np.zeros((0, 2))
         disp = disp[_robust(disp)]
