@@ -215,3 +215,9 @@ def test_ascii_sdf_read_line_by_line_keeps_bad_points_and_values_across_lines(tm
     assert np.isnan(h[3]) and np.isnan(h).sum() == 1
     np.testing.assert_allclose(np.delete(h, 3), np.delete(Z, 3) * 1e-3, rtol=1e-15)
     _refused(tmp_path, "m.sdf", sdf_ascii(values="1 " * (NX * NY + 1)), "more than 48 values")
+
+
+def test_camcmm_members_refused_in_one_line(tmp_path):
+    _refused(tmp_path, "d.x3p", x3p(members={"camcmm/meta.json": b"[" * 200000}), "meta.json is not JSON")
+    short = x3p(members={"camcmm/intensity.bin": b"\0" * 16})
+    _refused(tmp_path, "i.x3p", short, "declares 16 bytes; the grid needs 384")

@@ -210,8 +210,8 @@ def read(path: Path, name: str) -> HeightMap:
                 raise fail(name, f"X3P {_META} declares {size} bytes; more than {MAX_XML} is not metadata")
             try:
                 kept = json.loads(bytes(read_member(zf, _META, name, size, "X3P")))
-            except ValueError as exc:
-                raise fail(name, f"X3P {_META} is not JSON ({exc})") from None
+            except (ValueError, RecursionError) as exc:  # RecursionError: nesting beyond Python's stack
+                raise fail(name, f"X3P {_META} is not JSON ({str(exc)[:100]})") from None
             if isinstance(kept, dict):
                 if kept.get("format") not in (None, meta["format"]):
                     kept["source_format"] = kept["format"]  # the instrument file it came from

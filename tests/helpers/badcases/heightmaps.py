@@ -235,6 +235,7 @@ def cases() -> list[Case]:
         info(f"{ext[1:]}-zip-junk-members", f"members{ext}", zipped({"a.txt": b"hello", "b.bin": _junk(512)}))
     info("x3p-meta-huge", "meta.x3p", x3p(members={"camcmm/meta.json": b" " * (5 << 20)}))
     info("x3p-meta-not-json", "metajson.x3p", x3p(members={"camcmm/meta.json": b"{nope"}))
+    info("x3p-meta-deep-json", "metadeep.x3p", x3p(members={"camcmm/meta.json": b"[" * 200000}))
     info("x3p-intensity-short", "inten.x3p", x3p(members={"camcmm/intensity.bin": b"\0" * 16}))
     info("x3p-not-zip", "notzip.x3p", _junk(4096))
     info("x3p-truncated-zip", "cut.x3p", good[: len(good) // 2])
