@@ -173,6 +173,9 @@ def test_a_depth_map_bomb_is_refused_by_the_capped_reader(tmp_path):
     p.write_bytes(png(20000, 20000))
     with pytest.raises(InputError, match=r"v0\.png: the image header declares 20000 x 20000 px"):
         lytro.read_raw(p)
+    p.write_bytes(png(4000, 2500))  # under the reader's cap, above a depth map's 8 Mpx
+    with pytest.raises(InputError, match=r"v0\.png: 4000 x 2500 px, more than the 8 Mpx"):
+        lytro.read_raw(p)
     with pytest.raises(InputError, match=r"v0\.txt: not a depth-map image"):
         lytro.read_raw(tmp_path / "v0.txt")
     with pytest.raises(InputError, match="must be finite"):

@@ -31,6 +31,10 @@ from camcmm.api import Image, InputError, read
 
 FULL_SCALE = 2.0**16  # eq. 6.5 divides by 2^16 (not 65535)
 IMAGE_EXTS = (".png", ".tif", ".tiff")
+#: Largest depth map taken (px): a Lytro Illum's depth maps are ~4 Mpx. A view costs ~65
+#: bytes a pixel (lambda maps, depth map, masks, float64; measured: a 15.9 Mpx map, 1.18 GB
+#: peak), so 8 Mpx stays near 0.6 GB.
+MAX_MAP_PIXELS = 8_000_000
 _KEYS = (("lambda_min", "lambda_max"), ("minLambda", "maxLambda"))
 
 
@@ -77,6 +81,11 @@ def read_raw(path: str | Path) -> np.ndarray:
     if not isinstance(img, Image):  # the extension was checked: an image it is
         raise InputError(f"{p}: not an image")
     im = np.asarray(img.data)
+    if im.shape[0] * im.shape[1] > MAX_MAP_PIXELS:  # before the float64 lambda maps: 8 bytes a pixel each
+        raise InputError(
+            f"{p}: {im.shape[1]} x {im.shape[0]} px, more than the {MAX_MAP_PIXELS / 1e6:g} Mpx of a light-field "
+            "depth map camcmm takes (a Lytro Illum's are ~4 Mpx)"
+        )
     if im.dtype != np.uint16:
         bits = 8 * im.dtype.itemsize
         raise InputError(f"{p}: a {bits}-bit {im.dtype} image; a Lytro depth map is 16-bit (uint16)")

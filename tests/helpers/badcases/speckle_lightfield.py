@@ -225,6 +225,7 @@ def _gradient_cases() -> list[Case]:
     gc("depth-jpeg-bomb-as-png", (), ("v0.png",), files=_run_files(depth=_jpeg_bomb(b"\x00")))
     gc("depth-65535", (), ("v0.png",), files=_run_files(depth=png(65535, 65535, idat=b"x")))
     gc("depth-8bit", (), ("v0.png",), files=_run_files(depth=png(W, H)))
+    gc("depth-above-map-limit", (), ("v0.png", "4000 x 2500"), files=_run_files(depth=png(4000, 2500)))
     gc("depth-truncated", (), ("v0.png",), files=_run_files(depth=_depth()[:100]))
     for cid, cam in (
         ("fx-negative", {"fx": -100.0}),
@@ -356,6 +357,7 @@ def _study_cases() -> list[Case]:
     sc("lambda-range-nan", _study([fileset(lambda_range="nan,1")]), ("runs[0].lambda_range",), files)
     sc("depth-bomb", _study([fileset()]), ("v0.png",), _run_files(depth=png(20000, 20000)))
     sc("depth-jpeg-bomb", _study([fileset()]), ("v0.png",), _run_files(depth=_jpeg_bomb(b"\x00")))
+    sc("depth-above-map-limit", _study([fileset()]), ("v0.png",), _run_files(depth=png(4000, 2500)))
     sc("views-fx-negative", _study([fileset()]), ("views.json",), _run_files(views=_views(fx=-100.0)))
     out.append(Case("sl-ls-study-missing", ("lightfield", "study", "nostudy.yaml"), {}, ("nostudy.yaml",)))
     out.append(Case("sl-ls-study-folder", ("lightfield", "study", "sf.yaml"), {"sf.yaml/": b""}, ("sf.yaml",)))
