@@ -133,8 +133,8 @@ def _xml(zf: zipfile.ZipFile, name: str) -> ET.Element:
     try:
         check.Parse(bytes(data), True)
         return ET.fromstring(bytes(data))
-    except (expat.ExpatError, ET.ParseError) as exc:
-        raise fail(name, f"X3P main.xml is not valid XML ({exc})") from None
+    except (expat.ExpatError, ET.ParseError, LookupError) as exc:  # LookupError: an unknown encoding
+        raise fail(name, f"X3P main.xml is not valid XML ({str(exc)[:100]})") from None
 
 
 def read(path: Path, name: str) -> HeightMap:

@@ -186,6 +186,7 @@ def cases() -> list[Case]:
     info("x3p-not-surface", "profile.x3p", x3p(feature="PRF"))
     info("x3p-absolute-axes", "absolute.x3p", x3p(axis_x="A"))
     info("x3p-xml-bad", "badxml.x3p", x3p(xml=b"<p:ISO5436_2><Record1>"))
+    info("x3p-xml-encoding", "enc.x3p", x3p(xml=x3p_xml().replace(b"UTF-8", b"UTZ-8")))
     info("x3p-xml-no-records", "norec.x3p", x3p(xml=b"<a><b>1</b></a>"))
     info("x3p-xml-billion-laughs", "laughs.x3p", x3p(xml=BILLION_LAUGHS))
     info(
