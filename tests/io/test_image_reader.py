@@ -177,3 +177,15 @@ def test_every_image_read_of_the_project_goes_through_the_one_reader():
     assert not found, found
     thumbs = (REPO / "app/camcmm/gui/pages/photogrammetry/inputs.py").read_text(encoding="utf-8")
     assert thumbs.index("measure(buf") < thumbs.index("cv2.imdecode(")
+
+
+def test_a_file_larger_than_any_image_under_the_cap_is_not_read(tmp_path, monkeypatch):
+    """Above cap x 8 bytes (16-bit RGBA) + 16 MB of header room a file is refused from its
+    size alone, before a byte is read: with a cap of 1 px, a sparse 20 MB 'PNG'."""
+    p = tmp_path / "huge.png"
+    with open(p, "wb") as fh:
+        fh.write(png(8, 8))
+        fh.truncate(20 << 20)  # sparse: no 20 MB written
+    monkeypatch.setenv("CAMCMM_MAX_IMAGE_PIXELS", "1")
+    monkeypatch.setattr(np, "fromfile", lambda *a, **k: pytest.fail("the file was read"))
+    _refused(p, "21 MB, more than any image of at most 1e-06 Mpx", "not read")

@@ -60,7 +60,19 @@ def max_image_pixels() -> int:
     return value
 
 
+#: Bytes a pixel of the largest uncompressed image (16-bit RGBA) and room for headers and
+#: metadata: a file larger than the cap allows is refused before it is read into memory.
+_MAX_BYTES_PER_PIXEL, _HEADER_ROOM = 8, 16 << 20
+
+
 def read(path: Path, name: str) -> Image:
+    size, cap = path.stat().st_size, max_image_pixels()
+    if size > cap * _MAX_BYTES_PER_PIXEL + _HEADER_ROOM:
+        raise fail(
+            name,
+            f"{size / 1e6:.0f} MB, more than any image of at most {cap / 1e6:g} Mpx takes "
+            "(set CAMCMM_MAX_IMAGE_PIXELS to allow more); not read",
+        )
     buf = np.fromfile(path, np.uint8)
     measure(buf, path.suffix, name)
     import cv2
