@@ -180,3 +180,13 @@ def test_a_depth_map_bomb_is_refused_by_the_capped_reader(tmp_path):
         lytro.read_raw(tmp_path / "v0.txt")
     with pytest.raises(InputError, match="must be finite"):
         lytro.parse_range("-inf,inf")
+
+
+@pytest.mark.parametrize(
+    "text", ['[["a",1],[2,3],[4,5]]', "[[NaN,1],[2,3],[4,5]]", '{"a": 1}', "[[1e400,1],[2,3],[4,5]]"]
+)
+def test_a_polygon_of_non_numbers_is_one_line(text):
+    from camcmm_plugins.lightfield.plugin import _polygon
+
+    with pytest.raises(InputError, match="polygon .*finite numbers"):
+        _polygon(text)

@@ -144,9 +144,12 @@ def polygon_mask(polygon: list[list[float]] | np.ndarray, size: tuple[int, int])
     """(height, width) bool mask of the pixels inside a polygon [[u, v], ...] (px)."""
     import cv2
 
-    p = np.asarray(polygon, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 2 or len(p) < 3:
-        raise InputError(f"polygon {polygon!r}: give at least three [u, v] corners (px)")
+    try:
+        p = np.asarray(polygon, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        p = np.zeros(0)
+    if p.ndim != 2 or p.shape[1] != 2 or len(p) < 3 or not np.isfinite(p).all():
+        raise InputError(f"polygon {str(polygon)[:80]}: give at least three [u, v] corners (px), finite numbers")
     m = np.zeros((int(size[1]), int(size[0])), np.uint8)
     cv2.fillPoly(m, [np.rint(p).astype(np.int32)], 1)
     return m.astype(bool)

@@ -243,6 +243,12 @@ def _gradient_cases() -> list[Case]:
     rot["views"][0]["t"] = [0, 0, float("inf")]
     gc("views-t-inf", (), ("views.json",), files=_run_files(views=json.dumps(rot).encode()))
     gc("views-not-json", (), ("views.json",), files=_run_files(views=b"{not json"))
+    # the parameters the command has no option for, through `camcmm run`
+    run = ("run", "lightfield.gradient", "cloud.ply", "views.json", "depth", "--json")
+    for cid, v in (("text", '[["a",1],[2,3],[4,5]]'), ("nan", "[[NaN,1],[2,3],[4,5]]"), ("two", "[[1,2],[3,4]]")):
+        gc(f"run-polygon-{cid}", ("--polygon", v), ("polygon",), argv=run)
+    for opt, v in (("--tolerance", "0"), ("--tolerance", "nan"), ("--min-pixels", "0"), ("--scatter-points", "-1")):
+        gc(f"run{opt}-{v}", (opt, v), (opt[2:].replace("-", "_"), v), argv=run)
     gc("views-empty", (), ("views.json",), files=_run_files(views=b'{"views": []}'))
     return out
 
