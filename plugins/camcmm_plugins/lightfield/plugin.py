@@ -95,7 +95,7 @@ def gradient(
             f"the views' gradients scatter by {100 * res['std'] / res['mean']:.1f} % of their mean "
             "(the thesis saw 1-2 %): check the region, the lambda band and the scale"
         )
-    low = [r["image"] for r in res["views"] if r["r2"] < 0.9]
+    low = [r["image"] for r in res["views"] if not r["r2"] >= 0.9]  # NaN (depth constant over the view) too
     if low:
         ctx.warn(f"{len(low)} view(s) with r2 < 0.9 (depth not linear in lambda there): {', '.join(low[:5])}")
     res["warnings"] = list(ctx.warnings)
