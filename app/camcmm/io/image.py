@@ -65,7 +65,9 @@ def max_image_pixels() -> int:
 _MAX_BYTES_PER_PIXEL, _HEADER_ROOM = 8, 16 << 20
 
 
-def read(path: Path, name: str) -> Image:
+def load_bytes(path: Path, name: str) -> np.ndarray:
+    """The file's bytes (uint8), refused from its size before it is read when it is
+    larger than any image under the pixel cap can be."""
     size, cap = path.stat().st_size, max_image_pixels()
     if size > cap * _MAX_BYTES_PER_PIXEL + _HEADER_ROOM:
         raise fail(
@@ -73,7 +75,11 @@ def read(path: Path, name: str) -> Image:
             f"{size / 1e6:.0f} MB, more than any image of at most {cap / 1e6:g} Mpx takes "
             "(set CAMCMM_MAX_IMAGE_PIXELS to allow more); not read",
         )
-    buf = np.fromfile(path, np.uint8)
+    return np.fromfile(path, np.uint8)
+
+
+def read(path: Path, name: str) -> Image:
+    buf = load_bytes(path, name)
     measure(buf, path.suffix, name)
     import cv2
 

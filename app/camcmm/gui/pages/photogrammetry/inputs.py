@@ -33,9 +33,9 @@ def _decode_small(path: Path, width: int) -> np.ndarray | None:
     """The image at ``path`` decoded at a reduced size where libjpeg can (BGR 8-bit)."""
     import cv2
 
-    from ....io.image import measure
+    from ....io.image import load_bytes, measure
 
-    buf = np.fromfile(str(path), dtype=np.uint8)
+    buf = load_bytes(path, path.name)
     measure(buf, path.suffix, path.name)  # the project's pixel cap, before any decode
     size = buf.size
     flag = cv2.IMREAD_COLOR
