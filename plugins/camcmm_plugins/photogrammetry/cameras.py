@@ -35,8 +35,9 @@ def check_intrinsics(where: str, camera: Any, fx: float, fy: float, cx: float, c
     intrinsics that cannot describe a camera: the calibration readers' checks
     (``camcmm.api.CameraModel``: positive finite focal lengths, px; a finite principal point
     near the image, OpenCV's pixel origin; whole image sides from 1 to 65536 px; the
-    distortion is checked by the caller, whose models differ), with a size of 0 x 0 refused too (an imported camera always states its
-    size; ``CameraModel`` reads 0 x 0 as "unknown")."""
+    distortion is checked by the caller, whose models differ), with a size of 0 x 0
+    refused too (an imported camera always states its size; ``CameraModel`` reads 0 x 0
+    as "unknown")."""
     w, h = size
     if w == 0 and h == 0:
         raise InputError(f"{where}: camera {str(camera)!r}: image size 0 x 0 px; width and height must be 1 px or more")

@@ -59,8 +59,7 @@ N_PARAMS = {
 #: COLMAP's model ids in the binary format (the order of CameraModelId in models.h)
 MODEL_IDS = tuple(N_PARAMS)
 
-#: Names of the leading parameters, by how a model spells its focal length(s): two focal
-#: lengths (fx fy cx cy ...) or one (f cx cy ...).
+#: The models whose parameters start fx fy cx cy; the others start f cx cy (one focal length).
 TWO_FOCAL = ("PINHOLE", "OPENCV", "OPENCV_FISHEYE", "FULL_OPENCV", "THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE")
 
 FILES = ("cameras", "images", "points3D")

@@ -112,7 +112,7 @@ def colmap_camera(model: str, width: int, height: int, params: np.ndarray, warni
         # fisheye and FOV models: pinhole part as OpenCV's, the rest kept as COLMAP's
         warnings.append(f"camera model {model} has no OpenCV pinhole equivalent; its distortion is COLMAP's own")
         p = [float(v) for v in params]
-        f2 = model.startswith(("OPENCV", "FULL", "THIN", "RAD_TAN"))
+        f2 = model in colmap_model.TWO_FOCAL
         fx, fy, cx, cy = (p[0], p[1], p[2], p[3]) if f2 else (p[0], p[0], p[1], p[2])
         cam = {"model": model, "fx": fx, "fy": fy, "cx": cx - 0.5, "cy": cy - 0.5, "dist": p[4 if f2 else 3 :]}
     cam.update(width=int(width), height=int(height))
