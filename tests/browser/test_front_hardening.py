@@ -348,3 +348,33 @@ def test_the_token_and_the_secret_stay_out_of_the_addresses_a_browser_keeps(serv
     # an old address with the secret in it goes to the same page without it
     status, headers, _ = http(f"{server.base}s/{sid}/index.html?secret=x&ui=main", server.cookie)
     assert status == 302 and headers["Location"] == "index.html?ui=main"
+
+
+def test_one_process_for_every_tab_keeps_the_secret_out_of_addresses_too(tmp_path):
+    """``--single-session`` (no front): the page gets the websocket secret from the
+    server's own ``paraview/``; no address after the first holds the token or a secret."""
+    from camcmm.gui.process import GuiProcess
+
+    server = GuiProcess(tmp_path / "proj", args=("--single-session",))
+    try:
+        with sync_api.sync_playwright() as p:
+            browser = launch(p)
+            try:
+                page = browser.new_page()
+                page.set_default_timeout(120_000)
+                requests: list[str] = []
+                page.on("request", lambda r: requests.append(r.url) if r.is_navigation_request() else None)
+                sockets: list[str] = []
+                page.on("websocket", lambda ws: sockets.append(ws.url))
+                page.goto(server.url)
+                page.wait_for_selector('[data-testid="project-name"]:has-text("proj")')
+                page.reload()
+                page.wait_for_selector('[data-testid="project-name"]:has-text("proj")')
+                address = page.url
+            finally:
+                browser.close()
+    finally:
+        server.stop()
+    kept = requests[1:] + sockets + [address]
+    assert all("token=" not in u and "secret=" not in u for u in kept), kept
+    assert len(sockets) == 2 and all(u.endswith("/ws") for u in sockets), sockets

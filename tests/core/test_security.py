@@ -200,13 +200,15 @@ def test_guard_requires_the_token_everywhere():
     assert _check(g, "/projector/ack?v=1", cookie, method="POST") is None
     assert _check(g, "/projector/state", {"Authorization": f"token {token}"}) is None
     assert _check(g, "/ws", {**cookie, "Upgrade": "websocket", "Connection": "Upgrade"}) is None
-    # the app page: the trame client gets the token as wslink's secret, on a reload too
+    # the app page: no secret in any address (issue 26); the page asks paraview/ for it
     r = _check(g, f"/?token={token}&ui=main")
-    assert r.status == 302 and r.headers["Location"].startswith("index.html?")
-    assert f"secret={token}" in r.headers["Location"] and "ui=main" in r.headers["Location"]
-    assert "token=" not in r.headers["Location"]
-    assert _check(g, "/index.html", cookie).headers["Location"] == f"index.html?secret={token}"
-    assert _check(g, f"/index.html?secret={token}", cookie) is None
+    assert r.status == 302 and r.headers["Location"] == "index.html?ui=main"
+    assert _check(g, "/index.html", cookie) is None
+    assert _check(g, f"/index.html?secret={token}&ui=main", cookie).headers["Location"] == "index.html?ui=main"
+    assert g.is_secret_request("/paraview/") and not g.is_secret_request("/x/paraview/")
+    assert json.loads(g.page_secret().body)["secret"] == token
+    assert _check(g, "/paraview/", method="POST").status == 403  # only for a page that passed the checks
+    assert _check(g, "/paraview/", {**cookie, "Origin": "http://evil.example"}, method="POST").status == 403
     assert g.refused >= 25
 
 
@@ -252,8 +254,8 @@ def test_the_guards_of_the_front_and_of_a_session_child():
     cookie = {"Cookie": f"{front.cookie_name}={token}"}
     assert _check(front, "/", cookie) is None  # the launcher's own page: opens a session
     for page in ("/s/abc-_1/", "/s/abc-_1/index.html"):
-        assert _check(front, page, cookie).headers["Location"] == f"index.html?secret={token}"
-        assert _check(front, page + f"?secret={token}", cookie) is None
+        assert _check(front, page, cookie) is None  # no secret in the address (issue 26)
+        assert _check(front, page + f"?secret={token}", cookie).headers["Location"] == "index.html"
     assert _check(front, "/s/abc/projector", cookie) is None
     assert _check(front, "/s/abc/", {"Cookie": f"{front.cookie_name}=wrong"}).status == 403
     child = Guard(child_secret, ws_secret=token)

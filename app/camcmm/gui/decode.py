@@ -53,7 +53,7 @@ def decode(path: str | Path, unit: str | None, name: str, cap: int | None = None
     InputError (one line naming ``name``) when it fails or its result is too large."""
     cap = cap_bytes() if cap is None else cap
     path = Path(path)
-    fd, out = tempfile.mkstemp(prefix="decoded-", suffix=".pickle", dir=path.parent)
+    fd, out = tempfile.mkstemp(prefix="camcmm-decoded-", suffix=".pickle")  # never in the project's folders
     os.close(fd)
     try:
         cmd = [sys.executable, "-m", "camcmm.gui.decode", str(path), unit or "", out, str(cap), name]

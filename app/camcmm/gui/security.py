@@ -12,10 +12,12 @@ download folders and ``/projector*`` — does three checks:
 2. the token: ``?token=`` in the URL once (as Jupyter prints it), after which an
    HttpOnly, SameSite=Strict cookie carries it; or ``Authorization: token …`` for
    scripts. Compared with :func:`hmac.compare_digest`;
-3. the trame client authenticates its websocket with wslink's secret, which is set to
-   the token (so the default ``wslink-secret`` no longer works): the app page is
-   redirected to ``index.html?secret=…``, which the client reads and removes from the
-   address bar.
+3. the trame client authenticates its websocket with wslink's secret (so the default
+   ``wslink-secret`` no longer works). The page gets it the way trame's client asks a
+   session manager: ``POST paraview/`` next to the page, answered here (JSON, never
+   cached) for a request that passed the checks above, so the secret is in no address
+   the browser keeps (it used to be sent as ``index.html?secret=…``; such an address is
+   now redirected to the page without it).
 
 Refusals are ``403`` with one line of text. The token is random per launch
 (:func:`new_token`), or a fixed password from ``$CAMCMM_TOKEN`` or a token file.
@@ -24,7 +26,7 @@ Behind the session launcher (:mod:`camcmm.gui.launcher`) the front server runs t
 guard with the user's token and the app pages ``/s/<id>/``; each session's child process
 runs it with a secret of its own that only the front knows (sent as
 ``Authorization: token …``), while the child's websocket secret stays the user's token
-(``ws_secret``), the one the browser already holds.
+(``ws_secret``); the front answers the page's ``paraview/`` with that secret.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from ..errors import CamcmmError
 TOKEN_ENV = "CAMCMM_TOKEN"
 MIN_TOKEN_LENGTH = 16
 SECURITY_DOC = "docs/security.md"
-#: the paths of the app page (the ones that get ``?secret=`` for the trame client)
+#: the paths of the app page
 APP_PAGE = re.compile(r"/(index\.html)?")
 #: behind the launcher: a session's app page
 SESSION_APP_PAGE = re.compile(r"/s/[A-Za-z0-9_-]+/(index\.html)?")
@@ -209,6 +211,18 @@ class Guard:
     def is_app_page(self, path: str) -> bool:
         return self.app_page.fullmatch(path) is not None
 
+    def is_secret_request(self, path: str) -> bool:
+        """The trame client's session-manager request: ``paraview/`` next to the app page."""
+        return path.endswith("/paraview/") and self.is_app_page(path[: -len("paraview/")])
+
+    def page_secret(self) -> Any:
+        """Where the page's websocket is and its secret (``use_host``: the client puts the
+        address it reached the page at; ``ws:`` becomes ``wss:`` on an https page)."""
+        from aiohttp import web
+
+        info = {"sessionURL": "ws://use_host/ws", "secret": self.ws_secret}
+        return web.json_response(info, headers={"Cache-Control": "no-store", **HEADERS})
+
     # -- wiring ----------------------------------------------------------------------------
     def install(self, server: Any) -> None:
         """Put the middleware in front of every route when trame's web server is made
@@ -305,21 +319,14 @@ class Guard:
             if not self.token_ok(query.pop("token")):
                 return self._refuse("wrong token: open the address camcmm serve printed")
             if request.method == "GET" and not upgrade:
-                if self.is_app_page(request.path) and self.ws_secret:
-                    query["secret"] = self.ws_secret
+                query.pop("secret", None)
                 return self._redirect(request, query, set_cookie=True)
             return None
         if self.token_ok(self._header_token(request)):
             return None
         if self.token_ok(request.cookies.get(self.cookie_name)):
-            if (
-                request.method == "GET"
-                and self.is_app_page(request.path)
-                and self.ws_secret
-                and not upgrade
-                and not _equal(query.get("secret"), self.ws_secret)
-            ):
-                query["secret"] = self.ws_secret  # a reload: the client removed it from the address
+            if request.method == "GET" and "secret" in query and self.is_app_page(request.path) and not upgrade:
+                query.pop("secret")  # an old address with the secret in it: the same page without it
                 return self._redirect(request, query, set_cookie=False)
             return None
         return self._refuse(
@@ -337,6 +344,8 @@ class Guard:
             refusal = await guard.check(request)
             if refusal is not None:
                 return refusal
+            if request.method == "POST" and guard.ws_secret and guard.is_secret_request(request.path):
+                return guard.page_secret()
             response = await handler(request)
             if not getattr(response, "prepared", True):  # a websocket is already under way
                 for key, value in HEADERS.items():
