@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from camcmm.api import InputError, PointCloud, default_host
-from camcmm.confine import confined
+from camcmm.confine import OUTSIDE, confined
 from camcmm_plugins.photogrammetry.imports import read_reconstruction
 from camcmm_plugins.photogrammetry.scale import check_spec, parse_spec
 from helpers.badcases import photogrammetry as pg
@@ -275,6 +275,17 @@ def test_lengths_file_inside_the_roots_is_read(tmp_path):
         assert parse_spec("lengths:L.csv")["file"] == (tmp_path / "L.csv").resolve()
         with pytest.raises(InputError, match="bad.csv: line 1: 'x' is not a number"):
             check_spec("lengths:bad.csv")
+
+
+def test_calibration_outside_the_roots_is_refused_alike(tmp_path):
+    from camcmm_plugins.photogrammetry.plugin import _calibration
+
+    msgs = []
+    for target in ("/etc/passwd", "/nonexistent.yaml"):
+        with confined([tmp_path]), pytest.raises(InputError) as exc:
+            _calibration(target)
+        msgs.append(str(exc.value).replace(target, "PATH"))
+    assert msgs[0] == msgs[1] == "calibration: PATH: " + OUTSIDE
 
 
 def test_import_outside_the_roots_is_refused_alike(tmp_path):

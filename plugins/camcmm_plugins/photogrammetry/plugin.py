@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError, PluginError, PointCloud, RunContext, read_calibration
+from camcmm.api import InputError, PluginError, PointCloud, RunContext, checked_path, read_calibration
 
 from .scale import check_spec
 from .sfm import DEFAULT_MODEL, reconstruct_sparse
@@ -44,7 +44,11 @@ def _calibration(calibration: Any) -> dict[str, Any] | None:
     """The first camera of a calibration (file path or dict) as sfm wants it."""
     if calibration is None or calibration == "":
         return None
-    cal = read_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+    if isinstance(calibration, (str, Path)):
+        # checked before it is opened: a confined run refuses a file outside its folders
+        # alike whether it exists or not
+        calibration = read_calibration(checked_path(calibration, "calibration"))
+    cal = calibration
     if isinstance(cal, dict) and "camera_matrix" in cal:
         return cal
     cams = cal.get("cameras") if isinstance(cal, dict) else None
