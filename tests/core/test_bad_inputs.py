@@ -72,6 +72,28 @@ def test_there_are_enough_cases_over_every_reader_and_command():
     assert {"budget", "iso15530-3", "montecarlo", "camera", "stereo", "patterns", "reconstruct"} <= subs
 
 
+def test_the_readers_and_commands_added_since_have_their_own_300_cases():
+    """Issue 26: height maps, COLMAP text/binary, Metashape, photogrammetry reconstruct and
+    import, speckle stability, the speckle study, the light field and part-3 plans."""
+    from helpers import badcases
+
+    new = badcases.cases()
+    assert len(new) >= 300, len(new)
+    commands = {" ".join(c.argv[:2]) for c in new}
+    assert {
+        "photogrammetry import",
+        "photogrammetry reconstruct",
+        "speckle stability",
+        "study speckle",
+        "lightfield gradient",
+        "lightfield study",
+        "fuse csi",
+        "verify",
+    } <= commands | {c.argv[0] for c in new}, sorted(commands)
+    exts = {Path(c.argv[1]).suffix for c in new if c.argv[0] == "info" and len(c.argv) > 1}
+    assert {".x3p", ".sdf"} <= exts, sorted(exts)
+
+
 # One xdist work unit: `results` runs every selected case of the session, and a worker's session
 # holds them all; without the group both workers would run the whole matrix once each.
 @pytest.mark.parametrize("case_id", [_param(i) for i in CASES])
