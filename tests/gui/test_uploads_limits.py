@@ -27,6 +27,7 @@ from camcmm.errors import CamcmmError  # noqa: E402
 from camcmm.gui import uploads  # noqa: E402
 
 GB = 1024**3
+MB = 1024**2
 
 
 def rss_mb() -> float:
@@ -66,6 +67,7 @@ def handler():
     h = wp.WslinkHandler(_NoProtocol())
     asyncio.run(h.onConnect(None, "c1"))
     h.unchunkers["c1"].set_max_message_size(4 * GB)  # as wslink does after a good hello
+    h.authentified_client_ids.add("c1")
     yield h, refused, budget
     with contextlib.suppress(KeyError):
         asyncio.run(h.onClose("c1"))
@@ -206,3 +208,17 @@ def test_a_stored_item_shown_at_start_is_decoded_in_a_worker(gui_app, tmp_path, 
     refused = [e for e in session.errors if e.startswith("big.xyz") and "memory" in e]
     assert refused and "item 1 of the project" in refused[0], session.errors
     assert session.loaded("1") is None
+
+
+def test_before_its_hello_a_client_is_refused_without_a_word_to_the_page():
+    import wslink.protocol as wp
+
+    refused: list[str] = []
+    uploads.install(uploads.DEFAULT_MAX_UPLOAD, refused.append)
+    h = wp.WslinkHandler(_NoProtocol())
+    asyncio.run(h.onConnect(None, "c2"))
+    asyncio.run(h.onMessage(True, _Msg(header(1, 0, 10 * MB) + b"x"), "c2"))
+    assert refused == [] and not h.unchunkers["c2"].pending_messages
+    with pytest.raises(uploads.UploadRefused, match="before the client's hello"):
+        h.unchunkers["c2"].process_chunk(header(2, 0, 10 * MB) + b"x")
+    asyncio.run(h.onClose("c2"))

@@ -149,7 +149,11 @@ class BoundedUnChunker(_unchunker_base()):  # type: ignore[misc]
                 self._refuse(
                     mid,
                     f"an upload of {size_text(total)} is refused: above the {size_text(self.max_message_size)} "
-                    "this server accepts (camcmm serve --max-upload)",
+                    + (
+                        "this server accepts (camcmm serve --max-upload)"
+                        if self.max_message_size >= self.budget.limit
+                        else "a message may have before the client's hello"
+                    ),
                 )
             if not self.budget.take(total):
                 self._refuse(
@@ -202,10 +206,11 @@ def install(limit: int, on_refused: Callable[[str], None] | None = None) -> Budg
             await on_message(self, is_binary, msg, client_id)
         except UploadRefused as exc:
             text = str(exc)
-            log.warning("camcmm: %s", text)
             cb = _installed["on_refused"]
-            if cb is not None:
-                cb(text)
+            if cb is not None and client_id in self.authentified_client_ids:
+                cb(text)  # the page says it (and the session's log)
+            else:  # before its hello a client gets nothing shown to the session's tabs
+                log.warning("camcmm: websocket message refused: %s", text)
 
     async def onClose(self: Any, client_id: Any) -> None:
         u = self.unchunkers.get(client_id)
