@@ -157,6 +157,38 @@ def test_binary_counts_are_held_against_the_file_size(tmp_path, table, make, num
     assert all(n in msg for n in numbers), msg
 
 
+def test_many_points_with_tracks_of_every_length_read_exactly(tmp_path):
+    """50 000 points whose tracks run from 0 to 6 pairs (so every record starts at another
+    offset), written as binary and text: both give the written values, in under a second."""
+    import struct
+
+    rng = np.random.default_rng(5)
+    n = 50_000
+    xyz, err = rng.normal(size=(n, 3)) * 100, rng.uniform(0, 2, n)
+    rgb, tracks = rng.integers(0, 256, (n, 3)), rng.integers(0, 7, n)
+    ids = rng.permutation(10 * n)[:n] + 1
+    head = np.dtype([("id", "<u8"), ("xyz", "<f8", 3), ("rgb", "u1", 3), ("err", "<f8"), ("n", "<u8")])
+    parts, lines = [struct.pack("<Q", n)], []
+    for k in range(n):
+        h = np.array([(ids[k], xyz[k], rgb[k], err[k], tracks[k])], dtype=head)
+        parts.append(h.tobytes() + np.arange(2 * tracks[k], dtype="<i4").tobytes())
+        pairs = " ".join(f"{j} {j}" for j in range(tracks[k]))
+        x, y, z = xyz[k].tolist()
+        lines.append(f"{ids[k]} {x!r} {y!r} {z!r} {' '.join(map(str, rgb[k]))} {float(err[k])!r} {pairs}\n")
+    _model(tmp_path / "b", pg.colmap_binary(points=b"".join(parts)))
+    _model(tmp_path / "t", pg.colmap_text(points="".join(lines).encode()))
+    for kind in ("b", "t"):
+        t0 = time.perf_counter()
+        r = read_reconstruction(tmp_path / kind / "m")
+        seconds = time.perf_counter() - t0
+        c = r["cloud"]
+        np.testing.assert_array_equal(c.points, xyz)
+        np.testing.assert_array_equal(c.colors if c.colors.dtype == np.uint8 else np.round(c.colors * 255), rgb)
+        np.testing.assert_array_equal(c.fields["reprojection_error"], err)
+        np.testing.assert_array_equal(c.fields["track_length"], tracks)
+        assert seconds < (1.0 if kind == "b" else 3.0), (kind, seconds)
+
+
 def test_a_file_that_goes_on_after_its_records_is_refused(tmp_path):
     msg = _refusal(tmp_path, pg.colmap_binary(points=pg.points_bin() + b"\x01"))
     assert "points3D.bin: 1 bytes after the last record" in msg

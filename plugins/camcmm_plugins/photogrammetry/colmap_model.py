@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import mmap
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -63,6 +64,9 @@ MODEL_IDS = tuple(N_PARAMS)
 TWO_FOCAL = ("PINHOLE", "OPENCV", "OPENCV_FISHEYE", "FULL_OPENCV", "THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE")
 
 FILES = ("cameras", "images", "points3D")
+
+#: A points3D.bin record before its track: id, X Y Z, R G B, error, track length (packed).
+POINT_RECORD = np.dtype([("id", "<u8"), ("xyz", "<f8", 3), ("rgb", "u1", 3), ("error", "<f8"), ("track", "<u8")])
 
 
 @dataclass
@@ -127,11 +131,6 @@ class _Builder:
     def __init__(self, binary: bool):
         self.m = ColmapModel(binary=binary)
         self.image_ids: set[int] = set()
-        self.point_ids: set[int] = set()
-        self.xyz: list[tuple[float, float, float]] = []
-        self.rgb: list[tuple[int, int, int]] = []
-        self.error: list[float] = []
-        self.track: list[int] = []
 
     def camera(self, where: str, cid: int, model: str, w: float, h: float, params: np.ndarray) -> None:
         if cid in self.m.cameras:
@@ -166,28 +165,28 @@ class _Builder:
         self.image_ids.add(iid)
         self.m.images.append((iid, name, cid, R, t))
 
-    def point(self, where: str, pid: int, xyz: Any, rgb: Any, error: float, track: int) -> None:
-        if pid in self.point_ids:
-            raise InputError(f"{where}: point id {pid} given twice")
-        if not np.isfinite(xyz).all():
-            raise InputError(f"{where}: point {pid}: coordinates {_fmt(xyz)} must be finite")
-        if not all(0 <= c <= 255 for c in rgb):
-            raise InputError(f"{where}: point {pid}: colour {tuple(rgb)} outside 0-255")
-        if not np.isfinite(error):
-            raise InputError(f"{where}: point {pid}: error {_fmt(error)} px must be finite")
-        self.point_ids.add(pid)
-        self.xyz.append(tuple(xyz))
-        self.rgb.append(tuple(rgb))
-        self.error.append(float(error))
-        self.track.append(int(track))
-
-    def model(self) -> ColmapModel:
+    def points(self, where: Callable[[int], str], ids: Any, xyz: Any, rgb: Any, error: Any, track: Any) -> None:
+        """All points at once, as arrays (a model holds 10^5 to 10^6: checked in bulk, the
+        first row at fault named by ``where(k)``, k counted from 0 in file order)."""
+        ids = np.asarray(ids, dtype=np.uint64).reshape(-1)
+        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        error = np.asarray(error, dtype=np.float64).reshape(-1)
+        order = np.argsort(ids, kind="stable")
+        again = order[1:][ids[order][1:] == ids[order][:-1]]  # each repeat, after its first
+        if again.size:
+            k = int(again.min())
+            raise InputError(f"{where(k)}: point id {ids[k]} given twice")
+        for bad, what in (
+            (~np.isfinite(xyz).all(axis=1), lambda k: f"coordinates {_fmt(xyz[k])}"),
+            (~np.isfinite(error), lambda k: f"error {_fmt(error[k])} px"),
+        ):
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise InputError(f"{where(k)}: point {ids[k]}: {what(k)} must be finite")
         m = self.m
-        m.xyz = np.array(self.xyz, dtype=np.float64).reshape(-1, 3)
-        m.rgb = np.array(self.rgb, dtype=np.uint8).reshape(-1, 3)
-        m.error = np.array(self.error, dtype=np.float64)
-        m.track = np.array(self.track, dtype=int)
-        return m
+        m.xyz, m.error = xyz, error
+        m.rgb = np.asarray(rgb, dtype=np.uint8).reshape(-1, 3)  # 0-255: u8 in binary, checked in text
+        m.track = np.asarray(track, dtype=int).reshape(-1)
 
 
 # -- text -------------------------------------------------------------------------------
@@ -242,6 +241,7 @@ def read_text(folder: Path) -> ColmapModel:
         b.image(where, iid, q, t, cid, " ".join(f[9:]))  # names may hold spaces
 
     path = folder / "points3D.txt"
+    lines, ids, xyz, rgb, err, track = [], [], [], [], [], []
     for k, f in _rows(path):
         if not f:
             continue
@@ -249,10 +249,19 @@ def read_text(folder: Path) -> ColmapModel:
         if len(f) < 8:
             raise InputError(f"{where}: expected POINT3D_ID X Y Z R G B ERROR TRACK...")
         pid = _number(f[0], where, "point id", integer=True)
-        xyz = [_number(v, where, f"point {pid} coordinate", False) for v in f[1:4]]
-        rgb = [_number(v, where, f"point {pid} colour", integer=True) for v in f[4:7]]
-        b.point(where, pid, xyz, rgb, _number(f[7], where, f"point {pid} error", False), (len(f) - 8) // 2)
-    return b.model()
+        if not 0 <= pid < 2**64:  # COLMAP's point ids are uint64
+            raise InputError(f"{where}: point id {pid} outside 0 .. 2^64 - 1")
+        colour = [_number(v, where, f"point {pid} colour", integer=True) for v in f[4:7]]
+        if not all(0 <= c <= 255 for c in colour):  # the binary's u8 cannot say otherwise
+            raise InputError(f"{where}: point {pid}: colour {tuple(colour)} outside 0-255")
+        lines.append(k)
+        ids.append(pid)
+        xyz.append([_number(v, where, f"point {pid} coordinate", False) for v in f[1:4]])
+        rgb.append(colour)
+        err.append(_number(f[7], where, f"point {pid} error", False))
+        track.append((len(f) - 8) // 2)
+    b.points(lambda k: f"{path}: line {lines[k]}", ids, xyz, rgb, err, track)
+    return b.m
 
 
 # -- binary -----------------------------------------------------------------------------
@@ -341,12 +350,22 @@ def read_binary(folder: Path) -> ColmapModel:
     f.end()
 
     f = _Bytes(folder / "points3D.bin")
-    for k in range(1, f.count("points", 51) + 1):
-        what = f"point record {k}"
-        pid, x, y, z, r, g, bl, err, n = f.take("Q3d3BdQ", what)
-        if n > f.left // 8:
-            raise InputError(f"{f.path}: {what}: a track of {n} needs {8 * n} bytes; {f.left} are left")
-        f.skip(8 * n, what)  # (image_id, point2D_idx) pairs
-        b.point(f"{f.path}: record {k}", pid, (x, y, z), (r, g, bl), err, n)
+    n = f.count("points", POINT_RECORD.itemsize)
+    # only the track lengths are read record by record (they give the next record's
+    # offset); the records themselves are gathered into one array and checked in bulk
+    starts = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        if f.left < POINT_RECORD.itemsize:
+            raise InputError(f"{f.path}: the file ends inside point record {k + 1} (byte {f.pos}; {f.left} left)")
+        (t,) = struct.unpack_from("<Q", f.data, f.pos + POINT_RECORD.itemsize - 8)
+        if t > (f.left - POINT_RECORD.itemsize) // 8:
+            raise InputError(f"{f.path}: point record {k + 1}: a track of {t} needs {8 * t} bytes; {f.left} are left")
+        starts[k] = f.pos
+        f.pos += POINT_RECORD.itemsize + 8 * t  # then the (image_id, point2D_idx) pairs
     f.end()
-    return b.model()
+    rec = np.empty(n, dtype=POINT_RECORD)
+    raw, data = rec.view(np.uint8).reshape(n, POINT_RECORD.itemsize), np.frombuffer(f.data, dtype=np.uint8)
+    for i in range(0, n, 1 << 16):  # in blocks: the byte index is 8 x the block's bytes
+        raw[i : i + (1 << 16)] = data[starts[i : i + (1 << 16), None] + np.arange(POINT_RECORD.itemsize)]
+    b.points(lambda k: f"{f.path}: record {k + 1}", rec["id"], rec["xyz"], rec["rgb"], rec["error"], rec["track"])
+    return b.m

@@ -230,6 +230,8 @@ def _import_cases() -> list[Case]:
     ic("bin-img-cut", b(images=images_bin()[:-5]), ("images.bin",))
     ic("bin-pt-count-huge", b(points=points_bin(count=2**58)), ("288230376151711744",))
     ic("bin-pt-track-huge", b(points=points_bin(track=2**60)), ("1152921504606846976",))
+    ic("bin-empty-model", b(cameras=cameras_bin([]), images=images_bin([]), points=points_bin([])), ())
+    ic("bin-pt-none", b(points=points_bin([])), ())  # a model without points: read, warned arbitrary scale
     ic("bin-pt-cut", b(points=points_bin()[:-3]), ("points3D.bin",))
     ic("bin-pt-trailing", b(points=points_bin() + b"\1"), ("points3D.bin",))
     ic(
