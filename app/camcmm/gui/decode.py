@@ -100,7 +100,7 @@ def _child(argv: list[str]) -> int:
     except MemoryError:
         return _NO_MEMORY
     except Exception as exc:  # one line for the page: the reader's refusal, or what broke
-        print(one_line(exc, name, path), file=sys.stderr, flush=True)
+        print(one_line(exc, name, path, Path(path).parent), file=sys.stderr, flush=True)  # no temp folder named
         return _REFUSED
     return 0
 
