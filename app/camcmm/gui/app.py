@@ -505,7 +505,7 @@ def add_serve_arguments(ap: Any) -> None:
         type=float,
         default=None,
         metavar="S",
-        help="stop a session S seconds after it was opened if no tab ever connected to it (default 30)",
+        help="stop a session no page has connected to S seconds after its last request (default 30)",
     )
     ap.add_argument(
         "--single-session",
