@@ -70,7 +70,7 @@ def check_lengths(plan: str, l_cal, l_rec, fitted_radii, d_nom: float, name: str
     q = float(np.median(2 * radii * s) / d_nom)  # scaled sphere diameter / nominal
     measured = float(l_m[i]) / q  # the length as the spheres' size scales it (mm)
     what = (
-        f"{plan}: artefacts.ball_plate.lengths[{i}] = {float(l_cal[i]):g} mm but {name} measures "
+        f"{plan}: artefacts.ball_plate.lengths[{i}] = {float(l_cal[i]):.4g} mm but {name} measures "
         f"{measured:.4g} mm (its spheres, scaled by these lengths, would be {d_nom * q:.4g} mm across, "
         f"not sphere_diameter {d_nom:g} mm)"
     )
