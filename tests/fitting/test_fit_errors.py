@@ -80,7 +80,7 @@ def test_wrong_shapes_and_names():
     with pytest.raises(InputError, match="not numeric"):
         fit_line([["a", "b", "c"], ["d", "e", "f"]])
     with pytest.raises(ParameterError, match="unknown element"):
-        fit("torus", np.zeros((10, 3)))
+        fit("ellipsoid", np.zeros((10, 3)))
     with pytest.raises(ParameterError, match="unknown method"):
         fit("plane", np.zeros((10, 3)), method="l1")
     with pytest.raises(ParameterError, match="unknown outlier rule"):

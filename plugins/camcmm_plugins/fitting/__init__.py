@@ -1,5 +1,5 @@
 """Geometric element fitting: least-squares and minimum-zone lines, planes, circles,
-spheres and cylinders with the outlier rules of the standards, and sphere
+spheres, cylinders, cones and tori with the outlier rules of the standards, and sphere
 segmentation for the acceptance tests.
 
 The package is light on purpose (the plugin host reads ``plugin.yaml`` without

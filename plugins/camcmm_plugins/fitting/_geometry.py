@@ -23,7 +23,7 @@ from camcmm.api import GeometryError, InputError
 EPS = np.finfo(float).eps
 
 #: Minimum numbers of points per element (and the number of free parameters).
-N_MIN = {"line": 2, "plane": 3, "circle": 3, "sphere": 4, "cylinder": 5}
+N_MIN = {"line": 2, "plane": 3, "circle": 3, "sphere": 4, "cylinder": 5, "cone": 6, "torus": 7}
 
 
 def as_points(points: Any, element: str, dims: tuple[int, ...] = (3,)) -> np.ndarray:
@@ -367,3 +367,57 @@ def subsample(yt: np.ndarray, limit: int) -> np.ndarray:
     """A deterministic, evenly strided subset of about ``limit`` of the points (d, N)."""
     step = max(1, yt.shape[1] // limit)
     return yt[:, ::step] if step > 1 else yt
+
+
+# -- surfaces of revolution: normals and the axis they meet -----------------------------
+
+
+def local_normals(yt: np.ndarray, k: int = 12) -> np.ndarray | None:
+    """(n, 3) unit surface normals of points (3, n), each from the scatter of its k nearest
+    neighbours (SciPy's KD-tree, batched 3x3 eigen-decompositions); their signs are
+    arbitrary. None with fewer than k + 1 points."""
+    from scipy.spatial import cKDTree
+
+    y = yt.T
+    if len(y) < k + 1:
+        return None
+    _, idx = cKDTree(y).query(y, k=k)
+    nb = y[idx] - y[idx].mean(axis=1, keepdims=True)
+    return np.linalg.eigh(np.einsum("nki,nkj->nij", nb, nb))[1][:, :, 0]
+
+
+def revolution_axes(yt: np.ndarray, normals: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Candidate axes (point, unit direction) of a surface of revolution through points
+    (3, n) with surface normals (n, 3): lines that the normal lines meet, best first.
+
+    Every normal line of a surface of revolution meets its axis. In Plücker coordinates a
+    line (direction d, moment y × d) meets the axis (a, m = p × a) when
+    ``a·(y × d) + m·d = 0``: linear in (a, m), and indifferent to the sign of d. The
+    least-squares m for a given a is ``M a`` (pseudo-inverse: a cylinder's normals span
+    only a plane), and a is then an eigenvector of the Schur complement of the 6x6 moment
+    matrix: the smallest is the first candidate. A short arc of a torus is nearly a bent
+    tube whose normals also nearly meet the tube's own axis, so the two smallest
+    eigenvectors span both: the lines in their span, ``a = v0 + t v1`` with the Plücker
+    condition ``a·M a = 0`` (a quadratic in t), are candidates too. Exact for exact
+    normals; with normals from neighbourhoods they are start values.
+    Reference: H. Pottmann, T. Randrup, "Rotational and helical surface approximation
+    for reverse engineering", Computing 60 (1998) 307-322.
+    """
+    mom = np.cross(yt.T, normals)
+    a_ = mom.T @ mom
+    b_ = mom.T @ normals
+    cp = np.linalg.pinv(normals.T @ normals, rcond=1e-10)
+    mm = -cp @ b_.T
+    v = np.linalg.eigh(a_ + b_ @ mm)[1]  # the Schur complement A − B C⁺ Bᵀ
+    dirs = [v[:, 0]]
+    q = 0.5 * (mm + mm.T)
+    q00, q01, q11 = v[:, 0] @ q @ v[:, 0], v[:, 0] @ q @ v[:, 1], v[:, 1] @ q @ v[:, 1]
+    disc = q01 * q01 - q00 * q11
+    if disc >= 0 and q11 != 0:
+        for t in ((-q01 + np.sqrt(disc)) / q11, (-q01 - np.sqrt(disc)) / q11):
+            dirs.append(v[:, 0] + t * v[:, 1])
+    out = []
+    for a in dirs:
+        a = a / np.linalg.norm(a)
+        out.append((np.cross(a, mm @ a), a))
+    return out

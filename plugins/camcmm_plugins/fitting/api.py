@@ -7,13 +7,15 @@
 Functions
 ---------
 fit(element, points, outliers="none", method="ls", *, max_iter=100, nominal_radius=None)
-    Fit ``element`` ("line", "plane", "circle", "sphere", "cylinder") to points (N, 3)
+    Fit ``element`` ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus") to points (N, 3)
     in mm — (N, 2) is accepted for line and circle — with an outlier rule (see
     :mod:`.outliers`: ``"none"``, ``"vdi2634"``, ``"percent:P"``, ``"sigma:K"``) and a
     method: ``"ls"`` least squares in the orthogonal sense, or ``"minzone"``
-    (Chebyshev, plane and sphere only). Returns a :class:`~.result.FitResult`.
-fit_line, fit_plane, fit_circle, fit_sphere, fit_cylinder
-    ``fit`` with the element fixed.
+    (Chebyshev: plane, sphere, cone and torus). Returns a :class:`~.result.FitResult`.
+fit_line, fit_plane, fit_circle, fit_sphere, fit_cylinder, fit_cone, fit_torus
+    ``fit`` with the element fixed. A cone is ``apex`` (mm), ``axis`` (unit, from the
+    apex into the cone) and the full apex ``angle`` (degrees); a torus ``center`` (mm),
+    ``axis``, ``major_radius`` and ``minor_radius`` (mm).
 segment_spheres(points, nominal_radius, ...), extract_sphere(points, ...)
     Split a ball-bar or ball-plate cloud into its spheres; extract one sphere from a
     raw scan (see :mod:`.segment`).
@@ -36,7 +38,7 @@ Conventions
   the minimum-zone element is fitted to the points the rule kept.
 * ``vdi2634`` costs O(N + m²) for lines, planes, spheres and planar circles (a few
   times one fit for a million points) and O(N m) — one Gauss-Newton step per removal
-  — for circles in space and cylinders.
+  — for circles in space, cylinders, cones and tori.
 
 Errors: :class:`camcmm.api.InputError` for bad input (NaN, wrong shape),
 :class:`camcmm.api.GeometryError` for degenerate geometry or a fit that does not
@@ -46,7 +48,19 @@ a one-line reason.
 
 from __future__ import annotations
 
-from .elements import ELEMENTS, METHODS, MINZONE, fit, fit_circle, fit_cylinder, fit_line, fit_plane, fit_sphere
+from .elements import (
+    ELEMENTS,
+    METHODS,
+    MINZONE,
+    fit,
+    fit_circle,
+    fit_cone,
+    fit_cylinder,
+    fit_line,
+    fit_plane,
+    fit_sphere,
+    fit_torus,
+)
 from .outliers import Rule, parse_rule, vdi2634_count
 from .result import FitResult
 from .segment import extract_sphere, segment_spheres
@@ -60,10 +74,12 @@ __all__ = [
     "extract_sphere",
     "fit",
     "fit_circle",
+    "fit_cone",
     "fit_cylinder",
     "fit_line",
     "fit_plane",
     "fit_sphere",
+    "fit_torus",
     "parse_rule",
     "segment_spheres",
     "vdi2634_count",

@@ -19,10 +19,18 @@ the fit plugins):
   values of the centred points are comparable, the direction is a toss-up between
   them, however small its standard uncertainty looks with many points.
 * **No redundancy.** As few points as the element needs (two for a line, three for a
-  plane or circle, four for a sphere, five for a cylinder): the element passes through
+  plane or circle, four for a sphere, five for a cylinder, six for a cone, seven for a
+  torus): the element passes through
   them, the form is zero and the uncertainties are undefined whatever the part is like.
-* **Large uncertainty.** The standard uncertainty (fit covariance) of a radius relative
-  to the radius, or of a direction in degrees.
+* **Large uncertainty.** The standard uncertainty (fit covariance) of a radius (a
+  torus' major and minor radii too) relative to the radius, or of a direction or a
+  cone's apex angle in degrees. A torus on too short an arc around its axis to fix the
+  major radius shows here, with the arc the points cover.
+* **Degenerate cone or torus.** A cone whose apex angle is under 2° is nearly a
+  cylinder (its apex lies far outside the points and is ill-determined, however exact
+  the points), over 170° nearly a plane; points beyond the apex lie on the other nappe,
+  which the cone's distance does not describe. A torus whose minor radius reaches the
+  major one is self-intersecting (a spindle torus).
 """
 
 from __future__ import annotations
@@ -52,6 +60,11 @@ GROSS_FRACTION = 0.1
 MAX_REL_U_RADIUS = 0.05
 #: Standard uncertainty of a direction (line, axis, normal) above this angle, degrees.
 MAX_U_DIRECTION_DEG = 1.0
+#: A cone's full apex angle (degrees) below which it is nearly a cylinder, above which
+#: nearly a plane: the apex is extrapolated from ~1/tan(angle/2) times the points' extent
+#: (57 times at 2°), the axis tilt of a 170° cone moves the points by ~tan(5°) = 0.09 of it.
+CONE_CYLINDER_DEG = 2.0
+CONE_PLANE_DEG = 170.0
 #: Neighbours per point for the local noise estimate, how many points to estimate it at,
 #: and how many (strided) points to look for neighbours among.
 K_NEIGHBOURS = 8
@@ -82,6 +95,22 @@ def residual_vectors(element: str, params: dict[str, Any], x: np.ndarray, r: np.
         y = x - p
         q = y - np.outer(y @ a, a)
         return r[:, None] * q / np.maximum(np.linalg.norm(q, axis=1), 1e-300)[:, None]
+    if element in ("cone", "torus"):
+        # along the surface normal in the point's meridian half-plane (w radial, a axial)
+        a = params["axis"]
+        y = x - (params["apex"] if element == "cone" else params["center"])
+        z = y @ a
+        q = y - np.outer(z, a)
+        rho = np.linalg.norm(q, axis=1)
+        w = q / np.maximum(rho, 1e-300)[:, None]
+        if element == "cone":
+            psi = np.radians(params["angle"] / 2)
+            nrm = np.cos(psi) * w - np.sin(psi) * a
+        else:
+            er, ez = rho - params["major_radius"], z
+            h = np.maximum(np.hypot(er, ez), 1e-300)
+            nrm = (er / h)[:, None] * w + (ez / h)[:, None] * a
+        return r[:, None] * nrm
     raise ValueError(element)
 
 
@@ -169,14 +198,23 @@ def fit_warnings(
                     f"{head}: the {element} describes the points poorly (the wrong element, or noise "
                     f"as large as the part)"
                 )
+    out += _revolution_warnings(element, params, x)
     if method == "ls":
-        u_r = std.get("radius")
-        rad = params.get("radius")
-        if u_r is not None and rad and np.isfinite(u_r) and u_r > MAX_REL_U_RADIUS * abs(rad):
-            out.append(
-                f"{element} fit: the radius {_fmt(rad)} mm is ill-determined (standard uncertainty "
-                f"{_fmt(u_r)} mm, {_fmt(100 * u_r / abs(rad))} %)"
-            )
+        for key in ("radius", "major_radius", "minor_radius"):
+            u_r = std.get(key)
+            rad = params.get(key)
+            if u_r is not None and rad and np.isfinite(u_r) and u_r > MAX_REL_U_RADIUS * abs(rad):
+                name = key.replace("_", " ")
+                arc = ""
+                if element == "torus" and key == "major_radius":
+                    arc = f"; the points cover {_fmt(_arc_deg(x, params['center'], params['axis']))}° around the axis"
+                out.append(
+                    f"{element} fit: the {name} {_fmt(rad)} mm is ill-determined (standard uncertainty "
+                    f"{_fmt(u_r)} mm, {_fmt(100 * u_r / abs(rad))} %{arc})"
+                )
+        u_a = std.get("angle")
+        if element == "cone" and u_a is not None and np.isfinite(u_a) and u_a > MAX_U_DIRECTION_DEG:
+            out.append(f"cone fit: the apex angle is ill-determined (standard uncertainty {_fmt(u_a)}°)")
         for key in ("direction", "axis", "normal"):
             u = std.get(key)
             if u is None:
@@ -184,6 +222,48 @@ def fit_warnings(
             u = float(np.linalg.norm(np.asarray(u, dtype=float)))
             if np.isfinite(u) and np.degrees(u) > MAX_U_DIRECTION_DEG:
                 out.append(f"{element} fit: the {key} is ill-determined (standard uncertainty {_fmt(np.degrees(u))}°)")
+    return out
+
+
+def _arc_deg(x: np.ndarray, centre: np.ndarray, axis: np.ndarray) -> float:
+    """Degrees of arc around ``axis`` through ``centre`` that points (N, 3) cover: 360
+    minus the widest empty gap between their azimuths."""
+    b1 = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
+    b1 /= np.linalg.norm(b1)
+    b2 = np.cross(axis, b1)
+    y = x - centre
+    az = np.sort(np.arctan2(y @ b2, y @ b1))
+    gaps = np.diff(np.concatenate([az, [az[0] + 2 * np.pi]]))
+    return float(np.degrees(2 * np.pi - gaps.max()))
+
+
+def _revolution_warnings(element: str, params: dict[str, Any], x: np.ndarray) -> list[str]:
+    """The degenerate cones and tori of the module docstring."""
+    out: list[str] = []
+    if element == "cone":
+        angle = params["angle"]
+        if angle < CONE_CYLINDER_DEG:
+            dist = float(np.linalg.norm(x.mean(axis=0) - params["apex"]))
+            out.append(
+                f"cone fit: the apex angle {_fmt(angle)}° is nearly 0: the points lie nearly on a cylinder and the "
+                f"apex, {_fmt(dist)} mm away from them, is ill-determined; fit a cylinder"
+            )
+        elif angle > CONE_PLANE_DEG:
+            out.append(
+                f"cone fit: the apex angle {_fmt(angle)}° is nearly 180°: the points lie nearly on a plane and the "
+                f"axis and apex are ill-determined; fit a plane"
+            )
+        below = int(np.count_nonzero((x - params["apex"]) @ params["axis"] < 0))
+        if below:
+            out.append(
+                f"cone fit: {below} points lie beyond the apex, on the other nappe, which the cone's distance "
+                f"does not describe; fit each side separately"
+            )
+    if element == "torus" and params["minor_radius"] >= params["major_radius"]:
+        out.append(
+            f"torus fit: the minor radius {_fmt(params['minor_radius'])} mm reaches the major radius "
+            f"{_fmt(params['major_radius'])} mm: a self-intersecting (spindle) torus; the points may not be a torus"
+        )
     return out
 
 

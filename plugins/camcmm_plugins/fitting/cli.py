@@ -1,11 +1,13 @@
 """``camcmm fit ELEMENT FILE [--outliers RULE] [--method ls|minzone] [--nominal-radius R]``
 
-Fits a line, plane, circle, sphere or cylinder to the points of FILE (any point-cloud
+Fits a line, plane, circle, sphere, cylinder, cone or torus to the points of FILE (any point-cloud
 format camcmm reads; lengths in mm, ``--unit`` for files that do not say theirs) and
 prints the result; with ``--json`` (added by the core CLI) one JSON document with the
 keys ``element, method, outliers, n_points, n_used, n_removed``, the element's
 parameters (sphere: ``center, radius``; plane: ``point, normal``; circle: ``center,
-normal, radius``; cylinder: ``point, axis, radius``; line: ``point, direction``),
+normal, radius``; cylinder: ``point, axis, radius``; cone: ``apex, axis, angle`` (full
+apex angle, degrees); torus: ``center, axis, major_radius, minor_radius``; line:
+``point, direction``),
 ``form {range, max, min, std, rms}``, ``std_uncertainty {parameter: value}`` and
 ``warnings`` (when the element does not describe the points; see checks.py), and
 ``plugin`` (the run's provenance: ``id`` fit.ELEMENT, ``version``, ``params``,
@@ -113,7 +115,8 @@ def text(result: dict[str, Any]) -> str:
         f"{result['n_used']} of {result['n_points']} points used, {result['n_removed']} removed"
     ]
     unc = result.get("std_uncertainty", {})
-    for key in ("center", "point", "normal", "axis", "direction", "radius"):
+    keys = ("center", "point", "apex", "normal", "axis", "direction", "radius", "major_radius", "minor_radius", "angle")
+    for key in keys:
         if key in result:
             v = result[key]
             u = unc.get(key)
@@ -123,7 +126,7 @@ def text(result: dict[str, Any]) -> str:
                     s += f"  u = {_vec(u)}"
             else:
                 s = f"{v:.6f}" + (f"  u = {u:.6f}" if isinstance(u, float) else "")
-            unit = "" if key in ("normal", "axis", "direction") else " mm"
+            unit = "" if key in ("normal", "axis", "direction") else " deg" if key == "angle" else " mm"
             lines.append(f"  {key:10} {s}{unit}")
     if "radius_deviation" in result:
         lines.append(f"  {'radius - nominal':10} {result['radius_deviation']:.6f} mm")

@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ._geometry import (
     FLAT,
@@ -36,6 +35,7 @@ from ._geometry import (
     complement,
     covariance,
     levenberg_marquardt,
+    local_normals,
     orient,
     principal_axes,
     propagate,
@@ -50,15 +50,10 @@ SCREEN = 3000
 
 def normal_axis(yt: np.ndarray, k: int = 12) -> np.ndarray | None:
     """Axis estimate: the direction most perpendicular to the local surface normals of
-    points (3, n). Normals from the k nearest neighbours (SciPy's KD-tree) by a batched
-    3x3 eigen-decomposition of the neighbourhood scatter matrices."""
-    y = yt.T
-    if len(y) < k + 1:
+    points (3, n) (normals from the k nearest neighbours, :func:`local_normals`)."""
+    normals = local_normals(yt, k)
+    if normals is None:
         return None
-    _, idx = cKDTree(y).query(y, k=k)
-    nb = y[idx] - y[idx].mean(axis=1, keepdims=True)
-    cov = np.einsum("nki,nkj->nij", nb, nb)
-    normals = np.linalg.eigh(cov)[1][:, :, 0]
     return np.linalg.eigh(normals.T @ normals)[1][:, 0]
 
 

@@ -13,16 +13,18 @@ from . import minzone
 from ._geometry import Frame, as_points
 from .checks import fit_warnings
 from .circles import CIRCLE3D
+from .cones import CONE
 from .cylinders import CYLINDER
 from .lines import LINE2D, LINE3D
 from .outliers import Rule, apply, parse_rule
 from .planes import PLANE
 from .result import FitResult
 from .spheres import CIRCLE2D, SPHERE
+from .tori import TORUS
 
-ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder")
+ELEMENTS = ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus")
 METHODS = ("ls", "minzone")
-MINZONE = ("plane", "sphere")
+MINZONE = ("plane", "sphere", "cone", "torus")
 
 
 def _model(element: str, dim: int):
@@ -34,6 +36,8 @@ def _model(element: str, dim: int):
         ("circle", 2): CIRCLE2D,
         ("sphere", 3): SPHERE,
         ("cylinder", 3): CYLINDER,
+        ("cone", 3): CONE,
+        ("torus", 3): TORUS,
     }[(element, dim)]
 
 
@@ -49,12 +53,12 @@ def fit(
 ) -> FitResult:
     """Fit a geometric element to points in mm (conventions: :mod:`.api`).
 
-    Least squares in the orthogonal sense, or minimum zone (Chebyshev) for a plane or a
-    sphere, after the outlier rule has removed what it removes.
+    Least squares in the orthogonal sense, or minimum zone (Chebyshev) for a plane, a
+    sphere, a cone or a torus, after the outlier rule has removed what it removes.
 
     Parameters
     ----------
-    element : {"line", "plane", "circle", "sphere", "cylinder"}
+    element : {"line", "plane", "circle", "sphere", "cylinder", "cone", "torus"}
     points : array_like, shape (N, 3), or (N, 2) for a line or circle
         Coordinates in mm; a PointCloud's ``points`` or any numeric array. NaN or Inf
         is refused (InputError).
@@ -62,7 +66,7 @@ def fit(
         ``"none"``, ``"vdi2634"`` (3 of every 1000 points, one at a time, largest residual
         first), ``"percent:P"`` or ``"sigma:K"``; see :mod:`.outliers`.
     method : {"ls", "minzone"}, default "ls"
-        ``"minzone"`` only for a plane or a sphere.
+        ``"minzone"`` only for a plane, a sphere, a cone or a torus.
     max_iter : int, default 100
         Bound on the Gauss-Newton iterations of each fit.
     nominal_radius : float, optional
@@ -74,8 +78,9 @@ def fit(
     Returns
     -------
     FitResult
-        ``params`` (centre/point (3,) mm, normal/axis/direction (3,) unit vector, radius
-        mm), ``std_uncertainty`` of each (same shapes, mm; NaN for minimum zone),
+        ``params`` (centre/point/apex (3,) mm, normal/axis/direction (3,) unit vector,
+        radius, major_radius, minor_radius mm, a cone's full apex angle in degrees),
+        ``std_uncertainty`` of each (same shapes and units; NaN for minimum zone),
         ``form`` (range, max, min, std, rms in mm over the points used), signed
         ``residuals`` (N,) mm for every point, boolean ``used`` and index ``removed``
         arrays, and ``warnings`` when the element does not describe the points.
@@ -108,9 +113,12 @@ def fit(
         if element == "plane":
             state, width = minzone.plane(yu, res.state)
             params = {"point": state[:3] * frame.scale + frame.origin, "normal": state[3:]}
-        else:
+        elif element == "sphere":
             state, width = minzone.sphere(yu, res.state)
             params = {"center": state[:-1] * frame.scale + frame.origin, "radius": float(state[-1] * frame.scale)}
+        else:  # cone, torus: sequential LP on the model's own linearisation
+            state, width = model.minzone(yu, res.state)
+            params = model.params(state, frame)
         std = {k: (np.full(np.shape(v), np.nan) if np.ndim(v) else float("nan")) for k, v in params.items()}
         cov, names = None, ()
     if method == "ls" and len(res.r) == int(used.sum()):
@@ -185,3 +193,22 @@ def fit_cylinder(points: Any, outliers: str = "none", **kw) -> FitResult:
     Returns a FitResult with ``point`` (3,) mm on the axis, unit ``axis`` (3,) and
     ``radius`` mm; residuals are signed, outside positive."""
     return fit("cylinder", points, outliers, **kw)
+
+
+def fit_cone(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
+    """Least-squares or minimum-zone cone through points (N, 3), mm, also on a partial
+    arc: :func:`fit` with ``element="cone"``.
+
+    Returns a FitResult with ``apex`` (3,) mm, unit ``axis`` (3,) pointing from the apex
+    into the cone and the full apex ``angle`` in degrees; residuals are signed, outside
+    positive (see :mod:`.cones`)."""
+    return fit("cone", points, outliers, method, **kw)
+
+
+def fit_torus(points: Any, outliers: str = "none", method: str = "ls", **kw) -> FitResult:
+    """Least-squares or minimum-zone torus through points (N, 3), mm, also on partial arcs
+    of either circle: :func:`fit` with ``element="torus"``.
+
+    Returns a FitResult with ``center`` (3,) mm, unit ``axis`` (3,), ``major_radius`` and
+    ``minor_radius`` mm; residuals are signed, outside the tube positive (see :mod:`.tori`)."""
+    return fit("torus", points, outliers, method, **kw)

@@ -1,5 +1,7 @@
 """Minimum-zone (Chebyshev) plane and sphere: the narrowest zone between two parallel
-planes, or between two concentric spheres, that contains all points.
+planes, or between two concentric spheres, that contains all points; and the same
+sequential linear programming for any surface given by its residual model
+(:func:`surface`: the cone, the torus).
 
 Both are solved as a sequence of linear programmes (SciPy's HiGHS) in a frame that
 moves with the solution:
@@ -170,3 +172,46 @@ def sphere(yt: np.ndarray, state: np.ndarray, max_iter: int = 100) -> tuple[np.n
     else:
         raise GeometryError(f"minimum-zone sphere did not converge in {max_iter} iterations")
     return np.append(c, 0.5 * (rho.max() + rho.min())), f
+
+
+def surface(evaluate, update, state: np.ndarray, size: int, what: str, max_iter: int = 100) -> tuple[np.ndarray, float]:
+    """Minimum zone of a surface given by its residual model (cone, torus): sequential
+    linear programming as for the sphere, with the model's own linearisation.
+
+    ``evaluate(state) -> (r, Jᵀ)`` are the signed orthogonal residuals (n,) and their
+    Jacobian (k, n) in local parameters (``update(state, δ)`` applies a step); the local
+    parameter ``size`` must enter as ``r − δ_size`` (its Jacobian row is −1: an offset
+    of the surface along its normals, a cone's ``s`` or a torus' minor radius). Each LP
+    ``min t s.t. |r_i + K_i δ' − δ_size| ≤ t`` (K the other rows) has a trust region on δ'
+    (normalised units and radians); a step is kept only when the true zone shrinks.
+    Returns (the state of the mid-zone surface, the zone width), normalised units.
+    """
+    r, jt = evaluate(state)
+    f = float(r.max() - r.min())
+    others = [i for i in range(jt.shape[0]) if i != size]
+    box = 0.1
+    for _ in range(max_iter):
+        a = np.column_stack([-jt[others].T, np.ones(jt.shape[1])])
+        sol = _active_lp(a, r, [(-box, box)] * len(others) + [(None, None)], what)
+        step = np.zeros(jt.shape[0])
+        step[others] = sol[: len(others)]
+        step[size] = sol[len(others)]
+        new = update(state, step)
+        r_new, jt_new = evaluate(new)
+        f_new = float(r_new.max() - r_new.min())
+        big = float(np.abs(step[others]).max()) if others else 0.0
+        if f_new <= f * (1 + 1e-15):
+            small = big <= 1e-14 or f - f_new <= 1e-16 * max(f, 1e-300)
+            state, r, jt, f = new, r_new, jt_new, f_new
+            if small:
+                break
+            box = max(box, 4 * big)
+        else:
+            box = 0.25 * big
+            if box <= 1e-15:
+                break
+    else:
+        raise GeometryError(f"{what} did not converge in {max_iter} iterations")
+    step = np.zeros(jt.shape[0])
+    step[size] = 0.5 * float(r.max() + r.min())  # centre the zone on the surface
+    return update(state, step), f

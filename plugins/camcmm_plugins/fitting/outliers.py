@@ -185,14 +185,14 @@ def vdi2634(
     (and every non-candidate's anchor residual plus its drift bound), with the
     model's error bound as margin on both sides. When the margin cannot be proven the
     current point set is refitted exactly and one step is taken the naive way.
-    Elements without a downdater (circle in space, cylinder) refit after each removal,
+    Elements without a downdater (circle in space, cylinder, cone, torus) refit after each removal,
     started from the first-order prediction of the new optimum (one Gauss-Newton step
     each): O(N m) instead of O(N + m²).
     """
     n = y.shape[1]
     used = np.ones(n, dtype=bool)
     removed: list[int] = []
-    if model.element in ("cylinder",) or (model.element == "circle" and model.dim == 3):
+    if model.element in ("cylinder", "cone", "torus") or (model.element == "circle" and model.dim == 3):
         return _vdi2634_refits(model, y, res, m, max_iter)
     while len(removed) < m:
         idx = np.flatnonzero(used)

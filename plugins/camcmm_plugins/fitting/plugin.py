@@ -97,6 +97,14 @@ def fit_cylinder(ctx, cloud, *, outliers: str, nominal_radius: float | None) -> 
     return _fit(ctx, "cylinder", cloud, outliers, nominal_radius=nominal_radius)
 
 
+def fit_cone(ctx, cloud, *, outliers: str, method: str) -> dict[str, Any]:
+    return _fit(ctx, "cone", cloud, outliers, method)
+
+
+def fit_torus(ctx, cloud, *, outliers: str, method: str) -> dict[str, Any]:
+    return _fit(ctx, "torus", cloud, outliers, method)
+
+
 def segment_spheres(
     ctx, cloud, *, nominal_radius: float, n_spheres: int | None, tolerance: float | None, min_points: int
 ) -> dict[str, Any]:

@@ -18,6 +18,8 @@ PARAMETERS = {
     "circle": ("center", "normal", "radius"),
     "sphere": ("center", "radius"),
     "cylinder": ("point", "axis", "radius"),
+    "cone": ("apex", "axis", "angle"),
+    "torus": ("center", "axis", "major_radius", "minor_radius"),
 }
 
 
@@ -27,7 +29,8 @@ class FitResult:
 
     Attributes
     ----------
-    element : ``"line"``, ``"plane"``, ``"circle"``, ``"sphere"`` or ``"cylinder"``.
+    element : ``"line"``, ``"plane"``, ``"circle"``, ``"sphere"``, ``"cylinder"``, ``"cone"``
+        or ``"torus"``.
     method : ``"ls"`` (least squares, Gaussian) or ``"minzone"`` (Chebyshev).
     outliers : the outlier rule applied, as given (``"none"``, ``"vdi2634"``,
         ``"percent:5"``, ``"sigma:3"``).
