@@ -219,43 +219,39 @@ def test_minimum_zone_of_noisy_points_is_narrower_than_least_squares():
 
 
 def test_a_start_far_from_the_truth_converges_or_refuses_in_one_line():
-    """The Gauss-Newton engine from a start with the axis 30° off, the size 30 % off and
-    the angle 15° off: the exact answer, or a one-line GeometryError, never a wrong one."""
+    """The Gauss-Newton engine from bad starts. A cone from its axis 30° or 60° off, the
+    size 30 % off and the angle 15° off: the exact answer. A torus from its axis 10° off
+    and the radii 30 % off: the exact answer; from 30° off (measured: no convergence in
+    100 iterations) a one-line GeometryError, never a wrong torus."""
     rng = np.random.default_rng(40)
     pts, a, _, _ = cone_points(rng, 400, 60, 90)
+    tilt = np.cross(a, [1.0, 0, 0])
+    tilt /= np.linalg.norm(tilt)
     frame, y = Frame.normalise(pts, "cone")
     true = CONE.fit(y).state
-    tilt = np.cross(a, [1.0, 0, 0])
-    start = true.copy()
-    start[3:6] = np.cos(np.radians(30)) * a + np.sin(np.radians(30)) * tilt / np.linalg.norm(tilt)
-    start[6] *= 1.3
-    start[7] += np.radians(15)
-    start[:3] += 0.3
-    outcomes = []
-    for s in (start, true + np.r_[0.5, -0.5, 0.2, 0, 0, 0, 0.5, 0.3]):
-        s[3:6] /= np.linalg.norm(s[3:6])
-        try:
-            got = CONE.params(CONE.fit(y, start=s).state, frame)
-        except GeometryError as exc:
-            assert "\n" not in str(exc)
-            outcomes.append("refused")
-            continue
+    for deg in (30, 60):
+        start = true.copy()
+        start[3:6] = np.cos(np.radians(deg)) * a + np.sin(np.radians(deg)) * tilt
+        start[:3] += 0.3
+        start[6] *= 1.3
+        start[7] += np.radians(15)
+        got = CONE.params(CONE.fit(y, start=start).state, frame)
         assert np.abs(got["apex"] - FAR).max() <= REL * 30 and abs(np.radians(got["angle"] - 60)) <= REL
-        outcomes.append("converged")
-    assert "converged" in outcomes
 
     pts, a, _ = torus_points(rng, 400, 40, 10, 90, 180)
     frame, y = Frame.normalise(pts, "torus")
     true = TORUS.fit(y).state
-    start = true.copy()
-    start[3:6] = np.cos(np.radians(30)) * a + np.sin(np.radians(30)) * tilt / np.linalg.norm(tilt)
-    start[:3] += 0.2
-    start[6:] *= [1.3, 0.7]
-    try:
-        got = TORUS.params(TORUS.fit(y, start=start).state, frame)
+    for deg in (10, 30):
+        start = true.copy()
+        start[3:6] = np.cos(np.radians(deg)) * a + np.sin(np.radians(deg)) * tilt
+        start[:3] += 0.2
+        start[6:] *= [1.3, 0.7]
+        try:
+            got = TORUS.params(TORUS.fit(y, start=start).state, frame)
+        except GeometryError as exc:
+            assert deg > 10 and "\n" not in str(exc) and "converge" in str(exc)
+            continue
         assert abs(got["major_radius"] - 40) <= REL * 40 and np.abs(got["center"] - FAR).max() <= REL * 40
-    except GeometryError as exc:
-        assert "\n" not in str(exc)
 
 
 # -- warnings for ill-conditioned cases ---------------------------------------------------------
