@@ -539,7 +539,7 @@ def _fit_cases() -> list[Case]:
     line = np.column_stack([np.linspace(0, 10, 50), np.zeros(50), np.zeros(50)])
     same = np.tile([[1.0, 2.0, 3.0]], (50, 1))
     cases = []
-    for el in ("line", "plane", "circle", "sphere", "cylinder"):
+    for el in ("line", "plane", "circle", "sphere", "cylinder", "cone", "torus"):
         cases += [
             Case(
                 f"fit-{el}-two-points",
@@ -573,7 +573,7 @@ def _fit_cases() -> list[Case]:
             ),
             Case(f"fit-{el}-image-file", ("fit", el, "i.png", "--json"), {"i.png": _encoded(".png")}, ("i.png",)),
         ]
-    for el in ("plane", "circle", "sphere", "cylinder"):
+    for el in ("plane", "circle", "sphere", "cylinder", "cone", "torus"):
         cases.append(
             Case(f"fit-{el}-collinear", ("fit", el, "line.xyz", "--json"), {"line.xyz": _xyz_text(line)}, ("line.xyz",))
         )
