@@ -369,6 +369,21 @@ def subsample(yt: np.ndarray, limit: int) -> np.ndarray:
     return yt[:, ::step] if step > 1 else yt
 
 
+def fit_from_starts(
+    model, yt: np.ndarray, start: np.ndarray | None, max_iter: int, xtol: float, rate_hint: float | None, limit: int
+) -> LMResult:
+    """The least-squares fit of a model that finds its own start values (``model.start``,
+    several candidates; cylinder, cone, torus): without ``start``, the candidates are tried
+    and the best refined on a strided subset of about ``limit`` points (a million points
+    then need only the final two or three iterations), then ``model._lm`` on all points."""
+    if start is None:
+        start = model.start(yt)
+        sub = subsample(yt, limit)
+        if sub is not yt:
+            start = model._lm(sub, start, max_iter, 1e-10).state
+    return model._lm(yt, start, max_iter, xtol, rate_hint)
+
+
 # -- surfaces of revolution: normals and the axis they meet -----------------------------
 
 

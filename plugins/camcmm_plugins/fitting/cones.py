@@ -47,6 +47,7 @@ from ._geometry import (
     LMResult,
     complement,
     covariance,
+    fit_from_starts,
     levenberg_marquardt,
     local_normals,
     principal_axes,
@@ -191,12 +192,7 @@ class ConeModel:
         xtol: float = 1e-13,
         rate_hint: float | None = None,
     ) -> LMResult:
-        if start is None:
-            start = self.start(yt)
-            sub = subsample(yt, SUBSET)
-            if sub is not yt:
-                start = self._lm(sub, start, max_iter, 1e-10).state
-        return self._lm(yt, start, max_iter, xtol, rate_hint)
+        return fit_from_starts(self, yt, start, max_iter, xtol, rate_hint, SUBSET)
 
     def minzone(self, yt: np.ndarray, state: np.ndarray) -> tuple[np.ndarray, float]:
         """Minimum-zone cone from the least-squares ``state``: (mid-zone state, width)."""

@@ -34,6 +34,7 @@ from ._geometry import (
     LMResult,
     complement,
     covariance,
+    fit_from_starts,
     levenberg_marquardt,
     local_normals,
     orient,
@@ -159,12 +160,7 @@ class CylinderModel:
         xtol: float = 1e-13,
         rate_hint: float | None = None,
     ) -> LMResult:
-        if start is None:
-            start = self.start(yt)
-            sub = subsample(yt, SUBSET)
-            if sub is not yt:
-                start = self._lm(sub, start, max_iter, 1e-10).state
-        return self._lm(yt, start, max_iter, xtol, rate_hint)
+        return fit_from_starts(self, yt, start, max_iter, xtol, rate_hint, SUBSET)
 
     def report(self, res: LMResult, frame: Frame) -> tuple[dict, dict, np.ndarray, tuple]:
         s = frame.scale

@@ -41,6 +41,7 @@ from ._geometry import (
     LMResult,
     complement,
     covariance,
+    fit_from_starts,
     levenberg_marquardt,
     orient,
     propagate,
@@ -147,12 +148,7 @@ class TorusModel:
         xtol: float = 1e-13,
         rate_hint: float | None = None,
     ) -> LMResult:
-        if start is None:
-            start = self.start(yt)
-            sub = subsample(yt, SUBSET)
-            if sub is not yt:
-                start = self._lm(sub, start, max_iter, 1e-10).state
-        res = self._lm(yt, start, max_iter, xtol, rate_hint)
+        res = fit_from_starts(self, yt, start, max_iter, xtol, rate_hint, SUBSET)
         if not (res.state[6] > 0 and res.state[7] > 0):
             raise GeometryError("torus fit converged to a negative radius; the points do not look like a torus")
         return res
