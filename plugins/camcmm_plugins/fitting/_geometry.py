@@ -369,6 +369,37 @@ def subsample(yt: np.ndarray, limit: int) -> np.ndarray:
     return yt[:, ::step] if step > 1 else yt
 
 
+def model_lm(
+    model,
+    yt: np.ndarray,
+    state: np.ndarray,
+    max_iter: int,
+    xtol: float,
+    rate_hint: float | None,
+    what: str,
+    centred: bool,
+) -> LMResult:
+    """Levenberg-Marquardt on a model's ``evaluate``/``update``/``_check`` for points (d, N):
+    the one call of the models that find their own start values (cylinder, cone, torus).
+    ``centred``: the model's update takes the points' centroid (it re-anchors the axis point
+    nearest to it, which keeps the parameters well conditioned far from the origin)."""
+    if centred:
+        centroid = yt.mean(axis=1)
+        update = lambda s, dp: model.update(s, dp, centroid)  # noqa: E731
+    else:
+        update = model.update
+    return levenberg_marquardt(
+        lambda s: model.evaluate(s, yt),
+        np.asarray(state, float),
+        update,
+        max_iter=max_iter,
+        xtol=xtol,
+        what=what,
+        check=model._check,
+        rate_hint=rate_hint,
+    )
+
+
 def fit_from_starts(
     model, yt: np.ndarray, start: np.ndarray | None, max_iter: int, xtol: float, rate_hint: float | None, limit: int
 ) -> LMResult:

@@ -48,8 +48,8 @@ from ._geometry import (
     complement,
     covariance,
     fit_from_starts,
-    levenberg_marquardt,
     local_normals,
+    model_lm,
     principal_axes,
     propagate,
     revolution_axes,
@@ -150,17 +150,7 @@ class ConeModel:
             raise GeometryError("cone fit: the apex angle reaches 180°; the points lie nearly on a plane")
 
     def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
-        centroid = yt.mean(axis=1)
-        return levenberg_marquardt(
-            lambda s: self.evaluate(s, yt),
-            np.asarray(state, float),
-            lambda s, dp: self.update(s, dp, centroid),
-            max_iter=max_iter,
-            xtol=xtol,
-            what="cone fit",
-            check=self._check,
-            rate_hint=rate_hint,
-        )
+        return model_lm(self, yt, state, max_iter, xtol, rate_hint, "cone fit", centred=True)
 
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (module docstring) on up to SCREEN points."""

@@ -35,8 +35,8 @@ from ._geometry import (
     complement,
     covariance,
     fit_from_starts,
-    levenberg_marquardt,
     local_normals,
+    model_lm,
     orient,
     principal_axes,
     propagate,
@@ -116,17 +116,7 @@ class CylinderModel:
             raise GeometryError("cylinder fit: the radius diverges; the points lie nearly on a plane")
 
     def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
-        centroid = yt.mean(axis=1)
-        return levenberg_marquardt(
-            lambda s: self.evaluate(s, yt),
-            np.asarray(state, float),
-            lambda s, dp: self.update(s, dp, centroid),
-            max_iter=max_iter,
-            xtol=xtol,
-            what="cylinder fit",
-            check=self._check,
-            rate_hint=rate_hint,
-        )
+        return model_lm(self, yt, state, max_iter, xtol, rate_hint, "cylinder fit", centred=True)
 
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (see the module docstring) on up to SCREEN points."""

@@ -42,7 +42,7 @@ from ._geometry import (
     complement,
     covariance,
     fit_from_starts,
-    levenberg_marquardt,
+    model_lm,
     orient,
     propagate,
     subsample,
@@ -108,16 +108,7 @@ class TorusModel:
             raise GeometryError("torus fit: the radii diverge; the points do not determine a torus")
 
     def _lm(self, yt, state, max_iter, xtol, rate_hint=None) -> LMResult:
-        return levenberg_marquardt(
-            lambda s: self.evaluate(s, yt),
-            np.asarray(state, float),
-            self.update,
-            max_iter=max_iter,
-            xtol=xtol,
-            what="torus fit",
-            check=self._check,
-            rate_hint=rate_hint,
-        )
+        return model_lm(self, yt, state, max_iter, xtol, rate_hint, "torus fit", centred=False)
 
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (module docstring) on up to SCREEN points."""
