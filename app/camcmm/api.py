@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from .cad import CadFace, CadModel, read_cad
 from .cli.options import add_declared_options, declared_values
 from .confine import PathRefused, document_path
 from .confine import check as checked_path
@@ -36,6 +37,7 @@ from .host import Cancelled, RunContext, RunResult, default_host
 from .io import check_calibration, read, read_calibration, read_stated, unit_decision, write, write_calibration
 from .jsonable import to_jsonable, utc_now
 from .limits import check_budget, check_count, check_disk, human_bytes, memory_limit
+from .meshdistance import MeshDistance, spatial_order
 from .model import Artefact, CameraModel, Certificate, HeightMap, Image, PointCloud, TriangleMesh
 from .params import Param
 from .project.record import record_result
@@ -59,7 +61,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.5"
+API_VERSION = "1.6"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -109,6 +111,12 @@ __all__ = [
     "Image",
     "PointCloud",
     "TriangleMesh",
+    # CAD nominals and distances to meshes
+    "CadFace",
+    "CadModel",
+    "MeshDistance",
+    "read_cad",
+    "spatial_order",
     # files
     "check_calibration",
     "load_yaml",
