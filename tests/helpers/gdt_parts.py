@@ -8,7 +8,7 @@ C the side x = 0, D the side x = 80 (tilted by ``tilt_d``: x = 80 + tilt_d·z), 
 (20, 30) + ``bore_bottom`` and z = 30 at (20, 30) + ``bore_top``, P1 a boss Ø16 at
 (60, 30) standing 10 mm on T, P1T its top (z = 40).
 
-Every face is sampled only ``margin`` (1 mm) inside its edges and the faces around the
+Every surface is sampled only ``margin`` (1 mm) inside its edges and the faces around the
 bore and the boss keep 1 mm clear of them (an edge break), so a band of up to 0.5 mm about
 one nominal surface never takes a neighbour's points: selection is not what these parts
 test. Points are uniform by area (``density`` per mm², at least ``n_min`` a surface),
@@ -177,9 +177,17 @@ def block(
     # E: y = 60 (x, z)
     uv = _face(rng, _count(L * H, density, n_min), [m, m], [L - m, H - m])
     add("E", np.c_[uv[:, 0], np.full(len(uv), W), uv[:, 1]], [0.0, 1.0, 0.0])
-    # H1: the bore, its axis from (bb, 0) to (bt, H); material outside, so the outward
-    # normal points to the axis. The whole length is sampled: the band keeps faces apart.
-    p, nrm = _cylinder(rng, _count(np.pi * bore_diameter * H, density, n_min), [*bb, 0.0], [*bt, H], r_bore, -1.0)
+    # H1: the bore, its axis through (bb, 0) and (bt, H), sampled from z = m to H - m;
+    # material outside, so the outward normal points to the axis
+    axis = np.array([*(bt - bb), H]) / H
+    p, nrm = _cylinder(
+        rng,
+        _count(np.pi * bore_diameter * H, density, n_min),
+        [*bb, 0.0] + m * axis,
+        [*bb, 0.0] + (H - m) * axis,
+        r_bore,
+        -1.0,
+    )
     add("H1", p, nrm)
     # P1: the boss on T, z 30 + m .. 40 - m; P1T its top
     p, nrm = _cylinder(
