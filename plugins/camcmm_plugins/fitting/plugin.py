@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import PointCloud
+from camcmm.api import PointCloud, to_jsonable
 
 from . import api
 from .source import as_cloud
@@ -60,6 +60,11 @@ def _fit(
     for w in out.pop("warnings", []):  # the host's result warnings: CLI JSON and GUI
         ctx.warn(w)
     out["removed_indices"] = res.removed
+    # the parameters' covariance (least squares; None for minimum zone) over the model's
+    # local parameters named in covariance_names (mm, rad): what an uncertainty of a
+    # derived quantity (a GD&T characteristic) propagates from
+    out["covariance"] = to_jsonable(res.covariance)
+    out["covariance_names"] = list(res.covariance_names)
     dev = _deviations(cloud, res)
     if dev is not None:
         out["deviations"] = dev
