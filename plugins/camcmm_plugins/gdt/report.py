@@ -1,0 +1,226 @@
+"""The report of a GD&T evaluation (``camcmm gdt evaluate --report DIR``): one
+:class:`camcmm.api.Report` rendered as HTML, PDF and JSON.
+
+Sections: summary (verdict counts, warnings), characteristics as on a drawing (ISO 1101
+symbol, datums, tolerance or limits, value, U = k·u, simple and ISO 14253-1 guarded
+verdicts), alignment (method, transform, rms, free degrees of freedom, stages),
+features (type, association, points, form), a view of the part in plan coordinates
+coloured by feature with the characteristics' labels, provenance.
+
+Symbols: ISO 1101's where the report's font (DejaVu Sans) has the glyph; position ⊕,
+straightness —, cylindricity /○/, profiles ◠, symmetry ≡, total runout ⇗ stand in for
+the missing ones (⌖ ⏤ ⌭ ⌒ ⌓ ⌯ ⌰).
+"""
+
+from __future__ import annotations
+
+import io
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from camcmm.api import Report, charts
+
+#: Drawing symbol of each characteristic type (see the module docstring for stand-ins).
+SYMBOLS = {
+    "straightness": "—",
+    "flatness": "⏥",
+    "roundness": "○",
+    "cylindricity": "/○/",
+    "line-profile": "◠",
+    "surface-profile": "◠",
+    "profile": "◠",
+    "parallelism": "∥",
+    "perpendicularity": "⊥",
+    "angularity": "∠",
+    "position": "⊕",
+    "coaxiality": "◎",
+    "concentricity": "◎",
+    "symmetry": "≡",
+    "circular-runout": "↗",
+    "total-runout": "⇗",
+    "diameter": "⌀",
+    "width": "↔",
+    "distance": "↔",
+}
+_MM = 1 / 25.4
+_DPI = 150
+
+
+def _mm(x: Any, digits: int = 4) -> str:
+    return "—" if x is None else f"{x:.{digits}f}"
+
+
+def _limits(c: dict[str, Any]) -> str:
+    if c.get("tolerance") is not None:
+        return f"{c['tolerance']:g}"
+    lo, hi = c.get("lower"), c.get("upper")
+    return " / ".join("—" if v is None else f"{v:+g}" for v in (lo, hi))
+
+
+def _verdicts(c: dict[str, Any]) -> str:
+    return c["verdict"] if c["verdict"] == c["verdict_guarded"] else f"{c['verdict']}; guarded: {c['verdict_guarded']}"
+
+
+def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels: list[dict[str, Any]]) -> bytes:
+    """Two orthographic views of the part (plan coordinates) coloured by feature, grey for
+    points of none, the characteristics' decisive points ringed and their ids written at
+    their anchors. PNG bytes with the chart's info."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    P = np.asarray(points, float)
+    rng = np.random.default_rng(0)
+    idx = np.arange(len(P)) if len(P) <= 30000 else rng.choice(len(P), 30000, replace=False)
+    views = ((np.array([1.0, -1.0, 0.8]), "from +x −y +z"), (np.array([-1.0, 1.0, 0.8]), "from −x +y +z"))
+    fig = Figure(figsize=(170 * _MM, 80 * _MM), dpi=_DPI)
+    cmap = __import__("matplotlib").colormaps["tab10"]
+    for i, (d, title) in enumerate(views):
+        ax = fig.add_subplot(1, 2, i + 1)
+        d = d / np.linalg.norm(d)
+        ex = np.cross([0.0, 0.0, 1.0], d)
+        ex /= np.linalg.norm(ex)
+        ey = np.cross(d, ex)
+        depth = P[idx] @ d
+        order = idx[np.argsort(depth)]
+        f = feature[order]
+        colours = np.where(f[:, None] >= 0, np.array([cmap(int(k) % 10) for k in np.maximum(f, 0)]), (0.8, 0.8, 0.8, 1))
+        ax.scatter(P[order] @ ex, P[order] @ ey, s=1.0, c=colours, linewidths=0)
+        for lab in labels:
+            dec = np.asarray(lab["decisive"], float).reshape(-1, 3)
+            if len(dec):
+                ax.scatter(dec @ ex, dec @ ey, s=12, facecolors="none", edgecolors="k", linewidths=0.6)
+            a = np.asarray(lab["anchor"], float)
+            ax.annotate(lab["id"], (a @ ex, a @ ey), fontsize=6, ha="center", va="bottom")
+        ax.set_aspect("equal")
+        ax.set_axis_off()
+        ax.set_title(f"view {title}", fontsize=7)
+    handles = [
+        __import__("matplotlib").lines.Line2D([], [], marker="o", ls="", color=cmap(i % 10), label=n)
+        for i, n in enumerate(names)
+    ]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(names), 8), fontsize=6, frameon=False)
+    FigureCanvasAgg(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=_DPI)
+    return charts.ChartPNG(
+        buf.getvalue(), {"chart": "gdt_part_view", "n_points": int(len(P)), "n_drawn": int(len(idx))}
+    )
+
+
+def build_report(
+    o: dict[str, Any],
+    plan: Any = None,
+    plan_file: str | None = None,
+    cloud_file: str | None = None,
+    nominal_file: str | None = None,
+    run: Any = None,
+) -> Report:
+    """The report of a ``gdt.evaluate`` result ``o`` (its outputs dict)."""
+    chars, feats, a = o["characteristics"], o["features"], o["alignment"]
+    aligned = o.get("aligned")
+    r = Report(
+        "Geometric tolerances (ISO 1101) with their uncertainty",
+        subtitle=f"{cloud_file or (aligned.name if aligned is not None else '')} against plan {plan_file or ''}",
+        meta={
+            "plan": plan_file or "",
+            "measured cloud": cloud_file or "",
+            "nominal": nominal_file or "—",
+            "points": aligned.n_points if aligned is not None else "",
+            "alignment": a.get("method", ""),
+        },
+    )
+    s = r.section("Summary")
+    counts = Counter(c["verdict_guarded"] for c in chars)
+    s.keyvalues(
+        [
+            ("characteristics", len(chars)),
+            *[(f"guarded verdict: {k}", v) for k, v in counts.items()],
+            ("decision rule", "ISO 14253-1: conform when the value lies within the tolerance shrunk by U = k·u"),
+        ]
+    )
+    for w in run.warnings if run is not None else []:
+        s.warning(w)
+
+    s = r.section("Characteristics")
+    s.table(
+        ["", "id", "characteristic", "feature", "datums", "tolerance mm", "value mm", "U mm", "k", "verdict"],
+        [
+            [
+                SYMBOLS.get(c["type"], ""),
+                c["id"],
+                c["type"],
+                c["feature"],
+                "|".join(c["datums"]) or "—",
+                _limits(c),
+                _mm(c["value"]),
+                _mm(c["U"]),
+                f"{c['k']:g}",
+                _verdicts(c),
+            ]
+            for c in chars
+        ],
+        caption="As on the drawing: a zone's tolerance, a size's limits (deviations from nominal); "
+        "U the expanded uncertainty (k·u).",
+        align=["center", "left", "left", "left", "left", "right", "right", "right", "right", "left"],
+    )
+    notes = [(c["id"], c.get("u_method") or (c.get("details") or {}).get("reason", "")) for c in chars]
+    s.keyvalues(notes, caption="Uncertainty method (or why not evaluated)")
+
+    s = r.section("Alignment")
+    kv = [
+        ("method", a.get("method")),
+        ("settled", a.get("converged")),
+        ("iterations", a.get("iterations")),
+        ("rms to the nominals", f"{_mm(a.get('rms'), 5)} mm"),
+        ("rotation", f"{a.get('rotation_angle_deg', 0):.6f}°"),
+        ("translation", "(" + ", ".join(f"{v:.5f}" for v in a.get("translation", [])) + ") mm"),
+        ("free (held)", "; ".join(a.get("free") or []) or "none"),
+    ]
+    for st in a.get("stages", []):
+        kv.append((str(st.get("stage")), str(st.get("kind", ""))))
+    s.keyvalues(kv)
+    s.table(
+        ["", "1", "2", "3", "4"],
+        [[f"row {i + 1}", *[f"{v:.9g}" for v in row]] for i, row in enumerate(a["transform"])],
+        caption="Transform measured → plan coordinates (4×4)",
+    )
+
+    s = r.section("Features")
+    s.table(
+        ["id", "type", "association", "points", "form range mm", "status"],
+        [
+            [
+                f["id"],
+                f["type"],
+                f["association"],
+                f["n_points"],
+                _mm((f.get("form") or {}).get("range")),
+                f["status"] if f["status"] == "evaluated" else f"not evaluated: {f.get('reason', '')}",
+            ]
+            for f in feats
+        ],
+    )
+    if o.get("datums"):
+        s.keyvalues([(d["label"], d["feature"]) for d in o["datums"]], caption="Datums")
+    if aligned is not None and "feature" in aligned.fields:
+        s.figure(
+            part_view(
+                aligned.points, np.asarray(aligned.fields["feature"]).astype(int), [f["id"] for f in feats], o["labels"]
+            ),
+            caption="The measured points in plan coordinates, coloured by feature (grey: none); "
+            "ringed: the points that decide each characteristic.",
+        )
+
+    if run is not None:
+        r.provenance(
+            plugins=[{"id": run.plugin_id, "version": run.plugin_version, "params": run.params}],
+            extra={"started": run.started, "finished": run.finished},
+        )
+    r.provenance(
+        inputs=[{"file": str(f)} for f in (plan_file, cloud_file, nominal_file) if f and Path(str(f)).is_file()]
+    )
+    r.data = {"characteristics": chars, "features": feats, "alignment": a, "datums": o.get("datums")}
+    return r
