@@ -78,7 +78,7 @@ _COMMON = ("type", "band", "box", "association", "internal")
 #: Characteristic option keys that are lengths (converted to mm like the tolerances).
 LENGTH_OPTIONS = ("nominal", "section", "offset", "length", "width", "diameter", "height")
 #: Characteristic option keys that name other features (checked to exist).
-_FEATURE_OPTIONS = ("to", "features")
+_FEATURE_OPTIONS = ("to", "features", "other")
 _CHAR_KEYS = ("id", "type", "feature", "datums", "tolerance", "lower", "upper", "modifier", "k")
 MODIFIERS = ("MMC", "LMC", "RFS")
 _SIZE = CHARACTERISTICS["size"]
