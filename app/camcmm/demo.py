@@ -2,8 +2,10 @@
 
 The clouds are generated here with known geometry (so every figure the demo shows can
 be checked): a partially covered sphere scan with noise, a flat with a slight bow, a
-ball bar, and a CAD-like sphere mesh as a nominal. Seeded, so the demo is the same
-on every machine.
+ball bar, and the ball's nominal twice: exact, as a STEP sphere (OpenCascade), and as a
+5120-facet mesh whose chords lie up to 11.4 µm inside the sphere (a comparison with it
+carries that bias and says so; with the STEP it carries none). Seeded, so the demo is the
+same on every machine.
 
 Beside them the demo holds a finished VDI/VDE 2634 part 2 acceptance test: the
 virtual lab (plugin ``virtuallab.acceptance-set``) simulates every measurement the
@@ -26,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import CamcmmError
+from .errors import CamcmmError, InputError
 from .host import default_host
 from .model import PointCloud, TriangleMesh
 from .project import Project
@@ -169,6 +171,25 @@ def _clouds(project: Project) -> None:
         (_icosphere(10.0), "mesh"),
     ):
         project.add_measurement(cloud.name, project.add_object(cloud, cloud.name), kind=kind)
+    _step_nominal(project)
+
+
+#: The name of the demo's exact nominal (a STEP sphere of radius 10 mm about the origin).
+STEP_NOMINAL = "exact sphere (STEP)"  # not "sphere nominal ...": tests pick the mesh by that text
+
+
+def _step_nominal(project: Project) -> None:
+    """The ball's exact nominal, written as STEP by OpenCascade and kept as the file itself
+    (read back by camcmm.cad.read_cad): compared with it, the scan's deviations carry no
+    facet error."""
+    from .cad.write import sphere_step
+
+    try:
+        with tempfile.TemporaryDirectory(prefix="camcmm-demo-") as tmp:
+            h = project.add_file(sphere_step(Path(tmp) / "sphere nominal.step", 10.0))
+    except (ImportError, InputError):  # no OpenCascade: the demo keeps its mesh nominal
+        return
+    project.add_measurement(STEP_NOMINAL, h, kind="cad", meta={"summary": "STEP CAD model, 1 face (sphere, 20 mm)"})
 
 
 def _summary(project: Project, notes: list[str] | None = None) -> dict[str, Any]:

@@ -30,7 +30,9 @@ def object_hash(obj: Any) -> str:
 
 
 def _feed(h, obj: Any) -> None:
-    if isinstance(obj, np.ndarray):
+    if callable(getattr(obj, "content_hash", None)):  # a CAD model: its file's SHA-256 (camcmm.cad)
+        h.update(str(obj.content_hash()).encode())
+    elif isinstance(obj, np.ndarray):
         h.update(str((obj.dtype.str, obj.shape)).encode())
         h.update(np.ascontiguousarray(obj).tobytes())
     elif hasattr(obj, "__dataclass_fields__"):

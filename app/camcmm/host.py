@@ -393,7 +393,7 @@ class PluginHost:
 _PORT_KINDS = {
     "pointcloud": ("PointCloud",),
     "mesh": ("TriangleMesh",),
-    "geometry": ("PointCloud", "TriangleMesh"),
+    "geometry": ("PointCloud", "TriangleMesh", "CadModel"),  # CadModel: a STEP/IGES nominal (camcmm.cad)
     "image": ("Image",),
 }
 _KIND_WORDS = {
@@ -401,6 +401,7 @@ _KIND_WORDS = {
     "TriangleMesh": "a triangle mesh",
     "Image": "an image",
     "HeightMap": "a height map",
+    "CadModel": "a CAD model",
 }
 
 

@@ -166,25 +166,34 @@ class CadDistance:
             out[v] = self.vertex_edge[self.md.F[fid[v], np.argmin(z[v], axis=1)]]
         return out
 
-    def __call__(self, points: np.ndarray, chunk: int = 1_000_000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def __call__(self, points: np.ndarray, chunk: int = 1_000_000) -> tuple[np.ndarray, ...]:
         """``(signed distance (N,) mm, + outside the material; closest points (N, 3) on the
-        exact surface; face index (N,), 1-based)``."""
+        exact surface; face index (N,), 1-based; outward unit normals (N, 3) there (at an
+        edge or vertex: the direction from it to the point, turned outward); rim (N,) True
+        where the closest point is on the boundary of an open shell)``."""
         p = np.asarray(points, dtype=float)
         order = spatial_order(p) if len(p) >= 100_000 else None
         ps = p if order is None else p[order]
-        d = np.empty(len(p))
-        q = np.empty((len(p), 3))
-        f = np.empty(len(p), dtype=np.int64)
+        out = (
+            np.empty(len(p)),
+            np.empty((len(p), 3)),
+            np.empty(len(p), dtype=np.int64),
+            np.empty((len(p), 3)),
+            np.empty(len(p), dtype=bool),
+        )
         self.n_exact = 0
         for s in range(0, len(p), chunk):
             sl = slice(s, min(s + chunk, len(p)))
-            d[sl], q[sl], f[sl] = self._chunk(ps[sl])
+            for a, v in zip(out, self._chunk(ps[sl])):
+                a[sl] = v
         if order is not None:
-            d[order], q[order], f[order] = d.copy(), q.copy(), f.copy()
-        return d, q, f
+            for a in out:
+                a[order] = a.copy()
+        return out
 
-    def _chunk(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        qm, tri, b, _ = self.md.closest(p)
+    def _chunk(self, p: np.ndarray) -> tuple[np.ndarray, ...]:
+        qm, tri, b, fn = self.md.closest(p)
+        rim = self.md.on_boundary(tri, b)
         face = self.tface[tri]
         q, n, ok = self.geom.project(p, face, self.tiny)
         off = p - q
@@ -197,8 +206,8 @@ class CadDistance:
         idx = np.flatnonzero(unsure)
         if idx.size:
             self.n_exact += int(idx.size)
-            d[idx], q[idx], face[idx] = self._exact(p[idx], tri[idx])
-        return d, q, face
+            d[idx], q[idx], face[idx], n[idx] = self._exact(p[idx], tri[idx], fn[idx])
+        return d, q, face, n, rim
 
     # ------------------------------------------------------------------ stage 3
     def _candidates(self, tri: int) -> list[int]:
@@ -207,8 +216,9 @@ class CadDistance:
             faces.update(int(x) for x in self._vf_face[self._vf_start[v] : self._vf_start[v + 1]])
         return sorted(faces)
 
-    def _exact(self, p: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """OpenCascade's closest point over the faces around each point's closest triangle."""
+    def _exact(self, p: np.ndarray, tri: np.ndarray, fn: np.ndarray) -> tuple[np.ndarray, ...]:
+        """OpenCascade's closest point over the faces around each point's closest triangle
+        (``fn``: the triangles' normals, the normal where the point lies on the surface)."""
         from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeVertex
         from OCP.BRepExtrema import BRepExtrema_DistShapeShape, BRepExtrema_SupportType
         from OCP.gp import gp_Pnt
@@ -218,6 +228,7 @@ class CadDistance:
         d = np.empty(len(p))
         q = np.empty((len(p), 3))
         face = np.empty(len(p), dtype=np.int64)
+        normal = np.array(fn, dtype=float, copy=True)
         need_mesh_sign = []
         for i, (pt, t) in enumerate(zip(p, tri)):
             vertex = BRepBuilderAPI_MakeVertex(gp_Pnt(*map(float, pt))).Vertex()
@@ -241,6 +252,8 @@ class CadDistance:
             if support == BRepExtrema_SupportType.BRepExtrema_IsInFace:
                 u, v = ext.ParOnFaceS2(1)
                 nrm = outward_normal(self.faces[k], u, v)
+            if nrm is not None:
+                normal[i] = nrm
             if nrm is not None and dist > self.tiny:
                 d[i] = dist if (pt - q[i]) @ nrm >= 0 else -dist
             else:
@@ -250,4 +263,9 @@ class CadDistance:
             j = np.asarray(need_mesh_sign)
             sign = np.sign(self.md.signed_distance(p[j]))
             d[j] = np.where(sign < 0, -d[j], d[j])
-        return d, q, face
+            # at an edge or vertex the normal of the closest feature is the offset's direction
+            off = p[j] - q[j]
+            ln = np.linalg.norm(off, axis=1)
+            far = ln > self.tiny
+            normal[j[far]] = off[far] / ln[far, None] * np.where(d[j[far]] < 0, -1.0, 1.0)[:, None]
+        return d, q, face, normal

@@ -130,6 +130,16 @@ class CadModel:
             raise InputError(f"{self.name}: points must have shape (N, 3), got {p.shape}")
         if len(p) == 0:
             return np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        d, q, f, _, _ = self.distance_engine(p)
+        return d, q, f
+
+    def closest(self, points: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`distance`, plus the outward unit normals (N, 3) at the closest points
+        and ``rim`` (N,): True where a closest point lies on the boundary of an open shell
+        (for the alignment, which must not pair points with the edge of a partial nominal)."""
+        p = np.asarray(points, dtype=float)
+        if p.ndim != 2 or p.shape[1] != 3:
+            raise InputError(f"{self.name}: points must have shape (N, 3), got {p.shape}")
         return self.distance_engine(p)
 
     def sample(self, face: int | None = None, n: int = 1000, seed: int = 0) -> PointCloud:

@@ -25,9 +25,12 @@ ANGULAR = 0.2
 
 
 def default_deflection(bounds: np.ndarray) -> float:
-    """10 µm, or 1e-4 of the bounding-box diagonal for parts below 100 mm (mm)."""
+    """10 µm, or 1e-3 of the bounding-box diagonal for parts below 10 mm (mm). The
+    distances are exact whatever the deflection (camcmm.cad.distance); it sets the cost
+    (the mesh query, the preparation) and how often a point near an edge is left to
+    OpenCascade."""
     diag = float(np.linalg.norm(bounds[1] - bounds[0]))
-    return float(min(0.01, max(1e-4 * diag, 1e-4)))
+    return float(min(0.01, max(1e-3 * diag, 1e-5)))
 
 
 def tessellate(

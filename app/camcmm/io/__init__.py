@@ -1,6 +1,7 @@
 """File formats: read and write point clouds, meshes, height maps and images.
 
-    read(path, unit=None)  -> PointCloud | TriangleMesh | HeightMap | Image   (lengths in mm)
+    read(path, unit=None)  -> PointCloud | TriangleMesh | HeightMap | Image | CadModel   (lengths in mm;
+                              STEP/IGES as camcmm.cad.CadModel, in mm from the file's own unit)
     write(obj, path, binary=True, unit="mm")
     info(path, unit=None)  -> dict, JSON-able summary (with ``unit_check`` and ``warnings``)
     read_stated(path, unit=None) -> (object, the unit stated by the caller or the file, or None)
@@ -30,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from ..cad import EXTENSIONS as CAD_EXTENSIONS
+from ..cad import CadModel, read_cad
 from ..errors import CamcmmError, InputError
 from ..model import HeightMap, Image, PointCloud, TriangleMesh
 from ..units import UnitDecision, decide_unit, object_span, to_mm_factor, unit_key
@@ -37,7 +40,7 @@ from ._common import Raw, atomic_path, canonical_unit
 from .calibration import check_calibration, read_calibration, write_calibration
 from .topography import VENDOR, summary
 
-_CLOUD, _MESH, _IMAGE, _MAP = "pointcloud", "mesh", "image", "heightmap"
+_CLOUD, _MESH, _IMAGE, _MAP, _CAD = "pointcloud", "mesh", "image", "heightmap", "cad"
 
 
 def _fmt(
@@ -120,6 +123,11 @@ FORMATS: dict[str, dict[str, Any]] = {
         ext: {**_fmt(what, [_MAP], False, f"{what} height map (read through SurfaceTopography)"), "name": what}
         for ext, (_key, what) in VENDOR.items()
     },
+    # CAD B-reps: read as camcmm.cad.CadModel (OpenCascade), in mm whatever the file's unit
+    **{
+        ext: _fmt(what, [_CAD], False, f"{what} CAD model (B-rep, read with OpenCascade; exact faces)")
+        for ext, what in CAD_EXTENSIONS.items()
+    },
 }
 
 
@@ -162,6 +170,8 @@ def _kind(obj: Any) -> str:
         return _IMAGE
     if isinstance(obj, HeightMap):
         return _MAP
+    if isinstance(obj, CadModel):
+        return _CAD
     raise InputError(
         f"cannot write a {type(obj).__name__}: camcmm.io writes PointCloud, TriangleMesh, HeightMap and Image"
     )
@@ -176,6 +186,8 @@ def _read(path: str | Path, unit: str | None) -> tuple[Any, dict[str, Any], Raw 
         raise InputError(f"{p.name}: not a file ({p})")
     if p.stat().st_size == 0:
         raise InputError(f"{p.name}: the file is empty (0 bytes)")
+    if fmt["kinds"] == [_CAD]:  # a CAD file states its unit; OpenCascade converts it to mm
+        return read_cad(p), fmt, None
     if unit is not None:  # a bad unit fails before the read
         unit = canonical_unit(unit) or unit
         factor = to_mm_factor(unit)
@@ -223,8 +235,10 @@ def _build(raw: Raw, name: str, fmt: dict[str, Any], unit: str | None, factor: f
     return TriangleMesh(points, raw.faces, raw.normals, fields, raw.field_units, name, source)
 
 
-def read(path: str | Path, unit: str | None = None) -> PointCloud | TriangleMesh | Image:
-    """Read a point cloud, mesh or image; the format follows the extension.
+def read(path: str | Path, unit: str | None = None) -> PointCloud | TriangleMesh | Image | CadModel:
+    """Read a point cloud, mesh, image or CAD model (STEP/IGES: a
+    :class:`~camcmm.cad.CadModel`, in mm from the file's own unit); the format follows the
+    extension.
 
     ``unit`` is the length unit of the file's coordinates when you know better than
     the file ("m", "mm", "um", ...). Clouds and meshes come back in mm with
@@ -248,7 +262,7 @@ def read_stated(path: str | Path, unit: str | None = None) -> tuple[Any, str | N
     None when neither the file nor the caller says). Give both to
     :func:`camcmm.units.decide_unit` to know whether to ask."""
     obj, fmt, raw = _read(path, unit)
-    if isinstance(obj, HeightMap):  # every height-map format states its unit
+    if isinstance(obj, (HeightMap, CadModel)):  # every height-map and CAD format states its unit
         return obj, obj.source_unit
     return obj, (None if isinstance(obj, Image) else stated_unit(raw, fmt, unit))
 
@@ -330,6 +344,10 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
     if isinstance(obj, HeightMap):
         out.update(summary(obj))
         out["warnings"] = [] if obj.n_valid else [f"{p.name}: the height map has no valid point"]
+    elif isinstance(obj, CadModel):
+        out.update(obj.summary())
+        out["kind"] = _CAD
+        out["warnings"] = []
     elif isinstance(obj, Image):
         d = obj.data
         out.update(

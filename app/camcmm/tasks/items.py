@@ -21,6 +21,8 @@ def fmt_count(n: int) -> str:
 
 
 def kind_of(obj: Any) -> str:
+    if type(obj).__name__ == "CadModel":  # a STEP/IGES nominal (camcmm.cad), stored as its file
+        return "cad"
     if hasattr(obj, "faces") and hasattr(obj, "vertices"):
         return "mesh"
     if hasattr(obj, "points") and hasattr(obj, "n_points"):
@@ -37,6 +39,8 @@ def describe(obj: Any) -> str:
         return f"{fmt_count(obj.n_points)} points{extra}"
     if k == "mesh":
         return f"{fmt_count(obj.n_vertices)} vertices, {fmt_count(obj.n_faces)} faces"
+    if k == "cad":
+        return f"{obj.format} CAD model, {fmt_count(obj.n_faces)} faces"
     if k == "image":
         w, h = obj.size
         return f"image {w} × {h} px"

@@ -75,7 +75,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import GeometryError, InputError, ParameterError, PointCloud, TriangleMesh
+from camcmm.api import CadModel, GeometryError, InputError, ParameterError, PointCloud, TriangleMesh
 
 from .distance import MeshDistance, _nns, knn, spatial_order
 
@@ -210,12 +210,20 @@ class Nominal:
 
     ``closest(points)`` gives the corresponding nominal points and unit normals;
     ``sample(n)`` points (with normals) spread over the nominal for global registration.
+    A CAD model (``cad``) keeps its tessellation as ``mesh`` (sampling, bounds, the mesh
+    queries) but gives its correspondences on the exact surface: ICP on the chords of a
+    convex part would pull the cloud towards them by up to the tessellation's deflection.
     """
 
-    def __init__(self, geometry: TriangleMesh | PointCloud | MeshDistance, normals_k: int = 16):
+    def __init__(self, geometry: TriangleMesh | PointCloud | MeshDistance | CadModel, normals_k: int = 16):
         self.mesh: MeshDistance | None = None
         self.cloud: PointCloud | None = None
-        if isinstance(geometry, MeshDistance):
+        self.cad: CadModel | None = None
+        self.given = geometry  # as given: a mesh's chordal error is judged on it (chordal.py)
+        if isinstance(geometry, CadModel):
+            self.cad = geometry
+            self.mesh = geometry.distance_engine.md
+        elif isinstance(geometry, MeshDistance):
             self.mesh = geometry
         elif isinstance(geometry, TriangleMesh):
             self.mesh = MeshDistance(geometry)
@@ -226,13 +234,13 @@ class Nominal:
             self._normals = self._cloud_normals(geometry, normals_k)
             self._index = _nns(geometry.points)
         else:
-            raise InputError(f"nominal: expected a mesh or a point cloud, got {type(geometry).__name__}")
+            raise InputError(f"nominal: expected a mesh, a CAD model or a point cloud, got {type(geometry).__name__}")
         self._vn: np.ndarray | None = None
         if self.mesh is not None:
             self._vn = self._vertex_normals(self.mesh.V, self.mesh.F)
         lo, hi = self.bounds
         self.diag = float(np.linalg.norm(hi - lo))
-        self.name = self.mesh.name if self.mesh else self.ref_cloud.name
+        self.name = self.cad.name if self.cad else self.mesh.name if self.mesh else self.ref_cloud.name
 
     @property
     def ref_cloud(self) -> PointCloud:
@@ -265,7 +273,7 @@ class Nominal:
         undetermined directions: the vertex normals interpolated with the closest point's
         barycentric coordinates, or the facet's normal where they differ from it by more
         than 20° (a sharp edge, which must stay sharp). For a reference cloud its normals."""
-        if self.mesh is None:
+        if self.mesh is None or self.cad is not None:  # a cloud's normals; a CAD's exact (smooth) ones
             q, n, rim = self.closest(points)
             return q, n, n, rim
         q, f, b, n = self.mesh.closest(points)
@@ -286,6 +294,9 @@ class Nominal:
     def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Corresponding nominal points, their unit normals, and whether each lies on the
         nominal's boundary (the rim of an open mesh or of a hole; never for a cloud)."""
+        if self.cad is not None:
+            _, q, _, n, rim = self.cad.closest(points)
+            return q, n, rim
         if self.mesh is not None:
             q, f, b, n = self.mesh.closest(points)
             return q, n, self.mesh.on_boundary(f, b)

@@ -1,7 +1,8 @@
 """``camcmm inspect CLOUD --nominal FILE [--align none|icp|similarity|global+icp|...]
 [--tolerance T] [--json] [--out coloured.ply] [--report DIR]``
 
-Aligns the measured cloud onto the nominal (CAD mesh .stl/.obj/.ply or a reference
+Aligns the measured cloud onto the nominal (a CAD model .step/.stp/.iges/.igs, whose
+exact surface the deviations are measured to, a CAD mesh .stl/.obj/.ply or a reference
 cloud), computes the signed deviations, their statistics, the coverage of the nominal
 area and the material-ratio parameters, and prints them; ``--out`` writes the cloud in
 nominal coordinates with the field ``deviation`` and deviation colours, ``--report`` an
@@ -49,7 +50,10 @@ REGION = ("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX")
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("cloud", help="measured point cloud (.ply .pcd .xyz .csv .txt .e57)")
     parser.add_argument(
-        "--nominal", required=True, metavar="FILE", help="nominal: CAD mesh (.stl .obj .ply) or reference cloud"
+        "--nominal",
+        required=True,
+        metavar="FILE",
+        help="nominal: CAD model (.step .stp .iges .igs; exact surface), CAD mesh (.stl .obj .ply) or reference cloud",
     )
     parser.add_argument(
         "--pairs",

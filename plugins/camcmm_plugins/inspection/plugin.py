@@ -25,9 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import GeometryError, InputError, ParameterError, PointCloud, TriangleMesh, read
+from camcmm.api import CadModel, GeometryError, InputError, ParameterError, PointCloud, TriangleMesh, read
 
 from . import align as al
+from . import chordal
 from . import coverage as cov
 from . import display as disp
 from . import distance as dist
@@ -122,9 +123,9 @@ def deviation_colours(dev: np.ndarray, limit: float) -> np.ndarray:
 def _nominal(nominal: Any) -> al.Nominal:
     if isinstance(nominal, al.Nominal):
         return nominal
-    if isinstance(nominal, (TriangleMesh, PointCloud)):
+    if isinstance(nominal, (TriangleMesh, PointCloud, CadModel)):
         return al.Nominal(nominal)
-    raise InputError(f"nominal: expected a mesh or a point cloud, got a {type(nominal).__name__}")
+    raise InputError(f"nominal: expected a mesh, a CAD model or a point cloud, got a {type(nominal).__name__}")
 
 
 # --------------------------------------------------------------------------- align
@@ -204,16 +205,38 @@ def compute_deviations(
 ) -> dict[str, Any]:
     """Deviations of ``cloud`` (already in nominal coordinates) and everything derived."""
     P = cloud.points
+    face = None  # the CAD face of each point, for a CAD nominal
     if distance == "auto":
         distance = "mesh" if nom.mesh is not None else "plane"
     if distance == "mesh":
         if nom.mesh is None:
             raise ParameterError("distance 'mesh' needs a nominal mesh; for a reference cloud use plane or nn")
-        ctx.progress(0.5, "signed point-to-mesh distances")
-        dev, det = nom.mesh.signed_distance(P, details=True)
-        method = "signed point-to-mesh (closest point, pseudo-normal sign, ray parity where unsure)"
-        extra = {"n_sign_by_parity": det["n_parity"]}
-        nominal_info = nom.mesh.info.to_dict()
+        if nom.cad is not None:
+            ctx.progress(0.5, "signed distances to the exact CAD surface")
+            dev, _, face, _, _ = nom.cad.closest(P)
+            method = (
+                "signed distance to the exact B-rep surface (closest triangle of the tessellation, closed-form "
+                "projection onto its face; OpenCascade near edges and on free-form faces)"
+            )
+            extra = {"n_exact_by_opencascade": int(nom.cad.distance_engine.n_exact)}
+            nominal_info = {**nom.cad.summary(), "mesh": nom.mesh.info.to_dict(), "chordal_error": 0.0}
+        else:
+            ctx.progress(0.5, "signed point-to-mesh distances")
+            dev, det = nom.mesh.signed_distance(P, details=True)
+            method = "signed point-to-mesh (closest point, pseudo-normal sign, ray parity where unsure)"
+            extra = {"n_sign_by_parity": det["n_parity"]}
+            nominal_info = nom.mesh.info.to_dict()
+            chord = chordal.chordal_error(nom.given)
+            nominal_info["chordal_error"] = chord["error"] if chord else None
+            if chord:
+                nominal_info["chordal"] = chord
+                if tolerance and chord["error"] > 0.1 * tolerance:
+                    ctx.warn(
+                        f"{nom.name}: the mesh's facets lie up to {chord['error'] * 1000:.3g} µm inside its "
+                        f"{chord['surface']} (chordal error), more than a tenth of the tolerance {tolerance:g} mm: "
+                        "every deviation carries up to that bias; compare with the exact surface (a STEP file) "
+                        "or a finer mesh"
+                    )
         for note in nom.mesh.info.notes:
             ctx.warn(f"{nom.name}: {note}")
         if nom.mesh.info.n_flipped:
@@ -254,6 +277,8 @@ def compute_deviations(
     units = dict(cloud.field_units)
     fields["deviation"] = dev
     units["deviation"] = "mm"
+    if face is not None:
+        fields["cad_face"] = face  # the 1-based index of the CAD face each point was compared with
     out_cloud = PointCloud(
         P, deviation_colours(dev, limit), cloud.normals, fields, units, f"{cloud.name} deviations", cloud.source_unit
     )
@@ -400,7 +425,8 @@ def section(
     if half_width is None:
         spacing = disp.point_spacing(deviations.points)
         half_width = 0.5 * spacing
-    mesh = nominal if isinstance(nominal, TriangleMesh) else None
+    # a CAD model is cut through its tessellation (within its deflection of the exact surface)
+    mesh = nominal.mesh if isinstance(nominal, CadModel) else nominal if isinstance(nominal, TriangleMesh) else None
     cloud = nominal.points if isinstance(nominal, PointCloud) else None
     sec = disp.section(ax, position, deviations.points, dev, half_width, mesh, cloud, max_points, seed)
     return {"section": sec, "spacing": spacing}
