@@ -20,8 +20,12 @@ Analytic answers (noise-free):
 - perpendicularity of H1 to A = |bore_top − bore_bottom| = 0.05 mm for the defaults: the
   axis' projection on A is a segment that long, so the smallest cylinder perpendicular to
   A holding the axis (a diametral zone) has that diameter;
-- perpendicularity of D to A = tilt_d · 30 mm;
-- flatness of A = ``bow_a`` (z = 4·bow_a·(x/80)(1 − x/80)), minimum zone;
+- flatness of A = ``ripple_a`` (every second point of A raised by it into the material,
+  the four corners at both levels), minimum zone: no tilted zone is narrower, and the
+  datum A (outer tangent plane) stays z = 0; ``bow_a`` bends A instead
+  (z = 4·bow_a·(x/80)(1 − x/80); its minimum zone depends on the sampled x);
+- perpendicularity of D to A = tilt_d · 28 mm (the sampled extent z 1 … 29: every face's
+  four corners are among its points);
 - diameter of H1 = ``bore_diameter``, of P1 = ``boss_diameter``.
 """
 
@@ -108,8 +112,10 @@ def _outside(uv: np.ndarray, holes: list[tuple[np.ndarray, float]]) -> np.ndarra
 
 
 def _face(rng, n, lo, hi, holes=()):
-    """n points uniform on a rectangle [lo, hi] (2-D) outside the circular ``holes``."""
-    out = np.zeros((0, 2))
+    """n points on a rectangle [lo, hi] (2-D) outside the circular ``holes``: its four
+    corners (so the sampled extent is exactly the rectangle), the rest uniform."""
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [lo[0], hi[1]], [hi[0], hi[1]]], float)
+    out = corners[_outside(corners, list(holes))]
     while len(out) < n:
         uv = _rect(rng, 2 * n, lo, hi)
         out = np.vstack([out, uv[_outside(uv, list(holes))]])
@@ -142,6 +148,7 @@ def block(
     boss_diameter: float = 16.0,
     tilt_d: float = 0.0,
     bow_a: float = 0.0,
+    ripple_a: float = 0.0,
     margin: float = 1.0,
     n_min: int = 120,
     seed: int = 0,
@@ -157,9 +164,14 @@ def block(
     def add(name, pts, normals):
         surfaces.append((name, pts, np.broadcast_to(normals, pts.shape).copy()))
 
-    # A: bottom, z = 4 bow (x/L)(1 - x/L); the bore's mouth kept clear
+    # A: bottom, z = 4 bow (x/L)(1 - x/L) (+ ripple on every second point, the corners
+    # at both levels); the bore's mouth kept clear
     uv = _face(rng, _count(L * W, density, n_min), [m, m], [L - m, W - m], [(bb, r_bore + m)])
     z = 4 * bow_a * (uv[:, 0] / L) * (1 - uv[:, 0] / L)
+    if ripple_a:  # the corners (first four) twice: raised copies first, then at level 0
+        uv, z = np.vstack([uv[:4], uv]), np.r_[z[:4], z]
+        i = np.arange(len(z))
+        z = z + ripple_a * ((i < 4) | ((i >= 8) & (i % 2 == 1)))
     add("A", np.c_[uv, z], [0.0, 0.0, -1.0])
     # T: top, clear of the bore and of the boss
     uv = _face(rng, _count(L * W, density, n_min), [m, m], [L - m, W - m], [(bt, r_bore + m), (BOSS_XY, r_boss + m)])
@@ -221,14 +233,16 @@ def plan_document(
     characteristics: list[dict[str, Any]] | None = None,
     **extra: Any,
 ) -> dict[str, Any]:
-    """The plan of the block, as the YAML document of ``camcmm gdt evaluate`` (mm)."""
+    """The plan of the block, as the YAML document of ``camcmm gdt evaluate`` (mm). Plane
+    normals point out of the material (the side of + distances and of a datum's outer
+    tangent plane); H1 is a bore (``internal``)."""
     doc: dict[str, Any] = {
         "unit": "mm",
         "band": 0.5,
         "features": {
-            "A": {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "box": [[0, 0, -1], [80, 60, 1]]},
-            "B": {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "box": [[0, -1, 0], [80, 1, 30]]},
-            "C": {"type": "plane", "point": [0, 0, 0], "normal": [1, 0, 0], "box": [[-1, 0, 0], [1, 60, 30]]},
+            "A": {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, -1], "box": [[0, 0, -1], [80, 60, 1]]},
+            "B": {"type": "plane", "point": [0, 0, 0], "normal": [0, -1, 0], "box": [[0, -1, 0], [80, 1, 30]]},
+            "C": {"type": "plane", "point": [0, 0, 0], "normal": [-1, 0, 0], "box": [[-1, 0, 0], [1, 60, 30]]},
             "D": {"type": "plane", "point": [80, 0, 0], "normal": [1, 0, 0], "box": [[79, 0, 0], [81, 60, 30]]},
             "T": {"type": "plane", "point": [0, 0, 30], "normal": [0, 0, 1], "box": [[0, 0, 29], [80, 60, 31]]},
             "H1": {
@@ -237,6 +251,7 @@ def plan_document(
                 "axis": [0, 0, 1],
                 "diameter": bore_diameter,
                 "length": 30,
+                "internal": True,
             },
             "P1": {
                 "type": "cylinder",
