@@ -403,12 +403,18 @@ def _noisy(kind, rng, n=1500):
             "major_diameter": 40.0,
             "minor_diameter": 8.0,
         }
+    if kind == "line":
+        w = rng.normal(scale=0.002, size=(n, 3))
+        return FAR + np.outer(z * 2, rot[:, 2]) + w - np.outer(w @ rot[:, 2], rot[:, 2]), {
+            "point": FAR,
+            "direction": rot[:, 2],
+        }
     t = rng.uniform(0, 2 * np.pi, n)
     ring = np.cos(t)[:, None] * rot[:, 0] + np.sin(t)[:, None] * rot[:, 1]
     return FAR + (7 + noise)[:, None] * ring, {"centre": FAR, "normal": rot[:, 2], "diameter": 14.0}
 
 
-@pytest.mark.parametrize("kind", ["plane", "circle", "cylinder", "sphere", "cone", "torus"])
+@pytest.mark.parametrize("kind", ["line", "plane", "circle", "cylinder", "sphere", "cone", "torus"])
 def test_ls_matches_the_fitting_plugin(kind):
     """associate(ls) is fit.<element> by id: the same element and residuals; its
     covariance (recomputed in the global names) gives the plugin's standard
@@ -438,6 +444,11 @@ def test_ls_matches_the_fitting_plugin(kind):
         np.testing.assert_allclose(
             [sd["normal_x"], sd["normal_y"], sd["normal_z"]], ref.std_uncertainty["normal"], rtol=1e-5
         )
+    if kind == "line":  # the plugin's point is the centroid's foot, this one the start of the extent
+        assert np.linalg.norm(np.cross(a.params["direction"], p["direction"])) <= 1e-12
+        np.testing.assert_allclose(
+            [sd["direction_x"], sd["direction_y"], sd["direction_z"]], ref.std_uncertainty["direction"], rtol=1e-5
+        )
     if kind == "cone":
         assert a.params["angle"] == pytest.approx(p["angle"], rel=1e-12)
         assert sd["angle"] == pytest.approx(ref.std_uncertainty["angle"], rel=1e-5)
@@ -446,7 +457,22 @@ def test_ls_matches_the_fitting_plugin(kind):
         assert a.params["minor_diameter"] == pytest.approx(2 * p["minor_radius"], rel=1e-12)
         assert sd["minor_diameter"] == pytest.approx(2 * ref.std_uncertainty["minor_radius"], rel=1e-5)
         assert sd["major_diameter"] == pytest.approx(2 * ref.std_uncertainty["major_radius"], rel=1e-5)
-    if kind != "circle":  # a circle's residuals are radial in its plane (its points are planar here)
+    if kind != "circle":  # a circle's residuals are radial in its plane (planar points here)
         np.testing.assert_allclose(a.residuals, ref.residuals, atol=1e-9)
     assert a.form["rms"] == pytest.approx(ref.form["rms"], rel=1e-6)
     assert a.n_points == len(x) and a.covariance.shape == (len(names), len(names))
+
+
+def test_point_feature_and_tangent_fallback():
+    """A point feature is its points' centroid (covariance s²/n per axis);
+    a cone has no ISO 5459 tangent association: least squares, with a warning."""
+    rng = np.random.default_rng(13)
+    x = FAR + rng.normal(scale=0.01, size=(200, 3))
+    a = associate(x, _all(x), _spec("P", "point", point=FAR), "tangent")
+    np.testing.assert_allclose(a.params["point"], x.mean(axis=0), atol=1e-9)
+    assert a.association == "ls" and "no tangent (ISO 5459) association for a point" in a.warnings[0]
+    want = np.sum((x - x.mean(axis=0)) ** 2) / (3 * len(x) - 3) / len(x)  # s² / n, s² pooled over x, y, z
+    np.testing.assert_allclose(np.diag(a.covariance), want, rtol=1e-6)
+    xk, nominal = _noisy("cone", rng, n=600)
+    k = associate(xk, _all(xk), _spec("K", "cone", **nominal), "tangent")
+    assert k.association == "ls" and "no tangent (ISO 5459) association for a cone" in k.warnings[0]

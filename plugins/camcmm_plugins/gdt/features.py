@@ -424,15 +424,24 @@ def _local_map(t: str, params: dict[str, Any], scale: float) -> tuple[list[tuple
     return moves, steps
 
 
-def _components(y: np.ndarray, t: str, params: dict[str, Any]) -> np.ndarray:
-    """The residual components of a least-squares element: the signed distances, but
-    for a circle in space its points' heights above its plane and radial deviations in
-    it, stacked (2n components: the distance sqrt(h² + e²) has no derivative in h at
-    h = 0, the fitting plugin's circle uses the same two components)."""
-    if t != "circle":
-        return surface_distance(y, t, params)
-    h, rho = _axial(y, np.asarray(params["centre"], float), _unit(params["normal"]))
-    return np.concatenate([h, rho - 0.5 * params["diameter"]])
+def _components(y: np.ndarray, t: str, params: dict[str, Any]) -> tuple[np.ndarray, int]:
+    """The residual components of a least-squares element and how many of them are
+    independent: the signed distances (n), but for a circle in space its points' heights
+    above its plane and radial deviations in it (2n: the distance sqrt(h² + e²) has no
+    derivative in h at h = 0; the fitting plugin's circle uses the same two), for a line
+    the vector from the line (3n numbers, 2n independent) and for a point the vector from
+    it (3n): an unsigned distance is no Gauss-Markov residual (its linearisation is wrong
+    where the residuals are not small against their spread)."""
+    if t == "circle":
+        h, rho = _axial(y, np.asarray(params["centre"], float), _unit(params["normal"]))
+        return np.concatenate([h, rho - 0.5 * params["diameter"]]), 2 * len(y)
+    if t == "line":
+        d = _unit(params["direction"])
+        w = y - params["point"]
+        return (w - np.outer(w @ d, d)).ravel(), 2 * len(y)
+    if t == "point":
+        return (y - params["point"]).ravel(), 3 * len(y)
+    return surface_distance(y, t, params), len(y)
 
 
 def _step(name: str, dv: Any, scale: float) -> float:
@@ -448,8 +457,8 @@ def ls_covariance(x: np.ndarray, t: str, params: dict[str, Any]) -> tuple[np.nda
     names (``point_x`` ... ``diameter``; mm, unit-vector components, degrees for a cone's
     angle), ``s² = Σr²/(n − p)``. J is the Jacobian of :func:`surface_distance` in a local
     parametrisation (central differences on points centred on their centroid, accurate
-    to ~1e-10 relative — ample for an uncertainty; a circle's residuals are its points'
-    two components, :func:`_components`). None without degrees of freedom."""
+    to ~1e-10 relative — ample for an uncertainty; circles, lines and points use their
+    residuals' components, :func:`_components`). None without degrees of freedom."""
     centre = x.mean(axis=0)
     y = x - centre
     scale = float(np.sqrt(np.mean(np.einsum("ij,ij->i", y, y)))) or 1.0
@@ -467,14 +476,14 @@ def ls_covariance(x: np.ndarray, t: str, params: dict[str, Any]) -> tuple[np.nda
         p[name] = p[name] + h * dv
         return p
 
-    r = _components(y, t, p0)
+    r, m = _components(y, t, p0)
     jac = np.empty((len(r), k))
     for j in range(k):
         h = steps[j]
-        jac[:, j] = (_components(y, t, moved(j, h)) - _components(y, t, moved(j, -h))) / (2 * h)
-    if len(r) <= k:
+        jac[:, j] = (_components(y, t, moved(j, h))[0] - _components(y, t, moved(j, -h))[0]) / (2 * h)
+    if m <= k:
         return None, names
-    s2 = float(r @ r) / (len(r) - k)
+    s2 = float(r @ r) / (m - k)
     norm = np.linalg.norm(jac, axis=0)
     if not np.all(norm > 0):
         return None, names
@@ -489,14 +498,14 @@ def ls_covariance(x: np.ndarray, t: str, params: dict[str, Any]) -> tuple[np.nda
     for n in NAMES[t]:
         offsets[n] = pos
         pos += 3 if n in _VECTORS else 1
-    m = np.zeros((pos, k))
+    to_global = np.zeros((pos, k))
     for j, (name, dv) in enumerate(moves):
         o = offsets[name]
         if name in _VECTORS:
-            m[o : o + 3, j] = dv
+            to_global[o : o + 3, j] = dv
         else:
-            m[o, j] = dv
-    return m @ cov_local @ m.T, names
+            to_global[o, j] = dv
+    return to_global @ cov_local @ to_global.T, names
 
 
 # -- minimum zone, min circumscribed, max inscribed by sequential LP ------------------------
