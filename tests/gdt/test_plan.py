@@ -191,6 +191,17 @@ def test_refusals_one_line_naming_file_and_key(path, value, expected):
     assert msg.startswith("plan.yaml: " + expected), msg
 
 
+def test_duplicate_ids_after_conversion():
+    doc = {"features": {1: {"type": "point", "point": [0, 0, 0]}, "1": {"type": "point", "point": [1, 0, 0]}}}
+    with pytest.raises(InputError, match=r"^plan\.yaml: features\.1: '1' is used twice"):
+        parse_plan(doc, "plan.yaml")
+    doc = _doc()
+    doc["datums"][7] = "A"
+    doc["datums"]["7"] = "B"
+    with pytest.raises(InputError, match=r"^plan\.yaml: datums\.7: '7' is used twice"):
+        parse_plan(doc, "plan.yaml")
+
+
 def test_file_refusals(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("features: [1, 2\n")

@@ -170,6 +170,9 @@ def parse_plan(doc: Any, source: str = "") -> Plan:
     if not raw_features:
         raise ck.fail("features", "empty; a plan names at least one feature")
     ids = [ck.ident(fid, f"features.{fid}") for fid in raw_features]
+    if len(set(ids)) != len(ids):  # 1 and "1" are two YAML keys but one id
+        dup = next(i for i in ids if ids.count(i) > 1)
+        raise ck.fail(f"features.{dup}", f"{dup!r} is used twice; ids must be unique")
     datums = _datums(ck, doc.get("datums") or {}, set(ids))
     datum_features = {fid for fids in datums.values() for fid in fids}
     features = {
@@ -274,6 +277,8 @@ def _datums(ck: _Checker, raw: Any, features: set[str]) -> dict[str, tuple[str, 
     for label, value in raw.items():
         key = f"datums.{label}"
         label = ck.ident(label, key)
+        if label in out:
+            raise ck.fail(key, f"{label!r} is used twice; labels must be unique")
         if isinstance(value, (list, tuple)):
             if len(value) < 2:
                 raise ck.fail(key, "a common datum names two or more features")
