@@ -185,12 +185,13 @@ def test_circle_minzone_mincircumscribed_maxinscribed_exact():
     assert a.form["max"] == pytest.approx(0, abs=TOL) and a.form["min"] == pytest.approx(-2 * e, abs=TOL)
 
 
-def test_circle_mincircumscribed_unequal_pushes_is_the_circumcircle():
-    """Three points pushed out by different amounts (not within a half circle): the min
-    circumscribed circle is their circumcircle (closed form), provided every other point
-    lies inside it (checked)."""
+@pytest.mark.parametrize("arc", [360, 251])
+def test_circle_mincircumscribed_unequal_pushes_is_the_circumcircle(arc):
+    """Three points pushed out by different amounts (not within a half circle), on the
+    full circle or a 251° arc: the min circumscribed circle is their circumcircle (closed
+    form), provided every other point lies inside it (checked)."""
     rot = _rotation(4)
-    x = _circle_points(rot, 5.0, {10: 0.02, 130: 0.035, 250: 0.01})
+    x = _circle_points(rot, 5.0, {10: 0.02, 130: 0.035, 250: 0.01})[:arc]
     q = np.column_stack([(x - FAR) @ rot[:, 0], (x - FAR) @ rot[:, 1]])
     a_, b_, c_ = q[10], q[130], q[250]
     # circumcentre: |c − a|² = |c − b|² = |c − c_|², two linear equations
@@ -361,6 +362,14 @@ def test_refused_associations_and_fallbacks():
         associate(x, _all(x), plane, "mincircumscribed")
     with pytest.raises(ParameterError, match=r"^features\.A: unknown association 'best'"):
         associate(x, _all(x), plane, "best")
+    with pytest.raises(GeometryError, match=r"^features\.A: no points belong to it$"):
+        associate(x, [], plane)
+    with pytest.raises(InputError, match=r"^features\.A: point index 999 is outside the 180 points$"):
+        associate(x, [0, 1, 999], plane)
+    bad = x.copy()
+    bad[1, 2] = np.nan
+    with pytest.raises(InputError, match=r"^features\.A: its points have NaN"):
+        associate(bad, _all(bad), plane)
     with pytest.raises(GeometryError, match=r"^features\.H: cylinder fit needs at least 5 points"):
         associate(x[:3], [0, 1, 2], _spec("H", "cylinder", point=FAR, axis=[0, 0, 1], diameter=10.0), "ls")
 

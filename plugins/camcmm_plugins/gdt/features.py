@@ -245,7 +245,14 @@ def associate(points: Any, indices: Any, spec: FeatureSpec, association: str | N
     if spec.type not in NAMES:
         raise InputError(f"features.{spec.id}: a {spec.type} feature cannot be associated (a CAD face: resolve it)")
     idx = np.asarray(indices, dtype=np.int64).reshape(-1)
-    x = np.asarray(points, dtype=float)[idx]
+    cloud = np.asarray(points, dtype=float)
+    if len(idx) == 0:
+        raise GeometryError(f"features.{spec.id}: no points belong to it")
+    if idx.min() < 0 or idx.max() >= len(cloud):
+        raise InputError(f"features.{spec.id}: point index {int(idx.max())} is outside the {len(cloud)} points")
+    x = cloud[idx]
+    if not np.isfinite(x).all():
+        raise InputError(f"features.{spec.id}: its points have NaN or Inf coordinates")
     internal = bool(spec.nominal.get("internal", False))
     warnings: list[str] = []
     if how == "tangent":
