@@ -1,0 +1,203 @@
+"""``camcmm gdt evaluate`` through its JSON (issue 27), on the synthetic block of
+helpers/gdt_parts.py whose answers are known by construction:
+
+* the bore H1's axis is offset by (0.02, −0.01) mm at z = 0 and (0.05, 0.03) mm at
+  z = 30 in the A|B|C frame: position 2·max = 2·|(0.05, 0.03)| = 0.116619 mm,
+  perpendicularity to A = |(0.03, 0.04)| = 0.05 mm;
+* the same part delivered in a scanner's frame (30° about a skew axis, 500 mm away)
+  gives the same values through the datum alignment;
+* the side D tilted by 0.001 (x = 80 + 0.001·z, sampled z 1 … 29): perpendicularity to
+  A = 0.001 · 28 mm; A on two levels 0.03 mm apart: flatness 0.03 mm;
+* a bore of Ø10.03 against 10 −0.02/+0.02: not conform.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from helpers import gdt_parts as g
+from helpers.cli import main_json, main_refused, main_run
+
+#: The issue's JSON keys (camcmm may add more, never fewer).
+FEATURE_KEYS = {"id", "type", "association", "n_points", "params", "form"}
+CHARACTERISTIC_KEYS = {
+    "id",
+    "type",
+    "feature",
+    "datums",
+    "value",
+    "unit",
+    "tolerance",
+    "u",
+    "verdict",
+    "verdict_guarded",
+}
+VERDICTS = {"conform", "not conform", "undecided", "not evaluated"}
+
+
+def _case(folder, part, doc=None):
+    return [str(p) for p in g.write_case(folder, part, doc)]
+
+
+@pytest.fixture(scope="module")
+def block(tmp_path_factory):
+    """The block in plan coordinates: (plan, cloud) paths."""
+    return _case(tmp_path_factory.mktemp("block"), g.block())
+
+
+def _by_id(doc):
+    return {c["id"]: c for c in doc["characteristics"]}
+
+
+def test_block_values_and_keys(capfd, block):
+    doc = main_json(capfd, "gdt", "evaluate", *block, "--align", "datums", "--json")
+    assert {"features", "datums", "alignment", "characteristics", "warnings"} <= set(doc)
+    assert doc["warnings"] == []
+    for f in doc["features"]:
+        assert FEATURE_KEYS <= set(f), f
+        assert f["status"] == "evaluated" and f["n_points"] >= 100
+    assert {d["label"]: d["feature"] for d in doc["datums"]} == {"A": "A", "B": "B", "C": "C"}
+    a = doc["alignment"]
+    assert a["method"] == "datums" and a["converged"] and a["free"] == []
+    assert np.allclose(a["transform"], np.eye(4), atol=1e-9)  # A, B, C are exact: the plan's frame
+    chars = _by_id(doc)
+    for c in chars.values():
+        assert CHARACTERISTIC_KEYS <= set(c), c
+        assert c["unit"] == "mm" and c["verdict"] in VERDICTS and c["verdict_guarded"] in VERDICTS
+        assert c["U"] == pytest.approx(c["k"] * c["u"])
+    assert chars["pos-H1"]["value"] == pytest.approx(g.POSITION_H1, abs=1e-8)  # 0.116619 mm
+    assert g.POSITION_H1 == pytest.approx(0.1166, abs=5e-5)
+    assert chars["pos-H1"]["datums"] == ["A", "B", "C"]
+    assert chars["perp-H1"]["value"] == pytest.approx(0.05, abs=1e-8)
+    assert chars["flat-A"]["value"] == pytest.approx(0.0, abs=1e-9)
+    assert chars["perp-D"]["value"] == pytest.approx(0.0, abs=1e-9)
+    dia = chars["dia-H1"]
+    assert dia["value"] == pytest.approx(10.0, abs=1e-8)
+    assert (dia["lower"], dia["upper"], dia["tolerance"]) == (-0.02, 0.02, None)
+    assert chars["dia-P1"]["value"] == pytest.approx(16.0, abs=1e-8)
+    assert all(c["verdict"] == c["verdict_guarded"] == "conform" for c in chars.values())
+    assert doc["summary"] == {"conform": 6}
+    # labels for the 3-D view: one per characteristic, the anchor on its feature
+    labels = {lab["id"]: lab for lab in doc["labels"]}
+    assert set(labels) == set(chars)
+    assert np.allclose(labels["dia-H1"]["anchor"][:2], [20.035, 30.01], atol=0.5)
+
+
+def test_scanner_frame_gives_the_same_values(capfd, block, tmp_path):
+    """The part 30° about (1, 2, 3) and 500 mm away: the coarse start, then the datum frame."""
+    ref = _by_id(main_json(capfd, "gdt", "evaluate", *block, "--align", "none", "--json"))
+    plan, cloud = _case(tmp_path, g.block(pose=g.SCANNER_POSE))
+    doc = main_json(capfd, "gdt", "evaluate", plan, cloud, "--align", "datums", "--json")
+    a = doc["alignment"]
+    assert [s["stage"] for s in a["stages"]][0] == "coarse start"
+    # measured -> plan is the pose's inverse
+    assert np.allclose(np.asarray(a["transform"]) @ g.SCANNER_POSE, np.eye(4), atol=1e-9)
+    for cid, c in _by_id(doc).items():
+        assert c["value"] == pytest.approx(ref[cid]["value"], abs=1e-8), cid
+        assert c["verdict_guarded"] == ref[cid]["verdict_guarded"]
+
+
+def test_tilted_plane_flatness_and_size_limits(capfd, tmp_path):
+    tilt, ripple = 0.001, 0.03
+    part = g.block(tilt_d=tilt, ripple_a=ripple, bore_diameter=10.03)
+    chars = g.plan_document()["characteristics"] + [
+        {"id": "pos-tight", "type": "position", "feature": "H1", "datums": ["A", "B", "C"], "tolerance": 0.1},
+    ]
+    plan, cloud = _case(tmp_path, part, g.plan_document(characteristics=chars))
+    c = _by_id(main_json(capfd, "gdt", "evaluate", plan, cloud, "--align", "none", "--json"))
+    assert c["perp-D"]["value"] == pytest.approx(tilt * 28.0, rel=1e-9)  # the tilt over the extent z 1 … 29
+    assert c["flat-A"]["value"] == pytest.approx(ripple, rel=1e-9)
+    assert c["dia-H1"]["value"] == pytest.approx(10.03, abs=1e-8)
+    assert c["dia-H1"]["verdict"] == c["dia-H1"]["verdict_guarded"] == "not conform"  # 0.03 over +0.02
+    assert c["pos-tight"]["verdict"] == c["pos-tight"]["verdict_guarded"] == "not conform"  # 0.1166 > 0.1
+    for r in c.values():  # the verdicts follow from value, tolerance and U as ISO 14253-1 says
+        if r["tolerance"] is None or r["value"] is None:
+            continue
+        simple = "conform" if r["value"] <= r["tolerance"] else "not conform"
+        assert r["verdict"] == simple, r["id"]
+        if r["value"] <= r["tolerance"] - r["U"]:
+            assert r["verdict_guarded"] == "conform", r["id"]
+        elif r["value"] > r["tolerance"] + r["U"]:
+            assert r["verdict_guarded"] == "not conform", r["id"]
+        else:
+            assert r["verdict_guarded"] == "undecided", r["id"]
+
+
+def test_feature_without_points_is_not_evaluated(capfd, block, tmp_path):
+    """A feature whose box holds no point: it and what depends on it are 'not evaluated',
+    with the reason, and the rest is evaluated (exit 0, warnings)."""
+    doc = g.plan_document()
+    doc["features"]["S9"] = {"type": "sphere", "centre": [40, 30, 80], "diameter": 10}
+    doc["characteristics"].append({"id": "dia-S9", "type": "diameter", "feature": "S9", "lower": -0.1, "upper": 0.1})
+    plan, cloud = _case(tmp_path, g.block(), doc)
+    out = main_json(capfd, "gdt", "evaluate", plan, block[1], "--align", "none", "--json")
+    f = {x["id"]: x for x in out["features"]}["S9"]
+    assert f["status"] == "not evaluated" and f["n_points"] == 0 and "band" in f["reason"]
+    c = _by_id(out)
+    assert c["dia-S9"]["verdict"] == c["dia-S9"]["verdict_guarded"] == "not evaluated"
+    assert c["dia-S9"]["value"] is None and "S9" in c["dia-S9"]["details"]["reason"]
+    assert c["pos-H1"]["value"] == pytest.approx(g.POSITION_H1, abs=1e-8)
+    assert any("S9" in w for w in out["warnings"])
+
+
+def test_report_and_project(capfd, block, tmp_path):
+    out = main_json(
+        capfd,
+        "gdt",
+        "evaluate",
+        *block,
+        "--align",
+        "none",
+        "--report",
+        tmp_path / "rep",
+        "--project",
+        tmp_path / "proj",
+        "--json",
+    )
+    html = (tmp_path / "rep" / "report.html").read_text("utf-8")
+    assert (tmp_path / "rep" / "report.pdf").read_bytes().startswith(b"%PDF")
+    for needle in ("pos-H1", "0.1166", "A|B|C", "⊥", "conform", "Transform measured"):
+        assert needle in html, needle
+    rep = json.loads((tmp_path / "rep" / "report.json").read_text("utf-8"))
+    assert {c["id"] for c in rep["data"]["characteristics"]} == set(_by_id(out))
+    from camcmm.project.store import Project
+
+    with Project.open(tmp_path / "proj") as project:
+        row = project.result(out["result_id"])
+    assert row["plugin"] == "gdt.evaluate"
+
+
+def test_text_table(capfd, block):
+    rc, out, err = main_run(capfd, "gdt", "evaluate", *block, "--align", "none")
+    assert rc == 0, err
+    line = next(x for x in out.splitlines() if x.startswith("pos-H1"))
+    assert "A|B|C" in line and "0.1166" in line and line.endswith("conform")
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [
+        (lambda d: d["characteristics"].append({"id": "x", "type": "flatness", "feature": "Z9"}), "Z9"),
+        (lambda d: d["features"]["A"].update(type="hexagon"), "features.A.type"),
+        (lambda d: d.update(alignment={"sideways": 1}), "alignment.sideways"),
+    ],
+)
+def test_bad_plan_refused_in_one_line(capfd, block, tmp_path, edit, needle):
+    doc = g.plan_document()
+    edit(doc)
+    plan = tmp_path / "bad.yaml"
+    plan.write_text(g.plan_yaml(doc), "utf-8")
+    err = main_refused(capfd, "gdt", "evaluate", plan, block[1], "--align", "none", code=2)
+    assert "bad.yaml" in err and needle in err
+
+
+def test_refusals_name_the_file_or_option(capfd, block, tmp_path):
+    mesh = tmp_path / "m.stl"
+    facet = "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+    mesh.write_text(f"solid m\n{facet}endsolid m\n")
+    assert "m.stl" in main_refused(capfd, "gdt", "evaluate", block[0], mesh, code=2)
+    assert "nothere.xyz" in main_refused(capfd, "gdt", "evaluate", block[0], tmp_path / "nothere.xyz", code=2)
+    assert "--k" in main_refused(capfd, "gdt", "evaluate", *block, "--k", "0", code=2)
