@@ -485,3 +485,64 @@ def test_point_feature_and_tangent_fallback():
     xk, nominal = _noisy("cone", rng, n=600)
     k = associate(xk, _all(xk), _spec("K", "cone", **nominal), "tangent")
     assert k.association == "ls" and "no tangent (ISO 5459) association for a cone" in k.warnings[0]
+
+
+class _FakeCad:
+    """A CAD model's interface as select/resolve_face use it (faces, distance): face 1
+    the plane z = 0 (outward −z: the part lies above it), face 2 a bore of radius 4 about
+    the z axis (sense −1), distances to each exact surface, the nearest face wins."""
+
+    def __init__(self):
+        from types import SimpleNamespace
+
+        self.faces = [
+            SimpleNamespace(
+                type="plane",
+                params={"point": [0, 0, 0], "normal": [0, 0, -1]},
+                bounds=np.array([[-20, -20, 0], [20, 20, 0]]),
+                sense=1,
+            ),
+            SimpleNamespace(
+                type="cylinder",
+                params={"point": [0, 0, 0], "axis": [0, 0, 1], "diameter": 8.0},
+                bounds=np.array([[-4, -4, 0], [4, 4, 10]]),
+                sense=-1,
+            ),
+        ]
+
+    def distance(self, x):
+        d1 = -x[:, 2]
+        d2 = 4 - np.hypot(x[:, 0], x[:, 1])
+        face = np.where(np.abs(d1) <= np.abs(d2), 1, 2)
+        return np.where(face == 1, d1, d2), x, face
+
+
+def test_face_features_select_and_resolve():
+    from camcmm_plugins.gdt.features import resolve_face
+
+    cad = _FakeCad()
+    phi = np.radians(np.arange(0, 360, 10.0))
+    bore = np.array([[r * np.cos(p), r * np.sin(p), z] for p in phi for z in (2.0, 5.0, 8.0) for r in (3.9, 4.0, 4.3)])
+    floor = np.array([[x, y, z] for x in (-15.0, -8.0, 8.0, 15.0) for y in (-15.0, 15.0) for z in (0.1, -0.2, 0.6)])
+    pts = np.vstack([bore, floor])
+    f2 = FeatureSpec("B", "face", {"cad": 2, "internal": False}, 0.2)
+    idx = select(pts, f2, cad)
+    assert np.array_equal(
+        idx,
+        np.flatnonzero(
+            np.isclose(np.hypot(pts[:, 0], pts[:, 1]), 3.9) | np.isclose(np.hypot(pts[:, 0], pts[:, 1]), 4.0)
+        ),
+    )
+    f1 = FeatureSpec("A", "face", {"cad": 1, "internal": False}, 0.5)
+    assert np.array_equal(select(pts, f1, cad), len(bore) + np.flatnonzero(np.abs(floor[:, 2]) <= 0.5))
+    with pytest.raises(InputError, match=r"^features\.A\.cad: face 3 does not exist \(the CAD has 2\)$"):
+        select(pts, FeatureSpec("A", "face", {"cad": 3, "internal": False}, 0.5), cad)
+    bore_spec = resolve_face(f2, cad)
+    assert bore_spec.type == "cylinder" and bore_spec.nominal["internal"] is True  # from the face's sense
+    np.testing.assert_array_equal(bore_spec.box, [[-4.2, -4.2, -0.2], [4.2, 4.2, 10.2]])
+    a = associate(pts, idx, bore_spec, "tangent")  # a hole: the max inscribed cylinder touches the 3.9 ring
+    assert a.association == "maxinscribed" and a.params["diameter"] == pytest.approx(7.8, abs=1e-12)
+    # + outside the material (towards the axis of a hole): the 3.9 ring at 0, the 4.0 ring 0.1 into the material
+    assert a.form["max"] == pytest.approx(0, abs=1e-12) and a.form["min"] == pytest.approx(-0.1, abs=1e-12)
+    plane = resolve_face(f1, cad)
+    np.testing.assert_array_equal(plane.nominal["normal"], [0, 0, -1])

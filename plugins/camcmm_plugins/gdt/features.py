@@ -465,7 +465,13 @@ def ls_covariance(x: np.ndarray, t: str, params: dict[str, Any]) -> tuple[np.nda
     angle), ``s² = Σr²/(n − p)``. J is the Jacobian of :func:`surface_distance` in a local
     parametrisation (central differences on points centred on their centroid, accurate
     to ~1e-10 relative — ample for an uncertainty; circles, lines and points use their
-    residuals' components, :func:`_components`). None without degrees of freedom."""
+    residuals' components, :func:`_components`). None without degrees of freedom.
+
+    A cylinder's or line's ``point`` moves only across its axis here: its place along
+    the axis is the start of the points' extent, not a fitted quantity. Checked by
+    simulation (400 noisy 200° arcs of a cylinder, σ = 10 µm): the spread of point
+    across the axis, of the axis' tilt and of the diameter within 5 % of these figures
+    (the statistical scatter of 400 samples' standard deviations is 3.5 %)."""
     centre = x.mean(axis=0)
     y = x - centre
     scale = float(np.sqrt(np.mean(np.einsum("ij,ij->i", y, y)))) or 1.0
