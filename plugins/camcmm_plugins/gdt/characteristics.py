@@ -224,15 +224,27 @@ _FORM_TYPES = {
 _FORM_MIN = {"flatness": 4, "straightness": 3, "cylindricity": 6, "roundness": 4}
 
 
-def _zone(spec: FeatureSpec, pts: np.ndarray) -> tuple[float, np.ndarray]:
-    """Minimum-zone width of the points (features.associate "minzone") and the indices
-    of the points on the zone's boundaries."""
-    z = features.associate(pts, np.arange(len(pts)), spec, "minzone")
-    r = z.residuals
+def _zone(spec: FeatureSpec, pts: np.ndarray, start: dict | None = None) -> tuple[float, np.ndarray, dict]:
+    """Minimum-zone width of the points, the indices of the points on the zone's
+    boundaries and the zone's element: features.associate "minzone" (a line: the thinnest
+    cylinder); with ``start`` (an earlier solution, for the Monte Carlo replicates) a
+    circle, cylinder or line goes straight to its sequential LP from there."""
+    if start is not None and spec.type in ("circle", "cylinder", "line"):
+        t = "cylinder" if spec.type == "line" else spec.type
+        crit = "mincircumscribed" if spec.type == "line" else "minzone"
+        params = features._radial_association(pts, t, start, crit, spec.id)  # noqa: SLF001 - warm start
+        w = pts - params["centre" if t == "circle" else "point"]
+        d = el.unit(params["normal" if t == "circle" else "axis"])
+        r = np.linalg.norm(w - np.outer(w @ d, d), axis=1)
+    else:
+        z = features.associate(pts, np.arange(len(pts)), spec, "minzone")
+        params, r = dict(z.params), z.residuals
+        if spec.type == "line":
+            params = {"point": params["point"], "axis": params["direction"], "diameter": params["zone"]}
     eps = 1e-9 * max(1.0, float(np.ptp(pts, axis=0).max()))
     if spec.type == "line":  # the thinnest cylinder: its diameter, the outermost points
-        return float(z.params["zone"]), np.flatnonzero(r >= r.max() - eps)
-    return float(r.max() - r.min()), np.flatnonzero((r >= r.max() - eps) | (r <= r.min() + eps))
+        return 2.0 * float(r.max()), np.flatnonzero(r >= r.max() - eps), params
+    return float(r.max() - r.min()), np.flatnonzero((r >= r.max() - eps) | (r <= r.min() + eps)), params
 
 
 def _sections(c: _Case, a: Associated, pts: np.ndarray) -> list[tuple[np.ndarray, FeatureSpec]]:
@@ -265,22 +277,22 @@ def _form(c: _Case) -> _Out:
     _need(len(pts), _FORM_MIN[kind], f"{c.spec.id}: {kind}")
     spec = c.plan.features[a.id]
     if kind == "roundness" and a.type != "circle":
-        sections = _sections(c, a, pts)
-
-        def solve(p: np.ndarray) -> tuple[float, np.ndarray]:
-            best: tuple[float, np.ndarray] = (-1.0, np.zeros(0, dtype=np.int64))
-            for sel, sec in sections:
-                v, dec = _zone(sec, p[sel])
-                if v > best[0]:
-                    best = (v, sel[dec])
-            return best
-
+        parts = _sections(c, a, pts)
     else:
+        parts = [(np.arange(len(pts)), spec)]
+    starts: list[dict | None] = [None] * len(parts)
 
-        def solve(p: np.ndarray) -> tuple[float, np.ndarray]:
-            return _zone(spec, p)
+    def solve(p: np.ndarray, keep: bool = False) -> tuple[float, np.ndarray]:
+        best: tuple[float, np.ndarray] = (-1.0, np.zeros(0, dtype=np.int64))
+        for i, (sel, sp) in enumerate(parts):
+            v, dec, params = _zone(sp, p[sel], starts[i])
+            if keep:
+                starts[i] = params
+            if v > best[0]:
+                best = (v, sel[dec])
+        return best
 
-    value, dec = solve(pts)
+    value, dec = solve(pts, keep=True)
     return _Out(value, _global(a, dec), {"zone": "minimum zone"}, lambda A, P, t: solve(P[a.id])[0], mc=(a.id,))
 
 
@@ -309,7 +321,8 @@ def _float_fit(etype: str, params: dict, pts: np.ndarray) -> dict:
                 for e in np.eye(6)
             ]
         )
-        step = -np.linalg.lstsq(jac, r, rcond=None)[0]
+        # rcond: a rotation that does not move the surface (a sphere, an axis) is no step
+        step = -np.linalg.lstsq(jac, r, rcond=1e-8)[0]
         cur = moved(step)
         if np.max(np.abs(step)) < 1e-13 * max(1.0, float(np.ptp(pts, axis=0).max())):
             break
@@ -359,10 +372,11 @@ def _required_direction(c: _Case, etype: str, nominal: dict) -> tuple[np.ndarray
         prim = c.plan.features[c.plan.datums[c.spec.datums[0]][0]]
         same = (prim.type == "plane") == (etype == "plane")
         theta = math.radians(float(angle) if same else 90.0 - float(angle))
-        h = d - (d @ z) * z
+        zz = z if d @ z >= 0 else -z  # the angle is between lines / planes: no sign
+        h = d - (d @ zz) * zz
         if np.linalg.norm(h) < 1e-9:
-            h = el.complement(z)[0]
-        d = math.cos(theta) * z + math.sin(theta) * el.unit(h)
+            h = el.complement(zz)[0]
+        d = math.cos(theta) * zz + math.sin(theta) * el.unit(h)
     rot_free = any(f.startswith("rotation") for f in free)
     if sum(f.startswith("rotation") for f in free) > 1:
         raise NotEvaluated(f"{c.spec.id}: the datums {'|'.join(c.spec.datums)} fix no direction")

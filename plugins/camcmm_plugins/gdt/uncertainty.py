@@ -6,7 +6,8 @@ says which, and ``details["u_parts"]`` each contribution):
 * **covariance of the least-squares fit** — for a value computed from associated
   elements (an axis position, a size, a distance, an orientation of an axis, a
   symmetry; and the datum frame of every characteristic). Each element involved
-  carries the covariance of its least-squares fit over its global parameters (``point_x`` ... ``diameter``; :mod:`.features`):
+  carries the covariance of its least-squares fit over its global parameters
+  (``point_x`` ... ``diameter``; :mod:`.features`):
   ``s² (JᵀJ)⁻¹``, ``s² = Σr²/(n − p)``. An element associated otherwise (a tangent
   datum, a minimum-zone element) enters with the least-squares covariance of its points
   at that element — an approximation (its residuals' offset makes it larger, while an
@@ -15,11 +16,12 @@ says which, and ``details["u_parts"]`` each contribution):
   1e-7 mm or unit-vector component) and u² = Σ g C gᵀ (features independent).
 * **Monte Carlo of the points** — for a value that is an extreme of the points (form by
   minimum zone, orientation or position of a surface, profile, runout): the value is
-  recomputed :data:`MC_REPLICATES` (= 40) times with every point of the toleranced
+  recomputed :data:`MC_REPLICATES` (= 30) times with every point of the toleranced
   feature(s) moved by independent N(0, σ²) per coordinate, σ the point noise of the
   feature estimated from the differences of the residuals of nearest neighbours
   (σ² = mean((r_i − r_nn(i))²)/2 — smooth form error cancels in them); u is the
-  standard deviation of the replicates (seed fixed: reproducible). The datum frame's
+  standard deviation of the replicates (seed fixed: reproducible; a replicate whose
+  zone does not converge is left out, and u is not given when half of them fail). The datum frame's
   contribution is added by the covariance method above.
 
 Verdicts (ISO 14253-1:2017, via :mod:`camcmm.api`'s conformity rules): a zone value v
@@ -38,12 +40,12 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from camcmm.api import guarded_verdict, simple_verdict
+from camcmm.api import GeometryError, guarded_verdict, simple_verdict
 
 from . import features
 from .model import Associated
 
-MC_REPLICATES = 40
+MC_REPLICATES = 30
 MC_SEED = 27
 _H = 1e-7  # step of the numerical Jacobians (mm, rad)
 
@@ -112,7 +114,12 @@ def monte_carlo(value: Callable[[dict[str, np.ndarray]], float], clouds: dict[st
     vals = []
     for _ in range(MC_REPLICATES):
         moved = {fid: p + rng.normal(0.0, s, p.shape) for fid, (p, s) in clouds.items()}
-        vals.append(value(moved))
+        try:
+            vals.append(value(moved))
+        except GeometryError:  # a replicate whose zone did not converge: left out
+            continue
+    if len(vals) < MC_REPLICATES // 2:
+        return float("nan")
     return float(np.std(vals, ddof=1))
 
 
