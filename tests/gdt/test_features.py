@@ -546,3 +546,29 @@ def test_face_features_select_and_resolve():
     assert a.form["max"] == pytest.approx(0, abs=1e-12) and a.form["min"] == pytest.approx(-0.1, abs=1e-12)
     plane = resolve_face(f1, cad)
     np.testing.assert_array_equal(plane.nominal["normal"], [0, 0, -1])
+
+
+def test_step_faces_as_features(shared_data):
+    """NIST CTC 01 (AP242 STEP): points sampled on the exact surfaces of a bore half
+    (face 1, Ø25), a boss quarter (face 4, Ø100) and a bore (face 10, Ø50); each face
+    feature selects exactly its own points, resolves to an (internal) cylinder and its
+    least-squares diameter is the CAD's to 1e-9 relative."""
+    pytest.importorskip("OCP")
+    from camcmm.api import read_cad
+    from camcmm_plugins.gdt.features import resolve_face
+
+    step = shared_data / "qif3" / "step" / "nist_ctc_01_asme1_ap242-e1.stp"
+    cad = read_cad(step)
+    faces = (1, 4, 10)
+    clouds = [cad.sample(face=f, n=300, seed=f).points for f in faces]
+    x = np.vstack(clouds)
+    label = np.repeat(faces, [len(c) for c in clouds])
+    for f, internal in zip(faces, (True, False, True), strict=True):
+        spec = FeatureSpec(f"F{f}", "face", {"cad": f, "internal": False}, 0.05)
+        idx = select(x, spec, cad)
+        assert np.array_equal(idx, np.flatnonzero(label == f))
+        cyl = resolve_face(spec, cad)
+        assert cyl.type == "cylinder" and cyl.nominal["internal"] is internal
+        a = associate(x, idx, cyl, "ls")
+        assert a.params["diameter"] == pytest.approx(cyl.nominal["diameter"], rel=1e-9)
+        assert a.form["range"] <= 1e-9
