@@ -766,23 +766,28 @@ def _reference_point(kind: str, p: np.ndarray, d: np.ndarray, at: np.ndarray, no
 def rps_alignment(
     plan: Plan, points: np.ndarray, T0: np.ndarray, cad: Any = None, max_iterations: int = 30
 ) -> tuple[np.ndarray, dict[str, Any]]:
-    """The RPS alignment (see the module docstring), iterated until the pose settles."""
+    """The RPS alignment (see the module docstring), iterated until the pose settles.
+    ``points`` of the info: each reference point's deviation measured − nominal (mm, plan
+    axes) at the final pose."""
     refs = rps_points(plan)
-    deviations: dict[str, list[float]] = {}
     state: dict[str, Any] = {"free": []}
 
-    def step(T: np.ndarray) -> np.ndarray:
+    def deviations(T: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """name -> (measured reference point, nominal one) at pose T."""
         X = apply(T, points)
-        rows, res, P = [], [], []
+        out = {}
         for name, ref in refs.items():
             spec = plan.features[ref["feature"]]
             kind, q, dn = _element(_Nominal(spec))
             at = ref["at"] if ref["at"] is not None else q
             _, pm, dm = _element(_associate(X, spec, cad, "ls"))
-            m = _reference_point(kind, pm, dm, at, dn)
-            n = _reference_point(kind, q, dn, at, dn)
-            deviations[name] = (m - n).tolist()
-            for e in ref["fixes"]:
+            out[name] = (_reference_point(kind, pm, dm, at, dn), _reference_point(kind, q, dn, at, dn))
+        return out
+
+    def step(T: np.ndarray) -> np.ndarray:
+        rows, res, P = [], [], []
+        for name, (m, n) in deviations(T).items():
+            for e in refs[name]["fixes"]:
                 rows.append(e)
                 res.append(float(e @ (m - n)))
                 P.append(m)
@@ -795,15 +800,16 @@ def rps_alignment(
         return _step(delta, c) @ T
 
     T, it, converged = _settle(step, T0, _plan_size(plan), max_iterations, 10 * SETTLED_MM)
-    free = state["free"]
+    final = deviations(T)
     return T, {
         "kind": "reference point system",
         "points": {
-            k: {"feature": v["feature"], "fixes": v["axes"], "deviation": deviations.get(k)} for k, v in refs.items()
+            k: {"feature": v["feature"], "fixes": v["axes"], "deviation": (final[k][0] - final[k][1]).tolist()}
+            for k, v in refs.items()
         },
         "iterations": it,
         "converged": converged,
-        "free": free,
+        "free": state["free"],
     }
 
 
