@@ -206,6 +206,18 @@ def test_circle_mincircumscribed_unequal_pushes_is_the_circumcircle(arc):
     assert np.linalg.norm(a.params["centre"] - want) <= TOL
 
 
+def test_circle_minzone_on_a_60_degree_arc():
+    """Four alternating contacts ±e on a 60° arc (the alternation of span{1, cos θ, sin θ}
+    on an arc shorter than π): the minimum zone is 2e about the constructed circle."""
+    rot = _rotation(14)
+    r0, e = 40.0, 0.003
+    x = _circle_points(rot, r0, {0: e, 20: -e, 40: e, 60: -e}, step_deg=0.5)[:121]
+    a = associate(x, _all(x), _spec("C1", "circle", centre=FAR, normal=rot[:, 2], diameter=2 * r0), "minzone")
+    assert a.form["range"] == pytest.approx(2 * e, rel=1e-9)
+    assert a.params["diameter"] == pytest.approx(2 * r0, abs=TOL)
+    assert np.linalg.norm(a.params["centre"] - FAR) <= TOL
+
+
 # -- cylinders ------------------------------------------------------------------------------
 
 
