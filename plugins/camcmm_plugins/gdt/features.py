@@ -185,11 +185,7 @@ def select(points: Any, spec: FeatureSpec, cad: Any = None, warnings: list[str] 
     if spec.type == "face":
         if cad is None:
             raise InputError(f"features.{spec.id}: a CAD face (cad: {spec.nominal.get('cad')}) needs a STEP nominal")
-        n_faces = len(cad.faces)
-        if not 1 <= spec.nominal["cad"] <= n_faces:
-            raise InputError(
-                f"features.{spec.id}.cad: face {spec.nominal['cad']} does not exist (the CAD has {n_faces})"
-            )
+        _cad_face(spec, cad)
         d, _, face = cad.distance(x)
         inside = (np.asarray(face) == spec.nominal["cad"]) & (np.abs(d) <= spec.band)
     else:
@@ -206,6 +202,14 @@ def select(points: Any, spec: FeatureSpec, cad: Any = None, warnings: list[str] 
     return np.flatnonzero(inside)
 
 
+def _cad_face(spec: FeatureSpec, cad: Any) -> Any:
+    """The CAD face a ``face`` feature names (1-based), or a one-line refusal."""
+    n_faces = len(cad.faces)
+    if not 1 <= spec.nominal["cad"] <= n_faces:
+        raise InputError(f"features.{spec.id}.cad: face {spec.nominal['cad']} does not exist (the CAD has {n_faces})")
+    return cad.faces[spec.nominal["cad"] - 1]
+
+
 def resolve_face(spec: FeatureSpec, cad: Any) -> FeatureSpec:
     """A ``face`` feature as the analytic feature of its CAD face: type and nominal from
     ``cad.faces[cad - 1]``, ``internal`` when the plan says so or the face's outward
@@ -215,10 +219,7 @@ def resolve_face(spec: FeatureSpec, cad: Any) -> FeatureSpec:
     no element."""
     if spec.type != "face":
         return spec
-    n_faces = len(cad.faces)
-    if not 1 <= spec.nominal["cad"] <= n_faces:
-        raise InputError(f"features.{spec.id}.cad: face {spec.nominal['cad']} does not exist (the CAD has {n_faces})")
-    face = cad.faces[spec.nominal["cad"] - 1]
+    face = _cad_face(spec, cad)
     if face.type not in NAMES:
         return spec
     nominal = {k: (np.asarray(v, dtype=float) if k in _VECTORS else v) for k, v in face.params.items()}
