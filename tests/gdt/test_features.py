@@ -560,16 +560,18 @@ def test_face_features_select_and_resolve():
     np.testing.assert_array_equal(plane.nominal["normal"], [0, 0, -1])
 
 
-def test_step_faces_as_features(shared_data):
+def test_step_faces_as_features():
     """NIST CTC 01 (AP242 STEP): points sampled on the exact surfaces of a bore half
     (face 1, Ø25), a boss quarter (face 4, Ø100) and a bore (face 10, Ø50); each face
     feature selects exactly its own points, resolves to an (internal) cylinder and its
     least-squares diameter is the CAD's to 1e-9 relative."""
     pytest.importorskip("OCP")
+    from helpers.paths import TEST_DATA
+
     from camcmm.api import read_cad
     from camcmm_plugins.gdt.features import resolve_face
 
-    step = shared_data / "qif3" / "step" / "nist_ctc_01_asme1_ap242-e1.stp"
+    step = TEST_DATA / "nist_pmi" / "nist_ctc_01_asme1_ap242-e1.stp"  # a copy (public domain, SOURCE.txt there)
     cad = read_cad(step)
     faces = (1, 4, 10)
     clouds = [cad.sample(face=f, n=300, seed=f).points for f in faces]
