@@ -566,10 +566,9 @@ def test_step_faces_as_features():
     feature selects exactly its own points, resolves to an (internal) cylinder and its
     least-squares diameter is the CAD's to 1e-9 relative."""
     pytest.importorskip("OCP")
-    from helpers.paths import TEST_DATA
-
     from camcmm.api import read_cad
     from camcmm_plugins.gdt.features import resolve_face
+    from helpers.paths import TEST_DATA
 
     step = TEST_DATA / "nist_pmi" / "nist_ctc_01_asme1_ap242-e1.stp"  # a copy (public domain, SOURCE.txt there)
     cad = read_cad(step)
