@@ -59,9 +59,13 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     for what, f in (("plan", args.plan), ("cloud", args.cloud), ("nominal", args.nominal)):
         if f is not None and not Path(f).is_file():
             raise InputError(f"{f}: no such file ({what})")
+    from .alignment import options, rps_points
     from .plan import read_plan
 
     plan = read_plan(args.plan)  # a bad plan is refused before the cloud is read
+    options(plan)
+    if params.get("align") == "rps":
+        rps_points(plan)
     inputs: dict[str, Any] = {"cloud": args.cloud, "plan": Path(args.plan)}
     if args.nominal:
         inputs["nominal"] = args.nominal

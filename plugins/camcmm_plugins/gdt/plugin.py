@@ -49,6 +49,8 @@ def evaluate(
     """gdt.evaluate: see :mod:`.evaluate`."""
     if not isinstance(cloud, PointCloud):
         raise InputError(f"cloud: expected a point cloud, got a {type(cloud).__name__}")
+    if cloud.n_points == 0:
+        raise InputError(f"{cloud.name}: the cloud holds no points")
     p = load_plan(plan)
     ctx.progress(0.1, f"aligning ({align})")
     ev = run_evaluation(
