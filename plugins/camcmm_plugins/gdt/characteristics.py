@@ -108,6 +108,7 @@ class _Case:
     points: np.ndarray
     associated: dict[str, Associated]
     frames: Callable[[tuple[str, ...]], DatumFrame]
+    _base_inv: np.ndarray | None = None
 
     @property
     def where(self) -> str:
@@ -141,12 +142,14 @@ class _Case:
         return self.frames(self.spec.datums).transform if self.spec.datums else np.eye(4)
 
     def transform_of(self, associated: dict[str, Associated], t: np.ndarray) -> np.ndarray:
-        """The transform ``t`` corrected for datum features moved in ``associated``."""
-        if not self.spec.datums or associated is self.associated:
+        """The transform ``t`` corrected for datum features moved in ``associated``
+        (the frame is rebuilt only when one of its features was moved)."""
+        if not self.spec.datums or all(associated.get(f) is self.associated.get(f) for f in self.datum_features()):
             return t
-        base = datum_frame(self.plan, self.associated, self.spec.datums).transform
+        if self._base_inv is None:
+            self._base_inv = np.linalg.inv(datum_frame(self.plan, self.associated, self.spec.datums).transform)
         moved = datum_frame(self.plan, associated, self.spec.datums).transform
-        return moved @ np.linalg.inv(base) @ t
+        return moved @ self._base_inv @ t
 
     def datum_features(self) -> tuple[str, ...]:
         out: list[str] = []

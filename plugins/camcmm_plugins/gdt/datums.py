@@ -155,7 +155,7 @@ def _choose(items: list[DatumElement]) -> _Choices:
         assert dz is not None
         for i in range(z + 1, len(items)):
             d = items[i].direction
-            if d is not None and np.linalg.norm(np.cross(dz, d)) > _PARALLEL:
+            if d is not None and np.linalg.norm(el.cross(dz, d)) > _PARALLEL:
                 x = i
                 break
         if x is None:
@@ -210,10 +210,10 @@ def _frame(
             elif e.direction is not None:
                 x = el.unit(e.direction - (e.direction @ z) * z)
         if x is None:
-            ref_x = ref_r[:, 0] if np.linalg.norm(np.cross(ref_r[:, 0], z)) > 1e-3 else ref_r[:, 1]
+            ref_x = ref_r[:, 0] if np.linalg.norm(el.cross(ref_r[:, 0], z)) > 1e-3 else ref_r[:, 1]
             x = el.unit(ref_x - (ref_x @ z) * z)
             free.append("rotation " + _axis_name(z))
-        r = np.column_stack([x, np.cross(z, x), z])
+        r = np.column_stack([x, el.cross(z, x), z])
     if len(ch.rows) < 3:
         a = np.array([items[i].rows[j] for i, j in ch.rows]).reshape(-1, 3)
         null = np.linalg.svd(a)[2][len(ch.rows) :] if len(ch.rows) else np.eye(3)
@@ -224,11 +224,31 @@ def _frame(
     return f, free
 
 
+_NOMINAL: dict[tuple[int, tuple[str, ...]], tuple[Plan, _Choices, np.ndarray, list[str]]] = {}
+
+
+def _nominal(plan: Plan, labels: tuple[str, ...], items: list[DatumElement] | None = None):
+    """(choices, N, free) of the nominal datums, kept per plan object and labels (an
+    uncertainty propagation rebuilds the measured frame a hundred times)."""
+    key = (id(plan), labels)
+    hit = _NOMINAL.get(key)
+    if hit is not None and hit[0] is plan:
+        return hit[1:]
+    if items is None:
+        items = [n for n, _ in _datum_elements(plan, None, labels)]
+    ch = _choose(items)
+    nom, free = _frame(items, ch, np.eye(3), np.zeros(3))
+    if len(_NOMINAL) > 64:
+        _NOMINAL.clear()
+    _NOMINAL[key] = (plan, ch, nom, free)
+    return ch, nom, free
+
+
 def nominal_frame(plan: Plan, labels: tuple[str, ...]) -> tuple[np.ndarray, list[str]]:
     """The nominal frame N (4, 4; columns x, y, z and origin in plan coordinates) of the
     datums ``labels`` and the degrees of freedom they leave free."""
-    items = [n for n, _ in _datum_elements(plan, None, labels)]
-    return _frame(items, _choose(items), np.eye(3), np.zeros(3))
+    _, nom, free = _nominal(plan, tuple(labels))
+    return nom.copy(), list(free)
 
 
 def datum_frame(plan: Plan, associated: dict[str, Associated], labels: tuple[str, ...]) -> DatumFrame:
@@ -240,9 +260,7 @@ def datum_frame(plan: Plan, associated: dict[str, Associated], labels: tuple[str
     if not labels:
         return DatumFrame(labels, np.eye(4), [])
     pairs = _datum_elements(plan, associated, labels)
-    noms = [n for n, _ in pairs]
     meas_items = [m for _, m in pairs if m is not None]
-    ch = _choose(noms)
-    nom, free = _frame(noms, ch, np.eye(3), np.zeros(3))
+    ch, nom, free = _nominal(plan, labels, [n for n, _ in pairs])
     meas, _ = _frame(meas_items, ch, nom[:3, :3], nom[:3, 3])
-    return DatumFrame(labels, nom @ np.linalg.inv(meas), free)
+    return DatumFrame(labels, nom @ np.linalg.inv(meas), list(free))
