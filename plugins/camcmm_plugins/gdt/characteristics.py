@@ -83,6 +83,8 @@ _CENTRES = ("sphere", "point", "circle")
 _LS = "covariance of the least-squares fit"
 _MC = f"monte-carlo: {unc.MC_REPLICATES} replicates of the feature's points with their estimated noise"
 _NEAR = 8  # decisive points reported near an axis end
+#: Located characteristics whose zone a free degree of freedom of the datums would move.
+_HELD = ("position", "profile", "symmetry", "line-profile", "surface-profile")
 
 
 class NotEvaluated(Exception):
@@ -697,7 +699,8 @@ def _size(c: _Case) -> _Out:
             def value_fn(A: dict[str, Associated], P: dict[str, np.ndarray], t: np.ndarray) -> float:
                 return float(A[a.id].params["diameter"])
 
-            out = _Out(value_fn(c.associated, {}, np.eye(4)), a.indices[:0], details, value_fn, ls=(a.id,))
+            extremes = np.array([int(np.argmax(a.residuals)), int(np.argmin(a.residuals))])
+            out = _Out(value_fn(c.associated, {}, np.eye(4)), _global(a, extremes), details, value_fn, ls=(a.id,))
         else:
 
             def value_fn(A: dict[str, Associated], P: dict[str, np.ndarray], t: np.ndarray) -> float:
@@ -823,19 +826,35 @@ def evaluate_characteristic(
         out = _EVALUATORS[spec.type](c)
         u, method, parts = _uncertainty(c, out)
     except (NotEvaluated, GeometryError) as exc:
-        res.warnings.append(f"{spec.id}: not evaluated: {exc}")
+        reason = str(exc).removeprefix(f"{spec.id}: ")
+        res.warnings.append(f"not evaluated: {reason}")
+        res.details["reason"] = reason
         return res
     res.value, res.u, res.u_method = float(out.value), (u if math.isfinite(u) else None), method
     res.decisive = np.asarray(out.decisive, dtype=np.int64)
     res.details = {**out.details, "u_parts": parts}
     res.warnings += out.warnings
     if res.u is None:
-        res.warnings.append(f"{spec.id}: no uncertainty (too few points for the fit's degrees of freedom)")
+        res.warnings.append(
+            "no uncertainty (too few points for the fit's degrees of freedom, or a zone that does not converge)"
+        )
+    if spec.modifier in ("MMC", "LMC"):
+        res.warnings.append(f"modifier {spec.modifier} not applied: the zone is evaluated regardless of size (RFS)")
+    if spec.datums and spec.type in _HELD:
+        free = c.frame_axis()[2]
+        if free:
+            res.warnings.append(
+                f"the datums {'|'.join(spec.datums)} leave {', '.join(free)} free: held at the nominal, not floated"
+            )
     if size_like:
+        if spec.lower is None and spec.upper is None:
+            res.warnings.append("no limits: value only")
+            res.details["reason"] = "no limits: value only"
         dev = out.details.get("deviation")
         res.verdict, res.verdict_guarded = unc.size_verdicts(dev, spec.lower, spec.upper, res.u, spec.k)
     else:
         if spec.tolerance is None:
-            res.warnings.append(f"{spec.id}: no tolerance; value only")
+            res.warnings.append("no tolerance: value only")
+            res.details["reason"] = "no tolerance: value only"
         res.verdict, res.verdict_guarded = unc.zone_verdicts(res.value, spec.tolerance, res.u, spec.k)
     return res
