@@ -469,6 +469,8 @@ class Session:
             self.state.picked_item = key
         self.remember("gui.selected_item", key)
         k = kind_of(obj)
+        if k == "cad":  # a STEP/IGES nominal is shown by its tessellation (camcmm.cad)
+            obj, k = obj.mesh, "mesh"
         if k not in ("pointcloud", "mesh", "heightmap"):
             self.view.clear()
             self.state.color_fields = []
