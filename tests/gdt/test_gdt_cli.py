@@ -36,6 +36,8 @@ CHARACTERISTIC_KEYS = {
     "verdict_guarded",
 }
 VERDICTS = {"conform", "not conform", "undecided", "not evaluated"}
+#: The block's analytic values (mm): see the module docstring.
+EXACT = {"flat-A": 0.0, "pos-H1": g.POSITION_H1, "perp-H1": 0.05, "perp-D": 0.0, "dia-H1": 10.0, "dia-P1": 16.0}
 
 
 def _case(folder, part, doc=None):
@@ -64,6 +66,7 @@ def test_block_values_and_keys(capfd, block):
     assert a["method"] == "datums" and a["converged"] and a["free"] == []
     assert np.allclose(a["transform"], np.eye(4), atol=1e-9)  # A, B, C are exact: the plan's frame
     chars = _by_id(doc)
+    assert {cid: c["value"] for cid, c in chars.items()} == pytest.approx(EXACT, abs=1e-8)
     for c in chars.values():
         assert CHARACTERISTIC_KEYS <= set(c), c
         assert c["unit"] == "mm" and c["verdict"] in VERDICTS and c["verdict_guarded"] in VERDICTS
@@ -86,9 +89,8 @@ def test_block_values_and_keys(capfd, block):
     assert np.allclose(labels["dia-H1"]["anchor"][:2], [20.035, 30.01], atol=0.5)
 
 
-def test_scanner_frame_gives_the_same_values(capfd, block, tmp_path):
+def test_scanner_frame_gives_the_same_values(capfd, tmp_path):
     """The part 30° about (1, 2, 3) and 500 mm away: the coarse start, then the datum frame."""
-    ref = _by_id(main_json(capfd, "gdt", "evaluate", *block, "--align", "none", "--json"))
     plan, cloud = _case(tmp_path, g.block(pose=g.SCANNER_POSE))
     doc = main_json(capfd, "gdt", "evaluate", plan, cloud, "--align", "datums", "--json")
     a = doc["alignment"]
@@ -96,8 +98,8 @@ def test_scanner_frame_gives_the_same_values(capfd, block, tmp_path):
     # measured -> plan is the pose's inverse
     assert np.allclose(np.asarray(a["transform"]) @ g.SCANNER_POSE, np.eye(4), atol=1e-9)
     for cid, c in _by_id(doc).items():
-        assert c["value"] == pytest.approx(ref[cid]["value"], abs=1e-8), cid
-        assert c["verdict_guarded"] == ref[cid]["verdict_guarded"]
+        assert c["value"] == pytest.approx(EXACT[cid], abs=1e-8), cid
+        assert c["verdict_guarded"] == "conform"
 
 
 def test_tilted_plane_flatness_and_size_limits(capfd, tmp_path):
@@ -201,3 +203,64 @@ def test_refusals_name_the_file_or_option(capfd, block, tmp_path):
     assert "m.stl" in main_refused(capfd, "gdt", "evaluate", block[0], mesh, code=2)
     assert "nothere.xyz" in main_refused(capfd, "gdt", "evaluate", block[0], tmp_path / "nothere.xyz", code=2)
     assert "--k" in main_refused(capfd, "gdt", "evaluate", *block, "--k", "0", code=2)
+
+
+def _block_step(path):
+    """The block with its bore (no boss) as a STEP, through OpenCascade: faces 5 (z = 0),
+    2 (y = 0), 1 (x = 0) and 7 (the bore) are A, B, C and H1."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+    from camcmm.cad.write import write_step
+
+    box = BRepPrimAPI_MakeBox(80.0, 60.0, 30.0).Shape()
+    bore = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(20, 30, -1), gp_Dir(0, 0, 1)), 5.0, 32.0).Shape()
+    write_step(BRepAlgoAPI_Cut(box, bore).Shape(), path)
+    return path
+
+
+def test_step_nominal_faces_are_the_features(capfd, tmp_path):
+    """Features named as faces of a STEP nominal take their type and nominal from the CAD:
+    the same values as the analytic plan of the same surfaces (H1 without a length: its
+    extent is the points'), with the part in a small pose. (Datum features are associated
+    by the ISO 5459 minimax — linear programs — so this test keeps to two characteristics.)"""
+    step = _block_step(tmp_path / "block.step")
+    chars = [
+        {"id": "pos-H1", "type": "position", "feature": "H1", "datums": ["A", "B", "C"], "tolerance": 0.2},
+        {"id": "dia-H1", "type": "diameter", "feature": "H1", "lower": -0.02, "upper": 0.02},
+    ]
+    faces = {"A": 5, "B": 2, "C": 1, "H1": 7}
+    doc = {"unit": "mm", "datums": {"A": "A", "B": "B", "C": "C"}, "characteristics": chars}
+    part = g.block(pose=g.pose((0.3, -1.0, 0.5), 0.4, (0.2, -0.15, 0.1)))
+    plan, cloud = _case(
+        tmp_path / "cad", part, {**doc, "features": {f: {"type": "face", "cad": i} for f, i in faces.items()}}
+    )
+    # best fit: inspect.align's ICP onto the CAD's tessellation (the boss the CAD lacks an outlier)
+    got = main_json(capfd, "gdt", "evaluate", plan, cloud, "--nominal", step, "--json")
+    assert got["alignment"]["stages"][-1]["kind"].startswith("inspect.align")
+    assert [f["type"] for f in got["features"]] == ["plane", "plane", "plane", "cylinder"]
+    analytic = g.plan_document()["features"]
+    analytic = {f: analytic[f] for f in "ABC"} | {
+        "H1": {
+            "type": "cylinder",
+            "point": [20, 30, 15],
+            "axis": [0, 0, 1],
+            "diameter": 10,
+            "internal": True,
+            "box": [[10, 20, -0.5], [30, 40, 30.5]],
+        }
+    }
+    plan, cloud = _case(tmp_path / "analytic", part, {**doc, "features": analytic})
+    ref = _by_id(main_json(capfd, "gdt", "evaluate", plan, cloud, "--json"))
+    for cid, c in _by_id(got).items():
+        assert c["value"] == pytest.approx(ref[cid]["value"], abs=1e-9), cid
+    assert ref["dia-H1"]["value"] == pytest.approx(10.0, abs=1e-8)
+    # a face the CAD does not have: one line naming the plan's key
+    plan, cloud = _case(
+        tmp_path / "bad",
+        part,
+        {**doc, "features": {"A": {"type": "face", "cad": 99}}, "datums": {}, "characteristics": []},
+    )
+    err = main_refused(capfd, "gdt", "evaluate", plan, cloud, "--nominal", step, "--align", "none", code=2)
+    assert "features.A.cad" in err and "99" in err

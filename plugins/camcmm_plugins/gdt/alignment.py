@@ -61,7 +61,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import GeometryError, InputError, PointCloud, get_algorithm
+from camcmm.api import CadModel, GeometryError, InputError, PointCloud, get_algorithm
 
 from .model import ALIGNMENTS, FeatureSpec, Plan
 
@@ -513,7 +513,7 @@ def coarse_start(
     Each candidate is best-fitted to the plan's surfaces in widening-to-narrow bands
     (:data:`WIDE_BANDS`); the one with the most points within the features' bands wins
     (a block registered upside down keeps fewer). Returns (T, info)."""
-    target = nominal.mesh if cad is not None and hasattr(nominal, "mesh") else nominal
+    target = nominal.mesh if isinstance(nominal, CadModel) else nominal
     kind = "nominal geometry"
     X = None
     if target is None:
@@ -846,7 +846,7 @@ def align(
             T, cinfo = coarse_start(plan, P, nominal, seed, cad)
             stages.append({"stage": "coarse start", "why": why, **cinfo})
     if method == "best-fit" and nominal is not None:
-        mesh = nominal.mesh if hasattr(nominal, "mesh") and not hasattr(nominal, "n_faces") else nominal
+        mesh = nominal.mesh if isinstance(nominal, CadModel) else nominal
         params: dict[str, Any] = {"align": "icp", "seed": seed}
         if "boxes" in opts:
             if len(opts["boxes"]) > 1:

@@ -15,11 +15,12 @@ a warning of the run: a missing number is never silent.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from camcmm.api import CamcmmError, InputError, to_jsonable
+from camcmm.api import CadModel, CamcmmError, InputError, to_jsonable
 
 from . import alignment as al
 from .model import Associated, CharacteristicResult, CharacteristicSpec, DatumFrame, Plan
@@ -223,6 +224,26 @@ def _associate_features(
     return associated, selected, skipped
 
 
+def resolve_faces(plan: Plan, cad: Any) -> Plan:
+    """The plan with each ``face`` feature as the analytic feature of its CAD face (a plane,
+    cylinder, cone, sphere or torus with the CAD's parameters, :func:`.features.resolve_face`),
+    so that alignment, datums and characteristics see its type; a free-form face stays a
+    face (its points and profile come from the CAD's exact distances)."""
+    from . import features
+
+    n = len(cad.faces)
+    out = {}
+    for fid, spec in plan.features.items():
+        if spec.type == "face":
+            k = spec.nominal["cad"]
+            if not 1 <= k <= n:
+                name = Path(plan.source).name if plan.source else "plan"
+                raise InputError(f"{name}: features.{fid}.cad: face {k} does not exist (the CAD has {n} faces)")
+            spec = features.resolve_face(spec, cad)
+        out[fid] = spec
+    return replace(plan, features=out)
+
+
 def evaluate(
     plan: Plan,
     points: np.ndarray,
@@ -235,7 +256,7 @@ def evaluate(
 ) -> Evaluation:
     """Evaluate ``plan`` on ``points`` (N, 3 mm, as measured). ``nominal``: a mesh,
     reference cloud or CAD model in plan coordinates (best fit to it; a CAD model's faces
-    are the ``face`` features' nominals); ``align``: :data:`.model.ALIGNMENTS`; ``k``:
+    are the ``face`` features' nominals: :func:`resolve_faces`); ``align``: :data:`.model.ALIGNMENTS`; ``k``:
     coverage factor for every characteristic (None: each one's own, default 2);
     ``start``, ``seed``, ``max_iterations``: of the alignment (:func:`.alignment.align`)."""
     from . import characteristics as chars
@@ -244,7 +265,9 @@ def evaluate(
     P = np.asarray(points, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or not len(P):
         raise InputError(f"gdt: expected (N, 3) points, got shape {P.shape}")
-    cad = nominal if nominal is not None and hasattr(nominal, "faces") else None
+    cad = nominal if isinstance(nominal, CadModel) else None
+    if cad is not None:
+        plan = resolve_faces(plan, cad)
     warnings: list[str] = []
     T, info = al.align(align, plan, P, nominal, cad, start=start, seed=seed, max_iterations=max_iterations)
     if not info.get("converged", True):
