@@ -264,3 +264,14 @@ def test_step_nominal_faces_are_the_features(capfd, tmp_path):
     )
     err = main_refused(capfd, "gdt", "evaluate", plan, cloud, "--nominal", step, "--align", "none", code=2)
     assert "features.A.cad" in err and "99" in err
+
+
+def test_an_alignment_that_does_not_settle_exits_3(capfd, tmp_path):
+    """One Gauss-Newton step from a small pose does not settle: the document is printed
+    (aligned false, the failure), one line on stderr, exit 3 — not a result to read."""
+    plan, cloud = _case(tmp_path, g.block(pose=g.pose((0.3, -1.0, 0.5), 0.4, (0.2, -0.15, 0.1))))
+    rc, out, err = main_run(capfd, "gdt", "evaluate", plan, cloud, "--max-iterations", "1", "--json")
+    assert rc == 3 and err.strip() == "camcmm: alignment best-fit did not settle in 1 iterations", err
+    doc = json.loads(out)
+    assert doc["aligned"] is False and doc["alignment"]["converged"] is False
+    assert any("did not settle" in w for w in doc["warnings"])
