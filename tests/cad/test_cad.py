@@ -191,8 +191,10 @@ def test_a_step_in_metres_and_an_iges_come_back_in_mm(tmp_path):
 
 
 def test_a_bspline_face_is_measured_by_opencascade(tmp_path):
-    """A sphere converted to NURBS: no closed form, every distance from BRepExtrema, samples
-    on the surface at their (u, v)."""
+    """A sphere converted to NURBS (rational: still exactly the sphere): no closed form; the
+    feet by OpenCascade's Newton projection from the closest triangle's (u, v), checked
+    against the sphere (1 mm noise: some go on to OpenCascade); samples on the surface at
+    their (u, v)."""
     from OCP.BRepBuilderAPI import BRepBuilderAPI_NurbsConvert
     from OCP.BRepPrimAPI import BRepPrimAPI_MakeSphere
     from OCP.gp import gp_Pnt
@@ -207,8 +209,11 @@ def test_a_bspline_face_is_measured_by_opencascade(tmp_path):
     np.testing.assert_allclose(np.linalg.norm(s.points - [1, 2, 3], axis=1), 5.0, atol=1e-7)
     P = s.points + np.random.default_rng(2).uniform(-0.3, 0.3, (30, 1)) * s.normals
     d, _, _ = cad.distance(P)
-    np.testing.assert_allclose(d, np.linalg.norm(P - [1, 2, 3], axis=1) - 5.0, atol=1e-7)
-    assert cad.distance_engine.n_exact == 30
+    np.testing.assert_allclose(d, np.linalg.norm(P - [1, 2, 3], axis=1) - 5.0, atol=1e-9)
+    assert cad.distance_engine.n_exact < 3  # the Newton feet held, not OpenCascade's global search
+    far = s.points + np.random.default_rng(4).normal(0, 1.0, (30, 3))
+    d, _, _ = cad.distance(far)
+    np.testing.assert_allclose(d, np.linalg.norm(far - [1, 2, 3], axis=1) - 5.0, atol=1e-9)
 
 
 def test_a_model_pickles_as_its_file_and_hashes_as_it(ctc01):

@@ -12,7 +12,11 @@ Three stages, each only where the one before cannot answer:
    cylinder, cone, sphere, torus; vectorised): the foot point and the outward normal
    (the face's orientation respected, :mod:`.faces`), the signed distance ``(p - q)·n``.
    This removes the facet error (the chord lies up to the tessellation's deflection inside
-   a convex surface) for every point whose closest mesh point lies inside one face.
+   a convex surface) for every point whose closest mesh point lies inside one face. A face
+   without a closed form (B-spline, offset, revolved ...) is projected by OpenCascade's
+   local Newton iteration (``ShapeAnalysis_Surface.NextValueOfUV``) seeded at the (u, v)
+   of the closest triangle's centroid; the foot is accepted where the offset is along the
+   surface normal there (a true foot point), else the point goes to stage 3.
    The foot is on the *untrimmed* surface: where the mesh's closest point lies within
    (the foot's sideways shift from it + the deflection) of the face's boundary in the mesh,
    the foot may have left the face (measured on FTC 06: a cylinder's foot 2 µm beyond its
@@ -142,6 +146,7 @@ class CadDistance:
         geometry: FaceGeometry,
         faces: list[Any],
         deflection: float,
+        triangle_uv: np.ndarray | None = None,
     ):
         self.md = md
         self.tface = np.asarray(triangle_face, dtype=np.int64)
@@ -149,6 +154,9 @@ class CadDistance:
         self.faces = faces
         self.deflection = float(deflection)
         self.tiny = 1e-9 * md.diag
+        # (M, 2): each triangle's centroid in its face's (u, v), the seed of a free-form foot
+        self.triangle_uv = triangle_uv
+        self._adaptors: dict[int, Any] = {}
         # a side of a triangle is a face boundary when the triangle across it belongs to
         # another face (or there is none); a vertex when any such side ends there
         nbr = md.nbr
@@ -215,6 +223,9 @@ class CadDistance:
         rim = self.md.on_boundary(tri, b)
         face = self.tface[tri]
         q, n, ok = self.geom.project(p, face, self.tiny)
+        free = np.flatnonzero(self.geom.kind[face] == _OTHER)
+        if free.size and self.triangle_uv is not None:
+            q[free], n[free], ok[free] = self._free_form(p[free], face[free], self.triangle_uv[tri[free]])
         off = p - q
         d = np.einsum("ij,ij->i", off, n)
         # how far the exact foot may lie from the mesh's: the chord-to-arc gap plus the
@@ -288,6 +299,44 @@ class CadDistance:
             uv = sas.ValueOfUV(gp_Pnt(*map(float, pt)), 1e-9)
             out[i] = fclass.Perform(uv, True) == TopAbs_IN
         return out
+
+    def _free_form(self, p: np.ndarray, face: np.ndarray, uv0: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Feet, outward normals and ``ok`` on faces without a closed form: OpenCascade's
+        Newton projection from ``uv0``; ``ok`` where the offset lies along the normal
+        (within 1e-6 of its length, or the point is on the surface)."""
+        from OCP.gp import gp_Pnt, gp_Pnt2d, gp_Vec
+        from OCP.TopAbs import TopAbs_REVERSED
+
+        q = np.empty_like(p)
+        n = np.zeros_like(p)
+        ok = np.zeros(len(p), dtype=bool)
+        pt, du, dv = gp_Pnt(), gp_Vec(), gp_Vec()
+        for i, (x, k, (u0, v0)) in enumerate(zip(p, face, uv0)):
+            sas, _ = self._classifier(int(k))
+            ad = self._adaptor(int(k))
+            uv = sas.NextValueOfUV(gp_Pnt2d(float(u0), float(v0)), gp_Pnt(*map(float, x)), 1e-10)
+            ad.D1(uv.X(), uv.Y(), pt, du, dv)
+            q[i] = (pt.X(), pt.Y(), pt.Z())
+            nv = np.cross((du.X(), du.Y(), du.Z()), (dv.X(), dv.Y(), dv.Z()))
+            ln = float(np.linalg.norm(nv))
+            if not ln > 0:
+                continue  # a pole: left to stage 3
+            nv /= ln
+            if self.faces[int(k)].Orientation() == TopAbs_REVERSED:
+                nv = -nv
+            n[i] = nv
+            off = x - q[i]
+            d = float(np.linalg.norm(off))
+            ok[i] = d <= self.tiny or float(np.linalg.norm(off - (off @ nv) * nv)) <= 1e-6 * d
+        return q, n, ok
+
+    def _adaptor(self, k: int) -> Any:
+        a = self._adaptors.get(k)
+        if a is None:
+            from OCP.BRepAdaptor import BRepAdaptor_Surface
+
+            a = self._adaptors[k] = BRepAdaptor_Surface(self.faces[k])
+        return a
 
     def _classifier(self, k: int) -> tuple[Any, Any]:
         c = self._classifiers.get(k)

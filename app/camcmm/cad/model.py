@@ -119,7 +119,8 @@ class CadModel:
             from .distance import CadDistance
 
             md = MeshDistance(self.mesh)
-            self._distance = CadDistance(md, self.triangle_face, self._geometry, self._topo, self.deflection)
+            tri_uv = self.uv[self.mesh.faces].mean(axis=1)  # the seeds of free-form feet
+            self._distance = CadDistance(md, self.triangle_face, self._geometry, self._topo, self.deflection, tri_uv)
         return self._distance
 
     def distance(self, points: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
