@@ -261,6 +261,8 @@ def object_span(obj) -> tuple[float, float, float]:
     pts = getattr(obj, "points", None)
     if pts is None:
         pts = getattr(obj, "vertices", None)
+    if pts is None and hasattr(obj, "triangle_face"):  # a CAD model (camcmm.cad): its tessellation
+        pts = obj.mesh.vertices
     if pts is None or len(pts) == 0:
         return (0.0, 0.0, 0.0)
     import numpy as np

@@ -346,7 +346,7 @@ def info(path: str | Path, unit: str | None = None) -> dict[str, Any]:
         out["warnings"] = [] if obj.n_valid else [f"{p.name}: the height map has no valid point"]
     elif isinstance(obj, CadModel):
         out.update(obj.summary())
-        out["kind"] = _CAD
+        out.update(kind=_CAD, unit="mm", bbox={"min": obj.bounds[0].tolist(), "max": obj.bounds[1].tolist()})
         out["warnings"] = []
     elif isinstance(obj, Image):
         d = obj.data
