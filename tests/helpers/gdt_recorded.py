@@ -5,8 +5,8 @@ do with an evaluation does not depend on how it was computed.
 
 Its numbers are real for the sphere it is given: the plan's sphere feature is fitted by
 ``fit.sphere`` (least squares) through the host, the diameter characteristic is the fitted
-diameter minus the nominal, the profile the span of the radial residuals; the verdicts
-follow from them by ISO 14253-1 with U = 2·u.
+diameter (its limits deviations from the nominal, as the plugin's), the profile twice the
+largest radial residual; the verdicts follow from them by ISO 14253-1 with U = 2·u.
 """
 
 from __future__ import annotations
@@ -72,9 +72,11 @@ def evaluate(ctx: Any, cloud: Any, plan: dict, nominal: Any = None, align: str =
     u_r = float(fit["std_uncertainty"]["radius"])
     chars, labels = [], []
     for c in plan["characteristics"]:
-        if c["type"] == "diameter":
-            value = 2 * radius - float(f["diameter"])
-            u, lo, hi, tol, dec = 2 * u_r, float(c["lower"]), float(c["upper"]), None, [int(np.argmax(res))]
+        if c["type"] == "diameter":  # the size itself; its limits are deviations from the nominal
+            value = 2 * radius
+            nominal = float(f["diameter"])
+            u, tol, dec = 2 * u_r, None, [int(np.argmax(res))]
+            lo, hi = nominal + float(c["lower"]), nominal + float(c["upper"])
         else:
             value = float(np.ptp(res)) if c["type"] != "surface-profile" else 2 * float(np.abs(res).max())
             u, lo, hi, tol = float(res.std() / np.sqrt(len(res))), 0.0, float(c["tolerance"]), float(c["tolerance"])

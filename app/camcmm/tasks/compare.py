@@ -369,11 +369,13 @@ def write_report(
     nominal: Any,
     tolerance: float | None = None,
     project_path: str = "",
+    extend: Callable[[Any], None] | None = None,
 ) -> dict[str, str]:
     """The provider's report of ``comparison`` (html, pdf, json ...) written in ``folder``:
     ``{format: path}``. ``measured`` and ``nominal`` are the items' ids (their names and
     file hashes go in; the provenance names ``project_path``); ``tolerance`` (mm) falls back
-    on the run's own."""
+    on the run's own; ``extend(report)`` adds sections before it is written (the
+    characteristics of :mod:`camcmm.tasks.gdt`)."""
     build = report_writer(spec)
     o = dict(comparison.outputs)
     if tolerance is None:
@@ -393,6 +395,8 @@ def write_report(
             inputs.append({"file": str(m.get("name")), "sha256": m["hash"], "role": role})
     if inputs:
         rep.provenance(inputs=inputs, extra={"project": project_path, "result": rid})
+    if extend is not None:
+        extend(rep)
     return rep.write(folder, basename=f"inspection-{rid or 'new'}")
 
 
@@ -475,10 +479,16 @@ class CompareTask:
         return restore(self.project, self.items)
 
     def write_report(
-        self, comparison: Comparison, folder: Path, measured: Any, nominal: Any, tolerance: float | None = None
+        self,
+        comparison: Comparison,
+        folder: Path,
+        measured: Any,
+        nominal: Any,
+        tolerance: float | None = None,
+        extend: Callable[[Any], None] | None = None,
     ) -> dict[str, str]:
         where = str(getattr(self.project, "path", ""))
-        return write_report(self.spec, comparison, self.items, folder, measured, nominal, tolerance, where)
+        return write_report(self.spec, comparison, self.items, folder, measured, nominal, tolerance, where, extend)
 
     def record_report(self, comparison: Comparison, paths: dict[str, str]) -> dict[str, str]:
         return record_report(self.project, comparison, paths)

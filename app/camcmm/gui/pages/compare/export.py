@@ -117,8 +117,14 @@ class Export:
         """Worker thread: the plugin's report in ``folder``, recorded in the project."""
         page, s = self.page, self.state
         comparison = page.comparison
+        gdt = getattr(page, "gdt", None)  # the characteristics evaluated, as a section of the report
         paths = page.task.write_report(
-            comparison, folder, s.ins_measured, s.ins_nominal, page.inputs.tolerance(quiet=True)
+            comparison,
+            folder,
+            s.ins_measured,
+            s.ins_nominal,
+            page.inputs.tolerance(quiet=True),
+            extend=gdt.report_extension() if gdt is not None else None,
         )
         return paths, page.task.record_report(comparison, paths)
 

@@ -128,6 +128,8 @@ class Inputs:
     def show_inputs(self, reset_camera: bool = True, push: bool = True) -> bool:
         """The inputs scene (both objects as they are) for picking point pairs."""
         s = self.state
+        if getattr(self.page, "gdt", None) is not None:
+            self.page.gdt.stop_picking()  # the clicks are the pairs' again
         try:
             measured = self.load(s.ins_measured, "measured cloud") if s.ins_measured else None
             nominal = self.load(s.ins_nominal, "nominal") if s.ins_nominal else None
@@ -273,6 +275,9 @@ class Inputs:
         """As :meth:`pick_at` with display pixels (x right, y up)."""
         s = self.state
         scene = self.view.scene
+        gdt = getattr(self.page, "gdt", None)
+        if gdt is not None and gdt.picking and scene == "inputs":  # a feature picked on the nominal
+            return gdt.pick(x, y)
         if scene == "inputs":
             if not self.pairs_method():
                 s.ins_pick_hint = "choose a 'pairs' alignment to pick point pairs; after Run, a click shows a deviation"

@@ -456,6 +456,7 @@ def _mode_bar(on_mode: Any) -> None:
                 raw_attrs=tid("ins-mode-bands"),
             )
             v.VBtn("Inputs", value="inputs", raw_attrs=tid("ins-mode-inputs"))
+            v.VBtn("Characteristics", value="gdt", disabled=("!gdt_results.length",), raw_attrs=tid("ins-mode-gdt"))
         v.VChip(
             "{{ ins_legend_title }} · {{ ins_limit_text }}",
             v_if="ins_mode === 'colour'",
@@ -585,25 +586,52 @@ def _picked_card() -> None:
 
 
 def _charts_column(page: Any) -> None:
-    """The histogram, the Abbott-Firestone curve and the section with its controls."""
+    """The charts (histogram, Abbott-Firestone curve, section) or the characteristics
+    panel (:mod:`.characteristics_view`), by the toggle on top."""
     from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    from .characteristics_view import build_panel
 
     with html.Div(
         classes="pa-2 d-flex flex-column ga-2",
-        raw_attrs=tid("ins-charts"),
         style="flex: 0 0 34%; max-width: 34%; overflow-y: auto; border-left: 1px solid rgba(0,0,0,0.12);",
     ):
-        _chart("height: 30vh; min-height: 200px;", "ins-histogram", "ins_fig_hist")
-        _chart("height: 32vh; min-height: 220px;", "ins-af", "ins_fig_af")
-        _section_controls(page)
-        html.Div(
-            "{{ ins_section_axis }} = {{ Number(ins_section_pos).toFixed(3) }} mm: the nominal cut (black) "
-            "with deviation whiskers (magnified as the legend says; red outward, blue inward) of the "
-            "measured points within ± half their spacing of the plane",
-            v_if="ins_has_result",
-            classes="text-caption text-medium-emphasis",
-        )
-        _chart("height: 34vh; min-height: 220px;", "ins-section", "ins_fig_section")
+        with v.VBtnToggle(
+            v_model=("ins_right",),
+            mandatory=True,
+            density="compact",
+            variant="outlined",
+            divided=True,
+            color="primary",
+            style="flex: 0 0 auto; align-self: flex-start;",
+            raw_attrs=tid("ins-right"),
+        ):
+            v.VBtn("Charts", value="charts", size="small", raw_attrs=tid("ins-right-charts"))
+            v.VBtn("Characteristics", value="gdt", size="small", raw_attrs=tid("ins-right-gdt"))
+        with html.Div(v_show="ins_right === 'gdt'", style="flex: 0 0 auto;"):
+            build_panel(page)
+        # v-show on a wrapper: Vuetify's d-flex (display: flex !important) would defeat it
+        with html.Div(v_show="ins_right !== 'gdt'", style="flex: 0 0 auto;"):
+            with html.Div(classes="d-flex flex-column ga-2", raw_attrs=tid("ins-charts")):
+                _charts(page)
+
+
+def _charts(page: Any) -> None:
+    """The histogram, the Abbott-Firestone curve and the section with its controls."""
+    from trame.widgets import html
+
+    _chart("height: 30vh; min-height: 200px;", "ins-histogram", "ins_fig_hist")
+    _chart("height: 32vh; min-height: 220px;", "ins-af", "ins_fig_af")
+    _section_controls(page)
+    html.Div(
+        "{{ ins_section_axis }} = {{ Number(ins_section_pos).toFixed(3) }} mm: the nominal cut (black) "
+        "with deviation whiskers (magnified as the legend says; red outward, blue inward) of the "
+        "measured points within ± half their spacing of the plane",
+        v_if="ins_has_result",
+        classes="text-caption text-medium-emphasis",
+    )
+    _chart("height: 34vh; min-height: 220px;", "ins-section", "ins_fig_section")
 
 
 def _chart(style: str, testid: str, figure: str) -> None:

@@ -54,6 +54,7 @@ from ....tasks.compare import STATE_KEY, Checked, CompareTask, Comparison
 from ...downloads import Downloads
 from ...jobs import Job
 from ...viewtools import ViewTools
+from .characteristics import Characteristics
 from .export import Export
 from .figures import empty_figure
 from .inputs import Inputs
@@ -105,6 +106,9 @@ class ComparePage:
         self._init_state()
         self.refresh_inputs()
         self.restore()
+        # the GD&T characteristics panel (plan, run, results, flags): after the comparison is
+        # restored, so that its own last result is what the view shows when there is one
+        self.gdt = Characteristics(self)
 
     # -- state ---------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -356,6 +360,7 @@ class ComparePage:
     # -- shutdown --------------------------------------------------------------------------
     def close(self) -> None:
         self.job.close()
+        self.gdt.close()
         self.offered.close()
         try:
             self.view.plotter.close()

@@ -114,6 +114,14 @@ def pick_point(
 def pick_surface(renderer: Any, actor: Any, x: float, y: float) -> np.ndarray | None:
     """The point of ``actor``'s surface under display position (x, y) (vtkCellPicker),
     or None."""
+    hit = pick_cell(renderer, actor, x, y)
+    return None if hit is None else hit[0]
+
+
+def pick_cell(renderer: Any, actor: Any, x: float, y: float) -> tuple[np.ndarray, int] | None:
+    """The point of ``actor``'s surface under display position (x, y) and the index of
+    the cell (triangle) it lies on (vtkCellPicker), or None: a CAD face is found from its
+    triangle."""
     from vtkmodules.vtkRenderingCore import vtkCellPicker
 
     picker = vtkCellPicker()
@@ -121,5 +129,5 @@ def pick_surface(renderer: Any, actor: Any, x: float, y: float) -> np.ndarray | 
     picker.PickFromListOn()
     picker.AddPickList(actor)
     if picker.Pick(float(x), float(y), 0.0, renderer) and picker.GetCellId() >= 0:
-        return np.asarray(picker.GetPickPosition(), dtype=float)
+        return np.asarray(picker.GetPickPosition(), dtype=float), int(picker.GetCellId())
     return None

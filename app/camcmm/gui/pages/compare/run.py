@@ -170,6 +170,9 @@ class Display:
     def set_mode(self, mode: str) -> None:
         """The view's mode: colour | bands | inputs."""
         s = self.state
+        if mode == "gdt":  # the characteristics' flags (the panel's evaluation)
+            self.page.gdt.show()
+            return
         if mode not in ("colour", "bands", "inputs"):  # the toggle's button pressed again
             s.ins_mode = self.view.scene if self.view.scene != "empty" else "inputs"
             s.dirty("ins_mode")

@@ -1,0 +1,167 @@
+"""The characteristics panel of the Compare page without a browser: its texts and flag
+layout (pure functions), then the panel on a real project — a sphere feature from the
+whole nominal (an icosphere: its fit is the ball exactly), a diameter and a profile,
+refusals in one line, Run through a stand-in provider with the contract's outputs
+(helpers/gdt_recorded.py; the real plugin runs in tests/browser/test_browser_gdt.py),
+the results and flags, the report's section, the YAML export and import, and the plan
+and results back after the project is reopened."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+
+import numpy as np
+import pytest
+import yaml
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+pytest.importorskip("trame")
+pytest.importorskip("pyvista")
+
+from camcmm.gui.pages.compare.characteristics import feature_summary, result_rows, result_texts  # noqa: E402
+from camcmm.gui.pages.compare.flags import FLAG_STEP, flag_positions, flag_texts  # noqa: E402
+from camcmm.model import PointCloud  # noqa: E402
+from camcmm.report import Report  # noqa: E402
+from camcmm.tasks import gdt  # noqa: E402
+from helpers import gdt_recorded  # noqa: E402
+
+
+# ------------------------------------------------------------------------------ texts and layout
+def test_results_are_written_in_the_page_s_units_with_their_limits():
+    size = {"id": "d", "type": "diameter", "value": 19.99968, "u": 0.00023, "k": 2, "unit": "mm"}
+    plan = {"characteristics": [{"id": "d", "lower": -0.01, "upper": 0.01}]}
+    t = result_texts(size, plan)  # decimals as u resolves them (two digits of u = 0.23 µm)
+    assert t == {"value": "19.99968 mm", "U": "0.46 µm (k = 2)", "tolerance": "−0.010 / +0.010 mm"}
+    zone = {"id": "p", "type": "surface-profile", "value": 0.038, "u": 0.0034, "U": 0.0068, "k": 2, "tolerance": 0.05}
+    assert result_texts(zone) == {"value": "38.0 µm", "U": "6.80 µm (k = 2)", "tolerance": "50.0 µm"}
+    angle = {"id": "a", "type": "angularity", "value": 30.0123, "u": 0.004, "unit": "deg", "tolerance": 0.05}
+    assert result_texts(angle)["value"] == "30.012 deg"
+    none = result_texts({"id": "x", "type": "flatness", "value": None, "verdict": "not evaluated"})
+    assert none == {"value": "—", "U": "—", "tolerance": "—"}
+    rows = result_rows([{**zone, "verdict": "conform", "verdict_guarded": "undecided"}])
+    assert rows[0]["title"] == "Profile of a surface" and rows[0]["verdict"] == "undecided"
+    assert rows[0]["colour"] == gdt.VERDICT_COLOURS["undecided"] and rows[0]["simple"] == "conform"
+    f = {"type": "sphere", "centre": [-8.88e-16, 1e-17, 3.0], "diameter": 19.999999999999996}
+    assert feature_summary(f) == "centre (0, 0, 3) mm, ⌀ 20 mm"
+
+
+def test_flags_stand_in_a_column_beside_the_part_no_two_closer_than_a_step():
+    anchors = np.array([[100, 300], [120, 305], [90, 100], [300, 299], [50, 900]])
+    pos = flag_positions(anchors, 640, top=800)
+    assert np.all(pos[:, 0] == 640) and pos[:, 1].max() <= 800
+    y = np.sort(pos[:, 1])
+    assert np.all(np.diff(y) >= FLAG_STEP - 1e-9)
+    # as high as the anchor where there is room, in the anchors' order from the top down
+    assert pos[2, 1] == 100 and list(np.argsort(-pos[:, 1])) == list(np.argsort(-anchors[:, 1], kind="stable"))
+    chars = [{"id": "p", "type": "flatness", "value": 0.012, "verdict": "conform", "verdict_guarded": "conform"}]
+    labels = [
+        {"id": "p", "anchor": [1, 2, 3], "decisive": [[1, 2, 3]], "verdict": "conform"},
+        {"id": "q", "anchor": None},  # nothing to point at: left out
+    ]
+    flags = flag_texts(chars, labels, lambda c: {"value": "12.0 µm"})
+    assert len(flags) == 1 and flags[0]["text"] == "p · Flatness\n12.0 µm · conform"
+    assert flags[0]["colour"] == gdt.VERDICT_COLOURS["conform"] and flags[0]["decisive"].shape == (1, 3)
+
+
+# ------------------------------------------------------------------------------ the panel
+def _project(app, tmp_path):
+    """A GUI on a project holding a cap of a 20 mm ball (2 µm noise) and an icosphere nominal."""
+    from camcmm.demo import _icosphere
+    from tasks.test_gdt_task import sphere_cap
+
+    server, session = app(tmp_path / "proj", host=gdt_recorded.RecordedHost())
+    for obj, name in (
+        (PointCloud(sphere_cap(2000), name="cap"), "cap.ply"),
+        (_icosphere(10.0, subdivisions=3), "ball.ply"),
+    ):
+        h = session.project.add_object(obj, name)
+        session.add_measurement(name, h, obj)
+    session.refresh_items()
+    page = server.pages["compare"]
+    page.refresh_inputs()
+    return server, session, page
+
+
+def test_a_plan_defined_run_shown_reported_exported_and_back_after_a_reopen(gui_app, tmp_path):
+    server, session, page = _project(gui_app, tmp_path)
+    s, g = server.state, page.gdt
+    names = {it["id"]: it["name"] for it in s.items}
+    assert names[s.ins_measured] == "cap.ply" and names[s.ins_nominal] == "ball.ply"
+    assert g.add_feature() is None and "pick the feature on the nominal first" in s.ins_error
+
+    # the whole nominal: the icosphere's vertices lie on the ball, so its fit is the ball
+    params = g.pick_whole()
+    assert params["type"] == "sphere" and abs(params["diameter"] - 20.0) < 1e-9 and "box" not in params
+    assert np.allclose(params["centre"], 0, atol=1e-9) and s.gdt_f_ready
+    s.gdt_f_id = "S1"
+    assert g.add_feature() == "S1" and s.gdt_feature_ids == ["S1"] and s.gdt_c_type == "diameter"
+    assert s.gdt_c_id == "diameter-S1"
+
+    # a characteristic the plan cannot take is refused in one line naming it
+    s.gdt_c_lower, s.gdt_c_upper = "0.02", "0.01"
+    assert g.add_characteristic() is None and "diameter-S1" in s.ins_error and "not below upper" in s.ins_error
+    s.gdt_c_lower, s.gdt_c_upper = "-0,01", "0.01"  # a decimal comma as typed
+    assert g.add_characteristic() == "diameter-S1"
+    g.set_char("surface-profile")
+    assert s.gdt_c_id == "surface-profile-S1"
+    s.gdt_c_tol = "0"
+    assert g.add_characteristic() is None and "must be a positive" in s.ins_error
+    s.gdt_c_tol = "0.05"
+    assert g.add_characteristic() == "surface-profile-S1"
+    assert [c["tolerance"] for c in s.gdt_chars] == ["−0.010 / +0.010 mm", "50.0 µm"]
+
+    # a region picked around a point of the nominal: its vertices within the radius, a box
+    s.gdt_f_radius = "5"
+    region = g.pick_point([0.0, 0.0, 10.0])
+    P = g.vertices(g.nominal())
+    inside = np.linalg.norm(P - [0, 0, 10], axis=1) <= 5
+    assert "box" in region and len(g.region) == int(inside.sum()) and abs(region["diameter"] - 20) < 1e-9
+    assert np.allclose(region["box"], [P[inside].min(axis=0) - 0.5, P[inside].max(axis=0) + 0.5])
+    s.gdt_f_radius = "-1"
+    assert g.pick_point([0.0, 0.0, 10.0]) is None and "region radius" in s.ins_error
+
+    # Run: the results table and the flags in the view
+    ev = asyncio.run(g.run_async())
+    assert ev is not None, s.ins_error
+    assert [r["id"] for r in s.gdt_results] == ["diameter-S1", "surface-profile-S1"]
+    dia = ev.characteristics[0]
+    assert s.gdt_results[0]["value"] == result_texts(dia, g.plan)["value"] and s.gdt_results[0]["verdict"] == "conform"
+    assert page.view.scene == "gdt" and s.ins_mode == "gdt"
+    assert sum(1 for k in page.view._actors if k.startswith("flag") and k[4:].isdigit()) == 2
+    assert "Best fit to the nominal" in s.gdt_result_note
+
+    # the report's section (added to the Compare report by its writer's extend hook)
+    rep = Report("Compare with CAD")
+    g.report_extension()(rep)
+    html = rep.render_html()
+    assert "Geometric characteristics" in html and "Profile of a surface" in html and "19.99" in html
+
+    # the plan as YAML: read back to the plan; an imported plan replaces it
+    link = g.export_yaml()
+    doc = yaml.safe_load((page.downloads / link["name"]).read_text("utf-8"))
+    assert doc == yaml.safe_load(gdt.plan_yaml(g.plan)) and list(doc)[:3] == ["unit", "band", "features"]
+    assert doc["characteristics"][0] == {
+        "id": "diameter-S1",
+        "type": "diameter",
+        "feature": "S1",
+        "lower": -0.01,
+        "upper": 0.01,
+    }
+    assert not g.import_yaml(b"features: [\n", "bad.yaml") and "bad.yaml: not valid YAML" in s.ins_error
+    plan = g.plan
+
+    # reopened: the plan and the last results are there
+    project_dir = session.project.path
+    server.pages["compare"].close()
+    server.session.close()
+    session.project.close()
+    server2, _ = gui_app(project_dir, host=gdt_recorded.RecordedHost())
+    g2 = server2.pages["compare"].gdt
+    assert g2.plan == plan and server2.state.gdt_feature_ids == ["S1"]
+    assert [r["value"] for r in server2.state.gdt_results] == [r["value"] for r in s.gdt_results]
+    assert g2.show() and server2.pages["compare"].view.scene == "gdt"
+    more = {**plan, "features": {**plan["features"], "P": {"type": "point", "point": [1, 2, 3]}}}
+    assert g2.import_yaml(gdt.plan_yaml(more).encode(), "more.yaml")
+    assert server2.state.gdt_feature_ids == ["S1", "P"]
