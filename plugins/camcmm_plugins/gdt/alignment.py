@@ -76,6 +76,8 @@ FREE_RCOND = 1e-6
 #: Share of the measured points within the features' bands above which a principal-axes
 #: start is taken without trying the (slower) feature-matching registration.
 GOOD_SHARE = 0.5
+#: Measured points the coarse start works on at most (a seeded random subset).
+COARSE_POINTS = 20000
 #: Points sampled on the nominal surfaces for the coarse start.
 COARSE_SAMPLES = 20000
 _AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
@@ -537,6 +539,8 @@ def coarse_start(
     elif hasattr(target, "vertices"):
         X = np.asarray(target.vertices, float)
     P = np.asarray(points, float)
+    if len(P) > COARSE_POINTS:  # a seeded subset: the start needs the shape, not every point
+        P = P[np.random.default_rng(seed).choice(len(P), COARSE_POINTS, replace=False)]
     icp = get_algorithm("inspect.align")
     tried: dict[str, int] = {}
     best: tuple[int, str, np.ndarray] = (-1, "", np.eye(4))
