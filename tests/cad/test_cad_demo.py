@@ -6,6 +6,8 @@ tolerance)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy.optimize import least_squares
@@ -15,6 +17,7 @@ from camcmm.host import default_host
 from camcmm.project import Project
 from camcmm.tasks.compare import CompareRequest, CompareTask
 from camcmm.tasks.items import ProjectItems
+from camcmm_plugins.inspection.report import build_report
 
 pytest.importorskip("OCP", reason="OpenCascade (cadquery-ocp-novtk) is not installed")
 if "inspect.compare" not in default_host().plugins:
@@ -72,3 +75,6 @@ def test_the_mesh_nominal_states_its_chordal_error_and_warns(demo):
     assert 0.011 < o["nominal_info"]["chordal_error"] < 0.0116
     assert o["stats"]["mean"] > 0.004  # the facet bias the issue found (+5.3 µm)
     assert any("chordal error" in w for w in comparison.result.warnings)
+    # the report says it too
+    rep = build_report(dict(o), cloud_file=SCAN, nominal_file=MESH, run=comparison.result, tolerance=TOL)
+    assert "chordal error" in json.dumps(rep.to_dict(), default=str)

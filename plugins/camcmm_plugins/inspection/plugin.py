@@ -237,10 +237,12 @@ def compute_deviations(
                         "every deviation carries up to that bias; compare with the exact surface (a STEP file) "
                         "or a finer mesh"
                     )
-        for note in nom.mesh.info.notes:
-            ctx.warn(f"{nom.name}: {note}")
-        if nom.mesh.info.n_flipped:
-            ctx.warn(f"{nom.name}: {nom.mesh.info.n_flipped} triangles were wound the other way and were turned")
+            # the mesh's own findings (a CAD model's tessellation is outward by construction,
+            # and its distances do not rest on it)
+            for note in nom.mesh.info.notes:
+                ctx.warn(f"{nom.name}: {note}")
+            if nom.mesh.info.n_flipped:
+                ctx.warn(f"{nom.name}: {nom.mesh.info.n_flipped} triangles were wound the other way and were turned")
     else:
         if nom.cloud is None:
             raise ParameterError(f"distance {distance!r} needs a reference cloud; for a mesh use mesh")

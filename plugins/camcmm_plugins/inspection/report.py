@@ -497,6 +497,13 @@ def _deviation_sections(r: Report, o: dict[str, Any], st: dict[str, Any], mr: di
         f"Signed distance of every measured point to the nominal ({o['distance_method']}). Positive: outside "
         "the material (red), negative: inside (blue). Colours saturate at ±" + _fmt_mm(limit) + "."
     )
+    chord = (o.get("nominal_info") or {}).get("chordal")
+    if chord:  # a mesh standing for a known surface: the bias its facets put into every deviation
+        s.paragraph(
+            f"The nominal mesh's vertices lie on one {chord['surface']} (radius {_fmt_mm(chord['radius'])}); its "
+            f"facets lie up to {_fmt_mm(chord['error'])} inside it (chordal error), and every deviation carries "
+            "up to that bias. Compare with the exact surface (a STEP file) to remove it."
+        )
     P = dev_cloud.points
     s.figure(deviation_views(P, dev, limit, title="Deviation colour map"), caption="Deviations, two views")
     if _is_flat(P):
