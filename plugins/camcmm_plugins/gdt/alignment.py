@@ -589,12 +589,17 @@ def datum_labels(plan: Plan, opts: dict[str, Any]) -> tuple[str, ...]:
     return tuple(list(plan.datums)[:3])
 
 
-def _associate(X: np.ndarray, spec: FeatureSpec, cad: Any, association: str | None = None) -> Any:
+def _associate(plan: Plan, X: np.ndarray, spec: FeatureSpec, cad: Any, association: str | None = None) -> Any:
+    """The feature associated on the points within its band (pose X); a feature the
+    alignment rests on with too few points is a refusal naming the plan and the feature."""
     from . import features
 
     idx = _select(X, spec, cad)
     if len(idx) < MIN_POINTS:
-        raise InputError(f"feature {spec.id}: {len(idx)} points within its band; the alignment needs it")
+        raise InputError(
+            f"{_name(plan)}: features.{spec.id}: {len(idx)} points within its band of {spec.band:g} mm; "
+            "the alignment rests on this feature"
+        )
     return features.associate(X, idx, spec, association)
 
 
@@ -609,7 +614,7 @@ def datum_alignment(
 
     def step(T: np.ndarray) -> np.ndarray:
         X = apply(T, points)
-        frame = dmod.datum_frame(plan, {f: _associate(X, plan.features[f], cad) for f in fids}, labels)
+        frame = dmod.datum_frame(plan, {f: _associate(plan, X, plan.features[f], cad) for f in fids}, labels)
         state["free"] = list(frame.free)
         return np.asarray(frame.transform, float) @ T
 
@@ -667,7 +672,7 @@ def three_two_one(
 
     def step(T: np.ndarray) -> np.ndarray:
         X = apply(T, points)
-        meas = [_element(_associate(X, s, cad, "ls")) for s in specs]
+        meas = [_element(_associate(plan, X, s, cad, "ls")) for s in specs]
         nomi = [_element(_Nominal(s)) for s in specs]
         # rotations: the primary normal onto its nominal, then the secondary's direction
         # turned about that normal onto its nominal (both projected across the normal)
@@ -784,7 +789,7 @@ def rps_alignment(
             spec = plan.features[ref["feature"]]
             kind, q, dn = _element(_Nominal(spec))
             at = ref["at"] if ref["at"] is not None else q
-            _, pm, dm = _element(_associate(X, spec, cad, "ls"))
+            _, pm, dm = _element(_associate(plan, X, spec, cad, "ls"))
             out[name] = (_reference_point(kind, pm, dm, at, dn), _reference_point(kind, q, dn, at, dn))
         return out
 

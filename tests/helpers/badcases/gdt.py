@@ -5,7 +5,8 @@ file and the key path (``features.A.type``, ``characteristics[0].feature``,
 ``alignment.sideways``, ``rps.R1.fixes``); a cloud that is not one (an image, a mesh, an
 empty PLY, NaN coordinates, a missing file) is refused naming its file; a cloud far from
 the plan with the coarse start switched off is refused naming the plan (no feature has
-points within its band); options are refused naming the option. A plan whose features
+points within its band), as is a datum or 3-2-1 alignment whose feature finds no points
+(naming the plan and ``features.C``); options are refused naming the option. A plan whose features
 find no points (three points, or a CAD face without a STEP nominal) is evaluated: exit 0,
 those features and their characteristics "not evaluated", each in ``warnings``.
 
@@ -102,6 +103,13 @@ def cases() -> list[Case]:
             ("H1",),
             "--align",
             "3-2-1",
+        ),
+        _case(
+            "datum-feature-without-points",
+            _plan(_set("features.C.box", [[100, 100, 100], [101, 101, 101]])),
+            ("features.C",),
+            "--align",
+            "datums",
         ),
         # the cloud
         Case("gdt-cloud-missing", ("gdt", "evaluate", PLAN, "none.xyz"), {PLAN: _plan()}, ("none.xyz",)),
