@@ -187,6 +187,13 @@ def not_evaluated(spec: CharacteristicSpec, reason: str) -> CharacteristicResult
     )
 
 
+def _names(value: Any) -> list[str]:
+    """Feature ids a characteristic option names (one id or a list; None: none)."""
+    if value is None:
+        return []
+    return [str(v) for v in (value if isinstance(value, (list, tuple)) else [value])]
+
+
 def _reason(exc: BaseException) -> str:
     s = str(exc).strip().splitlines()
     return s[0] if s else type(exc).__name__
@@ -202,7 +209,9 @@ def _associate_features(
     skipped: dict[str, str] = {}
     for fid, spec in plan.features.items():
         try:
-            idx = np.asarray(features.select(X, spec, cad), dtype=np.int64)
+            notes: list[str] = []
+            idx = np.asarray(features.select(X, spec, cad, notes), dtype=np.int64)
+            warnings += [f"feature {fid}: {n}" for n in notes]
         except _REFUSALS as exc:
             skipped[fid] = _reason(exc)
             warnings.append(f"feature {fid} not evaluated: {skipped[fid]}")
@@ -255,10 +264,11 @@ def evaluate(
     max_iterations: int = 50,
 ) -> Evaluation:
     """Evaluate ``plan`` on ``points`` (N, 3 mm, as measured). ``nominal``: a mesh,
-    reference cloud or CAD model in plan coordinates (best fit to it; a CAD model's faces
-    are the ``face`` features' nominals: :func:`resolve_faces`); ``align``: :data:`.model.ALIGNMENTS`; ``k``:
-    coverage factor for every characteristic (None: each one's own, default 2);
-    ``start``, ``seed``, ``max_iterations``: of the alignment (:func:`.alignment.align`)."""
+    reference cloud or CAD model in plan coordinates (best fit to it; a CAD model's
+    faces are the ``face`` features' nominals: :func:`resolve_faces`); ``align``:
+    :data:`.model.ALIGNMENTS`; ``k``: coverage factor for every characteristic (None:
+    each one's own, default 2); ``start``, ``seed``, ``max_iterations``: of the
+    alignment (:func:`.alignment.align`)."""
     from . import characteristics as chars
     from . import datums as dmod
 
@@ -299,12 +309,8 @@ def evaluate(
     for spec in plan.characteristics:
         if k is not None:
             spec = replace(spec, k=float(k))
-        deps = [
-            spec.feature,
-            *spec.options.get("features", []),
-            *([spec.options["to"]] if "to" in spec.options else []),
-        ]
-        missing = [f for f in deps if isinstance(f, str) and f not in associated]
+        deps = [spec.feature, *_names(spec.options.get("features")), *_names(spec.options.get("to"))]
+        missing = [f for f in deps if f not in associated]
         if missing:
             r = not_evaluated(spec, f"feature {missing[0]} not evaluated: {skipped.get(missing[0], '')}")
         else:
