@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from camcmm.api import InputError
 from camcmm_plugins.gdt import features
 from camcmm_plugins.gdt import uncertainty as unc
 from camcmm_plugins.gdt.characteristics import evaluate_characteristic
@@ -47,7 +48,11 @@ def test_issue_bore_position():
     assert round(res.value, 4) == 0.1166
     assert res.verdict == "conform" and res.verdict_guarded == "conform"
     assert res.u is not None and res.u < 1e-9  # exact points: the fit has no residuals
-    assert res.u_method == "covariance of the least-squares fit"
+    # the bore by the covariance of its fit, the tangent datums A|B|C by Monte Carlo
+    assert res.u_method.split(" + ") == [
+        "covariance of the least-squares fit",
+        "monte-carlo of the datum frame: 20 replicates of the datum features' points",
+    ]
     # the decisive points are the bore's points nearest its top
     part = gp.block()
     assert np.all(part.surface[res.decisive] == part.names.index("H1"))
@@ -477,3 +482,21 @@ def test_meaningless_results_are_warned_not_given():
     assert "no extent" in res["flat"].warnings[0]
     assert res["notol"].value == pytest.approx(0.002, abs=1e-9)
     assert res["notol"].verdict == "not evaluated" and "no tolerance" in res["notol"].warnings[0]
+
+
+def test_stated_point_noise_replaces_the_estimate():
+    """A bottom face A with every second point raised 0.03 mm: from the points alone that
+    is noise (the tangent datum's Monte Carlo makes the 0.1166 position against 0.1
+    undecided); a plan stating ``point_noise: 0`` says the points carry none (not
+    conform); a bad value is one line naming the key."""
+    part = gp.block(ripple_a=0.03)
+    tight = [{**POS, "tolerance": 0.1}]
+    est = evaluate(block_doc(tight), part.points)["pos"]
+    assert est.value == pytest.approx(gp.POSITION_H1, abs=1e-9)
+    assert est.details["u_parts"]["datums monte-carlo"] > 0.005
+    assert (est.verdict, est.verdict_guarded) == ("not conform", "undecided")
+    stated = evaluate(gp.plan_document(characteristics=tight, point_noise=0), part.points)["pos"]
+    assert stated.u < 1e-9 and stated.verdict_guarded == "not conform"
+    with pytest.raises(InputError, match="point_noise") as exc:
+        evaluate(gp.plan_document(characteristics=tight, point_noise="x"), part.points)
+    assert "\n" not in str(exc.value)

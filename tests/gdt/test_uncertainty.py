@@ -165,3 +165,51 @@ def test_monte_carlo_u_of_flatness_matches_the_spread_over_parts():
     ratio = np.std(vals, ddof=1) / np.mean(us)
     assert 0.5 < ratio < 2.0, ratio
     assert np.mean(vals) == pytest.approx(SIGMA * 4.5, rel=0.3)  # the range of 60 normal samples ≈ 4.6σ
+
+
+def test_tangent_datum_enters_by_monte_carlo():
+    """A|B|C with B the ISO 5459 tangent plane of 300 noisy points (σ = 5 µm; A and C
+    exact): the position of a sphere 0.05 mm off in y moves with B's outer extreme (and
+    its tilt). Its u is the Monte Carlo of the datum frame, compared with the spread of
+    the value over 40 parts whose B carries fresh noise — overstated by ~1.3 for an
+    extreme (uncertainty.py), and not the ~20× smaller covariance of a least-squares
+    plane."""
+    rng = np.random.default_rng(5)
+    b_exact = _face(rng, [0, 0, 1], [60, 0, 0], [0, 0, 28], 300)
+    faces = {
+        "A": _face(rng, [0, 0, 0], [60, 0, 0], [0, 50, 0], 40),
+        "B": b_exact + np.outer(rng.normal(0, SIGMA, 300), [0, 1, 0]),
+        "C": _face(rng, [0, 1, 1], [0, 48, 0], [0, 0, 28], 40),
+    }
+    k = np.arange(100) + 0.5
+    phi, th = np.arccos(1 - 2 * k / 100), np.pi * (1 + 5**0.5) * k
+    u = np.c_[np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)]
+    faces["S"] = np.array([30, 20.05, 50]) + 10 * u
+    doc = {
+        "features": {
+            **{f: {k2: v for k2, v in DOC["features"][f].items() if k2 != "association"} for f in "ABC"},
+            "S": {"type": "sphere", "centre": [30, 20, 50], "diameter": 20},
+        },
+        "datums": {"A": "A", "B": "B", "C": "C"},
+        "characteristics": [
+            {"id": "pos", "type": "position", "feature": "S", "datums": ["A", "B", "C"], "tolerance": 1}
+        ],
+    }
+    plan = parse_plan(doc, "plan.yaml")
+    pts = np.vstack(list(faces.values()))
+    ends = np.cumsum([0] + [len(v) for v in faces.values()])
+    sets = {f: np.arange(ends[i], ends[i + 1]) for i, f in enumerate(faces)}
+    assoc = {f: features.associate(pts, sets[f], plan.features[f]) for f in faces}
+    assert assoc["B"].association == "tangent"
+    spec = plan.characteristics[0]
+    r = evaluate_characteristic(spec, plan, pts, assoc, lambda labels: datum_frame(plan, assoc, labels))
+    assert "monte-carlo of the datum frame" in r.u_method
+    values = []
+    for _ in range(40):
+        p = pts.copy()
+        p[sets["B"]] = b_exact + np.outer(rng.normal(0, SIGMA, 300), [0, 1, 0])
+        a2 = {**assoc, "B": features.associate(p, sets["B"], plan.features["B"])}
+        t = datum_frame(plan, a2, ("A", "B", "C")).transform  # the value alone: 2·|c − c₀| in A|B|C
+        values.append(2 * np.linalg.norm(t[:3, :3] @ assoc["S"].params["centre"] + t[:3, 3] - [30, 20, 50]))
+    ratio = r.details["u_parts"]["datums monte-carlo"] / np.std(values, ddof=1)
+    assert 0.8 < ratio < 2.0, ratio

@@ -7,16 +7,18 @@ uncertainty) and the one-line reason a value would be meaningless (:class:`NotEv
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from camcmm.api import InputError
+from camcmm.api import InputError, to_mm_factor
 
 from .datums import datum_frame, nominal_frame
 from .model import Associated, CharacteristicSpec, DatumFrame, Plan
+from .uncertainty import noise_sigma
 
 AXES = ("cylinder", "cone", "line")
 CENTRES = ("sphere", "point", "circle")
@@ -100,6 +102,21 @@ class Case:
         for label in self.spec.datums:
             out += [f for f in self.plan.datums.get(label, ()) if f not in out]
         return tuple(out)
+
+    def noise(self, fid: str) -> float:
+        """The point noise (mm, standard deviation) of feature ``fid`` for the Monte Carlo:
+        the plan's ``point_noise`` (in its unit) when it states one, else estimated from
+        the feature's residuals (:func:`.uncertainty.noise_sigma`)."""
+        stated = self.plan.options.get("point_noise")
+        if stated is not None:
+            try:
+                value = float(stated) * to_mm_factor(self.plan.unit)
+            except (TypeError, ValueError):
+                value = -1.0
+            if not (math.isfinite(value) and value >= 0):
+                raise InputError(f"{self.plan.source or 'plan'}: point_noise: {stated!r} is not a length >= 0")
+            return value
+        return noise_sigma(self.pts(fid), self.assoc(fid).residuals)
 
     def frame_axis(self) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Origin, primary direction (plan coordinates) and free dofs of the datums."""

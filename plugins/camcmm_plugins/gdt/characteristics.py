@@ -62,13 +62,14 @@ import numpy as np
 
 from camcmm.api import GeometryError, InputError
 
-from . import dimensions, runout, zones
+from . import dimensions, features, runout, zones
 from . import uncertainty as unc
 from .case import Case, NotEvaluated, Out
 from .model import CHARACTERISTICS, Associated, CharacteristicResult, CharacteristicSpec, DatumFrame, Plan
 
 _LS = "covariance of the least-squares fit"
 _MC = f"monte-carlo: {unc.MC_REPLICATES} replicates of the feature's points with their estimated noise"
+_MC_DATUMS = f"monte-carlo of the datum frame: {unc.MC_DATUM_REPLICATES} replicates of the datum features' points"
 #: Located characteristics whose zone a free degree of freedom of the datums would move.
 _HELD = ("position", "profile", "symmetry", "line-profile", "surface-profile")
 
@@ -99,13 +100,52 @@ _EVALUATORS: dict[str, Callable[[Case], Out]] = {
 assert set(_EVALUATORS) == {t for ts in CHARACTERISTICS.values() for t in ts}
 
 
+_REPLICATE_FRAMES: dict[tuple[int, tuple[str, ...]], tuple[dict[str, Associated], list[np.ndarray]]] = {}
+
+
+def _datum_replicates(c: Case, fids: list[str]) -> list[np.ndarray]:
+    """The transform of ``c``'s datum frame in MC_REPLICATES Monte Carlo replicates of the
+    points of its datum features ``fids`` that are not least-squares (each re-associated
+    by its own criterion, e.g. the ISO 5459 tangent plane). Kept per evaluation (the
+    associated features' dict) and datum labels: every characteristic on the same datums
+    shares them."""
+    key = (id(c.associated), tuple(c.spec.datums))
+    hit = _REPLICATE_FRAMES.get(key)
+    if hit is not None and hit[0] is c.associated:
+        return hit[1]
+    rng = np.random.default_rng(unc.MC_SEED + 1)
+    clouds = {f: (c.pts(f), c.noise(f)) for f in fids}
+    clouds = {f: ps for f, ps in clouds.items() if not ps[1] <= unc.NOISELESS}
+    t0 = c.transform()
+    out = []
+    for _ in range(unc.MC_DATUM_REPLICATES if clouds else 0):
+        moved = dict(c.associated)
+        try:
+            for f, (p, sigma) in clouds.items():
+                q = p + rng.normal(0.0, sigma, p.shape)
+                moved[f] = features.associate(q, np.arange(len(q)), c.plan.features[f], c.assoc(f).association)
+        except GeometryError:  # a replicate that does not associate: left out
+            continue
+        out.append(c.transform_of(moved, t0))
+    if len(_REPLICATE_FRAMES) > 16:
+        _REPLICATE_FRAMES.clear()
+    _REPLICATE_FRAMES[key] = (c.associated, out)
+    return out
+
+
 def _uncertainty(c: Case, out: Out) -> tuple[float, str, dict[str, float]]:
-    """u (k = 1), its method and each part (see :mod:`.uncertainty`)."""
+    """u (k = 1), its method and each part (see :mod:`.uncertainty`): the covariance of
+    the least-squares features the value depends on, the Monte Carlo of the points of a
+    value that is an extreme of them, and the Monte Carlo of the datum frame for datum
+    features associated otherwise than by least squares (the tangent default)."""
     t0 = c.transform()
     parts: dict[str, float] = {}
     base_pts = {fid: c.pts(fid) for fid in out.mc}
+    mc_datums = [f for f in c.datum_features() if c.assoc(f).association != "ls"]
     covs = {}
     for fid in out.ls:
+        if fid in mc_datums:
+            continue
         cv = unc.covariance(c.assoc(fid), c.pts(fid))
         if cv is None:
             return float("nan"), _LS, parts
@@ -113,10 +153,25 @@ def _uncertainty(c: Case, out: Out) -> tuple[float, str, dict[str, float]]:
     if covs:
         parts["covariance"] = unc.propagate(lambda A: out.fn(A, base_pts, t0), c.associated, covs)
     if out.mc:
-        clouds = {fid: (p, unc.noise_sigma(p, c.assoc(fid).residuals)) for fid, p in base_pts.items()}
+        clouds = {fid: (p, c.noise(fid)) for fid, p in base_pts.items()}
         parts["monte-carlo"] = unc.monte_carlo(lambda moved: out.fn(c.associated, moved, t0), clouds)
-    method = (_MC + (" (+ datums: " + _LS + ")" if covs else "")) if out.mc else _LS
-    return unc.combined(*parts.values()), method, parts
+    if mc_datums:
+        frames = _datum_replicates(c, mc_datums)
+        pts = base_pts or {fid: c.pts(fid) for fid in (c.spec.feature,)}
+        if frames:
+            if len(frames) < unc.MC_DATUM_REPLICATES // 2:
+                return float("nan"), _MC_DATUMS, parts
+            parts["datums monte-carlo"] = float(np.std([out.fn(c.associated, pts, t) for t in frames], ddof=1))
+        else:  # noiseless datum features
+            parts["datums monte-carlo"] = 0.0
+    methods = []
+    if out.mc:
+        methods.append(_MC)
+    if covs:
+        methods.append(_LS)
+    if mc_datums:
+        methods.append(_MC_DATUMS)
+    return unc.combined(*parts.values()), " + ".join(methods), parts
 
 
 def evaluate_characteristic(
