@@ -276,3 +276,23 @@ def test_an_alignment_that_does_not_settle_exits_3(capfd, tmp_path):
     doc = json.loads(out)
     assert doc["aligned"] is False and doc["alignment"]["converged"] is False
     assert any("did not settle" in w for w in doc["warnings"])
+
+
+def test_plugin_outputs_for_the_gui():
+    """gdt.evaluate by id with the plan as a document (as the GUI's task runs it): the
+    aligned cloud's field 'feature' holds each point's feature (index into 'features'),
+    -1 for the faces the plan does not name; labels carry anchors and decisive points."""
+    from camcmm.api import PointCloud, get_algorithm
+
+    part = g.block()
+    out = get_algorithm("gdt.evaluate")(cloud=PointCloud(part.points), plan=g.plan_document(), align="none")
+    assert {"features", "datums", "alignment", "characteristics", "labels", "aligned"} <= set(out)
+    ids = [f["id"] for f in out["features"]]
+    field = np.asarray(out["aligned"].fields["feature"]).astype(int)
+    for name in ("A", "B", "C", "D", "T", "H1", "P1"):
+        assert np.all(field[part.surface == part.names.index(name)] == ids.index(name)), name
+    for name in ("E", "P1T"):  # not in the plan
+        assert np.all(field[part.surface == part.names.index(name)] == -1), name
+    lab = {x["id"]: x for x in out["labels"]}["flat-A"]
+    assert lab["verdict"] == "conform" and 0 < len(lab["decisive"]) <= 20
+    assert np.allclose(np.asarray(lab["decisive"])[:, 2], 0.0, atol=1e-9)  # on A
