@@ -259,11 +259,13 @@ def test_axial_runout_of_a_tilted_face():
 
 def test_coaxiality_and_concentricity():
     """The shaft's axis from (0.01, 0) at z = 20 to (0.03, 0.04) at z = 40 about the datum
-    axis: coaxiality 2·0.05; a circle centred 0.02, 0.01 off the axis: 2·|(0.02, 0.01)|."""
+    axis: coaxiality 2·0.05, parallelism |(0.02, 0.04)|; a circle centred 0.02, 0.01 off
+    the axis: concentricity 2·|(0.02, 0.01)|."""
     circle = {"type": "circle", "centre": [0, 0, 60], "normal": [0, 0, 1], "diameter": 8}
     ch = [
         {"id": "coax", "type": "coaxiality", "feature": "F", "datums": ["D"], "tolerance": 0.2},
         {"id": "conc", "type": "concentricity", "feature": "K", "datums": ["D"], "tolerance": 0.2},
+        {"id": "par", "type": "parallelism", "feature": "F", "datums": ["D"], "tolerance": 0.2},
     ]
     res = run(
         {"D": DATUM_CYL, "F": SHAFT, "K": circle},
@@ -275,6 +277,8 @@ def test_coaxiality_and_concentricity():
     )
     assert res["coax"].value == pytest.approx(0.1, abs=1e-9)
     assert res["conc"].value == pytest.approx(2 * np.hypot(0.02, 0.01), abs=1e-9)
+    # the axis turns by (0.02, 0.04) over its 20 mm: a cylinder parallel to D holding it
+    assert res["par"].value == pytest.approx(np.hypot(0.02, 0.04), abs=1e-9)
 
 
 ABC = {
@@ -500,3 +504,18 @@ def test_stated_point_noise_replaces_the_estimate():
     with pytest.raises(InputError, match="point_noise") as exc:
         evaluate(gp.plan_document(characteristics=tight, point_noise="x"), part.points)
     assert "\n" not in str(exc.value)
+
+
+def test_angularity_of_an_axis():
+    """An axis nominally at 30° to the plane A (60° from its normal), measured 60° + ε
+    from it in the same plane: the diametral zone at 30° to A holding the axis between
+    the planes normal to the nominal through its 20 mm ends is 20·tan ε."""
+    eps = 0.0005
+    a = np.radians(60) + eps
+    d = np.array([np.sin(a), 0, np.cos(a)])
+    bore = np.vstack([ring(d * s, 4, n=24, normal=d) for s in (2, 8, 14, 20)])
+    nominal = [np.sin(np.radians(60)), 0, np.cos(np.radians(60))]
+    cyl = {"type": "cylinder", "point": [0, 0, 0], "axis": nominal, "diameter": 8, "length": 20}
+    ch = [{"id": "ang", "type": "angularity", "feature": "K", "datums": ["A"], "tolerance": 0.05, "angle": 30}]
+    res = run({"A": ABC["A"], "K": cyl}, ch, {"A": "A"}, A=abc_faces()["A"], K=bore)
+    assert res["ang"].value == pytest.approx(20 * np.tan(eps), abs=1e-9)

@@ -5,52 +5,63 @@ evaluated cloud (points (N, 3) mm in the evaluation frame, with each feature's
 :class:`~.model.Associated` in the same coordinates). A characteristic with datums is
 evaluated in the plan's coordinates through its datum frame (``frames(labels)``,
 :mod:`.datums`): the true position / required orientation is the feature's NOMINAL
-there. Values, as computed (mm):
+there. The evaluators are in :mod:`.zones` (form, orientation, location, profile),
+:mod:`.runout` and :mod:`.dimensions`. Values, as computed (mm):
 
 Form (no datums; the minimum-zone association of :func:`.features.associate`) —
-straightness (smallest cylinder
-containing a line's points, diametral), flatness (two parallel planes), roundness (two
-concentric circles; a circle's section, or the worst of ``sections`` equal slices of a
-cylinder/cone), cylindricity (two coaxial cylinders); line-profile / surface-profile
-without datums: 2·max|d| of the points' signed distances d from the nominal surface
-after the nominal is floated (rigid least-squares best fit) onto the points.
+straightness: the diameter of the thinnest cylinder holding a line's points; flatness:
+two parallel planes; roundness: two concentric circles — a circle's section, or the
+worst of ``sections`` equal slices of a cylinder/cone (default one per 50 points, at
+most 20); cylindricity: two coaxial cylinders. Line-profile / surface-profile without
+datums: 2·max|d| of the points' signed distances d from the nominal surface after the
+nominal is floated onto the points (rigid least-squares best fit).
 
 Orientation (parallelism, perpendicularity, angularity) — the required direction is the
-feature's nominal direction in the datum frame (option ``angle``, degrees, overrides
-the angle to the primary datum's direction, keeping the nominal's azimuth); a rotation
-the datums leave free (about the primary's direction) is chosen to minimise the value.
-A plane: width of the zone of two planes normal to the required direction containing
-the points, max − min of the points' projections. An axis (cylinder, cone, line): the
-diametral zone, the diameter of the cylinder of the required direction containing the
-derived axis between the feature's ends = |Δ − (Δ·d)d|, Δ the axis from end to end.
+feature's nominal direction in the datum frame; option ``angle`` (degrees, the angle
+between the feature and the primary datum as the drawing states it: plane-plane and
+axis-axis between their directions, axis-plane from the plane) replaces its angle to the
+primary datum's direction, keeping its azimuth. A rotation the datums leave free (about
+the primary's direction) is chosen to minimise the value. A plane: the width of the
+zone of two planes normal to the required direction holding the points, max − min of
+their projections. An axis (cylinder, cone, line): the diametral zone — the diameter of
+the cylinder of the required direction holding the derived axis between the feature's
+ends, |Δ − (Δ·d)d| with Δ the axis from end to end.
+
+The ends of an axis: where the associated axis crosses the planes normal to the nominal
+axis through the nominal's ends when the nominal states a ``length`` (the issue's "at
+its bottom and top faces"), else the extent of the feature's points along it.
 
 Location — position: a point/sphere/circle centre 2·|c − c₀|; an axis 2·max over its
-two ends (at the feature's extent) of the radial offset from the nominal axis; a plane
-2·max|d_i| of its points from the nominal plane. Coaxiality: an axis's two ends,
-concentricity: a centre (circle, sphere, the middle of an axis), 2·radial distance from
-the datum axis. Symmetry: the median of the associated planes of ``feature`` and option
-``other`` (heights along the nominal normal at every point of both) against the datum's
-median plane (through the datum frame's origin, normal to the nominal normal), 2·max
-|median offset|. Profile (with datums, no float): 2·max|d_i| from the nominal.
+two ends of the radial offset from the nominal axis; a plane 2·max|d_i| of its points
+from the nominal plane. Coaxiality: an axis's two ends, concentricity: a centre (circle,
+sphere, the middle of an axis), 2·radial distance from the datum axis (the datum
+frame's origin and z). Symmetry: the median of the associated planes of ``feature`` and
+option ``other`` (their heights along the nominal normal at every point of both)
+against the datum's median plane (through the frame's origin, normal to the nominal
+normal), 2·max|median offset|. Profile (with datums, no float): 2·max|d_i| from the
+nominal. Degrees of freedom the datums leave free are held at the nominal (warned).
 
 Runout about the datum axis (frame origin and z): circular — for a cylinder/cone/
 sphere/circle the radial range max ρ − min ρ in each of ``sections`` equal slices along
-the axis (default: one per 50 points, at most 20), the largest; for a plane the axial
-range in annular slices; total — the range over all points.
+the axis (default as for roundness), the largest; for a plane the axial range in
+annular slices; total — the range over all points.
 
 Size (ISO 14405-1) — diameter: the associated diameter (the feature's association,
-default least squares; option ``criterion`` ls | mincircumscribed | maxinscribed uses
-size.global_size); width: the distance of two opposite planes (``feature`` and
-``other``), the mean of each one's centroid (projected on it) from the other plane;
+default least squares; option ``criterion`` ls | mincircumscribed | maxinscribed |
+minzone: :func:`.size.global_size`); width: :func:`.size.width`, the least-squares
+distance of two opposite planes (``feature`` and ``other``) of one common normal;
 distance: between ``feature`` and option ``other`` (plane > axis > point decides: the
 distance of the lower's reference point — a plane's projected centroid, an axis's
 middle, a centre — from the higher element; two planes or two axes: the mean both
-ways). ``lower``/``upper`` are deviations from the nominal (option ``nominal`` or the
+ways). ``lower``/``upper`` are deviations from the nominal (option ``nominal``, else the
 nominal geometry); details carry nominal, deviation and the two-point sizes' min/max.
 
-Uncertainty and verdicts: :mod:`.uncertainty`. A result that cannot be meaningful (too
-few points, an axis of no extent, a datum that gives no axis) has value None, verdicts
-"not evaluated" and a warning saying why.
+Uncertainty (``u``, k = 1, with ``u_method`` and ``details["u_parts"]``) and the ISO
+14253-1 verdicts: :mod:`.uncertainty`. A result that cannot be meaningful (too few
+points, an axis of no extent) has value None, verdicts "not evaluated", the reason in
+``details["reason"]`` and a warning; a value without tolerance or limits has verdicts
+"not evaluated" (value only). ``modifier`` MMC/LMC is not applied (evaluated RFS,
+warned).
 """
 
 from __future__ import annotations

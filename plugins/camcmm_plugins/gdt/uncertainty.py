@@ -1,41 +1,42 @@
 """Standard uncertainty of a characteristic and its ISO 14253-1 verdicts.
 
-Two methods, chosen by how the value depends on the points (the result's ``u_method``
-says which, and ``details["u_parts"]`` each contribution):
+u (k = 1) combines, in quadrature, the parts that apply (the result's ``u_method``
+names them, ``details["u_parts"]`` gives each):
 
 * **covariance of the least-squares fit** — for a value computed from associated
-  elements (an axis position, a size, a distance, an orientation of an axis, a
-  symmetry; and the datum frame when its features are least-squares). Each element involved
-  carries the covariance of its least-squares fit over its global parameters
-  (``point_x`` ... ``diameter``; :mod:`.features`):
-  ``s² (JᵀJ)⁻¹``, ``s² = Σr²/(n − p)``. A toleranced element associated otherwise (e.g.
-  an axis by minimum zone) enters with the least-squares covariance of its points at
-  that element — an approximation (stated in ``u_method`` is only the method). The value's
-  gradient over all those parameters is taken numerically (central differences,
-  1e-7 mm or unit-vector component) and u² = Σ g C gᵀ (features independent).
+  elements (an axis or centre position, a diameter, a distance, an orientation of an
+  axis, a symmetry), and for the datum frame when its features are least-squares. Each
+  element carries the covariance of its least-squares fit over its global parameters
+  (``point_x`` ... ``diameter``; :func:`.features.ls_covariance`): ``s² (JᵀJ)⁻¹``,
+  ``s² = Σr²/(n − p)``. (A toleranced element associated otherwise, e.g. an axis by
+  minimum zone, enters with the least-squares covariance of its points at that element:
+  an approximation.) The value's gradient over all those parameters is taken
+  numerically (central differences, 1e-7 mm or unit-vector component) and
+  u² = Σ_f g_f C_f g_fᵀ (features independent).
 * **Monte Carlo of the points** — for a value that is an extreme of the points (form by
-  minimum zone, orientation or position of a surface, profile, runout): the value is
-  recomputed :data:`MC_REPLICATES` (= 30) times with every point of the toleranced
-  feature(s) moved by independent N(0, σ²) per coordinate, σ the point noise of the
-  feature — the plan's ``point_noise`` (in its unit) when it states one (a lab knows
-  its instrument's probing noise), else estimated from the differences of the residuals
-  of nearest neighbours (σ² = mean((r_i − r_nn(i))²)/2 — smooth form error cancels in
-  them; form that changes from point to point counts as noise); u is the
-  standard deviation of the replicates (seed fixed: reproducible; a replicate whose
-  zone does not converge is left out, and u is not given when half of them fail; a
-  feature whose noise is below :data:`NOISELESS` contributes 0). Noise added to points
-  that already carry it makes this conservative for an extreme: by simulation the
-  spread of the maximum of 30 .. 3000 normal deviates comes out 1.25–1.35 times its
-  true standard deviation.
+  minimum zone, orientation or position of a surface, profile, runout; and a width,
+  which :func:`.size.width` refits to both faces at once): the value is recomputed
+  :data:`MC_REPLICATES` (= 30) times with every point of the toleranced feature(s)
+  moved by independent N(0, σ²) per coordinate; u is the standard deviation of the
+  replicates (seed fixed: reproducible; a replicate whose zone does not converge is
+  left out, and u is not given when half of them fail).
 * **Monte Carlo of the datum frame** — datum features associated otherwise than by
   least squares (the ISO 5459 tangent default: an extreme of their points) are
   re-associated by their own criterion in :data:`MC_DATUM_REPLICATES` (= 20) replicates
-  of their points (noise as above); the value's standard deviation over the replicated
-  frames, the toleranced feature held, is their contribution. The datum frame's
-  contribution is added by the method that fits its features (below).
+  of their points; the value's standard deviation over the replicated frames, the
+  toleranced feature held, is their part.
 
-Verdicts (ISO 14253-1:2017, via :mod:`camcmm.api`'s conformity rules): a zone value v
-with tolerance t conforms when v ≤ t (simple) / v ≤ t − U (guarded), does not conform
+σ, the point noise of a feature: the plan's ``point_noise`` (in its unit) when it states
+one (a lab knows its instrument's probing noise), else estimated from the differences of
+the residuals of nearest neighbours, σ² = mean((r_i − r_nn(i))²)/2 — smooth form error
+cancels in them, form that changes from point to point counts as noise. A feature whose
+σ is below :data:`NOISELESS` contributes 0. Noise added to points that already carry it
+makes the Monte Carlo conservative for an extreme: by simulation the spread of the
+maximum of 30 .. 3000 normal deviates comes out 1.25–1.35 times its true standard
+deviation (tests/gdt/test_uncertainty.py: 1.36 for a tangent datum plane).
+
+Verdicts (ISO 14253-1:2017, through :mod:`camcmm.api`'s conformity rules): a zone value
+v with tolerance t conforms when v ≤ t (simple) / v ≤ t − U (guarded), does not conform
 when v > t (simple) / v > t + U, is ``undecided`` in between; a size deviation d with
 limits [lower, upper] the same on the interval. U = k·u.
 """
