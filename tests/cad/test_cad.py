@@ -243,6 +243,11 @@ def test_refusals_are_one_line_naming_the_file(tmp_path, name, data, words):
         assert msg.startswith(name) and "\n" not in msg and words in msg, msg
 
 
+def test_a_model_is_not_written_as_a_mesh(ctc01, tmp_path):
+    with pytest.raises(InputError, match="x.ply: camcmm does not write CAD models"):
+        cio.write(ctc01, tmp_path / "x.ply")
+
+
 def test_a_face_that_is_not_there_is_refused(ctc01):
     with pytest.raises(InputError, match="no face 118; faces are numbered 1 to 117"):
         ctc01.face(118)

@@ -314,6 +314,8 @@ def write(
     p = Path(path)
     fmt = _format(p)
     kind = _kind(obj)
+    if kind == _CAD:
+        raise InputError(f"{p.name}: camcmm does not write CAD models; keep the STEP/IGES file itself")
     if not fmt["writable"] or kind not in fmt["kinds"]:
         can = ", ".join(ext for ext, f in FORMATS.items() if f["writable"] and kind in f["kinds"])
         if kind in fmt["kinds"]:  # an instrument's format: read, not written
