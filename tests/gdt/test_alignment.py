@@ -97,8 +97,27 @@ def test_three_two_one(offset_part):
     assert info["stages"][-1]["features"] == ["A", "B", "C"]
     with pytest.raises(InputError, match="primary H1 must be a plane"):
         al.align("3-2-1", _plan(alignment={"features": ["H1", "A", "B"]}), offset_part.points)
-    with pytest.raises(InputError, match="H1 is parallel"):
+    with pytest.raises(InputError, match="T is parallel to the primary A's normal"):
+        al.align("3-2-1", _plan(alignment={"features": ["A", "T", "B"]}), offset_part.points)
+    with pytest.raises(InputError, match="after the hole H1, the tertiary B must be a hole"):
         al.align("3-2-1", _plan(alignment={"features": ["A", "H1", "B"]}), offset_part.points)
+
+
+def test_plane_hole_slot(perfect_part, offset_part):
+    """3-2-1 as plane A, bore H1 (its place in A: 2), boss P1 (the turn towards it: 1)."""
+    plan = _plan(alignment={"features": ["A", "H1", "P1"]})
+    T, info = al.align("3-2-1", plan, perfect_part.points)
+    assert _error(T, perfect_part) < 1e-9 and "a hole" in info["stages"][-1]["kind"]
+    # the offset bore: its true axis' point nearest (20, 30, 0) is at (20, 30) in A; the
+    # boss' axis lies on y = 30
+    T, info = al.align("3-2-1", plan, offset_part.points)
+    D = T @ offset_part.pose
+    ends = al.apply(D, np.array([[20.02, 29.99, 0.0], [20.05, 30.03, 30.0]]))
+    d = (ends[1] - ends[0]) / np.linalg.norm(ends[1] - ends[0])
+    foot = ends[0] + ((np.array([20.0, 30.0, 0.0]) - ends[0]) @ d) * d
+    assert np.allclose(foot[:2], [20.0, 30.0], atol=1e-9)
+    assert np.allclose(al.apply(D, np.array([[60.0, 30.0, 30.0], [60.0, 30.0, 40.0]]))[:, 1], 30.0, atol=1e-8)
+    assert np.allclose(D[:3, :3] @ [0, 0, 1.0], [0, 0, 1], atol=1e-12)  # A stays A
 
 
 def test_rps(offset_part):

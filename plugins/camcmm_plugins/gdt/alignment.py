@@ -22,8 +22,11 @@ methods:
 * ``3-2-1``: classical alignment on least-squares elements: a primary plane fixes three
   degrees of freedom (its normal, its offset), a secondary plane, line or axis two (its
   direction about the primary normal, its offset across), a tertiary plane, point,
-  sphere, circle or axis one (the offset along the remaining direction):
-  ``alignment: {features: [A, B, C]}`` (default: the first three single-feature datums).
+  sphere, circle or axis one (the offset along the remaining direction); or, plane-hole-
+  slot, a secondary hole (a point, sphere, circle, or an axis along the primary normal)
+  two (its position in the plane) and a tertiary hole one (the turn towards it):
+  ``alignment: {features: [A, B, C]}`` or ``[A, H1, H2]`` (default: the first three
+  single-feature datums).
 * ``rps``: reference point system. The plan names reference points, each on a feature and
   fixing given plan directions::
 
@@ -656,63 +659,77 @@ def _closest_on_axis(p: np.ndarray, d: np.ndarray, q: np.ndarray) -> np.ndarray:
     return p + float((q - p) @ d) * d
 
 
+def _point_of(kind: str, m: np.ndarray, d: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """A point-like element's point: its centre, or the point of its axis nearest ``q``."""
+    return _closest_on_axis(m, d, q) if kind == "axis" else m
+
+
 def three_two_one(
     plan: Plan, points: np.ndarray, T0: np.ndarray, ids: tuple[str, ...], cad: Any = None, max_iterations: int = 30
 ) -> tuple[np.ndarray, dict[str, Any]]:
-    """3-2-1 on least-squares elements of features ``ids`` (primary plane, secondary plane
-    or axis, tertiary plane, axis or point), iterated until the pose settles."""
+    """3-2-1 on least-squares elements of features ``ids``, iterated until the pose settles.
+
+    The primary is a plane (its normal and offset: 3). Either the secondary is a plane or
+    an axis across the primary normal (its direction about the normal, its offset across
+    it: 2) and the tertiary a plane, axis or point (the offset left: 1); or the secondary
+    is a hole — a point, or an axis along the primary normal (its position in the plane:
+    2) — and the tertiary another (the turn about the normal towards it: 1), the
+    plane-hole-slot alignment."""
+    name = _name(plan)
     if len(ids) != 3:
-        raise InputError(f"{_name(plan)}: alignment.features: 3-2-1 takes three features, got {len(ids)}")
+        raise InputError(f"{name}: alignment.features: 3-2-1 takes three features, got {len(ids)}")
     specs = [plan.features[f] for f in ids]
-    kinds = [_element(_Nominal(s))[0] for s in specs]
+    nomi = [_element(_Nominal(s)) for s in specs]
+    kinds = [e[0] for e in nomi]
     if kinds[0] != "plane":
-        raise InputError(f"{_name(plan)}: alignment.features: the 3-2-1 primary {ids[0]} must be a plane")
-    if kinds[1] == "point":
-        raise InputError(f"{_name(plan)}: alignment.features: the 3-2-1 secondary {ids[1]} must be a plane or an axis")
+        raise InputError(f"{name}: alignment.features: the 3-2-1 primary {ids[0]} must be a plane")
+    n1 = nomi[0][2]
+    hole = kinds[1] == "point" or (kinds[1] == "axis" and abs(float(nomi[1][2] @ n1)) > 1 - 1e-9)
+    if hole and kinds[2] == "plane":
+        raise InputError(f"{name}: alignment.features: after the hole {ids[1]}, the tertiary {ids[2]} must be a hole")
+
+    def across(v: np.ndarray, what: str) -> np.ndarray:
+        w = v - (v @ n1) * n1
+        if np.linalg.norm(w) < 1e-6:
+            raise InputError(f"{name}: alignment.features: {what} is parallel to the primary {ids[0]}'s normal")
+        return w / np.linalg.norm(w)
 
     def step(T: np.ndarray) -> np.ndarray:
         X = apply(T, points)
         meas = [_element(_associate(plan, X, s, cad, "ls")) for s in specs]
-        nomi = [_element(_Nominal(s)) for s in specs]
-        # rotations: the primary normal onto its nominal, then the secondary's direction
-        # turned about that normal onto its nominal (both projected across the normal)
-        n1 = nomi[0][2]
+        # rotations: the primary normal onto its nominal, then turned about that normal so
+        # that the secondary's direction (or, after a hole, the direction to the tertiary
+        # hole) lies as nominal
         R1 = _rotation_between(meas[0][2], n1)
-        d2m, d2n = R1 @ meas[1][2], nomi[1][2]
-        pm, pn = d2m - (d2m @ n1) * n1, d2n - (d2n @ n1) * n1
-        if np.linalg.norm(pn) < 1e-6 or np.linalg.norm(pm) < 1e-6:
-            raise InputError(
-                f"{_name(plan)}: alignment.features: {ids[1]} is parallel to the primary {ids[0]}'s normal"
-            )
-        pm, pn = pm / np.linalg.norm(pm), pn / np.linalg.norm(pn)
-        if kinds[1] == "axis" and pm @ pn < 0:  # an axis has no sense
-            pm = -pm
-        ang = np.arctan2(np.cross(pm, pn) @ n1, pm @ pn)
-        R = _rodrigues(n1 * ang) @ R1
-        # translations: the primary's offset along n1, the secondary's across, the
-        # tertiary's along the direction left
+        if hole:
+            pts = [_point_of(kinds[i], R1 @ meas[i][1], R1 @ meas[i][2], nomi[i][1]) for i in (1, 2)]
+            pm = across(pts[1] - pts[0], f"the line from {ids[1]} to {ids[2]}")
+            pn = across(nomi[2][1] - nomi[1][1], f"the line from {ids[1]} to {ids[2]}")
+        else:
+            pm, pn = across(R1 @ meas[1][2], ids[1]), across(nomi[1][2], ids[1])
+            if kinds[1] == "axis" and pm @ pn < 0:  # an axis has no sense
+                pm = -pm
+        R = _rodrigues(n1 * np.arctan2(np.cross(pm, pn) @ n1, pm @ pn)) @ R1
+        # translations: the primary's offset along n1, then the secondary's across it
+        # (both in-plane directions for a hole), then the tertiary's along what is left
         e2 = pn if kinds[1] == "plane" else np.cross(n1, pn)
         e3 = np.cross(n1, e2)
-        rows, rhs = [], []
-        for i, e in enumerate((n1, e2, e3)):
-            kind, q, dn = nomi[i]
-            _, m, dm = meas[i]
-            m = R @ m
-            if kind == "plane" and i == 2:
-                e = dn
-            elif kind == "axis":
-                m = _closest_on_axis(m, R @ dm, q)
+        rows, rhs = [n1], [float(n1 @ (nomi[0][1] - R @ meas[0][1]))]
+        fixes = [(1, e2), (1, e3)] if hole else [(1, e2), (2, nomi[2][2] if kinds[2] == "plane" else e3)]
+        for i, e in fixes:
+            kind, q, _ = nomi[i]
+            m = _point_of(kind, R @ meas[i][1], R @ meas[i][2], q)
             rows.append(e)
             rhs.append(float(e @ (q - m)))
         E = np.array(rows)
         if abs(np.linalg.det(E)) < 1e-6:
-            raise InputError(f"{_name(plan)}: alignment.features: {', '.join(ids)} do not fix the three translations")
-        t = np.linalg.solve(E, np.array(rhs))
-        return _rigid(R, t) @ T
+            raise InputError(f"{name}: alignment.features: {', '.join(ids)} do not fix the three translations")
+        return _rigid(R, np.linalg.solve(E, np.array(rhs))) @ T
 
     T, it, converged = _settle(step, T0, _plan_size(plan), max_iterations, 10 * SETTLED_MM)
+    dofs = "(3), " + (f"{ids[1]} (2, a hole), {ids[2]} (1, the turn)" if hole else f"{ids[1]} (2), {ids[2]} (1)")
     return T, {
-        "kind": f"3-2-1 on least-squares elements: {ids[0]} (3), {ids[1]} (2), {ids[2]} (1)",
+        "kind": f"3-2-1 on least-squares elements: {ids[0]} {dofs}",
         "features": list(ids),
         "iterations": it,
         "converged": converged,
