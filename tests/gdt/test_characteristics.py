@@ -519,3 +519,12 @@ def test_angularity_of_an_axis():
     ch = [{"id": "ang", "type": "angularity", "feature": "K", "datums": ["A"], "tolerance": 0.05, "angle": 30}]
     res = run({"A": ABC["A"], "K": cyl}, ch, {"A": "A"}, A=abc_faces()["A"], K=bore)
     assert res["ang"].value == pytest.approx(20 * np.tan(eps), abs=1e-9)
+
+
+def test_runout_and_coaxiality_need_a_datum_axis():
+    """Runout about a plane datum would be about its normal through an arbitrary point:
+    refused in one line naming the key."""
+    ch = [{"id": "cr", "type": "circular-runout", "feature": "F", "datums": ["A"], "tolerance": 0.05}]
+    with pytest.raises(InputError, match="datums: circular-runout needs a datum axis") as exc:
+        run({"A": ABC["A"], "F": SHAFT}, ch, {"A": "A"}, A=abc_faces()["A"], F=shaft([0, 0], [0, 0]))
+    assert "\n" not in str(exc.value) and "plan.yaml" in str(exc.value)

@@ -16,7 +16,7 @@ import numpy as np
 
 from camcmm.api import InputError, to_mm_factor
 
-from .datums import datum_frame, nominal_frame
+from .datums import datum_frame, nominal_frame, primary_kind
 from .model import Associated, CharacteristicSpec, DatumFrame, Plan
 from .uncertainty import noise_sigma
 
@@ -117,6 +117,14 @@ class Case:
                 raise InputError(f"{self.plan.source or 'plan'}: point_noise: {stated!r} is not a length >= 0")
             return value
         return noise_sigma(self.pts(fid), self.assoc(fid).residuals)
+
+    def datum_axis(self) -> tuple[np.ndarray, np.ndarray]:
+        """Origin and direction (plan coordinates) of the primary datum axis, for runout,
+        coaxiality and concentricity; a one-line InputError when the primary is none."""
+        if not self.spec.datums or primary_kind(self.plan, self.spec.datums) != "axis":
+            raise InputError(f"{self.where}: datums: {self.spec.type} needs a datum axis (a cylinder, cone or line)")
+        o, z, _ = self.frame_axis()
+        return o, z
 
     def frame_axis(self) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Origin, primary direction (plan coordinates) and free dofs of the datums."""

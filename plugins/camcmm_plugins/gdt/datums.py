@@ -244,6 +244,11 @@ def _nominal(plan: Plan, labels: tuple[str, ...], items: list[DatumElement] | No
     return ch, nom, free
 
 
+def primary_kind(plan: Plan, labels: tuple[str, ...]) -> str:
+    """What the primary datum of ``labels`` is: "plane", "axis" or "point"."""
+    return _datum_elements(plan, None, tuple(labels[:1]))[0][0].kind
+
+
 def nominal_frame(plan: Plan, labels: tuple[str, ...]) -> tuple[np.ndarray, list[str]]:
     """The nominal frame N (4, 4; columns x, y, z and origin in plan coordinates) of the
     datums ``labels`` and the degrees of freedom they leave free."""

@@ -5,21 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from camcmm.api import InputError
-
 from . import elements as el
 from .case import Case, NotEvaluated, Out, need, to_global
 from .model import Associated
-
-# ---- runout ------------------------------------------------------------------------
 
 
 def runout(c: Case) -> Out:
     a = c.assoc()
     pts = c.pts()
-    if not c.spec.datums:
-        raise InputError(f"{c.where}: {c.spec.type} needs a datum axis")
-    o, z, _ = c.frame_axis()
+    o, z = c.datum_axis()
     t0 = c.transform()
     axial = a.type == "plane"
     need(len(pts), 3, f"{c.spec.id}: {c.spec.type}")

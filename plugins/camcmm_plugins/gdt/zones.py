@@ -327,9 +327,7 @@ def position(c: Case) -> Out:
     kind = c.spec.type
     ref_d: np.ndarray | None
     if kind in ("coaxiality", "concentricity"):
-        if not c.spec.datums:
-            raise InputError(f"{c.where}: {kind} needs a datum axis")
-        o, z, _ = c.frame_axis()
+        o, z = c.datum_axis()
         ref_p, ref_d = o, z
     else:
         ref_p = el.location(etype, nominal)
