@@ -138,8 +138,8 @@ def _datum_replicates(c: Case, fids: list[str]) -> list[np.ndarray]:
         except GeometryError:  # a replicate that does not associate: left out
             continue
         out.append(c.transform_of(moved, t0))
-    if len(_REPLICATE_FRAMES) > 16:
-        _REPLICATE_FRAMES.clear()
+    if any(held is not c.associated for held, _ in _REPLICATE_FRAMES.values()):
+        _REPLICATE_FRAMES.clear()  # one evaluation's frames at a time: they hold its features
     _REPLICATE_FRAMES[key] = (c.associated, out)
     return out
 
