@@ -1,10 +1,10 @@
 """The characteristics panel of the Compare page end to end in a headless Chromium (issue
 27's Done-when for the GUI).
 
-On the demo project: the scan of the 20 mm ball against its nominal; a sphere feature
-picked on the nominal with a click in the view (its nominal — centre and diameter — a
-fit of the nominal's points there, so nobody types them), a diameter (±10 µm) and a
-profile of the surface (0.05 mm) entered, Run: the results table shows each
+On the demo project: the scan of the 20 mm ball against its exact nominal (the demo's
+STEP sphere); the sphere's CAD face picked with a click in the view (its type and exact
+nominal — centre and diameter — come from the CAD, so nobody types them), a diameter
+(±10 µm) and a profile of the surface (0.05 mm) entered, Run: the results table shows each
 characteristic with its value, U and tolerance, coloured by its verdict; the view shows a
 flag per characteristic in the verdict's colour; the plan exported as YAML has the
 issue's keys. Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``/tmp/gdt-demo``).
@@ -27,7 +27,7 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python
 pytest.importorskip("PIL", reason="Pillow is needed to look at the screenshots")
 
 SHOTS = shots("gdt-demo")
-SCAN, CAD = "sphere scan (20 mm ball)", "sphere nominal"
+SCAN, CAD = "sphere scan (20 mm ball)", "exact sphere (STEP)"
 #: the verdict colours of camcmm.tasks.gdt.VERDICT_COLOURS as the browser writes them
 RGB = {"conform": "rgb(26, 152, 80)", "undecided": "rgb(249, 168, 37)", "not conform": "rgb(215, 48, 31)"}
 
@@ -71,14 +71,13 @@ def test_a_plan_defined_on_the_demo_runs_with_results_coloured_by_verdict_flags_
             page.mouse.click(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
             nominal = page.locator('[data-testid="gdt-f-nominal"]')
             nominal.wait_for()
-            text = nominal.inner_text()
-            m = re.search(r"⌀ ([\d.]+) mm", text)
-            assert m and abs(float(m.group(1)) - 20.0) < 1e-3, text  # the nominal ball's diameter, fitted
-            assert "points of the nominal within" in page.locator('[data-testid="gdt-f-picked"]').inner_text()
+            text = nominal.inner_text()  # the face's exact sphere, from the STEP
+            assert text == "nominal: CAD face 1: Sphere, centre (0, 0, 0) mm, ⌀ 20 mm", text
+            assert page.locator('[data-testid="gdt-f-picked"]').inner_text() == "CAD face 1 (Sphere)"
             page.locator('[data-testid="gdt-f-id"] input').fill("S1")
             page.locator('[data-testid="gdt-f-add"]').click()
             page.wait_for_selector('[data-testid="gdt-feature-S1"]')
-            assert "Sphere" in page.locator('[data-testid="gdt-feature-S1"]').inner_text()
+            assert "CAD face 1" in page.locator('[data-testid="gdt-feature-S1"]').inner_text()
 
             # a diameter (the default for a sphere) with its limits, then a profile of the surface
             assert "Diameter" in page.locator('[data-testid="gdt-c-type"]').inner_text()
@@ -133,8 +132,7 @@ def test_a_plan_defined_on_the_demo_runs_with_results_coloured_by_verdict_flags_
                 link.click()
             doc = yaml.safe_load(Path(dl.value.path()).read_text())
             assert list(doc) == ["unit", "band", "features", "datums", "characteristics"]
-            assert doc["unit"] == "mm" and doc["features"]["S1"]["type"] == "sphere"
-            assert abs(doc["features"]["S1"]["diameter"] - 20.0) < 1e-3
+            assert doc["unit"] == "mm" and doc["features"] == {"S1": {"type": "face", "cad": 1}}
             assert doc["characteristics"] == [
                 {"id": "diameter-S1", "type": "diameter", "feature": "S1", "lower": -0.01, "upper": 0.01},
                 {"id": "surface-profile-S1", "type": "surface-profile", "feature": "S1", "tolerance": 0.05},

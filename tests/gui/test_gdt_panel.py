@@ -84,7 +84,7 @@ def _project(app, tmp_path):
     return server, session, page
 
 
-def test_a_plan_defined_run_shown_reported_exported_and_back_after_a_reopen(gui_app, tmp_path):
+def test_a_plan_defined_run_shown_reported_exported_and_imported(gui_app, tmp_path):
     server, session, page = _project(gui_app, tmp_path)
     s, g = server.state, page.gdt
     names = {it["id"]: it["name"] for it in s.items}
@@ -150,18 +150,63 @@ def test_a_plan_defined_run_shown_reported_exported_and_back_after_a_reopen(gui_
         "upper": 0.01,
     }
     assert not g.import_yaml(b"features: [\n", "bad.yaml") and "bad.yaml: not valid YAML" in s.ins_error
-    plan = g.plan
+    more = {**g.plan, "features": {**g.plan["features"], "P": {"type": "point", "point": [1, 2, 3]}}}
+    assert g.import_yaml(gdt.plan_yaml(more).encode(), "more.yaml") and s.gdt_feature_ids == ["S1", "P"]
+    assert session.project.get_state(gdt.PLAN_KEY)["plan"] == g.plan  # kept with the project as edited
 
-    # reopened: the plan and the last results are there
-    project_dir = session.project.path
-    server.pages["compare"].close()
-    server.session.close()
-    session.project.close()
-    server2, _ = gui_app(project_dir, host=gdt_recorded.RecordedHost())
-    g2 = server2.pages["compare"].gdt
-    assert g2.plan == plan and server2.state.gdt_feature_ids == ["S1"]
-    assert [r["value"] for r in server2.state.gdt_results] == [r["value"] for r in s.gdt_results]
-    assert g2.show() and server2.pages["compare"].view.scene == "gdt"
-    more = {**plan, "features": {**plan["features"], "P": {"type": "point", "point": [1, 2, 3]}}}
-    assert g2.import_yaml(gdt.plan_yaml(more).encode(), "more.yaml")
-    assert server2.state.gdt_feature_ids == ["S1", "P"]
+
+def test_the_plan_and_the_last_results_are_shown_again_when_the_project_is_reopened(gui_app, tmp_path):
+    """What the task kept (tests/tasks) is what the panel shows on opening the project."""
+    from camcmm.project import Project
+    from camcmm.tasks.items import ProjectItems
+    from tasks.test_gdt_task import sphere_cap, sphere_plan
+
+    project = Project.create(tmp_path / "proj")
+    items = ProjectItems(project)
+    cloud = PointCloud(sphere_cap(2000), name="cap")
+    cid = str(items.add_measurement("cap.ply", project.add_object(cloud, "cap.ply"), cloud))
+    task = gdt.GdtTask(gdt_recorded.RecordedHost(), items, project)
+    request = gdt.GdtRequest(cid, None, sphere_plan(), "none")
+    ev = task.run(request)
+    task.store(ev)
+    task.save_plan(sphere_plan(), request)
+    project.close()
+    server, _ = gui_app(tmp_path / "proj", host=gdt_recorded.RecordedHost())
+    s, g = server.state, server.pages["compare"].gdt
+    assert g.plan == sphere_plan() and s.gdt_feature_ids == ["S1"] and s.gdt_align == "none"
+    assert [r["id"] for r in s.gdt_chars] == ["dia-S1", "prof-S1"]
+    assert [r["value"] for r in s.gdt_results] == [result_texts(c, g.plan)["value"] for c in ev.characteristics]
+    assert g.show() and server.pages["compare"].view.scene == "gdt" and s.ins_mode == "gdt"
+
+
+def test_a_face_of_a_step_nominal_picked_is_the_issue_s_face_feature(gui_app, tmp_path):
+    """A click on a STEP sphere's tessellation names its face (``{type: face, cad: 1}``); the
+    summary gives the face's exact sphere; the characteristic offered is a sphere's."""
+    pytest.importorskip("OCP", reason="OpenCascade (cadquery-ocp) reads STEP")
+    from camcmm.cad.write import sphere_step
+
+    server, session, page = _project(gui_app, tmp_path)
+    h = session.project.add_file(sphere_step(tmp_path / "ball.step", 10.0))
+    mid = session.project.add_measurement("ball.step", h, kind="cad", meta={})
+    session.refresh_items()
+    s, g = server.state, page.gdt
+    s.ins_nominal = str(mid)
+    cad = g.nominal()
+    assert type(cad).__name__ == "CadModel"
+    assert g.start_picking() and page.view.scene == "inputs"  # its tessellation shown alone
+    cell = 7
+    point = cad.mesh.vertices[cad.mesh.faces[cell]].mean(axis=0)
+    feature = g.pick_point(point, cell)
+    assert feature == {"type": "face", "cad": 1} and s.gdt_f_picked == "CAD face 1 (Sphere)"
+    assert s.gdt_f_nominal == "CAD face 1: Sphere, centre (0, 0, 0) mm, ⌀ 20 mm"
+    s.gdt_f_id = "B"
+    assert g.add_feature() == "B" and g.plan["features"]["B"] == {"type": "face", "cad": 1}
+    assert s.gdt_c_type == "diameter" and s.gdt_features[-1]["nominal"] == "CAD face 1"
+    # picking on the view: the click at the projection of that triangle's centre finds the face
+    page.view.screenshot()
+    from camcmm.gui.pages.compare.picking import world_to_display
+
+    g.start_picking()
+    page.view.screenshot()
+    xy, _, _ = world_to_display(page.view.renderer, point[None, :])
+    assert page.pick_display(*xy[0]) == {"type": "face", "cad": 1}

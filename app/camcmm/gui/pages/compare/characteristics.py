@@ -171,6 +171,7 @@ class Characteristics:
         self.region: np.ndarray | None = None  # picked points of the nominal (mm)
         self.region_face: int | None = None  # the CAD face picked
         self._nominal: dict[str, Any] | None = None  # the nominal of the feature being defined
+        self._face_type = ""  # the analytic type of the CAD face picked ("" none)
         self.evaluation: task.Evaluation | None = None
         self._init_state()
         self.load_saved()
@@ -367,7 +368,7 @@ class Characteristics:
             self.error(exc)
             return None
         p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]
-        self.region, self.region_face = P[idx], None
+        self.region, self.region_face, self._face_type = P[idx], None, ""
         self.state.gdt_f_picked = (
             f"{num.count(len(idx))} points of the nominal within {num.significant(r, 3)} mm of {_vec(p)} mm"
         )
@@ -381,26 +382,27 @@ class Characteristics:
         except Exception as exc:
             self.error(exc)
             return None
-        self.region, self.region_face = P, None
+        self.region, self.region_face, self._face_type = P, None, ""
         self.state.gdt_f_picked = f"the whole nominal ({num.count(len(P))} points)"
         return self.fit()
 
     def _pick_face(self, nominal: Any, face: int) -> dict[str, Any] | None:
-        """A face of a CAD model: its own type and exact parameters, when analytic."""
+        """A face of a CAD model as the feature (``{type: face, cad: N}``, as the issue's
+        plan writes it: the plugin takes its type and exact nominal from the CAD); the
+        summary shows them, and the characteristic offered follows the face's type."""
         f = next((x for x in nominal.faces if int(x.index) == face), None)
         if f is None:
             raise InputError(f"CAD face {face}: not in the model")
         self.region, self.region_face = None, face
         kind = str(f.type)
-        self.state.gdt_f_picked = f"CAD face {face} ({task.FEATURE_TITLES.get(kind, kind)})"
-        params: dict[str, Any] = {"type": "face", "cad": face}
-        if kind in task.FEATURE_TITLES and kind != "face":
-            self.state.gdt_f_type = kind
-            params = {"type": kind, **{k: np.asarray(v).tolist() for k, v in dict(f.params).items()}, "cad": face}
-        self._nominal = params
-        self.state.gdt_f_nominal = feature_summary(params)
+        title = task.FEATURE_TITLES.get(kind, kind)
+        self.state.gdt_f_picked = f"CAD face {face} ({title})"
+        self._nominal = {"type": "face", "cad": face}
+        exact = {k: np.asarray(v).tolist() for k, v in dict(f.params or {}).items()}
+        self._face_type = kind
+        self.state.gdt_f_nominal = f"CAD face {face}: {title}" + (f", {feature_summary(exact)}" if exact else "")
         self.state.gdt_f_ready = True
-        return params
+        return self._nominal
 
     def set_type(self, kind: str) -> dict[str, Any] | None:
         """A new type for the feature being defined: its nominal fitted again."""
@@ -451,7 +453,9 @@ class Characteristics:
         self.region, self._nominal = None, None
         self.stop_picking()
         s.gdt_c_feature = fid
-        s.gdt_c_type = DEFAULT_CHARACTERISTIC.get(str(f.get("type")), "surface-profile")
+        kind = self._face_type if f.get("type") == "face" else str(f.get("type"))
+        s.gdt_c_type = DEFAULT_CHARACTERISTIC.get(kind, "surface-profile")
+        self._face_type = ""
         self._publish_plan()
         s.gdt_c_id = self._char_id()
         return fid

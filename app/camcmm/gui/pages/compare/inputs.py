@@ -92,7 +92,7 @@ class Inputs:
             s.ins_params = values
         items = list(s.items or [])
         clouds = [it["id"] for it in items if it.get("kind") == "pointcloud"]
-        geoms = [it["id"] for it in items if it.get("kind") in ("pointcloud", "mesh")]
+        geoms = [it["id"] for it in items if it.get("kind") in ("pointcloud", "mesh", "cad")]
         if s.ins_measured not in clouds:
             s.ins_measured = clouds[0] if clouds else None
         if s.ins_nominal not in geoms:

@@ -113,9 +113,9 @@ def _setup_inputs(page: Any) -> None:
     )
     _input_select(
         "ins_nominal",
-        "items.filter(i => i.kind === 'mesh' || i.kind === 'pointcloud')",
-        "Nominal (CAD mesh or reference cloud)",
-        "no mesh yet: import an STL/OBJ/PLY (Inspect page)",
+        "items.filter(i => i.kind === 'cad' || i.kind === 'mesh' || i.kind === 'pointcloud')",
+        "Nominal (CAD model or mesh, or a reference cloud)",
+        "no nominal yet: import a STEP/IGES, STL/OBJ/PLY (Inspect page)",
         (on_inputs, "[null, $event]"),
         "ins-nominal",
     )

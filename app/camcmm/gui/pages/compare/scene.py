@@ -170,6 +170,8 @@ class CompareView:
 
         if nominal is None:
             return
+        if type(nominal).__name__ == "CadModel":  # a STEP/IGES nominal: drawn as its tessellation
+            nominal = nominal.mesh
         if hasattr(nominal, "faces"):
             self._inputs.pop("nominal_cloud", None)
             poly = self.mesh_poly(nominal)
