@@ -68,15 +68,17 @@ def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels:
     """Two orthographic views of the part (plan coordinates) coloured by feature, grey for
     points of none, the characteristics' decisive points ringed and their ids written at
     their anchors. PNG bytes with the chart's info."""
+    from matplotlib import colormaps
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     P = np.asarray(points, float)
     rng = np.random.default_rng(0)
     idx = np.arange(len(P)) if len(P) <= 30000 else rng.choice(len(P), 30000, replace=False)
     views = ((np.array([1.0, -1.0, 0.8]), "from +x −y +z"), (np.array([-1.0, 1.0, 0.8]), "from −x +y +z"))
     fig = Figure(figsize=(170 * _MM, 80 * _MM), dpi=_DPI)
-    cmap = __import__("matplotlib").colormaps["tab10"]
+    cmap = colormaps["tab10"]
     for i, (d, title) in enumerate(views):
         ax = fig.add_subplot(1, 2, i + 1)
         d = d / np.linalg.norm(d)
@@ -97,10 +99,7 @@ def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels:
         ax.set_aspect("equal")
         ax.set_axis_off()
         ax.set_title(f"view {title}", fontsize=7)
-    handles = [
-        __import__("matplotlib").lines.Line2D([], [], marker="o", ls="", color=cmap(i % 10), label=n)
-        for i, n in enumerate(names)
-    ]
+    handles = [Line2D([], [], marker="o", ls="", color=cmap(i % 10), label=n) for i, n in enumerate(names)]
     fig.legend(handles=handles, loc="lower center", ncol=min(len(names), 8), fontsize=6, frameon=False)
     FigureCanvasAgg(fig)
     buf = io.BytesIO()
