@@ -90,12 +90,14 @@ def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels:
         f = feature[order]
         colours = np.where(f[:, None] >= 0, np.array([cmap(int(k) % 10) for k in np.maximum(f, 0)]), (0.8, 0.8, 0.8, 1))
         ax.scatter(P[order] @ ex, P[order] @ ey, s=1.0, c=colours, linewidths=0)
+        anchors: dict[tuple[float, ...], list[str]] = {}
         for lab in labels:
             dec = np.asarray(lab["decisive"], float).reshape(-1, 3)
             if len(dec):
                 ax.scatter(dec @ ex, dec @ ey, s=12, facecolors="none", edgecolors="k", linewidths=0.6)
-            a = np.asarray(lab["anchor"], float)
-            ax.annotate(lab["id"], (a @ ex, a @ ey), fontsize=6, ha="center", va="bottom")
+            anchors.setdefault(tuple(np.round(lab["anchor"], 3)), []).append(lab["id"])
+        for a, ids in anchors.items():  # one text per anchor: a feature's characteristics together
+            ax.annotate("\n".join(ids), (np.dot(a, ex), np.dot(a, ey)), fontsize=6, ha="center", va="bottom")
         ax.set_aspect("equal")
         ax.set_axis_off()
         ax.set_title(f"view {title}", fontsize=7)
