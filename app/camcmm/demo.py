@@ -143,11 +143,14 @@ def _icosphere(radius: float, subdivisions: int = 4) -> TriangleMesh:
 def create_demo(directory: str | Path, acceptance: bool = True) -> dict[str, Any]:
     """Create (or re-open) the demo project in ``directory``; returns a summary dict.
 
-    A project made before the acceptance test existed gets the test added."""
+    A project made before the acceptance test or the exact STEP nominal existed gets them
+    added."""
     directory = Path(directory)
     with Project.open_or_create(directory, name="camcmm demo") as project:
         if not project.measurements():
             _clouds(project)
+        if not any(m["name"] == STEP_NOMINAL for m in project.measurements()):
+            _step_nominal(project)  # also into a demo made before the exact nominal existed
         notes = []
         if acceptance and project.get_state(ACCEPTANCE_STATE) is None:
             notes = _acceptance_test(project)
@@ -171,7 +174,6 @@ def _clouds(project: Project) -> None:
         (_icosphere(10.0), "mesh"),
     ):
         project.add_measurement(cloud.name, project.add_object(cloud, cloud.name), kind=kind)
-    _step_nominal(project)
 
 
 #: The name of the demo's exact nominal (a STEP sphere of radius 10 mm about the origin).
