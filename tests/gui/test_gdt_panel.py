@@ -1,10 +1,11 @@
 """The characteristics panel of the Compare page without a browser: its texts and flag
 layout (pure functions), then the panel on a real project — a sphere feature from the
-whole nominal (an icosphere: its fit is the ball exactly), a diameter and a profile,
-refusals in one line, Run through a stand-in provider with the contract's outputs
-(helpers/gdt_recorded.py; the real plugin runs in tests/browser/test_browser_gdt.py),
-the results and flags, the report's section, the YAML export and import, and the plan
-and results back after the project is reopened."""
+whole nominal (an icosphere: its fit is the ball exactly) and from a region around a
+point, a diameter and a profile, refusals in one line, Run through a stand-in provider
+with the contract's outputs (helpers/gdt_recorded.py; the real plugin runs in
+tests/browser/test_browser_gdt.py), the results and flags, the YAML export and import;
+a face of a STEP nominal picked in the view; the characteristics in the Compare report;
+the plan and results shown again when the project is reopened."""
 
 from __future__ import annotations
 
@@ -132,7 +133,7 @@ def test_a_plan_defined_run_shown_reported_exported_and_imported(gui_app, tmp_pa
     assert sum(1 for k in page.view._actors if k.startswith("flag") and k[4:].isdigit()) == 2
     assert "Best fit to the nominal" in s.gdt_result_note
 
-    # the report's section (added to the Compare report by its writer's extend hook)
+    # the report's section, added to the Compare report by its writer's extend hook
     rep = Report("Compare with CAD")
     g.report_extension()(rep)
     html = rep.render_html()
@@ -153,6 +154,22 @@ def test_a_plan_defined_run_shown_reported_exported_and_imported(gui_app, tmp_pa
     more = {**g.plan, "features": {**g.plan["features"], "P": {"type": "point", "point": [1, 2, 3]}}}
     assert g.import_yaml(gdt.plan_yaml(more).encode(), "more.yaml") and s.gdt_feature_ids == ["S1", "P"]
     assert session.project.get_state(gdt.PLAN_KEY)["plan"] == g.plan  # kept with the project as edited
+
+
+def test_the_compare_report_carries_the_characteristics_evaluated(gui_app, tmp_path):
+    from tasks.test_gdt_task import sphere_plan
+
+    server, _, page = _project(gui_app, tmp_path)
+    s, g = server.state, page.gdt
+    g.plan = sphere_plan()
+    assert asyncio.run(g.run_async()) is not None, s.ins_error
+    assert asyncio.run(page.run_async()) is not None, s.ins_error  # a comparison, then its report
+    out = asyncio.run(page.report_async())
+    assert out is not None, s.ins_error
+    with open(out["paths"]["html"], encoding="utf-8") as fh:
+        html = fh.read()
+    assert "Inspection against the nominal" in html and "Geometric characteristics" in html
+    assert s.gdt_results[1]["value"] in html and "Profile of a surface" in html
 
 
 def test_the_plan_and_the_last_results_are_shown_again_when_the_project_is_reopened(gui_app, tmp_path):
