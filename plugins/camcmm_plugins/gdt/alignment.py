@@ -518,7 +518,7 @@ def coarse_start(
     Each candidate is best-fitted to the plan's surfaces in widening-to-narrow bands
     (:data:`WIDE_BANDS`); the one with the most points within the features' bands wins
     (a block registered upside down keeps fewer). Returns (T, info)."""
-    target = nominal.mesh if isinstance(nominal, CadModel) else nominal
+    target = nominal  # inspect.align takes a CAD model as it is (its exact surface)
     kind = "nominal geometry"
     X = None
     if target is None:
@@ -539,6 +539,8 @@ def coarse_start(
         kind = f"{len(X)} points sampled on the nominal surfaces of {len(specs)} features"
     elif isinstance(target, PointCloud):
         X = target.points
+    elif isinstance(target, CadModel):  # uniform by area, as the measured points are
+        X = target.sample(None, COARSE_SAMPLES, seed).points
     elif hasattr(target, "vertices"):
         X = np.asarray(target.vertices, float)
     P = np.asarray(points, float)
@@ -872,7 +874,9 @@ def align(
             T, cinfo = coarse_start(plan, P, nominal, seed, cad)
             stages.append({"stage": "coarse start", "why": why, **cinfo})
     if method == "best-fit" and nominal is not None:
-        mesh = nominal.mesh if isinstance(nominal, CadModel) else nominal
+        # a CAD model as it is: inspect.align pairs points with its exact surface, not
+        # with its tessellation (whose facets would bias the pose by their chordal error)
+        mesh = nominal
         params: dict[str, Any] = {"align": "icp", "seed": seed}
         if "boxes" in opts:
             if len(opts["boxes"]) > 1:
