@@ -190,3 +190,25 @@ def test_refusals_name_the_key(offset_part, extra, needle):
     with pytest.raises(InputError, match="plan.yaml") as exc:
         al.align("rps", _plan(**extra), offset_part.points)
     assert needle in str(exc.value)
+
+
+def test_best_fit_to_a_step_has_no_facet_bias(tmp_path):
+    """A cap of a Ø20 sphere, shifted by (0.05, -0.03, 0.02) mm, best-fitted to the sphere
+    read from a STEP: the shift back to 1e-9 mm — inspect.align pairs the points with the
+    exact surface, not with the tessellation (whose facets lie up to its deflection inside)."""
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeSphere
+    from OCP.gp import gp_Pnt
+
+    from camcmm.api import read_cad
+    from camcmm.cad.write import write_step
+
+    write_step(BRepPrimAPI_MakeSphere(gp_Pnt(0, 0, 0), 10.0).Shape(), tmp_path / "ball.step")
+    cad = read_cad(tmp_path / "ball.step")
+    v = np.random.default_rng(0).normal(size=(2000, 3))
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    shift = np.array([0.05, -0.03, 0.02])
+    points = 10.0 * v[v[:, 2] > -0.5] + shift
+    plan = parse_plan({"features": {"S1": {"type": "face", "cad": 1}}}, "plan.yaml")
+    T, info = al.align("best-fit", plan, points, nominal=cad)
+    assert np.allclose(T[:3, 3], -shift, atol=1e-9) and info["rms"] < 1e-9
+    assert info["free"] and "rotation about any axis" in info["free"][0]  # a ball's turn: held
