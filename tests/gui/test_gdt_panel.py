@@ -170,6 +170,16 @@ def test_the_compare_report_carries_the_characteristics_evaluated(gui_app, tmp_p
         html = fh.read()
     assert "Inspection against the nominal" in html and "Geometric characteristics" in html
     assert s.gdt_results[1]["value"] in html and "Profile of a surface" in html
+    # and the characteristics' own report (the provider's writer), kept and offered again
+    links = asyncio.run(g.report_async())
+    assert links is not None, s.ins_error
+    assert [link["kind"] for link in links] == ["html", "pdf", "json"]
+    assert (page.downloads / links[0]["name"]).read_text("utf-8").count("prof-S1") >= 1
+    assert set(session_record(page)["report"]) == {"report_html", "report_pdf", "report_json"}
+
+
+def session_record(page):
+    return page.project.get_state(gdt.STATE_KEY)
 
 
 def test_the_plan_and_the_last_results_are_shown_again_when_the_project_is_reopened(gui_app, tmp_path):

@@ -40,6 +40,7 @@ def spec(outputs: tuple[str, ...] = ("features", "datums", "alignment", "charact
         outputs=[Port(o, types.get(o, "json")) for o in outputs],
         distribution="lab",
         provides=["gdt-evaluation"],
+        report="camcmm_plugins.gdt.report:build_report",  # camcmm's writer reads the contract's outputs
     )
 
 
@@ -113,6 +114,7 @@ def evaluate(ctx: Any, cloud: Any, plan: dict, nominal: Any = None, align: str =
                 "n_points": len(P),
                 "params": {"centre": list(f["centre"]), "diameter": 2 * radius},
                 "form": fit["form"],
+                "status": "evaluated",
             }
         ],
         "datums": [],

@@ -687,6 +687,47 @@ def report_section(rep: Any, evaluation: Evaluation, fmt: Callable[[dict[str, An
         sec.warning(str(w))
 
 
+def write_report(spec: Any, evaluation: Evaluation, items: Any, folder: Any, project_path: str = "") -> dict[str, str]:
+    """The provider's own report of ``evaluation`` (its manifest's ``report:`` writer: HTML,
+    PDF, JSON) written in ``folder``: ``{format: path}``; the items' names and file hashes
+    go into its provenance."""
+    from pathlib import Path
+
+    from .compare import report_writer
+
+    build = report_writer(spec)
+    record = evaluation.record or {}
+    names = {}
+    inputs = []
+    for key, role in (("cloud", "measured cloud"), ("nominal", "nominal")):
+        m = items.measurement(record[key]) if record.get(key) is not None else None
+        names[key] = str(m.get("name")) if m else None
+        if m and m.get("hash"):
+            inputs.append({"file": str(m.get("name")), "sha256": m["hash"], "role": role})
+    rep = build(
+        dict(evaluation.outputs),
+        plan=evaluation.plan,
+        plan_file="the plan of the Compare page",
+        cloud_file=names["cloud"],
+        nominal_file=names["nominal"],
+        run=evaluation.result,
+    )
+    if inputs:
+        rep.provenance(inputs=inputs, extra={"project": project_path, "result": record.get("result")})
+    return rep.write(Path(folder), basename=f"gdt-{record.get('result') or 'new'}")
+
+
+def record_report(project: Any, evaluation: Evaluation, paths: dict[str, str]) -> dict[str, str]:
+    """The report files (``{format: path}``) added to ``project`` and noted in the record
+    under :data:`STATE_KEY` (offered again when the project is reopened); returns
+    ``{report_<format>: hash}``."""
+    files = {f"report_{k}": project.add_file(p) for k, p in paths.items()}
+    if evaluation.record is not None:
+        evaluation.record["report"] = files
+        project.set_state(STATE_KEY, evaluation.record)
+    return files
+
+
 # ------------------------------------------------------------------------------ the task object
 class GdtTask:
     """The steps above bound to a ``host``, the project's ``items`` and the ``project``;
@@ -732,3 +773,9 @@ class GdtTask:
 
     def saved_plan(self) -> dict[str, Any] | None:
         return saved_plan(self.project)
+
+    def write_report(self, evaluation: Evaluation, folder: Any) -> dict[str, str]:
+        return write_report(self.spec, evaluation, self.items, folder, str(getattr(self.project, "path", "")))
+
+    def record_report(self, evaluation: Evaluation, paths: dict[str, str]) -> dict[str, str]:
+        return record_report(self.project, evaluation, paths)

@@ -214,6 +214,7 @@ class Characteristics:
         s.gdt_result_note = ""
         s.gdt_warnings = []
         s.gdt_links = []
+        s.gdt_report_links = []
         s.gdt_file = None
 
     def _progress(self, fraction: float, message: str) -> None:
@@ -288,6 +289,7 @@ class Characteristics:
         if ev is not None:
             self.evaluation = ev
             self._publish_results(ev)
+            self.state.gdt_report_links = self.report_links((ev.record or {}).get("report") or {})
 
     def request(self) -> task.GdtRequest:
         s = self.state
@@ -593,6 +595,7 @@ class Characteristics:
             self.job.end()
         self.evaluation = ev
         self._publish_results(ev)
+        s.gdt_report_links = []
         s.gdt_running = False
         s.gdt_progress = "done"
         self.show()
@@ -642,6 +645,52 @@ class Characteristics:
         return True
 
     # -- report --------------------------------------------------------------------------------
+    def _report_files(self, folder: Any) -> dict[str, str]:
+        """Worker thread: the plugin's report in ``folder``, recorded in the project."""
+        assert self.evaluation is not None
+        return self.task.record_report(self.evaluation, self.task.write_report(self.evaluation, folder))
+
+    async def report_async(self) -> list[dict[str, str]] | None:
+        """The evaluation's own report (the plugin's writer: HTML, PDF, JSON) in the panel's
+        job, added to the project and offered; None with the reason shown."""
+        import shutil
+        import tempfile
+        from pathlib import Path
+
+        if self.evaluation is None or self.job.running:
+            self.error("characteristics report: run the plan first" if self.evaluation is None else "wait for the run")
+            return None
+        folder = Path(tempfile.mkdtemp(prefix="camcmm-gdt-report-"))
+        try:
+            files = await self.job.run(self._report_files, folder)
+        except Exception as exc:
+            self.error(f"characteristics report: {one_line(exc)}")
+            return None
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+        self.state.gdt_report_links = self.report_links(files)
+        self.session.refresh_results()
+        self.page.flush()
+        return self.state.gdt_report_links
+
+    def report_links(self, files: dict[str, str]) -> list[dict[str, str]]:
+        """Download links of the report's project files ``{report_<format>: hash}``."""
+        from ...downloads import REPORT_TITLES, sort_links
+
+        rid = (self.evaluation.record or {}).get("result") if self.evaluation is not None else None
+        out = []
+        for name, h in (files or {}).items():
+            kind = name.removeprefix("report_")
+            try:
+                src = self.page.project.file_path(h)
+            except Exception as exc:  # a file gone from the project: the others are offered
+                log.warning("characteristics report %s: %s", name, exc)
+                continue
+            link = self.page.offered.offer(f"gdt-{rid}.{kind}", src, kind=kind, title=REPORT_TITLES.get(kind))
+            if link:
+                out.append(link)
+        return sort_links(out)
+
     def report_extension(self) -> Any:
         """What the page's report adds for the characteristics (None: nothing evaluated)."""
         ev = self.evaluation

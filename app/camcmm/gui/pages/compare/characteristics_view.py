@@ -292,6 +292,9 @@ def _run_card(page: Any) -> None:
     def on_export():
         g.export_yaml()
 
+    async def on_report():
+        await g.report_async()
+
     def on_file(files):
         if files:
             f = files[0] if isinstance(files, list) else files
@@ -322,6 +325,17 @@ def _run_card(page: Any) -> None:
             raw_attrs=tid("gdt-show"),
         )
         v.VBtn(
+            "Report",
+            prepend_icon="mdi-file-document-outline",
+            size="small",
+            variant="tonal",
+            click=on_report,
+            disabled=("gdt_running || !gdt_results.length",),
+            title="the characteristics' own report (HTML, PDF, JSON) by the plugin's writer; added to the project "
+            "(the Compare report carries them too)",
+            raw_attrs=tid("gdt-report"),
+        )
+        v.VBtn(
             "Export plan (YAML)",
             prepend_icon="mdi-download",
             size="small",
@@ -343,6 +357,16 @@ def _run_card(page: Any) -> None:
             **_SELECT,
         )
     html.Span("{{ gdt_progress }}", v_if="gdt_progress", classes="text-caption", raw_attrs=tid("gdt-progress"))
+    html.A(
+        "{{ l.title }}",
+        v_for="l in gdt_report_links",
+        key="l.kind",
+        href=("l.url",),
+        target="_blank",
+        download=("l.kind === 'html' ? undefined : l.name",),
+        classes="text-body-2",
+        raw_attrs=dyn_tid("'gdt-report-' + l.kind"),
+    )
     html.A(
         "{{ l.title }}",
         v_for="l in gdt_links",
