@@ -147,6 +147,24 @@ def test_a_plan_file_that_cannot_be_a_plan_is_refused_in_one_line_naming_the_fil
     assert "\n" not in str(err.value)
 
 
+def test_a_plan_in_inches_is_read_in_mm_and_one_that_cannot_be_converted_is_refused():
+    text = (
+        "unit: in\nband: 0.02\nfeatures:\n  A: {type: plane, point: [1, 0, 0], normal: [0, 0, 1]}\n"
+        "  H: {type: cylinder, point: [0, 0, 0], axis: [0, 0, 1], diameter: 0.5, length: 1, band: 0.01}\n"
+        "datums: {A: A}\ncharacteristics:\n  - {id: f, type: flatness, feature: A, tolerance: 0.002}\n"
+        "  - {id: d, type: diameter, feature: H, lower: -0.001, upper: 0.001, k: 2}\n"
+    )
+    doc = gdt.read_plan_text(text, "inch.yaml")
+    assert doc["unit"] == "mm" and doc["band"] == pytest.approx(0.508)
+    assert doc["features"]["A"] == {"type": "plane", "point": [25.4, 0.0, 0.0], "normal": [0, 0, 1]}
+    assert doc["features"]["H"]["diameter"] == pytest.approx(12.7) and doc["features"]["H"]["band"] == 0.254
+    assert doc["characteristics"][0]["tolerance"] == pytest.approx(0.0508)
+    assert doc["characteristics"][1]["lower"] == pytest.approx(-0.0254) and doc["characteristics"][1]["k"] == 2
+    with pytest.raises(InputError, match="inch.yaml: characteristics\\[0\\].nominal: not converted from in"):
+        gdt.read_plan_text(text.replace("tolerance: 0.002}", "tolerance: 0.002, nominal: 3}"), "inch.yaml")
+    assert gdt.read_plan_text(text.replace("unit: in", "unit: mm"), "mm.yaml")["band"] == 0.02  # mm: as it is
+
+
 def test_a_plan_being_written_may_have_no_characteristics_yet():
     doc = gdt.read_plan_text("features: {P: {type: point, point: [1, 2, 3]}}\n", "p.yaml")
     assert doc["characteristics"] == [] and doc["unit"] == "mm" and doc["datums"] == {}

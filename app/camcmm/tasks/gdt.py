@@ -623,7 +623,60 @@ def read_plan_text(text: str | bytes, name: str = "plan.yaml") -> dict[str, Any]
     doc.setdefault("features", {})
     doc.setdefault("datums", {})
     doc.setdefault("characteristics", [])
-    return check_plan(doc, name, complete=False)
+    return check_plan(in_mm(doc, name), name, complete=False)
+
+
+#: The plan keys that are lengths (converted by :func:`in_mm`) and those that are not.
+_LENGTHS = {
+    "feature": {"point", "centre", "apex", "diameter", "length", "major_diameter", "minor_diameter", "box", "band"},
+    "characteristic": {"tolerance", "lower", "upper"},
+    "plan": {"band"},
+}
+_NOT_LENGTHS = {
+    "feature": {"type", "normal", "axis", "direction", "angle", "cad", "association", "internal"},
+    "characteristic": {"id", "type", "feature", "datums", "modifier", "k"},
+    "plan": {"unit", "features", "datums", "characteristics"},
+}
+
+
+def in_mm(plan: dict[str, Any], name: str = "plan") -> dict[str, Any]:
+    """The plan document with its lengths in mm (``unit: mm``), so that the features the
+    page adds (mm) and the ones read from the file are in one unit. A plan in mm comes back
+    as it is; one in another unit that holds a key not known to be a length or not
+    (:data:`_LENGTHS`) is refused in one line naming it, rather than half converted."""
+    import numpy as np
+
+    from ..units import to_mm_factor
+
+    unit = str(plan.get("unit") or "mm")
+    f = to_mm_factor(unit)
+    if f == 1.0:
+        return dict(plan, unit="mm")
+
+    def scaled(d: dict[str, Any], kind: str, where: str) -> dict[str, Any]:
+        out = {}
+        for k, v in d.items():
+            if k in _LENGTHS[kind]:
+                out[k] = (np.asarray(v, dtype=float) * f).tolist() if v is not None else None
+            elif k in _NOT_LENGTHS[kind]:
+                out[k] = v
+            else:
+                raise InputError(f"{name}: {where}{k}: not converted from {unit} (write the plan in mm)")
+        return out
+
+    doc = scaled(plan, "plan", "")
+    feats = plan.get("features") or {}
+    if not isinstance(feats, dict) or not isinstance(plan.get("characteristics") or [], list):
+        return doc  # check_plan says what is wrong
+    doc["features"] = {
+        fid: scaled(ft, "feature", f"features.{fid}.") for fid, ft in feats.items() if isinstance(ft, dict)
+    }
+    doc["characteristics"] = [
+        scaled(c, "characteristic", f"characteristics[{i}].") if isinstance(c, dict) else c
+        for i, c in enumerate(plan.get("characteristics") or [])
+    ]
+    doc["unit"] = "mm"
+    return doc
 
 
 # ------------------------------------------------------------------------------ results
