@@ -942,10 +942,11 @@ def align(
         stages.append({"stage": "fine", **fine})
         info.update({k: fine[k] for k in ("rms", "iterations", "converged", "free", "n_points")})
     elif method in ("datums", "3-2-1", "rps"):
-        # a best fit first: the pose within the bands, and the values of the degrees of
-        # freedom the method leaves free
-        T, pre = best_fit_surfaces(plan, P, T, opts.get("features") if method == "best-fit" else None, None, cad)
-        stages.append({"stage": "best fit (start)", **pre})
+        # a best fit first (when the plan has surfaces to fit to): the pose within the
+        # bands, and the values of the degrees of freedom the method leaves free
+        if any(s.type in SURFACE_TYPES for s in plan.features.values()):
+            T, pre = best_fit_surfaces(plan, P, T, cad=cad, max_iterations=max_iterations)
+            stages.append({"stage": "best fit (start)", **pre})
         if method == "datums":
             T, fine = datum_alignment(plan, P, T, datum_labels(plan, opts), cad)
         elif method == "3-2-1":
