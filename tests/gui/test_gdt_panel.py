@@ -95,6 +95,7 @@ def test_a_plan_defined_run_shown_reported_exported_and_imported(gui_app, tmp_pa
     # the whole nominal: the icosphere's vertices lie on the ball, so its fit is the ball
     params = g.pick_whole()
     assert params["type"] == "sphere" and abs(params["diameter"] - 20.0) < 1e-9 and "box" not in params
+    assert "internal" not in params  # the mesh faces outward: a ball, not a socket
     assert np.allclose(params["centre"], 0, atol=1e-9) and s.gdt_f_ready
     s.gdt_f_id = "S1"
     assert g.add_feature() == "S1" and s.gdt_feature_ids == ["S1"] and s.gdt_c_type == "diameter"

@@ -203,6 +203,34 @@ def test_nominal_parameters_from_points_picked_on_a_nominal_are_exact_by_constru
         gdt.nominal_from_points(host, "sphere", pts[:3])
 
 
+def test_a_fitted_nominal_is_oriented_by_the_surface_picked_out_of_the_material():
+    from camcmm.demo import _icosphere
+
+    ball = _icosphere(10.0, subdivisions=2)
+    V, F = np.asarray(ball.vertices), np.asarray(ball.faces)
+    N = gdt.vertex_normals(V, F)
+    assert np.min(np.sum(N * V / 10.0, axis=1)) > 0.99  # outward on a ball wound as STL is
+    fit = {"centre": [0.0, 0.0, 0.0], "diameter": 20.0}
+    assert gdt.orient("sphere", fit, V, N) == fit  # a ball: external (the default)
+    inward = gdt.vertex_normals(V, F[:, ::-1])  # the same surface seen from inside: a socket
+    assert gdt.orient("sphere", fit, V, inward) == {**fit, "internal": True}
+    # a bore along z (normals towards the axis) and a plane whose fitted normal points in
+    t = np.linspace(0, 2 * math.pi, 40, endpoint=False)
+    P = np.column_stack([5 + 3 * np.cos(t), 2 + 3 * np.sin(t), np.linspace(0, 9, 40)])
+    bore = {"point": [5.0, 2.0, 0.0], "axis": [0.0, 0.0, 1.0], "diameter": 6.0, "length": 9.0}
+    towards = -np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
+    assert gdt.orient("cylinder", bore, P, towards)["internal"] is True
+    assert "internal" not in gdt.orient("cylinder", bore, P, -towards)
+    plane = {"point": [0.0, 0.0, 0.0], "normal": [0.0, 0.0, -1.0]}
+    up = np.tile([0.0, 0.1, 1.0], (5, 1))
+    assert gdt.orient("plane", plane, np.zeros((5, 3)), up)["normal"] == [0.0, 0.0, 1.0]
+    torus = {"centre": [0.0, 0.0, 0.0], "axis": [0.0, 0.0, 1.0], "major_diameter": 20.0, "minor_diameter": 4.0}
+    ring = np.array([[12.0, 0, 0], [0, 12.0, 0], [8.0, 0, 0]])  # outer and inner equator of the tube
+    out = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1.0, 0, 0]])  # the tube's outward normals there
+    assert "internal" not in gdt.orient("torus", torus, ring, out)
+    assert gdt.orient("torus", torus, ring, -out)["internal"] is True
+
+
 def test_a_region_is_the_points_within_its_radius_and_its_box_their_extent_grown_by_the_band():
     P = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 0], [3, 3, 3.0]])
     assert gdt.region(P, [0, 0, 0], 2.0).tolist() == [0, 1, 2]

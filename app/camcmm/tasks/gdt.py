@@ -522,6 +522,56 @@ def nominal_from_points(host: Any, kind: str, points: Any) -> dict[str, Any]:
     }
 
 
+def vertex_normals(vertices: Any, faces: Any) -> Any:
+    """Area-weighted unit normals (n, 3) of a mesh's vertices, from its triangles' winding
+    (outward for a closed mesh wound counter-clockwise seen from outside, as STL and a
+    STEP tessellation are)."""
+    import numpy as np
+
+    V = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    F = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])  # length: twice the area
+    N = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(N, F[:, k], fn)
+    n = np.linalg.norm(N, axis=1)
+    return N / np.where(n > 0, n, 1.0)[:, None]
+
+
+def orient(kind: str, params: dict[str, Any], points: Any, normals: Any) -> dict[str, Any]:
+    """A fitted nominal oriented by the picked surface's outward ``normals`` (n, 3) at
+    ``points`` (n, 3): a plane's normal out of the material, and ``internal: true`` for a
+    sphere, cylinder, cone or torus whose surface faces its axis (a bore, a socket) — what
+    a fit of points alone cannot tell."""
+    import numpy as np
+
+    P = np.asarray(points, dtype=float).reshape(-1, 3)
+    N = np.asarray(normals, dtype=float).reshape(-1, 3)
+    if not len(P) or len(N) != len(P):
+        return params
+    out = dict(params)
+    if kind == "plane":
+        if float(np.mean(N @ np.asarray(out["normal"], dtype=float))) < 0:
+            out["normal"] = [-float(c) for c in out["normal"]]
+        return out
+    if kind == "sphere":
+        radial = P - np.asarray(out["centre"], dtype=float)
+    elif kind in ("cylinder", "cone", "torus"):
+        a = np.asarray(out["axis"], dtype=float)
+        origin = np.asarray(out.get("point", out.get("apex", out.get("centre"))), dtype=float)
+        q = P - origin
+        radial = q - np.outer(q @ a, a)
+        if kind == "torus":  # from the tube's centre circle
+            rho = np.linalg.norm(radial, axis=1)
+            ring = 0.5 * float(out["major_diameter"]) * radial / np.where(rho > 0, rho, 1.0)[:, None]
+            radial = q - ring
+    else:
+        return out
+    if float(np.mean(np.sum(radial * N, axis=1))) < 0:
+        out["internal"] = True
+    return out
+
+
 # ------------------------------------------------------------------------------ the YAML
 #: Key order of the issue's YAML (the rest follows in the document's own order).
 _PLAN_ORDER = ("unit", "band", "features", "datums", "characteristics")

@@ -169,6 +169,7 @@ class Characteristics:
         self.plan: dict[str, Any] = task.empty_plan()
         self.picking = False
         self.region: np.ndarray | None = None  # picked points of the nominal (mm)
+        self.region_normals: np.ndarray | None = None  # their outward normals (a mesh's), None: unknown
         self.region_face: int | None = None  # the CAD face picked
         self._nominal: dict[str, Any] | None = None  # the nominal of the feature being defined
         self._face_type = ""  # the analytic type of the CAD face picked ("" none)
@@ -303,6 +304,15 @@ class Characteristics:
         return self.session.load(str(key))
 
     @staticmethod
+    def normals(nominal: Any) -> np.ndarray | None:
+        """The nominal's outward vertex normals (a mesh's or a CAD model's tessellation's);
+        None for a cloud."""
+        mesh = getattr(nominal, "mesh", nominal)
+        if not hasattr(mesh, "vertices") or not hasattr(mesh, "faces"):
+            return None
+        return np.asarray(task.vertex_normals(mesh.vertices, mesh.faces))
+
+    @staticmethod
     def vertices(nominal: Any) -> np.ndarray:
         """The nominal's points: a mesh's (or a CAD model's tessellation's) vertices, a cloud's points."""
         mesh = getattr(nominal, "mesh", nominal)
@@ -371,6 +381,8 @@ class Characteristics:
             return None
         p = [float(c) for c in np.asarray(point, dtype=float).ravel()[:3]]
         self.region, self.region_face, self._face_type = P[idx], None, ""
+        N = self.normals(nominal)
+        self.region_normals = None if N is None else N[idx]
         self.state.gdt_f_picked = (
             f"{num.count(len(idx))} points of the nominal within {num.significant(r, 3)} mm of {_vec(p)} mm"
         )
@@ -380,11 +392,13 @@ class Characteristics:
     def pick_whole(self) -> dict[str, Any] | None:
         """The whole nominal as the region (a part that is one feature: the demo's ball)."""
         try:
-            P = self.vertices(self.nominal())
+            nominal = self.nominal()
+            P = self.vertices(nominal)
         except Exception as exc:
             self.error(exc)
             return None
         self.region, self.region_face, self._face_type = P, None, ""
+        self.region_normals = self.normals(nominal)
         self.state.gdt_f_picked = f"the whole nominal ({num.count(len(P))} points)"
         return self.fit()
 
@@ -421,7 +435,10 @@ class Characteristics:
         if self.region is None:
             return None
         try:
-            params = {"type": s.gdt_f_type, **task.nominal_from_points(self.page.host, s.gdt_f_type, self.region)}
+            fitted = task.nominal_from_points(self.page.host, s.gdt_f_type, self.region)
+            if self.region_normals is not None:  # out of the material; a bore is internal
+                fitted = task.orient(s.gdt_f_type, fitted, self.region, self.region_normals)
+            params = {"type": s.gdt_f_type, **fitted}
         except Exception as exc:
             s.gdt_f_nominal = ""
             self.error(f"feature {s.gdt_f_id}: {one_line(exc)}")
@@ -452,7 +469,7 @@ class Characteristics:
         s.gdt_f_ready = False
         s.gdt_f_nominal = ""
         s.gdt_f_picked = ""
-        self.region, self._nominal = None, None
+        self.region, self.region_normals, self._nominal = None, None, None
         self.stop_picking()
         s.gdt_c_feature = fid
         kind = self._face_type if f.get("type") == "face" else str(f.get("type"))
