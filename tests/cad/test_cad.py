@@ -38,6 +38,20 @@ def brepextrema(shape, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array(d), np.array(q)
 
 
+def faces_of(cad):
+    """The model's faces as one compound: the reference's shape. FTC 06's STEP also holds 97
+    free edges (its PMI's geometry), which BRepExtrema against the whole shape measures to."""
+    from OCP.BRep import BRep_Builder
+    from OCP.TopoDS import TopoDS_Compound
+
+    comp = TopoDS_Compound()
+    builder = BRep_Builder()
+    builder.MakeCompound(comp)
+    for f in cad.faces:
+        builder.Add(comp, f.face)
+    return comp
+
+
 @pytest.fixture(scope="module")
 def ctc01():
     return read_cad(CTC01)
@@ -110,7 +124,7 @@ def test_points_offset_along_the_normal_are_recovered_exactly(ctc01):
     off = np.random.default_rng(7).uniform(-0.05, 0.05, s.n_points)
     P = s.points + off[:, None] * s.normals
     d, q, face = ctc01.distance(P)
-    ref, qref = brepextrema(ctc01.shape, P)
+    ref, qref = brepextrema(faces_of(ctc01), P)
     np.testing.assert_allclose(np.abs(d), ref, atol=1e-9, rtol=0)
     np.testing.assert_allclose(q, qref, atol=1e-6)
     clean = np.abs(ref - np.abs(off)) < 1e-9  # no other face nearer than the offset's
@@ -130,12 +144,36 @@ def test_points_near_edges_are_left_to_opencascade_and_exact(ctc01, ftc06):
         P = s.points + np.random.default_rng(3).normal(0, 2.0, (s.n_points, 3))
         d, q, _ = cad.distance(P)
         assert cad.distance_engine.n_exact > 0
-        ref, _ = brepextrema(cad.shape, P)
+        ref, _ = brepextrema(faces_of(cad), P)
         np.testing.assert_allclose(np.abs(d), ref, atol=1e-9, rtol=0)
         # the sign: outside the material where the point is outside the closed solid (ray parity)
         md = cad.distance_engine.md
         sure = np.abs(d) > 0.05
         assert np.all(np.sign(d[sure]) == np.sign(md.signed_distance(P[sure])))
+
+
+def test_a_bore_seen_from_the_material_is_found_although_its_chords_are_farther(tmp_path):
+    """A plate with a bore, tessellated coarsely (50 µm): points in the material 0.1 mm below
+    the top face and 0.098 mm from the bore's wall. The wall's chords lie in the hole, up to
+    the deflection farther than the wall, so the mesh names the top face; the wall is nearer
+    and must win (found as a face across the top face's boundary)."""
+    from OCP.BRepAlgoAPI import BRepAlgoAPI_Cut
+    from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+    from OCP.gp import gp_Ax2, gp_Dir, gp_Pnt
+
+    from camcmm.cad.write import write_step
+
+    plate = BRepPrimAPI_MakeBox(gp_Pnt(-10, -10, -5), 20.0, 20.0, 5.0).Shape()
+    bore = BRepPrimAPI_MakeCylinder(gp_Ax2(gp_Pnt(0, 0, -6), gp_Dir(0, 0, 1)), 3.0, 7.0).Shape()
+    write_step(BRepAlgoAPI_Cut(plate, bore).Shape(), tmp_path / "plate.step")
+    cad = read_cad(tmp_path / "plate.step", deflection=0.05)
+    phi = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    P = np.column_stack([3.098 * np.cos(phi), 3.098 * np.sin(phi), np.full_like(phi, -0.1)])
+    d, _, face = cad.distance(P)
+    np.testing.assert_allclose(d, -0.098, atol=1e-12)  # inside the material, 98 µm from the wall
+    assert {cad.faces[k - 1].type for k in face} == {"cylinder"}
+    mesh = MeshDistance(cad.mesh).signed_distance(P)
+    assert np.abs(mesh - d).max() > 1e-3  # the tessellation alone is off
 
 
 def test_a_cloud_sampled_from_ctc01_is_compared_with_no_facet_bias(ctc01):
