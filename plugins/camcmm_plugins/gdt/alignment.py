@@ -47,13 +47,18 @@ methods:
 * ``none``: the cloud is in plan coordinates already.
 
 A part delivered in a scanner's frame (rotated, far from the plan) first gets a coarse
-start (``start: auto`` when fewer than half of the plan's features find enough points
-within their bands as the cloud lies; ``coarse`` always; ``none`` never): the cloud's
-principal axes onto those of points sampled on the nominal surfaces of the plan's
+start (:mod:`.coarse`; ``start: auto`` when fewer than half of the plan's features find
+points within their bands as the cloud lies, or when a best fit from there is doubtful —
+under half the points within the bands, or under 85 % of those within 8 mm of the
+surfaces —, that fit then one of the candidates; ``coarse`` always; ``none`` never): the
+cloud's principal axes onto those of points sampled on the nominal surfaces of the plan's
 features (within their boxes and extents; or of the nominal geometry when given), each of
 the four sign choices refined by ``inspect.align`` ICP and then by best fits in bands
 narrowing from 8 mm, the one with most points within the bands kept (FPFH + RANSAC
 registration when none holds half the points); the fine method starts from there.
+
+The machinery: :mod:`.bestfit` (the point-to-surface fit, rigid-motion geometry),
+:mod:`.coarse`, :mod:`.references` (3-2-1, RPS); the datum frame is :mod:`.datums`'.
 """
 
 from __future__ import annotations
