@@ -223,8 +223,9 @@ def _block_step(path):
 
 def test_step_nominal_faces_are_the_features(capfd, tmp_path):
     """Features named as faces of a STEP nominal take their type and nominal from the CAD:
-    the same values as the analytic plan of the same surfaces (H1 without a length: its
-    extent is the points'), with the part in a small pose. (Datum features are associated
+    the same values as the analytic plan of the same surfaces (H1's point and length from
+    the face's ends, so its position is the issue's 2·max = 0.116619 mm), with the part in
+    a small pose. (Datum features are associated
     by the ISO 5459 minimax — linear programs — so this test keeps to two characteristics.)"""
     step = _block_step(tmp_path / "block.step")
     chars = [
@@ -245,9 +246,10 @@ def test_step_nominal_faces_are_the_features(capfd, tmp_path):
     analytic = {f: analytic[f] for f in "ABC"} | {
         "H1": {
             "type": "cylinder",
-            "point": [20, 30, 15],
+            "point": [20, 30, 0],
             "axis": [0, 0, 1],
             "diameter": 10,
+            "length": 30,
             "internal": True,
             "box": [[10, 20, -0.5], [30, 40, 30.5]],
         }
@@ -257,6 +259,7 @@ def test_step_nominal_faces_are_the_features(capfd, tmp_path):
     for cid, c in _by_id(got).items():
         assert c["value"] == pytest.approx(ref[cid]["value"], abs=1e-9), cid
     assert ref["dia-H1"]["value"] == pytest.approx(10.0, abs=1e-8)
+    assert ref["pos-H1"]["value"] == pytest.approx(2 * np.hypot(0.05, 0.03), abs=1e-8)
     # a face the CAD does not have: one line naming the plan's key
     plan, cloud = _case(
         tmp_path / "bad",

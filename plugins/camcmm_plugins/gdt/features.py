@@ -224,11 +224,34 @@ def resolve_face(spec: FeatureSpec, cad: Any) -> FeatureSpec:
         return spec
     nominal = {k: (np.asarray(v, dtype=float) if k in _VECTORS else v) for k, v in face.params.items()}
     nominal["internal"] = bool(spec.nominal.get("internal", False)) or getattr(face, "sense", 1) < 0
+    if face.type == "cylinder" and "length" not in nominal:
+        _cylinder_extent(nominal, cad, int(spec.nominal["cad"]))
     box = spec.box
     if box is None:
         bounds = np.asarray(face.bounds, dtype=float)
         box = np.array([bounds[0] - spec.band, bounds[1] + spec.band])
     return replace(spec, type=face.type, nominal=nominal, box=box)
+
+
+def _cylinder_extent(nominal: dict[str, Any], cad: Any, index: int) -> None:
+    """A CAD cylinder's ``point`` moved to the start of the face along its axis and its
+    ``length`` set, as a plan's cylinder states them: a position's axis ends are then the
+    face's ends, not the extent of whichever points were measured. The extent is that of
+    the face's tessellation vertices, which BRepMesh places on the face's boundary edges
+    (exact for a cylinder cut square to its axis; for an oblique cut the vertices between
+    the edge's extremes are at most one deflection short)."""
+    mesh = getattr(cad, "mesh", None)
+    tri_face = getattr(cad, "triangle_face", None)
+    if mesh is None or tri_face is None:
+        return
+    faces = np.asarray(mesh.faces)[np.asarray(tri_face) == index]
+    if len(faces) == 0:
+        return
+    v = np.asarray(mesh.vertices, dtype=float)[np.unique(faces)]
+    p, a = np.asarray(nominal["point"], dtype=float), np.asarray(nominal["axis"], dtype=float)
+    t = (v - p) @ a
+    nominal["point"] = p + t.min() * a
+    nominal["length"] = float(t.max() - t.min())
 
 
 # -- association ----------------------------------------------------------------------------
