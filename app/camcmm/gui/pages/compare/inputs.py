@@ -96,9 +96,12 @@ class Inputs:
         if s.ins_measured not in clouds:
             s.ins_measured = clouds[0] if clouds else None
         if s.ins_nominal not in geoms:
+            # an exact CAD model first: a mesh's facets bias every deviation by up to its
+            # chordal error (the demo's icosphere: 11 um), the B-rep's surface does not
+            exact = [it["id"] for it in items if it.get("kind") == "cad"]
             meshes = [it["id"] for it in items if it.get("kind") == "mesh"]
             others = [g for g in geoms if g != s.ins_measured]
-            s.ins_nominal = meshes[0] if meshes else (others[0] if others else None)
+            s.ins_nominal = (exact + meshes + others + [None])[0]
 
     def name(self, key: Any) -> str:
         m = self.session.measurement(key)
