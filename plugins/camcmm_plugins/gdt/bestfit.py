@@ -19,6 +19,7 @@ import numpy as np
 
 from camcmm.api import InputError
 
+from . import features
 from .model import FeatureSpec, Plan
 
 #: Least points a feature needs to take part in an alignment.
@@ -109,35 +110,32 @@ def transform_summary(T: np.ndarray) -> dict[str, Any]:
 
 
 def surface_distance_normal(points: np.ndarray, ftype: str, nominal: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """Signed distance (N,) of points from a nominal surface and its gradient (N, 3), the
-    unit normal there: the residual and Jacobian of the point-to-surface fit. The sign
-    only has to agree with the gradient (the fit squares it). Types: :data:`SURFACE_TYPES`."""
+    """Signed distance (N,) of points from a nominal surface (:func:`.features.surface_distance`,
+    outward sign: the fit squares it) and its gradient (N, 3), the unit normal there: the
+    residual and Jacobian of the point-to-surface fit. Types: :data:`SURFACE_TYPES`."""
     X = np.asarray(points, dtype=float)
+    if ftype not in SURFACE_TYPES:
+        raise InputError(f"alignment: a {ftype} has no nominal surface to fit to")
+    d = features.surface_distance(X, ftype, {**nominal, "internal": False})
     if ftype == "plane":
-        n = np.asarray(nominal["normal"], float)
-        return (X - nominal["point"]) @ n, np.broadcast_to(n, X.shape)
+        return d, np.broadcast_to(np.asarray(nominal["normal"], float), X.shape)
     if ftype == "sphere":
         v = X - nominal["centre"]
-        r = np.linalg.norm(v, axis=1)
-        return r - nominal["diameter"] / 2, v / np.maximum(r, 1e-300)[:, None]
+        return d, v / np.maximum(np.linalg.norm(v, axis=1), 1e-300)[:, None]
     origin = nominal["apex"] if ftype == "cone" else nominal.get("point", nominal.get("centre"))
     a = np.asarray(nominal["axis"], float)
     v = X - origin
     h = v @ a
     radial = v - h[:, None] * a
-    rho = np.linalg.norm(radial, axis=1)
-    e = radial / np.maximum(rho, 1e-300)[:, None]
+    e = radial / np.maximum(np.linalg.norm(radial, axis=1), 1e-300)[:, None]
     if ftype == "cylinder":
-        return rho - nominal["diameter"] / 2, e
+        return d, e
     if ftype == "cone":
         half = np.radians(nominal["angle"]) / 2
-        return rho * np.cos(half) - h * np.sin(half), np.cos(half) * e - np.sin(half) * a
-    if ftype == "torus":
-        dr = rho - nominal["major_diameter"] / 2
-        s = np.hypot(dr, h)
-        g = (dr[:, None] * e + h[:, None] * a) / np.maximum(s, 1e-300)[:, None]
-        return s - nominal["minor_diameter"] / 2, g
-    raise InputError(f"alignment: a {ftype} has no nominal surface to fit to")
+        return d, np.cos(half) * e - np.sin(half) * a
+    dr = np.linalg.norm(radial, axis=1) - nominal["major_diameter"] / 2  # torus
+    g = dr[:, None] * e + h[:, None] * a
+    return d, g / np.maximum(np.linalg.norm(g, axis=1), 1e-300)[:, None]
 
 
 def dof_words(v: np.ndarray, c: np.ndarray) -> str:
@@ -167,8 +165,6 @@ def in_boxes(X: np.ndarray, boxes: np.ndarray | None) -> np.ndarray:
 
 # --------------------------------------------------------------------------- best fit to the plan
 def select(X: np.ndarray, spec: FeatureSpec, cad: Any) -> np.ndarray:
-    from . import features
-
     return np.asarray(features.select(X, spec, cad), dtype=np.int64)
 
 
