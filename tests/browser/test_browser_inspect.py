@@ -102,12 +102,15 @@ def test_compare_with_cad_in_the_browser(gui_server, tmp_path):
             assert page.locator('[data-testid="ins-af"] .scatterlayer .trace').count() >= 7
             assert "material ratio [%]" in page.locator('[data-testid="ins-af"] .xtitle').text_content()
             drag = page.locator('[data-testid="ins-af"] .nsewdrag').first
+            drag.scroll_into_view_if_needed()  # the charts column scrolls (its toggle sits above them)
             dbox = drag.bounding_box()
             hover = page.locator('[data-testid="ins-af"] .hoverlayer .hovertext')
-            for fx in (0.5, 0.3, 0.7, 0.55):  # the curve runs through the middle of the plot
-                page.mouse.move(dbox["x"] + fx * dbox["width"], dbox["y"] + 0.5 * dbox["height"])
+            # the curve's height in the plot depends on the deviations' range: sweep across it
+            spots = [(fx, fy) for fy in (0.5, 0.6, 0.4, 0.7, 0.3) for fx in (0.5, 0.3, 0.7)]
+            for fx, fy in spots:
+                page.mouse.move(dbox["x"] + fx * dbox["width"], dbox["y"] + fy * dbox["height"])
                 try:
-                    hover.first.wait_for(timeout=2000)
+                    hover.first.wait_for(timeout=1000)
                     break
                 except sync_api.TimeoutError:
                     continue

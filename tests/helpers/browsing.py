@@ -60,6 +60,8 @@ def choose(page, testid: str, option: str) -> None:
     only: closed menus stay in the DOM)."""
     page.click(f'[data-testid="{testid}"]')
     page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
+    # the select shows the choice once the server's state came back (not at the click)
+    page.locator(f'[data-testid="{testid}"]', has_text=option).first.wait_for(timeout=15_000)
 
 
 def server_tracebacks(log: list[str]) -> list[str]:

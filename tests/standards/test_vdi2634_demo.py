@@ -86,7 +86,8 @@ def test_demo_is_not_made_twice(made):
 def test_demo_without_the_plugins_says_so(tmp_path, monkeypatch):
     monkeypatch.setattr(demo, "default_host", lambda: PluginHost(entry_points=[]))
     out = demo.create_demo(tmp_path / "bare")
-    assert len(out["measurements"]) == 4
+    # the scan, the ball bar, the flat, the sphere's mesh and its exact STEP (OpenCascade, not a plugin)
+    assert len(out["measurements"]) == 5
     # the demo finds its plugins by task: the note names the task none provides
     assert "area-scanning-acceptance-test" in out["notes"][0] and "install one" in out["notes"][0]
     assert "acceptance" not in out

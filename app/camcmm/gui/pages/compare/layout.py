@@ -456,7 +456,9 @@ def _mode_bar(on_mode: Any) -> None:
                 raw_attrs=tid("ins-mode-bands"),
             )
             v.VBtn("Inputs", value="inputs", raw_attrs=tid("ins-mode-inputs"))
-            v.VBtn("Characteristics", value="gdt", disabled=("!gdt_results.length",), raw_attrs=tid("ins-mode-gdt"))
+            # "GD&T", not "Characteristics": the longer word was clipped beside the three others
+            # at 1400 px (the right column's toggle keeps the long name)
+            v.VBtn("GD&T", value="gdt", disabled=("!gdt_results.length",), raw_attrs=tid("ins-mode-gdt"))
         v.VChip(
             "{{ ins_legend_title }} · {{ ins_limit_text }}",
             v_if="ins_mode === 'colour'",
