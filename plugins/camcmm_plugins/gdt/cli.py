@@ -38,7 +38,10 @@ PLUGIN = "gdt.evaluate"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="what", required=True, metavar="{evaluate}")
+    sub = parser.add_subparsers(dest="what", required=True, metavar="{evaluate,import-qif}")
+    from .qif import command as qif_command  # camcmm gdt import-qif (issue 28)
+
+    qif_command.configure(sub)
     e = sub.add_parser("evaluate", help="evaluate a GD&T plan on a measured cloud")
     e.add_argument("plan", help="the plan (.yaml or .json): features, datums, characteristics")
     e.add_argument("cloud", help="the measured cloud (.ply .pcd .xyz .csv .txt .e57)")
@@ -53,6 +56,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
+    if args.what == "import-qif":
+        from .qif import command as qif_command
+
+        return qif_command.run(args)
     host = default_host()
     spec = host.get(PLUGIN)
     params = declared_values(args, spec.parameters)  # checked first: a bad value reads no file
@@ -119,6 +126,10 @@ def _limits(c: dict[str, Any]) -> str:
 
 def text(r: dict[str, Any]) -> str:
     """A readable table of :func:`run`'s result."""
+    if r.get("command") == "import-qif":
+        from .qif import command as qif_command
+
+        return qif_command.text(r)
     a = r["alignment"]
     lines = [f"{r['plan']} on {r['cloud']}: {r['n_points']} points"]
     state = "settled" if a.get("converged", True) else "NOT SETTLED"
