@@ -51,6 +51,7 @@ from camcmm.api import (
     Cancelled,
     InputError,
     RunResult,
+    checked_path,
     declared_value,
     default_host,
     read,
@@ -209,6 +210,8 @@ def _plan_of(plan: Any) -> tuple[Plan, str, str]:
     from .alignment import options
     from .plugin import load_plan
 
+    if isinstance(plan, (str, Path)) and not Path(plan).is_file():
+        raise InputError(f"{plan}: no such file (plan)")
     p = load_plan(plan)  # a bad plan is refused here, before any part
     options(p)
     if isinstance(plan, (str, Path)):
@@ -293,6 +296,15 @@ def run_batch(
     params = {n: declared_value(PLUGIN, n, v) for n, v in given.items() if v is not None}
     if not clouds:
         raise InputError("gdt batch: no cloud given")
+    # every path checked first (in a confined run, refused when outside the folders)
+    if isinstance(plan, (str, Path)):
+        plan = checked_path(plan, "plan")
+    files = [checked_path(c, "cloud") for c in clouds]
+    out = checked_path(folder, "batch folder")
+    if isinstance(nominal, (str, Path)):
+        nominal = checked_path(nominal, "nominal")
+    if project is not None:
+        project = checked_path(project, "project")
     p, plan_name, plan_sha = _plan_of(plan)
     if params.get("align") == "rps":
         from .alignment import rps_points
@@ -306,11 +318,12 @@ def run_batch(
         nominal_obj = read(nominal)  # once for every part; InputError names the file
         nominal_sha = file_sha256(nominal)
     key = _json_sha256({"plan": plan_sha, "nominal": nominal_sha, "params": params})
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{folder}: cannot be made a batch folder ({exc.strerror or _line(exc)})") from None
     warnings: list[str] = []
     done = _records(out, warnings) if resume else {}
-    files = [Path(c) for c in clouds]
     names = _names(files)
     n = len(files)
     runner = _Runner(default_host(), p, plan_name, nominal_obj, nominal_name, params, project, progress, cancel, n)

@@ -38,10 +38,13 @@ PLUGIN = "gdt.evaluate"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="what", required=True, metavar="{evaluate,import-qif}")
+    sub = parser.add_subparsers(dest="what", required=True, metavar="{evaluate,import-qif,batch}")
     from .qif import command as qif_command  # camcmm gdt import-qif (issue 28)
 
     qif_command.configure(sub)
+    from . import batch_command  # camcmm gdt batch (issue 28)
+
+    batch_command.configure(sub)
     e = sub.add_parser("evaluate", help="evaluate a GD&T plan on a measured cloud")
     e.add_argument("plan", help="the plan (.yaml or .json): features, datums, characteristics")
     e.add_argument("cloud", help="the measured cloud (.ply .pcd .xyz .csv .txt .e57)")
@@ -56,6 +59,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
+    if args.what == "batch":
+        from . import batch_command
+
+        return batch_command.run(args)
     if args.what == "import-qif":
         from .qif import command as qif_command
 
@@ -126,6 +133,10 @@ def _limits(c: dict[str, Any]) -> str:
 
 def text(r: dict[str, Any]) -> str:
     """A readable table of :func:`run`'s result."""
+    if r.get("command") == "batch":
+        from . import batch_command
+
+        return batch_command.text(r)
     if r.get("command") == "import-qif":
         from .qif import command as qif_command
 
