@@ -311,7 +311,10 @@ def test_report_renders(files, tmp_path):
     assert Path(paths["pdf"]).read_bytes()[:4] == b"%PDF"
     data = json.loads(Path(paths["json"]).read_text())
     names = [s["title"] for s in data["sections"]]
-    assert names[:5] == ["Summary", "Alignment", "Deviations", "Material ratio (ISO 13565-2 / ISO 25178-2)", "Coverage"]
+    # the body for the customer, then the appendix (issue 28)
+    assert names[:5] == ["Result", "Summary", "Deviations", "Coverage", "Signatures"]
+    appendix = [s["title"] for s in data["sections"] if s.get("appendix")]
+    assert appendix[-3:] == ["Alignment", "Deviation statistics", "Material ratio (ISO 13565-2 / ISO 25178-2)"]
     assert {i["file"] for i in data["provenance"]["inputs"]} == {str(d / "scan.ply"), str(d / "block.stl")}
 
 

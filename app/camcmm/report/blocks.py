@@ -220,6 +220,17 @@ class Warning_:
 
 
 @dataclass
+class Signature:
+    """Lines a person signs by hand: per party its role, its name (may be blank) and
+    empty date and signature fields, tall enough to sign in on paper."""
+
+    parties: list[tuple[str, str]]
+
+    def to_dict(self) -> dict:
+        return {"type": "signature", "parties": [{"role": r, "name": n} for r, n in self.parties]}
+
+
+@dataclass
 class FigureRow:
     """Consecutive figures that fit side by side on one line (layout only, not content)."""
 
@@ -282,6 +293,25 @@ def layout(blocks: Iterable[Any]) -> list[Any]:
             out.append(FigureRow([b]))
         else:
             out.append(b)
+    return out
+
+
+def headed_sections(report: Any) -> list[tuple[str, list[Any], bool]]:
+    """(heading, blocks, appendix) in reading order, for both renderers: the body's
+    sections numbered 1, 2 …, then the appendix's lettered A, B … with the provenance as
+    its last part — so a customer reads results first and the records behind them after."""
+    body = [s for s in report.sections if not getattr(s, "appendix", False)]
+    appendix = [s for s in report.sections if getattr(s, "appendix", False)]
+    out: list[tuple[str, list[Any], bool]] = [
+        (f"{i}\u2002{s.title}", layout(s.blocks), False) for i, s in enumerate(body, 1)
+    ]
+    if not appendix:  # a report without appendix keeps its provenance as the last section
+        return out + [("Provenance", provenance_blocks(report.provenance_dict()), False)]
+    letters = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
+    out += [(f"Appendix {letters[i]}\u2002{s.title}", layout(s.blocks), True) for i, s in enumerate(appendix)]
+    out.append(
+        (f"Appendix {letters[len(appendix)]}\u2002Provenance", provenance_blocks(report.provenance_dict()), True)
+    )
     return out
 
 

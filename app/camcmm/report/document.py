@@ -29,6 +29,7 @@ from .blocks import (
     Figure,
     KeyValues,
     Paragraph,
+    Signature,
     Table,
     Verdict,
     Warning_,
@@ -42,10 +43,12 @@ from .blocks import (
 class Section:
     """A titled part of a report: a list of blocks in the order they were added."""
 
-    def __init__(self, title: str, dpi: float = 150.0) -> None:
+    def __init__(self, title: str, dpi: float = 150.0, appendix: bool = False) -> None:
         self.title = str(title)
         self.blocks: list[Any] = []
         self._dpi = dpi
+        #: an appendix is rendered after the body, lettered (records, not results)
+        self.appendix = bool(appendix)
 
     def paragraph(self, text: str) -> Section:
         """Plain text (no markup: it is escaped in every rendering)."""
@@ -139,8 +142,16 @@ class Section:
         self.blocks.append(Warning_(str(text)))
         return self
 
+    def signature(self, parties: Sequence[tuple[str, str]] = (("Inspected by", ""), ("Approved by", ""))) -> Section:
+        """Fields to sign by hand: one row per (role, name) with empty date and signature."""
+        self.blocks.append(Signature([(str(r), str(n or "")) for r, n in parties]))
+        return self
+
     def to_dict(self) -> dict:
-        return {"title": self.title, "blocks": [b.to_dict() for b in self.blocks]}
+        d: dict[str, Any] = {"title": self.title, "blocks": [b.to_dict() for b in self.blocks]}
+        if self.appendix:
+            d["appendix"] = True
+        return d
 
 
 class Report:
@@ -164,8 +175,10 @@ class Report:
         self._provenance: dict[str, Any] = {"software": None, "plugins": [], "inputs": [], "extra": {}}
 
     # ------------------------------------------------------------------ building
-    def section(self, title: str) -> Section:
-        s = Section(title, self._dpi)
+    def section(self, title: str, appendix: bool = False) -> Section:
+        """A new section; ``appendix=True`` puts it after the body (lettered A, B …), with
+        the provenance as the appendix's last part."""
+        s = Section(title, self._dpi, appendix)
         self.sections.append(s)
         return s
 
@@ -202,6 +215,39 @@ class Report:
         if extra:
             p["extra"].update(jsonable(dict(extra), "provenance extra"))
         return self
+
+    # ------------------------------------------------------------------ customer
+    def customer(self, fields: dict[str, str]) -> Report:
+        """Head the report with the customer fields (:mod:`.customer`: customer, part
+        number, order, drawing revision, operator, instrument, date, temperature) before
+        the meta already given; the date defaults to the day the report is made."""
+        from .customer import header
+
+        self.meta = {**header(fields, self.created), **self.meta}
+        return self
+
+    @staticmethod
+    def customer_options(parser: Any) -> None:
+        """``--customer``, ``--part-number`` … on a command writing a report (:func:`.customer.add_options`)."""
+        from .customer import add_options
+
+        add_options(parser)
+
+    @staticmethod
+    def customer_fields(doc: Any = None, args: Any = None, where: str = "report") -> dict[str, str]:
+        """The customer fields of a plan's ``report:`` mapping ``doc`` (refused in one line
+        naming ``where`` and the key) with a command's options ``args`` over them."""
+        from .customer import check_fields, from_args
+
+        base = check_fields(doc, where)
+        return from_args(args, base) if args is not None else base
+
+    @staticmethod
+    def overall_verdict(verdicts: Iterable[tuple[str, str]]) -> tuple[str, str]:
+        """(badge word, sentence) of a part from (name, ISO 14253-1 verdict) pairs (:func:`.customer.overall`)."""
+        from .customer import overall
+
+        return overall(verdicts)
 
     # ------------------------------------------------------------------ content
     def provenance_dict(self) -> dict:

@@ -21,12 +21,12 @@ from .blocks import (
     FigureRow,
     KeyValues,
     Paragraph,
+    Signature,
     Table,
     VerdictTable,
     Warning_,
+    headed_sections,
     jsonable,
-    layout,
-    provenance_blocks,
     text,
 )
 
@@ -85,7 +85,11 @@ table.verdicts td.note { color: var(--muted); font-size: 12px; text-align: left;
 .warning { background: #fff4d6; border-left: 5px solid #f0a500; padding: 8px 12px; margin: 10px 0;
            white-space: pre-wrap; break-inside: avoid; }
 .warning b { color: #8a5a00; }
-section.provenance td { font-size: 12px; }
+section.provenance td, section.appendix td { font-size: 12px; }
+section.appendix h2 { color: var(--muted); }
+h2.appendix { border-bottom: 2px solid var(--ink); margin-top: 40px; break-before: page; page-break-before: always; }
+table.signature { width: 100%; margin-top: 18px; }
+table.signature td { height: 56px; }
 td.mono { word-break: break-all; font-family: "DejaVu Sans Mono", Menlo, Consolas, monospace; font-size: 11.5px; }
 footer { margin-top: 28px; padding-top: 8px; border-top: 1px solid var(--rule); color: var(--muted);
          font-size: 12px; }
@@ -182,6 +186,12 @@ def _block(b: Any) -> str:
         return _verdicts(b)
     if isinstance(b, Warning_):
         return f'<div class="warning"><b>Warning:</b> {html.escape(b.text)}</div>'
+    if isinstance(b, Signature):
+        rows = "".join(
+            f"<tr><th>{html.escape(r)}</th><td>{html.escape(n)}</td><td></td><td></td></tr>" for r, n in b.parties
+        )
+        head = "<thead><tr><th></th><th>Name</th><th>Date</th><th>Signature</th></tr></thead>"
+        return f'<table class="signature">{head}<tbody>{rows}</tbody></table>'
     raise TypeError(f"unknown report block {type(b).__name__}")
 
 
@@ -210,13 +220,19 @@ def render_html(report) -> str:
     if report.meta:
         out.append(_keyvalues([(k, v) for k, v in report.meta.items()], cls="meta"))
     out.append("</header>")
-    for i, sec in enumerate(report.sections, 1):
-        out.append(f"<section><h2>{i}&ensp;{html.escape(sec.title)}</h2>")
-        out.extend(_block(b) for b in layout(sec.blocks))
+    started = False
+    for heading, blocks, appendix in headed_sections(report):
+        if appendix and not started:  # the records behind the results, after them
+            out.append('<h2 class="appendix">Appendix</h2>')
+            started = True
+        cls = "appendix" if appendix else ("provenance" if heading == "Provenance" else "")
+        out.append(
+            f'<section class="{cls}"><h2>{html.escape(heading)}</h2>'
+            if cls
+            else f"<section><h2>{html.escape(heading)}</h2>"
+        )
+        out.extend(_block(b) for b in blocks)
         out.append("</section>")
-    out.append('<section class="provenance"><h2>Provenance</h2>')
-    out.extend(_block(b) for b in provenance_blocks(prov))
-    out.append("</section>")
     out.append(
         f"<footer>{html.escape(report.title)} &middot; generated {html.escape(report.created)} by "
         f"{html.escape(prov['software'])} &middot; the machine-readable result is embedded in this "

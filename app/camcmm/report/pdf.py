@@ -23,11 +23,11 @@ from .blocks import (
     FigureRow,
     KeyValues,
     Paragraph,
+    Signature,
     Table,
     VerdictTable,
     Warning_,
-    layout,
-    provenance_blocks,
+    headed_sections,
     text,
 )
 from .html import VERDICT_COLOURS
@@ -343,6 +343,8 @@ class _Builder:
             return self.verdicts(b)
         if isinstance(b, Warning_):
             return self.warning(b)
+        if isinstance(b, Signature):
+            return self.signature(b)
         raise TypeError(f"unknown report block {type(b).__name__}")
 
     # ----------------------------------------------------------------- document
@@ -370,10 +372,36 @@ class _Builder:
                 )
             )
             story.append(t)
-        for i, sec in enumerate(r.sections, 1):
-            story += self.section(f"{i}\u2002{sec.title}", layout(sec.blocks))
-        story += self.section("Provenance", provenance_blocks(r.provenance_dict()))
+        started = False
+        for heading, blocks, appendix in headed_sections(r):
+            if appendix and not started:  # the records behind the results start a page
+                from reportlab.platypus import PageBreak
+
+                story += [PageBreak(), self._p("Appendix", "title")]
+                started = True
+            story += self.section(heading, blocks)
         return story
+
+    def signature(self, sig: Signature) -> list:
+        """One row per party: role, name, and empty date and signature cells tall enough to sign."""
+        from reportlab.platypus import KeepTogether, TableStyle
+        from reportlab.platypus import Table as T
+
+        mm = self.mm
+        data = [[self._p("", "head"), self._p("Name", "head"), self._p("Date", "head"), self._p("Signature", "head")]]
+        data += [[self._p(r, "head"), self._p(n, "cell"), "", ""] for r, n in sig.parties]
+        widths = [35 * mm, 50 * mm, 30 * mm, self.width - 115 * mm]
+        t = T(data, colWidths=widths, rowHeights=[None] + [16 * mm] * len(sig.parties), hAlign="LEFT")
+        t.setStyle(
+            TableStyle(
+                [
+                    ("GRID", (0, 0), (-1, -1), 0.5, self.rule),
+                    ("BACKGROUND", (0, 0), (-1, 0), self.head_bg),
+                    ("VALIGN", (0, 0), (-1, -1), "TOP"),
+                ]
+            )
+        )
+        return [self._space(8), KeepTogether([t])]
 
     def section(self, title: str, blocks: list) -> list:
         """A heading and its blocks; the heading never ends a page alone.
@@ -387,7 +415,9 @@ class _Builder:
         heading = self._p(title, "h2")
         if not blocks:
             return [CondPageBreak(30 * self.mm), heading]
-        first = self.block(blocks[0])
+        # a KeepTogether inside the heading's KeepTogether makes reportlab start a new page
+        # whatever room is left (a verdict table after the title page's meta): unwrap it
+        first = [g for f in self.block(blocks[0]) for g in (f._content if isinstance(f, KeepTogether) else [f])]
         if isinstance(blocks[0], Table):
             out = [CondPageBreak(40 * self.mm), heading] + first
         else:

@@ -685,7 +685,7 @@ _LENGTHS = {
 _NOT_LENGTHS = {
     "feature": {"type", "normal", "axis", "direction", "angle", "cad", "association", "internal"},
     "characteristic": {"id", "type", "feature", "datums", "modifier", "k"},
-    "plan": {"unit", "features", "datums", "characteristics"},
+    "plan": {"unit", "features", "datums", "characteristics", "report"},  # report: the customer fields
 }
 
 

@@ -31,7 +31,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, add_declared_options, declared_values, default_host, record_result
+from camcmm.api import InputError, Report, add_declared_options, declared_values, default_host, record_result
 
 #: The plugin ``camcmm gdt evaluate`` runs.
 PLUGIN = "gdt.evaluate"
@@ -54,6 +54,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     # --align, --start, --k, --max-iterations, --seed: the plugin's declared parameters
     add_declared_options(e, default_host().get(PLUGIN).parameters)
     e.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
+    Report.customer_options(e)  # --customer, --part-number ...: the report's head (over the plan's report:)
     e.add_argument("--project", default=None, metavar="DIR", help="record the result in this project folder")
     e.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from .plan import read_plan
 
     plan = read_plan(args.plan)  # a bad plan is refused before the cloud is read
+    customer = Report.customer_fields(plan.options.get("report"), args, where=f"{args.plan}: report")
     options(plan)
     if params.get("align") == "rps":
         rps_points(plan)
@@ -108,7 +110,15 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.report:  # rendered in memory first: a failure writes nothing
         from .report import build_report
 
-        rep = build_report(o, plan=plan, plan_file=args.plan, cloud_file=args.cloud, nominal_file=args.nominal, run=res)
+        rep = build_report(
+            o,
+            plan=plan,
+            plan_file=args.plan,
+            cloud_file=args.cloud,
+            nominal_file=args.nominal,
+            run=res,
+            customer=customer,
+        )
         out["report"] = rep.write(args.report)
     if args.project:
         out["result_id"] = record_result(args.project, res)

@@ -1,11 +1,16 @@
 """The report of a GD&T evaluation (``camcmm gdt evaluate --report DIR``): one
 :class:`camcmm.api.Report` rendered as HTML, PDF and JSON.
 
-Sections: summary (verdict counts, warnings), characteristics as on a drawing (ISO 1101
-symbol, datums, tolerance or limits, value, U = k·u, simple and ISO 14253-1 guarded
-verdicts), alignment (method, transform, rms, free degrees of freedom, stages),
-features (type, association, points, form), a view of the part in plan coordinates
-coloured by feature with the characteristics' labels, provenance.
+A report for the customer. Its head: customer, part number, order, drawing revision,
+operator, instrument, date, temperature (the plan's ``report:`` mapping, the command's
+``--customer`` … options). Body: the overall verdict (every characteristic in tolerance,
+or which are not / undecided), the characteristics as on a drawing (ISO 1101 symbol,
+datums, tolerance or limits, value, U = k·u, ISO 14253-1 guarded verdict), a view of the
+part in plan coordinates coloured by feature with the characteristics' labels, the
+signature fields. No internal key or parameter in the body: the appendix holds the
+uncertainty methods and the evaluation's notes, alignment (method, transform, rms, free
+degrees of freedom, stages), features (type, association, points, form) and the
+provenance (plugin ids, parameters, input hashes).
 
 Symbols: ISO 1101's where the report's font (DejaVu Sans) has the glyph; position ⊕,
 straightness —, cylindricity /○/, profiles ◠, symmetry ≡, total runout ⇗ stand in for
@@ -15,7 +20,6 @@ the missing ones (⌖ ⏤ ⌭ ⌒ ⌓ ⌯ ⌰).
 from __future__ import annotations
 
 import io
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -58,10 +62,6 @@ def _limits(c: dict[str, Any]) -> str:
         return f"{c['tolerance']:g}"
     lo, hi = c.get("lower"), c.get("upper")
     return " / ".join("—" if v is None else f"{v:+g}" for v in (lo, hi))
-
-
-def _verdicts(c: dict[str, Any]) -> str:
-    return c["verdict"] if c["verdict"] == c["verdict_guarded"] else f"{c['verdict']}; guarded: {c['verdict_guarded']}"
 
 
 def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels: list[dict[str, Any]]) -> bytes:
@@ -111,6 +111,33 @@ def part_view(points: np.ndarray, feature: np.ndarray, names: list[str], labels:
     )
 
 
+#: The alignment methods as a person reads them.
+ALIGNMENTS = {
+    "best-fit": "best fit to the nominal",
+    "datums": "datum reference frame",
+    "rps": "reference point system (RPS)",
+    "3-2-1": "3-2-1 from features",
+    "none": "none (measured in the drawing's coordinates)",
+}
+
+
+def _title(kind: str) -> str:
+    """A characteristic's type in words: ``surface-profile`` -> ``Surface profile``."""
+    return str(kind).replace("-", " ").capitalize()
+
+
+def _name(f: Any) -> str:
+    """A file's name as the body shows it (its full path is in the provenance)."""
+    return Path(str(f)).name if f else ""
+
+
+def customer_fields(plan: Any) -> Any:
+    """The ``report:`` mapping of a plan (a Plan's options or a plan document), or None."""
+    if isinstance(plan, dict):
+        return plan.get("report")
+    return (getattr(plan, "options", None) or {}).get("report")
+
+
 def build_report(
     o: dict[str, Any],
     plan: Any = None,
@@ -118,59 +145,93 @@ def build_report(
     cloud_file: str | None = None,
     nominal_file: str | None = None,
     run: Any = None,
+    customer: dict[str, str] | None = None,
 ) -> Report:
-    """The report of a ``gdt.evaluate`` result ``o`` (its outputs dict)."""
+    """The customer report of a ``gdt.evaluate`` result ``o`` (its outputs dict).
+
+    Body: the order's fields (``customer`` — checked fields, e.g. from
+    ``Report.customer_fields`` — else the plan's ``report:`` mapping), the overall verdict,
+    the characteristics as on the drawing, the measured part, the signature fields.
+    Appendix: uncertainty methods and the evaluation's notes, alignment, features,
+    provenance (plugin ids, parameters, input hashes)."""
     chars, feats, a = o["characteristics"], o["features"], o["alignment"]
     aligned = o.get("aligned")
+    fields = customer if customer is not None else Report.customer_fields(customer_fields(plan), where="plan: report")
     r = Report(
-        "Geometric tolerances (ISO 1101) with their uncertainty",
-        subtitle=f"{cloud_file or (aligned.name if aligned is not None else '')} against plan {plan_file or ''}",
+        "Inspection report: geometric tolerances",
+        subtitle="ISO 1101 characteristics with their measurement uncertainty, decided by ISO 14253-1",
         meta={
-            "plan": plan_file or "",
-            "measured cloud": cloud_file or "",
-            "nominal": nominal_file or "—",
-            "points": aligned.n_points if aligned is not None else "",
-            "alignment": a.get("method", ""),
+            "Measured data": _name(cloud_file) or (aligned.name if aligned is not None else "—"),
+            "Inspection plan": _name(plan_file) or "—",
+            "Nominal": _name(nominal_file) or "the plan's nominal geometry",
+            "Alignment": ALIGNMENTS.get(str(a.get("method")), str(a.get("method", ""))),
         },
-    )
-    s = r.section("Summary")
-    counts = Counter(c["verdict_guarded"] for c in chars)
-    s.keyvalues(
-        [
-            ("characteristics", len(chars)),
-            *[(f"guarded verdict: {k}", v) for k, v in counts.items()],
-            ("decision rule", "ISO 14253-1: conform when the value lies within the tolerance shrunk by U = k·u"),
-        ]
-    )
-    for w in run.warnings if run is not None else []:
-        s.warning(w)
+    ).customer(fields)
+
+    s = r.section("Result")
+    names = [(str(c["id"]), c["verdict_guarded"]) for c in chars]
+    word, sentence = Report.overall_verdict(names)
+    simple, _ = Report.overall_verdict([(str(c["id"]), c["verdict"]) for c in chars])
+    ok = sum(c["verdict_guarded"] == "conform" for c in chars)
+    s.verdict("Part", simple, word, value=f"{ok} of {len(chars)} in tolerance", limit="drawing tolerances")
+    s.paragraph(sentence)
+    warnings = list(run.warnings) if run is not None else []
+    if warnings:
+        s.paragraph(f"The evaluation noted {len(warnings)} point(s) to check; they are listed in the appendix.")
 
     s = r.section("Characteristics")
+    ks = {c["k"] for c in chars}
+    one_k = len(ks) == 1
     s.table(
-        ["", "id", "characteristic", "feature", "datums", "tolerance mm", "value mm", "U mm", "k", "verdict"],
+        [
+            "No.",
+            "Characteristic",
+            "Feature",
+            "Datums",
+            "Tolerance mm",
+            "Value mm",
+            f"U mm (k = {next(iter(ks)):g})" if one_k else "U mm (k)",
+            "Verdict",
+        ],
         [
             [
-                SYMBOLS.get(c["type"], ""),
                 c["id"],
-                c["type"],
+                f"{SYMBOLS.get(c['type'], '')}\u2002{_title(c['type'])}".strip(),
                 c["feature"],
                 "|".join(c["datums"]) or "—",
                 _limits(c),
                 _mm(c["value"]),
-                _mm(c["U"]),
-                f"{c['k']:g}",
-                _verdicts(c),
+                _mm(c["U"]) if one_k or c["U"] is None else f"{_mm(c['U'])} ({c['k']:g})",
+                c["verdict_guarded"],
             ]
             for c in chars
         ],
-        caption="As on the drawing: a zone's tolerance, a size's limits (deviations from nominal); "
-        "U the expanded uncertainty (k·u).",
-        align=["center", "left", "left", "left", "left", "right", "right", "right", "right", "left"],
+        caption="As on the drawing: a zone's width, or a size's limits as deviations from the nominal; "
+        "U the expanded uncertainty; the verdict by ISO 14253-1 (U as guard band).",
+        align=["left", "left", "left", "left", "right", "right", "right", "left"],
     )
+    if aligned is not None and "feature" in aligned.fields:
+        s = r.section("Measured part")
+        s.figure(
+            part_view(
+                aligned.points, np.asarray(aligned.fields["feature"]).astype(int), [f["id"] for f in feats], o["labels"]
+            ),
+            caption="The measured points in the drawing's coordinates, coloured by feature (grey: none); "
+            "ringed: the points that decide each characteristic.",
+        )
+    s = r.section("Signatures")
+    s.signature((("Inspected by", fields.get("operator", "")), ("Approved by", "")))
+
+    s = r.section("Uncertainty and notes", appendix=True)
     notes = [(c["id"], c.get("u_method") or (c.get("details") or {}).get("reason", "")) for c in chars]
     s.keyvalues(notes, caption="Uncertainty method (or why not evaluated)")
+    for c in chars:
+        if c["verdict"] != c["verdict_guarded"]:
+            s.paragraph(f"{c['id']}: simple verdict {c['verdict']}, with U as guard band {c['verdict_guarded']}.")
+    for w in warnings:
+        s.warning(w)
 
-    s = r.section("Alignment")
+    s = r.section("Alignment", appendix=True)
     kv = [
         ("method", a.get("method")),
         ("settled", a.get("converged")),
@@ -189,7 +250,7 @@ def build_report(
         caption="Transform measured → plan coordinates (4×4)",
     )
 
-    s = r.section("Features")
+    s = r.section("Features", appendix=True)
     s.table(
         ["id", "type", "association", "points", "form range mm", "status"],
         [
@@ -206,14 +267,6 @@ def build_report(
     )
     if o.get("datums"):
         s.keyvalues([(d["label"], d["feature"]) for d in o["datums"]], caption="Datums")
-    if aligned is not None and "feature" in aligned.fields:
-        s.figure(
-            part_view(
-                aligned.points, np.asarray(aligned.fields["feature"]).astype(int), [f["id"] for f in feats], o["labels"]
-            ),
-            caption="The measured points in plan coordinates, coloured by feature (grey: none); "
-            "ringed: the points that decide each characteristic.",
-        )
 
     if run is not None:
         r.provenance(
@@ -223,5 +276,12 @@ def build_report(
     r.provenance(
         inputs=[{"file": str(f)} for f in (plan_file, cloud_file, nominal_file) if f and Path(str(f)).is_file()]
     )
-    r.data = {"characteristics": chars, "features": feats, "alignment": a, "datums": o.get("datums")}
+    r.data = {
+        "characteristics": chars,
+        "features": feats,
+        "alignment": a,
+        "datums": o.get("datums"),
+        "customer": fields,
+        "verdict": word,
+    }
     return r

@@ -39,7 +39,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, PointCloud, add_declared_options, declared_values, default_host, read, write
+from camcmm.api import InputError, PointCloud, Report, add_declared_options, declared_values, default_host, read, write
 
 #: The task ``camcmm inspect`` runs: its provider's parameters are the command's options.
 TASK = "compare-with-cad"
@@ -66,6 +66,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     add_declared_options(parser, default_host().provider(TASK).parameters, spread={"region": REGION})
     parser.add_argument("--out", default=None, metavar="FILE", help="write the coloured cloud with field 'deviation'")
     parser.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
+    Report.customer_options(parser)  # --customer, --part-number ...: the report's head
     parser.add_argument("--unit", default=None, help="length unit of the cloud file when it does not say (default mm)")
     parser.add_argument("--nominal-unit", default=None, help="length unit of the nominal file when it does not say")
     parser.add_argument("--curve", action="store_true", help="include the material-ratio curve in the JSON")
@@ -84,6 +85,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     host = default_host()
     spec = host.provider(TASK)
     params = declared_values(args, spec.parameters)  # checked first: a bad value reads no file
+    customer = Report.customer_fields(None, args)
     for what, f in (("cloud", args.cloud), ("nominal", args.nominal), ("pairs", args.pairs)):
         if f is not None and not Path(f).is_file():
             raise InputError(f"{f}: no such file ({what})")
@@ -143,7 +145,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.report:
         from .report import build_report
 
-        rep = build_report(o, cloud_file=args.cloud, nominal_file=args.nominal, run=res, tolerance=tolerance)
+        rep = build_report(
+            o, cloud_file=args.cloud, nominal_file=args.nominal, run=res, tolerance=tolerance, customer=customer
+        )
         out["report"] = rep.write(args.report)
     return out
 

@@ -1,7 +1,11 @@
 """The inspection report: one :class:`camcmm.api.Report` rendered as HTML, PDF and JSON.
 
-Sections: summary, alignment, deviations (colour map, histogram, statistics), material
-ratio (Abbott-Firestone curve with its ISO 13565-2 construction), coverage, provenance.
+A report for the customer: its head the order's fields (customer, part number, order,
+drawing revision, operator, instrument, date, temperature; ``camcmm inspect --customer``
+…). Body: the result (the overall verdict, the profile of the surface as on a drawing),
+summary, deviations (colour map, histogram), coverage, signature fields. Appendix: the
+comparison's notes, alignment, deviation statistics, material ratio (Abbott-Firestone
+curve with its ISO 13565-2 construction), provenance.
 
 Two charts are drawn here because ``camcmm.api.charts`` has no equivalent: the colour
 map of a general 3-D part (``charts.deviation_map`` projects onto a sphere or a plane;
@@ -319,24 +323,32 @@ def build_report(
     nominal_file: str | None = None,
     run=None,
     tolerance: float | None = None,
+    customer: dict[str, str] | None = None,
 ) -> Report:
-    """The report of an ``inspect.compare`` result ``o`` (its outputs dict)."""
+    """The customer report of an ``inspect.compare`` result ``o`` (its outputs dict).
+
+    Head: the order's fields ``customer`` (checked, e.g. by ``Report.customer_fields``).
+    Body: the overall verdict and the characteristic (the profile of the surface: every
+    deviation within ±``tolerance``), the summary, the deviations, the coverage, the
+    signature fields. Appendix: alignment, deviation statistics, material ratio,
+    provenance."""
     dev_cloud = o["deviations"]
     st, mr, a = o["stats"], o["material_ratio"], o["alignment"]
     measured = dev_cloud.name.removesuffix(" deviations")
     r = Report(
-        "Inspection against the nominal",
-        subtitle=f"{measured} against {nominal_file}" if nominal_file else measured,
+        "Inspection report: deviations from the nominal",
+        subtitle=f"{measured} against {Path(nominal_file).name}" if nominal_file else measured,
         meta={
-            "measured cloud": cloud_file or dev_cloud.name,
-            "nominal": nominal_file or "",
-            "points": dev_cloud.n_points,
-            "tolerance": "—" if tolerance is None else f"±{tolerance} mm",
+            "Measured data": Path(cloud_file).name if cloud_file else dev_cloud.name,
+            "Nominal": Path(nominal_file).name if nominal_file else "\u2014",
+            "Points": dev_cloud.n_points,
+            "Tolerance": "\u2014" if tolerance is None else f"±{tolerance} mm",
         },
-    )
+    ).customer(dict(customer or {}))
 
     failed = not a["converged"]
     held = list(o.get("held_dofs") or a.get("held_dofs") or [])
+    word = _result_section(r, st, tolerance, failed)
     s = r.section("Summary")
     if failed:
         s.warning(
@@ -344,11 +356,21 @@ def build_report(
             "they would rest on a wrong alignment. The numbers under 'Unaligned comparison' are a diagnosis only."
         )
     s.keyvalues(_summary_rows(o, a, st, mr, tolerance, held, failed))
-    if run is not None:
-        for w in run.warnings:
-            s.warning(w)
+    warnings = list(run.warnings) if run is not None else []
+    if warnings:  # the plugin's words may name parameters: listed in the appendix
+        s.paragraph(f"The comparison noted {len(warnings)} point(s) to check; they are listed in the appendix.")
 
-    s = r.section("Alignment")
+    if failed:
+        _unaligned_section(r, o, st)
+    else:
+        _deviation_sections(r, o, st, mr)
+    r.section("Signatures").signature((("Inspected by", (customer or {}).get("operator", "")), ("Approved by", "")))
+
+    if warnings:
+        s = r.section("Notes of the comparison", appendix=True)
+        for w in warnings:
+            s.warning(w)
+    s = r.section("Alignment", appendix=True)
     s.paragraph(
         "The transform maps measured coordinates onto nominal ones: x_nominal = s·R·x_measured + t; "
         "the matrix below holds s·R and t."
@@ -393,11 +415,8 @@ def build_report(
                 )
             )
     s.keyvalues(kv)
-
-    if failed:
-        _unaligned_section(r, o, st)
-    else:
-        _deviation_sections(r, o, st, mr)
+    if not failed:
+        _appendix_sections(r, st, mr)
 
     if run is not None:
         r.provenance(
@@ -422,6 +441,8 @@ def build_report(
         "alignment": a,
         "held_dofs": held,
         "aligned": not failed,
+        "customer": dict(customer or {}),
+        "verdict": word,
     }
     if failed:  # as `camcmm inspect --json`: the unaligned numbers only under "unaligned"
         keys = ("stats", "coverage", "coverage_info", "material_ratio", "histogram")
@@ -429,6 +450,52 @@ def build_report(
         r.data["unaligned"] = {"note": UNALIGNED_NOTE, **{k: r.data[k] for k in keys}}
         r.data.update(dict.fromkeys(keys))
     return r
+
+
+def _result_section(r: Report, st: dict[str, Any], tolerance: float | None, failed: bool) -> str:
+    """The overall verdict and the characteristic as on a drawing: the profile of the
+    surface, every measured deviation within ±``tolerance`` (no measurement uncertainty is
+    stated, so the simple rule decides). Returns the badge word."""
+    s = r.section("Result")
+    if failed:
+        s.verdict("Part", "incomplete", note="the alignment failed")
+        s.paragraph("No verdict: the alignment failed, so no deviation was measured.")
+        return "incomplete"
+    lo, hi = st["min"], st["max"]
+    if tolerance is None:
+        s.paragraph("No tolerance was given: the deviations are reported without a verdict.")
+        word, verdict = "incomplete", "not evaluated"
+    else:
+        inside = lo >= -tolerance and hi <= tolerance
+        word, verdict = ("pass", "conform") if inside else ("fail", "not conform")
+        out = 100.0 * (1.0 - st["within_tolerance"]) if st.get("within_tolerance") is not None else None
+        s.verdict("Part", word, value=f"{_fmt_mm(lo)} … {_fmt_mm(hi)}", limit=f"±{tolerance} mm")
+        s.paragraph(
+            "Every measured deviation is in tolerance."
+            if inside
+            else f"Out of tolerance: the surface profile ({out:.2f} % of the points outside ±{tolerance} mm)."
+            if out is not None
+            else f"Out of tolerance: the surface profile (beyond ±{tolerance} mm)."
+        )
+    s.table(
+        ["No.", "", "Characteristic", "Datums", "Tolerance mm", "Value mm (min / max)", "U mm", "Verdict"],
+        [
+            [
+                "1",
+                "\u25e0",
+                "Profile of the surface (every measured point)",
+                "\u2014 (best fit)",
+                "\u2014" if tolerance is None else f"±{tolerance:g}",
+                f"{lo:+.4f} / {hi:+.4f}",
+                "\u2014",
+                verdict,
+            ]
+        ],
+        caption="As on the drawing; no measurement uncertainty is stated, so the verdict is the simple one "
+        "(the deviations against the limits).",
+        align=["left", "center", "left", "left", "right", "right", "right", "left"],
+    )
+    return word
 
 
 UNALIGNED_NOTE = (
@@ -521,39 +588,6 @@ def _deviation_sections(r: Report, o: dict[str, Any], st: dict[str, Any], mr: di
         caption="Material-ratio curve of the deviations (ISO 13565-2 construction)",
         data={"mr_percent": mr["curve"]["mr_percent"][::10], "height_mm": mr["curve"]["height"][::10]},
     )
-    keys = ["n", "mean", "std", "rms", "min", "max", "p0_5", "p2_5", "p5", "p25", "p50", "p75", "p95", "p97_5", "p99_5"]
-    s.table(
-        ["statistic", "value [mm]"],
-        [[k, st[k] if k == "n" else float(f"{st[k]:.6g}")] for k in keys],
-        caption="Deviation statistics (percentiles: Hazen plotting position)",
-    )
-
-    s = r.section("Material ratio (ISO 13565-2 / ISO 25178-2)")
-    s.paragraph(
-        "Construction: the material-ratio curve (share of points at or above each height) is cut by the "
-        "secant over 40 % of material ratio with the least gradient; extended to 0 % and 100 % it gives C1 "
-        "and C2 (Sk = C1 − C2). Smr1 and Smr2 are the material ratios where the curve crosses C1 and C2. The "
-        "areas of the curve above C1 and below C2 are replaced by right-angled triangles of the same area on "
-        "the bases Smr1 and 100 % − Smr2; their heights are Spk and Svk."
-    )
-    s.table(
-        ["parameter", "value", "unit"],
-        [
-            ["Sk", float(f"{mr['Sk']:.6g}"), "mm"],
-            ["Spk", float(f"{mr['Spk']:.6g}"), "mm"],
-            ["Svk", float(f"{mr['Svk']:.6g}"), "mm"],
-            ["Smr1", float(f"{mr['Smr1']:.4f}"), "%"],
-            ["Smr2", float(f"{mr['Smr2']:.4f}"), "%"],
-            ["C1", float(f"{mr['C1']:.6g}"), "mm"],
-            ["C2", float(f"{mr['C2']:.6g}"), "mm"],
-            ["secant", f"{mr['secant_start']:.2f} … {mr['secant_end']:.2f}", "%"],
-            ["Smc(2.5 %) / Smc(97.5 %)", f"{mr['Smc']['2.5']:.6g} / {mr['Smc']['97.5']:.6g}", "mm"],
-            ["Vmp / Vmc / Vvc / Vvv", " / ".join(f"{mr[k]:.4g}" for k in ("Vmp", "Vmc", "Vvc", "Vvv")), "mm³/mm²"],
-        ],
-        caption="Material-ratio parameters of the deviations",
-        align=["left", "right", "left"],
-    )
-
     c = o["coverage_info"]
     s = r.section("Coverage")
     s.paragraph(
@@ -582,3 +616,40 @@ def _deviation_sections(r: Report, o: dict[str, Any], st: dict[str, Any], mr: di
             ),
             caption="Nominal surface samples: covered (green) or not (grey)",
         )
+
+
+def _appendix_sections(r: Report, st: dict[str, Any], mr: dict[str, Any]) -> None:
+    """The statistics table (keys as in the JSON) and the material-ratio construction."""
+    s = r.section("Deviation statistics", appendix=True)
+    keys = ["n", "mean", "std", "rms", "min", "max", "p0_5", "p2_5", "p5", "p25", "p50", "p75", "p95", "p97_5", "p99_5"]
+    s.table(
+        ["statistic", "value [mm]"],
+        [[k, st[k] if k == "n" else float(f"{st[k]:.6g}")] for k in keys],
+        caption="Deviation statistics (percentiles: Hazen plotting position)",
+    )
+
+    s = r.section("Material ratio (ISO 13565-2 / ISO 25178-2)", appendix=True)
+    s.paragraph(
+        "Construction: the material-ratio curve (share of points at or above each height) is cut by the "
+        "secant over 40 % of material ratio with the least gradient; extended to 0 % and 100 % it gives C1 "
+        "and C2 (Sk = C1 − C2). Smr1 and Smr2 are the material ratios where the curve crosses C1 and C2. The "
+        "areas of the curve above C1 and below C2 are replaced by right-angled triangles of the same area on "
+        "the bases Smr1 and 100 % − Smr2; their heights are Spk and Svk."
+    )
+    s.table(
+        ["parameter", "value", "unit"],
+        [
+            ["Sk", float(f"{mr['Sk']:.6g}"), "mm"],
+            ["Spk", float(f"{mr['Spk']:.6g}"), "mm"],
+            ["Svk", float(f"{mr['Svk']:.6g}"), "mm"],
+            ["Smr1", float(f"{mr['Smr1']:.4f}"), "%"],
+            ["Smr2", float(f"{mr['Smr2']:.4f}"), "%"],
+            ["C1", float(f"{mr['C1']:.6g}"), "mm"],
+            ["C2", float(f"{mr['C2']:.6g}"), "mm"],
+            ["secant", f"{mr['secant_start']:.2f} … {mr['secant_end']:.2f}", "%"],
+            ["Smc(2.5 %) / Smc(97.5 %)", f"{mr['Smc']['2.5']:.6g} / {mr['Smc']['97.5']:.6g}", "mm"],
+            ["Vmp / Vmc / Vvc / Vvv", " / ".join(f"{mr[k]:.4g}" for k in ("Vmp", "Vmc", "Vvc", "Vvv")), "mm³/mm²"],
+        ],
+        caption="Material-ratio parameters of the deviations",
+        align=["left", "right", "left"],
+    )
