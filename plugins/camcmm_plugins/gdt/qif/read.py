@@ -134,11 +134,16 @@ class _Reader:
         self.imported: list[dict[str, Any]] = []
         self.notes: list[str] = []
         self.why: dict[str, str] = {}  # QIF feature id -> why it was skipped
+        self.char_qif: dict[str, str] = {}  # plan characteristic id -> QIF characteristic nominal id
 
     # ---------------------------------------------------------------- helpers
-    def where(self, el: ET.Element, what: str = "") -> str:
+    def at(self, el: ET.Element, what: str = "") -> str:
+        """Where an element is, for a refusal: ``Tag id N.what``."""
         i = el.get("id")
-        return f"{self.name}: {local(el.tag)}{f' id {i}' if i else ''}{f'.{what}' if what else ''}"
+        return f"{local(el.tag)}{f' id {i}' if i else ''}{f'.{what}' if what else ''}"
+
+    def where(self, el: ET.Element, what: str = "") -> str:
+        return f"{self.name}: {self.at(el, what)}"
 
     def child(self, el: ET.Element | None, *path: str) -> ET.Element | None:
         for p in path:
@@ -148,11 +153,11 @@ class _Reader:
         return el
 
     def point(self, el: ET.Element, what: str) -> np.ndarray:
-        f = self.units.linear_factor(el.get("linearUnit"), False, self.where(el, what))
-        return np.array(numbers(el.text, 3, self.where(el, what))) * f
+        f = self.units.linear_factor(el.get("linearUnit"), False, self.at(el))
+        return np.array(numbers(el.text, 3, self.where(el))) * f
 
     def direction(self, el: ET.Element, what: str) -> np.ndarray:
-        return _unit(np.array(numbers(el.text, 3, self.where(el, what))), self.where(el, what))
+        return _unit(np.array(numbers(el.text, 3, self.where(el))), self.where(el))
 
     def need(self, el: ET.Element, *path: str) -> ET.Element:
         e = self.child(el, *path)
@@ -161,7 +166,7 @@ class _Reader:
         return e
 
     def length(self, el: ET.Element | None, what: str, pmi: bool = False) -> float | None:
-        return None if el is None else self.units.mm(el, self.where(el, what), pmi)
+        return None if el is None else self.units.mm(el, self.at(el), pmi)
 
     def lookup(self, i: str, what: str) -> ET.Element:
         el = self.ids.get(i)
@@ -311,7 +316,7 @@ class _Reader:
         else:
             n_faces = len(ids(self.child(nom, "EntityInternalIds")))
             raise Skip(
-                f"a {kind} feature (set of {n_faces} face(s)) has no nominal geometry camcmm can use"
+                f"an {kind} feature (a set of {n_faces} face(s)) has no nominal geometry camcmm can use"
                 if kind == "OtherNonShape"
                 else f"a {kind} feature is not a camcmm feature type"
             )
@@ -328,9 +333,9 @@ class _Reader:
         dia = self.length(self.need(defn, "Diameter"), "Diameter") or 0.0
         half_el, full_el = self.child(defn, "HalfAngle"), self.child(defn, "FullAngle")
         if half_el is not None:
-            half = self.units.degrees(half_el, self.where(half_el))
+            half = self.units.degrees(half_el, self.at(half_el))
         elif full_el is not None:
-            half = 0.5 * self.units.degrees(full_el, self.where(full_el))
+            half = 0.5 * self.units.degrees(full_el, self.at(full_el))
         else:
             raise Skip("a cone without HalfAngle or FullAngle")
         if not 0 < half < 90:
@@ -425,7 +430,10 @@ class _Reader:
         return [lab for _, lab in sorted(out)]
 
     # ---------------------------------------------------------------- characteristics
-    def characteristic(self, nom: ET.Element) -> dict[str, Any]:
+    def characteristic(self, nom: ET.Element) -> list[dict[str, Any]]:
+        """The plan characteristic(s) of a QIF characteristic nominal: one, or one per
+        feature of a pattern (``4X``: each feature meets the tolerance on its own, which is
+        what a single-segment tolerance on a pattern requires evaluated RFS)."""
         stem = local(nom.tag).removesuffix("CharacteristicNominal")
         if stem in NOT_EVALUATED:
             raise Skip(NOT_EVALUATED[stem])
@@ -446,13 +454,18 @@ class _Reader:
         if missing:
             raise Skip(f"its feature {missing[0]} was not imported ({self.why.get(missing[0], 'unknown')})")
         plan_fids = [p for f in fids for p in self.by_qif[f]]
-        if len(fids) > 1 and ctype not in ("distance",):
-            raise Skip(f"on {len(fids)} features (a pattern); camcmm evaluates one feature")
+        two = ctype in ("width", "symmetry", "distance")
+        pattern = len(fids) > 1 and not two
+        if pattern:
+            if any(len(self.by_qif[f]) != 1 for f in fids):
+                raise Skip(f"on a pattern of {len(fids)} features that are not all single surfaces")
+            if len({self.features[p]["type"] for p in plan_fids}) != 1:
+                raise Skip(f"on a pattern of {len(fids)} features of different types")
         pair = len(self.by_qif[fids[0]]) == 2
         c: dict[str, Any] = {"id": f"{ctype}-{qid}", "type": ctype, "feature": plan_fids[0]}
         if pair and ctype == "position":
             raise Skip("position of a width's median plane: camcmm locates a plane, not the median of two")
-        if ctype in ("width", "symmetry", "distance"):
+        if two:
             if len(plan_fids) != 2:
                 raise Skip(f"a {ctype} needs two features, the QIF names {len(plan_fids)}")
             c["other"] = plan_fids[1]
@@ -508,7 +521,7 @@ class _Reader:
             ang = self.child(defn, "Angle")
             if ang is None:
                 raise Skip("an angularity without its Angle")
-            c["angle"] = self.units.degrees(ang, self.where(ang), pmi=True)
+            c["angle"] = self.units.degrees(ang, self.at(ang), pmi=True)
         mc = (defn.findtext(tag("MaterialCondition")) or "NONE").strip()
         if mc in _MATERIAL:
             c["modifier"] = _MATERIAL[mc]
@@ -521,19 +534,24 @@ class _Reader:
         name = (nom.findtext(tag("Name")) or "").strip()
         if name:
             c["name"] = name
-        return c
+        if pattern:
+            return [dict(c, id=f"{c['id']}-{k}", feature=f) for k, f in enumerate(plan_fids, 1)]
+        return [c]
 
     def read_characteristics(self) -> None:
         noms = self.child(self.root, "Characteristics", "CharacteristicNominals")
         for nom in [] if noms is None else list(noms):
             qid = nom.get("id") or "?"
             try:
-                c = self.characteristic(nom)
+                cs = self.characteristic(nom)
             except Skip as exc:
                 self.skip(qid, f"characteristic {local(nom.tag)}: {exc}")
                 continue
-            self.chars.append(c)
-            self.imported.append({"id": qid, "kind": "characteristic", "qif": local(nom.tag), "as": c["id"]})
+            self.chars += cs
+            for c in cs:
+                self.char_qif[c["id"]] = qid
+            as_ = cs[0]["id"] if len(cs) == 1 else [c["id"] for c in cs]
+            self.imported.append({"id": qid, "kind": "characteristic", "qif": local(nom.tag), "as": as_})
 
     def skip(self, qid: str, reason: str) -> None:
         self.skipped.append({"id": qid, "reason": reason})
@@ -541,13 +559,13 @@ class _Reader:
     # ---------------------------------------------------------------- result
     def run(self) -> tuple[dict[str, Any], dict[str, Any]]:
         self.read_features()
-        self.read_datums()
-        self.read_characteristics()
-        if not self.features:
+        if not self.features:  # before the datums, whose features would all be missing
             raise InputError(
                 f"{self.name}: no feature nominal camcmm can use (Features/FeatureNominals"
                 f"{': ' + self.skipped[0]['reason'] if self.skipped else ' is empty or missing'})"
             )
+        self.read_datums()
+        self.read_characteristics()
         doc: dict[str, Any] = {
             "unit": "mm",
             "band": self.band,
@@ -558,7 +576,7 @@ class _Reader:
                 "file": self.name,
                 "unit": self.units.name,
                 "features": dict(self.feature_ids),
-                "characteristics": {c["id"]: c["id"].rsplit("-", 1)[-1] for c in self.chars},
+                "characteristics": dict(self.char_qif),
             },
         }
         unlimited = [
