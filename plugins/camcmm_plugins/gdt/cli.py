@@ -1,5 +1,5 @@
 """``camcmm gdt evaluate PLAN.yaml CLOUD [--nominal CAD.step|mesh] [--align best-fit|datums|rps|3-2-1|none]
-[--start auto|coarse|none] [--k K] [--report DIR] [--project DIR] [--json]``
+[--start auto|coarse|none] [--k K] [--report DIR] [--project DIR] [--qif FILE [--qif-points]] [--csv FILE] [--json]``
 
 Evaluates the plan (YAML or JSON: features, datums, characteristics; docs/gdt.md) on the
 measured cloud through the host as the plugin ``gdt.evaluate``, so the result carries its
@@ -56,6 +56,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
     e.add_argument("--report", default=None, metavar="DIR", help="write report.html, report.pdf, report.json here")
     Report.customer_options(e)  # --customer, --part-number ...: the report's head (over the plan's report:)
     e.add_argument("--project", default=None, metavar="DIR", help="record the result in this project folder")
+    e.add_argument("--qif", default=None, metavar="FILE", help="write the QIF 3.0 Results here (docs/gdt.md)")
+    e.add_argument("--qif-points", action="store_true", help="with --qif: the features' measured points too")
+    e.add_argument("--csv", default=None, metavar="FILE", help="write the characteristics as CSV rows here")
     e.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
 
@@ -75,7 +78,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if f is not None and not Path(f).is_file():
             raise InputError(f"{f}: no such file ({what})")
     from .alignment import options, rps_points
+    from .csv_out import check_output
     from .plan import read_plan
+
+    outputs = {flag: check_output(v, f"--{flag}") for flag, v in (("qif", args.qif), ("csv", args.csv)) if v}
 
     plan = read_plan(args.plan)  # a bad plan is refused before the cloud is read
     customer = Report.customer_fields(plan.options.get("report"), args, where=f"{args.plan}: report")
@@ -120,6 +126,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             customer=customer,
         )
         out["report"] = rep.write(args.report)
+    if "qif" in outputs:  # the part named after its cloud file
+        from .qif.write import feature_points, write_results
+
+        al = o["aligned"]
+        pts = feature_points(al.points, al.fields["feature"], plan) if args.qif_points else None
+        out["qif"] = str(write_results(out, plan, outputs["qif"], part=Path(args.cloud).stem, points=pts))
+    if "csv" in outputs:
+        from .csv_out import rows, write_csv
+
+        out["csv"] = str(write_csv(rows(out, Path(args.cloud).stem), outputs["csv"]))
     if args.project:
         out["result_id"] = record_result(args.project, res)
     return out
