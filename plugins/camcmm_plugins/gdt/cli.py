@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     from .csv_out import check_output
     from .plan import read_plan
 
-    outputs = {flag: check_output(v, f"--{flag}") for flag, v in (("qif", args.qif), ("csv", args.csv)) if v}
+    outputs = {f: check_output(v, f"--{f}") for f, v in (("qif", args.qif), ("csv", args.csv)) if v is not None}
 
     plan = read_plan(args.plan)  # a bad plan is refused before the cloud is read
     customer = Report.customer_fields(plan.options.get("report"), args, where=f"{args.plan}: report")

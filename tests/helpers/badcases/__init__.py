@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 
 #: the modules of this package, in the order their cases are listed
-FAMILIES = ("photogrammetry", "heightmaps", "speckle_lightfield", "studies_part3", "gdt", "cad", "qif")
+FAMILIES = ("photogrammetry", "heightmaps", "speckle_lightfield", "studies_part3", "gdt", "cad", "qif", "qifout")
 
 
 def cases() -> list:
