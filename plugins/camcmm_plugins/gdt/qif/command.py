@@ -14,10 +14,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 from typing import Any
 
 from camcmm.api import InputError, checked_path
+
+
+#: A JSON number in exponent form without a fraction (``1e-05``): YAML 1.1, through which
+#: camcmm reads plans (JSON too), takes it for a string; ``1.0e-05`` is a number to both.
+_BARE_EXPONENT = re.compile(r"(?<=[\s\[,:])(-?\d+)e([-+]?\d+)(?=[\s,\]}])")
+
+
+def _yaml_safe_json(doc: dict[str, Any]) -> str:
+    return _BARE_EXPONENT.sub(r"\1.0e\2", json.dumps(doc, indent=1))
 
 
 def configure(sub: Any) -> None:
@@ -44,7 +54,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         raise InputError(f"--out: {args.out}: no such folder {out.parent}")
     doc, report = import_qif(src)
     text = (
-        json.dumps(doc, indent=1)
+        _yaml_safe_json(doc)
         if out.suffix.lower() == ".json"
         else yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=120)
     )

@@ -195,7 +195,7 @@ class _Reader:
         return out
 
     def pad(self, lo: np.ndarray, hi: np.ndarray, normal: np.ndarray | None) -> list[list[float]]:
-        d = self.band * (np.abs(normal) if normal is not None else np.ones(3)) + 1e-9
+        d = self.band * (np.abs(normal) if normal is not None else np.ones(3))
         return [_v(lo - d), _v(hi + d)]
 
     # ---------------------------------------------------------------- features

@@ -1,0 +1,216 @@
+"""QIF 3.0 model-based definitions into GD&T plans: ``camcmm gdt import-qif`` (issue 28).
+
+References: the NIST MBE PMI test case CTC 01 as QIF (tests/data/qif3, copied from
+../shared/data/qif3/samples; its SOURCE.txt: 7 cylinders, 2 planes, 2 lines, 3 plane
+pairs; diameter ×7, flatness, perpendicularity, position ×2, surface profile ×2, angle)
+and FTC 06 (../shared only, skipped when absent; lengths in mm, tolerances in inch). The
+expected numbers are read off the QIF files by hand (the element and its value named at
+each assertion), not from the importer.
+
+The virtual "measured" CTC 01: every imported feature that carries a characteristic is
+sampled on its nominal surface as the plan states it, with a known deviation — each bore
+a known diameter error, datum A on two levels 0.03 mm apart (the lower one |x| < 100 mm,
+so no tilted zone is thinner: flatness exactly 0.03 mm and the tangent datum exactly the
+upper level), the side plane-2162 tilted by 0.001 over z −95 … −5 mm (perpendicularity
+to A exactly 0.001 · 90 mm) — and ``camcmm gdt evaluate --align none`` gives them back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from camcmm_plugins.gdt.plan import read_plan
+from camcmm_plugins.gdt.qif.read import import_qif
+from helpers.badcases.qif import ANGLE, mini_qif
+from helpers.cli import main_json, main_text
+from helpers.paths import SHARED_DATA, TEST_DATA
+
+CTC01 = TEST_DATA / "qif3" / "nist_ctc_01_asme1_ap242.qif"
+FTC06 = SHARED_DATA / "qif3" / "samples" / "nist_ftc_06_asme1_ap242.qif"
+
+#: CTC 01's characteristics skipped, QIF id -> the reason's words.
+CTC01_SKIPPED = {
+    "2166": "OtherNonShape feature (a set of 2 face(s))",
+    "2173": "OtherNonShape feature (a set of 6 face(s))",
+    "1443": "position of a width's median plane",
+    "1450": "position of a width's median plane",
+    "1457": "its feature 2166 was not imported",
+    "1462": "its feature 2173 was not imported",
+    "1491": "an angle size",
+}
+#: CTC 01's diameters: characteristic nominal id -> (feature, nominal Ø, lower, upper) mm, from
+#: each DiameterCharacteristicDefinition's Min/MaxValue (1484, 1487: DefinedAsLimit 34.8/35.2
+#: less the TargetValue 35) and the CylinderFeatureDefinition's Diameter.
+CTC01_DIAMETERS = {
+    "1473": ("cylinder-2156", 35.0, -0.2, 0.0),
+    "1476": ("cylinder-2157", 35.0, 0.0, 0.2),
+    "1479": ("cylinder-2175", 20.0, -0.1, 0.05),
+    "1482": ("cylinder-2176", 20.0, -0.05, 0.1),
+    "1485": ("cylinder-2177", 35.0, -0.2, 0.2),
+    "1488": ("cylinder-2178", 35.0, -0.2, 0.2),
+    "1494": ("cylinder-2182", 25.0, -0.15, 0.15),
+}
+
+
+@pytest.fixture(scope="module")
+def ctc01():
+    return import_qif(CTC01)
+
+
+def test_ctc01_counts_and_reasons(ctc01):
+    doc, rep = ctc01
+    types = [f["type"] for f in doc["features"].values()]
+    # 7 cylinders, 2 planes + 3 plane pairs (6 planes), 2 lines; the 2 face sets skipped
+    assert (types.count("cylinder"), types.count("plane"), types.count("line"), len(types)) == (7, 8, 2, 17)
+    assert (rep["features"], rep["datums"], rep["characteristics"]) == (17, 3, 9)
+    assert rep["unit"] == "mm" and doc["unit"] == "mm" and rep["unlimited"] == []
+    skipped = {s["id"]: s["reason"] for s in rep["skipped"]}
+    assert set(skipped) == set(CTC01_SKIPPED)
+    for qid, words in CTC01_SKIPPED.items():
+        assert words in skipped[qid], (qid, skipped[qid])
+    # every one of the 14 characteristic nominals is imported or skipped with its reason
+    chars = {i["id"] for i in rep["imported"] if i["kind"] == "characteristic"}
+    assert len(chars) == 9 and len(chars | (set(skipped) - {"2166", "2173"})) == 14
+    assert sorted(c["type"] for c in doc["characteristics"]) == ["diameter"] * 7 + ["flatness", "perpendicularity"]
+
+
+def test_ctc01_values(ctc01):
+    doc, _ = ctc01
+    f = doc["features"]
+    assert doc["datums"] == {"A": "plane-2154", "B": "cylinder-2156", "C": "cylinder-2157"}
+    chars = {c["id"]: c for c in doc["characteristics"]}
+    # FlatnessCharacteristicDefinition 1469: 0.2 on plane 2154; Perpendicularity 1466: 1.5 to DRF 1459 = A
+    assert chars["flatness-1470"] == {"id": "flatness-1470", "type": "flatness", "feature": "plane-2154",
+                                      "tolerance": 0.2, "name": "Flatness.1"}  # fmt: skip
+    perp = chars["perpendicularity-1467"]
+    assert (perp["feature"], perp["datums"], perp["tolerance"]) == ("plane-2162", ["A"], 1.5)
+    for qid, (fid, dia, lo, hi) in CTC01_DIAMETERS.items():
+        c = chars[f"diameter-{qid}"]
+        assert (c["feature"], c["lower"], c["upper"]) == (fid, lo, hi)
+        assert f[fid]["diameter"] == dia and f[fid]["internal"] is True
+    # cylinder extents: the CylinderFeatureDefinition's Length from the axis point
+    assert f["cylinder-2156"]["point"] == [-325.0, -175.0, 0.0] and f["cylinder-2156"]["length"] == 100.0
+    assert f["cylinder-2175"]["length"] == 45.0 and f["cylinder-2182"]["length"] == 50.0
+    # the plane pairs: two opposite faces at the definition's Width (2158: 85, 2160: 50)
+    for pair, width in (("width-2159", 85.0), ("width-2161", 50.0)):
+        a, b = f[f"{pair}-1"], f[f"{pair}-2"]
+        na, nb = np.array(a["normal"]), np.array(b["normal"])
+        assert na @ nb == pytest.approx(-1.0)
+        assert abs((np.array(b["point"]) - a["point"]) @ na) == pytest.approx(width, abs=1e-9)
+    # angled pair 2180 (TaperAngle 30 deg = the angle between the faces' normals' complement)
+    na, nb = np.array(f["angled-2180-1"]["normal"]), np.array(f["angled-2180-2"]["normal"])
+    assert np.degrees(np.arccos(-na @ nb)) == pytest.approx(60.0)
+    # plane A's box: its PolyLine's extent (x ±400, y ±225) padded by the band (0.5) along its normal z
+    assert f["plane-2154"]["box"] == [[-400.0, -225.0, -0.5], [400.0, 225.0, 0.5]]
+
+
+def test_cli_json_and_plan_reads_back(tmp_path, capfd, ctc01):
+    out = tmp_path / "plan.yaml"
+    doc = main_json(capfd, "gdt", "import-qif", CTC01, "--out", out, "--json")
+    assert (doc["features"], doc["datums"], doc["characteristics"]) == (17, 3, 9)
+    assert doc["skipped"] == ctc01[1]["skipped"] and all(set(s) == {"id", "reason"} for s in doc["skipped"])
+    assert len(doc["warnings"]) == 7 and doc["unit"] == "mm"
+    plan = read_plan(out)
+    assert len(plan.features) == 17 and len(plan.characteristics) == 9
+    assert plan.datums == {"A": ("plane-2154",), "B": ("cylinder-2156",), "C": ("cylinder-2157",)}
+    assert yaml.safe_load(out.read_text())["qif"]["characteristics"]["diameter-1473"] == "1473"
+    text = main_text(capfd, "gdt", "import-qif", CTC01, "--out", tmp_path / "plan.json")
+    assert "17 features, 3 datums, 9 characteristics" in text and "skipped 1491" in text
+    assert len(read_plan(tmp_path / "plan.json").characteristics) == 9
+
+
+def test_units_from_file_units(tmp_path):
+    """Lengths in the primary LinearUnit; the Characteristics' in PMILinearUnit when given."""
+    (tmp_path / "in.qif").write_bytes(mini_qif(unit="inch", factor="0.0254"))
+    doc, rep = import_qif(tmp_path / "in.qif")
+    cyl = doc["features"]["cylinder-4"]
+    assert rep["unit"] == "inch"
+    assert (cyl["diameter"], cyl["length"]) == (254.0, 381.0)  # 10 in, 15 in
+    dia = doc["characteristics"][0]
+    assert (dia["lower"], dia["upper"]) == (-0.508, 0.508)  # ±0.02 in
+    (tmp_path / "pmi.qif").write_bytes(mini_qif(pmi_unit="inch"))
+    doc, _ = import_qif(tmp_path / "pmi.qif")
+    assert doc["features"]["cylinder-4"]["diameter"] == 10.0
+    assert doc["characteristics"][0]["upper"] == 0.508 and doc["characteristics"][1]["tolerance"] == 1.27
+    (tmp_path / "angle.qif").write_bytes(mini_qif(extra_chars=ANGLE))
+    _, rep = import_qif(tmp_path / "angle.qif")
+    assert rep["characteristics"] == 2 and rep["skipped"][0]["id"] == "14"
+
+
+@pytest.mark.skipif(not FTC06.is_file(), reason="../shared/data/qif3 (NIST FTC 06) is absent")
+def test_ftc06_imports(tmp_path):
+    doc, rep = import_qif(FTC06)
+    assert (rep["features"], rep["datums"], rep["characteristics"], len(rep["skipped"])) == (94, 4, 32, 40)
+    types = [c["type"] for c in doc["characteristics"]]
+    assert (types.count("diameter"), types.count("flatness"), types.count("width")) == (24, 3, 3)
+    # every feature and characteristic nominal of the file is imported or skipped
+    root = FTC06.read_text()
+    n_feat = root.count("FeatureNominal id=")
+    n_char = root.count("CharacteristicNominal id=")
+    kinds = [i["kind"] for i in rep["imported"]]
+    n_skip_f = sum(s["reason"].startswith("feature") for s in rep["skipped"])
+    n_skip_c = sum(s["reason"].startswith("characteristic") for s in rep["skipped"])
+    assert (kinds.count("feature") + n_skip_f, kinds.count("characteristic") + n_skip_c) == (n_feat, n_char)
+    # FlatnessCharacteristicDefinition 2337: ToleranceValue linearUnit="inch" 0.01 -> 0.254 mm
+    assert {c["tolerance"] for c in doc["characteristics"] if c["type"] == "flatness"} == {0.254}
+    out = tmp_path / "ftc06.yaml"
+    out.write_text(yaml.safe_dump(doc))
+    assert len(read_plan(out).characteristics) == 32
+
+
+# ---- the virtual measured CTC 01 ------------------------------------------------------------
+
+#: Diameter errors of the bores (mm) built into the virtual part.
+BORE_ERRORS = {"cylinder-2156": 0.01, "cylinder-2157": -0.02, "cylinder-2175": 0.03, "cylinder-2176": 0.0,
+               "cylinder-2177": 0.05, "cylinder-2178": -0.01, "cylinder-2182": 0.02}  # fmt: skip
+STEP_A, TILT = 0.03, 0.001  # A's two levels (mm); plane-2162's tilt (x = 400 + TILT·(z + 50))
+
+
+def _basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(a, e1)
+
+
+def _virtual_ctc01(features: dict) -> np.ndarray:
+    rng = np.random.default_rng(7)
+    parts = []
+    for fid, err in BORE_ERRORS.items():  # 240 points a bore, 5 mm from its ends (away from A's band)
+        f = features[fid]
+        p, a = np.array(f["point"]), np.array(f["axis"])
+        e1, e2 = _basis(a)
+        th, t = rng.uniform(0, 2 * np.pi, 240), rng.uniform(5, f["length"] - 5, 240)
+        r = 0.5 * (f["diameter"] + err)
+        parts.append(p + t[:, None] * a + r * (np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2))
+    xy = rng.uniform([-390, -215], [390, 215], (3000, 2))
+    holes = [np.array(features[k]["point"][:2]) for k in BORE_ERRORS if abs(features[k]["axis"][2]) > 0.9]
+    xy = xy[np.all([np.linalg.norm(xy - h, axis=1) > 25 for h in holes], axis=0)][:1500]
+    parts.append(np.c_[xy, np.where(np.abs(xy[:, 0]) < 100, -STEP_A, 0.0)])
+    y, z = (g.ravel() for g in np.meshgrid(np.linspace(-170, 170, 20), np.linspace(-95, -5, 20)))
+    parts.append(np.c_[400 + TILT * (z + 50), y, z])
+    return np.vstack(parts)
+
+
+def test_virtual_ctc01_gives_the_constructed_values(tmp_path, capfd, ctc01):
+    doc, _ = ctc01
+    plan = tmp_path / "ctc01.yaml"
+    main_json(capfd, "gdt", "import-qif", CTC01, "--out", plan, "--json")
+    cloud = tmp_path / "ctc01.xyz"
+    np.savetxt(cloud, _virtual_ctc01(doc["features"]), fmt="%.10f")
+    res = main_json(capfd, "gdt", "evaluate", plan, cloud, "--align", "none", "--json")
+    got = {c["id"]: c for c in res["characteristics"]}
+    assert len(got) == 9
+    for qid, (fid, dia, lo, hi) in CTC01_DIAMETERS.items():
+        c = got[f"diameter-{qid}"]
+        err = BORE_ERRORS[fid]
+        assert c["value"] == pytest.approx(dia + err, abs=1e-6), qid
+        assert c["verdict"] == ("conform" if lo <= err <= hi else "not conform"), qid
+    # 2156: +0.01 against -0.2/0, 2157: -0.02 against 0/+0.2 -> out; the rest in
+    assert [got[f"diameter-{q}"]["verdict"] for q in ("1473", "1476")] == ["not conform"] * 2
+    assert got["flatness-1470"]["value"] == pytest.approx(STEP_A, abs=1e-9)
+    assert got["perpendicularity-1467"]["value"] == pytest.approx(TILT * 90.0, abs=1e-7)
+    # the features no point was sampled on are named, not silently empty
+    empty = {w.split()[1] for w in res["warnings"] if w.startswith("feature ") and "not evaluated" in w}
+    assert {"line-2184", "line-2185", "angled-2180-1"} <= empty
