@@ -20,7 +20,6 @@ from typing import Any
 
 from camcmm.api import InputError, checked_path
 
-
 #: A JSON number in exponent form without a fraction (``1e-05``): YAML 1.1, through which
 #: camcmm reads plans (JSON too), takes it for a string; ``1.0e-05`` is a number to both.
 _BARE_EXPONENT = re.compile(r"(?<=[\s\[,:])(-?\d+)e([-+]?\d+)(?=[\s,\]}])")
