@@ -15,8 +15,8 @@ JSON (``--json``; lengths in mm): ``features`` [{``id``, ``type``, ``association
 ``type``, ``feature``, ``datums``, ``value``, ``unit``, ``tolerance``, ``u``, ``verdict``,
 ``verdict_guarded``, + ``lower``, ``upper``, ``U``, ``k``, ``u_method``, ``n_decisive``,
 ``warnings``, ``details``}], ``labels``, ``warnings``, ``summary`` (counts by guarded
-verdict), ``plan``, ``cloud``, ``nominal``, ``plugin`` (provenance), + ``report`` (paths)
-and ``result_id`` (``--project``).
+verdict), ``plan``, ``cloud``, ``nominal``, ``plugin`` (provenance), + ``report`` (paths),
+``qif`` and ``csv`` (the files ``--qif``/``--csv`` wrote) and ``result_id`` (``--project``).
 
 Exit codes: 0 when the plan was evaluated (whatever the verdicts: "not conform" is a
 result); 3 when the alignment did not settle (the document is printed, with

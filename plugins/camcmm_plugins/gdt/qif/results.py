@@ -16,14 +16,14 @@ from typing import Any
 
 from camcmm.api import InputError
 
-from .common import file_units, local, parse, tag
+from .common import file_units, local, number, numbers, parse, tag
 from .write import ATTR, STATUS
 
 #: QIF status -> camcmm's guarded verdict (the inverse of :data:`.write.STATUS`).
 VERDICTS = {v: k for k, v in STATUS.items()}
 
 
-def _attributes(el: Any) -> dict[str, Any]:
+def _attributes(el: Any, where: str) -> dict[str, Any]:
     a = el.find(tag("Attributes"))
     out: dict[str, Any] = {}
     if a is None:
@@ -31,7 +31,7 @@ def _attributes(el: Any) -> dict[str, Any]:
     for x in a:
         name = x.get("name") or ""
         value = x.get("value")
-        out[name] = float(value) if local(x.tag) == "AttributeD1" and value is not None else value
+        out[name] = number(value, f"{where}: attribute {name}") if local(x.tag) == "AttributeD1" else value
     return out
 
 
@@ -46,7 +46,9 @@ def read_results(path: str | Path) -> dict[str, Any]:
     ``u``, ``U``, ``k``, ``u_method``, ``reason`` where written}}, ``features`` {id: {``type``,
     + the measured ``location``/``normal``/``axis_point``/``direction``/``diameter`` (mm)}},
     ``status`` (the part's InspectionStatusEnum), ``part`` (the actual component's
-    serial number), ``provenance`` (the measurement's attributes), ``unit`` "mm"."""
+    serial number), ``provenance`` (the measurement's attributes), ``unit`` "mm". An item
+    measured more than once (QIF allows it; camcmm writes one) keeps the first ``value``
+    and lists them all in ``values``. A file without Results is refused."""
     p = Path(path)
     name = p.name
     root = parse(p)
@@ -74,7 +76,7 @@ def read_results(path: str | Path) -> dict[str, Any]:
                            ("axis", f"{tag('Axis')}/{tag('Direction')}")):  # fmt: skip
             e = m.find(path_ if "/" in path_ else tag(path_))
             if e is not None and e.text:
-                v = [float(t) for t in e.text.split()]
+                v = numbers(e.text, 3, f"{name}: {fid}.{key}")
                 f[key] = [x * mm for x in v] if key in ("location", "axis_point") else v
         for key, tg in (("diameter", "Diameter"), ("length", "Length")):
             e = m.find(tag(tg))
@@ -97,7 +99,10 @@ def read_results(path: str | Path) -> dict[str, Any]:
             "status": status,
             "verdict_guarded": VERDICTS.get(status, status),
         }
-        c.update(_camcmm(_attributes(m)))
+        c.update(_camcmm(_attributes(m, f"{name}: {cid}")))
+        if cid in chars:  # QIF allows several measurements of one item: the first, and all values
+            chars[cid].setdefault("values", [chars[cid]["value"]]).append(c["value"])
+            continue
         chars[cid] = c
 
     serial = root.findtext(f".//{tag('ActualComponent')}/{tag('SerialNumber')}")
@@ -107,5 +112,5 @@ def read_results(path: str | Path) -> dict[str, Any]:
         "features": features,
         "status": (results.findtext(f"{tag('InspectionStatus')}/{tag('InspectionStatusEnum')}") or "").strip(),
         "part": (serial or "").strip(),
-        "provenance": _camcmm(_attributes(results)),
+        "provenance": _camcmm(_attributes(results, f"{name}: MeasurementResults")),
     }

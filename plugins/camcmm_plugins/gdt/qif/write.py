@@ -30,6 +30,7 @@ tells them from the standard's. Identity constraints: the schema's keyrefs from
 from __future__ import annotations
 
 import math
+import os
 import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping
@@ -563,8 +564,11 @@ def write_results(
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{p}: is a folder (--qif expects a file)")
+    tmp = p.with_name(f".{p.name}.partial")  # then renamed: a failed write leaves no half file
     try:
-        tree.write(p, encoding="UTF-8", xml_declaration=True)
+        tree.write(tmp, encoding="UTF-8", xml_declaration=True)
+        os.replace(tmp, p)
     except OSError as exc:
+        tmp.unlink(missing_ok=True)
         raise InputError(f"{p}: cannot be written ({exc.strerror or exc})") from None
     return p
