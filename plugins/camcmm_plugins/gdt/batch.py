@@ -22,8 +22,8 @@ figures (:mod:`.capability`).
 file SHA-256 and the same run ``key`` (SHA-256 of the plan's content, the nominal's and
 the plugin's parameters) is taken from its record, not evaluated again — whatever its
 status (the same input fails the same way). A different plan or option re-evaluates,
-overwriting the record. With a ``project``, a record is reused only when it was recorded
-in that project (its ``result_id``).
+overwriting the record. With a ``project``, a record with an evaluation is reused only when
+it was recorded in that project.
 
 Stable for the GUI (Q4's Series view): :func:`run_batch`, :class:`Batch` and
 :meth:`Batch.to_json` (keys ``parts`` [{``part``, ``file``, ``status``, ``reason``,
@@ -358,7 +358,8 @@ def run_batch(
         if sha is not None:
             seen[sha] = name
         old = done.get((sha, key)) if sha is not None else None
-        if old is not None and (project is None or (old.get("project") == project_key and old.get("result_id"))):
+        recorded = old is not None and (old.get("evaluation") is None or old.get("project") == project_key)
+        if old is not None and (project is None or recorded):
             old = {**old, "part": name, "file": str(f)}
             batch.parts.append(_public(old, Path(old["_path"]), True))
             continue

@@ -31,7 +31,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, ParameterError, add_declared_options, checked_path, default_host
+from camcmm.api import (
+    InputError,
+    ParameterError,
+    add_declared_options,
+    checked_path,
+    declared_values,
+    default_host,
+)
 
 from .batch import PLUGIN, run_batch
 from .capability import CONFIDENCE, MAX_SUBGROUP
@@ -81,6 +88,7 @@ def _folder(args: argparse.Namespace) -> Path:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Check the options, run the batch, write QIF/CSV; the batch's document."""
+    params = declared_values(args, default_host().get(PLUGIN).parameters)  # checked first, naming the option
     if args.subgroup is not None and not 1 <= args.subgroup <= MAX_SUBGROUP:
         raise ParameterError(f"--subgroup: {args.subgroup} is not in 1 … {MAX_SUBGROUP}")
     if not 0.5 <= args.confidence < 1:
@@ -97,7 +105,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .csv_out import check_output
 
         csv = check_output(args.csv, "--csv")
-    params = {n: getattr(args, n, None) for n in ("align", "start", "k", "max_iterations", "seed")}
     batch = run_batch(
         args.plan,
         args.clouds,
@@ -105,7 +112,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         folder=_folder(args),
         resume=not args.no_resume,
         project=args.project,
-        **{k: v for k, v in params.items() if v is not None},
+        **params,
     )
     doc = batch.to_json(confidence=args.confidence, subgroup=args.subgroup)
     doc["command"] = "batch"
