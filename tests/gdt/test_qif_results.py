@@ -304,3 +304,14 @@ def test_reads_the_official_sample():
     assert c["5"]["values"] == [pytest.approx(-0.020323885079998), 0.0]  # one item measured twice
     with pytest.raises(InputError, match="simplePlan.QIF: no Results"):
         read_results(QIF3 / "samples" / "simplePlan.QIF")
+
+
+def test_incomplete_evaluation_refused(tmp_path):
+    """An evaluation whose measured cylinder lacks its axis is refused in one line naming
+    the feature and the key, and nothing is written."""
+    plan, ev = _all_types()
+    h1 = next(f for f in ev["features"] if f["id"] == "H1")
+    del h1["params"]["axis"]
+    with pytest.raises(InputError, match=r"features\.H1\.params: no 'axis' for a cylinder"):
+        write_results(ev, plan, tmp_path / "r.qif")
+    assert list(tmp_path.iterdir()) == []

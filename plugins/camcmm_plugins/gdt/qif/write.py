@@ -420,8 +420,10 @@ def build(
             d.el(e, "FeatureItemId", fitem[fid])
             if fid in set_ids:
                 d.el(d.el(e, "PointList", n=1), "WholePointSetId", set_ids[fid])
-            if stem != "OtherSurface":
+            try:
                 _feature_geometry(d, e, stem, feats[fid]["params"], measured=True)
+            except KeyError as exc:  # an evaluation JSON edited by hand or of another version
+                raise InputError(f"qif: features.{fid}.params: no {exc.args[0]!r} for a {stem.lower()}") from None
     if point_sets:
         ps = d.el(mr, "MeasuredPointSets", n=len(point_sets))
         for fid, a in point_sets.items():
