@@ -27,7 +27,6 @@ result); 3 when the alignment did not settle (the document is printed, with
 from __future__ import annotations
 
 import argparse
-from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -78,6 +77,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         if f is not None and not Path(f).is_file():
             raise InputError(f"{f}: no such file ({what})")
     from .alignment import options, rps_points
+    from .batch import evaluation_json
     from .csv_out import check_output
     from .plan import read_plan
 
@@ -93,26 +93,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         inputs["nominal"] = args.nominal
     res = host.run(PLUGIN, inputs, params)
     o = res.outputs
-    a = o["alignment"]
-    chars = o["characteristics"]
-    out: dict[str, Any] = {
-        "plan": str(args.plan),
-        "cloud": str(args.cloud),
-        "nominal": str(args.nominal) if args.nominal else None,
-        "n_points": o["aligned"].n_points,
-        "unit": "mm",
-        "features": o["features"],
-        "datums": o["datums"],
-        "alignment": a,
-        "characteristics": chars,
-        "labels": o["labels"],
-        "summary": dict(Counter(c["verdict_guarded"] for c in chars)),
-        "warnings": list(res.warnings),
-        "plugin": res.provenance(),
-        "aligned": bool(a.get("converged", True)),
-    }
-    if not out["aligned"]:
-        out["failure"] = f"alignment {a['method']} did not settle in {a.get('iterations')} iterations"
+    out = evaluation_json(res, plan=args.plan, cloud=args.cloud, nominal=args.nominal)  # one JSON with gdt batch
     if args.report:  # rendered in memory first: a failure writes nothing
         from .report import build_report
 
