@@ -214,3 +214,45 @@ def test_virtual_ctc01_gives_the_constructed_values(tmp_path, capfd, ctc01):
     # the features no point was sampled on are named, not silently empty
     empty = {w.split()[1] for w in res["warnings"] if w.startswith("feature ") and "not evaluated" in w}
     assert {"line-2184", "line-2185", "angled-2180-1"} <= empty
+
+
+def test_ctc01_features_are_faces_of_its_step(ctc01):
+    """The QIF and the STEP AP242 of CTC 01 (tests/data/nist_pmi) are one part in one frame:
+    each imported plane and cylinder lies on a face of the STEP (same plane and outward
+    normal; same axis and diameter, to 1e-6 mm), and its extent covers that face's: a
+    plane's box holds the face's bounds, a cylinder's point … point + length·axis spans them."""
+    from camcmm.api import read_cad
+
+    cad = read_cad(TEST_DATA / "nist_pmi" / "nist_ctc_01_asme1_ap242-e1.stp")
+    doc, _ = ctc01
+    matched = 0
+    for fid, f in doc["features"].items():
+        if f["type"] not in ("plane", "cylinder"):
+            continue
+        faces = []
+        for cf in cad.faces:
+            p = cf.params
+            if cf.type != f["type"]:
+                continue
+            if f["type"] == "plane":
+                on = (
+                    abs((np.array(f["point"]) - p["point"]) @ p["normal"]) < 1e-6
+                    and p["normal"] @ f["normal"] > 1 - 1e-9
+                )
+            else:
+                w, a = np.array(f["point"]) - p["point"], p["axis"]
+                on = np.linalg.norm(w - (w @ a) * a) < 1e-6 and abs(a @ f["axis"]) > 1 - 1e-9
+                on = on and abs(p["diameter"] - f["diameter"]) < 1e-6
+            if on:
+                faces.append(cf)
+        assert faces, fid
+        lo = np.min([cf.bounds[0] for cf in faces], axis=0)
+        hi = np.max([cf.bounds[1] for cf in faces], axis=0)
+        if f["type"] == "plane":
+            assert np.all(np.array(f["box"][0]) <= lo + 1e-9) and np.all(hi - 1e-9 <= np.array(f["box"][1])), fid
+        else:
+            a, p0 = np.array(f["axis"]), np.array(f["point"])
+            t = sorted([(lo - p0) @ a, (hi - p0) @ a])
+            assert t[0] == pytest.approx(0.0, abs=1e-6) and t[1] == pytest.approx(f["length"], abs=1e-6), fid
+        matched += 1
+    assert matched == 15  # 7 cylinders, 2 planes, 6 planes of the 3 pairs
