@@ -34,8 +34,6 @@ FTC06 = SHARED_DATA / "qif3" / "samples" / "nist_ftc_06_asme1_ap242.qif"
 CTC01_SKIPPED = {
     "2166": "OtherNonShape feature (a set of 2 face(s))",
     "2173": "OtherNonShape feature (a set of 6 face(s))",
-    "1443": "position of a width's median plane",
-    "1450": "position of a width's median plane",
     "1457": "its feature 2166 was not imported",
     "1462": "its feature 2173 was not imported",
     "1491": "an angle size",
@@ -64,7 +62,7 @@ def test_ctc01_counts_and_reasons(ctc01):
     types = [f["type"] for f in doc["features"].values()]
     # 7 cylinders, 2 planes + 3 plane pairs (6 planes), 2 lines; the 2 face sets skipped
     assert (types.count("cylinder"), types.count("plane"), types.count("line"), len(types)) == (7, 8, 2, 17)
-    assert (rep["features"], rep["datums"], rep["characteristics"]) == (17, 3, 9)
+    assert (rep["features"], rep["datums"], rep["characteristics"]) == (17, 3, 11)
     assert rep["unit"] == "mm" and doc["unit"] == "mm" and rep["unlimited"] == []
     skipped = {s["id"]: s["reason"] for s in rep["skipped"]}
     assert set(skipped) == set(CTC01_SKIPPED)
@@ -72,8 +70,9 @@ def test_ctc01_counts_and_reasons(ctc01):
         assert words in skipped[qid], (qid, skipped[qid])
     # every one of the 14 characteristic nominals is imported or skipped with its reason
     chars = {i["id"] for i in rep["imported"] if i["kind"] == "characteristic"}
-    assert len(chars) == 9 and len(chars | (set(skipped) - {"2166", "2173"})) == 14
-    assert sorted(c["type"] for c in doc["characteristics"]) == ["diameter"] * 7 + ["flatness", "perpendicularity"]
+    assert len(chars) == 11 and len(chars | (set(skipped) - {"2166", "2173"})) == 14
+    types = sorted(c["type"] for c in doc["characteristics"])
+    assert types == ["diameter"] * 7 + ["flatness", "perpendicularity", "position", "position"]
 
 
 def test_ctc01_values(ctc01):
@@ -86,6 +85,12 @@ def test_ctc01_values(ctc01):
                                       "tolerance": 0.2, "name": "Flatness.1"}  # fmt: skip
     perp = chars["perpendicularity-1467"]
     assert (perp["feature"], perp["datums"], perp["tolerance"]) == ("plane-2162", ["A"], 1.5)
+    # PositionCharacteristicDefinition 1442/1449: 0.75 to DRF 1440 = A|B|C, on the slots 2159/2161:
+    # the median plane of the pair's two faces (feature and other)
+    for qid, pair in (("1443", "width-2159"), ("1450", "width-2161")):
+        pos = chars[f"position-{qid}"]
+        assert (pos["feature"], pos["other"], pos["datums"]) == (f"{pair}-1", f"{pair}-2", ["A", "B", "C"])
+        assert pos["tolerance"] == 0.75
     for qid, (fid, dia, lo, hi) in CTC01_DIAMETERS.items():
         c = chars[f"diameter-{qid}"]
         assert (c["feature"], c["lower"], c["upper"]) == (fid, lo, hi)
@@ -109,16 +114,16 @@ def test_ctc01_values(ctc01):
 def test_cli_json_and_plan_reads_back(tmp_path, capfd, ctc01):
     out = tmp_path / "plan.yaml"
     doc = main_json(capfd, "gdt", "import-qif", CTC01, "--out", out, "--json")
-    assert (doc["features"], doc["datums"], doc["characteristics"]) == (17, 3, 9)
+    assert (doc["features"], doc["datums"], doc["characteristics"]) == (17, 3, 11)
     assert doc["skipped"] == ctc01[1]["skipped"] and all(set(s) == {"id", "reason"} for s in doc["skipped"])
-    assert len(doc["warnings"]) == 7 and doc["unit"] == "mm"
+    assert len(doc["warnings"]) == 5 and doc["unit"] == "mm"
     plan = read_plan(out)
-    assert len(plan.features) == 17 and len(plan.characteristics) == 9
+    assert len(plan.features) == 17 and len(plan.characteristics) == 11
     assert plan.datums == {"A": ("plane-2154",), "B": ("cylinder-2156",), "C": ("cylinder-2157",)}
     assert yaml.safe_load(out.read_text())["qif"]["characteristics"]["diameter-1473"] == "1473"
     text = main_text(capfd, "gdt", "import-qif", CTC01, "--out", tmp_path / "plan.json")
-    assert "17 features, 3 datums, 9 characteristics" in text and "skipped 1491" in text
-    assert len(read_plan(tmp_path / "plan.json").characteristics) == 9
+    assert "17 features, 3 datums, 11 characteristics" in text and "skipped 1491" in text
+    assert len(read_plan(tmp_path / "plan.json").characteristics) == 11
 
 
 def test_units_from_file_units(tmp_path):
@@ -166,6 +171,9 @@ def test_ftc06_imports(tmp_path):
 BORE_ERRORS = {"cylinder-2156": 0.01, "cylinder-2157": -0.02, "cylinder-2175": 0.03, "cylinder-2176": 0.0,
                "cylinder-2177": 0.05, "cylinder-2178": -0.01, "cylinder-2182": 0.02}  # fmt: skip
 STEP_A, TILT = 0.03, 0.001  # A's two levels (mm); plane-2162's tilt (x = 400 + TILT·(z + 50))
+#: The slots' faces moved along their normals' axis (mm): slot 2159 both faces +0.05 in x (its
+#: median 0.05 off: position 0.1); slot 2161 the face at y = 25 by +0.04 (median 0.02 off: 0.04).
+SLOT_SHIFTS = {"width-2159-1": 0.05, "width-2159-2": 0.05, "width-2161-1": 0.04, "width-2161-2": 0.0}
 
 
 def _basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,10 +194,21 @@ def _virtual_ctc01(features: dict) -> np.ndarray:
         parts.append(p + t[:, None] * a + r * (np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2))
     xy = rng.uniform([-390, -215], [390, 215], (3000, 2))
     holes = [np.array(features[k]["point"][:2]) for k in BORE_ERRORS if abs(features[k]["axis"][2]) > 0.9]
-    xy = xy[np.all([np.linalg.norm(xy - h, axis=1) > 25 for h in holes], axis=0)][:1500]
+    keep = np.all([np.linalg.norm(xy - h, axis=1) > 25 for h in holes], axis=0)
+    for fid in SLOT_SHIFTS:  # no point of A where a slot face's band would take it
+        lo, hi = np.array(features[fid]["box"])[:, :2] + [[-2, -2], [2, 2]]
+        keep &= ~np.all((xy > lo) & (xy < hi), axis=1)
+    xy = xy[keep][:1500]
     parts.append(np.c_[xy, np.where(np.abs(xy[:, 0]) < 100, -STEP_A, 0.0)])
     y, z = (g.ravel() for g in np.meshgrid(np.linspace(-170, 170, 20), np.linspace(-95, -5, 20)))
     parts.append(np.c_[400 + TILT * (z + 50), y, z])
+    for fid, shift in SLOT_SHIFTS.items():  # 150 points a face, on its middle 60 % (its box: the face + 10 % a side)
+        f = features[fid]
+        n = np.array(f["normal"])
+        lo, hi = np.array(f["box"])
+        u = rng.uniform(lo + 0.25 * (hi - lo), hi - 0.25 * (hi - lo), (150, 3))
+        u = np.where(np.abs(n) > 0.5, f["point"], u)  # on the nominal plane
+        parts.append(u + shift * np.abs(n))
     return np.vstack(parts)
 
 
@@ -201,7 +220,7 @@ def test_virtual_ctc01_gives_the_constructed_values(tmp_path, capfd, ctc01):
     np.savetxt(cloud, _virtual_ctc01(doc["features"]), fmt="%.10f")
     res = main_json(capfd, "gdt", "evaluate", plan, cloud, "--align", "none", "--json")
     got = {c["id"]: c for c in res["characteristics"]}
-    assert len(got) == 9
+    assert len(got) == 11
     for qid, (fid, dia, lo, hi) in CTC01_DIAMETERS.items():
         c = got[f"diameter-{qid}"]
         err = BORE_ERRORS[fid]
@@ -211,6 +230,8 @@ def test_virtual_ctc01_gives_the_constructed_values(tmp_path, capfd, ctc01):
     assert [got[f"diameter-{q}"]["verdict"] for q in ("1473", "1476")] == ["not conform"] * 2
     assert got["flatness-1470"]["value"] == pytest.approx(STEP_A, abs=1e-9)
     assert got["perpendicularity-1467"]["value"] == pytest.approx(TILT * 90.0, abs=1e-7)
+    assert got["position-1443"]["value"] == pytest.approx(0.1, abs=1e-7)
+    assert got["position-1450"]["value"] == pytest.approx(0.04, abs=1e-7)
     # the features no point was sampled on are named, not silently empty
     empty = {w.split()[1] for w in res["warnings"] if w.startswith("feature ") and "not evaluated" in w}
     assert {"line-2184", "line-2185", "angled-2180-1"} <= empty

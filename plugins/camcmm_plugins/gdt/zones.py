@@ -375,6 +375,8 @@ def position(c: Case) -> Out:
             axis_value,
             ls=(a.id, *c.datum_features()),
         )
+    if a.type == "plane" and kind == "position" and c.spec.options.get("other"):
+        return symmetry(c)  # a width's median plane (a slot, a tab) at its true position
     if a.type == "plane" and kind == "position":
         return profile(c) if c.spec.datums else _no_datums(c)
     raise InputError(f"{c.where}: {kind} of a {a.type} is not supported")
@@ -399,21 +401,29 @@ def _median_heights(
 
 
 def symmetry(c: Case) -> Out:
+    """Symmetry: the median of ``feature`` and ``other`` against the datum median plane
+    (through the frame's origin, normal to the feature's nominal normal); position of the
+    same median (ASME Y14.5 §7: a width's centre plane): against its true position, the
+    median of the two nominal planes."""
     a = c.assoc()
     other = c.other()
     b = c.assoc(other)
+    kind = c.spec.type
     if a.type != "plane" or b.type != "plane":
-        raise InputError(f"{c.where}: symmetry needs two planes (feature and other)")
+        raise InputError(f"{c.where}: {kind} of a median plane needs two planes (feature and other)")
     if not c.spec.datums:
-        raise InputError(f"{c.where}: symmetry needs a datum")
+        raise InputError(f"{c.where}: {kind} needs a datum")
     etype, nominal = c.nominal()
     n0 = el.direction(etype, nominal)
     assert n0 is not None
     o, _, _ = c.frame_axis()
+    if kind == "position":
+        o_type, o_nominal = c.nominal(other)
+        o = 0.5 * (el.location(etype, nominal) + el.location(o_type, o_nominal))
     t0 = c.transform()
     pts = np.vstack([c.pts(), c.pts(other)])
     idx = np.concatenate([a.indices, b.indices])
-    need(len(pts), 6, f"{c.spec.id}: symmetry")
+    need(len(pts), 6, f"{c.spec.id}: {kind}")
 
     def medians(A: dict[str, Associated], t: np.ndarray) -> np.ndarray:
         tt = c.transform_of(A, t)

@@ -463,9 +463,7 @@ class _Reader:
                 raise Skip(f"on a pattern of {len(fids)} features of different types")
         pair = len(self.by_qif[fids[0]]) == 2
         c: dict[str, Any] = {"id": f"{ctype}-{qid}", "type": ctype, "feature": plan_fids[0]}
-        if pair and ctype == "position":
-            raise Skip("position of a width's median plane: camcmm locates a plane, not the median of two")
-        if two:
+        if two or (pair and ctype == "position"):  # position of a pair: its median plane
             if len(plan_fids) != 2:
                 raise Skip(f"a {ctype} needs two features, the QIF names {len(plan_fids)}")
             c["other"] = plan_fids[1]
