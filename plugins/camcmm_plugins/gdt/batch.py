@@ -233,6 +233,17 @@ def _write_json(path: Path, doc: Any) -> None:
     os.replace(tmp, path)
 
 
+def _valid_record(rec: dict[str, Any]) -> bool:
+    """A record one can resume from: its hashes, a status, an evaluation or none."""
+    ev = rec.get("evaluation")
+    return (
+        all(isinstance(rec.get(k), str) and rec[k] for k in ("sha256", "key", "part", "file"))
+        and rec.get("status") in ("evaluated", "failed")
+        and (ev is None or (isinstance(ev, dict) and isinstance(ev.get("characteristics"), list)))
+        and all(isinstance(c, dict) and isinstance(c.get("id"), str) for c in (ev or {}).get("characteristics", []))
+    )
+
+
 def _records(folder: Path, warnings: list[str]) -> dict[tuple[str, str], dict[str, Any]]:
     """The part records in ``folder`` by (file SHA-256, run key)."""
     out: dict[tuple[str, str], dict[str, Any]] = {}
@@ -244,8 +255,12 @@ def _records(folder: Path, warnings: list[str]) -> dict[tuple[str, str], dict[st
         except (OSError, ValueError) as exc:
             warnings.append(f"{f}: not a part record ({_line(exc)}): ignored")
             continue
-        if isinstance(rec, dict) and rec.get("kind") == RECORD_KIND and rec.get("sha256") and rec.get("key"):
-            out[(rec["sha256"], rec["key"])] = {**rec, "_path": str(f)}
+        if not (isinstance(rec, dict) and rec.get("kind") == RECORD_KIND):
+            continue  # another file in the folder: not ours
+        if not _valid_record(rec):
+            warnings.append(f"{f}: a part record without its keys (sha256, key, status, evaluation): ignored")
+            continue
+        out[(rec["sha256"], rec["key"])] = {**rec, "_path": str(f)}
     return out
 
 

@@ -100,6 +100,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         qif = checked_path(args.qif, "--qif")
         if qif.exists() and not qif.is_dir():
             raise InputError(f"{args.qif}: is a file (--qif expects a folder)")
+        try:  # before any part: a folder that cannot be made wastes no batch
+            qif.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"{args.qif}: cannot be made a folder ({exc.strerror or exc}) (--qif)") from None
     csv = None
     if args.csv:
         from .csv_out import check_output
@@ -121,7 +125,6 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .plugin import load_plan
         from .qif.write import write_results
 
-        qif.mkdir(parents=True, exist_ok=True)
         plan = load_plan(args.plan)
         doc["qif"] = [
             str(

@@ -10,7 +10,17 @@ from __future__ import annotations
 import importlib
 
 #: the modules of this package, in the order their cases are listed
-FAMILIES = ("photogrammetry", "heightmaps", "speckle_lightfield", "studies_part3", "gdt", "cad", "qif", "qifout")
+FAMILIES = (
+    "photogrammetry",
+    "heightmaps",
+    "speckle_lightfield",
+    "studies_part3",
+    "gdt",
+    "cad",
+    "qif",
+    "qifout",
+    "gdt_batch",
+)
 
 
 def cases() -> list:
