@@ -4,7 +4,8 @@ with ``qif-``.
 A file that is not a QIF 3.0 document (not XML, an image, another XML, an empty file),
 that carries a DTD (the "billion laughs" entity bomb, an external entity), that is larger
 than the reader's limit, that holds no feature camcmm can use, whose references are
-broken (a feature's definition, a characteristic's definition, a datum's feature) or
+broken (a feature's definition, a characteristic's definition, a datum's feature, an id
+used twice) or
 whose units are wrong (a millimetre converting by 0.01, a ``linearUnit`` not declared, a
 factor of zero) is refused, one line naming the file; so is a bad ``--out``. A file
 whose characteristic camcmm does not evaluate is imported with the item skipped and a
@@ -108,6 +109,12 @@ ANGLE = """
         <FeatureNominalIds n="1"><Id>3</Id></FeatureNominalIds></AngleCharacteristicNominal>"""
 
 
+#: A second element with the cylinder's id 4: every reference to 4 would be ambiguous.
+DUPLICATE_ID = """
+      <FlatnessCharacteristicNominal id="4"><CharacteristicDefinitionId>11</CharacteristicDefinitionId>
+        <FeatureNominalIds n="1"><Id>3</Id></FeatureNominalIds></FlatnessCharacteristicNominal>"""
+
+
 def _case(cid: str, data: bytes | None, names: tuple[str, ...], *opts: str, out: str = OUT) -> Case:
     files = {} if data is None else {QIF: data}
     return Case(f"qif-{cid}", ("gdt", "import-qif", QIF, "--out", out, *opts, "--json"), files, names)
@@ -130,6 +137,7 @@ def cases() -> list[Case]:
         _case("broken-feature-definition", mini_qif(feature_definition="99"), (QIF, "99")),
         _case("broken-characteristic-definition", mini_qif(char_definition="98"), (QIF, "98")),
         _case("broken-datum-feature", mini_qif(datum_feature="97"), (QIF, "97")),
+        _case("duplicate-id", mini_qif(extra_chars=DUPLICATE_ID), (QIF, "id 4")),
         _case("wrong-unit-factor", mini_qif(factor="0.01"), (QIF, "Factor")),
         _case("zero-unit-factor", mini_qif(unit="furlong", factor="0"), (QIF, "Factor")),
         _case("unit-not-a-number", mini_qif(factor="one"), (QIF, "Factor")),
