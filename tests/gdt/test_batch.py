@@ -254,3 +254,17 @@ def test_bad_plan_refused_before_any_part(batch, capfd, tmp_path):
     assert not (tmp_path / "w").exists()
     err = main_refused(capfd, "gdt", "batch", tmp_path / "none.yaml", batch[2][0], code=2)
     assert "none.yaml" in err
+
+
+def test_parts_named_by_the_caller(batch, doc):
+    """run_batch as the GUI calls it: the parts named as the project's items (resumed)."""
+    from camcmm.api import InputError
+    from camcmm_plugins.gdt.batch import run_batch
+
+    plan, clouds, folder = batch[1], batch[2], batch[3]
+    b = run_batch(plan, clouds[:2], align="datums", folder=folder, names=["cast 1", "cast 2"])
+    d = b.to_json()
+    assert [p["part"] for p in d["parts"]] == ["cast 1", "cast 2"] and d["counts"]["resumed"] == 2
+    assert [p["part"] for p in d["summary"][0]["points"]] == ["cast 1", "cast 2"]
+    with pytest.raises(InputError, match="names"):
+        run_batch(plan, clouds[:2], align="datums", folder=folder, names=["x", "x"])

@@ -45,6 +45,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from camcmm.api import (
     API_VERSION,
     CamcmmError,
@@ -100,6 +102,22 @@ def file_sha256(path: str | Path) -> str:
 def _json_sha256(doc: Any) -> str:
     text = json.dumps(to_jsonable(doc), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _object_sha256(obj: Any) -> str:
+    """SHA-256 identifying a nominal given as an object: a CAD model's own content hash
+    (its file's), else the bytes of its arrays (a mesh's vertices and faces, a cloud's
+    points)."""
+    if callable(getattr(obj, "content_hash", None)):
+        return str(obj.content_hash())
+    h = hashlib.sha256(type(obj).__name__.encode())
+    for name in ("vertices", "faces", "points"):
+        a = getattr(obj, name, None)
+        if a is not None:
+            arr = np.ascontiguousarray(a)
+            h.update(f"{name}{arr.dtype.str}{arr.shape}".encode())
+            h.update(arr.tobytes())
+    return h.hexdigest()
 
 
 def _line(exc: BaseException) -> str:
@@ -295,6 +313,7 @@ def run_batch(
     project: str | Path | None = None,
     progress: Progress | None = None,
     cancel: threading.Event | None = None,
+    names: Sequence[str] | None = None,
 ) -> Batch:
     """Evaluate ``plan`` (a YAML/JSON file, a plan document or a Plan) on every cloud of
     ``clouds`` (paths, in production order) and return the :class:`Batch` (module
@@ -305,7 +324,8 @@ def run_batch(
     record each evaluated part's run there (``camcmm.api.record_result``) and the batch
     summary as a result ``gdt.batch``; ``progress(fraction, message)``, ``cancel``: for a
     GUI (a cancel raises ``Cancelled`` between or inside parts; the records written so
-    far stay, so a new run resumes). Raises InputError/ParameterError for a bad plan,
+    far stay, so a new run resumes); ``names``: the parts' names, one a cloud, unique
+    (default the file's stem, the path as given for a stem met twice). Raises InputError/ParameterError for a bad plan,
     option or nominal and for no clouds; a part's own failure is recorded instead."""
     given = {"align": align, "start": start, "k": k, "max_iterations": max_iterations, "seed": seed}
     params = {n: declared_value(PLUGIN, n, v) for n, v in given.items() if v is not None}
@@ -332,6 +352,8 @@ def run_batch(
             raise InputError(f"{nominal}: no such file (nominal)")
         nominal_obj = read(nominal)  # once for every part; InputError names the file
         nominal_sha = file_sha256(nominal)
+    elif nominal is not None:
+        nominal_sha = _object_sha256(nominal)
     key = _json_sha256({"plan": plan_sha, "nominal": nominal_sha, "params": params})
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -339,7 +361,14 @@ def run_batch(
         raise InputError(f"{folder}: cannot be made a batch folder ({exc.strerror or _line(exc)})") from None
     warnings: list[str] = []
     done = _records(out, warnings) if resume else {}
-    names = _names(files)
+    if names is None:
+        names = _names(files)
+    else:
+        names = [str(x) for x in names]
+        if len(names) != len(files):
+            raise InputError(f"names: {len(names)} names for {len(files)} clouds")
+        if len(set(names)) != len(names):
+            raise InputError("names: two parts have the same name")
     n = len(files)
     runner = _Runner(default_host(), p, plan_name, nominal_obj, nominal_name, params, project, progress, cancel, n)
     batch = Batch(plan_name, out, [], to_jsonable(params), nominal_name, utc_now())
