@@ -315,3 +315,29 @@ def test_incomplete_evaluation_refused(tmp_path):
     with pytest.raises(InputError, match=r"features\.H1\.params: no 'axis' for a cylinder"):
         write_results(ev, plan, tmp_path / "r.qif")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_batch_results_validate(schema, sample_kinds, capfd, tmp_path):
+    """``camcmm gdt batch … --qif DIR`` (Q3's batch, helpers/gdt_batch.py): the undecided
+    part, the part out of tolerance and the part without its bore (characteristics not
+    evaluated) each give a Results file that validates like the evaluate one and reads
+    back to the batch's values and verdicts."""
+    from helpers import gdt_batch as gb
+
+    plan, clouds = gb.write(tmp_path / "in")
+    picked = [c for c in clouds if c.stem in (gb.UNDECIDED, gb.OUT, "nobore")]
+    argv = ["gdt", "batch", plan, *picked, "--align", "datums", "--folder", tmp_path / "w"]
+    doc = main_json(capfd, *argv, "--qif", tmp_path / "qif", "--json")
+    assert len(doc["qif"]) == 3
+    for part in doc["parts"]:
+        path = tmp_path / "qif" / f"{part['part']}.qif"
+        kinds, other = _kinds(schema, path)
+        assert other == [], part["part"]
+        assert kinds <= sample_kinds, kinds - sample_kinds
+        back = read_results(path)
+        assert back["part"] == part["part"]
+        for c in part["evaluation"]["characteristics"]:
+            r = back["characteristics"][c["id"]]
+            assert r["value"] == c["value"] and r["verdict_guarded"] == c["verdict_guarded"], c["id"]
+    statuses = {p["part"]: read_results(tmp_path / "qif" / f"{p['part']}.qif")["status"] for p in doc["parts"]}
+    assert statuses[gb.OUT] == "FAIL"
