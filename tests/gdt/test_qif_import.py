@@ -93,7 +93,7 @@ def test_ctc01_values(ctc01):
         assert pos["tolerance"] == 0.75
     for qid, (fid, dia, lo, hi) in CTC01_DIAMETERS.items():
         c = chars[f"diameter-{qid}"]
-        assert (c["feature"], c["lower"], c["upper"]) == (fid, lo, hi)
+        assert (c["feature"], c["lower"], c["upper"], c["nominal"]) == (fid, lo, hi, dia)  # TargetValue
         assert f[fid]["diameter"] == dia and f[fid]["internal"] is True
     # cylinder extents: the CylinderFeatureDefinition's Length from the axis point
     assert f["cylinder-2156"]["point"] == [-325.0, -175.0, 0.0] and f["cylinder-2156"]["length"] == 100.0
@@ -160,6 +160,11 @@ def test_ftc06_imports(tmp_path):
     assert (kinds.count("feature") + n_skip_f, kinds.count("characteristic") + n_skip_c) == (n_feat, n_char)
     # FlatnessCharacteristicDefinition 2337: ToleranceValue linearUnit="inch" 0.01 -> 0.254 mm
     assert {c["tolerance"] for c in doc["characteristics"] if c["type"] == "flatness"} == {0.254}
+    # a pattern (DiameterCharacteristicNominal 2401 on 2 bores): one characteristic a bore; the limits
+    # ±0.008 in about the TargetValue 0.562 in, which is not the model's Ø 0.5625 in (a note says so)
+    pattern = [c for c in doc["characteristics"] if c["id"].startswith("diameter-2401-")]
+    assert [(c["lower"], c["upper"], c["nominal"]) for c in pattern] == [(-0.2032, 0.2032, 14.2748)] * 2
+    assert len({c["feature"] for c in pattern}) == 2 and any(n.startswith("2401: target") for n in rep["notes"])
     out = tmp_path / "ftc06.yaml"
     out.write_text(yaml.safe_dump(doc))
     assert len(read_plan(out).characteristics) == 32

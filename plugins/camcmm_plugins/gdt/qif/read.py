@@ -507,12 +507,11 @@ class _Reader:
             if hi is not None:
                 c["upper"] = round(hi, 9)
             target = self.length(self.child(nom, "TargetValue"), "TargetValue", pmi=True)
-            if ctype == "distance" and target is not None:
+            if target is not None:  # the limits are about the drawing's value, not the model's
                 c["nominal"] = target
-            elif ctype == "diameter" and target is not None:
-                dia = self.features[plan_fids[0]].get("diameter")
+                dia = self.features[plan_fids[0]].get("diameter") if ctype == "diameter" else None
                 if dia is not None and abs(dia - target) > 1e-6 * max(1.0, target):
-                    self.notes.append(f"{qid}: target diameter {target:g} mm, feature diameter {dia:g} mm")
+                    self.notes.append(f"{qid}: target diameter {target:g} mm (the limits' reference), model {dia:g} mm")
         else:
             raise Skip("no ToleranceValue nor Tolerance (a reference or measured-only dimension)")
         if ctype == "angularity":
