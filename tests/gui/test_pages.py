@@ -27,6 +27,7 @@ BUILT_IN = [
     "photogrammetry",
     "fuse",
     "studies",
+    "series",
     "devices",
 ]
 
@@ -92,7 +93,9 @@ def test_a_registered_page_in_the_browser(tmp_path, hello):
         with sync_api.sync_playwright() as p:
             browser = launch(p)
             try:
-                page = browser.new_page(viewport={"width": 1800, "height": 900})  # room for a seventh button
+                page = browser.new_page(
+                    viewport={"width": 2000, "height": 900}
+                )  # room for the buttons with their words
                 page.set_default_timeout(30_000)
                 page.goto(server.url)
                 button = page.locator('[data-testid="page-hello"]')

@@ -1,0 +1,98 @@
+"""The Series page's plotly figures (plain JSON, :mod:`camcmm.gui.plotly_json`): the run
+chart of one characteristic across the parts — each value coloured by its verdict, the
+tolerance limits, the mean and the control limits — and one part's labels: its
+characteristics' flags at their anchors on the part, with the decisive points, in the
+plan's coordinates. They draw the series' numbers (camcmm.tasks.series.chart); nothing
+here computes them."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ....tasks.series import VERDICT_COLOURS
+from ...plotly_json import LEGEND_BELOW, empty, layout
+
+__all__ = ["empty", "labels_figure", "run_chart"]
+
+
+def _hline(y: float, name: str, colour: str, dash: str, n: int) -> dict[str, Any]:
+    return {
+        "type": "scatter",
+        "mode": "lines",
+        "x": [-0.5, n - 0.5],
+        "y": [y, y],
+        "name": name,
+        "line": {"color": colour, "dash": dash, "width": 1.5},
+        "hoverinfo": "name+y",
+    }
+
+
+def run_chart(c: dict[str, Any] | None) -> dict[str, Any]:
+    """Values of characteristic ``c`` (:func:`camcmm.tasks.series.chart`) part by part."""
+    if not c or not c.get("parts"):
+        return empty("run a series, then click a cell: the run chart of its characteristic appears here")
+    n = len(c["parts"])
+    x = list(range(n))
+    data: list[dict[str, Any]] = [
+        {
+            "type": "scatter",
+            "mode": "lines+markers",
+            "x": x,
+            "y": c["values"],
+            "text": [f"{p}: {v}" for p, v in zip(c["parts"], c["verdicts"], strict=True)],
+            "name": "value",
+            "line": {"color": "#90a4ae", "width": 1},
+            "marker": {"size": 10, "color": [VERDICT_COLOURS.get(v, "#9e9e9e") for v in c["verdicts"]]},
+            "hoverinfo": "text+y",
+        }
+    ]
+    for key, name, colour, dash in (
+        ("usl", "upper tolerance limit", "#d7301f", "solid"),
+        ("lsl", "lower tolerance limit", "#d7301f", "solid"),
+        ("mean", "mean", "#1565c0", "dot"),
+        ("ucl", "upper control limit", "#6a1b9a", "dash"),
+        ("lcl", "lower control limit", "#6a1b9a", "dash"),
+    ):
+        if c.get(key) is not None:
+            data.append(_hline(float(c[key]), name, colour, dash, n))
+    lay = layout(f"{c['id']} across the parts", "part", "value [mm]", legend=LEGEND_BELOW)
+    lay["xaxis"].update({"tickmode": "array", "tickvals": x, "ticktext": c["parts"], "range": [-0.5, n - 0.5]})
+    return {"data": data, "layout": lay}
+
+
+def labels_figure(part: str, evaluation: dict[str, Any] | None) -> dict[str, Any]:
+    """The flags of one part: each characteristic's anchor (its id, value and verdict as
+    text, in the verdict's colour) and its decisive points, plan coordinates (mm)."""
+    labels = list((evaluation or {}).get("labels") or [])
+    if not labels:
+        return empty(f"{part}: no labels (the part was not evaluated)")
+    rows = {c["id"]: c for c in (evaluation or {}).get("characteristics") or []}
+    data: list[dict[str, Any]] = []
+    for lab in labels:
+        c = rows.get(lab.get("id"), {})
+        verdict = str(c.get("verdict_guarded") or lab.get("verdict") or "not evaluated")
+        colour = VERDICT_COLOURS.get(verdict, "#9e9e9e")
+        dec = lab.get("decisive") or []
+        if dec:
+            data.append({
+                "type": "scatter3d", "mode": "markers", "name": f"{lab['id']} decisive points",
+                "x": [p[0] for p in dec], "y": [p[1] for p in dec], "z": [p[2] for p in dec],
+                "marker": {"size": 3, "color": colour}, "showlegend": False,
+            })  # fmt: skip
+        a = lab.get("anchor") or [0.0, 0.0, 0.0]
+        value = c.get("value")
+        text = f"{lab['id']}: {'—' if value is None else f'{value:.4f}'} mm, {verdict}"
+        data.append({
+            "type": "scatter3d", "mode": "markers+text", "name": text, "x": [a[0]], "y": [a[1]], "z": [a[2]],
+            "text": [text], "textposition": "top center", "marker": {"size": 7, "color": colour, "symbol": "diamond"},
+            "textfont": {"color": colour, "size": 11},
+        })  # fmt: skip
+    lay = layout(f"{part}: its characteristics' labels", "", "", legend=None)
+    lay["scene"] = {
+        "aspectmode": "data",
+        "xaxis": {"title": "x mm"},
+        "yaxis": {"title": "y mm"},
+        "zaxis": {"title": "z mm"},
+    }
+    lay["margin"] = {"l": 0, "r": 0, "t": 36, "b": 0}
+    return {"data": data, "layout": lay}
