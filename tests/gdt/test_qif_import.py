@@ -242,11 +242,42 @@ def test_virtual_ctc01_gives_the_constructed_values(tmp_path, capfd, ctc01):
     assert {"line-2184", "line-2185", "angled-2180-1"} <= empty
 
 
+def _step_faces(f: dict, cad) -> list:
+    """The faces of the CAD model ``cad`` that the plan feature ``f`` lies on: same plane and
+    outward normal; same axis and diameter; same apex, axis and angle; same centre and
+    diameter(s) — to 1e-4 mm in location and size (FTC 06's inch values carry about 2e-5 mm of
+    rounding), 1e-9 in the directions' cosines, 1e-6 degree in a cone's angle."""
+    out = []
+    for cf in cad.faces:
+        p = cf.params
+        if cf.type != f["type"]:
+            continue
+        if f["type"] == "plane":
+            on = abs((np.array(f["point"]) - p["point"]) @ p["normal"]) < 1e-4 and p["normal"] @ f["normal"] > 1 - 1e-9
+        elif f["type"] == "cylinder":
+            w, a = np.array(f["point"]) - p["point"], p["axis"]
+            on = np.linalg.norm(w - (w @ a) * a) < 1e-4 and abs(a @ f["axis"]) > 1 - 1e-9
+            on = on and abs(p["diameter"] - f["diameter"]) < 1e-4
+        elif f["type"] == "cone":
+            on = np.linalg.norm(np.array(f["apex"]) - p["apex"]) < 1e-4 and p["axis"] @ f["axis"] > 1 - 1e-9
+            on = on and abs(p["angle"] - f["angle"]) < 1e-6
+        elif f["type"] == "sphere":
+            on = (
+                np.linalg.norm(np.array(f["centre"]) - p["centre"]) < 1e-4 and abs(p["diameter"] - f["diameter"]) < 1e-4
+            )
+        else:  # torus
+            on = np.linalg.norm(np.array(f["centre"]) - p["centre"]) < 1e-4 and abs(p["axis"] @ f["axis"]) > 1 - 1e-9
+            on = on and all(abs(p[k] - f[k]) < 1e-4 for k in ("major_diameter", "minor_diameter"))
+        if on:
+            out.append(cf)
+    return out
+
+
 def test_ctc01_features_are_faces_of_its_step(ctc01):
     """The QIF and the STEP AP242 of CTC 01 (tests/data/nist_pmi) are one part in one frame:
-    each imported plane and cylinder lies on a face of the STEP (same plane and outward
-    normal; same axis and diameter, to 1e-6 mm), and its extent covers that face's: a
-    plane's box holds the face's bounds, a cylinder's point … point + length·axis spans them."""
+    each imported plane and cylinder lies on a face of the STEP (:func:`_step_faces`), and
+    its extent covers that face's: a plane's box holds the face's bounds, a cylinder's
+    point … point + length·axis spans them."""
     from camcmm.api import read_cad
 
     cad = read_cad(TEST_DATA / "nist_pmi" / "nist_ctc_01_asme1_ap242-e1.stp")
@@ -255,30 +286,34 @@ def test_ctc01_features_are_faces_of_its_step(ctc01):
     for fid, f in doc["features"].items():
         if f["type"] not in ("plane", "cylinder"):
             continue
-        faces = []
-        for cf in cad.faces:
-            p = cf.params
-            if cf.type != f["type"]:
-                continue
-            if f["type"] == "plane":
-                on = (
-                    abs((np.array(f["point"]) - p["point"]) @ p["normal"]) < 1e-6
-                    and p["normal"] @ f["normal"] > 1 - 1e-9
-                )
-            else:
-                w, a = np.array(f["point"]) - p["point"], p["axis"]
-                on = np.linalg.norm(w - (w @ a) * a) < 1e-6 and abs(a @ f["axis"]) > 1 - 1e-9
-                on = on and abs(p["diameter"] - f["diameter"]) < 1e-6
-            if on:
-                faces.append(cf)
+        faces = _step_faces(f, cad)
         assert faces, fid
         lo = np.min([cf.bounds[0] for cf in faces], axis=0)
         hi = np.max([cf.bounds[1] for cf in faces], axis=0)
         if f["type"] == "plane":
             assert np.all(np.array(f["box"][0]) <= lo + 1e-9) and np.all(hi - 1e-9 <= np.array(f["box"][1])), fid
-        else:
+        else:  # CTC 01's axes are along x, y or z: the bounds' projections are the face's ends
             a, p0 = np.array(f["axis"]), np.array(f["point"])
             t = sorted([(lo - p0) @ a, (hi - p0) @ a])
             assert t[0] == pytest.approx(0.0, abs=1e-6) and t[1] == pytest.approx(f["length"], abs=1e-6), fid
         matched += 1
     assert matched == 15  # 7 cylinders, 2 planes, 6 planes of the 3 pairs
+
+
+@pytest.mark.skipif(not FTC06.is_file(), reason="../shared/data/qif3 (NIST FTC 06) is absent")
+def test_ftc06_surfaces_are_faces_of_its_step():
+    """FTC 06's 86 imported surface features (planes, cylinders, cones — apex on the side the
+    Small/LargeEndDistance say —, spheres, tori) each lie on a face of its STEP AP242."""
+    from camcmm.api import read_cad
+
+    cad = read_cad(SHARED_DATA / "qif3" / "step" / "nist_ftc_06_asme1_ap242-e2.stp")
+    doc, _ = import_qif(FTC06)
+    surfaces = {k: f for k, f in doc["features"].items() if f["type"] not in ("circle", "line", "point")}
+    assert len(surfaces) == 86 and {f["type"] for f in surfaces.values()} == {
+        "plane",
+        "cylinder",
+        "cone",
+        "sphere",
+        "torus",
+    }
+    assert [k for k, f in surfaces.items() if not _step_faces(f, cad)] == []
