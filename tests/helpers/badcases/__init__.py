@@ -20,6 +20,7 @@ FAMILIES = (
     "qif",
     "qifout",
     "gdt_batch",
+    "report",
 )
 
 
