@@ -144,6 +144,50 @@ def test_units_from_file_units(tmp_path):
     assert rep["characteristics"] == 2 and rep["skipped"][0]["id"] == "14"
 
 
+def test_compound_datum_and_datum_targets(tmp_path):
+    """A CompoundDatum (A-B) is the common datum "A-B" in precedence order; a datum defined by
+    targets is skipped, and so is every characteristic whose frame names it."""
+    base = mini_qif().decode()
+    second = (
+        '<DatumDefinition id="7"><DatumLabel>B</DatumLabel><FeatureNominalIds n="1"><Id>4</Id>'
+        '</FeatureNominalIds></DatumDefinition><DatumDefinition id="8"><DatumLabel>T</DatumLabel>'
+        '<DatumTargetIds n="1"><Id>3</Id></DatumTargetIds></DatumDefinition></DatumDefinitions>'
+    )
+    compound = (
+        '<Datums n="1"><Datum><CompoundDatum><Datums n="2">'
+        "<Datum><SimpleDatum><DatumDefinitionId>5</DatumDefinitionId></SimpleDatum></Datum>"
+        "<Datum><SimpleDatum><DatumDefinitionId>7</DatumDefinitionId></SimpleDatum></Datum>"
+        "</Datums></CompoundDatum><Precedence><PrecedenceEnum>PRIMARY</PrecedenceEnum></Precedence></Datum></Datums>"
+        '</DatumReferenceFrame><DatumReferenceFrame id="9"><Datums n="1"><Datum><SimpleDatum>'
+        "<DatumDefinitionId>8</DatumDefinitionId></SimpleDatum></Datum></Datums>"
+    )
+    perp = (
+        '<PerpendicularityCharacteristicDefinition id="15"><ToleranceValue>0.1</ToleranceValue>'
+        "<DatumReferenceFrameId>6</DatumReferenceFrameId></PerpendicularityCharacteristicDefinition>"
+        '<ParallelismCharacteristicDefinition id="16"><ToleranceValue>0.1</ToleranceValue>'
+        "<DatumReferenceFrameId>9</DatumReferenceFrameId></ParallelismCharacteristicDefinition>"
+    )
+    noms = (
+        '<PerpendicularityCharacteristicNominal id="17"><CharacteristicDefinitionId>15</CharacteristicDefinitionId>'
+        '<FeatureNominalIds n="1"><Id>3</Id></FeatureNominalIds></PerpendicularityCharacteristicNominal>'
+        '<ParallelismCharacteristicNominal id="18"><CharacteristicDefinitionId>16</CharacteristicDefinitionId>'
+        '<FeatureNominalIds n="1"><Id>3</Id></FeatureNominalIds></ParallelismCharacteristicNominal>'
+    )
+    text = base.replace("</DatumDefinitions>", second, 1)
+    head, rest = text.split('<DatumReferenceFrame id="6">', 1)
+    rest = rest[rest.index("</Datums>") + len("</Datums>") :]
+    text = head + '<DatumReferenceFrame id="6">' + compound + rest
+    text = text.replace("</CharacteristicDefinitions>", perp + "</CharacteristicDefinitions>")
+    text = text.replace("</CharacteristicNominals>", noms + "</CharacteristicNominals>")
+    (tmp_path / "c.qif").write_text(text)
+    doc, rep = import_qif(tmp_path / "c.qif")
+    assert doc["datums"] == {"A": "plane-3", "B": "cylinder-4"}
+    chars = {c["id"]: c for c in doc["characteristics"]}
+    assert chars["perpendicularity-17"]["datums"] == ["A-B"]
+    skipped = {s["id"]: s["reason"] for s in rep["skipped"]}
+    assert "datum targets" in skipped["8"] and "names datum 8, which was not imported" in skipped["18"]
+
+
 @pytest.mark.skipif(not FTC06.is_file(), reason="../shared/data/qif3 (NIST FTC 06) is absent")
 def test_ftc06_imports(tmp_path):
     doc, rep = import_qif(FTC06)

@@ -409,7 +409,7 @@ class _Reader:
         drf = self.lookup(drf_id, where)
         order = {"PRIMARY": 0, "SECONDARY": 1, "TERTIARY": 2}
         out: list[tuple[int, str]] = []
-        for datum in drf.iter(tag("Datum")):
+        for datum in drf.findall(f"{tag('Datums')}/{tag('Datum')}"):  # a CompoundDatum nests more
             prec = (datum.findtext(f"{tag('Precedence')}/{tag('PrecedenceEnum')}") or "").strip()
             simple = [s for s in datum if local(s.tag) in ("SimpleDatum", "CompoundDatum")]
             labels = []
