@@ -268,3 +268,18 @@ def test_parts_named_by_the_caller(batch, doc):
     assert [p["part"] for p in d["summary"][0]["points"]] == ["cast 1", "cast 2"]
     with pytest.raises(InputError, match="names"):
         run_batch(plan, clouds[:2], align="datums", folder=folder, names=["x", "x"])
+
+
+def test_trend_report(batch, doc, capfd, tmp_path):
+    """--report: the run charts and figures of each characteristic, the parts out of
+    tolerance and undecided named, the failed parts with their reasons (HTML, PDF, JSON)."""
+    d = main_json(capfd, *batch[0][:-5], "--report", tmp_path / "rep", "--json")  # resumed: no evaluation
+    html = (tmp_path / "rep" / "report.html").read_text("utf-8")
+    assert (tmp_path / "rep" / "report.pdf").read_bytes().startswith(b"%PDF")
+    for needle in ("Run chart of pos-H1", "Run chart of perp-D", "Run chart of dia-H1", "Bissell"):
+        assert needle in html, needle
+    assert f"pos-H1: out of tolerance: {gb.OUT}." in html
+    assert f"perp-D: undecided (ISO 14253-1): {gb.UNDECIDED}." in html
+    assert "feature H1 not evaluated" in html and html.count("data:image/png") == 3
+    rep = json.loads((tmp_path / "rep" / "report.json").read_text("utf-8"))
+    assert rep["data"]["summary"] == d["summary"]  # (part03 re-evaluated by the resume test: not doc's bits)

@@ -1,6 +1,6 @@
 """``camcmm gdt batch PLAN CLOUD... [--nominal FILE] [--align …] [--start …] [--k K]
 [--folder DIR] [--no-resume] [--subgroup M] [--confidence C] [--project DIR] [--qif DIR]
-[--csv FILE] [--json]``: one plan over many parts (:func:`.batch.run_batch`), their trend
+[--csv FILE] [--report DIR] [--json]``: one plan over many parts (:func:`.batch.run_batch`), their trend
 and capability (:func:`.capability.summarise`).
 
 Each cloud is aligned and evaluated as ``camcmm gdt evaluate`` does it; its record (the
@@ -12,14 +12,15 @@ file does not read, whose alignment does not settle or which has a feature witho
 is listed as failed with its reason; the batch goes on. ``--project`` records each part's
 run and the batch's summary (result ``gdt.batch``). ``--qif DIR`` writes one QIF 3.0
 Results file a part (``DIR/<part>.qif``), ``--csv FILE`` one row a part and
-characteristic.
+characteristic, ``--report DIR`` the trend report (:mod:`.trend_report`: run charts,
+capability, the parts out of tolerance or undecided; HTML, PDF, JSON).
 
 JSON (``--json``): :meth:`.batch.Batch.to_json` — ``parts`` [{``part``, ``file``,
 ``status``, ``reason``, ``evaluation``, ``sha256``, ``resumed``, ``record``,
 ``result_id``, ``provenance``}], ``summary`` (per characteristic: ``n``, ``mean``, ``s``,
 ``cp``, ``cp_ci``, ``cpk``, ``cpk_ci``, ``control``, ``out``, ``undecided`` …),
 ``counts``, ``warnings`` (one per failed part) — plus ``command`` "batch", ``qif``
-(paths) and ``csv``.
+(paths), ``csv`` and ``report`` (paths).
 
 Exit codes: 0 when the batch ran (failed parts are listed, not an error); 2 bad input (a
 bad plan, option or nominal, one line naming it).
@@ -76,6 +77,9 @@ def configure(sub: Any) -> None:
     b.add_argument("--project", default=None, metavar="DIR", help="record each part's run and the batch here")
     b.add_argument("--qif", default=None, metavar="DIR", help="write one QIF 3.0 Results file a part here")
     b.add_argument("--csv", default=None, metavar="FILE", help="write one CSV row a part and characteristic")
+    b.add_argument(
+        "--report", default=None, metavar="DIR", help="write the trend report (report.html, .pdf, .json) here"
+    )
     b.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document on stdout")
 
 
@@ -104,6 +108,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             qif.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise InputError(f"{args.qif}: cannot be made a folder ({exc.strerror or exc}) (--qif)") from None
+    report = None
+    if args.report:
+        report = checked_path(args.report, "--report")
+        if report.exists() and not report.is_dir():
+            raise InputError(f"{args.report}: is a file (--report expects a folder)")
     csv = None
     if args.csv:
         from .csv_out import check_output
@@ -142,6 +151,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         from .csv_out import rows, write_csv
 
         doc["csv"] = str(write_csv([r for p in evaluated for r in rows(p["evaluation"], p["part"])], csv))
+    if report is not None:
+        from .trend_report import build_trend_report
+
+        doc["report"] = build_trend_report(doc).write(report)
     return doc
 
 
@@ -232,6 +245,8 @@ def text(r: dict[str, Any]) -> str:
         lines.append(f"QIF Results: {len(r['qif'])} files in {Path(r['qif'][0]).parent}")
     if r.get("csv"):
         lines.append(f"CSV: {r['csv']}")
+    if r.get("report"):
+        lines.append("report " + ", ".join(r["report"].values()))
     if r.get("result_id") is not None:
         lines.append(f"batch recorded as result {r['result_id']} in {r['project']}")
     return "\n".join(lines)

@@ -2,7 +2,7 @@
 
 What makes the batch impossible is refused before any part, in one line naming it: the
 plan (missing, empty, a bad key), an option (``--subgroup``, ``--confidence``,
-``--align``, ``--k``), the nominal (missing, junk), an output (``--qif`` a file, ``--csv``
+``--align``, ``--k``), the nominal (missing, junk), an output (``--qif`` or ``--report`` a file, ``--csv``
 in a missing folder), a work folder that cannot be made. What concerns one part is that
 part's failure, listed, and the batch goes on: exit 0 with the failure in ``warnings`` —
 a cloud missing, an image, NaN coordinates, the same file twice, a corrupt record in the
@@ -59,6 +59,7 @@ def cases() -> list[Case]:
         # the outputs and the work folder
         _case("qif-a-file", ("q.txt",), PLAN, CLOUD, "--qif", "q.txt", files={"q.txt": b"x"}),
         _case("qif-below-a-file", ("f.txt",), PLAN, CLOUD, "--qif", "f.txt/q", files={"f.txt": b"x"}),
+        _case("report-a-file", ("r.txt",), PLAN, CLOUD, "--report", "r.txt", files={"r.txt": b"x"}),
         _case("csv-folder-missing", ("rows.csv",), PLAN, CLOUD, "--csv", "no/such/rows.csv"),
         _case("folder-below-a-file", ("f.txt",), PLAN, CLOUD, "--folder", "f.txt/work", files={"f.txt": b"x"}),
         # one part's failure: listed, the batch goes on (exit 0, a warning)
