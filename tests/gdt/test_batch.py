@@ -283,3 +283,19 @@ def test_trend_report(batch, doc, capfd, tmp_path):
     assert "feature H1 not evaluated" in html and html.count("data:image/png") == 3
     rep = json.loads((tmp_path / "rep" / "report.json").read_text("utf-8"))
     assert rep["data"]["summary"] == d["summary"]  # (part03 re-evaluated by the resume test: not doc's bits)
+
+
+def test_why_a_part_fails():
+    from camcmm_plugins.gdt.batch import failure
+
+    ok = {"id": "c", "value": 0.1, "verdict": "conform"}
+    value_only = {"id": "v", "value": 0.2, "verdict": "not evaluated", "details": {"reason": "no tolerance"}}
+    missing = {"id": "m", "value": None, "verdict": "not evaluated", "details": {"reason": "too few points"}}
+    feats = [{"id": "A", "status": "evaluated"}]
+    assert failure({"aligned": True, "features": feats, "characteristics": [ok, value_only]}) is None
+    assert failure({"aligned": False, "failure": "alignment datums did not settle"}).endswith("did not settle")
+    assert failure({"features": feats, "characteristics": [ok, missing]}) == "m not evaluated: too few points"
+    gone = [{"id": "B", "status": "not evaluated", "reason": "0 points"}, {"id": "C", "status": "not evaluated"}]
+    assert failure({"features": feats + gone, "characteristics": [missing]}) == (
+        "feature B not evaluated: 0 points (+1 more)"
+    )

@@ -166,7 +166,7 @@ def failure(evaluation: dict[str, Any]) -> str | None:
     missing += [
         f"{c['id']} not evaluated: {(c.get('details') or {}).get('reason', '')}".rstrip(": ")
         for c in evaluation.get("characteristics", [])
-        if c.get("verdict") == "not evaluated" and not missing
+        if c.get("value") is None and not missing  # a value without limits ("value only") is evaluated
     ]
     if not missing:
         return None
