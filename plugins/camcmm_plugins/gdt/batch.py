@@ -340,6 +340,8 @@ def run_batch(
         nominal = checked_path(nominal, "nominal")
     if project is not None:
         project = checked_path(project, "project")
+        if Path(out).resolve().is_relative_to(Path(project).resolve()):  # the store owns its folder
+            raise InputError(f"{folder}: the batch folder must lie outside the project folder {project}")
     p, plan_name, plan_sha = _plan_of(plan)
     if params.get("align") == "rps":
         from .alignment import rps_points

@@ -5,8 +5,8 @@ and capability (:func:`.capability.summarise`).
 
 Each cloud is aligned and evaluated as ``camcmm gdt evaluate`` does it; its record (the
 evaluation with its provenance) goes to the batch's work folder — ``--folder``, default
-``<project>/gdt-batch/<plan stem>`` with ``--project``, else ``<plan stem>-batch`` in the
-working folder — and a second run resumes (parts already recorded for the same file,
+``<plan stem>-batch`` in the working folder, never inside the project's folder (the
+project store owns it) — and a second run resumes (parts already recorded for the same file,
 plan and options are not evaluated again; ``--no-resume`` evaluates all). A part whose
 file does not read, whose alignment does not settle or which has a feature without points
 is listed as failed with its reason; the batch goes on. ``--project`` records each part's
@@ -59,8 +59,7 @@ def configure(sub: Any) -> None:
         "--folder",
         default=None,
         metavar="DIR",
-        help="the batch's work folder of part records "
-        "(default <project>/gdt-batch/<plan stem>, else <plan stem>-batch)",
+        help="the batch's work folder of part records (default <plan stem>-batch; outside the project)",
     )
     b.add_argument("--no-resume", action="store_true", help="evaluate every part again, even when recorded")
     b.add_argument(
@@ -84,10 +83,7 @@ def configure(sub: Any) -> None:
 
 
 def _folder(args: argparse.Namespace) -> Path:
-    if args.folder:
-        return Path(args.folder)
-    stem = Path(args.plan).stem
-    return Path(args.project) / "gdt-batch" / stem if args.project else Path(f"{stem}-batch")
+    return Path(args.folder) if args.folder else Path(f"{Path(args.plan).stem}-batch")
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:

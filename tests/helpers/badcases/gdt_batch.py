@@ -61,6 +61,7 @@ def cases() -> list[Case]:
         _case("qif-below-a-file", ("f.txt",), PLAN, CLOUD, "--qif", "f.txt/q", files={"f.txt": b"x"}),
         _case("report-a-file", ("r.txt",), PLAN, CLOUD, "--report", "r.txt", files={"r.txt": b"x"}),
         _case("csv-folder-missing", ("rows.csv",), PLAN, CLOUD, "--csv", "no/such/rows.csv"),
+        _case("folder-in-project", ("w",), PLAN, CLOUD, "--project", "proj", "--folder", "proj/w"),
         _case("folder-below-a-file", ("f.txt",), PLAN, CLOUD, "--folder", "f.txt/work", files={"f.txt": b"x"}),
         # one part's failure: listed, the batch goes on (exit 0, a warning)
         _case("cloud-missing", ("none.xyz",), PLAN, CLOUD, "none.xyz"),
