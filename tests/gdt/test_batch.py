@@ -185,6 +185,10 @@ def test_resume_skips_the_recorded_parts(doc, batch, capfd, tmp_path):
     again = main_json(capfd, *argv[:-5], "--json")  # without --csv/--qif
     assert again["counts"] == {"parts": 12, "evaluated": 10, "failed": 2, "resumed": 12}
     assert again["summary"] == doc["summary"]
+    assert [w.split(":")[0] for w in again["warnings"]] == [  # the failed parts still said
+        "part broken failed (recorded earlier)",
+        "part nobore failed (recorded earlier)",
+    ]
     # a changed file (the same part, its points in reverse order): only it is evaluated again
     changed = clouds[gb.ORDER.index("part03")]
     pts = np.loadtxt(changed)[::-1]

@@ -325,8 +325,9 @@ def run_batch(
     summary as a result ``gdt.batch``; ``progress(fraction, message)``, ``cancel``: for a
     GUI (a cancel raises ``Cancelled`` between or inside parts; the records written so
     far stay, so a new run resumes); ``names``: the parts' names, one a cloud, unique
-    (default the file's stem, the path as given for a stem met twice). Raises InputError/ParameterError for a bad plan,
-    option or nominal and for no clouds; a part's own failure is recorded instead."""
+    (default the file's stem, the path as given for a stem met twice). Raises
+    InputError/ParameterError for a bad plan, option, name or nominal and for no clouds,
+    before any part; a part's own failure is recorded instead."""
     given = {"align": align, "start": start, "k": k, "max_iterations": max_iterations, "seed": seed}
     params = {n: declared_value(PLUGIN, n, v) for n, v in given.items() if v is not None}
     if not clouds:
@@ -335,6 +336,14 @@ def run_batch(
     if isinstance(plan, (str, Path)):
         plan = checked_path(plan, "plan")
     files = [checked_path(c, "cloud") for c in clouds]
+    if names is None:
+        names = _names(files)
+    else:
+        names = [str(x) for x in names]
+        if len(names) != len(files):
+            raise InputError(f"names: {len(names)} names for {len(files)} clouds")
+        if len(set(names)) != len(names):
+            raise InputError("names: two parts have the same name")
     out = checked_path(folder, "batch folder")
     if isinstance(nominal, (str, Path)):
         nominal = checked_path(nominal, "nominal")
@@ -363,14 +372,6 @@ def run_batch(
         raise InputError(f"{folder}: cannot be made a batch folder ({exc.strerror or _line(exc)})") from None
     warnings: list[str] = []
     done = _records(out, warnings) if resume else {}
-    if names is None:
-        names = _names(files)
-    else:
-        names = [str(x) for x in names]
-        if len(names) != len(files):
-            raise InputError(f"names: {len(names)} names for {len(files)} clouds")
-        if len(set(names)) != len(names):
-            raise InputError("names: two parts have the same name")
     n = len(files)
     runner = _Runner(default_host(), p, plan_name, nominal_obj, nominal_name, params, project, progress, cancel, n)
     batch = Batch(plan_name, out, [], to_jsonable(params), nominal_name, utc_now())
@@ -408,6 +409,8 @@ def run_batch(
         if old is not None and (project is None or recorded):
             old = {**old, "part": name, "file": str(f)}
             batch.parts.append(_public(old, Path(old["_path"]), True))
+            if old["status"] == "failed":
+                warnings.append(f"part {name} failed (recorded earlier): {old.get('reason')}")
             continue
         if "status" not in rec:
             runner.evaluate(rec, f, i)
