@@ -94,6 +94,9 @@ def test_a_series_runs_in_the_browser_with_cells_coloured_by_verdict_and_the_run
             assert page.locator('[data-testid="se-cap-undecided"]').inner_text() == "part3"
             labels = page.locator('[data-testid="se-labels"]')
             labels.locator(".main-svg").first.wait_for()
+            traces = labels.evaluate("e => e.querySelector('.js-plotly-plot').data.map(t => t.name)")
+            assert "the part, aligned" in traces, traces  # the part's cloud under its flags
+            assert any("dia-S1: 20.01" in t and "undecided" in t for t in traces), traces
             page.screenshot(path=str(SHOTS / "series.png"))
             elapsed = time.monotonic() - t0
         finally:

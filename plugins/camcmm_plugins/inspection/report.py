@@ -336,7 +336,7 @@ def build_report(
     st, mr, a = o["stats"], o["material_ratio"], o["alignment"]
     measured = dev_cloud.name.removesuffix(" deviations")
     r = Report(
-        "Inspection report: deviations from the nominal",
+        "Inspection against the nominal",
         subtitle=f"{measured} against {Path(nominal_file).name}" if nominal_file else measured,
         meta={
             "Measured data": Path(cloud_file).name if cloud_file else dev_cloud.name,

@@ -14,6 +14,9 @@ from ...plotly_json import LEGEND_BELOW, empty, layout
 
 __all__ = ["empty", "labels_figure", "run_chart"]
 
+#: Verdicts from the worst: the colour of a flag holding several characteristics.
+WORST = ("not conform", "undecided", "not evaluated", "conform")
+
 
 def _hline(y: float, name: str, colour: str, dash: str, n: int) -> dict[str, Any]:
     return {
@@ -60,14 +63,22 @@ def run_chart(c: dict[str, Any] | None) -> dict[str, Any]:
     return {"data": data, "layout": lay}
 
 
-def labels_figure(part: str, evaluation: dict[str, Any] | None) -> dict[str, Any]:
-    """The flags of one part: each characteristic's anchor (its id, value and verdict as
-    text, in the verdict's colour) and its decisive points, plan coordinates (mm)."""
+def labels_figure(part: str, evaluation: dict[str, Any] | None, points: Any = None) -> dict[str, Any]:
+    """The flags of one part: its aligned cloud (``points``, plan coordinates, grey; None:
+    not drawn), each characteristic's anchor (its id, value and verdict as text, in the
+    verdict's colour) and its decisive points, plan coordinates (mm)."""
     labels = list((evaluation or {}).get("labels") or [])
     if not labels:
         return empty(f"{part}: no labels (the part was not evaluated)")
     rows = {c["id"]: c for c in (evaluation or {}).get("characteristics") or []}
     data: list[dict[str, Any]] = []
+    if points is not None and len(points):
+        data.append({
+            "type": "scatter3d", "mode": "markers", "name": "the part, aligned", "hoverinfo": "skip",
+            "x": points[:, 0].tolist(), "y": points[:, 1].tolist(), "z": points[:, 2].tolist(),
+            "marker": {"size": 1.5, "color": "#b0bec5"}, "showlegend": False,
+        })  # fmt: skip
+    anchors: dict[tuple[float, ...], list[tuple[str, str]]] = {}
     for lab in labels:
         c = rows.get(lab.get("id"), {})
         verdict = str(c.get("verdict_guarded") or lab.get("verdict") or "not evaluated")
@@ -79,13 +90,18 @@ def labels_figure(part: str, evaluation: dict[str, Any] | None) -> dict[str, Any
                 "x": [p[0] for p in dec], "y": [p[1] for p in dec], "z": [p[2] for p in dec],
                 "marker": {"size": 3, "color": colour}, "showlegend": False,
             })  # fmt: skip
-        a = lab.get("anchor") or [0.0, 0.0, 0.0]
+        a = tuple(round(float(v), 6) for v in (lab.get("anchor") or [0.0, 0.0, 0.0]))
         value = c.get("value")
-        text = f"{lab['id']}: {'—' if value is None else f'{value:.4f}'} mm, {verdict}"
+        anchors.setdefault(a, []).append(
+            (f"{lab['id']}: {'—' if value is None else f'{value:.4f}'} mm, {verdict}", verdict)
+        )
+    for a, flags in anchors.items():  # a feature's characteristics share one flag, the worst verdict its colour
+        worst = min((v for _, v in flags), key=lambda v: WORST.index(v) if v in WORST else len(WORST))
+        text = "<br>".join(t for t, _ in flags)
         data.append({
             "type": "scatter3d", "mode": "markers+text", "name": text, "x": [a[0]], "y": [a[1]], "z": [a[2]],
-            "text": [text], "textposition": "top center", "marker": {"size": 7, "color": colour, "symbol": "diamond"},
-            "textfont": {"color": colour, "size": 11},
+            "text": [text], "textposition": "top center", "textfont": {"color": "#212121", "size": 11},
+            "marker": {"size": 7, "color": VERDICT_COLOURS.get(worst, "#9e9e9e"), "symbol": "diamond"},
         })  # fmt: skip
     lay = layout(f"{part}: its characteristics' labels", "", "", legend=None)
     lay["scene"] = {

@@ -14,6 +14,8 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+import numpy as np
+
 from ....errors import one_line
 from ....tasks import gdt, series
 from ....tasks.series import SeriesRequest, SeriesTask
@@ -22,6 +24,8 @@ from . import figures
 
 log = logging.getLogger("camcmm.gui.series")
 KEY = "series"
+#: Most points of a part drawn under its labels.
+MAX_DRAWN = 4000
 EMPTY_HINT = (
     "Choose the plan (empty: the project's plan, made on the Compare page; or a YAML file on the server) and the "
     "parts — project clouds and/or files on the server, one a line, in production order — then Run. Each part is "
@@ -70,6 +74,7 @@ class SeriesPage:
         self.server, self.session, self.state, self.host = server, session, session.state, session.host
         self.job = Job("the series", state=self.state, on_progress=self._show_progress, interval=0.2)
         self.batch: dict[str, Any] | None = None
+        self._points: dict[str, Any] = {}
         self._init_state()
         self.restore()
 
@@ -220,10 +225,33 @@ class SeriesPage:
             }
             for c in ev.get("characteristics") or []
         ]
-        s.se_fig_labels = figures.labels_figure(str(part), ev)
+        s.se_fig_labels = figures.labels_figure(str(part), ev, self.aligned_points(p))
         chart = series.chart(batch, str(cid))
         s.se_fig_chart = figures.run_chart(chart)
         s.se_capability = capability_rows(chart)
+
+    def aligned_points(self, part: dict[str, Any]) -> Any:
+        """The part's cloud in plan coordinates (its file read again, moved by the transform
+        its evaluation found), at most :data:`MAX_DRAWN` points; None when it cannot be had
+        (not evaluated, the file gone: the labels are drawn alone)."""
+        key = str(part.get("file") or "")
+        if key in self._points:
+            return self._points[key]
+        pts = None
+        try:
+            T = np.asarray(((part.get("evaluation") or {}).get("alignment") or {})["transform"], float)
+            from ....io import read
+
+            roots = getattr(self.session, "roots", None)
+            path = roots.check(key, "cloud") if roots is not None else key  # a stored path: held to the roots
+            P = np.asarray(read(path).points, float)
+            if len(P) > MAX_DRAWN:  # a seeded sample: the same picture each time
+                P = P[np.random.default_rng(0).choice(len(P), MAX_DRAWN, replace=False)]
+            pts = P @ T[:3, :3].T + T[:3, 3]
+        except Exception as exc:
+            log.info("no aligned cloud for %s: %s", part.get("part"), one_line(exc))
+        self._points = {key: pts}  # one part kept: a click on another row reads its file
+        return pts
 
     def close(self) -> None:
         self.job.close()
