@@ -92,11 +92,13 @@ def from_args(args: argparse.Namespace, base: Mapping[str, str] | None = None) -
 
 def header(fields: Mapping[str, str], created: str) -> dict[str, str]:
     """The fields in :data:`FIELDS` order under their words, the date defaulting to the
-    report's ``created`` day and every other field not given shown as a dash."""
+    report's ``created`` day, the temperature only where given, every other field not
+    given shown as a dash."""
     out = {}
     for key, words in FIELDS.items():
-        value = fields.get(key) or (created[:10] if key == "date" else "\u2014")
-        out[words] = value
+        if key == "temperature" and not fields.get(key):
+            continue  # stated where it was measured; a dash would read as "not controlled"
+        out[words] = fields.get(key) or (created[:10] if key == "date" else "\u2014")
     return out
 
 
