@@ -103,6 +103,7 @@ def test_stored_and_restored(ran):
         ({"clouds": ["1", "nowhere.xyz"]}, "cloud nowhere.xyz: no such file"),
         ({"align": "sideways"}, "align: 'sideways'"),
         ({"plan": "missing.yaml"}, "plan missing.yaml: no such file"),
+        ({"nominal": "77"}, "no item with id '77'"),
     ],
 )
 def test_refusals_in_one_line(ran, change, words):

@@ -38,9 +38,9 @@ def _inputs(page: Any) -> None:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    def on_run(plan, clouds, files, align):
+    def on_run(plan, clouds, files, align, nominal):
         # the fields as the browser has them (one typed just before the click may not be synced yet)
-        in_background(page.run_async(plan, clouds, files, align), page.state)
+        in_background(page.run_async(plan, clouds, files, align, nominal or ""), page.state)
 
     def on_cancel():
         page.cancel()
@@ -69,13 +69,20 @@ def _inputs(page: Any) -> None:
         raw_attrs=tid("se-files"),
     )  # fmt: skip
     v.VSelect(
+        v_model=("se_nominal",), items=("items.filter(i => i.kind !== 'image')",), item_title="name",
+        item_value="id", label="Nominal (optional: CAD, mesh or reference cloud)", clearable=True,
+        density="compact", variant="outlined", hide_details=True, classes="mb-2", disabled=("se_running",),
+        raw_attrs=tid("se-nominal"),
+    )  # fmt: skip
+    v.VSelect(
         v_model=("se_align",), items=("se_aligns",), item_title="title", item_value="value", label="Alignment",
         density="compact", variant="outlined", hide_details=True, classes="mb-2", disabled=("se_running",),
         raw_attrs=tid("se-align"),
     )  # fmt: skip
     with html.Div(classes="d-flex ga-2"):
         v.VBtn(
-            "Run", color="primary", prepend_icon="mdi-play", click=(on_run, "[se_plan, se_clouds, se_files, se_align]"),
+            "Run", color="primary", prepend_icon="mdi-play",
+            click=(on_run, "[se_plan, se_clouds, se_files, se_align, se_nominal]"),
             disabled=("se_running",), loading=("se_running",), title="Evaluate the plan on every part (Ctrl+Enter)",
             raw_attrs=[*tid("se-run"), 'data-shortcut="run"'],
         )  # fmt: skip

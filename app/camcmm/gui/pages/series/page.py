@@ -87,7 +87,7 @@ class SeriesPage:
 
     def _init_state(self) -> None:
         s = self.state
-        s.se_plan, s.se_clouds, s.se_files, s.se_align = "", [], "", "best-fit"
+        s.se_plan, s.se_clouds, s.se_files, s.se_align, s.se_nominal = "", [], "", "best-fit", None
         s.se_aligns = [{"title": gdt.ALIGN_TITLES[a], "value": a} for a in gdt.ALIGNMENTS]
         s.se_running, s.se_progress, s.se_message, s.se_error = False, 0.0, "", ""
         s.se_warnings, s.se_title, s.se_ids, s.se_rows = [], "", [], []
@@ -114,7 +114,7 @@ class SeriesPage:
             return
         req, rec = got
         s = self.state
-        s.se_align = req.align
+        s.se_align, s.se_nominal = req.align, req.nominal
         s.se_clouds = [c for c in req.clouds if str(c).isdigit()]
         s.se_files = "\n".join(c for c in req.clouds if not str(c).isdigit())
         self.show(rec["batch"], rec)
@@ -129,7 +129,9 @@ class SeriesPage:
         if self.job.cancel():
             self.state.se_message = "cancelling …"
 
-    def request(self, plan: Any = None, clouds: Any = None, files: Any = None, align: Any = None) -> SeriesRequest:
+    def request(
+        self, plan: Any = None, clouds: Any = None, files: Any = None, align: Any = None, nominal: Any = None
+    ) -> SeriesRequest:
         """The request from the page's fields (or the values given: the browser's, a test's)."""
         s = self.state
         plan = s.se_plan if plan is None else plan
@@ -137,18 +139,21 @@ class SeriesPage:
         text = s.se_files if files is None else files
         lines = [ln.strip() for ln in str(text or "").splitlines() if ln.strip()]
         return SeriesRequest(
-            plan=str(plan).strip() or "project", clouds=chosen + lines, align=str(align or s.se_align or "best-fit")
+            plan=str(plan).strip() or "project",
+            clouds=chosen + lines,
+            nominal=(s.se_nominal if nominal is None else nominal) or None,
+            align=str(align or s.se_align or "best-fit"),
         )
 
     async def run_async(
-        self, plan: Any = None, clouds: Any = None, files: Any = None, align: Any = None
+        self, plan: Any = None, clouds: Any = None, files: Any = None, align: Any = None, nominal: Any = None
     ) -> dict[str, Any] | None:
         """Run the series and store it; the record, or None with the reason on the page."""
         s = self.state
         if self.job.running:
             self.error("a series is running; wait for it or cancel it")
             return None
-        req = self.request(plan, clouds, files, align)
+        req = self.request(plan, clouds, files, align, nominal)
         s.se_error, s.se_running, s.se_progress, s.se_message = "", True, 0.0, "starting …"
         self.session.clear_error(page=KEY)
         self.session.flush()
