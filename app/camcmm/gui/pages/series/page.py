@@ -249,7 +249,8 @@ class SeriesPage:
 
             roots = getattr(self.session, "roots", None)
             path = roots.check(key, "cloud") if roots is not None else key  # a stored path: held to the roots
-            P = np.asarray(read(path).points, float)
+            cloud: Any = read(path)  # a part is a cloud (the run read it as one)
+            P = np.asarray(cloud.points, float)
             if len(P) > MAX_DRAWN:  # a seeded sample: the same picture each time
                 P = P[np.random.default_rng(0).choice(len(P), MAX_DRAWN, replace=False)]
             pts = P @ T[:3, :3].T + T[:3, 3]
