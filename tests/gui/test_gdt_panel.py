@@ -238,3 +238,24 @@ def test_a_face_of_a_step_nominal_picked_is_the_issue_s_face_feature(gui_app, tm
     page.view.screenshot()
     xy, _, _ = world_to_display(page.view.renderer, point[None, :])
     assert page.pick_display(*xy[0]) == {"type": "face", "cad": 1}
+
+
+def test_import_plan_takes_a_qif_file_through_the_qif_import_provider(gui_app, tmp_path):
+    """NIST CTC 01's QIF uploaded: the plan of ``camcmm gdt import-qif`` (17 features, 11
+    characteristics; tests/tasks/test_gdt_qif_import.py compares it with the command) fills
+    the panel and is kept as gdt.plan; a file that is not QIF is refused in one line."""
+    from helpers.paths import TEST_DATA
+
+    server, session, page = _project(gui_app, tmp_path)
+    s, g = server.state, page.gdt
+    data = (TEST_DATA / "qif3" / "nist_ctc_01_asme1_ap242.qif").read_bytes()
+    assert g.import_yaml(data, "ctc01.QIF"), s.ins_error
+    assert len(s.gdt_feature_ids) == 17 and len(s.gdt_chars) == 11 and s.gdt_datum_labels == ["A", "B", "C"]
+    assert sorted(c["title"] for c in s.gdt_chars)[:2] == ["Diameter", "Diameter"]
+    assert s.info_message.startswith("ctc01.QIF: imported 17 features, 11 characteristics; skipped 5: 2166: ")
+    kept = session.project.get_state(gdt.PLAN_KEY)
+    assert kept["version"] == gdt.PLAN_VERSION and kept["plan"] == g.plan and g.plan["qif"]["file"] == "ctc01.QIF"
+    before = dict(g.plan)
+    assert not g.import_yaml(b"<?xml version='1.0'?><plan/>", "other.qif")
+    assert s.ins_error.startswith("other.qif: not a QIF 3.0 document") and "\n" not in s.ins_error
+    assert g.plan == before and session.project.get_state(gdt.PLAN_KEY)["plan"] == before  # left as it was

@@ -46,6 +46,10 @@ STATE_KEY = "gdt.current"
 PLAN_KEY = "gdt.plan"
 #: The version of the record under :data:`PLAN_KEY` (a newer one is refused, an older migrated).
 PLAN_VERSION = 1
+#: The task (and camcmm's plugin) reading a QIF 3.0 file into a plan (the page may not
+#: import plugin code).
+QIF_TASK = "qif-import"
+QIF_PLUGIN = "gdt.import-qif"
 
 #: Feature types a plan may name (the plugin's ``model.FEATURE_TYPES``), with the words a
 #: person reads; ``face`` is a face of a STEP nominal.
@@ -131,6 +135,19 @@ CONTRACT = contracts.register(
             Need("characteristics", "list", why="the results table and the report"),
             Need("labels", "list", why="the flag labels in the 3-D view (anchor, decisive points, verdict)"),
             Need("aligned", "pointcloud", ("feature",), optional=True, why="the cloud in plan coordinates"),
+        ),
+    )
+)
+
+
+#: What the Import plan of a QIF file reads of the provider's outputs.
+QIF_CONTRACT = contracts.register(
+    OutputContract(
+        QIF_TASK,
+        needs=(
+            Need("plan", "dict", why="the plan document that replaces the one being edited"),
+            Need("report", "dict", why="the import's counts and what was skipped"),
+            Need("report.skipped", "list", why="what was not imported, each with its reason"),
         ),
     )
 )
@@ -283,17 +300,18 @@ def check_plan(plan: Any, name: str = "plan", complete: bool = True) -> dict[str
     return plan
 
 
-def provider(host: Any) -> Any:
-    """The plugin that evaluates a plan: the one providing :data:`TASK`, else camcmm's
-    :data:`PLUGIN` held to the same contract. PluginError (one line) when there is none."""
+def provider(host: Any, task: str = TASK, plugin: str = PLUGIN) -> Any:
+    """The plugin that performs ``task`` (default: evaluates a plan): the one providing it,
+    else camcmm's ``plugin`` held to the same contract. PluginError (one line) when there
+    is none."""
     try:
-        return host.provider(TASK)
+        return host.provider(task)
     except PluginError as first:
         plugins = getattr(host, "plugins", {}) or {}
-        if PLUGIN not in plugins:
+        if plugin not in plugins:
             raise first from None
-        spec = host.get(PLUGIN)
-        problem = contracts.manifest_problem(spec, TASK)
+        spec = host.get(plugin)
+        problem = contracts.manifest_problem(spec, task)
         if problem:
             raise PluginError(problem) from None
         return spec
@@ -658,10 +676,16 @@ def read_plan_text(text: str | bytes, name: str = "plan.yaml") -> dict[str, Any]
     loader (size, aliases, depth, duplicate keys) and :func:`check_plan`'s structure
     checks, empty lists allowed (a plan being written). One-line InputError naming
     ``name`` and the key."""
-    from ..units import to_mm_factor
     from ..yamlfile import load_yaml
 
-    doc = load_yaml(text, name=name)
+    return _plan_document(load_yaml(text, name=name), name)
+
+
+def _plan_document(doc: Any, name: str) -> dict[str, Any]:
+    """A plan document read from a file (YAML, JSON or QIF) in mm and checked as a plan
+    being written (:func:`in_mm`, :func:`check_plan` with empty lists allowed)."""
+    from ..units import to_mm_factor
+
     if not isinstance(doc, dict):
         raise InputError(f"{name}: expected a mapping with features and characteristics")
     doc = dict(doc)
@@ -674,6 +698,58 @@ def read_plan_text(text: str | bytes, name: str = "plan.yaml") -> dict[str, Any]
     doc.setdefault("datums", {})
     doc.setdefault("characteristics", [])
     return check_plan(in_mm(doc, name), name, complete=False)
+
+
+def import_qif_upload(host: Any, project: Any, content: bytes | str, name: str = "plan.qif") -> QifImport:
+    """An uploaded QIF 3.0 file (its bytes ``content``, its name ``name``) as a plan
+    document, by the plugin providing :data:`QIF_TASK` (camcmm's :data:`QIF_PLUGIN`,
+    ``camcmm gdt import-qif``'s reader), run in this process (a parse of a file of at
+    most 64 MB). The bytes are written under their own name in a temporary folder inside
+    ``project``'s folder (the plugin takes a path, and a confined server reads only
+    there), removed afterwards. The plan goes through :func:`read_plan_text`'s checks
+    (:func:`in_mm`, :func:`check_plan`). One-line InputError naming the file."""
+    import tempfile
+    from pathlib import Path
+
+    base = Path(str(name or "")).name.strip() or "plan.qif"
+    data = content.encode("utf-8") if isinstance(content, str) else bytes(content)
+    spec = provider(host, QIF_TASK, QIF_PLUGIN)
+    root = getattr(project, "path", None)
+    with tempfile.TemporaryDirectory(prefix=".qif-import-", dir=str(root) if root else None) as tmp:
+        path = Path(tmp) / base  # the reader names the file in its messages and in plan.qif.file
+        path.write_bytes(data)
+        result = host.run(spec.id, {"qif": path})
+    contracts.check_outputs(QIF_TASK, spec.id, result.outputs)
+    plan = _plan_document(result.outputs["plan"], base)
+    return QifImport(plan, dict(result.outputs["report"]), list(result.warnings or []), base)
+
+
+@dataclass
+class QifImport:
+    """A QIF file imported: the checked ``plan`` (mm), the plugin's ``report`` (counts,
+    ``skipped`` [{id, reason}], ``imported``, ``unit``), its run ``warnings`` and the
+    file's ``name``."""
+
+    plan: dict[str, Any]
+    report: dict[str, Any]
+    warnings: list[str]
+    name: str
+
+    @property
+    def skipped(self) -> list[dict[str, Any]]:
+        return list(self.report.get("skipped") or [])
+
+    def message(self, reasons: int = 2) -> str:
+        """ "<file>: imported N features, M characteristics; skipped K: <first reasons>"."""
+        text = (
+            f"{self.name}: imported {len(self.plan.get('features') or {})} features, "
+            f"{len(self.plan.get('characteristics') or [])} characteristics"
+        )
+        skipped = self.skipped
+        if skipped:
+            first = "; ".join(f"{s.get('id')}: {s.get('reason')}" for s in skipped[:reasons])
+            text += f"; skipped {len(skipped)}: {first}" + (" …" if len(skipped) > reasons else "")
+        return text
 
 
 #: The plan keys that are lengths (converted by :func:`in_mm`) and those that are not.
@@ -876,6 +952,9 @@ class GdtTask:
 
     def saved_plan(self) -> dict[str, Any] | None:
         return saved_plan(self.project)
+
+    def import_qif(self, content: bytes | str, name: str = "plan.qif") -> QifImport:
+        return import_qif_upload(self.host, self.project, content, name)
 
     def write_report(self, evaluation: Evaluation, folder: Any) -> dict[str, str]:
         return write_report(self.spec, evaluation, self.items, folder, str(getattr(self.project, "path", "")))

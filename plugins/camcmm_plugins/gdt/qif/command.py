@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     import yaml
 
     from ..plan import read_plan
+    from .plugin import report_warnings
     from .read import import_qif
 
     src = checked_path(args.qif, "QIF file")
@@ -65,9 +66,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         tmp.unlink(missing_ok=True)
         raise
     tmp.replace(out)
-    warnings = [f"QIF {s['id']} not imported: {s['reason']}" for s in report["skipped"]]
-    warnings += [f"feature {f}: no extent in the QIF; its points are selected over an unlimited extent"
-                 for f in report["unlimited"]]  # fmt: skip
+    warnings = report_warnings(report)
     return {"command": "import-qif", "qif": str(args.qif), "plan": str(out), **report, "warnings": warnings}
 
 

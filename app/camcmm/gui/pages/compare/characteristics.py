@@ -570,17 +570,22 @@ class Characteristics:
         return link
 
     def import_yaml(self, content: Any, name: str = "plan.yaml") -> bool:
-        """A plan file (uploaded bytes) replacing the plan being edited."""
+        """A plan file (uploaded bytes: YAML, JSON, or a QIF 3.0 file by its .qif name)
+        replacing the plan being edited (kept in the project as gdt.plan)."""
         try:
-            doc = task.read_plan_text(content if isinstance(content, (bytes, str)) else bytes(content), str(name))
+            data = content if isinstance(content, (bytes, str)) else bytes(content)
+            if str(name).lower().endswith(".qif"):  # read by the qif-import provider
+                imported = self.task.import_qif(data, str(name))
+                doc, note = imported.plan, imported.message()
+            else:
+                doc = task.read_plan_text(data, str(name))
+                note = f"plan {name}: {len(doc['features'])} features, {len(doc['characteristics'])} characteristics"
         except Exception as exc:
             self.error(exc)
             return False
         self.plan = doc
         self._publish_plan()
-        self.session.info(
-            f"plan {name}: {len(doc['features'])} features, {len(doc['characteristics'])} characteristics"
-        )
+        self.session.info(note)
         return True
 
     # -- running -------------------------------------------------------------------------------

@@ -348,11 +348,11 @@ def _run_card(page: Any) -> None:
         v.VFileInput(
             v_model=("gdt_file", None),
             label="Import plan",
-            accept=".yaml,.yml,.json",
+            accept=".yaml,.yml,.json,.qif,.QIF",
             prepend_icon="",
             prepend_inner_icon="mdi-file-upload",
             style="max-width: 190px;",
-            title="replace the plan by a plan file (the YAML of camcmm gdt evaluate)",
+            title="replace the plan by a plan file (the YAML of camcmm gdt evaluate) or a QIF 3.0 file",
             raw_attrs=tid("gdt-import"),
             **_SELECT,
         )
