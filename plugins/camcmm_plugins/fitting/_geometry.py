@@ -10,7 +10,7 @@ Results are converted back to mm at the very end.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -398,6 +398,43 @@ def model_lm(
         check=model._check,
         rate_hint=rate_hint,
     )
+
+
+def axial_parts(state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points (3, n) about the axis of a state ``[origin (3), direction (3), ...]`` (a circle's
+    centre and normal, a cylinder's, cone's or torus' axis): z (n,) along the axis, uv (2, n)
+    across it in the basis :func:`complement`, ρ (n,) the distance from the axis."""
+    o, a = state[:3], state[3:6]
+    yc = yt - o[:, None]
+    uv = complement(a) @ yc
+    return a @ yc, uv, np.sqrt(np.einsum("ij,ij->j", uv, uv))
+
+
+def best_start(
+    model,
+    ys: np.ndarray,
+    starts: Iterable[Callable[[], np.ndarray]],
+    refusal: str,
+    accept: Callable[[np.ndarray], bool] | None = None,
+) -> np.ndarray:
+    """The start candidate whose short Levenberg-Marquardt run (100 iterations, xtol 1e-8)
+    on the screening points ``ys`` ends with the least sum of squares: the one selection of
+    the models that find their own start values (cylinder, cone, torus). Each of ``starts``
+    makes one start state and may raise GeometryError (that candidate is passed over, as is
+    a run that does not converge or whose state ``accept`` rejects); GeometryError(refusal)
+    when none is left."""
+    best, best_ssr = None, np.inf
+    for make in starts:
+        try:
+            res = model._lm(ys, make(), 100, 1e-8)
+        except GeometryError:
+            continue
+        ssr = float(res.r @ res.r)
+        if ssr < best_ssr and (accept is None or accept(res.state)):
+            best, best_ssr = res.state, ssr
+    if best is None:
+        raise GeometryError(refusal)
+    return best
 
 
 def fit_from_starts(

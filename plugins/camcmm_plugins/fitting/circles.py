@@ -27,6 +27,7 @@ from ._geometry import (
     Frame,
     GeometryError,
     LMResult,
+    axial_parts,
     complement,
     covariance,
     levenberg_marquardt,
@@ -56,15 +57,7 @@ class Circle3DModel:
             if s[1] <= FLAT * s[0]:
                 raise GeometryError("circle fit: the points are collinear; a circle needs points off a line")
 
-    @staticmethod
-    def _parts(state: np.ndarray, yt: np.ndarray):
-        c, n = state[:3], state[3:6]
-        b = complement(n)
-        yc = yt - c[:, None]
-        h = n @ yc
-        uv = b @ yc  # in-plane components (2, n)
-        rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
-        return h, uv, rho
+    _parts = staticmethod(axial_parts)  # h along the normal, uv and ρ in the plane
 
     def evaluate(self, state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         h, uv, rho = self._parts(state, yt)

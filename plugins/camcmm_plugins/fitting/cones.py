@@ -36,6 +36,7 @@ the NIST algorithm testing system", J. Res. NIST 103 (1998) 633-641; ISO 10360-6
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -45,6 +46,8 @@ from ._geometry import (
     Frame,
     GeometryError,
     LMResult,
+    axial_parts,
+    best_start,
     complement,
     covariance,
     fit_from_starts,
@@ -107,14 +110,7 @@ class ConeModel:
     def check(self, yt: np.ndarray) -> None:
         check_spread(yt, self.element)
 
-    @staticmethod
-    def _parts(state: np.ndarray, yt: np.ndarray):
-        p, a = state[:3], state[3:6]
-        yc = yt - p[:, None]
-        z = a @ yc
-        uv = complement(a) @ yc
-        rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
-        return z, uv, rho
+    _parts = staticmethod(axial_parts)
 
     def evaluate(self, state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         z, uv, rho = self._parts(state, yt)
@@ -155,24 +151,21 @@ class ConeModel:
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (module docstring) on up to SCREEN points."""
         ys = subsample(yt, SCREEN)
-        best, best_ssr = None, np.inf
-        for p, a in candidate_axes(ys):
+
+        def generatrix(p: np.ndarray, a: np.ndarray) -> np.ndarray:
             z, rho = _meridian(ys, p, a)
             # the generatrix: the straight line through (z, ρ), orthogonal least squares
             mz, sv, vt = principal_axes(np.vstack([z, rho]))
             ez, er = vt[0] if vt[0][0] >= 0 else -vt[0]
             psi = float(np.arctan2(er, ez))
-            state = np.concatenate([p + mz[0] * a, a, [mz[1] * np.cos(psi), psi]])
-            try:
-                res = self._lm(ys, state, 100, 1e-8)
-            except GeometryError:
-                continue
-            ssr = float(res.r @ res.r)
-            if ssr < best_ssr:
-                best, best_ssr = res.state, ssr
-        if best is None:
-            raise GeometryError("cone fit: no start value converged; the points do not look like a cone")
-        return best
+            return np.concatenate([p + mz[0] * a, a, [mz[1] * np.cos(psi), psi]])
+
+        return best_start(
+            self,
+            ys,
+            [partial(generatrix, p, a) for p, a in candidate_axes(ys)],
+            "cone fit: no start value converged; the points do not look like a cone",
+        )
 
     def fit(
         self,

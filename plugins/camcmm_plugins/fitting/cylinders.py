@@ -24,6 +24,7 @@ the NIST algorithm testing system", J. Res. NIST 103 (1998) 633-641.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -32,6 +33,8 @@ from ._geometry import (
     Frame,
     GeometryError,
     LMResult,
+    axial_parts,
+    best_start,
     complement,
     covariance,
     fit_from_starts,
@@ -76,15 +79,7 @@ class CylinderModel:
             if s[2] <= FLAT * s[0]:
                 raise GeometryError("cylinder fit: the points are coplanar; a cylinder needs points off a plane")
 
-    @staticmethod
-    def _parts(state: np.ndarray, yt: np.ndarray):
-        p, a = state[:3], state[3:6]
-        b = complement(a)
-        yc = yt - p[:, None]
-        z = a @ yc
-        uv = b @ yc  # components across the axis (2, n)
-        rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
-        return z, uv, rho
+    _parts = staticmethod(axial_parts)
 
     def evaluate(self, state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         z, uv, rho = self._parts(state, yt)
@@ -126,21 +121,18 @@ class CylinderModel:
         na = normal_axis(ys)
         if na is not None:
             axes.insert(0, na)
-        best, best_ssr = None, np.inf
-        for a in axes:
+
+        def along(a: np.ndarray) -> np.ndarray:  # the circle of the points projected across a
             b = complement(a)
-            try:
-                c2 = _PLANAR.fit(np.ascontiguousarray(b @ (ys - m[:, None])), max_iter=100, xtol=1e-8).state
-                p = m + c2[0] * b[0] + c2[1] * b[1]
-                res = self._lm(ys, np.concatenate([p, a, [c2[2]]]), 100, 1e-8)
-            except GeometryError:
-                continue
-            ssr = float(res.r @ res.r)
-            if ssr < best_ssr:
-                best, best_ssr = res.state, ssr
-        if best is None:
-            raise GeometryError("cylinder fit: no start value converged; the points do not look like a cylinder")
-        return best
+            c2 = _PLANAR.fit(np.ascontiguousarray(b @ (ys - m[:, None])), max_iter=100, xtol=1e-8).state
+            return np.concatenate([m + c2[0] * b[0] + c2[1] * b[1], a, [c2[2]]])
+
+        return best_start(
+            self,
+            ys,
+            [partial(along, a) for a in axes],
+            "cylinder fit: no start value converged; the points do not look like a cylinder",
+        )
 
     def fit(
         self,

@@ -31,6 +31,7 @@ reference data sets).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -39,6 +40,8 @@ from ._geometry import (
     Frame,
     GeometryError,
     LMResult,
+    axial_parts,
+    best_start,
     complement,
     covariance,
     fit_from_starts,
@@ -67,13 +70,8 @@ class TorusModel:
 
     @staticmethod
     def _parts(state: np.ndarray, yt: np.ndarray):
-        c, a = state[:3], state[3:6]
-        yc = yt - c[:, None]
-        z = a @ yc
-        uv = complement(a) @ yc
-        rho = np.sqrt(np.einsum("ij,ij->j", uv, uv))
-        q = np.hypot(rho - state[6], z)
-        return z, uv, rho, q
+        z, uv, rho = axial_parts(state, yt)
+        return z, uv, rho, np.hypot(rho - state[6], z)
 
     def evaluate(self, state: np.ndarray, yt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         z, uv, rho, q = self._parts(state, yt)
@@ -113,23 +111,20 @@ class TorusModel:
     def start(self, yt: np.ndarray) -> np.ndarray:
         """Best of the start candidates (module docstring) on up to SCREEN points."""
         ys = subsample(yt, SCREEN)
-        best, best_ssr = None, np.inf
-        for p, a in candidate_axes(ys):
+
+        def meridian_circle(p: np.ndarray, a: np.ndarray) -> np.ndarray:  # the tube's section
             z, rho = _meridian(ys, p, a)
-            try:
-                zc, big, small = _PLANAR.fit(np.vstack([z, rho]), max_iter=100, xtol=1e-8).state
-                res = self._lm(ys, np.concatenate([p + zc * a, a, [big, small]]), 100, 1e-8)
-            except GeometryError:
-                continue
-            ssr = float(res.r @ res.r)
-            if ssr < best_ssr and res.state[6] > 0 and res.state[7] > 0:
-                best, best_ssr = res.state, ssr
-        if best is None:
-            raise GeometryError(
-                "torus fit: no start value converged; the points do not look like a torus (a short arc of "
-                "a tube does not fix the major radius: fit a cylinder)"
-            )
-        return best
+            zc, big, small = _PLANAR.fit(np.vstack([z, rho]), max_iter=100, xtol=1e-8).state
+            return np.concatenate([p + zc * a, a, [big, small]])
+
+        return best_start(
+            self,
+            ys,
+            [partial(meridian_circle, p, a) for p, a in candidate_axes(ys)],
+            "torus fit: no start value converged; the points do not look like a torus (a short arc of "
+            "a tube does not fix the major radius: fit a cylinder)",
+            accept=lambda s: s[6] > 0 and s[7] > 0,
+        )
 
     def fit(
         self,
