@@ -730,13 +730,13 @@
 
   /* Triangles: edge functions over the clipped bounding box at pixel centres, depth
      interpolated perspective-correctly (1/d is affine on the screen), vertex colours affinely,
-     flat Lambert shading from the face normal under a headlight (VTK's default light),
-     two-sided: shade = 0.3 + 0.7 |cos(normal, view ray)|. A triangle with a vertex behind the
+     flat Lambert shading from the face normal under a headlight (a directional light along the
+     view direction, as VTK's), two-sided, with some ambient: shade = 0.3 + 0.7 |cos(normal, view)|. A triangle with a vertex behind the
      near plane is skipped. */
   function drawMesh(view, P, l, alpha, ids) {
     var S = project(view, P, l), idx = l.idx, pos = l.pos, col = l.col, packed = l.packed;
     var W = P.W, H = P.H, Z = view.zbuf, pix = view.pix, IL = view.idLayer, II = view.idIndex;
-    var eye = P.eye, T = idx.length / 3;
+    var lx = P.f[0], ly = P.f[1], lz = P.f[2], T = idx.length / 3; // the headlight shines along the view
     for (var t = 0; t < T; t++) {
       var ia = idx[3 * t], ib = idx[3 * t + 1], ic = idx[3 * t + 2];
       var ax = S[3 * ia], ay = S[3 * ia + 1], ad = S[3 * ia + 2];
@@ -753,9 +753,8 @@
       var e1x = pos[pb] - pos[pa], e1y = pos[pb + 1] - pos[pa + 1], e1z = pos[pb + 2] - pos[pa + 2];
       var e2x = pos[pc] - pos[pa], e2y = pos[pc + 1] - pos[pa + 1], e2z = pos[pc + 2] - pos[pa + 2];
       var nx = e1y * e2z - e1z * e2y, ny = e1z * e2x - e1x * e2z, nz = e1x * e2y - e1y * e2x;
-      var vx = eye[0] - pos[pa], vy = eye[1] - pos[pa + 1], vz = eye[2] - pos[pa + 2];
-      var nn = Math.sqrt((nx * nx + ny * ny + nz * nz) * (vx * vx + vy * vy + vz * vz));
-      var shade = 0.3 + 0.7 * (nn > 0 ? Math.abs(nx * vx + ny * vy + nz * vz) / nn : 1);
+      var nn = Math.sqrt(nx * nx + ny * ny + nz * nz);
+      var shade = 0.3 + 0.7 * (nn > 0 ? Math.abs(nx * lx + ny * ly + nz * lz) / nn : 1);
       var ca = col ? col[ia] : packed, cb = col ? col[ib] : packed, cc = col ? col[ic] : packed;
       var rA = (ca & 255) * shade, gA = ((ca >>> 8) & 255) * shade, bA = ((ca >>> 16) & 255) * shade;
       var rB = (cb & 255) * shade, gB = ((cb >>> 8) & 255) * shade, bB = ((cb >>> 16) & 255) * shade;
@@ -763,12 +762,12 @@
       var flat = ca === cb && ca === cc;
       var flatColor = (0xff000000 | ((bA + 0.5) << 16) | ((gA + 0.5) << 8) | (rA + 0.5)) >>> 0;
       var ia2 = 1 / area, za = 1 / ad, zb = 1 / bd, zc = 1 / qd;
-      // barycentric weights of b and c: w1 = E(c,a)/area, w2 = E(a,b)/area, affine in x and y
-      var w1dx = (ay - qy) * ia2, w2dx = (by - ay) * ia2;
+      // barycentric weights of b and c: w1 = (p-a)x(c-a) / area, w2 = (b-a)x(p-a) / area, affine in x
+      var w1dx = (qy - ay) * ia2, w2dx = (ay - by) * ia2;
       for (var y = miny; y <= maxy; y++) {
         var py = y + 0.5, px0 = minx + 0.5;
-        var w1 = ((px0 - ax) * (ay - qy) + (py - ay) * (qx - ax)) * ia2;
-        var w2 = ((px0 - ax) * (by - ay) + (py - ay) * (ax - bx)) * ia2;
+        var w1 = ((px0 - ax) * (qy - ay) - (py - ay) * (qx - ax)) * ia2;
+        var w2 = ((bx - ax) * (py - ay) - (by - ay) * (px0 - ax)) * ia2;
         for (var x = minx, p = y * W + minx; x <= maxx; x++, p++, w1 += w1dx, w2 += w2dx) {
           var w0 = 1 - w1 - w2;
           if (w0 < 0 || w1 < 0 || w2 < 0) continue;

@@ -1,0 +1,113 @@
+"""resources/ui/cloudview.js in Chromium on a page of its own (tests/helpers/cloudview_page.py:
+a fake ``window.trame``, the buffers from a folder over http), against VTK's perspective
+projection computed here (``project``: f = (H/2)/tan(view_angle/2), x = W/2 + f xc/d,
+y = H/2 - f yc/d):
+
+- three points of 3 px in three colours land as 3x3 squares of exactly their colours at their
+  projected pixels, and nowhere else;
+- a triangle facing the camera hides a point behind it and not one in front, in its colour
+  (the headlight falls straight on it: Lambert factor 1);
+- a click 2 px beside a point triggers ``cv_pick`` with its layer, its index in the server's
+  order and its world position;
+- with tool "rect" a drag triggers ``cv_select`` with the rectangle in NDC, and its ``mvp``
+  maps each point to the NDC of its projected pixel (so a point is inside exactly when drawn
+  inside).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from helpers.browsing import MARKS, launch
+from helpers.cloudview_page import NAME, READY, SET_STATE, CloudviewPage, mesh_layer, points_layer, project, scene_state
+
+pytestmark = MARKS
+sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python) is not installed")
+
+SIZE = (400, 300)
+CAMERA = {"position": [0.0, 0.0, 100.0], "focal_point": [0.0, 0.0, 0.0], "view_up": [0.0, 1.0, 0.0], "view_angle": 30.0}
+XYZ = np.array([[0.0, 0.0, 0.0], [10.0, 5.0, 0.0], [-8.0, -6.0, 5.0]])
+RGB = np.array([[255, 0, 0], [0, 200, 0], [0, 0, 255]], dtype=np.uint8)
+PIXELS = """() => {
+  const c = document.querySelector('.cmm-cv-canvas');
+  return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data);
+}"""
+
+
+def _image(page) -> np.ndarray:
+    return np.array(page.evaluate(PIXELS), dtype=np.uint8).reshape(SIZE[1], SIZE[0], 4)[:, :, :3]
+
+
+def _triggers(page, name: str, timeout: float = 5000) -> list:
+    page.wait_for_function(f"() => window.__triggers.some(t => t[0] === '{name}')", timeout=timeout)
+    return [t[1] for t in page.evaluate("window.__triggers") if t[0] == name]
+
+
+def test_cloudview_draws_picks_and_selects(tmp_path):
+    folder = tmp_path / "cv"
+    folder.mkdir()
+    cloud = points_layer(folder, "cloud", XYZ, RGB, point_size=3)
+    px = project(CAMERA, SIZE, XYZ)
+    with CloudviewPage(folder, SIZE) as url, sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": SIZE[0] + 50, "height": SIZE[1] + 50})
+            page.goto(url)
+            page.wait_for_selector(".cmm-cv-canvas")
+            page.evaluate(SET_STATE, [NAME, scene_state([cloud], CAMERA, rev=1)])
+            page.wait_for_function(READY, arg=NAME, timeout=10_000)
+            img = _image(page)
+            for (x, y), c in zip(px, RGB, strict=True):
+                ix, iy = int(np.floor(x)), int(np.floor(y))  # a 3 px splat spans [i-1, i+2)
+                assert (img[iy - 1 : iy + 2, ix - 1 : ix + 2] == c).all(), (x, y, img[iy - 1 : iy + 2, ix - 1 : ix + 2])
+                assert (img == c).all(axis=2).sum() == 9, c  # that colour nowhere else
+            stats = page.evaluate(f"window.camcmmCloudView.views['{NAME}'].stats()")
+            assert stats["points_drawn"] == 3 and stats["points_total"] == 3
+
+            # a click 2 px right of the green point: index 1 in the server's order, its world mm
+            gx, gy = px[1]
+            page.mouse.click(gx + 2, gy)
+            (pick,) = _triggers(page, "cv_pick")
+            assert pick[:3] == [NAME, "cloud", 1]
+            assert np.allclose(pick[3], XYZ[1], atol=1e-5)
+
+            # a rectangle from (40, 30) to (260, 170) px: the red and green points inside, not blue
+            page.evaluate(SET_STATE, [NAME, scene_state([cloud], CAMERA, rev=2, tool="rect")])
+            page.wait_for_function(READY, arg=NAME, timeout=10_000)
+            page.mouse.move(40, 30)
+            page.mouse.down()
+            page.mouse.move(150, 100, steps=4)
+            page.mouse.move(260, 170, steps=4)
+            page.mouse.up()
+            (sel,) = _triggers(page, "cv_select")
+            assert sel[0] == NAME and sel[1]["shape"] == "rect"
+            w, h = SIZE
+            want = [[2 * x / w - 1, 1 - 2 * y / h] for x, y in [(40, 30), (260, 30), (260, 170), (40, 170)]]
+            assert np.allclose(sel[1]["polygon"], want, atol=1e-9)
+            mvp = np.array(sel[1]["mvp"], dtype=float).reshape(4, 4, order="F")
+            clip = mvp @ np.c_[XYZ, np.ones(3)].T
+            assert (clip[3] > 0).all()
+            ndc = (clip[:2] / clip[3]).T
+            assert np.allclose(ndc, np.c_[2 * px[:, 0] / w - 1, 1 - 2 * px[:, 1] / h], atol=1e-9)
+            inside = (
+                (ndc[:, 0] > want[0][0])
+                & (ndc[:, 0] < want[1][0])
+                & (ndc[:, 1] < want[0][1])
+                & (ndc[:, 1] > want[2][1])
+            )
+            assert inside.tolist() == [True, True, False]
+
+            # a triangle at z = 1 facing the camera (the headlight's Lambert factor is 1): it hides
+            # the red point (z = 0) inside its outline, not the blue one (z = 5) in front of it
+            tri = np.array([[0.0, -5.0, 1.0], [30.0, 10.0, 1.0], [-30.0, 10.0, 1.0]])
+            mesh = mesh_layer(folder, "part", tri, np.array([[0, 1, 2]]), color=(180, 120, 60))
+            page.evaluate(SET_STATE, [NAME, scene_state([cloud, mesh], CAMERA, rev=3)])
+            page.wait_for_function(READY, arg=NAME, timeout=10_000)
+            img = _image(page)
+            (rx, ry), (bx, by) = px[0], px[2]
+            assert (img[int(ry), int(rx)] == [180, 120, 60]).all(), img[int(ry), int(rx)]
+            assert (img[int(by), int(bx)] == [0, 0, 255]).all()
+            assert (img == [255, 0, 0]).all(axis=2).sum() == 0
+        finally:
+            browser.close()
