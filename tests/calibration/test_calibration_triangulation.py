@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import least_squares
 
 from camcmm.api import CameraModel, InputError
-from camcmm_plugins.calibration.triangulation import fundamental, triangulate
+from camcmm_plugins.calibration.triangulation import _undistort, fundamental, triangulate
 
 
 def _rot(*r):
@@ -45,6 +45,46 @@ def test_exact_projections_give_the_points(truth, n_cams, method):
     res = triangulate(cams, x, method=method)
     np.testing.assert_allclose(res["points"], truth, atol=1e-8)
     assert res["reprojection_rms"].max() < 1e-8
+
+
+@pytest.mark.parametrize(
+    "dist",
+    [
+        [-0.1, 0.05, 0.001, -0.002],
+        [-0.1, 0.05, 0.001, -0.002, 0.01],
+        [-0.1, 0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.005],
+        [-0.1, 0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.005, 0.001, -0.002, 0.003, 0.0005],
+        [-0.1, 0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.005, 0.001, -0.002, 0.003, 0.0005, 0.01, -0.02],
+    ],
+    ids=["4", "5", "8-rational", "12-thin-prism", "14-tilted"],
+)
+def test_undistortion_of_every_opencv_model_gives_the_pinhole_pixels(dist):
+    """Newton's undistortion against the pinhole pixels the distorted ones were made from
+    (exact by construction), and against cv2.undistortPoints run to convergence."""
+    cam = CameraModel(K1, dist, name="c")
+    rng = np.random.default_rng(4)
+    X = rng.uniform([-0.35, -0.27, 1.0], [0.35, 0.27, 1.0], (2000, 3)) * rng.uniform(300, 500, (2000, 1))
+    q = _proj(cam, X)
+    pinhole = (X[:, :2] / X[:, 2:]) @ K1[:2, :2].T + K1[:2, 2]
+    u = _undistort(cam, q)
+    assert np.abs(u - pinhole).max() < 1e-8  # px
+    ref = cv2.undistortPoints(q.reshape(-1, 1, 2), K1, cam.dist_coeffs, P=K1, criteria=(3, 100, 1e-14))
+    assert np.abs(u - ref.reshape(-1, 2)).max() < 1e-8
+
+
+def test_undistortion_beyond_the_fold_is_opencvs():
+    """A barrel distortion folds back beyond r = 1/sqrt(3|k1|): pixels further out have no
+    undistorted point, Newton cannot converge there and those points get OpenCV's answer
+    (its iteration, bit for bit); the others are exact."""
+    cam = CameraModel(K1, [-0.5, 0, 0, 0, 0], name="c")
+    r = np.array([0.1, 0.3, 0.5, 0.7, 0.9, 1.2])  # normalised distorted radii; max of r(1 - 0.5 r^2) is 0.544
+    q = np.column_stack([K1[0, 0] * r + K1[0, 2], np.full(len(r), K1[1, 2])])
+    u = _undistort(cam, q)
+    ref = cv2.undistortPoints(q.reshape(-1, 1, 2), K1, cam.dist_coeffs, P=K1, criteria=(3, 100, 1e-14)).reshape(-1, 2)
+    out = r > 0.544
+    np.testing.assert_array_equal(u[out], ref[out])
+    xu = (u[~out, 0] - K1[0, 2]) / K1[0, 0]  # undistorted radius: r_d = x (1 - 0.5 x^2)
+    np.testing.assert_allclose(xu * (1 - 0.5 * xu**2), r[~out], atol=1e-14)
 
 
 def test_linear_is_opencv_dlt_and_optimal_is_the_least_squares_point(truth):

@@ -1,7 +1,10 @@
 """Triangulation from two or more calibrated cameras, with per-point covariance.
 
-* ``linear``: the SVD solution of eq. 3.2, A X = 0 with rows u p^3 - p^1 and
-  v p^3 - p^2 per camera (p^k: row k of P = K [R | t]); the pixels are undistorted first.
+* ``linear``: eq. 3.2, A X = 0 with rows u p^3 - p^1 and v p^3 - p^2 per camera (p^k:
+  row k of P = K [R | t]), solved with X_4 = 1 by the 3x3 normal equations of all points
+  at once (closed form); the pixels are undistorted first (Newton, :func:`_undistort`).
+  10^5 points take ~0.4 x the time of cv2.undistortPoints + cv2.triangulatePoints
+  (benchmarks/bench_calibration.py), at the same error against the true points.
 * ``optimal``: the point with the least reprojection error (in undistorted pixel
   coordinates), by Gauss-Newton from the linear solution, for any number of cameras.
   For two cameras this is Hartley-Sturm's optimum (cv2.correctMatches, then the linear
@@ -27,31 +30,140 @@ import numpy as np
 
 from camcmm.api import CameraModel, InputError
 
+#: Newton's undistortion stops when no point moved more than this (normalised image
+#: coordinates, ~2e-12 px at f = 2000 px): convergence is quadratic, so the error left is
+#: far below it; points still moving after ``NEWTON_MAX`` steps go to OpenCV's iteration.
+NEWTON_TOL = 1e-14
+NEWTON_MAX = 20
+
 
 def _undistort(cam: CameraModel, px: np.ndarray) -> np.ndarray:
+    """Undistorted pixels (N, 2) of distorted ones, px (OpenCV's model, eqs. 2.3-2.6).
+
+    Newton's method on the distortion map, all points at once (the 2x2 Jacobian of each
+    point inverted in closed form), started from the distorted point: 4-6 steps reach
+    machine precision, where cv2.undistortPoints' fixed-point iteration takes all of its
+    100 steps and converges only linearly. The pixel <-> normalised conversions are
+    OpenCV's (the inverse ignores the skew K[0, 1], the forward map applies K), so a
+    point comes out as cv2.undistortPoints(..., P=K) would give it converged. Points
+    where Newton does not converge (beyond the fold of a strong distortion) and the
+    14-coefficient tilted model go to cv2.undistortPoints itself (100 iterations,
+    1e-14 px)."""
+    px = np.asarray(px, np.float64)
+    d = cam.dist_coeffs
+    if not np.any(d):
+        return px.copy()
+    if d.size > 12:
+        return _undistort_cv2(cam, px)
+    k = np.zeros(12)
+    k[: d.size] = d
+    k1, k2, p1, p2, k3, k4, k5, k6, s1, s2, s3, s4 = k
+    K = cam.camera_matrix
+    xo = (px[:, 0] - K[0, 2]) / K[0, 0]
+    yo = (px[:, 1] - K[1, 2]) / K[1, 1]
+    x, y = xo.copy(), yo.copy()
+    rational = bool(k4 or k5 or k6)
+    ok = np.zeros(len(px), bool)
+    for _ in range(NEWTON_MAX):
+        xx, yy, xy = x * x, y * y, x * y
+        r2 = xx + yy
+        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d num / d r2
+        if rational:
+            den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+            rad = num / den
+            drad = (dnum - rad * (k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2))) / den
+        else:
+            rad, drad = num, dnum
+        tx = s1 + s2 * r2  # thin prism: s1 r2 + s2 r4, derivative (s1 + 2 s2 r2) d r2
+        ty = s3 + s4 * r2
+        fx = x * rad + 2.0 * p1 * xy + p2 * (r2 + 2.0 * xx) + tx * r2 - xo
+        fy = y * rad + p1 * (r2 + 2.0 * yy) + 2.0 * p2 * xy + ty * r2 - yo
+        gx = 2.0 * (drad * x + p2 + s1 + 2.0 * s2 * r2)  # shared parts of the Jacobian
+        gy = 2.0 * (drad * y + p1 + s3 + 2.0 * s4 * r2)
+        jxx = rad + x * gx + 2.0 * p1 * y + 4.0 * p2 * x
+        jxy = y * (2.0 * drad * x + 2.0 * p2 + 2.0 * s1 + 4.0 * s2 * r2) + 2.0 * p1 * x
+        jyx = x * (2.0 * drad * y + 2.0 * p1 + 2.0 * s3 + 4.0 * s4 * r2) + 2.0 * p2 * y
+        jyy = rad + y * gy + 4.0 * p1 * y + 2.0 * p2 * x
+        det = jxx * jyy - jxy * jyx
+        dx = (jyy * fx - jxy * fy) / det
+        dy = (jxx * fy - jyx * fx) / det
+        x -= dx
+        y -= dy
+        ok = np.abs(dx) + np.abs(dy) <= NEWTON_TOL * (1.0 + np.abs(x) + np.abs(y))
+        if ok.all():
+            break
+    out = np.column_stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]])
+    if not ok.all():  # NaN steps (det 0) count as not converged too
+        bad = ~ok
+        out[bad] = _undistort_cv2(cam, px[bad])
+    return out
+
+
+def _undistort_cv2(cam: CameraModel, px: np.ndarray) -> np.ndarray:
     import cv2
 
+    if len(px) == 0:
+        return np.zeros((0, 2))
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-14)
-    if not np.any(cam.dist_coeffs):
-        return px.astype(np.float64)
     return cv2.undistortPoints(
         px.reshape(-1, 1, 2).astype(np.float64), cam.camera_matrix, cam.dist_coeffs, P=cam.camera_matrix, criteria=crit
     ).reshape(-1, 2)
 
 
+def _solve_sym3(m: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
+    """Solve N symmetric 3x3 systems at once by cofactors: ``m`` the entries
+    [m00, m01, m02, m11, m12, m22] (each (N,)), ``b`` the right-hand sides [b0, b1, b2];
+    returns (N, 3). (A batched LAPACK solve costs ~20x more for 3x3 matrices.)"""
+    m00, m01, m02, m11, m12, m22 = m
+    c00 = m11 * m22 - m12 * m12
+    c01 = m02 * m12 - m01 * m22
+    c02 = m01 * m12 - m02 * m11
+    c11 = m00 * m22 - m02 * m02
+    c12 = m01 * m02 - m00 * m12
+    c22 = m00 * m11 - m01 * m01
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    out = np.empty((len(det), 3))
+    out[:, 0] = (c00 * b[0] + c01 * b[1] + c02 * b[2]) / det
+    out[:, 1] = (c01 * b[0] + c11 * b[1] + c12 * b[2]) / det
+    out[:, 2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det
+    return out
+
+
+def _normal_equations(rows: list[np.ndarray]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Entries of Σ g gᵀ and Σ g e over rows (g (3, N), e (N,)) given as pairs (g, e)."""
+    m = [np.zeros(0)] * 6
+    b = [np.zeros(0)] * 3
+    pairs = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+    for j, (g, e) in enumerate(rows):
+        for q, (i, k) in enumerate(pairs):
+            t = g[i] * g[k]
+            m[q] = t if j == 0 else m[q] + t
+        for i in range(3):
+            t = g[i] * e
+            b[i] = t if j == 0 else b[i] + t
+    return m, b
+
+
 def _linear(P: np.ndarray, x: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Eq. 3.2 for N points: P (V, 3, 4), x (V, N, 2) undistorted px, f (V,) focal
-    lengths px -> (N, 3)."""
-    rows = np.concatenate(
-        [x[:, :, :1] * P[:, None, 2, :] - P[:, None, 0, :], x[:, :, 1:] * P[:, None, 2, :] - P[:, None, 1, :]], axis=0
-    )  # (2V, N, 4)
-    # Each row's residual is depth x pixel error; dividing by the camera's focal length
-    # makes it depth x angle, alike for all cameras. (Rows scaled to unit norm would not
-    # do: a camera far from the world origin has large P entries and would be ignored.)
-    A = np.transpose(rows / np.concatenate([f, f])[:, None, None], (1, 0, 2))
-    _, _, vt = np.linalg.svd(A)
-    Xh = vt[:, -1, :]
-    return Xh[:, :3] / Xh[:, 3:]
+    lengths px -> (N, 3).
+
+    The rows u p^3 - p^1 and v p^3 - p^2 of each camera, divided by its focal length, are
+    solved in the inhomogeneous form (X_4 = 1: the least-squares X of A[:, :3] X =
+    -A[:, 3]) through the 3x3 normal equations of every point at once. A row's residual
+    is then depth x pixel error / f = depth x angle, alike for all cameras and whatever
+    the position of the world origin (the homogeneous SVD form weighs a point by the
+    norm of (X, 1) instead, and rows scaled to unit norm would ignore a camera far from
+    the origin). Hartley & Zisserman, Multiple View Geometry, 2nd ed., sec. 12.2."""
+    rows = []
+    for v in range(len(P)):
+        a = P[v] / f[v]
+        for c in (0, 1):
+            row = x[v, :, c][None, :] * a[2][:, None] - a[c][:, None]  # (4, N)
+            rows.append((row[:3], -row[3]))
+    m, b = _normal_equations(rows)
+    return _solve_sym3(m, b)
 
 
 def _project(P: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -60,20 +172,26 @@ def _project(P: np.ndarray, X: np.ndarray) -> np.ndarray:
 
 
 def _gauss_newton(P: np.ndarray, x: np.ndarray, X: np.ndarray, iterations: int = 20) -> np.ndarray:
+    """Least reprojection error (undistorted px) by Gauss-Newton from X (N, 3), all
+    points at once: per camera and image coordinate the Jacobian row
+    d(h_c / w)/dX = (p^c - (h_c / w) p^3) / w (h = P X), the 3x3 normal equations
+    solved by cofactors."""
+    Xt = np.ascontiguousarray(X.T)  # (3, N): contiguous coordinate rows
     for _ in range(iterations):
-        h = np.einsum("vij,nj->vni", P[:, :, :3], X) + P[:, None, :, 3]  # (V, N, 3)
-        w = h[..., 2:]
-        r = x - h[..., :2] / w  # (V, N, 2)
-        # d(h_xy / w)/dX = (P_xy - (h_xy / w) P_z) / w
-        J = (P[:, None, :2, :3] - (h[..., :2] / w)[..., None] * P[:, None, 2:3, :3]) / w[..., None]  # (V,N,2,3)
-        J = np.transpose(J, (1, 0, 2, 3)).reshape(len(X), -1, 3)
-        rr = np.transpose(r, (1, 0, 2)).reshape(len(X), -1)
-        JtJ = np.einsum("nki,nkj->nij", J, J)
-        step = np.linalg.solve(JtJ, np.einsum("nki,nk->ni", J, rr)[..., None])[..., 0]
-        X = X + step
-        if np.max(np.abs(step)) < 1e-12 * max(1.0, np.max(np.abs(X))):
+        rows = []
+        for v in range(len(P)):
+            h = P[v, :, :3] @ Xt + P[v, :, 3:]  # (3, N)
+            iw = 1.0 / h[2]
+            for c in (0, 1):
+                q = h[c] * iw
+                g = (P[v, c, :3][:, None] - q * P[v, 2, :3][:, None]) * iw
+                rows.append((g, x[v, :, c] - q))
+        m, b = _normal_equations(rows)
+        step = _solve_sym3(m, b).T
+        Xt += step
+        if np.max(np.abs(step)) < 1e-12 * max(1.0, np.max(np.abs(Xt))):
             break
-    return X
+    return Xt.T.copy()
 
 
 def fundamental(c1: CameraModel, c2: CameraModel) -> np.ndarray:
