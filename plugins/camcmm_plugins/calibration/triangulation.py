@@ -130,7 +130,7 @@ def _solve_sym3(m: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _normal_equations(rows: list[np.ndarray]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def _normal_equations(rows: list[tuple[np.ndarray, np.ndarray]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Entries of Σ g gᵀ and Σ g e over rows (g (3, N), e (N,)) given as pairs (g, e)."""
     m = [np.zeros(0)] * 6
     b = [np.zeros(0)] * 3
