@@ -36,7 +36,7 @@ from typing import Any
 
 from ..errors import CamcmmError, InputError, one_line
 from . import plugin_run
-from .items import kind_of
+from .items import fmt_count, kind_of
 
 #: The operations a cloud edit runs, and what the new item's name says it did.
 OPERATIONS: dict[str, str] = {
@@ -86,7 +86,7 @@ class Edit:
     @property
     def line(self) -> str:
         """One line for the page: what was made and the counts."""
-        return f"'{self.name}': kept {self.n_kept:,} points, removed {self.n_removed:,}".replace(",", " ")
+        return f"'{self.name}': kept {fmt_count(self.n_kept)} points, removed {fmt_count(self.n_removed)}"
 
 
 def label_of(plugin: str, values: dict[str, Any]) -> str:

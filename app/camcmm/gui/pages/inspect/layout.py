@@ -8,6 +8,7 @@ from typing import Any
 
 from ...viewtools import mount_view_tools, view_toolbar
 from ...widgets import dyn_tid, tid
+from .cloudedit import cloudedit_panel
 from .drawer import drawer
 from .form_view import plugin_panel
 
@@ -156,6 +157,7 @@ def build(page: Any) -> None:
     ):
         plugin_panel(page)
         with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
+            cloudedit_panel(page)
             _colour_bar()
             view_toolbar(mount_view_tools(page.server, page.session.view, "vt"), labels=False)
             _view(page)

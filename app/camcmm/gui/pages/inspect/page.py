@@ -18,6 +18,7 @@ from ....errors import CamcmmError, one_line
 from ....host import RunResult
 from ....tasks import plugin_run
 from ...jobs import Job, in_background
+from .cloudedit import CloudEditPanel
 from .form import ITEM_TYPES, fields_of, inputs_of, run_blocker
 from .report import parameters_line, report_rows
 from .results import result_rows, summarize_json
@@ -62,6 +63,7 @@ class InspectPage:
         )
         self._clear_result()
         self.tidy = Tidy(session)
+        self.cloudedit = CloudEditPanel(self)  # "Crop & segment" (.cloudedit)
         session.watch_items(self.refresh_inputs)
         self.refresh_plugins()
 
@@ -305,8 +307,14 @@ class InspectPage:
         s.legend_title = view.scalar_bar_title
         self.session.remember("gui.color_field", view.field)
 
+    def on_select(self, view_name: Any, selection: dict[str, Any]) -> int | None:
+        """A lasso or rectangle drawn in the client view (its ``cv_select``): the crop
+        panel's selection (:meth:`.cloudedit.CloudEditPanel.on_select`)."""
+        return self.cloudedit.on_select(view_name, selection)
+
     def close(self) -> None:
         self.job.close()
+        self.cloudedit.close()
 
 
 def mount(server: Any, session: Any) -> InspectPage:
