@@ -159,14 +159,15 @@ def _raw_attrs(elem: Any, attrs: list[str]) -> None:
 
 
 def _shell_assets(server: Any) -> None:
-    """resources/ui: the toolbar's fit and the keyboard shortcuts (shell.js), their styles."""
+    """resources/ui: the toolbar's fit and the keyboard shortcuts (shell.js), the 3-D
+    view drawn in the browser (cloudview.js, :mod:`camcmm.gui.clientview`), their styles."""
     from ..assets import resources_dir
 
     server.enable_module(
         {
             "serve": {"__camcmm_ui": str(resources_dir() / "ui")},
-            "scripts": ["__camcmm_ui/shell.js"],
-            "styles": ["__camcmm_ui/shell.css"],
+            "scripts": ["__camcmm_ui/shell.js", "__camcmm_ui/cloudview.js"],
+            "styles": ["__camcmm_ui/shell.css", "__camcmm_ui/cloudview.css"],
         }
     )
 

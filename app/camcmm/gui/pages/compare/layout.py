@@ -18,10 +18,13 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...clientview import attach_compare, client_views, cloud_view, render_switch
 from ...jobs import in_background
 from ...viewtools import view_toolbar
 from ...widgets import dyn_tid, param_form, tid
 from .. import shown
+
+CV = "cv_compare"  # the client view's state key
 
 _FIELD = (
     "[v => (v === '' || v === null || v === undefined) || !isNaN(Number(v)) || 'not a number',"
@@ -52,13 +55,11 @@ def build(page: Any) -> None:
 
 
 def _wire_view(page: Any, rview: Any) -> None:
-    """The page's view pushes its image through the remote view; the controller can update and reset it."""
+    """The page's view is drawn in the browser (its client view publishes the scene) or
+    pushes its image through the remote view; the controller can update and reset it."""
     ctrl = page.session.server.controller
 
-    def view_changed(reset_camera: bool) -> None:
-        rview.update()
-
-    page.view.on_update = view_changed
+    attach_compare(page, client_views(page.session.server).views[CV], rview.update)
     ctrl.ins_view_update = rview.update
     ctrl.ins_view_reset_camera = rview.reset_camera
 
@@ -403,6 +404,7 @@ def _centre_column(page: Any, on_mode: Any) -> Any:
         _mode_bar(on_mode)
         with html.Div(classes="d-flex align-center flex-wrap pt-2", style="min-height: 40px; row-gap: 14px;"):
             view_toolbar(page.tools)
+            render_switch(CV)
             _legend_controls(page)
         html.Div("{{ ins_note }}", classes="text-caption px-3", style="margin-top: -6px;", raw_attrs=tid("ins-note"))
         # server-side times (epoch s) of the last run's stages, for benchmarks/bench_gui_colourmap.py
@@ -540,12 +542,14 @@ def _view(page: Any) -> Any:
         page.pick_at(fx, fy)
 
     pick = page.session.server.controller.trigger_name(on_pick)
+    client_views(page.session.server).add(CV, page.view)
     with html.Div(
         style="flex: 1 1 auto; min-height: 300px; position: relative;",
         raw_attrs=tid("ins-view")
         + [
             '@pointerdown="ins_down = [$event.clientX, $event.clientY, $event.button]"',
-            '@pointerup="ins_down && $event.button === 0 && ins_down[2] === 0 && '
+            # in the browser's rendering the click comes as cv_pick from the client view
+            f"@pointerup=\"{CV}_mode === 'server' && ins_down && $event.button === 0 && ins_down[2] === 0 && "
             "Math.abs($event.clientX - ins_down[0]) + Math.abs($event.clientY - ins_down[1]) < 5 && "
             f"trigger('{pick}', [($event.clientX - $event.currentTarget.getBoundingClientRect().left)"
             " / $event.currentTarget.getBoundingClientRect().width, "
@@ -553,12 +557,14 @@ def _view(page: Any) -> Any:
             ' / $event.currentTarget.getBoundingClientRect().height])"',
         ],
     ):
-        # trame-vtk's view on the plotter's render window, not trame-pyvista's: that one
-        # pushes an image on every pyvista render() (five per scene change); this page
-        # pushes one when its scene is complete.
-        return VtkRemoteView(
-            page.view.plotter.render_window, interactive_ratio=0.5, interactive_quality=60, still_ratio=1
-        )
+        cloud_view(CV)
+        with html.Div(v_if=f"{CV}_mode === 'server'", style="position: absolute; inset: 0;"):
+            # trame-vtk's view on the plotter's render window, not trame-pyvista's: that one
+            # pushes an image on every pyvista render() (five per scene change); this page
+            # pushes one when its scene is complete.
+            return VtkRemoteView(
+                page.view.plotter.render_window, interactive_ratio=0.5, interactive_quality=60, still_ratio=1
+            )
 
 
 def _picked_card() -> None:

@@ -6,11 +6,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...clientview import attach_scene_view, client_views, cloud_view, render_switch
 from ...viewtools import mount_view_tools, view_toolbar
 from ...widgets import dyn_tid, tid
 from .cloudedit import cloudedit_panel
 from .drawer import drawer
 from .form_view import plugin_panel
+
+CV = "cv_inspect"  # the client view's state key
 
 
 def _colour_bar() -> None:
@@ -46,27 +49,35 @@ def _colour_bar() -> None:
             title="How many points the view draws",
             raw_attrs=tid("display-note"),
         )
+        html.Span(
+            "{{ cv_inspect_picked }}",
+            v_if="cv_inspect_picked",
+            classes="text-caption",
+            title="The point clicked in the view",
+            raw_attrs=tid("view-picked"),
+        )
 
 
 def _view(page: Any) -> None:
+    """The view: drawn in the browser (:mod:`camcmm.gui.clientview`) or, switched to the
+    server, the remote view of the plotter (images)."""
     from trame.widgets import html
     from trame.widgets.vtk import VtkRemoteView
 
     ctrl, view = page.server.controller, page.session.view
+    cv = client_views(page.server).add(CV, view)
     with html.Div(style="flex: 1 1 auto; min-height: 300px; position: relative;", raw_attrs=tid("view")):
-        # trame-vtk's view on the render window, not trame-pyvista's: that one pushes an
-        # image on every pyvista render() (about five per scene change); this one pushes
-        # once, when view_changed below calls ctrl.view_update for a complete scene.
-        rview = VtkRemoteView(view.plotter.render_window, interactive_ratio=0.5, interactive_quality=60, still_ratio=1)
+        cloud_view(CV)
+        with html.Div(v_if=f"{CV}_mode === 'server'", style="position: absolute; inset: 0;"):
+            # trame-vtk's view on the render window, not trame-pyvista's: that one pushes an
+            # image on every pyvista render() (about five per scene change); this one pushes
+            # once, when the scene's on_update calls ctrl.view_update for a complete scene.
+            rview = VtkRemoteView(
+                view.plotter.render_window, interactive_ratio=0.5, interactive_quality=60, still_ratio=1
+            )
         ctrl.view_update = rview.update
         ctrl.view_reset_camera = rview.reset_camera
-
-    def view_changed(reset_camera: bool) -> None:
-        if reset_camera:
-            view.plotter.reset_camera()
-        ctrl.view_update()
-
-    view.on_update = view_changed
+    attach_scene_view(page, cv, ctrl.view_update)
 
 
 def _report_table() -> None:
@@ -159,7 +170,9 @@ def build(page: Any) -> None:
         with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
             cloudedit_panel(page)
             _colour_bar()
-            view_toolbar(mount_view_tools(page.server, page.session.view, "vt"), labels=False)
+            with html.Div(classes="d-flex align-center flex-wrap"):
+                view_toolbar(mount_view_tools(page.server, page.session.view, "vt"), labels=False)
+                render_switch(CV)
             _view(page)
             _result_panel()
 

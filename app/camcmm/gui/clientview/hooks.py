@@ -1,0 +1,183 @@
+"""The client view on the Inspect and Compare pages: where their scenes tell the page
+of a change (``on_update``), the client view publishes (browser mode) or the remote view
+pushes an image (server mode); a click in the browser goes to the page's own picking.
+
+Inspect (:func:`attach_scene_view`): in browser mode the view shows up to
+:data:`CLIENT_LIMIT` points whole (the server's remote view: ``DISPLAY_LIMIT``, a random
+subset above it); a click names the point, its coordinates and the value it is coloured
+by (state ``<name>_picked``); a lasso or rectangle goes to the Inspect page's
+``on_select(view_name, selection)`` where it has one.
+
+Compare (:func:`attach_compare`): a click runs the page's own ``pick_display`` (point
+pairs on the inputs, a deviation on the result, a feature of the nominal for a
+characteristic), with the browser's pick standing in for the server's projection
+picking: the point is the drawn one (through the level-of-detail order back to the
+actor's point, then to the full cloud), a point on the nominal mesh is the mesh's
+point nearest to the browser's (a cell locator), so the page's logic runs unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from ...tasks.items import fmt_count
+from ..view import DISPLAY_LIMIT
+from .client import ClientView
+
+#: points the Inspect page shows whole when the browser draws them
+CLIENT_LIMIT = 4_000_000
+
+
+def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any]) -> None:
+    """Hook the Inspect page's SceneView (``page.session.view``) to ``cv``."""
+    session = page.session
+    view = session.view
+    server_limit = int(view.display_limit)
+    # an explicit limit (tests, --display-limit) stays; the default one grows in the browser
+    client_limit = max(CLIENT_LIMIT, server_limit) if server_limit == DISPLAY_LIMIT else server_limit
+
+    def limit_for(mode: str) -> int:
+        return client_limit if mode == "browser" else server_limit
+
+    view.display_limit = limit_for(cv.mode)
+
+    def changed(reset_camera: bool) -> None:
+        if reset_camera:
+            view.plotter.reset_camera()
+        if cv.mode == "server":
+            push_remote()
+        else:
+            cv.publish()
+
+    def on_mode(mode: str) -> None:
+        limit = limit_for(mode)
+        if limit == view.display_limit:
+            return
+        view.display_limit = limit
+        view._cache.clear()  # the shown subsets were made for the other limit
+        shown = view.shown
+        key = getattr(session.state, "selected_item", None)
+        if shown is not None and key and shown.n_total > min(server_limit, client_limit):
+            session.select_item(key, chosen=False)  # drawn again at the new limit
+
+    def on_pick(layer_id: str, i: int, point: np.ndarray) -> dict[str, Any] | None:
+        return inspect_pick(view, cv, layer_id, i, point)
+
+    def on_select(name: str, selection: dict[str, Any]) -> Any:
+        fn = getattr(page, "on_select", None)
+        return fn(name, selection) if callable(fn) else None
+
+    view.on_update = changed
+    cv.names = lambda: {"cloud": view.actor}
+    cv.on_mode = on_mode
+    cv.on_pick = on_pick
+    cv.on_select = on_select
+    cv.on_server_view = push_remote
+    setattr(session.state, f"{cv.name}_picked", "")
+
+
+def inspect_pick(view: Any, cv: ClientView, layer_id: str, i: int, point: np.ndarray) -> dict[str, Any] | None:
+    """A click on the Inspect page's cloud: its point ``i`` (of those drawn), its
+    coordinates (mm) and the value of the field it is coloured by; state ``<name>_picked``."""
+    shown = view.shown
+    if layer_id != "cloud" or shown is None:
+        return None
+    info: dict[str, Any] = {"index": int(i), "point": [float(c) for c in point]}
+    which = f"#{i}" if shown.n_shown == shown.n_total else f"#{i} of the {fmt_count(shown.n_shown)} shown"
+    text = f"point {which}: (" + ", ".join(f"{c:.3f}" for c in point) + ") mm"
+    data = shown.poly.point_data
+    if view.field in data and np.asarray(data[view.field]).ndim == 1:
+        value = float(np.asarray(data[view.field])[i])
+        info["value"] = value
+        text += f", {view.scalar_bar_title or view.field} = {value:.6g}"
+    info["text"] = text.replace("-", "\u2212")
+    setattr(cv.state, f"{cv.name}_picked", info["text"])
+    return info
+
+
+# ------------------------------------------------------------------------------ Compare
+def attach_compare(page: Any, cv: ClientView, push_remote: Callable[[], Any]) -> None:
+    """Hook the Compare page's CompareView (``page.view``) to ``cv``."""
+    view = page.view
+
+    def changed(reset_camera: bool) -> None:
+        if cv.mode == "server":
+            push_remote()
+        else:
+            cv.publish()
+
+    view.on_update = changed
+    cv.names = lambda: dict(view._actors)
+    cv.on_pick = lambda layer_id, i, point: compare_pick(page, layer_id, i, point)
+    cv.on_server_view = push_remote
+
+
+@contextmanager
+def _pinned(obj: Any, **methods: Any) -> Iterator[None]:
+    """``obj``'s methods replaced by ``methods`` for the block (instance attributes over
+    the class's; removed afterwards)."""
+    if obj is None:
+        yield
+        return
+    for name, fn in methods.items():
+        setattr(obj, name, fn)
+    try:
+        yield
+    finally:
+        for name in methods:
+            obj.__dict__.pop(name, None)
+
+
+def nearest_on_actor(actor: Any, point: np.ndarray) -> tuple[np.ndarray, int] | None:
+    """The point of ``actor``'s surface nearest to ``point`` (mm) and its cell."""
+    from vtkmodules.vtkCommonCore import mutable
+    from vtkmodules.vtkCommonDataModel import vtkCellLocator
+
+    data = actor.GetMapper().GetInput() if actor is not None and actor.GetMapper() is not None else None
+    if data is None or data.GetNumberOfCells() == 0:
+        return None
+    loc = vtkCellLocator()
+    loc.SetDataSet(data)
+    loc.BuildLocator()
+    closest = [0.0, 0.0, 0.0]
+    cell, sub, d2 = mutable(0), mutable(0), mutable(0.0)
+    loc.FindClosestPoint([float(c) for c in point], closest, cell, sub, d2)  # type: ignore[call-overload]
+    return np.asarray(closest, dtype=float), int(cell)
+
+
+def compare_pick(page: Any, layer_id: str, i: int, point: np.ndarray) -> Any:
+    """A click in the browser on the Compare page, through the page's own pick logic."""
+    view = page.view
+
+    def pick_deviation(x: float, y: float) -> int | None:
+        if layer_id != "cloud" or view.dev is None:
+            return None
+        return int(i if view.dev.idx is None else view.dev.idx[i])
+
+    def pick_input(which: str, x: float, y: float) -> np.ndarray | None:
+        if layer_id != which:  # the layers are the scene's actors: "measured", "nominal"
+            return None
+        if which == "measured":
+            prep = view._inputs.get("measured")
+            return None if prep is None else np.asarray(prep.points[i], dtype=float).copy()
+        prep = view._inputs.get("nominal_cloud")
+        if prep is not None:
+            return np.asarray(prep.points[i], dtype=float).copy()
+        hit = nearest_on_actor(view._actors.get("nominal"), point)
+        return None if hit is None else hit[0]
+
+    gdt = getattr(page, "gdt", None)
+
+    def gdt_pick(x: float, y: float) -> Any:
+        hit = nearest_on_actor(view._actors.get("nominal"), point) if layer_id == "nominal" else None
+        if hit is None or gdt is None:
+            page.state.gdt_f_picked = "no surface of the nominal there; click on it"
+            return None
+        return gdt.pick_point(hit[0], hit[1])
+
+    with _pinned(view, pick_deviation=pick_deviation, pick_input=pick_input), _pinned(gdt, pick=gdt_pick):
+        return page.pick_display(0.0, 0.0)
