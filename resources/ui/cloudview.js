@@ -1126,7 +1126,7 @@
     };
   };
 
-  View.prototype.setBudget = function (k) { this.forced = k === null || k === undefined ? null : Math.max(1, k | 0); };
+  View.prototype.setBudget = function (k) { this.forced = k === null || k === undefined ? null : Math.max(1, Math.floor(+k) || 1); };
 
   // -- binding --------------------------------------------------------------------------------
   function scan() {
