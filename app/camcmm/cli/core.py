@@ -14,6 +14,7 @@ from ..errors import CamcmmError, PluginError
 from ..host import default_host
 from ..params import add_cli_options, cli_values
 from ..project.record import geometry_outputs, record_result
+from . import cloud
 from .options import add_declared_options
 from .parser import Parser
 
@@ -207,4 +208,5 @@ COMMANDS = {
     "info": ("Say what a file holds: kind, counts, bounding box, unit.", _info_args, _info, _info_text),
     "run": ("Run an algorithm plugin with its declared parameters.", _run_args, _run, None),
     "demo": ("Create the demo project.", _demo_args, _demo, _demo_text),
+    "cloud": (cloud.SUMMARY, cloud.configure, cloud.run, cloud.text),  # big clouds out of core (issue 29)
 }
