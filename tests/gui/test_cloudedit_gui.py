@@ -62,6 +62,8 @@ def test_box_crop_undo_redo(opened):
     assert edit.n_kept == 64 and s.selected_item == edit.item and not s.ce_failed
     assert names(s) == ["grid.ply", "grid.ply · cropped (box)"] and "kept 64 points, removed 936" in s.ce_status
     assert session.view.shown.n_total == 64 and s.ce_can_undo and not s.ce_can_redo
+    assert s.ce_values["min"] == "2, 2, 102" and s.ce_values["max"] == "5, 5, 105.001"  # the new item's bounds
+    assert [r["plugin"] for r in s.results] == ["crop.box"]
     prov = provenance(session.project, edit.item)
     assert prov["plugin"] == "crop.box" and prov["parents"] == [key] and prov["params"]["max"] == [5.0, 5.0, 105.5]
     # undo: the crop leaves the list (soft), the grid is shown again; redo brings it back
@@ -87,12 +89,14 @@ def test_lasso_selection_is_highlighted_kept_or_removed(opened):
     hl = session.view.plotter.actors[SELECTION_ACTOR]
     pts = np.asarray(hl.GetMapper().GetInput().GetPoints().GetData())
     assert len(pts) == 160 and set(pts[:, 0]) == {3, 4, 5, 6} and set(pts[:, 1]) == {1, 2, 3, 4}
-    cv = getattr(server, "camcmm_client_views", None)
-    if cv is not None and VIEW in cv.views:  # the client view's own path: trigger -> page
-        panel.set_tool("rect")
-        assert cv.views[VIEW].tool == "rect" and s[VIEW]["tool"] == "rect"
-        cv.on_select(VIEW, ortho_selection("rect"))
-        assert s.ce_selection.endswith("(rectangle)") and s.ce_selected == 160
+    # the client view's own path: the tool set in its state, the trigger cv_select -> the page
+    cv = server.camcmm_client_views
+    panel.set_tool("rect")
+    assert cv.views[VIEW].tool == "rect" and s[VIEW]["tool"] == "rect" and s.ce_tool == "rect"
+    sel = ortho_selection("rect")
+    sel["polygon"] = [sel["polygon"][0], sel["polygon"][2]]  # a rectangle may come as two corners
+    cv.on_select(VIEW, sel)
+    assert s.ce_selection.endswith("(rectangle)") and s.ce_selected == 160
     edit = asyncio.run(panel.apply_selection("outside"))
     assert edit is not None, s.ce_status
     assert edit.n_kept == 840 and edit.name == "grid.ply · selection removed" and s.selected_item == edit.item

@@ -252,6 +252,7 @@ class CloudEditPanel:
         self.session.clear_error(page="inspect")
         self.clear_selection()
         self.session.refresh_items()
+        self.session.refresh_results()  # the drawer lists the edit's result row
         self.session.select_item(edit.item, chosen=True)
         warn = f" — {edit.warnings[0]}" if edit.warnings else ""
         self._say(f"made {edit.line}{warn}")
@@ -343,7 +344,11 @@ def cloudedit_panel(page: Any) -> None:
                         title="Run the operation on the shown cloud: a new item, the cloud itself stays",
                         raw_attrs=tid("ce-apply"),
                     )
-                with html.Div(style="max-height: 30vh; overflow-y: auto;", classes="pt-2"):
+                with html.Div(  # the fields side by side: the view keeps its height
+                    style="max-height: 30vh; overflow-y: auto; display: grid; column-gap: 8px;"
+                    " grid-template-columns: repeat(auto-fill, minmax(190px, 1fr));",
+                    classes="pt-2",
+                ):
                     param_form("ce_fields", "ce_values", "ce-param", sync=True, hide_details=True)
                 with html.Div(classes="d-flex align-center flex-wrap ga-2 mb-2"):
                     with v.VBtnToggle(
