@@ -391,9 +391,10 @@
       function () {
         if (self.pendingRev !== rev) return; // a newer state came meanwhile
         layers.forEach(function (l) { if (l.pts) { l.pos = l.pts.pos; l.perm = l.pts.perm; } });
-        var bad = layers.map(checkLayer).filter(Boolean);
+        layers.forEach(function (l) { l.bad = checkLayer(l); });
+        var bad = layers.map(function (l) { return l.bad; }).filter(Boolean);
         layers.forEach(function (l) {
-          if (!l.perm || !l.col || l.colKey || checkLayer(l)) return;
+          if (!l.perm || !l.col || l.colKey || l.bad) return;
           l.col = gather(l.col, l.perm);
           l.colKey = l.spec.positions + "|" + l.spec.colors;
           delete cache[(spec.base || "") + l.spec.colors + "|rgb"]; // the sorted copy is kept instead
@@ -402,7 +403,7 @@
         self.pendingUrls = [];
         self.error = bad.join("; ");
         if (bad.length) console.error("camcmm cloudview " + self.name + ": " + self.error);
-        self.layers = layers.filter(function (l) { return !checkLayer(l); });
+        self.layers = layers.filter(function (l) { return !l.bad; });
         self.spec = spec;
         self.origin = vec3(spec.origin, [0, 0, 0]);
         self.adoptCamera(true);
@@ -585,7 +586,7 @@
       order.forEach(function (i) {
         var l = self.layers[i], s = l.spec, alpha = s.opacity === undefined || s.opacity === null ? 1 : +s.opacity;
         if (!(alpha > 0)) return;
-        var ids = full && s.pickable !== false && alpha >= 1 ? i + 1 : 0;
+        var ids = full && s.pickable !== false && alpha >= 1 && i < 255 ? i + 1 : 0; // a byte per pixel
         if (s.kind === "points") {
           var k = frac < 1 ? Math.max(1, Math.floor(l.n * frac)) : l.n;
           if (k < l.n && k > CHUNK) k -= k % CHUNK; // whole chunks: a uniform subsample (lodSort)
