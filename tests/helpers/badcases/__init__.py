@@ -21,6 +21,7 @@ FAMILIES = (
     "qifout",
     "gdt_batch",
     "report",
+    "crop",
 )
 
 
