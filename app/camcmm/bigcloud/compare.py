@@ -204,6 +204,12 @@ def compare_store(
     if workers is not None and not (isinstance(workers, int) and 1 <= workers <= 256):
         raise ParameterError(f"workers = {workers!r}: a whole number 1 .. 256")
     hist = Histogram(bin_width)  # checks the width
+    try:  # the store's points, checked here: a worker's failure would come back as a traceback
+        shape = np.load(folder / "points.npy", mmap_mode="r").shape
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{folder / 'points.npy'}: damaged store ({type(exc).__name__})") from None
+    if shape != (int(meta["n"]), 3):
+        raise InputError(f"{folder / 'points.npy'}: damaged store (shape {shape}, meta.json says n={meta['n']})")
     nominal = Nominal.of(mesh)
     say = progress or (lambda f, m: None)
     n = int(meta["n"])

@@ -6,12 +6,12 @@ A point's cell at level ``L`` is ``i = floor((p - lo) / a)`` per axis (clipped t
 box's low corner ``lo``). The level is chosen so that an occupied cell holds about
 ``cell_points`` points (:func:`choose_level`), from a sample when the cloud is streamed.
 
-The order of the points in the store is the sort by the 64-bit key
-``(cell rank << 40) | r``, where ``r`` is 40 bits of SplitMix64 (Steele, Lea & Flood,
-OOPSLA 2014) of the point's row in the source file and the seed. ``r`` depends on the
-row alone, not on how the file was cut into chunks, so a store built out of core and an
-index built in memory from the same points order them identically; a prefix of a cell
-is then a random sample of that cell.
+The order of the points in the store is the stable sort by the 64-bit key
+``(Morton code << 34) | r``, where ``r`` is 34 bits of SplitMix64 (Steele, Lea & Flood,
+OOPSLA 2014) of the point's row in the source file and the seed (equal keys keep the rows'
+order). ``r`` depends on the row alone, not on how the file was cut into chunks, so a
+store built out of core and an index built in memory from the same points order them
+identically; a prefix of a cell is then a random sample of that cell.
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from ..meshdistance import _spread10
 MAX_LEVEL = 10
 #: Points an occupied cell should hold on average (the granularity of view culling).
 CELL_POINTS = 2048
-#: The store's sort key holds the cell's rank above 40 random bits.
-RANK_SHIFT = 40
+#: The store's sort key holds the cell's 30-bit Morton code above 34 random bits.
+RANDOM_BITS = 34
 MAX_CELLS = 1 << 23
 
 
@@ -47,8 +47,8 @@ class Grid:
 
     def ijk(self, points: np.ndarray) -> np.ndarray:
         """(m, 3) int64 cell indices of ``points`` (mm)."""
-        q = np.floor((points - self.lo) / self.cell)
-        return np.clip(q, 0, (1 << self.level) - 1).astype(np.int64)
+        q = ((points - self.lo) / self.cell).astype(np.int64)  # truncation: floor for points at or above lo
+        return np.clip(q, 0, (1 << self.level) - 1, out=q)
 
     def morton(self, points: np.ndarray) -> np.ndarray:
         return morton(self.ijk(points))
@@ -82,19 +82,19 @@ _M64 = np.uint64(0xFFFFFFFFFFFFFFFF)
 
 
 def random_bits(rows: np.ndarray, seed: int) -> np.ndarray:
-    """40 pseudo-random bits (uint64) per source row: SplitMix64 of ``row + seed * golden``."""
+    """34 pseudo-random bits (uint64) per source row: SplitMix64 of ``row + seed * golden``."""
     with np.errstate(over="ignore"):
         z = rows.astype(np.uint64) + np.uint64(seed) * np.uint64(0x9E3779B97F4A7C15)
         z = z + np.uint64(0x9E3779B97F4A7C15)
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
         z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
         z = z ^ (z >> np.uint64(31))
-    return z >> np.uint64(64 - RANK_SHIFT)
+    return z >> np.uint64(64 - RANDOM_BITS)
 
 
-def sort_key(rank: np.ndarray, rows: np.ndarray, seed: int) -> np.ndarray:
-    """The store order's key: the cell's rank (Morton order) above the row's random bits."""
-    return (rank.astype(np.uint64) << np.uint64(RANK_SHIFT)) | random_bits(rows, seed)
+def sort_key(code: np.ndarray, rows: np.ndarray, seed: int) -> np.ndarray:
+    """The store order's key: the cell's Morton code above the row's random bits."""
+    return (code.astype(np.uint64) << np.uint64(RANDOM_BITS)) | random_bits(rows, seed)
 
 
 def cell_boxes(grid: Grid, ijk: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

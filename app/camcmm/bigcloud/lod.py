@@ -97,9 +97,13 @@ def view_matrix(camera: Mapping[str, Any], viewport: tuple[int, int]) -> np.ndar
 
 def in_view(mvp: np.ndarray, points: np.ndarray) -> np.ndarray:
     """True for the points (mm) in front of the camera and inside the four side planes."""
-    c = points @ mvp[:, :3].T + mvp[:, 3]
-    w = c[:, 3]
-    return (w > 0) & (np.abs(c[:, 0]) <= w) & (np.abs(c[:, 1]) <= w)
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+
+    def row(i: int) -> np.ndarray:  # by columns: a (N, 3) @ (3, 4) product goes through BLAS threads, 30x slower here
+        return x * mvp[i, 0] + y * mvp[i, 1] + z * mvp[i, 2] + mvp[i, 3]
+
+    w = row(3)
+    return (w > 0) & (np.abs(row(0)) <= w) & (np.abs(row(1)) <= w)
 
 
 def _boxes_in_view(mvp: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -257,9 +261,18 @@ class LodIndex:
         rows, frac = prefix_rows(self.cell_start, take)
         return rows[np.argsort(frac, kind="stable")]
 
+    def uniform_points(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """(points, store rows) of :meth:`uniform_index`, read in file order."""
+        take = largest_remainder(int(k), self.cell_count)
+        rows, frac = prefix_rows(self.cell_start, take)
+        order = np.argsort(frac, kind="stable")
+        return np.asarray(self._points[rows])[order], rows[order]
+
     def uniform(self, k: int) -> np.ndarray:
         """(min(k, n), 3) float64 points (mm), a spatially uniform subsample (first paint)."""
-        return self.points(self.uniform_index(k))
+        if int(k) < 0:
+            raise ParameterError(f"uniform: k = {k} must not be negative")
+        return self.uniform_points(k)[0]
 
     def select(
         self, camera: Mapping[str, Any], viewport: tuple[int, int], budget: int
@@ -292,11 +305,11 @@ class LodIndex:
 
     def _prefixes(self, mvp: np.ndarray, starts: np.ndarray, take: np.ndarray):
         """The first ``take`` points of each cell in view, interleaved: (points, rows, cell)."""
-        rows, frac = prefix_rows(starts, take)
+        rows, frac = prefix_rows(starts, take)  # ascending: read in file order
         order = np.argsort(frac, kind="stable")
         cell = np.repeat(np.arange(len(take)), take)[order]
+        pts = np.asarray(self._points[rows])[order]
         rows = rows[order]
-        pts = self.points(rows)
         keep = in_view(mvp, pts)
         return pts[keep], rows[keep], cell[keep]
 

@@ -135,8 +135,10 @@ def open_source(path: str | Path, unit: str | None = None) -> Source:
     the file's own (default mm)."""
     p = Path(path)
     name = p.name
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"{path}: no such file")
+    if not p.is_file():
+        raise InputError(f"{path}: not a regular file")
     ext = p.suffix.lower()
     if ext in _EXT_PLY:
         src = _open_ply(p, name)

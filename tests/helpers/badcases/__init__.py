@@ -22,6 +22,7 @@ FAMILIES = (
     "gdt_batch",
     "report",
     "crop",
+    "bigcloud",
 )
 
 
