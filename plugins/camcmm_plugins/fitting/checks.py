@@ -141,12 +141,19 @@ def _fmt(v: float) -> str:
 
 
 def fit_warnings(
-    element: str, params: dict[str, Any], std: dict[str, Any], x: np.ndarray, r: np.ndarray, method: str = "ls"
+    element: str,
+    params: dict[str, Any],
+    std: dict[str, Any],
+    x: np.ndarray,
+    r: np.ndarray,
+    method: str = "ls",
+    axes_rms: np.ndarray | None = None,
 ) -> list[str]:
     """Warnings for the element ``params`` fitted to the points ``x`` (N, d) mm it used,
     with residuals ``r`` (N,) mm (distances from the element, signed or not) and standard
     uncertainties ``std`` (see the module docstring). Empty when the element describes
-    the points."""
+    the points. ``axes_rms``: the points' RMS spread along their principal axes (mm,
+    largest first) when the caller has it (computed here otherwise)."""
     out: list[str] = []
     n, d = x.shape
     if n <= N_MIN[element]:
@@ -158,10 +165,13 @@ def fit_warnings(
         )
     if n < 3:
         return out
-    xc = x - x.mean(axis=0)
-    # RMS spread along the principal axes (mm), largest first; only ratios of them are
-    # used, so the 3x3 scatter matrix is accurate enough
-    sv = np.sqrt(np.clip(np.linalg.eigvalsh(xc.T @ xc / n), 0.0, None))[::-1]
+    if axes_rms is None:
+        xc = x - x.mean(axis=0)
+        # RMS spread along the principal axes (mm), largest first; only ratios of them are
+        # used, so the 3x3 scatter matrix is accurate enough
+        sv = np.sqrt(np.clip(np.linalg.eigvalsh(xc.T @ xc / n), 0.0, None))[::-1]
+    else:
+        sv = np.asarray(axes_rms, dtype=float)
     spread = float(np.sqrt(np.sum(sv**2)))
     if not spread > 0:
         return out
@@ -175,7 +185,7 @@ def fit_warnings(
             f"plane fit: the points are {_fmt(sv[2])} mm thick against {_fmt(sv[1])} mm wide (RMS): the "
             f"normal is ill-determined; the points do not look like a plane"
         )
-    rms = float(np.sqrt(np.mean(r * r)))
+    rms = float(np.sqrt(r @ r / len(r)))
     if rms > FORM_FRACTION * spread:
         ratio = None
         if n > 2 * K_NEIGHBOURS:

@@ -201,7 +201,7 @@ class ConeModel:
         a, psi = res.state[3:6], res.state[7]
         s_mm = res.state[6] * sc
         assert res.jt is not None  # Gauss-Newton keeps its Jacobian
-        cov = covariance(res.jt, float(res.r @ res.r))
+        cov = covariance(res.jt, float(res.r @ res.r), res.scaled)
         lengths = np.array([sc, sc, 1.0, 1.0, sc, 1.0])
         cov = cov * np.outer(lengths, lengths)
         b = complement(a)

@@ -148,7 +148,7 @@ class CylinderModel:
         s = frame.scale
         p, a, r = res.state[:3], res.state[3:6], res.state[6]
         assert res.jt is not None  # Gauss-Newton keeps its Jacobian
-        cov = covariance(res.jt, float(res.r @ res.r))
+        cov = covariance(res.jt, float(res.r @ res.r), res.scaled)
         lengths = np.array([s, s, 1.0, 1.0, s])
         cov = cov * np.outer(lengths, lengths)
         b = complement(a)

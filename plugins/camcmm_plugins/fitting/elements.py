@@ -41,6 +41,19 @@ def _model(element: str, dim: int):
     }[(element, dim)]
 
 
+def _spread(y: np.ndarray, used: np.ndarray, scale: float) -> np.ndarray:
+    """RMS spread (mm) of the used points about their centroid along their principal axes,
+    largest first (for :func:`.checks.fit_warnings`), from the normalised points y (d, N):
+    their moments, minus those of the few removed points, so no copy of the used ones."""
+    s1, s2, n = y.sum(axis=1), y @ y.T, y.shape[1]
+    if not used.all():
+        yr = y[:, ~used]
+        s1, s2, n = s1 - yr.sum(axis=1), s2 - yr @ yr.T, n - yr.shape[1]
+    m = s1 / n
+    w = np.linalg.eigvalsh(s2 / n - np.outer(m, m))
+    return np.sqrt(np.clip(w, 0.0, None))[::-1] * scale
+
+
 def fit(
     element: str,
     points: Any,
@@ -121,16 +134,21 @@ def fit(
             params = model.params(state, frame)
         std = {k: (np.full(np.shape(v), np.nan) if np.ndim(v) else float("nan")) for k, v in params.items()}
         cov, names = None, ()
+    all_used = bool(used.all())
     if method == "ls" and len(res.r) == int(used.sum()):
         # the fit's residuals are at the solution already (linearised last step)
-        residuals = np.empty(y.shape[1])
-        residuals[used] = res.r
-        if not used.all():
+        if all_used:
+            residuals = res.r * frame.scale
+        else:
+            residuals = np.empty(y.shape[1])
+            residuals[used] = res.r
             residuals[~used] = model.residuals(state, y[:, ~used])
-        residuals *= frame.scale
+            residuals *= frame.scale
     else:
         residuals = model.residuals(state, y) * frame.scale
-    warnings = fit_warnings(element, params, std, x[used], residuals[used], method)
+    # no copies of a million points when the rule removed none (boolean indexing copies)
+    xu, ru = (x, residuals) if all_used else (x[used], residuals[used])
+    warnings = fit_warnings(element, params, std, xu, ru, method, axes_rms=_spread(y, used, frame.scale))
     if nominal_radius is not None and "radius" in params:
         extra["nominal_radius"] = float(nominal_radius)
         extra["radius_deviation"] = float(params["radius"] - nominal_radius)

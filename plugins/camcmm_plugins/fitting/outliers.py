@@ -223,7 +223,12 @@ def vdi2634(
             used[idx[i]] = False
             removed.append(int(idx[i]))
             res = dataclasses.replace(
-                res, r=np.delete(res.r, i) if len(res.r) == len(idx) else res.r, jt=None, eval_state=None, eval_r=None
+                res,
+                r=np.delete(res.r, i) if len(res.r) == len(idx) else res.r,
+                jt=None,
+                eval_state=None,
+                eval_r=None,
+                scaled=None,
             )
             if len(removed) == m:
                 res = model.fit(y[:, used], start=res.state, max_iter=max_iter)

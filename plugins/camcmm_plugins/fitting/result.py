@@ -84,7 +84,7 @@ class FitResult:
     @property
     def form(self) -> dict[str, float]:
         """Form figures of the used points' residuals (mm): range, max, min, std, rms."""
-        return form_figures(self.residuals[self.used])
+        return form_figures(self.residuals if self.used.all() else self.residuals[self.used])
 
     def to_dict(self, residuals: bool = False) -> dict[str, Any]:
         """The JSON document of ``camcmm fit`` (lengths in mm). With ``residuals`` the

@@ -40,11 +40,9 @@ def algebraic(yt: np.ndarray) -> np.ndarray:
 
 
 def _distances(c: np.ndarray, yt: np.ndarray, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(c − y) (d, n) and the distances |y − c| (n,), computed row by row (fast layout)."""
+    """(c − y) (d, n) and the distances |y − c| (n,), on points as columns (fast layout)."""
     diff = np.subtract(c[:, None], yt, out=out)
-    rho = diff[0] * diff[0]
-    for k in range(1, len(c)):
-        rho += diff[k] * diff[k]
+    rho = np.einsum("ij,ij->j", diff, diff)  # one pass, no temporaries of squares
     np.sqrt(rho, out=rho)
     return diff, rho
 
@@ -83,7 +81,12 @@ class HypersphereModel:
         d = self.dim
         jt = np.empty((d + 1, yt.shape[1]))
         diff, rho = _distances(p[:d], yt, out=jt[:d])
-        diff /= np.where(rho > 0, rho, 1.0)  # rows 0..d-1: −u
+        # rows 0..d-1: −u (a point at the centre keeps its zero row; checked first, as
+        # the guarded division costs a temporary of the whole array)
+        if rho.min() > 0:
+            diff /= rho
+        else:
+            diff /= np.where(rho > 0, rho, 1.0)
         jt[d] = -1.0
         return rho - p[d], jt
 
@@ -142,7 +145,7 @@ class HypersphereModel:
         d, s = self.dim, frame.scale
         p = res.state
         assert res.jt is not None  # Gauss-Newton keeps its Jacobian
-        cov = covariance(res.jt, float(res.r @ res.r)) * s * s
+        cov = covariance(res.jt, float(res.r @ res.r), res.scaled) * s * s
         params = {"center": p[:d] * s + frame.origin, "radius": float(p[d] * s)}
         var = np.clip(np.diag(cov), 0, None)  # NaN (no degrees of freedom) stays NaN
         std = {"center": np.sqrt(var[:d]), "radius": float(np.sqrt(var[d]))}

@@ -157,7 +157,7 @@ class TorusModel:
         sc = frame.scale
         a = res.state[3:6]
         assert res.jt is not None  # Gauss-Newton keeps its Jacobian
-        cov = covariance(res.jt, float(res.r @ res.r))
+        cov = covariance(res.jt, float(res.r @ res.r), res.scaled)
         lengths = np.array([sc, sc, sc, 1.0, 1.0, sc, sc])
         cov = cov * np.outer(lengths, lengths)
         b = complement(a)

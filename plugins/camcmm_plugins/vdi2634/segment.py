@@ -19,12 +19,23 @@ def assign(points: np.ndarray, spheres: list[dict[str, Any]]) -> list[np.ndarray
     """Indices of the points of each detected sphere: within its band (1.5 x the largest
     residual its detection accepted) and nearer to it than to any other sphere."""
     dev = np.full((len(spheres), len(points)), np.inf)
+    pt = np.ascontiguousarray(points.T)  # coordinate rows: ~10x faster passes than (N, 3) rows
     for k, s in enumerate(spheres):
-        d = np.abs(np.linalg.norm(points - np.asarray(s["center"]), axis=1) - s["radius"])
+        c = np.asarray(s["center"], dtype=float)
+        d = np.sqrt((pt[0] - c[0]) ** 2 + (pt[1] - c[1]) ** 2 + (pt[2] - c[2]) ** 2)
+        d -= s["radius"]
+        np.abs(d, out=d)
         band = 1.5 * max(abs(s["form"]["max"]), abs(s["form"]["min"]), 1e-9)
         dev[k] = np.where(d <= band, d, np.inf)
-    best = np.argmin(dev, axis=0)
-    hit = np.isfinite(dev.min(axis=0))
+    # argmin over the few spheres, row by row (numpy's argmin across rows of a (k, N) array
+    # is a strided pass ~10x slower); ties keep the lower sphere, as argmin does
+    best = np.zeros(len(points), dtype=np.intp)
+    low = dev[0].copy()
+    for k in range(1, len(spheres)):
+        nearer = dev[k] < low
+        best[nearer] = k
+        np.minimum(low, dev[k], out=low)
+    hit = np.isfinite(low)
     return [np.flatnonzero(hit & (best == k)) for k in range(len(spheres))]
 
 

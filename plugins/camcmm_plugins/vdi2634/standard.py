@@ -43,6 +43,7 @@ from camcmm.api import (
 from . import declaration, describe, measure, positions, report, rules, uncertainty
 from . import pictograms as drawings
 from . import plan as plans
+from .threads import single_blas_thread
 
 INCOMPLETE = "incomplete"
 #: A deviations cloud kept in a batch result (for the report's colour maps) has at most this many points.
@@ -216,15 +217,18 @@ class Standard:
             if pid in ctx.host.plugins:
                 ctx.host.load(pid)
         per: dict[str, list[dict[str, Any]]] = {s.test: [] for s in self.tests(p)}
-        # Threads: the fits are numpy-bound and release the GIL for most of their time.
+        # Threads: the fits are numpy-bound and release the GIL for most of their time; with
+        # more than one, each keeps to one BLAS thread (threads.py: BLAS's own threads would
+        # only oversubscribe the cores the pool already fills).
         pool = ThreadPoolExecutor(max_workers=max(1, workers))
-        try:
-            futures = [pool.submit(self._evaluate_item, ctx, m, p) for m in items]
-            for i, (m, f) in enumerate(zip(items, futures)):
-                per[m.test].append(f.result())
-                ctx.progress((i + 1) / max(len(items), 1), f"{m.name} evaluated")  # raises when cancelled
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)  # on cancel: drop what has not started
+        with single_blas_thread(workers > 1 and len(items) > 1):
+            try:
+                futures = [pool.submit(self._evaluate_item, ctx, m, p) for m in items]
+                for i, (m, f) in enumerate(zip(items, futures)):
+                    per[m.test].append(f.result())
+                    ctx.progress((i + 1) / max(len(items), 1), f"{m.name} evaluated")  # raises when cancelled
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)  # on cancel: drop what has not started
         return self.summarize(ctx, p, per)
 
     # -- summary -------------------------------------------------------------------------
