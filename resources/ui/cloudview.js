@@ -260,6 +260,11 @@
     this.el = host;
     host.__cmmCloudView = this;
     host.classList.add("cmm-cv-host");
+    this.gl = null;
+    if (useWebGL()) { // a GPU draws; the 2-D canvas on top keeps the triad and takes the events
+      this.glCanvas = el("canvas", "cmm-cv-canvas cmm-cv-gl", host);
+      this.gl = makeGL(this, this.glCanvas);
+    }
     this.canvas = el("canvas", "cmm-cv-canvas", host);
     this.canvas.setAttribute("data-testid", "cloudview-canvas");
     this.ctx = this.canvas.getContext("2d");
@@ -288,7 +293,9 @@
     if (!this.el) return;
     if (this.resizeObs) this.resizeObs.disconnect();
     if (this.unbind) this.unbind();
-    [this.canvas, this.labelBox, this.svg, this.legendBox, this.entriesBox, this.noteBox].forEach(function (n) {
+    if (this.gl) this.gl.release();
+    this.gl = null;
+    [this.glCanvas, this.canvas, this.labelBox, this.svg, this.legendBox, this.entriesBox, this.noteBox].forEach(function (n) {
       if (n && n.parentNode) n.parentNode.removeChild(n);
     });
     if (this.el.__cmmCloudView === this) delete this.el.__cmmCloudView;
@@ -305,6 +312,10 @@
     if (w <= 0 || h <= 0) return; // hidden (v-show): drawn again when shown
     this.canvas.width = w;
     this.canvas.height = h;
+    if (this.gl) {
+      this.glCanvas.width = w;
+      this.glCanvas.height = h;
+    }
     this.image = this.ctx.createImageData(w, h);
     this.pix = new Uint32Array(this.image.data.buffer);
     this.zbuf = new Float32Array(w * h);
@@ -559,10 +570,12 @@
   };
 
   // --- drawing ---
-  View.prototype.render = function (full) {
+  View.prototype.render = function (full, idsOnly) {
     var t0 = performance.now();
     var W = this.W, H = this.H;
     if (!this.el || W <= 0 || H <= 0 || !this.pix) return 0;
+    if (this.gl && !idsOnly) return this.renderGL(t0);
+    this.idValid = !!full;
     var pix = this.pix, Z = this.zbuf;
     pix.set(this.bg);
     Z.fill(Infinity);
@@ -601,6 +614,7 @@
       });
       this.P = P;
     }
+    if (idsOnly) return performance.now() - t0; // picking under the GL backend: the id-buffer only
     this.ctx.putImageData(this.image, 0, 0);
     if (this.cam) this.drawTriad();
     this.placeLabels();
@@ -1087,7 +1101,7 @@
 
   /* The id-buffer of a full frame: the covered pixel nearest (x, y) within PICK_RADIUS. */
   View.prototype.pickAt = function (x, y) {
-    if (!this.lastFull) this.render(true);
+    if (!this.idValid) this.render(true, true);
     var W = this.W, H = this.H, IL = this.idLayer, II = this.idIndex, Z = this.zbuf;
     var cx = Math.floor(x), cy = Math.floor(y), best = -1, bestD = Infinity;
     for (var yy = Math.max(cy - PICK_RADIUS, 0); yy <= Math.min(cy + PICK_RADIUS, H - 1); yy++) {
@@ -1137,13 +1151,198 @@
     if (this.pix) own = this.pix.byteLength * 3 + this.zbuf.byteLength + this.idLayer.byteLength + this.idIndex.byteLength;
     return {
       points_drawn: this.drawn, points_total: this.total, last_frame_ms: this.lastMs,
-      budget: this.forced !== null ? this.forced : this.budget, full: this.lastFull,
+      budget: this.forced !== null ? this.forced : this.budget, full: this.lastFull, backend: this.gl ? "webgl2" : "cpu",
       rev: this.spec ? this.spec.rev : null, shown_rev: this.shownRev, bytes: cachedBytes() + own,
       buffer_bytes: cachedBytes(), error: this.error, width: this.W, height: this.H, timing: this.timing || null,
     };
   };
 
   View.prototype.setBudget = function (k) { this.forced = k === null || k === undefined ? null : Math.max(1, Math.floor(+k) || 1); };
+
+  // -- optional GPU backend (WebGL2) -------------------------------------------------------------
+  /* Only where the browser has a hardware GPU: SwiftShader / llvmpipe (software GL) are slower
+     than the CPU splatter above. window.CAMCMM_CLOUDVIEW_BACKEND = "cpu" | "webgl" overrides the
+     choice (tests). Same picture: square points of point_size px, flat Lambert shading of the
+     faces (0.3 + 0.7 |cos(normal, view)|, normal from the screen derivatives), vertex colours,
+     opacity blended after the opaque layers, lines 1 px; every point drawn in every frame.
+     Picking still reads the CPU id-buffer (one CPU pass at the click). */
+  var glChoice = null;
+
+  function useWebGL() {
+    var pref = window.CAMCMM_CLOUDVIEW_BACKEND;
+    if (pref === "cpu") return false;
+    if (pref === "webgl") return true;
+    if (glChoice !== null) return glChoice;
+    glChoice = false;
+    try {
+      var gl = document.createElement("canvas").getContext("webgl2");
+      if (gl) {
+        var info = gl.getExtension("WEBGL_debug_renderer_info");
+        var name = String(info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER));
+        glChoice = !/swiftshader|llvmpipe|softpipe|software|basic render/i.test(name);
+        var lose = gl.getExtension("WEBGL_lose_context");
+        if (lose) lose.loseContext();
+      }
+    } catch (e) {
+      glChoice = false;
+    }
+    return glChoice;
+  }
+
+  var VS = "#version 300 es\n" +
+    "uniform mat4 uM; uniform mat4 uV; uniform float uSize;\n" +
+    "in vec3 aPos; in vec4 aCol; out vec4 vCol; out vec3 vView;\n" +
+    "void main() { gl_Position = uM * vec4(aPos, 1.0); gl_PointSize = uSize; vCol = aCol;\n" +
+    "  vView = (uV * vec4(aPos, 1.0)).xyz; }\n";
+  var FS_FLAT = "#version 300 es\nprecision highp float;\n" +
+    "uniform float uAlpha; in vec4 vCol; in vec3 vView; out vec4 o;\n" +
+    "void main() { o = vec4(vCol.rgb * uAlpha, uAlpha); }\n";
+  var FS_LIT = "#version 300 es\nprecision highp float;\n" +
+    "uniform float uAlpha; in vec4 vCol; in vec3 vView; out vec4 o;\n" +
+    "void main() { vec3 n = normalize(cross(dFdx(vView), dFdy(vView)));\n" +
+    "  float s = 0.3 + 0.7 * abs(n.z); o = vec4(vCol.rgb * s * uAlpha, uAlpha); }\n";
+
+  function makeGL(view, canvas) {
+    var gl = canvas.getContext("webgl2", { alpha: true, premultipliedAlpha: true, antialias: false });
+    if (!gl) return null;
+    function program(fs) {
+      var p = gl.createProgram();
+      [[gl.VERTEX_SHADER, VS], [gl.FRAGMENT_SHADER, fs]].forEach(function (src) {
+        var sh = gl.createShader(src[0]);
+        gl.shaderSource(sh, src[1]);
+        gl.compileShader(sh);
+        if (!gl.getShaderParameter(sh, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(sh));
+        gl.attachShader(p, sh);
+      });
+      gl.bindAttribLocation(p, 0, "aPos");
+      gl.bindAttribLocation(p, 1, "aCol");
+      gl.linkProgram(p);
+      if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(p));
+      return { p: p, uM: gl.getUniformLocation(p, "uM"), uV: gl.getUniformLocation(p, "uV"),
+        uSize: gl.getUniformLocation(p, "uSize"), uAlpha: gl.getUniformLocation(p, "uAlpha") };
+    }
+    var g;
+    try {
+      g = { gl: gl, flat: program(FS_FLAT), lit: program(FS_LIT), buffers: new Map() };
+    } catch (e) {
+      console.error("camcmm cloudview: WebGL2 backend unavailable, drawing on the CPU", e);
+      return null;
+    }
+    canvas.addEventListener("webglcontextlost", function (e) { // back to the CPU
+      e.preventDefault();
+      if (view.gl === g) { view.gl = null; view.render(true); }
+    });
+    g.buffer = function (array, target) { // one GL buffer per typed array (cached by identity)
+      var b = g.buffers.get(array);
+      if (!b) {
+        b = gl.createBuffer();
+        gl.bindBuffer(target, b);
+        gl.bufferData(target, array, gl.STATIC_DRAW);
+        g.buffers.set(array, b);
+      }
+      gl.bindBuffer(target, b);
+      return b;
+    };
+    g.prune = function (keep) { // free the buffers of arrays no layer shows any more
+      g.buffers.forEach(function (b, a) { if (keep.indexOf(a) < 0) { gl.deleteBuffer(b); g.buffers.delete(a); } });
+    };
+    g.release = function () { g.prune([]); };
+    return g;
+  }
+
+  function columnMajor(rows) {
+    var out = new Float32Array(16);
+    for (var c = 0; c < 4; c++) for (var r = 0; r < 4; r++) out[4 * c + r] = rows[r][c];
+    return out;
+  }
+
+  View.prototype.renderGL = function (t0) {
+    var g = this.gl, gl = g.gl, W = this.W, H = this.H, self = this;
+    this.idValid = false;
+    gl.viewport(0, 0, W, H);
+    gl.clearColor(0, 0, 0, 0); // the host's CSS gradient shows through
+    gl.clearDepth(1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    var drawn = 0;
+    if (this.cam && this.layers.length) {
+      var b = this.basis(), c = this.cam, eye = b.eye;
+      var f = H / 2 / Math.tan(c.angle * Math.PI / 360), sx = 2 * f / W, sy = 2 * f / H;
+      var near = Math.max(b.dist * 1e-3, 1e-9), far = Math.max(b.dist + 2 * this.radius(), 2 * near);
+      near = Math.max(near, far * 1e-5); // 24-bit depth: keep far/near moderate
+      var A = (far + near) / (far - near), B = -2 * far * near / (far - near);
+      var view = [[b.r[0], b.r[1], b.r[2], -dot(b.r, eye)], [b.u[0], b.u[1], b.u[2], -dot(b.u, eye)],
+        [b.f[0], b.f[1], b.f[2], -dot(b.f, eye)], [0, 0, 0, 1]];
+      var clip = [view[0].map(function (v) { return v * sx; }), view[1].map(function (v) { return v * sy; }),
+        view[2].map(function (v, i) { return A * v + (i === 3 ? B : 0); }), view[2]];
+      var M = columnMajor(clip), V = columnMajor(view);
+      gl.enable(gl.DEPTH_TEST);
+      gl.depthFunc(gl.LEQUAL);
+      gl.enable(gl.BLEND);
+      gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA); // premultiplied colours
+      var keep = [];
+      var order = this.layers.filter(function (l) { return !(l.spec.opacity < 1); })
+        .concat(this.layers.filter(function (l) { return l.spec.opacity < 1 && l.spec.opacity > 0; }));
+      order.forEach(function (l) {
+        var s = l.spec, alpha = s.opacity < 1 ? +s.opacity : 1, prog = s.kind === "mesh" ? g.lit : g.flat;
+        gl.useProgram(prog.p);
+        gl.uniformMatrix4fv(prog.uM, false, M);
+        gl.uniformMatrix4fv(prog.uV, false, V);
+        gl.uniform1f(prog.uSize, Math.max(1, Math.round(+s.point_size || 1)));
+        gl.uniform1f(prog.uAlpha, alpha);
+        gl.depthMask(alpha >= 1);
+        if (s.on_top) gl.disable(gl.DEPTH_TEST);
+        else gl.enable(gl.DEPTH_TEST);
+        g.buffer(l.pos, gl.ARRAY_BUFFER);
+        keep.push(l.pos);
+        gl.enableVertexAttribArray(0);
+        gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 0, 0);
+        if (l.col) {
+          g.buffer(l.col, gl.ARRAY_BUFFER); // packed 0xAABBGGRR: the bytes R, G, B, A
+          keep.push(l.col);
+          gl.enableVertexAttribArray(1);
+          gl.vertexAttribPointer(1, 4, gl.UNSIGNED_BYTE, true, 0, 0);
+        } else {
+          gl.disableVertexAttribArray(1);
+          var k = l.packed;
+          gl.vertexAttrib4f(1, (k & 255) / 255, ((k >>> 8) & 255) / 255, ((k >>> 16) & 255) / 255, 1);
+        }
+        if (s.kind === "points") {
+          gl.drawArrays(gl.POINTS, 0, l.n);
+          drawn += l.n;
+        } else {
+          g.buffer(l.idx, gl.ELEMENT_ARRAY_BUFFER);
+          keep.push(l.idx);
+          gl.drawElements(s.kind === "mesh" ? gl.TRIANGLES : gl.LINES, l.idx.length, gl.UNSIGNED_INT, 0);
+        }
+      });
+      gl.depthMask(true);
+      g.prune(keep);
+    }
+    this.ctx.clearRect(0, 0, W, H);
+    if (this.cam) this.drawTriad();
+    this.placeLabels();
+    this.drawn = this.total = drawn;
+    this.lastFull = true;
+    if (this.spec && this.pendingRev === null) this.shownRev = this.spec.rev;
+    if (this.timing && this.timing.all_drawn_ms === null) this.timing.all_drawn_ms = performance.now() - this.timing.arrived;
+    this.lastMs = performance.now() - t0;
+    return this.lastMs;
+  };
+
+  View.prototype.radius = function () { // of the shown content about the focal point (mm), cached per state
+    if (this.radiusOf === this.layers) return this.radiusVal;
+    var fp = this.cam ? this.cam.fp : [0, 0, 0], r2 = 0;
+    this.layers.forEach(function (l) {
+      var p = l.pos, m = 3 * l.n, step = Math.max(3, 3 * Math.floor(l.n / 100000)); // a sample is enough
+      for (var i = 0; i < m; i += step) {
+        var dx = p[i] - fp[0], dy = p[i + 1] - fp[1], dz = p[i + 2] - fp[2], q = dx * dx + dy * dy + dz * dz;
+        if (q > r2) r2 = q;
+      }
+    });
+    this.radiusOf = this.layers;
+    this.radiusVal = Math.sqrt(r2) * 1.05 + 1e-6;
+    return this.radiusVal;
+  };
 
   // -- binding --------------------------------------------------------------------------------
   function scan() {

@@ -11,11 +11,13 @@ y = H/2 - f yc/d):
   order and its world position;
 - with tool "rect" a drag triggers ``cv_select`` with the rectangle in NDC, and its ``mvp``
   maps each point to the NDC of its projected pixel (so a point is inside exactly when drawn
-  inside).
+  inside);
+- the WebGL2 backend (forced) draws the same colours at the same pixels with the same occlusion.
 """
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -27,16 +29,16 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="playwright (python
 
 SIZE = (400, 300)
 CAMERA = {"position": [0.0, 0.0, 100.0], "focal_point": [0.0, 0.0, 0.0], "view_up": [0.0, 1.0, 0.0], "view_angle": 30.0}
-XYZ = np.array([[0.0, 0.0, 0.0], [10.0, 5.0, 0.0], [-8.0, -6.0, 5.0]])
-RGB = np.array([[255, 0, 0], [0, 200, 0], [0, 0, 255]], dtype=np.uint8)
-PIXELS = """() => {
-  const c = document.querySelector('.cmm-cv-canvas');
-  return Array.from(c.getContext('2d').getImageData(0, 0, c.width, c.height).data);
-}"""
+# green, red, blue: not in the renderer's Morton order (red, green, blue), so that a pick must map
+# the drawn order back to the server's index
+XYZ = np.array([[10.0, 5.0, 0.0], [0.0, 0.0, 0.0], [-8.0, -6.0, 5.0]])
+RGB = np.array([[0, 200, 0], [255, 0, 0], [0, 0, 255]], dtype=np.uint8)
 
 
 def _image(page) -> np.ndarray:
-    return np.array(page.evaluate(PIXELS), dtype=np.uint8).reshape(SIZE[1], SIZE[0], 4)[:, :, :3]
+    """The view as shown (RGB): canvas and overlays composited."""
+    shot = page.screenshot(clip={"x": 0, "y": 0, "width": SIZE[0], "height": SIZE[1]})
+    return cv2.imdecode(np.frombuffer(shot, np.uint8), cv2.IMREAD_COLOR)[:, :, ::-1]
 
 
 def _triggers(page, name: str, timeout: float = 5000) -> list:
@@ -65,12 +67,12 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
             stats = page.evaluate(f"window.camcmmCloudView.views['{NAME}'].stats()")
             assert stats["points_drawn"] == 3 and stats["points_total"] == 3
 
-            # a click 2 px right of the green point: index 1 in the server's order, its world mm
-            gx, gy = px[1]
+            # a click 2 px right of the green point: index 0 in the server's order, its world mm
+            gx, gy = px[0]
             page.mouse.click(gx + 2, gy)
             (pick,) = _triggers(page, "cv_pick")
-            assert pick[:3] == [NAME, "cloud", 1]
-            assert np.allclose(pick[3], XYZ[1], atol=1e-5)
+            assert pick[:3] == [NAME, "cloud", 0]
+            assert np.allclose(pick[3], XYZ[0], atol=1e-5)
 
             # a rectangle from (40, 30) to (260, 170) px: the red and green points inside, not blue
             page.evaluate(SET_STATE, [NAME, scene_state([cloud], CAMERA, rev=2, tool="rect")])
@@ -105,9 +107,23 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
             page.evaluate(SET_STATE, [NAME, scene_state([cloud, mesh], CAMERA, rev=3)])
             page.wait_for_function(READY, arg=NAME, timeout=10_000)
             img = _image(page)
-            (rx, ry), (bx, by) = px[0], px[2]
+            (rx, ry), (bx, by) = px[1], px[2]
             assert (img[int(ry), int(rx)] == [180, 120, 60]).all(), img[int(ry), int(rx)]
             assert (img[int(by), int(bx)] == [0, 0, 255]).all()
+            assert (img == [255, 0, 0]).all(axis=2).sum() == 0
+
+            # the GPU backend (forced: under SwiftShader the automatic choice is the CPU), the same
+            # scene: the same colours at the same pixels, the same occlusion
+            gl = browser.new_page(viewport={"width": SIZE[0] + 50, "height": SIZE[1] + 50})
+            gl.goto(url + "?backend=webgl")
+            gl.wait_for_selector(".cmm-cv-canvas")
+            gl.evaluate(SET_STATE, [NAME, scene_state([cloud, mesh], CAMERA, rev=1)])
+            gl.wait_for_function(READY, arg=NAME, timeout=10_000)
+            assert gl.evaluate(f"window.camcmmCloudView.views['{NAME}'].stats().backend") == "webgl2"
+            img = _image(gl)
+            assert (img[int(ry), int(rx)] == [180, 120, 60]).all(), img[int(ry), int(rx)]
+            assert (img[int(by), int(bx)] == [0, 0, 255]).all()
+            assert (img == [0, 0, 255]).all(axis=2).sum() == 9
             assert (img == [255, 0, 0]).all(axis=2).sum() == 0
         finally:
             browser.close()

@@ -29,6 +29,8 @@ PAGE = """<!doctype html>
 <style>html, body {{ margin: 0; padding: 0; }} .cmm-cloudview {{ width: {w}px; height: {h}px; }}</style>
 <script>
 window.__triggers = [];
+// ?backend=webgl|cpu: cloudview.js's backend (its automatic choice is the CPU under SwiftShader)
+window.CAMCMM_CLOUDVIEW_BACKEND = new URLSearchParams(location.search).get("backend") || undefined;
 window.trame = (function () {{
   var state = {{}}, watchers = [];
   function notify(keys) {{
