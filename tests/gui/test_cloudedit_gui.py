@@ -111,3 +111,11 @@ def test_lasso_selection_is_highlighted_kept_or_removed(opened):
     assert [f["name"] for f in s.ce_fields] == ["eps", "min_points", "keep", "component"]
     comp = asyncio.run(panel.apply("segment.components", {"eps": "1.5", "min_points": "3"}))
     assert comp is not None and comp.n_kept == 840 and comp.name.endswith("· largest component")
+    # the hole the lasso cut (x 3..6, y 1..4, every z) leaves one piece; keep all: labelled, coloured by it
+    every = asyncio.run(panel.apply("segment.components", {"eps": "1.5", "min_points": "3", "keep": "all"}))
+    assert every is not None and s.color_field == "component" and every.name.endswith("· components")
+    # the plane form starts through the centre of the shown cloud's bounds, horizontal
+    panel.set_op("crop.plane")
+    assert s.ce_values["point"] == "4.5, 4.5, 104.5" and s.ce_values["normal"] == "0, 0, 1"
+    half = asyncio.run(panel.apply("crop.plane", s.ce_values))
+    assert half is not None and half.n_kept == 840 // 2

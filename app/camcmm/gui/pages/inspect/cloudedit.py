@@ -88,8 +88,7 @@ class CloudEditPanel:
         if key != self._item:
             self._item = key
             self.clear_selection()
-            if self.state.ce_op == "crop.box":
-                self.prefill_box()
+            self.prefill()
 
     def _history(self) -> None:
         self.state.ce_can_undo = self.edits.can_undo()
@@ -102,19 +101,25 @@ class CloudEditPanel:
         spec = self.session.host.get(op)
         self.state.ce_fields, self.state.ce_values = declared_fields(spec.parameters)
         self.state.ce_op = op
-        if op == "crop.box":
-            self.prefill_box()
+        self.prefill()
 
-    def prefill_box(self) -> None:
-        """The box form's corners: the shown cloud's bounds (rounded outward to the µm)."""
+    def prefill(self) -> None:
+        """Start the form from the shown cloud: the box's corners at its bounds (rounded
+        outward to the µm, so the box holds every point), the plane through the centre of
+        its bounds, horizontal (normal +z), so that a user moves one value, not types six."""
         shown = self.cloud()
-        if shown is None or shown[1].n_points == 0:
+        op = self.state.ce_op
+        if shown is None or shown[1].n_points == 0 or op not in ("crop.box", "crop.plane"):
             return
         lo, hi = shown[1].bounds
-        pairs = [bounds_text(a, b) for a, b in zip(lo, hi, strict=True)]
         values = dict(self.state.ce_values or {})
-        values["min"] = ", ".join(p[0] for p in pairs)
-        values["max"] = ", ".join(p[1] for p in pairs)
+        if op == "crop.box":
+            pairs = [bounds_text(a, b) for a, b in zip(lo, hi, strict=True)]
+            values["min"] = ", ".join(p[0] for p in pairs)
+            values["max"] = ", ".join(p[1] for p in pairs)
+        else:
+            values["point"] = ", ".join(f"{round(0.5 * (a + b), 3):g}" for a, b in zip(lo, hi, strict=True))
+            values["normal"] = "0, 0, 1"
         self.state.ce_values = values
 
     # -- the selection ------------------------------------------------------------------
@@ -253,7 +258,8 @@ class CloudEditPanel:
         self.clear_selection()
         self.session.refresh_items()
         self.session.refresh_results()  # the drawer lists the edit's result row
-        self.session.select_item(edit.item, chosen=True)
+        labelled = edit.plugin == "segment.components" and edit.params.get("keep") == "all"
+        self.session.select_item(edit.item, chosen=True, field="component" if labelled else None)
         warn = f" — {edit.warnings[0]}" if edit.warnings else ""
         self._say(f"made {edit.line}{warn}")
         self._history()
