@@ -1267,7 +1267,8 @@
     if (this.cam && this.layers.length) {
       var b = this.basis(), c = this.cam, eye = b.eye;
       var f = H / 2 / Math.tan(c.angle * Math.PI / 360), sx = 2 * f / W, sy = 2 * f / H;
-      var near = Math.max(b.dist * 1e-3, 1e-9), far = Math.max(b.dist + 2 * this.radius(), 2 * near);
+      var bs = this.bounds(), near = Math.max(b.dist * 1e-3, 1e-9);
+      var far = Math.max(len(sub(bs.centre, eye)) + bs.radius, 2 * near);
       near = Math.max(near, far * 1e-5); // 24-bit depth: keep far/near moderate
       var A = (far + near) / (far - near), B = -2 * far * near / (far - near);
       var view = [[b.r[0], b.r[1], b.r[2], -dot(b.r, eye)], [b.u[0], b.u[1], b.u[2], -dot(b.u, eye)],
@@ -1329,19 +1330,22 @@
     return this.lastMs;
   };
 
-  View.prototype.radius = function () { // of the shown content about the focal point (mm), cached per state
-    if (this.radiusOf === this.layers) return this.radiusVal;
-    var fp = this.cam ? this.cam.fp : [0, 0, 0], r2 = 0;
+  View.prototype.bounds = function () { // a bounding sphere of the shown content (sampled), per state
+    if (this.boundsOf === this.layers) return this.boundsVal;
+    var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity], k;
     this.layers.forEach(function (l) {
       var p = l.pos, m = 3 * l.n, step = Math.max(3, 3 * Math.floor(l.n / 100000)); // a sample is enough
       for (var i = 0; i < m; i += step) {
-        var dx = p[i] - fp[0], dy = p[i + 1] - fp[1], dz = p[i + 2] - fp[2], q = dx * dx + dy * dy + dz * dz;
-        if (q > r2) r2 = q;
+        for (k = 0; k < 3; k++) {
+          if (p[i + k] < lo[k]) lo[k] = p[i + k];
+          if (p[i + k] > hi[k]) hi[k] = p[i + k];
+        }
       }
     });
-    this.radiusOf = this.layers;
-    this.radiusVal = Math.sqrt(r2) * 1.05 + 1e-6;
-    return this.radiusVal;
+    if (!(lo[0] <= hi[0])) { lo = [0, 0, 0]; hi = [0, 0, 0]; }
+    this.boundsOf = this.layers;
+    this.boundsVal = { centre: mul(add(lo, hi), 0.5), radius: len(sub(hi, lo)) * 0.55 + 1e-6 };
+    return this.boundsVal;
   };
 
   // -- binding --------------------------------------------------------------------------------
