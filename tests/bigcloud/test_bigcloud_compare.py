@@ -109,6 +109,24 @@ def test_exact_sum_and_histogram_do_not_depend_on_the_chunks():
     assert k.tolist() == [2, 1, 2, -1]
 
 
+def test_exact_percentiles_through_sub_bins(monkeypatch):
+    """Bins too full to collect are split in sub-bins first: still numpy's digits."""
+    import camcmm.bigcloud.exact as ex
+
+    rng = np.random.default_rng(1)
+    d = np.concatenate([rng.normal(0, 0.05, 30_000), np.full(500, 0.0123)])  # with ties
+    pct = [0.5, 2.5, 50, 97.5, 99.5, *np.linspace(0, 100, 101)]
+    h = Histogram(0.001).add(d)
+    monkeypatch.setattr(ex, "COLLECT", 100)
+    got, exact = ex.hazen(h, len(d), pct, lambda: np.array_split(d, 3))
+    assert exact and np.array_equal(got, np.percentile(d, pct, method="hazen"))
+    monkeypatch.setattr(ex, "COLLECT", 10**9)  # collected directly, bins whole
+    assert np.array_equal(ex.hazen(h, len(d), pct, lambda: [d])[0], got)
+    # a limit below what the ranks' sub-bins hold: interpolated, and said so
+    got, exact = ex.hazen(Histogram(1.0).add(d), len(d), pct, lambda: [d], limit=10)
+    assert not exact and np.all(np.abs(got - np.percentile(d, pct, method="hazen")) < 1.0)
+
+
 def test_cli_index_and_compare(case, cluster, tmp_path, capfd):
     d, mesh, cloud, dev = case
     small = tmp_path / "small.ply"

@@ -145,35 +145,77 @@ def lerp(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
+#: Sub-bins a histogram bin is split into when its values are too many to collect.
+SUB_BINS = 4096
+#: Values collected at most in one pass (8 bytes each, plus their keys).
+COLLECT = 2_000_000
+
+
 def order_statistics(
     hist: Histogram, ranks: np.ndarray, values: Callable[[], Iterable[np.ndarray]], limit: int = 20_000_000
 ) -> np.ndarray | None:
-    """The values of 0-based ``ranks`` in the sorted data, exactly: the bins holding them
-    (from ``hist``'s cumulative counts), then one pass over ``values()`` (chunks of the
-    data) that keeps the values in those bins. None when those bins hold more than
-    ``limit`` values (the caller then states histogram figures instead)."""
+    """The values of 0-based ``ranks`` in the sorted data, exactly.
+
+    ``hist``'s cumulative counts name the bin holding each rank. When those bins hold
+    more than :data:`COLLECT` values, one pass over ``values()`` (the data in chunks)
+    counts them in :data:`SUB_BINS` sub-bins each (``floor((d - k w) S / w)``, monotone in
+    ``d`` within bin ``k``, so bins and sub-bins keep the values' order) and the ranks are
+    located in sub-bins. A last pass collects the values of the bins or sub-bins holding
+    the ranks; sorted, they give the ranks' values. None when these hold more than
+    ``limit`` values (e.g. one value repeated millions of times; the caller then states
+    histogram figures instead)."""
     k0, _, counts = hist.dense()
     cum = np.concatenate([[0], np.cumsum(counts)])
     b = np.searchsorted(cum, ranks, side="right") - 1  # cum[b] <= r < cum[b + 1]
     targets = np.unique(b)
-    if int(counts[targets].sum()) > limit:
-        return None
-    want = np.zeros(len(counts), dtype=bool)
-    want[targets] = True
-    kept_v, kept_b = [], []
-    for d in values():
+    slot = np.full(len(counts), -1, dtype=np.int64)
+    slot[targets] = np.arange(len(targets))
+    local = ranks - cum[b]  # rank within its bin
+    n_sub = 1 if int(counts[targets].sum()) <= COLLECT else SUB_BINS
+
+    def keyed(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(values in the target bins, their key slot * n_sub + sub-bin)."""
         kb = hist.bins(d) - k0
-        ok = (kb >= 0) & (kb < len(counts))
-        ok[ok] = want[kb[ok]]
-        kept_v.append(d[ok])
-        kept_b.append(kb[ok])
+        inside = (kb >= 0) & (kb < len(counts))
+        t = np.full(len(d), -1, dtype=np.int64)
+        t[inside] = slot[kb[inside]]
+        sel = t >= 0
+        v, t = d[sel], t[sel]
+        if n_sub == 1:
+            return v, t
+        edge = (kb[sel] + k0).astype(np.float64) * hist.width
+        sub = np.clip(np.floor((v - edge) * (n_sub / hist.width)), 0, n_sub - 1).astype(np.int64)
+        return v, t * n_sub + sub
+
+    want = slot[b] * n_sub
+    sub_counts = None
+    if n_sub > 1:  # pass: sub-bin counts of the target bins, then each rank's sub-bin
+        sub_counts = np.zeros(len(targets) * n_sub, dtype=np.int64)
+        for d in values():
+            _, key = keyed(d)
+            sub_counts += np.bincount(key, minlength=len(sub_counts))
+        per = sub_counts.reshape(len(targets), n_sub).cumsum(axis=1)
+        row = per[slot[b]]
+        s = np.array([np.searchsorted(c, q, side="right") for c, q in zip(row, local)], dtype=np.int64)
+        below = np.where(s > 0, np.take_along_axis(row, np.maximum(s - 1, 0)[:, None], axis=1)[:, 0], 0)
+        want, local = want + s, local - below
+    keys = np.unique(want)
+    held = int(counts[targets].sum()) if sub_counts is None else int(sub_counts[keys].sum())
+    if held > limit:
+        return None
+    is_wanted = np.zeros(len(targets) * n_sub, dtype=bool)
+    is_wanted[keys] = True
+    kept_v, kept_k = [], []
+    for d in values():
+        v, key = keyed(d)
+        m = is_wanted[key]
+        kept_v.append(v[m])
+        kept_k.append(key[m])
     v = np.concatenate(kept_v) if kept_v else np.empty(0)
-    kb = np.concatenate(kept_b) if kept_b else np.empty(0, dtype=np.int64)
-    order = np.lexsort((v, kb))
-    v, kb = v[order], kb[order]
-    # position of rank r: the values of earlier target bins, then r - cum[b]
-    first = np.searchsorted(kb, b)
-    return v[first + (ranks - cum[b])]
+    kk = np.concatenate(kept_k) if kept_k else np.empty(0, dtype=np.int64)
+    order = np.lexsort((v, kk))
+    v, kk = v[order], kk[order]
+    return v[np.searchsorted(kk, want) + local]
 
 
 def hazen(

@@ -306,12 +306,11 @@ class LodIndex:
     def _prefixes(self, mvp: np.ndarray, starts: np.ndarray, take: np.ndarray):
         """The first ``take`` points of each cell in view, interleaved: (points, rows, cell)."""
         rows, frac = prefix_rows(starts, take)  # ascending: read in file order
-        order = np.argsort(frac, kind="stable")
-        cell = np.repeat(np.arange(len(take)), take)[order]
-        pts = np.asarray(self._points[rows])[order]
-        rows = rows[order]
-        keep = in_view(mvp, pts)
-        return pts[keep], rows[keep], cell[keep]
+        pts = np.asarray(self._points[rows])
+        keep = np.flatnonzero(in_view(mvp, pts))
+        order = keep[np.argsort(frac[keep], kind="stable")]  # only the points in view are ordered
+        cell = np.repeat(np.arange(len(take)), take)
+        return pts[order], rows[order], cell[order]
 
     def _screen_area(self, camera, mvp: np.ndarray, viewport, vis: np.ndarray) -> np.ndarray:
         """Projected area (px²) of the cells ``vis``: (diagonal x pixels per mm at the
