@@ -97,7 +97,16 @@ class Histogram:
         return k.astype(np.int64)
 
     def add(self, d: np.ndarray) -> Histogram:
-        k, c = np.unique(self.bins(np.asarray(d, dtype=float)), return_counts=True)
+        kb = self.bins(np.asarray(d, dtype=float))
+        if kb.size == 0:
+            return self
+        lo, hi = int(kb.min()), int(kb.max())
+        if hi - lo < 4 * kb.size + 1024:  # a compact range: counted, not sorted
+            c = np.bincount(kb - lo, minlength=hi - lo + 1)
+            k = np.flatnonzero(c)
+            k, c = k + lo, c[k]
+        else:
+            k, c = np.unique(kb, return_counts=True)
         for kk, cc in zip(k.tolist(), c.tolist()):
             self.counts[kk] = self.counts.get(kk, 0) + cc
         return self
