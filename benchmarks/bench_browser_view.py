@@ -133,6 +133,31 @@ def browser_case(page: Any, folder: Path, n: int, rev: int, frames: int, forced:
     return out
 
 
+def webgl_frames(browser: Any, url: str, folder: Path, n: int, frames: int = 5) -> dict[str, Any]:
+    """The same cloud through cloudview.js's WebGL2 backend, forced (a page of its own)."""
+    from helpers.cloudview_page import NAME, READY, SET_STATE, points_layer, scene_state
+
+    page = browser.new_page(viewport={"width": SIZE[0] + 40, "height": SIZE[1] + 40})
+    try:
+        page.goto(url + "?backend=webgl")
+        page.wait_for_selector(".cmm-cv-canvas")
+        xyz, rgb = scanned_sphere(n)
+        layer = points_layer(folder, "cloud", xyz, rgb, point_size=2, origin=CENTRE)
+        page.evaluate(SET_STATE, [NAME, scene_state([layer], camera(), rev=1, origin=CENTRE.tolist())])
+        page.wait_for_function(READY, arg=NAME, timeout=120_000, polling=10)
+        renderer = page.evaluate(
+            """() => { const gl = document.createElement('canvas').getContext('webgl2');
+            if (!gl) return 'no WebGL2'; const i = gl.getExtension('WEBGL_debug_renderer_info');
+            return String(i ? gl.getParameter(i.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER)); }"""
+        )
+        ev = f"window.camcmmCloudView.views['{NAME}']"
+        backend = page.evaluate(f"{ev}.stats().backend")
+        ms = [page.evaluate(f"{ev}.frame({{azimuth: 2, elevation: 0.5}})") for _ in range(frames + 1)][1:]
+        return {"renderer": f"{renderer}, backend {backend}", "ms": ms}
+    finally:
+        page.close()
+
+
 def report(r: dict[str, Any]) -> dict[str, float]:
     n = r["n"]
     print(f"\n== browser, {n:,} points, {SIZE[0]}x{SIZE[1]}, 2 px splats ==")
@@ -221,6 +246,7 @@ def main() -> None:
             page.goto(url)
             page.wait_for_selector(".cmm-cv-canvas")
             results.append(browser_case(page, Path(tmp), args.points, 1, args.frames, forced=True))
+            gl_ms = webgl_frames(browser, url, Path(tmp), args.points)
             if args.big:
                 for f in Path(tmp).iterdir():  # the 2 M buffers are not needed any more
                     f.unlink()
@@ -228,6 +254,10 @@ def main() -> None:
         finally:
             browser.close()
     meds = [report(r) for r in results]
+    print(
+        f"\nWebGL2 backend forced on this machine's GL ({gl_ms['renderer']}; chosen automatically only for a "
+        f"hardware GPU): {args.points:,} points, median {pct(gl_ms['ms'], 50):.0f} ms per rotate frame (GPU finished)"
+    )
     print(f"\nload average after the browser runs: {os.getloadavg()}")
     if args.no_remote:
         return

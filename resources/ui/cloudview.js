@@ -1143,7 +1143,11 @@
       if (delta.dolly) this.dolly(+delta.dolly);
       if (delta.pan) this.pan(+delta.pan[0], +delta.pan[1]);
     }
-    return this.render(!!delta.full);
+    if (!this.gl) return this.render(!!delta.full);
+    var t0 = performance.now();
+    this.render(!!delta.full);
+    this.gl.gl.readPixels(0, 0, 1, 1, this.gl.gl.RGBA, this.gl.gl.UNSIGNED_BYTE, new Uint8Array(4)); // waits for the GPU
+    return (this.lastMs = performance.now() - t0);
   };
 
   View.prototype.stats = function () {
