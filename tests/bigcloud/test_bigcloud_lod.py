@@ -186,3 +186,19 @@ def test_refusals(built, tmp_path):
         LodIndex.open(tmp_path)
     with pytest.raises(InputError, match="NaN"):
         LodIndex.from_points([[0, 0, np.nan]])
+
+
+def test_a_failed_build_leaves_no_folder(built, tmp_path, monkeypatch):
+    import camcmm.bigcloud.store as store
+
+    def broken(*args):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(store, "layout", broken)  # fails in the last pass, the folder half written
+    with pytest.raises(OSError, match="disk full"):
+        build_store(built[0] / "c.ply", tmp_path / "st", chunk=5000)
+    assert not (tmp_path / "st").exists()
+    (tmp_path / "empty").mkdir()  # a folder that was there stays, emptied
+    with pytest.raises(OSError):
+        build_store(built[0] / "c.ply", tmp_path / "empty", chunk=5000)
+    assert (tmp_path / "empty").is_dir() and not any((tmp_path / "empty").iterdir())

@@ -151,96 +151,112 @@ def build_store(
     per = max(1, int(len(codes) * (2 * chunk) / n))
     bounds = np.unique(codes[per::per]) if len(codes) > per else np.empty(0, np.uint32)
 
-    # -- pass 2: records into bucket files
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = out / "_buckets"
-    tmp.mkdir()
-    files = [open(tmp / f"{b:05d}.rec", "wb") for b in range(len(bounds) + 1)]
-    counts_b = np.zeros(len(bounds) + 1, dtype=np.int64)
+    created = not out.exists()
     try:
-        row0 = 0
-        for pts, fields in src.chunks(chunk):
-            ok = np.isfinite(pts).all(axis=1)
-            keep = slice(None) if ok.all() else ok
-            b = np.searchsorted(bounds, grid.morton(pts[keep]), side="right")
-            # stable, in row order within a bucket; 16-bit ids sort by radix (10x faster)
-            order = np.argsort(b.astype(np.uint16) if len(bounds) < 65535 else b, kind="stable")
-            r = np.empty(len(order), dtype=rec)
-            r["p"] = pts[keep][order]
-            r["row"] = (np.arange(len(pts)) if ok.all() else np.flatnonzero(ok))[order] + row0
-            for k, _ in rec_fields:
-                r[f"f_{k}"] = fields[k][keep][order]
-            row0 += len(pts)
-            cuts = np.searchsorted(b[order], np.arange(len(bounds) + 2))
-            for j in np.flatnonzero(np.diff(cuts)):
-                files[j].write(r[cuts[j] : cuts[j + 1]].tobytes())
-            counts_b += np.diff(cuts)
-            say(0.3 + 0.3 * row0 / max(n_rows, 1), f"sorting {row0:,} points into {len(files)} buckets")
-    finally:
-        for f in files:
-            f.close()
+        # -- pass 2: records into bucket files
+        out.mkdir(parents=True, exist_ok=True)
+        tmp = out / "_buckets"
+        tmp.mkdir()
+        files = [open(tmp / f"{b:05d}.rec", "wb") for b in range(len(bounds) + 1)]
+        counts_b = np.zeros(len(bounds) + 1, dtype=np.int64)
+        try:
+            row0 = 0
+            for pts, fields in src.chunks(chunk):
+                ok = np.isfinite(pts).all(axis=1)
+                keep = slice(None) if ok.all() else ok
+                b = np.searchsorted(bounds, grid.morton(pts[keep]), side="right")
+                # stable, in row order within a bucket; 16-bit ids sort by radix (10x faster)
+                order = np.argsort(b.astype(np.uint16) if len(bounds) < 65535 else b, kind="stable")
+                r = np.empty(len(order), dtype=rec)
+                r["p"] = pts[keep][order]
+                r["row"] = (np.arange(len(pts)) if ok.all() else np.flatnonzero(ok))[order] + row0
+                for k, _ in rec_fields:
+                    r[f"f_{k}"] = fields[k][keep][order]
+                row0 += len(pts)
+                cuts = np.searchsorted(b[order], np.arange(len(bounds) + 2))
+                for j in np.flatnonzero(np.diff(cuts)):
+                    files[j].write(r[cuts[j] : cuts[j + 1]].tobytes())
+                counts_b += np.diff(cuts)
+                say(0.3 + 0.3 * row0 / max(n_rows, 1), f"sorting {row0:,} points into {len(files)} buckets")
+        finally:
+            for f in files:
+                f.close()
 
-    # -- pass 3: each bucket sorted into place
-    mm_points = np.lib.format.open_memmap(out / "points.npy", "w+", "<f8", (n, 3))
-    mm_rows = np.lib.format.open_memmap(out / "source_index.npy", "w+", "<i8", (n,))
-    (out / "fields").mkdir()
-    mm_fields = {
-        k: np.lib.format.open_memmap(out / "fields" / f"{k}.npy", "w+", dt.newbyteorder("<"), (n,))
-        for k, dt in rec_fields
-    }
-    cells_ijk, cells_n = [], []
-    at = 0
-    for jb, m in enumerate(counts_b.tolist()):
-        bucket = tmp / f"{jb:05d}.rec"
-        if m:
-            r = np.fromfile(bucket, rec)
-            order, ijk, cnt = layout(r["p"], r["row"], grid, seed)
-            r = r[order]
-            mm_points[at : at + m] = r["p"]
-            mm_rows[at : at + m] = r["row"]
-            for k, _ in rec_fields:
-                mm_fields[k][at : at + m] = r[f"f_{k}"]
-            cells_ijk.append(ijk)
-            cells_n.append(cnt)
-            at += m
-        bucket.unlink()
-        say(0.6 + 0.3 * at / n, f"writing {at:,} points")
-    shutil.rmtree(tmp)
-    for a in (mm_points, mm_rows, *mm_fields.values()):
-        a.flush()
-    del mm_points, mm_rows, mm_fields
-    cells = np.column_stack([np.concatenate(cells_ijk), np.concatenate(cells_n)]).astype(np.int64)
-    np.save(out / "cells.npy", cells)
-    say(0.9, "hashing the source")
-    warnings = []
-    if n_bad:
-        warnings.append(f"{src.name}: {n_bad} rows with non-finite coordinates left out")
-    meta = {
-        "format": FORMAT,
-        "version": VERSION,
-        "n": n,
-        "n_source_rows": n_rows,
-        "n_invalid": n_bad,
-        "bounds": [lo.tolist(), hi.tolist()],
-        "unit": "mm",
-        "dtype": "float64",
-        "grid": grid.to_dict(),
-        "n_cells": len(cells),
-        "seed": seed,
-        "fields": {k: dt.newbyteorder("<").str for k, dt in rec_fields},
-        "source": {
-            "file": str(src.path.resolve()),
-            "format": src.format,
-            "bytes": size,
-            "sha256": file_hash(src.path),
-            "unit": src.unit,
-            "factor_to_mm": src.factor,
-        },
-        "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        "camcmm": __version__,
-        "build_seconds": round(time.perf_counter() - t0, 3),
-        "warnings": warnings,
-    }
-    (out / "meta.json").write_text(json.dumps(meta, indent=2))
+        # -- pass 3: each bucket sorted into place
+        mm_points = np.lib.format.open_memmap(out / "points.npy", "w+", "<f8", (n, 3))
+        mm_rows = np.lib.format.open_memmap(out / "source_index.npy", "w+", "<i8", (n,))
+        (out / "fields").mkdir()
+        mm_fields = {
+            k: np.lib.format.open_memmap(out / "fields" / f"{k}.npy", "w+", dt.newbyteorder("<"), (n,))
+            for k, dt in rec_fields
+        }
+        cells_ijk, cells_n = [], []
+        at = 0
+        for jb, m in enumerate(counts_b.tolist()):
+            bucket = tmp / f"{jb:05d}.rec"
+            if m:
+                r = np.fromfile(bucket, rec)
+                order, ijk, cnt = layout(r["p"], r["row"], grid, seed)
+                r = r[order]
+                mm_points[at : at + m] = r["p"]
+                mm_rows[at : at + m] = r["row"]
+                for k, _ in rec_fields:
+                    mm_fields[k][at : at + m] = r[f"f_{k}"]
+                cells_ijk.append(ijk)
+                cells_n.append(cnt)
+                at += m
+            bucket.unlink()
+            say(0.6 + 0.3 * at / n, f"writing {at:,} points")
+        shutil.rmtree(tmp)
+        for a in (mm_points, mm_rows, *mm_fields.values()):
+            a.flush()
+        del mm_points, mm_rows, mm_fields
+        cells = np.column_stack([np.concatenate(cells_ijk), np.concatenate(cells_n)]).astype(np.int64)
+        np.save(out / "cells.npy", cells)
+        say(0.9, "hashing the source")
+        warnings = []
+        if n_bad:
+            warnings.append(f"{src.name}: {n_bad} rows with non-finite coordinates left out")
+        meta = {
+            "format": FORMAT,
+            "version": VERSION,
+            "n": n,
+            "n_source_rows": n_rows,
+            "n_invalid": n_bad,
+            "bounds": [lo.tolist(), hi.tolist()],
+            "unit": "mm",
+            "dtype": "float64",
+            "grid": grid.to_dict(),
+            "n_cells": len(cells),
+            "seed": seed,
+            "fields": {k: dt.newbyteorder("<").str for k, dt in rec_fields},
+            "source": {
+                "file": str(src.path.resolve()),
+                "format": src.format,
+                "bytes": size,
+                "sha256": file_hash(src.path),
+                "unit": src.unit,
+                "factor_to_mm": src.factor,
+            },
+            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "camcmm": __version__,
+            "build_seconds": round(time.perf_counter() - t0, 3),
+            "warnings": warnings,
+        }
+        (out / "meta.json").write_text(json.dumps(meta, indent=2))
+    except BaseException:
+        _discard(out, created)  # a failed or interrupted build leaves nothing behind
+        raise
     say(1.0, "done")
     return meta
+
+
+def _discard(out: Path, created: bool) -> None:
+    if created:
+        shutil.rmtree(out, ignore_errors=True)
+    elif out.is_dir():
+        for child in out.iterdir():
+            if child.is_dir():
+                shutil.rmtree(child, ignore_errors=True)
+            else:
+                child.unlink(missing_ok=True)
