@@ -603,7 +603,10 @@
         if (s.kind === "points") {
           var k = frac < 1 ? Math.max(1, Math.floor(l.n * frac)) : l.n;
           if (k < l.n && k > CHUNK) k -= k % CHUNK; // whole chunks: a uniform subsample (lodSort)
-          drawPoints(self, P, l, k, Math.max(1, Math.round(+s.point_size || 1)), alpha, ids);
+          var size = Math.max(1, Math.round(+s.point_size || 1));
+          // a subsample covers the same area with bigger splats (at most twice as wide): fewer holes
+          if (k < l.n) size = Math.min(2 * size, Math.round(size * Math.sqrt(l.n / k)));
+          drawPoints(self, P, l, k, size, alpha, ids);
           drawn += k;
           total += l.n;
         } else if (s.kind === "mesh") {
