@@ -1,7 +1,8 @@
 /* camcmm's client-side 3-D view (issue 29): draws the pages' scenes in the browser on the CPU.
 
    Why the CPU: on this kind of machine WebGL is SwiftShader (software); a gl.POINTS draw of 2 M
-   points took 690 ms, a plain-JS splatter into a 2-D canvas 34 ms (docs/bigclouds.md).
+   points took 690 ms, a plain-JS splatter into a 2-D canvas 34 ms (docs/bigclouds.md). Where the
+   browser reports a hardware GPU a WebGL2 backend draws instead (see "optional GPU backend").
 
    Protocol (the Python side, camcmm.gui.clientview, writes it): every element
    <div class="cmm-cloudview" data-cv="NAME"> gets a renderer (a canvas filling it and HTML
@@ -18,7 +19,8 @@
    wheel dollies (x1.1 per notch), right/middle or shift+left drag pans, double-click restores
    the server's camera. With tool lasso/rect a left drag draws the selection instead.
    Interaction frames draw a prefix of each point layer (the budget, adapted so a frame takes
-   about 40 ms); 150 ms after the last event everything is drawn.
+   about 40 ms, in whole chunks of 65536 points, with splats grown by sqrt(n/k) up to twice their
+   size so the subsample covers the same area); 150 ms after the last event everything is drawn.
    Projection as VTK's perspective camera: view_angle is the vertical angle; a point at camera
    coordinates (xc, yc, d) (d along the view direction) lands at pixel
    (W/2 + f xc/d, H/2 - f yc/d) with f = (H/2) / tan(view_angle/2).
@@ -586,7 +588,7 @@
       var P = {
         r: b.r, u: b.u, f: b.f, ro: -dot(b.r, b.eye), uo: -dot(b.u, b.eye), fo: -dot(b.f, b.eye),
         F: H / 2 / Math.tan(this.cam.angle * Math.PI / 360), cx: W / 2, cy: H / 2,
-        near: Math.max(b.dist * 1e-3, 1e-9), eye: b.eye, W: W, H: H,
+        near: Math.max(b.dist * 1e-3, 1e-9), W: W, H: H,
       };
       var pointsTotal = 0;
       this.layers.forEach(function (l) { if (l.spec.kind === "points") pointsTotal += l.n; });
@@ -615,7 +617,6 @@
           drawLines(self, P, l, alpha, ids);
         }
       });
-      this.P = P;
     }
     if (idsOnly) return performance.now() - t0; // picking under the GL backend: the id-buffer only
     this.ctx.putImageData(this.image, 0, 0);
