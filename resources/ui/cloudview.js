@@ -369,7 +369,7 @@
       this.render(true);
       return;
     }
-    var base = spec.base || "";
+    var base = spec.base ? String(spec.base).replace(/\/?$/, "/") : ""; // a folder: "x" means "x/"
     var rev = spec.rev;
     var jobs = [], urls = [];
     var layers = (spec.layers || []).map(function (l) {
@@ -410,7 +410,7 @@
           if (!l.perm || !l.col || l.colKey || l.bad) return;
           l.col = gather(l.col, l.perm);
           l.colKey = l.spec.positions + "|" + l.spec.colors;
-          delete cache[(spec.base || "") + l.spec.colors + "|rgb"]; // the sorted copy is kept instead
+          delete cache[base + l.spec.colors + "|rgb"]; // the sorted copy is kept instead
         });
         self.pendingRev = null;
         self.pendingUrls = [];
