@@ -22,6 +22,7 @@ small cloud comes first.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -84,6 +85,7 @@ def main() -> None:
     args = ap.parse_args()
     rng = np.random.default_rng(0)
     n = args.n
+    print(f"load average: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
     fit_sphere(sphere_cloud(20_000, rng), "vdi2634")  # warm-up: imports, caches
     x = sphere_cloud(n, rng)

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ._geometry import N_MIN
+from ._geometry import N_MIN, dot
 
 #: Form rms above this many times the local noise estimate counts as systematic: the
 #: estimate scatters by ~10 % for a few hundred points, and the right element gives 1.
@@ -185,7 +185,7 @@ def fit_warnings(
             f"plane fit: the points are {_fmt(sv[2])} mm thick against {_fmt(sv[1])} mm wide (RMS): the "
             f"normal is ill-determined; the points do not look like a plane"
         )
-    rms = float(np.sqrt(r @ r / len(r)))
+    rms = float(np.sqrt(dot(r, r) / len(r)))
     if rms > FORM_FRACTION * spread:
         ratio = None
         if n > 2 * K_NEIGHBOURS:

@@ -10,7 +10,7 @@ import numpy as np
 from camcmm.api import ParameterError
 
 from . import minzone
-from ._geometry import Frame, as_points
+from ._geometry import Frame, as_points, row_moments
 from .checks import fit_warnings
 from .circles import CIRCLE3D
 from .cones import CONE
@@ -45,7 +45,7 @@ def _spread(y: np.ndarray, used: np.ndarray, scale: float) -> np.ndarray:
     """RMS spread (mm) of the used points about their centroid along their principal axes,
     largest first (for :func:`.checks.fit_warnings`), from the normalised points y (d, N):
     their moments, minus those of the few removed points, so no copy of the used ones."""
-    s1, s2, n = y.sum(axis=1), y @ y.T, y.shape[1]
+    s1, s2, n = y.sum(axis=1), row_moments(y), y.shape[1]
     if not used.all():
         yr = y[:, ~used]
         s1, s2, n = s1 - yr.sum(axis=1), s2 - yr @ yr.T, n - yr.shape[1]

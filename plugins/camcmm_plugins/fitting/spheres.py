@@ -19,7 +19,17 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ._geometry import FLAT, Frame, GeometryError, LMResult, covariance, levenberg_marquardt, principal_axes, subsample
+from ._geometry import (
+    FLAT,
+    Frame,
+    GeometryError,
+    LMResult,
+    covariance,
+    dot,
+    levenberg_marquardt,
+    principal_axes,
+    subsample,
+)
 
 #: Above this many points the start values come from a strided subset.
 SUBSET = 10_000
@@ -145,7 +155,7 @@ class HypersphereModel:
         d, s = self.dim, frame.scale
         p = res.state
         assert res.jt is not None  # Gauss-Newton keeps its Jacobian
-        cov = covariance(res.jt, float(res.r @ res.r), res.scaled) * s * s
+        cov = covariance(res.jt, dot(res.r, res.r), res.scaled) * s * s
         params = {"center": p[:d] * s + frame.origin, "radius": float(p[d] * s)}
         var = np.clip(np.diag(cov), 0, None)  # NaN (no degrees of freedom) stays NaN
         std = {"center": np.sqrt(var[:d]), "radius": float(np.sqrt(var[d]))}
