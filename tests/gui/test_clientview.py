@@ -343,3 +343,47 @@ def test_compare_clicks_take_pairs_and_deviations(gui_app, tmp_path):
     i = i if page.view.dev.idx is None else int(page.view.dev.idx[i])
     assert s.ins_picked["index"] == i
     assert s.ins_picked["deviation_mm"] == float(page.deviations.fields["deviation"][i])
+
+
+def test_big_cloud_refines_on_zoom_and_comes_back(gui_app, tmp_path):
+    """A cloud above the client view's limit (here an explicit limit of 1000 points for a
+    cloud of 6000): first the random subset; zoomed in, only points in the view, several
+    times as many there as the first paint had, on the whole cloud's colour limits; a click
+    names the cloud's own row; zoomed out, the first paint again. The reference for "in
+    the view" is VTK's own camera projection at the browser's viewport."""
+    import camcmm.io as cio
+    from camcmm.gui.pages.compare.picking import world_to_display
+
+    server, session = gui_app(display_limit=1000)
+    s = server.state
+    cv = server.camcmm_client_views.views["cv_inspect"]
+    P = np.random.default_rng(5).uniform([0, 0, 0], [60, 40, 2], size=(6000, 3))
+    obj = PointCloud(P, name="big", fields={"deviation": (P[:, 0] - 30) / 300}, field_units={"deviation": "mm"})
+    cio.write(obj, tmp_path / "big.ply")
+    session.select_item(session.import_file(tmp_path / "big.ply"))
+    view = session.view
+    first = s.cv_inspect
+    assert view.shown.n_shown == 1000 and first["layers"][0]["n"] == 1000 and "1 000 of 6 000" in first["note"]
+    assert (first["legend"]["lo"], first["legend"]["hi"]) == pytest.approx((-0.1, 0.1), abs=2e-3)  # the whole cloud's
+
+    W, H = 800, 600
+    zoom = {"position": [15.0, 10.0, 25.0], "focal_point": [15.0, 10.0, 1.0], "view_up": [0, 1, 0], "view_angle": 30}
+    assert cv.camera(zoom, [W, H])
+    rows = cv.big.rows
+    xy, _, ok = world_to_display(view.plotter.renderer, P)  # VTK's projection at the browser's size
+    inside = ok & (xy[:, 0] > 1) & (xy[:, 0] < W - 1) & (xy[:, 1] > 1) & (xy[:, 1] < H - 1)
+    near = ok & (xy[:, 0] > -1) & (xy[:, 0] < W + 1) & (xy[:, 1] > -1) & (xy[:, 1] < H + 1)
+    assert 300 < inside.sum() < 1000
+    assert set(rows.tolist()) <= set(np.nonzero(near)[0])  # nothing outside the view is sent
+    base_rows = np.nonzero(np.isin(P[:, 0], np.asarray(cv.big.base.poly.points)[:, 0]))[0]
+    assert inside[rows].sum() > 3 * inside[base_rows].sum()  # denser where zoomed in
+    st = s.cv_inspect
+    assert st["layers"][0]["n"] == len(rows) and "those in view" in st["note"] and s.display_note == st["note"]
+    assert (st["legend"]["lo"], st["legend"]["hi"]) == (first["legend"]["lo"], first["legend"]["hi"])
+    cv.pick("cloud", 0, None)
+    row = int(rows[lod_order(len(rows))[0]])
+    assert s.cv_inspect_picked.startswith(f"point #{row}: (")
+
+    far = {"position": [30.0, 20.0, 400.0], "focal_point": [30.0, 20.0, 1.0], "view_up": [0, 1, 0], "view_angle": 30}
+    assert cv.camera(far, [W, H])
+    assert cv.big.rows is None and view.shown.n_shown == 1000 and s.cv_inspect["note"] == first["note"]

@@ -309,6 +309,10 @@ def test_two_million_points_are_decimated_for_display(app, tmp_path):
     key = s.import_file(path)
     assert key is not None, server.state.error_message
     assert s.view.shown.n_total == n
+    # drawn in the browser (the default): all of them (up to clientview.CLIENT_LIMIT)
+    assert s.view.shown.n_shown == n and server.state.display_note == "showing all 2 000 000 points"
+    server.state.cv_inspect_mode = "server"  # the server's rendering: a random subset
+    server.state.flush()
     assert s.view.shown.n_shown <= DISPLAY_LIMIT
     assert server.state.display_note.startswith("showing 500 000 of 2 000 000 points")
     assert s.load(key).n_points == n  # the full data stay for computations

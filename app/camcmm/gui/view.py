@@ -95,6 +95,20 @@ def display_index(n: int, limit: int, seed: int = 0) -> np.ndarray | None:
     return np.sort(rng.choice(n, size=limit, replace=False))
 
 
+def field_ranges(obj: Any) -> dict[str, tuple[float, float]]:
+    """(lo, hi) of the finite values of each scalar field and of x, y, z of a cloud."""
+    out: dict[str, tuple[float, float]] = {}
+    columns = {name: np.asarray(v) for name, v in (getattr(obj, "fields", {}) or {}).items()}
+    P = np.asarray(obj.points)
+    columns.update({name: P[:, axis] for name, axis in COORDS.items()})
+    for name, v in columns.items():
+        if v.ndim == 1 and v.size and np.issubdtype(v.dtype, np.number):
+            lo, hi = np.nanmin(v), np.nanmax(v)  # NaN only when no value is finite
+            if np.isfinite(lo) and np.isfinite(hi):
+                out[name] = (float(lo), float(hi))
+    return out
+
+
 @dataclass
 class Shown:
     """What the view shows for one item."""
@@ -105,6 +119,9 @@ class Shown:
     n_total: int
     n_shown: int
     units: dict[str, str] = field(default_factory=dict)
+    #: (lo, hi) of each field over the whole cloud when a subset is shown: the colour map's
+    #: limits, so that every subset (the random one, a level of detail) is coloured alike
+    ranges: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 class SceneView:
@@ -124,6 +141,7 @@ class SceneView:
         r.camera_position = r.get_default_cam_pos()
         r.ResetCamera()
         self.shown: Shown | None = None
+        self.source: Any = None  # the object shown, whole
         self.field: str = SOLID
         self.actor = None
         self.scalar_bar_title: str = ""
@@ -153,7 +171,7 @@ class SceneView:
             idx = display_index(n, self.display_limit)
             sub = obj if idx is None else obj.subset(idx)
             poly = sub.to_pyvista()
-            shown = Shown(key, poly, "pointcloud", n, sub.n_points, units)
+            shown = Shown(key, poly, "pointcloud", n, sub.n_points, units, {} if idx is None else field_ranges(obj))
         else:
             raise TypeError(f"cannot show a {type(obj).__name__} in the 3D view")
         pts = np.asarray(poly.points)
@@ -170,6 +188,7 @@ class SceneView:
         """Show ``obj`` (replacing what was shown) coloured by ``field_name``."""
         shown = self._prepare(key, obj)
         self.shown = shown
+        self.source = obj  # the whole object (a level of detail of a big cloud reads it)
         self.field = field_name or default_field(obj)
         if shown.n_shown < shown.n_total:
             how = "every few rows and columns" if shown.kind == "heightmap" else "random subset"
@@ -226,6 +245,7 @@ class SceneView:
             self.scalar_bar_title = legend_title(name, unit)
             finite = values[np.isfinite(values)]
             lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+            lo, hi = shown.ranges.get(name, (lo, hi))
             cmap = "viridis"
             if any(s in name.lower() for s in _SIGNED) and lo < 0 < hi:
                 m = max(-lo, hi)

@@ -4,16 +4,19 @@ pushes an image (server mode); a click in the browser goes to the page's own pic
 
 Inspect (:func:`attach_scene_view`): in browser mode the view shows up to
 :data:`CLIENT_LIMIT` points whole (the server's remote view: ``DISPLAY_LIMIT``, a random
-subset above it); a click names the point, its coordinates and the value it is coloured
-by (state ``<name>_picked``); a lasso or rectangle goes to the Inspect page's
+subset above it); a bigger cloud shows a random subset of that many first and refines
+as the browser zooms in (:mod:`.bigview`, camcmm.bigcloud's level of detail); a click
+names the point, its coordinates and the value it is coloured by (state
+``<name>_picked``); a lasso or rectangle goes to the Inspect page's
 ``on_select(view_name, selection)`` where it has one.
 
-Compare (:func:`attach_compare`): a click runs the page's own ``pick_display`` (point
-pairs on the inputs, a deviation on the result, a feature of the nominal for a
-characteristic), with the browser's pick standing in for the server's projection
-picking: the point is the drawn one (through the level-of-detail order back to the
-actor's point, then to the full cloud), a point on the nominal mesh is the mesh's
-point nearest to the browser's (a cell locator), so the page's logic runs unchanged.
+Compare (:func:`attach_compare`): the same limits for what is drawn next; a click runs
+the page's own ``pick_display`` (point pairs on the inputs, a deviation on the result, a
+feature of the nominal for a characteristic), with the browser's pick standing in for
+the server's projection picking: the point is the drawn one (through the
+level-of-detail order back to the actor's point, then to the full cloud), a point on
+the nominal mesh is the mesh's point nearest to the browser's (a cell locator), so the
+page's logic runs unchanged.
 """
 
 from __future__ import annotations
@@ -26,28 +29,36 @@ import numpy as np
 
 from ...tasks.items import fmt_count
 from ..view import DISPLAY_LIMIT
+from .bigview import BigCloud
 from .client import ClientView
 
 #: points the Inspect page shows whole when the browser draws them
 CLIENT_LIMIT = 4_000_000
 
 
+def _limits(view: Any) -> Callable[[str], int]:
+    """The display limit of ``view`` by mode: the server's as it was made; in the browser
+    :data:`CLIENT_LIMIT` in place of the default (an explicit limit — tests,
+    ``--display-limit`` — stays as given)."""
+    server_limit = int(view.display_limit)
+    client_limit = max(CLIENT_LIMIT, server_limit) if server_limit == DISPLAY_LIMIT else server_limit
+    return lambda mode: client_limit if mode == "browser" else server_limit
+
+
 def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any]) -> None:
     """Hook the Inspect page's SceneView (``page.session.view``) to ``cv``."""
     session = page.session
     view = session.view
-    server_limit = int(view.display_limit)
-    # an explicit limit (tests, --display-limit) stays; the default one grows in the browser
-    client_limit = max(CLIENT_LIMIT, server_limit) if server_limit == DISPLAY_LIMIT else server_limit
-
-    def limit_for(mode: str) -> int:
-        return client_limit if mode == "browser" else server_limit
-
+    limit_for = _limits(view)
+    server_limit, client_limit = limit_for("server"), limit_for("browser")
     view.display_limit = limit_for(cv.mode)
+
+    big = BigCloud(view, cv, client_limit, session.state)
 
     def changed(reset_camera: bool) -> None:
         if reset_camera:
             view.plotter.reset_camera()
+            big.shown_anew()
         if cv.mode == "server":
             push_remote()
         else:
@@ -65,7 +76,7 @@ def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any])
             session.select_item(key, chosen=False)  # drawn again at the new limit
 
     def on_pick(layer_id: str, i: int, point: np.ndarray) -> dict[str, Any] | None:
-        return inspect_pick(view, cv, layer_id, i, point)
+        return inspect_pick(view, cv, layer_id, i, point, big.source_row(i) if big.rows is not None else None)
 
     def on_select(name: str, selection: dict[str, Any]) -> Any:
         fn = getattr(page, "on_select", None)
@@ -77,17 +88,25 @@ def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any])
     cv.on_pick = on_pick
     cv.on_select = on_select
     cv.on_server_view = push_remote
+    cv.on_camera = lambda camera: big.refine(camera, cv.viewport)
+    cv.big = big  # type: ignore[attr-defined]  # for tests and scripts
     setattr(session.state, f"{cv.name}_picked", "")
 
 
-def inspect_pick(view: Any, cv: ClientView, layer_id: str, i: int, point: np.ndarray) -> dict[str, Any] | None:
-    """A click on the Inspect page's cloud: its point ``i`` (of those drawn), its
-    coordinates (mm) and the value of the field it is coloured by; state ``<name>_picked``."""
+def inspect_pick(
+    view: Any, cv: ClientView, layer_id: str, i: int, point: np.ndarray, row: int | None = None
+) -> dict[str, Any] | None:
+    """A click on the Inspect page's cloud: its point ``i`` (of those drawn; ``row``: the
+    cloud's own row of it when known), its coordinates (mm) and the value of the field it
+    is coloured by; state ``<name>_picked``."""
     shown = view.shown
     if layer_id != "cloud" or shown is None:
         return None
-    info: dict[str, Any] = {"index": int(i), "point": [float(c) for c in point]}
-    which = f"#{i}" if shown.n_shown == shown.n_total else f"#{i} of the {fmt_count(shown.n_shown)} shown"
+    info: dict[str, Any] = {"index": int(i if row is None else row), "point": [float(c) for c in point]}
+    if row is not None or shown.n_shown == shown.n_total:
+        which = f"#{info['index']}"
+    else:
+        which = f"#{i} of the {fmt_count(shown.n_shown)} shown"
     text = f"point {which}: (" + ", ".join(f"{c:.3f}" for c in point) + ") mm"
     data = shown.poly.point_data
     if view.field in data and np.asarray(data[view.field]).ndim == 1:
@@ -101,8 +120,11 @@ def inspect_pick(view: Any, cv: ClientView, layer_id: str, i: int, point: np.nda
 
 # ------------------------------------------------------------------------------ Compare
 def attach_compare(page: Any, cv: ClientView, push_remote: Callable[[], Any]) -> None:
-    """Hook the Compare page's CompareView (``page.view``) to ``cv``."""
+    """Hook the Compare page's CompareView (``page.view``) to ``cv``. The display limit
+    follows the mode for what is drawn next (the note says how many points are shown)."""
     view = page.view
+    limit_for = _limits(view)
+    view.display_limit = limit_for(cv.mode)
 
     def changed(reset_camera: bool) -> None:
         if cv.mode == "server":
@@ -114,6 +136,11 @@ def attach_compare(page: Any, cv: ClientView, push_remote: Callable[[], Any]) ->
     cv.names = lambda: dict(view._actors)
     cv.on_pick = lambda layer_id, i, point: compare_pick(page, layer_id, i, point)
     cv.on_server_view = push_remote
+
+    def on_mode(mode: str) -> None:
+        view.display_limit = limit_for(mode)
+
+    cv.on_mode = on_mode
 
 
 @contextmanager
