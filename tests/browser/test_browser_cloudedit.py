@@ -12,6 +12,8 @@ Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``<tmp>/cloudedit``).
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -68,8 +70,16 @@ def test_box_crop_undo_and_a_lasso_in_the_view(grid_gui):
             # the box form opens with the grid's bounds
             _field(page, "min").wait_for()
             assert _field(page, "min").input_value() == "0, 0, 0" and _field(page, "max").input_value() == "9, 9, 9"
+            # the open panel outlines the box in the client view (8 corners), and the outline
+            # follows the form: a new positions buffer once the corners are typed
+            lines = "(window.trame.state.get('cv_inspect').layers || []).find(l => l.kind === 'lines' && l.n === 8)"
+            page.wait_for_function(f"() => !!{lines}")
+            first = page.evaluate(f"() => {lines}.positions")
             _field(page, "min").fill("2, 2, 2")
             _field(page, "max").fill("5, 5, 5")
+            page.wait_for_function(f"(first) => {{ const l = {lines}; return l && l.positions !== first; }}", arg=first)
+            time.sleep(0.5)  # the client draws the new buffer
+            page.screenshot(path=str(SHOTS / "box-outline.png"))
             page.locator('[data-testid="ce-apply"]').click()
             page.wait_for_selector('[data-testid="ce-status"]:has-text("kept 64 points, removed 936")')
             page.wait_for_selector('[data-testid="display-note"]:has-text("showing all 64 points")')

@@ -16,7 +16,17 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 
-from camcmm.gui.pages.inspect.cloudedit import SELECTION_ACTOR, VIEW, bounds_text  # noqa: E402
+from camcmm.errors import GeometryError  # noqa: E402
+from camcmm.gui.pages.inspect.cloudedit import (  # noqa: E402
+    PREVIEW_ACTOR,
+    SELECTION_ACTOR,
+    VIEW,
+    bounds_text,
+    box_corners,
+    plane_corners,
+    turned_box_corners,
+)
+from camcmm.host import default_host  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
 from camcmm.tasks.cloudedit import provenance  # noqa: E402
 
@@ -57,6 +67,14 @@ def test_box_crop_undo_redo(opened):
     assert bounds_text(-1.00001, 2.00001) == ("-1.001", "2.001")
     assert not s.ce_can_undo
     values = {**s.ce_values, "min": "2, 2, 102", "max": "5, 5, 105.5"}
+    # the open panel outlines the form's box in the view; a refused value takes it away
+    s.ce_open, s.ce_values = "ce", values
+    panel.preview()
+    drawn = np.asarray(session.view.plotter.actors[PREVIEW_ACTOR].GetMapper().GetInput().GetPoints().GetData())
+    np.testing.assert_array_equal(drawn, box_corners([2, 2, 102], [5, 5, 105.5]))
+    s.ce_values = {**values, "max": "5, x, 5"}
+    panel.preview()
+    assert PREVIEW_ACTOR not in session.view.plotter.actors
     edit = asyncio.run(panel.apply("crop.box", values))
     assert edit is not None, s.ce_status
     assert edit.n_kept == 64 and s.selected_item == edit.item and not s.ce_failed
@@ -119,3 +137,24 @@ def test_lasso_selection_is_highlighted_kept_or_removed(opened):
     assert s.ce_values["point"] == "4.5, 4.5, 104.5" and s.ce_values["normal"] == "0, 0, 1"
     half = asyncio.run(panel.apply("crop.plane", s.ce_values))
     assert half is not None and half.n_kept == 840 // 2
+
+
+def test_the_outlines_follow_the_plugins_conventions():
+    """The turned box's outline (SciPy's extrinsic x-y-z rotation) has its corners on the
+    faces of the box crop.box keeps (its own R = Rz Ry Rx): a hair larger holds all 8, a
+    hair smaller none; the plane's square lies in the plane, its side 2 x half."""
+    centre, size, rotation = [1.0, -2.0, 3.0], [4.0, 6.0, 10.0], [20.0, -35.0, 110.0]
+    corners = turned_box_corners(centre, size, rotation)
+    host = default_host()
+
+    def kept(scale: float) -> int:
+        params = {"centre": centre, "size": [scale * x for x in size], "rotation": rotation}
+        try:
+            return host.run("crop.box", {"cloud": PointCloud(corners)}, params).outputs["n_kept"]
+        except GeometryError:
+            return 0  # keeps none: refused
+
+    assert kept(1 + 1e-9) == 8 and kept(1 - 1e-9) == 0
+    square = plane_corners([1.0, 2.0, 3.0], [0.0, 3.0, 4.0], 5.0)
+    np.testing.assert_allclose((square - [1, 2, 3]) @ np.array([0, 0.6, 0.8]), 0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(square, axis=0, append=square[:1]), axis=1), 10.0)

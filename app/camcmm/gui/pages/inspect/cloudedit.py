@@ -37,12 +37,42 @@ VIEW = "cv_inspect"
 #: The highlight of a selection in the scene, and the most points it draws.
 SELECTION_ACTOR = "cloudedit-selection"
 HIGHLIGHT_LIMIT = 200_000
+#: The outline of the box or plane in the form, drawn while the panel is open.
+PREVIEW_ACTOR = "cloudedit-preview"
+#: The 12 edges of a box whose 8 corners are numbered by their bits (x, y, z: 1, 2, 4).
+BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+_BITS = np.array([[(i >> k) & 1 for k in range(3)] for i in range(8)], dtype=float)
 
 
 def bounds_text(lo: float, hi: float) -> tuple[str, str]:
     """A box's corner coordinates as the form shows them: to the µm, rounded outward so
     that the prefilled box holds every point."""
     return f"{math.floor(lo * 1000) / 1000:g}", f"{math.ceil(hi * 1000) / 1000:g}"
+
+
+def box_corners(lo: Any, hi: Any) -> np.ndarray:
+    """The 8 corners (mm) of the box ``lo``..``hi``, numbered as :data:`BOX_EDGES` expects."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    return lo + _BITS * (hi - lo)
+
+
+def turned_box_corners(centre: Any, size: Any, rotation: Any) -> np.ndarray:
+    """The corners of the box of edge lengths ``size`` about ``centre`` turned by
+    ``rotation`` (degrees about the fixed x, then y, then z axes: SciPy's extrinsic "xyz",
+    R = Rz Ry Rx, the convention crop.box declares)."""
+    from scipy.spatial.transform import Rotation
+
+    r = Rotation.from_euler("xyz", np.asarray(rotation, float), degrees=True).as_matrix()
+    return np.asarray(centre, float) + ((_BITS - 0.5) * np.asarray(size, float)) @ r.T
+
+
+def plane_corners(point: Any, normal: Any, half: float) -> np.ndarray:
+    """A square of half-side ``half`` (mm) in the plane through ``point`` with ``normal``, corners in order."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(n, u)
+    return np.asarray(point, float) + half * np.array([u + w, u - w, -u - w, -u + w])
 
 
 class CloudEditPanel:
@@ -67,10 +97,15 @@ class CloudEditPanel:
                 "ce_running": False,
                 "ce_can_undo": False,
                 "ce_can_redo": False,
+                "ce_open": None,
             }
         )
         self.set_op("crop.box")
         self.session.watch_items(self._items_changed)
+
+        @page.server.state.change("ce_values", "ce_open")
+        def _form_changed(**_: Any) -> None:  # the outline follows the form as it is typed
+            self.preview()
 
     # -- the item and the form ----------------------------------------------------------
     def cloud(self) -> tuple[str, Any] | None:
@@ -121,6 +156,54 @@ class CloudEditPanel:
             values["point"] = ", ".join(f"{round(0.5 * (a + b), 3):g}" for a, b in zip(lo, hi, strict=True))
             values["normal"] = "0, 0, 1"
         self.state.ce_values = values
+        self.preview()
+
+    # -- the outline of the box or plane --------------------------------------------------
+    def outline(self) -> tuple[np.ndarray, list[tuple[int, int]]] | None:
+        """``(corners, edges)`` of the box or plane the form holds now (mm), while the panel
+        is open; None when it is closed, another operation is chosen or a value is refused."""
+        from ....tasks.plugin_run import checked_params
+
+        op = self.state.ce_op
+        if self.state.ce_open != "ce" or op not in ("crop.box", "crop.plane"):
+            return None
+        try:
+            values = checked_params(self.session.host.get(op), dict(self.state.ce_values or {}))
+        except CamcmmError:
+            return None
+        if op == "crop.plane":
+            point, normal = values.get("point"), values.get("normal")
+            if point is None or normal is None or not np.any(normal):
+                return None
+            shown = self.cloud()
+            half = 0.5 * float(np.linalg.norm(np.ptp(shown[1].bounds, axis=0))) if shown else 10.0
+            return plane_corners(point, normal, max(half, 1e-3)), [(0, 1), (1, 2), (2, 3), (3, 0)]
+        if values.get("min") is not None and values.get("max") is not None:
+            return box_corners(values["min"], values["max"]), BOX_EDGES
+        if values.get("centre") is not None and values.get("size") is not None:
+            return turned_box_corners(values["centre"], values["size"], values.get("rotation") or [0, 0, 0]), BOX_EDGES
+        return None
+
+    def preview(self) -> None:
+        """Draw :meth:`outline` in the view (magenta lines), or take it away."""
+        view = self.session.view
+        shape = self.outline()
+        had = view.plotter.remove_actor(PREVIEW_ACTOR, render=False)
+        if shape is not None:
+            import pyvista as pv
+
+            corners, edges = shape
+            lines = np.array([[2, a, b] for a, b in edges]).ravel()
+            view.plotter.add_mesh(
+                pv.PolyData(corners, lines=lines),
+                color="#d81b60",
+                line_width=2,
+                name=PREVIEW_ACTOR,
+                reset_camera=False,
+                pickable=False,
+            )
+        if (had or shape is not None) and view.on_update is not None:
+            view.on_update(False)
 
     # -- the selection ------------------------------------------------------------------
     def _client_view(self) -> Any:
@@ -322,8 +405,10 @@ def cloudedit_panel(page: Any) -> None:
     from trame.widgets import vuetify3 as v
 
     p: CloudEditPanel = page.cloudedit
-    with v.VExpansionPanels(v_show="page === 'inspect'", classes="px-2 pt-1", raw_attrs=tid("ce-panel")):
-        with v.VExpansionPanel(raw_attrs=tid("ce-panel-inner")):
+    with v.VExpansionPanels(
+        v_model=("ce_open", None), v_show="page === 'inspect'", classes="px-2 pt-1", raw_attrs=tid("ce-panel")
+    ):
+        with v.VExpansionPanel(value="ce", raw_attrs=tid("ce-panel-inner")):
             v.VExpansionPanelTitle("Crop & segment", raw_attrs=tid("ce-open"))
             with v.VExpansionPanelText():
                 with html.Div(classes="d-flex align-center flex-wrap ga-2 mb-2"):
