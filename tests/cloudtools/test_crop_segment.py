@@ -201,3 +201,19 @@ def test_polygon_rule_is_the_even_odd_rule():
         False,
         False,
     ]
+
+
+def test_the_generic_runner_crops_with_a_negative_corner(tmp_path, capfd):
+    """``camcmm run crop.box CLOUD --min -1,-1,-1 --max 5,5,5 --out``: the options come from
+    the declaration, a vector may start with a minus; x, y, z in 0..5 -> 6^3 points."""
+    from camcmm.io import read, write
+    from helpers.cli import main_json
+
+    write(PointCloud(GRID, name="grid"), tmp_path / "grid.ply")
+    out = tmp_path / "box.ply"
+    doc = main_json(
+        capfd, "run", "crop.box", tmp_path / "grid.ply", "--min", "-1,-1,-1", "--max", "5 5 5", "--out", out
+    )
+    assert doc["params"]["min"] == [-1.0, -1.0, -1.0] and doc["outputs"]["n_kept"] == 216
+    back = read(out)
+    assert back.n_points == 216 and back.points.min() == 0 and back.points.max() == 5

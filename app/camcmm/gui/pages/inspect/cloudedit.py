@@ -449,6 +449,9 @@ def cloudedit_panel(page: Any) -> None:
                         variant="outlined",
                         divided=True,
                         update_modelValue=(p.set_tool, "[$event]"),
+                        # a lasso is drawn by the browser's view; the server's images take none
+                        disabled=(f"{VIEW}_mode === 'server'",),
+                        title="Select by drawing in the view (rendering in the browser)",
                         raw_attrs=tid("ce-tools"),
                     ):
                         for tool, icon, tip in (
