@@ -32,6 +32,12 @@ from ...widgets import declared_fields, param_form, tid
 
 #: The operations with a form, and their buttons' words.
 OPS = {"crop.box": "Box", "crop.plane": "Plane", "segment.components": "Components", "cloud.denoise": "Outliers"}
+TIPS = {
+    "crop.box": "Keep the points inside (or outside) a box",
+    "crop.plane": "Keep the points on one side of a plane",
+    "segment.components": "Keep a connected component (DBSCAN)",
+    "cloud.denoise": "Remove statistical outliers (Open3D)",
+}
 #: The client view of the Inspect page (its state key; camcmm.gui.pages.inspect.layout).
 VIEW = "cv_inspect"
 #: The highlight of a selection in the scene, and the most points it draws.
@@ -423,7 +429,7 @@ def cloudedit_panel(page: Any) -> None:
                         raw_attrs=tid("ce-ops"),
                     ):
                         for op, word in OPS.items():
-                            v.VBtn(word, value=op, size="small", raw_attrs=tid(f"ce-op-{op}"))
+                            v.VBtn(word, value=op, size="small", title=TIPS[op], raw_attrs=tid(f"ce-op-{op}"))
                     v.VBtn(
                         "Apply",
                         color="primary",
