@@ -16,7 +16,7 @@ import numpy as np
 from camcmm.api import InputError, PluginError, PointCloud, RunContext, checked_path, read_calibration
 
 from .scale import check_spec
-from .sfm import DEFAULT_MODEL, reconstruct_sparse
+from .sfm import DEFAULT_MAPPER, DEFAULT_MATCHING, DEFAULT_MODEL, DEFAULT_OVERLAP, reconstruct_sparse
 from .sparse import SparseResult
 from .turntable import DEFAULT_WINDOW, check_turntable, parse_angles
 
@@ -120,7 +120,9 @@ def reconstruct(
     dense: bool = True,
     max_image_size: int = 1600,
     scale: str = "",
-    matching: str = "exhaustive",
+    matching: str = DEFAULT_MATCHING,
+    overlap: int = DEFAULT_OVERLAP,
+    mapper: str = DEFAULT_MAPPER,
     camera_model: str = DEFAULT_MODEL,
     scheduler: str = "",
     dense_max_image_size: int = 1600,
@@ -136,7 +138,7 @@ def reconstruct(
     dense : compute the dense cloud after the sparse one.
     max_image_size : longest side (px) used for SfM.
     scale : ``spheres:R1,R2``, ``lengths:FILE``, ``bar:L`` or "" (the reconstruction's own scale).
-    matching, camera_model : see :func:`.sfm.reconstruct_sparse`.
+    matching, overlap, mapper, camera_model : see :func:`.sfm.reconstruct_sparse`.
     scheduler : a Dask scheduler address for the dense stage, "" for in-process.
     dense_max_image_size : longest side (px) the dense stage matches at (0: full size); the
         images are resized with area averaging and the intrinsics scaled to match
@@ -165,6 +167,8 @@ def reconstruct(
         calibration=cal,
         max_image_size=int(max_image_size),
         matching=matching,
+        overlap=int(overlap),
+        mapper=mapper,
         camera_model=camera_model,
         turntable_angles=angles,
         turntable_window=float(turntable_window),
