@@ -48,10 +48,11 @@ def _origin_for(layers: list[Layer], old: list[float] | None) -> list[float]:
     """The origin the buffers are relative to: kept while the scene stays near it (a
     colour or a marker changing keeps every positions buffer as it is), else the centre
     of the scene's bounding box rounded to a millimetre."""
-    if not layers:
+    boxes = np.asarray([lay.bounds for lay in layers if lay.n and len(lay.bounds) == 6], dtype=float)
+    boxes = boxes[np.isfinite(boxes).all(axis=1)] if len(boxes) else boxes
+    if not len(boxes):
         return old or [0.0, 0.0, 0.0]
-    lo = np.min([lay.positions.min(axis=0) for lay in layers if lay.n], axis=0)
-    hi = np.max([lay.positions.max(axis=0) for lay in layers if lay.n], axis=0)
+    lo, hi = boxes[:, [0, 2, 4]].min(axis=0), boxes[:, [1, 3, 5]].max(axis=0)
     centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
     if old is not None and float(np.linalg.norm(centre - np.asarray(old))) <= 10.0 * max(radius, 1.0):
         return old
@@ -140,7 +141,7 @@ class ClientView:
         used: set[str] = set()
         layers = []
         for lay in scene.layers:
-            pos = self.store.put(_relative(lay.positions, o), "f32", key=(*lay.geometry_key, tuple(self.origin)))
+            pos = self.store.put(_relative(lay, o), "f32", key=(*lay.geometry_key, tuple(self.origin)))
             entry: dict[str, Any] = {
                 "id": lay.id,
                 "kind": lay.kind,
@@ -153,13 +154,12 @@ class ClientView:
                 "opacity": lay.opacity,
                 "pickable": lay.pickable,
             }
-            used.add(pos)
-            if lay.colors is not None:
-                entry["colors"] = self.store.put(lay.colors, "u8", key=lay.colour_key)
-                used.add(entry["colors"])
-            if lay.indices is not None:
-                entry["indices"] = self.store.put(lay.indices, "u32", key=(*lay.geometry_key, "indices"))
-                used.add(entry["indices"])
+            used.add(str(pos))  # positions are never None
+            if lay.make_colors is not None:
+                entry["colors"] = self.store.put(_read(lay, "colors"), "u8", key=lay.colour_key)
+            if lay.make_indices is not None:
+                entry["indices"] = self.store.put(_read(lay, "indices"), "u32", key=(*lay.geometry_key, "i"))
+            used.update(v for v in (entry["colors"], entry["indices"]) if v)
             layers.append(entry)
         self.layers = {lay.id: lay for lay in scene.layers}
         if not _same(scene.camera, self._known_camera):
@@ -249,9 +249,14 @@ class ClientView:
         return sel
 
 
-def _relative(positions: np.ndarray, origin: np.ndarray) -> Callable[[], np.ndarray]:
-    """``positions - origin``, made only when the buffer is not known yet."""
-    return lambda: positions - origin
+def _relative(lay: Layer, origin: np.ndarray) -> Callable[[], np.ndarray]:
+    """The layer's positions minus ``origin``, made only when the buffer is not known yet."""
+    return lambda: lay.positions - origin
+
+
+def _read(lay: Layer, name: str) -> Callable[[], np.ndarray | None]:
+    """The layer's array ``name``, made only when the buffer is not known yet."""
+    return lambda: getattr(lay, name)
 
 
 def _index(i: Any, n: int) -> bool:

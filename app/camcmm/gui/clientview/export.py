@@ -16,8 +16,9 @@ active camera its position.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -28,31 +29,43 @@ LEGEND_STOPS = 32
 LOD_SEED = 0
 
 
-@dataclass
+@dataclass(eq=False)
 class Layer:
-    """One drawn thing: ``kind`` "points" | "mesh" | "lines"; ``positions`` (n, 3)
-    world mm (points: in LOD order), ``colors`` (n, 3) uint8 or None (then ``color``),
-    ``indices`` (T, 3) or (E, 2) uint32 for meshes and lines, ``order`` (n,) the actor's
-    point index of each position (None: the actor's own order)."""
+    """One drawn thing: ``kind`` "points" | "mesh" | "lines", ``n`` vertices. Its arrays
+    are made when first read (a publish whose buffers are all known reads none):
+    ``positions`` (n, 3) world mm (points: in LOD order), ``colors`` (n, 3) uint8 or None
+    (then ``color``), ``indices`` (T, 3) or (E, 2) uint32 for meshes and lines. ``order``
+    (n,): the actor's point index of each position (None: the actor's own order)."""
 
     id: str
     kind: str
-    positions: np.ndarray
-    colors: np.ndarray | None
+    n: int
     color: list[int]
-    indices: np.ndarray | None = None
+    make_positions: Callable[[], np.ndarray] = field(repr=False)
+    make_colors: Callable[[], np.ndarray | None] | None = field(default=None, repr=False)
+    make_indices: Callable[[], np.ndarray] | None = field(default=None, repr=False)
     point_size: float = 2.0
     opacity: float = 1.0
     pickable: bool = True
-    order: np.ndarray | None = None
-    #: what the arrays were made from (for the buffer memo): (points address, MTime) and
-    #: (scalars address, MTime, lookup table MTime, ...)
+    order: np.ndarray | None = field(default=None, repr=False)
+    #: world bounds (xmin, xmax, ymin, ymax, zmin, zmax), mm
+    bounds: tuple[float, ...] = ()
+    #: what the arrays were made from (for the buffer memo): the points array and its
+    #: modification time; the scalars array, the lookup table and the mapper's settings
     geometry_key: tuple[Any, ...] = ()
     colour_key: tuple[Any, ...] = ()
 
-    @property
-    def n(self) -> int:
-        return int(len(self.positions))
+    @cached_property
+    def positions(self) -> np.ndarray:
+        return self.make_positions()
+
+    @cached_property
+    def colors(self) -> np.ndarray | None:
+        return None if self.make_colors is None else self.make_colors()
+
+    @cached_property
+    def indices(self) -> np.ndarray | None:
+        return None if self.make_indices is None else self.make_indices()
 
     def actor_index(self, i: int) -> int:
         """The actor's point index of drawn vertex ``i``."""
@@ -136,13 +149,24 @@ def _segments(cells: Any) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------ 3-D actors
-def _mapped_colours(mapper: Any, n: int) -> np.ndarray | None:
-    """(n, 3) uint8 of the colours VTK draws the input's points in, or None when the
-    mapper colours nothing (the property's colour then)."""
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
+def _point_scalars(mapper: Any, data: Any) -> Any:
+    """The point array the mapper colours by (None: it colours by nothing, or by cells)."""
     if not mapper.GetScalarVisibility():
         return None
+    mode = mapper.GetScalarMode()  # 0 default, 1 point data, 2 cell data, 3 point field data
+    pd = data.GetPointData()
+    if mode in (0, 1):
+        return pd.GetScalars()
+    if mode == 3:
+        name = mapper.GetArrayName()
+        return pd.GetAbstractArray(name) if name else pd.GetAbstractArray(mapper.GetArrayId())
+    return None
+
+
+def _mapped_colours(mapper: Any, n: int) -> np.ndarray | None:
+    """(n, 3) uint8 of the colours VTK draws the input's points in, or None."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
     # pyvista interpolates scalars before mapping (a texture of the table): MapScalars then
     # maps nothing; per vertex the colour is the table's colour of its value all the same
     before = mapper.GetInterpolateScalarsBeforeMapping()
@@ -153,22 +177,24 @@ def _mapped_colours(mapper: Any, n: int) -> np.ndarray | None:
         out = None if a is None else np.array(a[:, :3], dtype=np.uint8)  # a copy: the mapper owns rgba
     finally:
         mapper.SetInterpolateScalarsBeforeMapping(before)
-    return out  # None: no scalars, or per cell (drawn in the property's colour here)
+    return out
 
 
-def _colour_key(mapper: Any, data: Any) -> tuple[Any, ...]:
-    """What the mapped colours depend on: the scalars array and the lookup table."""
-    if not mapper.GetScalarVisibility():
+def _colour_key(mapper: Any, scalars: Any) -> tuple[Any, ...]:
+    """What the mapped colours depend on: the scalars array, the lookup table and the
+    mapper's colouring settings (not the mapper's own modification time: mapping the
+    colours touches it)."""
+    if scalars is None:
         return ("solid",)
-    arr = data.GetPointData().GetScalars()
-    name = mapper.GetArrayName()
-    if name:
-        arr = data.GetPointData().GetArray(name) or arr
     lut = mapper.GetLookupTable()
     return (
-        None if arr is None else (arr.GetAddressAsString(""), arr.GetMTime()),
-        None if lut is None else lut.GetMTime(),
-        mapper.GetMTime(),
+        scalars.GetAddressAsString(""),
+        scalars.GetMTime(),
+        None if lut is None else (lut.GetAddressAsString(""), lut.GetMTime()),
+        mapper.GetColorMode(),
+        mapper.GetUseLookupTableScalarRange(),
+        tuple(mapper.GetScalarRange()),
+        mapper.GetArrayComponent(),
     )
 
 
@@ -187,54 +213,66 @@ def actor_layer(actor: Any, layer_id: str) -> Layer | None:
         return None
     prop = actor.GetProperty()
     rep = int(prop.GetRepresentation())  # 0 points, 1 wireframe, 2 surface
-    colours = _mapped_colours(mapper, data.GetNumberOfPoints())
+    scalars = _point_scalars(mapper, data)
     surf = pv.wrap(data)
     keep: np.ndarray | None = None  # the surface's points in the input's numbering
     if not isinstance(surf, pv.PolyData):  # a height map's grid: its outer surface
         surf = surf.extract_surface(pass_pointid=True)
         keep = np.asarray(surf.point_data["vtkOriginalPointIds"], dtype=np.int64)
-    pts = _world(actor, np.asarray(surf.points, dtype=float))
-    if colours is not None and keep is not None:
-        colours = colours[keep]
-    indices: np.ndarray | None = None
-    order: np.ndarray | None = None
+    n = int(surf.GetNumberOfPoints())
     n_polys, n_lines = surf.GetNumberOfPolys() + surf.GetNumberOfStrips(), surf.GetNumberOfLines()
     if rep == 0 or (n_polys == 0 and n_lines == 0):
         kind = "points"
-        order = lod_order(len(pts)) if keep is None else keep[lod_order(len(pts))]
-        sel = lod_order(len(pts))
-        pts = pts[sel]
-        colours = None if colours is None else colours[sel]
-    elif rep == 1 or n_polys == 0:
-        kind = "lines"
-        if n_polys:
-            edges = surf.extract_all_edges(use_all_points=True)
-            indices = _segments(edges.GetLines())
-        else:
-            indices = _segments(surf.GetLines())
-        order = keep
+        sel: np.ndarray | None = lod_order(n)
+        order = sel if keep is None else keep[sel]
     else:
-        kind = "mesh"
-        tri = surf if surf.is_all_triangles else surf.triangulate()
-        indices = np.ascontiguousarray(
-            vtk_to_numpy(tri.GetPolys().GetConnectivityArray()).reshape(-1, 3), dtype=np.uint32
-        )
-        order = keep
-    pdata = data.GetPoints().GetData()
+        sel, order = None, keep
+        kind = "lines" if rep == 1 or n_polys == 0 else "mesh"
+
+    def positions() -> np.ndarray:
+        pts = _world(actor, np.asarray(surf.points, dtype=float))
+        return pts if sel is None else pts[sel]
+
+    def colours() -> np.ndarray | None:
+        c = _mapped_colours(mapper, data.GetNumberOfPoints())
+        if c is None:
+            return None
+        c = c if keep is None else c[keep]
+        return c if sel is None else c[sel]
+
+    def indices() -> np.ndarray:
+        if kind == "mesh":
+            tri = surf if surf.is_all_triangles else surf.triangulate()
+            return np.ascontiguousarray(
+                vtk_to_numpy(tri.GetPolys().GetConnectivityArray()).reshape(-1, 3), dtype=np.uint32
+            )
+        if n_polys:  # a surface drawn as wireframe: its edges
+            return _segments(surf.extract_all_edges(use_all_points=True).GetLines())
+        return _segments(surf.GetLines())
+
+    pdata = surf.GetPoints().GetData()
+    geometry = (layer_id, kind, pdata.GetAddressAsString(""), pdata.GetMTime(), data.GetMTime(), rep)
     return Layer(
         id=layer_id,
         kind=kind,
-        positions=pts,
-        colors=colours,
+        n=n,
         color=rgb255(prop.GetColor()),
-        indices=indices,
+        make_positions=positions,
+        make_colors=None if scalars is None else colours,
+        make_indices=None if kind == "points" else indices,
         point_size=float(prop.GetPointSize()),
         opacity=float(prop.GetOpacity()),
         pickable=bool(actor.GetPickable()),
         order=order,
-        geometry_key=(layer_id, kind, pdata.GetAddressAsString(""), pdata.GetMTime(), data.GetMTime(), rep),
-        colour_key=(layer_id, kind, rep, *_colour_key(mapper, data), data.GetMTime()),
+        bounds=tuple(float(b) for b in actor.GetBounds()),
+        geometry_key=(*geometry, *_matrix_key(actor)),
+        colour_key=(layer_id, kind, rep, data.GetMTime(), *_colour_key(mapper, scalars)),
     )
+
+
+def _matrix_key(actor: Any) -> tuple[float, ...]:
+    m = actor.GetMatrix()
+    return tuple(m.GetElement(i, j) for i in range(3) for j in range(4))
 
 
 # ------------------------------------------------------------------------------ 2-D actors

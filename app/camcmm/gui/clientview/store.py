@@ -44,15 +44,17 @@ class BufferStore:
         self._used: deque[set[str]] = deque(maxlen=KEEP_STATES)
         self.written: list[str] = []  # names written since the last take_written()
 
-    def put(self, array: np.ndarray | Callable[[], np.ndarray], suffix: str, key: Any = None) -> str:
-        """The name of ``array`` (or of what the callable returns) as a ``suffix``
-        buffer, written when new. ``key``: what the array was made from; a key seen
-        before gives its name without making, converting or hashing the array again."""
+    def put(self, array: np.ndarray | Callable[[], np.ndarray | None], suffix: str, key: Any = None) -> str | None:
+        """The name of ``array`` (or of what the callable returns; None when it returns
+        None) as a ``suffix`` buffer, written when new. ``key``: what the array was made
+        from; a key seen before gives its name without making, converting or hashing the
+        array again."""
         if key is not None and key in self._memo and (self.folder / self._memo[key]).exists():
             return self._memo[key]
-        if callable(array):
-            array = array()
-        data = np.ascontiguousarray(array, dtype=KINDS[suffix]).tobytes()
+        made = array() if callable(array) else array
+        if made is None:
+            return None
+        data = np.ascontiguousarray(made, dtype=KINDS[suffix]).tobytes()
         name = buffer_name(data, suffix)
         path = self.folder / name
         if not path.exists():
