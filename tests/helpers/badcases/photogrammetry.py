@@ -347,6 +347,8 @@ def _reconstruct_cases() -> list[Case]:
         ("--max-image-size", "-1"),
         ("--dense-max-image-size", "-5"),
         ("--matching", "random"),
+        ("--mapper", "glomap"),
+        ("--overlap", "0"),
         ("--camera-model", "FISHEYE9"),
         ("--turntable-angles", "abc"),
         ("--turntable-angles", "1,2"),
