@@ -329,6 +329,10 @@ def test_compare_clicks_take_pairs_and_deviations(gui_app, tmp_path):
     reg.on_pick("cv_compare", "nominal", 0, [20.0, 15.0, 20.3])
     assert np.allclose(page.inputs.nominal_pairs[0], [20.0, 15.0, 20.0], atol=1e-9)
     assert [lab["text"] for lab in s.cv_compare["labels"]] == ["M1", "N1"]
+    assert page.gdt.start_picking()  # a feature of the nominal for a characteristic: the click's region
+    assert reg.on_pick("cv_compare", "measured", 3, None) is None  # only the nominal is shown
+    reg.on_pick("cv_compare", "nominal", 0, [20.0, 15.0, 20.3])
+    assert "of the nominal within" in s.gdt_f_picked and s.gdt_f_picked.endswith(" of (20, 15, 20) mm")  # snapped
 
     page.clear_pairs()
     page.set_align("icp")
