@@ -95,6 +95,12 @@ HOLD_COND = 1e-4
 #: Share of the measured points within ``max_distance`` of the nominal at the start
 #: below which :func:`align` starts from a coarse (centroid) alignment.
 COARSE_SHARE = 0.1
+#: ICP's first iterations run on this many of the points (a subset of the ``max_points``
+#: one): they only have to bring the cloud near the optimum, and a closest-point query
+#: costs in proportion to the points asked.
+COARSE_POINTS = 10_000
+#: Most Gauss-Newton steps on the tangent planes of one closest-point query.
+INNER_STEPS = 10
 _TUKEY_C, _HUBER_C = 4.685, 1.345
 
 
@@ -236,6 +242,7 @@ class Nominal:
         else:
             raise InputError(f"nominal: expected a mesh, a CAD model or a point cloud, got {type(geometry).__name__}")
         self._vn: np.ndarray | None = None
+        self._vnf: np.ndarray | None = None
         if self.mesh is not None:
             self._vn = self._vertex_normals(self.mesh.V, self.mesh.F)
         lo, hi = self.bounds
@@ -278,7 +285,9 @@ class Nominal:
             return q, n, n, rim
         q, f, b, n = self.mesh.closest(points)
         assert self._vn is not None  # made with the mesh
-        ns = np.einsum("ij,ijk->ik", b, self._vn[self.mesh.F[f]])
+        if self._vnf is None:  # the corners' vertex normals per triangle, gathered once
+            self._vnf = self._vn[self.mesh.F]
+        ns = np.einsum("ij,ijk->ik", b, self._vnf[f])
         ns /= np.maximum(np.linalg.norm(ns, axis=1), 1e-300)[:, None]
         sharp = np.einsum("ij,ij->i", ns, n) < np.cos(np.radians(20.0))
         ns[sharp] = n[sharp]
@@ -490,19 +499,119 @@ _DOF_NAMES = (
 def _jacobian(
     x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float, centre: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Rows [(x - c) × n / L, n, (n · (x - c)) / L] (the last with ``scale``), c the
+    weighted centroid unless ``centre`` is given."""
+    Jt, c = _jacobian_t(x, n, w, scale, L, centre)
+    return Jt.T, c
+
+
+def _jacobian_t(
+    x: np.ndarray,
+    n: np.ndarray,
+    w: np.ndarray,
+    scale: bool,
+    L: float,
+    centre: np.ndarray | None = None,
+    out: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The Jacobian transposed, (6 or 7, N), built row by row in contiguous memory:
+    ``np.cross`` and ``np.hstack`` on (N, 3) columns cost several times as much."""
     c = (w @ x) / w.sum() if centre is None else centre
-    xc = x - c
-    cols = [np.cross(xc, n) / L, n]
+    X = [x[:, i] - c[i] for i in range(3)]
+    Nn = [np.ascontiguousarray(n[:, i]) for i in range(3)]
+    Jt = np.empty((7 if scale else 6, len(x))) if out is None else out
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        np.multiply(X[j], Nn[k], out=Jt[i])
+        Jt[i] -= X[k] * Nn[j]
+        Jt[i] *= 1.0 / L
+        Jt[3 + i] = Nn[i]
     if scale:
-        cols.append(np.einsum("ij,ij->i", n, xc)[:, None] / L)
-    return np.hstack(cols), c
+        Jt[6] = (X[0] * Nn[0] + X[1] * Nn[1] + X[2] * Nn[2]) / L
+    return Jt, c
 
 
-def _n_weak(J: np.ndarray, w: np.ndarray, cond: float = HOLD_COND) -> int:
-    """Directions the weighted normal matrix leaves (numerically) undetermined."""
-    H = J.T @ (J * (w / w.sum())[:, None])
-    lam = np.linalg.eigvalsh(H)
+def _recentre(c: np.ndarray, s: np.ndarray, L: float, m: int) -> np.ndarray:
+    """K with J(about s) = J(about c) @ K: (x - s) × n = (x - c) × n + (c - s) × n and
+    n · (x - s) = n · (x - c) + n · (c - s), both linear in n's columns."""
+    d = c - s
+    K = np.eye(m)
+    K[3:6, 0:3] = np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]]).T / L
+    if m > 6:
+        K[3:6, 6] = d / L
+    return K
+
+
+def _n_weak(Hs: np.ndarray, cond: float = HOLD_COND) -> int:
+    """Directions the (smooth normals') normal matrix leaves (numerically) undetermined."""
+    lam = np.linalg.eigvalsh(Hs)
     return int(np.sum(lam <= cond * lam.max()))
+
+
+def _stacked_jacobian(
+    x: np.ndarray, n: np.ndarray, ns: np.ndarray, scale: bool, L: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(2m, N): the Jacobian's rows with the facet normals (residuals) over those with the
+    smooth normals (the held directions), both about the centroid c of ``x``; and c."""
+    m = 7 if scale else 6
+    S = np.empty((2 * m, len(x)))
+    _, c = _jacobian_t(x, n, np.ones(len(x)), scale, L, out=S[:m])
+    _jacobian_t(x, ns, np.ones(len(x)), scale, L, centre=c, out=S[m:])
+    return S, c
+
+
+def _normal_matrices(
+    S: np.ndarray, r: np.ndarray, w: np.ndarray, Hs: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """H (facet normals), g and Hs (smooth normals; unless given) of the weighted least squares."""
+    m = S.shape[0] // 2
+    sw = w / w.sum()
+    rows = S if Hs is None else S[:m]
+    Sw = rows * sw
+    H = S[:m] @ Sw[:m].T
+    return H, S[:m] @ (r * sw), S[m:] @ Sw[m:].T if Hs is None else Hs
+
+
+def _subspace_step(
+    H: np.ndarray, g: np.ndarray, Hs: np.ndarray, c: np.ndarray, L: float, scale: bool, cond: float = HOLD_COND
+) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """One Gauss-Newton step in the determined subspace, from the normal matrices about c.
+
+    ``H``, ``g``: of the residuals (facet normals); ``Hs``: of the smooth normals, for
+    finding the undetermined directions. Returns the step (ω [rad], τ [mm], σ), the
+    centre (mm) it is taken about, the held directions by axis, the held directions as
+    columns (scaled coordinates: ω × L, τ, σ × L), and the step in scaled coordinates
+    about the given c (the residuals change by J(c) times it).
+    """
+    m = H.shape[0]
+    lam, vec = np.linalg.eigh(Hs)
+    keep = lam > cond * lam.max()
+    K = np.eye(m)
+    if (~keep).any():
+        # take the step about the held rotations' axis point s: there the held directions
+        # are pure rotations (and pure translations), so holding them keeps the part's turn
+        # about s and its slide along the held axes exactly; about the centroid the
+        # determined subspace would mix in a turn about s that the facets then pick up
+        s_axis = c + _axis_offset(vec[:, ~keep], L)
+        K = _recentre(c, s_axis, L, m)
+        c = s_axis
+        H, g, Hs = K.T @ H @ K, K.T @ g, K.T @ Hs @ K
+        lam, vec = np.linalg.eigh(Hs)
+        keep = lam > cond * lam.max()
+    B = vec[:, keep]
+    # least squares, not solve: the subspace is chosen on the smooth normals, and the facet
+    # normals' matrix can still be singular in it (a sphere's cloud inside a box)
+    delta = -B @ np.linalg.lstsq(B.T @ H @ B, B.T @ g, rcond=None)[0]
+    weak = []
+    for i in np.flatnonzero(~keep):
+        v = vec[:, i]
+        j = int(np.argmax(np.abs(v)))
+        weak.append(f"{_DOF_NAMES[j]} (share {v[j] ** 2:.2f})")
+    lin = K @ delta
+    delta[:3] /= L
+    if scale:
+        delta[6] /= L
+    return delta, c, weak, vec[:, ~keep], lin
 
 
 def _gn_step(
@@ -515,48 +624,11 @@ def _gn_step(
     cond: float = HOLD_COND,
     ns: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray]:
-    """One weighted Gauss-Newton step in the determined subspace.
-
-    ``n``: the nominal's (facet) normals, which define the residuals; ``ns``: smooth
-    normals for finding the undetermined directions (default ``n``). Returns the step
-    (ω [rad], τ [mm], σ), the centroid c (mm) it is taken about, the held directions by
-    axis and the held directions as columns (scaled coordinates: ω × L, τ, σ × L).
-    """
-    J, c = _jacobian(x, n, w, scale, L)
-    Js = J if ns is None else _jacobian(x, ns, w, scale, L)[0]
-    r = np.einsum("ij,ij->i", n, x - q)
-    sw = w / w.sum()
-    H = J.T @ (J * sw[:, None])
-    g = J.T @ (r * sw)
-    Hs = H if ns is None else Js.T @ (Js * sw[:, None])
-    lam, vec = np.linalg.eigh(Hs)
-    keep = lam > cond * lam.max()
-    if (~keep).any():
-        # take the step about the held rotations' axis point s: there the held directions
-        # are pure rotations (and pure translations), so holding them keeps the part's turn
-        # about s and its slide along the held axes exactly; about the centroid the
-        # determined subspace would mix in a turn about s that the facets then pick up
-        s_axis = c + _axis_offset(vec[:, ~keep], L)
-        J, c = _jacobian(x, n, w, scale, L, centre=s_axis)
-        Js = J if ns is None else _jacobian(x, ns, w, scale, L, centre=s_axis)[0]
-        H = J.T @ (J * sw[:, None])
-        g = J.T @ (r * sw)
-        Hs = H if ns is None else Js.T @ (Js * sw[:, None])
-        lam, vec = np.linalg.eigh(Hs)
-        keep = lam > cond * lam.max()
-    B = vec[:, keep]
-    # least squares, not solve: the subspace is chosen on the smooth normals, and the facet
-    # normals' matrix can still be singular in it (a sphere's cloud inside a box)
-    delta = -B @ np.linalg.lstsq(B.T @ H @ B, B.T @ g, rcond=None)[0]
-    weak = []
-    for i in np.flatnonzero(~keep):
-        v = vec[:, i]
-        j = int(np.argmax(np.abs(v)))
-        weak.append(f"{_DOF_NAMES[j]} (share {v[j] ** 2:.2f})")
-    delta[:3] /= L
-    if scale:
-        delta[6] /= L
-    return delta, c, weak, vec[:, ~keep]
+    """One weighted Gauss-Newton step in the determined subspace (see
+    :func:`_subspace_step`) for the points ``x`` on the planes (``q``, ``n``)."""
+    S, c = _stacked_jacobian(x, n, n if ns is None else ns, scale, L)
+    H, g, Hs = _normal_matrices(S, np.einsum("ij,ij->i", n, x - q), w)
+    return _subspace_step(H, g, Hs, c, L, scale, cond)[:4]
 
 
 def _vec(v: np.ndarray) -> str:
@@ -629,31 +701,105 @@ def describe_held(null: np.ndarray, c: np.ndarray, L: float) -> list[str]:
     return out
 
 
-def _compose(T: np.ndarray, delta: np.ndarray, c: np.ndarray, scale: bool) -> np.ndarray:
-    """x' = c + e^σ R(ω) (x - c) + τ applied after T."""
+def _increment(delta: np.ndarray, c: np.ndarray, scale: bool) -> np.ndarray:
+    """The 4×4 of x' = c + e^σ R(ω) (x - c) + τ."""
     R = _rodrigues(delta[:3])
     s = float(np.exp(delta[6])) if scale else 1.0
     D = np.eye(4)
     D[:3, :3] = s * R
     D[:3, 3] = c + delta[3:6] - s * R @ c
-    return D @ T
+    return D
 
 
-def _residuals(nom: Nominal, x: np.ndarray, d_in: float) -> tuple[np.ndarray, np.ndarray]:
+def _compose(T: np.ndarray, delta: np.ndarray, c: np.ndarray, scale: bool) -> np.ndarray:
+    """x' = c + e^σ R(ω) (x - c) + τ applied after T."""
+    return _increment(delta, c, scale) @ T
+
+
+def _residuals(
+    nom: Nominal, x: np.ndarray, d_in: float, closest: tuple[np.ndarray, ...] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Distances (mm) of aligned points to the nominal, and whether each lies on its rim.
 
     Against a reference cloud the nearest point lies up to half a point spacing away
     sideways, which would inflate rms, sigma and overlap for a correct alignment: there
     the distance is taken along the reference normal (point to plane, as the ICP does)
     where the nearest point is close; far points keep their full distance so that clouds
-    that do not overlap still fail.
+    that do not overlap still fail. ``closest``: ``nom.closest(x)`` when it is at hand.
     """
-    q, qn, rim = nom.closest(x)
+    q, qn, rim = nom.closest(x) if closest is None else closest
     e = np.linalg.norm(x - q, axis=1)
     if nom.mesh is None:
         plane = np.abs(np.einsum("ij,ij->i", x - q, qn))
         e = np.where(e <= 3.0 * d_in, plane, e)
     return e, rim
+
+
+@dataclass
+class _Step:
+    """One robust Gauss-Newton step (see :func:`_robust_step`)."""
+
+    delta: np.ndarray | None = None
+    c: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    weak: list[str] = field(default_factory=list)
+    held: np.ndarray = field(default_factory=lambda: np.zeros((6, 0)))
+    k: float = 0.0
+    sig: float = 0.0
+    move: float = 0.0
+    lin: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    Hs: np.ndarray | None = None
+    fail: str = ""
+
+
+def _robust_step(
+    S: np.ndarray,
+    c: np.ndarray,
+    r: np.ndarray,
+    kernel: str,
+    kernel_k: float | None,
+    scale: bool,
+    L: float,
+    need: int,
+    diag: float,
+    Hs: np.ndarray | None = None,
+) -> _Step:
+    """The IRLS step for residuals ``r`` with the stacked Jacobian ``S`` about ``c`` (see
+    :func:`_stacked_jacobian`). ``move``: how far the step moves the part (mm at its
+    size), ``sig``: the residuals' robust σ (mm, about zero). ``Hs``: the smooth normals'
+    normal matrix of an earlier step on the same planes (their weights barely differ:
+    which directions are held does not change between such steps); ``st.Hs`` returns it."""
+    sig = 1.4826 * float(np.median(np.abs(r)))  # about zero: an offset is a residual too
+    if kernel_k:
+        k = float(kernel_k)
+    else:
+        k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-6 * diag)  # float32 floor
+    w = _weights(r, kernel, k)
+    st = _Step(k=k, sig=sig)
+    if (w > 0).sum() >= need:
+        H, g, st.Hs = _normal_matrices(S, r, w, Hs)
+        st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, c, L, scale)
+    else:
+        st.weak = ["all"]
+    if st.weak and kernel != "none" and not kernel_k:
+        # the kernel must not leave a direction undetermined that the data fix: with
+        # exact data where a face really deviates, the adaptive scale can shrink
+        # below that deviation and reject every face that holds, say, z
+        geo = _n_weak(_normal_matrices(S, r, np.ones(len(r)))[2])
+        for _ in range(40):
+            if (w > 0).sum() >= need and _n_weak(_normal_matrices(S, r, w)[2]) <= geo:
+                break
+            k *= 2.0
+            w = _weights(r, kernel, k)
+        st.k = k
+        if (w > 0).sum() >= need:
+            H, g, st.Hs = _normal_matrices(S, r, w)
+            st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, c, L, scale)
+    if (w > 0).sum() < need or st.delta is None:
+        st.fail = "the robust kernel rejected all but a few correspondences"
+        return st
+    d = st.delta
+    st.move = float(L * (np.linalg.norm(d[:3]) + (abs(d[6]) if scale else 0.0)) + np.linalg.norm(d[3:6]))
+    return st
 
 
 def icp(
@@ -667,7 +813,7 @@ def icp(
     region: Any = None,
     max_iterations: int = 100,
     tolerance: float = 1e-9,
-    max_points: int = 50_000,
+    max_points: int = 10_000,
     inlier_distance: float | None = None,
     min_overlap: float = 0.5,
     seed: int = 0,
@@ -681,8 +827,11 @@ def icp(
     the nominal's size). ``kernel``: tukey | huber | none; ``kernel_k`` fixes its scale in
     mm (default adaptive, see the module docstring). ``region``: [xmin, ymin, zmin, xmax,
     ymax, zmax] in nominal coordinates: only measured points inside it take part (and
-    count for rms/overlap). The iterations run on at most ``max_points`` points (a
-    seeded random subset), then continue on all points until they settle.
+    count for rms/overlap). The iterations run coarse to fine: on ``COARSE_POINTS``
+    (10 000) points, then on at most ``max_points`` (seeded random subsets), each until
+    its steps fall below the σ/√n its optimum is known to, then on all points until a
+    step would move the part by less than 1e-3 σ; that step is not taken, and the query
+    that found it gives the final rms and overlap (no extra pass over all points).
     ``inlier_distance`` (default 1 % of the nominal's size) and ``min_overlap`` decide
     success, see :class:`Alignment`. With ``scale``, a scale that moves more than
     ``max_scale_change`` (relative) away from the start's is a failure too: a cloud that
@@ -706,9 +855,20 @@ def icp(
     need = 7 if scale else 6
     label = method or ("similarity" if scale else "icp")
     rng = np.random.default_rng(seed)
-    # Z-curve order, kept by the subset: the closest-point queries walk the BVH coherently
+    # Z-curve order, kept by the subsets: the closest-point queries walk the BVH coherently
     P = P[spatial_order(P)] if len(P) >= 20_000 else P
-    sub = P if len(P) <= max_points else P[np.sort(rng.choice(len(P), max_points, replace=False))]
+    # coarse to fine: COARSE_POINTS, then max_points (seeded random subsets, the first
+    # inside the second), then all points. A subset's optimum is known to about σ/√n, so
+    # its iterations stop once a step is below that; the last phase goes to 1e-3 σ.
+    phases: list[np.ndarray] = []
+    if len(P) > max_points:
+        pick = rng.choice(len(P), max_points, replace=False)
+        if max_points > 2 * COARSE_POINTS:
+            phases.append(P[np.sort(pick[:COARSE_POINTS])])
+        phases.append(P[np.sort(pick)])
+    elif len(P) > 2 * COARSE_POINTS:
+        phases.append(P[np.sort(rng.choice(len(P), COARSE_POINTS, replace=False))])
+    phases.append(P)
     L = 0.5 * nom.diag
     it_total, settled = 0, False
     weak: list[str] = []
@@ -716,14 +876,14 @@ def icp(
     c_last = np.zeros(3)
     fail = ""
     last: dict[str, Any] = {}
-    for phase, pts, n_iter in (("subset", sub, max_iterations), ("all", P, max_iterations)):
-        if phase == "all" and pts is sub:
-            break
+    final: tuple[np.ndarray, ...] | None = None  # the last query, when it was made at the returned T
+    for pts in phases:
         settled = False
-        for _ in range(n_iter):
+        is_last = pts is P
+        for _ in range(max_iterations):  # queries in this phase
             x = apply(T, pts)
             use = _in_box(x, box)
-            xi = x[use]
+            xi = x if box is None else x[use]
             if len(xi) < need:
                 fail = (
                     f"only {len(xi)} measured points inside the region"
@@ -732,7 +892,8 @@ def icp(
                 )
                 break
             q, n, ns_all, rim = nom.closest_smooth(xi)
-            e = np.linalg.norm(xi - q, axis=1)
+            dq = xi - q
+            e = np.sqrt(np.einsum("ij,ij->i", dq, dq))
             good = (e <= dmax) & ~rim
             if good.sum() < need:
                 fail = (
@@ -740,46 +901,49 @@ def icp(
                     f"{dmax:.4g} mm of the nominal"
                 )
                 break
-            xg, qg, ng, nsg = xi[good], q[good], n[good], ns_all[good]
-            r = np.einsum("ij,ij->i", ng, xg - qg)
-            if kernel_k:
-                k = float(kernel_k)
-            else:
-                sig = 1.4826 * np.median(np.abs(r))  # about zero: an offset is a residual too
-                k = max((_TUKEY_C if kernel == "tukey" else _HUBER_C) * sig, 1e-6 * nom.diag)  # float32 floor
-            w = _weights(r, kernel, k)
-            if (w > 0).sum() >= need:
-                delta, c, weak, held = _gn_step(xg, qg, ng, w, scale, L, ns=nsg)
-            else:
-                delta, c, weak = None, None, ["all"]
-            if weak and kernel != "none" and not kernel_k:
-                # the kernel must not leave a direction undetermined that the data fix: with
-                # exact data where a face really deviates, the adaptive scale can shrink
-                # below that deviation and reject every face that holds, say, z
-                Jg, _ = _jacobian(xg, nsg, np.ones(len(xg)), scale, L)
-                geo = _n_weak(Jg, np.ones(len(xg)))
-                for _ in range(40):
-                    if (w > 0).sum() >= need and _n_weak(Jg, w) <= geo:
-                        break
-                    k *= 2.0
-                    w = _weights(r, kernel, k)
-                if (w > 0).sum() >= need:
-                    delta, c, weak, held = _gn_step(xg, qg, ng, w, scale, L, ns=nsg)
-            if (w > 0).sum() < need:
-                fail = "the robust kernel rejected all but a few correspondences"
-                break
-            assert delta is not None and c is not None  # a step was taken (too few weights: break above)
-            T = _compose(T, delta, c, scale)
-            c_last = c
-            it_total += 1
-            last = {"e": e, "n_region": len(xi), "k": k}
-            # settled when the update moves the part by far less than its noise: in mm at the
-            # part's size, below 1e-3 of the robust residual scale (or ``tolerance`` × size
-            # for noise-free data)
-            step = L * (np.linalg.norm(delta[:3]) + (abs(delta[6]) if scale else 0.0)) + np.linalg.norm(delta[3:6])
-            sig = 1.4826 * float(np.median(np.abs(r)))
-            if step < max(tolerance * L, 1e-3 * sig):
-                settled = True
+            xg, qg, ng, nsg = (xi, q, n, ns_all) if good.all() else (xi[good], q[good], n[good], ns_all[good])
+            r = np.einsum("ij,ij->i", ng, dq if ng is n else xg - qg)
+            S, c0 = _stacked_jacobian(xg, ng, nsg, scale, L)
+            last = {"e": e, "n_region": len(xi)}
+            # Gauss-Newton steps on these tangent planes until they settle, then a new query.
+            # A plane's residual n·(x - q) stays the exact point-to-triangle distance while
+            # the point's closest triangle stays the same, which the next query checks; a
+            # step that query leaves (below the threshold at once) ends the phase. Between
+            # queries the residuals follow the steps linearly, r + J δ; the planes are kept
+            # only while the part has moved less than σ/2 since the query (near the end the
+            # steps are ~1e-5 rad and ~1e-4 mm: the second-order term is far below 1e-3 σ;
+            # a larger move, as from a far start, takes a new query after each step).
+            moved = 0.0  # mm the part moved since the query
+            Hs = None
+            for inner in range(INNER_STEPS):
+                st = _robust_step(S, c0, r, kernel, kernel_k, scale, L, need, nom.diag, Hs)
+                Hs = st.Hs
+                if st.fail:
+                    fail = st.fail
+                    break
+                weak, held, c_last, last["k"] = st.weak, st.held, st.c, st.k
+                # settled when the update moves the part by far less than its noise: in mm at
+                # the part's size, below 1e-3 of the robust residual scale (or ``tolerance`` ×
+                # size for noise-free data); on a subset, below the σ/√n its optimum is known to
+                small = st.move < max(tolerance * L, 1e-3 * st.sig, 0.0 if is_last else st.sig / np.sqrt(len(pts)))
+                assert st.delta is not None  # a step was found (else st.fail)
+                if small and inner == 0:
+                    settled = True
+                    if is_last:
+                        # the step left untaken is below 1e-3 σ: T stays, and this query
+                        # (made at T on all points) is the final evaluation's
+                        final = (x, use, q, n, rim)
+                    else:
+                        T = _compose(T, st.delta, st.c, scale)
+                        it_total += 1
+                    break
+                T = _compose(T, st.delta, st.c, scale)
+                it_total += 1
+                moved += st.move
+                if small or not moved < 0.5 * st.sig:
+                    break  # settled on these planes, or moved too far to keep them
+                r = r + S[: len(st.lin)].T @ st.lin
+            if fail or settled:
                 break
         if fail:
             break
@@ -797,9 +961,13 @@ def icp(
         al.reason = fail
         return al
     # final evaluation on all points (in the region)
-    x = apply(T, P)
-    use = _in_box(x, box)
-    e, rim = _residuals(nom, x[use], d_in)
+    if final is None:
+        x = apply(T, P)
+        use = _in_box(x, box)
+        e, rim = _residuals(nom, x[use], d_in)
+    else:
+        x, use, q, n, rim = final
+        e, rim = _residuals(nom, x[use], d_in, (q, n, rim))
     inl = (e <= d_in) & ~rim
     al.n_points = int(use.sum())
     al.n_inliers = int(inl.sum())
@@ -957,6 +1125,16 @@ def _evaluate(P: np.ndarray, nom: Nominal, T: np.ndarray, method: str, stages: l
     x = apply(T, P)
     use = _in_box(x, None if box is None else np.asarray(box, dtype=float).ravel())
     e, rim = _residuals(nom, x[use], d_in)
+    return evaluation(T, e, rim, nom, method, stages, args)
+
+
+def evaluation(
+    T: np.ndarray, e: np.ndarray, rim: np.ndarray, nom: Nominal, method: str, stages: list, args: dict
+) -> Alignment:
+    """The :class:`Alignment` of a transform given, not fitted (converged by definition),
+    from the aligned points' distances ``e`` (mm) to the nominal and whether each closest
+    point is on its rim (see :func:`_residuals`); ``args``: ``inlier_distance``."""
+    d_in = float(args.get("inlier_distance") or 0.01 * nom.diag)
     inl = (e <= d_in) & ~rim
     return Alignment(
         T,
@@ -967,7 +1145,7 @@ def _evaluate(P: np.ndarray, nom: Nominal, T: np.ndarray, method: str, stages: l
         rms_all=float(np.sqrt(np.mean(e**2))) if e.size else float("nan"),
         overlap=float(inl.mean()) if e.size else 0.0,
         inlier_distance=d_in,
-        n_points=int(use.sum()),
+        n_points=int(e.size),
         n_inliers=int(inl.sum()),
         stages=stages,
     )
