@@ -368,6 +368,8 @@ def test_big_cloud_refines_on_zoom_and_comes_back(gui_app, tmp_path):
     view = session.view
     first = s.cv_inspect
     assert view.shown.n_shown == 1000 and first["layers"][0]["n"] == 1000 and "1 000 of 6 000" in first["note"]
+    assert first["note"].endswith("; zoom in: the view then shows every point of the region")
+    assert s.display_note == first["note"]
     assert (first["legend"]["lo"], first["legend"]["hi"]) == pytest.approx((-0.1, 0.1), abs=2e-3)  # the whole cloud's
 
     W, H = 800, 600

@@ -26,6 +26,9 @@ from .client import ClientView
 
 log = logging.getLogger("camcmm.gui")
 
+#: added to the first paint's note of a cloud above the limit
+ZOOM_NOTE = "; zoom in: the view then shows every point of the region"
+
 
 class BigCloud:
     """The level of detail of the Inspect page's big clouds (``view``: its SceneView)."""
@@ -59,6 +62,8 @@ class BigCloud:
         the refinement shown just turned (a standard view) stays."""
         if self.view.shown is not None and self.view.shown is self._refined:
             return
+        if self.applies() and ZOOM_NOTE not in self.view.note:
+            self.view.note += ZOOM_NOTE
         self.base, self.base_note, self.rows, self._refined = self.view.shown, self.view.note, None, None
         self._gen += 1
 
