@@ -66,7 +66,7 @@ curve itself, ``Sk = R`` (the full range, × 1), ``Smr1 = 0``, ``Smr2 = 100 %``,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -88,6 +88,7 @@ class MaterialRatioCurve:
     mr: np.ndarray
     height: np.ndarray
     n: int
+    _cum: np.ndarray | None = field(default=None, repr=False)  # running ∫ h dmr at the nodes
 
     def smc(self, mr: Any) -> np.ndarray | float:
         """Inverse areal material ratio: the height ``c`` at material ratio ``mr`` (0..1)."""
@@ -115,18 +116,45 @@ class MaterialRatioCurve:
         out[mid] = m0 + frac * (m1 - m0)
         return float(out[0]) if np.ndim(c) == 0 else out
 
+    def area_above(self, c: float) -> float:
+        """Exact ∫ max(h(mr) - c, 0) dmr over the piecewise-linear curve.
+
+        The curve falls, so h - c is positive on a prefix of the nodes: the sum of the
+        trapezoids before the crossing (from the running integral, computed once) plus
+        the triangle up to it. O(log N) per call instead of a pass over all nodes."""
+        M, H = self.mr, self.height
+        if self._cum is None:
+            self._cum = np.concatenate([[0.0], np.cumsum(0.5 * (H[:-1] + H[1:]) * np.diff(M))])
+        k = int(np.searchsorted(-H, -c, side="left"))  # nodes with H > c
+        if k == 0:
+            return 0.0
+        j = k - 1  # the last node above c
+        area = float(self._cum[j] - c * (M[j] - M[0]))
+        if k < len(H) and H[j] > H[k]:
+            area += 0.5 * (H[j] - c) ** 2 / (H[j] - H[k]) * (M[k] - M[j])
+        return area
+
+    def area_below(self, c: float) -> float:
+        """Exact ∫ max(c - h(mr), 0) dmr: ∫ (c - h) dmr plus :meth:`area_above`."""
+        self.area_above(c)  # makes the running integral
+        assert self._cum is not None
+        return float(c * (self.mr[-1] - self.mr[0]) - self._cum[-1]) + self.area_above(c)
+
     def resampled(self, n: int = 1001) -> dict[str, np.ndarray]:
         """The curve on ``n`` equally spaced material ratios (percent) for plots and JSON."""
         mr = np.linspace(0.0, 1.0, n)
         return {"mr_percent": mr * 100.0, "height": np.interp(mr, self.mr, self.height)}
 
 
-def material_ratio_curve(heights: Any, weights: Any = None) -> MaterialRatioCurve:
+def material_ratio_curve(heights: Any, weights: Any = None, presorted: np.ndarray | None = None) -> MaterialRatioCurve:
     """The material-ratio curve of ``heights`` (any shape; NaN entries are left out).
 
     ``weights`` (same shape, >= 0) is the share of area each height stands for; by
-    default all are equal, as for the pixels of a height map.
+    default all are equal, as for the pixels of a height map. ``presorted``: the finite
+    heights sorted ascending, if at hand (unweighted only; ``stats.sorted_finite``).
     """
+    if presorted is not None and weights is None:
+        heights = presorted[::-1]  # falling already: the sort below finds nothing to do
     h = np.asarray(heights, dtype=float).ravel()
     if weights is None:
         w = None
@@ -138,11 +166,11 @@ def material_ratio_curve(heights: Any, weights: Any = None) -> MaterialRatioCurv
         if np.any(w[np.isfinite(w)] < 0):
             raise InputError("material ratio: weights must not be negative")
         keep = np.isfinite(h) & np.isfinite(w) & (w > 0)
-    h = h[keep]
+    h = h if keep.all() else h[keep]  # no copy of a clean field
     if h.size < 2:
         raise InputError(f"material ratio: {h.size} finite heights; need at least 2")
     if w is None:
-        hs = np.sort(h)[::-1]
+        hs = h if presorted is not None else np.sort(h)[::-1]
         n = hs.size
         mr = (np.arange(n, dtype=float) + 0.5) / n
     else:
@@ -161,19 +189,6 @@ def material_ratio_curve(heights: Any, weights: Any = None) -> MaterialRatioCurv
     return MaterialRatioCurve(M, H, int(n))
 
 
-def _positive_area(M: np.ndarray, y: np.ndarray) -> float:
-    """Exact ∫ max(y(m), 0) dm of the piecewise-linear y through the nodes (M, y)."""
-    y0, y1 = y[:-1], y[1:]
-    dm = np.diff(M)
-    both = (y0 >= 0) & (y1 >= 0)
-    area = np.where(both, 0.5 * (y0 + y1) * dm, 0.0)
-    cross = (y0 > 0) & (y1 < 0)
-    area = area + np.where(cross, 0.5 * y0 * y0 / np.where(cross, y0 - y1, 1.0) * dm, 0.0)
-    cross2 = (y0 < 0) & (y1 > 0)
-    area = area + np.where(cross2, 0.5 * y1 * y1 / np.where(cross2, y1 - y0, 1.0) * dm, 0.0)
-    return float(area.sum())
-
-
 def least_gradient_secant(curve: MaterialRatioCurve, window: float = WINDOW) -> tuple[float, float]:
     """Start ``a`` (0..1) and drop ``g = c(a) - c(a + window)`` of the flattest secant.
 
@@ -188,13 +203,26 @@ def least_gradient_secant(curve: MaterialRatioCurve, window: float = WINDOW) -> 
     first, last = M[1], M[-2] - window
     if last < first:  # very few heights: allow the whole range
         first, last = 0.0, 1.0 - window
-    cand = np.concatenate([M, M - window, [first, last]])
-    cand = np.unique(cand[(cand >= first) & (cand <= last)])
-    g = np.interp(cand, M, H) - np.interp(cand + window, M, H)
-    gmin = g.min()
+    # g on the three candidate sets, each sorted by itself (no sort of their union); at
+    # the nodes c(a) is the node's height (np.interp returns it there); the first
+    # (smallest a) of the minima wins, as over their union
+    at = (M >= first) & (M <= last)
+    shifted = M - window
+    sh = (shifted >= first) & (shifted <= last)
+    a_sets = (M[at], shifted[sh], np.array([first, last]))
+    g_sets = (
+        H[at] - np.interp(M[at] + window, M, H),
+        np.interp(a_sets[1], M, H) - np.interp(a_sets[1] + window, M, H),
+        np.interp(a_sets[2], M, H) - np.interp(a_sets[2] + window, M, H),
+    )
+    gmin = min(float(g.min()) for g in g_sets if g.size)
     tol = 1e-12 * max(float(H[0] - H[-1]), 1e-300)
-    i = int(np.flatnonzero(g <= gmin + tol)[0])
-    return float(cand[i]), float(g[i])
+    best_a, best_g = np.inf, 0.0
+    for a, g in zip(a_sets, g_sets):
+        i = np.flatnonzero(g <= gmin + tol)
+        if i.size and a[i[0]] < best_a:
+            best_a, best_g = float(a[i[0]]), float(g[i[0]])
+    return best_a, best_g
 
 
 def iso13565(curve: MaterialRatioCurve, window: float = WINDOW) -> dict[str, float]:
@@ -211,8 +239,8 @@ def iso13565(curve: MaterialRatioCurve, window: float = WINDOW) -> dict[str, flo
     C2 = ca - slope * (1.0 - a)
     smr1 = float(curve.smr(C1))
     smr2 = float(curve.smr(C2))
-    A1 = _positive_area(curve.mr, curve.height - C1)
-    A2 = _positive_area(curve.mr, C2 - curve.height)
+    A1 = curve.area_above(C1)
+    A2 = curve.area_below(C2)
     spk = 2.0 * A1 / smr1 if smr1 > 0 else 0.0
     svk = 2.0 * A2 / (1.0 - smr2) if smr2 < 1 else 0.0
     return {
@@ -236,24 +264,31 @@ def volume_parameters(curve: MaterialRatioCurve, p: float = 0.10, q: float = 0.8
         raise ParameterError(f"volume parameters need 0 < p < q < 1, got p={p}, q={q}")
 
     def vm(mr: float) -> float:
-        return _positive_area(curve.mr, curve.height - curve.smc(mr))
+        return curve.area_above(float(curve.smc(mr)))
 
     def vv(mr: float) -> float:
-        return _positive_area(curve.mr, curve.smc(mr) - curve.height)
+        return curve.area_below(float(curve.smc(mr)))
 
     return {"Vmp": vm(p), "Vmc": vm(q) - vm(p), "Vvc": vv(p) - vv(q), "Vvv": vv(q)}
 
 
-def parameters(heights: Any, weights: Any = None, window: float = WINDOW, curve_points: int = 1001) -> dict[str, Any]:
+def parameters(
+    heights: Any,
+    weights: Any = None,
+    window: float = WINDOW,
+    curve_points: int = 1001,
+    presorted: np.ndarray | None = None,
+) -> dict[str, Any]:
     """Everything about the material ratio of ``heights``, as JSON-able data.
 
     Keys: ``Sk Spk Svk Smr1 Smr2`` (ISO 13565-2 / 25178-2; Smr in percent), the
     construction (``C1 C2 secant_start secant_end A1 A2``), ``Vmp Vmc Vvc Vvv``,
     ``Smc`` (heights at material ratios 2.5, 10, 50, 80, 97.5 %: "95 % lie within
     Smc(2.5 %) .. Smc(97.5 %)"), ``n`` and ``curve`` {``mr_percent``, ``height``} on
-    ``curve_points`` equally spaced ratios, for plots.
+    ``curve_points`` equally spaced ratios, for plots. ``presorted``: see
+    :func:`material_ratio_curve`.
     """
-    curve = material_ratio_curve(heights, weights)
+    curve = material_ratio_curve(heights, weights, presorted)
     out: dict[str, Any] = dict(iso13565(curve, window))
     out.update(volume_parameters(curve))
     out["Smc"] = {f"{m:g}": float(curve.smc(m / 100.0)) for m in (2.5, 10.0, 50.0, 80.0, 97.5)}

@@ -112,12 +112,23 @@ def colour_limit(stats: dict[str, Any], tolerance: float | None) -> float:
 
 def deviation_colours(dev: np.ndarray, limit: float) -> np.ndarray:
     """RGB uint8 colours of the deviations on matplotlib's diverging RdBu_r over ±limit
-    (the colour scale of camcmm.report's deviation maps)."""
+    (the colour scale of camcmm.report's deviation maps).
+
+    Looked up in the colour map's own 256-entry table the way matplotlib does (index
+    ⌊256 u⌋, u = 1 taking the last entry; NaN its "bad" colour, black), without its
+    (N, 4) float64 RGBA array: 320 MB for 10⁷ points."""
     from matplotlib import colormaps
 
-    u = np.clip(0.5 + 0.5 * np.asarray(dev, dtype=float) / limit, 0.0, 1.0)
-    rgba = colormaps["RdBu_r"](u)
-    return np.round(rgba[:, :3] * 255).astype(np.uint8)
+    cmap = colormaps["RdBu_r"]
+    lut = np.round(cmap(np.arange(cmap.N))[:, :3] * 255).astype(np.uint8)
+    bad = np.round(np.asarray(cmap.get_bad())[:3] * 255 * cmap.get_bad()[3]).astype(np.uint8)
+    d = np.asarray(dev, dtype=float)
+    nan = np.isnan(d)
+    u = np.clip(0.5 + 0.5 * np.where(nan, 0.0, d) / limit, 0.0, 1.0)
+    out = lut[np.minimum((u * cmap.N).astype(np.int64), cmap.N - 1)]
+    if nan.any():
+        out[nan] = bad
+    return out
 
 
 def _nominal(nominal: Any) -> al.Nominal:
@@ -202,8 +213,12 @@ def compute_deviations(
     coverage_distance: float | None = None,
     coverage_samples: int = 200_000,
     bins: int | None = None,
+    residuals: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Deviations of ``cloud`` (already in nominal coordinates) and everything derived."""
+    """Deviations of ``cloud`` (already in nominal coordinates) and everything derived.
+
+    ``residuals``: a dict that, against a plain mesh, receives ``e`` (|deviation|, mm) and
+    ``rim`` (closest point on the mesh's boundary) — what an alignment's evaluation needs."""
     P = cloud.points
     face = None  # the CAD face of each point, for a CAD nominal
     if distance == "auto":
@@ -222,7 +237,9 @@ def compute_deviations(
             nominal_info = {**nom.cad.summary(), "mesh": nom.mesh.info.to_dict(), "chordal_error": 0.0}
         else:
             ctx.progress(0.5, "signed point-to-mesh distances")
-            dev, det = nom.mesh.signed_distance(P, details=True)
+            dev, det = nom.mesh.signed_distance(P, details=True, keep_closest=False)
+            if residuals is not None:
+                residuals.update(e=np.abs(dev), rim=det["rim"])
             method = "signed point-to-mesh (closest point, pseudo-normal sign, ray parity where unsure)"
             extra = {"n_sign_by_parity": det["n_parity"]}
             nominal_info = nom.mesh.info.to_dict()
@@ -259,9 +276,10 @@ def compute_deviations(
         extra = {}
         nominal_info = {"kind": "pointcloud", "n_points": nom.cloud.n_points, "normals": how}
     ctx.progress(0.7, "statistics")
-    stats = st.deviation_stats(dev, tolerance)
+    srt = st.sorted_finite(dev)  # one sort for the percentiles, histogram and material ratio
+    stats = st.deviation_stats(dev, tolerance, presorted=srt)
     limit = colour_limit(stats, tolerance)
-    hist = st.histogram(dev, bins if bins else "auto", limit=limit)
+    hist = st.histogram(dev, bins if bins else "auto", limit=limit, presorted=srt)
     ctx.progress(0.75, "coverage")
     if nom.mesh is not None:
         c = cov.coverage(
@@ -274,7 +292,8 @@ def compute_deviations(
         fields_c["triangle"] = c.pop("triangle")
     samples = PointCloud(c.pop("samples"), fields=fields_c, name=f"{nom.name} coverage samples")
     ctx.progress(0.85, "material ratio")
-    mr = mrmod.parameters(dev)
+    mr = mrmod.parameters(dev, presorted=srt)
+    del srt
     fields = dict(cloud.fields)
     units = dict(cloud.field_units)
     fields["deviation"] = dev
@@ -315,17 +334,33 @@ def compare(ctx, cloud, nominal, pairs=None, align: str = "icp", **params: Any) 
     cloud = _need_cloud(cloud)
     ctx.progress(0.02, "preparing the nominal")
     nom = _nominal(nominal)
+    dev_args = {
+        k: params[k]
+        for k in ("tolerance", "distance", "neighbours", "coverage_distance", "coverage_samples", "bins")
+        if k in params
+    }
+    if (
+        align == "none"
+        and nom.mesh is not None
+        and nom.cad is None
+        and params.get("region") is None
+        and dev_args.get("distance", "auto") in ("auto", "mesh")
+    ):
+        # nothing to fit, and the deviations' closest points are the evaluation's: one
+        # pass over the cloud instead of two (10⁷ points: ~4 s less)
+        ctx.progress(0.1, "aligning (none): the deviations give its rms and overlap")
+        res: dict[str, Any] = {}
+        dev_out = compute_deviations(ctx, cloud, nom, residuals=res, **dev_args)
+        a = al.evaluation(np.eye(4), res["e"], res["rim"], nom, "none", [], params)
+        out = _alignment_outputs(a)
+        out.update(dev_out)
+        return out
     ctx.progress(0.1, f"aligning ({align})")
     a = run_alignment(cloud, nom, align, pairs, **params)
     if not a.converged:
         ctx.warn(f"alignment did not converge: {a.reason}. The deviations below rest on an unreliable alignment.")
     _warn_held(ctx, a)
     moved = transformed_cloud(cloud, a.transform)
-    dev_args = {
-        k: params[k]
-        for k in ("tolerance", "distance", "neighbours", "coverage_distance", "coverage_samples", "bins")
-        if k in params
-    }
     out = _alignment_outputs(a)
     out.update(compute_deviations(ctx, moved, nom, **dev_args))
     return out
