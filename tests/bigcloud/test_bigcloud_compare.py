@@ -16,7 +16,7 @@ import pytest
 
 from camcmm.bigcloud import LodIndex, build_store
 from camcmm.bigcloud.compare import compare_store
-from camcmm.bigcloud.exact import ExactSum, Histogram
+from camcmm.bigcloud.exact import ExactSum, Histogram, hazen
 from camcmm.io import read, write
 from camcmm.meshdistance import MeshDistance
 from camcmm.model import PointCloud, TriangleMesh
@@ -102,8 +102,16 @@ def test_exact_sum_and_histogram_do_not_depend_on_the_chunks():
     h = Histogram(0.1)
     for q in parts:
         h.merge(Histogram(0.1).add(q))
-    _, edges, counts = h.dense()
+    edges, counts, _ = h.dense()
     assert np.array_equal(np.histogram(x, bins=edges)[0], counts)
+    # a far outlier: bins stay sparse, the report merges them, the percentiles stay exact
+    y = np.append(x, 4.0e9)
+    far = Histogram(0.1).add(y)
+    edges, counts, g = far.dense(100)
+    assert g > 1e8 and len(counts) <= 100 and np.array_equal(np.histogram(y, bins=edges)[0], counts)
+    pct = [0.5, 50.0, 99.5, 100.0]
+    got, exact = hazen(far, len(y), pct, lambda: [y])
+    assert exact and np.array_equal(got, np.percentile(y, pct, method="hazen"))
     # values on the edges land as numpy puts them: 0.3 is below the edge 3 x 0.1
     k = Histogram(0.1).bins(np.array([0.3, 0.1, 0.2, -0.1]))
     assert k.tolist() == [2, 1, 2, -1]

@@ -277,12 +277,7 @@ def compare_store(
     if tolerance is not None:
         stats["tolerance"] = tolerance
         stats["within_tolerance"] = within / count
-    k0, edges, counts = hist.dense()
-    group = max(1, -(-len(counts) // MAX_REPORTED_BINS))
-    if group > 1:  # merged bins: edges k w at multiples of the group, counts summed exactly
-        pad = (-len(counts)) % group
-        counts = np.concatenate([counts, np.zeros(pad, dtype=np.int64)]).reshape(-1, group).sum(axis=1)
-        edges = np.arange(int(k0), int(k0) + group * len(counts) + 1, group).astype(np.float64) * hist.width
+    edges, counts, group = hist.dense(MAX_REPORTED_BINS)  # merged bins: counts summed exactly
     warnings = []
     if not exact_q:
         warnings.append(

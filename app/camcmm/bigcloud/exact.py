@@ -118,15 +118,29 @@ class Histogram:
             self.counts[k] = self.counts.get(k, 0) + c
         return self
 
-    def dense(self) -> tuple[int, np.ndarray, np.ndarray]:
-        """(first bin k0, edges (K+1,) mm, counts (K,)) from the lowest to the highest occupied bin."""
-        if not self.counts:
-            return 0, np.zeros(1), np.zeros(0, dtype=np.int64)
-        k0, k1 = min(self.counts), max(self.counts)
-        counts = np.zeros(k1 - k0 + 1, dtype=np.int64)
-        for k, c in self.counts.items():
-            counts[k - k0] = c
-        return k0, np.arange(k0, k1 + 2, dtype=np.float64) * self.width, counts
+    def sparse(self) -> tuple[np.ndarray, np.ndarray]:
+        """(occupied bins k, ascending, int64; their counts, int64)."""
+        keys = np.array(sorted(self.counts), dtype=np.int64)
+        return keys, np.array([self.counts[k] for k in keys.tolist()], dtype=np.int64)
+
+    def dense(self, max_bins: int | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """(edges (K+1,) mm, counts (K,), bins merged per reported bin) from the lowest to
+        the highest occupied bin. With ``max_bins`` every ``g`` bins are merged into one
+        (``g`` the least whole number giving at most ``max_bins``; edges ``k w`` at
+        multiples of ``g`` from the first bin, counts summed exactly)."""
+        keys, counts = self.sparse()
+        if keys.size == 0:
+            return np.zeros(1), np.zeros(0, dtype=np.int64), 1
+        k0, span = int(keys[0]), int(keys[-1] - keys[0]) + 1
+        g = 1 if max_bins is None else max(1, -(-span // max_bins))
+        if span // g > 50_000_000:
+            raise ParameterError(
+                f"histogram: {span} bins of {self.width} mm between the extreme deviations; use a wider bin"
+            )
+        out = np.zeros(-(-span // g), dtype=np.int64)
+        np.add.at(out, (keys - k0) // g, counts)
+        edges = (k0 + g * np.arange(len(out) + 1, dtype=np.int64)).astype(np.float64) * self.width
+        return edges, out, g
 
 
 def hazen_positions(n: int, percents: Iterable[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -173,10 +187,11 @@ def order_statistics(
     the ranks; sorted, they give the ranks' values. None when these hold more than
     ``limit`` values (e.g. one value repeated millions of times; the caller then states
     histogram figures instead)."""
-    k0, _, counts = hist.dense()
+    bins, counts = hist.sparse()  # occupied bins only: their order is the values' order
     cum = np.concatenate([[0], np.cumsum(counts)])
     b = np.searchsorted(cum, ranks, side="right") - 1  # cum[b] <= r < cum[b + 1]
     targets = np.unique(b)
+    target_bins = bins[targets]
     slot = np.full(len(counts), -1, dtype=np.int64)
     slot[targets] = np.arange(len(targets))
     local = ranks - cum[b]  # rank within its bin
@@ -184,15 +199,13 @@ def order_statistics(
 
     def keyed(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(values in the target bins, their key slot * n_sub + sub-bin)."""
-        kb = hist.bins(d) - k0
-        inside = (kb >= 0) & (kb < len(counts))
-        t = np.full(len(d), -1, dtype=np.int64)
-        t[inside] = slot[kb[inside]]
-        sel = t >= 0
+        kb = hist.bins(d)
+        t = np.minimum(np.searchsorted(target_bins, kb), len(target_bins) - 1)
+        sel = target_bins[t] == kb
         v, t = d[sel], t[sel]
         if n_sub == 1:
             return v, t
-        edge = (kb[sel] + k0).astype(np.float64) * hist.width
+        edge = kb[sel].astype(np.float64) * hist.width
         sub = np.clip(np.floor((v - edge) * (n_sub / hist.width)), 0, n_sub - 1).astype(np.int64)
         return v, t * n_sub + sub
 
@@ -242,7 +255,9 @@ def hazen(
     got = order_statistics(hist, ranks, values, limit)
     if got is not None:
         return lerp(got[: len(prev)], got[len(prev) :], gamma), True
-    _, edges, counts = hist.dense()
+    bins, counts = hist.sparse()
     cum = np.concatenate([[0], np.cumsum(counts)])
-    pos = prev + gamma.clip(0, 1) + 0.5
-    return np.interp(pos, cum, edges), False
+    pos = prev + gamma.clip(0, 1) + 0.5  # rank as a position along the counts
+    j = np.clip(np.searchsorted(cum, pos, side="right") - 1, 0, len(counts) - 1)
+    frac = np.clip((pos - cum[j]) / counts[j], 0.0, 1.0)
+    return (bins[j] + frac) * hist.width, False
