@@ -107,6 +107,10 @@ def test_text_and_npy_sources_give_the_same_store(built, tmp_path):
     assert np.array_equal(a.points(rows), LodIndex.from_points(q).points(rows))
     assert np.allclose(b.points(rows), a.points(rows), rtol=0, atol=1e-12)  # cm x 10, rounded once
     assert read_meta(tmp_path / "b")["source"]["unit"] == "cm"
+    assert read_meta(tmp_path / "a")["warnings"] == []  # 100 mm, no unit: plausible as mm
+    np.save(tmp_path / "m.npy", q / 1000)  # the same part in metres, no unit said
+    assert "no unit" in build_store(tmp_path / "m.npy", tmp_path / "m")["warnings"][0]
+    assert build_store(tmp_path / "m.npy", tmp_path / "m2", unit="m")["warnings"] == []
 
 
 def test_uniform_prefix_is_spatially_uniform(built):

@@ -48,7 +48,8 @@ class Source:
     """A point file opened for chunked reading.
 
     ``n`` rows (None for text until read through), ``fields`` name -> numpy dtype string,
-    ``unit`` the file's length unit and ``factor`` its factor to mm, ``format`` a word.
+    ``unit`` the file's length unit and ``factor`` its factor to mm, ``stated`` whether
+    the file or the caller said so (else mm is assumed), ``format`` a word.
     """
 
     path: Path
@@ -57,6 +58,7 @@ class Source:
     unit: str
     factor: float
     fields: dict[str, str] = field(default_factory=dict)
+    stated: bool = False
     _ply: tuple | None = None  # (offset, row dtype) of the vertex element
     _text: tuple | None = None  # (lines to skip, delimiter, column names)
 
@@ -149,7 +151,7 @@ def open_source(path: str | Path, unit: str | None = None) -> Source:
     else:
         raise fail(name, f"extension {ext!r}: a big cloud is read from .ply (binary), .npy or .xyz/.txt/.csv")
     if unit is not None:
-        src.unit = unit
+        src.unit, src.stated = unit, True
     key = canonical_unit(src.unit) if src.unit else None
     if key is None:
         raise fail(name, f"unit {src.unit!r} is not a length unit (m, cm, mm, um, in)")
@@ -186,9 +188,9 @@ def _open_ply(p: Path, name: str) -> Source:
             f"truncated binary PLY: the header promises {el.count} vertex rows, which need "
             f"{offset + el.count * dt.itemsize} bytes, but the file has {size} bytes",
         )
-    unit = next((u for c in hdr.comments if (u := unit_from_comment(c))), None) or "mm"
+    unit = next((u for c in hdr.comments if (u := unit_from_comment(c))), None)
     fields = {q.name: np.dtype(q.dtype).str[1:] for q in el.props if q.name not in ("x", "y", "z")}
-    return Source(p, "ply", el.count, unit, 1.0, fields, _ply=(offset, dt))
+    return Source(p, "ply", el.count, unit or "mm", 1.0, fields, unit is not None, _ply=(offset, dt))
 
 
 def _open_npy(p: Path, name: str) -> Source:
@@ -214,7 +216,7 @@ _NUM = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
 
 
 def _open_text(p: Path, name: str) -> Source:
-    unit = "mm"
+    unit: str | None = None
     skip = 0
     header: list[str] | None = None
     delim: str | None = None
@@ -248,7 +250,7 @@ def _open_text(p: Path, name: str) -> Source:
     if not names:
         names = ["x", "y", "z"] + [f"col{j + 1}" for j in range(3, n_cols)]
     fields = {k: "f8" for k in names[3:]}
-    return Source(p, "text", None, unit, 1.0, fields, _text=(skip, delim, names))
+    return Source(p, "text", None, unit or "mm", 1.0, fields, unit is not None, _text=(skip, delim, names))
 
 
 def _delim(line: str) -> str | None:

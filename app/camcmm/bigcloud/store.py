@@ -43,6 +43,7 @@ from .. import __version__
 from ..errors import InputError
 from ..hashing import file_hash
 from ..limits import check_disk
+from ..units import decide_unit
 from .grid import CELL_POINTS, Grid, choose_level, sort_key
 from .sources import CHUNK, open_source
 
@@ -215,6 +216,9 @@ def build_store(
         np.save(out / "cells.npy", cells)
         say(0.9, "hashing the source")
         warnings = []
+        decision = decide_unit((hi - lo).tolist(), src.unit if src.stated else None, name=src.name)
+        if decision.status == "ask":  # no unit stated and a size implausible as mm (docs/units.md)
+            warnings.append(decision.reason)
         if n_bad:
             warnings.append(f"{src.name}: {n_bad} rows with non-finite coordinates left out")
         meta = {
@@ -236,6 +240,7 @@ def build_store(
                 "bytes": size,
                 "sha256": file_hash(src.path),
                 "unit": src.unit,
+                "unit_stated": src.stated,
                 "factor_to_mm": src.factor,
             },
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

@@ -61,6 +61,7 @@ def cases() -> list[Case]:
         Case("bc-index-xyz-word", (*idx, "c.xyz", "--out", "st"), {"c.xyz": b"1 2 3\n4 5 6\n7 x 9\n"}, ("c.xyz",)),
         Case("bc-index-xyz-columns", (*idx, "c.xyz", "--out", "st"), {"c.xyz": b"1 2\n3 4\n"}, ("c.xyz",)),
         Case("bc-index-npy-1d", (*idx, "c.npy", "--out", "st"), {"c.npy": _npy(np.arange(5.0))}, ("c.npy",)),
+        Case("bc-index-metres-no-unit", (*idx, "c.npy", "--out", "st"), {"c.npy": _npy(p / 1000)}, ("c.npy",)),
         Case("bc-index-npy-garbage", (*idx, "c.npy", "--out", "st"), {"c.npy": b"\x93NUMPY garbage"}, ("c.npy",)),
         Case(
             "bc-compare-not-store",
