@@ -101,6 +101,8 @@ COARSE_SHARE = 0.1
 COARSE_POINTS = 10_000
 #: Most Gauss-Newton steps on the tangent planes of one closest-point query.
 INNER_STEPS = 10
+#: The held directions are judged on the smooth normals of about this many points.
+SMOOTH_POINTS = 10_000
 _TUKEY_C, _HUBER_C = 4.685, 1.345
 
 
@@ -275,22 +277,26 @@ class Nominal:
         )
         return vn / np.maximum(np.linalg.norm(vn, axis=1), 1e-300)[:, None]
 
-    def closest_smooth(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """As :meth:`closest`, plus smooth unit normals (N, 3) for the analysis of the
-        undetermined directions: the vertex normals interpolated with the closest point's
-        barycentric coordinates, or the facet's normal where they differ from it by more
-        than 20° (a sharp edge, which must stay sharp). For a reference cloud its normals."""
+    def closest_smooth(
+        self, points: np.ndarray, every: int = 1
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`closest`, plus smooth unit normals (of every ``every``-th point) for the
+        analysis of the undetermined directions: the vertex normals interpolated with the
+        closest point's barycentric coordinates, or the facet's normal where they differ
+        from it by more than 20° (a sharp edge, which must stay sharp). For a reference
+        cloud its normals."""
         if self.mesh is None or self.cad is not None:  # a cloud's normals; a CAD's exact (smooth) ones
             q, n, rim = self.closest(points)
-            return q, n, n, rim
+            return q, n, n[::every], rim
         q, f, b, n = self.mesh.closest(points)
         assert self._vn is not None  # made with the mesh
         if self._vnf is None:  # the corners' vertex normals per triangle, gathered once
             self._vnf = self._vn[self.mesh.F]
-        ns = np.einsum("ij,ijk->ik", b, self._vnf[f])
+        fe, be, ne = f[::every], b[::every], n[::every]
+        ns = np.einsum("ij,ijk->ik", be, self._vnf[fe])
         ns /= np.maximum(np.linalg.norm(ns, axis=1), 1e-300)[:, None]
-        sharp = np.einsum("ij,ij->i", ns, n) < np.cos(np.radians(20.0))
-        ns[sharp] = n[sharp]
+        sharp = np.einsum("ij,ij->i", ns, ne) < np.cos(np.radians(20.0))
+        ns[sharp] = ne[sharp]
         return q, n, ns, self.mesh.on_boundary(f, b)
 
     @property
@@ -496,15 +502,6 @@ _DOF_NAMES = (
 )
 
 
-def _jacobian(
-    x: np.ndarray, n: np.ndarray, w: np.ndarray, scale: bool, L: float, centre: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Rows [(x - c) × n / L, n, (n · (x - c)) / L] (the last with ``scale``), c the
-    weighted centroid unless ``centre`` is given."""
-    Jt, c = _jacobian_t(x, n, w, scale, L, centre)
-    return Jt.T, c
-
-
 def _jacobian_t(
     x: np.ndarray,
     n: np.ndarray,
@@ -548,28 +545,39 @@ def _n_weak(Hs: np.ndarray, cond: float = HOLD_COND) -> int:
     return int(np.sum(lam <= cond * lam.max()))
 
 
-def _stacked_jacobian(
-    x: np.ndarray, n: np.ndarray, ns: np.ndarray, scale: bool, L: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """(2m, N): the Jacobian's rows with the facet normals (residuals) over those with the
-    smooth normals (the held directions), both about the centroid c of ``x``; and c."""
-    m = 7 if scale else 6
-    S = np.empty((2 * m, len(x)))
-    _, c = _jacobian_t(x, n, np.ones(len(x)), scale, L, out=S[:m])
-    _jacobian_t(x, ns, np.ones(len(x)), scale, L, centre=c, out=S[m:])
-    return S, c
+@dataclass
+class _Rows:
+    """The Jacobian (m, N) of the residuals (facet normals) about ``c``, and that of the
+    smooth normals (m, k) at the rows ``pos`` (for the held directions)."""
+
+    J: np.ndarray
+    Js: np.ndarray
+    pos: np.ndarray
+    c: np.ndarray
+
+
+def _stacked_jacobian(x: np.ndarray, n: np.ndarray, pos: np.ndarray, ns: np.ndarray, scale: bool, L: float) -> _Rows:
+    """:class:`_Rows` of the points ``x`` (N, 3) on planes of normals ``n``, the smooth
+    normals ``ns`` given at the rows ``pos``, both about the centroid of ``x``."""
+    J, c = _jacobian_t(x, n, np.ones(len(x)), scale, L)
+    Js, _ = _jacobian_t(x[pos], ns, np.ones(len(pos)), scale, L, centre=c)
+    return _Rows(J, Js, pos, c)
 
 
 def _normal_matrices(
-    S: np.ndarray, r: np.ndarray, w: np.ndarray, Hs: np.ndarray | None = None
+    S: _Rows, r: np.ndarray, w: np.ndarray, Hs: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """H (facet normals), g and Hs (smooth normals; unless given) of the weighted least squares."""
-    m = S.shape[0] // 2
+    """H (facet normals), g and Hs (smooth normals; unless given) of the weighted least
+    squares; the normal matrices are normalised by the weights' sum (only the ratios of
+    Hs's eigenvalues are used)."""
     sw = w / w.sum()
-    rows = S if Hs is None else S[:m]
-    Sw = rows * sw
-    H = S[:m] @ Sw[:m].T
-    return H, S[:m] @ (r * sw), S[m:] @ Sw[m:].T if Hs is None else Hs
+    H = S.J @ (S.J * sw).T
+    g = S.J @ (r * sw)
+    if Hs is None:
+        ws = w[S.pos]
+        ws = ws / ws.sum() if ws.sum() > 0 else np.full(len(ws), 1.0 / max(len(ws), 1))
+        Hs = S.Js @ (S.Js * ws).T
+    return H, g, Hs
 
 
 def _subspace_step(
@@ -612,23 +620,6 @@ def _subspace_step(
     if scale:
         delta[6] /= L
     return delta, c, weak, vec[:, ~keep], lin
-
-
-def _gn_step(
-    x: np.ndarray,
-    q: np.ndarray,
-    n: np.ndarray,
-    w: np.ndarray,
-    scale: bool,
-    L: float,
-    cond: float = HOLD_COND,
-    ns: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray]:
-    """One weighted Gauss-Newton step in the determined subspace (see
-    :func:`_subspace_step`) for the points ``x`` on the planes (``q``, ``n``)."""
-    S, c = _stacked_jacobian(x, n, n if ns is None else ns, scale, L)
-    H, g, Hs = _normal_matrices(S, np.einsum("ij,ij->i", n, x - q), w)
-    return _subspace_step(H, g, Hs, c, L, scale, cond)[:4]
 
 
 def _vec(v: np.ndarray) -> str:
@@ -752,8 +743,7 @@ class _Step:
 
 
 def _robust_step(
-    S: np.ndarray,
-    c: np.ndarray,
+    S: _Rows,
     r: np.ndarray,
     kernel: str,
     kernel_k: float | None,
@@ -777,7 +767,7 @@ def _robust_step(
     st = _Step(k=k, sig=sig)
     if (w > 0).sum() >= need:
         H, g, st.Hs = _normal_matrices(S, r, w, Hs)
-        st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, c, L, scale)
+        st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, S.c, L, scale)
     else:
         st.weak = ["all"]
     if st.weak and kernel != "none" and not kernel_k:
@@ -793,7 +783,7 @@ def _robust_step(
         st.k = k
         if (w > 0).sum() >= need:
             H, g, st.Hs = _normal_matrices(S, r, w)
-            st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, c, L, scale)
+            st.delta, st.c, st.weak, st.held, st.lin = _subspace_step(H, g, st.Hs, S.c, L, scale)
     if (w > 0).sum() < need or st.delta is None:
         st.fail = "the robust kernel rejected all but a few correspondences"
         return st
@@ -891,7 +881,11 @@ def icp(
                     else f"only {len(xi)} measured points"
                 )
                 break
-            q, n, ns_all, rim = nom.closest_smooth(xi)
+            # the held directions are judged on the smooth normals of a spatially even
+            # share of the points (every k-th in Z order, at least SMOOTH_POINTS): the shape's
+            # symmetries show on 10 000 points as on all, at a twentieth of the cost
+            every = max(1, len(xi) // SMOOTH_POINTS)
+            q, n, ns_every, rim = nom.closest_smooth(xi, every)
             dq = xi - q
             e = np.sqrt(np.einsum("ij,ij->i", dq, dq))
             good = (e <= dmax) & ~rim
@@ -901,9 +895,14 @@ def icp(
                     f"{dmax:.4g} mm of the nominal"
                 )
                 break
-            xg, qg, ng, nsg = (xi, q, n, ns_all) if good.all() else (xi[good], q[good], n[good], ns_all[good])
+            if good.all():
+                xg, qg, ng, pos, nsg = xi, q, n, np.arange(0, len(xi), every), ns_every
+            else:
+                keep_s = good[::every]
+                pos = (np.cumsum(good) - 1)[::every][keep_s]  # the kept smooth rows in xg
+                xg, qg, ng, nsg = xi[good], q[good], n[good], ns_every[keep_s]
             r = np.einsum("ij,ij->i", ng, dq if ng is n else xg - qg)
-            S, c0 = _stacked_jacobian(xg, ng, nsg, scale, L)
+            S = _stacked_jacobian(xg, ng, pos, nsg, scale, L)
             last = {"e": e, "n_region": len(xi)}
             # Gauss-Newton steps on these tangent planes until they settle, then a new query.
             # A plane's residual n·(x - q) stays the exact point-to-triangle distance while
@@ -913,10 +912,10 @@ def icp(
             # only while the part has moved less than σ/2 since the query (near the end the
             # steps are ~1e-5 rad and ~1e-4 mm: the second-order term is far below 1e-3 σ;
             # a larger move, as from a far start, takes a new query after each step).
-            moved = 0.0  # mm the part moved since the query
+            moved = prev = 0.0  # mm the part moved since the query; the last step's move
             Hs = None
             for inner in range(INNER_STEPS):
-                st = _robust_step(S, c0, r, kernel, kernel_k, scale, L, need, nom.diag, Hs)
+                st = _robust_step(S, r, kernel, kernel_k, scale, L, need, nom.diag, Hs)
                 Hs = st.Hs
                 if st.fail:
                     fail = st.fail
@@ -925,7 +924,8 @@ def icp(
                 # settled when the update moves the part by far less than its noise: in mm at
                 # the part's size, below 1e-3 of the robust residual scale (or ``tolerance`` ×
                 # size for noise-free data); on a subset, below the σ/√n its optimum is known to
-                small = st.move < max(tolerance * L, 1e-3 * st.sig, 0.0 if is_last else st.sig / np.sqrt(len(pts)))
+                thr = max(tolerance * L, 1e-3 * st.sig, 0.0 if is_last else st.sig / np.sqrt(len(pts)))
+                small = st.move < thr
                 assert st.delta is not None  # a step was found (else st.fail)
                 if small and inner == 0:
                     settled = True
@@ -940,9 +940,13 @@ def icp(
                 T = _compose(T, st.delta, st.c, scale)
                 it_total += 1
                 moved += st.move
-                if small or not moved < 0.5 * st.sig:
+                # the steps shrink geometrically (IRLS: by ~0.2 a step); once the next one is
+                # predicted below half the threshold, the query that checks it comes now
+                rate = min(st.move / prev, 0.9) if prev > 0 else 1.0
+                if small or st.move * rate < 0.5 * thr or not moved < 0.5 * st.sig:
                     break  # settled on these planes, or moved too far to keep them
-                r = r + S[: len(st.lin)].T @ st.lin
+                prev = st.move
+                r = r + S.J.T @ st.lin
             if fail or settled:
                 break
         if fail:
