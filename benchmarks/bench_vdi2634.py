@@ -4,7 +4,9 @@
 500 000 points — simulated once by the virtual lab (cached in a temp folder) — then
 evaluated by the vdi2634-2 standard plugin exactly as ``camcmm verify`` does: read
 every file, hash it, segment the ball bars, fit everything with the 3-per-1000 rule,
-summarise. Target: under 5 s.
+summarise. Target: at most 2 s (issue 29; 5 s before). The process CPU time per
+evaluation is printed too: on this shared 2-core machine the wall time follows the load
+of other programs, the CPU time much less.
 
 Reference, in the same run: the bare least-squares fits of the same data with no
 outlier rule (fit.sphere / fit.plane through the host; ball bars split by the true
@@ -113,7 +115,7 @@ def main() -> None:
     print(
         f"full part-2 evaluation (read + hash + segment + fit with 3/1000 rule + summary): "
         f"best {best:.2f} s, median {statistics.median(times):.2f} s over {args.repeat} runs "
-        f"({'under' if best < 5 else 'OVER'} the 5 s target)"
+        f"({'within' if best <= 2 else 'OVER'} the 2 s target)"
     )
     print(
         f"CPU time of this process per evaluation (all threads): best {min(CPU[1:]):.2f} s; "
