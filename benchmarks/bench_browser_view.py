@@ -163,7 +163,8 @@ def report(r: dict[str, Any]) -> dict[str, float]:
     print(f"\n== browser, {n:,} points, {SIZE[0]}x{SIZE[1]}, 2 px splats ==")
     t = r["timing"]
     print(
-        f"after the state arrives: buffers fetched and sorted {t['loaded_ms'] / 1e3:.2f} s, first paint "
+        f"after the state arrives: buffers fetched and sorted {t['loaded_ms'] / 1e3:.2f} s (of which the "
+        f"Morton sort {t['sort_ms'] / 1e3:.2f} s), first paint "
         f"{t['first_paint_ms'] / 1e3:.2f} s, all points drawn {t['all_drawn_ms'] / 1e3:.2f} s "
         f"(ready() seen by the test after {r['ready_s']:.2f} s)"
     )

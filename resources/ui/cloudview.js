@@ -159,7 +159,9 @@
           if (ab.byteLength % 12) throw new Error(url + ": " + ab.byteLength + " bytes are no float32 x, y, z");
           data = new Float32Array(ab);
           if (kind === "pts") {
+            var ts = performance.now();
             var sorted = lodSort(data);
+            sorted.sortMs = performance.now() - ts;
             entry.data = sorted;
             entry.bytes = sorted.pos.byteLength + sorted.perm.byteLength;
             return sorted;
@@ -421,7 +423,9 @@
         self.origin = vec3(spec.origin, [0, 0, 0]);
         self.adoptCamera(true);
         self.applyOverlays();
-        self.timing = { arrived: arrived, loaded_ms: performance.now() - arrived, first_paint_ms: null, all_drawn_ms: null };
+        var sortMs = 0;
+        layers.forEach(function (l) { if (l.pts) sortMs += l.pts.sortMs || 0; });
+        self.timing = { arrived: arrived, loaded_ms: performance.now() - arrived, sort_ms: sortMs, first_paint_ms: null, all_drawn_ms: null };
         self.firstPaint(arrived);
         evict();
       },
