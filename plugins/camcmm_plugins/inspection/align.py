@@ -571,7 +571,8 @@ def _normal_matrices(
     squares; the normal matrices are normalised by the weights' sum (only the ratios of
     Hs's eigenvalues are used)."""
     sw = w / w.sum()
-    H = S.J @ (S.J * sw).T
+    Jw = S.J * np.sqrt(sw)
+    H = Jw @ Jw.T  # A Aᵀ: numpy hands it to BLAS's syrk (half the work of a general product)
     g = S.J @ (r * sw)
     if Hs is None:
         ws = w[S.pos]
