@@ -7,7 +7,8 @@ by image retrieval with visual words (Sivic & Zisserman 2003, "Video Google"; CO
 vocabulary-tree matching, Schönberger et al. 2016, does the same with a pre-trained tree):
 
 1. a vocabulary of ``words`` visual words: k-means (``cv2.kmeans``, k-means++ start, fixed
-   seed) on up to ``sample`` descriptors of each image;
+   seed) on up to ``sample`` descriptors of each image (fewer in a long series: at most
+   :data:`MAX_POOL` in all);
 2. each image a histogram of its descriptors' nearest words, weighted by the inverse document
    frequency idf_w = ln(n / n_w) (n_w images hold word w) and scaled to unit length;
 3. the similarity of two images is the cosine of their vectors; each image is paired with
@@ -30,6 +31,9 @@ import numpy as np
 DEFAULT_WORDS = 512
 #: descriptors per image sampled for the vocabulary (k-means cost grows with their number)
 DEFAULT_SAMPLE = 400
+#: at most this many sampled in all (fewer per image in a long series): k-means on 300 views x
+#: 400 took 18 s under load 5 — as long as matching their neighbours
+MAX_POOL = 50_000
 
 
 def word_vectors(
@@ -46,7 +50,8 @@ def word_vectors(
     rng = np.random.default_rng(seed)
     arrays = [np.asarray(d, dtype=np.float32) for d in descriptors]
     desc = [a.reshape(len(a), -1) if a.size else np.zeros((0, 1), np.float32) for a in arrays]
-    picked = [d[rng.choice(len(d), min(len(d), sample), replace=False)] for d in desc if len(d)]
+    each = max(1, min(sample, MAX_POOL // max(1, len(desc))))
+    picked = [d[rng.choice(len(d), min(len(d), each), replace=False)] for d in desc if len(d)]
     if not picked:
         return np.zeros((len(desc), 1))
     pool = np.concatenate(picked)
