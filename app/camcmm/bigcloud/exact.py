@@ -197,11 +197,21 @@ def order_statistics(
     local = ranks - cum[b]  # rank within its bin
     n_sub = 1 if int(counts[targets].sum()) <= COLLECT else SUB_BINS
 
+    lo_bin, span = int(target_bins[0]), int(target_bins[-1] - target_bins[0]) + 1
+    table = None
+    if span <= 1 << 22:  # the target bins' slots by lookup (a search per value is 3x slower)
+        table = np.full(span + 2, -1, dtype=np.int64)  # [0] and [-1]: below and above the range
+        table[target_bins - lo_bin + 1] = np.arange(len(target_bins))
+
     def keyed(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(values in the target bins, their key slot * n_sub + sub-bin)."""
         kb = hist.bins(d)
-        t = np.minimum(np.searchsorted(target_bins, kb), len(target_bins) - 1)
-        sel = target_bins[t] == kb
+        if table is not None:
+            t = table[np.clip(kb - (lo_bin - 1), 0, span + 1)]
+            sel = t >= 0
+        else:
+            t = np.minimum(np.searchsorted(target_bins, kb), len(target_bins) - 1)
+            sel = target_bins[t] == kb
         v, t = d[sel], t[sel]
         if n_sub == 1:
             return v, t
