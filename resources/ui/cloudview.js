@@ -325,6 +325,7 @@
     this.zbuf = new Float32Array(w * h);
     this.idLayer = new Uint8Array(w * h);
     this.idIndex = new Int32Array(w * h);
+    this.idDepth = new Float32Array(w * h); // depth of a translucent mesh's id: it is picked through its blending
     this.bg = new Uint32Array(w * h);
     for (var y = 0; y < h; y++) { // VTK's gradient: `top` at the top, the background at the bottom
       var t = h > 1 ? y / (h - 1) : 0;
@@ -585,7 +586,7 @@
     var pix = this.pix, Z = this.zbuf;
     pix.set(this.bg);
     Z.fill(Infinity);
-    if (full) this.idLayer.fill(0);
+    if (full) { this.idLayer.fill(0); this.idDepth.fill(Infinity); }
     var drawn = 0, total = 0;
     if (this.cam && this.layers.length) {
       var b = this.basis();
@@ -605,7 +606,8 @@
       order.forEach(function (i) {
         var l = self.layers[i], s = l.spec, alpha = s.opacity === undefined || s.opacity === null ? 1 : +s.opacity;
         if (!(alpha > 0)) return;
-        var ids = full && s.pickable !== false && alpha >= 1 && i < 255 ? i + 1 : 0; // a byte per pixel
+        // a byte per pixel; a translucent mesh too (the Compare page's nominal at 0.55 is picked on)
+        var ids = full && s.pickable !== false && (alpha >= 1 || s.kind === "mesh") && i < 255 ? i + 1 : 0;
         if (s.kind === "points") {
           var k = frac < 1 ? Math.max(1, Math.floor(l.n * frac)) : l.n;
           if (k < l.n && k > CHUNK) k -= k % CHUNK; // whole chunks: a uniform subsample (lodSort)
@@ -818,7 +820,11 @@
             c = (0xff000000 | (((w0 * bA + w1 * bB + w2 * bC) + 0.5) << 16) |
               (((w0 * gA + w1 * gB + w2 * gC) + 0.5) << 8) | ((w0 * rA + w1 * rB + w2 * rC) + 0.5)) >>> 0;
           }
-          if (alpha < 1) { pix[p] = blend(pix[p], c, alpha); continue; }
+          if (alpha < 1) {
+            pix[p] = blend(pix[p], c, alpha);
+            if (ids && d < view.idDepth[p]) { view.idDepth[p] = d; IL[p] = ids; II[p] = t; } // nearest face: the pick
+            continue;
+          }
           Z[p] = d;
           pix[p] = c;
           if (ids) { IL[p] = ids; II[p] = t; }
@@ -1126,7 +1132,8 @@
     if (s.kind === "points") return { layer: s.id, index: layer.perm ? layer.perm[i] : i, world: add(at(i), o) };
     var verts = s.kind === "mesh" ? [layer.idx[3 * i], layer.idx[3 * i + 1], layer.idx[3 * i + 2]] : [layer.idx[2 * i], layer.idx[2 * i + 1]];
     // the surface point under the pixel centre at its depth
-    var b = this.basis(), F = H / 2 / Math.tan(this.cam.angle * Math.PI / 360), d = Z[best];
+    var b = this.basis(), F = H / 2 / Math.tan(this.cam.angle * Math.PI / 360);
+    var d = this.idDepth[best] < Infinity ? this.idDepth[best] : Z[best]; // a translucent mesh's own depth
     var px = (best % W) + 0.5, py = Math.floor(best / W) + 0.5;
     var q = add(b.eye, add(mul(b.f, d), add(mul(b.r, ((px - W / 2) * d) / F), mul(b.u, (-(py - H / 2) * d) / F))));
     var near = verts[0], nd = Infinity;
