@@ -40,7 +40,7 @@ class BigCloud:
         self.base: Shown | None = None  # the first paint (the SceneView's own subset)
         self.base_note = ""
         self.rows: np.ndarray | None = None  # the cloud's rows of the points shown when refined
-        self._refined: Shown | None = None
+        self.refined: Shown | None = None
         self._bounds: tuple[Any, np.ndarray] | None = None  # (cloud, its (2, 3) bounds)
         self._gen = 0  # the newest camera: an older refinement still running is dropped
 
@@ -60,11 +60,11 @@ class BigCloud:
     def shown_anew(self) -> None:
         """The scene was drawn anew: a new item (or the same again) is its first paint;
         the refinement shown just turned (a standard view) stays."""
-        if self.view.shown is not None and self.view.shown is self._refined:
+        if self.view.shown is not None and self.view.shown is self.refined:
             return
         if self.applies() and ZOOM_NOTE not in self.view.note:
             self.view.note += ZOOM_NOTE
-        self.base, self.base_note, self.rows, self._refined = self.view.shown, self.view.note, None, None
+        self.base, self.base_note, self.rows, self.refined = self.view.shown, self.view.note, None, None
         self._gen += 1
 
     # -- refinement --------------------------------------------------------------------
@@ -110,12 +110,12 @@ class BigCloud:
         if picked is None:
             if self.rows is None:
                 return  # the first paint is shown already
-            view.shown, self.rows, self._refined = base, None, None
+            view.shown, self.rows, self.refined = base, None, None
             view.note = self.base_note
         else:
             rows, poly = picked
             view.shown = Shown(base.key, poly, "pointcloud", base.n_total, len(rows), base.units, base.ranges)
-            self.rows, self._refined = rows, view.shown
+            self.rows, self.refined = rows, view.shown
             view.note = (
                 f"showing {fmt_count(len(rows))} of {fmt_count(base.n_total)} points: those in view, "
                 "denser where zoomed in (level of detail; computations use all points)"

@@ -59,6 +59,8 @@ def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any])
         if reset_camera:
             view.plotter.reset_camera()
             big.shown_anew()
+            if view.shown is not big.refined:  # another item (or none): the last click is not of it
+                setattr(session.state, f"{cv.name}_picked", "")
         if cv.mode == "server":
             push_remote()
         else:
