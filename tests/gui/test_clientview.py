@@ -224,6 +224,14 @@ def test_pick_maps_back_through_the_permutation_and_bad_arguments_do_nothing(sho
     assert list(view.plotter.camera.position) == [300.0, 0.0, 10.0] and list(view.plotter.window_size) == [800, 600]
     assert cv.publish()["camera"]["rev"] == 1  # the browser's own camera: not sent back as a new one
 
+    selected = []
+    cv.on_select = lambda name, sel: selected.append((name, sel))
+    mvp = np.eye(4).ravel().tolist()
+    assert cv.select({"shape": "lasso", "polygon": [[0, 0], [1, 0], [0, 1]], "mvp": mvp, "extra": "x"})
+    assert selected == [("cv_test", {"shape": "lasso", "polygon": [[0, 0], [1, 0], [0, 1]], "mvp": mvp})]
+    assert cv.select({"shape": "lasso", "polygon": [[0, 0], [1, 0], [0, "1"]], "mvp": mvp}) is None
+    assert len(selected) == 1
+
 
 def test_selection_checked_and_its_points():
     # an orthographic MVP: clip = (x/10, y/10, 0, 1) -> ndc = x/10, y/10
