@@ -216,6 +216,7 @@ def test_pick_maps_back_through_the_permutation_and_bad_arguments_do_nothing(sho
         (good, [0, 600]),
         (good, [800.5, 600]),
         (good, [10**9, 600]),
+        (good, [8192, 8192]),  # more pixels than an 8K screen: the server would render them
         (good, "800x600"),
     ]:
         assert cv.camera(bad_cam, vp) is False

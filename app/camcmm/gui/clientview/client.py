@@ -28,8 +28,10 @@ log = logging.getLogger("camcmm.gui")
 
 MODES = ("browser", "server")
 TOOLS = ("rotate", "lasso", "rect")
-#: the largest viewport (pixels) and selection polygon (vertices) a browser may send
-MAX_VIEWPORT = 16384
+#: the largest viewport a browser may send (the server's plotter takes its size: an 8K
+#: screen, not a gigapixel render), and the largest selection polygon (vertices)
+MAX_VIEWPORT = 8192
+MAX_VIEWPORT_PIXELS = 7680 * 4320
 MAX_POLYGON = 4096
 
 
@@ -266,6 +268,8 @@ def _index(i: Any, n: int) -> bool:
 def _viewport(vp: Any) -> tuple[int, int] | None:
     v = finite_vector(vp, 2)
     if v is None or not all(1 <= x <= MAX_VIEWPORT and float(x).is_integer() for x in v):
+        return None
+    if v[0] * v[1] > MAX_VIEWPORT_PIXELS:
         return None
     return int(v[0]), int(v[1])
 
