@@ -357,6 +357,23 @@ def test_compare_clicks_take_pairs_and_deviations(gui_app, tmp_path):
     assert s.ins_picked["index"] == i
     assert s.ins_picked["deviation_mm"] == float(page.deviations.fields["deviation"][i])
 
+    # a new display limit (the switch browser/server) draws the map again with it, same camera
+    from camcmm.gui.clientview.hooks import redraw_compare
+
+    cam = list(page.view.plotter.renderer.GetActiveCamera().GetPosition())
+    total = page.view.dev.n_total
+    page.view.display_limit = 1000
+    redraw_compare(page, 1000)
+
+    def cloud_n():
+        return next(lay["n"] for lay in s.cv_compare["layers"] if lay["id"] == "cloud")
+
+    assert page.view.dev.n_shown == 1000 and page.view.scene == "colour" and cloud_n() == 1000
+    page.view.display_limit = 500_000
+    redraw_compare(page, 1000)
+    assert page.view.dev.n_shown == total and cloud_n() == total
+    assert list(page.view.plotter.renderer.GetActiveCamera().GetPosition()) == cam
+
 
 def test_big_cloud_refines_on_zoom_and_comes_back(gui_app, tmp_path):
     """A cloud above the client view's limit (here an explicit limit of 1000 points for a

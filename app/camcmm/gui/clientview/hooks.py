@@ -140,9 +140,33 @@ def attach_compare(page: Any, cv: ClientView, push_remote: Callable[[], Any]) ->
     cv.on_server_view = push_remote
 
     def on_mode(mode: str) -> None:
-        view.display_limit = limit_for(mode)
+        limit = limit_for(mode)
+        if limit == view.display_limit:
+            return
+        view.display_limit = limit
+        redraw_compare(page, min(limit_for("server"), limit_for("browser")))
 
     cv.on_mode = on_mode
+
+
+def redraw_compare(page: Any, smaller: int) -> None:
+    """The Compare page's scene drawn again at the view's new display limit, where its
+    cloud is above the smaller of the two (the deviations or the measured cloud: prepared
+    anew; the camera stays)."""
+    from ..pages.compare.scene import prepare_cloud
+
+    view, scene = page.view, page.view.scene
+    if scene in ("colour", "bands", "failed") and page.deviations is not None and view.dev is not None:
+        if view.dev.n_total <= smaller:
+            return
+        dev = page.deviations
+        page.prepared = prepare_cloud(dev.points, dev.fields.get("deviation"), view.display_limit)
+        page.display.set_mode("colour" if scene == "failed" else scene)  # "failed" is drawn as such
+    elif scene == "inputs" and view._inputs.get("measured") is not None:
+        if view._inputs["measured"].n_total <= smaller:
+            return
+        view._inputs.pop("measured")
+        page.inputs.show_inputs(reset_camera=False)
 
 
 @contextmanager
