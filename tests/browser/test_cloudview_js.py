@@ -4,7 +4,8 @@ projection computed here (``project``: f = (H/2)/tan(view_angle/2), x = W/2 + f 
 y = H/2 - f yc/d):
 
 - three points of 3 px in three colours land as 3x3 squares of exactly their colours at their
-  projected pixels, and nowhere else;
+  projected pixels, and nowhere else; 2 and 1 px likewise; an interaction frame (its own loop)
+  draws the same picture;
 - a triangle facing the camera hides a point behind it and not one in front, in its colour
   (the headlight falls straight on it: Lambert factor 1);
 - a click 2 px beside a point triggers ``cv_pick`` with its layer, its index in the server's
@@ -66,6 +67,23 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
                 assert (img == c).all(axis=2).sum() == 9, c  # that colour nowhere else
             stats = page.evaluate(f"window.camcmmCloudView.views['{NAME}'].stats()")
             assert stats["points_drawn"] == 3 and stats["points_total"] == 3
+
+            # an interaction frame (its own loop: no id-buffer, no branches) draws the same picture,
+            # for 3, 2 and 1 px splats
+            view = f"window.camcmmCloudView.views['{NAME}']"
+            page.evaluate(f"{view}.frame({{}})")
+            assert (_image(page) == img).all()
+            for size in (2, 1):
+                small = points_layer(folder, "cloud", XYZ, RGB, point_size=size)
+                page.evaluate(SET_STATE, [NAME, scene_state([small], CAMERA, rev=10 + size)])
+                page.wait_for_function(READY, arg=NAME, timeout=10_000)
+                full = _image(page)
+                page.evaluate(f"{view}.frame({{}})")
+                assert (_image(page) == full).all(), size
+                for (x, y), c in zip(px, RGB, strict=True):
+                    ix, iy = int(np.floor(x)), int(np.floor(y))  # the splat spans [i, i + size)
+                    assert (full[iy : iy + size, ix : ix + size] == c).all(), (size, c)
+                    assert (full == c).all(axis=2).sum() == size * size, (size, c)
 
             # a click 2 px right of the green point: index 0 in the server's order, its world mm
             gx, gy = px[0]
