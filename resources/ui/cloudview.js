@@ -193,6 +193,7 @@
     Object.keys(views).forEach(function (k) {
       views[k].layers.forEach(function (l) {
         if (l.colKey && seen.indexOf(l.col) < 0) { seen.push(l.col); b += l.col.byteLength; }
+        if (l.solid) b += l.solid.byteLength;
       });
     });
     return b;
