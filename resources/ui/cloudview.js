@@ -1146,7 +1146,7 @@
 
   View.prototype.showPolygon = function (pts) {
     if (!pts) { this.poly.setAttribute("points", ""); this.svg.style.display = "none"; return; }
-    this.svg.style.display = "";
+    this.svg.style.display = "block"; // the stylesheet hides it
     this.poly.setAttribute("points", pts.map(function (p) { return p[0].toFixed(1) + "," + p[1].toFixed(1); }).join(" "));
   };
 

@@ -10,7 +10,8 @@ y = H/2 - f yc/d):
   (the headlight falls straight on it: Lambert factor 1);
 - a click 2 px beside a point triggers ``cv_pick`` with its layer, its index in the server's
   order and its world position;
-- with tool "rect" a drag triggers ``cv_select`` with the rectangle in NDC, and its ``mvp``
+- with tool "rect" a drag shows the rectangle over the view and then triggers ``cv_select`` with
+  it in NDC, and its ``mvp``
   maps each point to the NDC of its projected pixel (so a point is inside exactly when drawn
   inside);
 - the WebGL2 backend (forced) draws the same colours at the same pixels with the same occlusion.
@@ -99,6 +100,10 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
             page.mouse.down()
             page.mouse.move(150, 100, steps=4)
             page.mouse.move(260, 170, steps=4)
+            shown = "() => { const s = document.querySelector('.cmm-cv-select'); return [getComputedStyle(s).display,"
+            shown += " s.querySelector('polygon').getAttribute('points')]; }"
+            # the rectangle is drawn while dragging
+            assert page.evaluate(shown) == ["block", "40.0,30.0 260.0,30.0 260.0,170.0 40.0,170.0"]
             page.mouse.up()
             (sel,) = _triggers(page, "cv_select")
             assert sel[0] == NAME and sel[1]["shape"] == "rect"
