@@ -334,7 +334,16 @@ def test_compare_clicks_take_pairs_and_deviations(gui_app, tmp_path):
     order = lod_order(prep.n_shown)
     reg.on_pick("cv_compare", "measured", 11, [0.0, 0.0, 0.0])
     assert page.inputs.measured_pairs == [prep.points[order[11]].tolist()]
-    assert reg.on_pick("cv_compare", "measured", 12, None) is None and "no point of the nominal" in s.ins_pick_hint
+    # a click on the measured cloud when the nominal's point is next: the nominal's surface
+    # along the same line of sight (the server's cell picker), as a server-side click picks it
+    cam = page.view.plotter.renderer.GetActiveCamera()
+    q = prep.points[order[12]]
+    reg.on_pick("cv_compare", "measured", 12, None)
+    (n1,) = page.inputs.nominal_pairs
+    ray = q - np.asarray(cam.GetPosition())
+    off = np.subtract(n1, cam.GetPosition())
+    assert np.linalg.norm(np.cross(ray / np.linalg.norm(ray), off)) < 0.2  # on the line of sight (mm)
+    page.undo_pair_point()
     reg.on_pick("cv_compare", "nominal", 0, [20.0, 15.0, 20.3])
     assert np.allclose(page.inputs.nominal_pairs[0], [20.0, 15.0, 20.0], atol=1e-9)
     assert [lab["text"] for lab in s.cv_compare["labels"]] == ["M1", "N1"]

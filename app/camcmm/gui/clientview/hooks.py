@@ -202,6 +202,24 @@ def nearest_on_actor(actor: Any, point: np.ndarray) -> tuple[np.ndarray, int] | 
     return np.asarray(closest, dtype=float), int(cell)
 
 
+def along_sight(view: Any, which: str, point: np.ndarray) -> np.ndarray | None:
+    """The point of ``which`` ("measured" or "nominal") on the server camera's line of
+    sight through ``point`` (mm): the front-most cloud point within a few pixels of it, or
+    the nominal mesh's surface there (VTK's cell picker); None when there is none."""
+    from ..pages.compare.picking import pick_point, pick_surface, world_to_display
+
+    xy, _, ok = world_to_display(view.renderer, np.asarray(point, dtype=float).reshape(1, 3))
+    if not ok[0]:
+        return None
+    x, y = (float(v) for v in xy[0])
+    prep = view._inputs.get("measured" if which == "measured" else "nominal_cloud")
+    if which == "measured" or prep is not None:
+        j = None if prep is None else pick_point(view.renderer, prep.points, x, y, zbuffer=False)
+        return None if j is None else np.asarray(prep.points[j], dtype=float).copy()
+    actor = view._actors.get("nominal")
+    return None if actor is None else pick_surface(view.renderer, actor, x, y)
+
+
 def compare_pick(page: Any, layer_id: str, i: int, point: np.ndarray) -> Any:
     """A click in the browser on the Compare page, through the page's own pick logic."""
     view = page.view
@@ -213,7 +231,10 @@ def compare_pick(page: Any, layer_id: str, i: int, point: np.ndarray) -> Any:
 
     def pick_input(which: str, x: float, y: float) -> np.ndarray | None:
         if layer_id != which:  # the layers are the scene's actors: "measured", "nominal"
-            return None
+            # the other object drawn in front (the nominal is translucent): the one asked
+            # for along the same line of sight, as the server picks it (its camera is the
+            # browser's: cv_camera)
+            return along_sight(view, which, point) if layer_id in ("measured", "nominal") else None
         if which == "measured":
             prep = view._inputs.get("measured")
             return None if prep is None else np.asarray(prep.points[i], dtype=float).copy()
