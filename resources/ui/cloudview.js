@@ -306,6 +306,8 @@
     if (this.el.__cmmCloudView === this) delete this.el.__cmmCloudView;
     this.el = null;
     this.W = this.H = 0;
+    this.pix = this.zbuf = this.idLayer = this.idIndex = this.bg = this.image = this.scratch = null; // frame buffers go
+    this.idValid = false;
   };
 
   View.prototype.resize = function () {
