@@ -366,6 +366,17 @@ def test_compare_clicks_take_pairs_and_deviations(gui_app, tmp_path):
     assert s.ins_picked["index"] == i
     assert s.ins_picked["deviation_mm"] == float(page.deviations.fields["deviation"][i])
 
+    # a failed alignment's view: the nominal over the cloud; a click on the nominal gives the
+    # deviation of the cloud's front-most point within a few pixels of that line of sight
+    page.view.show_failed(page.view.dev, page.nominal, reset_camera=False)
+    eye = np.asarray(page.view.plotter.renderer.GetActiveCamera().GetPosition())
+    q = page.view.dev.points[7]
+    reg.on_pick("cv_compare", "nominal", 0, q.tolist())
+    got = np.array([s.ins_picked[c] for c in "xyz"])
+    ray = (q - eye) / np.linalg.norm(q - eye)
+    assert s.ins_picked["found"] and np.linalg.norm(np.cross(ray, got - eye)) < 1.5  # mm: 14 px here
+    page.display.set_mode("colour")
+
     # a new display limit (the switch browser/server) draws the map again with it, same camera
     from camcmm.gui.clientview.hooks import redraw_compare
 

@@ -206,18 +206,27 @@ def along_sight(view: Any, which: str, point: np.ndarray) -> np.ndarray | None:
     """The point of ``which`` ("measured" or "nominal") on the server camera's line of
     sight through ``point`` (mm): the front-most cloud point within a few pixels of it, or
     the nominal mesh's surface there (VTK's cell picker); None when there is none."""
-    from ..pages.compare.picking import pick_point, pick_surface, world_to_display
+    from ..pages.compare.picking import pick_surface, world_to_display
+
+    prep = view._inputs.get("measured" if which == "measured" else "nominal_cloud")
+    if which == "measured" or prep is not None:
+        j = None if prep is None else sight_index(view, prep.points, point)
+        return None if j is None else np.asarray(prep.points[j], dtype=float).copy()
+    xy, _, ok = world_to_display(view.renderer, np.asarray(point, dtype=float).reshape(1, 3))
+    actor = view._actors.get("nominal")
+    return None if actor is None or not ok[0] else pick_surface(view.renderer, actor, *(float(v) for v in xy[0]))
+
+
+def sight_index(view: Any, points: np.ndarray, point: np.ndarray) -> int | None:
+    """The index of the front-most of ``points`` drawn within a few pixels of ``point``
+    (mm) for the server's camera (picking.pick_point without a depth buffer: the server
+    has not rendered the browser's view)."""
+    from ..pages.compare.picking import pick_point, world_to_display
 
     xy, _, ok = world_to_display(view.renderer, np.asarray(point, dtype=float).reshape(1, 3))
     if not ok[0]:
         return None
-    x, y = (float(v) for v in xy[0])
-    prep = view._inputs.get("measured" if which == "measured" else "nominal_cloud")
-    if which == "measured" or prep is not None:
-        j = None if prep is None else pick_point(view.renderer, prep.points, x, y, zbuffer=False)
-        return None if j is None else np.asarray(prep.points[j], dtype=float).copy()
-    actor = view._actors.get("nominal")
-    return None if actor is None else pick_surface(view.renderer, actor, x, y)
+    return pick_point(view.renderer, points, float(xy[0, 0]), float(xy[0, 1]), zbuffer=False)
 
 
 def compare_pick(page: Any, layer_id: str, i: int, point: np.ndarray) -> Any:
@@ -225,9 +234,14 @@ def compare_pick(page: Any, layer_id: str, i: int, point: np.ndarray) -> Any:
     view = page.view
 
     def pick_deviation(x: float, y: float) -> int | None:
-        if layer_id != "cloud" or view.dev is None:
+        if view.dev is None:
             return None
-        return int(i if view.dev.idx is None else view.dev.idx[i])
+        j: int | None = i
+        if layer_id != "cloud":  # the nominal drawn over a failed alignment: the cloud behind it
+            j = sight_index(view, view.dev.points, point) if layer_id == "nominal" else None
+        if j is None:
+            return None
+        return int(j if view.dev.idx is None else view.dev.idx[j])
 
     def pick_input(which: str, x: float, y: float) -> np.ndarray | None:
         if layer_id != which:  # the layers are the scene's actors: "measured", "nominal"
