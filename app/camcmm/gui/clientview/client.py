@@ -182,6 +182,8 @@ class ClientView:
         }
         setattr(self.state, self.name, out)
         self.store.commit(used)
+        for lay in scene.layers:  # the buffers hold the arrays now: no second copy of a big cloud
+            lay.release()
         return out
 
     def set_tool(self, tool: Any) -> None:
@@ -205,9 +207,10 @@ class ClientView:
             return None
         i = lay.actor_index(int(index))
         if lay.kind == "points":
-            p = np.asarray(lay.positions[int(index)], dtype=float)
+            p = lay.point(int(index))
         else:  # a mesh or lines: the browser's point on it, if it is one
-            p = np.asarray(finite_vector(point, 3) or lay.positions[int(index)], dtype=float)
+            v = finite_vector(point, 3)
+            p = lay.point(int(index)) if v is None else np.asarray(v, dtype=float)
         if self.on_pick is None:
             return None
         return self.on_pick(lay.id, i, p)

@@ -44,6 +44,7 @@ class Layer:
     make_positions: Callable[[], np.ndarray] = field(repr=False)
     make_colors: Callable[[], np.ndarray | None] | None = field(default=None, repr=False)
     make_indices: Callable[[], np.ndarray] | None = field(default=None, repr=False)
+    make_point: Callable[[int], np.ndarray] | None = field(default=None, repr=False)
     point_size: float = 2.0
     opacity: float = 1.0
     pickable: bool = True
@@ -70,6 +71,17 @@ class Layer:
     def actor_index(self, i: int) -> int:
         """The actor's point index of drawn vertex ``i``."""
         return int(i if self.order is None else self.order[i])
+
+    def point(self, i: int) -> np.ndarray:
+        """Drawn vertex ``i`` (world mm), without making every position."""
+        if self.make_point is None or "positions" in self.__dict__:
+            return np.asarray(self.positions[i], dtype=float)
+        return self.make_point(i)
+
+    def release(self) -> None:
+        """Forget the arrays made (the buffers hold them; a pick reads one point)."""
+        for name in ("positions", "colors", "indices"):
+            self.__dict__.pop(name, None)
 
 
 @dataclass
@@ -233,6 +245,10 @@ def actor_layer(actor: Any, layer_id: str) -> Layer | None:
         pts = _world(actor, np.asarray(surf.points, dtype=float))
         return pts if sel is None else pts[sel]
 
+    def point(k: int) -> np.ndarray:
+        j = int(k if sel is None else sel[k])
+        return _world(actor, np.asarray(surf.points[j : j + 1], dtype=float))[0]
+
     def colours() -> np.ndarray | None:
         c = _mapped_colours(mapper, data.GetNumberOfPoints())
         if c is None:
@@ -260,6 +276,7 @@ def actor_layer(actor: Any, layer_id: str) -> Layer | None:
         make_positions=positions,
         make_colors=None if scalars is None else colours,
         make_indices=None if kind == "points" else indices,
+        make_point=point,
         point_size=float(prop.GetPointSize()),
         opacity=float(prop.GetOpacity()),
         pickable=bool(actor.GetPickable()),
