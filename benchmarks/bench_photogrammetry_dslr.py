@@ -143,7 +143,7 @@ def main() -> None:
     ap.add_argument("--skip-plain", action="store_true", help="no plain pycolmap reference")
     ap.add_argument("--sfm-size", type=int, default=1600, help="our max_image_size (px)")
     ap.add_argument("--dense-size", type=int, default=1600, help="our dense_max_image_size (px; 0: full)")
-    ap.add_argument("--matching", default="exhaustive", choices=("exhaustive", "sequential"))
+    ap.add_argument("--matching", default="exhaustive", choices=("exhaustive", "sequential", "ring"))
     ap.add_argument("--sparse-only", action="store_true", help="our SfM alone (the sphere from the sparse points)")
     args = ap.parse_args()
     work = Path(args.work)
