@@ -4,7 +4,7 @@ A grid of 10 x 10 x 10 points 1 mm apart: the box form opens with its bounds; th
 2..5 mm keeps 4 x 4 x 4 = 64 points, stored as a new item with its result; Undo removes it
 (soft) and shows the grid again. Then a lasso dragged in the client view selects points;
 Keep selection stores exactly them — the count checked against the client view's own
-selection code (:func:`camcmm.gui.clientview.selection_mask`, written apart from the
+selection code (:func:`helpers.selection.selection_mask`, written apart from the
 plugin's) applied to the polygon and view matrix the browser sent.
 
 Screenshots go to ``$CAMCMM_SCREENSHOTS`` (default ``<tmp>/cloudedit``).
@@ -116,7 +116,7 @@ def test_box_crop_undo_and_a_lasso_in_the_view(grid_gui):
             with Project.open(folder) as proj:
                 (row,) = [r for r in proj.results() if r["plugin"] == "crop.lasso"]
                 kept = proj.load_measurement(int(_listed(folder)[-1]["id"]))
-            from camcmm.gui.clientview import selection_mask
+            from helpers.selection import selection_mask
 
             polygon = np.asarray(row["params"]["polygon"]).reshape(-1, 2).tolist()
             mask = selection_mask(GRID, {"polygon": polygon, "mvp": row["params"]["mvp"]})

@@ -27,11 +27,11 @@ from camcmm.gui.clientview import (  # noqa: E402
     checked_selection,
     export_scene,
     lod_order,
-    selection_mask,
 )
 from camcmm.gui.view import SceneView  # noqa: E402
 from camcmm.gui.viewtools import ViewTools  # noqa: E402
 from camcmm.model import PointCloud  # noqa: E402
+from helpers.selection import selection_mask  # noqa: E402
 
 N = 3000
 

@@ -4,7 +4,7 @@ browser's triggers (:mod:`.client`), the trame element, toggle and triggers
 (:mod:`.widget`) and the Inspect and Compare pages' hooks (:mod:`.hooks`). The browser
 side is resources/ui/cloudview.js; the protocol between them is in docs/bigclouds.md."""
 
-from .client import ClientView, checked_selection, selection_mask
+from .client import ClientView, checked_selection
 from .export import Layer, Scene, export_scene, lod_order
 from .hooks import CLIENT_LIMIT, attach_compare, attach_scene_view
 from .store import BufferStore, buffer_name
@@ -27,5 +27,4 @@ __all__ = [
     "export_scene",
     "lod_order",
     "render_switch",
-    "selection_mask",
 ]
