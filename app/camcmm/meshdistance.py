@@ -93,7 +93,7 @@ SLIVER = 0.1
 SORT_MIN = 100_000
 
 
-def _spread10(x: np.ndarray) -> np.ndarray:
+def spread_bits10(x: np.ndarray) -> np.ndarray:
     """Insert two zero bits between each of the low 10 bits (Morton code helper)."""
     x = x.astype(np.uint32) & np.uint32(0x3FF)
     x = (x | (x << np.uint32(16))) & np.uint32(0x030000FF)

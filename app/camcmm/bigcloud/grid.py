@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..meshdistance import _spread10
+from ..meshdistance import spread_bits10
 
 #: Deepest octree level: 1024 cells per axis (a Morton code of 30 bits).
 MAX_LEVEL = 10
@@ -63,7 +63,11 @@ class Grid:
 
 def morton(ijk: np.ndarray) -> np.ndarray:
     """Morton code (uint32, 30 bits) of (m, 3) cell indices below 1024."""
-    return _spread10(ijk[:, 0]) | (_spread10(ijk[:, 1]) << np.uint32(1)) | (_spread10(ijk[:, 2]) << np.uint32(2))
+    return (
+        spread_bits10(ijk[:, 0])
+        | (spread_bits10(ijk[:, 1]) << np.uint32(1))
+        | (spread_bits10(ijk[:, 2]) << np.uint32(2))
+    )
 
 
 def choose_level(sample: np.ndarray, n: int, lo, hi, cell_points: int = CELL_POINTS) -> int:

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io._common import canonical_unit, fail, unit_from_comment
-from ..io.ply import _header as ply_header
+from ..io.ply import read_header as ply_header
 from ..units import to_mm_factor
 
 #: Rows read per chunk by default (1 M points: 24 MB of float64 coordinates).

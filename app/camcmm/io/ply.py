@@ -107,7 +107,7 @@ class _Header:
 def read(path: Path, name: str) -> Raw:
     size = path.stat().st_size
     with open(path, "rb") as fh:
-        hdr = _header(fh, name)
+        hdr = read_header(fh, name)
     if hdr.encoding == "ascii":
         elements = _read_ascii(path, hdr, name)
     else:
@@ -117,7 +117,8 @@ def read(path: Path, name: str) -> Raw:
     return _interpret(elements, hdr, name)
 
 
-def _header(fh, name: str) -> _Header:
+def read_header(fh, name: str) -> _Header:
+    """The header of the PLY file open as ``fh`` (binary), checked; one-line refusals name ``name``."""
     magic = fh.readline(64)
     if magic.rstrip(b"\r\n") != b"ply":
         raise fail(name, f"not a PLY file: it starts with {magic[:20]!r}, expected 'ply'")
