@@ -156,3 +156,20 @@ def test_bad_files(tmp_path):
         write_calibration(tmp_path / "out.yaml", {"cameras": []})
     with pytest.raises(InputError, match="out.yaml.*folder"):
         write_calibration(tmp_path / "no" / "out.yaml", _stereo())
+
+
+def test_json_extras_survive_any_cut_of_their_text(tmp_path):
+    """The JSON of the extras goes into the YAML in 512-character pieces. OpenCV's YAML takes
+    a string that starts and ends with a quote as already quoted: a piece cut from the JSON
+    just before a key's quote and just after a value's closing one came back changed, or
+    unreadable ("Incorrect indentation": a stored calibration was once lost so). With
+    note = 499 and long = 502 characters the second piece is exactly '"long": "zz…z"'; the
+    lengths around it move the cuts over the neighbouring characters."""
+    cam = CameraModel(np.array([[1000.0, 0, 320], [0, 1000, 240], [0, 0, 1]]), [0.0] * 5, image_size=(640, 480))
+    for n_note in range(497, 502):
+        for n_long in range(500, 505):
+            cal = {"cameras": [cam], "note": "z" * n_note, "long": "y" * n_long, "names": ["'q' ", ' "r"', "s  "]}
+            p = tmp_path / f"c{n_note}_{n_long}.yaml"
+            write_calibration(p, cal)
+            back = read_calibration(p)
+            assert [back[k] for k in ("note", "long", "names")] == [cal[k] for k in ("note", "long", "names")]

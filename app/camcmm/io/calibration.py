@@ -33,7 +33,8 @@ One camera: ``camera_matrix``, ``dist_coeffs``, ``image_size`` (1x2: width, heig
 frame; a third or later camera k has ``R<k>`` ``T<k>`` (its pose in camera 1's frame).
 ``rms``, ``board``, ``R1 R2 P1 P2 Q`` (rectification); every other numeric 1-D/2-D array is
 written as a matrix under its own key (listed in ``camcmm_arrays``; a 1-D array comes back
-1-D), everything else as JSON text in the string sequence ``camcmm_extra``. ``dist_coeffs``
+1-D), everything else as JSON text in the string sequence ``camcmm_json`` (pieces between
+two "x"; files of earlier versions: ``camcmm_extra``, read too). ``dist_coeffs``
 is also read as ``distortion_coefficients``,
 ``image_size`` also from ``image_width``/``image_height``; a camera of unknown size has none
 (an ``image_size`` of [0, 0] also means unknown).
@@ -269,11 +270,14 @@ def _write_yaml(tmp: Path, cal: dict[str, Any], cams: list[CameraModel]) -> None
         if arrays:
             fs.write("camcmm_arrays", ",".join(arrays))
         if extra:
-            # FileStorage refuses long strings: the JSON goes as a sequence of pieces
+            # FileStorage refuses long strings: the JSON goes as a sequence of pieces, each
+            # between two "x": OpenCV's YAML strips a piece's trailing spaces and cannot read
+            # back one that starts or ends with a quote (a calibration was unreadable when a
+            # 512-character cut fell there), so no piece may start or end with JSON's own text
             text = json.dumps(extra)
-            fs.startWriteStruct("camcmm_extra", cv2.FileNode_SEQ)
+            fs.startWriteStruct("camcmm_json", cv2.FileNode_SEQ)
             for i in range(0, len(text), _PIECE):
-                fs.write("", text[i : i + _PIECE])
+                fs.write("", "x" + text[i : i + _PIECE] + "x")
             fs.endWriteStruct()
     finally:
         fs.release()
@@ -423,8 +427,11 @@ def _read_yaml(p: Path) -> dict[str, Any]:
         if not cams:
             raise InputError(f"{p.name}: no camera in the file (neither camera_matrix nor M1)")
         cal: dict[str, Any] = {"cameras": cams}
-        extra = node("camcmm_extra")
-        if extra is not None:
+        wrapped = node("camcmm_json")  # pieces between two "x" (see _write_yaml)
+        extra = node("camcmm_extra")  # files written before: the pieces bare
+        if wrapped is not None:
+            cal.update(json.loads("".join(wrapped.at(i).string()[1:-1] for i in range(wrapped.size()))))
+        elif extra is not None:
             doc = extra.string() if extra.isString() else "".join(extra.at(i).string() for i in range(extra.size()))
             cal.update(json.loads(doc))
         names = node("camcmm_arrays")

@@ -11,7 +11,7 @@ Lasso and Rectangle buttons set its ``tool``; the drag's end arrives as the trig
 which selects with the same plugin (``crop.lasso``) the edit then runs, so what is
 highlighted is what Keep or Remove keeps or removes.
 
-State (prefix ``ce_``): ``ce_op`` (the operation whose form shows), ``ce_fields``,
+State (prefix ``ce_``): ``ce_available`` (the operations the host has), ``ce_op`` (the one whose form shows), ``ce_fields``,
 ``ce_values`` (its form), ``ce_tool`` ("rotate", "lasso", "rect"), ``ce_selected`` (points
 in the selection), ``ce_selection`` (one line about it), ``ce_status`` (the last edit, undo
 or refusal), ``ce_failed``, ``ce_running``, ``ce_can_undo``, ``ce_can_redo``.
@@ -90,9 +90,14 @@ class CloudEditPanel:
         self.job = Job("a cloud edit", state=self.state, on_progress=lambda f, m: self._progress(f, m))
         self.selection: dict[str, Any] | None = None  # {"key", "polygon", "mvp", "n"}
         self._item: Any = None
+        # the operations whose plugin the host has (a lab's host may lack cloudtools: the
+        # panel then offers what is there, or hides itself)
+        self.available = [op for op in OPS if op in self.session.host.plugins]
         self.state.update(
             {
-                "ce_op": "crop.box",
+                "ce_available": self.available,
+                "ce_lasso": "crop.lasso" in self.session.host.plugins,
+                "ce_op": self.available[0] if self.available else "",
                 "ce_fields": [],
                 "ce_values": {},
                 "ce_tool": "rotate",
@@ -106,7 +111,8 @@ class CloudEditPanel:
                 "ce_open": None,
             }
         )
-        self.set_op("crop.box")
+        if self.available:
+            self.set_op(self.available[0])
         self.session.watch_items(self._items_changed)
 
         @page.server.state.change("ce_values", "ce_open")
@@ -137,7 +143,7 @@ class CloudEditPanel:
 
     def set_op(self, op: Any) -> None:
         """Show the form of operation ``op`` (one of :data:`OPS`) from its declaration."""
-        if op not in OPS:
+        if op not in self.available:
             return
         spec = self.session.host.get(op)
         self.state.ce_fields, self.state.ce_values = declared_fields(spec.parameters)
@@ -412,7 +418,10 @@ def cloudedit_panel(page: Any) -> None:
 
     p: CloudEditPanel = page.cloudedit
     with v.VExpansionPanels(
-        v_model=("ce_open", None), v_show="page === 'inspect'", classes="px-2 pt-1", raw_attrs=tid("ce-panel")
+        v_model=("ce_open", None),
+        v_show="page === 'inspect' && ce_available.length",
+        classes="px-2 pt-1",
+        raw_attrs=tid("ce-panel"),
     ):
         with v.VExpansionPanel(value="ce", raw_attrs=tid("ce-panel-inner")):
             v.VExpansionPanelTitle("Crop & segment", raw_attrs=tid("ce-open"))
@@ -429,7 +438,14 @@ def cloudedit_panel(page: Any) -> None:
                         raw_attrs=tid("ce-ops"),
                     ):
                         for op, word in OPS.items():
-                            v.VBtn(word, value=op, size="small", title=TIPS[op], raw_attrs=tid(f"ce-op-{op}"))
+                            v.VBtn(
+                                word,
+                                value=op,
+                                v_if=f"ce_available.includes('{op}')",
+                                size="small",
+                                title=TIPS[op],
+                                raw_attrs=tid(f"ce-op-{op}"),
+                            )
                     v.VBtn(
                         "Apply",
                         color="primary",
@@ -456,7 +472,7 @@ def cloudedit_panel(page: Any) -> None:
                         divided=True,
                         update_modelValue=(p.set_tool, "[$event]"),
                         # a lasso is drawn by the browser's view; the server's images take none
-                        disabled=(f"{VIEW}_mode === 'server'",),
+                        disabled=(f"{VIEW}_mode === 'server' || !ce_lasso",),
                         title="Select by drawing in the view (rendering in the browser)",
                         raw_attrs=tid("ce-tools"),
                     ):
