@@ -1071,7 +1071,9 @@
       else return;
       drag = { mode: mode, start: p, last: p, moved: false, poly: [p], button: e.button };
       try { cv.setPointerCapture(e.pointerId); } catch (err) { /* synthetic events */ }
-      e.preventDefault();
+      e.preventDefault(); // no text selection while dragging; it also keeps the focus where it was, so:
+      var a = document.activeElement; // a field typed in before leaves it, as a click anywhere else does
+      if (a && a !== document.body && typeof a.blur === "function") a.blur();
     }
     function move(e) {
       if (!drag) return;
