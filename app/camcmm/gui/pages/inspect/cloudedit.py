@@ -11,10 +11,11 @@ Lasso and Rectangle buttons set its ``tool``; the drag's end arrives as the trig
 which selects with the same plugin (``crop.lasso``) the edit then runs, so what is
 highlighted is what Keep or Remove keeps or removes.
 
-State (prefix ``ce_``): ``ce_available`` (the operations the host has), ``ce_op`` (the one whose form shows), ``ce_fields``,
-``ce_values`` (its form), ``ce_tool`` ("rotate", "lasso", "rect"), ``ce_selected`` (points
-in the selection), ``ce_selection`` (one line about it), ``ce_status`` (the last edit, undo
-or refusal), ``ce_failed``, ``ce_running``, ``ce_can_undo``, ``ce_can_redo``.
+State (prefix ``ce_``): ``ce_available`` (the operations the host has), ``ce_op`` (the
+one whose form shows), ``ce_fields``, ``ce_values`` (its form), ``ce_tool`` ("rotate",
+"lasso", "rect"), ``ce_selected`` (points in the selection), ``ce_selection`` (one line
+about it), ``ce_status`` (the last edit, undo or refusal), ``ce_failed``, ``ce_running``,
+``ce_can_undo``, ``ce_can_redo``.
 """
 
 from __future__ import annotations
