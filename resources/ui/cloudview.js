@@ -684,7 +684,10 @@
   }
 
   /* Square splats of `size` px, z-buffered on the depth along the view direction, the id-buffer
-     written in full frames. Specialised for 1 and 2 px (the common sizes). */
+     written in full frames. Specialised for 1 and 2 px (the common sizes). Each loop below spells
+     out the same projection on purpose: they run for millions of points per frame, and a shared
+     per-point function returning (depth, x, y) would allocate or go through a call V8 need not
+     inline — the 2 M-point frame budget (~40 ms, docs/bigclouds.md) has no room for either. */
   function drawPoints(view, P, l, k, size, alpha, ids) {
     var pos = l.pos, col = l.col, packed = l.packed, pix = view.pix, Z = view.zbuf;
     if (!ids && alpha >= 1) {
