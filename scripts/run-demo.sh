@@ -5,5 +5,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
 export VTK_DEFAULT_OPENGL_WINDOW=${VTK_DEFAULT_OPENGL_WINDOW:-vtkEGLRenderWindow}
-.venv/bin/camcmm demo demo
+# the demo's own "open it with: camcmm serve …" hint is for a shell user; here it is already opening
+.venv/bin/camcmm demo demo | grep -v '^open it with:'
 exec .venv/bin/camcmm serve --project demo "$@"
