@@ -197,3 +197,22 @@ def test_old_flags_keep_their_meaning_for_each_element(tmp_path, capsys):
     out = _run(["sphere", str(files["sphere"]), "--extract", "--nominal-radius", "10", "--outliers", "percent:1"])
     assert out["n_points_raw"] == 3000 and out["plugin"]["params"]["extract"] is True
     assert out["outliers"] == "percent:1" and abs(out["radius"] - 10) < 0.01
+
+
+def test_extraction_says_how_many_points_it_removed_beside_the_outlier_rule(tmp_path):
+    """A sphere of 3000 points on a plate of 500 points 30 mm below its centre (exact by
+    construction: the plate is 20 mm from the sphere's surface, far outside its band):
+    the extraction removes exactly the plate, the outlier rule its own few, each said apart."""
+    rng = np.random.default_rng(4)
+    u = rng.normal(size=(3000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    ball = (10 + rng.normal(scale=0.005, size=3000))[:, None] * u
+    plate = np.column_stack([rng.uniform(-40, 40, 500), rng.uniform(-40, 40, 500), np.full(500, -30.0)])
+    f = tmp_path / "scan.xyz"
+    np.savetxt(f, np.vstack([ball, plate]), fmt="%.9f")
+    out = _run(["sphere", str(f), "--extract", "--nominal-radius", "10", "--outliers", "percent:1"])
+    assert out["n_points_raw"] == 3500 and out["n_extracted_away"] == 500 and out["n_points"] == 3000
+    assert out["n_removed"] == 30  # percent:1 of the 3000 sphere points, counted apart
+    said = cli.text(out)
+    assert "3000 of 3500 points of the scan, 500 removed as not on the sphere" in said
+    assert "30 removed by the outlier rule" in said

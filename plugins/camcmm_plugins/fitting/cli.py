@@ -112,8 +112,14 @@ def text(result: dict[str, Any]) -> str:
     """Human-readable output of :func:`run`."""
     lines = [
         f"{result['element']} ({result['method']}, outliers {result['outliers']}): "
-        f"{result['n_used']} of {result['n_points']} points used, {result['n_removed']} removed"
+        f"{result['n_used']} of {result['n_points']} points used, {result['n_removed']} removed by the outlier rule"
     ]
+    if "n_extracted_away" in result:  # --extract: what the extraction took away comes first in the scan's story
+        lines.insert(
+            0,
+            f"extracted the sphere: {result['n_points']} of {result['n_points_raw']} points of the scan, "
+            f"{result['n_extracted_away']} removed as not on the sphere",
+        )
     unc = result.get("std_uncertainty", {})
     keys = ("center", "point", "apex", "normal", "axis", "direction", "radius", "major_radius", "minor_radius", "angle")
     for key in keys:

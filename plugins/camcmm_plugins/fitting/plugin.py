@@ -93,6 +93,7 @@ def fit_sphere(
         sub = cloud.subset(seg.indices) if isinstance(cloud, PointCloud) else _points(cloud)[seg.indices]
         out = _fit(ctx, "sphere", sub, outliers, method, nominal_radius)
         out["n_points_raw"] = len(_points(cloud))
+        out["n_extracted_away"] = out["n_points_raw"] - len(seg.indices)
         out["extracted_indices"] = seg.indices
         return out
     return _fit(ctx, "sphere", cloud, outliers, method, nominal_radius)
@@ -148,6 +149,7 @@ def segment_sphere(
     )
     out = seg.to_dict()
     out["n_points_raw"] = len(_points(cloud))
+    out["n_extracted_away"] = out["n_points_raw"] - len(seg.indices)
     if isinstance(cloud, PointCloud):
         out["cloud"] = cloud.subset(seg.indices)
     return out

@@ -29,7 +29,9 @@ UNCERTAINTY = "std_uncertainty"
 LABELS = {
     "n_points": "points",
     "n_used": "points used",
-    "n_removed": "points removed",
+    "n_removed": "points removed by the outlier rule",
+    "n_points_raw": "points in the raw scan",
+    "n_extracted_away": "points removed by the extraction (not on the sphere)",
     "radius_deviation": f"radius {fmt.MINUS} nominal",
     "center": "centre",
 }
