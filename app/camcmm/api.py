@@ -13,6 +13,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+# The one number rule (digits from the uncertainty, µm for deviations, no exponents): plugins
+# write what a person reads with it, as ``from camcmm.api import numbers``. Not yet in
+# ``__all__``: docs/api.md lists that, and the lead adds the row (provisional, API 1.7).
+from . import numbers as numbers
 from .cad import CadFace, CadModel, read_cad
 from .cli.options import add_declared_options, declared_values
 from .confine import PathRefused, document_path

@@ -45,9 +45,9 @@ def test_numbers_read_as_a_report_writes_them():
         and fmt.micro(0.1234) == "123"
     )
     assert fmt.micro(-0.0157, signed=True) == "\u221215.7" and fmt.micro(0.0157, signed=True) == "+15.7"
-    assert fmt.uncertainty(1.89e-5) == ("0.019", "µm")
-    assert fmt.uncertainty(0.0042) == ("4.2", "µm") and fmt.uncertainty(2.5) == ("2.5", "mm")
-    assert fmt.uncertainty(float("nan")) == ("not defined", "")
+    assert fmt.uncertainty_parts(1.89e-5) == ("0.019", "µm")
+    assert fmt.uncertainty_parts(0.0042) == ("4.2", "µm") and fmt.uncertainty_parts(2.5) == ("2.5", "mm")
+    assert fmt.uncertainty_parts(float("nan")) == ("not defined", "")
     assert fmt.count(59997) == "59 997"
     assert fmt.vector([1.0, -2.0, 3.0], [1e-5, 2e-5, 3e-5]) == "(1.000000, \u22122.000000, 3.000000)"
     assert fmt.uncertainty_vector([2.7e-5, 3.8e-5]) == ("(0.027, 0.038)", "µm")
@@ -73,8 +73,10 @@ def test_a_sphere_fit_reports_diameter_radius_u_and_form_in_micrometres(sphere_f
     assert "std_uncertainty" not in by and "removed_indices" not in by and "element" not in by
     r, ur = out["radius"], out["std_uncertainty"]["radius"]
     assert by["radius"]["value"] == fmt.mm(r, ur) and by["radius"]["unit"] == "mm"
-    assert by["radius"]["u"] == " ".join(fmt.uncertainty(ur))
-    assert by["diameter"]["value"] == fmt.mm(2 * r, 2 * ur) and by["diameter"]["u"] == " ".join(fmt.uncertainty(2 * ur))
+    assert by["radius"]["u"] == " ".join(fmt.uncertainty_parts(ur))
+    assert by["diameter"]["value"] == fmt.mm(2 * r, 2 * ur) and by["diameter"]["u"] == " ".join(
+        fmt.uncertainty_parts(2 * ur)
+    )
     assert float(by["diameter"]["value"]) == pytest.approx(2 * r, abs=2e-6)
     assert by["center"]["unit"] == "mm" and by["center"]["u"].endswith("µm") and by["center"]["label"] == "centre"
     # form in µm, one row per figure; the range as the plugin computed it

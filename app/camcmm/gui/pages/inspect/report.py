@@ -53,13 +53,13 @@ def _row(name: str, value: str, unit: str = "", u: str = "", u_unit: str = "", h
 
 
 def _length(name: str, v: Any, u: Any, help: str) -> list[dict[str, str]]:
-    ut, uu = fmt.uncertainty(u) if fmt.finite(u) else ("", "")
+    ut, uu = fmt.uncertainty_parts(u) if fmt.finite(u) else ("", "")
     if not fmt.finite(u) and fmt.finite(v) and abs(float(v)) < 0.1:  # a small length (a deviation) reads in µm
         return [_row(name, fmt.micro(v, signed=True), fmt.MICRO, help=help)]
     rows = [_row(name, fmt.mm(v, u), "mm", ut, uu, help)]
     if name == "radius" and fmt.finite(v):
         u2 = 2 * float(u) if fmt.finite(u) else None
-        dt, du = fmt.uncertainty(u2) if u2 is not None else ("", "")
+        dt, du = fmt.uncertainty_parts(u2) if u2 is not None else ("", "")
         rows.insert(0, _row("diameter", fmt.mm(2 * float(v), u2), "mm", dt, du, "twice the radius"))
     return rows
 
