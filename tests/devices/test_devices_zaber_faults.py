@@ -12,7 +12,7 @@ from camcmm_plugins.devices.simulator import SimulatorProcess
 from camcmm_plugins.devices.zaber import ZaberLinearStage
 
 RES = 0.000047625  # mm per microstep of a Zaber linear stage (data sheet value)
-NOT_HOMED = r"not homed since the controller reset; home it first \(or confirm with allow_unhomed=True\)$"
+NOT_HOMED = r"not homed since the controller reset; home it first \(or confirm a move without homing\)$"
 
 
 @pytest.fixture(params=["pty", "tcp"])
@@ -133,13 +133,13 @@ def test_devices_page_shows_the_refusal_as_one_line(gui_app):
     assert key is not None and act("connect"), page.state.dev_error
     assert act("abs", "10") is None
     assert page.state.dev_error.startswith("stage 'x' on ")
-    assert "not homed yet; home it first (or confirm with allow_unhomed=True)" in page.state.dev_error
+    assert "not homed yet; home it first (or confirm a move without homing)" in page.state.dev_error
     assert "\n" not in page.state.dev_error
     assert act("home") == 0.0 and act("abs", "10") == pytest.approx(10.0)
     page.devices[key]._link.request(1, 0, "sim reset")
     assert act("rel", "1") is None
     assert page.state.dev_error.endswith(
-        "not homed since the controller reset; home it first (or confirm with allow_unhomed=True)"
+        "not homed since the controller reset; home it first (or confirm a move without homing)"
     )
 
 

@@ -9,10 +9,11 @@ implements ``_referenced() -> bool``, asked before every move.
 
 Moves need a reference: a stage that is not homed (after power-up, or since its
 controller reset and lost the position) refuses ``move_abs`` and ``move_rel`` with a
-one-line :class:`DeviceError` until it is homed, unless the caller confirms with
-``allow_unhomed=True``. Relative moves are refused too: the travel limits are checked
-in the controller's count, which without a reference no longer says where the carriage
-is, so a relative move can drive into the end stop as well as an absolute one.
+one-line :class:`NotHomed` (a :class:`DeviceError`) until it is homed, unless the caller
+confirms with ``allow_unhomed=True`` (the Devices page's "Move without homing", asked
+first). Relative moves are refused too: the travel limits are checked in the
+controller's count, which without a reference no longer says where the carriage is, so a
+relative move can drive into the end stop as well as an absolute one.
 """
 
 from __future__ import annotations
@@ -21,7 +22,12 @@ import math
 import time
 from typing import Any
 
-from .base import Device, DeviceTimeout, param
+from .base import Device, DeviceError, DeviceTimeout, param
+
+
+class NotHomed(DeviceError):
+    """A move refused because the axis holds no reference position (home it, or confirm
+    the move without one)."""
 
 
 class Stage(Device):
@@ -112,7 +118,7 @@ class Stage(Device):
             self.homed = known
         if not self.homed:
             why = self._unhomed_since or "yet"
-            raise self.error(f"not homed {why}; home it first (or confirm with allow_unhomed=True)")
+            raise self.error(f"not homed {why}; home it first (or confirm a move without homing)", NotHomed)
 
     def position(self) -> float:
         """The position read back from the device (unit)."""

@@ -34,32 +34,23 @@ from ..host import default_host
 from ..tasks.items import describe, item_meta, kind_of, read_item, safe_name, size_text
 from ..units import unit_label
 from .jobs import Job
+from .scenes import ITEM_PAGE, SharedView
 from .unit_ask import UnitAsks
-from .view import DISPLAY_LIMIT, SceneView, color_fields
+from .view import DISPLAY_LIMIT, SceneView
 
 log = logging.getLogger("camcmm.gui")
 
+#: The cause of a message raised before any tab connected (kept over a reload).
+STARTUP = "startup"
+
+#: What the Inspect page's view says when no item is selected.
+ITEM_HINT = "No item shown: choose one in the list of items, or import a file (toolbar)."
+
+#: ... and when the item it showed was hidden or removed in another tab.
+ITEM_GONE = "The item shown was hidden or removed in another window: choose one in the list of items."
+
 #: Seconds between checks for changes another session made to the shared project.
 WATCH_PERIOD_S = 1.0
-
-
-def _in_display_units(obj: Any, units: Any) -> Any:
-    """A copy of cloud ``obj`` whose fields named in ``units`` ({field: "µm"}) are
-    scaled from mm for the view (a fit's residuals read in µm); ``obj`` itself when
-    there is nothing to convert. The data, and every computation, stay in mm."""
-    if not isinstance(units, dict) or not hasattr(obj, "fields") or not hasattr(obj, "points"):
-        return obj
-    factors = {"µm": 1e3, "mm": 1.0}
-    fields, field_units = dict(obj.fields), dict(obj.field_units)
-    changed = False
-    for name, unit in units.items():
-        if name in fields and field_units.get(name) == "mm" and unit in factors and unit != "mm":
-            fields[name] = np.asarray(fields[name], dtype=float) * factors[unit]
-            field_units[name] = unit
-            changed = True
-    if not changed:
-        return obj
-    return type(obj)(obj.points, obj.colors, obj.normals, fields, field_units, obj.name, obj.source_unit)
 
 
 class Session:
@@ -93,10 +84,19 @@ class Session:
         self._unit_asks = UnitAsks(self)  # imports waiting for the user's unit (import_file)
         self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-gui-"))
         self.errors: list[str] = []
+        self._causes: dict[str, str] = {}  # page -> cause key of the message it shows
+        self._connected = False  # a tab has connected (client_connected)
+        self._reload_watchers: list[Callable[[], Any]] = []
+        self._selection_watchers: list[Callable[[str | None], Any]] = []
+        self._project_watchers: list[Callable[[], Any]] = []
         self._watch: asyncio.TimerHandle | None = None  # the check for other sessions' changes
         self._watching = True  # until close()
         self._project_token = self._change_token()  # before listing: a commit in between shows next tick
         self._init_state()
+        self.shared = SharedView(self)  # what each page shows in the 3D view (.scenes)
+        self.shared.share(ITEM_PAGE, ITEM_HINT)
+        self.state.change("page")(self._page_changed)
+        self.ctrl.on_client_connected.add(self.client_connected)
         self.refresh_items()
         self.refresh_results()
         self.restore()
@@ -175,18 +175,54 @@ class Session:
     def _set_page_message(self, page: str, line: str) -> None:
         self.state.page_messages = {**(self.state.page_messages or {}), page: line}
 
-    def error(self, msg: str, page: str | None = None) -> None:
-        """Show a one-line error on ``page`` (default: the page whose code called); the app keeps running."""
+    def error(self, msg: str, page: str | None = None, cause: str = "") -> None:
+        """Show a one-line error on ``page`` (default: the page whose code called); the app
+        keeps running. ``cause``: what the message is about (``"unhomed:d1"``): it goes
+        when that is resolved (:meth:`resolve`), besides when it is dismissed, replaced,
+        or the page is loaded again (:meth:`client_connected`)."""
         line = " ".join(str(msg).split()) or "unknown error"
         key = page if page is not None else self.page_of_caller()
         self.errors.append(line)
         log.warning("%s", line)
         print(f"camcmm GUI error: {line}", file=sys.stderr, flush=True)
         self._set_page_message(key, line)
+        # a message before any tab connected is about the server's start, not an action: kept
+        self._causes[key] = str(cause or ("" if self._connected else STARTUP))
         self.state.error_message = line
         self.state.error_page = key
         self.state.error_visible = True
         self.state.info_visible = False
+
+    def resolve(self, cause: str) -> list[str]:
+        """``cause`` is resolved (the stage was homed, a move went through): every page's
+        message about it goes. Returns the pages whose message went."""
+        cleared = [page for page, c in self._causes.items() if cause and c == cause]
+        for page in cleared:
+            self.clear_error(page=page)
+        return cleared
+
+    def cause_of(self, page: str) -> str:
+        """The cause key of the message ``page`` shows ("" when none or when it has none)."""
+        return self._causes.get(page, "") if self.page_error(page) else ""
+
+    def client_connected(self, **_: Any) -> None:
+        """A tab connected (a reload, or a new tab on this session): the messages of the
+        actions done in the page before go, as a page loaded afresh shows none; a cause
+        still there says so again at the next action."""
+        first, self._connected = not self._connected, True
+        if first:  # the page's first load: nothing was done in it yet
+            return
+        with self.state:
+            for page in [p for p, line in (self.state.page_messages or {}).items() if line]:
+                if self._causes.get(page) != STARTUP:
+                    self.clear_error(page=page)
+            self.state.info_message, self.state.info_visible = "", False
+            for fn in self._reload_watchers:
+                fn()
+
+    def watch_reload(self, fn: Callable[[], Any]) -> None:
+        """Call ``fn()`` when a tab connects (a page dropping its own message lines)."""
+        self._reload_watchers.append(fn)
 
     def info(self, msg: str, page: str | None = None) -> None:
         """A one-line note in the status bar (``info_message``, ``info_page``)."""
@@ -197,6 +233,7 @@ class Session:
     def clear_error(self, page: str | None = None) -> None:
         """Clear ``page``'s error (default: the calling page's); the others stay."""
         key = page if page is not None else self.page_of_caller()
+        self._causes.pop(key, None)
         if (self.state.page_messages or {}).get(key):
             self._set_page_message(key, "")
         if self.state.error_page == key:
@@ -451,7 +488,8 @@ class Session:
         return out
 
     def select_item(self, key: str | None, chosen: bool = True, field: str | None = None) -> None:
-        """Show an item in the 3D view, keeping the chosen colouring when it exists
+        """Select an item: the Inspect page's scene (:mod:`camcmm.gui.scenes`), drawn in the
+        3D view while that page is shown, keeping the chosen colouring when it exists
         (``field``: colour by that field instead). ``chosen``: the user picked it (a click,
         an import), so the plugin form offers it first; a run showing its output passes
         False. Fields the item's ``meta["display_units"]`` names are shown in that unit."""
@@ -459,7 +497,7 @@ class Session:
             return
         key = str(key)
         try:
-            obj = self.load(key)
+            self.load(key)
         except Exception as exc:
             name = self._measurements.get(key, {}).get("name", key)
             self.error(one_line(exc, str(name)))
@@ -468,31 +506,37 @@ class Session:
         if chosen:
             self.state.picked_item = key
         self.remember("gui.selected_item", key)
-        k = kind_of(obj)
-        if k == "cad":  # a STEP/IGES nominal is shown by its tessellation (camcmm.cad)
-            obj, k = obj.mesh, "mesh"
-        if k not in ("pointcloud", "mesh", "heightmap"):
-            self.view.clear()
-            self.state.color_fields = []
-            self.state.color_field = None
-            self.state.legend_title = ""
-            self.state.display_note = f"{describe(obj)} (not shown in the 3D view)"
-        else:
-            meta = (self._measurements.get(key) or {}).get("meta") or {}
-            obj = _in_display_units(obj, meta.get("display_units") if isinstance(meta, dict) else None)
-            fields = color_fields(obj)
-            keep = field or self.state.color_field
-            wanted = keep if keep in {f["value"] for f in fields} else None
-            try:
-                self.view.show(key, obj, wanted)
-            except Exception as exc:
-                self.error(one_line(exc, getattr(obj, "name", key)))
-                return
-            self.state.color_fields = fields
-            self.state.color_field = self.view.field
-            self.state.legend_title = self.view.scalar_bar_title
-            self.state.display_note = self.view.note
+        prev = self.shared.scene(ITEM_PAGE)
+        here = self.shared.owner == ITEM_PAGE
+        keep = field or (prev.field if prev is not None else None) or (self.state.color_field if here else None)
+        self.shared.show_item(ITEM_PAGE, key, keep)
         self.refresh_items()
+        for fn in self._selection_watchers:
+            fn(key)
+
+    def unselect_item(self, hint: str | None = None) -> None:
+        """No item selected (it was hidden or removed): the Inspect page's view is empty,
+        saying ``hint`` (default: its own)."""
+        self.state.selected_item = None
+        self.shared.clear(ITEM_PAGE, hint)
+        for fn in self._selection_watchers:
+            fn(None)
+
+    def watch_selection(self, fn: Callable[[str | None], Any]) -> None:
+        """Call ``fn(key)`` after each selection (None: none), e.g. a result panel following it."""
+        self._selection_watchers.append(fn)
+
+    def page_entered(self, page: Any) -> None:
+        """Page ``page`` is shown: the shared view shows that page's scene (a page that
+        fills the area hides the view and leaves it as it is)."""
+        self.shared.enter(page)
+
+    def _page_changed(self, page: Any = None, **_: Any) -> None:
+        self.page_entered(page)
+
+    def redraw_view(self) -> None:
+        """Draw the shown page's scene again (e.g. at another display limit)."""
+        self.shared.draw()
 
     def remember(self, key: str, value: Any) -> None:
         """Keep a view setting (``gui.<name>``) in the project so that reopening it shows the same."""
@@ -554,9 +598,20 @@ class Session:
             return False
         self._project_token = token
         with self.state:  # pushed now: the timer runs outside any client request
+            shown = self.state.selected_item
+            was_listed = any(it["id"] == shown for it in self.state.items or [])
             self.refresh_items()
             self.refresh_results()
+            if shown is not None and was_listed and not any(it["id"] == shown for it in self.state.items or []):
+                # hidden or removed in another tab: not left on screen as if it were still listed
+                self.unselect_item(ITEM_GONE)
+            for fn in self._project_watchers:
+                fn()
         return True
+
+    def watch_project(self, fn: Callable[[], Any]) -> None:
+        """Call ``fn()`` after another session (a tab, the CLI) changed the project."""
+        self._project_watchers.append(fn)
 
     def _watch_tick(self) -> None:
         """The timer on the loop (started by :meth:`bind_loop`): never raises into it."""

@@ -73,9 +73,8 @@ def attach_scene_view(page: Any, cv: ClientView, push_remote: Callable[[], Any])
         view.display_limit = limit
         view._cache.clear()  # the shown subsets were made for the other limit
         shown = view.shown
-        key = getattr(session.state, "selected_item", None)
-        if shown is not None and key and shown.n_total > min(server_limit, client_limit):
-            session.select_item(key, chosen=False)  # drawn again at the new limit
+        if shown is not None and shown.n_total > min(server_limit, client_limit):
+            session.redraw_view()  # the shown page's scene drawn again at the new limit
 
     def on_pick(layer_id: str, i: int, point: np.ndarray) -> dict[str, Any] | None:
         return inspect_pick(view, cv, layer_id, i, point, big.source_row(i) if big.rows is not None else None)

@@ -15,7 +15,8 @@ from camcmm.errors import CamcmmError, one_line
 from camcmm.project.store import utcnow
 from camcmm.tasks.acceptance import PendingEvaluation, fit_rows
 
-from ...view import color_fields
+#: What the page's 3D view says before a position's deviations are shown.
+VIEW_HINT = "No deviations shown yet: a measured position's colour map appears here (Show on its card)."
 
 
 def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
@@ -132,25 +133,14 @@ class PositionActions:
         self.show_cloud(f"wizard:{self.wizard.state['evaluations'].get(str(mid))}", cloud, self.wizard.evaluation(mid))
 
     def show_cloud(self, key: str, cloud: Any, evaluation: dict[str, Any] | None = None) -> None:
-        """Show a deviations cloud coloured by ``deviation`` (legend in mm) in the
-        session's 3D view, looking at it as :func:`view_direction` suggests; the Inspect
-        page's colour selector follows."""
-        sess = self.session
+        """Show a deviations cloud coloured by ``deviation`` as this page's scene in the
+        session's 3D view (:mod:`camcmm.gui.scenes`: never left on another page's view),
+        looking at it as :func:`view_direction` suggests."""
         field_name = "deviation" if "deviation" in (getattr(cloud, "fields", {}) or {}) else None
-        try:
-            sess.view.show(key, cloud, field_name)
-            look = view_direction(evaluation or {})
-            if look is not None:
-                sess.view.look(*look)
-        except Exception as exc:
-            sess.error(f"cannot show {getattr(cloud, 'name', key)}: {one_line(exc)}")
-            return
-        s = self.state
-        s.selected_item = None
-        s.color_fields = color_fields(cloud)
-        s.color_field = sess.view.field
-        s.legend_title = sess.view.scalar_bar_title
-        s.display_note = f"{getattr(cloud, 'name', key)}: {sess.view.note}"
+        name = str(getattr(cloud, "name", "") or key)
+        self.session.shared.show_object(
+            "acceptance", key, cloud, field_name, view_direction(evaluation or {}), label=name
+        )
 
     def redo(self, test: str, position: str) -> None:
         """Offer the file input again on a done card (the import then replaces it)."""

@@ -259,6 +259,7 @@ class SetupForm:
         page = self.page
         s.wz_svgs = {}
         s.wz_detail, s.wz_redo, page.last_card = None, None, None  # the old test's "Last shown" is not this one's
+        page.session.shared.clear("acceptance")  # nor its colour map in the 3D view
         page.busy.clear()
         page.refresh(setup_form=True)
         s.wz_step = "positions"

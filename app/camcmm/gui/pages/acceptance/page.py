@@ -17,7 +17,7 @@ from camcmm.tasks.acceptance.values import log
 from ...downloads import REPORT_TITLES, Downloads, sort_links
 from ...jobs import Job
 from .acquire import Acquisition
-from .actions import PositionActions
+from .actions import VIEW_HINT, PositionActions
 from .form import SetupForm
 
 
@@ -260,4 +260,5 @@ def mount(server: Any, session: Any) -> WizardPage:
     server starts)."""
     page = WizardPage(session)
     page.offered.mount(server)
+    session.shared.share("acceptance", VIEW_HINT)  # the 3D view beside it shows this page's scene only
     return page

@@ -16,11 +16,22 @@ from ....yamlfile import read_yaml
 ACTIONS = ("connect", "disconnect", "configure", "grab", "home", "abs", "rel", "stop", "load", "show")
 
 
-def perform(dev: Any, action: str, arg: Any = None) -> Any:
+#: The actions that move a stage: a refusal to move goes when any of them succeeds.
+MOTION = ("home", "abs", "rel", "stop")
+
+
+def cause(key: str, action: str) -> str:
+    """What a failed ``action`` of device ``key`` is about (:meth:`Session.error`'s cause):
+    the same action succeeding later resolves it, and any motion resolves a motion's."""
+    return f"device {key}: {'motion' if action in MOTION else action}"
+
+
+def perform(dev: Any, action: str, arg: Any = None, unhomed: bool = False) -> Any:
     """Do ``action`` on ``dev`` in the calling thread; returns what the device returns.
 
     ``configure``: ``arg`` is the dict of settings to change (returns all settings);
-    ``abs``/``rel``: ``arg`` is the target/step in the stage's unit (mm or deg);
+    ``abs``/``rel``: ``arg`` is the target/step in the stage's unit (mm or deg); ``unhomed``:
+    the operator confirmed the move without a reference position;
     ``load``: ``arg`` is a pattern sequence file (empty: the shipped fringe sequence);
     ``show``: ``arg`` is the pattern index (None, "" or "blank": a blank screen).
     """
@@ -41,7 +52,8 @@ def perform(dev: Any, action: str, arg: Any = None) -> Any:
             x = float(arg)
         except (TypeError, ValueError):
             raise CamcmmError(f"{dev.label}: move {action}: {arg!r} is not a number") from None
-        return (dev.move_abs if action == "abs" else dev.move_rel)(x)
+        move = dev.move_abs if action == "abs" else dev.move_rel
+        return move(x, allow_unhomed=True) if unhomed else move(x)
     if action == "load":
         if arg and str(arg).strip():
             return dev.load_sequence(str(arg).strip())

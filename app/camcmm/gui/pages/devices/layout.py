@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...shell import CLEAR_PAGE_ERROR
 from ...widgets import dyn_tid, param_form, tid
 from .. import shown
 
@@ -41,6 +42,48 @@ def build(page: Any) -> None:
             _sequences(page)
 
 
+def _unhomed(page: Any) -> None:
+    """Under a move refused for want of a reference: "Move without homing", asked first
+    (the travel limits are then only the controller's count: the carriage may reach an
+    end stop)."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    async def on_confirm() -> None:
+        page.state.dev_unhomed_ask = False
+        await page.move_unhomed()
+
+    with html.Div(v_if="dev_unhomed", classes="d-flex justify-end mb-2"):
+        v.VBtn(
+            "Move without homing",
+            size="small",
+            variant="tonal",
+            color="warning",
+            prepend_icon="mdi-alert-outline",
+            click="dev_unhomed_ask = true",
+            title="Do the move refused above without a reference position (asks first)",
+            raw_attrs=tid("dev-move-unhomed"),
+        )
+    with v.VDialog(v_model=("dev_unhomed_ask", False), max_width=520):
+        with v.VCard(v_if="dev_unhomed", raw_attrs=tid("dev-unhomed-dialog")):
+            v.VCardTitle("Move {{ dev_unhomed.label }} without homing?", classes="text-subtitle-1")
+            v.VCardText(
+                "Without a reference position the stage does not know where its carriage is: its "
+                "travel limits are checked against a count that may be wrong, and the move can run "
+                "into an end stop. Home the stage instead unless you know where the carriage is."
+            )
+            with v.VCardActions():
+                v.VSpacer()
+                v.VBtn("Cancel", variant="text", click="dev_unhomed_ask = false", title="Do not move")
+                v.VBtn(
+                    "Move without homing",
+                    color="warning",
+                    click=on_confirm,
+                    title="Move now, without a reference position",
+                    raw_attrs=tid("dev-unhomed-confirm"),
+                )
+
+
 def _add(page: Any) -> None:
     """The error line, the plugin to add and its form."""
     from trame.widgets import html
@@ -58,9 +101,10 @@ def _add(page: Any) -> None:
         density="compact",
         closable=True,
         classes="mb-2",
-        click_close="dev_error = ''",
+        click_close=f"dev_error = ''; dev_unhomed = null; {CLEAR_PAGE_ERROR}",  # the footer's line too
         raw_attrs=tid("dev-error"),
     )
+    _unhomed(page)
     # the buttons sit above their forms: a field's hint folds away when it loses focus, and a
     # button below would move from under the pointer between press and release (a lost click)
     with html.Div(classes="d-flex align-center mb-1"):

@@ -21,16 +21,20 @@ from collections.abc import Callable
 from typing import Any
 
 from ....devices import DeviceMonitor
+from ....devices.stage import NotHomed
 from ....errors import CamcmmError, one_line
 from ....params import form_schema
 from ...jobs import Job
 from . import wiring
-from .actions import perform
+from .actions import cause, perform
 from .live import frame_data_url, frame_note
 from .projector import add_routes
 
 ACTIVE = ("running", "paused", "resuming")
 """Sequence states in which another sequence may not start."""
+
+SEQUENCE = "sequence"
+"""The cause of a sequence's pause message (it goes when the sequence goes on)."""
 
 
 class DevicesPage:
@@ -51,6 +55,7 @@ class DevicesPage:
         self._lock = threading.Lock()
         s = self.state
         s.dev_error = ""
+        s.dev_unhomed = None  # {key, action, arg, label}: a refused move the operator may confirm
         s.dev_catalogue = self._catalogue()
         s.dev_add_id = None
         s.dev_add_fields = []
@@ -159,11 +164,17 @@ class DevicesPage:
         return await self.act(key, "configure", changed) is not None
 
     # -- device actions ----------------------------------------------------------------------------
-    async def act(self, key: str, action: str, arg: Any = None) -> Any:
+    async def act(self, key: str, action: str, arg: Any = None, unhomed: bool = False) -> Any:
         """Do ``action`` (:data:`.actions.ACTIONS`: connect, disconnect, configure, grab, home,
         abs, rel, stop, load, show) in the device job's worker; its result (True for None),
         or None with the reason shown when it fails. A sequence file to ``load`` must lie
-        in the browser's folders: refused before it is read (empty: the one camcmm ships)."""
+        in the browser's folders: refused before it is read (empty: the one camcmm ships).
+        ``unhomed``: a move the operator confirmed without homing (:meth:`move_unhomed`).
+
+        The reason belongs to what failed (:func:`.actions.cause`): it goes when the same
+        action, or for a stage any motion, then succeeds (a stage homed after "move before
+        homing"). A move refused for want of a reference offers "Move without homing"
+        (state ``dev_unhomed``: the move to do after the operator confirms)."""
         dev = self.devices.get(key)
         if dev is None:
             self._error(f"no device {key!r}: it was removed")
@@ -172,11 +183,14 @@ class DevicesPage:
             roots = getattr(self.session, "roots", None)
             if action == "load" and roots is not None and arg is not None and str(arg).strip():
                 arg = str(roots.check(arg, "sequence file"))
-            out = await self.io.call(perform, dev, action, arg)
+            out = await self.io.call(perform, dev, action, arg, unhomed)
         except Exception as exc:
-            self._error(exc)
+            self._error(exc, cause(key, action))
+            if isinstance(exc, NotHomed) and action in ("abs", "rel"):
+                self.state.dev_unhomed = {"key": key, "action": action, "arg": arg, "label": dev.label}
             self.publish()
             return None
+        self._resolved(cause(key, action))
         if action == "grab":
             self._show_frame(out)
         elif action == "load":
@@ -261,7 +275,11 @@ class DevicesPage:
             "progress": round(100.0 * min(int(snap.get("step") or 0), steps) / steps, 1),
         }
         if snap.get("state") == "paused" and snap.get("reason"):
-            self.state.dev_error = f"sequence paused: {snap['reason']}"
+            line = one_line(f"sequence paused: {snap['reason']}")
+            if self.session.page_error("devices") != line:
+                self._error(line, SEQUENCE)
+        elif snap.get("state") in ACTIVE:  # resumed: the pause's reason is no longer the news
+            self._resolved(SEQUENCE)
 
     # -- publishing ------------------------------------------------------------------------------
     def _row(self, key: str) -> dict[str, Any]:
@@ -297,10 +315,35 @@ class DevicesPage:
     def publish(self) -> None:
         self.state.dev_list = [self._row(k) for k in self.devices]
 
-    def _error(self, msg: BaseException | str) -> None:
+    def _error(self, msg: BaseException | str, why: str = "") -> None:
+        """The page's one line (its alert and the footer), about ``why`` (a cause key)."""
         line = one_line(msg)
         self.state.dev_error = line
-        self.session.error(line)
+        self.state.dev_unhomed = None  # offered again only by the refusal it answers
+        self.session.error(line, cause=why)
+
+    def _resolved(self, why: str) -> None:
+        """``why`` succeeded now: its message goes from the page (and the offer to move
+        unhomed); the alert shows the page's message that is left, if any."""
+        self.session.resolve(why)
+        self.state.dev_error = self.session.page_error("devices")
+        if why.endswith(": motion"):
+            self.state.dev_unhomed = None
+
+    async def move_unhomed(self) -> Any:
+        """The move refused for want of a reference, confirmed by the operator: done with
+        ``allow_unhomed`` (the travel limits are then the controller's count only)."""
+        ask, self.state.dev_unhomed = self.state.dev_unhomed, None
+        if not isinstance(ask, dict) or ask.get("key") not in self.devices:
+            return None
+        return await self.act(str(ask["key"]), str(ask["action"]), ask.get("arg"), unhomed=True)
+
+    def reloaded(self) -> None:
+        """A tab connected (a reload): the page's line of a past action goes with the
+        session's messages; the device list is read afresh."""
+        self.state.dev_error = ""
+        self.state.dev_unhomed = None
+        self.publish()
 
     def pattern_projector(self) -> Any:
         """The projector the projector page shows: the first pattern projector added."""
@@ -341,4 +384,5 @@ def mount(server: Any, session: Any) -> DevicesPage:
     """The page, and the projector page's routes (``/projector``) on the same server."""
     page = DevicesPage(session)
     add_routes(server, page.pattern_projector)
+    session.watch_reload(page.reloaded)
     return page

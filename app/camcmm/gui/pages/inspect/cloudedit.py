@@ -378,8 +378,7 @@ class CloudEditPanel:
         if self.session.measurement(edit.parent) is not None:
             self.session.select_item(edit.parent, chosen=True)
         elif self.state.selected_item == edit.item:
-            self.session.view.clear()
-            self.state.selected_item = None
+            self.session.unselect_item()
         self._say(f"undone: '{edit.name}' removed (Redo brings it back)")
         self._history()
         return edit

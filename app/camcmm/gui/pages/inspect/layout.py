@@ -68,6 +68,14 @@ def _view(page: Any) -> None:
     cv = client_views(page.server).add(CV, view)
     with html.Div(style="flex: 1 1 auto; min-height: 300px; position: relative;", raw_attrs=tid("view")):
         cloud_view(CV)
+        html.Div(  # the empty view of the page shown says what would appear in it (gui/scenes.py)
+            "{{ view_hint }}",
+            v_if="view_hint",
+            classes="cmm-view-hint text-body-2 text-medium-emphasis",
+            style="position: absolute; left: 50%; top: 40%; transform: translate(-50%, -50%); max-width: 70%; "
+            "text-align: center; pointer-events: none; z-index: 2;",
+            raw_attrs=tid("view-hint"),
+        )
         with html.Div(v_if=f"{CV}_mode === 'server'", style="position: absolute; inset: 0;"):
             # trame-vtk's view on the render window, not trame-pyvista's: that one pushes an
             # image on every pyvista render() (about five per scene change); this one pushes

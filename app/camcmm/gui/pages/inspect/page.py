@@ -43,6 +43,11 @@ class InspectPage:
         self.task = plugin_run.PluginRunTask(session.host, session, session.project)
         self.last_result: RunResult | None = None
         self.last_result_id: Any = None
+        # the items the result shown is about (its inputs, what it made): the panel keeps it
+        # while one of them is selected and otherwise shows the selected item's newest result
+        self.result_items: set[str] = set()
+        self.result_newest = False  # the result shown is the selected item's newest (follows new ones)
+        self.result_id: Any = None  # the stored id of the result shown
         s = self.state
         s.update(
             {
@@ -65,7 +70,10 @@ class InspectPage:
         self.tidy = Tidy(session)
         self.cloudedit = CloudEditPanel(self)  # "Crop & segment" (.cloudedit)
         session.watch_items(self.refresh_inputs)
+        session.watch_selection(self.follow_item)
+        session.watch_project(self.follow_project)
         self.refresh_plugins()
+        self.follow_item(self.state.selected_item)  # the item restored at start, with its result
 
     # -- plugins and the form ----------------------------------------------------------
     def refresh_plugins(self) -> None:
@@ -213,6 +221,7 @@ class InspectPage:
             self.state.progress_message = message
 
     def _clear_result(self) -> None:
+        self.result_items, self.result_newest, self.result_id = set(), False, None
         self.state.update(
             {
                 "result": None,
@@ -267,6 +276,8 @@ class InspectPage:
         if kept.made:
             session.refresh_items()
         self._show(spec, result.to_json(), kept.made_names, kept.warnings)
+        self.result_items = {str(m) for m in checked.mids} | {m.key for m in kept.made}
+        self.result_newest, self.result_id = True, kept.result_id
         number = f" #{self.last_result_id}" if self.last_result_id is not None else ""
         s.result_title = f"{spec.name}{number} — {spec.id} {result.plugin_version}"
         s.running, s.progress, s.progress_message = False, 100.0, "done"
@@ -292,6 +303,53 @@ class InspectPage:
         spec = plugin_run.spec_of(self.session.host, plugin)
         self._show(spec, d, {}, list(d.get("warnings") or []))
         self.state.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
+        self.result_items = {str(m) for m in d.get("measurement_ids") or []}
+        self.result_newest, self.result_id = False, rid
+
+    def newest_result(self, key: Any) -> Any:
+        """The id of the newest stored result about item ``key`` (None: none): one that
+        used it, or, for an item a run made, that run — the newest result of the plugin and
+        version it names (``meta["made_by"]``) stored before the item (a run stores its row,
+        then the items it made)."""
+        try:
+            rows = self.session.project.results()
+        except Exception:  # a store without results: nothing to follow
+            return None
+        found = [r["id"] for r in rows if str(key) in {str(m) for m in r.get("measurement_ids") or []}]
+        m = self.session.measurement(key) or {}
+        made_by = str((m.get("meta") or {}).get("made_by") or "") if isinstance(m.get("meta"), dict) else ""
+        if made_by and m.get("created"):
+            made = [
+                r["id"]
+                for r in rows
+                if f"{r.get('plugin')} {r.get('version')}" == made_by and str(r.get("created")) <= str(m["created"])
+            ]
+            found += made[-1:]
+        return max(found) if found else None
+
+    def follow_item(self, key: Any) -> None:
+        """The item selected changed: the panel keeps the result shown while it is about
+        that item (an input of it, or made by it), else shows the item's newest result, else
+        nothing — never "Sphere fit #26" beside a height map it did not measure."""
+        if key is not None and str(key) in self.result_items:
+            return
+        rid = None if key is None else self.newest_result(key)
+        if rid is None:
+            self._clear_result()
+            return
+        self.show_result(rid)
+        self.result_newest = True
+
+    def follow_project(self) -> None:
+        """Another tab changed the project: a panel showing the selected item's newest
+        result shows the newest again (a fit run there on the same item)."""
+        key = self.state.selected_item
+        if key is None or self.job.running or not (self.result_newest or not self.state.result):
+            return
+        rid = self.newest_result(key)
+        if rid is not None and str(rid) != str(self.result_id):
+            self.show_result(rid)
+            self.result_newest = True
 
     def set_color_field(self, name: str | None) -> None:
         """Colour the shown item by the field ``name`` (kept in the project for next time)."""
@@ -305,6 +363,7 @@ class InspectPage:
             return
         s.color_field = view.field
         s.legend_title = view.scalar_bar_title
+        self.session.shared.colour(view.field)  # the page shown keeps it when it is shown again
         self.session.remember("gui.color_field", view.field)
 
     def on_select(self, view_name: Any, selection: dict[str, Any]) -> int | None:

@@ -122,8 +122,7 @@ class Tidy:
             return False
         k = str(m["id"])
         if self.state.selected_item == k:
-            self.session.view.clear()
-            self.state.update({"selected_item": None, "color_fields": [], "legend_title": "", "display_note": ""})
+            self.session.unselect_item()
         if self.state.picked_item == k:
             self.state.picked_item = None
         self._done("delete", k, None, f"deleted '{m['name']}'")
