@@ -1,7 +1,9 @@
 """The Calibration page end to end in a real headless Chromium (Playwright).
 
-Calibrates the left camera of OpenCV's stereo sample from a folder on the server and
-sees the image list (13 images, board found in all), the selected image with the
+Fills the board form (the square size required before a run, the board's drawing, the
+inner corners found on the first image before calibrating: 54 of 54, and 0 of 70 for a
+board counted by its squares), calibrates the left camera of OpenCV's stereo sample from
+a folder on the server and sees the image list (13 images, board found in all), the selected image with the
 detected corners drawn in colour, the per-view error chart, the numbers (RMS as the
 plugin gives it) and the projection-uncertainty heat map; changes the working distance;
 lets a new measuring system use the calibration; then calibrates the pair and sees the
@@ -69,15 +71,34 @@ def check_calibration_page(url: str, shots: Path = SHOTS) -> None:
             page.locator('[data-testid="cal-folder"] input').fill(str(DATA))
             page.locator('[data-testid="cal-left-pattern"] input').fill("left*")
             page.screenshot(path=str(shots / "inputs.png"))
-            # a wrong board: one line naming the board, the page keeps working
-            board = page.locator('[data-testid="cal-board"] input')
-            board.fill("chessboard:10x7:25")
+            # the board form: no square size, no run; the board looked for in the first image
+            cols = page.locator('[data-testid="cal-board-cols"] input')
+            rows = page.locator('[data-testid="cal-board-rows"] input')
+            square = page.locator('[data-testid="cal-board-square"] input')
+            assert square.input_value() == ""
             page.click('[data-testid="cal-run"]')
-            err = _wait_text(page.locator('[data-testid="cal-error"]'), "not found in any")
-            assert "chessboard:10x7:25" in err and "\n" not in err.strip()
+            err = _wait_text(page.locator('[data-testid="cal-error"]'), "square size")
+            assert "\n" not in err.strip()
+            check = page.locator('[data-testid="cal-board-check-text"]')
+            _wait_text(check, "found 54 of 54 inner corners on left01.jpg", timeout=30)
+            drawing = page.locator('[data-testid="cal-board-drawing"]')
+            assert "required" in base64.b64decode(drawing.get_attribute("src").split(",", 1)[1]).decode()
+            page.screenshot(path=str(shots / "board-required.png"))
+            # a wrong board (the squares counted): the check says so before any run (the run's
+            # refusal of it is tested headless, tests/gui/test_calibration_gui.py)
+            cols.fill("10")
+            rows.fill("7")
+            _wait_text(check, "found 0 of 70", timeout=30)
+            square.fill("25")
+            _wait_text(page.locator('[data-testid="cal-board-code"]'), "chessboard:10x7:25")
+            assert not page.locator('[data-testid="cal-error"]').count()  # the size given: its refusal went
             page.screenshot(path=str(shots / "bad-board.png"))
-            page.click('[data-testid="cal-error"] button')  # close
-            board.fill("chessboard:9x6:25")
+            cols.fill("9")
+            rows.fill("6")
+            _wait_text(check, "found 54 of 54", timeout=30)
+            svg = base64.b64decode(drawing.get_attribute("src").split(",", 1)[1]).decode()
+            assert 'data-points="54"' in svg and "square size 25 mm" in svg
+            page.screenshot(path=str(shots / "board.png"))
             page.click('[data-testid="cal-run"]')
             _wait_text(page.locator('[data-testid="cal-message"]'), "done")
             rows = page.locator('[data-testid="cal-image-row"]')

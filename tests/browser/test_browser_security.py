@@ -216,7 +216,7 @@ def test_a_path_outside_the_roots_is_refused_in_each_of_the_three_places(served)
             page.click('[data-testid="cal-source-folder"]')
             page.locator('[data-testid="cal-folder"] input').fill(str(outside))
             page.locator('[data-testid="cal-left-pattern"] input').fill("left*")
-            page.locator('[data-testid="cal-board"] input').fill("chessboard:9x6:25")
+            page.locator('[data-testid="cal-board-square"] input').fill("25")
             page.click('[data-testid="cal-run"]')
             text = _wait_text(page.locator('[data-testid="cal-error"]'), "outside the folders this server may read")
             assert "server folder" in text and "\n" not in text.strip(), text

@@ -12,6 +12,9 @@ as the Calibration page and the tests run it.
   :data:`STEREO`) through :func:`camcmm.worker.run` (``progress(fraction, message)``,
   ``cancel``: a :class:`threading.Event`), holds its outputs to the contract and makes
   each camera's projection-uncertainty map (:data:`PROJECTION`);
+- :func:`first_source` and :func:`check_board` look for the board in the first image
+  before calibrating (the plugin found by :data:`BOARD_CHECK`): how many of its points
+  are found, or why none;
 - :func:`store` keeps the calibration JSON and OpenCV YAML, the page document (the
   request, sources, outputs, warnings, maps and the page's thumbnails) and the result row
   (``RunResult.to_json()``), and remembers them as the project's current calibration;
@@ -43,11 +46,12 @@ from ..host import Cancelled
 from ..jsonable import to_jsonable
 from .items import IMAGE_EXTS, folder_images
 
-CAMERA, STEREO, PROJECTION, RECTIFY = (
+CAMERA, STEREO, PROJECTION, RECTIFY, BOARD_CHECK = (
     "camera-calibration",
     "stereo-calibration",
     "projection-uncertainty",
     "rectification",
+    "board-detection",
 )
 #: the task the page runs (one camera; a pair runs :data:`STEREO`)
 TASK = CAMERA
@@ -118,6 +122,26 @@ CONTRACTS = {
             needs=(Need("left", "any", why="the rectified pair"), Need("right", "any", why="the rectified pair")),
         )
     ),
+    BOARD_CHECK: register(
+        OutputContract(
+            BOARD_CHECK,
+            needs=(
+                Need("found", "bool", why="the board check's verdict"),
+                Need("count", "int", why="the points found"),
+                Need("expected", "int", why="the points of the whole board"),
+                Need("points", "str", why="what the points are, in words"),
+                Need("reason", "str", why="why the board was not found"),
+                Need("corners", "list", why="the points drawn over the image"),
+            ),
+        )
+    ),
+}
+#: what to check when the board is not found in an image, per kind of board
+BOARD_HINTS = {
+    "chessboard": "count the inner corners, where four squares meet: one fewer than the squares along each side",
+    "charuco": "check the squares across × down and the marker dictionary",
+    "circles": "check the circles across × down",
+    "acircles": "check the circles per row × the rows",
 }
 
 
@@ -210,7 +234,7 @@ def check_request(
     mode = req.mode = "stereo" if req.mode == "stereo" else "camera"
     req.board = str(req.board or "").strip()
     if not req.board:
-        raise InputError("board: give the board spec, e.g. chessboard:9x6:25 (" + BOARD_HELP + ")")
+        raise InputError("board: give the board and its square size, e.g. chessboard:9x6:25 (" + BOARD_HELP + ")")
     try:
         req.outlier_factor = float(req.outlier_factor if req.outlier_factor not in (None, "") else 3.0)
     except (TypeError, ValueError):
@@ -261,6 +285,40 @@ def read_source(src: dict[str, Any], project: Any) -> Any:
         raise InputError(f"{src.get('name')}: not an image file")
     img.name = str(src.get("name"))
     return img
+
+
+# -- the board checked on the first image, before calibrating ------------------------------
+def first_source(req: CalibrationRequest | dict[str, Any], project: Any, roots: Any = None) -> dict[str, Any] | None:
+    """The first image the request names (the left camera's), or None while it names none
+    (no items chosen, no folder typed, no file matching): the board check has nothing
+    to look at yet, which is not an error."""
+    req = CalibrationRequest.of(req)
+    try:
+        if req.source == "folder":
+            src = folder_sources(req.folder, req.left_pattern or "*", roots=roots)
+        else:
+            src = item_sources(project, req.left)
+    except InputError:
+        return None
+    return src[0] if src else None
+
+
+def check_board(host: Any, image: Any, board: str) -> dict[str, Any]:
+    """The board ``board`` (a spec) looked for in one ``image`` (a read source, see
+    :func:`read_source`) by the plugin found by :data:`BOARD_CHECK`, as the calibration
+    will look for it: ``{image, found, count, expected, points, reason, corners, text}``;
+    ``text`` says it in one line, e.g. "found 54 of 54 inner corners on left01.jpg", or
+    why not and what to check."""
+    spec = host.provider(BOARD_CHECK)
+    out = to_jsonable(worker.run(host, spec.id, {"image": image}, {"board": board}).outputs)
+    check_outputs(BOARD_CHECK, spec.id, out)
+    name, n, total = str(image.name), int(out["count"]), int(out["expected"])
+    text = f"found {n} of {total} {out['points']} on {name}"
+    if not out["found"]:
+        kind = board.split(":", 1)[0].strip().lower()
+        text += f": {out['reason'] or 'board not found'}; {BOARD_HINTS.get(kind, 'check the board')}"
+    return {"image": name, **{k: out[k] for k in ("found", "count", "expected", "points", "reason", "corners")},
+            "text": text}  # fmt: skip
 
 
 # -- one camera of the outputs ------------------------------------------------------------

@@ -144,6 +144,13 @@ def parse_board(spec: str | Board) -> Board:
     return Board(kind, cols, rows, nums[0])
 
 
+def board_points(board: Board) -> tuple[int, str]:
+    """(how many points the whole board has, what they are in words): inner corners of a
+    chessboard or ChArUco board ((COLS - 1) x (ROWS - 1) for ChArUco), circles of a grid."""
+    c, r = board.pattern_size
+    return c * r, ("circles" if board.kind in ("circles", "acircles") else "inner corners")
+
+
 @dataclass
 class Detection:
     """The board found (or not) in one image. Points in px (image) and mm (board)."""

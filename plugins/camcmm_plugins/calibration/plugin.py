@@ -208,6 +208,25 @@ def rectify(ctx: RunContext, calibration, left, right) -> dict[str, Any]:
     }
 
 
+def board_check(ctx: RunContext, image, *, board: str, detector: str) -> dict[str, Any]:
+    """The board found (or not) in one image, as :func:`camera` finds it, with the count
+    of its points: what a person checks before calibrating (is COLSxROWS right?)."""
+    from .boards import board_points, detect, grey, parse_board
+
+    b = parse_board(board)
+    det = detect(b, image.name, grey(image.data), detector=detector)
+    expected, points = board_points(b)
+    return {
+        "found": det.found,
+        "count": int(len(det.image_points)),
+        "expected": expected,
+        "points": points,
+        "reason": det.reason,
+        "corners": det.image_points.tolist(),
+        "image_size": list(det.image_size),
+    }
+
+
 def projection_uncertainty(
     ctx: RunContext, calibration, *, distance: float, columns: int, rows: int, method: str
 ) -> dict[str, Any]:

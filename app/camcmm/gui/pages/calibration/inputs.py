@@ -1,4 +1,4 @@
-"""The Calibration page's input helpers: the board hints and models offered, the image
+"""The Calibration page's input helpers: the distortion models offered, the image
 items chosen by name, a board's layout for drawing. Where the board images come from (the
 project's image items, an upload made items, or a folder on the server) is checked by the
 task (:func:`camcmm.tasks.calibration.check_request`).
@@ -10,15 +10,7 @@ from typing import Any
 
 from ....tasks.calibration import IMAGE_EXTS
 
-__all__ = ["BOARD_HINTS", "IMAGE_EXTS", "MODELS", "board_layout", "image_items", "split_by_name"]
-#: one line per board kind, shown under the board field for the kind being typed
-BOARD_HINTS = {
-    "chessboard": "chessboard:COLSxROWS:SQUARE_MM, inner corners as OpenCV counts them, e.g. chessboard:9x6:25",
-    "charuco": "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT], squares, e.g. charuco:11x8:15:11 (DICT_5X5_100)",
-    "circles": "circles:COLSxROWS:SPACING_MM, symmetric grid of circles, e.g. circles:7x6:20",
-    "acircles": "acircles:COLSxROWS:SPACING_MM, OpenCV's asymmetric circle grid, e.g. acircles:4x11:10",
-    "": "chessboard:9x6:25 (inner corners), charuco:11x8:15:11, circles:7x6:20 or acircles:4x11:10",
-}
+__all__ = ["IMAGE_EXTS", "MODELS", "board_layout", "image_items", "split_by_name"]
 MODELS = [
     {"title": "standard: k1 k2 p1 p2 k3", "value": "standard"},
     {"title": "thin prism: + s1-s4", "value": "thin-prism"},

@@ -2,7 +2,9 @@
 
 Left, the inputs: one camera or a stereo pair; the board images from the project's
 image items, an upload (which becomes image items) or a folder on the server; the board
-spec with its one-line explanation, the distortion model and the outlier factor; Run
+form (type, points across and down, square size with its unit — required —, ChArUco
+marker and dictionary) with the board's drawing and the board looked for in the first
+image; the distortion model and the outlier factor; Run
 with progress and Cancel; then the downloads and "use this calibration" for a measuring
 system with the project's systems and their calibrations. Right, the results: the
 summary, the image list (thumbnails with the board drawn, found / not found / left out
@@ -29,10 +31,15 @@ from .inputs import IMAGE_EXTS
 
 RUN_ARGS = (
     "[{mode: cal_mode, source: cal_source, left: cal_left_items, right: cal_right_items, folder: cal_folder, "
-    "left_pattern: cal_left_pattern, right_pattern: cal_right_pattern, board: cal_board, model: cal_model, "
-    "outlier_factor: cal_outlier, name: cal_name}]"
+    "left_pattern: cal_left_pattern, right_pattern: cal_right_pattern, model: cal_model, "
+    "outlier_factor: cal_outlier, name: cal_name, board_form: {kind: cal_board_kind, cols: cal_board_cols, "
+    "rows: cal_board_rows, square: cal_board_square, unit: cal_board_unit, marker: cal_board_marker, "
+    "dictionary: cal_board_dict}}]"
 )
-BOARD_HINT = "cal_board_hints[(cal_board || '').split(':')[0].trim().toLowerCase()] || cal_board_hints['']"
+#: what the two counts of the board are, per kind (JS, for the fields' labels)
+COUNTED = "({chessboard: 'Inner corners', charuco: 'Squares', circles: 'Circles', acircles: 'Circles'}[cal_board_kind])"
+CIRCLES = "['circles', 'acircles'].includes(cal_board_kind)"
+MISSING_SIZE = "(cal_board_square === '' || cal_board_square === null)"
 STEREO = "cal_mode === 'stereo'"
 
 
@@ -236,19 +243,8 @@ def _from_folder(v: Any, html: Any) -> None:
 
 
 def _board_and_model(v: Any, html: Any) -> None:
-    """The board spec with its hint, the distortion model, the outlier factor, the name."""
-    v.VTextField(
-        v_model=("cal_board", "chessboard:9x6:25"),
-        label="Board",
-        density="compact",
-        variant="outlined",
-        persistent_hint=True,
-        hint=(BOARD_HINT,),
-        classes="mt-1 mb-2",
-        disabled=("cal_running",),
-        title="The calibration board: kind:columns x rows:square size in mm",
-        raw_attrs=tid("cal-board"),
-    )
+    """The board form, the distortion model, the outlier factor, the name."""
+    _board_form(v, html)
     with html.Div(classes="d-flex ga-2 mb-2"):
         v.VSelect(
             v_model=("cal_model", "standard"),
@@ -287,6 +283,115 @@ def _board_and_model(v: Any, html: Any) -> None:
         title="A name to find this calibration by later (empty: one is made)",
         raw_attrs=tid("cal-name"),
     )
+
+
+def _number_field(v: Any, model: str, label: Any, testid: str, title: str, **kw: Any) -> None:
+    v.VTextField(
+        v_model=(model, ""),
+        label=label,
+        type="number",
+        min=0,
+        density="compact",
+        variant="outlined",
+        hide_details="auto",
+        disabled=("cal_running",),
+        title=title,
+        raw_attrs=tid(testid),
+        **kw,
+    )
+
+
+def _board_form(v: Any, html: Any) -> None:
+    """The board: its type, the points across and down, the square size (circle spacing)
+    with its unit — required, it sets the scale of every length — the ChArUco marker and
+    dictionary; the board's drawing, its code as the command line takes it, and the board
+    looked for in the first image (:meth:`.page.CalibrationPage.check_board_async`)."""
+    with html.Div(classes="mt-1 mb-2", raw_attrs=tid("cal-board-form")):
+        html.Div("Calibration board", classes="text-subtitle-2 mb-1")
+        v.VSelect(
+            v_model=("cal_board_kind", "chessboard"),
+            items=("cal_board_kinds",),
+            item_title="title",
+            item_value="value",
+            label="Board type",
+            density="compact",
+            variant="outlined",
+            hide_details=True,
+            classes="mb-2",
+            disabled=("cal_running",),
+            title="The kind of calibration target in the images",
+            raw_attrs=tid("cal-board-kind"),
+        )
+        with html.Div(classes="d-flex ga-2 mb-2 align-center"):
+            _number_field(
+                v, "cal_board_cols", (f"{COUNTED} + ' across'",), "cal-board-cols",
+                "Along the board's long side: inner corners of a chessboard (where four squares meet), squares of "
+                "a ChArUco board, circles of a circle grid (per row for the asymmetric grid)",
+                step=1,
+            )  # fmt: skip
+            html.Span("×")
+            _number_field(
+                v, "cal_board_rows", (f"{COUNTED} + ' down'",), "cal-board-rows",
+                "Along the board's short side, counted as across", step=1,
+            )  # fmt: skip
+        with html.Div(classes="d-flex ga-2 mb-2 align-start"):
+            _number_field(
+                v, "cal_board_square", (f"{CIRCLES} ? 'Circle spacing' : 'Square size'",), "cal-board-square",
+                "Measured on the printed board: it sets the scale of every length the calibration gives",
+                step="any", error_messages=(f"{MISSING_SIZE} ? ['required: measure it on the board'] : []",),
+            )  # fmt: skip
+            v.VSelect(
+                v_model=("cal_board_unit", "mm"),
+                items=("cal_board_units",),
+                label="Unit",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                style="max-width: 92px;",
+                disabled=("cal_running",),
+                title="The unit of the square size (and of the marker size)",
+                raw_attrs=tid("cal-board-unit"),
+            )
+        with html.Div(v_if="cal_board_kind === 'charuco'", classes="d-flex ga-2 mb-2"):
+            _number_field(
+                v, "cal_board_marker", "Marker size", "cal-board-marker",
+                "The side of the black ArUco marker inside a white square, in the unit above", step="any",
+            )  # fmt: skip
+            v.VSelect(
+                v_model=("cal_board_dict", "DICT_5X5_100"),
+                items=("cal_board_dicts",),
+                label="Marker dictionary",
+                density="compact",
+                variant="outlined",
+                hide_details=True,
+                disabled=("cal_running",),
+                title="The ArUco dictionary the board was generated with (DICT_5X5_100: 5×5-bit markers, 100 of them)",
+                raw_attrs=tid("cal-board-dict"),
+            )
+        html.Img(
+            src=("cal_board_svg",),
+            v_if="cal_board_svg",
+            alt="drawing of the board",
+            style="display: block; max-width: 100%; margin: 4px auto;",
+            raw_attrs=tid("cal-board-drawing"),
+        )
+        html.Div(  # a missing square size is said by its field; other faults here
+            "{{ cal_board ? cal_board_words + ' — board code for the command line: ' + cal_board : cal_board_error }}",
+            v_if=f"cal_board || !({MISSING_SIZE})",
+            classes=("cal_board ? 'text-caption' : 'text-caption text-error'",),
+            raw_attrs=tid("cal-board-code"),
+        )
+        with html.Div(v_if="cal_board_check.text", classes="d-flex ga-2 align-center mt-1",
+                      raw_attrs=tid("cal-board-check")):  # fmt: skip
+            html.Img(v_if="cal_board_check.image", src=("cal_board_check.image",), style="width: 120px;")
+            v.VIcon(
+                "{{ cal_board_check.state === 'ok' ? 'mdi-check-circle' : "
+                "(cal_board_check.state === 'missing' ? 'mdi-alert' : 'mdi-information-outline') }}",
+                color=("cal_board_check.state === 'ok' ? 'success' : "
+                       "(cal_board_check.state === 'missing' ? 'warning' : undefined)",),
+                size="small",
+            )  # fmt: skip
+            html.Span("{{ cal_board_check.text }}", classes="text-caption", raw_attrs=tid("cal-board-check-text"))
 
 
 def _run_controls(v: Any, html: Any, page: Any) -> None:

@@ -12,6 +12,7 @@ and file writing in the jobs' workers.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from pathlib import Path
 from typing import Any
@@ -20,9 +21,10 @@ from ....errors import InputError, one_line
 from ....host import Cancelled
 from ....tasks import calibration as task
 from ...downloads import Downloads
-from ...jobs import Job
+from ...jobs import Job, in_background
 from ...runpage import RunShared
-from . import draw, inputs, systems
+from . import board as boardform
+from . import boardsvg, draw, inputs, systems
 from . import results as res
 from .show import Results
 
@@ -42,6 +44,12 @@ FIELDS = {
     "outlier_factor": "cal_outlier",
     "name": "cal_name",
 }
+#: the inputs that change which image is checked for the board, or what is looked for
+CHECKED = ("cal_mode", "cal_source", "cal_left_items", "cal_folder", "cal_left_pattern", *boardform.FIELDS.values())
+#: the cause of a refusal of the board form (it goes when the form is complete)
+BOARD_CAUSE = "calibration:board"
+#: how long the board check waits for the typing to stop before it looks (s)
+CHECK_DELAY_S = 0.4
 
 
 class CalibrationPage:
@@ -53,10 +61,15 @@ class CalibrationPage:
         self.offered = Downloads("camcmm-calibration-downloads", "camcmm-calibration-", downloads)
         self.job = Job("calibration", state=self.state, on_progress=self._show_progress, interval=0.15)
         self.pictures = Job("calibration pictures", state=self.state)
+        self.checker = Job("board check", state=self.state)
+        self._check_generation = 0
         self._init_state()
         self.results = Results(session, self.offered, self.pictures, self._error)
         self.refresh_systems()
         self.restore()
+        self.board_changed()
+        self.state.change(*boardform.FIELDS.values())(lambda **_: self.board_changed())
+        self.state.change(*CHECKED)(lambda **_: self.schedule_check())
 
     # -- state ------------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -66,8 +79,15 @@ class CalibrationPage:
         s.cal_left_items, s.cal_right_items = [], []
         s.cal_folder, s.cal_left_pattern, s.cal_right_pattern = "", "*", "right*"
         s.cal_upload_left = s.cal_upload_right = None
-        s.cal_board = "chessboard:9x6:25"
-        s.cal_board_hints = inputs.BOARD_HINTS
+        s.cal_board = ""  # composed from the form (board_changed): no size, no board
+        for key, value in boardform.blank().items():
+            s[boardform.FIELDS[key]] = value
+        s.cal_board_kinds, s.cal_board_units = boardform.KINDS, list(boardform.UNITS)
+        s.cal_board_dicts = boardform.DICTIONARIES
+        s.cal_board_error = ""
+        s.cal_board_words = ""
+        s.cal_board_svg = ""
+        s.cal_board_check = {"text": "", "state": "", "image": ""}
         s.cal_models = inputs.MODELS
         s.cal_model = "standard"
         s.cal_outlier = 3.0
@@ -82,10 +102,10 @@ class CalibrationPage:
     def flush(self) -> None:
         self.session.flush()
 
-    def _error(self, msg: Any) -> None:
+    def _error(self, msg: Any, cause: str = "") -> None:
         line = one_line(msg)
         self.state.cal_error = line
-        self.session.error(line)
+        self.session.error(line, cause=cause)
 
     # -- what is shown (see show.Results) ---------------------------------------------------
     @property
@@ -114,16 +134,91 @@ class CalibrationPage:
         await self.results.set_distance_async(distance)
 
     # -- inputs -----------------------------------------------------------------------------
+    def board_form(self) -> dict[str, Any]:
+        """The board form as it stands in the page (see :mod:`.board`)."""
+        return {key: self.state[var] for key, var in boardform.FIELDS.items()}
+
     def request(self) -> dict[str, Any]:
-        """The inputs as they stand in the page (the layout sends the same dict)."""
+        """The inputs as they stand in the page (the layout sends the same dict, with the
+        board form under ``board_form``); the board composed from the form."""
         req = {key: self.state[var] for key, var in FIELDS.items()}
         req["left"], req["right"] = list(req["left"] or []), list(req["right"] or [])
+        req["board_form"] = self.board_form()
         return req
 
     def _set_request(self, req: dict[str, Any]) -> None:
         for key, var in FIELDS.items():
             if key in req and req[key] is not None:
                 self.state[var] = req[key]
+        if req.get("board"):  # the form shows the board run (a stored spec is in mm)
+            try:
+                form = boardform.parse(req["board"])
+            except InputError as exc:
+                log.warning("the stored board does not fill the form: %s", exc)
+                return
+            for key, value in form.items():
+                self.state[boardform.FIELDS[key]] = value
+            self.board_changed()
+
+    # -- the board form ---------------------------------------------------------------------
+    def board_changed(self) -> None:
+        """The board spec, its words, its drawing and what is missing, from the form."""
+        s, form = self.state, self.board_form()
+        try:
+            s.cal_board = boardform.compose(form)
+            s.cal_board_error, s.cal_board_words = "", boardform.describe(s.cal_board)
+            if self.session.resolve(BOARD_CAUSE):  # the form's refusal is resolved: it goes
+                s.cal_error = ""
+        except InputError as exc:
+            s.cal_board, s.cal_board_error, s.cal_board_words = "", one_line(exc), ""
+        s.cal_board_svg = boardsvg.data_url(boardsvg.svg(form))
+
+    def schedule_check(self) -> None:
+        """Check the board on the first image soon (the server's loop; none in a test
+        without one, which calls :meth:`check_board_async` itself)."""
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:
+            return
+        in_background(self.check_board_async(delay=CHECK_DELAY_S), self.state)
+
+    async def check_board_async(self, delay: float = 0.0) -> dict[str, Any] | None:
+        """Look for the form's board in the first image (the task's :func:`check_board`),
+        shown as ``cal_board_check`` {text, state: ok / missing / "", image}. Waits
+        ``delay`` s first; a newer change meanwhile makes this one give way."""
+        self._check_generation += 1
+        gen = self._check_generation
+        if delay:
+            await asyncio.sleep(delay)
+        if gen != self._check_generation:
+            return None
+        req, form = self.request(), self.board_form()
+        try:
+            spec = boardform.detection_spec(form)
+        except InputError as exc:
+            self.state.cal_board_check = {"text": one_line(exc), "state": "missing", "image": ""}
+            return None
+        try:
+            out = await self.checker.call(self._check_first, req, spec)
+        except Exception as exc:
+            out = {"text": f"board check: {one_line(exc)}", "state": "missing", "image": ""}
+        if gen == self._check_generation:
+            self.state.cal_board_check = out
+            self.flush()
+        return out
+
+    def _check_first(self, req: dict[str, Any], spec: str) -> dict[str, Any]:
+        """In the check job's worker: the board on the first image, and a small picture."""
+        src = task.first_source(req, self.project, self.session.roots)
+        if src is None:
+            return {"text": "no image chosen yet: the board is checked on the first one", "state": "", "image": ""}
+        img = task.read_source(src, self.project)
+        out = task.check_board(self.host, img, spec)
+        _, layout = inputs.board_layout(spec)
+        out["image"] = draw.thumbnail(img.data, out["corners"], layout, "used" if out["found"] else "not found", 240)
+        out["state"] = "ok" if out["found"] and out["count"] == out["expected"] else "missing"
+        out.pop("corners")
+        return out
 
     def add_uploads(self, upload: Any, side: str = "left") -> list[str]:
         """Uploaded images become image items of the project, chosen for ``side``."""
@@ -207,7 +302,15 @@ class CalibrationPage:
             self._error("a calibration is running; wait for it or cancel it")
             return None
         try:
-            checked, src = task.check_request(self.request() if req is None else req, self.project, self.session.roots)
+            raw = dict(self.request() if req is None else req)
+            form = raw.pop("board_form", None)
+            if form is not None:  # the form's fields: the square size is required
+                try:
+                    raw["board"] = boardform.compose(form)
+                except InputError as exc:
+                    self._error(exc, cause=BOARD_CAUSE)
+                    return None
+            checked, src = task.check_request(raw, self.project, self.session.roots)
         except Exception as exc:
             self._error(exc)
             return None
