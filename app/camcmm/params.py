@@ -117,6 +117,12 @@ class Param:
             p.coerce(p.default)  # a bad default is a bad manifest
         return p
 
+    @property
+    def label(self) -> str:
+        """The form's label (:func:`label`), for a plugin's message that names the parameter
+        as a person sees it on the form (plugins have ``Param`` from camcmm.api, not this module)."""
+        return label(self)
+
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"name": self.name, "type": self.type, "default": self.default}
         for key, value in (

@@ -63,6 +63,17 @@ def demo_server(tmp_path, data, demo_project):
     server.stop()
 
 
+@pytest.fixture
+def sample_server(tmp_path, demo_project):
+    """The demo served as shipped: no height maps, no data roots (the sample is the plugin's)."""
+    from camcmm.gui.process import GuiProcess
+
+    demo_project(tmp_path / "demo")
+    server = GuiProcess(tmp_path / "demo", timeout=180)
+    yield server
+    server.stop()
+
+
 def _text(page, testid: str, pattern: str, timeout: float = 60.0) -> str:
     return text_of(page, testid, pattern, timeout, SHOTS)
 
@@ -137,6 +148,39 @@ def test_fuse_page_on_the_demo(demo_server):
             assert page.locator('[data-testid="fu-abbott"] .shapelayer path').count() >= 1
             assert page.locator('[data-testid="fu-note"]').get_attribute("data-outlines") == "1"
             assert page.locator('[data-testid="fu-error"]').count() == 0
+        finally:
+            browser.close()
+    assert not server_tracebacks(server.log), server_tracebacks(server.log)
+
+
+def test_the_sample_pair_fuses_at_the_defaults(sample_server):
+    """A newcomer's first fusion (issue 30): "Load the sample pair", Run, nothing changed in
+    the form: the synthetic coin's cloud is fused with its map and the scale it was made
+    with, 1.02, comes back (plugins/camcmm_plugins/fusion/sample.py)."""
+    server = sample_server
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": 1366, "height": 768})
+            page.set_default_timeout(60_000)
+            page.goto(server.url)
+            page.click('[data-testid="page-fuse"]', timeout=180_000)
+            assert "Load the sample pair" in page.locator('[data-testid="fu-empty"]').inner_text()
+            page.click('[data-testid="fu-sample"]')
+            _text(page, "fu-message", r"sample pair is chosen")
+            assert "coin_photogrammetry.ply" in page.locator('[data-testid="fu-cloud"]').inner_text()
+            assert "coin_csi.x3p" in page.locator('[data-testid="fu-maps"]').inner_text()
+            assert page.locator('[data-testid="fu-param-sigma_px"] input').input_value() == "6"  # the default
+            page.click('[data-testid="fu-run"]')
+            _text(page, "fu-message", r"^done", timeout=120)
+            inliers = _text(page, "fu-num-matches", r"\d+ / \d+")
+            assert int(inliers.split("/")[1]) >= 8
+            scale = page.locator('[data-testid="fu-num-scale"]').inner_text()
+            assert abs(float(scale.split()[0]) - 1.02) < 1e-3, scale
+            page.wait_for_selector('[data-testid="fu-matches"] .gtitle:has-text("inlier matches")')
+            assert page.locator('[data-testid="fu-note"]').get_attribute("data-outlines") == "1"
+            assert page.locator('[data-testid="fu-error"]').count() == 0
+            page.screenshot(path=str(SHOTS / "sample.png"))
         finally:
             browser.close()
     assert not server_tracebacks(server.log), server_tracebacks(server.log)

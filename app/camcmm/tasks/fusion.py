@@ -11,7 +11,9 @@ the tests run it.
   by the plugin, the result row (``RunResult.to_json()``: the numbers, not the figures'
   arrays) naming the input items, and the page's record under :data:`CURRENT_KEY`;
 - :func:`stored` / :func:`restore` give the last run back as the project keeps it;
-- :func:`numbers` writes one map's figures as rows (lengths in mm written in µm).
+- :func:`numbers` writes one map's figures as rows (lengths in mm written in µm);
+- :func:`load_sample` puts the sample pair (the provider of :data:`SAMPLE_TASK`: the
+  synthetic coin, which fuses at the default parameters) into the project as two items.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from ..jsonable import to_jsonable
 from .items import checked, stored_record
 
 TASK = "csi-fusion"
+SAMPLE_TASK = "csi-fusion-sample"
 CURRENT_KEY = "fuse.current"
 CLOUD_KIND = "pointcloud"
 MAP_KIND = "heightmap"
@@ -160,6 +163,36 @@ def store(
     }
     project.set_state(CURRENT_KEY, rec)
     return rec
+
+
+def load_sample(host: Any, project: Any, items: Any) -> FusionRequest:
+    """The sample pair as two items of ``project`` (added through ``items``, the session or
+    :class:`ProjectItems`, made by the sample's plugin), or the ones a former load made (same
+    names and kinds, made by it); returns the request that fuses them."""
+    spec = host.provider(SAMPLE_TASK)
+    made_by = f"{spec.id} {spec.version}"
+    out = None
+    ids: dict[str, str] = {}
+    for key, kind in (("cloud", CLOUD_KIND), ("csi", MAP_KIND)):
+        old = _made_item(project, kind, made_by)
+        if old is not None:
+            ids[key] = old
+            continue
+        if out is None:
+            out = host.run(spec.id, {}, {}).outputs
+        obj = out[key]
+        h = project.add_object(obj, obj.name)
+        ids[key] = str(items.add_measurement(obj.name, h, obj, source=made_by))
+    return FusionRequest(ids["cloud"], [ids["csi"]], "")
+
+
+def _made_item(project: Any, kind: str, made_by: str) -> str | None:
+    """The id of an item of ``kind`` made by ``made_by`` (a former sample load), or None."""
+    for m in project.measurements():
+        meta = m.get("meta") if isinstance(m.get("meta"), dict) else {}
+        if m.get("kind") == kind and meta.get("made_by") == made_by:
+            return str(m["id"])
+    return None
 
 
 def stored(project: Any) -> dict[str, Any] | None:

@@ -1,5 +1,13 @@
 """``camcmm fuse csi --cloud PHOTO.ply --csi MAP [--csi MAP2 ...] [--sigma-px 6]
 [--reject similarity|fundamental] [--out fused.ply] [--report DIR] [--project DIR] [--json]``
+and ``camcmm fuse sample DIR``.
+
+``camcmm fuse sample DIR`` writes the sample pair (plugin ``fusion.sample``, the synthetic
+coin exact by construction) as ``DIR/coin_photogrammetry.ply`` and ``DIR/coin_csi.x3p``
+(with its intensity channel) and ``DIR/coin_truth.json`` (the construction: scale 1.02, the
+poses); ``camcmm fuse csi --cloud DIR/coin_photogrammetry.ply --csi DIR/coin_csi.x3p`` fuses
+them at the default parameters and recovers the scale 1.02. JSON keys: ``sample``
+{``cloud``, ``csi``, ``truth``} (the files written), ``command`` (the fusion to run).
 
 Runs the plugin that provides ``csi-fusion`` (camcmm's ``fusion.csi``) through the host (so
 the result carries its provenance); its declared parameters are the options, with the
@@ -25,17 +33,33 @@ with one line naming the file, and writes nothing: ``--out``, ``--report`` and
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, add_declared_options, declared_values, default_host, record_result, write
+from camcmm.api import (
+    InputError,
+    add_declared_options,
+    checked_path,
+    declared_values,
+    default_host,
+    record_result,
+    write,
+)
 
 #: The task ``camcmm fuse csi`` runs: its provider's parameters are the command's options.
 TASK = "csi-fusion"
+#: The task ``camcmm fuse sample`` runs: a cloud and a map that fuse at the defaults.
+SAMPLE_TASK = "csi-fusion-sample"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="what", required=True, metavar="{csi}")
+    sub = parser.add_subparsers(dest="what", required=True, metavar="{csi,sample}")
+    smp = sub.add_parser(
+        "sample", help="write a sample pair (a cloud and a CSI map of a synthetic coin) that fuses at the defaults"
+    )
+    smp.add_argument("folder", metavar="DIR", help="the folder to write them in (made if absent)")
+    smp.add_argument("--json", action="store_true", default=argparse.SUPPRESS, help="print one JSON document")
     c = sub.add_parser("csi", help="fuse CSI height maps with a photogrammetry cloud (thesis ch. 6.1)")
     c.add_argument("--cloud", required=True, metavar="PHOTO", help="the coloured photogrammetry cloud (.ply ...)")
     c.add_argument(
@@ -52,6 +76,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
+    if args.what == "sample":
+        return sample(args.folder)
     host = default_host()
     params = declared_values(args, host.provider(TASK).parameters)  # checked first: a bad value reads no file
     for f in [args.cloud, *args.csi, *([args.datum] if args.datum else [])]:
@@ -79,12 +105,35 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def sample(folder: str | Path) -> dict[str, Any]:
+    """The sample pair written into ``folder`` (its files' names from
+    :mod:`.sample`): ``{"sample": {cloud, csi, truth}, "command": "camcmm fuse csi ..."}``."""
+    from .sample import CLOUD_FILE, MAP_FILE
+
+    out = Path(checked_path(folder, "sample folder"))
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{folder}: not a folder")
+    o = default_host().run_task(SAMPLE_TASK, {}, {}).outputs
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"cloud": out / CLOUD_FILE, "csi": out / MAP_FILE, "truth": out / "coin_truth.json"}
+    write(o["cloud"], files["cloud"])
+    write(o["csi"], files["csi"])
+    files["truth"].write_text(json.dumps(o["truth"], indent=1) + "\n", encoding="utf-8")
+    command = f"camcmm fuse csi --cloud {files['cloud']} --csi {files['csi']}"
+    return {"sample": {k: str(v) for k, v in files.items()}, "command": command}
+
+
 def _um(x: float | None) -> str:
     return "—" if x is None or x != x else f"{x * 1000:+.2f} µm"
 
 
 def text(r: dict[str, Any]) -> str:
     """Human-readable summary of :func:`run`."""
+    if "sample" in r:
+        return "\n".join(
+            [f"wrote the sample pair: {r['sample']['cloud']}, {r['sample']['csi']} (truth: {r['sample']['truth']})"]
+            + [f"fuse them (default parameters): {r['command']}"]
+        )
     s = r["photogrammetry_scale"]
     std = "" if s["std"] is None else f" ± {s['std']:.6f}"
     lines = [

@@ -3,6 +3,7 @@ model; the host entry is :mod:`.plugin`)."""
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 from typing import Any
@@ -49,6 +50,113 @@ def photo_image(local: np.ndarray, colors, grid: int | None, sigma_px: float) ->
     return {"image": stretch(img, covered), "mask": covered, "pixel": pixel, "origin": origin}
 
 
+#: the blurs (px of the cloud's image) tried when the one asked for leaves too few matches
+TRIAL_BLURS_PX = (0.0, 1.0, 2.0, 4.0, 8.0)
+
+
+def photo_images(local0: np.ndarray, colors, frames: list, grid: int | None, sigma_px: float) -> list[tuple]:
+    """The cloud's grey image in each frame tried: [(frame (3, 3), local coordinates, image
+    dict of :func:`photo_image`)]; the second (when two frames are given) is the plane seen
+    from the other side (:func:`.project.mirrored`)."""
+    images: list[tuple] = [(frames[0], local0, photo_image(local0, colors, grid, sigma_px))]
+    if len(frames) == 2:
+        local1 = local0[:, [1, 0, 2]] * [1.0, 1.0, -1.0]  # the mirrored frame's coordinates
+        if colors is not None:  # the colour image seen from the other side is the transposed one
+            ph0 = images[0][2]
+            ph1 = {
+                "image": ph0["image"].T.copy(),
+                "mask": ph0["mask"].T.copy(),
+                "pixel": ph0["pixel"],
+                "transposed": True,
+            }
+            ph1["origin"] = ph0["origin"][::-1].copy()
+        else:  # (the shading is not: the heights change sign)
+            ph1 = photo_image(local1, None, grid, sigma_px)
+        images.append((frames[1], local1, ph1))
+    return images
+
+
+def match_map(
+    images: list[tuple],
+    sigma_px: float,
+    chosen: int | None,
+    photo_features: dict[int, tuple],
+    *,
+    hm,
+    inten,
+    pixel: float,
+    ratio: float,
+    ransac_px: float,
+    seed: int,
+    reject: str,
+):
+    """Steps 2-3 for one map at blur ``sigma_px``: its grey image, SIFT against the cloud's
+    image in each frame (only ``chosen`` once a map has fixed it), both rejections.
+    ``photo_features`` caches the cloud's features by frame (for this blur).
+
+    Returns
+    -------
+    n (inliers of ``reject``), frame index, pa, pb (CSI / cloud px), rejections, CSI image,
+    its pixel (mm)
+    """
+    pc = max(min(hm.dx, hm.dy), 0.5 * pixel)
+    cimg, cmask, pc = make_csi_image(hm.heights, inten, hm.dx, hm.dy, pc, sigma_px * pixel)
+    best = None
+    fc = features(cimg, cmask)
+    for idx, (_f, _local, ph) in enumerate(images) if chosen is None else [(chosen, images[chosen])]:
+        if idx == 1 and ph.get("transposed"):
+            # the mirrored frame's image is the transposed one: match the transposed CSI
+            # image with the features already found instead of a second SIFT of the big image
+            if 0 not in photo_features:
+                photo_features[0] = features(images[0][2]["image"], images[0][2]["mask"])
+            pa, pb = match_features(features(cimg.T.copy(), cmask.T.copy()), photo_features[0], ratio)
+            pa, pb = pa[:, ::-1].copy(), pb[:, ::-1].copy()
+        else:
+            if idx not in photo_features:
+                photo_features[idx] = features(ph["image"], ph["mask"])
+            pa, pb = match_features(fc, photo_features[idx], ratio)
+        rj = reject_matches(pa, pb, ransac_px, seed)
+        n = int(rj[reject].sum())
+        if best is None or n > best[0]:
+            best = (n, idx, pa, pb, rj)
+    assert best is not None
+    return (*best, cimg, pc)
+
+
+def too_few(
+    name: str,
+    n_matches: int,
+    n: int,
+    need: int,
+    sigma_px: float,
+    trials: dict[float, int],
+    named: Callable[[str], str],
+    cloud: PointCloud,
+    hm,
+    inten,
+) -> str:
+    """The one line refusing a map with too few matches: what was found at the blur asked
+    for, and the blur that gives enough (``trials``: blur px -> consistent matches), or, when
+    none does, what else to check."""
+    blur = named("sigma_px")
+    head = (
+        f"{name}: too few matches with the cloud at {blur} = {sigma_px:g} ({n_matches} SIFT matches, {n} consistent; "
+        f"at least {need} needed)"
+    )
+    good = {sg: k for sg, k in trials.items() if k >= need}
+    if good:
+        best = max(good, key=lambda sg: (good[sg], -abs(sg - sigma_px)))
+        return f"{head}; {blur} = {best:g} gives {good[best]} consistent matches: set {blur} to {best:g}"
+    tried = ", ".join(f"{sg:g}" for sg in sorted({*trials, sigma_px}))
+    what = f"{head}; no blur tried ({tried} px) gives {need}: the map may not overlap the cloud"
+    if inten is None and cloud.colors is not None:
+        return (
+            f"{what}, or the cloud's colours do not show the relief the map is matched by "
+            f"(it has no intensity channel, or {named('grey')} is shaded)"
+        )
+    return f"{what}, or the two grey images show different things"
+
+
 def run(
     cloud: PointCloud,
     maps: list,
@@ -68,10 +176,12 @@ def run(
     seed: int = 0,
     material_ratio: Callable[[np.ndarray], dict] | None = None,
     progress: Callable[[float, str], None] | None = None,
+    named: Callable[[str], str] = lambda key: key.replace("_", " "),
 ) -> dict[str, Any]:
     """Fuse CSI height maps with a photogrammetry cloud; returns fused, result, views
-    (see plugin.yaml). Raises InputError naming the map for too few matches, no overlap
-    or an implausible scale (a wrong unit)."""
+    (see plugin.yaml). Raises InputError naming the map for too few matches (with the blur
+    that would give enough, :func:`too_few`), no overlap or an implausible scale (a wrong
+    unit). ``named(key)``: a parameter as the form labels it, for the messages."""
     say = progress or (lambda f, m: None)
     timings: dict[str, float] = {}
     warnings: list[str] = []
@@ -85,24 +195,15 @@ def run(
     pts = cloud.points
     if len(pts) < 100:
         raise InputError(f"{cloud.name}: {len(pts)} points, too few for a fusion")
+    if grey == "intensity" and cloud.colors is None:
+        raise InputError(
+            f"{cloud.name}: the cloud has no colours, so it is matched by its relief, which a map's intensity "
+            f"does not show: set {named('grey')} to shaded (or auto)"
+        )
     centre, frame0 = fit_plane(pts, datum)
     frames = [frame0] if datum is not None else [frame0, mirrored(frame0)]
     local0 = (pts - centre) @ frame0.T
-    images = [(frame0, local0, photo_image(local0, cloud.colors, grid, sigma_px))]
-    if len(frames) == 2:
-        local1 = local0[:, [1, 0, 2]] * [1.0, 1.0, -1.0]  # the mirrored frame's coordinates
-        if cloud.colors is not None:  # the colour image seen from the other side is the transposed one
-            ph0 = images[0][2]
-            ph1 = {
-                "image": ph0["image"].T.copy(),
-                "mask": ph0["mask"].T.copy(),
-                "pixel": ph0["pixel"],
-                "transposed": True,
-            }
-            ph1["origin"] = ph0["origin"][::-1].copy()
-        else:  # (the shading is not: the heights change sign)
-            ph1 = photo_image(local1, None, grid, sigma_px)
-        images.append((frames[1], local1, ph1))
+    images = photo_images(local0, cloud.colors, frames, grid, sigma_px)
     t = tick("project", t)
 
     per_map: list[dict] = []
@@ -118,37 +219,23 @@ def run(
                 f"{name}: the map is {w_mm:.4g} mm wide, the cloud {extent:.4g} mm (its image pixel {pixel:.3g} mm): "
                 f"a wrong length unit in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
             )
-        pc = max(min(hm.dx, hm.dy), 0.5 * pixel)
         if grey == "intensity" and hm.intensity is None:
-            raise InputError(f"{name}: the map has no intensity channel (grey = shaded or auto)")
-        inten = None if grey == "shaded" else hm.intensity
-        cimg, cmask, pc = make_csi_image(hm.heights, inten, hm.dx, hm.dy, pc, sigma_px * pixel)
-        t = tick("prepare", t)
-        best = None
-        fc = features(cimg, cmask)
-        for idx, (_f, _local, ph) in enumerate(images if chosen is None else [images[chosen]]):
-            if idx == 1 and ph.get("transposed"):
-                # the mirrored frame's image is the transposed one: match the transposed CSI
-                # image with the features already found instead of a second SIFT of the big image
-                pa, pb = match_features(features(cimg.T.copy(), cmask.T.copy()), photo_features[0], ratio)
-                pa, pb = pa[:, ::-1].copy(), pb[:, ::-1].copy()
-            else:
-                key = idx if chosen is None else chosen
-                if key not in photo_features:
-                    photo_features[key] = features(ph["image"], ph["mask"])
-                pa, pb = match_features(fc, photo_features[key], ratio)
-            rj = reject_matches(pa, pb, ransac_px, seed)
-            n = int(rj[reject].sum())
-            if best is None or n > best[0]:
-                best = (n, idx if chosen is None else chosen, pa, pb, rj)
-        assert best is not None
-        n, idx, pa, pb, rj = best
-        t = tick("match", t)
+            raise InputError(f"{name}: the map has no intensity channel: set {named('grey')} to shaded or auto")
+        # a cloud without colours is drawn by its relief: the map must be too (auto), whatever channels it has
+        inten = None if grey == "shaded" or cloud.colors is None else hm.intensity
+        match = functools.partial(
+            match_map, hm=hm, inten=inten, pixel=pixel, ratio=ratio, ransac_px=ransac_px, seed=seed, reject=reject
+        )
+        n, idx, pa, pb, rj, cimg, pc = match(images, sigma_px, chosen, photo_features)
         if n < min_inliers:
-            raise InputError(
-                f"{name}: too few matches with the cloud ({len(pa)} SIFT matches, {n} consistent; at least "
-                f"{min_inliers} needed) — no overlap with the cloud, or nothing in common at sigma_px = {sigma_px:g}"
-            )
+            trials = {}
+            for sg in TRIAL_BLURS_PX:
+                if sg != sigma_px:
+                    say(0.1 + 0.5 * (k - 1) / len(maps), f"{name}: {n} consistent matches, trying a blur of {sg:g} px")
+                    trial = photo_images(local0, cloud.colors, frames, grid, sg)
+                    trials[sg] = match(trial, sg, chosen, {})[0]
+            raise InputError(too_few(name, len(pa), n, min_inliers, sigma_px, trials, named, cloud, hm, inten))
+        t = tick("match", t)
         chosen = idx
         f, local, ph = images[idx]
         a_mm = pa * pc + np.asarray(hm.origin)
@@ -254,6 +341,7 @@ def run(
                 "material_ratio": {k2: mr.get(k2) for k2 in ("Sk", "Spk", "Svk", "Smr1", "Smr2")},
                 "transform": _to_cloud(f, centre) @ mat,
                 "n_points_replaced": int(foot.sum()),
+                "grey": "shaded" if m["inten"] is None else "intensity",
             }
         )
         ci, cs = _small(m["cimg"])

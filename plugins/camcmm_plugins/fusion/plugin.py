@@ -62,7 +62,15 @@ def fuse_csi(ctx, cloud: PointCloud, csi, datum: dict | None = None, **params: A
         out = mr_alg(source=pc, field="difference")
         return out["material_ratio"] | {k: out[k] for k in ("Sk", "Spk", "Svk", "Smr1", "Smr2")}
 
-    out = pipeline.run(cloud, maps, names, datum=datum, material_ratio=material_ratio, progress=ctx.progress, **params)
+    # the messages name a parameter as the form labels it ("sigma [px]"), not by its key
+    words = {p.name: p.label for p in ctx.host.get(ctx.plugin_id).parameters}
+
+    def named(key: str) -> str:
+        return words.get(key, key.replace("_", " "))
+
+    out = pipeline.run(
+        cloud, maps, names, datum=datum, material_ratio=material_ratio, progress=ctx.progress, named=named, **params
+    )
     for w in out["result"]["warnings"]:
         ctx.warn(w)
     return out

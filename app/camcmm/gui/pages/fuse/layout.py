@@ -33,7 +33,7 @@ def build(page: Any) -> None:
             style=f"flex: 0 0 360px; max-width: 360px; border-right: 1px solid rgba(0,0,0,0.12); {COLUMN}",
             raw_attrs=tid("fu-panel"),
         ):
-            _inputs()
+            _inputs(page)
             _run(page)
             _results(page)
             _parameters()
@@ -43,8 +43,8 @@ def build(page: Any) -> None:
     page.server.controller.fu_view_update = rview.update
 
 
-def _inputs() -> None:
-    """The error, the cloud, the height maps."""
+def _inputs(page: Any) -> None:
+    """The error, the cloud, the height maps, the sample pair."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
@@ -91,6 +91,23 @@ def _inputs() -> None:
         disabled=("fu_running",),
         title="One or more height maps of the same part; several give one mean scale with its spread",
         raw_attrs=tid("fu-maps"),
+    )
+
+    def on_sample():
+        page.load_sample()
+
+    v.VBtn(
+        "Load the sample pair",
+        click=on_sample,
+        variant="text",
+        size="small",
+        color="primary",
+        prepend_icon="mdi-database-import-outline",
+        disabled=("fu_running",),
+        classes="mb-2",
+        title="A photogrammetry cloud and a CSI height map of a synthetic coin, known by construction, "
+        "that fuse at the default parameters (added to the project as two items and chosen here)",
+        raw_attrs=tid("fu-sample"),
     )
 
 
