@@ -422,10 +422,14 @@ def ticks(lo: Any, hi: Any, n: int = 5) -> list[float]:
     a, b = sorted((float(lo), float(hi)))
     if a == b:
         return [a]
-    rough = (b - a) / max(1, n - 1)
-    mag = 10.0 ** math.floor(math.log10(rough))
-    r = rough / mag
-    step = mag * (1 if r < 1.5 else 2 if r < 3.5 else 5 if r < 7.5 else 10)
+    mag = 10.0 ** math.floor(math.log10((b - a) / max(1, n - 1)))
+
+    def inside(step: float) -> int:
+        return math.floor(b / step + 1e-9) - math.ceil(a / step - 1e-9) + 1
+
+    # the round step whose count of ticks inside is nearest n (the finer one on a tie)
+    steps = [m * mag * f for f in (0.1, 1.0, 10.0) for m in (1, 2, 5)]
+    step = min(steps, key=lambda s: (abs(inside(s) - n), s))
     dec = max(0, -math.floor(math.log10(step)) + 1)
     first, last = math.ceil(a / step - 1e-9), math.floor(b / step + 1e-9)
     return [round(k * step, dec) + 0.0 for k in range(first, last + 1)]

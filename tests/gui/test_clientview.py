@@ -157,7 +157,7 @@ def test_buffers_named_by_content_and_only_colours_rewritten(shown, tmp_path):
     lut = view.actor.GetMapper().GetLookupTable()
     i = int(order[5])
     assert rgb[5].tolist() == table_colour(lut, obj.fields["deviation"][i])
-    assert s1["legend"]["title"] == view.scalar_bar_title == "deviation [mm]"
+    assert s1["legend"]["title"] == view.scalar_bar_title == "deviation [µm]"
 
     s2 = cv.publish()  # nothing changed: the same names, nothing written, a new rev
     assert s2["layers"] == s1["layers"] and cv.store.take_written() == [] and s2["rev"] == s1["rev"] + 1
@@ -284,7 +284,11 @@ def test_pages_publish_route_picks_and_switch(gui_app, tmp_path):
 
     assert reg.on_pick("cv_inspect", "cloud", 0, None) is not None
     i = int(lod_order(2000)[0])
-    assert s.cv_inspect_picked.startswith(f"point #{i}: (") and "deviation [mm] = " in s.cv_inspect_picked
+    assert (
+        s.cv_inspect_picked.startswith(f"point #{i}: (")
+        and "deviation = " in s.cv_inspect_picked
+        and " µm" in s.cv_inspect_picked
+    )
     for args in [("cv_nope", "cloud", 0), (7, "cloud", 0), ("cv_inspect", "cloud", 2000), ()]:
         assert reg.on_pick(*args) is None
     assert reg.on_camera("cv_inspect", {"position": [0, 0, float("nan")]}, [10, 10]) is False

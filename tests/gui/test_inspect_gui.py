@@ -415,8 +415,9 @@ def test_bad_input_gets_one_line_reasons(app, tmp_path):
 
 
 def test_units_bands_and_picking_maths():
+    # deviations read in µm whatever their size (the number rule: as the Series page and the reports)
     assert ip.display_unit(0.01) == ("µm", 1e3) and ip.display_unit(0.05) == ("µm", 1e3)
-    assert ip.display_unit(0.1) == ("mm", 1.0) and ip.display_unit(2.0) == ("mm", 1.0)
+    assert ip.display_unit(0.1) == ("µm", 1e3) and ip.display_unit(2.0) == ("µm", 1e3)
     assert ip.fmt_len(0.024, "µm", True) == "+24.0 µm" and ip.fmt_len(-0.033, "µm", True) == "\u221233.0 µm"
     assert ip.interval_text({"p2_5": -0.033, "p97_5": 0.024}, "µm") == "+24.0 µm / \u221233.0 µm"
     assert ip.fmt_len(float("nan"), "mm") == "—"
@@ -432,7 +433,8 @@ def test_units_bands_and_picking_maths():
     assert bands["counts"] == {"below": 1, "within": 3, "above": 1, "invalid": 1} and bands["within"] == 0.6
     rows = ip.band_legend(bands["counts"], 0.1, "mm")
     assert [r["key"] for r in rows] == ["above", "within", "below", "invalid"]
-    assert rows[1]["label"] == "within ±0.100 mm"
+    assert rows[1]["label"] == "within ±0.1000 mm"
+    assert ip.band_legend(bands["counts"], 0.1, "µm")[1]["label"] == "within ±100 µm"
     # a point spacing on a regular grid is the grid's step
     g = np.stack(np.meshgrid(np.arange(200) * 0.5, np.arange(200) * 0.5, indexing="ij"), -1).reshape(-1, 2)
     grid = np.column_stack([g, np.zeros(len(g))])

@@ -576,8 +576,8 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     assert state.wz_progress[0]["text"] == "1 of 10 sphere positions"
     card = state.wz_blocks[0]["cards"][0]
     assert card["status"] == "done" and card["verdict"] == "pass" and not card["busy"]
-    assert session.view.scalar_bar_title == "deviation [mm]"  # the colour map is in the 3D view
-    assert state.legend_title == "deviation [mm]"
+    assert session.view.scalar_bar_title == "deviation [µm]"  # the colour map is in the 3D view
+    assert state.legend_title == "deviation [µm]"
     assert state.wz_detail["title"] == pos and state.wz_detail["rows"]
     assert any(it["name"].startswith(pos) for it in state.items)  # the Inspect page lists it too
 
@@ -599,7 +599,7 @@ def test_page_setup_import_view_and_report(tmp_path, gui, kit):
     page.redo("flat", "flat-02")
     assert state.wz_redo == "flat/flat-02"
     page.show("ball_bar", "ball-bar-03")
-    assert state.wz_detail["title"] == "ball-bar-03" and session.view.scalar_bar_title == "deviation [mm]"
+    assert state.wz_detail["title"] == "ball-bar-03" and session.view.scalar_bar_title == "deviation [µm]"
 
     out = asyncio.run(page.report_async())
     assert out is not None, state.error_message

@@ -2,7 +2,8 @@
 
 Clouds larger than ``display_limit`` points are shown as a fixed random subset (the
 full data stay in the model for every computation); the scene says so in
-:attr:`SceneView.note`. The colour legend is a scalar bar titled ``"name [unit]"``.
+:attr:`SceneView.note`. The colour legend is a scalar bar titled ``"name in words [unit]"`` with round ticks
+(:mod:`camcmm.gui.legendbar`).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import numbers
 from ..tasks.items import fmt_count
-from . import setup_offscreen
+from . import legendbar, setup_offscreen
 
 DISPLAY_LIMIT = 500_000
 
@@ -83,7 +85,8 @@ def _use_font(*props: Any) -> None:
 
 
 def legend_title(name: str, unit: str) -> str:
-    return f"{name} [{unit}]" if unit else name
+    """``"radial deviation [mm]"``: the field in words (:func:`camcmm.numbers.title`)."""
+    return numbers.title(name, unit)
 
 
 def display_index(n: int, limit: int, seed: int = 0) -> np.ndarray | None:
@@ -145,6 +148,7 @@ class SceneView:
         self.field: str = SOLID
         self.actor = None
         self.scalar_bar_title: str = ""
+        self.legend: legendbar.Legend | None = None  # what the scalar bar says (a pick reads values by it)
         self.note: str = ""
         self._cache: dict[str, Shown] = {}
         self.point_size: int | None = None  # None: automatic (viewtools.ViewTools sets it)
@@ -213,6 +217,7 @@ class SceneView:
         self.plotter.clear_actors()
         self._remove_bars()
         self.shown, self.actor, self.scalar_bar_title, self.note = None, None, "", ""
+        self.legend = None
         self._changed(reset_camera=False)
 
     # -- drawing ---------------------------------------------------------------------
@@ -236,13 +241,12 @@ class SceneView:
         else:
             style = {"smooth_shading": True, "show_edges": False}
         name = self.field
-        self.scalar_bar_title = ""
+        self.scalar_bar_title, self.legend = "", None
         if name == RGB and "RGB" in poly.point_data:
             self.actor = self.plotter.add_mesh(poly, scalars="RGB", rgb=True, reset_camera=False, **style)
         elif name in poly.point_data and name not in (SOLID, RGB):
             values = np.asarray(poly.point_data[name], dtype=float)
             unit = "mm" if name in COORDS else shown.units.get(name, "")
-            self.scalar_bar_title = legend_title(name, unit)
             finite = values[np.isfinite(values)]
             lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
             lo, hi = shown.ranges.get(name, (lo, hi))
@@ -252,6 +256,9 @@ class SceneView:
                 lo, hi, cmap = -m, m, "coolwarm"
             if hi <= lo:
                 hi = lo + 1.0
+            # title in words, round ticks, µm for deviations, swatches for a few categories (H3, issue 30)
+            legend_spec = legendbar.legend(name, unit, lo, hi, finite)
+            self.scalar_bar_title, self.legend = legend_spec.title, legend_spec
             self.actor = self.plotter.add_mesh(
                 poly,
                 scalars=name,
@@ -276,10 +283,17 @@ class SceneView:
             bars = self.plotter.scalar_bars
             if self.scalar_bar_title in bars:
                 bar = bars[self.scalar_bar_title]
-                _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty())
+                _use_font(bar.GetTitleTextProperty(), bar.GetLabelTextProperty(), bar.GetAnnotationTextProperty())
+                legendbar.dress(bar, legend_spec)
         else:
             self.field = SOLID
             self.actor = self.plotter.add_mesh(poly, color="#3b6ea5", reset_camera=False, **style)
+
+    def value_text(self, value: Any) -> str:
+        """A value of the colouring field as the legend writes it: ``"deviation = +12.3 µm"``."""
+        if self.legend is None:
+            return f"{numbers.words(self.field)} = {numbers.plain(value, 6)}"
+        return legendbar.value_text(self.legend, value)
 
     def auto_point_size(self) -> int:
         return 3 if self.shown is not None and self.shown.n_shown > 100_000 else 5

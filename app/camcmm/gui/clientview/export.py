@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..legendbar import lut_annotations
+
 #: colour stops sampled from the legend's lookup table (lo -> hi)
 LEGEND_STOPS = 32
 #: seed of the level-of-detail permutation (fixed: the same cloud, the same order)
@@ -306,18 +308,30 @@ def bar_legend(bar: Any) -> dict[str, Any]:
         lut.GetColor(lo + (k + 0.5) / LEGEND_STOPS * (hi - lo), rgb)
         stops.append(rgb255(rgb))
     fmt = bar.GetLabelFormat() or "%g"
-    if bar.GetUseCustomLabels() and bar.GetCustomLabels() is not None:
+    notes = lut_annotations(lut)  # the number rule's ticks (camcmm.gui.legendbar) or categories
+    if notes and lut.GetIndexedLookup():
+        rgba = [0.0, 0.0, 0.0, 0.0]
+        swatches = []
+        for i, (_value, text) in enumerate(notes):
+            lut.GetIndexedColor(i, rgba)
+            swatches.append({"text": text, "color": rgb255(rgba)})
+        return {"title": str(bar.GetTitle() or ""), "categories": swatches}
+    if notes:
+        values, texts = [v for v, _ in notes], [t for _, t in notes]
+    elif bar.GetUseCustomLabels() and bar.GetCustomLabels() is not None:
         arr = bar.GetCustomLabels()
         values = [float(arr.GetValue(i)) for i in range(arr.GetNumberOfTuples())]
     else:
         n = int(bar.GetNumberOfLabels())
         values = [lo] if n == 1 else [lo + i * (hi - lo) / (n - 1) for i in range(n)] if n > 1 else []
+    if not notes:
+        texts = [c_format(fmt, v) for v in values]
     legend: dict[str, Any] = {
         "title": str(bar.GetTitle() or ""),
         "lo": lo,
         "hi": hi,
         "colors": stops,
-        "labels": [{"value": v, "text": c_format(fmt, v)} for v in values if lo - 1e-12 <= v <= hi + 1e-12],
+        "labels": [{"value": v, "text": t} for v, t in zip(values, texts) if lo - 1e-12 <= v <= hi + 1e-12],
     }
     for side in ("Above", "Below"):  # the out-of-range colours the table draws, where it does
         if hasattr(lut, f"GetUse{side}RangeColor") and getattr(lut, f"GetUse{side}RangeColor")():
@@ -401,8 +415,12 @@ def export_scene(renderer: Any, names: dict[int, str] | None = None) -> Scene:
                 used.add(lid)
                 scene.layers.append(layer)
         elif p.IsA("vtkScalarBarActor"):
-            if scene.legend is None:
-                scene.legend = bar_legend(p)
+            if scene.legend is None and not scene.entries:
+                legend = bar_legend(p)
+                if "categories" in legend:  # a categorical field: labelled swatches, no ramp
+                    scene.entries.extend(legend["categories"])
+                else:
+                    scene.legend = legend
         elif p.IsA("vtkLegendBoxActor"):
             scene.entries.extend(legend_entries(p))
         elif p.IsA("vtkActor2D"):

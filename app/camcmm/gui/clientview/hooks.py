@@ -113,7 +113,7 @@ def inspect_pick(
     if view.field in data and np.asarray(data[view.field]).ndim == 1:
         value = float(np.asarray(data[view.field])[i])
         info["value"] = value
-        text += f", {view.scalar_bar_title or view.field} = {value:.6g}"
+        text += f", {view.value_text(value)}"  # in the legend's unit and words (camcmm.numbers)
     info["text"] = text.replace("-", "\u2212")
     setattr(cv.state, f"{cv.name}_picked", info["text"])
     return info

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ... import setup_offscreen
+from ...legendbar import label
 from ...view import _use_font, display_index, fmt_count
 from .picking import pick_point, pick_surface
 from .tables import COLOURMAP, band_colours, legend_title, nice_ticks
@@ -313,6 +314,8 @@ class CompareView:
             bar.SetCustomLabels(ticks)
             bar.SetUseCustomLabels(True)
             bar.SetLabelFormat("%g")
+            # the labels written by the number rule (real minus, one number of decimals)
+            label(bar, [ticks.GetValue(i) for i in range(ticks.GetNumberOfTuples())])
 
     def show_failed(self, prep: Prepared, nominal: Any, reset_camera: bool = True) -> None:
         """Where the failed alignment left the cloud, over the nominal; no colour map."""

@@ -1,9 +1,10 @@
-"""How the "Compare with CAD" page writes its numbers: lengths in the unit that reads
-well, the tolerance bands' legend and colours, the statistics and alignment tables.
+"""How the "Compare with CAD" page writes its numbers: deviations in µm (the number rule,
+:mod:`camcmm.numbers`, as every page and the reports), the tolerance bands' legend and
+colours, the statistics and alignment tables.
 
 Presentation only, on the numbers the inspection plugin returned (its outputs, its band
-counts): nothing here computes a statistic. Lengths come in mm; ``unit`` ("mm" or "µm",
-from :func:`display_unit`) only chooses how they are written.
+counts): nothing here computes a statistic. Lengths come in mm; ``unit`` ("µm" from
+:func:`display_unit`, or "mm" for a position) only chooses how they are written.
 """
 
 from __future__ import annotations
@@ -13,50 +14,39 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from ...view import fmt_count
 
-MINUS = "\u2212"  # a real minus sign: "-" reads as a hyphen next to µm
+MINUS = num.MINUS  # a real minus sign: "-" reads as a hyphen next to µm
 #: Tolerance bands: code -> (key, colour). NaN deviations get code 2 (grey).
 BANDS = {-1: ("below", "#2166ac"), 0: ("within", "#1a9850"), 1: ("above", "#d7301f"), 2: ("invalid", "#9e9e9e")}
 COLOURMAP = "RdBu_r"  # the plugin's and the report's diverging scale (blue below, red above)
 
 
 # =============================================================================== units
-def display_unit(limit_mm: Any) -> tuple[str, float]:
-    """The unit numbers of this size read well in, and the factor mm -> unit: below
-    0.1 mm µm (0.05 mm reads 50 µm), else mm (the report's rule)."""
-    try:
-        a = abs(float(limit_mm))
-    except (TypeError, ValueError):
-        a = 0.0
-    if math.isfinite(a) and 0 < a < 0.1:
-        return "µm", 1e3
-    return "mm", 1.0
+def display_unit(limit_mm: Any = None) -> tuple[str, float]:
+    """The unit deviations are written in and the factor mm -> unit: µm, whatever their
+    size (the number rule: deviations in µm everywhere, so this page, the Series page and
+    the reports agree). ``limit_mm`` is kept for the callers."""
+    return num.MICRO, 1e3
 
 
 def _num(v: float, digits: int = 3, signed: bool = False) -> str:
     """``v`` with ``digits`` significant digits, never in exponent notation; a real
-    minus sign."""
+    minus sign; ``0`` for a value that rounds to zero."""
     if v is None or not math.isfinite(v):
         return "—"
-    if v == 0:
-        decimals = max(digits - 1, 0)
-    else:
-        decimals = min(max(digits - 1 - int(math.floor(math.log10(abs(v)))), 0), 9)
-    text = f"{v:+.{decimals}f}" if signed else f"{v:.{decimals}f}"
-    return text.replace("-", MINUS)
+    text = num.plain(v, digits)
+    return "+" + text if signed and text != "0" and not text.startswith(MINUS) else text
 
 
 def fmt_len(x_mm: Any, unit: str = "mm", signed: bool = False, digits: int = 3) -> str:
-    """A length given in mm, written in ``unit`` (mm or µm): ``"+24.1 µm"``."""
-    try:
-        x = float(x_mm)
-    except (TypeError, ValueError):
+    """A length given in mm, written in ``unit`` by the number rule (:func:`camcmm.numbers.length`:
+    µm to 0.01 µm and three significant digits, mm to 0.1 µm): ``"+24.1 µm"``. ``digits``
+    is kept for the callers."""
+    if not num.finite(x_mm):
         return "—"
-    if not math.isfinite(x):
-        return "—"
-    f = 1e3 if unit == "µm" else 1.0
-    return f"{_num(x * f, digits, signed)} {unit}"
+    return num.length(x_mm, unit=num.unit_text(unit) or "mm", signed=signed)
 
 
 def interval_text(stats: dict[str, Any], unit: str) -> str:
@@ -109,7 +99,7 @@ def band_legend(counts: dict[str, int], tolerance: float, unit: str) -> list[dic
                 "colour": colour,
                 "count": c,
                 "percent": round(100.0 * c / total, 2),
-                "text": f"{labels[key]}: {100.0 * c / total:.1f} %",
+                "text": f"{labels[key]}: {num.percent(c / total, 1)}",
             }
         )
     return rows
@@ -152,8 +142,8 @@ def stats_rows(
         ("rms", "rms", False),
         ("min", "min", True),
         ("max", "max", True),
-        ("p2_5", "p2.5", True),
-        ("p97_5", "p97.5", True),
+        ("p2_5", f"percentile {num.percentile_key('p2_5')}", True),
+        ("p97_5", f"percentile {num.percentile_key('p97_5')}", True),
     ):
         rows.append({"key": key, "name": name, "value": fmt_len(st.get(key), unit, signed)})
     rows.append({"key": "interval95", "name": "95 % within", "value": interval_text(st, unit)})
@@ -164,14 +154,12 @@ def stats_rows(
                 {
                     "key": "within",
                     "name": f"within ±{fmt_len(tolerance, unit)}",
-                    "value": f"{100.0 * float(share):.2f} %",
+                    "value": num.percent(float(share), 2),
                 }
             )
     cov = outputs.get("coverage_info") or {}
     if outputs.get("coverage") is not None:
-        rows.append(
-            {"key": "coverage", "name": "coverage (area)", "value": f"{100.0 * float(outputs['coverage']):.2f} %"}
-        )
+        rows.append({"key": "coverage", "name": "coverage (area)", "value": num.percent(float(outputs["coverage"]), 2)})
         if cov.get("distance"):
             rows.append(
                 {"key": "coverage_distance", "name": "covered: a point within", "value": fmt_len(cov["distance"], "mm")}
@@ -198,14 +186,14 @@ def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
     if scale is not None:
         rows.append({"key": "scale", "name": "scale", "value": f"{float(scale):.8f}"})
     if a.get("rotation_angle_deg") is not None:
-        rows.append({"key": "rotation", "name": "rotation", "value": f"{float(a['rotation_angle_deg']):.4f}°"})
+        rows.append({"key": "rotation", "name": "rotation", "value": num.angle(a["rotation_angle_deg"], "deg")})
     t = outputs.get("translation", a.get("translation"))
     if t is not None:
         rows.append(
             {
                 "key": "translation",
                 "name": "translation",
-                "value": "(" + ", ".join(_num(float(x), 4) for x in np.asarray(t, float).ravel()) + ") mm",
+                "value": num.vector(np.asarray(t, float).ravel()) + " mm",
             }
         )
     held = outputs.get("held_dofs", a.get("held_dofs")) or []
@@ -213,5 +201,5 @@ def alignment_rows(outputs: dict[str, Any], unit: str) -> list[dict[str, str]]:
         rows.append({"key": "held", "name": "held (symmetry)", "value": "; ".join(str(h) for h in held)})
     ov = outputs.get("overlap", a.get("overlap"))
     if ov is not None and isinstance(ov, (int, float)) and math.isfinite(ov):
-        rows.append({"key": "overlap", "name": "overlap", "value": f"{100.0 * float(ov):.1f} %"})
+        rows.append({"key": "overlap", "name": "overlap", "value": num.percent(float(ov), 1)})
     return rows
