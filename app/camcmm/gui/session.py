@@ -569,16 +569,9 @@ class Session:
         except Exception as exc:
             self.error(f"project {self.state.project_name}: cannot list results: {exc}")
             rows = []
-        out = []
-        for r in rows[-50:]:
-            d = r if isinstance(r, dict) else {}
-            out.append(
-                {
-                    "id": str(d.get("id", "")),
-                    "plugin": str(d.get("plugin", d.get("plugin_id", ""))),
-                    "time": str(d.get("finished", d.get("created", ""))),
-                }
-            )
+        from ..tasks.acceptance.naming import result_row  # rows named in words (issue 30)
+
+        out = [result_row(r, self.host) for r in rows[-50:]]
         self.state.results = list(reversed(out))
 
     # -- other sessions' changes (one process per browser session, one shared store) ---------

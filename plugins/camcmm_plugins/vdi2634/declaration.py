@@ -5,6 +5,8 @@ reads all of this from here; nothing about VDI/VDE 2634 is written in the GUI.""
 
 from __future__ import annotations
 
+from typing import Any
+
 from camcmm.api import ArtefactField, ArtefactKind, PositionSpec, QualityParameter, StandardDeclaration, TestDeclaration
 
 from . import positions
@@ -105,6 +107,78 @@ REQUIREMENTS = (
     "least 50 mm and length at least 0.5 L0; part 3: the ball plate's longest length at least 0.3 L0.",
     "Artefact form, ball-bar calibration and flatness substantially less than the MPE (read as at most 0.2 MPE).",
 )
+
+
+#: The plan keys besides the setup form's (docs/standards.md "The plan"), declared as
+#: parameters (:class:`camcmm.api.Param` dicts) so that the GUI builds a form from them.
+#: ``name`` is the plan key (a dotted name is nested: ``options.extract_sphere``);
+#: ``label`` and ``labels`` (per choice) are what a person reads. A key left unset keeps
+#: the standard's default.
+PLAN_OPTIONS: tuple[dict[str, Any], ...] = (
+    {
+        "name": "outliers",
+        "label": "Outlier rule (every test)",
+        "type": "choice",
+        "choices": ["vdi2634", "none", "percent:5", "sigma:3"],
+        "labels": {
+            "vdi2634": "VDI/VDE 2634: at most 3 of every 1000 points removed",
+            "none": "no points removed",
+            "percent:5": "the 5 % farthest points removed (thesis ch. 4.5.1)",
+            "sigma:3": "points beyond 3 standard deviations removed",
+        },
+        "help": "Which points a fit may leave out; a plan may set one rule per test (import it as YAML).",
+    },
+    {
+        "name": "unit",
+        "label": "Unit of files that do not state one",
+        "type": "choice",
+        "choices": ["mm", "m", "um", "in"],
+        "labels": {"mm": "mm", "m": "m", "um": "µm", "in": "inch"},
+        "help": "A PLY or XYZ file without a unit is read in this unit (default mm).",
+    },
+    {
+        "name": "options.extract_sphere",
+        "label": "Sphere clouds still hold their holder: extract the sphere first",
+        "type": "bool",
+        "help": "Find the sphere in each sphere cloud before the fit (the holder and the table are left out).",
+    },
+)
+#: Part 3 also: repeats (ISO 10360-8) and the scaling of each test (thesis ch. 4.5).
+PLAN_OPTIONS_PART3: tuple[dict[str, Any], ...] = (
+    {
+        "name": "repeats",
+        "label": "Repeats of every position",
+        "type": "int",
+        "min": 1,
+        "max": 20,
+        "help": "How often each position is measured (ISO 10360-8; default 3).",
+    },
+    {
+        "name": "scaling.sphere",
+        "label": "Scaling of the sphere reconstructions",
+        "type": "choice",
+        "choices": ["none", "radii"],
+        "labels": {"none": "none (the system measures in mm)", "radii": "by the calibrated sphere radii"},
+        "help": "Thesis ch. 4.5: a reconstruction without scale is scaled by the ball plate's spheres.",
+    },
+    {
+        "name": "scaling.ball_plate",
+        "label": "Scaling of the ball-plate reconstructions",
+        "type": "choice",
+        "choices": ["none", "radii", "lengths"],
+        "labels": {
+            "none": "none (the system measures in mm)",
+            "radii": "by the calibrated sphere radii",
+            "lengths": "by the calibrated lengths (eqs. 4.10-4.12)",
+        },
+        "help": "Thesis ch. 4.5: L1 and L2 scale the reconstruction, L3 is the test length.",
+    },
+)
+
+
+def plan_options(part: int) -> list[dict[str, Any]]:
+    """The declared plan options of a part (copies: a caller may change them)."""
+    return [dict(d) for d in PLAN_OPTIONS + (PLAN_OPTIONS_PART3 if part == 3 else ())]
 
 
 def declare(sid: str, title: str, part: int, specs, repeats: int) -> StandardDeclaration:

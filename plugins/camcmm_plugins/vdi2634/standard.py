@@ -142,6 +142,11 @@ class Standard:
         are its default, a plan may change them)."""
         return declaration.declare(self.id, self.title, self.part, self.specs, self.repeats(None))
 
+    def plan_options(self) -> list[dict[str, Any]]:
+        """The plan keys besides the setup form's, declared as parameters (optional
+        protocol method: the GUI's "More plan options" form is built from it)."""
+        return declaration.plan_options(self.part)
+
     def pictograms(self, requirements: list[dict[str, Any]], plan: dict[str, Any]) -> dict[str, str]:
         """``{"test/position": svg}``: each position drawn in the plan's measuring volume."""
         return drawings.pictograms(requirements, plan)

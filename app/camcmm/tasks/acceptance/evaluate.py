@@ -19,6 +19,7 @@ from camcmm.project.store import utcnow
 from camcmm.standard import as_dict
 from camcmm.tasks.items import safe_name
 
+from .naming import evaluation_label
 from .standards import Standards
 from .state import TestState
 from .values import log
@@ -129,6 +130,7 @@ class Evaluator:
         with saved.lock:
             state = saved.state
             assert state is not None
+            saved.check_current()
             std_id = state["standard"]
             ev = dict(job.evaluation)
             deviations = ev.pop("deviations", None)
@@ -170,7 +172,9 @@ class Evaluator:
                 run.to_json(),
                 [mid],
                 files,
-                label=f"{std_id} {job.position}",
+                label=evaluation_label(
+                    std_id, job.position, str((state["plan"].get("system") or {}).get("name") or "")
+                ),
             )
             slots = self.saved.slots(job.test)[job.position]
             old = slots[job.repeat - 1]
@@ -206,7 +210,7 @@ class Evaluator:
         msg = one_line(exc, job.name)
         job.error = msg
         with self.saved.lock:
-            if self.saved.state is not None:
+            if self.saved.state is not None and self.saved.is_current():
                 self.saved.state.setdefault("errors", {})[job.key] = msg
                 try:
                     self.saved.save()

@@ -104,6 +104,7 @@ class Result:
         with saved.lock:
             state = saved.state
             assert state is not None
+            saved.check_current()
             std_id = state["standard"]
             files = {f"report_{k}": self.project.add_file(p) for k, p in paths.items()}
             mids = [m for ms in state["measurements"].values() for m in ms]
@@ -157,10 +158,12 @@ class Result:
         out["summary"] = summary
         return out
 
-    def report_paths(self) -> dict[str, Path]:
-        """The current report's files in the project (``{"html": path, ...}``)."""
+    def report_paths(self, report: dict[str, str] | None = None) -> dict[str, Path]:
+        """The current report's files in the project (``{"html": path, ...}``); of
+        ``report`` (``{"report_html": hash, ...}``, an earlier test's) when given."""
         out = {}
-        for name, h in ((self.saved.state or {}).get("report") or {}).items():
+        files = report if report is not None else (self.saved.state or {}).get("report")
+        for name, h in (files or {}).items():
             try:
                 out[name.removeprefix("report_")] = self.project.file_path(h)
             except CamcmmError as exc:

@@ -13,6 +13,7 @@ from camcmm.yamlfile import load_yaml
 
 from .catalogue import load_catalogue, plan_fields_to_artefact
 from .declared import artefact_fields, artefact_kind, parameter
+from .options import coerce, flatten, nest
 from .standards import Standards
 from .state import HISTORY_KEY, TestState
 from .values import _blank, _number, _vector, log
@@ -22,13 +23,15 @@ FORM_KEYS = ("standard", "system", "mpe", "artefacts", "measurements")
 
 
 def parse_options(options: Any) -> dict[str, Any]:
-    """More plan keys from the setup's advanced field: a dict or YAML text."""
+    """More plan keys from the setup's "more plan options": a dict (the form's flat values,
+    dotted keys nested: :func:`.options.nest`) or YAML text (an import)."""
     if _blank(options):
         return {}
     if isinstance(options, str):
         options = load_yaml(options, name="plan options")
     if not isinstance(options, dict):
         raise InputError(f"plan options: give keys and values (e.g. 'unit: mm'), got {options!r}")
+    options = nest(options)
     taken = [k for k in options if k in FORM_KEYS]
     if taken:
         raise InputError(f"plan options: {taken[0]!r} is set by the form above, not here")
@@ -132,7 +135,8 @@ class Setup:
             "measurements": {},
             "name": f"{getattr(self.project, 'name', 'project')} (acceptance-test wizard)",
         }
-        plan.update(parse_options(options))
+        declared = self.standards.plan_options(standard)
+        plan.update(nest(coerce(flatten(parse_options(options), declared), declared)))
         self.standards.load(standard).requirements(copy.deepcopy(plan))  # the standard checks the plan
         return plan
 
@@ -207,6 +211,8 @@ class Setup:
         if missing:
             raise InputError(f"artefact {missing[0].replace('_', ' ')} is missing; the test needs it")
         with self.saved.lock:
+            if not self.saved.is_current():  # archive the project's test, not this session's older copy
+                self.saved.resume()
             self._archive()
             system = plan["system"]
             sid = self.project.add_system(
@@ -261,8 +267,12 @@ class Setup:
                         "verdict_guarded",
                         "measurements",
                         "evaluations",
+                        "report",
+                        "updated",
                     )
                 }
+                # who was tested, for the list of earlier tests (the plan itself is not kept)
+                | {"system": str(((old.get("plan") or {}).get("system") or {}).get("name") or "")}
             )
             self.project.set_state(HISTORY_KEY, history)
         except CamcmmError as exc:

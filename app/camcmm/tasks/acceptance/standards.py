@@ -9,6 +9,7 @@ from camcmm.errors import CamcmmError, InputError
 from camcmm.standard import StandardDeclaration
 
 from .declared import declaration_of
+from .options import PlanOption, declared_options
 
 #: What a standard object must offer the wizard (docs/standards.md).
 PROTOCOL = ("requirements", "evaluate_measurement", "summarize", "write_report")
@@ -22,6 +23,7 @@ class Standards:
         self.host = host
         self._loaded: dict[str, Any] = {}
         self._decls: dict[str, StandardDeclaration] = {}
+        self._options: dict[str, list[PlanOption]] = {}
 
     def installed(self) -> list[dict[str, Any]]:
         """Installed standard plugins that load: ``{"id", "name", "version", "summary"}``."""
@@ -60,6 +62,14 @@ class Standards:
         if sid not in self._decls:
             self._decls[sid] = declaration_of(self.load(sid), sid)
         return self._decls[sid]
+
+    def plan_options(self, sid: str | None) -> list[PlanOption]:
+        """The plan keys standard ``sid`` declares besides the form's (:mod:`.options`)."""
+        if not sid:
+            raise InputError("no standard chosen yet")
+        if sid not in self._options:
+            self._options[sid] = declared_options(self.load(sid), sid)
+        return self._options[sid]
 
     def version(self, sid: str) -> str:
         """The installed version of ``sid`` (for the run record)."""

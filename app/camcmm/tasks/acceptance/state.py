@@ -238,6 +238,29 @@ class TestState:
             )
         state.update({"summary_result": None, "report": None, "verdict": None, "verdict_guarded": None})
 
+    def is_current(self) -> bool:
+        """True when the project still holds this test as it was last read or saved here:
+        no other session (a second tab, the CLI) set up a new test or saved a change since.
+        A store that cannot be read counts as unchanged (the save reports its own error)."""
+        if self.state is None:
+            return True
+        try:
+            stored = self.project.get_state(STATE_KEY)
+        except CamcmmError:
+            return True
+        stored = stored if isinstance(stored, dict) else {}
+        return (stored.get("created"), stored.get("updated")) == (self.state.get("created"), self.state.get("updated"))
+
+    def check_current(self) -> None:
+        """Refuse (one line) to save over another session's change of the test: saving
+        this session's copy would silently undo it (a new test set up in another tab came
+        back as the old one)."""
+        if not self.is_current():
+            raise InputError(
+                "another window changed the acceptance test in this project meanwhile; nothing was saved here "
+                "(this page now shows the project's test: repeat the step if it still applies)"
+            )
+
     def save(self) -> None:
         state = self.running
         state["updated"] = utcnow()

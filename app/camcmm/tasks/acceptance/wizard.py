@@ -22,12 +22,14 @@ from camcmm.standard import StandardDeclaration
 
 from . import acquire as acquisition
 from .evaluate import Evaluator, PendingEvaluation
+from .naming import describe_test, status_text
+from .options import PlanOption
 from .pictograms import pictograms
 from .positions import Positions
 from .result import Result
 from .setup import Setup
 from .standards import Standards
-from .state import TestState
+from .state import HISTORY_KEY, TestState
 
 
 class Wizard:
@@ -89,6 +91,10 @@ class Wizard:
     def declaration(self, sid: str | None = None) -> StandardDeclaration:
         """What standard ``sid`` (or the running test's) declares."""
         return self.standards_of.declaration(sid or (self.state or {}).get("standard"))
+
+    def plan_options(self, sid: str | None = None) -> list[PlanOption]:
+        """The plan keys standard ``sid`` (or the running test's) declares besides the form's."""
+        return self.standards_of.plan_options(sid or (self.state or {}).get("standard"))
 
     def catalogue(self) -> list[dict[str, Any]]:
         return self.setup_step.catalogue()
@@ -227,8 +233,73 @@ class Wizard:
     def report(self, directory: str | Path | None = None) -> dict[str, Any]:
         return self.result.report(directory)
 
-    def report_paths(self) -> dict[str, Path]:
-        return self.result.report_paths()
+    def report_paths(self, report: dict[str, str] | None = None) -> dict[str, Path]:
+        return self.result.report_paths(report)
+
+    # -- which test is current -------------------------------------------------------------
+    def title(self, sid: str | None = None) -> str:
+        """The standard's title in words (its id when it cannot be loaded)."""
+        sid = sid or (self.state or {}).get("standard") or ""
+        try:
+            return self.declaration(sid).title or str(sid)
+        except Exception:  # an earlier test's standard no longer installed: its id names it
+            return str(sid)
+
+    def name(self) -> str:
+        """The current test as a person names it (:func:`.naming.describe_test`)."""
+        return describe_test(self.state, self.title())
+
+    @property
+    def identity(self) -> str:
+        """What tells one test from the next: when it was set up ("" before any)."""
+        return str((self.state or {}).get("created") or "")
+
+    def worth_keeping(self) -> bool:
+        """True when the current test holds work a new one would supersede: a report, or
+        at least one measured position."""
+        st = self.state or {}
+        return bool(self.active and (st.get("summary_result") is not None or any(st.get("measurements", {}).values())))
+
+    def supersede_question(self) -> dict[str, str]:
+        """What the operator is asked before a new test replaces the current one: its
+        name, where it stands and where it stays findable."""
+        st = self.state or {}
+        rid = st.get("summary_result")
+        done = sum(len(v) for v in (st.get("measurements") or {}).values())
+        if rid is not None:
+            kept = (
+                f"its report stays in the project: result #{rid} "
+                f"'Acceptance test {self.title()}' in the results list, and under 'Earlier tests' here"
+            )
+        else:
+            kept = (
+                f"its {done} measured position(s) stay in the project's results list, "
+                "and the test under 'Earlier tests' here (without a report)"
+            )
+        return {"name": self.name(), "status": status_text(st, self.complete), "kept": kept, "id": self.identity}
+
+    def earlier_tests(self) -> list[dict[str, Any]]:
+        """The tests set up before the current one (newest first), as the setup step lists
+        them: ``{key, name, status, result, report}`` (``report``: ``{"report_html": hash}``)."""
+        try:
+            history = self.project.get_state(HISTORY_KEY, []) or []
+        except Exception:  # an unreadable history must not hide the current test
+            return []
+        rows: list[dict[str, Any]] = []
+        for i, h in enumerate(history if isinstance(history, list) else []):
+            if not isinstance(h, dict):
+                continue
+            named = {**h, "plan": {"system": {"name": h.get("system") or ""}}}
+            rows.append(
+                {
+                    "key": f"{i}:{h.get('created') or ''}",
+                    "name": describe_test(named, self.title(h.get("standard"))),
+                    "status": status_text(h, False) if h.get("summary_result") is not None else "not finished",
+                    "result": h.get("summary_result"),
+                    "report": h.get("report") if isinstance(h.get("report"), dict) else {},
+                }
+            )
+        return list(reversed(rows))
 
     def deviations(self, test: str, position: str, repeat: int | None = None) -> Any:
         return self.result.deviations(test, position, repeat)

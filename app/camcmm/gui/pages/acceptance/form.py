@@ -11,7 +11,15 @@ from typing import Any
 import yaml
 
 from camcmm.errors import one_line
-from camcmm.tasks.acceptance import FORM_KEYS, artefact_fields, artefact_kind, artefact_plan_fields, parameter
+from camcmm.tasks.acceptance import (
+    FORM_KEYS,
+    artefact_fields,
+    artefact_kind,
+    artefact_plan_fields,
+    parameter,
+    parse_options,
+)
+from camcmm.tasks.acceptance.options import flatten, form_fields, to_yaml
 
 #: The new form's measuring volume (mm): the demo's 90 mm cube, in which the shipped
 #: catalogue's first artefacts (20 mm sphere, 49.944 mm ball bar, 150 x 60 mm flat) meet the
@@ -34,9 +42,10 @@ def _same_value(a: Any, b: Any) -> bool:
         return str(a).strip() == str(b).strip()
 
 
-def _options_text(plan: dict[str, Any]) -> str:
+def _plan_options(w: Any, plan: dict[str, Any], standard: str) -> dict[str, Any]:
+    """The running plan's extra keys as the options form's flat values (:func:`flatten`)."""
     extra = {k: v for k, v in plan.items() if k not in FORM_KEYS and k != "name"}
-    return yaml.safe_dump(extra, sort_keys=False, default_flow_style=None).strip() if extra else ""
+    return flatten(extra, w.plan_options(standard))
 
 
 def _running_form(w: Any, standard: str) -> dict[str, Any]:
@@ -49,7 +58,7 @@ def _running_form(w: Any, standard: str) -> dict[str, Any]:
         "mpe": {k: v for k, v in (plan.get("mpe") or {}).items()},
         "artefacts": {},
         "include": list(w.state.get("tests") or []),
-        "options": _options_text(plan),
+        "options": _plan_options(w, plan, standard),
     }
     for test, a in (plan.get("artefacts") or {}).items():
         aid = (w.state.get("artefact_ids") or {}).get(test) or ""
@@ -73,7 +82,7 @@ def _default_form(standard: str | None, keep: dict[str, Any] | None) -> dict[str
         "mpe": dict((keep or {}).get("mpe") or {}),
         "artefacts": {},
         "include": [],
-        "options": (keep or {}).get("options", ""),
+        "options": dict((keep or {}).get("options") or {}) if isinstance((keep or {}).get("options"), dict) else {},
     }
 
 
@@ -130,6 +139,11 @@ class SetupForm:
         s.wz_mpe_fields = [
             {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
         ]
+        try:
+            s.wz_option_fields = form_fields(w.plan_options(standard)) if standard else []
+        except Exception as exc:  # a bad declaration: the form says so, YAML still works
+            s.wz_option_fields = []
+            s.wz_setup_error = one_line(exc)
         self.check_artefacts(form)
 
     def check_artefacts(self, form: dict[str, Any] | None = None) -> list[str]:
@@ -157,6 +171,7 @@ class SetupForm:
                 note = f"the artefact rules are checked once the setup is complete ({one_line(exc)})"
         if broken != list(getattr(s, "wz_artefact_warnings", None) or []):
             s.wz_confirm_violations = False
+        s.wz_options_yaml = self.options_yaml(form)
         s.wz_artefact_warnings = broken
         s.wz_artefact_note = note
         return broken
@@ -199,6 +214,37 @@ class SetupForm:
                     params.append(p)
         return catalogue, params
 
+    # -- the plan options: a form from the declaration, YAML as export and import ----------------
+    def options_yaml(self, form: dict[str, Any] | None) -> str:
+        """The form's plan options as plan YAML (the export); "" when none is set or one
+        does not read (Start names it)."""
+        form = form or {}
+        try:
+            return to_yaml(dict(form.get("options") or {}), self.wizard.plan_options(form.get("standard")))
+        except Exception:
+            return ""
+
+    def import_options(self, text: str, form: dict[str, Any] | None = None) -> bool:
+        """Fill the plan options from YAML (a plan's extra keys, or a whole plan: the keys
+        the form above owns are left out); ``wz_options_error`` says what does not read."""
+        form = copy.deepcopy(form if form is not None else self.state.wz_form)
+        s = self.state
+        s.wz_options_error = ""
+        try:
+            doc = yaml.safe_load(text or "") or {}
+            if not isinstance(doc, dict):
+                raise ValueError(f"give keys and values (e.g. 'unit: mm'), got {str(text)[:40]!r}")
+            extra = parse_options({k: v for k, v in doc.items() if k not in FORM_KEYS and k != "name"})
+            declared = self.wizard.plan_options(form.get("standard"))
+            to_yaml(flatten(extra, declared), declared)  # checked now, not at Start
+        except Exception as exc:
+            s.wz_options_error = f"plan options (YAML): {one_line(exc)}"
+            return False
+        form["options"] = flatten(extra, declared)
+        s.wz_form = form
+        self.check_artefacts(form)
+        return True
+
     # -- handlers: setup -------------------------------------------------------------------
     def choose_standard(self, standard: str, form: dict[str, Any] | None = None) -> None:
         if self.wizard.active and self.state.wz_locked:
@@ -230,6 +276,11 @@ class SetupForm:
                 "set 'start anyway' to run a test that deviates from the standard"
             )
             return False
+        w = self.wizard
+        page = self.page
+        if w.worth_keeping() and page.confirmed != w.identity:  # never replace a test without a word
+            s.wz_supersede = {**w.supersede_question(), "action": "start"}
+            return False
         try:
             arts = {}
             for test, a in (form.get("artefacts") or {}).items():
@@ -256,7 +307,7 @@ class SetupForm:
         except Exception as exc:
             s.wz_setup_error = one_line(exc)
             return False
-        page = self.page
+        page.confirmed = ""
         s.wz_svgs = {}
         s.wz_detail, s.wz_redo, page.last_card = None, None, None  # the old test's "Last shown" is not this one's
         page.session.shared.clear("acceptance")  # nor its colour map in the 3D view
@@ -264,7 +315,7 @@ class SetupForm:
         page.refresh(setup_form=True)
         s.wz_step = "positions"
         page.session.refresh_items()
-        page.session.info(f"acceptance test set up: {self.wizard.state['standard']}")
+        page.session.info(f"acceptance test set up: {self.wizard.name()}")
         return True
 
     def unlock(self) -> None:

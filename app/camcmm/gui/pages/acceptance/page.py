@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from camcmm.errors import one_line
-from camcmm.tasks.acceptance import Wizard, fmt_mm, parameter
+from camcmm.tasks.acceptance import STATE_KEY, Wizard, fmt_mm, parameter
+from camcmm.tasks.acceptance.naming import status_text
 from camcmm.tasks.acceptance.values import log
 
 from ...downloads import REPORT_TITLES, Downloads, sort_links
@@ -37,6 +38,10 @@ class WizardPage:
         self.job = Job("acceptance test", state=self.state)
         self.busy: set[str] = set()  # "test/position" keys being evaluated or acquired
         self.last_card: dict[str, Any] | None = None
+        # the test the operator agreed to replace (its identity); a new Start over any
+        # other test with work in it asks first (issue 30)
+        self.confirmed = ""
+        self._follow_later = False  # another session changed the test while we evaluated
         self.form = SetupForm(self)
         self.actions = PositionActions(self)
         self.acquisition = Acquisition(self)
@@ -46,6 +51,9 @@ class WizardPage:
         if w.active:  # resume where the test stopped
             done = w.complete and (w.state or {}).get("summary_result") is not None
             self.state.wz_step = "result" if done else "positions"
+        watch = getattr(session, "watch_items", None)
+        if callable(watch):  # the project's changes from another tab or the CLI, as the item list follows them
+            watch(self.follow_project)
 
     # -- state ---------------------------------------------------------------------------
     def _init_state(self) -> None:
@@ -65,6 +73,13 @@ class WizardPage:
         s.wz_artefact_note = ""
         s.wz_confirm_violations = False
         s.wz_test_status = ""
+        s.wz_test_name = ""
+        s.wz_supersede = None
+        s.wz_earlier = []
+        s.wz_option_fields = []
+        s.wz_options_yaml = ""
+        s.wz_options_error = ""
+        s.wz_options_import = ""
         s.wz_title = ""
         s.wz_blocks = []
         s.wz_svgs = {}
@@ -104,6 +119,8 @@ class WizardPage:
         s.wz_active = w.active
         if setup_form:
             self.form.fill()
+        s.wz_earlier = self._earlier()
+        s.wz_test_name = w.name() if w.active else ""
         if not w.active:
             s.wz_locked = False
             s.wz_blocks, s.wz_progress, s.wz_parameters = [], [], []
@@ -121,15 +138,99 @@ class WizardPage:
         s.wz_test_status = self._test_status()
 
     def _test_status(self) -> str:
-        """What the test in the project is: finished (its summary and report stored, with
-        the verdict), every position measured but no report yet, or running."""
-        st = self.wizard.state or {}
-        if st.get("summary_result") is not None:
-            verdict = st.get("verdict") or self.state.wz_verdict or "incomplete"
-            return f"A finished test is in this project (verdict: {verdict})"
-        if self.state.wz_complete:
-            return "A test is in this project with every position measured (no report yet)"
-        return "A test is running in this project"
+        """Where the current test stands, in words (:func:`status_text`): finished with its
+        verdicts, every position measured but no report yet, or running."""
+        return status_text(self.wizard.state, bool(self.state.wz_complete))
+
+    def _earlier(self) -> list[dict[str, Any]]:
+        """The tests set up before the current one, each with links to its report."""
+        rows = []
+        for row in self.wizard.earlier_tests():
+            links = (
+                self.offered.offer(
+                    f"acceptance-test-{row['result']}.{kind}", path, kind=kind, title=REPORT_TITLES.get(kind, kind)
+                )
+                for kind, path in self.wizard.report_paths(row["report"]).items()
+            )
+            rows.append(
+                {k: row[k] for k in ("key", "name", "status", "result")} | {"links": sort_links(l for l in links if l)}
+            )
+        return rows
+
+    # -- which test is current ----------------------------------------------------------------
+    def follow_project(self) -> bool:
+        """Show the acceptance test the project holds now when another session (a second
+        tab, the CLI) changed it: set up a new test, measured a position, wrote the report.
+        Called each time the item list is refreshed (:meth:`Session.watch_items`: after
+        another session's commit, too); one state read when nothing changed. While this
+        page evaluates, it waits for the evaluation to end. True when the page changed."""
+        if self.busy:
+            self._follow_later = True
+            return False
+        try:
+            stored = self.session.project.get_state(STATE_KEY)
+        except Exception:  # a busy store: the next change looks again
+            return False
+        theirs = stored if isinstance(stored, dict) else {}
+        mine = self.wizard.state or {}
+        if (theirs.get("created"), theirs.get("updated")) == (mine.get("created"), mine.get("updated")):
+            return False
+        s = self.state
+        new_test = theirs.get("created") != mine.get("created")
+        unlocked = bool(mine) and not s.wz_locked
+        with self.wizard.saved.lock:
+            self.wizard.resume()
+        if new_test:
+            s.wz_svgs = {}
+            s.wz_detail, s.wz_redo, self.last_card = None, None, None
+            shared = getattr(self.session, "shared", None)
+            if shared is not None:  # the replaced test's colour map is not this test's
+                shared.clear("acceptance")
+            self.refresh(setup_form=True)
+            if not self.wizard.active:
+                s.wz_step = "setup"
+            elif s.wz_step != "setup":
+                done = (self.wizard.state or {}).get("summary_result") is not None
+                s.wz_step = "result" if done else "positions"
+            if s.wz_supersede:  # the question named the test that was replaced meanwhile
+                asked = {**self.wizard.supersede_question(), "action": s.wz_supersede.get("action", "unlock")}
+                s.wz_supersede = asked if self.wizard.worth_keeping() else None
+            if self.wizard.active:
+                self.session.info(
+                    f"another window set up a new acceptance test: {self.wizard.name()}", page="acceptance"
+                )
+        else:
+            self.refresh(setup_form=not unlocked)
+            if unlocked:  # the operator is filling in a new test: keep the form open
+                s.wz_locked = False
+        return True
+
+    def ask_new_test(self) -> None:
+        """The button "Set up a new test": over a test with work in it, ask first (``wz_supersede``,
+        the dialog naming the test, its verdict and where it stays); else open the form."""
+        w = self.wizard
+        if w.worth_keeping() and self.confirmed != w.identity:
+            self.state.wz_supersede = {**w.supersede_question(), "action": "unlock"}
+            return
+        self.unlock()
+
+    def confirm_supersede(self, test_id: str, form: dict[str, Any] | None = None) -> bool:
+        """The operator agreed to replace test ``test_id``: open the form ("unlock") or
+        start the new test ("start"). A test replaced meanwhile (another tab) is asked about again."""
+        s = self.state
+        action = (s.wz_supersede or {}).get("action", "unlock")
+        s.wz_supersede = None
+        self.confirmed = str(test_id or "")
+        if action == "start":
+            return self.start(form)
+        self.unlock()
+        return True
+
+    def cancel_supersede(self) -> None:
+        """Keep the current test: the form stays locked to it."""
+        self.state.wz_supersede = None
+        self.confirmed = ""
+        self.refresh(setup_form=True)
 
     def _publish_positions(self) -> None:
         s = self.state
@@ -200,6 +301,9 @@ class WizardPage:
     def set_busy(self, key: str, on: bool) -> None:
         (self.busy.add if on else self.busy.discard)(key)
         self.state.wz_busy = {k: True for k in self.busy}
+        if not self.busy and self._follow_later:
+            self._follow_later = False
+            self.follow_project()
 
     def refresh_cards(self) -> None:
         blocks = copy.deepcopy(self.state.wz_blocks or [])
@@ -217,6 +321,9 @@ class WizardPage:
 
     def pick_artefact(self, test: str, choice: str, form: dict[str, Any] | None = None) -> None:
         self.form.pick_artefact(test, choice, form)
+
+    def import_options(self, text: str, form: dict[str, Any] | None = None) -> bool:
+        return self.form.import_options(text, form)
 
     def start(self, form: dict[str, Any] | None = None) -> bool:
         return self.form.start(form)

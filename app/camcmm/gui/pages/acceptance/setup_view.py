@@ -33,34 +33,38 @@ def build_setup(page: Any) -> None:
     page.state.change("wz_form")(lambda wz_form=None, **_: page.check_artefacts(wz_form))
 
     with html.Div(v_if="wz_step === 'setup'", raw_attrs=tid("wz-setup")):
-        _alerts()
+        _alerts(page)
         _standard_row(page)
         _volume_row()
         _mpe_row()
         _artefact_cards(page)
-        _more_options()
+        _more_options(page)
         _artefact_warnings()  # right above Start, below the fields: no field moves while one types
         _start_buttons(page)
+        _earlier_tests()
 
 
-def _alerts() -> None:
-    """The test in the project (with Set up a new test), no standard installed, the
-    setup error."""
+def _alerts(page: Any) -> None:
+    """The test in the project (named, where it stands, with Set up a new test), the
+    question before a new test replaces it, no standard installed, the setup error."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
     with v.VAlert(v_if="wz_active && wz_locked", type="info", density="compact", variant="tonal", classes="mb-2"):
-        # "finished", "every position measured" or "running": never "running" for a finished test
-        html.Span("{{ wz_test_status }}: {{ wz_progress_text }}. ", raw_attrs=tid("wz-test-status"))
+        # named (standard, system, when) and where it stands: never "running" for a finished test
+        html.Div("Current test: {{ wz_test_name }}", classes="font-weight-medium", raw_attrs=tid("wz-test-name"))
+        html.Span("{{ wz_test_status }} · {{ wz_progress_text }}. ", raw_attrs=tid("wz-test-status"))
         v.VBtn(
             "Set up a new test",
             size="small",
             variant="text",
             color="primary",
-            click="wz_locked = false",
-            title="Fill in the form for a new test; the test in the project stays until you start the new one",
+            click=page.ask_new_test,
+            title="Fill in the form for a new test; the current test stays until you start the new one, "
+            "and stays in the project after",
             raw_attrs=tid("wz-unlock"),
         )
+    _supersede_dialog(page)
     v.VAlert(
         v_if="!wz_standards.length",
         type="warning",
@@ -76,6 +80,69 @@ def _alerts() -> None:
         classes="mb-2",
         raw_attrs=tid("wz-setup-error"),
     )
+
+
+def _supersede_dialog(page: Any) -> None:
+    """Asked before a new test replaces one with work in it (``wz_supersede``): which test,
+    its verdict, where it stays findable; Keep it or go on."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    def on_confirm(test_id, form):
+        page.confirm_supersede(test_id, form)
+
+    with v.VDialog(
+        model_value=("!!wz_supersede",), update_modelValue="!$event && (wz_supersede = null)", max_width=560
+    ):
+        with v.VCard(v_if="wz_supersede", raw_attrs=tid("wz-supersede")):
+            v.VCardTitle("Replace the current acceptance test?")
+            with v.VCardText():
+                html.Div("{{ wz_supersede.name }}", classes="font-weight-medium", raw_attrs=tid("wz-supersede-name"))
+                html.Div("{{ wz_supersede.status }}", classes="mb-2", raw_attrs=tid("wz-supersede-status"))
+                html.Div(
+                    "A new test becomes the project's current test; the one above is kept: {{ wz_supersede.kept }}.",
+                    classes="text-body-2",
+                )
+            with v.VCardActions():
+                v.VSpacer()
+                v.VBtn(
+                    "Keep the current test",
+                    click=page.cancel_supersede,
+                    title="Nothing changes",
+                    raw_attrs=tid("wz-supersede-keep"),
+                )
+                v.VBtn(
+                    "{{ wz_supersede.action === 'start' ? 'Start the new test' : 'Set up a new test' }}",
+                    color="primary",
+                    click=(on_confirm, "[wz_supersede.id, wz_form]"),
+                    title="The current test stays in the project (results list, Earlier tests)",
+                    raw_attrs=tid("wz-supersede-confirm"),
+                )
+
+
+def _earlier_tests() -> None:
+    """The tests set up before the current one, newest first, with their reports."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with v.VExpansionPanels(v_if="wz_earlier.length", classes="mb-2", raw_attrs=tid("wz-earlier")):
+        with v.VExpansionPanel(title=("'Earlier tests in this project (' + wz_earlier.length + ')'",)):
+            with v.VExpansionPanelText():
+                with html.Div(
+                    v_for="e in wz_earlier", key="e.key", classes="mb-1", raw_attrs=dyn_tid("'wz-earlier-' + e.key")
+                ):
+                    html.Div("{{ e.name }}", classes="text-body-2")
+                    with html.Div(classes="text-caption text-medium-emphasis"):
+                        html.Span("{{ e.status }}")
+                        html.A(
+                            "{{ l.title }}",
+                            v_for="l in e.links",
+                            key="l.kind",
+                            href=("l.url",),
+                            target="_blank",
+                            download=("l.kind === 'html' ? undefined : l.name",),
+                            classes="mx-2",
+                        )
 
 
 def _artefact_warnings() -> None:
@@ -278,24 +345,83 @@ def _artefact_fields(page: Any) -> None:
     )
 
 
-def _more_options() -> None:
-    """More plan options as YAML, in a closed panel."""
+def _more_options(page: Any) -> None:
+    """More plan options in a closed panel: a form built from what the standard declares
+    (``wz_option_fields``), the set ones downloadable as plan YAML, and YAML read in."""
+    from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
     with v.VExpansionPanels(classes="mb-2", raw_attrs=tid("wz-advanced")):
-        with v.VExpansionPanel(title="More plan options (YAML, docs/standards.md)"):
+        with v.VExpansionPanel(title="More plan options"):
+            with v.VExpansionPanelText():
+                html.Div(
+                    "Each option keeps the standard's default unless set here.",
+                    classes="text-caption text-medium-emphasis mb-2",
+                )
+                with v.VRow(dense=True):
+                    with v.VCol(v_for="f in wz_option_fields", key="f.key", cols=12, md=6):
+                        common = dict(
+                            model_value=("(wz_form.options || {})[f.key]",),
+                            update_modelValue=set_form("'options' | f.key"),
+                            label=("f.label",),
+                            density="compact",
+                            disabled=("wz_locked",),
+                            hide_details=True,
+                            title=("f.help",),
+                            raw_attrs=dyn_tid("'wz-option-' + f.key"),
+                        )
+                        v.VSwitch(v_if="f.widget === 'switch'", color="primary", **common)
+                        v.VSelect(v_else_if="f.widget === 'select'", items=("f.items",), variant="outlined", **common)
+                        v.VTextField(v_else=True, variant="outlined", **common)
+                html.A(
+                    "Download these options as YAML",
+                    v_if="wz_options_yaml",
+                    href=("'data:text/yaml;charset=utf-8,' + encodeURIComponent(wz_options_yaml)",),
+                    download="plan-options.yaml",
+                    classes="text-body-2 d-inline-block mt-2",
+                    title="The options set above as plan keys (docs/standards.md), to keep or to reuse",
+                    raw_attrs=tid("wz-options-export"),
+                )
+                _options_import(page)
+
+
+def _options_import(page: Any) -> None:
+    """Plan options read from YAML (pasted), in a closed panel inside the options."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    def on_import(text, form):
+        page.import_options(text, form)
+
+    with v.VExpansionPanels(classes="mt-2", variant="accordion"):
+        with v.VExpansionPanel(title="Read options from YAML (a plan file's keys)"):
             with v.VExpansionPanelText():
                 v.VTextarea(
-                    model_value=("wz_form.options",),
-                    update_modelValue=set_form("'options'"),
+                    v_model=("wz_options_import", ""),
                     rows=3,
                     auto_grow=True,
                     density="compact",
                     variant="outlined",
                     disabled=("wz_locked",),
                     hide_details=True,
-                    placeholder="unit: mm  (keys the standard reads besides the form)",
+                    placeholder="unit: mm\noutliers: {sphere: 'percent:5'}",
                     raw_attrs=tid("wz-options"),
+                )
+                v.VBtn(
+                    "Read",
+                    size="small",
+                    variant="tonal",
+                    classes="mt-2",
+                    disabled=("wz_locked || !wz_options_import",),
+                    click=(on_import, "[wz_options_import, wz_form]"),
+                    title="Fill the options above from this YAML (the keys the form above owns are left out)",
+                    raw_attrs=tid("wz-options-read"),
+                )
+                html.Div(
+                    "{{ wz_options_error }}",
+                    v_if="wz_options_error",
+                    classes="text-caption text-error mt-1",
+                    raw_attrs=tid("wz-options-error"),
                 )
 
 

@@ -203,8 +203,8 @@ def _results(page: Any) -> None:
         with v.VListItem(
             v_for="r in results",
             key="r.id",
-            title=("'#' + r.id + ' ' + r.plugin",),
-            subtitle=("r.time",),
+            title=("'#' + r.id + ' ' + (r.title || r.plugin)",),
+            subtitle=("r.subtitle || r.time",),
             click=(page.show_result, "[r.id]"),
             classes="result-row",
             raw_attrs=tid("result-row"),
