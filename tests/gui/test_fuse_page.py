@@ -24,6 +24,7 @@ import pytest
 pytest.importorskip("trame")
 pytest.importorskip("pyvista")
 
+from camcmm import numbers  # noqa: E402
 from camcmm.errors import InputError  # noqa: E402
 from camcmm.host import Cancelled, RunResult  # noqa: E402
 from camcmm.model import HeightMap, PointCloud  # noqa: E402
@@ -190,8 +191,9 @@ def test_a_fusion_shows_matches_difference_curve_footprint_and_is_stored(inputs)
     # the numbers
     num = {r["name"]: r["value"] for r in s.fu_numbers}
     assert num["matches"] == "30 / 12" and num["inliers_models"] == "12 / 9" and "map A" in num["file"]
-    assert "12°" in num["transform2d"] and "× 1.25" in num["transform2d"] and "1.25" in num["scale"]
-    assert num["band"].startswith(f"{1e3 * np.percentile(v, 2.5):+.3g} µm")
+    assert "12.00°" in num["transform2d"] and "× 1.25" in num["transform2d"] and "1.25" in num["scale"]
+    assert num["band"] == f"{numbers.deviation(np.percentile(v, 2.5))} … {numbers.deviation(np.percentile(v, 97.5))}"
+    assert num["band"] == "−31.5 µm … +22.6 µm"  # the number rule: µm, three digits, a real minus
     # the fused cloud, coloured by source, with one footprint outlined
     assert page.view.field == "source" and s.fu_outlines == 1 == page.view.outlines_drawn()
     # stored: the fused cloud as an item made by the plugin; the result row names both inputs

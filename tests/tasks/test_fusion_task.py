@@ -85,8 +85,14 @@ def test_numbers_of_a_map_in_micrometres():
     }  # fmt: skip
     num = {r["name"]: r["value"] for r in fusion.numbers(summary, 0)}
     assert num["matches"] == "30 / 12" and num["inliers_models"] == "12 / 9" and num["file"] == "map A"
-    assert "12°" in num["transform2d"] and "× 1.25" in num["transform2d"] and "1.25" in num["scale"]
-    assert num["band"] == "-33 µm … +24 µm" and "(not converged)" in num["icp"] and num["fused"] == "1234"
+    assert "12.00°" in num["transform2d"] and "× 1.25" in num["transform2d"] and "1.25" in num["scale"]
+    # the number rule (camcmm.numbers): µm with a real minus, a thin space in counts
+    assert num["band"] == "−33.0 µm … +24.0 µm" and "(not converged)" in num["icp"] and num["fused"] == "1 234"
+    assert (
+        "tz +0.0020 mm" in num["icp"]
+        and "rms 4.00 µm" in num["icp"]
+        and num["difference"] == "mean +1.00 µm, std 10.0 µm"
+    )
     assert {r["value"] for r in fusion.numbers({}, 3) if r["name"] == "matches"} == {"— / —"}
 
 

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from .. import numbers as num
 from .. import worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
@@ -206,58 +207,65 @@ def restore(project: Any) -> tuple[FusionRequest, dict[str, Any]] | None:
     return None if rec is None else (FusionRequest.of(rec.get("request")), rec)
 
 
-def _num(x: Any, digits: int = 4) -> str:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return "—"
-    return f"{v:.{digits}g}" if v == v else "—"
-
-
-def _um(x: Any) -> str:
-    """A length in mm written in µm (the differences are µm-sized)."""
-    try:
-        return f"{1e3 * float(x):+.3g} µm"
-    except (TypeError, ValueError):
-        return "—"
+def _given(write: Callable[..., str], x: Any, *args: Any, **kw: Any) -> str:
+    """``write(x, ...)`` by the number rule (:mod:`camcmm.numbers`), "—" for a value the
+    result does not have."""
+    return "—" if x is None else write(x, *args, **kw)
 
 
 def numbers(summary: dict[str, Any], k: int) -> list[dict[str, str]]:
-    """Map ``k``'s figures and the run's (scale, fused points) as rows ``{name, label, value}``."""
+    """Map ``k``'s figures and the run's (scale, fused points) as rows ``{name, label, value}``,
+    written by the number rule: differences and roughness in µm, angles in ° (µrad below
+    0.01 rad), the scale to 10⁻⁶ (the similarity's own resolution), no exponents."""
     maps = summary.get("maps") or []
     m = maps[k] if 0 <= k < len(maps) else {}
     t, icp = m.get("transform2d") or {}, m.get("icp") or {}
     d, mr = m.get("difference") or {}, m.get("material_ratio") or {}
     sc = summary.get("photogrammetry_scale") or {}
+    dev, px = num.deviation, num.plain
+
+    def pct(x: Any) -> str:
+        return _given(lambda v: num.percent(float(v) / 100.0), x)  # Smr1/Smr2 are in %
+
+    spread = "" if sc.get("std") is None else f" ± {_given(px, sc.get('std'), 2)}"
     rows = [
         ("file", "Height map", str(m.get("file") or "—")),
-        ("matches", "Matches / inliers", f"{m.get('n_matches', '—')} / {m.get('n_inliers', '—')}"),
+        (
+            "matches",
+            "Matches / inliers",
+            f"{_given(num.count, m.get('n_matches'))} / {_given(num.count, m.get('n_inliers'))}",
+        ),
         (
             "inliers_models",
             "Inliers: similarity / fundamental",
-            f"{m.get('n_inliers_similarity', '—')} / {m.get('n_inliers_fundamental', '—')}",
+            f"{_given(num.count, m.get('n_inliers_similarity'))} / {_given(num.count, m.get('n_inliers_fundamental'))}",
         ),
         (
             "transform2d",
             "2-D similarity (eq. 6.1)",
-            f"{_num(t.get('angle_deg'))}°, t = ({_num(t.get('tx'))}, {_num(t.get('ty'))}) px, "
-            f"× {_num(t.get('scale'), 6)}",
+            f"{_given(num.angle, t.get('angle_deg'), 'deg')}, t = ({_given(px, t.get('tx'), 4)}, "
+            f"{_given(px, t.get('ty'), 4)}) px, × {_given(px, t.get('scale'), 7)}",
         ),
         (
             "icp",
             "ICP (tz, rx, ry)",
-            f"tz {_um(icp.get('tz'))}, rx {_num(icp.get('rx_deg'))}°, ry {_num(icp.get('ry_deg'))}°; "
-            f"rms {_um(icp.get('rms'))}" + ("" if icp.get("converged", True) else " (not converged)"),
+            f"tz {_given(num.length, icp.get('tz'), signed=True)}, rx {_given(num.angle, icp.get('rx_deg'), 'deg')}, "
+            f"ry {_given(num.angle, icp.get('ry_deg'), 'deg')}; rms {_given(dev, icp.get('rms'), signed=False)}"
+            + ("" if icp.get("converged", True) else " (not converged)"),
         ),
-        ("difference", "CSI − photogrammetry", f"mean {_um(d.get('mean'))}, std {_um(d.get('std'))}"),
-        ("band", "95 % band", f"{_um(d.get('p2_5'))} … {_um(d.get('p97_5'))}"),
+        (
+            "difference",
+            "CSI − photogrammetry",
+            f"mean {_given(dev, d.get('mean'))}, std {_given(dev, d.get('std'), signed=False)}",
+        ),
+        ("band", "95 % band", f"{_given(dev, d.get('p2_5'))} … {_given(dev, d.get('p97_5'))}"),
         (
             "material_ratio",
             "Sk / Spk / Svk",
-            f"{_um(mr.get('Sk'))} / {_um(mr.get('Spk'))} / {_um(mr.get('Svk'))}; "
-            f"Smr1 {_num(mr.get('Smr1'), 3)} %, Smr2 {_num(mr.get('Smr2'), 3)} %",
+            f"{_given(dev, mr.get('Sk'), signed=False)} / {_given(dev, mr.get('Spk'), signed=False)} / "
+            f"{_given(dev, mr.get('Svk'), signed=False)}; Smr1 {pct(mr.get('Smr1'))}, Smr2 {pct(mr.get('Smr2'))}",
         ),
-        ("scale", "Photogrammetry scale", f"{_num(sc.get('value'), 7)} ± {_num(sc.get('std'), 2)}"),
-        ("fused", "Fused points", str(summary.get("n_points_fused", "—"))),
+        ("scale", "Photogrammetry scale", f"{_given(px, sc.get('value'), 7)}{spread}"),
+        ("fused", "Fused points", _given(num.count, summary.get("n_points_fused"))),
     ]
     return [{"name": n, "label": label, "value": v} for n, label, v in rows]

@@ -43,6 +43,7 @@ from camcmm.api import (
     checked_path,
     declared_values,
     default_host,
+    numbers,
     record_result,
     write,
 )
@@ -123,43 +124,48 @@ def sample(folder: str | Path) -> dict[str, Any]:
     return {"sample": {k: str(v) for k, v in files.items()}, "command": command}
 
 
-def _um(x: float | None) -> str:
-    return "—" if x is None or x != x else f"{x * 1000:+.2f} µm"
+def _dev(x: float | None, signed: bool = True) -> str:
+    """A difference or roughness (mm) in µm by the number rule; "—" when the run has none."""
+    return "—" if x is None else numbers.deviation(x, signed=signed)
 
 
 def text(r: dict[str, Any]) -> str:
-    """Human-readable summary of :func:`run`."""
+    """Human-readable summary of :func:`run` (numbers by the one number rule)."""
     if "sample" in r:
         return "\n".join(
             [f"wrote the sample pair: {r['sample']['cloud']}, {r['sample']['csi']} (truth: {r['sample']['truth']})"]
             + [f"fuse them (default parameters): {r['command']}"]
         )
     s = r["photogrammetry_scale"]
-    std = "" if s["std"] is None else f" ± {s['std']:.6f}"
+    std = "" if s["std"] is None else f" ± {numbers.plain(s['std'], 2)}"
     lines = [
-        f"fused {len(r['maps'])} CSI map(s): {r['n_points_fused']} points; photogrammetry scale {s['value']:.6f}{std}"
+        f"fused {len(r['maps'])} CSI map(s): {numbers.count(r['n_points_fused'])} points; "
+        f"photogrammetry scale {numbers.plain(s['value'], 7)}{std}"
     ]
     for m in r["maps"]:
         t, i, d, mr = m["transform2d"], m["icp"], m["difference"], m["material_ratio"]
         lines.append(
             f"  {m['file']}: {m['n_inliers']} of {m['n_matches']} matches (similarity {m['n_inliers_similarity']}, "
-            f"fundamental {m['n_inliers_fundamental']})"
+            f"fundamental {m['n_inliers_fundamental']}; grey image: {m.get('grey', 'intensity')})"
         )
         lines.append(
-            f"    2-D  angle {t['angle_deg']:.4f}°  t ({t['tx']:.2f}, {t['ty']:.2f}) px  scale {t['scale']:.6f}"
+            f"    2-D  angle {numbers.angle(t['angle_deg'], 'deg')}  t ({numbers.plain(t['tx'], 5)}, "
+            f"{numbers.plain(t['ty'], 5)}) px  scale {numbers.plain(t['scale'], 7)}"
         )
         lines.append(
-            f"    ICP  tz {i['tz']:.5f} mm  rx {i['rx_deg']:.4f}°  ry {i['ry_deg']:.4f}°  rms {_um(i['rms'])}"
+            f"    ICP  tz {numbers.length(i['tz'], signed=True)}  rx {numbers.angle(i['rx_deg'], 'deg')}  "
+            f"ry {numbers.angle(i['ry_deg'], 'deg')}  rms {_dev(i['rms'], False)}"
             + ("" if i["converged"] else "  NOT CONVERGED")
         )
         lines.append(
-            f"    CSI − photogrammetry  mean {_um(d['mean'])}  std {_um(d['std'])}  95 % {_um(d['p2_5'])} … "
-            f"{_um(d['p97_5'])}"
+            f"    CSI − photogrammetry  mean {_dev(d['mean'])}  std {_dev(d['std'], False)}  95 % {_dev(d['p2_5'])} … "
+            f"{_dev(d['p97_5'])}"
         )
         if mr.get("Sk") is not None:
             lines.append(
-                f"    material  Sk {_um(mr['Sk'])}  Spk {_um(mr['Spk'])}  Svk {_um(mr['Svk'])}  "
-                f"Smr1 {mr['Smr1']:.2f} %  Smr2 {mr['Smr2']:.2f} %"
+                f"    material  Sk {_dev(mr['Sk'], False)}  Spk {_dev(mr['Spk'], False)}  "
+                f"Svk {_dev(mr['Svk'], False)}  Smr1 {numbers.percent(mr['Smr1'] / 100)}  "
+                f"Smr2 {numbers.percent(mr['Smr2'] / 100)}"
             )
     lines += [f"  warning: {w}" for w in r.get("warnings", [])]
     if r.get("written"):

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Report, charts
+from camcmm.api import Report, charts, numbers
 
 
 def _png(fig) -> bytes:
@@ -81,14 +81,16 @@ def abbott_figure(v: dict) -> bytes | None:
     ax.set_xlabel("material ratio (%)", fontsize=7)
     ax.set_ylabel("CSI − photogrammetry (µm)", fontsize=7)
     ax.set_title(
-        f"Abbott-Firestone curve; 95 % band {ab['p97_5'] * 1000:+.3g} / {ab['p2_5'] * 1000:+.3g} µm", fontsize=8
+        f"Abbott-Firestone curve; 95 % band {numbers.deviation(ab['p97_5'])} / {numbers.deviation(ab['p2_5'])}",
+        fontsize=8,
     )
     ax.tick_params(labelsize=6)
     return _png(fig)
 
 
-def _um(x) -> str:
-    return "—" if x is None else f"{x * 1000:+.2f} µm"
+def _um(x, signed: bool = True) -> str:
+    """A difference or roughness (mm) in µm by the number rule; "—" when the run has none."""
+    return "—" if x is None else numbers.deviation(x, signed=signed)
 
 
 def build_report(o: dict[str, Any], cloud_file: str | None = None, run=None, **_: Any) -> Report:
@@ -103,9 +105,15 @@ def build_report(o: dict[str, Any], cloud_file: str | None = None, run=None, **_
     sec = rep.section("Summary")
     sec.keyvalues(
         [
-            ("photogrammetry scale", f"{s['value']:.6f}" + ("" if s["std"] is None else f" ± {s['std']:.6f}")),
-            ("points in the fused cloud", r_["n_points_fused"]),
-            ("grey image of the cloud", f"{r_['grid'][0]} × {r_['grid'][1]} px of {r_['pixel_mm'] * 1000:.2f} µm"),
+            (
+                "photogrammetry scale",
+                numbers.plain(s["value"], 7) + ("" if s["std"] is None else f" ± {numbers.plain(s['std'], 2)}"),
+            ),
+            ("points in the fused cloud", numbers.count(r_["n_points_fused"])),
+            (
+                "grey image of the cloud",
+                f"{r_['grid'][0]} × {r_['grid'][1]} px of {numbers.length(r_['pixel_mm'], unit='µm')}",
+            ),
         ]
     )
     for w in r_["warnings"]:
@@ -118,17 +126,22 @@ def build_report(o: dict[str, Any], cloud_file: str | None = None, run=None, **_
                 ("SIFT matches", m["n_matches"]),
                 ("inliers (similarity / fundamental)", f"{m['n_inliers_similarity']} / {m['n_inliers_fundamental']}"),
                 ("used in eq. 6.1", m["n_inliers"]),
-                ("angle", f"{t['angle_deg']:.4f}°"),
-                ("translation", f"({t['tx']:.2f}, {t['ty']:.2f}) px"),
-                ("scale", f"{t['scale']:.6f}"),
-                ("ICP tz, rx, ry", f"{i['tz']:.5f} mm, {i['rx_deg']:.4f}°, {i['ry_deg']:.4f}°"),
-                ("ICP rms / converged", f"{_um(i['rms'])} / {i['converged']}"),
-                ("difference mean / std", f"{_um(d['mean'])} / {_um(d['std'])}"),
+                ("grey image of the map", m.get("grey", "intensity")),
+                ("angle", numbers.angle(t["angle_deg"], "deg")),
+                ("translation", f"({numbers.plain(t['tx'], 5)}, {numbers.plain(t['ty'], 5)}) px"),
+                ("scale", numbers.plain(t["scale"], 7)),
+                (
+                    "ICP tz, rx, ry",
+                    f"{numbers.length(i['tz'], signed=True)}, {numbers.angle(i['rx_deg'], 'deg')}, "
+                    f"{numbers.angle(i['ry_deg'], 'deg')}",
+                ),
+                ("ICP rms / converged", f"{_um(i['rms'], False)} / {'yes' if i['converged'] else 'no'}"),
+                ("difference mean / std", f"{_um(d['mean'])} / {_um(d['std'], False)}"),
                 ("95 % band", f"{_um(d['p2_5'])} … {_um(d['p97_5'])}"),
                 *(
                     [
-                        ("Sk, Spk, Svk", f"{_um(mr['Sk'])}, {_um(mr['Spk'])}, {_um(mr['Svk'])}"),
-                        ("Smr1, Smr2", f"{mr['Smr1']:.2f} %, {mr['Smr2']:.2f} %"),
+                        ("Sk, Spk, Svk", f"{_um(mr['Sk'], False)}, {_um(mr['Spk'], False)}, {_um(mr['Svk'], False)}"),
+                        ("Smr1, Smr2", f"{numbers.percent(mr['Smr1'] / 100)}, {numbers.percent(mr['Smr2'] / 100)}"),
                     ]
                     if mr.get("Sk") is not None
                     else []

@@ -23,6 +23,7 @@ FAMILIES = (
     "report",
     "crop",
     "bigcloud",
+    "fusion",
 )
 
 

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers
 from ...plotly_json import LEGEND_TOP_RIGHT, empty, layout
 
 UM = 1e3  # mm -> µm
@@ -160,7 +161,7 @@ def _band(ab: dict[str, Any], axis: str) -> tuple[list[dict[str, Any]], list[dic
          f"{other}0": 0, f"{other}1": 1, "line": {"color": "#3b6ea5", "width": 1, "dash": "dash"}}
         for v in (lo, hi)
     ]  # fmt: skip
-    text = f"95 %: {hi:+.3g} / {lo:+.3g} µm"
+    text = f"95 %: {numbers.deviation(hi / UM)} / {numbers.deviation(lo / UM)}"  # the number rule
     note = {
         "text": text,
         "showarrow": False,
