@@ -352,3 +352,55 @@ def test_the_real_plugin_on_templering(app, tmp_path, shared_data):
     unreg = [r for r in rows if r["status"] == "unregistered"]
     assert len(unreg) == 8 - rc["n_registered"] and all(r["reason"] for r in unreg)
     assert {r["name"] for r in unreg} == set(rc["unregistered"])
+
+
+@pytest.mark.slow
+def test_a_new_run_clears_the_previous_result_while_it_runs(app, tmp_path):
+    """Issue 30: the page kept the previous run's figures and warnings during a new run.
+    While the second run works nothing of the first is shown (figures, warnings, counts,
+    cloud and cameras); cancelled, it stored nothing and the first comes back, said so."""
+    page, session, _ = app()
+    write_series(tmp_path / "data" / "s", N_VIEWS)
+    req = {"source": "folder", "folder": str(tmp_path / "data" / "s")}
+
+    def warned(*args, **kw):
+        result = fake_runner(*args, **kw)
+        result.warnings.append("1 of 8 images not registered: too few inlier matches")
+        return result
+
+    page.runner = warned
+    assert asyncio.run(page.list_async(req))  # thumbnails, kept through the runs
+    first = asyncio.run(page.run_async(None, req))
+    s = page.state
+    assert first is not None and s.pg_warnings and s.pg_summary and page.view.cameras_drawn() == N_VIEWS - 1
+    started, seen = threading.Event(), {}
+
+    def slow(host, sources, params, calibration=None, progress=None, cancel=None):
+        started.set()
+        while True:
+            check(cancel)
+            time.sleep(0.01)
+
+    page.runner = slow
+
+    async def run_and_look():
+        task = asyncio.ensure_future(page.run_async(None, req))
+        while not started.is_set():
+            await asyncio.sleep(0.01)
+        seen.update(
+            summary=list(s.pg_summary), warnings=list(s.pg_warnings), title=s.pg_title, made=dict(s.pg_items_made),
+            status={r["status"] for r in s.pg_images}, thumbs=all(r["thumb"] for r in s.pg_images),
+            shown=page.view.shown, cameras=page.view.cameras_drawn(), record=page.record,
+        )  # fmt: skip
+        page.cancel()
+        return await task
+
+    assert asyncio.run(run_and_look()) is None
+    assert seen == {
+        "summary": [], "warnings": [], "title": "", "made": {}, "status": {"listed"}, "thumbs": True,
+        "shown": None, "cameras": 0, "record": None,
+    }  # fmt: skip
+    # nothing stored: the project's last result is shown again, and the message says it is the previous one
+    assert s.pg_message == f"cancelled; the previous result #{first['result']} is shown"
+    assert s.pg_warnings == ["1 of 8 images not registered: too few inlier matches"]
+    assert page.view.cameras_drawn() == N_VIEWS - 1 and page.record["result"] == first["result"]

@@ -144,7 +144,7 @@ def test_after_sfm_no_texture_and_no_overlap_are_one_line_reasons():
     rows[2]["n_matched"], rows[0]["registered"], rows[1]["registered"] = 0, True, True
     rows[2]["reason"] = inputs.reason_unregistered(900, 0)
     (w,) = inputs.check_registration(rows, 2, 1)
-    assert w == "1 of 3 images not registered: im2 (no verified matches)"
+    assert w == "1 of 3 images not registered: no verified matches: im2"
     assert inputs.reason_unregistered(12, 0) == "12 features"
 
 
@@ -167,12 +167,12 @@ def test_cancel_inside_a_pycolmap_stage_is_cancelled_not_a_failure():
     # the browser: "failed: InterruptedError: Operation cancelled"); the operator asked for it
     import pycolmap
 
-    from camcmm_plugins.photogrammetry.sfm import _Stages
+    from camcmm_plugins.photogrammetry.progress import Stages
 
     def stage():
         raise InterruptedError("Operation cancelled")
 
-    st = _Stages(pycolmap, None, lambda: False)
+    st = Stages(pycolmap, None, lambda: False)
     with pytest.raises(Cancelled):
         st.run("extract", "SIFT features", stage)
 

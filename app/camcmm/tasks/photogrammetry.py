@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import worker
+from .. import numbers, worker
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
 from ..host import default_host
@@ -269,26 +269,52 @@ def restore(project: Any) -> tuple[PhotogrammetryRequest, dict[str, Any]] | None
     return None if rec is None else (PhotogrammetryRequest.of(rec.get("request")), rec)
 
 
-def summary(rc: dict[str, Any]) -> list[dict[str, str]]:
-    """The reconstruction's figures (``rc``: its JSON) as rows ``{name, label, value}``."""
+#: COLMAP's camera models (the key stays in files, parameters and the JSON) as a person reads
+#: them: the model's name in words and its parameters (f focal length, c principal point,
+#: k radial and p tangential distortion; COLMAP's src/colmap/sensor/models.h)
+CAMERA_MODELS = {
+    "SIMPLE_PINHOLE": "simple pinhole (f, cx, cy)",
+    "PINHOLE": "pinhole (fx, fy, cx, cy)",
+    "SIMPLE_RADIAL": "simple radial (f, cx, cy, k)",
+    "RADIAL": "radial (f, cx, cy, k1, k2)",
+    "OPENCV": "OpenCV (fx, fy, cx, cy, k1, k2, p1, p2)",
+    "FULL_OPENCV": "full OpenCV (fx, fy, cx, cy, k1, k2, p1, p2, k3 … k6)",
+}
+#: the plugin's stage timings (keys of ``timings``) in words
+TIMING_WORDS = {"extract": "features", "match": "matching", "map": "mapping", "refine": "final adjustment"}
 
-    def num(x: Any, digits: int = 3) -> str:
+
+def camera_words(model: Any) -> str:
+    """A camera model's key (``SIMPLE_RADIAL``) in words (``simple radial (f, cx, cy, k)``)."""
+    key = str(model or "")
+    return CAMERA_MODELS.get(key.upper(), numbers.words(key.lower()) if key else "—")
+
+
+def summary(rc: dict[str, Any]) -> list[dict[str, str]]:
+    """The reconstruction's figures (``rc``: its JSON) as rows ``{name, label, value}``,
+    numbers by :mod:`camcmm.numbers`."""
+
+    def num(x: Any, digits: int = 3) -> str:  # significant digits, trailing zeros dropped
         try:
-            return f"{float(x):.{digits}g}"
+            return numbers.significant(float(x), digits)
         except (TypeError, ValueError):
             return "—"
 
+    def whole(x: Any) -> str:
+        return numbers.count(x) if isinstance(x, (int, float)) and not isinstance(x, bool) else "—"
+
     cam = rc.get("camera") or {}
     scale = rc.get("scale") or {}
+    dense = rc.get("n_points_dense")
     out = [
-        ("registered", "Registered images", f"{rc.get('n_registered', '—')} of {rc.get('n_images', '—')}"),
-        ("rms", "Reprojection RMS", f"{num(rc.get('reprojection_rms_px'))} px"),
-        ("sparse", "Sparse points", str(rc.get("n_points_sparse", "—"))),
-        ("dense", "Dense points", str(rc.get("n_points_dense", "—")) if rc.get("n_points_dense") else "— (off)"),
+        ("registered", "Registered images", f"{whole(rc.get('n_registered'))} of {whole(rc.get('n_images'))}"),
+        ("rms", "Reprojection RMS", f"{num(rc.get('reprojection_rms_px'), 2)} px"),
+        ("sparse", "Sparse points", whole(rc.get("n_points_sparse"))),
+        ("dense", "Dense points", whole(dense) if dense else "— (off)"),
         (
             "camera",
             "Camera",
-            f"{cam.get('model', '?')}: f = {num(cam.get('fx'), 5)} / {num(cam.get('fy'), 5)} px, "
+            f"{camera_words(cam.get('model'))}: f = {num(cam.get('fx'), 5)} / {num(cam.get('fy'), 5)} px, "
             f"c = ({num(cam.get('cx'), 5)}, {num(cam.get('cy'), 5)}) px"
             if cam
             else "—",
@@ -300,10 +326,17 @@ def summary(rc: dict[str, Any]) -> list[dict[str, str]]:
             (
                 "scale",
                 "Scale",
-                f"{scale.get('method', '?')}: × {num(scale.get('factor'), 6)}" + (f" (u {num(u, 2)})" if u else ""),
+                f"{numbers.words(scale.get('method', '?'))}: × {num(scale.get('factor'), 6)}"
+                + (f" (standard uncertainty u {num(u, 2)})" if u else ""),
             )
         )
     timings = rc.get("timings") or {}
     if isinstance(timings, dict) and timings:
-        out.append(("timings", "Time", ", ".join(f"{k} {num(v, 2)} s" for k, v in timings.items())))
+        out.append(
+            (
+                "timings",
+                "Time",
+                ", ".join(f"{TIMING_WORDS.get(k) or numbers.words(k)} {numbers.time(v)}" for k, v in timings.items()),
+            )
+        )
     return [{"name": n, "label": label, "value": v} for n, label, v in out]

@@ -91,11 +91,27 @@ def check_registration(per_image: list[dict[str, Any]], n_registered: int, n_ver
     warnings = []
     missing = [p for p in per_image if not p["registered"]]
     if missing:
+        # grouped by kind of reason (diagnose.reason), each image's full reason on its row
+        kinds: dict[str, list[str]] = {}
+        for p in missing:
+            kinds.setdefault(KIND_WORDS.get(p.get("kind", ""), p["reason"]), []).append(p["image"])
         warnings.append(
             f"{len(missing)} of {len(per_image)} images not registered: "
-            + _names([f"{p['image']} ({p['reason']})" for p in missing])
+            + "; ".join(f"{why}: {_names(images)}" for why, images in kinds.items())
         )
     return warnings
+
+
+#: the warning's words for each kind of reason of :func:`.diagnose.reason`
+KIND_WORDS = {
+    "texture": "too little texture",
+    "no matches": "no verified matches",
+    "not linked": "matched only with other unregistered images",
+    "too few": "too few inlier matches to the registered images",
+    "degenerate": "degenerate geometry",
+    "inconsistent": "matches that agree on no one pose",
+    "separate model": "in a separate model",
+}
 
 
 def reason_unregistered(n_features: int, n_matched: int) -> str:

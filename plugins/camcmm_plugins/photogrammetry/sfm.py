@@ -25,18 +25,18 @@ mapper's own final bundle adjustment, the principal point held at the image cent
 from __future__ import annotations
 
 import tempfile
-import threading
-import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from camcmm.api import Cancelled, InputError
+from camcmm.api import InputError
 
 from .cameras import COLMAP_PARAMS, colmap_from_opencv
+from .diagnose import explain_unregistered, mapper_limits
 from .inputs import check_registration, check_series, per_image_counts, reason_unregistered, write_images
+from .progress import Stages, in_chunks
 from .retrieval import retrieval_pairs
 from .sparse import SparseResult, model_result
 from .turntable import DEFAULT_WINDOW, angle_pairs, parse_angles, write_pair_list
@@ -56,6 +56,13 @@ DEFAULT_OVERLAP = 8
 #: mapper, GLOMAP: rotation averaging, then all positions at once, then bundle adjustment)
 MAPPERS = ("incremental", "global")
 DEFAULT_MAPPER = "incremental"
+#: the first piece of extraction and of matching (then pieces sized from the rate so far,
+#: progress.in_chunks): two images keep both cores busy, eight pairs too
+FIRST_IMAGES = 2
+FIRST_PAIRS = 8
+#: share of the matching stage's progress taken by choosing ring matching's pairs (k-means on
+#: the descriptors: ~1 s of templeRing's 47 views, against ~1 min of matching)
+RETRIEVAL_SHARE = 0.05
 
 
 def _pycolmap():
@@ -65,53 +72,6 @@ def _pycolmap():
         raise InputError(f"photogrammetry needs pycolmap ({exc}); pip install pycolmap") from exc
     pycolmap.logging.minloglevel = 2  # errors only: its INFO lines would flood the CLI's stderr
     return pycolmap
-
-
-class _Stages:
-    """Progress over the stages and a cancellation token polled from ``cancel``."""
-
-    WEIGHTS = {"extract": 0.25, "match": 0.4, "map": 0.3, "refine": 0.05}
-
-    def __init__(self, pycolmap, progress, cancel):
-        self.progress, self.cancel = progress, cancel
-        self.token = pycolmap.CancellationToken() if hasattr(pycolmap, "CancellationToken") else None
-        self.done = 0.0
-        self.timings: dict[str, float] = {}
-        self._stop = threading.Event()
-        if cancel is not None and self.token is not None:
-            threading.Thread(target=self._watch, daemon=True).start()
-
-    def _watch(self) -> None:
-        while not self._stop.wait(0.2):
-            if self.cancel():
-                self.token.cancel()
-                return
-
-    def check(self) -> None:
-        if (self.cancel is not None and self.cancel()) or (self.token is not None and self.token.is_cancelled):
-            self.close()
-            raise Cancelled("photogrammetry: cancelled")
-
-    def report(self, stage: str, within: float, message: str) -> None:
-        if self.progress is not None:
-            self.progress(min(1.0, self.done + self.WEIGHTS.get(stage, 0.0) * within), message)
-
-    def run(self, stage: str, message: str, fn: Callable[[], Any]) -> Any:
-        self.check()
-        self.report(stage, 0.0, message)
-        t0 = time.perf_counter()
-        try:
-            out = fn()
-        except InterruptedError:  # pycolmap's answer to the cancellation token mid-stage
-            self.close()
-            raise Cancelled("photogrammetry: cancelled") from None
-        self.timings[stage] = time.perf_counter() - t0
-        self.check()
-        self.done += self.WEIGHTS.get(stage, 0.0)
-        return out
-
-    def close(self) -> None:
-        self._stop.set()
 
 
 #: scale (px, on the images SfM works at) of the final adjustment's Cauchy loss
@@ -237,6 +197,15 @@ def _ring_pairs(pycolmap, db: Path, files: list[str], overlap: int, seed: int) -
     return retrieval_pairs(desc, overlap, seed=seed)
 
 
+def _camera_id(pycolmap, db: Path) -> int:
+    """The id of the camera in the database (the series has one)."""
+    database = pycolmap.Database.open(str(db))
+    try:
+        return int(next(iter(database.read_all_cameras())).camera_id)
+    finally:
+        database.close()
+
+
 def _global_options(pycolmap, seed: int, fixed: bool):
     """COLMAP 4's global mapper on the CPU, seeded, the camera held with a calibration."""
     g = pycolmap.GlobalPipelineOptions()
@@ -330,7 +299,7 @@ def reconstruct_sparse(
         root = Path(tmp.name)
     else:
         root = Path(workdir)
-    st = _Stages(pycolmap, progress, cancel)
+    st = Stages(pycolmap, progress, cancel)
     try:
         (root / "images").mkdir(parents=True, exist_ok=True)
         (root / "sparse").mkdir(exist_ok=True)
@@ -353,49 +322,55 @@ def reconstruct_sparse(
         ext = pycolmap.FeatureExtractionOptions()
         ext.sift.max_num_features = int(max_features)
         ext.use_gpu = False
-        st.run(
-            "extract",
-            "SIFT features",
-            lambda: pycolmap.extract_features(
+
+        def extract_piece(piece: Sequence[str], first: bool) -> None:
+            if not first:  # the series' one camera, made by the first piece (CameraMode.SINGLE)
+                reader.existing_camera_id = _camera_id(pycolmap, db)
+            pycolmap.extract_features(
                 db,
                 root / "images",
-                image_names=files,
+                image_names=list(piece),
                 camera_mode=pycolmap.CameraMode.SINGLE,
                 reader_options=reader,
                 extraction_options=ext,
                 device=pycolmap.Device.cpu,
                 cancellation_token=st.token,
-            ),
-        )
+            )
+
+        def extract() -> None:  # in pieces, so that the count of images done moves (progress.in_chunks)
+            in_chunks(st, "extract", "features", "images", files, extract_piece, first=FIRST_IMAGES)
+
+        st.run("extract", "features: SIFT", extract)
         mopts = pycolmap.FeatureMatchingOptions()
         mopts.use_gpu = False
         verify = pycolmap.TwoViewGeometryOptions()
         verify.ransac.random_seed = int(seed)
         common = dict(matching_options=mopts, verification_options=verify, device=pycolmap.Device.cpu)
         common["cancellation_token"] = st.token
-        pairs: list[tuple[int, int]] = []
-
-        def listed(chosen: list[tuple[int, int]]) -> Callable[[], None]:
-            opts = pycolmap.ImportedPairingOptions(match_list_path=write_pair_list(root / "pairs.txt", files, chosen))
-            return lambda: pycolmap.match_image_pairs(db, pairing_options=opts, **common)
-
+        n = len(files)
         if angles is not None:  # the table angles choose the pairs (turntable.angle_pairs)
             pairs = angle_pairs(angles, turntable_window)
-            match = listed(pairs)
-        elif matching == "ring":
-
-            def match() -> None:  # each image's most alike, from its own features (retrieval)
-                pairs.extend(_ring_pairs(pycolmap, db, files, int(overlap), int(seed)))
-                listed(pairs)()
-
-        elif matching == "sequential":
-            seq = pycolmap.SequentialPairingOptions()
-            seq.overlap = int(overlap)
-            seq.quadratic_overlap = False  # exactly the `overlap` next images, as documented
-            match = lambda: pycolmap.match_sequential(db, pairing_options=seq, **common)  # noqa: E731
+        elif matching == "sequential":  # each with the `overlap` next in input order (the files' order)
+            pairs = [(i, j) for i in range(n) for j in range(i + 1, min(n, i + 1 + int(overlap)))]
+        elif matching == "exhaustive":
+            pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
         else:
-            match = lambda: pycolmap.match_exhaustive(db, **common)  # noqa: E731
-        st.run("match", "turntable-window matching" if angles is not None else f"{matching} matching", match)
+            pairs = []  # ring: chosen from the features once they are there
+
+        def match_piece(piece: Sequence[tuple[int, int]], first: bool) -> None:
+            listed = write_pair_list(root / "pairs.txt", files, piece)
+            opts = pycolmap.ImportedPairingOptions(match_list_path=listed)
+            pycolmap.match_image_pairs(db, pairing_options=opts, **common)
+
+        def match() -> None:  # the pairs in pieces, so that the count of pairs matched moves
+            start = 0.0
+            if matching == "ring" and angles is None:  # each image's most alike, from its own features
+                pairs.extend(_ring_pairs(pycolmap, db, files, int(overlap), int(seed)))
+                start = RETRIEVAL_SHARE
+            in_chunks(st, "match", "matching", "pairs", pairs, match_piece, first=FIRST_PAIRS, start=start)
+
+        first = "matching: choosing pairs by visual words" if matching == "ring" and angles is None else "matching"
+        st.run("match", first, match)
         per_image, n_pairs = per_image_counts(pycolmap, db, files, names)
 
         popts = pycolmap.IncrementalPipelineOptions()
@@ -408,11 +383,17 @@ def reconstruct_sparse(
         popts.ba_refine_principal_point = False
         popts.mapper.abs_pose_refine_focal_length = not fixed
         popts.mapper.abs_pose_refine_extra_params = not fixed
-        count = [0]
+        # images in the current model and in the largest so far: a new initial pair starts a
+        # further model (the series fell apart) whose count must not add to the first's
+        count = {"now": 0, "best": 0}
 
-        def next_image() -> None:
-            count[0] += 1
-            st.report("map", min(1.0, count[0] / len(files)), f"registered {count[0]} of {len(files)} images")
+        def registered(first: bool) -> Callable[[], None]:
+            def add() -> None:
+                count["now"] = 2 if first else count["now"] + 1
+                count["best"] = min(max(count["best"], count["now"]), n)
+                st.report("map", count["best"] / n, f"mapping: {count['best']} of {n} images registered")
+
+            return add
 
         if mapper == "global":
             gopts = _global_options(pycolmap, int(seed), fixed)
@@ -423,10 +404,11 @@ def reconstruct_sparse(
                 root / "images",
                 root / "sparse",
                 options=popts,
-                next_image_callback=next_image,
+                initial_image_pair_callback=registered(True),
+                next_image_callback=registered(False),
                 cancellation_token=st.token,
             )
-        recs = st.run("map", f"{mapper} mapping", run_mapper)
+        recs = st.run("map", f"mapping: {mapper} mapper", run_mapper)
         rec = max(recs.values(), key=lambda r: r.num_reg_images()) if recs else None
         n_reg = rec.num_reg_images() if rec is not None else 0
         warnings = []
@@ -439,11 +421,14 @@ def reconstruct_sparse(
                 by_file = dict(zip(files, names, strict=True))
                 for f, row in zip(files, per_image, strict=True):
                     if f in apart:
-                        row["reason"] = "in a separate model (not linked to the others)"
+                        row["kind"], row["reason"] = "separate model", "in a separate model (not linked to the others)"
                 warnings.append(
                     f"the series fell apart: {len(apart)} image(s) form separate models and are left out "
                     f"({', '.join(by_file.get(a, a) for a in apart[:6])}{' ...' if len(apart) > 6 else ''})"
                 )
+        if rec is not None and n_reg >= 2 and mapper == "incremental":
+            # each image left out: its inlier matches to the model, and so the mapper's reason
+            explain_unregistered(pycolmap, db, rec, per_image, files, mapper_limits(popts))
         if rec is None or n_reg < 2:
             for p in per_image:
                 p["reason"] = reason_unregistered(p["n_features"], p["n_matched"])

@@ -38,6 +38,17 @@ class Display:
             objs = {k: (outputs or {}).get(k) for k in ("cloud", "sparse")}
             self.show_cloud(self.which(), objs)
 
+    def clear(self) -> None:
+        """Nothing of a run on the page: a new run starts from an empty result, so no figure,
+        warning or cloud of the previous one is taken for the new one's (the image rows keep
+        their thumbnails, without counts)."""
+        s = self.state
+        self.record, self.shown_result = None, None
+        s.pg_title, s.pg_summary, s.pg_warnings, s.pg_items_made = "", [], [], {}
+        s.pg_colours, s.pg_colour, s.pg_cameras, s.pg_note = [], None, 0, ""
+        s.pg_images = [inputs.without_counts(r) for r in s.pg_images or []]
+        self.view.clear()
+
     def which(self) -> str:
         """The cloud to show: the one shown before if this run has it, else dense, else sparse."""
         made = self.state.pg_items_made or {}

@@ -83,6 +83,11 @@ def rows(sources: list[dict[str, Any]], thumbs: list[str] | None = None) -> list
     ]
 
 
+def without_counts(row: dict[str, Any]) -> dict[str, Any]:
+    """A row as listed before a run: its name and thumbnail kept, a run's counts and status gone."""
+    return dict(row, n_features=None, n_matched=None, registered=None, reason="", status="listed")
+
+
 def with_counts(listed: list[dict[str, Any]], images: list[dict[str, Any]] | None) -> list[dict[str, Any]]:
     """The rows with the plugin's per-image counts (``reconstruction["images"]``:
     ``{image, n_features, n_matched, registered, reason}``), matched by file name;

@@ -110,6 +110,9 @@ class PhotogrammetryPage:
             s.pg_message = f"no reconstruction plugin: {one_line(exc)}"
             return
         fields, values = declared_fields(spec.parameters)
+        for f in fields:  # the camera models in words; the key stays the value sent
+            if f.get("name") == "camera_model":
+                f["choices"] = [{"title": task.camera_words(c), "value": c} for c in f.get("choices") or []]
         s.pg_fields, s.pg_params = fields, values
         self.refresh_calibration()
 
@@ -228,6 +231,10 @@ class PhotogrammetryPage:
             self.shared.error(exc)
             return None
         self._set_request(req)
+        # the previous run's figures, warnings, counts and cloud go while this one runs: nothing
+        # on the page may be taken for the new series' (it comes back if this run stores nothing)
+        previous = self.record
+        self.display.clear()
         if [x["path"] for x in sources] != [x["path"] for x in self._sources]:
             s.pg_images = inputs.rows(sources, [r.get("thumb", "") for r in s.pg_images or []])
         self._sources = sources
@@ -245,6 +252,7 @@ class PhotogrammetryPage:
                 self.session.info(f"{line}; nothing was stored", page=KEY)
             else:
                 self.shared.error(line)
+            self._show_previous(previous, sources)
             self.session.flush()
             return None
         s.pg_running, s.pg_progress = False, 100.0
@@ -260,6 +268,15 @@ class PhotogrammetryPage:
         self.session.info(f"reconstruction stored as result #{rec['result']}", page=KEY)
         self.session.flush()
         return rec
+
+    def _show_previous(self, previous: dict[str, Any] | None, sources: list[dict[str, Any]]) -> None:
+        """After a run that stored nothing: the project's last result again, said to be the
+        previous one, when it was of the series this run was given (else the rows stay as
+        listed, and the result is shown when the page opens next)."""
+        if previous is None or [x.get("path") for x in previous.get("sources") or []] != [x["path"] for x in sources]:
+            return
+        self.show_record(previous)
+        self.state.pg_message += f"; the previous result #{previous.get('result')} is shown"
 
     def send_to(self, target: str) -> bool:
         """The shown cloud to another page (:mod:`.links`); False with the reason shown."""
