@@ -72,6 +72,18 @@ def folder_request(mode="camera", **kw):
     return req
 
 
+def shown(text: str) -> float:
+    """A number as the page writes it (a real minus) read back."""
+    return float(text.replace("\u2212", "-"))
+
+
+def as_shown(text: str, value: float, unit: str = "") -> bool:
+    """``text`` is ``value`` rounded to the digits it shows (in ``unit``: µm text against mm)."""
+    scale = 1e-3 if unit == "µm" else 1.0
+    decimals = len(text.split(".")[1]) if "." in text else 0
+    return abs(shown(text) * scale - value) <= (0.5 * 10.0**-decimals + 1e-12) * scale
+
+
 def decode(url: str) -> np.ndarray:
     return cv2.imdecode(np.frombuffer(draw.url_bytes(url), np.uint8), cv2.IMREAD_COLOR)
 
@@ -112,9 +124,13 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
     assert s.cal_fig_views["layout"]["shapes"][0]["y0"] == pytest.approx(direct["rms"])
     # the numbers with OpenCV's standard deviations
     nums = {n["name"]: n for n in s.cal_numbers}
-    assert float(nums["fx"]["value"]) == pytest.approx(direct["camera_matrix"][0][0], rel=1e-5)
-    assert float(nums["k1"]["std"]) == pytest.approx(direct["std_named"]["k1"], rel=1e-2)
-    assert float(nums["RMS"]["value"]) == pytest.approx(direct["rms"], rel=1e-3)
+    # (each to the digits its σ resolves: two significant digits of σ, GUM 7.2.6)
+    assert as_shown(nums["fx"]["value"], direct["camera_matrix"][0][0])
+    assert as_shown(nums["k1"]["std"], direct["std_named"]["k1"]) and len(nums["k1"]["std"].strip("0.")) == 2
+    assert as_shown(nums["k1"]["value"], direct["dist_coeffs"][0])
+    k1_decimals = len(nums["k1"]["value"].split(".")[1])
+    assert k1_decimals == 1 - np.floor(np.log10(direct["std_named"]["k1"]))
+    assert as_shown(nums["RMS"]["value"], direct["rms"])
     # the heat map is the projection-uncertainty plugin's map at the boards' median depth
     z = float(np.median(np.asarray(direct["calibration"]["views"]["tvecs"])[:, 2]))
     assert direct["board_distance"] == pytest.approx(z, rel=1e-12)  # the plugin says where to look first
@@ -215,13 +231,15 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     assert out["epipolar"] == pytest.approx(direct["epipolar"], rel=1e-7)
     assert 75 < out["baseline"] < 95  # the sample rig: about 83 mm for 25-mm squares
     rows = {r["name"]: r for r in s.cal_stereo_rows}
-    assert float(rows["baseline |T|"]["value"]) == pytest.approx(direct["baseline"], rel=1e-5)
-    assert float(rows["Tx"]["std"]) == pytest.approx(direct["std_T"][0], rel=0.05)
-    assert float(rows["epipolar distance rms"]["value"]) == pytest.approx(direct["epipolar"]["rms"], rel=1e-2)
+    assert as_shown(rows["baseline |T|"]["value"], direct["baseline"])
+    # σ of a length below 1 mm in µm (the number rule), two significant digits
+    assert rows["Tx"]["std_unit"] == "µm" and as_shown(rows["Tx"]["std"], direct["std_T"][0], "µm")
+    assert as_shown(rows["Tx"]["value"], direct["T"][0])
+    assert as_shown(rows["epipolar distance rms"]["value"], direct["epipolar"]["rms"])
     # the pose as the plugin's Rodrigues vector, in degrees
     assert direct["rotation_angle"] == pytest.approx(np.linalg.norm(cv2.Rodrigues(np.asarray(direct["R"]))[0]))
-    assert float(rows["rotation angle"]["value"]) == pytest.approx(np.degrees(direct["rotation_angle"]), rel=1e-4)
-    assert float(rows["rotation ry (Rodrigues)"]["value"]) == pytest.approx(np.degrees(direct["rvec"][1]), rel=1e-4)
+    assert as_shown(rows["rotation angle"]["value"], np.degrees(direct["rotation_angle"]))
+    assert as_shown(rows["rotation ry (Rodrigues)"]["value"], np.degrees(direct["rvec"][1]))
     assert s.cal_summary["views"] == "13 of 13 pairs"
     # each camera's own calibration in 'single' is the camera plugin's on that camera's images
     cam_r = session.host.run(
@@ -231,9 +249,7 @@ def test_stereo_pair_pose_epipolar_and_rectified_pair(app):
     # the right camera's list, numbers (refined jointly) and heat map
     page.show_side("right")
     assert [r["name"] for r in s.cal_rows] == [p.name for p in RIGHT]
-    assert float({n["name"]: n for n in s.cal_numbers}["fx"]["value"]) == pytest.approx(
-        direct["right"]["camera_matrix"][0][0], rel=1e-5
-    )
+    assert as_shown({n["name"]: n for n in s.cal_numbers}["fx"]["value"], direct["right"]["camera_matrix"][0][0])
     pu = session.host.run(
         "calibration.projection-uncertainty",
         inputs={"calibration": cam_r["calibration"]},
@@ -404,3 +420,22 @@ def test_worker_run_with_progress(app):
     assert page.state.cal_running is False and page.state.cal_progress == 100.0
     assert seen and all(name.startswith("camcmm-calibration") for name, _ in seen)
     assert max(f for _, f in seen) >= 0.9
+
+
+def test_numbers_follow_their_standard_deviation():
+    """The page's value ± σ (the number rule, camcmm.numbers): σ with two significant
+    digits, the value to σ's last decimal, a real minus, no exponent; the issue's
+    "p2 −0.000112674 ± 0.000139" becomes "−0.00011 ± 0.00014"."""
+    from camcmm.gui.pages.calibration.results import stereo_rows, with_std
+
+    assert with_std(-0.000112674, 0.000139) == ("\u22120.00011", "0.00014")
+    assert with_std(532.80992, 0.52) == ("532.81", "0.52")
+    assert with_std(532.80992, 2.3) == ("532.8", "2.3")
+    assert with_std(3e-9, 0.01) == ("0", "0.010")
+    assert with_std(1.5e-7, None) == ("0.00000015", "")
+    rows = {r["name"]: r for r in stereo_rows({"T": [-83.1234, 0.5, 1.2], "std_T": [0.047, 0.2, 1.5],
+                                                "baseline": 83.18, "baseline_std": 0.35})}  # fmt: skip
+    assert (rows["Tx"]["value"], rows["Tx"]["std"], rows["Tx"]["std_unit"]) == ("\u221283.123", "47", "µm")
+    assert (rows["Tz"]["value"], rows["Tz"]["std"], rows["Tz"]["std_unit"]) == ("1.2", "1.5", "mm")
+    assert (rows["baseline |T|"]["value"], rows["baseline |T|"]["std"]) == ("83.18", "350")
+    assert all("e" not in r["value"] and "e" not in r["std"] for r in rows.values())

@@ -19,6 +19,7 @@ import math
 from typing import Any
 from xml.sax.saxutils import escape
 
+from .... import numbers
 from .board import COUNTS, UNITS, size_label
 
 #: the drawing's box in px, and its margins (room for the dimension and the counts)
@@ -49,8 +50,8 @@ def size_text(form: dict[str, Any]) -> str:
     v, unit = _number(form.get("square")), str(form.get("unit") or "mm")
     if v is None or unit not in UNITS:
         return MISSING
-    text = f"{v:g} {unit}"
-    return text if unit == "mm" else f"{text} = {v * UNITS[unit]:g} mm"
+    text = f"{numbers.significant(v, 6)} {unit}"
+    return text if unit == "mm" else f"{text} = {numbers.significant(v * UNITS[unit], 6)} mm"
 
 
 def points(form: dict[str, Any]) -> tuple[list[tuple[float, float]], tuple[float, float], str]:

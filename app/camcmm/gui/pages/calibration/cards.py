@@ -14,6 +14,10 @@ from typing import Any
 from ...widgets import dyn_tid, tid
 
 CARD = "mb-3"
+#: a number row's value with its unit, and its standard deviation with its own (µm for a
+#: length's below 1 mm: the number rule); the degree sign follows the number unspaced
+VALUE = "{{ n.value + (n.unit === '°' ? '°' : (n.unit ? ' ' + n.unit : '')) }}"
+STD = "{{ n.std ? '± ' + n.std + (n.std_unit === '°' ? '°' : (n.std_unit ? ' ' + n.std_unit : '')) : '' }}"
 STATUS_COLOURS = "({'used': 'success', 'left out': 'warning', 'not found': 'error'})[r.status]"
 MAP_TEXT = (
     "The map gives, for a point at the working distance seen at each pixel, the standard deviation of its "
@@ -281,14 +285,13 @@ def _chart_and_numbers(v: Any, html: Any, tplotly: Any) -> None:
             with v.VTable(density="compact"):
                 with html.Thead():
                     with html.Tr():
-                        for h, cls in (("", ""), ("value", "text-right"), ("σ", "text-right"), ("", "")):
+                        for h, cls in (("", ""), ("value", "text-right"), ("σ (standard deviation)", "text-right")):
                             html.Th(h, classes=cls)
                 with html.Tbody():
                     with html.Tr(v_for="n in cal_numbers", key="n.name", raw_attrs=dyn_tid("'cal-num-' + n.name")):
                         html.Td("{{ n.name }}", classes="font-weight-medium")
-                        html.Td("{{ n.value }}", classes="text-right")
-                        html.Td("{{ n.std ? '± ' + n.std : '' }}", classes="text-right text-medium-emphasis")
-                        html.Td("{{ n.unit }}")
+                        html.Td(VALUE, classes="text-right")
+                        html.Td(STD, classes="text-right text-medium-emphasis")
 
 
 def _heat_map(v: Any, html: Any, tplotly: Any, page: Any) -> None:
@@ -329,9 +332,8 @@ def _stereo(v: Any, html: Any) -> None:
             with html.Tbody():
                 with html.Tr(v_for="n in cal_stereo_rows", key="n.name"):
                     html.Td("{{ n.name }}", classes="font-weight-medium")
-                    html.Td("{{ n.value }}", classes="text-right")
-                    html.Td("{{ n.std ? '± ' + n.std : '' }}", classes="text-right text-medium-emphasis")
-                    html.Td("{{ n.unit }}")
+                    html.Td(VALUE, classes="text-right")
+                    html.Td(STD, classes="text-right text-medium-emphasis")
 
 
 def _rectified(v: Any, html: Any, page: Any) -> None:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers
 from ...plotly_json import LEGEND_TOP_RIGHT, empty, layout
 
 USED, LEFT_OUT, NOT_FOUND = "#1f77b4", "#d62728", "#7f7f7f"
@@ -44,7 +45,7 @@ def views_figure(rows: list[dict[str, Any]], rms: float | None, title: str) -> d
                     "y": [r["rms"] for r in sel],
                     "marker": {"color": colour},
                     "customdata": [r["reason"] for r in sel],
-                    "hovertemplate": "%{x}<br>RMS %{y:.3g} px<br>%{customdata}<extra>" + label + "</extra>",
+                    "hovertemplate": "%{x}<br>RMS %{y:.3r} px<br>%{customdata}<extra>" + label + "</extra>",
                 }
             )
     missing = [r for r in rows if r["rms"] is None]
@@ -80,7 +81,7 @@ def views_figure(rows: list[dict[str, Any]], rms: float | None, title: str) -> d
         ]
         lay["annotations"] = [
             {
-                "text": f"overall RMS {float(rms):.3g} px",
+                "text": f"overall RMS {numbers.plain(rms, 3)} px",
                 "xref": "paper",
                 "x": 1,
                 "xanchor": "right",
@@ -99,7 +100,7 @@ def _log_ticks(lo: float, hi: float) -> tuple[list[float], list[str]]:
         m * 10.0**e for e in range(math.floor(math.log10(lo)) - 1, math.ceil(math.log10(hi)) + 1) for m in (1, 2, 5)
     ]
     vals = [v for v in vals if lo <= v <= hi] or [lo, hi]
-    return [math.log10(v) for v in vals], [f"{v:g}" for v in vals]
+    return [math.log10(v) for v in vals], [numbers.significant(v, 3) for v in vals]
 
 
 def heatmap_figure(
@@ -128,7 +129,7 @@ def heatmap_figure(
         "zsmooth": "best",
         "colorbar": bar,
         "name": "σ",
-        "hovertemplate": "u %{x:.0f} px, v %{y:.0f} px<br>σ = %{customdata:.3g} px<extra></extra>",
+        "hovertemplate": "u %{x:.0f} px, v %{y:.0f} px<br>σ = %{customdata:.3r} px<extra></extra>",
     }
     data = [heat]
     if corners is not None and len(corners):
@@ -183,7 +184,7 @@ def views_png(
         if r["rms"] is None:
             ax.plot(i, 0, "x", color=LEFT_OUT, ms=8, clip_on=False)
     if rms is not None:
-        ax.axhline(float(rms), ls="--", lw=1, color="#444", label=f"overall RMS {float(rms):.3g} px")
+        ax.axhline(float(rms), ls="--", lw=1, color="#444", label=f"overall RMS {numbers.plain(rms, 3)} px")
         ax.legend(fontsize=8)
     ax.set_xticks(x, [r["name"] for r in rows], rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS reprojection error / px")

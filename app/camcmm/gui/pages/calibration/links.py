@@ -6,6 +6,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+from .... import numbers
 from ...downloads import Downloads, table_csv
 from . import figures as figs
 from . import results as res
@@ -26,7 +27,7 @@ def offer_heatmap(offered: Downloads, doc: dict[str, Any], side: str) -> dict[st
         return None
     cam = res.camera_part(doc["outputs"], mode, side)
     suffix = f"-{side}" if mode == "stereo" else ""
-    title = f"Projection uncertainty at z = {pu['distance']:g} mm, {res.side_title(mode, side)}"
+    title = f"Projection uncertainty at z = {numbers.significant(pu['distance'], 6)} mm, {res.side_title(mode, side)}"
     return offered.offer(
         f"{base(doc)}-heatmap{suffix}.png",
         replace=True,

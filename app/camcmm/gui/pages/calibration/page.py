@@ -326,7 +326,7 @@ class CalibrationPage:
             self.flush()
             return None
         s.cal_running, s.cal_progress = False, 100.0
-        s.cal_message = f"done: RMS {res.fmt(doc['outputs'].get('rms'), 4)} px, result #{doc['current']['result']}"
+        s.cal_message = f"done: RMS {res.fmt(doc['outputs'].get('rms'), 3)} px, result #{doc['current']['result']}"
         self.show_doc(doc, pics)
         self.session.refresh_results()
         self.session.info(f"calibration stored as result #{doc['current']['result']}")

@@ -15,11 +15,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from .... import numbers
 from ....errors import one_line
 from ....tasks.calibration import projection_map
 from . import figures as figs
 from . import links, pictures
 from . import results as res
+from .board import describe
 
 EMPTY_VIEWS = "run a calibration to see each view's reprojection error"
 EMPTY_MAP = "run a calibration to see the projection uncertainty across the image"
@@ -75,7 +77,7 @@ class Results:
             **res.summary(out, mode),
             "name": cur.get("name", ""),
             "result": cur.get("result"),
-            "board": doc["request"]["board"],
+            "board": describe(doc["request"]["board"]),
             "model": doc["request"]["model"],
         }
         s.cal_warnings = list(doc.get("warnings") or [])  # the plugin warns on RMS, poses, parameters
@@ -144,9 +146,8 @@ class Results:
             s.cal_map_note = ""
             return
         s.cal_distance = pu["distance"]
-        title = (
-            f"Projection uncertainty (1σ, worst direction) at z = {pu['distance']:g} mm, {res.side_title(mode, side)}"
-        )
+        z = numbers.significant(pu["distance"], 6)
+        title = f"Projection uncertainty (1σ, worst direction) at z = {z} mm, {res.side_title(mode, side)}"
         s.cal_fig_map = figs.heatmap_figure(pu, res.used_corners(cam), cam.get("image_size") or [0, 0], title)
         own = "; from the camera's own calibration" if mode == "stereo" else ""
         s.cal_map_note = (
