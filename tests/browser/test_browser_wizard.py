@@ -107,7 +107,7 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
                     page.wait_for_selector(f'[data-testid="wz-counter-sphere"]:has-text("{i + 1} of 10")')
                     chip = card(page, pos).locator('[data-testid="card-verdict"]')
                     assert chip.inner_text().strip().lower() == "pass"
-                page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation [mm]")')
+                page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation")')  # unit: the number rule
                 assert "P_F" in card(page, "sphere-01").inner_text()
                 # a bad file: that card says why, the others stay
                 import_file(page, "sphere", "sphere-06", bad, expect="error")
@@ -205,39 +205,97 @@ def test_wizard_full_part2_test_with_a_killed_server(tmp_path):
     assert time.monotonic() - t0 < 180  # about 40 s on an idle machine; generous for a loaded CI
 
 
-def test_demo_project_opens_with_a_finished_test(tmp_path, demo_project):
+@pytest.fixture(scope="module")
+def served_demo(tmp_path_factory, demo_project):
+    """(server, summary) of a copy of the demo project (its finished part-2 test) served
+    once for the tests below, which run in this order: the demo's result, then a new test
+    over it (which changes the project)."""
     host = default_host()
     if _standard() is None or "virtuallab.acceptance-set" not in host.plugins:
         pytest.skip("the demo's acceptance test needs the vdi2634-2 and virtual-lab plugins")
     from camcmm.demo import create_demo
 
-    demo_project(tmp_path / "demo")  # a copy of the demo built once; create_demo re-opens it
-    summary = create_demo(tmp_path / "demo")
-    verdict = summary["acceptance"]["verdict"]
-    server = Server(tmp_path / "demo")
+    folder = tmp_path_factory.mktemp("served-demo") / "demo"
+    demo_project(folder)  # a copy of the demo built once; create_demo re-opens it
+    summary = create_demo(folder)
+    server = Server(folder)
     try:
-        with sync_api.sync_playwright() as p:
-            browser = launch(p)
-            try:
-                page = browser.new_page(viewport={"width": 1400, "height": 900})
-                page.set_default_timeout(30_000)
-                open_wizard(page, server.url)
-                chip = page.locator('[data-testid="wz-verdict"]')  # opens on the result
-                chip.wait_for()
-                assert chip.inner_text().strip() == verdict.upper()
-                assert page.locator('[data-testid="wz-report-html"]').count() == 1
-                page.screenshot(path=str(SHOTS / "wizard-demo-result.png"))
-                page.locator('[data-testid="wz-tab-positions"]').click()
-                page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("10 of 10 sphere positions")')
-                assert counter(page, "ball_bar") == "7 of 7 ball bar orientations"
-                assert counter(page, "flat") == "6 of 6 flat orientations"
-                assert page.locator('[data-status="done"]').count() == 23
-                card(page, "flat-03").locator('[data-testid="card-show"]').click()
-                page.wait_for_selector('[data-testid="wz-detail"]:has-text("flat-03")')
-                page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation [mm]")')
-                time.sleep(1.0)
-                page.screenshot(path=str(SHOTS / "wizard-demo-positions.png"))
-            finally:
-                browser.close()
+        yield server, summary
     finally:
         server.stop()
+
+
+def test_demo_project_opens_with_a_finished_test(served_demo):
+    server, summary = served_demo
+    verdict = summary["acceptance"]["verdict"]
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            page.set_default_timeout(30_000)
+            open_wizard(page, server.url)
+            chip = page.locator('[data-testid="wz-verdict"]')  # opens on the result
+            chip.wait_for()
+            assert chip.inner_text().strip() == verdict.upper()
+            assert page.locator('[data-testid="wz-report-html"]').count() == 1
+            page.screenshot(path=str(SHOTS / "wizard-demo-result.png"))
+            page.locator('[data-testid="wz-tab-positions"]').click()
+            page.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("10 of 10 sphere positions")')
+            assert counter(page, "ball_bar") == "7 of 7 ball bar orientations"
+            assert counter(page, "flat") == "6 of 6 flat orientations"
+            assert page.locator('[data-status="done"]').count() == 23
+            card(page, "flat-03").locator('[data-testid="card-show"]').click()
+            page.wait_for_selector('[data-testid="wz-detail"]:has-text("flat-03")')
+            page.wait_for_selector('[data-testid="legend-title"]:has-text("deviation")')  # unit: the number rule
+            time.sleep(1.0)
+            page.screenshot(path=str(SHOTS / "wizard-demo-positions.png"))
+        finally:
+            browser.close()
+
+
+def test_a_new_test_over_the_finished_one_asks_and_both_tabs_follow(served_demo):
+    """Issue 30: "Set up a new test" over the demo's finished test asks first, naming it and
+    its verdict and where it stays; after Start in tab A, tab B (its own session) names
+    the same current test, without a reload; the results list names the old report."""
+    server, summary = served_demo
+    verdict = summary["acceptance"]["verdict"]
+    words = {"pass": "passed", "fail": "failed"}.get(verdict, verdict)
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            tabs = []
+            for _ in range(2):
+                tab = browser.new_page(viewport={"width": 1366, "height": 768})
+                tab.set_default_timeout(30_000)
+                open_wizard(tab, server.url)
+                tab.locator('[data-testid="wz-tab-setup"]').click()
+                tabs.append(tab)
+            a, b = tabs
+            old = a.locator('[data-testid="wz-test-name"]').inner_text().strip()
+            assert old.startswith("Current test: VDI/VDE 2634 part 2 — ") and ", started " in old
+            assert b.locator('[data-testid="wz-test-name"]').inner_text().strip() == old
+            a.locator('[data-testid="wz-unlock"]').click()
+            dialog = a.locator('[data-testid="wz-supersede"]')
+            dialog.wait_for()
+            text = dialog.inner_text()
+            assert old.removeprefix("Current test: ") in text and f"finished: {words}" in text
+            assert "result #" in text and "results list" in text  # where the old one stays findable
+            a.screenshot(path=str(SHOTS / "wizard-supersede-1366.png"))
+            a.locator('[data-testid="wz-supersede-confirm"]').click()
+            dialog.wait_for(state="detached")
+            field = a.locator('[data-testid="wz-system-name"] input')
+            field.fill("Second scanner")
+            field.press("Tab")
+            a.locator('[data-testid="wz-start"]').click()
+            a.wait_for_selector('[data-testid="wz-counter-sphere"]:has-text("0 of 10 sphere positions")')
+            # tab B follows the project (no reload): the same current test, the old one listed as earlier
+            b.wait_for_selector('[data-testid="wz-test-name"]:has-text("Second scanner")', timeout=15_000)
+            a.locator('[data-testid="wz-tab-setup"]').click()
+            name_a = a.locator('[data-testid="wz-test-name"]').inner_text().strip()
+            assert b.locator('[data-testid="wz-test-name"]').inner_text().strip() == name_a
+            assert b.locator('[data-testid="wz-test-status"]').inner_text().startswith("running")
+            assert a.locator('[data-testid="wz-test-status"]').inner_text().startswith("running")
+            assert b.locator('[data-testid="wz-earlier"]').count() == 1
+            b.screenshot(path=str(SHOTS / "wizard-second-tab-1366.png"))
+        finally:
+            browser.close()

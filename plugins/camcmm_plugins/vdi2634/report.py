@@ -262,6 +262,10 @@ def _uncertainty_section(r, result: dict[str, Any]) -> None:
     )
 
 
+#: A verdict key as the report's header writes it.
+_VERDICT_WORDS = {"pass": "passed", "fail": "failed", "inconclusive": "inconclusive", "incomplete": "incomplete"}
+
+
 def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
     """Render the report of ``result`` (from a standard's __call__/summarize) into
     ``directory``; returns {"html", "pdf", "json"} paths."""
@@ -270,10 +274,13 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
         f"{result.get('standard_name', result['standard'])} acceptance test",
         subtitle=result["system"].get("name") or "",
         meta={
-            "Standard": result["standard"],
-            "Plan": prov.get("plan"),
-            "Verdict": result["verdict"],
-            "Verdict (guarded)": result["verdict_guarded"],
+            "Standard": f"{result.get('standard_name') or result['standard']} ({result['standard']})",
+            # a plan given as a dict without a name is called "plan": nothing a person reads
+            **({"Test plan": prov.get("plan")} if prov.get("plan") not in (None, "", "plan") else {}),
+            "Verdict": _VERDICT_WORDS.get(result["verdict"], result["verdict"]),
+            "Verdict with the test uncertainty (guarded, ISO 14253-1)": _VERDICT_WORDS.get(
+                result["verdict_guarded"], result["verdict_guarded"]
+            ),
         },
     )
     _result_section(r, result)
@@ -294,7 +301,7 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
         plugins=prov.get("plugins", []),
         inputs=inputs,
         extra={
-            "plan": prov.get("plan"),
+            "test plan": prov.get("plan") if prov.get("plan") not in (None, "", "plan") else "given as data (no file)",
             "missing inputs": ", ".join(str(i.get("file")) for i in prov.get("inputs", []) if not i.get("sha256"))
             or "none",
         },

@@ -7,6 +7,7 @@ import logging
 import math
 from typing import Any
 
+from camcmm import numbers
 from camcmm.conformity import combine, simple_verdict
 from camcmm.errors import InputError
 
@@ -50,11 +51,14 @@ def _vector(value: Any, what: str, n: int = 3) -> list[float]:
 
 
 def fmt_mm(v: Any, signed: bool = False, unit: str = "mm") -> str:
-    """A value as text with 4 decimals and its unit ("–" when there is none)."""
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+    """A quality parameter's figure as the number rule writes it (:mod:`camcmm.numbers`):
+    a value in mm (a deviation, a form, an MPE, an uncertainty) in µm, a sign kept when
+    ``signed``; another unit plainly with it; "–" when there is none."""
+    if v is None or not numbers.finite(v):
         return "–"
-    text = f"{float(v):+.4f}" if signed else f"{float(v):.4f}"
-    return f"{text} {unit}".rstrip()
+    if unit in ("mm", "", None):
+        return numbers.deviation(float(v), signed=signed)
+    return numbers.plain(float(v), 4) + (f" {numbers.unit_text(unit)}" if unit else "")
 
 
 def fmt_value(v: Any, signed: bool = False, unit: str = "mm") -> str:

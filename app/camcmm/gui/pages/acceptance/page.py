@@ -12,7 +12,7 @@ from typing import Any
 
 from camcmm.errors import one_line
 from camcmm.tasks.acceptance import STATE_KEY, Wizard, fmt_mm, parameter
-from camcmm.tasks.acceptance.naming import status_text
+from camcmm.tasks.acceptance.naming import status_text, verdict_text
 from camcmm.tasks.acceptance.values import log
 
 from ...downloads import REPORT_TITLES, Downloads, sort_links
@@ -279,6 +279,8 @@ class WizardPage:
                     "U": fmt_mm(p.get("U"), unit=unit),
                     "verdict": p.get("verdict") or "incomplete",
                     "verdict_guarded": p.get("verdict_guarded") or "incomplete",
+                    "verdict_text": verdict_text(p.get("verdict")),
+                    "guarded_text": verdict_text(p.get("verdict_guarded")),
                     "n": p.get("n_evaluated", ""),
                     "note": "; ".join(p.get("incomplete_reasons") or []),
                 }

@@ -20,6 +20,8 @@ def build_result(page: Any) -> None:
     from trame.widgets import html
 
     with html.Div(v_if="wz_step === 'result' && wz_active", raw_attrs=tid("wz-result")):
+        # which test this is (the same line in every tab on the project)
+        html.Div("{{ wz_test_name }}", classes="text-subtitle-2 mb-1", raw_attrs=tid("wz-result-name"))
         _verdicts()
         html.Div("{{ wz_progress_text }}", classes="text-caption mb-2")
         _parameter_table()
@@ -59,8 +61,16 @@ def _parameter_table() -> None:
     with v.VTable(density="compact", raw_attrs=tid("wz-parameters")):
         with html.Thead():
             with html.Tr():
-                for h in ("Parameter", "Value", "MPE", "U (k=2)", "Simple", "Guarded", "n"):
-                    html.Th(h)
+                for h, tip in (
+                    ("Parameter", ""),
+                    ("Value", ""),
+                    ("MPE", "maximum permissible error, from the system's specification"),
+                    ("U (k = 2)", "expanded uncertainty of the test, coverage factor k = 2"),
+                    ("Verdict", "simple acceptance: the value against the MPE"),
+                    ("Guarded", "guarded acceptance (ISO 14253-1): the value with its uncertainty U against the MPE"),
+                    ("n", "measurements evaluated"),
+                ):
+                    html.Th(h, title=tip)
         with html.Tbody():
             with html.Tr(v_for="p in wz_parameters", key="p.key", raw_attrs=dyn_tid("'wz-param-' + p.key")):
                 with html.Td(title=("p.note",)):
@@ -70,10 +80,10 @@ def _parameter_table() -> None:
                 html.Td("{{ p.mpe }}", classes="text-right text-no-wrap")
                 html.Td("{{ p.U }}", classes="text-right text-no-wrap")
                 with html.Td():
-                    v.VChip("{{ p.verdict }}", size="x-small", variant="flat", color=verdict_color("p.verdict"))
+                    v.VChip("{{ p.verdict_text }}", size="x-small", variant="flat", color=verdict_color("p.verdict"))
                 with html.Td():
                     v.VChip(
-                        "{{ p.verdict_guarded }}",
+                        "{{ p.guarded_text }}",
                         size="x-small",
                         variant="tonal",
                         color=verdict_color("p.verdict_guarded"),

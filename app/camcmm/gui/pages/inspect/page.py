@@ -302,7 +302,10 @@ class InspectPage:
         plugin = str(d.get("plugin", ""))
         spec = plugin_run.spec_of(self.session.host, plugin)
         self._show(spec, d, {}, list(d.get("warnings") or []))
-        self.state.result_title = f"result #{rid}: {plugin} {d.get('version', '')} ({d.get('finished', '')})"
+        from camcmm.tasks.acceptance.naming import result_row  # named as the results list names it
+
+        row = result_row(d, self.session.host)
+        self.state.result_title = f"result #{rid}: {row['title']} ({row['subtitle']}; {plugin} {d.get('version', '')})"
         self.result_items = {str(m) for m in d.get("measurement_ids") or []}
         self.result_newest, self.result_id = False, rid
 
