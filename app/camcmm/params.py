@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .errors import ParameterError
+from .numbers import unit_text
 
 TYPES = ("float", "int", "bool", "str", "choice", "vector", "path", "address")
 #: What a ``path`` parameter does with its file or folder (manifest key ``access``).
@@ -34,6 +35,8 @@ KEYS = (
     "required",
     "help",
     "access",
+    "choice_titles",
+    "label",
 )
 #: Largest integer any int parameter takes, declared max or not: beyond it JSON (a double)
 #: no longer holds integers exactly.
@@ -76,6 +79,12 @@ class Param:
     required: bool = False
     help: str = ""
     access: str = ""
+    #: a choice's words where its key is not (``SIMPLE_RADIAL`` -> "simple radial (f, cx, cy, k)"),
+    #: as ``(key, title)`` pairs; the key stays what files, JSON and the CLI take
+    choice_titles: tuple[tuple[str, str], ...] = ()
+    #: the form's words for the parameter where its key says too little (``scheduler`` ->
+    #: "compute cluster (Dask scheduler)"); manifest key ``label``, without the unit
+    declared_label: str = ""
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Param:
@@ -90,6 +99,9 @@ class Param:
         choices = tuple(str(c) for c in d.get("choices", ()))
         if kind == "choice" and not choices:
             raise ParameterError(f"parameter {d['name']!r}: type choice needs 'choices'")
+        titles = d.get("choice_titles") or {}
+        if not isinstance(titles, dict) or any(str(k) not in choices for k in titles):
+            raise ParameterError(f"parameter {d['name']!r}: choice_titles must map some of its choices to words")
         access = str(d.get("access", "read" if kind == "path" else ""))
         if kind != "path" and "access" in d:
             raise ParameterError(f"parameter {d['name']!r}: 'access' is for type path, not {kind}")
@@ -109,6 +121,8 @@ class Param:
             required=bool(d.get("required", False)),
             help=str(d.get("help", "")),
             access=access,
+            choice_titles=tuple((str(k), str(v)) for k, v in titles.items()),
+            declared_label=str(d.get("label", "")),
         )
         lo = max((x for x in (p.minimum, p.exclusive_minimum) if x is not None), default=None)
         if lo is not None and p.maximum is not None and lo > p.maximum:
@@ -140,6 +154,10 @@ class Param:
             d["finite"] = False
         if self.choices:
             d["choices"] = list(self.choices)
+        if self.choice_titles:
+            d["choice_titles"] = dict(self.choice_titles)
+        if self.declared_label:
+            d["label"] = self.declared_label
         if self.required:
             d["required"] = True
         return d
@@ -345,7 +363,9 @@ def _unit_words(unit: str) -> list[list[str]]:
 def label(p: Param) -> str:
     """A form's label: the name in words, the unit once in brackets. A name that already
     ends in its unit (``exposure_ms`` in ms) is not labelled "exposure ms [ms]" but
-    "exposure [ms]"."""
+    "exposure [ms]". A declared ``label`` replaces the name's words."""
+    if p.declared_label:
+        return f"{p.declared_label} [{unit_text(p.unit)}]" if p.unit else p.declared_label
     words = p.name.split("_")
     for unit_words in _unit_words(p.unit) if p.unit else []:
         n = len(unit_words)
@@ -353,7 +373,29 @@ def label(p: Param) -> str:
             words = words[:-n]
             break
     text = " ".join(w for w in words if w)
-    return f"{text} [{p.unit}]" if p.unit else text
+    return f"{text} [{unit_text(p.unit)}]" if p.unit else text
+
+
+def named(p: Param, value: Any = None) -> str:
+    """The parameter as a message names it for a person — its label's words, not its key:
+    ``named(sigma_px)`` -> ``"sigma"``, ``named(sigma_px, 6)`` -> ``"sigma = 6 px"``
+    (issue 30: "sigma_px = 6" read as code)."""
+    text = re.sub(r"\s*\[[^\]]*\]$", "", label(p))
+    if value is None:
+        return text
+    shown = _num(value) if isinstance(value, float) else str(value)
+    return f"{text} = {shown} {unit_text(p.unit)}".rstrip()
+
+
+def choice_title(p: Param, choice: Any) -> str:
+    """A choice as the form shows it: its declared title, else the key in words
+    (``stereo_fringe`` -> "stereo fringe", ``um`` -> "µm")."""
+    key = str(choice)
+    declared = dict(p.choice_titles)
+    if key in declared:
+        return declared[key]
+    shown = unit_text(key)
+    return shown if shown != key else key.replace("_", " ")
 
 
 def form_schema(params: list[Param]) -> list[dict[str, Any]]:
@@ -368,4 +410,10 @@ def form_schema(params: list[Param]) -> list[dict[str, Any]]:
         "path": "text",
         "address": "text",
     }
-    return [{"name": p.name, "widget": widget[p.type], "label": label(p), **p.to_dict()} for p in params]
+    out = []
+    for p in params:
+        d = {"name": p.name, "widget": widget[p.type], **p.to_dict(), "label": label(p)}
+        if p.choices:  # what a select shows; the values stay the keys
+            d["items"] = [{"title": choice_title(p, c), "value": c} for c in p.choices]
+        out.append(d)
+    return out

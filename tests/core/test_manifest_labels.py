@@ -9,6 +9,7 @@ import re
 import pytest
 
 from camcmm.host import default_host
+from camcmm.numbers import unit_text
 from camcmm.params import Param, form_schema, label
 
 
@@ -28,11 +29,11 @@ def _doubled(field: dict) -> str | None:
     text = field["label"]
     if not unit:
         return None
-    tail = f" [{unit}]"
+    tail = f" [{unit_text(unit)}]"  # shown as a person writes it: µm, µrad, ° (issue 30)
     if not text.endswith(tail):
         return f"{text!r} does not end in {tail!r}"
     words = text[: -len(tail)].strip().lower()
-    if words.count(f"[{unit.lower()}]"):
+    if words.count(f"[{unit.lower()}]") or words.count(tail.strip().lower()):
         return f"{text!r} names its unit twice"
     for spelled in _unit_spellings(unit):
         if words == spelled or words.endswith(" " + spelled):
@@ -84,7 +85,9 @@ def test_every_builtin_device_setting_is_labelled_with_its_unit_once():
         ("exposure_ms", "ms", "exposure [ms]"),  # the case issue 15 saw
         ("gain_db", "dB", "gain [dB]"),
         ("travel_mm", "mm", "travel [mm]"),
-        ("span_deg", "deg", "span [deg]"),
+        ("span_deg", "deg", "span [°]"),
+        ("pitch_um", "um", "pitch [µm]"),  # the key's ASCII unit, written µm (issue 30)
+        ("u_rotation", "urad", "u rotation [µrad]"),
         ("speed_mm_per_s", "mm/s", "speed [mm/s]"),
         ("sigma_um", "µm", "sigma [µm]"),
         ("voxel_size", "mm", "voxel size [mm]"),
@@ -104,3 +107,45 @@ def test_the_check_refuses_the_old_label():
     assert _doubled({"label": "exposure ms [ms]", "unit": "ms"})
     assert _doubled({"label": "travel mm [mm]", "unit": "mm"})
     assert _doubled({"label": "speed mm per s [mm/s]", "unit": "mm/s"})
+
+
+# -- words instead of keys (issue 30) ---------------------------------------------------------
+def test_a_declared_label_and_choice_titles_are_what_the_form_shows():
+    from camcmm.params import choice_title
+
+    p = Param.from_dict(
+        {
+            "name": "camera_model",
+            "type": "choice",
+            "choices": ["SIMPLE_RADIAL", "OPENCV", "stereo_fringe", "um"],
+            "choice_titles": {"SIMPLE_RADIAL": "simple radial (f, cx, cy, k)"},
+            "default": "SIMPLE_RADIAL",
+        }
+    )
+    (field,) = form_schema([p])
+    assert field["choices"] == ["SIMPLE_RADIAL", "OPENCV", "stereo_fringe", "um"]  # the keys stay the values
+    assert [i["title"] for i in field["items"]] == ["simple radial (f, cx, cy, k)", "OPENCV", "stereo fringe", "µm"]
+    assert [i["value"] for i in field["items"]] == field["choices"]
+    assert choice_title(p, "SIMPLE_RADIAL") == "simple radial (f, cx, cy, k)"
+    assert Param.from_dict(p.to_dict()) == p  # the titles survive the manifest's JSON
+
+    q = Param.from_dict({"name": "scheduler", "type": "address", "label": "compute cluster (Dask scheduler)"})
+    assert form_schema([q])[0]["label"] == "compute cluster (Dask scheduler)" and q.label == q.declared_label
+    r = Param.from_dict({"name": "pitch", "unit": "um", "label": "pixel pitch"})
+    assert label(r) == "pixel pitch [µm]"
+
+
+def test_choice_titles_must_name_declared_choices():
+    from camcmm.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="choice_titles"):
+        Param.from_dict({"name": "m", "type": "choice", "choices": ["a"], "choice_titles": {"b": "B"}})
+
+
+def test_a_parameter_is_named_in_words_in_a_message():
+    from camcmm.params import named
+
+    p = Param("sigma_px", unit="px")
+    assert named(p) == "sigma" and named(p, 6.0) == "sigma = 6 px"
+    assert named(Param("u_rotation", unit="urad"), 25.0) == "u rotation = 25 µrad"
+    assert named(Param("iterations", type="int"), 10) == "iterations = 10"

@@ -390,7 +390,7 @@ def test_form_of_every_parameter_type_and_progress(app, lab_host, cloud_file):
     assert widgets == {
         "origin": ("text", "origin [mm]"),
         "steps": ("number", "steps"),
-        "scale": ("number", "scale [um]"),
+        "scale": ("number", "scale [µm]"),  # the key's um written µm (issue 30)
         "squared": ("switch", "squared"),
         "method": ("select", "method"),
         "note": ("text", "note"),

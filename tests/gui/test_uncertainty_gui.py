@@ -20,6 +20,7 @@ pytest.importorskip("pyvista")
 pytest.importorskip("trame_plotly")
 
 from camcmm.gui.pages.uncertainty import figures as figs  # noqa: E402
+from camcmm.numbers import unit_text  # noqa: E402
 from camcmm.tasks import uncertainty as unc  # noqa: E402
 from helpers.cli import run_camcmm  # noqa: E402
 
@@ -155,7 +156,8 @@ def test_montecarlo_form_is_the_plugins_declared_fields(gui_app):
     assert names == set(declared) - {"studies"}
     for f in fields:
         unit = declared[f["name"]].unit
-        assert f["label"].count("[") == (1 if unit else 0) and f["label"].endswith(f"[{unit}]" if unit else "")
+        shown = unit_text(unit)  # µm, µrad, ° as a person reads them (issue 30)
+        assert f["label"].count("[") == (1 if unit else 0) and f["label"].endswith(f"[{shown}]" if unit else "")
         assert f.get("help"), f["name"]  # the tooltip (param_form's title)
     assert s.unc_mc_params["focal_length"] == "16.74, 16.66" and s.unc_mc_params["u_rotation"] == "184, 152, 71"
     params = dict(s.unc_mc_params, grid_points="4, 3, 3", iterations=200, studies=[])

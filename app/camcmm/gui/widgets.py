@@ -159,7 +159,7 @@ def param_form(
         v.VSelect(
             **bind(
                 v_else_if=f"{f}.widget === 'select'",
-                items=(f"{f}.choices",),
+                items=(f"{f}.items || {f}.choices",),  # items: the choices in words (params.choice_title)
                 label=(f"{f}.label",),
                 hint=(f"{f}.help",),
                 density="compact",

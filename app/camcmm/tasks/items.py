@@ -35,7 +35,12 @@ def kind_of(obj: Any) -> str:
 def describe(obj: Any) -> str:
     k = kind_of(obj)
     if k == "pointcloud":
-        extra = f", fields: {', '.join(obj.fields)}" if getattr(obj, "fields", None) else ""
+        # the fields in words (``radial_deviation`` -> "radial deviation"): the summary is read
+        extra = (
+            f", fields: {', '.join(str(f).replace('_', ' ') for f in obj.fields)}"
+            if getattr(obj, "fields", None)
+            else ""
+        )
         return f"{fmt_count(obj.n_points)} points{extra}"
     if k == "mesh":
         return f"{fmt_count(obj.n_vertices)} vertices, {fmt_count(obj.n_faces)} faces"
@@ -59,6 +64,20 @@ def size_text(obj: Any) -> str:
         z = obj.heights[obj.valid]
         return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
     return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
+
+
+def joined_name(*parts: Any, sep: str = "-") -> str:
+    """Parts of a name joined by ``sep``, a part left out when the next one already starts with
+    it (``-`` and ``_`` alike, any case): test ``sphere`` and position ``sphere-01`` give
+    ``sphere-01``, not ``sphere-sphere-01``; ``ball_bar`` and ``ball-bar-01`` give
+    ``ball-bar-01`` (issue 30: a name must not say its test twice). Empty parts are dropped."""
+
+    def key(x: str) -> str:
+        return re.sub(r"[-_\s]+", "-", x.strip().lower())
+
+    texts = [str(p).strip() for p in parts if p is not None and str(p).strip()]
+    kept = [t for t, nxt in zip(texts, texts[1:] + [""]) if not (nxt and (key(nxt) + "-").startswith(key(t) + "-"))]
+    return sep.join(kept)
 
 
 def safe_name(name: str) -> str:

@@ -17,6 +17,7 @@ from typing import Any
 
 from camcmm import worker
 from camcmm.io import write
+from camcmm.tasks.items import joined_name, safe_name
 
 from .state import TestState
 
@@ -58,6 +59,7 @@ def acquire(host: Any, source: str, params: dict[str, Any], where: dict[str, Any
     res = worker.run(host, source, {"placement": where}, params)
     cloud = res.outputs["cloud"]
     folder = Path(tempfile.mkdtemp(prefix="camcmm-acquire-"))
-    path = folder / f"{where['test']}-{where['position']['id']}.ply"
+    # the position id often holds the test already (vdi2634: test sphere, position sphere-01)
+    path = folder / safe_name(f"{joined_name(where['test'], where['position']['id'])}.ply")
     write(cloud, path)
     return path

@@ -34,7 +34,9 @@ def _plugins(page: Any) -> None:
             v.VTooltip(activator="parent", text=("p.summary || p.status",), location="end", open_delay=600)
             v.VListItemTitle("{{ p.name }}")
             with html.Div(classes="d-flex align-center ga-1"):
-                html.Span("{{ p.id }} · v{{ p.version }}", classes="text-caption text-medium-emphasis")
+                # the version only: the id is the command line's name (camcmm run <id>), not a word
+                # to read here (issue 30); data-plugin-id keeps it for scripts and tests
+                html.Span("v{{ p.version }}", classes="text-caption text-medium-emphasis")
                 v.VChip("{{ p.kind }}", size="x-small", variant="tonal", color="secondary")
                 v.VChip("failed", v_if="!p.ok", size="x-small", variant="flat", color="error")
             html.Div("{{ p.status }}", v_if="!p.ok", classes="text-caption text-error", raw_attrs=tid("plugin-error"))

@@ -79,7 +79,7 @@ class UncertaintyPage:
         self.mc_system: dict[str, Any] | None = None
         s.unc_mc_loaded = ""
         s.unc_mc_studies = ["convergence", "volume_maps"]
-        s.unc_mc_study_options = study.STUDIES
+        s.unc_mc_study_options = [{"title": study.STUDY_TITLES[k], "value": k} for k in study.STUDIES]
         s.unc_mc_running = False
         s.unc_mc_progress = 0.0
         s.unc_mc_message = ""

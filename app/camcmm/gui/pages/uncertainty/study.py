@@ -22,6 +22,13 @@ __all__ = ["ARRAYS", "MC_KEY", "STUDIES", "done_message", "exports", "form_field
 __all__ += ["start_values", "store", "table_rows"]
 
 STUDIES = ["convergence", "sweep", "volume_maps", "spatial"]
+#: the studies as the page offers them (the values stay the plugin's keys)
+STUDY_TITLES = {
+    "convergence": "convergence with iterations",
+    "sweep": "feature-location sweep",
+    "volume_maps": "volume maps",
+    "spatial": "spatial variation",
+}
 #: The form's first values of the run, the task's ``RUN`` fields (the plugin's own defaults
 #: are the file's or 10000 iterations: a first run in the page should take seconds).
 START = {"iterations": 2000, "seed": 1, "method": "linear", "scheduler": ""}
