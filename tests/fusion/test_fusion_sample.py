@@ -105,3 +105,23 @@ def test_the_cli_offers_the_plugins_grey_choices(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "--grey CHOICE" in text and f"(one of: {', '.join(grey.choices)})" in text
     assert grey.choices == ("auto", "intensity", "shaded")
+
+
+@pytest.mark.parametrize(
+    "asked,trials,blur",
+    [
+        (6.0, {0.0: 2, 1.0: 157, 2.0: 77, 4.0: 4, 8.0: 0}, 2),  # the real Zygo case: nearest 6 with a margin
+        (6.0, {0.0: 17, 1.0: 20, 2.0: 9, 4.0: 0, 8.0: 0}, 1),  # 2 px has too thin a margin (9 of 8)
+        (30.0, {0.0: 107, 1.0: 102, 2.0: 84, 4.0: 47, 8.0: 21}, 8),
+        (6.0, {0.0: 9, 1.0: 12, 2.0: 3, 4.0: 0, 8.0: 0}, 1),  # none with a margin: the most
+    ],
+)
+def test_the_blur_suggested_is_the_nearest_with_a_margin(asked, trials, blur):
+    from camcmm_plugins.fusion.pipeline import too_few
+
+    cloud, *_ = photo_cloud(spacing=0.5, half=2.0)
+    line = too_few("m.x3p", 3, 0, 8, asked, trials, lambda k: {"sigma_px": "sigma [px]"}.get(k, k), cloud, None, None)
+    assert line.endswith(f"sigma [px] = {blur} gives {trials[blur]} consistent matches: set sigma [px] to {blur}")
+    assert line.startswith(
+        f"m.x3p: too few matches with the cloud at sigma [px] = {asked:g} (3 SIFT matches, 0 consistent"
+    )

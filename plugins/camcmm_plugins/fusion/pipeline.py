@@ -136,8 +136,9 @@ def too_few(
     inten,
 ) -> str:
     """The one line refusing a map with too few matches: what was found at the blur asked
-    for, and the blur that gives enough (``trials``: blur px -> consistent matches), or, when
-    none does, what else to check."""
+    for, and the blur that gives enough (``trials``: blur px -> consistent matches; the one
+    nearest the blur asked for among those giving twice ``need``, else the one giving most),
+    or, when none does, what else to check."""
     blur = named("sigma_px")
     head = (
         f"{name}: too few matches with the cloud at {blur} = {sigma_px:g} ({n_matches} SIFT matches, {n} consistent; "
@@ -145,7 +146,13 @@ def too_few(
     )
     good = {sg: k for sg, k in trials.items() if k >= need}
     if good:
-        best = max(good, key=lambda sg: (good[sg], -abs(sg - sigma_px)))
+        # the blur nearest the one asked for among those with a margin (twice the inliers needed):
+        # it keeps most of the blur's purpose (only the shared bandwidth); else the most inliers
+        ample = [sg for sg, k in good.items() if k >= 2 * need]
+        if ample:
+            best = min(ample, key=lambda sg: (abs(sg - sigma_px), -good[sg]))
+        else:
+            best = max(good, key=lambda sg: good[sg])
         return f"{head}; {blur} = {best:g} gives {good[best]} consistent matches: set {blur} to {best:g}"
     tried = ", ".join(f"{sg:g}" for sg in sorted({*trials, sigma_px}))
     what = f"{head}; no blur tried ({tried} px) gives {need}: the map may not overlap the cloud"
