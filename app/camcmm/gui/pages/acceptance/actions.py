@@ -16,7 +16,7 @@ from camcmm.project.store import utcnow
 from camcmm.tasks.acceptance import PendingEvaluation, fit_rows
 
 #: What the page's 3D view says before a position's deviations are shown.
-VIEW_HINT = "No deviations shown yet: a measured position's colour map appears here (Show on its card)."
+VIEW_HINT = "No deviations shown yet: Show on a measured position's card (2 · Positions) draws its colour map here."
 
 
 def view_direction(ev: dict[str, Any]) -> tuple[list[float], list[float]] | None:
