@@ -177,7 +177,7 @@ class Session:
 
     def error(self, msg: str, page: str | None = None, cause: str = "") -> None:
         """Show a one-line error on ``page`` (default: the page whose code called); the app
-        keeps running. ``cause``: what the message is about (``"unhomed:d1"``): it goes
+        keeps running. ``cause``: what the message is about (``"device d1: motion"``): it goes
         when that is resolved (:meth:`resolve`), besides when it is dismissed, replaced,
         or the page is loaded again (:meth:`client_connected`)."""
         line = " ".join(str(msg).split()) or "unknown error"
@@ -200,10 +200,6 @@ class Session:
         for page in cleared:
             self.clear_error(page=page)
         return cleared
-
-    def cause_of(self, page: str) -> str:
-        """The cause key of the message ``page`` shows ("" when none or when it has none)."""
-        return self._causes.get(page, "") if self.page_error(page) else ""
 
     def client_connected(self, **_: Any) -> None:
         """A tab connected (a reload, or a new tab on this session): the messages of the
