@@ -8,26 +8,42 @@ from typing import Any
 
 import numpy as np
 
+from camcmm.api import numbers
+
 
 def _mm(v: Any) -> str:
-    return f"{float(v):.4f} mm"
+    """A length as the number rule writes it (0.1 µm: 4 decimals in mm, a real minus)."""
+    return numbers.length(float(v))
+
+
+def rule_words(rule: str) -> str:
+    """An outlier rule of the plan (``vdi2634``, ``percent:5``, ``sigma:3``, ``none``) in words."""
+    kind, _, arg = rule.partition(":")
+    if kind == "vdi2634":
+        return "VDI/VDE 2634 rule: at most 3 of every 1000 points"
+    if kind == "percent":
+        return f"the {arg} % farthest points"
+    if kind == "sigma":
+        return f"points beyond {arg} standard deviations"
+    return "no outlier rule" if kind == "none" else rule
 
 
 def fit_text(ev: dict[str, Any]) -> str:
     """One line on the fit: what was fitted, points used/removed."""
     parts = []
     if ev.get("diameter") is not None:
-        parts.append(f"Ø {ev['diameter']:.4f} mm")
+        parts.append(f"Ø {_mm(ev['diameter'])}")
     if ev.get("length") is not None:
-        parts.append(f"L {ev['length']:.4f} mm")
+        parts.append(f"L {_mm(ev['length'])}")
     if isinstance(ev.get("lengths"), list):
-        parts.append("L " + ", ".join(f"{x:.4f}" for x in ev["lengths"]) + " mm")
+        parts.append("L " + ", ".join(numbers.mm(float(x)) for x in ev["lengths"]) + " mm")
     form = ev.get("form") if isinstance(ev.get("form"), dict) else None
     if form and form.get("std") is not None:
-        parts.append(f"σ {1000 * form['std']:.1f} µm")
+        parts.append(f"σ {numbers.deviation(float(form['std']), signed=False)}")
     if ev.get("n_points") is not None:
         used = ev.get("n_used")
-        parts.append(f"{ev['n_points']} pts" if used is None else f"{used} of {ev['n_points']} pts")
+        n = numbers.count(ev["n_points"])
+        parts.append(f"{n} pts" if used is None else f"{numbers.count(used)} of {n} pts")
     if ev.get("n_removed"):
         parts.append(f"{ev['n_removed']} removed")
     return " · ".join(parts)
@@ -40,40 +56,39 @@ def fit_rows(ev: dict[str, Any]) -> list[dict[str, str]]:
     def add(name: str, value: str) -> None:
         rows.append({"name": name, "value": value})
 
-    def xyz(v: Any, digits: int = 3) -> str:
-        return "(" + ", ".join(f"{float(x):.{digits}f}" for x in v) + ") mm"
+    def xyz(v: Any) -> str:
+        return numbers.vector([float(x) for x in v]) + " mm"
 
     if ev.get("center") is not None:
         add("centre", xyz(ev["center"]))
     if ev.get("diameter") is not None:
         cal = ev.get("diameter_calibrated")
-        add("Ø", _mm(ev["diameter"]) + (f" (calibrated {float(cal):.4f})" if cal is not None else ""))
+        add("Ø", _mm(ev["diameter"]) + (f" (calibrated {_mm(cal)})" if cal is not None else ""))
     if ev.get("length") is not None:
         cal = ev.get("length_calibrated")
-        add("length", _mm(ev["length"]) + (f" (calibrated {float(cal):.4f})" if cal is not None else ""))
+        add("length", _mm(ev["length"]) + (f" (calibrated {_mm(cal)})" if cal is not None else ""))
     for i, sph in enumerate(ev.get("spheres") or []):
         if isinstance(sph, dict) and sph.get("center") is not None:
             add(
                 f"sphere {i + 1}",
-                xyz(sph["center"])
-                + (f", Ø {float(sph['diameter']):.4f} mm" if sph.get("diameter") is not None else ""),
+                xyz(sph["center"]) + (f", Ø {_mm(sph['diameter'])}" if sph.get("diameter") is not None else ""),
             )
     if ev.get("normal") is not None:
-        add("normal", "(" + ", ".join(f"{float(x):.4f}" for x in ev["normal"]) + ")")
+        add("normal", numbers.direction([float(x) for x in ev["normal"]]))
     given = ev.get("form")
     form = given if isinstance(given, dict) else {}
     if form.get("std") is not None:
-        add("form σ", f"{1000 * float(form['std']):.1f} µm")
+        add("form σ", numbers.deviation(float(form["std"]), signed=False))
     n, used, removed = ev.get("n_points"), ev.get("n_used"), ev.get("n_removed")
     if n is not None:
-        text = f"{used} of {n} used" if used is not None else f"{n}"
+        text = f"{numbers.count(used)} of {numbers.count(n)} used" if used is not None else numbers.count(n)
         if removed:
-            text += f", {removed} removed"
+            text += f", {numbers.count(removed)} removed"
         if ev.get("outliers"):
-            text += f" (rule {ev['outliers']})"
+            text += f" ({rule_words(str(ev['outliers']))})"
         add("points", text)
     if isinstance(ev.get("scale"), (int, float)) and ev["scale"] != 1:
-        add("scale", f"{float(ev['scale']):.6g}")
+        add("scale", numbers.plain(float(ev["scale"]), 6))
     return rows
 
 

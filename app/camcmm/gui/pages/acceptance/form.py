@@ -133,17 +133,20 @@ class SetupForm:
         catalogue, params = self._fill_tests(tests, decl, cat, form)
         for p in params:
             form["mpe"].setdefault(p, "")
+        try:
+            option_fields = form_fields(w.plan_options(standard)) if standard else []
+        except Exception as exc:  # a bad declaration: the form says so, YAML still works
+            option_fields = []
+            s.wz_setup_error = one_line(exc)
+        for f in option_fields:  # unset: a select reads "(the standard's default)", a switch off
+            form["options"].setdefault(f["key"], False if f["widget"] == "switch" else "")
+        s.wz_option_fields = option_fields
         s.wz_form = form
         s.wz_form_tests = tests
         s.wz_catalogue = catalogue
         s.wz_mpe_fields = [
             {"key": p, "label": f"MPE {parameter(decl, p).symbol}", "unit": parameter(decl, p).unit} for p in params
         ]
-        try:
-            s.wz_option_fields = form_fields(w.plan_options(standard)) if standard else []
-        except Exception as exc:  # a bad declaration: the form says so, YAML still works
-            s.wz_option_fields = []
-            s.wz_setup_error = one_line(exc)
         self.check_artefacts(form)
 
     def check_artefacts(self, form: dict[str, Any] | None = None) -> list[str]:

@@ -249,7 +249,7 @@ class WizardPage:
             s.wz_svgs = w.pictograms()
         plan = w.plan or {}
         s.wz_title = (
-            f"{(w.state or {}).get('standard', '')} — {plan['system'].get('name', '')}, measuring volume "
+            f"{w.title()} — {plan['system'].get('name', '')}, measuring volume "
             + " × ".join(f"{x:g}" for x in plan["system"]["measuring_volume"])
             + " mm"
         )

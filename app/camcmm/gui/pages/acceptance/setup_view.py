@@ -243,14 +243,16 @@ def _volume_row() -> None:
                 )
 
 
-def _field_grid(fields: str, value: str, path: str, testid: str) -> None:
+def _field_grid(fields: str, value: str, path: str, testid: str, md: int = 3) -> None:
     """A grid of number fields, one per declared field ``f`` of the list ``fields``
     (label and unit from the declaration), each bound to ``value`` in the setup form
-    (written back at ``path``, see :func:`set_form`)."""
+    (written back at ``path``, see :func:`set_form`); ``md``: columns of 12 per field on a
+    wide screen (an artefact's labels, "Flatness (calibrated) [mm]", need 4 to be read whole
+    in the page's 55 % at 1366 px)."""
     from trame.widgets import vuetify3 as v
 
     with v.VRow(dense=True):
-        with v.VCol(v_for=f"f in {fields}", key="f.key", cols=6, md=3):
+        with v.VCol(v_for=f"f in {fields}", key="f.key", cols=6, md=md):
             v.VTextField(
                 model_value=(value,),
                 update_modelValue=set_form(path),
@@ -342,6 +344,7 @@ def _artefact_fields(page: Any) -> None:
         "(wz_form.artefacts[t.test] || {})[f.key]",
         "'artefacts' | t.test | f.key",
         "'wz-field-' + t.test + '-' + f.key",
+        md=4,
     )
 
 
