@@ -24,6 +24,7 @@ FAMILIES = (
     "crop",
     "bigcloud",
     "fusion",
+    "calibration_board",
 )
 
 

@@ -356,6 +356,7 @@ def _board_form(v: Any, html: Any) -> None:
             _number_field(
                 v, "cal_board_marker", "Marker size", "cal-board-marker",
                 "The side of the black ArUco marker inside a white square, in the unit above", step="any",
+                style="max-width: 120px;",
             )  # fmt: skip
             v.VSelect(
                 v_model=("cal_board_dict", "DICT_5X5_100"),
