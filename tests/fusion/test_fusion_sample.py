@@ -51,7 +51,8 @@ def test_the_sample_pair_written_by_the_cli_fuses_at_the_defaults(tmp_path, capf
 
 def test_a_blur_with_too_few_matches_names_the_one_that_gives_enough():
     """A sparse cloud (0.1 mm apart): blur 6 px is 0.6 mm, which wipes out the 0.4-1.5 mm
-    pattern; the refusal must name the blur in the form's words and one that fuses."""
+    pattern; the refusal must name the blur in the form's words ("blur [px]", the manifest's
+    label of sigma_px) and one that fuses."""
     cloud, s, _ = photo_cloud(spacing=0.1)
     hm, _ = csi_map(shape=(240, 320), step=0.016, name="sparse.x3p")
     host = default_host()
@@ -60,7 +61,7 @@ def test_a_blur_with_too_few_matches_names_the_one_that_gives_enough():
     line = str(err.value)
     assert "\n" not in line and "sigma_px" not in line and line.startswith("sparse.x3p: too few matches")
     found = re.search(
-        r"at sigma \[px\] = 6 .*; sigma \[px\] = ([\d.]+) gives (\d+) consistent matches: set sigma \[px\] to \1$", line
+        r"at blur \[px\] = 6 .*; blur \[px\] = ([\d.]+) gives (\d+) consistent matches: set blur \[px\] to \1$", line
     )
     assert found, line
     blur, promised = float(found[1]), int(found[2])
@@ -94,7 +95,7 @@ def test_a_colourless_cloud_is_matched_by_relief_against_a_map_with_intensity(tm
     assert r["maps"][0]["grey"] == "shaded" and r["maps"][0]["n_inliers"] >= 8
     assert abs(r["photogrammetry_scale"]["value"] / s - 1) < 2e-3
     line = main_refused(capfd, *argv, "--grey", "intensity")
-    assert "bare.ply: the cloud has no colours" in line and "set grey to shaded" in line
+    assert "bare.ply: the cloud has no colours" in line and "set grey image of the map to shaded" in line
 
 
 def test_the_cli_offers_the_plugins_grey_choices(capsys):
@@ -120,8 +121,8 @@ def test_the_blur_suggested_is_the_nearest_with_a_margin(asked, trials, blur):
     from camcmm_plugins.fusion.pipeline import too_few
 
     cloud, *_ = photo_cloud(spacing=0.5, half=2.0)
-    line = too_few("m.x3p", 3, 0, 8, asked, trials, lambda k: {"sigma_px": "sigma [px]"}.get(k, k), cloud, None, None)
-    assert line.endswith(f"sigma [px] = {blur} gives {trials[blur]} consistent matches: set sigma [px] to {blur}")
+    line = too_few("m.x3p", 3, 0, 8, asked, trials, lambda k: {"sigma_px": "blur [px]"}.get(k, k), cloud, None, None)
+    assert line.endswith(f"blur [px] = {blur} gives {trials[blur]} consistent matches: set blur [px] to {blur}")
     assert line.startswith(
-        f"m.x3p: too few matches with the cloud at sigma [px] = {asked:g} (3 SIFT matches, 0 consistent"
+        f"m.x3p: too few matches with the cloud at blur [px] = {asked:g} (3 SIFT matches, 0 consistent"
     )
