@@ -66,8 +66,8 @@ def test_result_rows_are_named_in_words():
         },
     }
     assert result_title(summary, "VDI/VDE 2634 part 2 (area-scanning systems)") == (
-        "Acceptance test VDI/VDE 2634 part 2",
-        f"Stereo FP · {when} · passed (guarded: inconclusive)",
+        "Acceptance test VDI/VDE 2634 part 2: passed",
+        f"guarded: inconclusive · {when} · Stereo FP",
     )
     position = {
         "plugin": SID,
@@ -232,9 +232,21 @@ def test_page_asks_before_replacing_and_the_other_tab_follows(tmp_path):
             page_b.ask_new_test()
             page_b.confirm_supersede(sb.wz_supersede["id"])
             assert not sb.wz_locked and sb.wz_supersede is None
+            # plan options read from YAML: the form's own keys left out, a bad one refused in one line
+            assert not page_b.import_options("unit: [", sb.wz_form)
+            assert sb.wz_options_error.startswith("plan options (YAML): ") and "\n" not in sb.wz_options_error
+            assert page_b.import_options("unit: mm\nmpe: {PF: 1}\noptions: {extract_sphere: true}", sb.wz_form)
+            assert sb.wz_options_error == "" and sb.wz_form["options"]["unit"] == "mm"
+            assert sb.wz_options_note == "left out of the YAML (the form above sets them): mpe"
+            assert sb.wz_form["options"]["options.extract_sphere"] is True and "mpe" not in sb.wz_form["options"]
+            assert sb.wz_form["options"]["outliers"] == ""  # not in the YAML: the standard's default
+            assert yaml.safe_load(sb.wz_options_yaml) == {"unit": "mm", "options": {"extract_sphere": True}}
             form_b = json.loads(json.dumps(sb.wz_form))
             form_b["system_name"] = "Scanner B"
             assert page_b.start(form_b), sb.wz_setup_error  # agreed above: no second question
+            plan_b = page_b.wizard.plan
+            assert plan_b["unit"] == "mm" and plan_b["options"] == {"extract_sphere": True}
+            assert plan_b["mpe"]["PF"] == MPE["PF"]  # the YAML's mpe did not replace the form's
             assert "Scanner B" in sb.wz_test_name and sb.wz_test_status == "running"
             assert sb.wz_earlier[0]["name"].startswith("VDI/VDE 2634 part 2 — Scanner A")
 

@@ -80,8 +80,8 @@ def result_title(record: dict[str, Any], standard_title: str = "") -> tuple[str,
     """(title, subtitle) of a standard plugin's stored result in the results list.
 
     The finished test's summary (outputs with a ``verdict``):
-    ``("Acceptance test VDI/VDE 2634 part 2", "Stereo FP · 29 Nov 2026, 21:30 · passed
-    (guarded: passed)")``; one position's evaluation: ``("VDI/VDE 2634 part 2: sphere-03
+    ``("Acceptance test VDI/VDE 2634 part 2: passed", "guarded: passed · 29 Nov 2026, 21:30 ·
+    Stereo FP")``; one position's evaluation: ``("VDI/VDE 2634 part 2: sphere-03
     (sphere)", "Stereo FP · 29 Nov 2026, 21:30")`` (the system from the record's label,
     ``"<plugin> <position> · <system>"``, as :func:`evaluation_label` writes it)."""
     outputs = record.get("outputs") if isinstance(record.get("outputs"), dict) else {}
@@ -92,12 +92,13 @@ def result_title(record: dict[str, Any], standard_title: str = "") -> tuple[str,
     label = str(record.get("label") or "")
     rest = label.split(" ", 1)[1] if " " in label else ""
     position, _, system = rest.partition(" · ")
-    if "verdict" in out:
+    if "verdict" in out:  # the verdict in the title: a narrow list cuts the subtitle's end
         system = str((out.get("system") or {}).get("name") or "") if isinstance(out.get("system"), dict) else ""
-        verdict = verdict_text(out.get("verdict"))
-        if out.get("verdict_guarded"):
-            verdict += f" (guarded: {verdict_text(out.get('verdict_guarded'))})"
-        return f"Acceptance test {title}", " · ".join(x for x in (system, when, verdict) if x)
+        guarded = f"guarded: {verdict_text(out.get('verdict_guarded'))}" if out.get("verdict_guarded") else ""
+        return (
+            f"Acceptance test {title}: {verdict_text(out.get('verdict'))}",
+            " · ".join(x for x in (guarded, when, system) if x),
+        )
     position = str(out.get("position") or position)
     test = str(out.get("test") or "").replace("_", " ")
     what = f"{position} ({test})" if position and test else position or test or "a measurement"

@@ -269,7 +269,7 @@ class Wizard:
         if rid is not None:
             kept = (
                 f"its report stays in the project: result #{rid} "
-                f"'Acceptance test {self.title()}' in the results list, and under 'Earlier tests' here"
+                f"'Acceptance test {self.title()}' in the results list (Inspect page), and under 'Earlier tests' here"
             )
         else:
             kept = (

@@ -229,10 +229,11 @@ class SetupForm:
 
     def import_options(self, text: str, form: dict[str, Any] | None = None) -> bool:
         """Fill the plan options from YAML (a plan's extra keys, or a whole plan: the keys
-        the form above owns are left out); ``wz_options_error`` says what does not read."""
+        the form above owns are left out, and ``wz_options_note`` names them);
+        ``wz_options_error`` says what does not read."""
         form = copy.deepcopy(form if form is not None else self.state.wz_form)
         s = self.state
-        s.wz_options_error = ""
+        s.wz_options_error = s.wz_options_note = ""
         try:
             doc = yaml.safe_load(text or "") or {}
             if not isinstance(doc, dict):
@@ -243,7 +244,12 @@ class SetupForm:
         except Exception as exc:
             s.wz_options_error = f"plan options (YAML): {one_line(exc)}"
             return False
+        owned = [k for k in doc if k in FORM_KEYS or k == "name"]
+        if owned:  # never dropped without a word
+            s.wz_options_note = f"left out of the YAML (the form above sets them): {', '.join(map(str, owned))}"
         form["options"] = flatten(extra, declared)
+        for f in form_fields(declared):  # the ones the YAML leaves out: the standard's default
+            form["options"].setdefault(f["key"], False if f["widget"] == "switch" else "")
         s.wz_form = form
         self.check_artefacts(form)
         return True

@@ -79,6 +79,7 @@ class WizardPage:
         s.wz_option_fields = []
         s.wz_options_yaml = ""
         s.wz_options_error = ""
+        s.wz_options_note = ""
         s.wz_options_import = ""
         s.wz_title = ""
         s.wz_blocks = []

@@ -421,6 +421,12 @@ def _options_import(page: Any) -> None:
                     raw_attrs=tid("wz-options-read"),
                 )
                 html.Div(
+                    "{{ wz_options_note }}",
+                    v_if="wz_options_note",
+                    classes="text-caption text-medium-emphasis mt-1",
+                    raw_attrs=tid("wz-options-note"),
+                )
+                html.Div(
                     "{{ wz_options_error }}",
                     v_if="wz_options_error",
                     classes="text-caption text-error mt-1",
