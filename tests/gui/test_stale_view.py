@@ -54,12 +54,19 @@ def enter(server, page):
 
 def test_the_view_shows_the_page_shown(gui_app, tmp_path):
     from camcmm import io as cio
+    from camcmm.gui import pages
+    from camcmm.gui.pages import Page
     from camcmm.gui.session import ITEM_GONE, ITEM_HINT
     from camcmm.project import Project
 
     cio.write(ball(), tmp_path / "ball.ply")
     cio.write(plate(), tmp_path / "plate.ply")
-    server, s = gui_app()
+    # a lab's own page beside the view, which says nothing of it: it gets an empty view too
+    pages.register(Page("lab", "Lab notes", "mdi-note", lambda server, session: object(), lambda o: None, full=False))
+    try:
+        server, s = gui_app()
+    finally:
+        pages.unregister("lab")
     state, view = server.state, s.view
     acceptance = server.pages["acceptance"]
     assert state.page == "inspect" and view.shown is None and state.view_hint == ITEM_HINT  # an empty project
@@ -86,6 +93,8 @@ def test_the_view_shows_the_page_shown(gui_app, tmp_path):
     assert view.shown.key == b
     enter(server, "acceptance")
     assert view.shown.key == "wizard:7"
+    enter(server, "lab")
+    assert view.shown is None and state.view_hint == "Nothing from the Lab notes page is shown here yet."
     enter(server, "inspect")
 
     # another tab (here another connection to the project) hides the plate shown on Inspect

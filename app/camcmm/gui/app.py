@@ -70,6 +70,9 @@ def build(
     server.pages = {}
     for p in pages:
         server.pages[p.key] = p.mount(server, session)
+    for p in pages:  # a page beside the 3D view shows its own scene there, or none (gui/scenes.py)
+        if not p.full and p.key not in session.shared.hints:
+            session.shared.share(p.key, f"Nothing from the {p.title} page is shown here yet.")
     server.state.trame__title = f"camcmm — {server.state.project_name}"
     server.state.full_pages = [p.key for p in pages if p.full]
     server.state.drawer_pages = [p.key for p in pages if p.drawer is not None]
