@@ -120,9 +120,11 @@ def test_the_drawing_says_the_size_is_missing_and_the_unit_entered():
 def test_describe_in_words():
     assert bf.describe("chessboard:9x6:25") == "chessboard, 9 × 6 inner corners, 25 mm squares"
     assert bf.describe("acircles:4x11:10") == "asymmetric circle grid, 4 × 11 circles, spacing 10 mm"
-    assert "ChArUco board, 11 × 8 squares, 15 mm squares, 11 mm markers (DICT_5X5_100)" == bf.describe(
+    assert "ChArUco board, 11 × 8 squares, 15 mm squares, 11 mm markers (5 × 5 bits, 100 markers)" == bf.describe(
         "charuco:11x8:15:11"
     )
+    # every dictionary offered is one OpenCV has, named in words
+    assert all(hasattr(cv2.aruco, d["value"]) and "DICT" not in d["title"] for d in bf.DICTIONARIES)
 
 
 def test_board_check_counts_the_points_of_a_generated_charuco_board(tmp_path):

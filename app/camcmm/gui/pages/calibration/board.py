@@ -52,13 +52,19 @@ NAMES = {
     "circles": "symmetric circle grid",
     "acircles": "asymmetric circle grid",
 }
-#: the ArUco dictionaries OpenCV predefines (the number: how many markers it holds)
-DICTIONARIES = [f"DICT_{n}X{n}_{k}" for n in (4, 5, 6, 7) for k in (50, 100, 250, 1000)] + [
-    "DICT_ARUCO_ORIGINAL",
-    "DICT_APRILTAG_16H5",
-    "DICT_APRILTAG_25H9",
-    "DICT_APRILTAG_36H10",
-    "DICT_APRILTAG_36H11",
+#: the ArUco dictionaries OpenCV predefines (value: OpenCV's name, as the board generators
+#: print it and the board spec keeps it), in words: the marker's bits and how many markers
+DICTIONARIES = [
+    *[
+        {"title": f"{n} × {n} bits, {k} markers", "value": f"DICT_{n}X{n}_{k}"}
+        for n in (4, 5, 6, 7)
+        for k in (50, 100, 250, 1000)
+    ],
+    {"title": "original ArUco, 5 × 5 bits, 1024 markers", "value": "DICT_ARUCO_ORIGINAL"},
+    {"title": "AprilTag 16h5, 4 × 4 bits, 30 markers", "value": "DICT_APRILTAG_16H5"},
+    {"title": "AprilTag 25h9, 5 × 5 bits, 35 markers", "value": "DICT_APRILTAG_25H9"},
+    {"title": "AprilTag 36h10, 6 × 6 bits, 2320 markers", "value": "DICT_APRILTAG_36H10"},
+    {"title": "AprilTag 36h11, 6 × 6 bits, 587 markers", "value": "DICT_APRILTAG_36H11"},
 ]
 DEFAULT_DICT = "DICT_5X5_100"
 #: what COLS x ROWS counts, per kind (the labels of the two fields say it)
@@ -193,5 +199,10 @@ def describe(spec: str) -> str:
         return text + f"spacing {_mm(f['square'])} mm"
     text += f"{_mm(f['square'])} mm squares"
     if f["kind"] == "charuco":
-        text += f", {_mm(f['marker'])} mm markers ({f['dictionary']})"
+        text += f", {_mm(f['marker'])} mm markers ({dictionary_words(f['dictionary'])})"
     return text
+
+
+def dictionary_words(name: str) -> str:
+    """An ArUco dictionary in words ("5 × 5 bits, 100 markers"); an unknown name as given."""
+    return next((d["title"] for d in DICTIONARIES if d["value"] == str(name).upper()), str(name))

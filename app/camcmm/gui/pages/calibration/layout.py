@@ -366,7 +366,9 @@ def _board_form(v: Any, html: Any) -> None:
                 variant="outlined",
                 hide_details=True,
                 disabled=("cal_running",),
-                title="The ArUco dictionary the board was generated with (DICT_5X5_100: 5×5-bit markers, 100 of them)",
+                item_title="title",
+                item_value="value",
+                title="The marker dictionary the board was generated with: bits per marker side, markers in it",
                 raw_attrs=tid("cal-board-dict"),
             )
         html.Img(
