@@ -18,6 +18,14 @@ import math
 from collections.abc import Iterable
 
 PASS, FAIL, INCOMPLETE, INCONCLUSIVE = "pass", "fail", "incomplete", "inconclusive"
+#: A verdict as a person reads it (pages, reports); the keys above stay what is stored.
+VERDICT_WORDS = {PASS: "passed", FAIL: "failed", INCONCLUSIVE: "inconclusive", INCOMPLETE: "incomplete"}
+
+
+def verdict_words(verdict: object) -> str:
+    """``"pass"`` -> ``"passed"``; a missing verdict is ``"incomplete"``; another text as it is."""
+    key = str(verdict or INCOMPLETE).strip().lower()
+    return VERDICT_WORDS.get(key, key)
 
 
 def simple_verdict(value: float | None, mpe: float) -> str:

@@ -262,8 +262,14 @@ def _uncertainty_section(r, result: dict[str, Any]) -> None:
     )
 
 
-#: A verdict key as the report's header writes it.
+#: A verdict key as the report writes it (as camcmm.conformity.verdict_words, which
+#: camcmm.api does not export yet: a plugin imports only camcmm.api).
 _VERDICT_WORDS = {"pass": "passed", "fail": "failed", "inconclusive": "inconclusive", "incomplete": "incomplete"}
+
+
+def verdict_words(verdict: Any) -> str:
+    key = str(verdict or "incomplete")
+    return _VERDICT_WORDS.get(key, key)
 
 
 def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
@@ -277,10 +283,8 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
             "Standard": f"{result.get('standard_name') or result['standard']} ({result['standard']})",
             # a plan given as a dict without a name is called "plan": nothing a person reads
             **({"Test plan": prov.get("plan")} if prov.get("plan") not in (None, "", "plan") else {}),
-            "Verdict": _VERDICT_WORDS.get(result["verdict"], result["verdict"]),
-            "Verdict with the test uncertainty (guarded, ISO 14253-1)": _VERDICT_WORDS.get(
-                result["verdict_guarded"], result["verdict_guarded"]
-            ),
+            "Verdict": verdict_words(result["verdict"]),
+            "Verdict with the test uncertainty (guarded, ISO 14253-1)": verdict_words(result["verdict_guarded"]),
         },
     )
     _result_section(r, result)

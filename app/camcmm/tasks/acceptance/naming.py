@@ -14,13 +14,8 @@ import re
 from datetime import UTC, datetime
 from typing import Any
 
-#: A verdict key -> the words a person reads (ISO 14253-1: simple and guarded acceptance).
-VERDICT_WORDS = {
-    "pass": "passed",
-    "fail": "failed",
-    "inconclusive": "inconclusive",
-    "incomplete": "incomplete",
-}
+from camcmm.conformity import verdict_words
+
 #: The two verdicts of a test, as labels (the keys ``verdict``/``verdict_guarded``).
 VERDICT_LABELS = {
     "verdict": "Verdict",
@@ -29,9 +24,9 @@ VERDICT_LABELS = {
 
 
 def verdict_text(verdict: Any) -> str:
-    """``"pass"`` -> ``"passed"``; a missing verdict is ``"incomplete"``."""
-    key = str(verdict or "incomplete").strip().lower()
-    return VERDICT_WORDS.get(key, key)
+    """``"pass"`` -> ``"passed"``; a missing verdict is ``"incomplete"``
+    (:func:`camcmm.conformity.verdict_words`)."""
+    return verdict_words(verdict)
 
 
 def local_time(stamp: Any) -> str:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....conformity import verdict_words
 from . import numbers as fmt
 
 UNCERTAINTY = "std_uncertainty"
@@ -34,6 +35,9 @@ LABELS = {
     "n_extracted_away": "points removed by the extraction (not on the sphere)",
     "radius_deviation": f"radius {fmt.MINUS} nominal",
     "center": "centre",
+    # an acceptance test's verdicts (standard plugins, ISO 14253-1)
+    "verdict": "verdict",
+    "verdict_guarded": "verdict with the test uncertainty (guarded)",
 }
 
 
@@ -101,7 +105,8 @@ def _one(port: dict[str, str], value: Any, u: Any, items: dict[str, str]) -> lis
     if isinstance(value, dict) and unit == "mm" and any(fmt.finite(v) for v in value.values()):
         return _form(name, value, help)
     if isinstance(value, str):
-        return [_row(name, value, unit, help=help)]
+        words = verdict_words(value) if name in ("verdict", "verdict_guarded") else value
+        return [_row(name, words, unit, help=help)]
     return []  # long lists, nested JSON: the "all outputs" table shows them
 
 
