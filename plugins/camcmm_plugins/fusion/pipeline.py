@@ -11,7 +11,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from camcmm.api import InputError, PointCloud
+from camcmm.api import InputError, PointCloud, numbers
 
 from . import difference as dif
 from .match import features, match_features
@@ -223,7 +223,8 @@ def run(
         w_mm = max(hm.size_mm)
         if w_mm > 2 * extent or w_mm < 8 * pixel:
             raise InputError(
-                f"{name}: the map is {w_mm:.4g} mm wide, the cloud {extent:.4g} mm (its image pixel {pixel:.3g} mm): "
+                f"{name}: the map is {numbers.length(w_mm)} wide, the cloud {numbers.length(extent)} "
+                f"(its image pixel {numbers.length(pixel, unit='µm')}): "
                 f"a wrong length unit in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
             )
         if grey == "intensity" and hm.intensity is None:
@@ -254,8 +255,8 @@ def run(
             warnings.append(f"{name}: the image correlation did not refine the SIFT registration; kept SIFT's")
         if not 0.5 <= s <= 2.0:
             raise InputError(
-                f"{name}: the map is {s:.4g} times the cloud's size (expected near 1): a wrong length unit "
-                f"in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
+                f"{name}: the map is {numbers.plain(s, 4)} times the cloud's size (expected near 1): "
+                f"a wrong length unit in the map ({hm.source_unit}) or in the cloud ({cloud.source_unit})?"
             )
         t = tick("similarity", t)
         per_map.append(
