@@ -88,6 +88,7 @@ def test_the_page_walk_reads_bindings_lists_and_figures_but_not_keys():
         "opts": [{"title": "convergence", "value": "volume_maps"}],
         "mode": "fit.line",
         "fig": {"data": [{"name": "radial_deviation"}], "layout": {"title": {"text": "P_F [um]"}}},
+        "cv_x": {"layers": [{"name": "cloud_1"}], "legend": {"title": "deviation [mm]", "labels": [{"text": "1e-05"}]}},
     }
     template = (
         '<div v-if="page === \'x\'"><VTextField label="pixel pitch [um]" />'
@@ -110,6 +111,8 @@ def test_the_page_walk_reads_bindings_lists_and_figures_but_not_keys():
         assert word in seen, word
     assert "volume_maps" not in seen and "crop.box" not in seen and "fit.line" not in seen
     assert ("x", "pixel pitch [um]") in texts and ("(every page)", "on every page") in texts
+    assert ("x", "deviation [mm]") in texts and ("x", "1e-05") in texts  # the 3-D view's legend
+    assert "cloud_1" not in seen  # a layer's name is the view's, not shown
 
 
 # -- item names -------------------------------------------------------------------------------
@@ -172,8 +175,6 @@ ALLOWED: list[tuple[str, str, str, str]] = [
     # Acceptance: the standards list and the test's title name the plugin; the plan options box
     ("acceptance", "plugin id", r"vdi2634-[23]", "issue 30: owner H2"),
     ("acceptance", "raw YAML", r".*", "issue 30: owner H2 (More plan options)"),
-    # Calibration: the ArUco dictionaries by their OpenCV names
-    ("calibration", "constant name", r"DICT_\w+", "issue 30: owner H5 (board form)"),
     # Photogrammetry: help texts naming other parameters by key (photogrammetry/plugin.yaml)
     ("photogrammetry", "internal key", r"turntable_(window|angles)", "issue 30: owner H6"),
     # Uncertainty: the budget file's keys in the load button's tooltip

@@ -319,14 +319,37 @@ class _Template(HTMLParser):
         self.emit([data[pos:]])
 
 
+#: the words of a 3-D view's scene (camcmm.gui.clientview: drawn by cloudview.js from the state)
+_SCENE_WORDS = ("title", "text", "name", "label", "note", "unit")
+
+
+def _scene_text(v: Any) -> Iterator[str]:
+    """The words of a client view's scene: its legend (title, tick labels), entries, labels, note."""
+    if isinstance(v, dict):
+        for k, x in v.items():
+            if k in _SCENE_WORDS and isinstance(x, str):
+                yield x
+            elif k in ("legend", "entries", "labels") or isinstance(x, (list, dict)) and k not in ("layers", "camera"):
+                yield from _scene_text(x)
+    elif isinstance(v, list):
+        for x in v:
+            yield from (_scene_text(x) if isinstance(x, (dict, list)) else [x] if isinstance(x, str) else [])
+
+
 def page_texts(state: dict[str, Any], template: str) -> list[tuple[str, str]]:
     """The texts a person sees in a built layout ``template`` with ``state`` (a trame
     state's ``to_dict()``): ``[(page, text), ...]`` — the template's words and what its
     bindings show (plotly figures' titles and annotations too), each with the page it shows
-    on (the element's ``v-if``/``v-show="page === '<key>'"``; "(every page)" outside one)."""
+    on (the element's ``v-if``/``v-show="page === '<key>'"``; "(every page)" outside one) —
+    and the words of the 3-D views' scenes (``cv_<page>``: legend title and ticks, labels)."""
     walker = _Template(state)
     walker.feed(template)
     walker.close()
+    for key, value in state.items():  # the 3-D views: cv_<page>, drawn in the browser from the state
+        if key.startswith("cv_") and isinstance(value, dict) and "layers" in value:
+            walker.out += [
+                (key[3:], t) for t in _scene_text({k: value.get(k) for k in ("legend", "entries", "labels", "note")})
+            ]
     return [(page, t) for page, t in walker.out if t and t.strip()]
 
 
