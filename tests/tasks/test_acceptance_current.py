@@ -273,6 +273,23 @@ def test_page_asks_before_replacing_and_the_other_tab_follows(tmp_path):
             assert len(page_a.wizard.earlier_tests()) == 2
             session_b.refresh_items()  # B follows A's new test as well
             assert sb.wz_test_name == sa.wz_test_name
+
+            # a form being filled in stays as typed when another tab starts a test meanwhile,
+            # and its Start asks again, naming the test that is current now
+            page_a.wizard.import_measurement("sphere", pos, path)
+            session_b.refresh_items()
+            page_b.ask_new_test()
+            page_b.confirm_supersede(sb.wz_supersede["id"])
+            typed = {**json.loads(json.dumps(sb.wz_form)), "system_name": "Scanner C"}
+            sb.wz_form = typed
+            form_a = {**json.loads(json.dumps(sa.wz_form)), "system_name": "Scanner D"}
+            page_a.unlock()
+            page_a.start(form_a)
+            page_a.confirm_supersede(sa.wz_supersede["id"], form_a)
+            page_a.wizard.import_measurement("sphere", pos, path)  # work in it: a new Start must ask
+            session_b.refresh_items()
+            assert "Scanner D" in sb.wz_test_name and not sb.wz_locked and sb.wz_form["system_name"] == "Scanner C"
+            assert page_b.start(typed) is False and "Scanner D" in sb.wz_supersede["name"]
         finally:
             page_b.close()
             page_a.close()

@@ -187,7 +187,11 @@ class WizardPage:
             shared = getattr(self.session, "shared", None)
             if shared is not None:  # the replaced test's colour map is not this test's
                 shared.clear("acceptance")
-            self.refresh(setup_form=True)
+            # a form the operator is filling in for a new test stays as typed (its Start asks
+            # again, naming the test that is current now)
+            self.refresh(setup_form=not unlocked)
+            if unlocked and self.wizard.active:
+                s.wz_locked = False
             if not self.wizard.active:
                 s.wz_step = "setup"
             elif s.wz_step != "setup":
@@ -202,7 +206,7 @@ class WizardPage:
                 )
         else:
             self.refresh(setup_form=not unlocked)
-            if unlocked:  # the operator is filling in a new test: keep the form open
+            if unlocked:
                 s.wz_locked = False
         return True
 
