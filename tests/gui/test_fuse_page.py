@@ -147,13 +147,35 @@ def inputs(app):
 
 
 @pytest.mark.slow
-def test_opens_empty_with_the_declared_form(app):
+def test_opens_empty_with_the_declared_form_and_loads_the_sample_pair(app):
+    """Empty: the plugin's form, a hint that offers the sample. "Load the sample pair": a
+    coloured cloud and a height map with its intensity, made by the sample's plugin, chosen as
+    the inputs, the form back at the declared defaults (at which the pair fuses:
+    tests/fusion/test_fusion_sample.py); a second load reuses them."""
+    from camcmm_plugins.fusion.sample import SAMPLE_SHAPE
+
     page, session = app()
     s = page.state
     assert s.fu_numbers == [] and "height map" in s.fu_empty_hint and s.fu_error == ""
     assert {"sigma_px", "reject"} <= {f["name"] for f in s.fu_fields}  # the manifest's, not a copy
     assert s.fu_params["sigma_px"] == 6.0 and s.fu_params["reject"] == "similarity"
     assert session.page_error("fuse") == ""
+    page.state.fu_params = {**page.state.fu_params, "sigma_px": 1.0}  # a newcomer's stray edit
+    req = page.load_sample()
+    assert req is not None, page.state.fu_error
+    cloud, hm = session.load(req["cloud"]), session.load(req["maps"][0])
+    assert isinstance(cloud, PointCloud) and cloud.colors is not None and cloud.n_points > 100_000
+    assert isinstance(hm, HeightMap) and hm.intensity is not None and hm.shape == SAMPLE_SHAPE
+    s = page.state
+    assert (s.fu_cloud, s.fu_maps) == (req["cloud"], req["maps"])
+    assert s.fu_params["sigma_px"] == 6.0 and "press Run" in s.fu_message and s.fu_error == ""
+    names = {i["name"] for i in s.items}
+    assert {"coin_photogrammetry.ply", "coin_csi.x3p"} <= names
+    made = session.measurement(req["maps"][0])["meta"]["made_by"]
+    assert made.startswith("fusion.sample ")
+    n = len(session.project.measurements())
+    assert page.load_sample() == req and len(session.project.measurements()) == n
+    assert "Load the sample pair" in s.fu_empty_hint
 
 
 @pytest.mark.slow
@@ -296,29 +318,3 @@ def test_a_footprint_outline_is_lifted_off_its_plane_towards_plus_z():
     for corners in (c, c[::-1]):
         up = lifted(corners)
         assert np.allclose(up[:, :2], corners[:, :2]) and np.allclose(up[:, 2], 1.0 + LIFT * 5.0)
-
-
-@pytest.mark.slow
-def test_the_sample_pair_is_loaded_as_two_items_with_the_defaults(app):
-    """ "Load the sample pair": a coloured cloud and a height map with its intensity, made by
-    the sample's plugin, chosen as the inputs, the form back at the declared defaults (at
-    which the pair fuses: tests/fusion/test_fusion_sample.py); a second load reuses them."""
-    from camcmm_plugins.fusion.sample import SAMPLE_SHAPE
-
-    page, session = app()
-    page.state.fu_params = {**page.state.fu_params, "sigma_px": 1.0}  # a newcomer's stray edit
-    req = page.load_sample()
-    assert req is not None, page.state.fu_error
-    cloud, hm = session.load(req["cloud"]), session.load(req["maps"][0])
-    assert isinstance(cloud, PointCloud) and cloud.colors is not None and cloud.n_points > 100_000
-    assert isinstance(hm, HeightMap) and hm.intensity is not None and hm.shape == SAMPLE_SHAPE
-    s = page.state
-    assert (s.fu_cloud, s.fu_maps) == (req["cloud"], req["maps"])
-    assert s.fu_params["sigma_px"] == 6.0 and "press Run" in s.fu_message and s.fu_error == ""
-    names = {i["name"] for i in s.items}
-    assert {"coin_photogrammetry.ply", "coin_csi.x3p"} <= names
-    made = session.measurement(req["maps"][0])["meta"]["made_by"]
-    assert made.startswith("fusion.sample ")
-    n = len(session.project.measurements())
-    assert page.load_sample() == req and len(session.project.measurements()) == n
-    assert "Load the sample pair" in s.fu_empty_hint
