@@ -35,7 +35,7 @@ import numpy as np
 #: data, not vocabulary: removed before the rules run
 _DATA = [
     re.compile(r"https?://\S+"),
-    re.compile(r"(?<![\w.])(?:[A-Za-z]:)?(?:~|\.{1,2})?(?:/[\w.+\-@ ]+){2,}/?"),  # a path
+    re.compile(r"(?<![\w.])(?:[A-Za-z]:)?(?:~|\.{1,2})?(?:/[\w.+\-@]+){2,}/?"),  # a path
     re.compile(r"\b[0-9a-f]{12,}\b"),  # sha256 and other hashes
     re.compile(
         r"[\w.+\-()\[\]]+\.(?:ply|stl|obj|e57|pcd|xyz|pts|las|laz|asc|csv|txt|png|jpe?g|tiff?|bmp|step|stp|iges|igs|"
