@@ -23,7 +23,9 @@
    size so the subsample covers the same area); 150 ms after the last event everything is drawn.
    Projection as VTK's perspective camera: view_angle is the vertical angle; a point at camera
    coordinates (xc, yc, d) (d along the view direction) lands at pixel
-   (W/2 + f xc/d, H/2 - f yc/d) with f = (H/2) / tan(view_angle/2).
+   (W/2 + f xc/d, H/2 - f yc/d) with f = (H/2) / tan(view_angle/2) — except while a colour legend
+   is shown (the scene is framed left of it) and in a view narrower than tall (see lens()).
+   Until the first frame of a scene a spinner says "drawing …" (data-testid cloudview-busy).
 
    To the server (window.trame.trigger):
      cv_pick   [NAME, layer_id, index, [x, y, z] world mm]  a click (no drag) on a pickable layer:
@@ -47,6 +49,9 @@
   var BG_TOP = [255, 255, 255]; // the server view's gradient (camcmm.gui.view.SceneView)
   var BG_BOTTOM = [0xf4, 0xf5, 0xf7];
   var DEFAULT_COLOR = [200, 200, 200];
+  var LEGEND_GAP = 8; // px between the scene's area and the colour legend
+  var LABEL_GAP = 2; // px between two pick labels pushed apart
+  var PLACEHOLDER_MS = 15000; // the spinner's longest wait over the server's empty placeholder
 
   // -- small vector algebra (3-vectors as arrays, float64) -----------------------------------
   function sub(a, b) { return [a[0] - b[0], a[1] - b[1], a[2] - b[2]]; }
@@ -250,6 +255,7 @@
     this.legendKey = "";
     this.entriesKey = "";
     this.timing = null; // of the last content: ms from the state to loaded, first paint, all drawn
+    this.painted = false; // a first picture was drawn (the "drawing …" spinner until then)
   }
 
   View.prototype.urls = function () {
@@ -283,6 +289,19 @@
     this.entriesBox = el("div", "cmm-cv-entries", host);
     this.noteBox = el("div", "cmm-cv-note", host);
     this.noteBox.setAttribute("data-testid", "cloudview-note");
+    // "drawing …" with a spinner from the moment the view is on the page until its first frame
+    // with the scene (the state, the buffers' download and sorting take seconds on a big cloud;
+    // the view was blank meanwhile)
+    this.busyBox = el("div", "cmm-cv-busy", host);
+    this.busyBox.setAttribute("data-testid", "cloudview-busy");
+    this.busyBox.setAttribute("role", "status");
+    el("span", "cmm-cv-spinner", this.busyBox);
+    el("span", "", this.busyBox).textContent = "drawing …";
+    this.setBusy(!this.painted);
+    var self0 = this;
+    // the server's placeholder (rev 0, nothing in it) may stay if a page never draws here: the
+    // spinner does not stay with it for ever
+    setTimeout(function () { if (self0.el === host) self0.painted0(); }, PLACEHOLDER_MS);
     this.legendKey = this.entriesKey = "";
     this.labelEls = [];
     this.bindEvents();
@@ -300,7 +319,7 @@
     if (this.unbind) this.unbind();
     if (this.gl) this.gl.release();
     this.gl = null;
-    [this.glCanvas, this.canvas, this.labelBox, this.svg, this.legendBox, this.entriesBox, this.noteBox].forEach(function (n) {
+    [this.glCanvas, this.canvas, this.labelBox, this.svg, this.legendBox, this.entriesBox, this.noteBox, this.busyBox].forEach(function (n) {
       if (n && n.parentNode) n.parentNode.removeChild(n);
     });
     if (this.el.__cmmCloudView === this) delete this.el.__cmmCloudView;
@@ -365,6 +384,7 @@
       this.layers = [];
       this.applyOverlays();
       this.render(true);
+      this.painted0();
       return;
     }
     if (this.spec && spec.rev === this.spec.rev && spec !== this.spec && this.pendingRev === null) {
@@ -440,6 +460,7 @@
         self.error = String(err && err.message ? err.message : err);
         console.error("camcmm cloudview " + self.name + ": " + self.error);
         self.setNote(self.error);
+        self.painted0(); // the note says what went wrong
       }
     );
   };
@@ -547,9 +568,30 @@
     c.pos = add(c.fp, mul(sub(c.pos, c.fp), 1 / factor));
   };
 
+  /* The projection's scale F (pixels per unit of xc/d) and centre (cx, cy), one place for the
+     drawing, the picking, the labels, the selection's mvp and the GPU backend. As VTK's
+     perspective camera, F = (H/2)/tan(view_angle/2) about the view's centre, except that (a)
+     while a colour legend is shown its strip on the right is left free: the scene is centred in
+     the rest (width Wv = W - the strip), so an object framed by the server's camera does not
+     open under the legend (the ball bar did); (b) where Wv < H the width is fitted instead of the
+     height, F = (Wv/2)/tan(view_angle/2), as VTK's ResetCamera does for an aspect below 1 (the
+     server's camera was framed for the server's window, not this one). */
+  View.prototype.lens = function () {
+    var W = Math.max(this.W, 1), H = Math.max(this.H, 1), Wv = Math.max(W - this.reserved(), 1);
+    var t = Math.tan(this.cam.angle * Math.PI / 360);
+    return { F: Math.min(H, Wv) / 2 / t, cx: Wv / 2, cy: H / 2 };
+  };
+
+  View.prototype.reserved = function () { // px on the right the legend covers (0 without one)
+    var box = this.legendBox;
+    if (!box || !this.el || box.style.display === "none" || !box.firstChild) return 0;
+    var strip = this.W - box.offsetLeft + LEGEND_GAP; // from the legend's left edge, and a gap
+    return strip > 0 ? Math.min(strip, this.W / 3) : 0;
+  };
+
   View.prototype.pan = function (dx, dy) { // pixels; the scene follows the pointer
-    var b = this.basis(), c = this.cam;
-    var s = (2 * b.dist * Math.tan(c.angle * Math.PI / 360)) / Math.max(this.H, 1);
+    var b = this.basis();
+    var s = b.dist / this.lens().F;
     var m = add(mul(b.r, -dx * s), mul(b.u, dy * s));
     c.pos = add(c.pos, m);
     c.fp = add(c.fp, m);
@@ -563,14 +605,15 @@
   /* world mm -> clip, column-major: x_ndc = 2 px / W - 1, y_ndc = 1 - 2 py / H for the pixel
      (px, py) a point is drawn at; w = its depth along the view direction (> 0 in front). */
   View.prototype.mvp = function () {
-    var b = this.basis(), o = this.origin, eye = add(b.eye, o), c = this.cam;
-    var f = this.H / 2 / Math.tan(c.angle * Math.PI / 360);
-    var sx = 2 * f / Math.max(this.W, 1), sy = 2 * f / Math.max(this.H, 1);
+    var b = this.basis(), o = this.origin, eye = add(b.eye, o), L = this.lens();
+    var W = Math.max(this.W, 1), H = Math.max(this.H, 1), sx = 2 * L.F / W, sy = 2 * L.F / H;
+    // the centre's offset from the middle, in NDC, times w (= the depth d): x_ndc = 2 px / W - 1
+    var ox = 2 * L.cx / W - 1, oy = 1 - 2 * L.cy / H;
     var near = Math.max(b.dist * 1e-3, 1e-9), far = b.dist * 1e3;
     var A = (far + near) / (far - near), B = -2 * far * near / (far - near);
     var rows = [
-      [sx * b.r[0], sx * b.r[1], sx * b.r[2], -sx * dot(b.r, eye)],
-      [sy * b.u[0], sy * b.u[1], sy * b.u[2], -sy * dot(b.u, eye)],
+      [sx * b.r[0] + ox * b.f[0], sx * b.r[1] + ox * b.f[1], sx * b.r[2] + ox * b.f[2], -sx * dot(b.r, eye) - ox * dot(b.f, eye)],
+      [sy * b.u[0] + oy * b.f[0], sy * b.u[1] + oy * b.f[1], sy * b.u[2] + oy * b.f[2], -sy * dot(b.u, eye) - oy * dot(b.f, eye)],
       [A * b.f[0], A * b.f[1], A * b.f[2], -A * dot(b.f, eye) + B],
       [b.f[0], b.f[1], b.f[2], -dot(b.f, eye)],
     ];
@@ -592,10 +635,10 @@
     if (full) { this.idLayer.fill(0); this.idDepth.fill(Infinity); }
     var drawn = 0, total = 0;
     if (this.cam && this.layers.length) {
-      var b = this.basis();
+      var b = this.basis(), L = this.lens();
       var P = {
         r: b.r, u: b.u, f: b.f, ro: -dot(b.r, b.eye), uo: -dot(b.u, b.eye), fo: -dot(b.f, b.eye),
-        F: H / 2 / Math.tan(this.cam.angle * Math.PI / 360), cx: W / 2, cy: H / 2,
+        F: L.F, cx: L.cx, cy: L.cy,
         near: Math.max(b.dist * 1e-3, 1e-9), W: W, H: H,
       };
       var pointsTotal = 0;
@@ -634,7 +677,10 @@
     this.drawn = drawn;
     this.total = total;
     this.lastFull = !!full;
-    if (full && this.spec && this.pendingRev === null) this.shownRev = this.spec.rev;
+    if (this.spec && this.pendingRev === null) {
+      if (full) this.shownRev = this.spec.rev;
+      if (this.layers.length || this.spec.rev) this.painted0(); // not the server's empty placeholder
+    }
     if (full && this.timing && this.timing.all_drawn_ms === null) this.timing.all_drawn_ms = performance.now() - this.timing.arrived;
     var ms = performance.now() - t0;
     this.lastMs = ms;
@@ -937,6 +983,17 @@
   };
 
   // --- overlays ---
+  View.prototype.setBusy = function (on) {
+    if (this.busyBox) this.busyBox.style.display = on ? "" : "none";
+  };
+
+  /* The first picture is up (a scene's frame, or the server said there is nothing to draw, or
+     it failed): the spinner goes, for good (later contents keep the last picture meanwhile). */
+  View.prototype.painted0 = function () {
+    this.painted = true;
+    this.setBusy(false);
+  };
+
   View.prototype.setNote = function (text) {
     if (this.noteBox) {
       this.noteBox.textContent = text || "";
@@ -989,17 +1046,42 @@
     this.placeLabels();
   };
 
+  /* Each label's dot at its point, its text above right of it; where two texts would overlap
+     (two picks close on the screen) the later one is lifted above the other (its dot stays at
+     its point): in screen order, bottom-most first, each text goes up until it is clear of every
+     text placed before it, by LABEL_GAP. */
   View.prototype.placeLabels = function () {
     if (!this.labelEls || !this.labelEls.length || !this.cam) return;
-    var b = this.basis(), W = this.W, H = this.H;
-    var F = H / 2 / Math.tan(this.cam.angle * Math.PI / 360);
+    var b = this.basis(), W = this.W, H = this.H, L = this.lens(), F = L.F, shown = [];
     for (var i = 0; i < this.labelEls.length; i++) {
       var q = sub(this.labelPos[i], b.eye), d = dot(q, b.f), e = this.labelEls[i];
       if (!(d > 0)) { e.style.display = "none"; continue; }
-      var x = W / 2 + F * dot(q, b.r) / d, y = H / 2 - F * dot(q, b.u) / d;
+      var x = L.cx + F * dot(q, b.r) / d, y = L.cy - F * dot(q, b.u) / d;
       e.style.display = x >= 0 && y >= 0 && x <= W && y <= H ? "" : "none";
       e.style.transform = "translate(" + x.toFixed(1) + "px," + y.toFixed(1) + "px)";
+      if (e.style.display !== "none") shown.push({ e: e, x: x, y: y });
     }
+    // the text's box relative to the dot: left 6 px, bottom 4 px above it (cmm-cv-text)
+    shown.sort(function (a, c) { return c.y - a.y || a.x - c.x; });
+    var placed = [];
+    shown.forEach(function (s) {
+      var t = s.e.lastChild, w = t.offsetWidth, h = t.offsetHeight, lift = 0;
+      var x0 = s.x + 6, x1 = x0 + w;
+      for (var moved = true, guard = 0; moved && guard < 64; guard++) {
+        moved = false;
+        var y1 = s.y - 4 - lift, y0 = y1 - h;
+        for (var k = 0; k < placed.length; k++) {
+          var p = placed[k];
+          if (x0 < p.x1 + LABEL_GAP && p.x0 < x1 + LABEL_GAP && y0 < p.y1 + LABEL_GAP && p.y0 < y1 + LABEL_GAP) {
+            lift = s.y - 4 - (p.y0 - LABEL_GAP); // its bottom just above that one's top
+            moved = true;
+          }
+        }
+      }
+      t.style.bottom = (4 + lift).toFixed(1) + "px";
+      t.classList.toggle("cmm-cv-lifted", lift > 0);
+      placed.push({ x0: x0, x1: x1, y0: s.y - 4 - lift - h, y1: s.y - 4 - lift });
+    });
   };
 
   /* VTK's scalar bar: a vertical gradient lo (bottom) to hi (top), the title above, the tick
@@ -1182,10 +1264,10 @@
     if (s.kind === "points") return { layer: s.id, index: layer.perm ? layer.perm[i] : i, world: add(at(i), o) };
     var verts = s.kind === "mesh" ? [layer.idx[3 * i], layer.idx[3 * i + 1], layer.idx[3 * i + 2]] : [layer.idx[2 * i], layer.idx[2 * i + 1]];
     // the surface point under the pixel centre at its depth
-    var b = this.basis(), F = H / 2 / Math.tan(this.cam.angle * Math.PI / 360);
+    var b = this.basis(), L = this.lens(), F = L.F;
     var d = this.idDepth[best] < Infinity ? this.idDepth[best] : Z[best]; // a translucent mesh's own depth
     var px = (best % W) + 0.5, py = Math.floor(best / W) + 0.5;
-    var q = add(b.eye, add(mul(b.f, d), add(mul(b.r, ((px - W / 2) * d) / F), mul(b.u, (-(py - H / 2) * d) / F))));
+    var q = add(b.eye, add(mul(b.f, d), add(mul(b.r, ((px - L.cx) * d) / F), mul(b.u, (-(py - L.cy) * d) / F))));
     var near = verts[0], nd = Infinity;
     verts.forEach(function (v) { var dd = len(sub(at(v), q)); if (dd < nd) { nd = dd; near = v; } });
     return { layer: s.id, index: near, world: add(s.kind === "mesh" ? q : at(near), o) };
@@ -1335,14 +1417,15 @@
     var drawn = 0;
     if (this.cam && this.layers.length) {
       var b = this.basis(), c = this.cam, eye = b.eye;
-      var f = H / 2 / Math.tan(c.angle * Math.PI / 360), sx = 2 * f / W, sy = 2 * f / H;
+      var L = this.lens(), sx = 2 * L.F / W, sy = 2 * L.F / H, ox = 2 * L.cx / W - 1, oy = 1 - 2 * L.cy / H;
       var bs = this.bounds(), near = Math.max(b.dist * 1e-3, 1e-9);
       var far = Math.max(len(sub(bs.centre, eye)) + bs.radius, 2 * near);
       near = Math.max(near, far * 1e-5); // 24-bit depth: keep far/near moderate
       var A = (far + near) / (far - near), B = -2 * far * near / (far - near);
       var view = [[b.r[0], b.r[1], b.r[2], -dot(b.r, eye)], [b.u[0], b.u[1], b.u[2], -dot(b.u, eye)],
         [b.f[0], b.f[1], b.f[2], -dot(b.f, eye)], [0, 0, 0, 1]];
-      var clip = [view[0].map(function (v) { return v * sx; }), view[1].map(function (v) { return v * sy; }),
+      var clip = [view[0].map(function (v, i) { return v * sx + ox * view[2][i]; }),
+        view[1].map(function (v, i) { return v * sy + oy * view[2][i]; }),
         view[2].map(function (v, i) { return A * v + (i === 3 ? B : 0); }), view[2]];
       var M = columnMajor(clip), V = columnMajor(view);
       gl.enable(gl.DEPTH_TEST);
@@ -1393,7 +1476,10 @@
     this.placeLabels();
     this.drawn = this.total = drawn;
     this.lastFull = true;
-    if (this.spec && this.pendingRev === null) this.shownRev = this.spec.rev;
+    if (this.spec && this.pendingRev === null) {
+      this.shownRev = this.spec.rev;
+      if (this.layers.length || this.spec.rev) this.painted0();
+    }
     if (this.timing && this.timing.all_drawn_ms === null) this.timing.all_drawn_ms = performance.now() - this.timing.arrived;
     this.lastMs = performance.now() - t0;
     return this.lastMs;

@@ -233,3 +233,171 @@ def test_keyboard_shortcuts(demo):
             help_.wait_for(state="detached")
         finally:
             browser.close()
+
+
+# Boxes on the page that must not intersect: each chart's title and notes (plotly annotations),
+# the pick labels' texts in the Compare view. [left, top, right, bottom] in px, with the text.
+CHART_BOXES = """(testid) => {
+  const chart = document.querySelector(`[data-testid="${testid}"]`);
+  const box = el => {
+    const r = el.getBoundingClientRect();
+    return [r.left, r.top, r.right, r.bottom, el.textContent.trim()];
+  };
+  return {chart: box(chart), parts: [...chart.querySelectorAll('.annotation-text-g, .gtitle')].map(box)
+    .filter(b => b[2] > b[0])};
+}"""
+LABEL_BOXES = """() => [...document.querySelectorAll('[data-testid="ins-view"] .cmm-cv-label')]
+  .filter(l => l.style.display !== 'none')
+  .map(l => {
+    const r = l.querySelector('.cmm-cv-text').getBoundingClientRect();
+    return [r.left, r.top, r.right, r.bottom, l.textContent];
+  })"""
+# the canvas of each 3-D view shown (browser and server rendering): its pixels and its box
+CANVASES = """() => [...document.querySelectorAll('[data-testid="ins-view"] canvas, .cmm-cv-host > canvas')]
+  .filter(c => c.getBoundingClientRect().width > 0)
+  .map(c => { const r = c.getBoundingClientRect(); return [c.width, c.height, r.width, r.height]; })"""
+# where the browser's view draws the scene's points (a sample, via its own projection) and where
+# its colour legend lies: [max x of the points, the legend's left edge] in the view's px
+FRAMED = """(name) => {
+  const v = window.camcmmCloudView.views[name];
+  const m = v.mvp(), W = v.W;
+  let right = -Infinity;
+  for (const l of v.layers) {
+    if (l.spec.kind !== 'points') continue;
+    const step = Math.max(1, Math.floor(l.n / 5000));
+    for (let i = 0; i < l.n; i += step) {
+      const x = l.pos[3 * i] + v.origin[0], y = l.pos[3 * i + 1] + v.origin[1], z = l.pos[3 * i + 2] + v.origin[2];
+      const cx = m[0] * x + m[4] * y + m[8] * z + m[12], cw = m[3] * x + m[7] * y + m[11] * z + m[15];
+      right = Math.max(right, (cx / cw + 1) * W / 2);
+    }
+  }
+  const legend = v.legendBox;
+  return [right, legend.style.display === 'none' ? null : legend.offsetLeft, W];
+}"""
+
+
+def _overlaps(boxes: list) -> list:
+    """The pairs of boxes [l, t, r, b, text] that intersect."""
+    out = []
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            if a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]:
+                out.append((a[4], b[4]))
+    return out
+
+
+def _check_compare(page, size) -> None:
+    """The Compare page after a run at ``size``: the view's share of the window, the charts'
+    annotations apart and inside their charts, the canvases' aspect that of their boxes."""
+    w, h = size
+    view = page.locator('[data-testid="ins-view"]').bounding_box()
+    # 540×300 px at 1366×768 before issue 30 (0.40 × 0.39 of the window)
+    assert view["width"] >= 0.44 * w and view["height"] >= 0.6 * h, (size, view)
+    for testid in ("ins-histogram", "ins-af"):
+        got = page.evaluate(CHART_BOXES, testid)
+        assert len(got["parts"]) >= 2, (testid, got)
+        assert not _overlaps(got["parts"]), (size, testid, _overlaps(got["parts"]))
+        c = got["chart"]
+        for p in got["parts"]:  # nothing cut at the chart's edges
+            assert p[0] >= c[0] - 1 and p[2] <= c[2] + 1 and p[1] >= c[1] - 1, (size, testid, p, c)
+    stats = page.locator('[data-testid="ins-stats"] table')
+    assert stats.evaluate("t => t.scrollWidth <= t.parentElement.clientWidth + 1"), size  # values whole
+    for cw, ch, bw, bh in page.evaluate(CANVASES):  # the picture is not stretched by its box
+        assert abs(cw / ch - bw / bh) <= 0.01 * bw / bh, (size, cw, ch, bw, bh)
+
+
+def test_compare_page_layout_first_paint_and_labels(demo):
+    """Issue 30's layout at 1366×768 and 1600×1000 (the same page, resized): the first 3-D
+    paint shows "drawing …" until it is up; the ball bar (the demo's selected item) is framed
+    left of the colour legend; on Compare the view gets ≥ 44 % × 60 % of the window, the charts'
+    titles and notes do not collide, a section axis click shows at once and cuts, two picks close
+    together get labels that do not overlap, and after the resize every canvas has its box's aspect."""
+    with sync_api.sync_playwright() as p:
+        browser = launch(p)
+        try:
+            page = browser.new_page(viewport={"width": SIZES[0][0], "height": SIZES[0][1]})
+            page.set_default_timeout(60_000)
+            # whether the spinner was on screen while the view had drawn nothing, every frame
+            page.add_init_script(
+                """window.__busy = {shown: 0, shownWhileDrawn: 0};
+                (function poll() {
+                  for (const b of document.querySelectorAll('.cmm-cv-busy')) {
+                    if (b.style.display === 'none' || !b.parentElement.clientWidth) continue;
+                    const v = b.parentElement.__cmmCloudView;
+                    if (v && v.painted) window.__busy.shownWhileDrawn += 1; else window.__busy.shown += 1;
+                  }
+                  requestAnimationFrame(poll);
+                })();"""
+            )
+            page.goto(demo.url)
+            page.wait_for_selector('[data-testid="page-switch"] [data-testid^="page-"]', timeout=120_000)
+            page.wait_for_function(
+                "() => { const v = window.camcmmCloudView && window.camcmmCloudView.views.cv_inspect;"
+                " return v && v.painted && v.stats().points_drawn > 0; }"
+            )
+            busy = page.evaluate("window.__busy")
+            assert busy["shown"] > 0 and busy["shownWhileDrawn"] == 0, busy
+            assert not page.locator('[data-testid="ins-view"] [data-testid="cloudview-busy"]:visible').count()
+            right, legend, _ = page.evaluate(FRAMED, "cv_inspect")
+            if legend is not None:  # the selected item (the ball bar) clear of its legend
+                assert right < legend, (right, legend)
+            _settle(page)
+            page.screenshot(path=str(SHOTS / "layout-1366x768-first-paint.png"))
+
+            # the inputs chosen at 1600×1000 (the nominal select's list is longer than 768 px
+            # shows), checked there, then at 1366×768: both resizes of a page that has a result
+            page.set_viewport_size({"width": SIZES[1][0], "height": SIZES[1][1]})
+            page.click('[data-testid="page-compare"]')
+            for testid, option in (
+                ("ins-measured", "sphere scan (20 mm ball)"),
+                ("ins-nominal", "sphere nominal (CAD)"),
+            ):
+                page.click(f'[data-testid="{testid}"]')
+                page.locator(".v-overlay--active .v-list-item", has_text=option).first.click()
+                # shown once the server took it (it draws the inputs first: slow on a busy machine)
+                page.locator(f'[data-testid="{testid}"]', has_text=option).first.wait_for(timeout=60_000)
+            page.click('[data-testid="ins-run"]')
+            page.wait_for_selector('[data-testid="ins-progress"]:has-text("done")', timeout=120_000)
+            page.wait_for_selector('[data-testid="ins-af"] .annotation-text-g', state="attached")
+            page.wait_for_function(  # the colour map drawn (the inputs come first)
+                "() => { const v = window.camcmmCloudView.views.cv_compare;"
+                " return v.spec && v.spec.legend && v.pendingRev === null && v.stats().points_drawn > 0; }"
+            )
+            right, legend, width = page.evaluate(FRAMED, "cv_compare")
+            assert legend is not None and right < legend, (right, legend, width)
+            _check_compare(page, SIZES[1])
+            _settle(page)
+            page.screenshot(path=str(SHOTS / "layout-1600x1000-compare.png"))
+
+            page.set_viewport_size({"width": SIZES[0][0], "height": SIZES[0][1]})
+            page.wait_for_function(
+                "() => { const v = window.camcmmCloudView.views.cv_compare;"
+                " return v.W === v.el.clientWidth && v.canvas.width === v.W && v.el.clientWidth < 700; }"
+            )
+            time.sleep(1.0)  # plotly redraws its charts for their new width
+            _check_compare(page, SIZES[0])
+            right, legend, width = page.evaluate(FRAMED, "cv_compare")
+            assert legend is not None and right < legend, (right, legend, width)
+
+            # a section axis: shown at once (no round trip), then cut
+            page.click('[data-testid="ins-section-x"]')
+            assert "v-btn--active" in page.locator('[data-testid="ins-section-x"]').get_attribute("class")
+            page.wait_for_function(
+                "() => (document.querySelector('[data-testid=\"ins-section\"] .gtitle') || {}).textContent"
+                "?.startsWith('Section x')",
+                timeout=20_000,
+            )
+
+            # two picks 10 px apart on the sphere: two labels, apart
+            box = page.locator('[data-testid="ins-view"] .cmm-cv-canvas').last.bounding_box()
+            cx, cy = box["x"] + 0.4 * box["width"], box["y"] + 0.5 * box["height"]
+            for dx in (0, 10):
+                n = len(page.evaluate(LABEL_BOXES))
+                page.mouse.click(cx + dx, cy)
+                page.wait_for_function(f"() => ({LABEL_BOXES})().length > {n}", timeout=15_000)
+            labels = page.evaluate(LABEL_BOXES)
+            assert len(labels) >= 2 and not _overlaps(labels), labels
+            _settle(page)
+            page.screenshot(path=str(SHOTS / "layout-1366x768-compare.png"))
+        finally:
+            browser.close()

@@ -28,10 +28,29 @@ def _fig_json(fig: Any) -> dict[str, Any]:
     return json.loads(pio.to_json(fig, validate=True, engine="json"))
 
 
-def _base_layout(title: str, xtitle: str, ytitle: str) -> dict[str, Any]:
+# The charts' top margin in two bands: the title at the top, the notes about the plot (the 95 %
+# interval's text, the Abbott-Firestone parameters) in a band of their own just above the plot.
+# Inside the plot or in the title's band they collided at 1366 px (issue 30): with the title when
+# the interval lay left, with each other when it lay high.
+TITLE_BAND = 24  # px
+NOTE_LINE = 14  # px per line of a note (10 px font)
+
+
+def _base_layout(title: str, xtitle: str, ytitle: str, note_lines: int = 0) -> dict[str, Any]:
+    """The charts' common layout; ``note_lines`` lines of notes get a band above the plot."""
+    top = TITLE_BAND + NOTE_LINE * note_lines + (4 if note_lines else 10)
     return {
-        "title": {"text": title, "font": {"size": 13}, "x": 0.02, "xanchor": "left"},
-        "margin": {"l": 56, "r": 14, "t": 34, "b": 40},
+        "title": {
+            "text": title,
+            "font": {"size": 13},
+            "x": 0.02,
+            "xanchor": "left",
+            "yref": "container",
+            "y": 1.0,
+            "yanchor": "top",
+            "pad": {"t": 6},
+        },
+        "margin": {"l": 56, "r": 14, "t": top, "b": 40},
         "xaxis": {"title": {"text": xtitle}, "zeroline": False},
         "yaxis": {"title": {"text": ytitle}, "zeroline": False},
         "showlegend": False,
@@ -55,7 +74,7 @@ def histogram_figure(
     import plotly.graph_objects as go
 
     fig = go.Figure(_histogram_bars(hist, unit, limit))
-    layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points")
+    layout = _base_layout("Histogram of the deviations", f"deviation [{unit}]", "points", note_lines=1)
     shapes, notes = _histogram_interval(stats, unit)
     if tolerance:
         _histogram_tolerance(shapes, notes, tolerance, unit)
@@ -124,6 +143,7 @@ def _histogram_interval(stats: dict[str, Any], unit: str) -> tuple[list[dict[str
             "xref": "x",
             "yref": "paper",
             "yanchor": "bottom",
+            "yshift": 2,
             "showarrow": False,
             "text": f"95 %: {interval_text(stats, unit)}",
             "font": {"size": 10, "color": "#2e7d32"},
@@ -179,7 +199,7 @@ def material_ratio_figure(
     C1, C2 = float(mr["C1"]) * f, float(mr["C2"]) * f
     spk, svk = float(mr["Spk"]) * f, float(mr["Svk"]) * f
     fig = go.Figure(_mr_construction(mr, unit) + _mr_curve(mr, unit))
-    layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]")
+    layout = _base_layout("Abbott-Firestone curve", "material ratio [%]", f"deviation [{unit}]", note_lines=3)
     shapes, notes = _mr_notes(mr, stats, unit)
     if tolerance:
         _mr_tolerance(shapes, notes, tolerance, unit)
@@ -298,29 +318,30 @@ def _mr_notes(
             "layer": "below",
         }
     ]
+    # above the plot (see TITLE_BAND): the parameters' two lines, then the interval's line
     notes = [
         {
-            "x": 50,
-            "y": hi,
-            "xref": "x",
-            "yref": "y",
+            "x": 1.0,
+            "y": 1.0,
+            "xref": "paper",
+            "yref": "paper",
+            "xanchor": "right",
             "yanchor": "bottom",
+            "yshift": 2,
             "showarrow": False,
             "text": f"95 % within {interval_text(stats, unit)}",
             "font": {"size": 10, "color": "#2e7d32"},
         },
         {
-            "x": 0.99,
-            "y": 0.98,
+            "x": 1.0,
+            "y": 1.0,
             "xref": "paper",
             "yref": "paper",
             "xanchor": "right",
-            "yanchor": "top",
+            "yanchor": "bottom",
+            "yshift": 2 + NOTE_LINE,
             "showarrow": False,
             "align": "right",
-            "bgcolor": "rgba(255,255,255,0.85)",
-            "bordercolor": "#ccc",
-            "borderwidth": 1,
             "font": {"size": 10},
             "text": (
                 f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {float(mr['Spk']) * f:.3g} {u} · "

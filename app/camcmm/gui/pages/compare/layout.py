@@ -26,6 +26,13 @@ from .. import shown
 
 CV = "cv_compare"  # the client view's state key
 
+# The side columns' widths. At 1366×768 the fixed 350 px and 34 % left the 3D view about
+# 540×300 px (issue 30): the setup column narrows to 24 vw (328 px at 1366, where its tables'
+# values are still whole; 350 px from 1459 px), the charts to 30 % (410 px at 1366, 480 px at
+# 1600; the charts' annotations are placed for such widths, see figures.py).
+LEFT = "clamp(320px, 24vw, 350px)"
+RIGHT = "clamp(340px, 30%, 520px)"
+
 _FIELD = (
     "[v => (v === '' || v === null || v === undefined) || !isNaN(Number(v)) || 'not a number',"
     " v => (v === '' || v === null || v === undefined || Number(v) >= 0) || 'at least 0 mm']"
@@ -73,7 +80,7 @@ def _left_column(page: Any, on_mode: Any) -> None:
     with html.Div(
         classes="pa-3",
         raw_attrs=tid("ins-panel"),
-        style="flex: 0 0 350px; max-width: 350px; overflow-y: auto; border-right: 1px solid rgba(0,0,0,0.12);",
+        style=f"flex: 0 0 {LEFT}; max-width: {LEFT}; overflow-y: auto; border-right: 1px solid rgba(0,0,0,0.12);",
     ):
         _setup_inputs(page)
         _pairs_card(page, on_mode)
@@ -375,7 +382,7 @@ def _warnings_and_tables() -> None:
     with v.VTable(v_if="!ins_failed", density="compact", raw_attrs=tid("ins-stats")):
         with html.Tbody():
             with html.Tr(v_for="r in ins_stats", key="r.key"):
-                html.Td("{{ r.name }}", classes="text-caption text-no-wrap")
+                html.Td("{{ r.name }}", classes="text-caption")
                 html.Td(
                     "{{ r.value }}",
                     classes="text-right text-body-2",
@@ -397,16 +404,23 @@ def _warnings_and_tables() -> None:
 
 
 def _centre_column(page: Any, on_mode: Any) -> Any:
-    """The display mode and legend, the note, the view, the picked point; returns the remote view."""
+    """The display mode and legend, the view's tools, the note, the view, the picked point;
+    returns the remote view. The rows above the view are kept few and tight: every pixel they
+    take is the view's (at 1366×768 they took 218 of its 696 px)."""
     from trame.widgets import html
 
     with html.Div(classes="d-flex flex-column", style="flex: 1 1 0; min-width: 0;"):
-        _mode_bar(on_mode)
-        with html.Div(classes="d-flex align-center flex-wrap pt-2", style="min-height: 40px; row-gap: 14px;"):
-            view_toolbar(page.tools)
-            render_switch(CV)
-            _legend_controls(page)
-        html.Div("{{ ins_note }}", classes="text-caption px-3", style="margin-top: -6px;", raw_attrs=tid("ins-note"))
+        _mode_bar(page, on_mode)
+        view_toolbar(page.tools)
+        _legend_line()
+        # the page's note where the view does not show it already (the browser's view writes its
+        # note at its bottom: the same text twice took a line)
+        html.Div(
+            "{{ ins_note }}",
+            v_show=f"ins_note && ({CV}_mode === 'server' || !{CV} || {CV}.note !== ins_note)",
+            classes="text-caption px-3",
+            raw_attrs=tid("ins-note"),
+        )
         # server-side times (epoch s) of the last run's stages, for benchmarks/bench_gui_colourmap.py
         html.Span(
             v_if="ins_timing && ins_timing.result",
@@ -425,17 +439,20 @@ def _centre_column(page: Any, on_mode: Any) -> Any:
         html.Div(
             "Click a point for its deviation; drag to turn, wheel to zoom."
             " With a 'pairs' alignment the Inputs view takes the point pairs.",
-            classes="text-caption px-3 pb-1 text-medium-emphasis",
+            classes="text-caption px-3 pb-1 text-medium-emphasis text-truncate",
+            title="Click a point for its deviation; drag to turn, wheel to zoom."
+            " With a 'pairs' alignment the Inputs view takes the point pairs.",
         )
     return rview
 
 
-def _mode_bar(on_mode: Any) -> None:
-    """The display mode (colour map, tolerance bands, inputs) and its legend."""
+def _mode_bar(page: Any, on_mode: Any) -> None:
+    """The display mode (colour map, tolerance bands, inputs, GD&T) and the colour legend's
+    kind: one row."""
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    with html.Div(classes="d-flex align-center flex-wrap ga-2 px-3 py-1", style="min-height: 52px;"):
+    with html.Div(classes="d-flex align-center flex-wrap ga-2 px-3 py-1", raw_attrs=tid("ins-mode-bar")):
         with v.VBtnToggle(
             model_value=("ins_mode",),
             density="compact",
@@ -445,22 +462,34 @@ def _mode_bar(on_mode: Any) -> None:
             update_modelValue=(on_mode, "[$event]"),
             raw_attrs=tid("ins-mode"),
         ):
-            v.VBtn(
-                "Colour map",
-                value="colour",
-                disabled=("!ins_has_result || ins_failed",),
-                raw_attrs=tid("ins-mode-colour"),
-            )
-            v.VBtn(
-                "Tolerance bands",
-                value="bands",
-                disabled=("!ins_has_result || ins_failed || !(Number(ins_tolerance) > 0)",),
-                raw_attrs=tid("ins-mode-bands"),
-            )
-            v.VBtn("Inputs", value="inputs", raw_attrs=tid("ins-mode-inputs"))
             # "GD&T", not "Characteristics": the longer word was clipped beside the three others
-            # at 1400 px (the right column's toggle keeps the long name)
-            v.VBtn("GD&T", value="gdt", disabled=("!gdt_results.length",), raw_attrs=tid("ins-mode-gdt"))
+            # at 1400 px (the right column's toggle keeps the long name); words as written, not
+            # capitals: the row keeps the legend's controls beside it at 1366 px
+            for text, value, disabled in (
+                ("Colour map", "colour", "!ins_has_result || ins_failed"),
+                ("Tolerance bands", "bands", "!ins_has_result || ins_failed || !(Number(ins_tolerance) > 0)"),
+                ("Inputs", "inputs", None),
+                ("GD&T", "gdt", "!gdt_results.length"),
+            ):
+                v.VBtn(
+                    text,
+                    value=value,
+                    size="small",
+                    classes="text-none",
+                    disabled=(disabled,) if disabled else False,
+                    raw_attrs=tid(f"ins-mode-{value}"),
+                )
+        _legend_controls(page)
+
+
+def _legend_line() -> None:
+    """Where the view is drawn (browser or server) and what the colours mean: the colour map's
+    title and limit, or the tolerance bands."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    with html.Div(classes="d-flex align-center flex-wrap ga-1 px-2 pt-1", raw_attrs=tid("ins-legend-line")):
+        render_switch(CV)
         v.VChip(
             "{{ ins_legend_title }} · {{ ins_limit_text }}",
             v_if="ins_mode === 'colour'",
@@ -507,8 +536,8 @@ def _legend_controls(page: Any) -> None:
         density="compact",
         variant="outlined",
         hide_details=True,
-        style="max-width: 190px;",
-        classes="ml-2",
+        style="max-width: 170px; min-width: 140px;",
+        classes="ml-1",
         disabled=("ins_mode !== 'colour'",),
         update_modelValue=(on_legend, "[$event, null]"),
         title="Colour legend: continuous, stepped in n bands over ± the colour limit, or n bands over "
@@ -524,8 +553,7 @@ def _legend_controls(page: Any) -> None:
         density="compact",
         variant="outlined",
         hide_details=True,
-        style="max-width: 90px;",
-        classes="ml-1",
+        style="max-width: 76px;",
         disabled=("ins_mode !== 'colour' || ins_legend_kind === 'continuous'",),
         update_modelValue=(on_legend, "[null, $event]"),
         title="Number of colour bands of a stepped legend (2 to 32)",
@@ -545,6 +573,7 @@ def _view(page: Any) -> Any:
     client_views(page.session.server).add(CV, page.view)
     with html.Div(
         style="flex: 1 1 auto; min-height: 300px; position: relative;",
+        classes="cmm-compare-view",
         raw_attrs=tid("ins-view")
         + [
             '@pointerdown="ins_down = [$event.clientX, $event.clientY, $event.button]"',
@@ -603,7 +632,7 @@ def _charts_column(page: Any) -> None:
 
     with html.Div(
         classes="pa-2 d-flex flex-column ga-2",
-        style="flex: 0 0 34%; max-width: 34%; overflow-y: auto; border-left: 1px solid rgba(0,0,0,0.12);",
+        style=f"flex: 0 0 {RIGHT}; max-width: {RIGHT}; overflow-y: auto; border-left: 1px solid rgba(0,0,0,0.12);",
     ):
         with v.VBtnToggle(
             v_model=("ins_right",),
@@ -659,6 +688,7 @@ def _section_controls(page: Any) -> None:
     def on_section(axis, position):
         page.set_section(axis, position)
 
+    cut = page.session.server.controller.trigger_name(on_section)
     with html.Div(classes="d-flex align-center ga-2", raw_attrs=tid("ins-section-controls")):
         html.Span("Section", classes="text-subtitle-2")
         with v.VBtnToggle(
@@ -668,8 +698,10 @@ def _section_controls(page: Any) -> None:
             variant="outlined",
             divided=True,
             disabled=("!ins_has_result",),
-            update_modelValue=(on_section, "[$event, null]"),
-            raw_attrs=tid("ins-section-axis"),
+            # the clicked axis shows at once (it waited for the cut's round trip, about a second
+            # after a run: the click looked ignored and was made again), then the server cuts
+            raw_attrs=tid("ins-section-axis")
+            + [f"@update:modelValue=\"ins_section_axis = $event; trigger('{cut}', [$event, null])\""],
         ):
             for a in ("x", "y", "z"):
                 v.VBtn(a, value=a, size="small", raw_attrs=tid(f"ins-section-{a}"))

@@ -31,6 +31,10 @@ class Section:
         self.page = page
         self.state = page.state
         self.view = page.view
+        # the axis the slider's range was set for: the browser shows a clicked axis at once
+        # (the toggle writes the state itself, see layout._section_controls), so the state's
+        # axis can be the new one already when the click arrives and cannot tell a change
+        self.range_axis: str | None = None
 
     def auto(self) -> None:
         """The section through the middle, once a valid result is shown."""
@@ -58,7 +62,8 @@ class Section:
         b = self.bounds()
         if b is None:
             return
-        ax = AXES.index(s.ins_section_axis or "z")
+        self.range_axis = s.ins_section_axis or "z"
+        ax = AXES.index(self.range_axis)
         lo, hi = float(b[0, ax]), float(b[1, ax])
         step = (hi - lo) / 200.0 or 0.01
         s.ins_section_range = [lo, hi, float(f"{step:.3g}")]
@@ -69,7 +74,7 @@ class Section:
         """Cut the part by the plane axis = position; publish the 2-D chart and show the
         plane in the view."""
         s = self.state
-        if axis is not None and axis != s.ins_section_axis:
+        if axis is not None and axis in AXES and axis != self.range_axis:
             s.ins_section_axis = axis
             self.set_range(centre=True)
         if position is not None:
