@@ -39,9 +39,14 @@ def number(text: str) -> float:
     return float(re.search(r"[-+]?\d+(\.\d+)?(e[-+]?\d+)?", text.replace("u", "", 1).split("=")[1]).group(0))
 
 
+def two(x: float) -> float:
+    """``x`` to two significant digits, as the page writes u_c and U (GUM 7.2.6, camcmm.numbers)."""
+    return float(f"{x:.2g}")
+
+
 def wait_number(locator, expect: float, seconds: float = 10) -> float:
     deadline = time.monotonic() + seconds
-    while abs(number(locator.inner_text()) - expect) > 0.005 and time.monotonic() < deadline:
+    while abs(number(locator.inner_text()) - expect) > 1e-9 and time.monotonic() < deadline:
         time.sleep(0.2)
     return number(locator.inner_text())
 
@@ -64,21 +69,19 @@ def test_uncertainty_page_in_the_browser(gui_server):
             page.click('[data-testid="page-uncertainty"]')
             combined = page.locator('[data-testid="unc-b-combined"]')
             combined.wait_for()
-            # thesis table 3.2, x: sqrt(3.1² + 1.7² + 9.1² + 1.5² + 2.1²) = 10.08 µm
-            assert number(combined.inner_text()) == pytest.approx(
-                math.sqrt(3.1**2 + 1.7**2 + 9.1**2 + 1.5**2 + 2.1**2), abs=0.005
-            )
+            # thesis table 3.2, x: sqrt(3.1² + 1.7² + 9.1² + 1.5² + 2.1²) = 10.08 µm, written "10"
+            assert number(combined.inner_text()) == two(math.sqrt(3.1**2 + 1.7**2 + 9.1**2 + 1.5**2 + 2.1**2))
             cell = page.locator('[data-testid="unc-b-value-2"] input')
             cell.fill("0")
             cell.press("Enter")
-            expect = math.sqrt(3.1**2 + 1.7**2 + 1.5**2 + 2.1**2)
-            assert wait_number(combined, expect) == pytest.approx(expect, abs=0.005)
+            expect = two(math.sqrt(3.1**2 + 1.7**2 + 1.5**2 + 2.1**2))  # 4.377 -> 4.4
+            assert wait_number(combined, expect) == expect
             # the rotation row as a rectangular half-width a = 9.1 µm: u = 9.1/√3
             choose(page, "unc-b-kind-2", "a (half-width)")
             cell.fill("9.1")
             cell.press("Enter")
-            expect = math.sqrt(3.1**2 + 1.7**2 + 9.1**2 / 3 + 1.5**2 + 2.1**2)
-            assert wait_number(combined, expect) == pytest.approx(expect, abs=0.005)
+            expect = two(math.sqrt(3.1**2 + 1.7**2 + 9.1**2 / 3 + 1.5**2 + 2.1**2))  # 6.84 -> 6.8
+            assert wait_number(combined, expect) == expect
             conversion = page.locator('[data-testid="unc-b-conversion-2"]').inner_text()
             assert conversion == "a = 9.1 µm, rectangular → u = a/√3 = 5.254 µm"
             assert page.locator('[data-testid="unc-b-uout-2"]').inner_text() == "5.254"
@@ -103,7 +106,7 @@ def test_uncertainty_page_in_the_browser(gui_server):
             page.wait_for_selector('[data-testid="unc-mc-table"]', timeout=120_000)
             assert "done: 300 iterations" in page.locator('[data-testid="unc-mc-message"]').inner_text()
             rows = page.locator('[data-testid="unc-mc-table"] tbody tr')
-            assert rows.count() >= 8  # six factors of the shipped system + combined, dof, k, U
+            assert rows.count() >= 7  # five factors of the shipped system + u_c and U (k, ν_eff in their cells)
             page.wait_for_selector('[data-testid="unc-mc-chart"] .main-svg')
             page.wait_for_selector('[data-testid="unc-mc-convergence"] .main-svg .scatterlayer .trace')
             assert "magnified" in page.locator('[data-testid="unc-mc-map-note"]').inner_text()

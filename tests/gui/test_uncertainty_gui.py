@@ -61,7 +61,9 @@ def test_budget_editor_reproduces_gum_h1_and_the_cli(gui_app):
     # the bar chart carries every contribution with its share
     bar = s.unc_b_fig["data"][0]
     assert len(bar["y"]) == len(doc["contributions"])
-    assert max(bar["x"]) == pytest.approx(25.0)
+    # bars and labels are one number: each contribution's share of u_c² in % (they add up to 100)
+    shares = [100 * (c["contribution"] / page.budget["combined"]) ** 2 for c in page.budget["contributions"]]
+    assert sorted(bar["x"]) == pytest.approx(sorted(shares), rel=1e-9) and sum(bar["x"]) == pytest.approx(100.0)
 
 
 @pytest.mark.slow
@@ -237,7 +239,9 @@ def test_montecarlo_run_publishes_plugin_numbers_is_stored_and_restored(gui_app)
     for f, u in direct["contributions"].items():
         assert np.allclose(full["contributions"][f], u, rtol=1e-12)
     table = {r["factor"]: r for r in s.unc_mc_rows}
-    assert table["combined u"]["x"] == f"{direct['combined'][0]:.3g}"
+    # u_c with two significant digits (the number rule); k goes in U's name, not in a u column
+    assert table["combined standard uncertainty u_c"]["x"] == figs.u_text(direct["combined"][0])
+    assert any(name.startswith("expanded U = k·u_c (k = ") for name in table)
     # charts: bars per factor and axis, a convergence curve per factor
     assert len(s.unc_mc_fig_contrib["data"]) == 3
     assert len(s.unc_mc_fig_contrib["data"][0]["y"]) == len(direct["contributions"])

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from .... import numbers as num
 from ....jsonable import to_jsonable
 from ....tasks.uncertainty import DISTRIBUTIONS, budget_doc, rows_from_doc
 from ...downloads import Downloads, table_csv
@@ -31,26 +32,35 @@ EMPTY_ROW = {"name": "", "kind": "u", "value": "", "distribution": "normal", "k"
 
 
 def shown(res: dict[str, Any]) -> dict[str, Any]:
-    """The result card's texts (``unc_b_result``) from the plugin's outputs."""
+    """The result card's texts (``unc_b_result``) from the plugin's outputs: u_c and U
+    with two significant digits (GUM 7.2.6), k and ν_eff as plain numbers, each share as
+    a percentage of the combined variance u_c² (:data:`figures.SHARE_MEANING`)."""
     return {
-        "combined": figs.fmt(res["combined"]),
+        "combined": figs.u_text(res["combined"]),
         "dof_eff": figs.fmt(res["dof_eff"], 3),
         "k": figs.fmt(res["k"], 3),
-        "expanded": figs.fmt(res["expanded"]),
-        "p": f"{100 * float(res['coverage_probability']):g} %",
+        "expanded": figs.u_text(res["expanded"]),
+        "p": num.percentile(100 * float(res["coverage_probability"])),
         "unit": figs.shown_unit(res.get("unit")),
+        "share_meaning": figs.SHARE_MEANING,
         "shares": [
             {
                 "name": c["name"],
-                "contribution": figs.fmt(c["contribution"]),
-                "share": f"{100 * float(c['share']):.1f} %",
+                "contribution": figs.u_text(c["contribution"]),
+                "share": num.percent(float(c["share"])),
             }
             for c in res["contributions"]
         ],
         # per editor row, in order: the standard uncertainty the plugin used and how it
-        # came from what was entered ("a = 2 µm, rectangular → u = a/√3 = 1.155 µm")
+        # came from what was entered ("a = 2 µm, rectangular → u = a/√3 = 1.155 µm"): an
+        # intermediate of the budget, with the conversion's four digits (GUM 7.2.6 allows
+        # more than two where later sums would otherwise round)
         "rows": [
-            {"u": figs.fmt(c["u"], 4), "conversion": c.get("conversion", ""), "entered_as": c.get("entered_as", "u")}
+            {
+                "u": num.significant(c["u"], 4),
+                "conversion": c.get("conversion", ""),
+                "entered_as": c.get("entered_as", "u"),
+            }
             for c in res["contributions"]
         ],
     }
@@ -68,7 +78,7 @@ def exports(offered: Downloads, name: str, doc: dict[str, Any], res: dict[str, A
     rows.append(["combined", None, None, res["dof_eff"], None, res["combined"], 1.0, None])
     rows.append(
         [
-            f"expanded (k = {res['k']:.3g}, p = {res['coverage_probability']:g})",
+            f"expanded (k = {figs.fmt(res['k'], 3)}, p = {num.percentile(100 * float(res['coverage_probability']))})",
             None,
             None,
             None,
@@ -78,7 +88,8 @@ def exports(offered: Downloads, name: str, doc: dict[str, Any], res: dict[str, A
             None,
         ]
     )
-    header = ["name", f"u ({res.get('unit', '')})", "c", "dof", "distribution", "|c·u|", "share", "entered as"]
+    unit = figs.shown_unit(res.get("unit"))
+    header = ["name", f"u ({unit})", "c", "dof", "distribution", f"|c·u| ({unit})", "share of u_c²", "entered as"]
     links = [
         offered.offer(f"{name}.yaml", data=yaml.safe_dump(doc, sort_keys=False, allow_unicode=True).encode()),
         offered.offer(f"{name}.csv", data=table_csv(header, rows)),

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from ...plotly_json import LEGEND_BELOW, empty, layout
 
 AXES = ("x", "y", "z")
@@ -37,8 +38,8 @@ PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e
 
 
 def shown_unit(unit: str | None) -> str:
-    """Units as files write them (``um``) and as people read them (``µm``)."""
-    return "µm" if unit == "um" else (unit or "")
+    """Units as files write them (``um``, ``urad``) and as people read them (``µm``, ``µrad``)."""
+    return num.unit_text(unit)
 
 
 def factor_title(name: str) -> str:
@@ -46,41 +47,61 @@ def factor_title(name: str) -> str:
 
 
 def fmt(x: Any, digits: int = 4) -> str:
-    """A number as the tables show it: ``digits`` significant digits; None and inf as ∞
-    (an infinite number of degrees of freedom)."""
+    """A plain number as the tables show it (a coverage factor, degrees of freedom):
+    ``digits`` significant digits, never an exponent; None and inf as ∞ (an infinite
+    number of degrees of freedom)."""
     if x is None:
         return "∞"
     x = float(x)
-    return "∞" if math.isinf(x) else f"{x:.{digits}g}"
+    return "∞" if math.isinf(x) else num.plain(x, digits)
+
+
+def u_text(x: Any) -> str:
+    """An uncertainty in the result's unit with two significant digits (GUM 7.2.6, the
+    number rule); ``0`` for zero."""
+    if x is None or not num.finite(x):
+        return num.UNDEFINED
+    return num.plain(abs(float(x)), 2)
 
 
 def _layout(title: str, xtitle: str, ytitle: str, legend: bool = True, **extra: Any) -> dict[str, Any]:
     return layout(title, xtitle, ytitle, LEGEND_BELOW if legend else None, y_from_zero=True, **extra)
 
 
+#: what the budget's bars and percentages are (one thing, said in the chart's title and the table)
+SHARE_MEANING = "share of the variance u_c² = Σ (c·u)², in %"
+
+
 def budget_figure(result: dict[str, Any]) -> dict[str, Any]:
-    """Horizontal bars: each contribution |c·u| with its share of u_c² in the label."""
+    """Horizontal bars: each contribution's share of the combined variance u_c²,
+    (c·u)² / u_c² in % (the GUM's convention for a budget's percentages). Bar and label
+    are the same number; |c·u| is in the hover."""
     rows = list(result.get("contributions") or [])
     unit = shown_unit(result.get("unit"))
     if not rows:
         return empty("the budget's contributions appear here")
     names = [str(r.get("name")) for r in rows][::-1]
-    values = [abs(float(r.get("contribution", 0.0))) for r in rows][::-1]
     shares = [100.0 * float(r.get("share", 0.0)) for r in rows][::-1]
+    cu = [u_text(r.get("contribution", 0.0)) for r in rows][::-1]
     bar = {
         "type": "bar",
         "orientation": "h",
         "y": names,
-        "x": values,
+        "x": shares,
         "marker": {"color": "#1f77b4"},
-        "text": [f"{s:.1f} %" for s in shares],
+        "text": [num.percent(s / 100.0) for s in shares],
         "textposition": "auto",
-        "hovertemplate": "%{y}<br>|c·u| = %{x:.4g} " + unit + "<br>share %{text}<extra></extra>",
+        "customdata": cu,
+        "hovertemplate": "%{y}<br>share of u_c² %{text}<br>|c·u| = %{customdata} " + unit + "<extra></extra>",
     }
     return {
         "data": [bar],
         "layout": _layout(
-            f"Contributions to u_c ({unit})", f"|c·u| / {unit}", "", legend=False, yaxis={"automargin": True}
+            "Contributions: " + SHARE_MEANING,
+            "share of u_c² / %",
+            "",
+            legend=False,
+            yaxis={"automargin": True},
         ),
     }
 
@@ -99,15 +120,13 @@ def contributions_figure(mc: dict[str, Any]) -> dict[str, Any]:
             "x": names,
             "y": [float(v[i]) for v in contrib.values()],
             "marker": {"color": AXIS_COLOURS[a]},
-            "hovertemplate": "%{x}<br>u_" + a + " = %{y:.3g} " + unit + "<extra></extra>",
+            "hovertemplate": "%{x}<br>u_" + a + " = %{y:.2r} " + unit + "<extra></extra>",
         }
         for i, a in enumerate(AXES)
     ]
     comb = mc.get("combined") or [0, 0, 0]
     title = (
-        "Contributions per factor; combined "
-        + ", ".join(f"u_{a} {float(c):.3g}" for a, c in zip(AXES, comb))
-        + f" {unit}"
+        "Contributions per factor; combined " + ", ".join(f"u_{a} {u_text(c)}" for a, c in zip(AXES, comb)) + f" {unit}"
     )
     return {
         "data": data,
@@ -133,7 +152,7 @@ def convergence_figure(conv: dict[str, Any], unit: str, axis: str = "x") -> dict
                 "x": np.asarray(c["iterations"]).tolist(),
                 "y": u[:, i].tolist(),
                 "line": {"color": PALETTE[j % len(PALETTE)], "width": 1.6},
-                "hovertemplate": factor_title(f) + "<br>N = %{x}<br>u = %{y:.4g} " + unit + "<extra></extra>",
+                "hovertemplate": factor_title(f) + "<br>N = %{x}<br>u = %{y:.2r} " + unit + "<extra></extra>",
             }
         )
     lay = _layout(f"Convergence in {axis}", "iterations", f"u_{axis} / {unit}")

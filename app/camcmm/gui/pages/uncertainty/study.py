@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from .... import numbers as num
 from ....params import form_schema
 from ....tasks.uncertainty import ARRAYS, MC_KEY, RUN, done_message, inputs, load_system, read
 from ....tasks.uncertainty import store_montecarlo as store
@@ -49,10 +50,18 @@ def form_fields(plugin: Any) -> dict[str, list[dict[str, Any]]]:
     return groups
 
 
+def _typed(x: float) -> str:
+    """A number as one types it into a field: never an exponent (1e-05 reads 0.00001), an
+    ASCII minus (the field is parsed back)."""
+    return num.significant(x, 6).replace(num.MINUS, "-")
+
+
 def _shown(value: Any) -> Any:
     """A declared default as the form shows it (a vector as "16.74, 16.66")."""
     if isinstance(value, (list, tuple)):
-        return ", ".join(f"{x:g}" if isinstance(x, float) else str(x) for x in value)
+        return ", ".join(_typed(x) if isinstance(x, float) else str(x) for x in value)
+    if isinstance(value, float):
+        return _typed(value)
     return value
 
 
@@ -66,34 +75,39 @@ def start_values(groups: dict[str, list[dict[str, Any]]], values: dict[str, Any]
 
 
 def table_rows(full: dict[str, Any]) -> list[dict[str, Any]]:
-    """The table of thesis table 3.2: one row per factor (u in x, y, z, dof, distribution),
-    then combined u, effective dof, k and U (rows with ``total``)."""
+    """The table of thesis table 3.2: one row per factor (standard uncertainty u in x, y, z
+    with two significant digits, dof, distribution), then the combined u_c and U (rows with
+    ``total``). The effective dof and the coverage factor k are not lengths: they go in the
+    dof column and in U's name ("U = k·u_c (k = 2.03 / 2.05 / 2.03, 95 %)"), not in the
+    µm columns beside the uncertainties."""
     rows = []
     for f, u in (full.get("contributions") or {}).items():
         rows.append(
             {
                 "factor": figs.factor_title(f),
-                "x": figs.fmt(u[0], 3),
-                "y": figs.fmt(u[1], 3),
-                "z": figs.fmt(u[2], 3),
+                "x": figs.u_text(u[0]),
+                "y": figs.u_text(u[1]),
+                "z": figs.u_text(u[2]),
                 "dof": figs.fmt((full.get("factor_dof") or {}).get(f), 4),
                 "distribution": (full.get("factor_distribution") or {}).get(f, ""),
             }
         )
-    for key, title in (
-        ("combined", "combined u"),
-        ("dof_eff", "effective dof"),
-        ("k", "k"),
-        ("expanded", f"U ({100 * float(full.get('coverage_probability', 0.95)):g} %)"),
+    dof = [figs.fmt(x, 3) for x in (full.get("dof_eff") or [])]
+    ks = [figs.fmt(x, 3) for x in (full.get("k") or [])]
+    k_text = ks[0] if ks and len(set(ks)) == 1 else " / ".join(ks)
+    p = num.percentile(100 * float(full.get("coverage_probability", 0.95)))
+    for key, title, dof_text in (
+        ("combined", "combined standard uncertainty u_c", ("ν_eff " + " / ".join(dict.fromkeys(dof))) if dof else ""),
+        ("expanded", f"expanded U = k·u_c (k = {k_text}, {p})" if ks else f"expanded U ({p})", ""),
     ):
         v = full.get(key) or [None] * 3
         rows.append(
             {
                 "factor": title,
-                "x": figs.fmt(v[0], 3),
-                "y": figs.fmt(v[1], 3),
-                "z": figs.fmt(v[2], 3),
-                "dof": "",
+                "x": figs.u_text(v[0]),
+                "y": figs.u_text(v[1]),
+                "z": figs.u_text(v[2]),
+                "dof": dof_text,
                 "distribution": "",
                 "total": True,
             }

@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from ....errors import InputError
-from ... import setup_offscreen
-from .figures import factor_title, shown_unit
+from ... import legendbar, setup_offscreen
+from .figures import factor_title, shown_unit, u_text
 
 
 def map_options(result: dict[str, Any] | None) -> list[dict[str, str]]:
@@ -102,7 +103,7 @@ class UncertaintyView:
         self.plotter.clear_actors()
         for title in list(self.plotter.scalar_bars.keys()):
             self.plotter.remove_scalar_bar(title)
-        title = f"{what} / {unit}"
+        title = num.title(what, unit)
         cloud = pv.PolyData(pts)
         cloud[title] = mag
         bar = {
@@ -113,7 +114,6 @@ class UncertaintyView:
             "height": 0.8,
             "title_font_size": 12,
             "label_font_size": 11,
-            "fmt": "%.3g",
         }
         extent = float(np.ptp(pts, axis=0).max()) or 1.0
         if vec is not None:
@@ -129,24 +129,38 @@ class UncertaintyView:
                 geom=pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04),
             )
             self.plotter.add_mesh(glyphs, scalars=title, cmap="viridis", scalar_bar_args=bar)
+            self._dress(title, what, unit, mag)
             self.plotter.add_mesh(
                 cloud, color="#444444", point_size=3, render_points_as_spheres=True, show_scalar_bar=False
             )
             self.scale = factor
             magnified = factor / {"mm": 1.0, "µm": 1e-3, "nm": 1e-6}.get(unit, 1.0)
-            self.note = f"arrows magnified {magnified:,.0f}× (longest {longest:.3g} {unit}); {len(pts)} grid points"
+            self.note = (
+                f"arrows magnified {num.count(round(magnified))}× (longest {num.plain(longest, 3)} {unit}); "
+                f"{num.count(len(pts))} grid points"
+            )
         else:
             self.plotter.add_mesh(
                 cloud, scalars=title, cmap="viridis", point_size=12, render_points_as_spheres=True, scalar_bar_args=bar
             )
+            self._dress(title, what, unit, mag)
             self.scale = 0.0
-            self.note = f"{len(pts)} grid points; u from {float(mag.min()):.3g} to {float(mag.max()):.3g} {unit}"
+            self.note = (
+                f"{num.count(len(pts))} grid points; standard uncertainty u from {u_text(mag.min())} "
+                f"to {u_text(mag.max())} {unit}"
+            )
         self.shown = choice
         self.plotter.camera_position = "iso"
         self.plotter.reset_camera()
         if self.on_update is not None:
             self.on_update(True)
         return self.note
+
+    def _dress(self, title: str, what: str, unit: str, mag: np.ndarray) -> None:
+        """The scalar bar by the number rule: round ticks, a real minus (camcmm.gui.legendbar)."""
+        bars = self.plotter.scalar_bars
+        if title in bars and mag.size:
+            legendbar.dress(bars[title], legendbar.legend(what, unit, float(np.min(mag)), float(np.max(mag))))
 
     def screenshot(self) -> np.ndarray:
         return self.plotter.screenshot(return_img=True)
