@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....errors import InputError
 from ....tasks.calibration import IMAGE_EXTS
+from .board import parse
 
 __all__ = ["IMAGE_EXTS", "MODELS", "board_layout", "image_items", "split_by_name"]
 MODELS = [
@@ -38,10 +40,9 @@ def split_by_name(items: list[dict[str, Any]], stereo: bool) -> tuple[list[str],
 def board_layout(spec: str) -> tuple[str, tuple[int, int] | None]:
     """(kind, (cols, rows) as OpenCV's drawing takes it) of a board spec, or (kind, None)
     when the spec cannot be read: only for drawing, the plugin judges the spec."""
-    parts = str(spec or "").split(":")
-    kind = parts[0].strip().lower()
     try:
-        c, r = (int(v) for v in parts[1].lower().replace("×", "x").split("x"))
-    except (IndexError, ValueError):
-        return kind, None
-    return kind, ((c - 1, r - 1) if kind == "charuco" else (c, r))
+        form = parse(spec)
+    except InputError:
+        return str(spec or "").split(":")[0].strip().lower(), None
+    c, r = form["cols"], form["rows"]
+    return form["kind"], ((c - 1, r - 1) if form["kind"] == "charuco" else (c, r))
