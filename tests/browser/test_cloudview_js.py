@@ -14,10 +14,19 @@ y = H/2 - f yc/d):
   it in NDC, and its ``mvp``
   maps each point to the NDC of its projected pixel (so a point is inside exactly when drawn
   inside);
+- with a colour legend the scene is centred in the width left of it (lens(): W' = W - the
+  legend's strip, f = (min(H, W')/2)/tan(view_angle/2)): two points at ±20 mm, of which the right
+  one lay under the legend before (issue 30: the ball bar), are drawn at those pixels, left of it;
+- two pick labels of points 0.6 mm apart: their texts do not overlap (the later lifted);
+- a view attached over the server's empty placeholder (rev 0) shows "drawing …" until the first
+  frame of a scene, and not after; after its element is resized the canvas has the element's
+  size (no stretched picture);
 - the WebGL2 backend (forced) draws the same colours at the same pixels with the same occlusion.
 """
 
 from __future__ import annotations
+
+import math
 
 import cv2
 import numpy as np
@@ -135,6 +144,8 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
             assert (img[int(by), int(bx)] == [0, 0, 255]).all()
             assert (img == [255, 0, 0]).all(axis=2).sum() == 0
 
+            _legend_labels_spinner(page, folder)
+
             # the GPU backend (forced: under SwiftShader the automatic choice is the CPU), the same
             # scene: the same colours at the same pixels, the same occlusion
             gl = browser.new_page(viewport={"width": SIZE[0] + 50, "height": SIZE[1] + 50})
@@ -150,3 +161,68 @@ def test_cloudview_draws_picks_and_selects(tmp_path):
             assert (img == [255, 0, 0]).all(axis=2).sum() == 0
         finally:
             browser.close()
+
+
+def _legend_labels_spinner(page, folder) -> None:
+    """Issue 30 in cloudview.js: framing beside the legend, labels apart, the spinner, a resize."""
+    w, h = SIZE
+    legend = {"title": "deviation [µm]", "colors": [[90, 90, 90], [160, 160, 160]], "lo": -1, "hi": 1}
+    legend["labels"] = [{"value": v, "text": t} for v, t in ((-1, "−1"), (0, "0"), (1, "1"))]
+    ends = np.array([[-20.0, 0.0, 0.0], [20.0, 0.0, 0.0]])
+    bar = points_layer(folder, "bar", ends, np.array([[0, 200, 0]] * 2, dtype=np.uint8), point_size=3)
+    labels = [
+        {"pos": [0.0, 0.0, 0.0], "text": "#1 (0.000, 0.000, 0.000) mm +8.6 µm", "color": [0, 0, 0]},
+        {"pos": [0.5, 0.3, 0.0], "text": "#2 (0.500, 0.300, 0.000) mm +3.0 µm", "color": [0, 0, 0]},
+    ]
+    page.evaluate(SET_STATE, [NAME, scene_state([bar], CAMERA, rev=40, legend=legend, labels=labels)])
+    page.wait_for_function(READY, arg=NAME, timeout=10_000)
+    left = page.evaluate("document.querySelector('.cmm-cv-legend').offsetLeft")
+    assert 0.6 * w < left < w, left
+    wv = w - (w - left + 8)  # LEGEND_GAP
+    f = min(h, wv) / 2 / math.tan(math.radians(CAMERA["view_angle"]) / 2)
+    want = [wv / 2 - f * 20 / 100, wv / 2 + f * 20 / 100]  # the camera 100 mm away
+    assert project(CAMERA, SIZE, ends)[1][0] > left  # where it was drawn before: under the legend
+    img = _image(page)
+    ys, xs = np.nonzero((img == [0, 200, 0]).all(axis=2))
+    assert xs.size == 18 and xs.max() < left, (xs, left)
+    for x0 in want:
+        near = xs[np.abs(xs - x0) <= 2]
+        assert near.size == 9 and abs(near.mean() - (np.floor(x0) + 0.5)) <= 0.6, (x0, xs)
+
+    boxes = page.evaluate(
+        "() => [...document.querySelectorAll('.cmm-cv-label .cmm-cv-text')].map(t => {"
+        " const r = t.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; })"
+    )
+    assert len(boxes) == 2
+    (a, b) = boxes
+    assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]), boxes
+
+    # a second view over the server's placeholder (rev 0, empty): "drawing …" until a scene is up
+    busy = "n => getComputedStyle(document.querySelector(`[data-cv='${n}'] .cmm-cv-busy`)).display"
+    page.evaluate(SET_STATE, ["cv_more", scene_state([], CAMERA, rev=0)])
+    page.evaluate(
+        "() => { const d = document.createElement('div'); d.className = 'cmm-cloudview';"
+        " d.setAttribute('data-cv', 'cv_more'); d.style.width = '200px'; d.style.height = '150px';"
+        " document.body.appendChild(d); }"
+    )
+    page.wait_for_selector("[data-cv='cv_more'] .cmm-cv-busy", state="attached")
+    page.wait_for_timeout(300)
+    assert page.evaluate(busy, "cv_more") != "none"
+    assert "drawing" in page.inner_text("[data-cv='cv_more'] .cmm-cv-busy")
+    page.evaluate(SET_STATE, ["cv_more", scene_state([bar], CAMERA, rev=1)])
+    page.wait_for_function(READY, arg="cv_more", timeout=10_000)
+    assert page.evaluate(busy, "cv_more") == "none"
+    assert page.evaluate(busy, NAME) == "none"
+
+    # resized: after the next frame the canvas has the element's size (the picture not stretched)
+    got = page.evaluate(
+        """() => new Promise(done => {
+          const host = document.querySelector("[data-cv='cv_more']");
+          host.style.width = '260px'; host.style.height = '120px';
+          requestAnimationFrame(() => requestAnimationFrame(() => {
+            const c = host.querySelector('canvas');
+            done([c.width, c.height, host.clientWidth, host.clientHeight]);
+          }));
+        })"""
+    )
+    assert got == [260, 120, 260, 120], got
