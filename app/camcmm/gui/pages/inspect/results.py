@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from ....host import to_jsonable
 from ....tasks.plugin_run import derived_name, new_items, residual_fields
 from ...view import fmt_count
@@ -35,10 +36,13 @@ def fmt_value(v: Any) -> str:
     as shape and range."""
     if isinstance(v, bool) or v is None:
         return str(v)
+    if isinstance(v, (list, tuple)) and v and all(isinstance(x, str) for x in v):
+        return ", ".join(v)  # names (covariance_names ...) as a list, not a Python repr
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
-        return f"{float(v):.6g}" if np.isfinite(v) else "not defined"
+        # never an exponent (issue 30: "1.88976e-05" where a person reads it)
+        return num.significant(float(v), 6) if np.isfinite(v) else "not defined"
     a = _numeric_array(v)
     if a is not None:
         if a.dtype.kind not in "iufb" or a.size == 0:
