@@ -103,6 +103,8 @@ def test_camera_shows_the_plugins_numbers_corners_and_heat_map(app):
         "calibration.camera", inputs={"images": [str(p) for p in LEFT]}, params={"board": BOARD}
     ).outputs
     out = doc["outputs"]
+    # named in words when the operator gives no name (the board, not its code)
+    assert doc["current"]["name"].startswith("camera, chessboard, 9 × 6 inner corners, 25 mm squares (")
     # equal up to OpenCV's run-to-run rounding (its solver is multi-threaded: ~1e-9 relative seen)
     assert np.allclose(out["camera_matrix"], direct["camera_matrix"], rtol=1e-7, atol=0)
     # k2, k3 are ill-conditioned: the same ~1e-9 noise moves them by up to ~3e-7 relative, so

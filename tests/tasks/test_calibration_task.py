@@ -68,7 +68,7 @@ def test_bad_requests_are_refused_in_one_line(project, tmp_path):
         (folder_request(folder=str(tmp_path / "nowhere")), "no such folder"),
         (folder_request(folder=""), "give the folder on the server"),
         (folder_request(left_pattern="*.tif"), "no image files"),
-        (folder_request(board=""), "board: give the board spec"),
+        (folder_request(board=""), "board: give the board and its square size"),
         (folder_request(outlier_factor="many"), "outlier factor: 'many' is not a number"),
         (folder_request("stereo", folder=str(odd), left_pattern="*", right_pattern="*"), "the same image"),
     ]

@@ -467,12 +467,15 @@ def store(
     req: CalibrationRequest,
     sources: dict[str, list[dict[str, Any]]],
     thumbs: dict[str, dict[str, str]] | None = None,
+    board_words: str = "",
 ) -> dict[str, Any]:
     """The calibration into ``project``: its JSON (as the plugin wrote it) and OpenCV YAML,
     the page document (with the page's ``thumbs`` per camera: image name -> data URL) and
     a result row naming the image items; the project remembers them as the current
-    calibration (:data:`CURRENT_KEY`) and the request (:data:`INPUTS_KEY`). Returns the
-    page document, whose ``current`` says where they are; ``cal``'s folder is removed."""
+    calibration (:data:`CURRENT_KEY`) and the request (:data:`INPUTS_KEY`). Without a
+    name in the request, one is made of the kind, ``board_words`` (the board in words;
+    else its spec) and the time. Returns the page document, whose ``current`` says where
+    they are; ``cal``'s folder is removed."""
     from ..io import read_calibration, write_calibration
 
     try:
@@ -488,7 +491,8 @@ def store(
             "thumbs": thumbs or {side: {} for side in sides(req.mode)},
         }
         name = (req.name or "").strip() or (
-            f"{'stereo pair' if req.mode == 'stereo' else 'camera'} {req.board} ({time.strftime('%Y-%m-%d %H:%M')})"
+            f"{'stereo pair' if req.mode == 'stereo' else 'camera'}, {board_words or req.board} "
+            f"({time.strftime('%Y-%m-%d %H:%M')})"
         )
         tmp = cal.folder
         write_calibration(tmp / "calibration.yaml", read_calibration(tmp / "calibration.json"))

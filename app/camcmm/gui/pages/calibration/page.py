@@ -275,7 +275,7 @@ class CalibrationPage:
             cal.discard()
             raise
         progress(0.9, "storing the calibration in the project")
-        doc = task.store(self.project, cal, req, src, thumbs)
+        doc = task.store(self.project, cal, req, src, thumbs, boardform.describe(req.board))
         progress(0.95, "drawing")
         return doc, self.results.pictures(doc, cal.images)
 
