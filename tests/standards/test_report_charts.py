@@ -62,10 +62,11 @@ def test_limit_sets_the_colour_range_and_units_follow_the_size():
     info = charts.deviation_map(p, d, center=(10.0, -5.0, 30.0), limit=0.002).info
     assert (info["vmin"], info["vmax"]) == (pytest.approx(-2.0), pytest.approx(2.0))  # µm
     assert info["limit"] == pytest.approx(2.0)
+    # deviations in µm whatever their size (the number rule, as every page)
     info = charts.deviation_map(p, d * 100, center=(10.0, -5.0, 30.0)).info  # up to ~0.5 mm
-    assert info["display_unit"] == "mm" and info["vmin"] == -info["vmax"]
+    assert info["display_unit"] == "µm" and info["vmin"] == -info["vmax"]
     info = charts.deviation_map(p, d / 1000, center=(10.0, -5.0, 30.0)).info  # a few nm
-    assert info["display_unit"] == "nm"
+    assert info["display_unit"] == "µm"
     info = charts.deviation_map(p, d * 1000, unit="µm", center=(10.0, -5.0, 30.0)).info  # given in µm
     assert info["display_unit"] == "µm" and info["vmax"] == pytest.approx(np.abs(d).max() * 1000)
     info = charts.deviation_map(p, d, center=(10.0, -5.0, 30.0), display_unit="mm").info

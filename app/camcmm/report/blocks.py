@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePath
 from typing import Any
 
+from .. import numbers
 from ..errors import InputError
 from ..jsonable import to_jsonable
 
@@ -69,7 +70,8 @@ def text(x: Any) -> str:
             return "\u2014" if math.isnan(x) else ("\u221e" if x > 0 else "\u2212\u221e")
         short = repr(x)
         mantissa = short.lstrip("-").split("e")[0].replace(".", "").lstrip("0")
-        return short if len(mantissa) <= 10 else f"{x:.7g}"
+        # never an exponent, a real minus (camcmm.numbers): 1e-05 reads 0.00001
+        return numbers.significant(x, 10 if len(mantissa) <= 10 else 7)
     return str(x)
 
 

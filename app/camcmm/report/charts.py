@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import numbers
 from ..errors import CamcmmError, InputError
 
 #: Most points a deviation map draws; more only cost time and look the same.
@@ -56,15 +57,9 @@ def _factor(unit: str) -> float:
 
 
 def _display_unit(max_abs_mm: float) -> str:
-    """The largest of mm, µm, nm in which the biggest value is at least 0.1.
-
-    0.05 mm reads better as 50 µm; 0.3 mm stays 0.3 mm.
-    """
-    if max_abs_mm >= 0.1 or max_abs_mm == 0:
-        return "mm"
-    if max_abs_mm >= 1e-4:
-        return "µm"
-    return "nm"
+    """µm: deviations are written in µm whatever their size (the number rule,
+    :mod:`camcmm.numbers`, as every page); ``display_unit=`` still chooses another."""
+    return "µm"
 
 
 def _values(values: Any, what: str, allow_missing: bool = False) -> np.ndarray:
@@ -115,9 +110,12 @@ def _axes(fig, width_mm: float, height_mm: float, left: float, bottom: float, ri
     ~0.1 s per chart (half the time of a report with 25 maps), and fixed margins also
     give every chart of a kind the same plot area, so a page of maps lines up.
     """
-    return fig.add_axes(
+    ax = fig.add_axes(
         (left / width_mm, bottom / height_mm, 1 - (left + right) / width_mm, 1 - (bottom + top) / height_mm)
     )
+    # the number rule on the axes too: no "1e-5" offset or exponent above a tick column
+    ax.ticklabel_format(style="plain", useOffset=False)
+    return ax
 
 
 def _heading(fig, height_mm: float, title: str | None, stats: str) -> None:
@@ -133,9 +131,13 @@ def _top_mm(title: str | None) -> float:
     return 5.5 + (4.2 if title else 0.0)
 
 
-def _num(x: float) -> str:
-    """3 significant digits with a true minus sign, as matplotlib's tick labels have."""
-    return f"{x:.3g}".replace("-", "\u2212")
+def _num(x: float, unit: str = "") -> str:
+    """A chart's number by the number rule: in µm the deviations' 0.01 µm and three
+    significant digits, else three significant digits; never an exponent, a true minus,
+    ``0`` for a value that rounds to zero."""
+    if unit == "µm":
+        return numbers.micro(x / 1000.0)
+    return numbers.significant(x, 3)
 
 
 def _png(fig, dpi: float) -> bytes:
@@ -239,7 +241,7 @@ def bar_chart(
                 ax.text(
                     xi,
                     h + (0.02 if h >= 0 else -0.02) * top,
-                    _num(h),
+                    _num(h, unit),
                     ha="center",
                     va="bottom" if h >= 0 else "top",
                     fontsize=6,
@@ -259,7 +261,11 @@ def bar_chart(
         if (~ok).any():
             stats += f", {int((~ok).sum())} missing"
         if lim is not None:
-            lim_txt = _num(lim[0]) if np.all(lim == lim[0]) else f"{_num(lim.min())} \u2026 {_num(lim.max())}"
+            lim_txt = (
+                _num(lim[0], unit)
+                if np.all(lim == lim[0])
+                else f"{_num(lim.min(), unit)} \u2026 {_num(lim.max(), unit)}"
+            )
             stats += f"   dashed: \u00b1limit {lim_txt} {unit}   beyond limit: {int(beyond.sum())}"
         _heading(fig, height_mm, title, stats)
         png = _png(fig, dpi)
@@ -593,7 +599,12 @@ def deviation_map(
         n_txt = f"n = {len(p):,}".replace(",", "\u2009")
         if idx.size < len(p):
             n_txt += f" ({idx.size:,} drawn)".replace(",", "\u2009")
-        _heading(fig, height_mm, title, f"{n_txt}  min {_num(d.min())}  max {_num(d.max())}  RMS {_num(rms)} {du}")
+        _heading(
+            fig,
+            height_mm,
+            title,
+            f"{n_txt}  min {_num(d.min(), du)}  max {_num(d.max(), du)}  RMS {_num(rms, du)} {du}",
+        )
         png = _png(fig, dpi)
     info = {
         "chart": "deviation_map",
@@ -669,9 +680,9 @@ def histogram(
         ax.grid(axis="y", color="#e3e6ea", lw=0.5, zorder=0)
         ax.spines[["top", "right"]].set_visible(False)
         ax.tick_params(length=2)
-        stats = f"n = {v.size:,}".replace(",", "\u2009") + f"  mean {_num(mean)} {du}  s {_num(sd)} {du}"
+        stats = f"n = {v.size:,}".replace(",", "\u2009") + f"  mean {_num(mean, du)} {du}  s {_num(sd, du)} {du}"
         if lim_mm:
-            stats += f"  dashed: \u00b1limit {_num(vmax)} {du}"
+            stats += f"  dashed: \u00b1limit {_num(vmax, du)} {du}"
         _heading(fig, height_mm, title, stats)
         png = _png(fig, dpi)
     info = {

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Report, charts
+from camcmm.api import Report, charts, numbers
 
 _CMAP = "RdBu_r"
 _DPI = 150
@@ -287,7 +287,8 @@ def material_ratio_chart(
         ax.grid(color="#e3e6ea", lw=0.5, zorder=0)
         ax.tick_params(length=2)
         txt = (
-            f"Sk {mr['Sk'] * f:.3g}  Spk {mr['Spk'] * f:.3g}  Svk {mr['Svk'] * f:.3g} {unit}\n"
+            f"Sk {numbers.significant(mr['Sk'] * f, 3)}  Spk {numbers.significant(mr['Spk'] * f, 3)}  "
+            f"Svk {numbers.significant(mr['Svk'] * f, 3)} {unit}\n"
             f"Smr1 {s1:.2f} %  Smr2 {s2:.2f} %"
         )
         ax.text(
@@ -312,9 +313,21 @@ def _is_flat(points: np.ndarray) -> bool:
 
 
 def _fmt_mm(x: float | None) -> str:
+    """A deviation or a small distance (mm) by the number rule: µm below 1 mm, else mm."""
     if x is None or x != x:
         return "—"
-    return f"{x:.4f} mm" if abs(x) >= 0.1 else f"{x * 1000:.2f} µm"
+    return numbers.deviation(x, signed=False) if abs(x) < 1.0 else numbers.length(x)
+
+
+#: the statistics table's rows in words (the JSON keeps its keys: they are the contract)
+_STAT_WORDS = {
+    "n": "points",
+    "mean": "mean",
+    "std": "standard deviation",
+    "rms": "RMS",
+    "min": "minimum",
+    "max": "maximum",
+}
 
 
 def build_report(
@@ -401,7 +414,8 @@ def build_report(
             kv.append(
                 (
                     "global registration",
-                    f"RANSAC fitness {stg['fitness']:.3f}, voxel {stg['voxel']:.4g} mm, prescale {stg['prescale']:.6g}",
+                    f"RANSAC fitness {stg['fitness']:.3f}, voxel {numbers.significant(stg['voxel'], 4)} mm, "
+                    f"prescale {numbers.significant(stg['prescale'], 6)}",
                 )
             )
         elif stg.get("stage") == "pairs":
@@ -485,7 +499,7 @@ def _result_section(r: Report, st: dict[str, Any], tolerance: float | None, fail
                 "\u25e0",
                 "Profile of the surface (every measured point)",
                 "\u2014 (best fit)",
-                "\u2014" if tolerance is None else f"±{tolerance:g}",
+                "\u2014" if tolerance is None else f"±{numbers.significant(tolerance, 6)}",
                 f"{lo:+.4f} / {hi:+.4f}",
                 "\u2014",
                 verdict,
@@ -623,9 +637,16 @@ def _appendix_sections(r: Report, st: dict[str, Any], mr: dict[str, Any]) -> Non
     s = r.section("Deviation statistics", appendix=True)
     keys = ["n", "mean", "std", "rms", "min", "max", "p0_5", "p2_5", "p5", "p25", "p50", "p75", "p95", "p97_5", "p99_5"]
     s.table(
-        ["statistic", "value [mm]"],
-        [[k, st[k] if k == "n" else float(f"{st[k]:.6g}")] for k in keys],
-        caption="Deviation statistics (percentiles: Hazen plotting position)",
+        ["statistic", "value"],
+        [
+            [
+                _STAT_WORDS.get(k) or f"percentile {numbers.percentile_key(k)}",
+                numbers.count(st[k]) if k == "n" else numbers.deviation(st[k], signed=k not in ("std", "rms")),
+            ]
+            for k in keys
+        ],
+        caption="Deviation statistics in µm (percentiles: Hazen plotting position)",
+        align=["left", "right"],
     )
 
     s = r.section("Material ratio (ISO 13565-2 / ISO 25178-2)", appendix=True)
@@ -639,16 +660,24 @@ def _appendix_sections(r: Report, st: dict[str, Any], mr: dict[str, Any]) -> Non
     s.table(
         ["parameter", "value", "unit"],
         [
-            ["Sk", float(f"{mr['Sk']:.6g}"), "mm"],
-            ["Spk", float(f"{mr['Spk']:.6g}"), "mm"],
-            ["Svk", float(f"{mr['Svk']:.6g}"), "mm"],
-            ["Smr1", float(f"{mr['Smr1']:.4f}"), "%"],
-            ["Smr2", float(f"{mr['Smr2']:.4f}"), "%"],
-            ["C1", float(f"{mr['C1']:.6g}"), "mm"],
-            ["C2", float(f"{mr['C2']:.6g}"), "mm"],
-            ["secant", f"{mr['secant_start']:.2f} … {mr['secant_end']:.2f}", "%"],
-            ["Smc(2.5 %) / Smc(97.5 %)", f"{mr['Smc']['2.5']:.6g} / {mr['Smc']['97.5']:.6g}", "mm"],
-            ["Vmp / Vmc / Vvc / Vvv", " / ".join(f"{mr[k]:.4g}" for k in ("Vmp", "Vmc", "Vvc", "Vvv")), "mm³/mm²"],
+            ["Sk", numbers.micro(mr["Sk"]), "µm"],
+            ["Spk", numbers.micro(mr["Spk"]), "µm"],
+            ["Svk", numbers.micro(mr["Svk"]), "µm"],
+            ["Smr1", numbers.plain(mr["Smr1"], 4), "%"],
+            ["Smr2", numbers.plain(mr["Smr2"], 4), "%"],
+            ["C1", numbers.micro(mr["C1"], signed=True), "µm"],
+            ["C2", numbers.micro(mr["C2"], signed=True), "µm"],
+            ["secant", f"{numbers.plain(mr['secant_start'], 3)} … {numbers.plain(mr['secant_end'], 3)}", "%"],
+            [
+                "Smc(2.5 %) / Smc(97.5 %)",
+                f"{numbers.micro(mr['Smc']['2.5'], True)} / {numbers.micro(mr['Smc']['97.5'], True)}",
+                "µm",
+            ],
+            [
+                "Vmp / Vmc / Vvc / Vvv",
+                " / ".join(numbers.micro(mr[k]) for k in ("Vmp", "Vmc", "Vvc", "Vvv")),
+                "µm³/µm²",
+            ],
         ],
         caption="Material-ratio parameters of the deviations",
         align=["left", "right", "left"],
