@@ -28,6 +28,8 @@ Signatures (``v_mm``, ``u_mm``: millimetres; every function returns ``str`` unle
 ----------------------------------------------------------------------------------------
 - ``length(v_mm, u_mm=None, unit=None, signed=False)`` -> ``"25.40012 mm"`` (``unit``:
   ``"mm"`` (default) or ``"µm"``; the decimals follow ``u_mm`` when given).
+- ``characteristic(v_mm, size=False, u_mm=None)`` -> a GD&T value: a size in mm
+  (``"20.0100 mm"``), a zone below 1 mm in µm (``"12.3 µm"``).
 - ``deviation(v_mm, signed=True, u_mm=None)`` -> ``"+12.3 µm"`` (always µm; deviations,
   form (``signed=False``), distances to a nominal).
 - ``uncertainty(u_mm, k=1)`` -> ``"0.019 µm"``; ``k != 1`` adds the coverage factor:
@@ -77,6 +79,7 @@ __all__ = [
     "MINUS",
     "UNDEFINED",
     "angle",
+    "characteristic",
     "count",
     "decimals_for",
     "deviation",
@@ -304,6 +307,18 @@ def measured(v_mm: Any, u_mm: Any, k: float = 1, unit: str | None = None) -> str
         return length(v_mm, None, unit)
     u_std = float(u_mm) / float(k) if finite(k) and float(k) > 0 else float(u_mm)
     return f"{length(v_mm, u_std, unit)} ± {uncertainty(u_mm, k)}"
+
+
+def characteristic(v_mm: Any, size: bool = False, u_mm: Any = None) -> str:
+    """A GD&T characteristic's value with its unit: a size (diameter, width, distance) in
+    mm to the decimals its uncertainty resolves (``"20.0100 mm"``); a zone (form,
+    orientation, location, runout) below 1 mm in µm (``"12.3 µm"``). The Compare and Series
+    pages write characteristics with it, so the two agree."""
+    if not finite(v_mm):
+        return UNDEFINED
+    if size or abs(float(v_mm)) >= 1.0:
+        return f"{mm(v_mm, u_mm)} mm"
+    return f"{micro(v_mm)} {MICRO}"
 
 
 def vector(values: Any, u: Any = None, default: int = 4) -> str:

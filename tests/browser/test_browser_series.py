@@ -73,7 +73,9 @@ def test_a_series_runs_in_the_browser_with_cells_coloured_by_verdict_and_the_run
                 assert cell.evaluate("e => getComputedStyle(e).backgroundColor") == RGB[verdict], part
                 prof = page.locator(f'[data-testid="se-cell-{part}-prof-S1"]')
                 assert prof.get_attribute("data-verdict") == "conform"
-            value = float(page.locator('[data-testid="se-cell-part4-dia-S1"]').inner_text())
+            cell = page.locator('[data-testid="se-cell-part4-dia-S1"]').inner_text()
+            assert cell.endswith(" mm"), cell  # a size in mm (a zone in µm), as on the Compare page
+            value = float(cell.split()[0])
             assert abs(value - 2 * (sp.RADIUS + sp.DELTAS["part4"])) < 1e-3, value
 
             # a click on part 3's diameter: its labels, the diameter's run chart and capability

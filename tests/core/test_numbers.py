@@ -46,6 +46,13 @@ def test_deviations_and_form_in_micrometres():
     assert n.deviation(0.01234, u_mm=2.1e-4) == "+12.34 µm"
 
 
+def test_characteristics_a_size_in_mm_a_zone_in_micrometres():
+    assert n.characteristic(20.0100123, size=True) == "20.0100 mm"
+    assert n.characteristic(20.0100123, size=True, u_mm=2e-5) == "20.010012 mm"
+    assert n.characteristic(0.0123) == "12.3 µm" and n.characteristic(1.5) == "1.5000 mm"
+    assert n.characteristic(None) == "not defined"
+
+
 def test_uncertainties_two_significant_digits_and_the_coverage_factor_in_words():
     assert n.uncertainty(1.89e-5) == "0.019 µm"
     assert n.uncertainty(0.01314) == "13 µm"  # not "13.14 µm"

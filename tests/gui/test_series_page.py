@@ -51,6 +51,16 @@ def test_table_cell_click_chart_and_labels(ran):
         "lower tolerance limit",
     ]
     assert s.se_fig_chart["data"][0]["marker"]["color"][3] == series.VERDICT_COLOURS["not conform"]
+    # numbers as the Compare page writes them: a size (the diameter) in mm, a zone (the profile) in µm
+    texts = {c["id"]: c["text"] for c in s.se_rows[0]["cells"]}
+    assert texts["dia-S1"].endswith(" mm") and texts["prof-S1"].endswith(" µm"), texts
+    assert s.se_fig_chart["layout"]["yaxis"]["title"]["text"] == "value [mm]"
+    page.open_cell("part4", "prof-S1")
+    assert s.se_fig_chart["layout"]["yaxis"]["title"]["text"] == "value [µm]"
+    prof = next(r for r in s.se_part_rows if r["id"] == "prof-S1")
+    assert prof["value"].endswith(" µm") and "e-" not in prof["value"]
+    cap = {r["name"]: r["value"] for r in s.se_capability}
+    assert cap["mean"].endswith(" µm") and "e-" not in cap["s"]
 
 
 def test_outside_the_roots_refused_and_restored_on_reopening(ran, gui_app, tmp_path):

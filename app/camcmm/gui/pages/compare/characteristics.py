@@ -61,9 +61,7 @@ def _length(v: Any, u: Any, size: bool) -> str:
     a zone (form, orientation, location, runout) below 1 mm in µm."""
     if not num.finite(v):
         return "—"
-    if size or abs(float(v)) >= 1.0:
-        return f"{num.mm(v, u)} mm"
-    return f"{num.micro(v)} µm"
+    return num.characteristic(v, size, u)  # the number rule's, shared with the Series page
 
 
 def _f(x: Any) -> float | None:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .... import numbers as num
+from ....tasks.gdt import SIZES
 from ....tasks.series import VERDICT_COLOURS
 from ...plotly_json import LEGEND_BELOW, empty, layout
 
@@ -36,17 +38,22 @@ def run_chart(c: dict[str, Any] | None) -> dict[str, Any]:
         return empty("run a series, then click a cell: the run chart of its characteristic appears here")
     n = len(c["parts"])
     x = list(range(n))
+    # a size in mm, a zone (form, orientation, location) in µm: as the table and the Compare page
+    unit, f = ("mm", 1.0) if c.get("type") in SIZES else (num.MICRO, 1000.0)
     data: list[dict[str, Any]] = [
         {
             "type": "scatter",
             "mode": "lines+markers",
             "x": x,
-            "y": c["values"],
-            "text": [f"{p}: {v}" for p, v in zip(c["parts"], c["verdicts"], strict=True)],
+            "y": [None if v is None else float(v) * f for v in c["values"]],
+            "text": [
+                f"{p}: {num.characteristic(v, unit == 'mm')}, {verdict}"
+                for p, v, verdict in zip(c["parts"], c["values"], c["verdicts"], strict=True)
+            ],
             "name": "value",
             "line": {"color": "#90a4ae", "width": 1},
             "marker": {"size": 10, "color": [VERDICT_COLOURS.get(v, "#9e9e9e") for v in c["verdicts"]]},
-            "hoverinfo": "text+y",
+            "hoverinfo": "text",
         }
     ]
     for key, name, colour, dash in (
@@ -57,8 +64,8 @@ def run_chart(c: dict[str, Any] | None) -> dict[str, Any]:
         ("lcl", "lower control limit", "#6a1b9a", "dash"),
     ):
         if c.get(key) is not None:
-            data.append(_hline(float(c[key]), name, colour, dash, n))
-    lay = layout(f"{c['id']} across the parts", "part", "value [mm]", legend=LEGEND_BELOW)
+            data.append(_hline(float(c[key]) * f, name, colour, dash, n))
+    lay = layout(f"{c['id']} across the parts", "part", f"value [{unit}]", legend=LEGEND_BELOW)
     lay["xaxis"].update({"tickmode": "array", "tickvals": x, "ticktext": c["parts"], "range": [-0.5, n - 0.5]})
     return {"data": data, "layout": lay}
 
@@ -92,9 +99,8 @@ def labels_figure(part: str, evaluation: dict[str, Any] | None, points: Any = No
             })  # fmt: skip
         a = tuple(round(float(v), 6) for v in (lab.get("anchor") or [0.0, 0.0, 0.0]))
         value = c.get("value")
-        anchors.setdefault(a, []).append(
-            (f"{lab['id']}: {'—' if value is None else f'{value:.4f}'} mm, {verdict}", verdict)
-        )
+        shown = "—" if value is None else num.characteristic(value, c.get("type") in SIZES)
+        anchors.setdefault(a, []).append((f"{lab['id']}: {shown}, {verdict}", verdict))
     for a, flags in anchors.items():  # a feature's characteristics share one flag, the worst verdict its colour
         worst = min((v for _, v in flags), key=lambda v: WORST.index(v) if v in WORST else len(WORST))
         text = "<br>".join(t for t, _ in flags)

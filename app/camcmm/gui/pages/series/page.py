@@ -16,8 +16,10 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from ....errors import one_line
 from ....tasks import gdt, series
+from ....tasks.gdt import SIZES
 from ....tasks.series import SeriesRequest, SeriesTask
 from ...jobs import Job
 from . import figures
@@ -35,7 +37,14 @@ EMPTY_HINT = (
 
 
 def _mm(x: Any, digits: int = 4) -> str:
-    return "—" if x is None else f"{float(x):.{digits}f}"
+    """A plain number (Cp, Cpk) with ``digits`` decimals, a real minus; "—" when missing."""
+    return "—" if not num.finite(x) else f"{float(x):.{digits}f}".replace("-", num.MINUS)
+
+
+def _value(x: Any, kind: Any, u: Any = None) -> str:
+    """A characteristic's value as the Compare page writes it (:func:`camcmm.numbers.characteristic`):
+    a size in mm, a zone (form, orientation, location) in µm."""
+    return "—" if not num.finite(x) else num.characteristic(x, kind in SIZES, u)
 
 
 def _ci(ci: Any) -> str:
@@ -47,19 +56,20 @@ def capability_rows(c: dict[str, Any] | None) -> list[dict[str, str]]:
     the control limits, the parts out of tolerance and undecided, and why a figure is missing."""
     if not c:
         return []
-    conf = f"{100 * float(c.get('confidence') or 0.95):g} %"
+    conf = num.percentile(100 * float(c.get("confidence") or 0.95))
+    kind = c.get("type")
     rows = [
         ("n", "parts evaluated", str(c.get("n"))),
-        ("mean", "mean", f"{_mm(c.get('mean'))} mm"),
-        ("s", "s (standard deviation)", f"{_mm(c.get('s'), 5)} mm"),
+        ("mean", "mean", _value(c.get("mean"), kind)),
+        ("s", "s (standard deviation)", num.uncertainty(c.get("s")) if num.finite(c.get("s")) else "—"),
         ("cp", f"Cp [{conf} interval]", _mm(c.get("cp"), 2) + _ci(c.get("cp_ci"))),
         ("cpk", f"Cpk [{conf} interval]", _mm(c.get("cpk"), 2) + _ci(c.get("cpk_ci"))),
         (
             "control",
             f"control limits ({c.get('control') or 'none'})",
-            f"{_mm(c.get('lcl'))} … {_mm(c.get('ucl'))} mm",
+            f"{_value(c.get('lcl'), kind)} … {_value(c.get('ucl'), kind)}",
         ),
-        ("limits", "tolerance limits", f"{_mm(c.get('lsl'))} … {_mm(c.get('usl'))} mm"),
+        ("limits", "tolerance limits", f"{_value(c.get('lsl'), kind)} … {_value(c.get('usl'), kind)}"),
         ("out", "out of tolerance", ", ".join(c.get("out") or []) or "none"),
         ("undecided", "undecided (ISO 14253-1)", ", ".join(c.get("undecided") or []) or "none"),
     ]
@@ -185,6 +195,11 @@ class SeriesPage:
         s = self.state
         self.batch = batch
         ids, rows = series.table(batch)
+        kinds = {  # each characteristic's GD&T type: a size reads in mm, a zone in µm
+            c["id"]: c.get("type")
+            for p in batch.get("parts") or []
+            for c in (p.get("evaluation") or {}).get("characteristics") or []
+        }
         s.se_ids = ids
         s.se_rows = [
             {
@@ -194,7 +209,7 @@ class SeriesPage:
                 "cells": [
                     {
                         "id": cid,
-                        "text": _mm(r["cells"][cid]["value"]) if r["cells"][cid]["value"] is not None else "—",
+                        "text": _value(r["cells"][cid]["value"], kinds.get(cid)),
                         "verdict": r["cells"][cid]["verdict"],
                         "colour": r["cells"][cid]["colour"],
                     }
@@ -223,8 +238,8 @@ class SeriesPage:
             {
                 "id": c["id"],
                 "title": gdt.char_title(c.get("type")),
-                "value": _mm(c.get("value")),
-                "U": _mm(c.get("U")),
+                "value": _value(c.get("value"), c.get("type"), c.get("u")),
+                "U": num.uncertainty(c.get("U"), c.get("k") or 2) if num.finite(c.get("U")) else "—",
                 "verdict": gdt.verdict_of(c),
                 "colour": series.VERDICT_COLOURS.get(gdt.verdict_of(c), "#9e9e9e"),
             }
