@@ -159,10 +159,7 @@ def test_an_acquired_position_is_not_named_twice(monkeypatch):
 #: its owner: ``(where, rule, token pattern, note)`` — ``where`` a page key or a report's name,
 #: the pattern matched whole (re.fullmatch). Every entry is a known defect, not a rule.
 ALLOWED: list[tuple[str, str, str, str]] = [
-    # the Inspect page: the results list, the result's title, the item's "made by" and the
-    # result panel's "All outputs" (raw keys and numbers)
-    ("(every page)", "plugin id", r"fit\.sphere", "issue 30: owner H1 (gui/session.py result_row)"),
-    ("inspect", "plugin id", r"fit\.sphere", "issue 30: owner H1 (result title, item 'made by')"),
+    # the Inspect page: the result panel's "All outputs" (the outputs by their keys)
     (
         "inspect",
         "internal key",

@@ -136,6 +136,9 @@ _STRING = re.compile(r"'((?:[^'\\]|\\.)*)'|\"((?:[^\"\\]|\\.)*)\"|`((?:[^`\\]|\\
 _KEY_CONTEXT = re.compile(r"(?:===?|!==?|\bin\b|includes\(|\[)\s*$")
 _KEY_AFTER = re.compile(r"^\s*(?:===?|!==?|\]|\bin\b)")
 _REF = re.compile(r"(?<![\w.'\"$])([A-Za-z_]\w*(?:\.[A-Za-z_]\w*|\[\d+\])*)")
+#: ``{{ JSON.stringify(x) }}``: a stored record shown as it is kept (Inspect's folded "Result
+#: JSON (as stored)"), read like a report's provenance — identifiers by design; left out
+_RECORD = re.compile(r"\s*JSON\.stringify\(")
 _VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source", "track", "wbr"}
 _JS_WORDS = {"true", "false", "null", "undefined", "typeof", "in", "of", "new", "return", "this", "Math", "Number"}
 
@@ -314,7 +317,8 @@ class _Template(HTMLParser):
         pos = 0
         for m in re.finditer(r"\{\{(.*?)\}\}", data, re.S):
             self.emit([data[pos : m.start()]])
-            self.emit(_leaves(self.values(m.group(1))))
+            if not _RECORD.match(m.group(1)):
+                self.emit(_leaves(self.values(m.group(1))))
             pos = m.end()
         self.emit([data[pos:]])
 

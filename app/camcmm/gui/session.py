@@ -241,6 +241,16 @@ class Session:
         return str((self.state.page_messages or {}).get(page) or "")
 
     # -- items (the project's measurements) -------------------------------------------
+    def _maker(self, made_by: str) -> str:
+        """Who made an item, in words: ``"fit.sphere 0.1.0"`` (its ``made_by``) -> the plugin's
+        name, "Sphere fit" (issue 30: no plugin ids where a person reads); a plugin no longer
+        installed keeps what was stored."""
+        pid = made_by.split(" ", 1)[0]
+        try:
+            return str(self.host.get(pid).name or made_by)
+        except Exception:
+            return made_by
+
     def refresh_items(self) -> None:
         """List the project's items: state ``items`` (the ones the pickers offer) and
         ``hidden_items`` (hidden by the tidy; still loadable). Each ``{id, name, kind,
@@ -259,12 +269,12 @@ class Session:
             kind = str(m.get("kind") or "")
             meta = m.get("meta") if isinstance(m.get("meta"), dict) else {}
             sub = self._summary.get(key) or (f"{kind} · {meta['summary']}" if meta.get("summary") else kind)
-            made_by = str(meta.get("made_by") or "")
+            made_by = str(meta.get("made_by") or "")  # "<plugin id> <version>": a key, said in words below
             row = {
                 "id": key,
                 "name": str(m.get("name") or key),
                 "kind": kind,
-                "subtitle": sub + (f" · made by {made_by}" if made_by else ""),
+                "subtitle": sub + (f" · made by {self._maker(made_by)}" if made_by else ""),
                 "derived": bool(made_by),
                 "hidden": bool(m.get("hidden")),
             }

@@ -110,7 +110,7 @@ class InspectPage:
         s = self.state
         s.form_fields, s.form_values = fields_of(spec)
         s.selected_plugin = spec.id
-        s.plugin_title = f"{spec.name} ({spec.id} {spec.version})"
+        s.plugin_title = f"{spec.name} (v{spec.version})"  # the name in words; the id is the CLI's (issue 30)
         s.plugin_summary = spec.summary
         s.run_status = ""
         self.refresh_inputs(reset=True)
@@ -279,7 +279,7 @@ class InspectPage:
         self.result_items = {str(m) for m in checked.mids} | {m.key for m in kept.made}
         self.result_newest, self.result_id = True, kept.result_id
         number = f" #{self.last_result_id}" if self.last_result_id is not None else ""
-        s.result_title = f"{spec.name}{number} — {spec.id} {result.plugin_version}"
+        s.result_title = f"{spec.name}{number} — v{result.plugin_version}"
         s.running, s.progress, s.progress_message = False, 100.0, "done"
         made = kept.made
         s.run_status = f"done{number}" + (f"; added {len(made)} item(s)" if made else "")
@@ -305,7 +305,7 @@ class InspectPage:
         from camcmm.tasks.acceptance.naming import result_row  # named as the results list names it
 
         row = result_row(d, self.session.host)
-        self.state.result_title = f"result #{rid}: {row['title']} ({row['subtitle']}; {plugin} {d.get('version', '')})"
+        self.state.result_title = f"result #{rid}: {row['title']} ({row['subtitle']}; v{d.get('version', '')})"
         self.result_items = {str(m) for m in d.get("measurement_ids") or []}
         self.result_newest, self.result_id = False, rid
 
