@@ -78,6 +78,9 @@ def test_a_sphere_fit_reports_diameter_radius_u_and_form_in_micrometres(sphere_f
         fmt.uncertainty_parts(2 * ur)
     )
     assert float(by["diameter"]["value"]) == pytest.approx(2 * r, abs=2e-6)
+    # "u" says what it is: a standard uncertainty, k = 1, from the fit's covariance
+    assert by["radius"]["u_what"].startswith("standard uncertainty u (k = 1) from the fit's residuals")
+    assert by["n_points"]["u_what"] == ""  # no u, no words about it
     assert by["center"]["unit"] == "mm" and by["center"]["u"].endswith("µm") and by["center"]["label"] == "centre"
     # form in µm, one row per figure; the range as the plugin computed it
     assert by["form_range"]["unit"] == "µm" and float(by["form_range"]["value"]) == pytest.approx(

@@ -104,8 +104,7 @@ def _report_table() -> None:
                         "u = {{ r.u }}",
                         v_if="r.u",
                         classes="text-caption text-medium-emphasis",
-                        title="standard uncertainty (k = 1) from the fit",
-                        raw_attrs=dyn_tid("'report-u-' + r.name"),
+                        raw_attrs=[':title="r.u_what"', *dyn_tid("'report-u-' + r.name")],
                     )
 
 

@@ -25,6 +25,12 @@ from ....conformity import verdict_words
 from . import numbers as fmt
 
 UNCERTAINTY = "std_uncertainty"
+#: what ``u`` is when the plugin's ``std_uncertainty`` output does not say (its ``help``):
+#: the least-squares fits give the covariance of their estimate from the residuals
+U_SOURCE = (
+    "from the fit's residuals: the covariance s²(JᵀJ)⁻¹ of the least-squares estimate, "
+    "s² = Σr²/(n − p) (the points' noise and form only; not the scanner's calibration)"
+)
 #: Labels for output names many plugins share (the words a report uses); any other
 #: name reads with its underscores as spaces.
 LABELS = {
@@ -116,12 +122,16 @@ def report_rows(outputs: dict[str, Any], ports: list[Any], items: dict[str, str]
     ``items``: output name -> name of the item it became. No declared output: no rows
     (the caller shows all outputs instead)."""
     uncert: dict[str, Any] = outputs[UNCERTAINTY] if isinstance(outputs.get(UNCERTAINTY), dict) else {}
+    declared = [_port(p) for p in ports]
+    source = next((p["help"] for p in declared if p["name"] == UNCERTAINTY and p["help"]), U_SOURCE)
     rows: list[dict[str, str]] = []
-    for p in map(_port, ports):
+    for p in declared:
         name = p["name"]
         if name == UNCERTAINTY or (name not in outputs and name not in (items or {})):
             continue
         rows += _one(p, outputs.get(name), uncert.get(name), dict(items or {}))
+    for row in rows:  # "u" says what it is: a standard uncertainty, k = 1, and where it comes from
+        row["u_what"] = f"standard uncertainty u (k = 1) {source}" if row.get("u") else ""
     return rows
 
 
