@@ -101,7 +101,7 @@ def _report_table() -> None:
                 with html.Td(classes="text-right", raw_attrs=dyn_tid("'report-' + r.name")):
                     html.Span("{{ r.value }} {{ r.unit }}", style="white-space: nowrap;")
                     html.Div(
-                        "u = {{ r.u }}",
+                        "u = {{ r.u }} (standard uncertainty, k = 1)",
                         v_if="r.u",
                         classes="text-caption text-medium-emphasis",
                         raw_attrs=[':title="r.u_what"', *dyn_tid("'report-u-' + r.name")],
