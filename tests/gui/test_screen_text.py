@@ -159,14 +159,6 @@ def test_an_acquired_position_is_not_named_twice(monkeypatch):
 #: its owner: ``(where, rule, token pattern, note)`` — ``where`` a page key or a report's name,
 #: the pattern matched whole (re.fullmatch). Every entry is a known defect, not a rule.
 ALLOWED: list[tuple[str, str, str, str]] = [
-    # the Inspect page: the result panel's "All outputs" (the outputs by their keys)
-    (
-        "inspect",
-        "internal key",
-        r"center_[xyz]|covariance_names|removed_indices|std_uncertainty",
-        "issue 30: owner H1/H3",
-    ),
-    ("inspect", "plugin id", r"(deviations|form)\.\w+", "issue 30: owner H1/H3 (All outputs keys)"),
     # Acceptance: the standards list and the test's title name the plugin; the plan options box
     ("acceptance", "plugin id", r"vdi2634-[23]", "issue 30: owner H2"),
     ("acceptance", "raw YAML", r".*", "issue 30: owner H2 (More plan options)"),

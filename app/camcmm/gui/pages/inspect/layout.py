@@ -120,7 +120,7 @@ def _all_outputs() -> None:
                 with v.VTable(density="compact", raw_attrs=tid("result-table")):
                     with html.Tbody():
                         with html.Tr(v_for="r in result_rows", key="r.name"):
-                            html.Td("{{ r.name }}", classes="font-weight-medium")
+                            html.Td("{{ r.label || r.name }}", classes="font-weight-medium")
                             html.Td("{{ r.value }}", classes="text-right", raw_attrs=dyn_tid("'result-' + r.name"))
                             html.Td("{{ r.unit }}")
         with v.VExpansionPanel(title="Result JSON (as stored)"):

@@ -37,7 +37,7 @@ def fmt_value(v: Any) -> str:
     if isinstance(v, bool) or v is None:
         return str(v)
     if isinstance(v, (list, tuple)) and v and all(isinstance(x, str) for x in v):
-        return ", ".join(v)  # names (covariance_names ...) as a list, not a Python repr
+        return ", ".join(output_words(x) for x in v)  # names (covariance_names ...) in words, not a repr
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     if isinstance(v, (float, np.floating)):
@@ -73,10 +73,17 @@ def summarize_json(x: Any, limit: int = MAX_LIST) -> Any:
     return to_jsonable(x)
 
 
+def output_words(name: str) -> str:
+    """An output's key as the table shows it: ``std_uncertainty.center`` -> "std uncertainty ·
+    center" (the key stays the row's ``name``, for scripts and tests; issue 30)."""
+    return " · ".join(part.replace("_", " ") for part in name.split("."))
+
+
 def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str, str]]:
-    """Rows ``{name, value, unit}`` for the result table. Units come from the plugin's
-    declared outputs, or from a ``units`` mapping (or ``unit`` text) inside the outputs;
-    one level of nested dicts is shown with dotted names."""
+    """Rows ``{name, label, value, unit}`` for the result table (``label``: the name in words,
+    :func:`output_words`). Units come from the plugin's declared outputs, or from a ``units``
+    mapping (or ``unit`` text) inside the outputs; one level of nested dicts is shown with
+    dotted names."""
     extra: dict[str, Any] = outputs["units"] if isinstance(outputs.get("units"), dict) else {}
     rows = []
     for name, value in outputs.items():
@@ -84,12 +91,14 @@ def result_rows(outputs: dict[str, Any], units: dict[str, str]) -> list[dict[str
             continue
         unit = str(units.get(name) or extra.get(name, "") or "")
         if not isinstance(value, dict):
-            rows.append({"name": name, "value": fmt_value(value), "unit": unit})
+            shown = {"label": output_words(name), "value": fmt_value(value), "unit": num.unit_text(unit)}
+            rows.append({"name": name, **shown})
             continue
         sub_units: dict[str, Any] = value["units"] if isinstance(value.get("units"), dict) else {}
         for k, v in value.items():
             if k in ("units", "unit"):
                 continue
             u = sub_units.get(k) or (value.get("unit") if isinstance(value.get("unit"), str) else "") or unit
-            rows.append({"name": f"{name}.{k}", "value": fmt_value(v), "unit": str(u or "")})
+            key = f"{name}.{k}"
+            rows.append({"name": key, "label": output_words(key), "value": fmt_value(v), "unit": num.unit_text(u)})
     return rows
