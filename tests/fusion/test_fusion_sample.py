@@ -126,3 +126,13 @@ def test_the_blur_suggested_is_the_nearest_with_a_margin(asked, trials, blur):
     assert line.startswith(
         f"m.x3p: too few matches with the cloud at blur [px] = {asked:g} (3 SIFT matches, 0 consistent"
     )
+
+
+def test_an_icp_that_does_not_converge_is_a_warning_in_words():
+    host = default_host()
+    pair = host.run("fusion.sample", {}, {}).outputs
+    res = host.run("fusion.csi", {"cloud": pair["cloud"], "csi": [pair["csi"]]}, {"icp_iterations": 1})
+    assert res.warnings == [
+        "coin_csi.x3p: the 3-DOF ICP did not converge in 1 iterations (raise ICP iterations, or ICP farthest "
+        "pair [mm] when the map starts far off)"
+    ]

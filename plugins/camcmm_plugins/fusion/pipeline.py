@@ -313,7 +313,10 @@ def run(
         qf = q[foot]
         icp = icp_3dof(place, qf[:: max(1, len(qf) // icp_points)], hm, icp_max_distance or 5 * spacing, icp_iterations)
         if not icp["converged"]:
-            warnings.append(f"{m['file']}: the 3-DOF ICP did not converge in {icp['iterations']} iterations")
+            warnings.append(
+                f"{m['file']}: the 3-DOF ICP did not converge in {icp['iterations']} iterations "
+                f"(raise {named('icp_iterations')}, or {named('icp_max_distance')} when the map starts far off)"
+            )
         t = tick("icp", t)
         mat = place.matrix()
         keep_photo &= ~foot
