@@ -112,7 +112,9 @@ class PhotogrammetryPage:
         fields, values = declared_fields(spec.parameters)
         for f in fields:  # the camera models in words; the key stays the value sent
             if f.get("name") == "camera_model":
-                f["choices"] = [{"title": task.camera_words(c), "value": c} for c in f.get("choices") or []]
+                # items: what the select shows (widgets.param_form prefers them to the bare choices)
+                words = [{"title": task.camera_words(c), "value": c} for c in f.get("choices") or []]
+                f["choices"] = f["items"] = words
         s.pg_fields, s.pg_params = fields, values
         self.refresh_calibration()
 
