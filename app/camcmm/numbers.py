@@ -55,6 +55,8 @@ Signatures (``v_mm``, ``u_mm``: millimetres; every function returns ``str`` unle
 - ``mm(v_mm, u_mm=None, default=4)`` -> the number only, in mm: ``"9.999983"``.
 - ``micro(v_mm, signed=False)`` -> the number only, in µm: ``"15.7"``.
 - ``decimals_for(u_mm, default=4) -> int``: decimals in mm that ``u_mm`` resolves.
+- ``value_u(v, u, unit="", signed=False)`` -> any quantity with its u in its own unit:
+  ``"0.012346 ± 0.000021 mm λ⁻¹"`` (digits follow u).
 - ``vector(values_mm, u=None, default=4)``, ``direction(values)``,
   ``uncertainty_vector(u_mm) -> tuple[str, str]``: ``(x, y, z)`` forms.
 - ``ticks(lo, hi, n=5) -> list[float]``: round values (1/2/5 × 10^k) inside [lo, hi],
@@ -104,6 +106,7 @@ __all__ = [
     "uncertainty_parts",
     "uncertainty_vector",
     "unit_text",
+    "value_u",
     "vector",
     "words",
 ]
@@ -319,6 +322,22 @@ def characteristic(v_mm: Any, size: bool = False, u_mm: Any = None) -> str:
     if size or abs(float(v_mm)) >= 1.0:
         return f"{mm(v_mm, u_mm)} mm"
     return f"{micro(v_mm)} {MICRO}"
+
+
+def value_u(v: Any, u: Any, unit: str = "", signed: bool = False) -> str:
+    """Any quantity (a slope, a gradient, a scale) with its standard uncertainty, in its own
+    unit: the value to the decimal of u's second significant digit, u with two:
+    ``value_u(0.0123456, 2.1e-5, "mm λ⁻¹")`` -> ``"0.012346 ± 0.000021 mm λ⁻¹"``. Without a
+    finite positive u, six significant digits."""
+    if not finite(v):
+        return UNDEFINED
+    shown = unit_text(unit)
+    if not finite(u) or float(u) <= 0:
+        text = significant(v, 6)
+        return _with_unit(("+" + text if signed and float(v) > 0 and text != "0" else text), shown)
+    dec = 1 - math.floor(math.log10(abs(float(u))))
+    body = f"{_fixed(float(v), dec, signed)} ± {_fixed(abs(float(u)), dec)}"
+    return _with_unit(body, shown)
 
 
 def vector(values: Any, u: Any = None, default: int = 4) -> str:

@@ -68,6 +68,13 @@ def test_uncertainties_two_significant_digits_and_the_coverage_factor_in_words()
     assert n.measured(25.400123, 1.6e-3, k=2) == "25.40012 mm ± 1.6 µm (k = 2)"
 
 
+def test_any_quantity_with_its_uncertainty():
+    assert n.value_u(0.0123456, 2.1e-5, "mm λ⁻¹") == "0.012346 ± 0.000021 mm λ⁻¹"
+    assert n.value_u(-1.23456, 0.0123) == f"{M}1.235 ± 0.012"
+    assert n.value_u(2.5, None, "px") == "2.5 px" and n.value_u(0.0004, 0.01, signed=True) == "0 ± 0.010"
+    assert n.value_u(None, 1) == "not defined"
+
+
 def test_times():
     assert n.time(0.8) == "0.8 s" and n.time(4.24) == "4.2 s" and n.time(0.012) == "12 ms"
     assert n.time(42.4) == "42 s" and n.time(9.97) == "10 s" and n.time(119.4) == "119 s"

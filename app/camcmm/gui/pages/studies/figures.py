@@ -67,7 +67,7 @@ def focal_figure(f: dict[str, Any] | None) -> dict[str, Any]:
         {"type": "scatter", "mode": "markers", "x": x.tolist(), "y": y.tolist(), "name": "set mean ± std",
          "text": [str(p.get("set")) for p in pts], "marker": {"size": 8, "color": POINTS},
          "error_y": {"type": "data", "array": e.tolist(), "visible": True, "thickness": 1.5},
-         "hovertemplate": "%{text}: f %{x:.4g} mm, %{y:.5g} mm/λ<extra></extra>"},
+         "hovertemplate": "%{text}: f %{x:.4r} mm, %{y:.5r} mm/λ<extra></extra>"},
         {"type": "scatter", "mode": "lines", "x": xs, "y": [a * v + b for v in xs],
          "name": f"fit {a:.5f} f {b:+.4f}", "line": {"color": LINE, "width": 2}},
     ]  # fmt: skip
@@ -97,7 +97,7 @@ def deviation_figure(m: dict[str, Any] | None, title: str, lim_um: float | None 
          "y": np.asarray(m["y"])[order].tolist(),
          "marker": {"size": 3, "color": d[order].round(2).tolist(), "colorscale": "RdBu",
                     "cmin": -lim, "cmax": lim, "colorbar": {"title": {"text": "µm"}, "thickness": 12}},
-         "hovertemplate": "x %{x:.3g}, y %{y:.3g} mm: %{marker.color:.3g} µm<extra></extra>"},
+         "hovertemplate": "x %{x:.1f}, y %{y:.1f} mm: %{marker.color:.3r} µm<extra></extra>"},
     ]  # fmt: skip
     lay = layout(title, "x [mm]", "y [mm]")
     lay["yaxis"].update({"scaleanchor": "x", "scaleratio": 1})

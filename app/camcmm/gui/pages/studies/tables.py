@@ -6,18 +6,33 @@ Values the run did not give are shown as "—", never made up."""
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
+
+from .... import numbers as num
 
 DASH = "—"
 CONDITIONS = (("off", "non-speckle"), ("on", "speckle"))
 
 
 def _f(x: Any, fmt: str) -> str:
+    """``x`` in the format spec ``fmt`` by the number rule (camcmm.numbers): a ``g`` spec
+    as that many significant digits without an exponent, counts grouped by a space, a real
+    minus, ``0`` for a value that rounds to zero."""
     try:
         v = float(x)
     except (TypeError, ValueError):
         return DASH
-    return format(v, fmt) if math.isfinite(v) else DASH
+    if not math.isfinite(v):
+        return DASH
+    if fmt.endswith("g"):
+        m = re.search(r"\.(\d+)", fmt)
+        text = num.significant(v, int(m.group(1)) if m else 6)
+        return "+" + text if "+" in fmt and v > 0 and text != "0" else text
+    text = format(v, fmt).replace(",", " ")
+    if not any(c in "123456789" for c in text):
+        return "0"
+    return text.replace("-", num.MINUS)
 
 
 def table_63(t: dict[str, Any]) -> dict[str, Any]:
@@ -39,8 +54,8 @@ def focal_rows(f: dict[str, Any] | None, truth: dict[str, Any] | None = None) ->
     cov = f.get("cov") or [[None, None], [None, None]]
     u = [math.sqrt(c) if isinstance(c, (int, float)) and c >= 0 else None for c in (cov[0][0], cov[1][1])]
     rows = [
-        ("slope", "Slope", f"{_f(f.get('slope'), '.6f')} ± {_f(u[0], '.2g')} mm λ⁻¹ per mm"),
-        ("intercept", "Intercept", f"{_f(f.get('intercept'), '.5f')} ± {_f(u[1], '.2g')} mm λ⁻¹"),
+        ("slope", "Slope", num.value_u(f.get("slope"), u[0], "mm λ⁻¹ per mm")),
+        ("intercept", "Intercept", num.value_u(f.get("intercept"), u[1], "mm λ⁻¹")),
         ("r2", "r²", _f(f.get("r2"), ".6f")),
         ("residual_std", "Residual std", f"{_f(f.get('residual_std'), '.3g')} mm λ⁻¹"),
     ]
