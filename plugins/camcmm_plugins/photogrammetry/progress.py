@@ -4,12 +4,15 @@ pycolmap's feature extraction and matching take no progress callback and run for
 a long series (templeRing, 47 views, exhaustive: 1081 pairs; the issue saw matching sit at
 one percentage for 3 min). :func:`in_chunks` therefore hands them the work in pieces — the
 images to extract, the image pairs to match — and reports ``done of total`` with an
-estimate of the time left after each piece. A call costs ~0.15 s of its own (matcher
-threads, the database opened; measured on 16 templeRing views: 54 pairs in 6 calls took
-0.7-0.9 s longer than in one), so the pieces are sized from the rate so far to last
-:data:`TARGET_S` each: the overhead stays under 10 % while the count moves every few
-seconds. (Counting the rows COLMAP writes to its database from another connection instead
-made COLMAP abort with "database is locked": it has no busy handler.)
+estimate of the time left after each piece; the results are those of one call (each image's
+features and each pair's verification do not depend on the others; same seed). A call has
+a cost of its own (matcher threads, the database read again): measured on templeRing, 47
+views, ring matching (``benchmarks/bench_photogrammetry_progress.py``, CPU time of the
+process, load 9-13): matching +9 to +12 % (~0.2 s per extra call), extraction +0 to +5 %.
+So the pieces are sized from the rate so far to last :data:`TARGET_S` each: on a long run
+(minutes of matching) that is a few per cent, and the count moves every few seconds.
+(Counting the rows COLMAP writes to its database from a second connection instead made
+COLMAP abort with "database is locked": it sets no busy handler.)
 
 Messages read ``<stage>: <done> of <total> <unit>, about <time> left`` (:func:`step_text`;
 :func:`parse_step` reads them back); the fractions a :class:`Stages` reports never decrease.
@@ -25,9 +28,9 @@ from typing import Any, TypeVar
 
 from camcmm.api import Cancelled, numbers
 
-#: seconds each piece of work should last (from the rate so far): a call's own ~0.15 s stays
-#: under 10 % of it, and the count moves every few seconds
-TARGET_S = 2.0
+#: seconds each piece of work should last (from the rate so far): a call's own ~0.2 s is
+#: ~4 % of it, and the count moves every few seconds
+TARGET_S = 5.0
 #: no estimate of the time left before this many seconds of a stage have passed (the first
 #: items carry the start-up cost)
 MIN_ELAPSED_S = 2.0
