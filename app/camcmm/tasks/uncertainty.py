@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import worker
+from .. import numbers, worker
 from ..assets import resources_dir
 from ..contracts import Need, OutputContract, check_outputs, register
 from ..errors import InputError
@@ -389,7 +389,7 @@ def done_message(full: dict[str, Any]) -> str:
     elapsed = full.get("elapsed_s")
     return (
         f"done: {full.get('iterations')} iterations × {full.get('n_points')} points"
-        + (f" in {elapsed:.1f} s" if isinstance(elapsed, (int, float)) else "")
+        + (f" in {numbers.time(elapsed)}" if isinstance(elapsed, (int, float)) else "")
         + (f" ({full.get('executor')})" if full.get("executor") else "")
     )
 

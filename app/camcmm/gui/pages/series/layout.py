@@ -144,7 +144,7 @@ def _results(page: Any) -> None:
                     with html.Tr(v_for="c in se_part_rows", key="c.id", raw_attrs=dyn_tid("'se-label-' + c.id")):
                         html.Td("{{ c.id }}", classes="font-weight-medium")
                         html.Td("{{ c.title }}")
-                        html.Td("{{ c.value }} mm (U {{ c.U }})", classes="text-right")
+                        html.Td("{{ c.value }} (U = {{ c.U }})", classes="text-right")
                         with html.Td():
                             v.VChip("{{ c.verdict }}", size="small", color=("c.colour",), variant="flat")
         with html.Div(style="flex: 2 1 420px; height: 380px;", raw_attrs=tid("se-labels")):
