@@ -39,7 +39,17 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import InputError, PointCloud, Report, add_declared_options, declared_values, default_host, read, write
+from camcmm.api import (
+    InputError,
+    PointCloud,
+    Report,
+    add_declared_options,
+    declared_values,
+    default_host,
+    numbers,
+    read,
+    write,
+)
 
 #: The task ``camcmm inspect`` runs: its provider's parameters are the command's options.
 TASK = "compare-with-cad"
@@ -162,8 +172,8 @@ def failure(r: dict[str, Any]) -> str | None:
 def _um(x: float | None, signed: bool = True) -> str:
     if x is None or x != x:
         return "—"
-    sign = "+" if signed else ""
-    return f"{x * 1000:{sign}.1f} µm" if abs(x) < 1 else f"{x:{sign}.4f} mm"
+    # the number rule: µm below 1 mm (0.01 µm, three significant digits), 0 for what rounds to zero
+    return numbers.deviation(x, signed) if abs(x) < 1 else numbers.length(x, signed=signed)
 
 
 def text(r: dict[str, Any]) -> str:
