@@ -111,12 +111,12 @@ def reason(n_features: int, found: Links, limits: Mapper = Mapper()) -> tuple[st
     usable = [k for k in reg if k.inliers >= limits.min_pair]
     total = sum(k.inliers for k in reg)
     partners = _listed([f"{k.partner} {k.inliers}" for k in reg])
+    images = f"{len(reg)} registered image{'s' if len(reg) > 1 else ''}"
     if found.on_points < limits.min_inliers:
         kind = "too few"
         what = (
-            f"too few inlier matches to the registered images: {found.on_points} with points of the model, "
-            f"the mapper needs {limits.min_inliers} ({total} inlier matches with {len(reg)} registered "
-            f"image(s): {partners})"
+            f"too few inlier matches to the registered images: {total} with {images} ({partners}), "
+            f"{found.on_points} of them on points of the model where the mapper needs {limits.min_inliers}"
         )
         return kind, f"{what}; try: {TRY[kind]}"
     if usable and all(k.config in HOMOGRAPHY for k in usable):
@@ -135,7 +135,7 @@ def reason(n_features: int, found: Links, limits: Mapper = Mapper()) -> tuple[st
         return kind, f"{what}; try: {TRY[kind]}"
     kind = "inconsistent"
     what = (
-        f"its {found.on_points} matches with points of the model ({len(reg)} registered images: {partners}) "
+        f"its {found.on_points} matches on points of the model ({images}: {partners}) "
         f"agree on no one pose (the mapper needs {limits.min_inliers} and {limits.min_ratio:.0%} of them to agree): "
         "wrong matches (repeated or symmetric texture) or a self-calibrated camera not yet settled in a short series"
     )
