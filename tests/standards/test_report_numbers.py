@@ -52,3 +52,19 @@ def test_the_inspection_reports_statistics_in_words_and_micrometres():
     assert rows["Sk"] == ("12.3", "µm") and rows["C2"] == (f"{M}6.20", "µm")
     cells = [str(c) for t in tables for row in t.rows for c in row]
     assert not any(EXP.search(c) for c in cells) and not any("p2_5" in c or "um" == c for c in cells)
+
+
+def test_the_inspect_commands_summary_lines():
+    from camcmm_plugins.inspection.cli import _um
+
+    # "mean +6.55e-12 µm, std +7.43e-05 µm" of the issue: 0, never an exponent
+    assert _um(6.55e-15) == "0 µm" and _um(7.43e-8, False) == "0 µm"
+    assert _um(-0.0123) == f"{M}12.3 µm" and _um(0.0123) == "+12.3 µm" and _um(2.5) == "+2.5000 mm"
+
+
+def test_the_gdt_reports_lengths():
+    from camcmm_plugins.gdt import report as gdt_report
+
+    # "−0.000" of the issue: a value that rounds to zero is 0
+    assert gdt_report._mm(-0.00001) == "0" and gdt_report._mm(-0.0123) == f"{M}0.0123"
+    assert gdt_report._limits({"tolerance": 1e-05}) == "0.00001"

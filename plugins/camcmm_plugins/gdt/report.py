@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from camcmm.api import Report, charts
+from camcmm.api import Report, charts, numbers
 
 #: Drawing symbol of each characteristic type (see the module docstring for stand-ins).
 SYMBOLS = {
@@ -54,12 +54,13 @@ _DPI = 150
 
 
 def _mm(x: Any, digits: int = 4) -> str:
-    return "—" if x is None else f"{x:.{digits}f}"
+    """A length in mm by the number rule: a real minus, 0 (not "-0.0000") for what rounds to zero."""
+    return "—" if x is None else numbers.mm(x, None, digits)
 
 
 def _limits(c: dict[str, Any]) -> str:
     if c.get("tolerance") is not None:
-        return f"{c['tolerance']:g}"
+        return numbers.significant(c["tolerance"], 6)
     lo, hi = c.get("lower"), c.get("upper")
     return " / ".join("—" if v is None else f"{v:+g}" for v in (lo, hi))
 
@@ -190,7 +191,7 @@ def build_report(
             "Datums",
             "Tolerance mm",
             "Value mm",
-            f"U mm (k = {next(iter(ks)):g})" if one_k else "U mm (k)",
+            f"U mm (k = {numbers.significant(next(iter(ks)), 3)})" if one_k else "U mm (k)",
             "Verdict",
         ],
         [
@@ -201,7 +202,7 @@ def build_report(
                 "|".join(c["datums"]) or "—",
                 _limits(c),
                 _mm(c["value"]),
-                _mm(c["U"]) if one_k or c["U"] is None else f"{_mm(c['U'])} ({c['k']:g})",
+                _mm(c["U"]) if one_k or c["U"] is None else f"{_mm(c['U'])} ({numbers.significant(c['k'], 3)})",
                 c["verdict_guarded"],
             ]
             for c in chars
