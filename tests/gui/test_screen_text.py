@@ -3,8 +3,9 @@ formats, scanned for scientific notation, parameter keys, plugin ids, code keywo
 YAML/JSON, ASCII units and doubled item names.
 
 The GUI is built headless on a copy of the demo project (its items and its finished
-acceptance test) after a comparison, its report and a sphere fit have run, so that the
-pages show results and not only their empty forms; each page is entered in turn and what
+acceptance test) after a comparison, its report and a sphere fit have run and a simulated
+stage has refused a move before homing, so that the pages show results and messages and not
+only their empty forms; each page is entered in turn and what
 its layout shows is read (:func:`helpers.screentext.page_texts`). The reports are the
 demo's acceptance report and the comparison's inspection report, each as HTML and as PDF
 text. The detector itself (:func:`helpers.screentext.findings`) is tested first: each
@@ -212,6 +213,13 @@ def screens(tmp_path_factory, demo_project):
         inspect = server.pages["inspect"]
         inspect.select_plugin("fit.sphere")
         assert asyncio.run(inspect.run_plugin("fit.sphere", {}, {"cloud": "1"})) is not None, s.error_message
+        # Devices: a simulated stage and camera (in this process), a move before homing refused:
+        # its message is on the page (issue 30 saw "allow_unhomed=True" there)
+        devices = server.pages["devices"]
+        stage = devices.add("devices.stage.simulated", {"unit": "mm", "name": "x"})
+        assert stage is not None and asyncio.run(devices.act(stage, "connect")), s.dev_error
+        devices.select(stage)
+        assert asyncio.run(devices.act(stage, "abs", "1")) is None and s.dev_error
         texts: list[tuple[str, str]] = []
         for key in server.pages:
             s.page = key
@@ -247,6 +255,7 @@ def _unexplained(where: str, text: str, plugin_ids) -> list[str]:
 def test_every_page_shows_no_internal_names(screens):
     pages = {p for p, _ in screens["pages"]}
     assert {"inspect", "compare", "acceptance", "uncertainty", "devices"} <= pages  # the walk reached them
+    assert any("homed" in t for p, t in screens["pages"] if p in ("devices", "(every page)"))  # and the message
     found = [f for page, text in screens["pages"] for f in _unexplained(page, text, screens["plugin_ids"])]
     assert not found, "\n".join(found)
 
