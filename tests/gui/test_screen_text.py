@@ -165,8 +165,6 @@ ALLOWED: list[tuple[str, str, str, str]] = [
     ("acceptance", "raw YAML", r".*", "issue 30: owner H2 (More plan options)"),
     # Photogrammetry: help texts naming other parameters by key (photogrammetry/plugin.yaml)
     ("photogrammetry", "internal key", r"turntable_(window|angles)", "issue 30: owner H6"),
-    # Uncertainty: the budget file's keys in the load button's tooltip
-    ("uncertainty", "internal key", r"half_width", "issue 30: owner H3"),
     # the acceptance report: verdict labels, the outlier rules by test key, the standard's id
     *[
         (f"acceptance report ({kind})", rule, token, "issue 30: owner H2/H3 (vdi2634 report)")

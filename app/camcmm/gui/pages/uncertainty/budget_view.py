@@ -229,8 +229,9 @@ def _budget_actions(v: Any, html: Any, page: Any) -> None:
             prepend_icon="",
             prepend_inner_icon="mdi-file-upload",
             style="max-width: 280px;",
-            title="replace the table by a budget file (YAML/JSON: contributions with u, half_width + "
-            "distribution, or expanded + k)",
+            # in words: the file's keys are in the plugin's help (camcmm uncertainty budget --help)
+            title="replace the table by a budget file (YAML/JSON): each contribution as a standard "
+            "uncertainty u, a half-width with its distribution, or an expanded uncertainty with its k",
             raw_attrs=tid("unc-b-load"),
         )
         v.VSpacer()
