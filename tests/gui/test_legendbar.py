@@ -93,5 +93,9 @@ def test_the_inspect_view_titles_its_legend_in_words_and_micrometres():
         assert view.value_text(-0.0042) == f"radial deviation = {M}4.20 µm"
         view.set_field("z")
         assert view.scalar_bar_title == "z [mm]"
+        from camcmm.gui.view import color_fields
+
+        titles = {f["value"]: f["title"] for f in color_fields(cloud)}
+        assert titles["radial_deviation"] == "radial deviation [µm]"  # the select says what the legend says
     finally:
         view.plotter.close()

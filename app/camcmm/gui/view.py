@@ -38,7 +38,11 @@ def color_fields(obj: Any) -> list[dict[str, str]]:
     for name, values in (getattr(obj, "fields", {}) or {}).items():
         if np.asarray(values).ndim == 1:
             unit = units.get(name, "")
-            out.append({"value": name, "title": legend_title(name, unit), "unit": unit})
+            # titled as its legend will be ("radial deviation [µm]" for a deviation in mm)
+            v = np.asarray(values, dtype=float)
+            ok = v[np.isfinite(v)]
+            lo, hi = (float(ok.min()), float(ok.max())) if ok.size else (0.0, 0.0)
+            out.append({"value": name, "title": legendbar.legend(name, unit, lo, hi).title, "unit": unit})
     for name in COORDS:
         out.append({"value": name, "title": legend_title(name, "mm"), "unit": "mm"})
     if getattr(obj, "colors", None) is not None:
