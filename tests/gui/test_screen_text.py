@@ -155,6 +155,17 @@ def test_an_acquired_position_is_not_named_twice(monkeypatch):
             path.parent.rmdir()
 
 
+def test_the_camera_models_have_one_set_of_words():
+    """The reconstruction's camera models as the form offers them (the manifest's choice_titles)
+    and as its results name them (camcmm.tasks.photogrammetry.CAMERA_MODELS) say the same."""
+    from camcmm.host import default_host
+    from camcmm.tasks.photogrammetry import CAMERA_MODELS
+
+    spec = default_host().get("photogrammetry.reconstruct")
+    model = next(p for p in spec.parameters if p.name == "camera_model")
+    assert dict(model.choice_titles) == {k: CAMERA_MODELS[k] for k in model.choices}
+
+
 # -- the pages and the reports ----------------------------------------------------------------
 #: What is still shown and belongs to another owner who has not changed it yet, each with
 #: its owner: ``(where, rule, token pattern, note)`` — ``where`` a page key or a report's name,
@@ -163,8 +174,6 @@ ALLOWED: list[tuple[str, str, str, str]] = [
     # Acceptance: the standards list and the test's title name the plugin; the plan options box
     ("acceptance", "plugin id", r"vdi2634-[23]", "issue 30: owner H2"),
     ("acceptance", "raw YAML", r".*", "issue 30: owner H2 (More plan options)"),
-    # Photogrammetry: help texts naming other parameters by key (photogrammetry/plugin.yaml)
-    ("photogrammetry", "internal key", r"turntable_(window|angles)", "issue 30: owner H6"),
     # the acceptance report: verdict labels, the outlier rules by test key, the standard's id
     *[
         (f"acceptance report ({kind})", rule, token, "issue 30: owner H2/H3 (vdi2634 report)")
