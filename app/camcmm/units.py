@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from .errors import ParameterError
+from .numbers import significant
 
 #: Factor that converts one unit of each length into millimetres.
 LENGTH_TO_MM: dict[str, float] = {
@@ -87,7 +88,8 @@ def unit_label(unit: str) -> str:
 
 
 def _g(x: float) -> str:
-    return f"{x:.3g}"
+    """Three significant digits, never an exponent (camcmm.numbers)."""
+    return significant(x, 3)
 
 
 @dataclass(frozen=True)

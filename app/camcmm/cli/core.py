@@ -12,6 +12,7 @@ from typing import Any
 
 from ..errors import CamcmmError, PluginError
 from ..host import default_host
+from ..numbers import significant
 from ..params import add_cli_options, cli_values
 from ..project.record import geometry_outputs, record_result
 from . import cloud
@@ -100,10 +101,11 @@ def _info_text(d: dict[str, Any]) -> str:
     if d.get("kind") == "heightmap":
         (nx, ny), (dx, dy), (w, h) = d["grid"], d["steps_mm"], d["size_mm"]
         lo, hi = d["height_range_mm"]
-        lines.append(f"  grid: {nx} x {ny} points, steps {dx * 1000:.4g} x {dy * 1000:.4g} um")
+        step = f"{significant(dx * 1000, 4)} x {significant(dy * 1000, 4)}"
+        lines.append(f"  grid: {nx} x {ny} points, steps {step} µm")
         lines.append(f"  size [mm]: {w:.4f} x {h:.4f}")
         if lo is not None:
-            lines.append(f"  heights [um]: {lo * 1000:.4f} .. {hi * 1000:.4f} (valid {d['valid_fraction']:.2%})")
+            lines.append(f"  heights [µm]: {lo * 1000:.4f} .. {hi * 1000:.4f} (valid {d['valid_fraction']:.2%})")
         lines.append(f"  file unit: {d['source_unit']}; intensity: {'yes' if d['has_intensity'] else 'no'}")
         if d.get("instrument"):
             lines.append(f"  instrument: {d['instrument']}")

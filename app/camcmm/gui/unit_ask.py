@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import one_line
+from ..numbers import significant
 from ..units import CANDIDATE_UNITS
 
 
@@ -44,7 +45,7 @@ class UnitAsks:
         state.unit_ask = {
             "file": head["label"],
             "reason": check.reason,
-            "span": " × ".join(f"{x:.3g}" for x in check.span),
+            "span": " × ".join(significant(x, 3) for x in check.span),
             "waiting": len(self.waiting),
             "choices": [
                 {"value": c["unit"], "title": c["label"], "plausible": bool(c["plausible"])} for c in check.candidates

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CamcmmError, InputError, one_line
+from ..numbers import significant
 
 
 def fmt_count(n: int) -> str:
@@ -62,8 +63,9 @@ def size_text(obj: Any) -> str:
     if kind_of(obj) == "heightmap":  # width × height, and the height range
         w, h = obj.size_mm
         z = obj.heights[obj.valid]
-        return f"{w:.3g} × {h:.3g} mm, heights {float(np.ptp(z)) * 1e3 if z.size else 0:.3g} µm"
-    return " × ".join(f"{x:.3g}" for x in object_span(obj)) + " mm"
+        span = float(np.ptp(z)) * 1e3 if z.size else 0.0
+        return f"{significant(w, 3)} × {significant(h, 3)} mm, heights {significant(span, 3)} µm"
+    return " × ".join(significant(x, 3) for x in object_span(obj)) + " mm"
 
 
 def joined_name(*parts: Any, sep: str = "-") -> str:
