@@ -390,7 +390,8 @@ def build_report(
     )
     s.table(
         ["", "1", "2", "3", "4"],
-        [[f"row {i + 1}", *[f"{v:.9g}" for v in row]] for i, row in enumerate(a["transform"])],
+        # 9 decimals (R to 1e-9, t to the nanometre), never an exponent (issue 30: 5.8819457e-07)
+        [[f"row {i + 1}", *[numbers.mm(v, default=9) for v in row]] for i, row in enumerate(a["transform"])],
         caption="Transform measured → nominal (4×4)",
     )
     kv = [
