@@ -38,7 +38,7 @@ def shown(res: dict[str, Any]) -> dict[str, Any]:
     return {
         "combined": figs.u_text(res["combined"]),
         "dof_eff": figs.fmt(res["dof_eff"], 3),
-        "k": figs.fmt(res["k"], 3),
+        "k": num.plain(res["k"], 3),  # a coverage factor keeps its three digits: 2.00
         "expanded": figs.u_text(res["expanded"]),
         "p": num.percentile(100 * float(res["coverage_probability"])),
         "unit": figs.shown_unit(res.get("unit")),

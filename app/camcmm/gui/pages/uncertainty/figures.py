@@ -53,7 +53,7 @@ def fmt(x: Any, digits: int = 4) -> str:
     if x is None:
         return "∞"
     x = float(x)
-    return "∞" if math.isinf(x) else num.plain(x, digits)
+    return "∞" if math.isinf(x) else num.significant(x, digits)  # dof 14, not 14.00
 
 
 def u_text(x: Any) -> str:

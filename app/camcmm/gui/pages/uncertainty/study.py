@@ -93,7 +93,7 @@ def table_rows(full: dict[str, Any]) -> list[dict[str, Any]]:
             }
         )
     dof = [figs.fmt(x, 3) for x in (full.get("dof_eff") or [])]
-    ks = [figs.fmt(x, 3) for x in (full.get("k") or [])]
+    ks = [num.plain(x, 3) for x in (full.get("k") or [])]
     k_text = ks[0] if ks and len(set(ks)) == 1 else " / ".join(ks)
     p = num.percentile(100 * float(full.get("coverage_probability", 0.95)))
     for key, title, dof_text in (
