@@ -99,3 +99,19 @@ def test_the_inspect_view_titles_its_legend_in_words_and_micrometres():
         assert titles["radial_deviation"] == "radial deviation [µm]"  # the select says what the legend says
     finally:
         view.plotter.close()
+
+
+def test_the_compare_charts_hover_without_an_exponent():
+    import json
+    import re
+
+    from camcmm.gui.pages.compare import figures
+    from camcmm_plugins.inspection.material_ratio import parameters
+
+    heights = np.random.default_rng(2).normal(0.0, 2e-9, 2000)  # nanometre deviations
+    mr = parameters(heights, curve_points=101)
+    stats = {"p2_5": float(np.percentile(heights, 2.5)), "p97_5": float(np.percentile(heights, 97.5))}
+    text = json.dumps(figures.material_ratio_figure(mr, stats, "µm"), ensure_ascii=False)
+    hovers = " ".join(re.findall(r'"hovertemplate": "([^"]*)"', text))
+    assert "Spk " in hovers and not re.search(r"\d[eE][-+]?\d", hovers), hovers
+    assert ":.4g" not in hovers  # plotly's own formats: significant digits (".4r"), never an exponent

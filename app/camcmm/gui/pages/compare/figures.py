@@ -14,7 +14,13 @@ from typing import Any
 
 import numpy as np
 
+from .... import numbers as num
 from .tables import COLOURMAP, diverging_colours, fmt_len, interval_text
+
+
+def _sig(x: float, digits: int) -> str:
+    """``digits`` significant digits, never an exponent, a real minus (camcmm.numbers)."""
+    return num.significant(x, digits)
 
 
 def _hex_colours(values: np.ndarray, limit: float) -> list[str]:
@@ -99,7 +105,7 @@ def _histogram_bars(hist: dict[str, Any], unit: str, limit: float) -> Any:
         width=(np.diff(edges) * f).tolist(),
         marker={"color": _hex_colours(centres, limit), "line": {"width": 0}},
         customdata=custom.tolist(),
-        hovertemplate=f"%{{customdata[0]:.4g}} … %{{customdata[1]:.4g}} {unit}<br>%{{y:,}} points "
+        hovertemplate=f"%{{customdata[0]:.4r}} … %{{customdata[1]:.4r}} {unit}<br>%{{y:,}} points "
         "(%{customdata[2]:.2f} %)<extra></extra>",
         name="deviations",
     )
@@ -228,7 +234,7 @@ def _mr_construction(mr: dict[str, Any], unit: str) -> list[Any]:
             fillcolor="rgba(198,40,40,0.12)",
             line={"color": "#c62828", "width": 1},
             name="Spk triangle",
-            hovertemplate=f"Spk {spk:.4g} {u} (equal area of the peaks above C1)<extra></extra>",
+            hovertemplate=f"Spk {_sig(spk, 4)} {u} (equal area of the peaks above C1)<extra></extra>",
         ),
         go.Scatter(
             x=[100, s2, s2, 100, 100],
@@ -238,7 +244,7 @@ def _mr_construction(mr: dict[str, Any], unit: str) -> list[Any]:
             fillcolor="rgba(21,101,192,0.12)",
             line={"color": "#1565c0", "width": 1},
             name="Svk triangle",
-            hovertemplate=f"Svk {svk:.4g} {u} (equal area of the valleys below C2)<extra></extra>",
+            hovertemplate=f"Svk {_sig(svk, 4)} {u} (equal area of the valleys below C2)<extra></extra>",
         ),
         go.Scatter(
             x=[0, 100],
@@ -247,7 +253,7 @@ def _mr_construction(mr: dict[str, Any], unit: str) -> list[Any]:
             line={"color": "#6a1b9a", "width": 1, "dash": "dash"},
             name="equivalent straight line",
             hovertemplate=(
-                f"equivalent straight line: C1 {C1:.4g} {u} at 0 %, C2 {C2:.4g} {u} at 100 %<extra></extra>"
+                f"equivalent straight line: C1 {_sig(C1, 4)} {u} at 0 %, C2 {_sig(C2, 4)} {u} at 100 %<extra></extra>"
             ),
         ),
     ]
@@ -269,7 +275,7 @@ def _mr_curve(mr: dict[str, Any], unit: str) -> list[Any]:
             mode="lines",
             line={"color": "#555", "width": 1, "dash": "dot"},
             name=f"{cn}, {sn}",
-            hovertemplate=f"{cn} {c:.4g} {u}, {sn} {s:.2f} %<extra></extra>",
+            hovertemplate=f"{cn} {_sig(c, 4)} {u}, {sn} {s:.2f} %<extra></extra>",
         )
         for cn, sn, c, s in (
             ("C1", "Smr1", float(mr["C1"]) * f, float(mr["Smr1"])),
@@ -283,7 +289,7 @@ def _mr_curve(mr: dict[str, Any], unit: str) -> list[Any]:
             mode="lines",
             line={"color": "#111", "width": 2},
             name="material-ratio curve",
-            hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4g}} {u}<extra></extra>",
+            hovertemplate=f"material ratio %{{x:.1f}} %<br>deviation %{{y:.4r}} {u}<extra></extra>",
         ),
         go.Scatter(
             x=[a, b],
@@ -292,7 +298,7 @@ def _mr_curve(mr: dict[str, Any], unit: str) -> list[Any]:
             line={"color": "#6a1b9a", "width": 4},
             name="40 % secant of least gradient",
             hovertemplate=f"40 % secant of least gradient: {a:.1f} … {b:.1f} %"
-            f"<br>Sk {float(mr['Sk']) * f:.4g} {u}"
+            f"<br>Sk {_sig(float(mr['Sk']) * f, 4)} {u}"
             "<extra></extra>",
         ),
     ]
@@ -344,8 +350,8 @@ def _mr_notes(
             "align": "right",
             "font": {"size": 10},
             "text": (
-                f"Sk {float(mr['Sk']) * f:.3g} {u} · Spk {float(mr['Spk']) * f:.3g} {u} · "
-                f"Svk {float(mr['Svk']) * f:.3g} {u}"
+                f"Sk {_sig(float(mr['Sk']) * f, 3)} {u} · Spk {_sig(float(mr['Spk']) * f, 3)} {u} · "
+                f"Svk {_sig(float(mr['Svk']) * f, 3)} {u}"
                 f"<br>Smr1 {float(mr['Smr1']):.2f} % · Smr2 {float(mr['Smr2']):.2f} %"
             ),
         },
@@ -439,7 +445,7 @@ def _section_measured(sec: dict[str, Any], unit: str, limit: float) -> list[Any]
             customdata=np.nan_to_num(dev).tolist(),
             hovertemplate=(
                 f"measured<br>{sec['u']} %{{x:.4f}} mm, {sec['v']} %{{y:.4f}} mm"
-                f"<br>deviation %{{customdata:.4g}} {unit}<extra></extra>"
+                f"<br>deviation %{{customdata:.4r}} {unit}<extra></extra>"
             ),
         )
     ]
@@ -487,7 +493,7 @@ def _section_whiskers(sec: dict[str, Any], unit: str, limit: float) -> list[Any]
             x=tip[:, 0].tolist(),
             y=tip[:, 1].tolist(),
             mode="markers",
-            name=f"deviation × {gain:.3g}",
+            name=f"deviation × {_sig(gain, 3)}",
             marker={
                 "color": (dev * f).tolist(),
                 "colorscale": COLOURMAP,
@@ -500,7 +506,7 @@ def _section_whiskers(sec: dict[str, Any], unit: str, limit: float) -> list[Any]
             customdata=np.column_stack([dev * f, m]).tolist(),
             hovertemplate=(
                 f"measured {sec['u']} %{{customdata[1]:.4f}} mm, {sec['v']} %{{customdata[2]:.4f}} mm"
-                f"<br>deviation %{{customdata[0]:.4g}} {unit}<extra></extra>"
+                f"<br>deviation %{{customdata[0]:.4r}} {unit}<extra></extra>"
             ),
         )
     )
