@@ -27,6 +27,7 @@ import shutil
 from pathlib import Path
 
 from .errors import ParameterError
+from .numbers import significant
 
 #: Default memory cap (bytes) when the environment sets none: 8 GiB ...
 DEFAULT_MEMORY = 8 << 30
@@ -41,9 +42,9 @@ def human_bytes(n: float) -> str:
     n = float(n)
     for unit in ("B", "kB", "MB", "GB", "TB"):
         if abs(n) < 1000:
-            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.3g} {unit}"
+            return f"{n:.0f} {unit}" if unit == "B" else f"{significant(n, 3)} {unit}"
         n /= 1000
-    return f"{n:.3g} PB"
+    return f"{significant(n, 3)} PB"  # never an exponent (camcmm.numbers)
 
 
 def _physical_memory() -> int | None:

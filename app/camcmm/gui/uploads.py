@@ -37,6 +37,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import CamcmmError
+from ..numbers import significant
 
 log = logging.getLogger("camcmm.gui")
 
@@ -62,7 +63,7 @@ def parse_size(text: Any, what: str = "--max-upload") -> int:
 def size_text(n: float) -> str:
     for unit, f in (("GB", 1024**3), ("MB", 1024**2), ("KB", 1024)):
         if n >= f:
-            return f"{n / f:.3g} {unit}"
+            return f"{significant(n / f, 3)} {unit}"  # 1000 KB, never 1e+03 KB
     return f"{int(n)} bytes"
 
 
