@@ -14,14 +14,13 @@ from collections.abc import Callable
 from typing import Any
 
 # The one number rule (digits from the uncertainty, µm for deviations, no exponents): plugins
-# write what a person reads with it, as ``from camcmm.api import numbers``. Not yet in
-# ``__all__``: docs/api.md lists that, and the lead adds the row (provisional, API 1.7).
+# write what a person reads with it, as ``from camcmm.api import numbers`` (provisional, API 1.7).
 from . import numbers as numbers
 from .cad import CadFace, CadModel, read_cad
 from .cli.options import add_declared_options, declared_values
 from .confine import PathRefused, document_path
 from .confine import check as checked_path
-from .conformity import combine, guarded_verdict, simple_verdict
+from .conformity import combine, guarded_verdict, simple_verdict, verdict_words
 from .devices import (
     Camera,
     Device,
@@ -65,7 +64,7 @@ from .yamlfile import YamlError, load_yaml, read_yaml
 # -- the version of this API ------------------------------------------------------------
 #: Major.minor of the plugin API. The major changes when a stable name is removed or
 #: changes meaning; the minor when names are added. Plugins may check it at import.
-API_VERSION = "1.6"
+API_VERSION = "1.7"
 
 
 def get_algorithm(plugin_id: str) -> Callable[..., dict[str, Any]]:
@@ -155,6 +154,9 @@ __all__ = [
     "combine",
     "guarded_verdict",
     "simple_verdict",
+    "verdict_words",
+    # numbers as a person reads them
+    "numbers",
     # reports
     "Report",
     "charts",
