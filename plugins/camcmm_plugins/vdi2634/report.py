@@ -75,8 +75,10 @@ def _result_section(r, result: dict[str, Any]) -> None:
             uncertainty=_mm(p["U"]),
             note=note,
         )
-    for rule, text in result.get("decision_rules", {}).items():
-        s.paragraph(f"{rule}: {text}.")
+    # each rule's text names it in words ("Guarded acceptance (ISO 14253-1:2017): ..."): not
+    # under its JSON key, "verdict_guarded: ..." (issue 30)
+    for text in result.get("decision_rules", {}).values():
+        s.paragraph(f"{text[:1].upper()}{text[1:]}.")
     s.paragraph(
         "A parameter is incomplete when one of its measurements failed or fewer measurements than the "
         "standard requires were evaluated; an incomplete test never passes."
@@ -91,7 +93,7 @@ def _system_section(r, result: dict[str, Any]) -> None:
         "Measuring volume": " x ".join(f"{v:g}" for v in sysd["measuring_volume"]) + " mm",
         "Longest diagonal L0": f"{sysd['diagonal']:.2f} mm",
         "Standard": result.get("standard_name", ""),
-        "Outlier rules": ", ".join(f"{t}: {rule}" for t, rule in result.get("outliers", {}).items()),
+        "Outlier rules": ", ".join(f"{t.replace('_', ' ')}: {rule}" for t, rule in result.get("outliers", {}).items()),
     }
     if result.get("scaling"):
         kv["Scaling"] = ", ".join(f"{t}: {m}" for t, m in result["scaling"].items())
@@ -280,7 +282,7 @@ def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
         f"{result.get('standard_name', result['standard'])} acceptance test",
         subtitle=result["system"].get("name") or "",
         meta={
-            "Standard": f"{result.get('standard_name') or result['standard']} ({result['standard']})",
+            "Standard": result.get("standard_name") or result["standard"],  # its id is in the provenance
             # a plan given as a dict without a name is called "plan": nothing a person reads
             **({"Test plan": prov.get("plan")} if prov.get("plan") not in (None, "", "plan") else {}),
             "Verdict": verdict_words(result["verdict"]),

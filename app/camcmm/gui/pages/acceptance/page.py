@@ -112,7 +112,9 @@ class WizardPage:
         s.wz_error = w.load_error
         try:
             s.wz_standards = [
-                {"title": f"{x['name']} ({x['id']})", "value": x["id"], "summary": x["summary"]} for x in w.standards()
+                # named in words; the plugin id stays the value (issue 30)
+                {"title": x["name"], "value": x["id"], "summary": x["summary"]}
+                for x in w.standards()
             ]
         except Exception as exc:  # discovery problems are shown, the page stays
             s.wz_standards = []

@@ -160,7 +160,7 @@ def _artefact_warnings() -> None:
         raw_attrs=tid("wz-artefact-warnings"),
     ):
         html.Div(
-            "This setup breaks {{ wz_artefact_warnings.length }} artefact rule(s) of {{ wz_form.standard }}: the "
+            "This setup breaks {{ wz_artefact_warnings.length }} artefact rule(s) of the standard: the "
             "evaluation runs, but the test deviates from the standard and its report says so.",
             classes="font-weight-medium",
         )
