@@ -142,6 +142,23 @@ def test_the_picker_offers_the_users_item_not_the_newest_derived(sphere_fit):
     assert inputs_of(spec, ITEMS[3:], {}, None)[1] == {"cloud": "4"}  # only derived ones: take it
 
 
+def test_input_ports_are_labelled_in_words():
+    """A port reads as words and its kind as a person says it ("depth maps (files)", not
+    "depth_maps (file)"): the manifest's keys stay the names."""
+    from types import SimpleNamespace as NS
+
+    spec = NS(
+        inputs=[
+            NS(name="depth_maps", type="files", optional=False, help=""),
+            NS(name="cloud", type="geometry", optional=True, help="the scan"),
+        ]
+    )
+    inputs, _ = inputs_of(spec, ITEMS, {}, None)
+    assert [i["label"] for i in inputs] == ["depth maps (files) *", "cloud (cloud or mesh)"]
+    assert [i["name"] for i in inputs] == ["depth_maps", "cloud"]
+    assert inputs[0]["help"] == "the input depth maps (files)"
+
+
 @pytest.mark.slow  # the host and one fit: seconds on a busy machine
 def test_a_run_that_cannot_start_says_why(sphere_fit):
     spec, _ = sphere_fit

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from .... import numbers
 from ....host import to_jsonable
 from ....params import form_schema
 from ....tasks.plugin_run import ITEM_TYPES, run_arguments, run_blocker
@@ -47,6 +48,21 @@ def fields_of(spec: Any) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     return fields, values
 
 
+#: An input port's type as a person says it (the manifest's key stays the type).
+PORT_WORDS = {
+    "geometry": "cloud or mesh",
+    "pointcloud": "point cloud",
+    "mesh": "mesh",
+    "image": "image",
+    "images": "images",
+    "heightmap": "height map",
+    "file": "file",
+    "files": "files",
+    "path": "file or folder",
+    "json": "a document",
+}
+
+
 def inputs_of(
     spec: Any, items: list[dict[str, Any]], current: dict[str, Any], preferred: Any
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
@@ -62,8 +78,9 @@ def inputs_of(
             "name": port.name,
             "type": port.type,
             "optional": port.optional,
-            "label": f"{port.name} ({port.type})" + ("" if port.optional else " *"),
-            "help": port.help or f"the input {port.name!r} ({port.type})",
+            "label": f"{numbers.words(port.name)} ({PORT_WORDS.get(port.type, numbers.words(port.type))})"
+            + ("" if port.optional else " *"),
+            "help": port.help or f"the input {numbers.words(port.name)} ({PORT_WORDS.get(port.type, port.type)})",
             "supported": kinds is not None,
             "options": [],
         }
