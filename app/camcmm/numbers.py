@@ -127,6 +127,9 @@ _UNITS = {
     "degrees": "°",
     "percent": "%",
     "sec": "s",
+    "lambda": "λ",  # the light field's depth unit (thesis ch. 6.3)
+    "1/lambda": "λ⁻¹",
+    "mm/lambda": "mm/λ",
 }
 
 

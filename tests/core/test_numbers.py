@@ -116,6 +116,7 @@ def test_counts_plain_numbers_and_units():
     assert n.mm(9.99998341, 1.89e-5) == "9.999983" and n.micro(0.0157) == "15.7"
     assert n.unit_text("um") == "µm" and n.unit_text("urad") == "µrad" and n.unit_text("deg") == "°"
     assert n.unit_text("mm") == "mm" and n.unit_text(None) == ""
+    assert n.unit_text("lambda") == "λ"  # the light field's depth unit
     assert n.title("radial_deviation", "um") == "radial deviation [µm]" and n.words("n_points") == "n points"
 
 
