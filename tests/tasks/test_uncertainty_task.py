@@ -106,6 +106,21 @@ def test_a_project_without_a_draft_opens_the_shipped_thesis_budget(project):
     req = unc.start_budget(project)
     assert len(req.rows) == 5 and req.rows[0]["name"]
     assert unc.evaluate(default_host(), req).outputs["combined"] > 0
+    assert req.unit == "µm" and req.rows[0]["dof"] == "∞"  # written as a metrologist writes them
+
+
+def test_infinite_degrees_of_freedom_read_as_typed_and_kept_as_inf_in_the_file():
+    """The editor writes ∞; the budget file and the plugin keep "inf"; either typed reads the same:
+    two type-B inputs known exactly give ν_eff = ∞ and k = 1.96 for 95 % (GUM G.3)."""
+    rows = [
+        {"name": "a", "kind": "u", "value": "3", "distribution": "normal", "k": "", "c": "1", "dof": "∞"},
+        {"name": "b", "kind": "u", "value": "4", "distribution": "normal", "k": "", "c": "1", "dof": "inf"},
+    ]
+    req = unc.BudgetRequest("x", "µm", 0.95, rows)
+    assert [c["dof"] for c in req.doc()["contributions"]] == ["inf", "inf"]
+    assert [r["dof"] for r in unc.rows_from_doc(req.doc())] == ["∞", "∞"]
+    out = unc.evaluate(default_host(), req).outputs
+    assert out["combined"] == pytest.approx(5.0) and out["k"] == pytest.approx(1.96, abs=0.001)
 
 
 @pytest.mark.slow  # the CLI runs in its own process

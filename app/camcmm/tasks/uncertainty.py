@@ -110,6 +110,17 @@ DISTRIBUTIONS = {
 }
 
 
+#: Infinite degrees of freedom (a type-B input known exactly) as the editor writes it; the
+#: budget file and the plugin keep "inf", and the editor reads either.
+INFINITE = "∞"
+
+
+def _infinite(dof: Any) -> bool:
+    if isinstance(dof, float):
+        return math.isinf(dof)
+    return str(dof).strip().lower() in (INFINITE, "inf", "infinity", "infinite")
+
+
 def rows_from_doc(doc: dict[str, Any]) -> list[dict[str, Any]]:
     """Editor rows (strings, as typed) from a budget document. An entry's ``u``,
     ``half_width`` (``a``) or ``expanded`` (``U``) gives the row's kind and value; a
@@ -137,7 +148,7 @@ def rows_from_doc(doc: dict[str, Any]) -> list[dict[str, Any]]:
                 "distribution": dist,
                 "k": _text(k) if kind == "U" else "",
                 "c": str(c.get("c", 1)),
-                "dof": "inf" if dof is None or (isinstance(dof, float) and math.isinf(dof)) else str(dof),
+                "dof": INFINITE if dof is None or _infinite(dof) else str(dof),
                 "unit": _text(c.get("unit")),  # the input's own unit (kept; the conversion shows it)
             }
         )
@@ -155,7 +166,8 @@ def budget_doc(quantity: str, unit: str, p: Any, rows: list[dict[str, Any]]) -> 
         c[{"u": "u", "a": "half_width", "U": "expanded"}[kind]] = value
         if kind == "U" and _text(r.get("k")).strip():
             c["k"] = r.get("k")
-        c["dof"] = r.get("dof") or "inf"
+        dof = str(r.get("dof") or "").strip()
+        c["dof"] = "inf" if not dof or _infinite(dof) else r.get("dof")  # the file and the plugin spell it inf
         c["distribution"] = r.get("distribution") or ("rectangular" if kind == "a" else "normal")
         if str(r.get("c", "")).strip() not in ("", "1"):
             c["c"] = r.get("c")
@@ -225,7 +237,7 @@ def start_budget(project: Any) -> BudgetRequest:
         try:
             draft = read_yaml(resources_dir() / "uncertainty" / "budget.yaml")
         except InputError:
-            draft = {"quantity": "", "unit": "um", "coverage_probability": 0.95, "contributions": []}
+            draft = {"quantity": "", "unit": "µm", "coverage_probability": 0.95, "contributions": []}
     return BudgetRequest.of_doc(draft)
 
 

@@ -28,7 +28,7 @@ KINDS = [
     {"value": "U", "title": "U (expanded, k)"},
 ]
 #: The distributions each kind takes (for u it only records how u was evaluated).
-EMPTY_ROW = {"name": "", "kind": "u", "value": "", "distribution": "normal", "k": "", "c": "1", "dof": "inf"}
+EMPTY_ROW = {"name": "", "kind": "u", "value": "", "distribution": "normal", "k": "", "c": "1", "dof": "∞"}
 
 
 def shown(res: dict[str, Any]) -> dict[str, Any]:

@@ -125,7 +125,7 @@ def _budget_table(v: Any, html: Any, page: Any, call: str) -> None:
         ("Distribution", "a: rectangular a/√3, triangular a/√6, U-shaped a/√2; U: normal, u = U/k; u: as evaluated"),
         ("k", "the coverage factor of an expanded U (GUM 4.3.3)"),
         ("c", "sensitivity coefficient: the contribution to the measurand is |c|·u"),
-        ("dof", "degrees of freedom (inf: known exactly, type B)"),
+        ("dof", "degrees of freedom (∞, or inf: known exactly, type B)"),
         ("u", "the standard uncertainty computed from the entry (JCGM 100:2008 4.3.3-4.3.9)"),
         ("Conversion", "how u follows from what was entered"),
         ("", ""),
@@ -170,7 +170,7 @@ def _budget_table(v: Any, html: Any, page: Any, call: str) -> None:
                 with html.Td(style="min-width: 65px;"):
                     _cell(v, "c", call, "sensitivity coefficient c")
                 with html.Td(style="min-width: 60px;"):
-                    _cell(v, "dof", call, "degrees of freedom (inf: exactly known)")
+                    _cell(v, "dof", call, "degrees of freedom (∞, or inf: exactly known)")
                 html.Td(
                     "{{ unc_b_result && unc_b_result.rows[i] ? unc_b_result.rows[i].u : '' }}",
                     classes="text-right",
