@@ -4,6 +4,10 @@ numbers as the batch run."""
 
 from __future__ import annotations
 
+import html
+import re
+from pathlib import Path
+
 import pytest
 import yaml
 
@@ -55,6 +59,13 @@ def test_wizard_flow_equals_the_batch_run(plan_path, tmp_path):
     assert summary["verdict"] == batch["verdict"]
     paths = std.write_report(summary, tmp_path / "report", plan_path)
     assert set(paths) == {"html", "pdf", "json"}
+    # the report writes quality parameters in µm by the number rule (issue 30): P_F of the
+    # first sphere as the table cell to 0.01 µm, read back from the evaluation's mm
+    text = html.unescape(re.sub(r"<[^>]+>", " ", Path(paths["html"]).read_text()))
+    assert "P_F [µm]" in text and "P_F [mm]" not in text and "U (k = 2) [µm]" in text
+    pf_um = round(per["sphere"][0]["values"]["PF"] * 1e3, 2)
+    assert f"{pf_um:.2f}".rstrip("0").rstrip(".") in text
+    assert "passed" in text or "failed" in text or "inconclusive" in text  # the verdicts in words
 
 
 def test_host_run_takes_a_plan_dict(plan_path):

@@ -14,6 +14,7 @@ import html
 import json
 from typing import Any
 
+from ..conformity import verdict_words
 from .blocks import (
     CONTENT_WIDTH_MM,
     FIGURE_GAP_MM,
@@ -109,7 +110,8 @@ def _badge(word: str | None) -> str:
     if word is None:  # this rule was not applied to this parameter
         return "\u2014"
     bg, fg = VERDICT_COLOURS[word]
-    return f'<span class="badge v-{word}" style="background:{bg};color:{fg}">{html.escape(word)}</span>'
+    # the key names the colour; the badge says it in words ("passed", as the pages do)
+    return f'<span class="badge v-{word}" style="background:{bg};color:{fg}">{html.escape(verdict_words(word))}</span>'
 
 
 def _is_hash(col: str) -> bool:

@@ -17,6 +17,7 @@ from importlib.util import find_spec
 from pathlib import Path
 from typing import Any
 
+from ..conformity import verdict_words
 from .blocks import (
     CONTENT_WIDTH_MM,
     FIGURE_GAP_MM,
@@ -238,7 +239,7 @@ class _Builder:
 
         if word is None:  # this rule was not applied to this parameter
             return self._p(None, "cell_c")
-        (bg, fg), label = VERDICT_COLOURS[word], word.upper()
+        (bg, fg), label = VERDICT_COLOURS[word], verdict_words(word).upper()
         st = self.st["badge"].clone("badge_" + word, textColor=self.colors.HexColor(fg))
         t = T([[P(html.escape(label), st)]], colWidths=[BADGE_MM * self.mm])
         t.setStyle(

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from camcmm.api import Report, charts, to_jsonable
+from camcmm.api import Report, charts, numbers, to_jsonable, verdict_words
 
 from . import tables_ch4
 from .declaration import SYMBOLS
@@ -40,9 +40,18 @@ CERT_NAMES = {
 
 
 def _mm(v: Any, signed: bool = False) -> str:
-    if v is None:
-        return "-"
-    return f"{v:+.4f} mm" if signed else f"{v:.4f} mm"
+    """A size (a diameter, a length) in mm, 0.1 µm resolution (the number rule)."""
+    return "-" if v is None else numbers.length(v, signed=signed)
+
+
+def _um(v: Any, signed: bool = False) -> str:
+    """A quality parameter, an MPE, a form or an uncertainty in µm (the number rule)."""
+    return "-" if v is None else numbers.deviation(v, signed=signed)
+
+
+def _um_cell(v: Any) -> Any:
+    """A table cell in µm (from mm) to 0.01 µm; the JSON data keeps mm at full precision."""
+    return round(v * 1e3, 2) + 0.0 if isinstance(v, float) else v  # + 0.0: no "-0.0"
 
 
 def _label(ev: dict[str, Any], repeats: bool = False) -> str:
@@ -60,8 +69,8 @@ def _short(ev: dict[str, Any], repeats: bool) -> str:
 def _result_section(r, result: dict[str, Any]) -> None:
     s = r.section("Result")
     s.paragraph(
-        f"Verdict: {result['verdict'].upper()} (simple acceptance); "
-        f"{result['verdict_guarded'].upper()} under guarded acceptance (ISO 14253-1)."
+        f"Verdict: {verdict_words(result['verdict'])} (simple acceptance); "
+        f"{verdict_words(result['verdict_guarded'])} under guarded acceptance (ISO 14253-1)."
     )
     for key, p in result["parameters"].items():
         signed = key in ("PS", "SD")
@@ -70,9 +79,9 @@ def _result_section(r, result: dict[str, Any]) -> None:
             SYMBOLS.get(key, key),
             simple=p["verdict"],
             guarded=p["verdict_guarded"],
-            value=_mm(p["value"], signed),
-            limit=_mm(p["mpe"]),
-            uncertainty=_mm(p["U"]),
+            value=_um(p["value"], signed),
+            limit=_um(p["mpe"]),
+            uncertainty=_um(p["U"]),
             note=note,
         )
     # each rule's text names it in words ("Guarded acceptance (ISO 14253-1:2017): ..."): not
@@ -103,12 +112,14 @@ def _system_section(r, result: dict[str, Any]) -> None:
     rows = []
     for test, art in result["artefacts"].items():
         for name, c in art["certificates"].items():
-            rows.append([test.replace("_", " "), CERT_NAMES.get(name, name), c["value"], c["uncertainty"], c["k"]])
+            rows.append(
+                [test.replace("_", " "), CERT_NAMES.get(name, name), c["value"], _um_cell(c["uncertainty"]), c["k"]]
+            )
         for name, v in art["nominal"].items():
             if name not in art["certificates"] and isinstance(v, (int, float)) and not isinstance(v, bool):
                 rows.append([test.replace("_", " "), f"{CERT_NAMES.get(name, name)} (nominal)", v, None, None])
     s.table(
-        ["Artefact", "Quantity", "Value [mm]", "U [mm]", "k"], rows, caption="Artefacts and calibration certificates"
+        ["Artefact", "Quantity", "Value [mm]", "U [µm]", "k"], rows, caption="Artefacts and calibration certificates"
     )
     checks = result.get("artefact_checks") or []
     if checks:
@@ -124,30 +135,39 @@ def _system_section(r, result: dict[str, Any]) -> None:
 
 def _test_rows(test: str, evs: list[dict[str, Any]], reps: bool) -> tuple[list[str], list[list[Any]]]:
     if test == "sphere":
-        cols = ["Position", "File", "Points", "Removed", "D_a [mm]", "P_F [mm]", "P_S [mm]", "Scale"]
+        cols = ["Position", "File", "Points", "Removed", "D_a [mm]", "P_F [µm]", "P_S [µm]", "Scale"]
         get = lambda e: [
             e.get("n_points"),
             e.get("n_removed"),
-            e.get("diameter"),
-            e["values"]["PF"],  # noqa: E731
-            e["values"]["PS"],
-            e.get("scale"),
+            _round(e.get("diameter")),
+            _um_cell(e["values"]["PF"]),  # noqa: E731
+            _um_cell(e["values"]["PS"]),
+            _round(e.get("scale"), 6),
         ]
     elif test == "ball_bar":
-        cols = ["Position", "File", "Points", "D1 [mm]", "D2 [mm]", "L_a [mm]", "SD [mm]"]
+        cols = ["Position", "File", "Points", "D1 [mm]", "D2 [mm]", "L_a [mm]", "SD [µm]"]
         get = lambda e: [
             e.get("n_points"),
-            e["spheres"][0]["diameter"],
-            e["spheres"][1]["diameter"],  # noqa: E731
-            e["length"],
-            e["values"]["SD"],
+            _round(e["spheres"][0]["diameter"]),
+            _round(e["spheres"][1]["diameter"]),  # noqa: E731
+            _round(e["length"]),
+            _um_cell(e["values"]["SD"]),
         ]
     elif test == "flat":
-        cols = ["Position", "File", "Points", "Removed", "Covered [mm]", "F [mm]"]
-        get = lambda e: [e.get("n_points"), e.get("n_removed"), e.get("covered_length"), e["values"]["F"]]  # noqa: E731
+        cols = ["Position", "File", "Points", "Removed", "Covered [mm]", "F [µm]"]
+        get = lambda e: [  # noqa: E731
+            e.get("n_points"),
+            e.get("n_removed"),
+            _round(e.get("covered_length")),
+            _um_cell(e["values"]["F"]),
+        ]
     else:
-        cols = ["Position", "File", "Scale", "L1 [mm]", "L2 [mm]", "L3 [mm]", "SD1 [mm]", "SD2 [mm]", "SD3 [mm]"]
-        get = lambda e: [e.get("scale"), *e["lengths"], *e["values"]["SD"]]  # noqa: E731
+        cols = ["Position", "File", "Scale", "L1 [mm]", "L2 [mm]", "L3 [mm]", "SD1 [µm]", "SD2 [µm]", "SD3 [µm]"]
+        get = lambda e: [  # noqa: E731
+            _round(e.get("scale"), 6),
+            *(_round(x) for x in e["lengths"]),
+            *(_um_cell(x) for x in e["values"]["SD"]),
+        ]
     if test == "sphere" and all((e.get("scale") or 1.0) == 1.0 for e in evs):
         cols, full = cols[:-1], get
         get = lambda e: full(e)[:-1]  # noqa: E731  (no scale column for metric systems)
@@ -156,7 +176,7 @@ def _test_rows(test: str, evs: list[dict[str, Any]], reps: bool) -> tuple[list[s
         if e.get("error"):
             rows.append([_label(e, reps), e.get("file"), *([None] * (len(cols) - 2)), f"ERROR: {e['error']}"])
         else:
-            rows.append([_label(e, reps), e.get("file"), *(_round(v) for v in get(e))])
+            rows.append([_label(e, reps), e.get("file"), *get(e)])
     return cols, rows
 
 
@@ -225,14 +245,15 @@ def _part3_sections(r, result: dict[str, Any]) -> None:
     if result.get("lengths"):
         s = r.section("Ball-plate lengths (thesis table 4.2, ISO 15530-3)")
         s.table(
-            ["Length", "Calibrated [mm]", "Mean [mm]", "Mean - cal. [mm]", "Std [mm]", "n", "U (k=2) [mm]"],
+            ["Length", "Calibrated [mm]", "Mean [mm]", "Mean − cal. [µm]", "Std [µm]", "n", "U (k = 2) [µm]"],
             [
                 [
                     x["name"],
                     x.get("calibrated"),
-                    *(_round(x.get(k), 5) for k in ("mean", "mean_deviation", "std")),
+                    _round(x.get("mean"), 5),
+                    *(_um_cell(x.get(k)) for k in ("mean_deviation", "std")),
                     x["n"],
-                    _round(x.get("U_iso15530_3"), 5),
+                    _um_cell(x.get("U_iso15530_3")),
                 ]
                 for x in result["lengths"]
             ],
@@ -244,10 +265,10 @@ def _part3_sections(r, result: dict[str, Any]) -> None:
         s.keyvalues(
             {
                 "Mean diameter": _mm(iso["size"].get("mean")),
-                "Std of diameters": _mm(iso["size"].get("std")),
-                "U size (k=2)": _mm(iso["size"].get("U_iso15530_3")),
-                "Mean std of radial deviations": _mm(iso["form"].get("mean_std")),
-                "U form (k=2)": _mm(iso["form"].get("U_iso15530_3")),
+                "Std of diameters": _um(iso["size"].get("std")),
+                "U size (k = 2)": _um(iso["size"].get("U_iso15530_3")),
+                "Mean std of radial deviations": _um(iso["form"].get("mean_std")),
+                "U form (k = 2)": _um(iso["form"].get("U_iso15530_3")),
             }
         )
 
@@ -255,23 +276,13 @@ def _part3_sections(r, result: dict[str, Any]) -> None:
 def _uncertainty_section(r, result: dict[str, Any]) -> None:
     s = r.section("Uncertainty of the test (for guarded acceptance)")
     s.table(
-        ["Parameter", "U (k=2) [mm]", "Basis"],
-        [[p["name"], _round(p["U"], 5), p["uncertainty"]["basis"]] for p in result["parameters"].values()],
+        ["Parameter", "U (k = 2) [µm]", "Basis"],
+        [[p["name"], _um_cell(p["U"]), p["uncertainty"]["basis"]] for p in result["parameters"].values()],
     )
     s.paragraph(
         "Only the artefacts' calibration enters U: ISO 14253-1 asks for the uncertainty of the test. "
         "Form and flatness certificates are counted in full (a known bound on the artefact's share)."
     )
-
-
-#: A verdict key as the report writes it (as camcmm.conformity.verdict_words, which
-#: camcmm.api does not export yet: a plugin imports only camcmm.api).
-_VERDICT_WORDS = {"pass": "passed", "fail": "failed", "inconclusive": "inconclusive", "incomplete": "incomplete"}
-
-
-def verdict_words(verdict: Any) -> str:
-    key = str(verdict or "incomplete")
-    return _VERDICT_WORDS.get(key, key)
 
 
 def write(result: dict[str, Any], directory: Path, plan=None) -> dict[str, str]:
