@@ -197,7 +197,7 @@ class PluginHost:
             return self.plugins[plugin_id]
         except KeyError:
             close = [p for p in self.plugins if plugin_id.split(".")[-1] in p]
-            hint = f"; did you mean {', '.join(close[:3])}?" if close else "; `camcmm plugins` lists them"
+            hint = f"; did you mean {', '.join(close[:3])}?" if close else "; the command camcmm plugins lists them"
             raise PluginError(f"no plugin with id {plugin_id!r}{hint}") from None
 
     def providing(self, task: str) -> list[PluginSpec]:
@@ -211,7 +211,8 @@ class PluginHost:
         found = self.providing(task)
         if not found:
             raise PluginError(
-                f"no plugin provides {task!r}: install one that declares it (`camcmm plugins` lists what is installed)"
+                f"no plugin provides {task!r}: install one that declares it"
+                " (the command camcmm plugins lists what is installed)"
             )
         # the task's output contract (camcmm.contracts), checked on the manifest: a lab's
         # plugin that would not give what the task reads is passed over, and said so

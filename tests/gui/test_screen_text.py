@@ -46,6 +46,7 @@ FORBIDDEN = [
     ("pixel pitch [um]", "ASCII unit"),
     ("u rotation [urad]", "ASCII unit"),
     ("3.9 um pixels", "ASCII unit"),
+    ("each image with its `overlap` most alike ones", "code in backticks"),
     ("sphere-sphere-01.ply", "doubled name"),
     ("ball_bar-ball-bar-01.ply", "doubled name"),
     ("item sphere-sphere-01", "doubled name"),

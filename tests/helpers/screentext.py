@@ -61,6 +61,8 @@ RULES: dict[str, re.Pattern[str]] = {
     "raw YAML": re.compile(r"(?m)^\s*-?\s*[a-z]\w*:\s*\S.*\n\s*-?\s*[a-z]\w*:\s*\S"),
     # um, urad: ASCII for µm, µrad
     "ASCII unit": re.compile(r"(?<![\w-])(?:um|urad)(?![\w-])"),
+    # `overlap`: a name in backticks, as in a docstring, is code shown to a person
+    "code in backticks": re.compile(r"`[^`\n]{1,60}`"),
 }
 #: a word with a dot that is not a plugin id
 _NOT_IDS = {"e.g", "i.e", "cf", "vs", "etc", "approx"}

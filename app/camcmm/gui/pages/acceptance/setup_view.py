@@ -70,7 +70,7 @@ def _alerts(page: Any) -> None:
         type="warning",
         density="compact",
         classes="mb-2",
-        text="No standard plugin is installed (kind 'standard'); `camcmm plugins` lists what is there.",
+        text="No acceptance-test standard is installed: the command camcmm plugins, in a terminal, lists what is.",
     )
     v.VAlert(
         v_if="wz_setup_error",
