@@ -246,7 +246,7 @@ def measure(placement: dict[str, Any], opts: dict[str, Any], ctx) -> dict[str, A
         ) from None
     t0 = time.perf_counter()
     test = str(placement.get("test"))
-    name = f"{test}-{(placement.get('position') or {}).get('id', 'x')}"
+    name = (placement.get("position") or {}).get("id") or f"{test}-x"  # the id names its test already
     with tempfile.TemporaryDirectory(prefix="camcmm-photo-system-") as tmp:
         series = render(placement, Path(tmp), opts, ctx.progress)
         t1 = time.perf_counter()

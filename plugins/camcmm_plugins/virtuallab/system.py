@@ -146,6 +146,7 @@ def measure(
                 "is it inside the cameras' and projector's common field?"
             )
         cloud = cloud.subset(keep)
-        name = f"{placement.get('test')}-{(placement.get('position') or {}).get('id', 'x')}"
+        # a position's id names its test already ("sphere-01", "ball-bar-01"): not "sphere-sphere-01"
+        name = (placement.get("position") or {}).get("id") or f"{placement.get('test')}-x"
         cloud = PointCloud(cloud.points, name=name)
         return {"cloud": cloud, "n_frames": cap["n_frames"], "n_points": int(len(keep))}
