@@ -43,8 +43,9 @@ def _colour_bar() -> None:
             title="The colour legend's field and unit",
             raw_attrs=tid("legend-title"),
         )
-        html.Span(
+        html.Span(  # not when the browser-drawn view writes the same at its foot (the count twice)
             "{{ display_note }}",
+            v_show=f"display_note && ({CV}_mode === 'server' || !{CV} || {CV}.note !== display_note)",
             classes="text-caption",
             title="How many points the view draws",
             raw_attrs=tid("display-note"),
