@@ -77,10 +77,10 @@ def test_import_view_and_run_a_plugin(gui_server, tmp_path):
             # import a cloud through the file input
             page.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(cloud))
             page.wait_for_selector('[data-testid="item"]:has-text("ball.ply")')
-            page.wait_for_selector('[data-testid="display-note"]:has-text("20 000 points")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("20 000 points")', state="attached")
             legend = page.locator('[data-testid="legend-title"]')
             legend.wait_for()
-            assert re.search(r"\[mm\]", legend.inner_text()), legend.inner_text()
+            assert re.search(r"deviation \[µm\]", legend.inner_text()), legend.inner_text()  # µm: issue 30
             shot, deadline = None, time.monotonic() + 20
             while time.monotonic() < deadline:  # the first streamed image may take a moment
                 shot = view.screenshot()

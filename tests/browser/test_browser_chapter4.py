@@ -65,7 +65,11 @@ def _setup(page, url: str) -> None:
     page.locator('[data-testid="wz-field-ball_plate-lengths"] input').fill(", ".join(map(str, LENGTHS)))
     page.locator('[data-testid="wz-field-ball_plate-uncertainty"] input').fill("0.0005")
     page.locator('[data-testid="wz-advanced"]').click()
+    # the plan options from YAML: the panel under the options form (issue 30: a form, YAML an import)
+    page.locator('.v-expansion-panel-title:has-text("Read options from YAML")').click()
     page.locator('[data-testid="wz-options"] textarea').first.fill(OPTIONS)
+    page.locator('[data-testid="wz-options-read"]').click()
+    page.wait_for_selector('[data-testid="wz-options-error"]', state="detached")
     page.screenshot(path=str(SHOTS / "chapter4-1-setup.png"))
     time.sleep(1.0)  # the artefact rules are checked on the server as the form changes
     confirm = page.locator('[data-testid="wz-confirm-violations"] input')

@@ -51,7 +51,7 @@ def test_inspect_view_in_the_browser_and_on_the_server(gui_server, tmp_path):
             assert px["red"] > 500 and px["blue"] > 500, f"the cloud is not drawn in its colours: {px}"
             server_title = page.locator('[data-testid="legend-title"]').inner_text().replace("legend:", "").strip()
             legend = page.locator('[data-cv="cv_inspect"] .cmm-cv-legend-title').inner_text().strip()
-            assert legend == server_title == "deviation [mm]"
+            assert legend == server_title == "deviation [µm]"  # deviations in µm (issue 30)
 
             page.locator('[data-testid="cv_inspect-mode-server"]').click()
             page.wait_for_selector('[data-cv="cv_inspect"]', state="detached")

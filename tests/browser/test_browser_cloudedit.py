@@ -65,7 +65,7 @@ def test_box_crop_undo_and_a_lasso_in_the_view(grid_gui):
             page.set_default_timeout(30_000)
             page.goto(server.url)
             page.wait_for_selector('[data-testid="ce-open"]', timeout=120_000)
-            page.wait_for_selector('[data-testid="display-note"]:has-text("1 000")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("1 000")', state="attached")
             page.locator('[data-testid="ce-open"]').click()
             # the box form opens with the grid's bounds
             _field(page, "min").wait_for()
@@ -82,7 +82,7 @@ def test_box_crop_undo_and_a_lasso_in_the_view(grid_gui):
             page.screenshot(path=str(SHOTS / "box-outline.png"))
             page.locator('[data-testid="ce-apply"]').click()
             page.wait_for_selector('[data-testid="ce-status"]:has-text("kept 64 points, removed 936")')
-            page.wait_for_selector('[data-testid="display-note"]:has-text("showing all 64 points")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("showing all 64 points")', state="attached")
             page.screenshot(path=str(SHOTS / "box-crop.png"))
             items = _listed(folder)
             assert [m["name"] for m in items] == ["grid.ply", "grid.ply · cropped (box)"]
@@ -90,7 +90,7 @@ def test_box_crop_undo_and_a_lasso_in_the_view(grid_gui):
 
             page.locator('[data-testid="ce-undo"]').click()
             page.wait_for_selector('[data-testid="ce-status"]:has-text("undone")')
-            page.wait_for_selector('[data-testid="display-note"]:has-text("1 000")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("1 000")', state="attached")
             assert [m["name"] for m in _listed(folder)] == ["grid.ply"]
 
             # a lasso in the client view (drawn in the browser)

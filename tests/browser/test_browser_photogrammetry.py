@@ -125,7 +125,7 @@ def test_photogrammetry_page_on_the_demo(demo_server):
             # the cloud to Inspect
             page.click('[data-testid="pg-send-inspect"]')
             page.wait_for_selector('[data-testid="page-inspect"].v-btn--active')
-            page.wait_for_selector('[data-testid="display-note"]:has-text("points")')
+            page.wait_for_selector('[data-testid="display-note"]:has-text("points")', state="attached")
             page.screenshot(path=str(SHOTS / "sent-to-inspect.png"))
         finally:
             browser.close()

@@ -167,6 +167,7 @@ def test_acceptance_setup_shows_broken_artefact_rules_before_start(demo_with_tes
             assert not page.locator('[data-testid="wz-artefact-warnings"]').is_visible()
 
             page.locator('[data-testid="wz-unlock"]').click()
+            page.locator('[data-testid="wz-supersede-confirm"]').click()  # over a finished test: asked first
             start = page.locator('[data-testid="wz-start"]')
             for axis in "xyz":
                 page.locator(f'[data-testid="wz-volume-{axis}"] input').fill("90")

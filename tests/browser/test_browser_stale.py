@@ -49,7 +49,7 @@ def test_the_view_and_the_messages_follow_the_page_and_the_other_tab(gui_server,
             b = _open(browser, url, wait=False)  # the second tab loads while the first one works
             a.locator(hint, has_text="No item shown").wait_for()  # an empty project's view says so
             a.locator('[data-testid="import-file"] input[type="file"]').set_input_files(str(ball))
-            a.locator(note, has_text="showing all 2 000 points").wait_for()
+            a.locator(note, has_text="showing all 2 000 points").wait_for(state="attached")
             assert not a.locator(hint).is_visible()
 
             # Acceptance: its own (empty) view, not Inspect's item; back on Inspect: the item
@@ -58,7 +58,7 @@ def test_the_view_and_the_messages_follow_the_page_and_the_other_tab(gui_server,
             assert a.locator(note).inner_text().strip() == ""
             a.screenshot(path=str(SHOTS / "acceptance-empty-view.png"))
             a.click('[data-testid="page-inspect"]')
-            a.locator(note, has_text="showing all 2 000 points").wait_for()
+            a.locator(note, has_text="showing all 2 000 points").wait_for(state="attached")
             a.locator(hint).wait_for(state="detached")
 
             # Devices: a move before homing is refused with a button, and the refusal goes once homed

@@ -95,10 +95,12 @@ def test_the_acceptance_page_runs_it_end_to_end(tmp_path, host, gui_app):
         card = asyncio.run(page.import_async("gauge_block", pos["id"], path))
         assert card is not None and card["status"] == "done" and card["verdict"] == "pass", state.error_message
         value = card["repeats"][0]["values"][0]
-        assert value["symbol"] == "E" and value["text"] == f"{errors[pos['id']]:+.4f} mm"
+        # E in µm by the number rule (issue 30): +0.002 mm is "+2.00 µm", with a real minus
+        want = f"{errors[pos['id']] * 1e3:+.2f} µm".replace("-", "\u2212")
+        assert value["symbol"] == "E" and value["text"] == want
     assert state.wz_complete and state.wz_verdict == "pass"
     e = state.wz_parameters[0]
-    assert (e["key"], e["value"], e["verdict"]) == ("E", "-0.0030 mm", "pass")
+    assert (e["key"], e["value"], e["verdict"]) == ("E", "\u22123.00 µm", "pass")
     assert e["verdict_guarded"] == "pass"  # |E| 0.003 <= MPE - U = 0.0046
 
     out = asyncio.run(page.report_async())

@@ -188,9 +188,13 @@ def test_speckle_tables_and_side_by_side_maps(app):
     w = page.state.st_warnings  # 25 distinct: four shown and a line for the rest
     assert w[:4] == rec["warnings"][:4] and w[4] == "… and 21 more warning(s): see the report" and len(w) == 5
     t61, t62, cov = page.state.st_tables
-    assert t61["header"] == ["Artefact", "nylon12 non-speckle", "nylon12 speckle"]
-    assert t61["rows"] == [["am_pyramid", "231", "120"]] and t62["rows"] == [["am_pyramid", "12 345", "54 321"]]
-    assert cov["rows"] == [["p-n-off", "50.0", "100.0", "25.0", "—"], ["p-n-on", "75.0", "100.0", "50.0", "—"]]
+    # the study file's keys in words (issue 30): am_pyramid, nylon12, the case ids
+    assert t61["header"] == ["Artefact", "nylon 12 non-speckle", "nylon 12 speckle"]
+    assert t61["rows"] == [["AM pyramid", "231", "120"]] and t62["rows"] == [["AM pyramid", "12 345", "54 321"]]
+    assert cov["rows"] == [
+        ["AM pyramid · nylon 12 · non-speckle", "50.0", "100.0", "25.0", "—"],
+        ["AM pyramid · nylon 12 · speckle", "75.0", "100.0", "50.0", "—"],
+    ]
     assert page.state.st_numbers[0]["value"] == "std \u2212111 µm, points +41 976, coverage +25.0 %"
     off, on = page.state.st_fig_off["data"][0], page.state.st_fig_on["data"][0]
     assert off["marker"]["cmax"] == on["marker"]["cmax"]  # one colour range for the pair

@@ -76,7 +76,8 @@ def test_gui_import_shows_a_coloured_surface(gui_app, tmp_path):
     assert "height map 80 × 60 points, 99.6% valid" in item["subtitle"]
     shown = s.view.shown
     assert shown.kind == "heightmap" and shown.n_total == 80 * 60 - 20
-    assert server.state.color_field == "z" and server.state.legend_title == "z [mm]"
+    # heights spanning less than 1 mm read in µm by the number rule (issue 30)
+    assert server.state.color_field == "z" and server.state.legend_title == "z [µm]"
     assert server.state.display_note == "showing all 4 780 valid points"
     # no NaN reaches the renderer: the 20 invalid points and the cells around them are left out
     assert not np.isnan(np.asarray(shown.poly.points)).any()

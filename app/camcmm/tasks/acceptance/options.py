@@ -14,6 +14,7 @@ imported YAML, e.g. an outlier rule per test) are kept as they are.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -131,7 +132,7 @@ def nest(flat: dict[str, Any]) -> dict[str, Any]:
 def flatten(plan_keys: dict[str, Any], options: list[PlanOption]) -> dict[str, Any]:
     """The plan's extra keys as the form's flat values: each declared (dotted) key that
     the plan sets becomes one value; the rest stays nested under its own key."""
-    rest = yaml.safe_load(yaml.safe_dump(dict(plan_keys or {})))  # a deep copy of plain data
+    rest = copy.deepcopy(dict(plan_keys or {}))
     out: dict[str, Any] = {}
     for o in options:
         parts = o.key.split(".")

@@ -8,8 +8,6 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-import yaml
-
 from camcmm.errors import one_line
 from camcmm.tasks.acceptance import (
     FORM_KEYS,
@@ -20,6 +18,7 @@ from camcmm.tasks.acceptance import (
     parse_options,
 )
 from camcmm.tasks.acceptance.options import flatten, form_fields, to_yaml
+from camcmm.yamlfile import load_yaml
 
 #: The new form's measuring volume (mm): the demo's 90 mm cube, in which the shipped
 #: catalogue's first artefacts (20 mm sphere, 49.944 mm ball bar, 150 x 60 mm flat) meet the
@@ -235,7 +234,7 @@ class SetupForm:
         s = self.state
         s.wz_options_error = s.wz_options_note = ""
         try:
-            doc = yaml.safe_load(text or "") or {}
+            doc = load_yaml(text or "", name="plan options") or {}
             if not isinstance(doc, dict):
                 raise ValueError(f"give keys and values (e.g. 'unit: mm'), got {str(text)[:40]!r}")
             extra = parse_options({k: v for k, v in doc.items() if k not in FORM_KEYS and k != "name"})

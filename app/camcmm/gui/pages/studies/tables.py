@@ -13,6 +13,23 @@ from .... import numbers as num
 
 DASH = "—"
 CONDITIONS = (("off", "non-speckle"), ("on", "speckle"))
+#: The study file's artefact and material keys (virtual lab, thesis ch. 6.2) as a person
+#: writes them; the page imports no plugin, so the words are kept here (issue 30: no keys
+#: on screen). Any other key reads with its underscores as spaces.
+WORDS = {
+    "am_pyramid": "AM pyramid",
+    "am_recess": "AM recess",
+    "am_sphere": "AM sphere",
+    "am_pillars": "AM pillars",
+    "nylon12": "nylon 12",
+    "abs": "ABS",
+    "ti6al4v": "Ti-6Al-4V",
+}
+
+
+def words(key: Any) -> str:
+    """``"ti6al4v"`` -> ``"Ti-6Al-4V"``, ``"am_pyramid"`` -> ``"AM pyramid"``."""
+    return WORDS.get(str(key), num.words(str(key)))
 
 
 def _f(x: Any, fmt: str) -> str:
@@ -90,13 +107,13 @@ def _grid(cases: list[dict[str, Any]]) -> tuple[list[str], list[str], dict[tuple
 def speckle_tables(cases: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Tables 6.1 (std of the deviations, µm) and 6.2 (points), the area coverage per case."""
     arts, mats, by = _grid(cases)
-    header = ["Artefact"] + [f"{m} {label}" for m in mats for _, label in CONDITIONS]
+    header = ["Artefact"] + [f"{words(m)} {label}" for m in mats for _, label in CONDITIONS]
     out = []
     for key, title, fmt in (("std_um", "Deviation from CAD, std / µm (table 6.1)", ".0f"),
                             ("n_points", "Points (table 6.2)", ",.0f")):  # fmt: skip
         rows = []
         for a in arts:
-            row = [a]
+            row = [words(a)]
             for m in mats:
                 for cond, _ in CONDITIONS:
                     c = by.get((a, m, cond))
@@ -110,7 +127,11 @@ def speckle_tables(cases: list[dict[str, Any]]) -> list[dict[str, Any]]:
             continue
         f = c.get("coverage_by_face") or {}
         pct = [_f(None if f.get(k) is None else 100 * f[k], ".1f") for k in classes]
-        rows.append([str(c.get("id")), _f(100 * float(c["coverage_area_fraction"]), ".1f"), *pct])
+        case = (
+            " · ".join(words(c.get(k)) for k in ("artefact", "material"))
+            + f" · {dict(CONDITIONS).get(str(c.get('condition')), str(c.get('condition')))}"
+        )
+        rows.append([case, _f(100 * float(c["coverage_area_fraction"]), ".1f"), *pct])
     out.append(
         {
             "key": "coverage",
@@ -133,14 +154,14 @@ def summary_rows(summary: dict[str, Any]) -> list[dict[str, str]]:
             f"std {_f(s.get('std_um_change'), '+.0f')} µm, points {_f(s.get('n_points_change'), '+,.0f')}, "
             f"coverage {_f(None if cov is None else 100 * cov, '+.1f')} %"
         )
-        rows.append({"name": f"summary-{m}", "label": f"{m}: change with speckle", "value": value})
+        rows.append({"name": f"summary-{m}", "label": f"{words(m)}: change with speckle", "value": value})
     return rows
 
 
 def pairs(cases: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The artefact × material pairs (the choices of the side-by-side maps)."""
     seen = dict.fromkeys((str(c.get("artefact")), str(c.get("material"))) for c in cases)
-    return [{"title": f"{a} · {m}", "value": f"{a}|{m}"} for a, m in seen]
+    return [{"title": f"{words(a)} · {words(m)}", "value": f"{a}|{m}"} for a, m in seen]
 
 
 def case_id(cases: list[dict[str, Any]], pair: str, condition: str) -> str | None:
