@@ -400,7 +400,8 @@ def done_message(full: dict[str, Any]) -> str:
     """How a finished run is said: iterations × points, time and executor."""
     elapsed = full.get("elapsed_s")
     return (
-        f"done: {full.get('iterations')} iterations × {full.get('n_points')} points"
+        f"done: {numbers.count(full.get('iterations') or 0)} iterations"
+        f" × {numbers.count(full.get('n_points') or 0)} points"
         + (f" in {numbers.time(elapsed)}" if isinstance(elapsed, (int, float)) else "")
         + (f" ({full.get('executor')})" if full.get("executor") else "")
     )

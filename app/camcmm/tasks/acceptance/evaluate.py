@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from camcmm import io as cio
+from camcmm import numbers
 from camcmm.errors import CamcmmError, InputError, one_line
 from camcmm.host import RunContext, RunResult, to_jsonable
 from camcmm.project.store import utcnow
@@ -142,7 +143,7 @@ class Evaluator:
                 "position": job.position,
                 "repeat": job.repeat,
                 "file": job.name,
-                "summary": f"{getattr(job.cloud, 'n_points', 0)} points",
+                "summary": f"{numbers.count(getattr(job.cloud, 'n_points', 0))} points",
                 # the unit it was read in (the plan's, the file's, else mm), so that it loads the same
                 "unit": str(getattr(job.cloud, "source_unit", "") or "mm"),
             }
