@@ -136,7 +136,7 @@ def flatten(plan_keys: dict[str, Any], options: list[PlanOption]) -> dict[str, A
     out: dict[str, Any] = {}
     for o in options:
         parts = o.key.split(".")
-        node = rest
+        node: Any = rest
         for part in parts[:-1]:
             node = node.get(part) if isinstance(node, dict) else None
         if isinstance(node, dict) and parts[-1] in node:
