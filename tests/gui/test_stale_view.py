@@ -72,6 +72,7 @@ def test_the_view_shows_the_page_shown(gui_app, tmp_path):
     assert state.page == "inspect" and view.shown is None and state.view_hint == ITEM_HINT  # an empty project
     a = s.import_file(tmp_path / "ball.ply")
     b = s.import_file(tmp_path / "plate.ply")
+    assert state.info_message.startswith("imported plate.ply") and state.info_visible
     s.select_item(a)
     assert view.shown.key == a and state.view_hint == ""
 
@@ -102,6 +103,7 @@ def test_the_view_shows_the_page_shown(gui_app, tmp_path):
     other.set_measurement_hidden(int(b))
     assert s.check_project()
     assert state.selected_item is None and view.shown is None and state.view_hint == ITEM_GONE
+    assert state.info_message == "" and not state.info_visible  # "imported plate.ply" went with it
     enter(server, "acceptance")
     assert view.shown.key == "wizard:7"
     enter(server, "inspect")

@@ -85,6 +85,7 @@ class Session:
         self._tmp = Path(tempfile.mkdtemp(prefix="camcmm-gui-"))
         self.errors: list[str] = []
         self._causes: dict[str, str] = {}  # page -> cause key of the message it shows
+        self._info_item = ""  # the item the status bar's note is about ("": none)
         self._connected = False  # a tab has connected (client_connected)
         self._reload_watchers: list[Callable[[], Any]] = []
         self._selection_watchers: list[Callable[[str | None], Any]] = []
@@ -220,8 +221,10 @@ class Session:
         """Call ``fn()`` when a tab connects (a page dropping its own message lines)."""
         self._reload_watchers.append(fn)
 
-    def info(self, msg: str, page: str | None = None) -> None:
-        """A one-line note in the status bar (``info_message``, ``info_page``)."""
+    def info(self, msg: str, page: str | None = None, item: str = "") -> None:
+        """A one-line note in the status bar (``info_message``, ``info_page``); about
+        ``item`` (an item id), it goes when that item is hidden or removed (another tab)."""
+        self._info_item = str(item or "")
         self.state.info_message = " ".join(str(msg).split())
         self.state.info_page = page if page is not None else self.page_of_caller()
         self.state.info_visible = True
@@ -281,6 +284,9 @@ class Session:
             (hidden if row["hidden"] else items).append(row)
         self.state.items = items
         self.state.hidden_items = hidden
+        if self._info_item and self._info_item not in {row["id"] for row in items}:
+            # the note was about an item another tab hid or removed: not left on screen
+            self._info_item, self.state.info_message, self.state.info_visible = "", "", False
         for fn in self._item_watchers:
             fn()
 
@@ -373,7 +379,7 @@ class Session:
         self.refresh_items()
         self.select_item(key)
         note = f" (read in {unit_label(unit)})" if unit and unit != "mm" else ""
-        self.info(f"imported {name}: {describe(obj)}, {size_text(obj)}{note}")
+        self.info(f"imported {name}: {describe(obj)}, {size_text(obj)}{note}", item=key)
         return key
 
     def _imported(self, path: Path, obj: Any, label: str, stated: str | None, source: Any) -> str | None:
