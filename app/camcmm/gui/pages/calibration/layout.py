@@ -301,6 +301,23 @@ def _number_field(v: Any, model: str, label: Any, testid: str, title: str, **kw:
     )
 
 
+def _select(v: Any, model: tuple[str, str], items: str, label: str, testid: str, title: str, **kw: Any) -> None:
+    """A compact select of the board form (held while a calibration runs); ``items`` is a
+    state key of ``{title, value}`` entries or plain strings."""
+    v.VSelect(
+        v_model=model,
+        items=(items,),
+        label=label,
+        density="compact",
+        variant="outlined",
+        hide_details=True,
+        disabled=("cal_running",),
+        title=title,
+        raw_attrs=tid(testid),
+        **kw,
+    )
+
+
 def _board_form(v: Any, html: Any) -> None:
     """The board: its type, the points across and down, the square size (circle spacing)
     with its unit — required, it sets the scale of every length — the ChArUco marker and
@@ -308,20 +325,10 @@ def _board_form(v: Any, html: Any) -> None:
     looked for in the first image (:meth:`.page.CalibrationPage.check_board_async`)."""
     with html.Div(classes="mt-1 mb-2", raw_attrs=tid("cal-board-form")):
         html.Div("Calibration board", classes="text-subtitle-2 mb-1")
-        v.VSelect(
-            v_model=("cal_board_kind", "chessboard"),
-            items=("cal_board_kinds",),
-            item_title="title",
-            item_value="value",
-            label="Board type",
-            density="compact",
-            variant="outlined",
-            hide_details=True,
-            classes="mb-2",
-            disabled=("cal_running",),
-            title="The kind of calibration target in the images",
-            raw_attrs=tid("cal-board-kind"),
-        )
+        _select(
+            v, ("cal_board_kind", "chessboard"), "cal_board_kinds", "Board type", "cal-board-kind",
+            "The kind of calibration target in the images", item_title="title", item_value="value", classes="mb-2",
+        )  # fmt: skip
         with html.Div(classes="d-flex ga-2 mb-2 align-center"):
             _number_field(
                 v, "cal_board_cols", (f"{COUNTED} + ' across'",), "cal-board-cols",
@@ -340,37 +347,21 @@ def _board_form(v: Any, html: Any) -> None:
                 "Measured on the printed board: it sets the scale of every length the calibration gives",
                 step="any", error_messages=(f"{MISSING_SIZE} ? ['required: measure it on the board'] : []",),
             )  # fmt: skip
-            v.VSelect(
-                v_model=("cal_board_unit", "mm"),
-                items=("cal_board_units",),
-                label="Unit",
-                density="compact",
-                variant="outlined",
-                hide_details=True,
-                style="max-width: 92px;",
-                disabled=("cal_running",),
-                title="The unit of the square size (and of the marker size)",
-                raw_attrs=tid("cal-board-unit"),
-            )
+            _select(
+                v, ("cal_board_unit", "mm"), "cal_board_units", "Unit", "cal-board-unit",
+                "The unit of the square size (and of the marker size)", style="max-width: 92px;",
+            )  # fmt: skip
         with html.Div(v_if="cal_board_kind === 'charuco'", classes="d-flex ga-2 mb-2"):
             _number_field(
                 v, "cal_board_marker", "Marker size", "cal-board-marker",
                 "The side of the black ArUco marker inside a white square, in the unit above", step="any",
                 style="max-width: 120px;",
             )  # fmt: skip
-            v.VSelect(
-                v_model=("cal_board_dict", "DICT_5X5_100"),
-                items=("cal_board_dicts",),
-                label="Marker dictionary",
-                density="compact",
-                variant="outlined",
-                hide_details=True,
-                disabled=("cal_running",),
-                item_title="title",
-                item_value="value",
-                title="The marker dictionary the board was generated with: bits per marker side, markers in it",
-                raw_attrs=tid("cal-board-dict"),
-            )
+            _select(
+                v, ("cal_board_dict", "DICT_5X5_100"), "cal_board_dicts", "Marker dictionary", "cal-board-dict",
+                "The marker dictionary the board was generated with: bits per marker side, markers in it",
+                item_title="title", item_value="value",
+            )  # fmt: skip
         html.Img(
             src=("cal_board_svg",),
             v_if="cal_board_svg",
